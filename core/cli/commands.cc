@@ -1,0 +1,198 @@
+#include "commands.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <exception>
+#include <iostream>
+#include <optional>
+
+#include "skidimm/bank.h"
+#include "skidimm/errors.h"
+#include "skidimm/imm.h"
+#include "skidimm/log_io.h"
+#include "skidimm/mode_timeline.h"
+#include "skidimm/plugin_registry.h"
+
+namespace skidimm {
+namespace cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string join(const std::vector<std::string>& items, const char* separator = ", ") {
+  std::string out;
+  for (const std::string& s : items) out += (out.empty() ? "" : separator) + s;
+  return out;
+}
+
+std::vector<std::string> output_header(const BankConfig& config, bool with_truth) {
+  std::vector<std::string> header{"t"};
+  for (const ModeConfig& mode : config.modes) header.push_back("mu_" + mode.name);
+  for (const std::string& s : config.state_names) header.push_back(s);
+  for (const std::string& s : config.state_names) header.push_back("var_" + s);
+  header.push_back("mode");
+  if (with_truth) header.push_back("truth_mode");
+  header.push_back("status");
+  return header;
+}
+
+class ProgressLine {
+ public:
+  explicit ProgressLine(bool enabled) : enabled_(enabled && isatty(STDERR_FILENO)) {}
+  ~ProgressLine() { clear(); }
+  void update(double fraction, long rows) {
+    if (!enabled_) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_ < std::chrono::milliseconds(200)) return;
+    last_ = now;
+    std::fprintf(stderr, "\rskidimm run: %5.1f%%  %ld rows", 100.0 * fraction, rows);
+    std::fflush(stderr);
+    shown_ = true;
+  }
+  void clear() {
+    if (shown_) std::fprintf(stderr, "\r\033[K");
+    shown_ = false;
+  }
+
+ private:
+  bool enabled_;
+  bool shown_ = false;
+  std::chrono::steady_clock::time_point last_{};
+};
+
+}  // namespace
+
+int run(const RunOptions& options) {
+  std::optional<CsvWriter> writer;
+  long rows = 0;
+  try {
+    Imm imm = Imm::from_yaml(options.bank, options.plugin_paths);
+    const BankConfig& config = imm.config();
+    LogReader reader(config, options.inputs);
+    writer.emplace(options.output, output_header(config, reader.has_truth()));
+
+    std::vector<std::string> mode_names;
+    for (const ModeConfig& mode : config.modes) mode_names.push_back(mode.name);
+    const int n = config.state_dim();
+    const int num_modes = config.num_modes();
+    std::vector<std::string> cells(static_cast<std::size_t>(1 + num_modes + 2 * n + 2 + (reader.has_truth() ? 1 : 0)));
+    ModeTimeline timeline;
+    long truth_rows = 0, truth_matches = 0, predict_only = 0, rejected = 0;
+    ProgressLine progress(options.progress && !options.quiet);
+
+    LogSample sample;
+    while (reader.next(&sample)) {
+      const ImmEstimate& e = imm.step(sample.t, sample.u, sample.z);
+      ++rows;
+      std::size_t c = 0;
+      cells[c++] = CsvWriter::format(sample.t);
+      for (int j = 0; j < num_modes; ++j) cells[c++] = CsvWriter::format(e.mode_probabilities[j]);
+      for (int i = 0; i < n; ++i) cells[c++] = CsvWriter::format(e.state[i]);
+      for (int i = 0; i < n; ++i) cells[c++] = CsvWriter::format(e.covariance(i, i));
+      cells[c++] = mode_names[static_cast<std::size_t>(e.most_likely_mode)];
+      if (reader.has_truth()) {
+        cells[c++] = sample.truth_mode;
+        if (!sample.truth_mode.empty()) {
+          ++truth_rows;
+          truth_matches += sample.truth_mode == mode_names[static_cast<std::size_t>(e.most_likely_mode)];
+        }
+      }
+      cells[c++] = to_string(e.status);
+      writer->write_row(cells);
+      predict_only += e.status == StepStatus::kPredictOnly;
+      rejected += e.num_rejected_modes > 0;
+      timeline.add(sample.t, e.most_likely_mode, e.mode_probabilities[e.most_likely_mode]);
+      progress.update(reader.progress(), rows);
+    }
+    progress.clear();
+    if (rows == 0) throw LogError(options.inputs.front().string(), 0, "the log has a header but no data rows");
+    writer->commit();
+
+    if (!options.quiet) {
+      std::cerr << "skidimm run: bank '" << config.name << "' (" << num_modes << " modes), " << rows << " rows -> "
+                << options.output.string() << "\n";
+      std::cerr << "dominant mode over time:\n" << timeline.format(mode_names);
+      if (predict_only > 0) std::cerr << "  " << predict_only << " rows had no measurement (predict only)\n";
+      if (rejected > 0) std::cerr << "  " << rejected << " rows had at least one mode's filter rejected\n";
+      if (truth_rows > 0) {
+        std::fprintf(stderr, "most likely mode equals column '%s' on %.1f%% of %ld labelled rows\n",
+                     config.columns.truth_mode.c_str(), 100.0 * truth_matches / truth_rows, truth_rows);
+      }
+    }
+    return kExitOk;
+  } catch (const Error& e) {
+    std::cerr << "skidimm run: error: " << e.what() << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << "skidimm run: unexpected error: " << e.what() << "\n";
+  }
+  if (writer && rows > 0) {
+    std::cerr << "skidimm run: the " << rows << " rows computed before the error are in "
+              << writer->partial_path().string() << "\n";
+  }
+  return kExitFailure;
+}
+
+int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_paths) {
+  try {
+    const Bank bank = Bank::load(bank_file, plugin_paths);
+    const BankConfig& c = bank.config;
+    std::cout << bank_file.string() << ": OK\n";
+    std::cout << "  bank:        " << c.name << (c.description.empty() ? "" : " - " + c.description) << "\n";
+    std::cout << "  states:      [" << join(c.state_names) << "]";
+    std::vector<std::string> angles;
+    for (int s = 0; s < c.state_dim(); ++s) {
+      if (c.angle_mask[s]) angles.push_back(c.state_names[s]);
+    }
+    if (!angles.empty()) std::cout << ", angles [" << join(angles) << "]";
+    std::cout << "\n  inputs:      [" << join(c.input_names) << "] from columns [" << join(c.columns.inputs) << "]\n";
+    std::cout << "  measurement: [" << join(c.measurement.names) << "] from columns [" << join(c.columns.measurements)
+              << "]\n";
+    std::cout << "  time column: " << c.columns.time
+              << (c.columns.truth_mode.empty() ? "" : ", truth column: " + c.columns.truth_mode) << "\n";
+    std::cout << "  modes:\n";
+    for (std::size_t j = 0; j < c.modes.size(); ++j) {
+      std::printf("    %-24s %-16s p0 = %.3f\n", c.modes[j].name.c_str(), c.modes[j].model.c_str(),
+                  c.initial_mode_probabilities[static_cast<Eigen::Index>(j)]);
+    }
+    return kExitOk;
+  } catch (const Error& e) {
+    std::cerr << "skidimm validate: error: " << e.what() << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << "skidimm validate: unexpected error: " << e.what() << "\n";
+  }
+  return kExitFailure;
+}
+
+int plugins(const std::vector<fs::path>& plugin_paths) {
+  PluginRegistry registry(PluginRegistry::standard_search_path(plugin_paths));
+  std::cout << "search path (first match wins):\n";
+  for (const fs::path& p : registry.search_path()) {
+    std::error_code ec;
+    std::cout << "  " << p.string() << (fs::exists(p, ec) ? "" : "  (missing)") << "\n";
+  }
+  const std::vector<PluginDescriptor>& found = registry.plugins();
+  if (found.empty()) {
+    std::cout << "no plugins found\n";
+    return kExitOk;
+  }
+  for (const PluginDescriptor& d : found) {
+    std::cout << "\n";
+    if (!d.error.empty()) {
+      std::cout << (d.name.empty() ? "?" : d.name) << "  UNUSABLE  " << d.path.string() << "\n    " << d.error << "\n";
+      continue;
+    }
+    std::cout << d.name << " " << d.version << (d.shadowed ? "  (shadowed by an earlier plugin of this name)" : "")
+              << "\n    " << d.description << "\n    file: " << d.path.string() << "\n";
+    if (!d.parameter_docs.empty()) {
+      std::cout << "    parameters:\n";
+      for (const std::string& doc : d.parameter_docs) std::cout << "      " << doc << "\n";
+    }
+  }
+  return kExitOk;
+}
+
+}  // namespace cli
+}  // namespace skidimm

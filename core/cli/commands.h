@@ -1,0 +1,34 @@
+// The `skidimm` subcommands. Each returns the process exit code and reports
+// errors on stderr; exceptions from the library are turned into messages here.
+#ifndef SKIDIMM_CLI_COMMANDS_H_
+#define SKIDIMM_CLI_COMMANDS_H_
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace skidimm {
+namespace cli {
+
+// Exit codes.
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;  // bad bank, plugin, log, or I/O
+inline constexpr int kExitUsage = 2;    // bad command line
+
+struct RunOptions {
+  std::filesystem::path bank;
+  std::vector<std::filesystem::path> inputs;
+  std::filesystem::path output;
+  std::vector<std::filesystem::path> plugin_paths;
+  bool quiet = false;
+  bool progress = true;  // shown only when stderr is a terminal
+};
+
+int run(const RunOptions& options);
+int validate(const std::filesystem::path& bank, const std::vector<std::filesystem::path>& plugin_paths);
+int plugins(const std::vector<std::filesystem::path>& plugin_paths);
+
+}  // namespace cli
+}  // namespace skidimm
+
+#endif  // SKIDIMM_CLI_COMMANDS_H_

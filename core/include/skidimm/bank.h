@@ -1,0 +1,98 @@
+// Bank: a set of modes, their models and everything the IMM needs to run
+// them, as described by one YAML file (docs/bank-format.md).
+//
+// Loading has two stages so each can be used alone:
+//  * load_bank_config(file) parses and validates the file itself (shapes,
+//    stochastic rows, SPD matrices, names) without loading any plugin;
+//  * Bank::load(file, ...) then creates every mode's model through the plugin
+//    registry and checks the models against the file (dimensions, names,
+//    angles, parameter scopes).
+// Every problem is a ConfigError naming the file, the line and the field.
+#ifndef SKIDIMM_BANK_H_
+#define SKIDIMM_BANK_H_
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "skidimm/plugin_registry.h"
+#include "skidimm/sdk/parameters.h"
+
+namespace skidimm {
+
+struct ModeConfig {
+  std::string name;
+  std::string model;                 // plugin name
+  sdk::ParameterSet params;          // the mode's own `params:`
+  Eigen::MatrixXd q_intensity;       // continuous-time process noise Q (per second)
+  int line = 0;                      // where the mode starts in the file
+  std::map<std::string, int> param_lines;
+};
+
+struct TransitionConfig {
+  enum class Kind { kMatrix, kStay, kDwellTimes };
+  Kind kind = Kind::kStay;
+  Eigen::MatrixXd matrix;           // kMatrix: per-step p_ij, row = from
+  double stay = 0.95;               // kStay: per-step probability of staying
+  Eigen::VectorXd dwell_seconds;    // kDwellTimes: mean time in each mode
+};
+
+struct MeasurementConfig {
+  std::vector<std::string> names;   // one per row of H
+  Eigen::MatrixXd h;                // m x n
+  Eigen::MatrixXd r;                // m x m, positive definite
+  std::vector<bool> is_angle;       // row measures an angle state directly
+};
+
+struct ColumnConfig {
+  std::string time;
+  std::vector<std::string> inputs;        // one per input, in input order
+  std::vector<std::string> measurements;  // one per measurement row
+  std::string truth_mode;                 // empty: none
+};
+
+struct BankConfig {
+  std::filesystem::path file;
+  std::string name;
+  std::string description;
+  std::vector<std::string> state_names;
+  std::vector<bool> angle_mask;
+  std::vector<std::string> input_names;
+  ColumnConfig columns;
+  MeasurementConfig measurement;
+  TransitionConfig transition;
+  Eigen::VectorXd initial_state;
+  Eigen::MatrixXd initial_covariance;
+  Eigen::VectorXd initial_mode_probabilities;
+  double mode_probability_floor = 1e-9;
+  std::vector<std::filesystem::path> plugin_paths;  // absolute
+  sdk::ParameterSet shared;
+  std::map<std::string, int> shared_lines;
+  std::vector<ModeConfig> modes;
+
+  int state_dim() const { return static_cast<int>(state_names.size()); }
+  int input_dim() const { return static_cast<int>(input_names.size()); }
+  int num_modes() const { return static_cast<int>(modes.size()); }
+  int mode_index(const std::string& mode_name) const;  // -1 if absent
+};
+
+// Parses and validates a bank file. Throws ConfigError.
+BankConfig load_bank_config(const std::filesystem::path& file);
+
+struct Bank {
+  BankConfig config;
+  std::vector<ModelHandle> models;  // one per mode, same order
+
+  // Loads the file and its plugins. The search path is `plugin_paths`
+  // (e.g. --plugin-path), then the bank's, then the standard locations.
+  static Bank load(const std::filesystem::path& file,
+                   const std::vector<std::filesystem::path>& plugin_paths = {});
+  // Creates the models of an already parsed config with `registry`.
+  static Bank instantiate(BankConfig config, PluginRegistry& registry);
+};
+
+}  // namespace skidimm
+
+#endif  // SKIDIMM_BANK_H_

@@ -1,0 +1,99 @@
+// Imm: the Interacting Multiple Model estimator (paper, section IV; Bar-Shalom,
+// Li and Kirubarajan 2001, section 11.6.6).
+//
+// One step k, for N modes with transition p_ij (row = from, column = to):
+//   c_j       = sum_i p_ij mu_{k-1}^i                          (eq. 5)
+//   mu^{i|j}  = p_ij mu_{k-1}^i / c_j                          (eq. 4)
+//   x^{0j}, P^{0j}: mixed initial conditions                   (eq. 6-7)
+//   per mode: EKF predict from x^{0j}, P^{0j}, update, Lambda^j (eq. 8)
+//   mu_k^j    = Lambda^j c_j / sum_i Lambda^i c_i
+//   x_k, P_k: combined estimate                                (eq. 10-11)
+//
+// The paper's eq. 9 writes mu_{k-1}^j where the predicted probability c_j
+// belongs; with it the transition matrix would have no effect on the mode
+// probabilities. We use Bar-Shalom's form. Likelihoods stay in the log domain
+// (log-sum-exp), probabilities are floored (mode_probability_floor) so a mode
+// can always come back, and angle components are mixed around a reference so
+// that the +-pi seam does not average 179 deg and -179 deg to 0.
+//
+// Time: the prior holds at the first step's t, whose measurement is applied
+// without prediction. Each later step predicts from the previous t with the
+// previous step's input (zero-order hold), then updates with its measurement.
+// NaN entries of z are missing: with none present the step is predict-only and
+// no likelihood is applied; with some present only those are used.
+//
+// step() allocates nothing after construction. One Imm is used from one
+// thread at a time.
+#ifndef SKIDIMM_IMM_H_
+#define SKIDIMM_IMM_H_
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include "skidimm/bank.h"
+#include "skidimm/ekf.h"
+#include "skidimm/imm_estimate.h"
+#include "skidimm/measurement_model.h"
+#include "skidimm/mode_transition.h"
+
+namespace skidimm {
+
+class Imm {
+ public:
+  // Loads a bank file and its plugins; see Bank::load for the search path.
+  static Imm from_yaml(const std::filesystem::path& bank_file,
+                       const std::vector<std::filesystem::path>& plugin_paths = {});
+
+  explicit Imm(Bank bank);
+  Imm(Imm&&) = default;
+  Imm& operator=(Imm&&) = default;
+
+  // One filter cycle at time t (s) with input u (bank input order) and
+  // measurement z (bank measurement order, NaN = not measured).
+  const ImmEstimate& step(double t, const Eigen::Ref<const Eigen::VectorXd>& u,
+                          const Eigen::Ref<const Eigen::VectorXd>& z);
+
+  const ImmEstimate& estimate() const { return estimate_; }
+  const Bank& bank() const { return bank_; }
+  const BankConfig& config() const { return bank_.config; }
+  int num_modes() const { return bank_.config.num_modes(); }
+
+  // Back to the prior; the next step is a first step again.
+  void reset();
+
+ private:
+  void mix(const Eigen::MatrixXd& transition);
+  void update_mode_probabilities(bool have_likelihoods);
+  void combine();
+  // Weighted mean of `means` (one per column) with angle components averaged
+  // on the circle; spreads (x_i - mean, wrapped) go to `deviations`.
+  void moment_match(const Eigen::Ref<const Eigen::VectorXd>& weights, const Eigen::MatrixXd& means,
+                    Eigen::Ref<Eigen::VectorXd> mean, Eigen::MatrixXd& deviations) const;
+
+  Bank bank_;
+  ModeTransition transition_;
+  MeasurementModel measurement_model_;
+  std::vector<ExtendedKalmanFilter> filters_;
+  std::vector<bool> angle_mask_;
+
+  ImmEstimate estimate_;
+  bool initialized_ = false;
+  double last_t_ = 0.0;
+  Eigen::VectorXd held_input_;
+
+  // Workspace.
+  SelectedMeasurement selection_;
+  Eigen::VectorXd predicted_probabilities_;  // c_j
+  Eigen::MatrixXd mixing_;                   // mu^{i|j}, column j
+  Eigen::MatrixXd means_;                    // x^i, one per column
+  Eigen::MatrixXd deviations_;
+  Eigen::VectorXd mixed_mean_;
+  Eigen::MatrixXd mixed_covariance_;
+  Eigen::VectorXd log_posterior_;
+};
+
+}  // namespace skidimm
+
+#endif  // SKIDIMM_IMM_H_

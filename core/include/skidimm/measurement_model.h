@@ -1,0 +1,49 @@
+// MeasurementModel: z = H x + v, v ~ N(0, R), shared by every mode of a bank.
+//
+// A row of z may be missing (NaN) at a step: a 10 Hz GPS inside a 100 Hz IMU
+// log. select() keeps the rows present, so the update uses exactly the
+// components measured, and does so in preallocated storage.
+#ifndef SKIDIMM_MEASUREMENT_MODEL_H_
+#define SKIDIMM_MEASUREMENT_MODEL_H_
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace skidimm {
+
+// The measured subset of one step, in the leading rows/columns of
+// capacity-sized storage (size() rows are valid).
+struct SelectedMeasurement {
+  int size = 0;
+  Eigen::VectorXd z;       // measured values
+  Eigen::MatrixXd h;       // selected rows of H
+  Eigen::MatrixXd r;       // selected block of R
+  std::vector<bool> is_angle;  // row wraps at +-pi
+  std::vector<int> rows;       // which rows of the full z
+};
+
+class MeasurementModel {
+ public:
+  // h: m x n, r: m x m. is_angle[i]: row i measures an angle directly.
+  MeasurementModel(Eigen::MatrixXd h, Eigen::MatrixXd r, std::vector<bool> is_angle);
+
+  int measurement_dim() const { return static_cast<int>(h_.rows()); }
+  int state_dim() const { return static_cast<int>(h_.cols()); }
+  const Eigen::MatrixXd& h() const { return h_; }
+  const Eigen::MatrixXd& r() const { return r_; }
+  bool is_angle(int row) const { return is_angle_[row]; }
+
+  // Storage sized for the full measurement, to pass to select().
+  SelectedMeasurement make_selection() const;
+  // Keeps the finite rows of z. Allocates nothing.
+  void select(const Eigen::Ref<const Eigen::VectorXd>& z, SelectedMeasurement* out) const;
+
+ private:
+  Eigen::MatrixXd h_;
+  Eigen::MatrixXd r_;
+  std::vector<bool> is_angle_;
+};
+
+}  // namespace skidimm
+
+#endif  // SKIDIMM_MEASUREMENT_MODEL_H_

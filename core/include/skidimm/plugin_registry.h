@@ -1,0 +1,89 @@
+// PluginRegistry: finds motion-model plugins on a search path and creates
+// models from them.
+//
+// Search order (first match wins; later directories are shadowed):
+//   1. paths given explicitly (the CLI's --plugin-path),
+//   2. the bank file's `plugin_paths` (relative to the bank file),
+//   3. the directories in $SKIDIMM_PLUGIN_PATH (':'-separated),
+//   4. the installed plugin directory (<prefix>/lib/skidimm/plugins, found
+//      next to the running executable and at the configured install prefix).
+// A search-path entry may be a directory (every shared library in it is
+// examined) or a single plugin file.
+//
+// Lifetime: a model created here owns a reference to its library, so the
+// library stays loaded while the model lives, even after the registry is gone
+// (Boost.DLL tutorial 8). Not thread safe: load banks from one thread.
+#ifndef SKIDIMM_PLUGIN_REGISTRY_H_
+#define SKIDIMM_PLUGIN_REGISTRY_H_
+
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "skidimm/sdk/motion_model.h"
+#include "skidimm/sdk/parameters.h"
+
+namespace boost {
+namespace dll {
+class shared_library;
+}
+}  // namespace boost
+
+namespace skidimm {
+
+// A model instance whose deleter keeps its plugin library loaded.
+using ModelHandle = std::shared_ptr<sdk::MotionModel>;
+
+// What `skidimm plugins` shows about one library found on the search path.
+struct PluginDescriptor {
+  std::filesystem::path path;
+  std::string name;  // empty if the library could not be read
+  std::string version;
+  std::string description;
+  std::vector<std::string> parameter_docs;  // "key (shape): description"
+  std::vector<std::string> parameter_keys;
+  std::string error;  // non-empty: the library is unusable, and why
+  bool shadowed = false;  // a plugin of the same name comes earlier on the path
+};
+
+class PluginRegistry {
+ public:
+  explicit PluginRegistry(std::vector<std::filesystem::path> search_path);
+  ~PluginRegistry();
+  PluginRegistry(const PluginRegistry&) = delete;
+  PluginRegistry& operator=(const PluginRegistry&) = delete;
+
+  // The standard search path: explicit, then bank, then $SKIDIMM_PLUGIN_PATH,
+  // then the installed plugin directories. Duplicates are dropped.
+  static std::vector<std::filesystem::path> standard_search_path(
+      const std::vector<std::filesystem::path>& explicit_paths,
+      const std::vector<std::filesystem::path>& bank_paths = {});
+
+  const std::vector<std::filesystem::path>& search_path() const { return search_path_; }
+
+  // Every library found, in search order, including unusable ones.
+  const std::vector<PluginDescriptor>& plugins();
+
+  // The usable plugin `name`; throws PluginError if none (listing what was
+  // found), or if two different files in one directory both claim the name.
+  const PluginDescriptor& find(const std::string& name);
+
+  // Creates a model. Throws PluginError naming the plugin path when the
+  // plugin rejects the parameters or fails.
+  ModelHandle create(const std::string& name, const sdk::ParameterSet& params);
+
+ private:
+  void scan();
+
+  std::vector<std::filesystem::path> search_path_;
+  bool scanned_ = false;
+  std::vector<PluginDescriptor> descriptors_;
+  std::vector<std::shared_ptr<boost::dll::shared_library>> libraries_;  // parallel to descriptors_
+  std::vector<std::size_t> search_entry_of_;  // which search_path_ entry each descriptor came from
+};
+
+}  // namespace skidimm
+
+#endif  // SKIDIMM_PLUGIN_REGISTRY_H_

@@ -1,0 +1,395 @@
+// Parses bank files (docs/bank-format.md) and instantiates their models.
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <set>
+#include <sstream>
+
+#include "skidimm/bank.h"
+#include "skidimm/covariance.h"
+#include "skidimm/errors.h"
+#include "yaml_fields.h"
+
+namespace skidimm {
+
+namespace fs = std::filesystem;
+using internal::YamlFields;
+
+namespace {
+
+std::string join(const std::vector<std::string>& items) {
+  std::string out;
+  for (const std::string& s : items) out += (out.empty() ? "" : ", ") + s;
+  return out;
+}
+
+int index_of(const std::vector<std::string>& names, const std::string& name) {
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (names[i] == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+void check_unique(const YamlFields& y, const YAML::Node& node, const std::vector<std::string>& names,
+                  const std::string& field) {
+  std::set<std::string> seen;
+  for (const std::string& name : names) {
+    if (name.empty()) y.fail(node, field, "names cannot be empty");
+    if (!seen.insert(name).second) y.fail(node, field, "'" + name + "' appears twice");
+  }
+}
+
+void check_cov(const YamlFields& y, const YAML::Node& node, const Eigen::MatrixXd& m, bool strict,
+               const std::string& field) {
+  std::string why;
+  if (!check_covariance(m, strict, &why)) y.fail(node, field, "must be a covariance: " + why);
+}
+
+// `columns.<section>`: a map from a bank name to a CSV column; names left out
+// read the column of the same name.
+std::vector<std::string> column_map(const YamlFields& y, const YAML::Node& node,
+                                    const std::vector<std::string>& names, const std::string& field) {
+  std::vector<std::string> columns = names;
+  if (!node) return columns;
+  if (!node.IsMap()) y.fail(node, field, "expected a mapping from name to CSV column");
+  for (const auto& entry : node) {
+    const std::string key = entry.first.as<std::string>();
+    const int i = index_of(names, key);
+    if (i < 0) y.fail(entry.first, field + "." + key, "not one of the names [" + join(names) + "]");
+    columns[i] = y.string(entry.second, field + "." + key);
+  }
+  return columns;
+}
+
+void parse_measurement(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {
+  const YAML::Node node = y.required(root, "measurement", "");
+  y.check_keys(node, {"observe", "H", "names", "R"}, "measurement");
+  const int n = bank->state_dim();
+  MeasurementConfig& mc = bank->measurement;
+  if (node["observe"] && node["H"]) y.fail(node, "measurement", "give either 'observe' or 'H', not both");
+  if (node["observe"]) {
+    if (node["names"]) y.fail(node["names"], "measurement.names", "only with H: 'observe' uses the state names");
+    mc.names = y.string_list(node["observe"], "measurement.observe");
+    check_unique(y, node["observe"], mc.names, "measurement.observe");
+    mc.h = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(mc.names.size()), n);
+    for (std::size_t r = 0; r < mc.names.size(); ++r) {
+      const int s = index_of(bank->state_names, mc.names[r]);
+      if (s < 0) {
+        y.fail(node["observe"], "measurement.observe", "'" + mc.names[r] + "' is not a state (states: " +
+                                                           join(bank->state_names) + ")");
+      }
+      mc.h(static_cast<Eigen::Index>(r), s) = 1.0;
+    }
+  } else if (node["H"]) {
+    const Eigen::MatrixXd h = y.matrix(node["H"], "measurement.H");
+    if (h.cols() != n) {
+      y.fail(node["H"], "measurement.H", "expected " + std::to_string(n) + " columns (one per state), got " +
+                                              std::to_string(h.cols()));
+    }
+    mc.h = h;
+    mc.names = y.string_list(y.required(node, "names", "measurement"), "measurement.names");
+    if (static_cast<Eigen::Index>(mc.names.size()) != h.rows()) {
+      y.fail(node["names"], "measurement.names", "expected one name per row of H (" + std::to_string(h.rows()) + ")");
+    }
+    check_unique(y, node["names"], mc.names, "measurement.names");
+  } else {
+    y.fail(node, "measurement", "give 'observe: [state names]' or 'H' with 'names'");
+  }
+  if (!mc.h.allFinite()) y.fail(node, "measurement.H", "must be finite");
+  const int m = static_cast<int>(mc.h.rows());
+  if (m == 0) y.fail(node, "measurement", "measures nothing");
+  const YAML::Node r = y.required(node, "R", "measurement");
+  mc.r = y.covariance(r, m, "measurement.R");
+  check_cov(y, r, mc.r, /*strict=*/true, "measurement.R");
+  // A row that picks one angle state (a 1 there, 0 elsewhere) measures an angle.
+  mc.is_angle.assign(m, false);
+  for (int row = 0; row < m; ++row) {
+    for (int s = 0; s < n; ++s) {
+      if (bank->angle_mask[s] && mc.h(row, s) == 1.0 && mc.h.row(row).cwiseAbs().sum() == 1.0) {
+        mc.is_angle[row] = true;
+      }
+    }
+  }
+}
+
+void parse_transition(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {
+  const YAML::Node node = y.required(root, "transition", "");
+  y.check_keys(node, {"stay", "matrix", "mean_dwell_time"}, "transition");
+  if (node.size() != 1) y.fail(node, "transition", "give exactly one of 'stay', 'matrix', 'mean_dwell_time'");
+  const int num_modes = bank->num_modes();
+  TransitionConfig& t = bank->transition;
+  if (node["stay"]) {
+    t.kind = TransitionConfig::Kind::kStay;
+    t.stay = y.number(node["stay"], "transition.stay");
+    if (!(t.stay >= 0.0 && t.stay <= 1.0)) y.fail(node["stay"], "transition.stay", "must be a probability in [0, 1]");
+  } else if (node["matrix"]) {
+    t.kind = TransitionConfig::Kind::kMatrix;
+    t.matrix = y.matrix(node["matrix"], num_modes, num_modes, "transition.matrix");
+    for (int i = 0; i < num_modes; ++i) {
+      const std::string row_field = "transition.matrix[" + std::to_string(i) + "]";
+      if ((t.matrix.row(i).array() < 0.0).any() || !t.matrix.row(i).allFinite()) {
+        y.fail(node["matrix"][i], row_field, "probabilities must be finite and >= 0");
+      }
+      const double sum = t.matrix.row(i).sum();
+      if (std::abs(sum - 1.0) > 1e-9) {
+        std::ostringstream out;
+        out << "row " << i << " (from mode '" << bank->modes[i].name << "') sums to " << sum
+            << "; rows are 'from', columns 'to', and each must sum to 1";
+        y.fail(node["matrix"][i], row_field, out.str());
+      }
+      t.matrix.row(i) /= sum;
+    }
+  } else {
+    t.kind = TransitionConfig::Kind::kDwellTimes;
+    const YAML::Node d = node["mean_dwell_time"];
+    t.dwell_seconds.resize(num_modes);
+    if (d.IsScalar()) {
+      t.dwell_seconds.setConstant(y.number(d, "transition.mean_dwell_time"));
+    } else if (d.IsMap()) {
+      t.dwell_seconds.setConstant(std::nan(""));
+      for (const auto& entry : d) {
+        const std::string mode = entry.first.as<std::string>();
+        const int j = bank->mode_index(mode);
+        if (j < 0) y.fail(entry.first, "transition.mean_dwell_time." + mode, "no mode of that name");
+        t.dwell_seconds[j] = y.number(entry.second, "transition.mean_dwell_time." + mode);
+      }
+      for (int j = 0; j < num_modes; ++j) {
+        if (std::isnan(t.dwell_seconds[j])) {
+          y.fail(d, "transition.mean_dwell_time", "no dwell time for mode '" + bank->modes[j].name + "'");
+        }
+      }
+    } else {
+      y.fail(d, "transition.mean_dwell_time", "expected seconds, or a mapping from mode name to seconds");
+    }
+    if (!(t.dwell_seconds.array() > 0.0).all() || !t.dwell_seconds.allFinite()) {
+      y.fail(d, "transition.mean_dwell_time", "dwell times must be finite and > 0 seconds");
+    }
+  }
+}
+
+void parse_initial(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {
+  const YAML::Node node = y.required(root, "initial", "");
+  y.check_keys(node, {"state", "covariance", "mode_probabilities"}, "initial");
+  const int n = bank->state_dim();
+  bank->initial_state = Eigen::VectorXd::Zero(n);
+  if (node["state"]) {
+    bank->initial_state = y.vector(node["state"], "initial.state");
+    if (bank->initial_state.size() != n) {
+      y.fail(node["state"], "initial.state", "expected " + std::to_string(n) + " values (" +
+                                                 join(bank->state_names) + ")");
+    }
+    if (!bank->initial_state.allFinite()) y.fail(node["state"], "initial.state", "must be finite");
+  }
+  const YAML::Node cov = y.required(node, "covariance", "initial");
+  bank->initial_covariance = y.covariance(cov, n, "initial.covariance");
+  check_cov(y, cov, bank->initial_covariance, /*strict=*/false, "initial.covariance");
+
+  const int num_modes = bank->num_modes();
+  bank->initial_mode_probabilities = Eigen::VectorXd::Constant(num_modes, 1.0 / num_modes);
+  if (const YAML::Node p = node["mode_probabilities"]) {
+    if (!p.IsMap()) y.fail(p, "initial.mode_probabilities", "expected a mapping from mode name to probability");
+    bank->initial_mode_probabilities.setZero();
+    for (const auto& entry : p) {
+      const std::string mode = entry.first.as<std::string>();
+      const std::string field = "initial.mode_probabilities." + mode;
+      const int j = bank->mode_index(mode);
+      if (j < 0) y.fail(entry.first, field, "no mode of that name");
+      const double value = y.number(entry.second, field);
+      if (!(value >= 0.0 && value <= 1.0)) y.fail(entry.second, field, "must be a probability in [0, 1]");
+      bank->initial_mode_probabilities[j] = value;
+    }
+    const double sum = bank->initial_mode_probabilities.sum();
+    if (std::abs(sum - 1.0) > 1e-6) {
+      y.fail(p, "initial.mode_probabilities", "must sum to 1 (modes left out count as 0), got " + std::to_string(sum));
+    }
+    bank->initial_mode_probabilities /= sum;
+  }
+}
+
+void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {
+  const YAML::Node node = y.required(root, "modes", "");
+  if (!node.IsSequence() || node.size() == 0) y.fail(node, "modes", "expected a non-empty list of modes");
+  for (std::size_t i = 0; i < node.size(); ++i) {
+    const YAML::Node m = node[i];
+    const std::string field = "modes[" + std::to_string(i) + "]";
+    y.check_keys(m, {"name", "model", "params", "Q", "description"}, field);
+    ModeConfig mode;
+    mode.line = YamlFields::line_of(m);
+    mode.name = y.string(y.required(m, "name", field), field + ".name");
+    if (mode.name.empty()) y.fail(m, field + ".name", "cannot be empty");
+    if (bank->mode_index(mode.name) >= 0) y.fail(m["name"], field + ".name", "mode '" + mode.name + "' appears twice");
+    mode.model = y.string(y.required(m, "model", field), field + ".model");
+    if (const YAML::Node params = m["params"]) {
+      if (!params.IsMap()) y.fail(params, field + ".params", "expected a mapping from parameter name to value");
+      for (const auto& entry : params) {
+        const std::string key = entry.first.as<std::string>();
+        mode.params.set(key, y.matrix(entry.second, field + ".params." + key));
+        mode.param_lines[key] = YamlFields::line_of(entry.first);
+      }
+    }
+    const YAML::Node q = y.required(m, "Q", field);
+    mode.q_intensity = y.covariance(q, bank->state_dim(), field + ".Q");
+    check_cov(y, q, mode.q_intensity, /*strict=*/false, field + ".Q (mode '" + mode.name + "')");
+    bank->modes.push_back(std::move(mode));
+  }
+}
+
+}  // namespace
+
+int BankConfig::mode_index(const std::string& mode_name) const {
+  for (std::size_t j = 0; j < modes.size(); ++j) {
+    if (modes[j].name == mode_name) return static_cast<int>(j);
+  }
+  return -1;
+}
+
+BankConfig load_bank_config(const fs::path& file) {
+  const YamlFields y(file.string());
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec)) throw ConfigError(file.string(), 0, "", "no such bank file");
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file.string());
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError(file.string(), e.mark.line + 1, "", "malformed YAML: " + e.msg);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(file.string(), 0, "", std::string("cannot read YAML: ") + e.what());
+  }
+  if (!root.IsMap()) throw ConfigError(file.string(), 1, "", "a bank file must be a YAML mapping");
+
+  y.check_keys(root, {"name", "description", "states", "angles", "inputs", "columns", "measurement", "transition",
+                      "initial", "mode_probability_floor", "plugin_paths", "shared", "modes"},
+               "");
+  BankConfig bank;
+  bank.file = fs::absolute(file);
+  bank.name = y.string(y.required(root, "name", ""), "name");
+  if (root["description"]) bank.description = y.string(root["description"], "description");
+
+  bank.state_names = y.string_list(y.required(root, "states", ""), "states");
+  if (bank.state_names.empty()) y.fail(root["states"], "states", "a bank needs at least one state");
+  check_unique(y, root["states"], bank.state_names, "states");
+  bank.angle_mask.assign(bank.state_names.size(), false);
+  if (root["angles"]) {
+    for (const std::string& a : y.string_list(root["angles"], "angles")) {
+      const int s = index_of(bank.state_names, a);
+      if (s < 0) y.fail(root["angles"], "angles", "'" + a + "' is not a state (states: " + join(bank.state_names) + ")");
+      bank.angle_mask[s] = true;
+    }
+  }
+  bank.input_names = y.string_list(y.required(root, "inputs", ""), "inputs");
+  check_unique(y, root["inputs"], bank.input_names, "inputs");
+
+  // Modes first: the transition and initial blocks refer to them by name.
+  parse_modes(y, root, &bank);
+  parse_measurement(y, root, &bank);
+  parse_transition(y, root, &bank);
+  parse_initial(y, root, &bank);
+
+  const YAML::Node columns = root["columns"];
+  if (columns) y.check_keys(columns, {"time", "inputs", "measurements", "truth_mode"}, "columns");
+  bank.columns.time = columns && columns["time"] ? y.string(columns["time"], "columns.time") : "t";
+  bank.columns.inputs = column_map(y, columns ? columns["inputs"] : YAML::Node(), bank.input_names, "columns.inputs");
+  bank.columns.measurements =
+      column_map(y, columns ? columns["measurements"] : YAML::Node(), bank.measurement.names, "columns.measurements");
+  if (columns && columns["truth_mode"]) bank.columns.truth_mode = y.string(columns["truth_mode"], "columns.truth_mode");
+
+  if (const YAML::Node floor = root["mode_probability_floor"]) {
+    bank.mode_probability_floor = y.number(floor, "mode_probability_floor");
+    if (!(bank.mode_probability_floor >= 0.0 && bank.mode_probability_floor * bank.num_modes() < 1.0)) {
+      y.fail(floor, "mode_probability_floor", "must be >= 0 and below 1/(number of modes)");
+    }
+  }
+  if (const YAML::Node paths = root["plugin_paths"]) {
+    for (const std::string& p : y.string_list(paths, "plugin_paths")) {
+      fs::path path(p);
+      bank.plugin_paths.push_back(path.is_absolute() ? path : (bank.file.parent_path() / path).lexically_normal());
+    }
+  }
+  if (const YAML::Node shared = root["shared"]) {
+    if (!shared.IsMap()) y.fail(shared, "shared", "expected a mapping from parameter name to value");
+    for (const auto& entry : shared) {
+      const std::string key = entry.first.as<std::string>();
+      bank.shared.set(key, y.matrix(entry.second, "shared." + key));
+      bank.shared_lines[key] = YamlFields::line_of(entry.first);
+    }
+  }
+  return bank;
+}
+
+Bank Bank::instantiate(BankConfig config, PluginRegistry& registry) {
+  const std::string file = config.file.string();
+  Bank bank;
+  std::set<std::string> shared_keys_used;
+  for (std::size_t i = 0; i < config.modes.size(); ++i) {
+    const ModeConfig& mode = config.modes[i];
+    const std::string field = "modes[" + std::to_string(i) + "]";
+    const std::string who = "mode '" + mode.name + "' (model " + mode.model + ")";
+
+    const PluginDescriptor* descriptor = nullptr;
+    try {
+      descriptor = &registry.find(mode.model);
+    } catch (const PluginError& e) {
+      throw ConfigError(file, mode.line, field + ".model", e.what());
+    }
+    // The bank's shared parameters this plugin documents, overridden by the mode's own.
+    sdk::ParameterSet params;
+    for (const std::string& key : descriptor->parameter_keys) {
+      if (const Eigen::MatrixXd* value = config.shared.find(key)) {
+        params.set(key, *value);
+        shared_keys_used.insert(key);
+      }
+    }
+    for (const std::string& key : mode.params.keys()) params.set(key, *mode.params.find(key));
+
+    ModelHandle model;
+    try {
+      model = registry.create(mode.model, params);
+    } catch (const PluginError& e) {
+      throw ConfigError(file, mode.line, field + ".params", who + ": " + e.what());
+    }
+    for (const sdk::ParameterInfo& info : model->parameter_info()) {
+      if (info.scope == sdk::ParameterScope::kBank && mode.params.contains(info.key)) {
+        const auto line = mode.param_lines.find(info.key);
+        throw ConfigError(file, line == mode.param_lines.end() ? mode.line : line->second,
+                          field + ".params." + info.key,
+                          "'" + info.key + "' is one value for the whole bank in model " + mode.model +
+                              ": give it once under 'shared:', not per mode");
+      }
+    }
+    if (model->state_dim() != config.state_dim() || model->state_names() != config.state_names) {
+      throw ConfigError(file, mode.line, field + ".model",
+                        who + " has states [" + join(model->state_names()) + "] but the bank declares [" +
+                            join(config.state_names) + "]");
+    }
+    for (int s = 0; s < config.state_dim(); ++s) {
+      if (model->is_angle(s) != config.angle_mask[s]) {
+        throw ConfigError(file, mode.line, field + ".model",
+                          who + ": state '" + config.state_names[s] + "' is " + (model->is_angle(s) ? "" : "not ") +
+                              "an angle in the model but " + (config.angle_mask[s] ? "" : "not ") +
+                              "listed under 'angles:' in the bank");
+      }
+    }
+    if (model->input_dim() != config.input_dim() || model->input_names() != config.input_names) {
+      throw ConfigError(file, mode.line, field + ".model",
+                        who + " takes inputs [" + join(model->input_names()) + "] but the bank declares [" +
+                            join(config.input_names) + "]");
+    }
+    bank.models.push_back(std::move(model));
+  }
+  for (const std::string& key : config.shared.keys()) {
+    if (shared_keys_used.count(key) == 0) {
+      throw ConfigError(file, config.shared_lines[key], "shared." + key,
+                        "not a parameter of any mode's model (a typo?)");
+    }
+  }
+  bank.config = std::move(config);
+  return bank;
+}
+
+Bank Bank::load(const fs::path& file, const std::vector<fs::path>& plugin_paths) {
+  BankConfig config = load_bank_config(file);
+  PluginRegistry registry(PluginRegistry::standard_search_path(plugin_paths, config.plugin_paths));
+  return instantiate(std::move(config), registry);
+}
+
+}  // namespace skidimm

@@ -1,0 +1,110 @@
+#include "skidimm/ekf.h"
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <utility>
+
+#include "skidimm/covariance.h"
+#include "skidimm/sdk/angles.h"
+
+namespace skidimm {
+
+namespace {
+constexpr double kLog2Pi = 1.8378770664093454835606594728112;
+}
+
+ExtendedKalmanFilter::ExtendedKalmanFilter(const sdk::MotionModel& model, Eigen::MatrixXd q_intensity,
+                                           int measurement_dim)
+    : model_(model), q_intensity_(std::move(q_intensity)) {
+  const int n = model.state_dim();
+  const int m = measurement_dim;
+  for (int i = 0; i < n; ++i) is_angle_.push_back(model.is_angle(i));
+  x_ = Eigen::VectorXd::Zero(n);
+  p_ = Eigen::MatrixXd::Identity(n, n);
+  x_next_.resize(n);
+  f_.resize(n, n);
+  q_.resize(n, n);
+  fp_.resize(n, n);
+  innovation_.resize(m);
+  whitened_.resize(m);
+  hp_.resize(m, n);
+  s_.resize(m, m);
+  gain_.resize(n, m);
+  i_kh_.resize(n, n);
+  kr_.resize(n, m);
+}
+
+void ExtendedKalmanFilter::wrap_angles(Eigen::Ref<Eigen::VectorXd> x) const {
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
+    if (is_angle_[i]) x[i] = sdk::wrap_angle(x[i]);
+  }
+}
+
+bool ExtendedKalmanFilter::predict(const Eigen::Ref<const Eigen::VectorXd>& u, double dt) {
+  // F and Q are evaluated at the prior state, before x_ is overwritten.
+  if (!model_.jacobian(x_, u, dt, f_)) return false;
+  if (!model_.process_noise(q_intensity_, x_, u, dt, q_)) return false;
+  if (!model_.predict(x_, u, dt, x_next_)) return false;
+  x_ = x_next_;
+  wrap_angles(x_);
+  fp_.noalias() = f_ * p_;
+  p_.noalias() = fp_ * f_.transpose();
+  p_ += q_;
+  symmetrize(p_);
+  return x_.allFinite() && p_.allFinite();
+}
+
+UpdateResult ExtendedKalmanFilter::update(const SelectedMeasurement& measurement) {
+  UpdateResult result;
+  const int k = measurement.size;
+  if (k == 0) {
+    result.ok = true;
+    return result;
+  }
+  auto h = measurement.h.topRows(k);
+  auto nu = innovation_.head(k);
+  nu.noalias() = measurement.z.head(k) - h * x_;
+  for (int a = 0; a < k; ++a) {
+    if (measurement.is_angle[a]) nu[a] = sdk::wrap_angle(nu[a]);
+  }
+
+  auto hp = hp_.topRows(k);
+  hp.noalias() = h * p_;
+  auto s = s_.topLeftCorner(k, k);
+  s.noalias() = hp * h.transpose();
+  s += measurement.r.topLeftCorner(k, k);
+  symmetrize(s);
+
+  // In-place Cholesky on the workspace: S = L L'.
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(s);
+  if (llt.info() != Eigen::Success) return result;
+
+  auto whitened = whitened_.head(k);
+  whitened = nu;
+  llt.solveInPlace(whitened);  // S^-1 nu
+  result.nis = nu.dot(whitened);
+  const double log_det = 2.0 * s.diagonal().array().log().sum();
+  result.log_likelihood = -0.5 * (result.nis + log_det + k * kLog2Pi);
+
+  // K' = S^-1 H P-   (S and P- symmetric), solved in place over H P-.
+  llt.solveInPlace(hp);
+  auto gain = gain_.leftCols(k);
+  gain = hp.transpose();
+
+  x_.noalias() += gain * nu;
+  wrap_angles(x_);
+
+  i_kh_.setIdentity();
+  i_kh_.noalias() -= gain * h;
+  fp_.noalias() = i_kh_ * p_;
+  p_.noalias() = fp_ * i_kh_.transpose();
+  auto kr = kr_.leftCols(k);
+  kr.noalias() = gain * measurement.r.topLeftCorner(k, k);
+  p_.noalias() += kr * gain.transpose();
+  symmetrize(p_);
+
+  result.ok = std::isfinite(result.log_likelihood) && x_.allFinite() && p_.allFinite();
+  return result;
+}
+
+}  // namespace skidimm

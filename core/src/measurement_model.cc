@@ -1,0 +1,43 @@
+#include "skidimm/measurement_model.h"
+
+#include <cmath>
+#include <utility>
+
+#include "skidimm/check.h"
+
+namespace skidimm {
+
+MeasurementModel::MeasurementModel(Eigen::MatrixXd h, Eigen::MatrixXd r, std::vector<bool> is_angle)
+    : h_(std::move(h)), r_(std::move(r)), is_angle_(std::move(is_angle)) {
+  SKIDIMM_CHECK(r_.rows() == h_.rows() && r_.cols() == h_.rows(), "R must be m x m for an m-row H");
+  SKIDIMM_CHECK(static_cast<Eigen::Index>(is_angle_.size()) == h_.rows(), "one angle flag per row of H");
+}
+
+SelectedMeasurement MeasurementModel::make_selection() const {
+  SelectedMeasurement s;
+  const Eigen::Index m = h_.rows();
+  s.z.resize(m);
+  s.h.resize(m, h_.cols());
+  s.r.resize(m, m);
+  s.is_angle.assign(m, false);
+  s.rows.assign(m, 0);
+  return s;
+}
+
+void MeasurementModel::select(const Eigen::Ref<const Eigen::VectorXd>& z, SelectedMeasurement* out) const {
+  SKIDIMM_CHECK(z.size() == h_.rows(), "measurement vector has the wrong size");
+  int k = 0;
+  for (Eigen::Index i = 0; i < z.size(); ++i) {
+    if (std::isfinite(z[i])) out->rows[k++] = static_cast<int>(i);
+  }
+  out->size = k;
+  for (int a = 0; a < k; ++a) {
+    const int row = out->rows[a];
+    out->z[a] = z[row];
+    out->h.row(a) = h_.row(row);
+    out->is_angle[a] = is_angle_[row];
+    for (int b = 0; b < k; ++b) out->r(a, b) = r_(row, out->rows[b]);
+  }
+}
+
+}  // namespace skidimm

@@ -1,0 +1,225 @@
+#include "skidimm/plugin_registry.h"
+
+#include <algorithm>
+#include <boost/dll/runtime_symbol_info.hpp>
+#include <boost/dll/shared_library.hpp>
+#include <cstdlib>
+#include <exception>
+#include <set>
+#include <sstream>
+#include <system_error>
+
+#include "skidimm/errors.h"
+#include "skidimm/sdk/abi.h"
+#include "skidimm/sdk/export.h"
+#include "skidimm/sdk/plugin_info.h"
+
+#ifndef SKIDIMM_INSTALLED_PLUGIN_DIR
+#define SKIDIMM_INSTALLED_PLUGIN_DIR ""
+#endif
+#ifndef SKIDIMM_PLUGIN_SUBDIR
+#define SKIDIMM_PLUGIN_SUBDIR "lib/skidimm/plugins"
+#endif
+
+namespace skidimm {
+namespace fs = std::filesystem;
+
+namespace {
+
+// Boost.DLL's message ends with errno text ("Bad file descriptor") that has
+// nothing to do with the failure; keep only dlerror's part.
+std::string loader_message(const std::system_error& e) {
+  std::string message = e.what();
+  const std::string noise = ": " + e.code().message();
+  if (message.size() > noise.size() && message.compare(message.size() - noise.size(), noise.size(), noise) == 0) {
+    message.resize(message.size() - noise.size());
+  }
+  return message;
+}
+
+std::vector<fs::path> split_path_list(const char* list) {
+  std::vector<fs::path> out;
+  if (list == nullptr) return out;
+  std::stringstream stream(list);
+  std::string item;
+  while (std::getline(stream, item, ':')) {
+    if (!item.empty()) out.emplace_back(item);
+  }
+  return out;
+}
+
+bool is_shared_library(const fs::path& path) {
+  return path.extension() == boost::dll::shared_library::suffix();
+}
+
+// Reads one library. Fills `descriptor`; returns the loaded library when it is
+// a usable plugin, nullptr otherwise (descriptor.error says why).
+std::shared_ptr<boost::dll::shared_library> inspect(const fs::path& path, PluginDescriptor* descriptor) {
+  descriptor->path = path;
+  auto library = std::make_shared<boost::dll::shared_library>();
+  try {
+    library->load(path, boost::dll::load_mode::rtld_now | boost::dll::load_mode::rtld_local);
+  } catch (const std::system_error& e) {
+    descriptor->error = "cannot load: " + loader_message(e);
+    return nullptr;
+  } catch (const std::exception& e) {
+    descriptor->error = std::string("cannot load: ") + e.what();
+    return nullptr;
+  }
+  if (!library->has(sdk::kAbiVersionSymbol)) {
+    descriptor->error = std::string("not a skidimm plugin: no '") + sdk::kAbiVersionSymbol +
+                        "' symbol (was it built with SKIDIMM_EXPORT_MOTION_MODEL?)";
+    return nullptr;
+  }
+  if (library->has(sdk::kPluginNameSymbol)) {
+    descriptor->name = library->get_alias<const char*()>(sdk::kPluginNameSymbol)();
+  }
+  const int abi = library->get_alias<int()>(sdk::kAbiVersionSymbol)();
+  if (abi != sdk::kAbiVersion) {
+    descriptor->error = "built for skidimm plugin ABI " + std::to_string(abi) + ", but this skidimm uses ABI " +
+                        std::to_string(sdk::kAbiVersion) + ": rebuild the plugin against this SDK";
+    return nullptr;
+  }
+  for (const char* symbol : {sdk::kPluginNameSymbol, sdk::kPluginInfoSymbol, sdk::kFactorySymbol}) {
+    if (!library->has(symbol)) {
+      descriptor->error = std::string("incomplete plugin: missing symbol '") + symbol + "'";
+      return nullptr;
+    }
+  }
+  const sdk::PluginInfo* info = library->get_alias<const sdk::PluginInfo*()>(sdk::kPluginInfoSymbol)();
+  if (info == nullptr || info->name == nullptr || info->name[0] == '\0') {
+    descriptor->error = "the plugin's info has no name";
+    return nullptr;
+  }
+  descriptor->name = info->name;
+  descriptor->version = info->version != nullptr ? info->version : "";
+  descriptor->description = info->description != nullptr ? info->description : "";
+  for (int i = 0; i < info->num_parameters; ++i) {
+    const sdk::ParameterDoc& doc = info->parameters[i];
+    descriptor->parameter_keys.emplace_back(doc.key);
+    descriptor->parameter_docs.push_back(std::string(doc.key) + " (" + doc.shape + "): " + doc.description);
+  }
+  return library;
+}
+
+}  // namespace
+
+PluginRegistry::PluginRegistry(std::vector<fs::path> search_path) : search_path_(std::move(search_path)) {}
+
+PluginRegistry::~PluginRegistry() = default;
+
+std::vector<fs::path> PluginRegistry::standard_search_path(const std::vector<fs::path>& explicit_paths,
+                                                           const std::vector<fs::path>& bank_paths) {
+  std::vector<fs::path> candidates = explicit_paths;
+  candidates.insert(candidates.end(), bank_paths.begin(), bank_paths.end());
+  for (const fs::path& p : split_path_list(std::getenv("SKIDIMM_PLUGIN_PATH"))) candidates.push_back(p);
+  // Relocatable install (and the build tree, which mirrors it): <bin>/../lib/skidimm/plugins.
+  try {
+    candidates.push_back(fs::path(boost::dll::program_location().parent_path().string()) / ".." /
+                         SKIDIMM_PLUGIN_SUBDIR);
+  } catch (const std::exception&) {
+    // No /proc: rely on the configured install prefix alone.
+  }
+  if (std::string(SKIDIMM_INSTALLED_PLUGIN_DIR).size() > 0) candidates.emplace_back(SKIDIMM_INSTALLED_PLUGIN_DIR);
+
+  std::vector<fs::path> out;
+  std::set<fs::path> seen;
+  for (const fs::path& candidate : candidates) {
+    std::error_code ec;
+    fs::path canonical = fs::weakly_canonical(candidate, ec);
+    if (ec) canonical = candidate.lexically_normal();
+    if (seen.insert(canonical).second) out.push_back(canonical);
+  }
+  return out;
+}
+
+void PluginRegistry::scan() {
+  if (scanned_) return;
+  scanned_ = true;
+  std::set<std::string> names_seen;
+  for (std::size_t entry = 0; entry < search_path_.size(); ++entry) {
+    const fs::path& location = search_path_[entry];
+    std::error_code ec;
+    std::vector<fs::path> files;
+    if (fs::is_directory(location, ec)) {
+      for (const fs::directory_entry& item : fs::directory_iterator(location, ec)) {
+        if (item.is_regular_file(ec) && is_shared_library(item.path())) files.push_back(item.path());
+      }
+      std::sort(files.begin(), files.end());
+    } else if (fs::exists(location, ec)) {
+      files.push_back(location);  // a single plugin file named explicitly
+    } else {
+      continue;  // a missing directory on the search path is normal (e.g. no install)
+    }
+    std::set<std::string> names_in_entry;
+    for (const fs::path& file : files) {
+      PluginDescriptor descriptor;
+      std::shared_ptr<boost::dll::shared_library> library = inspect(file, &descriptor);
+      if (library != nullptr) {
+        descriptor.shadowed = names_seen.count(descriptor.name) != 0 && names_in_entry.count(descriptor.name) == 0;
+        names_in_entry.insert(descriptor.name);
+      }
+      descriptors_.push_back(std::move(descriptor));
+      libraries_.push_back(std::move(library));
+      search_entry_of_.push_back(entry);
+    }
+    names_seen.insert(names_in_entry.begin(), names_in_entry.end());
+  }
+}
+
+const std::vector<PluginDescriptor>& PluginRegistry::plugins() {
+  scan();
+  return descriptors_;
+}
+
+const PluginDescriptor& PluginRegistry::find(const std::string& name) {
+  scan();
+  const PluginDescriptor* match = nullptr;
+  std::size_t match_entry = 0;
+  for (std::size_t i = 0; i < descriptors_.size(); ++i) {
+    const PluginDescriptor& d = descriptors_[i];
+    if (d.name != name) continue;
+    if (!d.error.empty()) {
+      throw PluginError("plugin '" + name + "' at " + d.path.string() + " is unusable: " + d.error);
+    }
+    if (match == nullptr) {
+      match = &d;
+      match_entry = search_entry_of_[i];
+    } else if (search_entry_of_[i] == match_entry) {
+      throw PluginError("two plugins are named '" + name + "': " + match->path.string() + " and " +
+                        d.path.string() + "; remove one or give it another name");
+    }
+  }
+  if (match != nullptr) return *match;
+
+  std::string message = "no plugin named '" + name + "' on the search path [";
+  for (std::size_t i = 0; i < search_path_.size(); ++i) message += (i ? ", " : "") + search_path_[i].string();
+  message += "]";
+  std::string available;
+  for (const PluginDescriptor& d : descriptors_) {
+    if (d.error.empty() && !d.shadowed) available += (available.empty() ? "" : ", ") + d.name;
+  }
+  message += available.empty() ? "; no plugins were found there" : "; found: " + available;
+  for (const PluginDescriptor& d : descriptors_) {
+    if (!d.error.empty()) message += "\n  skipped " + d.path.string() + ": " + d.error;
+  }
+  message += "\n  (add a directory with --plugin-path, the bank's plugin_paths or SKIDIMM_PLUGIN_PATH)";
+  throw PluginError(message);
+}
+
+ModelHandle PluginRegistry::create(const std::string& name, const sdk::ParameterSet& params) {
+  const PluginDescriptor& descriptor = find(name);
+  const std::size_t index = static_cast<std::size_t>(&descriptor - descriptors_.data());
+  std::shared_ptr<boost::dll::shared_library> library = libraries_[index];
+  auto& factory = library->get_alias<sdk::MotionModelFactory>(sdk::kFactorySymbol);
+  std::string error;
+  sdk::MotionModel* raw = factory(params, &error);
+  if (raw == nullptr) {
+    throw PluginError("plugin '" + name + "' (" + descriptor.path.string() + ") rejected its parameters: " + error);
+  }
+  // The deleter owns a reference to the library: the object's code (its
+  // destructor, its vtable) stays mapped until the object is gone.
+  return ModelHandle(raw, [library](sdk::MotionModel* model) { delete model; });
+}
+
+}  // namespace skidimm

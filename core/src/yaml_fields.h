@@ -1,0 +1,148 @@
+// Typed access to YAML nodes that turns every mismatch into a ConfigError
+// naming the file, the line and the field ("modes[2].Q").
+#ifndef SKIDIMM_CORE_SRC_YAML_FIELDS_H_
+#define SKIDIMM_CORE_SRC_YAML_FIELDS_H_
+
+#include <yaml-cpp/yaml.h>
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "skidimm/errors.h"
+
+namespace skidimm {
+namespace internal {
+
+class YamlFields {
+ public:
+  explicit YamlFields(std::string file) : file_(std::move(file)) {}
+
+  const std::string& file() const { return file_; }
+
+  static int line_of(const YAML::Node& node) { return node.Mark().is_null() ? 0 : node.Mark().line + 1; }
+
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& field, const std::string& message) const {
+    throw ConfigError(file_, line_of(node), field, message);
+  }
+  [[noreturn]] void fail_at(int line, const std::string& field, const std::string& message) const {
+    throw ConfigError(file_, line, field, message);
+  }
+
+  // A required child of a map.
+  YAML::Node required(const YAML::Node& map, const std::string& key, const std::string& field) const {
+    if (!map.IsMap()) fail(map, field.empty() ? key : field, "expected a mapping");
+    YAML::Node child = map[key];
+    if (!child) {
+      const std::string name = field.empty() ? key : field + "." + key;
+      fail(map, name, "missing (required)");
+    }
+    return child;
+  }
+
+  // Fails on keys outside `allowed`: typos must not be silently ignored.
+  void check_keys(const YAML::Node& map, const std::vector<std::string>& allowed, const std::string& field) const {
+    if (!map.IsMap()) fail(map, field, "expected a mapping");
+    for (const auto& entry : map) {
+      const std::string key = entry.first.as<std::string>();
+      bool known = false;
+      for (const std::string& a : allowed) known = known || a == key;
+      if (!known) {
+        std::string list;
+        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        fail(entry.first, (field.empty() ? "" : field + ".") + key, "unknown key (expected one of: " + list + ")");
+      }
+    }
+  }
+
+  std::string string(const YAML::Node& node, const std::string& field) const {
+    if (!node.IsScalar()) fail(node, field, "expected a string");
+    return node.Scalar();
+  }
+
+  double number(const YAML::Node& node, const std::string& field) const {
+    if (!node.IsScalar()) fail(node, field, "expected a number");
+    try {
+      return node.as<double>();
+    } catch (const YAML::Exception&) {
+      fail(node, field, "expected a number, got '" + node.Scalar() + "'");
+    }
+  }
+
+  std::vector<std::string> string_list(const YAML::Node& node, const std::string& field) const {
+    if (!node.IsSequence()) fail(node, field, "expected a list of names");
+    std::vector<std::string> out;
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      out.push_back(string(node[i], field + "[" + std::to_string(i) + "]"));
+    }
+    return out;
+  }
+
+  Eigen::VectorXd vector(const YAML::Node& node, const std::string& field) const {
+    if (node.IsScalar()) return Eigen::VectorXd::Constant(1, number(node, field));
+    if (!node.IsSequence()) fail(node, field, "expected a list of numbers");
+    Eigen::VectorXd out(node.size());
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      out[static_cast<Eigen::Index>(i)] = number(node[i], field + "[" + std::to_string(i) + "]");
+    }
+    return out;
+  }
+
+  // A number (1x1), a flat list (n x 1) or a list of equal-length rows.
+  Eigen::MatrixXd matrix(const YAML::Node& node, const std::string& field) const {
+    if (node.IsScalar()) return Eigen::MatrixXd::Constant(1, 1, number(node, field));
+    if (!node.IsSequence() || node.size() == 0) fail(node, field, "expected a number, a list or a list of rows");
+    if (!node[0].IsSequence()) return vector(node, field);
+    const std::size_t rows = node.size();
+    const std::size_t cols = node[0].size();
+    Eigen::MatrixXd out(rows, cols);
+    for (std::size_t r = 0; r < rows; ++r) {
+      const std::string row_field = field + "[" + std::to_string(r) + "]";
+      if (!node[r].IsSequence() || node[r].size() != cols) {
+        fail(node[r], row_field, "expected a row of " + std::to_string(cols) + " numbers like row 0");
+      }
+      for (std::size_t c = 0; c < cols; ++c) {
+        out(r, c) = number(node[r][c], row_field + "[" + std::to_string(c) + "]");
+      }
+    }
+    return out;
+  }
+
+  // A rows x cols matrix, exactly.
+  Eigen::MatrixXd matrix(const YAML::Node& node, int rows, int cols, const std::string& field) const {
+    Eigen::MatrixXd m = matrix(node, field);
+    if (m.rows() != rows || m.cols() != cols) {
+      fail(node, field, "expected a " + std::to_string(rows) + "x" + std::to_string(cols) + " matrix, got " +
+                            std::to_string(m.rows()) + "x" + std::to_string(m.cols()));
+    }
+    return m;
+  }
+
+  // An n x n covariance: a full matrix, {diagonal: [...]} or {std: [...]}
+  // (standard deviations, squared onto the diagonal).
+  Eigen::MatrixXd covariance(const YAML::Node& node, int n, const std::string& field) const {
+    if (node.IsMap()) {
+      check_keys(node, {"diagonal", "std"}, field);
+      if (node.size() != 1) fail(node, field, "give exactly one of 'diagonal' or 'std'");
+      const bool is_std = static_cast<bool>(node["std"]);
+      const YAML::Node values = is_std ? node["std"] : node["diagonal"];
+      const std::string sub = field + (is_std ? ".std" : ".diagonal");
+      Eigen::VectorXd d = vector(values, sub);
+      if (d.size() != n) fail(values, sub, "expected " + std::to_string(n) + " values, got " + std::to_string(d.size()));
+      if (is_std) {
+        if ((d.array() < 0.0).any()) fail(values, sub, "standard deviations cannot be negative");
+        d = d.array().square();
+      }
+      return d.asDiagonal();
+    }
+    return matrix(node, n, n, field);
+  }
+
+ private:
+  std::string file_;
+};
+
+}  // namespace internal
+}  // namespace skidimm
+
+#endif  // SKIDIMM_CORE_SRC_YAML_FIELDS_H_

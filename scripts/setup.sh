@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs skidimm's build and test dependencies from Debian packages.
+# Idempotent: when every package is already installed it returns in well
+# under a second without touching apt.
+set -euo pipefail
+
+packages=(
+  build-essential cmake
+  libeigen3-dev libboost-dev libyaml-cpp-dev libceres-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+
+echo "skidimm setup: installing ${missing[*]}" >&2
+sudo_cmd=()
+if [ "$(id -u)" -ne 0 ]; then
+  sudo_cmd=(sudo)
+fi
+export DEBIAN_FRONTEND=noninteractive
+"${sudo_cmd[@]}" apt-get update -qq
+"${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"

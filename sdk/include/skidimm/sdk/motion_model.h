@@ -1,0 +1,100 @@
+// MotionModel: the contract every motion-model plugin implements.
+//
+// A motion model propagates the state of one traction mode over a step:
+//
+//   x_{k+1} = predict(x_k, u_k, dt)                        (paper, eq. 1)
+//   F_k     = d predict / d x  at (x_k, u_k, dt)           (EKF Jacobian)
+//   Q_k     = process_noise(intensity, x_k, u_k, dt)       (default: intensity * dt)
+//
+// Units are SI (m, rad, s); angles are in radians and the engine wraps the
+// components for which is_angle() is true to [-pi, pi).
+//
+// Threading: the engine calls a model from one thread at a time; the const
+// members must not modify shared state, so several IMMs may share a model.
+//
+// Errors never cross the plugin boundary as exceptions (Boost.DLL gives no
+// guarantee they could be caught): every virtual is noexcept and reports
+// failure by its return value. A false from predict()/jacobian() makes the
+// engine reject that mode for the step, never crash.
+//
+// Authors who know their dimensions at compile time derive from
+// SizedMotionModel<kStateDim, kInputDim> (sized_motion_model.h) instead.
+#ifndef SKIDIMM_SDK_MOTION_MODEL_H_
+#define SKIDIMM_SDK_MOTION_MODEL_H_
+
+#include <Eigen/Core>
+#include <boost/config.hpp>
+#include <string>
+#include <vector>
+
+#include "skidimm/sdk/numeric_jacobian.h"
+#include "skidimm/sdk/parameters.h"
+
+namespace skidimm {
+namespace sdk {
+
+class BOOST_SYMBOL_VISIBLE MotionModel {
+ public:
+  virtual ~MotionModel() = default;
+  MotionModel(const MotionModel&) = delete;
+  MotionModel& operator=(const MotionModel&) = delete;
+
+  // --- Dimensions and names (constant for the model's lifetime) ---
+  virtual int state_dim() const noexcept = 0;
+  virtual int input_dim() const noexcept = 0;
+  // state_names().size() == state_dim(), input_names().size() == input_dim().
+  virtual const std::vector<std::string>& state_names() const noexcept = 0;
+  virtual const std::vector<std::string>& input_names() const noexcept = 0;
+  // True for components in radians that wrap at +-pi (e.g. a heading).
+  virtual bool is_angle(int /*state_index*/) const noexcept { return false; }
+
+  // --- Parameters as a flat vector, for generic tools (fitting) ---
+  virtual const std::vector<ParameterInfo>& parameter_info() const noexcept = 0;
+  // values.size() == parameter_info().size().
+  virtual void get_parameters(Eigen::Ref<Eigen::VectorXd> values) const noexcept = 0;
+  // Returns false (and explains in *error, if given) when values are invalid;
+  // the model is then unchanged.
+  virtual bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>& values,
+                              std::string* error) noexcept = 0;
+
+  // --- Dynamics ---
+  // x_next = x after a step of dt seconds with input u held constant.
+  // predict(x, u, 0) must return x. Returns false if the state cannot be
+  // propagated (the output is then unspecified).
+  virtual bool predict(const Eigen::Ref<const Eigen::VectorXd>& x,
+                       const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                       Eigen::Ref<Eigen::VectorXd> x_next) const noexcept = 0;
+
+  // Jacobian of predict() with respect to x (state_dim x state_dim). The
+  // default differentiates predict() numerically; models override it with an
+  // analytic form and report so in has_analytic_jacobian().
+  virtual bool jacobian(const Eigen::Ref<const Eigen::VectorXd>& x,
+                        const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                        Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept {
+    auto step = [&](const Eigen::VectorXd& xp, Eigen::VectorXd& out) { return predict(xp, u, dt, out); };
+    auto angle = [this](int i) { return is_angle(i); };
+    return numeric_state_jacobian(step, angle, x, jacobian);
+  }
+  virtual bool has_analytic_jacobian() const noexcept { return false; }
+
+  // Covariance of the process noise added over a step of dt seconds, given the
+  // mode's continuous-time intensity `intensity` (the bank's Q). The default,
+  // Q * dt, is the usual random-walk discretisation (robot_localization, fuse)
+  // and keeps the noise per second the same when sampling is irregular. A
+  // model that needs another form overrides this and documents it.
+  virtual bool process_noise(const Eigen::Ref<const Eigen::MatrixXd>& intensity,
+                             const Eigen::Ref<const Eigen::VectorXd>& /*x*/,
+                             const Eigen::Ref<const Eigen::VectorXd>& /*u*/, double dt,
+                             Eigen::Ref<Eigen::MatrixXd> noise) const noexcept {
+    noise = intensity * dt;
+    return true;
+  }
+
+ protected:
+  MotionModel() = default;
+};
+
+}  // namespace sdk
+}  // namespace skidimm
+
+#endif  // SKIDIMM_SDK_MOTION_MODEL_H_

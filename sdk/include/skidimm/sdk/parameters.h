@@ -1,0 +1,132 @@
+// Parameters: how a model is configured and how generic tools see it.
+//
+// Two views of the same numbers:
+//  * ParameterSet: the named matrices a bank file gives a mode (`params:` and
+//    the bank's `shared:` block). The core fills it from YAML, so plugins never
+//    see yaml-cpp. A scalar is a 1x1 matrix, a vector an n x 1 matrix.
+//  * ParameterInfo: the model's parameters as a flat vector of scalars, each
+//    with a name, bounds and scope, so that tools such as the fitter work on
+//    any plugin without plugin-specific code.
+#ifndef SKIDIMM_SDK_PARAMETERS_H_
+#define SKIDIMM_SDK_PARAMETERS_H_
+
+#include <Eigen/Core>
+#include <initializer_list>
+#include <limits>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace skidimm {
+namespace sdk {
+
+// Where a parameter's value lives in a bank.
+enum class ParameterScope {
+  kMode,  // each mode has its own value (`modes[i].params`)
+  kBank,  // one value shared by every mode of the bank (`shared:`)
+};
+
+// One scalar entry of a model's flat parameter vector.
+struct ParameterInfo {
+  std::string name;  // flat name, unique within the model: "k", "A[0,1]"
+  std::string key;   // the ParameterSet key it comes from: "k", "A"
+  std::string description;
+  double lower_bound = -std::numeric_limits<double>::infinity();
+  double upper_bound = std::numeric_limits<double>::infinity();
+  ParameterScope scope = ParameterScope::kMode;
+};
+
+// Named matrices handed to a plugin's factory.
+class ParameterSet {
+ public:
+  void set(const std::string& key, Eigen::MatrixXd value) { values_[key] = std::move(value); }
+  void set_scalar(const std::string& key, double value) { values_[key] = Eigen::MatrixXd::Constant(1, 1, value); }
+
+  bool contains(const std::string& key) const { return values_.count(key) != 0; }
+  const Eigen::MatrixXd* find(const std::string& key) const {
+    const auto it = values_.find(key);
+    return it == values_.end() ? nullptr : &it->second;
+  }
+  std::vector<std::string> keys() const {
+    std::vector<std::string> out;
+    for (const auto& entry : values_) out.push_back(entry.first);
+    return out;
+  }
+  bool empty() const { return values_.empty(); }
+
+  // Reads a required scalar. On failure returns false and explains in *error.
+  bool get_scalar(const std::string& key, double* value, std::string* error) const {
+    const Eigen::MatrixXd* m = find(key);
+    if (m == nullptr) return fail(error, "missing parameter '" + key + "' (a number)");
+    if (m->size() != 1) {
+      return fail(error, "parameter '" + key + "' must be a number, got a " + shape(*m) + " matrix");
+    }
+    *value = (*m)(0, 0);
+    return true;
+  }
+
+  // Reads a required rows x cols matrix.
+  bool get_matrix(const std::string& key, int rows, int cols, Eigen::MatrixXd* value,
+                  std::string* error) const {
+    const Eigen::MatrixXd* m = find(key);
+    if (m == nullptr) {
+      return fail(error, "missing parameter '" + key + "' (a " + std::to_string(rows) + "x" +
+                             std::to_string(cols) + " matrix)");
+    }
+    if (m->rows() != rows || m->cols() != cols) {
+      return fail(error, "parameter '" + key + "' must be " + std::to_string(rows) + "x" +
+                             std::to_string(cols) + ", got " + shape(*m));
+    }
+    *value = *m;
+    return true;
+  }
+
+  // Fails on any key outside `allowed`, so a typo in a bank is an error
+  // instead of a silently ignored value.
+  bool check_only(std::initializer_list<const char*> allowed, std::string* error) const {
+    for (const auto& entry : values_) {
+      bool known = false;
+      for (const char* key : allowed) known = known || entry.first == key;
+      if (!known) {
+        std::string list;
+        for (const char* key : allowed) list += (list.empty() ? "" : ", ") + std::string(key);
+        return fail(error, "unknown parameter '" + entry.first + "' (this model takes: " + list + ")");
+      }
+    }
+    return true;
+  }
+
+ private:
+  static bool fail(std::string* error, const std::string& message) {
+    if (error != nullptr) *error = message;
+    return false;
+  }
+  static std::string shape(const Eigen::MatrixXd& m) {
+    return std::to_string(m.rows()) + "x" + std::to_string(m.cols());
+  }
+
+  std::map<std::string, Eigen::MatrixXd> values_;
+};
+
+// Builds the flat entries for a rows x cols matrix parameter, row-major
+// ("A[0,0]", "A[0,1]", ...), which is the order plugins use in get/set.
+inline void append_matrix_parameter_info(const std::string& key, int rows, int cols,
+                                         const std::string& description, ParameterScope scope,
+                                         std::vector<ParameterInfo>* info) {
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      ParameterInfo p;
+      p.name = key + "[" + std::to_string(r) + "," + std::to_string(c) + "]";
+      p.key = key;
+      p.description = description;
+      p.scope = scope;
+      info->push_back(std::move(p));
+    }
+  }
+}
+
+}  // namespace sdk
+}  // namespace skidimm
+
+#endif  // SKIDIMM_SDK_PARAMETERS_H_
