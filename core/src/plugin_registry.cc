@@ -156,7 +156,7 @@ void PluginRegistry::scan() {
       PluginDescriptor descriptor;
       std::shared_ptr<boost::dll::shared_library> library = inspect(file, &descriptor);
       if (library != nullptr) {
-        descriptor.shadowed = names_seen.count(descriptor.name) != 0 && names_in_entry.count(descriptor.name) == 0;
+        descriptor.shadowed = names_seen.count(descriptor.name) != 0;  // claimed by an earlier entry
         names_in_entry.insert(descriptor.name);
       }
       descriptors_.push_back(std::move(descriptor));

@@ -1,120 +1,20 @@
 // `stc_kinematic`: pose model with per-mode slip constants k_i, m_i (paper eq. 3).
-#include <Eigen/Core>
-#include <memory>
-#include <string>
-#include <vector>
-
-#include "skidimm/sdk/angles.h"
 #include "skidimm/sdk/export.h"
-#include "skidimm/sdk/sized_motion_model.h"
-#include "stc_kinematic/stc_kinematic_predict.h"
+#include "stc_kinematic/stc_kinematic_model.h"
 
-namespace skidimm {
-namespace plugins {
 namespace {
 
-enum StcParameterIndex { kK = 0, kM = 1, kR = 2, kB = 3, kNumStcParameters = 4 };
-
-class StcKinematicModel final : public sdk::SizedMotionModel<3, 2> {
- public:
-  static std::unique_ptr<StcKinematicModel> Create(const sdk::ParameterSet& params, std::string* error) {
-    StcParameters p{};
-    if (!params.check_only({"k", "m", "r", "b"}, error) || !params.get_scalar("k", &p.k, error) ||
-        !params.get_scalar("m", &p.m, error) || !params.get_scalar("r", &p.r, error) ||
-        !params.get_scalar("b", &p.b, error)) {
-      return nullptr;
-    }
-    std::unique_ptr<StcKinematicModel> model(new StcKinematicModel());
-    Eigen::Matrix<double, kNumStcParameters, 1> values(p.k, p.m, p.r, p.b);
-    if (!model->set_parameters(values, error)) return nullptr;
-    return model;
-  }
-
-  const std::vector<std::string>& state_names() const noexcept override { return state_names_; }
-  const std::vector<std::string>& input_names() const noexcept override { return input_names_; }
-  bool is_angle(int state_index) const noexcept override { return state_index == kTheta; }
-
-  const std::vector<sdk::ParameterInfo>& parameter_info() const noexcept override { return parameter_info_; }
-
-  void get_parameters(Eigen::Ref<Eigen::VectorXd> values) const noexcept override {
-    values[kK] = p_.k;
-    values[kM] = p_.m;
-    values[kR] = p_.r;
-    values[kB] = p_.b;
-  }
-
-  bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>& values, std::string* error) noexcept override {
-    if (values.size() != kNumStcParameters || !values.allFinite()) {
-      if (error != nullptr) *error = "expected 4 finite values (k, m, r, b)";
-      return false;
-    }
-    for (int i = 0; i < kNumStcParameters; ++i) {
-      const sdk::ParameterInfo& info = parameter_info_[i];
-      if (values[i] < info.lower_bound || values[i] > info.upper_bound) {
-        if (error != nullptr) {
-          *error = "parameter '" + info.name + "' = " + std::to_string(values[i]) + " is outside [" +
-                   std::to_string(info.lower_bound) + ", " + std::to_string(info.upper_bound) + "]";
-        }
-        return false;
-      }
-    }
-    p_ = StcParameters{values[kK], values[kM], values[kR], values[kB]};
-    return true;
-  }
-
-  bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const noexcept override {
-    stc_predict(x.data(), u.data(), p_.k, p_.m, p_.r, p_.b, dt, x_next->data());
-    (*x_next)[kTheta] = sdk::wrap_angle((*x_next)[kTheta]);
-    return x_next->allFinite();
-  }
-
-  bool jacobian_fixed(const State& x, const Input& u, double dt, Jacobian* jacobian) const noexcept override {
-    Eigen::Matrix<double, 3, 3, Eigen::RowMajor> row_major;
-    stc_jacobian(x.data(), u.data(), p_, dt, row_major.data());
-    *jacobian = row_major;
-    return jacobian->allFinite();
-  }
-  bool has_analytic_jacobian() const noexcept override { return true; }
-
- private:
-  StcKinematicModel() {
-    auto add = [this](const char* name, const char* description, double lower, double upper,
-                      sdk::ParameterScope scope) {
-      sdk::ParameterInfo info;
-      info.name = info.key = name;
-      info.description = description;
-      info.lower_bound = lower;
-      info.upper_bound = upper;
-      info.scope = scope;
-      parameter_info_.push_back(info);
-    };
-    const double inf = std::numeric_limits<double>::infinity();
-    add("k", "longitudinal efficiency: actual / requested forward speed (-)", 0.0, 2.0, sdk::ParameterScope::kMode);
-    add("m", "yaw efficiency: actual / requested yaw rate (-)", 0.0, 2.0, sdk::ParameterScope::kMode);
-    // Geometry is the robot's, not the terrain's: one value for the whole bank.
-    add("r", "wheel radius (m)", 1e-6, inf, sdk::ParameterScope::kBank);
-    add("b", "track width (m)", 1e-6, inf, sdk::ParameterScope::kBank);
-  }
-
-  StcParameters p_{1.0, 1.0, 1.0, 1.0};
-  std::vector<sdk::ParameterInfo> parameter_info_;
-  const std::vector<std::string> state_names_{"X", "Y", "theta"};
-  const std::vector<std::string> input_names_{"phi_dot_L", "phi_dot_R"};
-};
-
-constexpr sdk::ParameterDoc kParameters[] = {
+constexpr skidimm::sdk::ParameterDoc kParameters[] = {
     {"k", "scalar", "longitudinal efficiency in [0, 2] (-), per mode"},
     {"m", "scalar", "yaw efficiency in [0, 2] (-), per mode"},
     {"r", "scalar", "wheel radius (m), bank-level (shared:)"},
     {"b", "scalar", "track width (m), bank-level (shared:)"},
 };
 
-constexpr sdk::PluginInfo kInfo = {
+constexpr skidimm::sdk::PluginInfo kInfo = {
     "stc_kinematic", "1.0.0",
     "Kinematic pose model [X, Y, theta] with per-mode slip constants k_i, m_i (paper eq. 3)", kParameters, 4};
 
 }  // namespace
-}  // namespace plugins
-}  // namespace skidimm
 
-SKIDIMM_EXPORT_MOTION_MODEL(skidimm::plugins::StcKinematicModel, skidimm::plugins::kInfo)
+SKIDIMM_EXPORT_MOTION_MODEL(skidimm::plugins::StcKinematicModel, kInfo)

@@ -60,7 +60,10 @@ class SizedMotionModel : public MotionModel {
       auto angle = [this](int i) { return is_angle(i); };
       if (!numeric_state_jacobian_fixed(step, angle, x_fixed, &fixed)) return false;
     }
-    jacobian = fixed;
+    // Element-wise: for 1x1 models GCC 12 misreads a packet copy as out of bounds.
+    for (int i = 0; i < kStateDim; ++i) {
+      for (int j = 0; j < kStateDim; ++j) jacobian(i, j) = fixed(i, j);
+    }
     return true;
   }
 };

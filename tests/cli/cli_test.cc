@@ -1,0 +1,184 @@
+// End-to-end: the `skidimm` executable on real files.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <sstream>
+
+#include "core/temp_files.h"
+#include "skidimm/log_io.h"
+
+namespace {
+
+using ::testing::HasSubstr;
+using skidimm_test::read_file;
+using skidimm_test::test_directory;
+using skidimm_test::write_file;
+namespace fs = std::filesystem;
+
+const std::string kSource = SKIDIMM_SOURCE_DIR;
+const std::string kPlugins = SKIDIMM_PLUGIN_DIR;
+
+struct Result {
+  int exit_code;
+  std::string out;
+  std::string err;
+};
+
+Result run_skidimm(const std::string& arguments) {
+  const fs::path dir = fs::path(::testing::TempDir()) / "skidimm_cli_capture";
+  fs::create_directories(dir);
+  const std::string command = std::string(SKIDIMM_EXECUTABLE) + " " + arguments + " > " + (dir / "out").string() +
+                              " 2> " + (dir / "err").string() + " < /dev/null";
+  const int status = std::system(command.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_file(dir / "out"), read_file(dir / "err")};
+}
+
+std::vector<std::vector<std::string>> read_csv(const fs::path& path) {
+  skidimm::CsvReader reader(path);
+  std::vector<std::vector<std::string>> rows{reader.header()};
+  std::vector<std::string> fields;
+  while (reader.next(&fields)) rows.push_back(fields);
+  return rows;
+}
+
+int column(const std::vector<std::string>& header, const std::string& name) {
+  for (std::size_t i = 0; i < header.size(); ++i) {
+    if (header[i] == name) return static_cast<int>(i);
+  }
+  ADD_FAILURE() << "no column " << name;
+  return 0;
+}
+
+TEST(Cli, RunIdentifiesTheTerrainsOfTheBundledSwitchingExample) {
+  const fs::path out = test_directory() / "out.csv";
+  const std::string input = kSource + "/configs/examples/ltc_switching.csv";
+  const Result r = run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml --input " + input + " --output " +
+                               out.string() + " --plugin-path " + kPlugins);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto rows = read_csv(out);
+  EXPECT_EQ(rows[0], (std::vector<std::string>{"t", "mu_asphalt", "mu_grass", "mu_crushed_concrete", "V", "omega",
+                                               "var_V", "var_omega", "mode", "truth_mode", "status"}));
+  EXPECT_EQ(rows.size(), read_csv(input).size()) << "one output row per input row";
+  long correct = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const double sum = std::stod(rows[i][1]) + std::stod(rows[i][2]) + std::stod(rows[i][3]);
+    ASSERT_NEAR(sum, 1.0, 1e-9) << "row " << i;
+    correct += rows[i][column(rows[0], "mode")] == rows[i][column(rows[0], "truth_mode")];
+  }
+  const double accuracy = static_cast<double>(correct) / static_cast<double>(rows.size() - 1);
+  EXPECT_GT(accuracy, 0.85);
+  // The timeline on stderr shows the three terrains in the order driven.
+  const auto concrete = r.err.find("crushed_concrete");
+  const auto grass = r.err.find("grass", concrete);
+  const auto asphalt = r.err.find("asphalt", grass);
+  EXPECT_NE(concrete, std::string::npos) << r.err;
+  EXPECT_NE(grass, std::string::npos) << r.err;
+  EXPECT_NE(asphalt, std::string::npos) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("most likely mode equals column 'mode' on"));
+  EXPECT_FALSE(fs::exists(out.string() + ".partial"));
+}
+
+TEST(Cli, RunHandlesGpsRowsMissingFromAFasterLog) {
+  const fs::path out = test_directory() / "out.csv";
+  const Result r = run_skidimm("run -q --bank " + kSource + "/configs/stc_slip4.yaml --input " + kSource +
+                               "/configs/examples/stc_switching.csv --output " + out.string() + " --plugin-path " +
+                               kPlugins);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "") << "--quiet prints nothing";
+  const auto rows = read_csv(out);
+  const int status = column(rows[0], "status");
+  const int theta = column(rows[0], "theta");
+  long predict_only = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    predict_only += rows[i][status] == "predict_only";
+    const double heading = std::stod(rows[i][theta]);
+    ASSERT_TRUE(heading >= -M_PI && heading < M_PI) << "row " << i;
+  }
+  EXPECT_GT(predict_only, static_cast<long>(rows.size()) / 2) << "GPS is at 10 Hz in a 50 Hz log";
+  EXPECT_EQ(rows.back()[column(rows[0], "mode")], "slip_FL_FR_RL_RR");
+}
+
+TEST(Cli, BadBankIsReportedWithFileAndLineAndExitsNonZero) {
+  const fs::path dir = test_directory();
+  std::string bank = read_file(kSource + "/configs/ltc_terrains.yaml");
+  bank.replace(bank.find("Q: {diagonal: [0.02, 0.02]}"), 27, "Q: {diagonal: [0.02]}");
+  const fs::path bank_file = write_file(dir / "broken.yaml", bank);
+  const Result r = run_skidimm("run --bank " + bank_file.string() + " --input " + kSource +
+                               "/configs/examples/ltc_switching.csv --output " + (dir / "out.csv").string() +
+                               " --plugin-path " + kPlugins);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("broken.yaml:"));
+  EXPECT_THAT(r.err, HasSubstr("modes[1].Q.diagonal: expected 2 values, got 1"));
+  EXPECT_FALSE(fs::exists(dir / "out.csv"));
+}
+
+TEST(Cli, BadRowMidLogKeepsTheRowsAlreadyComputed) {
+  const fs::path dir = test_directory();
+  std::string log = read_file(kSource + "/configs/examples/ltc_switching.csv");
+  // Corrupt the 101st data row's wheel speed.
+  std::size_t at = 0;
+  for (int line = 0; line < 102; ++line) at = log.find('\n', at) + 1;
+  log.replace(log.find(',', at) + 1, 1, "x");
+  const fs::path input = write_file(dir / "corrupt.csv", log);
+  const Result r = run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml --input " + input.string() +
+                               " --output " + (dir / "out.csv").string() + " --plugin-path " + kPlugins);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("corrupt.csv:103: column 'phi_dot_L': expected a number"));
+  EXPECT_THAT(r.err, HasSubstr("the 101 rows computed before the error are in"));
+  EXPECT_FALSE(fs::exists(dir / "out.csv")) << "an incomplete file must not carry the final name";
+  EXPECT_EQ(read_csv(dir / "out.csv.partial").size(), 102u);
+}
+
+TEST(Cli, MissingColumnNamesTheBankField) {
+  const fs::path dir = test_directory();
+  const fs::path input = write_file(dir / "log.csv", "t,phi_dot_L,phi_dot_R,V\n0,1,1,0\n");
+  const Result r = run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml --input " + input.string() +
+                               " --output " + (dir / "out.csv").string() + " --plugin-path " + kPlugins);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("no column 'omega' (the bank's columns.measurements.omega)"));
+}
+
+TEST(Cli, ValidateReportsTheBankAndItsModes) {
+  const Result ok = run_skidimm("validate " + kSource + "/configs/stc_slip4.yaml --plugin-path " + kPlugins);
+  EXPECT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_THAT(ok.out, HasSubstr("stc_slip4.yaml: OK"));
+  EXPECT_THAT(ok.out, HasSubstr("angles [theta]"));
+  EXPECT_THAT(ok.out, HasSubstr("slip_FR_RR"));
+  const Result missing = run_skidimm("validate /nonexistent.yaml");
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_THAT(missing.err, HasSubstr("/nonexistent.yaml: no such bank file"));
+}
+
+TEST(Cli, PluginsListsTheBundledPluginsWithMetadata) {
+  const Result r = run_skidimm("plugins");  // found next to the executable, no --plugin-path
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("ltc_linear 1.0.0"));
+  EXPECT_THAT(r.out, HasSubstr("ltc_shared 1.0.0"));
+  EXPECT_THAT(r.out, HasSubstr("stc_kinematic 1.0.0"));
+  EXPECT_THAT(r.out, HasSubstr("k (scalar): longitudinal efficiency"));
+}
+
+TEST(Cli, UsageErrorsExitWithTwoAndHelpWithZero) {
+  EXPECT_EQ(run_skidimm("").exit_code, 2);
+  EXPECT_EQ(run_skidimm("run --bank").exit_code, 2);
+  EXPECT_EQ(run_skidimm("frobnicate").exit_code, 2);
+  const Result help = run_skidimm("run --help");
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_THAT(help.out, HasSubstr("--plugin-path"));
+}
+
+TEST(Cli, BundledExampleLogsAreReproducibleFromTheirGenerator) {
+  const fs::path dir = test_directory();
+  for (const std::string kind : {"ltc", "stc"}) {
+    const std::string bank = kSource + (kind == "ltc" ? "/configs/ltc_terrains.yaml" : "/configs/stc_slip4.yaml");
+    const fs::path out = dir / (kind + ".csv");
+    const std::string command = std::string(SKIDIMM_MAKE_EXAMPLE_LOG) + " " + kind + " " + bank + " " + out.string() + " 1";
+    ASSERT_EQ(std::system(command.c_str()), 0);
+    EXPECT_EQ(read_file(out), read_file(kSource + "/configs/examples/" + kind + "_switching.csv"))
+        << "regenerate with scripts/make_examples.sh";
+  }
+}
+
+}  // namespace

@@ -1,0 +1,196 @@
+#include "skidimm/bank.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "core/temp_files.h"
+#include "skidimm/errors.h"
+
+namespace skidimm {
+namespace {
+
+using ::testing::HasSubstr;
+using skidimm_test::test_directory;
+using skidimm_test::write_file;
+
+const std::string kSourceDir = SKIDIMM_SOURCE_DIR;
+const std::string kPluginDir = SKIDIMM_PLUGIN_DIR;
+
+// A valid two-mode LTC bank; tests break one line at a time.
+const std::string kValidBank = R"(name: two_terrains
+states: [V, omega]
+inputs: [phi_dot_L, phi_dot_R]
+columns:
+  time: time
+  inputs: {phi_dot_L: left, phi_dot_R: right}
+measurement:
+  observe: [V, omega]
+  R: {std: [0.05, 0.03]}
+transition:
+  stay: 0.98
+initial:
+  covariance: {diagonal: [1, 1]}
+modes:
+  - name: grip
+    model: ltc_linear
+    params: {A: [[-5, 0], [0, -4]], B: [[0.4, 0.4], [-0.8, 0.8]]}
+    Q: {diagonal: [0.01, 0.01]}
+  - name: ice
+    model: ltc_linear
+    params: {A: [[-2, 0], [0, -1]], B: [[0.1, 0.1], [-0.2, 0.2]]}
+    Q: [[0.02, 0], [0, 0.02]]
+)";
+
+std::string replace(std::string text, const std::string& from, const std::string& to) {
+  const auto at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << "test setup: '" << from << "' not in the bank";
+  return text.replace(at, from.size(), to);
+}
+
+// Expects load_bank_config (or Bank::load when `with_plugins`) to fail with a
+// message containing each of `parts`, and returns the error.
+ConfigError expect_config_error(const std::string& yaml, std::initializer_list<std::string> parts,
+                                bool with_plugins = false) {
+  const auto file = write_file(test_directory() / "bank.yaml", yaml);
+  try {
+    if (with_plugins) {
+      Bank::load(file, {kPluginDir});
+    } else {
+      load_bank_config(file);
+    }
+  } catch (const ConfigError& e) {
+    for (const std::string& part : parts) EXPECT_THAT(e.what(), HasSubstr(part));
+    EXPECT_THAT(e.what(), HasSubstr(file.string()));
+    return e;
+  }
+  ADD_FAILURE() << "expected a ConfigError";
+  return ConfigError("", 0, "", "");
+}
+
+TEST(BankConfig, ParsesTheValidBank) {
+  const BankConfig c = load_bank_config(write_file(test_directory() / "bank.yaml", kValidBank));
+  EXPECT_EQ(c.name, "two_terrains");
+  EXPECT_EQ(c.num_modes(), 2);
+  EXPECT_EQ(c.columns.time, "time");
+  EXPECT_EQ(c.columns.inputs, (std::vector<std::string>{"left", "right"}));
+  EXPECT_EQ(c.columns.measurements, (std::vector<std::string>{"V", "omega"}));  // defaults to the names
+  EXPECT_DOUBLE_EQ(c.measurement.r(0, 0), 0.0025);
+  EXPECT_DOUBLE_EQ(c.modes[1].q_intensity(1, 1), 0.02);
+  EXPECT_EQ(c.initial_mode_probabilities, Eigen::Vector2d(0.5, 0.5));
+  EXPECT_EQ(c.transition.kind, TransitionConfig::Kind::kStay);
+  EXPECT_EQ(c.modes[1].line, 19);
+}
+
+TEST(BankConfig, EveryBundledBankLoadsWithItsPlugins) {
+  for (const char* name : {"ltc_terrains", "ltc_shared", "stc_slip4", "stc_slip16"}) {
+    const Bank bank = Bank::load(kSourceDir + "/configs/" + name + ".yaml", {kPluginDir});
+    EXPECT_EQ(bank.models.size(), bank.config.modes.size()) << name;
+  }
+  EXPECT_EQ(Bank::load(kSourceDir + "/configs/stc_slip16.yaml", {kPluginDir}).config.num_modes(), 16);
+}
+
+TEST(BankConfig, MalformedYamlNamesTheLine) {
+  const ConfigError e = expect_config_error(replace(kValidBank, "  stay: 0.98", "  stay: [0.98"), {"malformed YAML"});
+  EXPECT_GE(e.line(), 11);
+}
+
+TEST(BankConfig, MissingSectionIsNamed) {
+  expect_config_error(replace(kValidBank, "transition:\n  stay: 0.98\n", ""), {"transition: missing (required)"});
+}
+
+TEST(BankConfig, WrongSizedQNamesModeFieldAndLine) {
+  expect_config_error(replace(kValidBank, "Q: [[0.02, 0], [0, 0.02]]", "Q: [[0.02, 0, 0], [0, 0.02, 0]]"),
+                      {"bank.yaml:22: modes[1].Q: expected a 2x2 matrix, got 2x3"});
+}
+
+TEST(BankConfig, IndefiniteQIsRejectedWithTheModeName) {
+  expect_config_error(replace(kValidBank, "Q: [[0.02, 0], [0, 0.02]]", "Q: [[0.02, 0.1], [0.1, 0.02]]"),
+                      {"modes[1].Q (mode 'ice')", "not positive semidefinite"});
+}
+
+TEST(BankConfig, MeasurementNoiseMustBePositiveDefinite) {
+  expect_config_error(replace(kValidBank, "R: {std: [0.05, 0.03]}", "R: {std: [0.05, 0]}"),
+                      {"measurement.R", "not positive definite"});
+}
+
+TEST(BankConfig, TransitionRowsMustSumToOne) {
+  expect_config_error(replace(kValidBank, "  stay: 0.98", "  matrix: [[0.9, 0.1], [0.3, 0.6]]"),
+                      {"transition.matrix[1]", "sums to 0.9", "rows are 'from', columns 'to'"});
+}
+
+TEST(BankConfig, UnknownKeyIsATypoNotIgnored) {
+  expect_config_error(replace(kValidBank, "  stay: 0.98", "  stay: 0.98\n  sty: 0.5"),
+                      {"transition.sty: unknown key (expected one of: stay, matrix, mean_dwell_time)"});
+}
+
+TEST(BankConfig, ObservedNameMustBeAState) {
+  expect_config_error(replace(kValidBank, "observe: [V, omega]", "observe: [V, yaw]"),
+                      {"measurement.observe", "'yaw' is not a state (states: V, omega)"});
+}
+
+TEST(BankConfig, DwellTimesPerModeMustCoverEveryMode) {
+  expect_config_error(replace(kValidBank, "  stay: 0.98", "  mean_dwell_time: {grip: 5}"),
+                      {"no dwell time for mode 'ice'"});
+  const BankConfig c = load_bank_config(
+      write_file(test_directory() / "ok.yaml", replace(kValidBank, "  stay: 0.98", "  mean_dwell_time: {grip: 5, ice: 2}")));
+  EXPECT_EQ(c.transition.kind, TransitionConfig::Kind::kDwellTimes);
+  EXPECT_EQ(c.transition.dwell_seconds, Eigen::Vector2d(5, 2));
+}
+
+TEST(BankConfig, InitialProbabilitiesMustSumToOne) {
+  expect_config_error(replace(kValidBank, "  covariance: {diagonal: [1, 1]}",
+                              "  covariance: {diagonal: [1, 1]}\n  mode_probabilities: {grip: 0.5}"),
+                      {"initial.mode_probabilities", "must sum to 1"});
+}
+
+TEST(BankConfig, DuplicateModeNames) {
+  expect_config_error(replace(kValidBank, "name: ice", "name: grip"), {"modes[1].name", "'grip' appears twice"});
+}
+
+TEST(BankConfig, NonNumericMatrixEntry) {
+  expect_config_error(replace(kValidBank, "[[-2, 0], [0, -1]]", "[[-2, 0], [0, fast]]"),
+                      {"modes[1].params.A[1][1]: expected a number, got 'fast'"});
+}
+
+TEST(Bank, UnknownPluginListsWhatWasFound) {
+  expect_config_error(replace(kValidBank, "model: ltc_linear\n    params: {A: [[-2", "model: ltc_lineer\n    params: {A: [[-2"),
+                      {"modes[1].model", "no plugin named 'ltc_lineer'", "found: ", "ltc_linear"}, true);
+}
+
+TEST(Bank, PluginRejectionIsReportedAtTheMode) {
+  expect_config_error(replace(kValidBank, ", B: [[0.1, 0.1], [-0.2, 0.2]]}", "}"),
+                      {"bank.yaml:19: modes[1].params", "mode 'ice' (model ltc_linear)", "missing parameter 'B'"}, true);
+}
+
+TEST(Bank, StateNamesMustMatchThePlugin) {
+  expect_config_error(replace(kValidBank, "states: [V, omega]\n", "states: [omega, V]\n"),
+                      {"has states [V, omega] but the bank declares [omega, V]"}, true);
+}
+
+TEST(Bank, BankScopedParametersMustBeShared) {
+  std::string yaml = replace(kValidBank, "model: ltc_linear\n    params: {A: [[-5", "model: ltc_shared\n    params: {A: [[-5");
+  expect_config_error(yaml, {"modes[0].params.A", "give it once under 'shared:'"}, true);
+}
+
+TEST(Bank, SharedParametersReachEveryModeAndUnusedOnesAreErrors) {
+  std::string yaml = kValidBank;
+  yaml = replace(yaml, "modes:\n", "shared:\n  A: [[-3, 0], [0, -3]]\n  B: [[0.2, 0.2], [-0.4, 0.4]]\nmodes:\n");
+  yaml = replace(yaml, "    model: ltc_linear\n    params: {A: [[-5, 0], [0, -4]], B: [[0.4, 0.4], [-0.8, 0.8]]}\n",
+                 "    model: ltc_shared\n");
+  yaml = replace(yaml, "    model: ltc_linear\n    params: {A: [[-2, 0], [0, -1]], B: [[0.1, 0.1], [-0.2, 0.2]]}\n",
+                 "    model: ltc_shared\n");
+  const Bank bank = Bank::load(write_file(test_directory() / "shared.yaml", yaml), {kPluginDir});
+  Eigen::VectorXd values(8);
+  bank.models[1]->get_parameters(values);
+  EXPECT_EQ(values[0], -3.0);
+  EXPECT_EQ(values[4], 0.2);
+  expect_config_error(replace(yaml, "shared:\n", "shared:\n  C: 1\n"), {"shared.C", "not a parameter of any mode's model"},
+                      true);
+}
+
+TEST(Bank, MissingFileIsAConfigError) {
+  EXPECT_THROW(load_bank_config("/nonexistent/bank.yaml"), ConfigError);
+}
+
+}  // namespace
+}  // namespace skidimm

@@ -1,0 +1,93 @@
+#include "skidimm/ekf.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/LU>
+#include <cmath>
+#include <limits>
+
+#include "core/test_banks.h"
+#include "skidimm/measurement_model.h"
+
+namespace skidimm {
+namespace {
+
+using skidimm_test::ScalarLinearModel;
+
+TEST(ExtendedKalmanFilter, ScalarStepMatchesClosedForm) {
+  ScalarLinearModel model(-1.0, 2.0);
+  ExtendedKalmanFilter filter(model, Eigen::MatrixXd::Constant(1, 1, 0.5), 1);
+  filter.state()[0] = 1.0;
+  filter.covariance()(0, 0) = 2.0;
+  ASSERT_TRUE(filter.predict(Eigen::VectorXd::Constant(1, 3.0), 0.1));
+  // x- = 1 + (-1 + 6) 0.1 = 1.5; P- = 0.9^2 * 2 + 0.5 * 0.1 = 1.67
+  EXPECT_NEAR(filter.state()[0], 1.5, 1e-15);
+  EXPECT_NEAR(filter.covariance()(0, 0), 1.67, 1e-15);
+
+  MeasurementModel measurement(Eigen::MatrixXd::Ones(1, 1), Eigen::MatrixXd::Constant(1, 1, 0.33), {false});
+  SelectedMeasurement selected = measurement.make_selection();
+  measurement.select(Eigen::VectorXd::Constant(1, 2.0), &selected);
+  const UpdateResult result = filter.update(selected);
+  ASSERT_TRUE(result.ok);
+  // S = 2, K = 0.835, nu = 0.5: x+ = 1.9175, P+ = (1-K)^2 P- + K^2 R = 0.27555.
+  EXPECT_NEAR(filter.state()[0], 1.9175, 1e-14);
+  EXPECT_NEAR(filter.covariance()(0, 0), 0.165 * 0.165 * 1.67 + 0.835 * 0.835 * 0.33, 1e-14);
+  EXPECT_NEAR(result.nis, 0.125, 1e-15);
+  EXPECT_NEAR(result.log_likelihood, -0.5 * (0.125 + std::log(2.0 * M_PI * 2.0)), 1e-14);
+}
+
+TEST(ExtendedKalmanFilter, JosephUpdateEqualsTheStandardFormForTheOptimalGain) {
+  skidimm::sdk::ParameterSet params;
+  Eigen::Matrix2d a, b;
+  a << -2, 0.3, 0.1, -1;
+  b << 0.4, 0.4, -0.8, 0.8;
+  auto model = skidimm_test::make_ltc(a, b);
+  ExtendedKalmanFilter filter(*model, Eigen::Matrix2d::Identity() * 0.1, 2);
+  Eigen::Matrix2d p;
+  p << 0.7, 0.2, 0.2, 0.4;
+  filter.covariance() = p;
+  filter.state() = Eigen::Vector2d(0.3, -0.1);
+  Eigen::MatrixXd h(2, 2), r(2, 2);
+  h << 1.0, 0.5, 0.0, 1.0;
+  r << 0.05, 0.01, 0.01, 0.08;
+  MeasurementModel measurement(h, r, {false, false});
+  SelectedMeasurement selected = measurement.make_selection();
+  measurement.select(Eigen::Vector2d(0.4, 0.2), &selected);
+  ASSERT_TRUE(filter.update(selected).ok);
+  // Independent: K = P H' S^-1 with an explicit inverse, P+ = (I - K H) P.
+  const Eigen::Matrix2d s = h * p * h.transpose() + r;
+  const Eigen::Matrix2d k = p * h.transpose() * s.inverse();
+  const Eigen::Matrix2d expected = (Eigen::Matrix2d::Identity() - k * h) * p;
+  EXPECT_TRUE(filter.covariance().isApprox(expected, 1e-12));
+  EXPECT_TRUE(filter.state().isApprox(Eigen::Vector2d(0.3, -0.1) + k * (Eigen::Vector2d(0.4, 0.2) - h * Eigen::Vector2d(0.3, -0.1)), 1e-12));
+}
+
+TEST(ExtendedKalmanFilter, SingularInnovationCovarianceIsReportedNotCrashed) {
+  ScalarLinearModel model(0.0, 0.0);
+  ExtendedKalmanFilter filter(model, Eigen::MatrixXd::Zero(1, 1), 1);
+  filter.covariance()(0, 0) = 0.0;
+  MeasurementModel measurement(Eigen::MatrixXd::Ones(1, 1), Eigen::MatrixXd::Zero(1, 1), {false});
+  SelectedMeasurement selected = measurement.make_selection();
+  measurement.select(Eigen::VectorXd::Constant(1, 1.0), &selected);
+  EXPECT_FALSE(filter.update(selected).ok);
+}
+
+TEST(MeasurementModel, SelectsTheFiniteRowsWithTheirBlockOfR) {
+  Eigen::MatrixXd h = Eigen::MatrixXd::Identity(3, 3);
+  Eigen::MatrixXd r(3, 3);
+  r << 1, 0.1, 0.2, 0.1, 2, 0.3, 0.2, 0.3, 3;
+  MeasurementModel measurement(h, r, {false, false, true});
+  SelectedMeasurement s = measurement.make_selection();
+  measurement.select(Eigen::Vector3d(5.0, std::numeric_limits<double>::quiet_NaN(), 7.0), &s);
+  ASSERT_EQ(s.size, 2);
+  EXPECT_EQ(s.rows[0], 0);
+  EXPECT_EQ(s.rows[1], 2);
+  EXPECT_EQ(s.z[1], 7.0);
+  EXPECT_EQ(s.r(0, 1), 0.2);
+  EXPECT_EQ(s.r(1, 1), 3.0);
+  EXPECT_TRUE(s.is_angle[1]);
+  EXPECT_EQ(s.h(1, 2), 1.0);
+}
+
+}  // namespace
+}  // namespace skidimm

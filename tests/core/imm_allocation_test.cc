@@ -1,0 +1,78 @@
+// step() must not touch the heap after construction: a robot's control loop
+// cannot afford allocator latency. Global operator new is replaced to count.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <new>
+
+#include "core/test_banks.h"
+#include "skidimm/imm.h"
+#include "stc_kinematic/stc_kinematic_model.h"
+
+namespace {
+std::atomic<long> g_allocations{0};
+}
+
+// GCC 12 cannot see that these replacements pair malloc with free.
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+
+void* operator new(std::size_t size) {
+  ++g_allocations;
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace skidimm {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+TEST(ImmAllocation, StepAllocatesNothingWithIrregularTimeMissingRowsAndAngles) {
+  // 16 STC modes (EKF with an angle), dwell-time transitions with unequal
+  // rates (the uniformisation path), irregular dt, partial measurements.
+  skidimm_test::BankBuilder b;
+  b.states = {"X", "Y", "theta"};
+  b.angles = {false, false, true};
+  b.inputs = {"phi_dot_L", "phi_dot_R"};
+  for (int j = 0; j < 16; ++j) {
+    sdk::ParameterSet p;
+    p.set_scalar("k", 0.6 + 0.025 * j);
+    p.set_scalar("m", 0.5 + 0.03 * j);
+    p.set_scalar("r", 0.165);
+    p.set_scalar("b", 0.555);
+    std::string error;
+    b.models.push_back(std::shared_ptr<sdk::MotionModel>(plugins::StcKinematicModel::Create(p, &error).release()));
+  }
+  b.q = {Eigen::Matrix3d::Identity() * 1e-3};
+  b.r = Eigen::Matrix3d::Identity() * 1e-3;
+  Bank bank = b.build();
+  bank.config.transition.kind = TransitionConfig::Kind::kDwellTimes;
+  bank.config.transition.dwell_seconds = Eigen::VectorXd::LinSpaced(16, 5.0, 20.0);
+  Imm imm(std::move(bank));
+
+  const Eigen::Vector2d u(3.0, 4.0);
+  Eigen::Vector3d z(0.0, 0.0, 0.0);
+  double t = 0.0;
+  auto run = [&](int steps) {
+    for (int k = 0; k < steps; ++k) {
+      t += 0.02 + 0.01 * std::sin(0.37 * k);
+      z = Eigen::Vector3d(0.5 * t, 0.1 * t, std::remainder(3.0 + 0.3 * t, 2.0 * M_PI));
+      if (k % 5 != 0) z[0] = z[1] = kNaN;  // GPS at a fifth of the rate
+      if (k % 11 == 0) z.setConstant(kNaN);  // nothing measured at all
+      imm.step(t, u, z);
+    }
+  };
+  run(10);  // warm-up
+  const long before = g_allocations.load();
+  run(1000);
+  EXPECT_EQ(g_allocations.load() - before, 0) << "heap allocations during 1000 steps";
+  EXPECT_TRUE(imm.estimate().state.allFinite());
+}
+
+}  // namespace
+}  // namespace skidimm

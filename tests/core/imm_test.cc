@@ -1,0 +1,355 @@
+#include "skidimm/imm.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "core/test_banks.h"
+
+namespace skidimm {
+namespace {
+
+using skidimm_test::BankBuilder;
+using skidimm_test::HeadingModel;
+using skidimm_test::ScalarLinearModel;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+Eigen::VectorXd vec(std::initializer_list<double> values) {
+  Eigen::VectorXd v(static_cast<Eigen::Index>(values.size()));
+  Eigen::Index i = 0;
+  for (double x : values) v[i++] = x;
+  return v;
+}
+
+double min_eigenvalue(const Eigen::MatrixXd& m) {
+  return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(m).eigenvalues().minCoeff();
+}
+
+// Two scalar linear modes: x' = a x + b u with (a, b) = (-1, 1) and (-2, 0.5).
+BankBuilder two_mode_scalar_bank() {
+  BankBuilder b;
+  b.models = {std::make_shared<ScalarLinearModel>(-1.0, 1.0), std::make_shared<ScalarLinearModel>(-2.0, 0.5)};
+  b.q = {Eigen::MatrixXd::Constant(1, 1, 0.1), Eigen::MatrixXd::Constant(1, 1, 0.4)};
+  b.r = Eigen::MatrixXd::Constant(1, 1, 0.25);
+  b.transition.resize(2, 2);
+  b.transition << 0.9, 0.1, 0.2, 0.8;
+  b.x0 = vec({0.5});
+  b.p0 = Eigen::MatrixXd::Constant(1, 1, 1.0);
+  b.mu0 = vec({0.6, 0.4});
+  b.floor = 0.0;
+  return b;
+}
+
+// Textbook scalar IMM in the linear domain (Bar-Shalom 11.6.6), written out
+// independently of the library, for the two-mode bank above.
+struct ReferenceImm {
+  double a[2] = {-1.0, -2.0}, b[2] = {1.0, 0.5}, q[2] = {0.1, 0.4}, r = 0.25;
+  double p[2][2] = {{0.9, 0.1}, {0.2, 0.8}};
+  double mu[2] = {0.6, 0.4}, x[2] = {0.5, 0.5}, var[2] = {1.0, 1.0};
+  double x_combined = 0.5, var_combined = 1.0;
+  bool first = true;
+  double last_t = 0.0, held_u = 0.0;
+
+  void step(double t, double u, double z) {
+    double c[2], x0[2], p0[2];
+    if (first) {
+      c[0] = mu[0];
+      c[1] = mu[1];
+      for (int j = 0; j < 2; ++j) x0[j] = x[j], p0[j] = var[j];
+    } else {
+      for (int j = 0; j < 2; ++j) {
+        c[j] = p[0][j] * mu[0] + p[1][j] * mu[1];
+        const double w0 = p[0][j] * mu[0] / c[j], w1 = p[1][j] * mu[1] / c[j];
+        x0[j] = w0 * x[0] + w1 * x[1];
+        p0[j] = w0 * (var[0] + (x[0] - x0[j]) * (x[0] - x0[j])) + w1 * (var[1] + (x[1] - x0[j]) * (x[1] - x0[j]));
+      }
+    }
+    const double dt = t - last_t;
+    double likelihood[2];
+    for (int j = 0; j < 2; ++j) {
+      double xm = x0[j], pm = p0[j];
+      if (!first) {
+        const double f = 1.0 + a[j] * dt;
+        xm = x0[j] + (a[j] * x0[j] + b[j] * held_u) * dt;
+        pm = f * p0[j] * f + q[j] * dt;
+      }
+      const double s = pm + r, nu = z - xm, k = pm / s;
+      likelihood[j] = std::exp(-0.5 * nu * nu / s) / std::sqrt(2.0 * M_PI * s);
+      x[j] = xm + k * nu;
+      var[j] = pm - k * pm;  // standard form: equal to Joseph's for the optimal gain
+    }
+    const double total = likelihood[0] * c[0] + likelihood[1] * c[1];
+    for (int j = 0; j < 2; ++j) mu[j] = likelihood[j] * c[j] / total;
+    x_combined = mu[0] * x[0] + mu[1] * x[1];
+    var_combined = mu[0] * (var[0] + std::pow(x[0] - x_combined, 2)) + mu[1] * (var[1] + std::pow(x[1] - x_combined, 2));
+    first = false;
+    last_t = t;
+    held_u = u;
+  }
+};
+
+TEST(Imm, OneStepMatchesHandComputation) {
+  Imm imm(two_mode_scalar_bank().build());
+  // Step 0: the prior holds at t = 0, no prediction; both modes see the same
+  // prior so their likelihoods are equal and mu stays mu0.
+  const ImmEstimate& e0 = imm.step(0.0, vec({1.0}), vec({0.6}));
+  EXPECT_NEAR(e0.mode_probabilities[0], 0.6, 1e-15);
+  EXPECT_NEAR(e0.state[0], 0.58, 1e-15);           // 0.5 + 0.8 * 0.1, K = 1 / 1.25
+  EXPECT_NEAR(e0.covariance(0, 0), 0.2, 1e-15);    // (1 - 0.8) * 1
+  // Step 1, computed by hand with the formulas of eq. 4-11:
+  // c = [0.62, 0.38]; mode 0: x- = 0.622, P- = 0.172, S = 0.422, nu = 0.078;
+  // mode 1: x- = 0.514, P- = 0.168, S = 0.418, nu = 0.186.
+  const ImmEstimate& e1 = imm.step(0.1, vec({0.0}), vec({0.7}));
+  EXPECT_NEAR(e1.mode_states[0][0], 0.6537914691943127, 1e-14);
+  EXPECT_NEAR(e1.mode_states[1][0], 0.588755980861244, 1e-14);
+  EXPECT_NEAR(e1.mode_covariances[0](0, 0), 0.10189573459715642, 1e-14);
+  EXPECT_NEAR(e1.mode_covariances[1](0, 0), 0.10047846889952153, 1e-14);
+  EXPECT_NEAR(e1.log_likelihoods[0], std::log(0.6097098555942483), 1e-13);
+  EXPECT_NEAR(e1.log_likelihoods[1], std::log(0.592038042551774), 1e-13);
+  EXPECT_NEAR(e1.mode_probabilities[0], 0.626904671091847, 1e-14);
+  EXPECT_NEAR(e1.mode_probabilities[1], 0.373095328908153, 1e-14);
+  EXPECT_NEAR(e1.state[0], 0.629527032283984, 1e-14);
+  EXPECT_NEAR(e1.covariance(0, 0), 0.102356245990562, 1e-14);
+  // The paper's eq. 9 (mu_{k-1} in place of c_j) would give 0.6070: the
+  // transition matrix must matter.
+  EXPECT_GT(std::abs(e1.mode_probabilities[0] - 0.6070377458762876), 0.01);
+}
+
+TEST(Imm, MatchesIndependentScalarImplementationOverManySteps) {
+  Imm imm(two_mode_scalar_bank().build());
+  ReferenceImm reference;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.5);
+  double t = 0.0;
+  for (int k = 0; k < 200; ++k) {
+    const double u = std::sin(0.1 * k);
+    const double z = 0.8 * std::sin(0.05 * k) + noise(rng);
+    const ImmEstimate& e = imm.step(t, vec({u}), vec({z}));
+    reference.step(t, u, z);
+    ASSERT_NEAR(e.mode_probabilities[0], reference.mu[0], 1e-10) << "step " << k;
+    ASSERT_NEAR(e.mode_states[0][0], reference.x[0], 1e-10) << "step " << k;
+    ASSERT_NEAR(e.mode_states[1][0], reference.x[1], 1e-10) << "step " << k;
+    ASSERT_NEAR(e.mode_covariances[1](0, 0), reference.var[1], 1e-10) << "step " << k;
+    ASSERT_NEAR(e.state[0], reference.x_combined, 1e-10) << "step " << k;
+    ASSERT_NEAR(e.covariance(0, 0), reference.var_combined, 1e-10) << "step " << k;
+    t += 0.05 + 0.03 * std::cos(k);  // irregular sampling
+  }
+}
+
+// Three LTC modes with random inputs: the invariants hold at every step.
+TEST(Imm, InvariantsHoldAtEveryStep) {
+  BankBuilder b;
+  b.states = {"V", "omega"};
+  b.angles = {false, false};
+  b.inputs = {"phi_dot_L", "phi_dot_R"};
+  Eigen::Matrix2d a1, a2, a3, b1;
+  a1 << -5, 0, 0, -4;
+  a2 << -3, 0.1, 0, -2.5;
+  a3 << -2, 0, -0.2, -2;
+  b1 << 0.4, 0.4, -0.8, 0.8;
+  b.models = {skidimm_test::make_ltc(a1, b1), skidimm_test::make_ltc(a2, 0.6 * b1), skidimm_test::make_ltc(a3, 0.4 * b1)};
+  b.q = {Eigen::Matrix2d::Identity() * 0.01, Eigen::Matrix2d::Identity() * 0.02, Eigen::Matrix2d::Identity() * 0.05};
+  b.r = Eigen::Vector2d(0.0025, 0.001).asDiagonal();
+  Imm imm(b.build());
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (int k = 0; k < 500; ++k) {
+    const Eigen::Vector2d u(3.0 + noise(rng), 4.0 + noise(rng));
+    const Eigen::Vector2d z(0.5 + 0.3 * noise(rng), 0.2 + 0.3 * noise(rng));
+    const ImmEstimate& e = imm.step(0.02 * k, u, k % 7 == 3 ? Eigen::Vector2d(kNaN, z[1]) : z);
+    ASSERT_NEAR(e.mode_probabilities.sum(), 1.0, 1e-12);
+    ASSERT_TRUE((e.mode_probabilities.array() >= 0.0).all());
+    Eigen::MatrixXd weighted = Eigen::MatrixXd::Zero(2, 2);
+    for (int j = 0; j < 3; ++j) {
+      const Eigen::MatrixXd& p = e.mode_covariances[j];
+      ASSERT_EQ(p, p.transpose());
+      ASSERT_GT(min_eigenvalue(p), 0.0);
+      weighted += e.mode_probabilities[j] * p;
+    }
+    ASSERT_EQ(e.covariance, e.covariance.transpose());
+    // P = sum mu_j P_j + spread of the means: never smaller than the weighted covariances.
+    ASSERT_GE(min_eigenvalue(e.covariance - weighted), -1e-12) << "step " << k;
+  }
+}
+
+// Data generated from one of two clearly different modes: the IMM settles on
+// it, and follows a switch within a bounded number of steps.
+TEST(Imm, IdentifiesTheTrueModeAndFollowsASwitch) {
+  Eigen::Matrix2d a_fast, a_slow, b_grip;
+  a_fast << -5, 0, 0, -4;
+  a_slow << -2, 0, 0, -1.5;
+  b_grip << 0.4, 0.4, -0.8, 0.8;
+  auto fast = skidimm_test::make_ltc(a_fast, b_grip);
+  auto slow = skidimm_test::make_ltc(a_slow, 0.25 * b_grip);  // 60% lower steady-state gains
+  BankBuilder b;
+  b.states = {"V", "omega"};
+  b.angles = {false, false};
+  b.inputs = {"phi_dot_L", "phi_dot_R"};
+  b.models = {fast, slow};
+  b.q = {Eigen::Matrix2d::Identity() * 0.01};
+  b.r = Eigen::Vector2d(0.05 * 0.05, 0.03 * 0.03).asDiagonal();
+  b.transition.resize(2, 2);
+  b.transition << 0.999, 0.001, 0.001, 0.999;  // 20 s mean dwell at 50 Hz
+  Imm imm(b.build());
+
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const double dt = 0.02;
+  Eigen::VectorXd x = Eigen::Vector2d::Zero(), next(2);
+  int steps_to_follow = -1;
+  const int switch_step = 500;
+  for (int k = 0; k < 1000; ++k) {
+    const double t = k * dt;
+    const Eigen::Vector2d u(4.0 + 2.0 * std::sin(0.7 * t), 4.0 + 2.0 * std::cos(0.5 * t));
+    const Eigen::Vector2d z(x[0] + 0.05 * noise(rng), x[1] + 0.03 * noise(rng));
+    const ImmEstimate& e = imm.step(t, u, z);
+    const int truth = k < switch_step ? 0 : 1;
+    if (k == switch_step - 1) {
+      EXPECT_GT(e.mode_probabilities[0], 0.99);
+    }
+    if (k >= switch_step && steps_to_follow < 0 && e.most_likely_mode == truth) steps_to_follow = k - switch_step;
+    if (k > switch_step + 100) {
+      EXPECT_EQ(e.most_likely_mode, 1) << "lost the mode again at step " << k;
+    }
+    (truth == 0 ? *fast : *slow).predict(x, u, dt, next);
+    x = next + Eigen::Vector2d(0.1 * std::sqrt(dt) * noise(rng), 0.1 * std::sqrt(dt) * noise(rng));
+  }
+  EXPECT_GT(imm.estimate().mode_probabilities[1], 0.99);
+  ASSERT_GE(steps_to_follow, 0) << "the switch was never followed";
+  EXPECT_LE(steps_to_follow, 50) << "took more than 1 s to follow the switch";
+}
+
+// 16 modes, tight covariances, data far from most modes: log-likelihoods of
+// -1e5 and below would underflow a linear-domain update to 0/0 = NaN.
+TEST(Imm, SixteenTightModesRun1e5StepsWithoutNaNOrUnderflow) {
+  BankBuilder b;
+  b.states = {"V", "omega"};
+  b.angles = {false, false};
+  b.inputs = {"phi_dot_L", "phi_dot_R"};
+  Eigen::Matrix2d b_grip;
+  b_grip << 0.4, 0.4, -0.8, 0.8;
+  for (int j = 0; j < 16; ++j) {
+    Eigen::Matrix2d a = Eigen::Matrix2d::Identity() * -(1.0 + 0.3 * j);
+    b.models.push_back(skidimm_test::make_ltc(a, (0.3 + 0.04 * j) * b_grip));
+  }
+  b.q = {Eigen::Matrix2d::Identity() * 1e-8};
+  b.r = Eigen::Matrix2d::Identity() * 1e-8;
+  b.floor = 1e-12;
+  Imm imm(b.build());
+  double min_log_likelihood = 0.0;
+  for (int k = 0; k < 100000; ++k) {
+    const double t = 0.01 * k;
+    const Eigen::Vector2d u(5.0 + std::sin(t), 5.0 + std::cos(0.3 * t));
+    const Eigen::Vector2d z(0.8 + 0.5 * std::sin(0.2 * t), 0.3 * std::cos(0.1 * t));  // no mode explains this
+    const ImmEstimate& e = imm.step(t, u, z);
+    ASSERT_TRUE(e.mode_probabilities.allFinite()) << "step " << k;
+    ASSERT_TRUE(e.state.allFinite() && e.covariance.allFinite()) << "step " << k;
+    ASSERT_NEAR(e.mode_probabilities.sum(), 1.0, 1e-9) << "step " << k;
+    ASSERT_GE(e.mode_probabilities.minCoeff(), 1e-12 * 0.99) << "step " << k;
+    min_log_likelihood = std::min(min_log_likelihood, e.log_likelihoods.minCoeff());
+  }
+  EXPECT_LT(min_log_likelihood, -1e4) << "the test must actually reach likelihoods that underflow exp()";
+}
+
+TEST(Imm, PredictOnlyStepMovesProbabilitiesOnlyThroughTheChain) {
+  Imm imm(two_mode_scalar_bank().build());
+  imm.step(0.0, vec({1.0}), vec({0.6}));
+  imm.step(0.1, vec({1.0}), vec({0.9}));
+  const Eigen::VectorXd before = imm.estimate().mode_probabilities;
+  const ImmEstimate& e = imm.step(0.2, vec({1.0}), vec({kNaN}));
+  EXPECT_EQ(e.status, StepStatus::kPredictOnly);
+  EXPECT_EQ(e.num_measured, 0);
+  EXPECT_TRUE(std::isnan(e.log_likelihoods[0]));
+  // mu_k = P' mu_{k-1}: no likelihood applied.
+  EXPECT_NEAR(e.mode_probabilities[0], 0.9 * before[0] + 0.2 * before[1], 1e-15);
+  EXPECT_NEAR(e.mode_probabilities[1], 0.1 * before[0] + 0.8 * before[1], 1e-15);
+}
+
+TEST(Imm, PartiallyObservedRowUsesOnlyThePresentComponents) {
+  // The same 2-state bank measuring [V, omega], fed (V, NaN), must equal a bank
+  // that measures V alone.
+  Eigen::Matrix2d a, bm;
+  a << -5, 0, 0, -4;
+  bm << 0.4, 0.4, -0.8, 0.8;
+  BankBuilder both;
+  both.states = {"V", "omega"};
+  both.angles = {false, false};
+  both.inputs = {"l", "r"};
+  both.models = {skidimm_test::make_ltc(a, bm), skidimm_test::make_ltc(0.5 * a, bm)};
+  both.q = {Eigen::Matrix2d::Identity() * 0.01};
+  both.r.resize(2, 2);
+  both.r << 0.01, 0.002, 0.002, 0.02;
+  BankBuilder v_only = both;
+  v_only.h = Eigen::RowVector2d(1.0, 0.0);
+  v_only.r = Eigen::MatrixXd::Constant(1, 1, 0.01);
+  Imm imm_both(both.build()), imm_v(v_only.build());
+  for (int k = 0; k < 20; ++k) {
+    const Eigen::Vector2d u(3.0, 5.0);
+    const double v = 0.1 * k;
+    const ImmEstimate& e_both = imm_both.step(0.02 * k, u, Eigen::Vector2d(v, kNaN));
+    const ImmEstimate& e_v = imm_v.step(0.02 * k, u, vec({v}));
+    EXPECT_EQ(e_both.num_measured, 1);
+    ASSERT_TRUE(e_both.state.isApprox(e_v.state, 1e-13));
+    ASSERT_TRUE(e_both.mode_probabilities.isApprox(e_v.mode_probabilities, 1e-13));
+  }
+}
+
+TEST(Imm, AnglesAreMixedAndUpdatedAcrossThePiSeam) {
+  // Two heading modes turning at rates 1 and 1.3 (x u) through +-pi. A naive
+  // average of 3.13 and -3.13 would give ~0, a jump of pi.
+  BankBuilder b;
+  b.states = {"theta"};
+  b.angles = {true};
+  b.models = {std::make_shared<HeadingModel>(1.0), std::make_shared<HeadingModel>(1.3)};
+  b.q = {Eigen::MatrixXd::Constant(1, 1, 1e-4)};
+  b.r = Eigen::MatrixXd::Constant(1, 1, 1e-4);
+  b.x0 = vec({3.0});
+  b.p0 = Eigen::MatrixXd::Constant(1, 1, 0.01);
+  Imm imm(b.build());
+  double truth = 3.0;
+  for (int k = 0; k < 60; ++k) {
+    const double t = 0.05 * k;
+    const ImmEstimate& e = imm.step(t, vec({1.0}), vec({truth}));
+    const double error = sdk::wrap_angle(e.state[0] - truth);
+    ASSERT_LT(std::abs(error), 0.05) << "step " << k << ": estimate " << e.state[0] << " truth " << truth;
+    ASSERT_GE(e.state[0], -M_PI);
+    ASSERT_LT(e.state[0], M_PI);
+    ASSERT_LT(e.covariance(0, 0), 0.01) << "a seam-crossing mix would inflate the spread to ~pi^2";
+    truth = sdk::wrap_angle(truth + 1.15 * 0.05);  // between the two modes' rates
+  }
+}
+
+TEST(Imm, RejectsNonIncreasingTimeAndNonFiniteInputWithoutChangingState) {
+  Imm imm(two_mode_scalar_bank().build());
+  imm.step(0.0, vec({1.0}), vec({0.6}));
+  const ImmEstimate before = imm.step(0.1, vec({1.0}), vec({0.7}));
+  const ImmEstimate& same_time = imm.step(0.1, vec({1.0}), vec({5.0}));
+  EXPECT_EQ(same_time.status, StepStatus::kRejectedTime);
+  EXPECT_EQ(same_time.state, before.state);
+  EXPECT_EQ(same_time.mode_probabilities, before.mode_probabilities);
+  const ImmEstimate& nan_input = imm.step(0.2, vec({kNaN}), vec({0.7}));
+  EXPECT_EQ(nan_input.status, StepStatus::kRejectedInput);
+  EXPECT_EQ(nan_input.state, before.state);
+  // The next valid step proceeds normally.
+  EXPECT_EQ(imm.step(0.2, vec({1.0}), vec({0.7})).status, StepStatus::kUpdated);
+}
+
+TEST(Imm, ResetReturnsToThePrior) {
+  Imm imm(two_mode_scalar_bank().build());
+  const double first = imm.step(0.0, vec({1.0}), vec({0.6})).state[0];
+  imm.step(0.1, vec({1.0}), vec({2.0}));
+  imm.reset();
+  EXPECT_EQ(imm.step(5.0, vec({1.0}), vec({0.6})).state[0], first);
+}
+
+TEST(ImmDeathTest, WrongInputSizeIsAProgrammerError) {
+  Imm imm(two_mode_scalar_bank().build());
+  EXPECT_DEATH(imm.step(0.0, vec({1.0, 2.0}), vec({0.6})), "input vector size differs");
+}
+
+}  // namespace
+}  // namespace skidimm

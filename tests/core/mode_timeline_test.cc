@@ -1,0 +1,32 @@
+#include "skidimm/mode_timeline.h"
+
+#include <gtest/gtest.h>
+
+namespace skidimm {
+namespace {
+
+TEST(ModeTimeline, MergesConsecutiveStepsAndAveragesProbability) {
+  ModeTimeline timeline;
+  timeline.add(0.0, 1, 0.6);
+  timeline.add(0.1, 1, 0.8);
+  timeline.add(0.2, 0, 0.9);
+  timeline.add(0.3, 1, 0.7);
+  ASSERT_EQ(timeline.intervals().size(), 3u);
+  EXPECT_EQ(timeline.intervals()[0].mode, 1);
+  EXPECT_EQ(timeline.intervals()[0].steps, 2);
+  EXPECT_DOUBLE_EQ(timeline.intervals()[0].end, 0.1);
+  EXPECT_NEAR(timeline.intervals()[0].mean_probability, 0.7, 1e-15);
+  EXPECT_EQ(timeline.steps(), 4);
+  const std::string text = timeline.format({"grass", "asphalt"});
+  EXPECT_NE(text.find("0.000 -      0.100 s  asphalt  (2 steps, mean p = 0.700)"), std::string::npos) << text;
+}
+
+TEST(ModeTimeline, LongTimelinesAreElided) {
+  ModeTimeline timeline;
+  for (int k = 0; k < 100; ++k) timeline.add(k, k % 2, 1.0);
+  const std::string text = timeline.format({"a", "b"}, 10);
+  EXPECT_NE(text.find("... 90 more intervals ..."), std::string::npos);
+}
+
+}  // namespace
+}  // namespace skidimm

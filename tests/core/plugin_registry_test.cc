@@ -1,0 +1,142 @@
+#include "skidimm/plugin_registry.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+
+#include "core/temp_files.h"
+#include "skidimm/errors.h"
+
+namespace skidimm {
+namespace {
+
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+const fs::path kPluginDir = SKIDIMM_PLUGIN_DIR;
+const fs::path kFixtures = SKIDIMM_TEST_PLUGIN_ROOT;
+
+template <typename F>
+std::string plugin_error(F&& f) {
+  try {
+    f();
+  } catch (const PluginError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected a PluginError";
+  return "";
+}
+
+sdk::ParameterSet ltc_params() {
+  sdk::ParameterSet p;
+  p.set("A", Eigen::Matrix2d::Identity() * -2.0);
+  p.set("B", Eigen::Matrix2d::Identity());
+  return p;
+}
+
+TEST(PluginRegistry, FindsTheBundledPluginsWithTheirMetadata) {
+  PluginRegistry registry({kPluginDir});
+  std::vector<std::string> names;
+  for (const PluginDescriptor& d : registry.plugins()) {
+    EXPECT_TRUE(d.error.empty()) << d.path << ": " << d.error;
+    names.push_back(d.name);
+  }
+  EXPECT_THAT(names, ::testing::UnorderedElementsAre("ltc_linear", "ltc_shared", "stc_kinematic"));
+  const PluginDescriptor& stc = registry.find("stc_kinematic");
+  EXPECT_EQ(stc.version, "1.0.0");
+  EXPECT_EQ(stc.parameter_keys, (std::vector<std::string>{"k", "m", "r", "b"}));
+  EXPECT_THAT(stc.description, HasSubstr("eq. 3"));
+}
+
+TEST(PluginRegistry, ModelOutlivesTheRegistryThatLoadedIt) {
+  ModelHandle model;
+  {
+    PluginRegistry registry({kPluginDir});
+    model = registry.create("ltc_linear", ltc_params());
+  }
+  // Built with -fno-gnu-unique: had the library been unloaded, this would crash.
+  Eigen::VectorXd next(2);
+  ASSERT_TRUE(model->predict(Eigen::Vector2d(1.0, 0.0), Eigen::Vector2d(0.0, 0.0), 0.5, next));
+  EXPECT_DOUBLE_EQ(next[0], 0.0);  // 1 + (-2 * 1) * 0.5
+  model.reset();
+}
+
+TEST(PluginRegistry, UnknownNameListsSearchPathAndFoundPlugins) {
+  PluginRegistry registry({kPluginDir, "/nonexistent/dir"});
+  const std::string e = plugin_error([&] { registry.find("icr_kinematic"); });
+  EXPECT_THAT(e, HasSubstr("no plugin named 'icr_kinematic' on the search path"));
+  EXPECT_THAT(e, HasSubstr("/nonexistent/dir"));
+  EXPECT_THAT(e, HasSubstr("found: ltc_linear"));
+}
+
+TEST(PluginRegistry, MissingFileOnTheSearchPathMeansNothingFound) {
+  PluginRegistry registry({"/nonexistent/plugin.so"});
+  EXPECT_THAT(plugin_error([&] { registry.find("ltc_linear"); }), HasSubstr("no plugins were found there"));
+}
+
+TEST(PluginRegistry, LibraryWithoutTheAbiSymbolIsNotAPlugin) {
+  PluginRegistry registry({kFixtures / "not_a_plugin"});
+  ASSERT_EQ(registry.plugins().size(), 1u);
+  EXPECT_THAT(registry.plugins()[0].error, HasSubstr("not a skidimm plugin: no 'skidimm_abi_version' symbol"));
+}
+
+TEST(PluginRegistry, WrongAbiIsRefusedNamingPluginAndVersions) {
+  PluginRegistry registry({kFixtures / "wrong_abi"});
+  const std::string e = plugin_error([&] { registry.find("stale_model"); });
+  EXPECT_THAT(e, HasSubstr("plugin 'stale_model' at "));
+  EXPECT_THAT(e, HasSubstr("wrong_abi_plugin.so"));
+  EXPECT_THAT(e, HasSubstr("built for skidimm plugin ABI 2, but this skidimm uses ABI 1"));
+}
+
+TEST(PluginRegistry, MissingFactoryIsNamed) {
+  PluginRegistry registry({kFixtures / "no_factory"});
+  EXPECT_THAT(plugin_error([&] { registry.find("no_factory_model"); }),
+              HasSubstr("incomplete plugin: missing symbol 'skidimm_create_motion_model'"));
+}
+
+TEST(PluginRegistry, ThrowingFactoryBecomesAnError) {
+  PluginRegistry registry({kFixtures / "throwing"});
+  const std::string e = plugin_error([&] { registry.create("throwing_model", {}); });
+  EXPECT_THAT(e, HasSubstr("plugin 'throwing_model'"));
+  EXPECT_THAT(e, HasSubstr("the plugin's factory threw: the sensor calibration file is missing"));
+}
+
+TEST(PluginRegistry, TwoFilesWithOneNameInOneDirectoryIsAnError) {
+  PluginRegistry registry({kFixtures / "duplicates"});
+  const std::string e = plugin_error([&] { registry.find("duplicate_model"); });
+  EXPECT_THAT(e, HasSubstr("two plugins are named 'duplicate_model'"));
+  EXPECT_THAT(e, HasSubstr("duplicate_a.so"));
+  EXPECT_THAT(e, HasSubstr("duplicate_b.so"));
+}
+
+TEST(PluginRegistry, EarlierDirectoriesShadowLaterOnes) {
+  PluginRegistry registry({kFixtures / "duplicates" / "duplicate_b.so", kFixtures / "duplicates"});
+  EXPECT_EQ(registry.find("duplicate_model").path.filename(), "duplicate_b.so");
+  int shadowed = 0;
+  for (const PluginDescriptor& d : registry.plugins()) shadowed += d.shadowed;
+  EXPECT_EQ(shadowed, 2);
+}
+
+TEST(PluginRegistry, RejectedParametersNameThePluginFile) {
+  PluginRegistry registry({kPluginDir});
+  sdk::ParameterSet params = ltc_params();
+  params.set_scalar("C", 1.0);
+  const std::string e = plugin_error([&] { registry.create("ltc_linear", params); });
+  EXPECT_THAT(e, HasSubstr("skidimm_ltc_linear.so) rejected its parameters: unknown parameter 'C'"));
+}
+
+TEST(PluginRegistry, StandardSearchPathOrder) {
+  setenv("SKIDIMM_PLUGIN_PATH", "/env/one:/env/two", 1);
+  const std::vector<fs::path> path = PluginRegistry::standard_search_path({"/explicit"}, {"/bank"});
+  unsetenv("SKIDIMM_PLUGIN_PATH");
+  ASSERT_GE(path.size(), 5u);
+  EXPECT_EQ(path[0], "/explicit");
+  EXPECT_EQ(path[1], "/bank");
+  EXPECT_EQ(path[2], "/env/one");
+  EXPECT_EQ(path[3], "/env/two");
+  EXPECT_EQ(path[4].filename(), "plugins");  // next to the executable: <bin>/../lib/skidimm/plugins
+}
+
+}  // namespace
+}  // namespace skidimm

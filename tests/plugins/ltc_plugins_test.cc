@@ -1,0 +1,87 @@
+// ltc_linear and ltc_shared, loaded from their real plugin files.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "skidimm/plugin_registry.h"
+#include "skidimm/sdk/testing/conformance.h"
+
+namespace skidimm {
+namespace {
+
+sdk::ParameterSet terrain_params() {
+  Eigen::Matrix2d a, b;
+  a << -5.0, 0.2, 0.1, -4.0;
+  b << 0.39, 0.39, -0.83, 0.83;
+  sdk::ParameterSet p;
+  p.set("A", a);
+  p.set("B", b);
+  return p;
+}
+
+class LtcPlugins : public ::testing::TestWithParam<const char*> {
+ protected:
+  PluginRegistry registry_{{SKIDIMM_PLUGIN_DIR}};
+};
+
+TEST_P(LtcPlugins, Conforms) {
+  ModelHandle model = registry_.create(GetParam(), terrain_params());
+  for (double dt : {0.001, 0.02, 0.5}) {
+    EXPECT_MOTION_MODEL_CONFORMS(*model, Eigen::Vector2d(0.8, -0.3), Eigen::Vector2d(3.0, 6.5), dt);
+  }
+}
+
+TEST_P(LtcPlugins, PredictsEquationTwoByHand) {
+  ModelHandle model = registry_.create(GetParam(), terrain_params());
+  Eigen::VectorXd next(2);
+  ASSERT_TRUE(model->predict(Eigen::Vector2d(1.0, 0.5), Eigen::Vector2d(2.0, 4.0), 0.1, next));
+  // V' = -5 * 1 + 0.2 * 0.5 + 0.39 * 6 = -2.56; omega' = 0.1 - 2 + 0.83 * 2 = -0.24.
+  EXPECT_NEAR(next[0], 1.0 - 0.256, 1e-15);
+  EXPECT_NEAR(next[1], 0.5 - 0.024, 1e-15);
+  EXPECT_EQ(model->state_names(), (std::vector<std::string>{"V", "omega"}));
+  EXPECT_EQ(model->input_names(), (std::vector<std::string>{"phi_dot_L", "phi_dot_R"}));
+}
+
+TEST_P(LtcPlugins, ParametersAreAThenBRowMajor) {
+  ModelHandle model = registry_.create(GetParam(), terrain_params());
+  ASSERT_EQ(model->parameter_info().size(), 8u);
+  EXPECT_EQ(model->parameter_info()[1].name, "A[0,1]");
+  EXPECT_EQ(model->parameter_info()[6].name, "B[1,0]");
+  Eigen::VectorXd values(8);
+  model->get_parameters(values);
+  EXPECT_EQ(values[1], 0.2);
+  EXPECT_EQ(values[6], -0.83);
+}
+
+TEST_P(LtcPlugins, RejectsMissingOrMisshapedParameters) {
+  sdk::ParameterSet missing_b;
+  missing_b.set("A", Eigen::Matrix2d::Identity());
+  try {
+    registry_.create(GetParam(), missing_b);
+    FAIL();
+  } catch (const std::exception& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("missing parameter 'B' (a 2x2 matrix)"));
+  }
+  sdk::ParameterSet wrong = terrain_params();
+  wrong.set("A", Eigen::Matrix3d::Identity());
+  try {
+    registry_.create(GetParam(), wrong);
+    FAIL();
+  } catch (const std::exception& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("parameter 'A' must be 2x2, got 3x3"));
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Bundled, LtcPlugins, ::testing::Values("ltc_linear", "ltc_shared"));
+
+TEST(LtcScopes, SharedVariantDeclaresBankScope) {
+  PluginRegistry registry({SKIDIMM_PLUGIN_DIR});
+  for (const auto& info : registry.create("ltc_shared", terrain_params())->parameter_info()) {
+    EXPECT_EQ(info.scope, sdk::ParameterScope::kBank) << info.name;
+  }
+  for (const auto& info : registry.create("ltc_linear", terrain_params())->parameter_info()) {
+    EXPECT_EQ(info.scope, sdk::ParameterScope::kMode) << info.name;
+  }
+}
+
+}  // namespace
+}  // namespace skidimm
