@@ -67,13 +67,7 @@ Imm::Imm(Bank bank)
   mixed_covariance_.resize(n, n);
   log_posterior_.resize(num_modes);
   held_input_ = Eigen::VectorXd::Zero(config.input_dim());
-
-  estimate_.mode_probabilities = config.initial_mode_probabilities;
-  estimate_.log_likelihoods = Eigen::VectorXd::Constant(num_modes, kNaN);
-  estimate_.nis = Eigen::VectorXd::Constant(num_modes, kNaN);
-  estimate_.mode_states.assign(num_modes, config.initial_state);
-  estimate_.mode_covariances.assign(num_modes, config.initial_covariance);
-  reset();
+  reset();  // sizes the estimate; step() then only writes into it
 }
 
 void Imm::reset() {
@@ -81,11 +75,14 @@ void Imm::reset() {
   initialized_ = false;
   last_t_ = 0.0;
   held_input_.setZero();
-  estimate_ = ImmEstimate{0.0, StepStatus::kUpdated, 0, 0, config.initial_mode_probabilities,
-                          Eigen::VectorXd::Constant(num_modes(), kNaN), Eigen::VectorXd::Constant(num_modes(), kNaN),
-                          std::vector<Eigen::VectorXd>(num_modes(), config.initial_state),
-                          std::vector<Eigen::MatrixXd>(num_modes(), config.initial_covariance),
-                          config.initial_state, config.initial_covariance, 0};
+  estimate_ = ImmEstimate{};
+  estimate_.mode_probabilities = config.initial_mode_probabilities;
+  estimate_.log_likelihoods = Eigen::VectorXd::Constant(num_modes(), kNaN);
+  estimate_.nis = Eigen::VectorXd::Constant(num_modes(), kNaN);
+  estimate_.mode_states.assign(num_modes(), config.initial_state);
+  estimate_.mode_covariances.assign(num_modes(), config.initial_covariance);
+  estimate_.state = config.initial_state;
+  estimate_.covariance = config.initial_covariance;
   estimate_.mode_probabilities.maxCoeff(&estimate_.most_likely_mode);
 }
 

@@ -56,11 +56,23 @@ void spiral_wheel_speeds(double t, double* left, double* right) {
   *right = (speed + yaw_rate * kTrack / 2.0) / kWheelRadius;
 }
 
+using Schedule = std::vector<std::pair<double, std::string>>;  // (start time, mode name)
+
+// Index in the bank of the mode the schedule says is in effect at t.
+int mode_at(const BankConfig& bank, const Schedule& schedule, double t, std::string* name) {
+  std::size_t s = 0;
+  while (s + 1 < schedule.size() && t >= schedule[s + 1].first) ++s;
+  *name = schedule[s].second;
+  const int j = bank.mode_index(*name);
+  if (j < 0) throw std::runtime_error("bank has no mode '" + *name + "'");
+  return j;
+}
+
 std::string fmt(double v) { return CsvWriter::format(std::round(v * 1e6) / 1e6); }
 
 int make_ltc(const BankConfig& bank, const std::string& out_path, std::uint64_t seed) {
   // crushed concrete -> grass -> asphalt, 10 s each (the paper's fig. 4).
-  const std::vector<std::pair<double, std::string>> schedule = {
+  const Schedule schedule = {
       {0.0, "crushed_concrete"}, {10.0, "grass"}, {20.0, "asphalt"}};
   const double duration = 30.0;
   Noise noise(seed);
@@ -69,17 +81,15 @@ int make_ltc(const BankConfig& bank, const std::string& out_path, std::uint64_t 
   double t = 0.0, next_sample = 0.0;
   const double h = 0.001;
   while (t <= duration + 1e-9) {
-    std::size_t s = 0;
-    while (s + 1 < schedule.size() && t >= schedule[s + 1].first) ++s;
-    const int j = bank.mode_index(schedule[s].second);
-    if (j < 0) throw std::runtime_error("bank has no mode '" + schedule[s].second + "'");
+    std::string mode;
+    const int j = mode_at(bank, schedule, t, &mode);
     const Eigen::MatrixXd& a = *bank.modes[j].params.find("A");
     const Eigen::MatrixXd& b = *bank.modes[j].params.find("B");
     double left, right;
     spiral_wheel_speeds(t, &left, &right);
     if (t >= next_sample) {
       out.write_row({fmt(t), fmt(left * (1.0 + 0.005 * noise.gaussian())), fmt(right * (1.0 + 0.005 * noise.gaussian())),
-                     fmt(v + 0.05 * noise.gaussian()), fmt(w + 0.03 * noise.gaussian()), schedule[s].second});
+                     fmt(v + 0.05 * noise.gaussian()), fmt(w + 0.03 * noise.gaussian()), mode});
       next_sample = t + 0.02 * (0.7 + 0.6 * noise.uniform());  // 50 Hz with +-30% jitter
     }
     auto f = [&](double vv, double ww, double* dv, double* dw) {
@@ -104,7 +114,7 @@ int make_ltc(const BankConfig& bank, const std::string& out_path, std::uint64_t 
 
 int make_stc(const BankConfig& bank, const std::string& out_path, std::uint64_t seed) {
   // right two -> all four wheels slipping at 10 s (the paper's fig. 6).
-  const std::vector<std::pair<double, std::string>> schedule = {{0.0, "slip_FR_RR"}, {10.0, "slip_FL_FR_RL_RR"}};
+  const Schedule schedule = {{0.0, "slip_FR_RR"}, {10.0, "slip_FL_FR_RL_RR"}};
   const double duration = 20.0;
   const double r = (*bank.shared.find("r"))(0, 0);
   const double track = (*bank.shared.find("b"))(0, 0);
@@ -114,17 +124,15 @@ int make_stc(const BankConfig& bank, const std::string& out_path, std::uint64_t 
   double t = 0.0, next_sample = 0.0, next_gps = 0.0;
   const double h = 0.001;
   while (t <= duration + 1e-9) {
-    std::size_t s = 0;
-    while (s + 1 < schedule.size() && t >= schedule[s + 1].first) ++s;
-    const int j = bank.mode_index(schedule[s].second);
-    if (j < 0) throw std::runtime_error("bank has no mode '" + schedule[s].second + "'");
+    std::string mode;
+    const int j = mode_at(bank, schedule, t, &mode);
     const double k = (*bank.modes[j].params.find("k"))(0, 0);
     const double m = (*bank.modes[j].params.find("m"))(0, 0);
     double left, right;
     spiral_wheel_speeds(t, &left, &right);
     if (t >= next_sample) {
       std::vector<std::string> row{fmt(t), fmt(left * (1.0 + 0.005 * noise.gaussian())),
-                                   fmt(right * (1.0 + 0.005 * noise.gaussian())), "", "", "", schedule[s].second};
+                                   fmt(right * (1.0 + 0.005 * noise.gaussian())), "", "", "", mode};
       if (t >= next_gps) {  // GPS pose at 10 Hz inside the 50 Hz wheel log: other rows leave it empty
         row[3] = fmt(x + 0.03 * noise.gaussian());
         row[4] = fmt(y + 0.03 * noise.gaussian());
