@@ -14,15 +14,16 @@ namespace fs = std::filesystem;
 using namespace skidimm::cli;
 
 int main(int argc, char** argv) {
-  CLI::App app{"skidimm " SKIDIMM_VERSION
-               ": Interacting Multiple Model identification of skid-steer traction modes"};
+  CLI::App app{"skidimm " SKIDIMM_VERSION ": Interacting Multiple Model identification of skid-steer traction modes"};
   app.require_subcommand(1);
   app.set_version_flag("--version", SKIDIMM_VERSION);
 
   std::vector<std::string> plugin_paths;
   auto add_plugin_path = [&plugin_paths](CLI::App* command) {
-    command->add_option("--plugin-path", plugin_paths,
-                        "Directory (or plugin file) searched first for motion-model plugins; repeatable");
+    command
+        ->add_option("--plugin-path", plugin_paths,
+                     "Directory (or plugin file) searched first for motion-model plugins; repeatable")
+        ->check(CLI::ExistingPath);
   };
 
   RunOptions run_options;
@@ -34,8 +35,7 @@ int main(int argc, char** argv) {
                   "Log CSV; repeat to read several files side by side (row i of each is one sample)")
       ->required()
       ->check(CLI::ExistingFile);
-  run->add_option("--output,-o", output, "Output CSV (written as <output>.partial, renamed when complete)")
-      ->required();
+  run->add_option("--output,-o", output, "Output CSV (written as <output>.partial, renamed when complete)")->required();
   run->add_flag("--quiet,-q", run_options.quiet, "No summary or progress on stderr");
   add_plugin_path(run);
 

@@ -47,8 +47,8 @@ void check_cov(const YamlFields& y, const YAML::Node& node, const Eigen::MatrixX
 
 // `columns.<section>`: a map from a bank name to a CSV column; names left out
 // read the column of the same name.
-std::vector<std::string> column_map(const YamlFields& y, const YAML::Node& node,
-                                    const std::vector<std::string>& names, const std::string& field) {
+std::vector<std::string> column_map(const YamlFields& y, const YAML::Node& node, const std::vector<std::string>& names,
+                                    const std::string& field) {
   std::vector<std::string> columns = names;
   if (!node) return columns;
   if (!node.IsMap()) y.fail(node, field, "expected a mapping from name to CSV column");
@@ -75,16 +75,16 @@ void parse_measurement(const YamlFields& y, const YAML::Node& root, BankConfig* 
     for (std::size_t r = 0; r < mc.names.size(); ++r) {
       const int s = index_of(bank->state_names, mc.names[r]);
       if (s < 0) {
-        y.fail(node["observe"], "measurement.observe", "'" + mc.names[r] + "' is not a state (states: " +
-                                                           join(bank->state_names) + ")");
+        y.fail(node["observe"], "measurement.observe",
+               "'" + mc.names[r] + "' is not a state (states: " + join(bank->state_names) + ")");
       }
       mc.h(static_cast<Eigen::Index>(r), s) = 1.0;
     }
   } else if (node["H"]) {
     const Eigen::MatrixXd h = y.matrix(node["H"], "measurement.H");
     if (h.cols() != n) {
-      y.fail(node["H"], "measurement.H", "expected " + std::to_string(n) + " columns (one per state), got " +
-                                              std::to_string(h.cols()));
+      y.fail(node["H"], "measurement.H",
+             "expected " + std::to_string(n) + " columns (one per state), got " + std::to_string(h.cols()));
     }
     mc.h = h;
     mc.names = y.string_list(y.required(node, "names", "measurement"), "measurement.names");
@@ -175,8 +175,8 @@ void parse_initial(const YamlFields& y, const YAML::Node& root, BankConfig* bank
   if (node["state"]) {
     bank->initial_state = y.vector(node["state"], "initial.state");
     if (bank->initial_state.size() != n) {
-      y.fail(node["state"], "initial.state", "expected " + std::to_string(n) + " values (" +
-                                                 join(bank->state_names) + ")");
+      y.fail(node["state"], "initial.state",
+             "expected " + std::to_string(n) + " values (" + join(bank->state_names) + ")");
     }
     if (!bank->initial_state.allFinite()) y.fail(node["state"], "initial.state", "must be finite");
   }
@@ -257,8 +257,9 @@ BankConfig load_bank_config(const fs::path& file) {
   }
   if (!root.IsMap()) throw ConfigError(file.string(), 1, "", "a bank file must be a YAML mapping");
 
-  y.check_keys(root, {"name", "description", "states", "angles", "inputs", "columns", "measurement", "transition",
-                      "initial", "mode_probability_floor", "plugin_paths", "shared", "modes"},
+  y.check_keys(root,
+               {"name", "description", "states", "angles", "inputs", "columns", "measurement", "transition", "initial",
+                "mode_probability_floor", "plugin_paths", "shared", "modes"},
                "");
   BankConfig bank;
   bank.file = fs::absolute(file);
@@ -272,7 +273,8 @@ BankConfig load_bank_config(const fs::path& file) {
   if (root["angles"]) {
     for (const std::string& a : y.string_list(root["angles"], "angles")) {
       const int s = index_of(bank.state_names, a);
-      if (s < 0) y.fail(root["angles"], "angles", "'" + a + "' is not a state (states: " + join(bank.state_names) + ")");
+      if (s < 0)
+        y.fail(root["angles"], "angles", "'" + a + "' is not a state (states: " + join(bank.state_names) + ")");
       bank.angle_mask[s] = true;
     }
   }
@@ -302,7 +304,14 @@ BankConfig load_bank_config(const fs::path& file) {
   if (const YAML::Node paths = root["plugin_paths"]) {
     for (const std::string& p : y.string_list(paths, "plugin_paths")) {
       fs::path path(p);
-      bank.plugin_paths.push_back(path.is_absolute() ? path : (bank.file.parent_path() / path).lexically_normal());
+      path = path.is_absolute() ? path : (bank.file.parent_path() / path).lexically_normal();
+      std::error_code ec;
+      if (!fs::exists(path, ec)) {
+        y.fail(paths, "plugin_paths",
+               "'" + p + "' does not exist (resolved to " + path.string() +
+                   "; relative paths are relative to the bank file)");
+      }
+      bank.plugin_paths.push_back(path);
     }
   }
   if (const YAML::Node shared = root["shared"]) {

@@ -31,11 +31,16 @@ ModeTransition make_transition(const BankConfig& config) {
 
 const char* to_string(StepStatus status) {
   switch (status) {
-    case StepStatus::kUpdated: return "updated";
-    case StepStatus::kPredictOnly: return "predict_only";
-    case StepStatus::kAllModesRejected: return "all_modes_rejected";
-    case StepStatus::kRejectedTime: return "rejected_time";
-    case StepStatus::kRejectedInput: return "rejected_input";
+    case StepStatus::kUpdated:
+      return "updated";
+    case StepStatus::kPredictOnly:
+      return "predict_only";
+    case StepStatus::kAllModesRejected:
+      return "all_modes_rejected";
+    case StepStatus::kRejectedTime:
+      return "rejected_time";
+    case StepStatus::kRejectedInput:
+      return "rejected_input";
   }
   return "unknown";
 }
@@ -149,7 +154,7 @@ const ImmEstimate& Imm::step(double t, const Eigen::Ref<const Eigen::VectorXd>& 
   }
 
   const bool all_rejected = rejected == num_modes;
-  estimate_.status = !measured ? StepStatus::kPredictOnly
+  estimate_.status = !measured      ? StepStatus::kPredictOnly
                      : all_rejected ? StepStatus::kAllModesRejected
                                     : StepStatus::kUpdated;
   estimate_.num_measured = selection_.size;

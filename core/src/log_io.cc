@@ -148,8 +148,7 @@ LogReader::LogReader(const BankConfig& bank, const std::vector<fs::path>& files)
   if (!bank.columns.truth_mode.empty()) truth_ = resolve(bank.columns.truth_mode, "columns.truth_mode", false);
 }
 
-LogReader::ColumnRef LogReader::resolve(const std::string& column, const std::string& bank_field,
-                                        bool required) const {
+LogReader::ColumnRef LogReader::resolve(const std::string& column, const std::string& bank_field, bool required) const {
   for (std::size_t f = 0; f < readers_.size(); ++f) {
     const int index = readers_[f]->column(column);
     if (index >= 0) return ColumnRef{static_cast<int>(f), index, column};
@@ -196,9 +195,8 @@ bool LogReader::next(LogSample* sample) {
   if (ended == readers_.size()) return false;
   if (ended != 0) {
     throw LogError(readers_[a_longer_file]->path().string(), readers_[a_longer_file]->line(),
-                   "files read side by side must match row for row, but " +
-                       readers_[an_ended_file]->path().string() + " ended after " + std::to_string(row_) +
-                       " data rows");
+                   "files read side by side must match row for row, but " + readers_[an_ended_file]->path().string() +
+                       " ended after " + std::to_string(row_) + " data rows");
   }
   ++row_;
   sample->row = row_;

@@ -48,9 +48,7 @@ std::vector<fs::path> split_path_list(const char* list) {
   return out;
 }
 
-bool is_shared_library(const fs::path& path) {
-  return path.extension() == boost::dll::shared_library::suffix();
-}
+bool is_shared_library(const fs::path& path) { return path.extension() == boost::dll::shared_library::suffix(); }
 
 // Reads one library. Fills `descriptor`; returns the loaded library when it is
 // a usable plugin, nullptr otherwise (descriptor.error says why).
@@ -186,14 +184,17 @@ const PluginDescriptor& PluginRegistry::find(const std::string& name) {
       match = &d;
       match_entry = search_entry_of_[i];
     } else if (search_entry_of_[i] == match_entry) {
-      throw PluginError("two plugins are named '" + name + "': " + match->path.string() + " and " +
-                        d.path.string() + "; remove one or give it another name");
+      throw PluginError("two plugins are named '" + name + "': " + match->path.string() + " and " + d.path.string() +
+                        "; remove one or give it another name");
     }
   }
   if (match != nullptr) return *match;
 
   std::string message = "no plugin named '" + name + "' on the search path [";
-  for (std::size_t i = 0; i < search_path_.size(); ++i) message += (i ? ", " : "") + search_path_[i].string();
+  for (std::size_t i = 0; i < search_path_.size(); ++i) {
+    std::error_code ec;
+    message += (i ? ", " : "") + search_path_[i].string() + (fs::exists(search_path_[i], ec) ? "" : " (missing)");
+  }
   message += "]";
   std::string available;
   for (const PluginDescriptor& d : descriptors_) {

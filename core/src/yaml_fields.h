@@ -112,8 +112,9 @@ class YamlFields {
   Eigen::MatrixXd matrix(const YAML::Node& node, int rows, int cols, const std::string& field) const {
     Eigen::MatrixXd m = matrix(node, field);
     if (m.rows() != rows || m.cols() != cols) {
-      fail(node, field, "expected a " + std::to_string(rows) + "x" + std::to_string(cols) + " matrix, got " +
-                            std::to_string(m.rows()) + "x" + std::to_string(m.cols()));
+      fail(node, field,
+           "expected a " + std::to_string(rows) + "x" + std::to_string(cols) + " matrix, got " +
+               std::to_string(m.rows()) + "x" + std::to_string(m.cols()));
     }
     return m;
   }
@@ -128,7 +129,8 @@ class YamlFields {
       const YAML::Node values = is_std ? node["std"] : node["diagonal"];
       const std::string sub = field + (is_std ? ".std" : ".diagonal");
       Eigen::VectorXd d = vector(values, sub);
-      if (d.size() != n) fail(values, sub, "expected " + std::to_string(n) + " values, got " + std::to_string(d.size()));
+      if (d.size() != n)
+        fail(values, sub, "expected " + std::to_string(n) + " values, got " + std::to_string(d.size()));
       if (is_std) {
         if ((d.array() < 0.0).any()) fail(values, sub, "standard deviations cannot be negative");
         d = d.array().square();

@@ -12,10 +12,9 @@ constexpr ParameterDoc kParameters[] = {
     {"B", "2x2", "input matrix: row V in m/rad/s, row omega in 1/s"},
 };
 
-constexpr PluginInfo kInfo = {
-    "ltc_linear", "1.0.0",
-    "Linear terrain model [V, omega] driven by wheel speeds, per-mode A_i, B_i (paper eq. 2)",
-    kParameters, 2};
+constexpr PluginInfo kInfo = {"ltc_linear", "1.0.0",
+                              "Linear terrain model [V, omega] driven by wheel speeds, per-mode A_i, B_i (paper eq. 2)",
+                              kParameters, 2};
 
 using Model = skidimm::plugins::LtcModel<skidimm::sdk::ParameterScope::kMode>;
 

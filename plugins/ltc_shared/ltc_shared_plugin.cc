@@ -13,10 +13,9 @@ constexpr ParameterDoc kParameters[] = {
     {"B", "2x2", "bank-level (shared:) input matrix of eq. 2"},
 };
 
-constexpr PluginInfo kInfo = {
-    "ltc_shared", "1.0.0",
-    "Linear terrain model [V, omega] with one A, B shared by all modes; modes differ by Q_i",
-    kParameters, 2};
+constexpr PluginInfo kInfo = {"ltc_shared", "1.0.0",
+                              "Linear terrain model [V, omega] with one A, B shared by all modes; modes differ by Q_i",
+                              kParameters, 2};
 
 using Model = skidimm::plugins::LtcModel<skidimm::sdk::ParameterScope::kBank>;
 

@@ -12,8 +12,8 @@ constexpr skidimm::sdk::ParameterDoc kParameters[] = {
 };
 
 constexpr skidimm::sdk::PluginInfo kInfo = {
-    "stc_kinematic", "1.0.0",
-    "Kinematic pose model [X, Y, theta] with per-mode slip constants k_i, m_i (paper eq. 3)", kParameters, 4};
+    "stc_kinematic", "1.0.0", "Kinematic pose model [X, Y, theta] with per-mode slip constants k_i, m_i (paper eq. 3)",
+    kParameters, 4};
 
 }  // namespace
 

@@ -33,8 +33,7 @@ void stc_requested_velocities(const T* u, const T& r, const T& b, T* forward, T*
 }
 
 template <typename T>
-void stc_predict(const T* x, const T* u, const T& k, const T& m, const T& r, const T& b, const T& dt,
-                 T* x_next) {
+void stc_predict(const T* x, const T* u, const T& k, const T& m, const T& r, const T& b, const T& dt, T* x_next) {
   using std::cos;
   using std::sin;
   T forward, yaw_rate;

@@ -28,7 +28,8 @@ skidimm::Bank make_ltc_bank(int num_modes) {
   Eigen::Matrix2d input;
   input << 0.4, 0.4, -0.8, 0.8;
   for (int j = 0; j < num_modes; ++j) {
-    b.models.push_back(skidimm_test::make_ltc(Eigen::Matrix2d::Identity() * -(1.0 + 0.1 * j), (0.3 + 0.01 * j) * input));
+    b.models.push_back(
+        skidimm_test::make_ltc(Eigen::Matrix2d::Identity() * -(1.0 + 0.1 * j), (0.3 + 0.01 * j) * input));
   }
   b.q = {Eigen::Matrix2d::Identity() * 0.01};
   b.r = Eigen::Matrix2d::Identity() * 0.01;
@@ -48,8 +49,8 @@ void BM_ImmStep(benchmark::State& state) {
     benchmark::DoNotOptimize(e.state.data());
   }
   state.counters["imm_bytes"] = static_cast<double>(construction_bytes);
-  state.counters["allocs_per_step"] =
-      static_cast<double>(skidimm_test::g_malloc_calls.load() - allocations_before) / static_cast<double>(state.iterations());
+  state.counters["allocs_per_step"] = static_cast<double>(skidimm_test::g_malloc_calls.load() - allocations_before) /
+                                      static_cast<double>(state.iterations());
 }
 BENCHMARK(BM_ImmStep)->Arg(1)->Arg(4)->Arg(16)->Arg(64)->Arg(256);
 

@@ -11,10 +11,10 @@
 
 namespace {
 
-using ::testing::HasSubstr;
 using skidimm_test::read_file;
 using skidimm_test::test_directory;
 using skidimm_test::write_file;
+using ::testing::HasSubstr;
 namespace fs = std::filesystem;
 
 const std::string kSource = SKIDIMM_SOURCE_DIR;
@@ -82,9 +82,9 @@ TEST(Cli, RunIdentifiesTheTerrainsOfTheBundledSwitchingExample) {
 
 TEST(Cli, RunHandlesGpsRowsMissingFromAFasterLog) {
   const fs::path out = test_directory() / "out.csv";
-  const Result r = run_skidimm("run -q --bank " + kSource + "/configs/stc_slip4.yaml --input " + kSource +
-                               "/configs/examples/stc_switching.csv --output " + out.string() + " --plugin-path " +
-                               kPlugins);
+  const Result r =
+      run_skidimm("run -q --bank " + kSource + "/configs/stc_slip4.yaml --input " + kSource +
+                  "/configs/examples/stc_switching.csv --output " + out.string() + " --plugin-path " + kPlugins);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.err, "") << "--quiet prints nothing";
   const auto rows = read_csv(out);
@@ -164,6 +164,9 @@ TEST(Cli, UsageErrorsExitWithTwoAndHelpWithZero) {
   EXPECT_EQ(run_skidimm("").exit_code, 2);
   EXPECT_EQ(run_skidimm("run --bank").exit_code, 2);
   EXPECT_EQ(run_skidimm("frobnicate").exit_code, 2);
+  const Result missing_path = run_skidimm("plugins --plugin-path /no/such/dir");
+  EXPECT_EQ(missing_path.exit_code, 2);
+  EXPECT_THAT(missing_path.err, HasSubstr("/no/such/dir"));
   const Result help = run_skidimm("run --help");
   EXPECT_EQ(help.exit_code, 0);
   EXPECT_THAT(help.out, HasSubstr("--plugin-path"));
@@ -174,7 +177,8 @@ TEST(Cli, BundledExampleLogsAreReproducibleFromTheirGenerator) {
   for (const std::string kind : {"ltc", "stc"}) {
     const std::string bank = kSource + (kind == "ltc" ? "/configs/ltc_terrains.yaml" : "/configs/stc_slip4.yaml");
     const fs::path out = dir / (kind + ".csv");
-    const std::string command = std::string(SKIDIMM_MAKE_EXAMPLE_LOG) + " " + kind + " " + bank + " " + out.string() + " 1";
+    const std::string command =
+        std::string(SKIDIMM_MAKE_EXAMPLE_LOG) + " " + kind + " " + bank + " " + out.string() + " 1";
     ASSERT_EQ(std::system(command.c_str()), 0);
     EXPECT_EQ(read_file(out), read_file(kSource + "/configs/examples/" + kind + "_switching.csv"))
         << "regenerate with scripts/make_examples.sh";

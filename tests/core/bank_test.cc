@@ -9,9 +9,9 @@
 namespace skidimm {
 namespace {
 
-using ::testing::HasSubstr;
 using skidimm_test::test_directory;
 using skidimm_test::write_file;
+using ::testing::HasSubstr;
 
 const std::string kSourceDir = SKIDIMM_SOURCE_DIR;
 const std::string kPluginDir = SKIDIMM_PLUGIN_DIR;
@@ -131,8 +131,8 @@ TEST(BankConfig, ObservedNameMustBeAState) {
 TEST(BankConfig, DwellTimesPerModeMustCoverEveryMode) {
   expect_config_error(replace(kValidBank, "  stay: 0.98", "  mean_dwell_time: {grip: 5}"),
                       {"no dwell time for mode 'ice'"});
-  const BankConfig c = load_bank_config(
-      write_file(test_directory() / "ok.yaml", replace(kValidBank, "  stay: 0.98", "  mean_dwell_time: {grip: 5, ice: 2}")));
+  const BankConfig c = load_bank_config(write_file(
+      test_directory() / "ok.yaml", replace(kValidBank, "  stay: 0.98", "  mean_dwell_time: {grip: 5, ice: 2}")));
   EXPECT_EQ(c.transition.kind, TransitionConfig::Kind::kDwellTimes);
   EXPECT_EQ(c.transition.dwell_seconds, Eigen::Vector2d(5, 2));
 }
@@ -153,13 +153,15 @@ TEST(BankConfig, NonNumericMatrixEntry) {
 }
 
 TEST(Bank, UnknownPluginListsWhatWasFound) {
-  expect_config_error(replace(kValidBank, "model: ltc_linear\n    params: {A: [[-2", "model: ltc_lineer\n    params: {A: [[-2"),
-                      {"modes[1].model", "no plugin named 'ltc_lineer'", "found: ", "ltc_linear"}, true);
+  expect_config_error(
+      replace(kValidBank, "model: ltc_linear\n    params: {A: [[-2", "model: ltc_lineer\n    params: {A: [[-2"),
+      {"modes[1].model", "no plugin named 'ltc_lineer'", "found: ", "ltc_linear"}, true);
 }
 
 TEST(Bank, PluginRejectionIsReportedAtTheMode) {
   expect_config_error(replace(kValidBank, ", B: [[0.1, 0.1], [-0.2, 0.2]]}", "}"),
-                      {"bank.yaml:19: modes[1].params", "mode 'ice' (model ltc_linear)", "missing parameter 'B'"}, true);
+                      {"bank.yaml:19: modes[1].params", "mode 'ice' (model ltc_linear)", "missing parameter 'B'"},
+                      true);
 }
 
 TEST(Bank, StateNamesMustMatchThePlugin) {
@@ -168,7 +170,8 @@ TEST(Bank, StateNamesMustMatchThePlugin) {
 }
 
 TEST(Bank, BankScopedParametersMustBeShared) {
-  std::string yaml = replace(kValidBank, "model: ltc_linear\n    params: {A: [[-5", "model: ltc_shared\n    params: {A: [[-5");
+  std::string yaml =
+      replace(kValidBank, "model: ltc_linear\n    params: {A: [[-5", "model: ltc_shared\n    params: {A: [[-5");
   expect_config_error(yaml, {"modes[0].params.A", "give it once under 'shared:'"}, true);
 }
 
@@ -184,13 +187,16 @@ TEST(Bank, SharedParametersReachEveryModeAndUnusedOnesAreErrors) {
   bank.models[1]->get_parameters(values);
   EXPECT_EQ(values[0], -3.0);
   EXPECT_EQ(values[4], 0.2);
-  expect_config_error(replace(yaml, "shared:\n", "shared:\n  C: 1\n"), {"shared.C", "not a parameter of any mode's model"},
-                      true);
+  expect_config_error(replace(yaml, "shared:\n", "shared:\n  C: 1\n"),
+                      {"shared.C", "not a parameter of any mode's model"}, true);
 }
 
-TEST(Bank, MissingFileIsAConfigError) {
-  EXPECT_THROW(load_bank_config("/nonexistent/bank.yaml"), ConfigError);
+TEST(BankConfig, MissingPluginPathIsNamed) {
+  expect_config_error(replace(kValidBank, "modes:\n", "plugin_paths: [../no_such_dir]\nmodes:\n"),
+                      {"plugin_paths: '../no_such_dir' does not exist", "relative to the bank file"});
 }
+
+TEST(Bank, MissingFileIsAConfigError) { EXPECT_THROW(load_bank_config("/nonexistent/bank.yaml"), ConfigError); }
 
 }  // namespace
 }  // namespace skidimm

@@ -59,7 +59,8 @@ TEST(ExtendedKalmanFilter, JosephUpdateEqualsTheStandardFormForTheOptimalGain) {
   const Eigen::Matrix2d k = p * h.transpose() * s.inverse();
   const Eigen::Matrix2d expected = (Eigen::Matrix2d::Identity() - k * h) * p;
   EXPECT_TRUE(filter.covariance().isApprox(expected, 1e-12));
-  EXPECT_TRUE(filter.state().isApprox(Eigen::Vector2d(0.3, -0.1) + k * (Eigen::Vector2d(0.4, 0.2) - h * Eigen::Vector2d(0.3, -0.1)), 1e-12));
+  EXPECT_TRUE(filter.state().isApprox(
+      Eigen::Vector2d(0.3, -0.1) + k * (Eigen::Vector2d(0.4, 0.2) - h * Eigen::Vector2d(0.3, -0.1)), 1e-12));
 }
 
 TEST(ExtendedKalmanFilter, SingularInnovationCovarianceIsReportedNotCrashed) {

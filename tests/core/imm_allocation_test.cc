@@ -46,7 +46,7 @@ TEST(ImmAllocation, StepAllocatesNothingWithIrregularTimeMissingRowsAndAngles) {
     for (int k = 0; k < steps; ++k) {
       t += 0.02 + 0.01 * std::sin(0.37 * k);
       z = Eigen::Vector3d(0.5 * t, 0.1 * t, std::remainder(3.0 + 0.3 * t, 2.0 * M_PI));
-      if (k % 5 != 0) z[0] = z[1] = kNaN;  // GPS at a fifth of the rate
+      if (k % 5 != 0) z[0] = z[1] = kNaN;    // GPS at a fifth of the rate
       if (k % 11 == 0) z.setConstant(kNaN);  // nothing measured at all
       imm.step(t, u, z);
     }

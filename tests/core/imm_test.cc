@@ -85,7 +85,8 @@ struct ReferenceImm {
     const double total = likelihood[0] * c[0] + likelihood[1] * c[1];
     for (int j = 0; j < 2; ++j) mu[j] = likelihood[j] * c[j] / total;
     x_combined = mu[0] * x[0] + mu[1] * x[1];
-    var_combined = mu[0] * (var[0] + std::pow(x[0] - x_combined, 2)) + mu[1] * (var[1] + std::pow(x[1] - x_combined, 2));
+    var_combined =
+        mu[0] * (var[0] + std::pow(x[0] - x_combined, 2)) + mu[1] * (var[1] + std::pow(x[1] - x_combined, 2));
     first = false;
     last_t = t;
     held_u = u;
@@ -98,8 +99,8 @@ TEST(Imm, OneStepMatchesHandComputation) {
   // prior so their likelihoods are equal and mu stays mu0.
   const ImmEstimate& e0 = imm.step(0.0, vec({1.0}), vec({0.6}));
   EXPECT_NEAR(e0.mode_probabilities[0], 0.6, 1e-15);
-  EXPECT_NEAR(e0.state[0], 0.58, 1e-15);           // 0.5 + 0.8 * 0.1, K = 1 / 1.25
-  EXPECT_NEAR(e0.covariance(0, 0), 0.2, 1e-15);    // (1 - 0.8) * 1
+  EXPECT_NEAR(e0.state[0], 0.58, 1e-15);         // 0.5 + 0.8 * 0.1, K = 1 / 1.25
+  EXPECT_NEAR(e0.covariance(0, 0), 0.2, 1e-15);  // (1 - 0.8) * 1
   // Step 1, computed by hand with the formulas of eq. 4-11:
   // c = [0.62, 0.38]; mode 0: x- = 0.622, P- = 0.172, S = 0.422, nu = 0.078;
   // mode 1: x- = 0.514, P- = 0.168, S = 0.418, nu = 0.186.
@@ -151,7 +152,8 @@ TEST(Imm, InvariantsHoldAtEveryStep) {
   a2 << -3, 0.1, 0, -2.5;
   a3 << -2, 0, -0.2, -2;
   b1 << 0.4, 0.4, -0.8, 0.8;
-  b.models = {skidimm_test::make_ltc(a1, b1), skidimm_test::make_ltc(a2, 0.6 * b1), skidimm_test::make_ltc(a3, 0.4 * b1)};
+  b.models = {skidimm_test::make_ltc(a1, b1), skidimm_test::make_ltc(a2, 0.6 * b1),
+              skidimm_test::make_ltc(a3, 0.4 * b1)};
   b.q = {Eigen::Matrix2d::Identity() * 0.01, Eigen::Matrix2d::Identity() * 0.02, Eigen::Matrix2d::Identity() * 0.05};
   b.r = Eigen::Vector2d(0.0025, 0.001).asDiagonal();
   Imm imm(b.build());

@@ -15,10 +15,10 @@
 namespace skidimm {
 namespace {
 
-using ::testing::HasSubstr;
 using skidimm_test::read_file;
 using skidimm_test::test_directory;
 using skidimm_test::write_file;
+using ::testing::HasSubstr;
 
 const std::string kHuskyDir = std::string(SKIDIMM_SHARED_DATA_DIR) + "/husky_ice";
 
@@ -85,9 +85,9 @@ TEST(LogReader, ReadsSamplesWithMissingMeasurementsAsNaN) {
 
 TEST(LogReader, MissingColumnNamesTheBankFieldAndWhatIsThere) {
   const auto file = write_file(test_directory() / "log.csv", "t,left,rigth,v,w\n0,1,2,3,4\n");
-  expect_log_error([&] { LogReader(simple_bank(), {file}); },
-                   {"log.csv:1: no column 'right' (the bank's columns.inputs.phi_dot_R)",
-                    "columns present: t, left, rigth, v, w"});
+  expect_log_error(
+      [&] { LogReader(simple_bank(), {file}); },
+      {"log.csv:1: no column 'right' (the bank's columns.inputs.phi_dot_R)", "columns present: t, left, rigth, v, w"});
 }
 
 TEST(LogReader, NonNumericCellNamesLineAndColumn) {
@@ -111,7 +111,8 @@ TEST(LogReader, TimeMustIncreaseStrictly) {
   LogSample s;
   reader.next(&s);
   reader.next(&s);
-  expect_log_error([&] { reader.next(&s); }, {"log.csv:4: column 't': time must increase strictly, but 0.5 follows 0.5"});
+  expect_log_error([&] { reader.next(&s); },
+                   {"log.csv:4: column 't': time must increase strictly, but 0.5 follows 0.5"});
 }
 
 TEST(LogReader, SideBySideFilesMustMatchRowForRow) {

@@ -66,13 +66,24 @@ TEST(PluginRegistry, UnknownNameListsSearchPathAndFoundPlugins) {
   PluginRegistry registry({kPluginDir, "/nonexistent/dir"});
   const std::string e = plugin_error([&] { registry.find("icr_kinematic"); });
   EXPECT_THAT(e, HasSubstr("no plugin named 'icr_kinematic' on the search path"));
-  EXPECT_THAT(e, HasSubstr("/nonexistent/dir"));
+  EXPECT_THAT(e, HasSubstr("/nonexistent/dir (missing)"));
   EXPECT_THAT(e, HasSubstr("found: ltc_linear"));
 }
 
 TEST(PluginRegistry, MissingFileOnTheSearchPathMeansNothingFound) {
   PluginRegistry registry({"/nonexistent/plugin.so"});
   EXPECT_THAT(plugin_error([&] { registry.find("ltc_linear"); }), HasSubstr("no plugins were found there"));
+}
+
+TEST(PluginRegistry, CorruptLibraryIsListedAsUnusableNotFatal) {
+  const fs::path dir = skidimm_test::test_directory();
+  skidimm_test::write_file(dir / "garbage.so", "this is not an ELF file");
+  PluginRegistry registry({dir, kPluginDir});
+  ASSERT_GE(registry.plugins().size(), 4u);
+  EXPECT_EQ(registry.plugins()[0].path.filename(), "garbage.so");
+  EXPECT_THAT(registry.plugins()[0].error, HasSubstr("cannot load: "));
+  EXPECT_THAT(registry.plugins()[0].error, HasSubstr("garbage.so"));
+  EXPECT_NO_THROW(registry.find("ltc_linear"));  // the other plugins still load
 }
 
 TEST(PluginRegistry, LibraryWithoutTheAbiSymbolIsNotAPlugin) {

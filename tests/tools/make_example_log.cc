@@ -49,9 +49,9 @@ class Noise {
 
 // Outward spiral: forward speed V, turning radius growing at a constant rate.
 void spiral_wheel_speeds(double t, double* left, double* right) {
-  const double speed = 0.8;                  // m/s
-  const double radius = 0.6 + 0.12 * t;      // m, grows 0.12 m/s
-  const double yaw_rate = speed / radius;    // rad/s
+  const double speed = 0.8;                // m/s
+  const double radius = 0.6 + 0.12 * t;    // m, grows 0.12 m/s
+  const double yaw_rate = speed / radius;  // rad/s
   *left = (speed - yaw_rate * kTrack / 2.0) / kWheelRadius;
   *right = (speed + yaw_rate * kTrack / 2.0) / kWheelRadius;
 }
@@ -72,8 +72,7 @@ std::string fmt(double v) { return CsvWriter::format(std::round(v * 1e6) / 1e6);
 
 int make_ltc(const BankConfig& bank, const std::string& out_path, std::uint64_t seed) {
   // crushed concrete -> grass -> asphalt, 10 s each (the paper's fig. 4).
-  const Schedule schedule = {
-      {0.0, "crushed_concrete"}, {10.0, "grass"}, {20.0, "asphalt"}};
+  const Schedule schedule = {{0.0, "crushed_concrete"}, {10.0, "grass"}, {20.0, "asphalt"}};
   const double duration = 30.0;
   Noise noise(seed);
   CsvWriter out(out_path, {"t", "phi_dot_L", "phi_dot_R", "V", "omega", "mode"});
@@ -88,8 +87,9 @@ int make_ltc(const BankConfig& bank, const std::string& out_path, std::uint64_t 
     double left, right;
     spiral_wheel_speeds(t, &left, &right);
     if (t >= next_sample) {
-      out.write_row({fmt(t), fmt(left * (1.0 + 0.005 * noise.gaussian())), fmt(right * (1.0 + 0.005 * noise.gaussian())),
-                     fmt(v + 0.05 * noise.gaussian()), fmt(w + 0.03 * noise.gaussian()), mode});
+      out.write_row({fmt(t), fmt(left * (1.0 + 0.005 * noise.gaussian())),
+                     fmt(right * (1.0 + 0.005 * noise.gaussian())), fmt(v + 0.05 * noise.gaussian()),
+                     fmt(w + 0.03 * noise.gaussian()), mode});
       next_sample = t + 0.02 * (0.7 + 0.6 * noise.uniform());  // 50 Hz with +-30% jitter
     }
     auto f = [&](double vv, double ww, double* dv, double* dw) {
@@ -131,8 +131,13 @@ int make_stc(const BankConfig& bank, const std::string& out_path, std::uint64_t 
     double left, right;
     spiral_wheel_speeds(t, &left, &right);
     if (t >= next_sample) {
-      std::vector<std::string> row{fmt(t), fmt(left * (1.0 + 0.005 * noise.gaussian())),
-                                   fmt(right * (1.0 + 0.005 * noise.gaussian())), "", "", "", mode};
+      std::vector<std::string> row{fmt(t),
+                                   fmt(left * (1.0 + 0.005 * noise.gaussian())),
+                                   fmt(right * (1.0 + 0.005 * noise.gaussian())),
+                                   "",
+                                   "",
+                                   "",
+                                   mode};
       if (t >= next_gps) {  // GPS pose at 10 Hz inside the 50 Hz wheel log: other rows leave it empty
         row[3] = fmt(x + 0.03 * noise.gaussian());
         row[4] = fmt(y + 0.03 * noise.gaussian());

@@ -24,26 +24,26 @@ namespace skidimm {
 
 struct ModeConfig {
   std::string name;
-  std::string model;                 // plugin name
-  sdk::ParameterSet params;          // the mode's own `params:`
-  Eigen::MatrixXd q_intensity;       // continuous-time process noise Q (per second)
-  int line = 0;                      // where the mode starts in the file
+  std::string model;            // plugin name
+  sdk::ParameterSet params;     // the mode's own `params:`
+  Eigen::MatrixXd q_intensity;  // continuous-time process noise Q (per second)
+  int line = 0;                 // where the mode starts in the file
   std::map<std::string, int> param_lines;
 };
 
 struct TransitionConfig {
   enum class Kind { kMatrix, kStay, kDwellTimes };
   Kind kind = Kind::kStay;
-  Eigen::MatrixXd matrix;           // kMatrix: per-step p_ij, row = from
-  double stay = 0.95;               // kStay: per-step probability of staying
-  Eigen::VectorXd dwell_seconds;    // kDwellTimes: mean time in each mode
+  Eigen::MatrixXd matrix;         // kMatrix: per-step p_ij, row = from
+  double stay = 0.95;             // kStay: per-step probability of staying
+  Eigen::VectorXd dwell_seconds;  // kDwellTimes: mean time in each mode
 };
 
 struct MeasurementConfig {
-  std::vector<std::string> names;   // one per row of H
-  Eigen::MatrixXd h;                // m x n
-  Eigen::MatrixXd r;                // m x m, positive definite
-  std::vector<bool> is_angle;       // row measures an angle state directly
+  std::vector<std::string> names;  // one per row of H
+  Eigen::MatrixXd h;               // m x n
+  Eigen::MatrixXd r;               // m x m, positive definite
+  std::vector<bool> is_angle;      // row measures an angle state directly
 };
 
 struct ColumnConfig {
@@ -87,8 +87,7 @@ struct Bank {
 
   // Loads the file and its plugins. The search path is `plugin_paths`
   // (e.g. --plugin-path), then the bank's, then the standard locations.
-  static Bank load(const std::filesystem::path& file,
-                   const std::vector<std::filesystem::path>& plugin_paths = {});
+  static Bank load(const std::filesystem::path& file, const std::vector<std::filesystem::path>& plugin_paths = {});
   // Creates the models of an already parsed config with `registry`.
   static Bank instantiate(BankConfig config, PluginRegistry& registry);
 };

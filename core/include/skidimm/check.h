@@ -7,13 +7,12 @@
 #include <cstdio>
 #include <cstdlib>
 
-#define SKIDIMM_CHECK(condition, message)                                                      \
-  do {                                                                                         \
-    if (!(condition)) {                                                                        \
-      std::fprintf(stderr, "%s:%d: check failed: %s: %s\n", __FILE__, __LINE__, #condition,     \
-                   message);                                                                   \
-      std::abort();                                                                            \
-    }                                                                                          \
+#define SKIDIMM_CHECK(condition, message)                                                             \
+  do {                                                                                                \
+    if (!(condition)) {                                                                               \
+      std::fprintf(stderr, "%s:%d: check failed: %s: %s\n", __FILE__, __LINE__, #condition, message); \
+      std::abort();                                                                                   \
+    }                                                                                                 \
   } while (false)
 
 #endif  // SKIDIMM_CHECK_H_

@@ -22,9 +22,9 @@
 namespace skidimm {
 
 struct UpdateResult {
-  bool ok = false;               // false: S not positive definite or result non-finite
-  double log_likelihood = 0.0;   // log N(nu; 0, S)
-  double nis = 0.0;              // nu' S^-1 nu, chi-square with size() dof if consistent
+  bool ok = false;              // false: S not positive definite or result non-finite
+  double log_likelihood = 0.0;  // log N(nu; 0, S)
+  double nis = 0.0;             // nu' S^-1 nu, chi-square with size() dof if consistent
 };
 
 class ExtendedKalmanFilter {

@@ -28,8 +28,7 @@ class ConfigError : public Error {
   const std::string& field() const { return field_; }
 
  private:
-  static std::string format(const std::string& file, int line, const std::string& field,
-                            const std::string& message) {
+  static std::string format(const std::string& file, int line, const std::string& field, const std::string& message) {
     std::string out = file;
     if (line > 0) out += ":" + std::to_string(line);
     out += ": ";

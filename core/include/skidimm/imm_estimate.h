@@ -8,11 +8,11 @@
 namespace skidimm {
 
 enum class StepStatus {
-  kUpdated,            // prediction (unless first step) and measurement update
-  kPredictOnly,        // no measurement: probabilities moved only through the chain
-  kAllModesRejected,   // every mode's filter failed: treated as predict-only
-  kRejectedTime,       // t did not increase: the step was ignored
-  kRejectedInput,      // u had non-finite entries: the step was ignored
+  kUpdated,           // prediction (unless first step) and measurement update
+  kPredictOnly,       // no measurement: probabilities moved only through the chain
+  kAllModesRejected,  // every mode's filter failed: treated as predict-only
+  kRejectedTime,      // t did not increase: the step was ignored
+  kRejectedInput,     // u had non-finite entries: the step was ignored
 };
 
 const char* to_string(StepStatus status);
@@ -20,12 +20,12 @@ const char* to_string(StepStatus status);
 struct ImmEstimate {
   double t = 0.0;
   StepStatus status = StepStatus::kUpdated;
-  int num_measured = 0;     // measurement components used in the update
+  int num_measured = 0;        // measurement components used in the update
   int num_rejected_modes = 0;  // modes whose filter failed this step
 
-  Eigen::VectorXd mode_probabilities;  // mu_k^j, sums to 1 (eq. 9 with c_j)
-  Eigen::VectorXd log_likelihoods;     // log Lambda_k^j; NaN on predict-only, -inf if rejected
-  Eigen::VectorXd nis;                 // nu' S^-1 nu per mode; NaN when not updated
+  Eigen::VectorXd mode_probabilities;             // mu_k^j, sums to 1 (eq. 9 with c_j)
+  Eigen::VectorXd log_likelihoods;                // log Lambda_k^j; NaN on predict-only, -inf if rejected
+  Eigen::VectorXd nis;                            // nu' S^-1 nu per mode; NaN when not updated
   std::vector<Eigen::VectorXd> mode_states;       // x_k^{+j}
   std::vector<Eigen::MatrixXd> mode_covariances;  // P_k^{+j}
   Eigen::VectorXd state;                          // combined, eq. 10

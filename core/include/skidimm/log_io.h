@@ -39,7 +39,7 @@ class CsvReader {
   // false at end of file. Blank lines are skipped. Throws LogError on a row
   // with the wrong number of fields or an unterminated quote.
   bool next(std::vector<std::string>* fields);
-  long line() const { return line_; }            // line of the row last read (1-based)
+  long line() const { return line_; }  // line of the row last read (1-based)
   std::uintmax_t bytes_read() const { return bytes_read_; }
   std::uintmax_t file_size() const { return file_size_; }
 
@@ -59,9 +59,9 @@ class CsvReader {
 struct LogSample {
   double t = 0.0;
   Eigen::VectorXd u;
-  Eigen::VectorXd z;        // NaN where the cell is empty or "nan"
-  std::string truth_mode;   // empty if the bank has no truth column
-  long row = 0;             // 1-based data row
+  Eigen::VectorXd z;       // NaN where the cell is empty or "nan"
+  std::string truth_mode;  // empty if the bank has no truth column
+  long row = 0;            // 1-based data row
 };
 
 class LogReader {

@@ -15,9 +15,9 @@ namespace skidimm {
 // capacity-sized storage (size() rows are valid).
 struct SelectedMeasurement {
   int size = 0;
-  Eigen::VectorXd z;       // measured values
-  Eigen::MatrixXd h;       // selected rows of H
-  Eigen::MatrixXd r;       // selected block of R
+  Eigen::VectorXd z;           // measured values
+  Eigen::MatrixXd h;           // selected rows of H
+  Eigen::MatrixXd r;           // selected block of R
   std::vector<bool> is_angle;  // row wraps at +-pi
   std::vector<int> rows;       // which rows of the full z
 };

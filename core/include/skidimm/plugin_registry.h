@@ -44,7 +44,7 @@ struct PluginDescriptor {
   std::string description;
   std::vector<std::string> parameter_docs;  // "key (shape): description"
   std::vector<std::string> parameter_keys;
-  std::string error;  // non-empty: the library is unusable, and why
+  std::string error;      // non-empty: the library is unusable, and why
   bool shadowed = false;  // a plugin of the same name comes earlier on the path
 };
 

@@ -17,10 +17,10 @@ inline constexpr int kAbiVersion = 1;
 // Names of the symbols SKIDIMM_EXPORT_MOTION_MODEL exports.
 // The ABI version and the plugin name are plain C types, readable even from a
 // plugin built against another ABI, so the loader can say which plugin is stale.
-inline constexpr char kAbiVersionSymbol[] = "skidimm_abi_version";        // int()
-inline constexpr char kPluginNameSymbol[] = "skidimm_plugin_name";        // const char*()
-inline constexpr char kPluginInfoSymbol[] = "skidimm_plugin_info";        // const PluginInfo*()
-inline constexpr char kFactorySymbol[] = "skidimm_create_motion_model";   // MotionModelFactory
+inline constexpr char kAbiVersionSymbol[] = "skidimm_abi_version";       // int()
+inline constexpr char kPluginNameSymbol[] = "skidimm_plugin_name";       // const char*()
+inline constexpr char kPluginInfoSymbol[] = "skidimm_plugin_info";       // const PluginInfo*()
+inline constexpr char kFactorySymbol[] = "skidimm_create_motion_model";  // MotionModelFactory
 
 }  // namespace sdk
 }  // namespace skidimm

@@ -60,19 +60,18 @@ MotionModel* create_model(const ParameterSet& params, std::string* error) noexce
 }  // namespace sdk
 }  // namespace skidimm
 
-#define SKIDIMM_EXPORT_MOTION_MODEL(ModelClass, plugin_info)                                        \
-  namespace skidimm_plugin_exports {                                                                \
-  int abi_version() noexcept { return ::skidimm::sdk::kAbiVersion; }                                \
-  const char* plugin_name() noexcept { return (plugin_info).name; }                                 \
-  const ::skidimm::sdk::PluginInfo* info() noexcept { return &(plugin_info); }                      \
-  ::skidimm::sdk::MotionModel* create(const ::skidimm::sdk::ParameterSet& params,                   \
-                                      std::string* error) noexcept {                                \
-    return ::skidimm::sdk::internal::create_model<ModelClass>(params, error);                       \
-  }                                                                                                 \
-  }                                                                                                 \
-  BOOST_DLL_ALIAS(skidimm_plugin_exports::abi_version, skidimm_abi_version)                         \
-  BOOST_DLL_ALIAS(skidimm_plugin_exports::plugin_name, skidimm_plugin_name)                         \
-  BOOST_DLL_ALIAS(skidimm_plugin_exports::info, skidimm_plugin_info)                                \
+#define SKIDIMM_EXPORT_MOTION_MODEL(ModelClass, plugin_info)                                                     \
+  namespace skidimm_plugin_exports {                                                                             \
+  int abi_version() noexcept { return ::skidimm::sdk::kAbiVersion; }                                             \
+  const char* plugin_name() noexcept { return (plugin_info).name; }                                              \
+  const ::skidimm::sdk::PluginInfo* info() noexcept { return &(plugin_info); }                                   \
+  ::skidimm::sdk::MotionModel* create(const ::skidimm::sdk::ParameterSet& params, std::string* error) noexcept { \
+    return ::skidimm::sdk::internal::create_model<ModelClass>(params, error);                                    \
+  }                                                                                                              \
+  }                                                                                                              \
+  BOOST_DLL_ALIAS(skidimm_plugin_exports::abi_version, skidimm_abi_version)                                      \
+  BOOST_DLL_ALIAS(skidimm_plugin_exports::plugin_name, skidimm_plugin_name)                                      \
+  BOOST_DLL_ALIAS(skidimm_plugin_exports::info, skidimm_plugin_info)                                             \
   BOOST_DLL_ALIAS(skidimm_plugin_exports::create, skidimm_create_motion_model)
 
 #endif  // SKIDIMM_SDK_EXPORT_H_

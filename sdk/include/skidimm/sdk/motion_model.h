@@ -54,23 +54,20 @@ class BOOST_SYMBOL_VISIBLE MotionModel {
   virtual void get_parameters(Eigen::Ref<Eigen::VectorXd> values) const noexcept = 0;
   // Returns false (and explains in *error, if given) when values are invalid;
   // the model is then unchanged.
-  virtual bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>& values,
-                              std::string* error) noexcept = 0;
+  virtual bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>& values, std::string* error) noexcept = 0;
 
   // --- Dynamics ---
   // x_next = x after a step of dt seconds with input u held constant.
   // predict(x, u, 0) must return x. Returns false if the state cannot be
   // propagated (the output is then unspecified).
-  virtual bool predict(const Eigen::Ref<const Eigen::VectorXd>& x,
-                       const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
-                       Eigen::Ref<Eigen::VectorXd> x_next) const noexcept = 0;
+  virtual bool predict(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+                       double dt, Eigen::Ref<Eigen::VectorXd> x_next) const noexcept = 0;
 
   // Jacobian of predict() with respect to x (state_dim x state_dim). The
   // default differentiates predict() numerically; models override it with an
   // analytic form and report so in has_analytic_jacobian().
-  virtual bool jacobian(const Eigen::Ref<const Eigen::VectorXd>& x,
-                        const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
-                        Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept {
+  virtual bool jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+                        double dt, Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept {
     auto step = [&](const Eigen::VectorXd& xp, Eigen::VectorXd& out) { return predict(xp, u, dt, out); };
     auto angle = [this](int i) { return is_angle(i); };
     return numeric_state_jacobian(step, angle, x, jacobian);

@@ -21,8 +21,8 @@ namespace sdk {
 namespace internal {
 
 template <typename Vector, typename Matrix, typename Predict, typename IsAngle>
-bool central_differences(const Predict& predict, const IsAngle& is_angle, const Vector& x,
-                         Vector& x_perturbed, Vector& plus, Vector& minus, Matrix& jacobian) {
+bool central_differences(const Predict& predict, const IsAngle& is_angle, const Vector& x, Vector& x_perturbed,
+                         Vector& plus, Vector& minus, Matrix& jacobian) {
   const Eigen::Index n = x.size();
   // cbrt(eps) balances truncation and round-off error for central differences.
   const double relative_step = std::cbrt(std::numeric_limits<double>::epsilon());
@@ -47,8 +47,8 @@ bool central_differences(const Predict& predict, const IsAngle& is_angle, const 
 
 // Dynamic-size form, for any MotionModel.
 template <typename Predict, typename IsAngle>
-bool numeric_state_jacobian(const Predict& predict, const IsAngle& is_angle,
-                            const Eigen::Ref<const Eigen::VectorXd>& x, Eigen::Ref<Eigen::MatrixXd> jacobian) {
+bool numeric_state_jacobian(const Predict& predict, const IsAngle& is_angle, const Eigen::Ref<const Eigen::VectorXd>& x,
+                            Eigen::Ref<Eigen::MatrixXd> jacobian) {
   const Eigen::VectorXd x_copy = x;
   Eigen::VectorXd x_perturbed(x.size()), plus(x.size()), minus(x.size());
   return internal::central_differences(predict, is_angle, x_copy, x_perturbed, plus, minus, jacobian);

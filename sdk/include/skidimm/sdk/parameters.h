@@ -67,16 +67,15 @@ class ParameterSet {
   }
 
   // Reads a required rows x cols matrix.
-  bool get_matrix(const std::string& key, int rows, int cols, Eigen::MatrixXd* value,
-                  std::string* error) const {
+  bool get_matrix(const std::string& key, int rows, int cols, Eigen::MatrixXd* value, std::string* error) const {
     const Eigen::MatrixXd* m = find(key);
     if (m == nullptr) {
-      return fail(error, "missing parameter '" + key + "' (a " + std::to_string(rows) + "x" +
-                             std::to_string(cols) + " matrix)");
+      return fail(error, "missing parameter '" + key + "' (a " + std::to_string(rows) + "x" + std::to_string(cols) +
+                             " matrix)");
     }
     if (m->rows() != rows || m->cols() != cols) {
-      return fail(error, "parameter '" + key + "' must be " + std::to_string(rows) + "x" +
-                             std::to_string(cols) + ", got " + shape(*m));
+      return fail(error, "parameter '" + key + "' must be " + std::to_string(rows) + "x" + std::to_string(cols) +
+                             ", got " + shape(*m));
     }
     *value = *m;
     return true;
@@ -111,9 +110,8 @@ class ParameterSet {
 
 // Builds the flat entries for a rows x cols matrix parameter, row-major
 // ("A[0,0]", "A[0,1]", ...), which is the order plugins use in get/set.
-inline void append_matrix_parameter_info(const std::string& key, int rows, int cols,
-                                         const std::string& description, ParameterScope scope,
-                                         std::vector<ParameterInfo>* info) {
+inline void append_matrix_parameter_info(const std::string& key, int rows, int cols, const std::string& description,
+                                         ParameterScope scope, std::vector<ParameterInfo>* info) {
   for (int r = 0; r < rows; ++r) {
     for (int c = 0; c < cols; ++c) {
       ParameterInfo p;

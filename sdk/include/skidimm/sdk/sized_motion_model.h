@@ -39,16 +39,16 @@ class SizedMotionModel : public MotionModel {
     return false;
   }
 
-  bool predict(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
-               double dt, Eigen::Ref<Eigen::VectorXd> x_next) const noexcept final {
+  bool predict(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+               Eigen::Ref<Eigen::VectorXd> x_next) const noexcept final {
     State next;
     if (!predict_fixed(State(x), Input(u), dt, &next)) return false;
     x_next = next;
     return true;
   }
 
-  bool jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
-                double dt, Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept final {
+  bool jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept final {
     const State x_fixed(x);
     const Input u_fixed(u);
     Jacobian fixed;

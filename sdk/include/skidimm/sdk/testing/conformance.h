@@ -103,7 +103,8 @@ inline ::testing::AssertionResult MotionModelConforms(MotionModel& model, const 
   const Eigen::Index num_parameters = static_cast<Eigen::Index>(info.size());
   names.clear();
   for (const auto& entry : info) {
-    if (entry.name.empty() || !names.insert(entry.name).second) fail("parameter name '" + entry.name + "' is empty or repeated");
+    if (entry.name.empty() || !names.insert(entry.name).second)
+      fail("parameter name '" + entry.name + "' is empty or repeated");
     if (!(entry.lower_bound <= entry.upper_bound)) fail("parameter '" + entry.name + "' has lower bound > upper bound");
   }
   Eigen::VectorXd values(num_parameters);
