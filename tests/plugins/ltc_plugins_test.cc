@@ -4,6 +4,7 @@
 
 #include "skidimm/plugin_registry.h"
 #include "skidimm/sdk/testing/conformance.h"
+#include "skidimm/sdk/testing/plugin_lifecycle.h"
 
 namespace skidimm {
 namespace {
@@ -67,6 +68,12 @@ TEST_P(LtcPlugins, RejectsMissingOrMisshapedParameters) {
   sdk::ParameterSet wrong = terrain_params();
   wrong.set("A", Eigen::Matrix3d::Identity());
   EXPECT_THAT(creation_error(wrong), ::testing::HasSubstr("parameter 'A' must be 2x2, got 3x3"));
+}
+
+TEST_P(LtcPlugins, SurvivesRepeatedLoadAndUnload) {
+  const std::string file =
+      std::string(GetParam()) == "ltc_linear" ? SKIDIMM_LTC_LINEAR_PLUGIN : SKIDIMM_LTC_SHARED_PLUGIN;
+  EXPECT_PLUGIN_SURVIVES_RELOAD(file, terrain_params(), Eigen::Vector2d(0.8, -0.3), Eigen::Vector2d(3.0, 6.5), 0.02);
 }
 
 INSTANTIATE_TEST_SUITE_P(Bundled, LtcPlugins, ::testing::Values("ltc_linear", "ltc_shared"));

@@ -6,6 +6,7 @@
 #include "skidimm/plugin_registry.h"
 #include "skidimm/sdk/angles.h"
 #include "skidimm/sdk/testing/conformance.h"
+#include "skidimm/sdk/testing/plugin_lifecycle.h"
 
 namespace skidimm {
 namespace {
@@ -34,6 +35,11 @@ TEST_F(StcKinematic, ConformsAtSeveralHeadingsIncludingTheSeam) {
   EXPECT_TRUE(model->has_analytic_jacobian());
   EXPECT_TRUE(model->is_angle(2));
   EXPECT_FALSE(model->is_angle(0));
+}
+
+TEST_F(StcKinematic, SurvivesRepeatedLoadAndUnload) {
+  EXPECT_PLUGIN_SURVIVES_RELOAD(SKIDIMM_STC_KINEMATIC_PLUGIN, slip_params(0.85, 0.68), Eigen::Vector3d(1.0, -2.0, 0.4),
+                                Eigen::Vector2d(2.0, 7.0), 0.05);
 }
 
 TEST_F(StcKinematic, PredictsEquationThreeByHand) {

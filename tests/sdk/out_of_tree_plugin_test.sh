@@ -1,0 +1,74 @@
+#!/usr/bin/env bash
+# Installs skidimm into a temporary prefix, builds the third-party example
+# plugin (sdk/examples/icr_kinematic) out of tree with only that prefix on
+# CMAKE_PREFIX_PATH, runs its conformance tests, and has the installed,
+# unmodified skidimm load it from a YAML bank and run it.
+#   out_of_tree_plugin_test.sh <skidimm build dir> <skidimm source dir> <work dir>
+set -euo pipefail
+build=$1
+source=$2
+work=$3
+prefix="$work/prefix"
+example_build="$work/icr_kinematic-build"
+
+fail() { echo "FAIL: $*" >&2; exit 1; }
+step() { echo "== $*"; }
+
+rm -rf "$work"
+mkdir -p "$work"
+
+step "install skidimm into $prefix"
+cmake --install "$build" --prefix "$prefix" >"$work/install.log"
+for f in bin/skidimm include/skidimm/imm.h include/skidimm/sdk/export.h include/skidimm/sdk/testing/conformance.h \
+         share/skidimm/configs/ltc_terrains.yaml share/skidimm/examples/icr_kinematic/CMakeLists.txt; do
+  [ -e "$prefix/$f" ] || fail "not installed: $f"
+done
+config=$(find "$prefix" -name skidimmConfig.cmake | head -n 1)
+[ -n "$config" ] || fail "no skidimmConfig.cmake installed"
+[ -e "$(dirname "$config")/skidimmConfigVersion.cmake" ] || fail "no package version file"
+
+step "the installed skidimm finds its bundled plugins without being told where"
+"$prefix/bin/skidimm" plugins >"$work/plugins.txt"
+grep -q "^ltc_linear 1.0.0" "$work/plugins.txt" || fail "installed skidimm does not list ltc_linear: $(cat "$work/plugins.txt")"
+grep -q "$prefix" "$work/plugins.txt" || fail "bundled plugins not found under the prefix"
+
+step "build the example plugin against the installed SDK only"
+cmake -S "$source/sdk/examples/icr_kinematic" -B "$example_build" -DCMAKE_PREFIX_PATH="$prefix" \
+  -DCMAKE_BUILD_TYPE=Release >"$work/configure.log" 2>&1 || { cat "$work/configure.log"; fail "configure"; }
+cmake --build "$example_build" -j 2 >"$work/build.log" 2>&1 || { cat "$work/build.log"; fail "build"; }
+plugin="$example_build/icr_kinematic.so"
+[ -f "$plugin" ] || fail "no $plugin"
+# Hidden visibility: only the four plugin symbols (and Boost.DLL's section) are exported.
+exported=$(nm -D --defined-only "$plugin" | awk '{print $3}' | grep -c '^skidimm_' || true)
+[ "$exported" -eq 4 ] || fail "expected 4 exported skidimm_ symbols, found $exported"
+if nm -DC --defined-only "$plugin" | grep -q "IcrKinematicModel::"; then fail "model internals are exported"; fi
+
+step "the example's own conformance and reload tests"
+"$example_build/icr_kinematic_test" --gtest_brief=1 >"$work/example_test.log" 2>&1 || {
+  cat "$work/example_test.log"
+  fail "example tests"
+}
+
+step "the installed skidimm lists and validates the new plugin"
+"$prefix/bin/skidimm" plugins --plugin-path "$example_build" >"$work/plugins2.txt"
+grep -q "^icr_kinematic 0.1.0" "$work/plugins2.txt" || fail "plugin not listed: $(cat "$work/plugins2.txt")"
+grep -q "y_icr_l (scalar)" "$work/plugins2.txt" || fail "parameter docs not shown"
+bank="$prefix/share/skidimm/examples/icr_kinematic/icr_mixed_bank.yaml"
+"$prefix/bin/skidimm" validate "$bank" --plugin-path "$example_build" >"$work/validate.txt"
+grep -q "icr_grip .*icr_kinematic" "$work/validate.txt" || fail "validate: $(cat "$work/validate.txt")"
+
+step "run the mixed bank over the installed example log"
+"$prefix/bin/skidimm" run --bank "$bank" --plugin-path "$example_build" \
+  --input "$prefix/share/skidimm/configs/examples/stc_switching.csv" --output "$work/out.csv" 2>"$work/run.txt"
+head -n 1 "$work/out.csv" | grep -q "^t,mu_icr_grip,mu_slip_FR_RR,mu_slip_FL_FR_RL_RR,X,Y,theta" ||
+  fail "unexpected output header: $(head -n 1 "$work/out.csv")"
+rows=$(($(wc -l <"$work/out.csv") - 1))
+inputs=$(($(wc -l <"$prefix/share/skidimm/configs/examples/stc_switching.csv") - 1))
+[ "$rows" -eq "$inputs" ] || fail "$rows output rows for $inputs input rows"
+tail -n 1 "$work/out.csv" | grep -q ",slip_FL_FR_RL_RR,slip_FL_FR_RL_RR," || fail "final mode: $(tail -n 1 "$work/out.csv")"
+
+step "without the plugin's directory the bank fails with a clear error"
+if "$prefix/bin/skidimm" validate "$bank" 2>"$work/missing.txt"; then fail "validate passed without the plugin"; fi
+grep -q "no plugin named 'icr_kinematic'" "$work/missing.txt" || fail "message: $(cat "$work/missing.txt")"
+
+echo "out-of-tree plugin: all checks passed"
