@@ -25,6 +25,16 @@ struct RunOptions {
 };
 
 int run(const RunOptions& options);
+
+struct SimulateOptions {
+  std::filesystem::path scenario;
+  std::filesystem::path output;
+  bool has_seed = false;
+  unsigned long long seed = 0;
+  double duration = 0.0;  // 0: the scenario's
+  bool quiet = false;
+};
+int simulate(const SimulateOptions& options);
 int validate(const std::filesystem::path& bank, const std::vector<std::filesystem::path>& plugin_paths);
 int plugins(const std::vector<std::filesystem::path>& plugin_paths);
 

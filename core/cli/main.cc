@@ -2,6 +2,7 @@
 //
 //   skidimm run --bank B.yaml --input log.csv --output out.csv
 //   skidimm validate B.yaml
+//   skidimm simulate --scenario S.yaml --output log.csv
 //   skidimm plugins
 #include <CLI/CLI.hpp>
 #include <filesystem>
@@ -44,6 +45,19 @@ int main(int argc, char** argv) {
   validate->add_option("bank", validate_bank, "Bank file (YAML)")->required();
   add_plugin_path(validate);
 
+  SimulateOptions simulate_options;
+  std::string scenario, simulate_output;
+  CLI::App* simulate =
+      app.add_subcommand("simulate", "Simulate a skid-steer robot driving a scenario and write its sensor log");
+  simulate->add_option("--scenario,-s", scenario, "Scenario file (YAML), see docs/simulation.md")
+      ->required()
+      ->check(CLI::ExistingFile);
+  simulate->add_option("--output,-o", simulate_output, "Log CSV to write")->required();
+  simulate->add_option("--seed", simulate_options.seed, "Random seed (default: the scenario's)");
+  simulate->add_option("--duration", simulate_options.duration, "Seconds to simulate (default: the scenario's)")
+      ->check(CLI::PositiveNumber);
+  simulate->add_flag("--quiet,-q", simulate_options.quiet, "No summary on stderr");
+
   CLI::App* plugins = app.add_subcommand("plugins", "List the motion-model plugins found on the search path");
   add_plugin_path(plugins);
 
@@ -63,5 +77,11 @@ int main(int argc, char** argv) {
     return skidimm::cli::run(run_options);
   }
   if (*validate) return skidimm::cli::validate(validate_bank, paths);
+  if (*simulate) {
+    simulate_options.scenario = scenario;
+    simulate_options.output = simulate_output;
+    simulate_options.has_seed = simulate->count("--seed") > 0;
+    return skidimm::cli::simulate(simulate_options);
+  }
   return skidimm::cli::plugins(paths);
 }

@@ -1,0 +1,37 @@
+#include <cstdio>
+#include <iostream>
+
+#include "commands.h"
+#include "skidimm/errors.h"
+#include "skidimm/simulation/scenario.h"
+
+namespace skidimm {
+namespace cli {
+
+int simulate(const SimulateOptions& options) {
+  try {
+    simulation::Scenario scenario = simulation::load_scenario(options.scenario);
+    if (options.duration > 0.0) scenario.duration = options.duration;
+    const std::uint64_t seed = options.has_seed ? options.seed : scenario.seed;
+    const simulation::SimulationSummary summary = simulation::simulate(scenario, seed, options.output);
+    if (!options.quiet) {
+      std::string modes;
+      for (const std::string& m : summary.modes_driven) modes += (modes.empty() ? "" : " -> ") + m;
+      std::fprintf(stderr,
+                   "skidimm simulate: scenario '%s' (%s, %.1f s, seed %llu): %ld rows -> %s\n"
+                   "  modes: %s\n  peak horizontal acceleration %.2f m/s^2 (friction limit %.2f m/s^2)\n",
+                   scenario.name.c_str(), simulation::to_string(scenario.maneuver.type), scenario.duration,
+                   static_cast<unsigned long long>(seed), summary.rows, options.output.string().c_str(),
+                   modes.c_str(), summary.max_horizontal_accel, summary.max_friction_accel);
+    }
+    return kExitOk;
+  } catch (const Error& e) {
+    std::cerr << "skidimm simulate: error: " << e.what() << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << "skidimm simulate: unexpected error: " << e.what() << "\n";
+  }
+  return kExitFailure;
+}
+
+}  // namespace cli
+}  // namespace skidimm
