@@ -35,6 +35,24 @@ struct SimulateOptions {
   bool quiet = false;
 };
 int simulate(const SimulateOptions& options);
+
+struct FitCommandOptions {
+  std::filesystem::path bank;
+  std::vector<std::string> logs;       // [MODE=]FILE[+FILE...]
+  std::vector<std::string> held_out;   // same form, evaluated after the fit
+  std::string mode;                    // the mode unlabelled logs belong to
+  std::string name;                    // output name of that mode (a new terrain)
+  bool shared = false;                 // fit the bank-level parameters jointly
+  int window = 1;
+  std::string loss = "huber";
+  double loss_scale = 3.0;
+  std::filesystem::path output_entry;
+  std::filesystem::path append_to;
+  std::filesystem::path output_bank;
+  std::vector<std::filesystem::path> plugin_paths;
+  std::string command_line;            // recorded in written files
+};
+int fit(const FitCommandOptions& options);
 int validate(const std::filesystem::path& bank, const std::vector<std::filesystem::path>& plugin_paths);
 int plugins(const std::vector<std::filesystem::path>& plugin_paths);
 

@@ -3,6 +3,7 @@
 //   skidimm run --bank B.yaml --input log.csv --output out.csv
 //   skidimm validate B.yaml
 //   skidimm simulate --scenario S.yaml --output log.csv
+//   skidimm fit --bank B.yaml --log MODE=log.csv [--append-to B.yaml]
 //   skidimm plugins
 #include <CLI/CLI.hpp>
 #include <filesystem>
@@ -58,6 +59,32 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   simulate->add_flag("--quiet,-q", simulate_options.quiet, "No summary on stderr");
 
+  FitCommandOptions fit_options;
+  std::string fit_bank, entry_output, append_to, bank_output;
+  CLI::App* fit = app.add_subcommand("fit", "Fit the parameters and process noise of a bank's modes to logs");
+  fit->add_option("--bank,-b", fit_bank, "Bank file giving the models, columns and measurement noise")
+      ->required()
+      ->check(CLI::ExistingFile);
+  fit->add_option("--log,-l", fit_options.logs,
+                  "[MODE=]FILE[+FILE...]: a log of MODE (files joined with + are read side by side); repeatable")
+      ->required();
+  fit->add_option("--mode,-m", fit_options.mode, "The mode that logs without MODE= show; its values start the fit");
+  fit->add_option("--name", fit_options.name, "Name of the fitted --mode in the output (e.g. a new terrain)");
+  fit->add_flag("--shared", fit_options.shared,
+                "Also fit the bank-level (shared:) parameters jointly over every mode's logs, then each mode's own");
+  fit->add_option("--window", fit_options.window, "Measured rows per prediction window: 1 = one-step (default)")
+      ->check(CLI::PositiveNumber);
+  fit->add_option("--loss", fit_options.loss, "Robust loss: huber (default), cauchy, none")
+      ->check(CLI::IsMember({"huber", "cauchy", "none"}));
+  fit->add_option("--loss-scale", fit_options.loss_scale, "Loss scale in measurement standard deviations (3)")
+      ->check(CLI::PositiveNumber);
+  fit->add_option("--held-out", fit_options.held_out, "[MODE=]FILE[+FILE...] to evaluate after fitting; repeatable");
+  fit->add_option("--output-entry", entry_output, "Write the fitted mode entries (YAML) to this file");
+  fit->add_option("--append-to", append_to, "Append the fitted mode to this bank file (comments kept)")
+      ->check(CLI::ExistingFile);
+  fit->add_option("--output-bank", bank_output, "Write the whole bank with fitted values to this file");
+  add_plugin_path(fit);
+
   CLI::App* plugins = app.add_subcommand("plugins", "List the motion-model plugins found on the search path");
   add_plugin_path(plugins);
 
@@ -77,6 +104,16 @@ int main(int argc, char** argv) {
     return skidimm::cli::run(run_options);
   }
   if (*validate) return skidimm::cli::validate(validate_bank, paths);
+  if (*fit) {
+    fit_options.bank = fit_bank;
+    fit_options.output_entry = entry_output;
+    fit_options.append_to = append_to;
+    fit_options.output_bank = bank_output;
+    fit_options.plugin_paths = paths;
+    fit_options.command_line = "skidimm";
+    for (int i = 1; i < argc; ++i) fit_options.command_line += std::string(" ") + argv[i];
+    return skidimm::cli::fit(fit_options);
+  }
   if (*simulate) {
     simulate_options.scenario = scenario;
     simulate_options.output = simulate_output;

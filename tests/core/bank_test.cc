@@ -82,7 +82,8 @@ TEST(BankConfig, ParsesTheValidBank) {
 }
 
 TEST(BankConfig, EveryBundledBankLoadsWithItsPlugins) {
-  for (const char* name : {"ltc_terrains", "ltc_shared", "stc_slip4", "stc_slip16"}) {
+  for (const char* name : {"ltc_terrains", "ltc_shared", "stc_slip4", "stc_slip16", "physical/ltc_terrains",
+                           "physical/ltc_shared", "physical/stc_slip4", "physical/stc_slip16", "husky/ice_ltc"}) {
     const Bank bank = Bank::load(kSourceDir + "/configs/" + name + ".yaml", {kPluginDir});
     EXPECT_EQ(bank.models.size(), bank.config.modes.size()) << name;
   }

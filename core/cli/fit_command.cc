@@ -1,0 +1,218 @@
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include "commands.h"
+#include "skidimm/bank.h"
+#include "skidimm/errors.h"
+#include "skidimm/fitting/bank_writer.h"
+#include "skidimm/fitting/model_fitter.h"
+#include "skidimm/fitting/trajectory.h"
+
+namespace skidimm {
+namespace cli {
+
+namespace fs = std::filesystem;
+using fitting::FitReport;
+using fitting::ModeLogs;
+
+namespace {
+
+struct LabelledLog {
+  std::string mode;  // empty: the --mode
+  std::vector<fs::path> files;
+};
+
+// "[MODE=]a.csv[+b.csv...]"
+LabelledLog parse_log(const std::string& text) {
+  LabelledLog log;
+  std::string files = text;
+  const auto equals = text.find('=');
+  if (equals != std::string::npos) {
+    log.mode = text.substr(0, equals);
+    files = text.substr(equals + 1);
+  }
+  std::stringstream in(files);
+  std::string file;
+  while (std::getline(in, file, '+')) {
+    if (!file.empty()) log.files.emplace_back(file);
+  }
+  if (log.files.empty()) throw Error("--log '" + text + "': no file given");
+  return log;
+}
+
+std::vector<ModeLogs> load_logs(const BankConfig& config, const std::vector<std::string>& texts,
+                                const std::string& default_mode) {
+  std::map<int, ModeLogs> by_mode;
+  for (const std::string& text : texts) {
+    const LabelledLog log = parse_log(text);
+    const std::string mode = log.mode.empty() ? default_mode : log.mode;
+    if (mode.empty()) throw Error("--log '" + text + "': say which mode it shows (MODE=FILE) or give --mode");
+    const int j = config.mode_index(mode);
+    if (j < 0) throw Error("--log '" + text + "': the bank has no mode '" + mode + "'");
+    by_mode[j].mode = j;
+    by_mode[j].logs.push_back(fitting::load_trajectory(config, log.files));
+  }
+  std::vector<ModeLogs> out;
+  for (auto& [j, logs] : by_mode) out.push_back(std::move(logs));
+  return out;
+}
+
+std::string fixed(double v, int digits = 4) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), "%.*g", digits, v);
+  return buffer;
+}
+
+// One-step RMSE of "nothing changes" (x_{k+1} = x_k): the baseline a model must beat.
+Eigen::VectorXd persistence_rmse(const ModeLogs& data) {
+  const Eigen::Index m = data.logs.empty() ? 0 : data.logs[0].z.rows();
+  Eigen::VectorXd squared = Eigen::VectorXd::Zero(m), counts = Eigen::VectorXd::Zero(m);
+  for (const fitting::Trajectory& t : data.logs) {
+    std::vector<int> last(static_cast<std::size_t>(m), -1);
+    for (int k = 0; k < t.size(); ++k) {
+      for (Eigen::Index c = 0; c < m; ++c) {
+        if (!std::isfinite(t.z(c, k))) continue;
+        if (last[static_cast<std::size_t>(c)] >= 0) {
+          const double e = t.z(c, k) - t.z(c, last[static_cast<std::size_t>(c)]);
+          squared[c] += e * e;
+          counts[c] += 1.0;
+        }
+        last[static_cast<std::size_t>(c)] = k;
+      }
+    }
+  }
+  return (squared.array() / counts.array().max(1.0)).sqrt();
+}
+
+std::string rmse_text(const BankConfig& config, const Eigen::VectorXd& rmse) {
+  std::string out;
+  for (Eigen::Index c = 0; c < rmse.size(); ++c) {
+    out += (c ? ", " : "") + config.measurement.names[static_cast<std::size_t>(c)] + " " + fixed(rmse[c]);
+  }
+  return out;
+}
+
+void print_report(const BankConfig& config, const std::string& name, const ModeLogs& data, const FitReport& r) {
+  std::cerr << "mode '" << name << "': " << data.logs.size() << " log(s), " << r.residuals << " residuals, "
+            << r.iterations << " iterations, cost " << fixed(r.initial_cost) << " -> " << fixed(r.final_cost)
+            << ", condition number " << fixed(r.condition_number, 3) << "\n";
+  for (const fitting::ParameterEstimate& p : r.parameters) {
+    std::cerr << "  " << p.name << " = " << fixed(p.value, 6) << " +- " << fixed(p.standard_deviation, 2) << "\n";
+  }
+  std::cerr << "  one-step RMSE: " << rmse_text(config, r.rmse) << "\n";
+  std::cerr << "  (no-change baseline: " << rmse_text(config, persistence_rmse(data)) << ")\n";
+  std::cerr << "  Q = " << fitting::format_matrix(r.q_intensity) << "\n";
+  for (const std::string& w : r.warnings) std::cerr << "  warning: " << w << "\n";
+}
+
+}  // namespace
+
+int fit(const FitCommandOptions& options) {
+  try {
+    Bank bank = Bank::load(options.bank, options.plugin_paths);
+    const BankConfig& config = bank.config;
+    const std::vector<ModeLogs> data = load_logs(config, options.logs, options.mode);
+    if (data.empty()) throw Error("no logs given (--log)");
+
+    fitting::FitOptions fit_options;
+    fit_options.window = options.window;
+    fit_options.loss = options.loss;
+    fit_options.loss_scale = options.loss_scale;
+    std::map<int, FitReport> reports;
+    if (options.shared) {
+      fit_options.scope = sdk::ParameterScope::kBank;
+      const std::vector<FitReport> shared = fitting::fit(&bank, data, fit_options);
+      for (std::size_t i = 0; i < data.size(); ++i) reports[data[i].mode] = shared[i];
+    }
+    fit_options.scope = sdk::ParameterScope::kMode;
+    for (const ModeLogs& d : data) {
+      bool has_mode_parameters = false;
+      for (const auto& info : bank.models[static_cast<std::size_t>(d.mode)]->parameter_info()) {
+        has_mode_parameters = has_mode_parameters || info.scope == sdk::ParameterScope::kMode;
+      }
+      if (!has_mode_parameters) continue;
+      FitReport report = fitting::fit(&bank, {d}, fit_options).front();
+      if (reports.count(d.mode)) {  // keep the shared estimates in the report too
+        report.parameters.insert(report.parameters.begin(), reports[d.mode].parameters.begin(),
+                                 reports[d.mode].parameters.end());
+      }
+      reports[d.mode] = report;
+    }
+
+    auto output_name = [&](int j) {
+      const std::string& original = config.modes[static_cast<std::size_t>(j)].name;
+      return !options.name.empty() && original == options.mode ? options.name : original;
+    };
+    std::string logs_text;
+    for (const std::string& l : options.logs) logs_text += (logs_text.empty() ? "" : " ") + l;
+    std::string entries;
+    for (const ModeLogs& d : data) {
+      const FitReport& r = reports[d.mode];
+      print_report(config, output_name(d.mode), d, r);
+      std::string comment = "fitted by skidimm fit (window " + std::to_string(options.window) + ", " + options.loss +
+                            ") from " + std::to_string(d.logs.size()) + " log(s); one-step RMSE " +
+                            rmse_text(config, r.rmse);
+      entries += fitting::format_mode_entry(output_name(d.mode), config.modes[static_cast<std::size_t>(d.mode)].model,
+                                            *bank.models[static_cast<std::size_t>(d.mode)], r.q_intensity, {comment});
+    }
+
+    for (const std::string& text : options.held_out) {
+      const std::vector<ModeLogs> held = load_logs(config, {text}, options.mode);
+      const FitReport r = fitting::evaluate(bank, held.front());
+      std::cerr << "held out " << text << ": one-step RMSE " << rmse_text(config, r.rmse)
+                << " (no-change baseline " << rmse_text(config, persistence_rmse(held.front())) << ")\n";
+    }
+
+    if (!options.append_to.empty()) {
+      if (data.size() != 1) throw Error("--append-to takes the fit of exactly one mode");
+      fitting::append_mode_to_bank(options.append_to, entries);
+      std::cerr << "appended mode '" << output_name(data[0].mode) << "' to " << options.append_to.string() << "\n";
+    }
+    if (!options.output_bank.empty()) {
+      std::string modes_block = "modes:\n";
+      for (int j = 0; j < config.num_modes(); ++j) {
+        const auto fitted = reports.find(j);
+        if (fitted != reports.end()) {
+          for (const ModeLogs& d : data) {
+            if (d.mode != j) continue;
+            std::string comment = "one-step RMSE " + rmse_text(config, fitted->second.rmse) + " on " +
+                                  std::to_string(d.logs.size()) + " log(s)";
+            modes_block += fitting::format_mode_entry(output_name(j), config.modes[static_cast<std::size_t>(j)].model,
+                                                      *bank.models[static_cast<std::size_t>(j)],
+                                                      fitted->second.q_intensity, {comment});
+          }
+        } else {
+          modes_block += fitting::format_mode_entry(output_name(j), config.modes[static_cast<std::size_t>(j)].model,
+                                                    *bank.models[static_cast<std::size_t>(j)],
+                                                    config.modes[static_cast<std::size_t>(j)].q_intensity,
+                                                    {"not fitted: no log given for this mode"});
+        }
+      }
+      const std::string shared_block =
+          options.shared ? "shared: " + fitting::format_parameters(*bank.models[0], sdk::ParameterScope::kBank) : "";
+      fitting::write_bank_from_template(options.bank, options.output_bank,
+                                        {"Written by skidimm fit; reproduce with:", "  " + options.command_line},
+                                        shared_block, modes_block);
+      std::cerr << "wrote " << options.output_bank.string() << "\n";
+    }
+    if (!options.output_entry.empty()) {
+      std::ofstream out(options.output_entry, std::ios::binary | std::ios::trunc);
+      out << entries;
+      if (!out) throw Error("cannot write " + options.output_entry.string());
+    }
+    if (options.append_to.empty() && options.output_bank.empty() && options.output_entry.empty()) std::cout << entries;
+    return kExitOk;
+  } catch (const Error& e) {
+    std::cerr << "skidimm fit: error: " << e.what() << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << "skidimm fit: unexpected error: " << e.what() << "\n";
+  }
+  return kExitFailure;
+}
+
+}  // namespace cli
+}  // namespace skidimm

@@ -1,0 +1,46 @@
+// Writing fitted models back as bank YAML: a mode entry, a mode appended to
+// an existing bank (its comments and layout kept), or a whole bank written
+// from a template bank with fitted `shared:` and `modes:`. Every file written
+// is validated as a bank before it replaces anything (written to a temporary
+// file, then renamed).
+#ifndef SKIDIMM_FITTING_BANK_WRITER_H_
+#define SKIDIMM_FITTING_BANK_WRITER_H_
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "skidimm/bank.h"
+
+namespace skidimm {
+namespace fitting {
+
+// The `params:` of a model's parameters of one scope, as YAML flow text:
+// "{A: [[-5, 0], [0, -4]], B: [[...]]}" or "{k: 0.85, m: 0.68}".
+std::string format_parameters(const sdk::MotionModel& model, sdk::ParameterScope scope);
+
+// A matrix as YAML flow text, 7 significant digits.
+std::string format_matrix(const Eigen::MatrixXd& m);
+
+// One `modes:` list item (two-space indented), with comment lines above it.
+std::string format_mode_entry(const std::string& name, const std::string& model_name, const sdk::MotionModel& model,
+                              const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments);
+
+// Appends a mode entry at the end of the bank file's `modes:` list. Throws
+// ConfigError if the result is not a valid bank (e.g. a mode of that name
+// exists, or the transition matrix lists every mode) and leaves the file as
+// it was.
+void append_mode_to_bank(const std::filesystem::path& bank_file, const std::string& entry);
+
+// Writes `output`: the template's text with its leading comment replaced by
+// `header` (lines, without '#'), its `shared:` block set to `shared_block`
+// (omitted if empty) and its `modes:` block set to `modes_block`.
+void write_bank_from_template(const std::filesystem::path& template_file, const std::filesystem::path& output,
+                              const std::vector<std::string>& header, const std::string& shared_block,
+                              const std::string& modes_block);
+
+}  // namespace fitting
+}  // namespace skidimm
+
+#endif  // SKIDIMM_FITTING_BANK_WRITER_H_

@@ -1,0 +1,102 @@
+// Fitting a motion model's parameters to logs with Ceres, for ANY plugin.
+//
+// The fitter sees a model only through the SDK's generic interface: its flat
+// parameter vector (names, bounds, scopes) and predict(). It minimises the
+// model's prediction error over windows of a log:
+//
+//   start at a row where every state is measured (x_s = the measurement),
+//   propagate with the logged inputs (zero-order hold) through the next
+//   `window` measured rows, and compare predicted and measured components,
+//   each divided by its measurement standard deviation sqrt(R_ii).
+//
+// window = 1 is the one-step (equation-error) objective; larger windows are
+// the multi-step (simulation-error) objective, started at every `window`-th
+// fully measured row (multiple shooting). A robust loss (Huber, Cauchy) limits
+// the pull of outliers; parameter bounds come from the plugin. Derivatives are
+// central differences of predict() (the plugin boundary carries no templated
+// form). After the fit:
+//
+//   * parameter standard deviations from Ceres' covariance, scaled by the
+//     residual variance;
+//   * identifiability: the singular values of the residual Jacobian; a
+//     direction the logs do not excite is an error naming its parameters;
+//   * the process-noise intensity Q (diagonal) that makes the mode's own EKF
+//     consistent on its logs: the mean normalized innovation squared of each
+//     state's measurement is 1. The IMM compares modes by their innovation
+//     likelihoods, so a mode whose filter is over- or under-confident on its
+//     own data would be misjudged. The fitted parameters' errors are part of
+//     what Q absorbs;
+//   * RMSE of one-step predictions per measured component.
+#ifndef SKIDIMM_FITTING_MODEL_FITTER_H_
+#define SKIDIMM_FITTING_MODEL_FITTER_H_
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "skidimm/bank.h"
+#include "skidimm/errors.h"
+#include "skidimm/fitting/trajectory.h"
+
+namespace skidimm {
+namespace fitting {
+
+// The logs cannot determine the parameters (too short, not exciting them,
+// not measuring every state). what() says which and why.
+class FitError : public Error {
+ public:
+  using Error::Error;
+};
+
+struct FitOptions {
+  int window = 1;                   // measured rows per prediction window; 1 = one-step
+  std::string loss = "huber";       // huber, cauchy, none
+  double loss_scale = 3.0;          // in measurement standard deviations
+  int max_iterations = 200;
+  // Which parameters to fit, by scope: kMode fits each mode's own, kBank the
+  // bank-level (shared:) ones jointly over every mode's logs.
+  sdk::ParameterScope scope = sdk::ParameterScope::kMode;
+  // Singular values below this fraction of the largest mark a direction as
+  // not identifiable.
+  double identifiability_threshold = 1e-7;
+};
+
+struct ParameterEstimate {
+  std::string name;
+  double value = 0.0;
+  double standard_deviation = 0.0;  // NaN when not available
+};
+
+struct FitReport {
+  std::vector<ParameterEstimate> parameters;   // the fitted ones
+  Eigen::VectorXd rmse;                        // one-step, per measurement component
+  Eigen::MatrixXd q_intensity;                 // estimated process noise (state_dim x state_dim)
+  std::vector<std::string> warnings;
+  int residuals = 0;
+  int iterations = 0;
+  double initial_cost = 0.0;
+  double final_cost = 0.0;
+  double condition_number = 0.0;
+};
+
+// A mode's logs.
+struct ModeLogs {
+  int mode = 0;  // index in the bank
+  std::vector<Trajectory> logs;
+};
+
+// Fits the parameters of `options.scope` of the bank's models in place
+// (bank->models[j]->set_parameters) and returns one report per mode in
+// `data` (for kBank, the parameters are common and every report lists them).
+// Throws FitError.
+std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const FitOptions& options);
+
+// One-step RMSE and the process-noise estimate of mode `data.mode` at the
+// model's current parameters (part of every FitReport; exposed for held-out
+// evaluation).
+FitReport evaluate(const Bank& bank, const ModeLogs& data);
+
+}  // namespace fitting
+}  // namespace skidimm
+
+#endif  // SKIDIMM_FITTING_MODEL_FITTER_H_

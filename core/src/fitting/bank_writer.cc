@@ -1,0 +1,181 @@
+#include "skidimm/fitting/bank_writer.h"
+
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <sstream>
+
+#include "skidimm/errors.h"
+
+namespace skidimm {
+namespace fitting {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string number(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%.7g", v);
+  return buffer;
+}
+
+std::string read_text(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw ConfigError(file.string(), 0, "", "cannot read");
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// Writes text to <file>.tmp, checks it loads as a bank, then renames.
+void write_validated(const fs::path& file, const std::string& text) {
+  const fs::path temporary = file.string() + ".tmp";
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    out << text;
+    if (!out) throw ConfigError(temporary.string(), 0, "", "cannot write");
+  }
+  try {
+    load_bank_config(temporary);
+  } catch (const ConfigError& e) {
+    fs::remove(temporary);
+    throw ConfigError(file.string(), e.line(), e.field(),
+                      "the result would not be a valid bank, nothing was written: " + std::string(e.what()));
+  }
+  fs::rename(temporary, file);
+}
+
+bool is_top_level_key(const std::string& line) {
+  return !line.empty() && line[0] != ' ' && line[0] != '#' && line[0] != '-' && line.find(':') != std::string::npos;
+}
+
+std::vector<std::string> split_lines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::stringstream in(text);
+  std::string line;
+  while (std::getline(in, line)) lines.push_back(line);
+  return lines;
+}
+
+// [begin, end) lines of a top-level key's block; begin == end == size if absent.
+std::pair<std::size_t, std::size_t> block_of(const std::vector<std::string>& lines, const std::string& key) {
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    if (lines[i].rfind(key + ":", 0) == 0) {
+      std::size_t end = i + 1;
+      while (end < lines.size() && !is_top_level_key(lines[end])) ++end;
+      // Comment lines right before the next key belong to that key.
+      while (end > i + 1 && (lines[end - 1].empty() || lines[end - 1][0] == '#') && end < lines.size()) --end;
+      return {i, end};
+    }
+  }
+  return {lines.size(), lines.size()};
+}
+
+std::string join_lines(const std::vector<std::string>& lines) {
+  std::string out;
+  for (const std::string& l : lines) out += l + "\n";
+  return out;
+}
+
+}  // namespace
+
+std::string format_matrix(const Eigen::MatrixXd& m) {
+  if (m.size() == 1) return number(m(0, 0));
+  std::string out = "[";
+  for (Eigen::Index r = 0; r < m.rows(); ++r) {
+    out += (r ? ", [" : "[");
+    for (Eigen::Index c = 0; c < m.cols(); ++c) out += (c ? ", " : "") + number(m(r, c));
+    out += "]";
+  }
+  return out + "]";
+}
+
+std::string format_parameters(const sdk::MotionModel& model, sdk::ParameterScope scope) {
+  const auto& info = model.parameter_info();
+  Eigen::VectorXd values(static_cast<Eigen::Index>(info.size()));
+  model.get_parameters(values);
+  // Group the flat entries by key; "A[r,c]" entries form a matrix.
+  static const std::regex element(R"(^.*\[(\d+),(\d+)\]$)");
+  std::vector<std::string> keys;
+  std::map<std::string, std::vector<std::tuple<int, int, double>>> entries;
+  for (std::size_t i = 0; i < info.size(); ++i) {
+    if (info[i].scope != scope) continue;
+    if (!entries.count(info[i].key)) keys.push_back(info[i].key);
+    std::smatch match;
+    int r = 0, c = 0;
+    if (std::regex_match(info[i].name, match, element)) {
+      r = std::stoi(match[1]);
+      c = std::stoi(match[2]);
+    }
+    entries[info[i].key].emplace_back(r, c, values[static_cast<Eigen::Index>(i)]);
+  }
+  std::string out;
+  for (const std::string& key : keys) {
+    int rows = 0, cols = 0;
+    for (const auto& [r, c, v] : entries[key]) rows = std::max(rows, r + 1), cols = std::max(cols, c + 1);
+    Eigen::MatrixXd m = Eigen::MatrixXd::Zero(rows, cols);
+    for (const auto& [r, c, v] : entries[key]) m(r, c) = v;
+    out += (out.empty() ? "" : ", ") + key + ": " + format_matrix(m);
+  }
+  return "{" + out + "}";
+}
+
+std::string format_mode_entry(const std::string& name, const std::string& model_name, const sdk::MotionModel& model,
+                              const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments) {
+  std::string out;
+  for (const std::string& c : comments) out += "  # " + c + "\n";
+  out += "  - name: " + name + "\n";
+  out += "    model: " + model_name + "\n";
+  const std::string params = format_parameters(model, sdk::ParameterScope::kMode);
+  if (params != "{}") out += "    params: " + params + "\n";
+  out += "    Q: " + format_matrix(q_intensity) + "\n";
+  return out;
+}
+
+void append_mode_to_bank(const fs::path& bank_file, const std::string& entry) {
+  std::vector<std::string> lines = split_lines(read_text(bank_file));
+  const auto [begin, end] = block_of(lines, "modes");
+  if (begin == lines.size()) throw ConfigError(bank_file.string(), 0, "modes", "the bank has no modes: list");
+  // Insert after the last non-blank line of the modes block.
+  std::size_t at = end;
+  while (at > begin + 1 && lines[at - 1].find_first_not_of(' ') == std::string::npos) --at;
+  std::vector<std::string> entry_lines = split_lines(entry);
+  lines.insert(lines.begin() + static_cast<std::ptrdiff_t>(at), entry_lines.begin(), entry_lines.end());
+  write_validated(bank_file, join_lines(lines));
+}
+
+void write_bank_from_template(const fs::path& template_file, const fs::path& output,
+                              const std::vector<std::string>& header, const std::string& shared_block,
+                              const std::string& modes_block) {
+  std::vector<std::string> lines = split_lines(read_text(template_file));
+  std::size_t first = 0;
+  while (first < lines.size() && (lines[first].empty() || lines[first][0] == '#')) ++first;
+  lines.erase(lines.begin(), lines.begin() + static_cast<std::ptrdiff_t>(first));
+  auto replace = [&lines](const std::string& key, const std::string& block) {
+    const auto [begin, end] = block_of(lines, key);
+    std::vector<std::string> replacement = block.empty() ? std::vector<std::string>{} : split_lines(block);
+    if (begin == lines.size()) {
+      lines.insert(lines.end(), replacement.begin(), replacement.end());
+    } else {
+      lines.erase(lines.begin() + static_cast<std::ptrdiff_t>(begin), lines.begin() + static_cast<std::ptrdiff_t>(end));
+      lines.insert(lines.begin() + static_cast<std::ptrdiff_t>(begin), replacement.begin(), replacement.end());
+    }
+  };
+  // modes last, so a new shared: block goes before it.
+  if (!shared_block.empty()) {
+    const auto modes_at = block_of(lines, "modes").first;
+    if (block_of(lines, "shared").first == lines.size() && modes_at < lines.size()) {
+      std::vector<std::string> s = split_lines(shared_block);
+      lines.insert(lines.begin() + static_cast<std::ptrdiff_t>(modes_at), s.begin(), s.end());
+    } else {
+      replace("shared", shared_block);
+    }
+  }
+  replace("modes", modes_block);
+  std::string text;
+  for (const std::string& h : header) text += "# " + h + "\n";
+  write_validated(output, text + join_lines(lines));
+}
+
+}  // namespace fitting
+}  // namespace skidimm

@@ -1,0 +1,460 @@
+#include "skidimm/fitting/model_fitter.h"
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <sstream>
+
+#include "skidimm/covariance.h"
+#include "skidimm/ekf.h"
+#include "skidimm/measurement_model.h"
+#include "skidimm/sdk/angles.h"
+
+namespace skidimm {
+namespace fitting {
+
+namespace {
+
+// Where each state is measured: state i is row state_row[i] of z (a row of H
+// that picks that state alone). Fitting starts predictions from measured
+// states, so every state must be measured directly.
+struct MeasurementLayout {
+  std::vector<int> state_row;
+  Eigen::MatrixXd h;
+  Eigen::VectorXd sigma;          // sqrt(R_ii)
+  std::vector<bool> row_is_angle;
+  std::vector<bool> state_is_angle;
+  Eigen::MatrixXd r_state;        // R in state order
+};
+
+MeasurementLayout layout_of(const BankConfig& bank) {
+  MeasurementLayout m;
+  const MeasurementConfig& mc = bank.measurement;
+  m.h = mc.h;
+  m.sigma = mc.r.diagonal().cwiseSqrt();
+  m.row_is_angle = mc.is_angle;
+  m.state_is_angle = bank.angle_mask;
+  const int n = bank.state_dim();
+  m.state_row.assign(n, -1);
+  for (int row = 0; row < mc.h.rows(); ++row) {
+    for (int s = 0; s < n; ++s) {
+      if (mc.h(row, s) == 1.0 && mc.h.row(row).cwiseAbs().sum() == 1.0 && m.state_row[s] < 0) m.state_row[s] = row;
+    }
+  }
+  std::string missing;
+  for (int s = 0; s < n; ++s) {
+    if (m.state_row[s] < 0) missing += (missing.empty() ? "" : ", ") + bank.state_names[s];
+  }
+  if (!missing.empty()) {
+    throw FitError("fitting starts predictions from measured states, but the bank does not measure [" + missing +
+                   "] directly; list every state under measurement.observe");
+  }
+  m.r_state.resize(n, n);
+  for (int a = 0; a < n; ++a) {
+    for (int b = 0; b < n; ++b) m.r_state(a, b) = mc.r(m.state_row[a], m.state_row[b]);
+  }
+  return m;
+}
+
+bool fully_measured(const MeasurementLayout& m, const Trajectory& t, int k) {
+  for (int row : m.state_row) {
+    if (!std::isfinite(t.z(row, k))) return false;
+  }
+  return true;
+}
+
+bool any_measured(const Trajectory& t, int k) { return t.z.col(k).array().isFinite().any(); }
+
+Eigen::VectorXd measured_state(const MeasurementLayout& m, const Trajectory& t, int k) {
+  Eigen::VectorXd x(static_cast<Eigen::Index>(m.state_row.size()));
+  for (std::size_t s = 0; s < m.state_row.size(); ++s) x[static_cast<Eigen::Index>(s)] = t.z(m.state_row[s], k);
+  return x;
+}
+
+// Propagates x from row `from` to row `to` with the logged inputs.
+bool propagate(const sdk::MotionModel& model, const Trajectory& t, int from, int to, Eigen::VectorXd* x,
+               Eigen::MatrixXd* jacobian = nullptr) {
+  Eigen::VectorXd next(x->size());
+  Eigen::MatrixXd f(x->size(), x->size());
+  if (jacobian != nullptr) jacobian->setIdentity(x->size(), x->size());
+  for (int k = from; k < to; ++k) {
+    const double dt = t.t[k + 1] - t.t[k];
+    if (jacobian != nullptr) {
+      if (!model.jacobian(*x, t.u.col(k), dt, f)) return false;
+      *jacobian = f * *jacobian;
+    }
+    if (!model.predict(*x, t.u.col(k), dt, next)) return false;
+    *x = next;
+  }
+  return x->allFinite();
+}
+
+struct Window {
+  const Trajectory* trajectory;
+  int start;
+  std::vector<int> targets;  // measured rows after start, in order
+  int residuals;
+};
+
+std::vector<Window> make_windows(const MeasurementLayout& m, const Trajectory& t, int window) {
+  std::vector<Window> out;
+  std::vector<int> full;
+  for (int k = 0; k < t.size(); ++k) {
+    if (fully_measured(m, t, k)) full.push_back(k);
+  }
+  // One-step windows start at every fully measured row; multi-step windows
+  // every `window`-th one, so they do not overlap (multiple shooting).
+  for (std::size_t i = 0; i < full.size(); i += static_cast<std::size_t>(window)) {
+    Window w{&t, full[i], {}, 0};
+    for (int k = full[i] + 1; k < t.size() && static_cast<int>(w.targets.size()) < window; ++k) {
+      if (!any_measured(t, k)) continue;
+      w.targets.push_back(k);
+      w.residuals += static_cast<int>(t.z.col(k).array().isFinite().count());
+    }
+    if (!w.targets.empty()) out.push_back(w);
+  }
+  return out;
+}
+
+// Which entries of a model's flat parameter vector the problem's parameter
+// block sets: block index -> model index.
+struct ParameterMapping {
+  std::vector<int> model_index;
+  std::vector<int> block_index;
+};
+
+class WindowResidual {
+ public:
+  WindowResidual(sdk::MotionModel* model, Eigen::VectorXd base, ParameterMapping mapping, const MeasurementLayout* m,
+                 Window window)
+      : model_(model), base_(std::move(base)), mapping_(std::move(mapping)), m_(m), window_(std::move(window)) {}
+
+  bool operator()(double const* const* parameters, double* residuals) const {
+    Eigen::VectorXd full = base_;
+    for (std::size_t i = 0; i < mapping_.model_index.size(); ++i) {
+      full[mapping_.model_index[i]] = parameters[0][mapping_.block_index[i]];
+    }
+    if (!model_->set_parameters(full, nullptr)) return false;
+    const Trajectory& t = *window_.trajectory;
+    Eigen::VectorXd x = measured_state(*m_, t, window_.start);
+    int row = window_.start;
+    int r = 0;
+    for (int target : window_.targets) {
+      if (!propagate(*model_, t, row, target, &x)) return false;
+      row = target;
+      const Eigen::VectorXd predicted = m_->h * x;
+      for (Eigen::Index c = 0; c < t.z.rows(); ++c) {
+        if (!std::isfinite(t.z(c, target))) continue;
+        double e = t.z(c, target) - predicted[c];
+        if (m_->row_is_angle[c]) e = sdk::wrap_angle(e);
+        residuals[r++] = e / m_->sigma[c];
+      }
+    }
+    return true;
+  }
+
+ private:
+  sdk::MotionModel* model_;
+  Eigen::VectorXd base_;
+  ParameterMapping mapping_;
+  const MeasurementLayout* m_;
+  Window window_;
+};
+
+ceres::LossFunction* make_loss(const FitOptions& options) {
+  if (options.loss == "huber") return new ceres::HuberLoss(options.loss_scale);
+  if (options.loss == "cauchy") return new ceres::CauchyLoss(options.loss_scale);
+  if (options.loss == "none") return nullptr;
+  throw FitError("unknown loss '" + options.loss + "' (expected huber, cauchy or none)");
+}
+
+std::string describe_direction(const Eigen::VectorXd& v, const std::vector<std::string>& names) {
+  std::vector<std::pair<double, std::string>> parts;
+  for (Eigen::Index i = 0; i < v.size(); ++i) {
+    if (std::abs(v[i]) > 0.2) parts.emplace_back(std::abs(v[i]), names[static_cast<std::size_t>(i)]);
+  }
+  std::sort(parts.rbegin(), parts.rend());
+  std::string out;
+  for (const auto& p : parts) out += (out.empty() ? "" : ", ") + p.second;
+  return out;
+}
+
+// Mean normalized innovation squared per measurement component of the mode's
+// EKF with process-noise intensity `q`, over the logs.
+Eigen::VectorXd mean_component_nis(const Bank& bank, const sdk::MotionModel& model, const MeasurementLayout& m,
+                                   const ModeLogs& data, const Eigen::MatrixXd& q) {
+  const BankConfig& config = bank.config;
+  const MeasurementModel measurement(config.measurement.h, config.measurement.r, config.measurement.is_angle);
+  SelectedMeasurement selected = measurement.make_selection();
+  const Eigen::Index rows = measurement.measurement_dim();
+  Eigen::VectorXd sum = Eigen::VectorXd::Zero(rows), count = Eigen::VectorXd::Zero(rows);
+  for (const Trajectory& t : data.logs) {
+    ExtendedKalmanFilter filter(model, q, static_cast<int>(rows));
+    int k = 0;
+    while (k < t.size() && !fully_measured(m, t, k)) ++k;
+    if (k >= t.size()) continue;
+    filter.state() = measured_state(m, t, k);
+    filter.covariance() = m.r_state;
+    for (++k; k < t.size(); ++k) {
+      if (!filter.predict(t.u.col(k - 1), t.t[k] - t.t[k - 1])) break;
+      measurement.select(t.z.col(k), &selected);
+      if (selected.size == 0) continue;
+      // Per-component innovation and variance before the update.
+      const Eigen::VectorXd predicted = config.measurement.h * filter.state();
+      const Eigen::MatrixXd s = config.measurement.h * filter.covariance() * config.measurement.h.transpose() +
+                                config.measurement.r;
+      for (int a = 0; a < selected.size; ++a) {
+        const int c = selected.rows[a];
+        double e = t.z(c, k) - predicted[c];
+        if (m.row_is_angle[c]) e = sdk::wrap_angle(e);
+        sum[c] += e * e / s(c, c);
+        count[c] += 1.0;
+      }
+      if (!filter.update(selected).ok) break;
+    }
+  }
+  return sum.array() / count.array().max(1.0);
+}
+
+}  // namespace
+
+FitReport evaluate(const Bank& bank, const ModeLogs& data) {
+  const MeasurementLayout m = layout_of(bank.config);
+  const sdk::MotionModel& model = *bank.models[static_cast<std::size_t>(data.mode)];
+  const int n = bank.config.state_dim();
+  const Eigen::Index rows = static_cast<Eigen::Index>(bank.config.measurement.names.size());
+  FitReport report;
+  Eigen::VectorXd squared = Eigen::VectorXd::Zero(rows);
+  Eigen::VectorXd counts = Eigen::VectorXd::Zero(rows);
+  for (const Trajectory& t : data.logs) {
+    int previous = -1;
+    for (int k = 0; k < t.size(); ++k) {
+      if (!fully_measured(m, t, k)) continue;
+      if (previous >= 0) {
+        Eigen::VectorXd x = measured_state(m, t, previous);
+        if (propagate(model, t, previous, k, &x)) {
+          const Eigen::VectorXd predicted = m.h * x;
+          for (Eigen::Index c = 0; c < rows; ++c) {
+            if (!std::isfinite(t.z(c, k))) continue;
+            double e = t.z(c, k) - predicted[c];
+            if (m.row_is_angle[c]) e = sdk::wrap_angle(e);
+            squared[c] += e * e;
+            counts[c] += 1.0;
+          }
+        }
+      }
+      previous = k;
+    }
+  }
+  report.rmse = (squared.array() / counts.array().max(1.0)).sqrt();
+
+  // Process noise: the diagonal intensity that makes the mode's own filter
+  // consistent on its logs, i.e. the mean normalized innovation squared of
+  // each state's measurement is 1. NIS falls as q grows, so each entry is
+  // found by bisection in log q, a few rounds over the states.
+  constexpr double kLowest = 1e-10, kHighest = 1e3;
+  Eigen::MatrixXd q = Eigen::MatrixXd::Identity(n, n) * 1e-3;
+  std::vector<bool> at_floor(static_cast<std::size_t>(n), false);
+  for (int round = 0; round < 2; ++round) {
+    for (int s = 0; s < n; ++s) {
+      const int c = m.state_row[static_cast<std::size_t>(s)];
+      double low = std::log(kLowest), high = std::log(kHighest);
+      q(s, s) = kLowest;
+      at_floor[static_cast<std::size_t>(s)] = mean_component_nis(bank, model, m, data, q)[c] <= 1.0;
+      if (at_floor[static_cast<std::size_t>(s)]) continue;
+      for (int iteration = 0; iteration < 30; ++iteration) {
+        const double middle = 0.5 * (low + high);
+        q(s, s) = std::exp(middle);
+        (mean_component_nis(bank, model, m, data, q)[c] > 1.0 ? low : high) = middle;
+      }
+      q(s, s) = std::exp(0.5 * (low + high));
+    }
+  }
+  for (int s = 0; s < n; ++s) {
+    if (at_floor[static_cast<std::size_t>(s)]) {
+      report.warnings.push_back("the measurement noise R alone explains the innovations of '" +
+                                bank.config.state_names[static_cast<std::size_t>(s)] +
+                                "': its process noise is at the floor 1e-10; check R");
+    }
+  }
+  report.q_intensity = q;
+  return report;
+}
+
+std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const FitOptions& options) {
+  if (options.window < 1) throw FitError("the window must be at least 1 measured row");
+  const MeasurementLayout m = layout_of(bank->config);
+
+  // The parameter block: for kMode one problem per mode (its own parameters);
+  // for kBank one problem over every mode, on the union of bank-level names.
+  std::vector<std::vector<const ModeLogs*>> problems;
+  if (options.scope == sdk::ParameterScope::kMode) {
+    for (const ModeLogs& d : data) problems.push_back({&d});
+  } else {
+    problems.emplace_back();
+    for (const ModeLogs& d : data) problems.back().push_back(&d);
+  }
+
+  std::map<int, FitReport> reports;
+  for (const auto& group : problems) {
+    std::vector<std::string> names;
+    std::vector<double> lower, upper;
+    std::vector<double> block;
+    // Per mode: its base vector and mapping into the block.
+    std::map<int, std::pair<Eigen::VectorXd, ParameterMapping>> per_mode;
+    for (const ModeLogs* d : group) {
+      sdk::MotionModel& model = *bank->models[static_cast<std::size_t>(d->mode)];
+      const auto& info = model.parameter_info();
+      Eigen::VectorXd base(static_cast<Eigen::Index>(info.size()));
+      model.get_parameters(base);
+      ParameterMapping mapping;
+      for (std::size_t i = 0; i < info.size(); ++i) {
+        if (info[i].scope != options.scope) continue;
+        auto at = std::find(names.begin(), names.end(), info[i].name);
+        if (at == names.end()) {
+          names.push_back(info[i].name);
+          lower.push_back(info[i].lower_bound);
+          upper.push_back(info[i].upper_bound);
+          block.push_back(base[static_cast<Eigen::Index>(i)]);
+          at = names.end() - 1;
+        }
+        mapping.model_index.push_back(static_cast<int>(i));
+        mapping.block_index.push_back(static_cast<int>(at - names.begin()));
+      }
+      per_mode[d->mode] = {base, mapping};
+    }
+    const std::string who = options.scope == sdk::ParameterScope::kMode
+                                ? "mode '" + bank->config.modes[static_cast<std::size_t>(group[0]->mode)].name + "'"
+                                : "the bank's shared parameters";
+    if (names.empty()) {
+      throw FitError(who + ": the model has no " +
+                     std::string(options.scope == sdk::ParameterScope::kMode ? "per-mode" : "bank-level") +
+                     " parameters to fit");
+    }
+
+    ceres::Problem::Options problem_options;
+    problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+    ceres::Problem problem(problem_options);
+    int residuals = 0;
+    for (const ModeLogs* d : group) {
+      if (d->logs.empty()) throw FitError(who + ": no logs given");
+      for (const Trajectory& t : d->logs) {
+        const std::vector<Window> windows = make_windows(m, t, options.window);
+        if (windows.empty()) {
+          std::string states;
+          for (const std::string& s : bank->config.state_names) states += (states.empty() ? "" : ", ") + s;
+          throw FitError(t.source + ": no prediction window: no row measures every state (" + states +
+                         ") with a measured row after it");
+        }
+        sdk::MotionModel* model = bank->models[static_cast<std::size_t>(d->mode)].get();
+        for (const Window& w : windows) {
+          auto* cost = new ceres::DynamicNumericDiffCostFunction<WindowResidual, ceres::CENTRAL>(
+              new WindowResidual(model, per_mode[d->mode].first, per_mode[d->mode].second, &m, w));
+          cost->AddParameterBlock(static_cast<int>(block.size()));
+          cost->SetNumResiduals(w.residuals);
+          problem.AddResidualBlock(cost, make_loss(options), block.data());
+          residuals += w.residuals;
+        }
+      }
+    }
+    if (residuals <= static_cast<int>(block.size())) {
+      throw FitError(who + ": the logs are too short: " + std::to_string(residuals) + " residuals for " +
+                     std::to_string(block.size()) + " parameters");
+    }
+    for (std::size_t i = 0; i < block.size(); ++i) {
+      if (std::isfinite(lower[i])) problem.SetParameterLowerBound(block.data(), static_cast<int>(i), lower[i]);
+      if (std::isfinite(upper[i])) problem.SetParameterUpperBound(block.data(), static_cast<int>(i), upper[i]);
+    }
+
+    ceres::Solver::Options solver_options;
+    solver_options.linear_solver_type = ceres::DENSE_QR;
+    solver_options.max_num_iterations = options.max_iterations;
+    solver_options.function_tolerance = 1e-12;
+    solver_options.parameter_tolerance = 1e-12;
+    solver_options.num_threads = 1;  // residual blocks share the model instance
+    solver_options.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver_options, &problem, &summary);
+    if (!summary.IsSolutionUsable()) throw FitError(who + ": the solver failed: " + summary.message);
+
+    // Identifiability: singular values of the Jacobian at the solution.
+    ceres::CRSMatrix crs;
+    double cost = 0.0;
+    problem.Evaluate(ceres::Problem::EvaluateOptions(), &cost, nullptr, nullptr, &crs);
+    Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
+    for (int row = 0; row < crs.num_rows; ++row) {
+      for (int k = crs.rows[static_cast<std::size_t>(row)]; k < crs.rows[static_cast<std::size_t>(row) + 1]; ++k) {
+        jacobian(row, crs.cols[static_cast<std::size_t>(k)]) = crs.values[static_cast<std::size_t>(k)];
+      }
+    }
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(jacobian, Eigen::ComputeThinV);
+    const Eigen::VectorXd singular = svd.singularValues();
+    const double largest = singular[0];
+    const double smallest = singular[singular.size() - 1];
+    if (!(largest > 0.0) || smallest < options.identifiability_threshold * largest) {
+      throw FitError(who + ": the logs do not excite every parameter: no information on a combination of [" +
+                     describe_direction(svd.matrixV().col(singular.size() - 1), names) +
+                     "]; drive maneuvers that move them (turns and speed changes), or fix them");
+    }
+
+    std::vector<double> deviations(block.size(), std::nan(""));
+    ceres::Covariance::Options covariance_options;
+    covariance_options.algorithm_type = ceres::DENSE_SVD;
+    ceres::Covariance covariance(covariance_options);
+    const int dof = residuals - static_cast<int>(block.size());
+    if (covariance.Compute({std::make_pair(block.data(), block.data())}, &problem)) {
+      std::vector<double> c(block.size() * block.size());
+      covariance.GetCovarianceBlock(block.data(), block.data(), c.data());
+      const double variance = 2.0 * summary.final_cost / dof;  // residuals are whitened by the assumed R
+      for (std::size_t i = 0; i < block.size(); ++i) deviations[i] = std::sqrt(c[i * block.size() + i] * variance);
+    }
+
+    // Leave every model of the group at the solution.
+    for (const ModeLogs* d : group) {
+      auto& [base, mapping] = per_mode[d->mode];
+      Eigen::VectorXd full = base;
+      for (std::size_t i = 0; i < mapping.model_index.size(); ++i) {
+        full[mapping.model_index[i]] = block[static_cast<std::size_t>(mapping.block_index[i])];
+      }
+      std::string error;
+      if (!bank->models[static_cast<std::size_t>(d->mode)]->set_parameters(full, &error)) {
+        throw FitError(who + ": the model rejected the fitted parameters: " + error);
+      }
+    }
+    for (const ModeLogs* d : group) {
+      FitReport report = evaluate(*bank, *d);
+      for (std::size_t i = 0; i < block.size(); ++i) {
+        report.parameters.push_back({names[i], block[i], deviations[i]});
+        if (std::isfinite(deviations[i]) && deviations[i] > std::max(std::abs(block[i]), 1e-9)) {
+          report.warnings.push_back("parameter '" + names[i] + "' is poorly determined: standard deviation " +
+                                    std::to_string(deviations[i]) + " exceeds its value");
+        }
+        if (block[i] <= lower[i] || block[i] >= upper[i]) {
+          report.warnings.push_back("parameter '" + names[i] + "' ended on its bound");
+        }
+      }
+      if (!std::isfinite(deviations[0])) report.warnings.push_back("Ceres could not compute the covariance");
+      report.residuals = residuals;
+      report.iterations = static_cast<int>(summary.iterations.size());
+      report.initial_cost = summary.initial_cost;
+      report.final_cost = summary.final_cost;
+      report.condition_number = largest / smallest;
+      if (report.condition_number > 1e6) {
+        report.warnings.push_back("the fit is ill-conditioned (condition number " +
+                                  std::to_string(report.condition_number) + "): some parameters trade off");
+      }
+      reports[d->mode] = report;
+    }
+  }
+  std::vector<FitReport> out;
+  for (const ModeLogs& d : data) out.push_back(reports[d.mode]);
+  return out;
+}
+
+}  // namespace fitting
+}  // namespace skidimm
