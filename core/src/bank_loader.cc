@@ -50,7 +50,7 @@ void check_cov(const YamlFields& y, const YAML::Node& node, const Eigen::MatrixX
 std::vector<std::string> column_map(const YamlFields& y, const YAML::Node& node, const std::vector<std::string>& names,
                                     const std::string& field) {
   std::vector<std::string> columns = names;
-  if (!node) return columns;
+  if (!node || node.IsNull()) return columns;  // absent: every name reads the column of the same name
   if (!node.IsMap()) y.fail(node, field, "expected a mapping from name to CSV column");
   for (const auto& entry : node) {
     const std::string key = entry.first.as<std::string>();

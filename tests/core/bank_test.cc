@@ -90,6 +90,15 @@ TEST(BankConfig, EveryBundledBankLoadsWithItsPlugins) {
   EXPECT_EQ(Bank::load(kSourceDir + "/configs/stc_slip16.yaml", {kPluginDir}).config.num_modes(), 16);
 }
 
+TEST(BankConfig, ColumnsDefaultToTheNamesWhenTheSectionIsAbsent) {
+  std::string yaml = kValidBank;
+  yaml.erase(yaml.find("columns:"), yaml.find("measurement:") - yaml.find("columns:"));
+  const BankConfig c = load_bank_config(write_file(test_directory() / "bank.yaml", yaml));
+  EXPECT_EQ(c.columns.time, "t");
+  EXPECT_EQ(c.columns.inputs, (std::vector<std::string>{"phi_dot_L", "phi_dot_R"}));
+  EXPECT_EQ(c.columns.measurements, (std::vector<std::string>{"V", "omega"}));
+}
+
 TEST(BankConfig, MalformedYamlNamesTheLine) {
   const ConfigError e = expect_config_error(replace(kValidBank, "  stay: 0.98", "  stay: [0.98"), {"malformed YAML"});
   EXPECT_GE(e.line(), 11);

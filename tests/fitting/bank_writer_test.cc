@@ -1,0 +1,86 @@
+#include "skidimm/fitting/bank_writer.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "core/temp_files.h"
+#include "skidimm/errors.h"
+
+namespace skidimm {
+namespace fitting {
+namespace {
+
+using ::testing::HasSubstr;
+using skidimm_test::read_file;
+using skidimm_test::test_directory;
+using skidimm_test::write_file;
+
+const std::string kBank = R"(# A hand-written bank: this comment must survive appends.
+name: writer_test
+states: [V, omega]
+inputs: [phi_dot_L, phi_dot_R]
+measurement: {observe: [V, omega], R: {std: [0.02, 0.02]}}   # sensor noise
+transition: {stay: 0.99}
+initial: {covariance: {std: [1, 1]}}
+modes:
+  # the asphalt mode
+  - name: asphalt
+    model: ltc_linear
+    params: {A: [[-5, 0], [0, -4]], B: [[0.4, 0.4], [-0.8, 0.8]]}
+    Q: {diagonal: [0.01, 0.01]}
+
+)";
+
+TEST(BankWriter, FormatsParametersByKeyAndShape) {
+  const Bank bank = Bank::load(write_file(test_directory() / "b.yaml", kBank), {SKIDIMM_PLUGIN_DIR});
+  EXPECT_EQ(format_parameters(*bank.models[0], sdk::ParameterScope::kMode),
+            "{A: [[-5, 0], [0, -4]], B: [[0.4, 0.4], [-0.8, 0.8]]}");
+  EXPECT_EQ(format_parameters(*bank.models[0], sdk::ParameterScope::kBank), "{}");
+  EXPECT_EQ(format_matrix(Eigen::MatrixXd::Constant(1, 1, 0.123456789)), "0.1234568");
+}
+
+TEST(BankWriter, AppendKeepsCommentsAndTheResultLoads) {
+  const auto file = write_file(test_directory() / "b.yaml", kBank);
+  Bank bank = Bank::load(file, {SKIDIMM_PLUGIN_DIR});
+  append_mode_to_bank(file, format_mode_entry("ice", "ltc_linear", *bank.models[0], Eigen::Matrix2d::Identity() * 0.02,
+                                              {"fitted on ice"}));
+  const std::string text = read_file(file);
+  EXPECT_THAT(text, HasSubstr("# A hand-written bank: this comment must survive appends."));
+  EXPECT_THAT(text, HasSubstr("# sensor noise"));
+  EXPECT_THAT(text, HasSubstr("  # fitted on ice\n  - name: ice\n    model: ltc_linear\n"));
+  const BankConfig config = load_bank_config(file);
+  ASSERT_EQ(config.num_modes(), 2);
+  EXPECT_EQ(config.modes[1].name, "ice");
+  EXPECT_DOUBLE_EQ(config.modes[1].q_intensity(1, 1), 0.02);
+}
+
+TEST(BankWriter, AnAppendThatWouldBreakTheBankChangesNothing) {
+  const auto file = write_file(test_directory() / "b.yaml", kBank);
+  Bank bank = Bank::load(file, {SKIDIMM_PLUGIN_DIR});
+  try {
+    append_mode_to_bank(file, format_mode_entry("asphalt", "ltc_linear", *bank.models[0], Eigen::Matrix2d::Identity(), {}));
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("the result would not be a valid bank, nothing was written"));
+    EXPECT_THAT(e.what(), HasSubstr("'asphalt' appears twice"));
+  }
+  EXPECT_EQ(read_file(file), kBank);
+  EXPECT_FALSE(std::filesystem::exists(file.string() + ".tmp"));
+}
+
+TEST(BankWriter, WritesABankFromATemplateWithANewHeaderAndModes) {
+  const auto dir = test_directory();
+  const auto file = write_file(dir / "template.yaml", kBank);
+  write_bank_from_template(file, dir / "out.yaml", {"Written by a test"}, "",
+                           "modes:\n  - name: grass\n    model: ltc_linear\n"
+                           "    params: {A: [[-3, 0], [0, -3]], B: [[0.3, 0.3], [-0.5, 0.5]]}\n    Q: [[0.02, 0], [0, 0.02]]\n");
+  const std::string text = read_file(dir / "out.yaml");
+  EXPECT_EQ(text.rfind("# Written by a test\nname: writer_test\n", 0), 0u) << text;
+  EXPECT_THAT(text, HasSubstr("# sensor noise"));
+  EXPECT_THAT(text, ::testing::Not(HasSubstr("asphalt")));
+  EXPECT_EQ(load_bank_config(dir / "out.yaml").modes[0].name, "grass");
+}
+
+}  // namespace
+}  // namespace fitting
+}  // namespace skidimm

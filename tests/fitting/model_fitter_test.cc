@@ -1,0 +1,221 @@
+#include "skidimm/fitting/model_fitter.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "core/temp_files.h"
+#include "skidimm/errors.h"
+#include "skidimm/sdk/angles.h"
+
+namespace skidimm {
+namespace fitting {
+namespace {
+
+using ::testing::HasSubstr;
+using skidimm_test::test_directory;
+using skidimm_test::write_file;
+
+const std::string kLtcBank = R"(name: fit_test
+states: [V, omega]
+inputs: [phi_dot_L, phi_dot_R]
+measurement: {observe: [V, omega], R: {std: [0.02, 0.02]}}
+transition: {stay: 0.99}
+initial: {covariance: {std: [1, 1]}}
+modes:
+  - name: a
+    model: ltc_linear
+    params: {A: [[-1, 0], [0, -1]], B: [[0.1, 0.1], [-0.1, 0.1]]}
+    Q: {diagonal: [0.01, 0.01]}
+)";
+
+Bank load_bank(const std::string& yaml, const std::string& file = "bank.yaml") {
+  return Bank::load(write_file(test_directory() / file, yaml), {SKIDIMM_PLUGIN_DIR});
+}
+
+// Simulates a model through the SDK with process noise of intensity q and
+// measurement noise r (standard deviations), all states measured every row
+// (or every `measure_every` rows), and returns the trajectory.
+Trajectory simulate_model(const sdk::MotionModel& model, int rows, double dt,
+                          const std::function<Eigen::VectorXd(double)>& input, const Eigen::VectorXd& q,
+                          const Eigen::VectorXd& r, unsigned seed, int measure_every = 1) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const int n = model.state_dim();
+  Trajectory t;
+  t.source = "simulated";
+  t.u.resize(model.input_dim(), rows);
+  t.z.resize(n, rows);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(n), next(n);
+  for (int k = 0; k < rows; ++k) {
+    const double time = k * dt;
+    t.t.push_back(time);
+    t.u.col(k) = input(time);
+    for (int i = 0; i < n; ++i) {
+      t.z(i, k) = k % measure_every == 0 ? x[i] + r[i] * normal(rng) : std::nan("");
+      if (model.is_angle(i)) t.z(i, k) = sdk::wrap_angle(t.z(i, k));
+    }
+    model.predict(x, t.u.col(k), dt, next);
+    for (int i = 0; i < n; ++i) next[i] += std::sqrt(q[i] * dt) * normal(rng);
+    x = next;
+    for (int i = 0; i < n; ++i) {
+      if (model.is_angle(i)) x[i] = sdk::wrap_angle(x[i]);
+    }
+  }
+  return t;
+}
+
+Eigen::VectorXd rich_wheel_speeds(double t) {
+  return Eigen::Vector2d(4.0 + 3.0 * std::sin(0.9 * t) + std::sin(3.1 * t), 4.0 + 3.0 * std::cos(0.6 * t));
+}
+
+TEST(ModelFitter, RecoversLtcLinearParametersFromItsOwnData) {
+  Bank truth = load_bank(kLtcBank, "truth.yaml");
+  Eigen::VectorXd true_parameters(8);
+  true_parameters << -4.0, 0.3, 0.2, -3.0, 0.35, 0.3, -0.7, 0.75;
+  ASSERT_TRUE(truth.models[0]->set_parameters(true_parameters, nullptr));
+  // Two minutes at 50 Hz with 1 cm/s, 0.01 rad/s sensors.
+  const Trajectory data = simulate_model(*truth.models[0], 6000, 0.02, rich_wheel_speeds, Eigen::Vector2d(1e-4, 1e-4),
+                                         Eigen::Vector2d(0.01, 0.01), 1);
+  Bank bank = load_bank(kLtcBank);  // starts from A = -I, B small
+  FitOptions options;
+  options.window = 10;
+  const FitReport report = fit(&bank, {ModeLogs{0, {data}}}, options).front();
+  Eigen::VectorXd fitted(8);
+  bank.models[0]->get_parameters(fitted);
+  for (int i = 0; i < 8; ++i) {
+    EXPECT_NEAR(fitted[i], true_parameters[i], 0.05 * std::max(1.0, std::abs(true_parameters[i])))
+        << report.parameters[static_cast<std::size_t>(i)].name;
+    // The stated uncertainty covers the error.
+    EXPECT_LT(std::abs(fitted[i] - true_parameters[i]), 5.0 * report.parameters[static_cast<std::size_t>(i)].standard_deviation + 1e-3);
+  }
+  EXPECT_EQ(report.parameters.size(), 8u);
+  EXPECT_LT(report.final_cost, report.initial_cost);
+  EXPECT_NEAR(report.rmse[0], 0.01 * std::sqrt(2.0), 0.005);  // one-step error ~ noise of two measurements
+}
+
+TEST(ModelFitter, RecoversStcSlipConstantsFromGpsEveryFifthRow) {
+  const std::string bank_yaml = R"(name: stc
+states: [X, Y, theta]
+angles: [theta]
+inputs: [phi_dot_L, phi_dot_R]
+measurement: {observe: [X, Y, theta], R: {std: [0.02, 0.02, 0.02]}}
+transition: {stay: 0.99}
+initial: {covariance: {std: [1, 1, 1]}}
+shared: {r: 0.165, b: 0.555}
+modes:
+  - {name: slip, model: stc_kinematic, params: {k: 1.0, m: 1.0}, Q: {diagonal: [0.001, 0.001, 0.001]}}
+)";
+  Bank truth = load_bank(bank_yaml, "truth.yaml");
+  ASSERT_TRUE(truth.models[0]->set_parameters(Eigen::Vector4d(0.82, 0.57, 0.165, 0.555), nullptr));
+  auto turns = [](double t) { return Eigen::Vector2d(5.0 + 2.5 * std::sin(0.4 * t), 5.0 - 2.5 * std::sin(0.4 * t)); };
+  const Trajectory data = simulate_model(*truth.models[0], 3000, 0.02, turns, Eigen::Vector3d(1e-5, 1e-5, 1e-5),
+                                         Eigen::Vector3d(0.02, 0.02, 0.02), 2, 5);
+  Bank bank = load_bank(bank_yaml);
+  FitOptions options;
+  options.window = 5;
+  const FitReport report = fit(&bank, {ModeLogs{0, {data}}}, options).front();
+  ASSERT_EQ(report.parameters.size(), 2u);  // r and b are bank-level: not fitted per mode
+  EXPECT_NEAR(report.parameters[0].value, 0.82, 0.01);
+  EXPECT_NEAR(report.parameters[1].value, 0.57, 0.01);
+}
+
+TEST(ModelFitter, FitsSharedParametersJointlyAndAProcessNoisePerMode) {
+  const std::string bank_yaml = R"(name: shared
+states: [V, omega]
+inputs: [phi_dot_L, phi_dot_R]
+measurement: {observe: [V, omega], R: {std: [0.01, 0.01]}}
+transition: {stay: 0.99}
+initial: {covariance: {std: [1, 1]}}
+shared: {A: [[-1, 0], [0, -1]], B: [[0.1, 0.1], [-0.1, 0.1]]}
+modes:
+  - {name: smooth, model: ltc_shared, Q: {diagonal: [0.01, 0.01]}}
+  - {name: rough, model: ltc_shared, Q: {diagonal: [0.01, 0.01]}}
+)";
+  Bank truth = load_bank(bank_yaml, "truth.yaml");
+  Eigen::VectorXd true_parameters(8);
+  true_parameters << -5.0, 0.0, 0.0, -4.0, 0.4, 0.4, -0.8, 0.8;
+  ASSERT_TRUE(truth.models[0]->set_parameters(true_parameters, nullptr));
+  const Trajectory smooth = simulate_model(*truth.models[0], 6000, 0.02, rich_wheel_speeds,
+                                           Eigen::Vector2d(0.002, 0.002), Eigen::Vector2d(0.01, 0.01), 3);
+  const Trajectory rough = simulate_model(*truth.models[0], 6000, 0.02, rich_wheel_speeds,
+                                          Eigen::Vector2d(0.05, 0.05), Eigen::Vector2d(0.01, 0.01), 4);
+  Bank bank = load_bank(bank_yaml);
+  FitOptions options;
+  options.window = 10;
+  options.scope = sdk::ParameterScope::kBank;
+  const std::vector<FitReport> reports = fit(&bank, {ModeLogs{0, {smooth}}, ModeLogs{1, {rough}}}, options);
+  Eigen::VectorXd a(8), b(8);
+  bank.models[0]->get_parameters(a);
+  bank.models[1]->get_parameters(b);
+  EXPECT_EQ(a, b) << "one A, B for the whole bank";
+  for (int i = 0; i < 8; ++i) EXPECT_NEAR(a[i], true_parameters[i], 0.1 * std::max(1.0, std::abs(true_parameters[i])));
+  // Each mode's Q reflects its own logs' process noise, within a factor of 2.
+  for (int s = 0; s < 2; ++s) {
+    EXPECT_NEAR(std::log(reports[0].q_intensity(s, s)), std::log(0.002), std::log(2.0)) << "smooth, state " << s;
+    EXPECT_NEAR(std::log(reports[1].q_intensity(s, s)), std::log(0.05), std::log(2.0)) << "rough, state " << s;
+  }
+}
+
+TEST(ModelFitter, TooShortALogIsAnError) {
+  Bank truth = load_bank(kLtcBank, "truth.yaml");
+  const Trajectory data = simulate_model(*truth.models[0], 4, 0.02, rich_wheel_speeds, Eigen::Vector2d(0, 0),
+                                         Eigen::Vector2d(0.02, 0.02), 1);
+  Bank bank = load_bank(kLtcBank);
+  try {
+    fit(&bank, {ModeLogs{0, {data}}}, FitOptions{});
+    FAIL();
+  } catch (const FitError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("the logs are too short: 6 residuals for 8 parameters"));
+  }
+}
+
+TEST(ModelFitter, DrivingStraightDoesNotExciteTheYawParameters) {
+  Bank truth = load_bank(kLtcBank, "truth.yaml");
+  auto straight = [](double t) { return Eigen::Vector2d(4.0 + std::sin(t), 4.0 + std::sin(t)); };
+  const Trajectory data = simulate_model(*truth.models[0], 1000, 0.02, straight, Eigen::Vector2d(0, 0),
+                                         Eigen::Vector2d(0.02, 0.02), 1);
+  Bank bank = load_bank(kLtcBank);
+  try {
+    fit(&bank, {ModeLogs{0, {data}}}, FitOptions{});
+    FAIL() << "a straight run cannot determine how the robot turns";
+  } catch (const FitError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("the logs do not excite every parameter"));
+    EXPECT_THAT(e.what(), HasSubstr("B[1,"));
+  }
+}
+
+TEST(ModelFitter, EveryStateMustBeMeasured) {
+  std::string yaml = kLtcBank;
+  yaml.replace(yaml.find("observe: [V, omega], R: {std: [0.02, 0.02]}"), 43, "observe: [V], R: {std: [0.02]}");
+  Bank bank = load_bank(yaml);
+  Trajectory data;
+  EXPECT_THROW(
+      {
+        try {
+          fit(&bank, {ModeLogs{0, {data}}}, FitOptions{});
+        } catch (const FitError& e) {
+          EXPECT_THAT(e.what(), HasSubstr("does not measure [omega] directly"));
+          throw;
+        }
+      },
+      FitError);
+}
+
+TEST(ModelFitter, LogsWithMissingColumnsOrNonFiniteValuesAreRejected) {
+  const auto dir = test_directory();
+  const BankConfig config = load_bank_config(write_file(dir / "bank.yaml", kLtcBank));
+  EXPECT_THROW(load_trajectory(config, {write_file(dir / "a.csv", "t,phi_dot_L,phi_dot_R,V\n0,1,1,0\n")}), LogError);
+  try {
+    load_trajectory(config, {write_file(dir / "b.csv", "t,phi_dot_L,phi_dot_R,V,omega\n0,1,1,0,0\n0.1,1,1,inf,0\n")});
+    FAIL();
+  } catch (const LogError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("b.csv:3: column 'V': value is not finite"));
+  }
+}
+
+}  // namespace
+}  // namespace fitting
+}  // namespace skidimm
