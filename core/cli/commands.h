@@ -53,6 +53,24 @@ struct FitCommandOptions {
   std::string command_line;            // recorded in written files
 };
 int fit(const FitCommandOptions& options);
+
+struct EvalOptions {
+  std::filesystem::path bank;
+  std::vector<std::string> inputs;     // logs: FILE[+FILE...] or directories; each argument is a group
+  std::vector<std::string> estimates;  // `skidimm run` outputs (files or directories) instead of running
+  std::vector<std::filesystem::path> plugin_paths;
+  bool json = false;
+};
+int eval(const EvalOptions& options);
+
+struct PlotOptions {
+  std::filesystem::path estimates;  // a `skidimm run` output
+  std::filesystem::path output;     // .png or .svg
+  std::filesystem::path log;        // optional: the input log, for measurements and true states
+  std::string title;
+  bool states = false;              // add a panel per state
+};
+int plot(const PlotOptions& options);
 int validate(const std::filesystem::path& bank, const std::vector<std::filesystem::path>& plugin_paths);
 int plugins(const std::vector<std::filesystem::path>& plugin_paths);
 

@@ -4,6 +4,8 @@
 //   skidimm validate B.yaml
 //   skidimm simulate --scenario S.yaml --output log.csv
 //   skidimm fit --bank B.yaml --log MODE=log.csv [--append-to B.yaml]
+//   skidimm eval --bank B.yaml --input logs/ [--json]
+//   skidimm plot --estimates out.csv --output figure.png
 //   skidimm plugins
 #include <CLI/CLI.hpp>
 #include <filesystem>
@@ -39,6 +41,8 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   run->add_option("--output,-o", output, "Output CSV (written as <output>.partial, renamed when complete)")->required();
   run->add_flag("--quiet,-q", run_options.quiet, "No summary or progress on stderr");
+  std::string run_plot;
+  run->add_option("--plot", run_plot, "Also draw the mode probabilities to this .png or .svg (needs gnuplot)");
   add_plugin_path(run);
 
   std::string validate_bank;
@@ -85,6 +89,26 @@ int main(int argc, char** argv) {
   fit->add_option("--output-bank", bank_output, "Write the whole bank with fitted values to this file");
   add_plugin_path(fit);
 
+  EvalOptions eval_options;
+  std::string eval_bank;
+  CLI::App* eval = app.add_subcommand("eval", "Measure how well a bank identifies the true modes of logs");
+  eval->add_option("--bank,-b", eval_bank, "Bank to run over the logs")->check(CLI::ExistingFile);
+  eval->add_option("--input,-i", eval_options.inputs,
+                   "Log FILE[+FILE...] or a directory of logs; each argument is one group (e.g. a scenario)");
+  eval->add_option("--estimates,-e", eval_options.estimates,
+                   "Evaluate `skidimm run` outputs (files or directories) instead of running a bank");
+  eval->add_flag("--json", eval_options.json, "Print JSON instead of tables");
+  add_plugin_path(eval);
+
+  PlotOptions plot_options;
+  std::string plot_estimates, plot_output, plot_log;
+  CLI::App* plot = app.add_subcommand("plot", "Draw mode probabilities over time (PNG or SVG, needs gnuplot)");
+  plot->add_option("--estimates,-e", plot_estimates, "A `skidimm run` output")->required()->check(CLI::ExistingFile);
+  plot->add_option("--output,-o", plot_output, "Figure to write: .png or .svg")->required();
+  plot->add_option("--log,-l", plot_log, "The input log, to draw measurements and true states")->check(CLI::ExistingFile);
+  plot->add_option("--title", plot_options.title, "Figure title");
+  plot->add_flag("--states", plot_options.states, "Add a panel per state: estimate, measurement, truth");
+
   CLI::App* plugins = app.add_subcommand("plugins", "List the motion-model plugins found on the search path");
   add_plugin_path(plugins);
 
@@ -101,9 +125,28 @@ int main(int argc, char** argv) {
     run_options.inputs.assign(inputs.begin(), inputs.end());
     run_options.output = output;
     run_options.plugin_paths = paths;
-    return skidimm::cli::run(run_options);
+    const int code = skidimm::cli::run(run_options);
+    if (code != kExitOk || run_plot.empty()) return code;
+    PlotOptions figure;
+    figure.estimates = output;
+    figure.output = run_plot;
+    figure.log = inputs.size() == 1 ? fs::path(inputs[0]) : fs::path();
+    figure.title = fs::path(bank).stem().string() + " on " + fs::path(inputs[0]).filename().string();
+    return skidimm::cli::plot(figure);
   }
   if (*validate) return skidimm::cli::validate(validate_bank, paths);
+  if (*eval) {
+    eval_options.bank = eval_bank;
+    eval_options.plugin_paths = paths;
+    return skidimm::cli::eval(eval_options);
+  }
+  if (*plot) {
+    plot_options.estimates = plot_estimates;
+    plot_options.output = plot_output;
+    plot_options.log = plot_log;
+    if (plot_options.title.empty()) plot_options.title = fs::path(plot_estimates).filename().string();
+    return skidimm::cli::plot(plot_options);
+  }
   if (*fit) {
     fit_options.bank = fit_bank;
     fit_options.output_entry = entry_output;

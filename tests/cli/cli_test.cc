@@ -248,6 +248,63 @@ TEST(Cli, FitReportsBadLogsAndUnknownModes) {
   EXPECT_THAT(unlabelled.err, HasSubstr("say which mode it shows (MODE=FILE) or give --mode"));
 }
 
+TEST(Cli, EvalReportsAccuracyLatencyAndConsistencyAsTextAndJson) {
+  const std::string args = "eval --bank " + kSource + "/configs/ltc_terrains.yaml --input " + kSource +
+                           "/configs/examples/ltc_switching.csv --plugin-path " + kPlugins;
+  const Result text = run_skidimm(args);
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_THAT(text.out, HasSubstr("accuracy (time fraction)"));
+  EXPECT_THAT(text.out, HasSubstr("10.01 s  crushed_concrete -> grass: first"));
+  EXPECT_THAT(text.out, HasSubstr("state RMSE vs true_<state>: V"));
+  EXPECT_THAT(text.out, HasSubstr("consistency of the true mode's filter"));
+  const Result json = run_skidimm(args + " --json");
+  ASSERT_EQ(json.exit_code, 0) << json.err;
+  EXPECT_EQ(json.out.rfind("{\"overall\": {\"logs\": 1,", 0), 0u) << json.out.substr(0, 80);
+  EXPECT_THAT(json.out, HasSubstr("\"switches\": [{\"time\": 10.0055, \"from\": \"crushed_concrete\""));
+  // The same metrics from the `run` output alone (no NIS, no state truth).
+  const fs::path out = test_directory() / "out.csv";
+  ASSERT_EQ(run_skidimm("run -q --bank " + kSource + "/configs/ltc_terrains.yaml --input " + kSource +
+                        "/configs/examples/ltc_switching.csv --output " + out.string() + " --plugin-path " + kPlugins)
+                .exit_code,
+            0);
+  const Result from_output = run_skidimm("eval --estimates " + out.string());
+  ASSERT_EQ(from_output.exit_code, 0) << from_output.err;
+  const auto accuracy_line = [](const std::string& s) { return s.substr(s.find("accuracy"), 40); };
+  EXPECT_EQ(accuracy_line(from_output.out), accuracy_line(text.out));
+  const Result no_truth = run_skidimm("eval --bank " + kSource + "/configs/husky/ice_ltc.yaml --input x.csv");
+  EXPECT_EQ(no_truth.exit_code, 1);
+  EXPECT_THAT(no_truth.err, HasSubstr("names no columns.truth_mode"));
+}
+
+TEST(Cli, PlotDrawsPngAndSvgAndSaysWhenGnuplotIsMissing) {
+  const fs::path dir = test_directory();
+  const std::string log = kSource + "/configs/examples/stc_switching.csv";
+  ASSERT_EQ(run_skidimm("run -q --bank " + kSource + "/configs/stc_slip4.yaml --input " + log + " --output " +
+                        (dir / "out.csv").string() + " --plugin-path " + kPlugins + " --plot " +
+                        (dir / "run.png").string())
+                .exit_code,
+            0);
+  const Result svg = run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --log " + log +
+                                 " --states --output " + (dir / "states.svg").string());
+  ASSERT_EQ(svg.exit_code, 0) << svg.err;
+  const std::string png = read_file(dir / "run.png");
+  ASSERT_GT(png.size(), 10000u);
+  EXPECT_EQ(png.substr(1, 3), "PNG");
+  const std::string drawing = read_file(dir / "states.svg");
+  EXPECT_THAT(drawing, HasSubstr("<svg"));
+  EXPECT_THAT(drawing, HasSubstr("slip_FR_RR"));
+  EXPECT_THAT(drawing, HasSubstr("theta"));
+  EXPECT_FALSE(fs::exists(dir / "states.svg.gnuplot")) << "the script is removed after a successful plot";
+  // Without gnuplot on PATH: a clear error, not a crash.
+  const std::string command = "env PATH=/nonexistent " + std::string(SKIDIMM_EXECUTABLE) + " plot --estimates " +
+                              (dir / "out.csv").string() + " --output " + (dir / "x.png").string() + " 2>" +
+                              (dir / "err").string();
+  const int status = std::system(command.c_str());
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  EXPECT_THAT(read_file(dir / "err"), HasSubstr("gnuplot is not installed or not on PATH"));
+  EXPECT_EQ(run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --output x.pdf").exit_code, 1);
+}
+
 TEST(Cli, BundledExampleLogsAreReproducibleFromTheirScenarios) {
   const fs::path dir = test_directory();
   for (const std::string name : {"ltc_switching", "stc_switching"}) {

@@ -1,0 +1,438 @@
+// skidimm eval: identification metrics over one or many logs.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include "commands.h"
+#include "skidimm/errors.h"
+#include "skidimm/evaluation/consistency.h"
+#include "skidimm/evaluation/mode_metrics.h"
+#include "skidimm/imm.h"
+#include "skidimm/log_io.h"
+#include "skidimm/sdk/angles.h"
+
+namespace skidimm {
+namespace cli {
+
+namespace fs = std::filesystem;
+using evaluation::LabelledStep;
+using evaluation::ModeMetrics;
+using evaluation::NisAccumulator;
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// One log's results.
+struct LogResult {
+  std::string name;
+  ModeMetrics metrics;
+  std::map<std::string, NisAccumulator> nis;  // per mode, while it is the truth
+  std::vector<double> squared_state_error;    // per state; NaN if no truth column
+  std::vector<long> state_error_count;
+};
+
+struct Group {
+  std::string name;
+  std::vector<LogResult> logs;
+};
+
+// A log argument: FILE[+FILE...] or a directory of *.csv (each one log).
+std::vector<std::vector<fs::path>> expand(const std::string& argument) {
+  std::vector<std::vector<fs::path>> logs;
+  std::error_code ec;
+  if (fs::is_directory(argument, ec)) {
+    std::vector<fs::path> files;
+    for (const auto& entry : fs::directory_iterator(argument)) {
+      if (entry.path().extension() == ".csv") files.push_back(entry.path());
+    }
+    std::sort(files.begin(), files.end());
+    if (files.empty()) throw Error(argument + ": no .csv logs in this directory");
+    for (const fs::path& f : files) logs.push_back({f});
+    return logs;
+  }
+  std::vector<fs::path> parts;
+  std::stringstream in(argument);
+  std::string part;
+  while (std::getline(in, part, '+')) parts.emplace_back(part);
+  logs.push_back(parts);
+  return logs;
+}
+
+// A group's name: the directory's name, or the (first) file's stem.
+std::string group_name(const std::string& argument) {
+  const fs::path p = fs::path(argument.substr(0, argument.find('+'))).lexically_normal();
+  std::error_code ec;
+  if (fs::is_directory(p, ec)) return (p.filename().empty() ? p.parent_path() : p).filename().string();
+  return p.stem().string();
+}
+
+// Reads the truth state columns true_<state> (if any) of a log, in row order.
+std::vector<std::vector<double>> truth_states(const BankConfig& config, const std::vector<fs::path>& files) {
+  std::vector<std::vector<double>> columns(config.state_names.size());
+  for (const fs::path& file : files) {
+    CsvReader reader(file);
+    std::vector<int> index(config.state_names.size(), -1);
+    bool any = false;
+    for (std::size_t s = 0; s < config.state_names.size(); ++s) {
+      index[s] = reader.column("true_" + config.state_names[s]);
+      any = any || index[s] >= 0;
+    }
+    if (!any) continue;
+    std::vector<std::string> fields;
+    while (reader.next(&fields)) {
+      for (std::size_t s = 0; s < index.size(); ++s) {
+        if (index[s] < 0) continue;
+        columns[s].push_back(fields[static_cast<std::size_t>(index[s])].empty() ? kNaN : std::stod(fields[static_cast<std::size_t>(index[s])]));
+      }
+    }
+  }
+  return columns;
+}
+
+LogResult evaluate_log(const Bank& bank, const std::vector<fs::path>& files) {
+  const BankConfig& config = bank.config;
+  if (config.columns.truth_mode.empty()) {
+    throw Error(config.file.string() + ": the bank names no columns.truth_mode, so there is nothing to evaluate against");
+  }
+  Imm imm(bank);
+  LogReader reader(config, files);
+  if (!reader.has_truth()) {
+    throw LogError(files.front().string(), 1, "no truth column '" + config.columns.truth_mode + "' (the bank's columns.truth_mode)");
+  }
+  const std::vector<std::vector<double>> truth = truth_states(config, files);
+  std::vector<std::string> names;
+  for (const ModeConfig& m : config.modes) names.push_back(m.name);
+
+  LogResult result;
+  for (const fs::path& f : files) result.name += (result.name.empty() ? "" : "+") + f.filename().string();
+  result.squared_state_error.assign(config.state_names.size(), 0.0);
+  result.state_error_count.assign(config.state_names.size(), 0);
+  std::vector<LabelledStep> steps;
+  LogSample sample;
+  long row = 0;
+  while (reader.next(&sample)) {
+    const ImmEstimate& e = imm.step(sample.t, sample.u, sample.z);
+    const int truth_index = config.mode_index(sample.truth_mode);
+    steps.push_back({sample.t, sample.truth_mode, names[static_cast<std::size_t>(e.most_likely_mode)],
+                     truth_index >= 0 ? e.mode_probabilities[truth_index] : 0.0});
+    if (truth_index >= 0 && e.status == StepStatus::kUpdated && std::isfinite(e.nis[truth_index])) {
+      result.nis[sample.truth_mode].add(e.nis[truth_index], e.num_measured);
+    }
+    for (std::size_t s = 0; s < truth.size(); ++s) {
+      if (static_cast<std::size_t>(row) >= truth[s].size() || !std::isfinite(truth[s][static_cast<std::size_t>(row)])) continue;
+      double d = e.state[static_cast<Eigen::Index>(s)] - truth[s][static_cast<std::size_t>(row)];
+      if (config.angle_mask[s]) d = sdk::wrap_angle(d);
+      result.squared_state_error[s] += d * d;
+      ++result.state_error_count[s];
+    }
+    ++row;
+  }
+  result.metrics = evaluation::compute_mode_metrics(steps, names);
+  return result;
+}
+
+// Evaluates an existing `skidimm run` output (t, mu_<mode>..., mode, truth_mode).
+LogResult evaluate_estimates(const fs::path& file) {
+  CsvReader reader(file);
+  const int t = reader.column("t"), mode = reader.column("mode"), truth = reader.column("truth_mode");
+  if (t < 0 || mode < 0 || truth < 0) {
+    throw LogError(file.string(), 1, "expected the columns t, mode and truth_mode of a `skidimm run` output");
+  }
+  std::map<std::string, int> probability;
+  std::vector<std::string> names;
+  for (std::size_t c = 0; c < reader.header().size(); ++c) {
+    if (reader.header()[c].rfind("mu_", 0) == 0) {
+      names.push_back(reader.header()[c].substr(3));
+      probability[names.back()] = static_cast<int>(c);
+    }
+  }
+  std::vector<LabelledStep> steps;
+  std::vector<std::string> f;
+  while (reader.next(&f)) {
+    const std::string& true_mode = f[static_cast<std::size_t>(truth)];
+    const auto p = probability.find(true_mode);
+    steps.push_back({std::stod(f[static_cast<std::size_t>(t)]), true_mode, f[static_cast<std::size_t>(mode)],
+                     p == probability.end() ? 0.0 : std::stod(f[static_cast<std::size_t>(p->second)])});
+  }
+  LogResult result;
+  result.name = file.filename().string();
+  result.metrics = evaluation::compute_mode_metrics(steps, names);
+  return result;
+}
+
+struct Summary {
+  ModeMetrics metrics;
+  std::map<std::string, NisAccumulator> nis;
+  std::vector<double> state_rmse;
+  std::vector<double> accuracies;
+};
+
+Summary summarize(const std::vector<const LogResult*>& logs, std::size_t states) {
+  Summary s;
+  std::vector<double> squared(states, 0.0);
+  std::vector<long> counts(states, 0);
+  for (const LogResult* log : logs) {
+    s.metrics.merge(log->metrics);
+    for (const auto& [mode, acc] : log->nis) s.nis[mode].merge(acc);
+    for (std::size_t i = 0; i < log->squared_state_error.size() && i < states; ++i) {
+      squared[i] += log->squared_state_error[i];
+      counts[i] += log->state_error_count[i];
+    }
+    s.accuracies.push_back(log->metrics.accuracy());
+  }
+  for (std::size_t i = 0; i < states; ++i) s.state_rmse.push_back(counts[i] > 0 ? std::sqrt(squared[i] / counts[i]) : kNaN);
+  return s;
+}
+
+double mean(const std::vector<double>& v) {
+  double sum = 0.0;
+  for (double x : v) sum += x;
+  return v.empty() ? kNaN : sum / v.size();
+}
+double standard_deviation(const std::vector<double>& v) {
+  if (v.size() < 2) return 0.0;
+  const double m = mean(v);
+  double sum = 0.0;
+  for (double x : v) sum += (x - m) * (x - m);
+  return std::sqrt(sum / (v.size() - 1));
+}
+
+struct LatencyStats {
+  long switches = 0, detected = 0;
+  double median = kNaN, mean = kNaN, max = kNaN;
+};
+// Over the switches' settled latencies, or their first-detection ones.
+LatencyStats latency_stats(const ModeMetrics& m, bool first = false) {
+  LatencyStats s;
+  std::vector<double> values;
+  for (const auto& d : m.switches) {
+    ++s.switches;
+    const double latency = first ? d.first_latency : d.latency;
+    if (latency == latency) values.push_back(latency);
+  }
+  s.detected = static_cast<long>(values.size());
+  if (!values.empty()) {
+    std::sort(values.begin(), values.end());
+    s.median = values.size() % 2 ? values[values.size() / 2]
+                                 : 0.5 * (values[values.size() / 2 - 1] + values[values.size() / 2]);
+    s.mean = mean(values);
+    s.max = values.back();
+  }
+  return s;
+}
+
+std::string fmt(double v, const char* format = "%.3f") {
+  if (!std::isfinite(v)) return "-";
+  char b[64];
+  std::snprintf(b, sizeof(b), format, v);
+  return b;
+}
+
+std::string json_number(double v) { return std::isfinite(v) ? fmt(v, "%.6g") : "null"; }
+std::string json_string(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+void print_table(std::ostream& out, const std::string& title, const Summary& s, const std::vector<std::string>& modes,
+                 const std::vector<std::string>& states, bool list_switches) {
+  const ModeMetrics& m = s.metrics;
+  out << "\n" << title << ": " << s.accuracies.size() << " log(s), " << fmt(m.duration, "%.1f") << " s labelled\n";
+  out << "  accuracy (time fraction)        " << fmt(m.accuracy());
+  if (s.accuracies.size() > 1) {
+    out << "   per log: mean " << fmt(mean(s.accuracies)) << " +- " << fmt(standard_deviation(s.accuracies))
+        << ", min " << fmt(*std::min_element(s.accuracies.begin(), s.accuracies.end()));
+  }
+  out << "\n  mean probability of the true mode " << fmt(m.mean_truth_probability()) << "\n";
+  for (const auto& [mode, seconds] : m.truth_absent) {
+    out << "  truth mode '" << mode << "' is not in the bank (" << fmt(seconds, "%.1f") << " s, always wrong)\n";
+  }
+  // Confusion: rows truth, columns estimate, fraction of the truth's time.
+  std::size_t label = 8;
+  for (const auto& [truth, row] : m.confusion) label = std::max(label, truth.size());
+  auto cell = [](const std::string& text, std::size_t width) {
+    return std::string(width > text.size() ? width - text.size() : 0, ' ') + text;
+  };
+  out << "  confusion (rows: truth, columns: estimate, fraction of the truth's time)\n  " << std::string(label, ' ');
+  for (const auto& name : modes) out << " " << cell(name, std::max<std::size_t>(name.size(), 5));
+  out << "\n";
+  for (const auto& [truth, row] : m.confusion) {
+    double total = 0.0;
+    for (const auto& [estimate, seconds] : row) total += seconds;
+    out << "  " << truth << std::string(label - truth.size(), ' ');
+    for (const auto& name : modes) {
+      const auto it = row.find(name);
+      const double fraction = it == row.end() || total <= 0 ? 0.0 : it->second / total;
+      out << " " << cell(fmt(fraction, "%.2f"), std::max<std::size_t>(name.size(), 5));
+    }
+    out << "\n";
+  }
+  const LatencyStats l = latency_stats(m);
+  const LatencyStats f = latency_stats(m, true);
+  if (l.switches > 0) {
+    out << "  switches " << l.switches << "; new mode first most likely after: median " << fmt(f.median, "%.2f")
+        << " s, max " << fmt(f.max, "%.2f") << " s, never " << (f.switches - f.detected) << "\n";
+    out << "    ... and most likely from then on until the next switch: median " << fmt(l.median, "%.2f")
+        << " s, max " << fmt(l.max, "%.2f") << " s, never " << (l.switches - l.detected) << "\n";
+    if (list_switches) {
+      for (const auto& d : m.switches) {
+        out << "    " << fmt(d.time, "%8.2f") << " s  " << d.from << " -> " << d.to << ": first "
+            << (d.first_latency == d.first_latency ? fmt(d.first_latency, "%.2f") + " s" : std::string("never"))
+            << ", settled " << (d.detected() ? fmt(d.latency, "%.2f") + " s" : std::string("never")) << "\n";
+      }
+    }
+  }
+  bool any_rmse = false;
+  for (double r : s.state_rmse) any_rmse = any_rmse || std::isfinite(r);
+  if (any_rmse) {
+    out << "  state RMSE vs true_<state>:";
+    for (std::size_t i = 0; i < states.size(); ++i) out << " " << states[i] << " " << fmt(s.state_rmse[i], "%.4f");
+    out << "\n";
+  }
+  if (!s.nis.empty()) {
+    out << "  consistency of the true mode's filter (mean NIS per measured component, 95% bounds):\n";
+    for (const auto& [mode, acc] : s.nis) {
+      out << "    " << mode << std::string(label + 2 - std::min(label + 2, mode.size()), ' ') << fmt(acc.mean_per_dof(), "%.2f") << " ["
+          << fmt(acc.lower_bound(), "%.2f") << ", " << fmt(acc.upper_bound(), "%.2f") << "] " << acc.verdict() << "\n";
+    }
+  }
+}
+
+std::string json_summary(const Summary& s, const std::vector<std::string>& states) {
+  const ModeMetrics& m = s.metrics;
+  std::ostringstream o;
+  o << "{\"logs\": " << s.accuracies.size() << ", \"duration\": " << json_number(m.duration)
+    << ", \"accuracy\": " << json_number(m.accuracy()) << ", \"accuracy_per_log\": {\"mean\": "
+    << json_number(mean(s.accuracies)) << ", \"std\": " << json_number(standard_deviation(s.accuracies))
+    << ", \"min\": " << json_number(s.accuracies.empty() ? kNaN : *std::min_element(s.accuracies.begin(), s.accuracies.end()))
+    << "}, \"mean_truth_probability\": " << json_number(m.mean_truth_probability()) << ", \"confusion_seconds\": {";
+  bool first = true;
+  for (const auto& [truth, row] : m.confusion) {
+    o << (first ? "" : ", ") << json_string(truth) << ": {";
+    bool inner = true;
+    for (const auto& [estimate, seconds] : row) {
+      o << (inner ? "" : ", ") << json_string(estimate) << ": " << json_number(seconds);
+      inner = false;
+    }
+    o << "}";
+    first = false;
+  }
+  o << "}, \"truth_absent_seconds\": {";
+  first = true;
+  for (const auto& [mode, seconds] : m.truth_absent) {
+    o << (first ? "" : ", ") << json_string(mode) << ": " << json_number(seconds);
+    first = false;
+  }
+  const LatencyStats l = latency_stats(m);
+  o << "}, \"switches\": [";
+  first = true;
+  for (const auto& d : m.switches) {
+    o << (first ? "" : ", ") << "{\"time\": " << json_number(d.time) << ", \"from\": " << json_string(d.from)
+      << ", \"to\": " << json_string(d.to) << ", \"latency\": " << json_number(d.latency)
+      << ", \"first_latency\": " << json_number(d.first_latency) << "}";
+    first = false;
+  }
+  const LatencyStats f = latency_stats(m, true);
+  o << "], \"latency\": {\"switches\": " << l.switches << ", \"followed\": " << l.detected
+    << ", \"median\": " << json_number(l.median) << ", \"mean\": " << json_number(l.mean)
+    << ", \"max\": " << json_number(l.max) << "}, \"first_latency\": {\"detected\": " << f.detected
+    << ", \"median\": " << json_number(f.median) << ", \"mean\": " << json_number(f.mean)
+    << ", \"max\": " << json_number(f.max) << "}, \"state_rmse\": {";
+  for (std::size_t i = 0; i < states.size() && i < s.state_rmse.size(); ++i) {
+    o << (i ? ", " : "") << json_string(states[i]) << ": " << json_number(s.state_rmse[i]);
+  }
+  o << "}, \"nis\": {";
+  first = true;
+  for (const auto& [mode, acc] : s.nis) {
+    o << (first ? "" : ", ") << json_string(mode) << ": {\"mean_per_dof\": " << json_number(acc.mean_per_dof())
+      << ", \"lower\": " << json_number(acc.lower_bound()) << ", \"upper\": " << json_number(acc.upper_bound())
+      << ", \"verdict\": " << json_string(acc.verdict()) << "}";
+    first = false;
+  }
+  o << "}}";
+  return o.str();
+}
+
+}  // namespace
+
+int eval(const EvalOptions& options) {
+  try {
+    std::vector<Group> groups;
+    std::vector<std::string> modes, states;
+    if (!options.estimates.empty()) {
+      for (const std::string& argument : options.estimates) {
+        Group g{group_name(argument), {}};
+        for (const auto& files : expand(argument)) g.logs.push_back(evaluate_estimates(files.front()));
+        groups.push_back(std::move(g));
+      }
+      std::map<std::string, bool> seen;
+      for (const Group& g : groups) {
+        for (const LogResult& l : g.logs) {
+          for (const auto& [truth, row] : l.metrics.confusion) {
+            for (const auto& [estimate, seconds] : row) {
+              if (!seen[estimate]) modes.push_back(estimate);
+              seen[estimate] = true;
+            }
+          }
+        }
+      }
+    } else {
+      if (options.bank.empty()) throw Error("give --bank with --input, or --estimates");
+      const Bank bank = Bank::load(options.bank, options.plugin_paths);
+      for (const ModeConfig& m : bank.config.modes) modes.push_back(m.name);
+      states = bank.config.state_names;
+      for (const std::string& argument : options.inputs) {
+        Group g{group_name(argument), {}};
+        for (const auto& files : expand(argument)) g.logs.push_back(evaluate_log(bank, files));
+        groups.push_back(std::move(g));
+      }
+    }
+    if (groups.empty()) throw Error("nothing to evaluate: give --input (with --bank) or --estimates");
+
+    std::vector<const LogResult*> all;
+    for (const Group& g : groups) {
+      for (const LogResult& l : g.logs) all.push_back(&l);
+    }
+    const Summary overall = summarize(all, states.size());
+    if (options.json) {
+      std::cout << "{\"overall\": " << json_summary(overall, states) << ", \"groups\": {";
+      for (std::size_t i = 0; i < groups.size(); ++i) {
+        std::vector<const LogResult*> logs;
+        for (const LogResult& l : groups[i].logs) logs.push_back(&l);
+        std::cout << (i ? ", " : "") << json_string(groups[i].name) << ": " << json_summary(summarize(logs, states.size()), states);
+      }
+      std::cout << "}, \"logs\": {";
+      for (std::size_t i = 0; i < all.size(); ++i) {
+        std::cout << (i ? ", " : "") << json_string(all[i]->name) << ": " << json_summary(summarize({all[i]}, states.size()), states);
+      }
+      std::cout << "}}\n";
+      return kExitOk;
+    }
+    if (groups.size() > 1) {
+      for (const Group& g : groups) {
+        std::vector<const LogResult*> logs;
+        for (const LogResult& l : g.logs) logs.push_back(&l);
+        print_table(std::cout, g.name, summarize(logs, states.size()), modes, states, logs.size() == 1);
+      }
+    }
+    print_table(std::cout, groups.size() > 1 ? "all" : groups[0].name, overall, modes, states, all.size() <= 3);
+    return kExitOk;
+  } catch (const Error& e) {
+    std::cerr << "skidimm eval: error: " << e.what() << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << "skidimm eval: unexpected error: " << e.what() << "\n";
+  }
+  return kExitFailure;
+}
+
+}  // namespace cli
+}  // namespace skidimm

@@ -1,0 +1,185 @@
+// skidimm plot: the paper's figure, drawn by gnuplot.
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include "commands.h"
+#include "skidimm/errors.h"
+#include "skidimm/log_io.h"
+
+namespace skidimm {
+namespace cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string find_gnuplot() {
+  const char* path = std::getenv("PATH");
+  std::stringstream in(path != nullptr ? path : "");
+  std::string dir;
+  while (std::getline(in, dir, ':')) {
+    const fs::path candidate = fs::path(dir.empty() ? "." : dir) / "gnuplot";
+    if (access(candidate.c_str(), X_OK) == 0) return candidate.string();
+  }
+  return "";
+}
+
+std::string quoted(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
+  return out + "'";
+}
+
+int column_of(const std::vector<std::string>& header, const std::string& name) {
+  for (std::size_t i = 0; i < header.size(); ++i) {
+    if (header[i] == name) return static_cast<int>(i) + 1;  // gnuplot counts from 1
+  }
+  return 0;
+}
+
+}  // namespace
+
+int plot(const PlotOptions& options) {
+  try {
+    const std::string gnuplot = find_gnuplot();
+    if (gnuplot.empty()) {
+      throw Error("gnuplot is not installed or not on PATH; install it with `apt-get install gnuplot-nox` "
+                  "(scripts/setup.sh does)");
+    }
+    const std::string extension = options.output.extension().string();
+    std::string terminal;
+    if (extension == ".png") {
+      terminal = "pngcairo";
+    } else if (extension == ".svg") {
+      terminal = "svg";
+    } else {
+      throw Error(options.output.string() + ": the figure must end in .png or .svg");
+    }
+
+    CsvReader reader(options.estimates);
+    const std::vector<std::string> header = reader.header();
+    std::vector<std::pair<int, std::string>> modes;
+    for (std::size_t i = 0; i < header.size(); ++i) {
+      if (header[i].rfind("mu_", 0) == 0) modes.emplace_back(static_cast<int>(i) + 1, header[i].substr(3));
+    }
+    if (modes.empty() || column_of(header, "t") != 1) {
+      throw LogError(options.estimates.string(), 1, "not a `skidimm run` output: expected t and mu_<mode> columns");
+    }
+    // State columns: those followed by var_<state>.
+    std::vector<std::string> states;
+    for (const std::string& h : header) {
+      if (h.rfind("var_", 0) == 0) states.push_back(h.substr(4));
+    }
+    // Truth intervals from truth_mode.
+    const int truth = column_of(header, "truth_mode");
+    struct Band {
+      double start, end;
+      std::string mode;
+    };
+    std::vector<Band> bands;
+    std::vector<std::string> fields;
+    double last_t = 0.0;
+    while (reader.next(&fields)) {
+      const double t = std::stod(fields[0]);
+      last_t = t;
+      if (truth == 0) continue;
+      const std::string& mode = fields[static_cast<std::size_t>(truth - 1)];
+      if (bands.empty() || bands.back().mode != mode) {
+        if (!bands.empty()) bands.back().end = t;
+        bands.push_back({t, t, mode});
+      }
+      bands.back().end = t;
+    }
+
+    std::vector<std::string> log_header;
+    if (!options.log.empty()) log_header = CsvReader(options.log).header();
+    const int panels = 1 + (options.states ? static_cast<int>(states.size()) : 0);
+
+    std::ostringstream g;
+    g << "set terminal " << terminal << " size 1100," << (panels == 1 ? 420 : 300 + 220 * panels)
+      << " font 'sans,10'\n";
+    g << "set output " << quoted(options.output.string()) << "\n";
+    g << "set datafile separator ','\nset key outside right noenhanced\nset grid ytics lc rgb '#dddddd'\n";
+    g << "set xrange [0:" << last_t << "]\n";
+    // Fixed margins so the panels' time axes line up whatever their keys' widths.
+    if (panels > 1) {
+      g << "set lmargin 10\nset rmargin 24\nset multiplot layout " << panels << ",1 title " << quoted(options.title)
+        << " noenhanced\n";
+    }
+    else g << "set title " << quoted(options.title) << " noenhanced\n";
+    // Mode probabilities, the truth as bands coloured like the mode's line.
+    std::map<std::string, int> line_of;
+    for (std::size_t i = 0; i < modes.size(); ++i) line_of[modes[i].second] = static_cast<int>(i) + 1;
+    int object = 1;
+    for (std::size_t b = 0; b < bands.size(); ++b) {
+      const auto it = line_of.find(bands[b].mode);
+      if (it != line_of.end()) {
+        g << "set object " << object++ << " rect from " << bands[b].start << ", graph 0 to "
+          << (b + 1 < bands.size() ? bands[b + 1].start : bands[b].end) << ", graph 1 back fc lt " << it->second
+          << " fs transparent solid 0.12 noborder\n";
+      }
+      if (b > 0) g << "set arrow " << b << " from " << bands[b].start << ", graph 0 to " << bands[b].start
+                   << ", graph 1 nohead dt 2 lc rgb '#444444'\n";
+    }
+    g << "set ylabel 'mode probability'\nset yrange [-0.02:1.05]\n";
+    if (panels == 1) g << "set xlabel 'time (s)'\n";
+    g << "plot ";
+    for (std::size_t i = 0; i < modes.size(); ++i) {
+      g << (i ? ", " : "") << quoted(options.estimates.string()) << " using 1:" << modes[i].first
+        << " with lines lt " << i + 1 << " lw 2 title " << quoted(modes[i].second);
+    }
+    g << "\n";
+    if (panels > 1) {
+      g << "unset object\nunset arrow\nset yrange [*:*]\n";
+      for (std::size_t s = 0; s < states.size(); ++s) {
+        if (s + 1 == states.size()) g << "set xlabel 'time (s)'\n";
+        g << "set ylabel " << quoted(states[s]) << "\nplot " << quoted(options.estimates.string()) << " using 1:"
+          << column_of(header, states[s]) << " with lines lw 2 lc rgb '#1f77b4' title 'estimate'";
+        const int measured = column_of(log_header, states[s]);
+        const int true_state = column_of(log_header, "true_" + states[s]);
+        const int time = column_of(log_header, "t");
+        if (measured > 0 && time > 0) {
+          g << ", " << quoted(options.log.string()) << " using " << time << ":" << measured
+            << " with points pt 7 ps 0.3 lc rgb '#999999' title 'measured'";
+        }
+        if (true_state > 0 && time > 0) {
+          g << ", " << quoted(options.log.string()) << " using " << time << ":" << true_state
+            << " with lines dt 2 lw 1.5 lc rgb '#d62728' title 'true'";
+        }
+        g << "\n";
+      }
+      g << "unset multiplot\n";
+    }
+
+    const fs::path script = options.output.string() + ".gnuplot";
+    {
+      std::ofstream out(script);
+      out << g.str();
+    }
+    const std::string command = quoted(gnuplot) + " " + quoted(script.string()) + " 2>" + quoted(script.string() + ".err");
+    const int status = std::system(command.c_str());
+    std::ifstream err(script.string() + ".err");
+    const std::string messages((std::istreambuf_iterator<char>(err)), std::istreambuf_iterator<char>());
+    fs::remove(script.string() + ".err");
+    std::error_code ec;
+    if (status != 0 || !fs::exists(options.output, ec) || fs::file_size(options.output, ec) == 0) {
+      throw Error("gnuplot failed on " + script.string() + ":\n" + messages);
+    }
+    fs::remove(script);
+    return kExitOk;
+  } catch (const Error& e) {
+    std::cerr << "skidimm plot: error: " << e.what() << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << "skidimm plot: unexpected error: " << e.what() << "\n";
+  }
+  return kExitFailure;
+}
+
+}  // namespace cli
+}  // namespace skidimm

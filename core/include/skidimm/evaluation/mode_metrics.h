@@ -1,0 +1,59 @@
+// How well modes are identified, from a time series of true and estimated
+// modes. All fractions are of time, not of rows: row k stands for the
+// interval [t_k, t_{k+1}) (the last row for the interval before it), so
+// irregular sampling does not bias them.
+#ifndef SKIDIMM_EVALUATION_MODE_METRICS_H_
+#define SKIDIMM_EVALUATION_MODE_METRICS_H_
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace skidimm {
+namespace evaluation {
+
+struct LabelledStep {
+  double t = 0.0;
+  std::string truth;           // true mode; empty rows are ignored
+  std::string estimate;        // most likely mode
+  double truth_probability = 0.0;  // probability the estimator gave the true mode (0 if not in the bank)
+};
+
+// A true switch from `from` to `to` at `time`, and when the estimate
+// followed. `latency`: until the most likely mode becomes `to` and stays so
+// until the next switch (or the end). `first_latency`: until it is `to` for
+// the first time (a flicker back later does not count against it). Both are
+// NaN when that never happens.
+struct SwitchDetection {
+  double time = 0.0;
+  std::string from;
+  std::string to;
+  double latency = 0.0;
+  double first_latency = 0.0;
+  bool detected() const { return latency == latency; }
+};
+
+struct ModeMetrics {
+  double duration = 0.0;            // s with a truth label
+  double correct = 0.0;             // s where estimate == truth
+  double truth_probability = 0.0;   // integral of the true mode's probability (s)
+  // confusion[truth][estimate] = seconds.
+  std::map<std::string, std::map<std::string, double>> confusion;
+  std::vector<SwitchDetection> switches;
+  // True modes that are not in the bank, with their duration (s).
+  std::map<std::string, double> truth_absent;
+
+  double accuracy() const { return duration > 0.0 ? correct / duration : 0.0; }
+  double mean_truth_probability() const { return duration > 0.0 ? truth_probability / duration : 0.0; }
+
+  // Adds another run's metrics (several logs, seeds or scenarios).
+  void merge(const ModeMetrics& other);
+};
+
+// `bank_modes`: the names the estimator can answer with.
+ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& steps, const std::vector<std::string>& bank_modes);
+
+}  // namespace evaluation
+}  // namespace skidimm
+
+#endif  // SKIDIMM_EVALUATION_MODE_METRICS_H_

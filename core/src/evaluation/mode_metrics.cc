@@ -1,0 +1,79 @@
+#include "skidimm/evaluation/mode_metrics.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace skidimm {
+namespace evaluation {
+
+void ModeMetrics::merge(const ModeMetrics& other) {
+  duration += other.duration;
+  correct += other.correct;
+  truth_probability += other.truth_probability;
+  for (const auto& [truth, row] : other.confusion) {
+    for (const auto& [estimate, seconds] : row) confusion[truth][estimate] += seconds;
+  }
+  switches.insert(switches.end(), other.switches.begin(), other.switches.end());
+  for (const auto& [mode, seconds] : other.truth_absent) truth_absent[mode] += seconds;
+}
+
+ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps, const std::vector<std::string>& bank_modes) {
+  std::vector<LabelledStep> steps;
+  for (const LabelledStep& s : all_steps) {
+    if (!s.truth.empty()) steps.push_back(s);
+  }
+  ModeMetrics m;
+  const std::size_t n = steps.size();
+  if (n == 0) return m;
+  auto weight = [&](std::size_t k) {
+    if (n == 1) return 0.0;
+    return k + 1 < n ? steps[k + 1].t - steps[k].t : steps[k].t - steps[k - 1].t;
+  };
+  for (std::size_t k = 0; k < n; ++k) {
+    const double w = weight(k);
+    const LabelledStep& s = steps[k];
+    m.duration += w;
+    m.confusion[s.truth][s.estimate] += w;
+    if (s.estimate == s.truth) m.correct += w;
+    m.truth_probability += w * s.truth_probability;
+    if (std::find(bank_modes.begin(), bank_modes.end(), s.truth) == bank_modes.end()) m.truth_absent[s.truth] += w;
+  }
+  // Switches: the truth changes between rows k-1 and k.
+  for (std::size_t k = 1; k < n; ++k) {
+    if (steps[k].truth == steps[k - 1].truth) continue;
+    SwitchDetection d;
+    d.time = steps[k].t;
+    d.from = steps[k - 1].truth;
+    d.to = steps[k].truth;
+    d.latency = std::numeric_limits<double>::quiet_NaN();
+    d.first_latency = std::numeric_limits<double>::quiet_NaN();
+    std::size_t end = k;
+    while (end < n && steps[end].truth == d.to) ++end;
+    for (std::size_t j = k; j < end; ++j) {
+      if (steps[j].estimate == d.to) {
+        d.first_latency = steps[j].t - d.time;
+        break;
+      }
+    }
+    // The last row in [k, end) whose estimate is not `to`; detection is the row after it.
+    std::size_t last_wrong = k;
+    bool any_wrong = false;
+    for (std::size_t j = k; j < end; ++j) {
+      if (steps[j].estimate != d.to) {
+        last_wrong = j;
+        any_wrong = true;
+      }
+    }
+    if (!any_wrong) {
+      d.latency = 0.0;
+    } else if (last_wrong + 1 < end) {
+      d.latency = steps[last_wrong + 1].t - d.time;
+    }
+    m.switches.push_back(d);
+  }
+  return m;
+}
+
+}  // namespace evaluation
+}  // namespace skidimm

@@ -1,0 +1,103 @@
+#include "skidimm/evaluation/mode_metrics.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "skidimm/evaluation/consistency.h"
+
+namespace skidimm {
+namespace evaluation {
+namespace {
+
+// One row per second unless given: (t, truth, estimate, p(truth)).
+std::vector<LabelledStep> steps(std::initializer_list<LabelledStep> list) { return list; }
+
+TEST(ModeMetrics, AccuracyConfusionAndProbabilityByTime) {
+  // Rows at t = 0, 1, 3, 4: weights 1, 2, 1 and (last row) 1 s.
+  const ModeMetrics m = compute_mode_metrics(steps({{0, "a", "a", 0.9},
+                                                    {1, "a", "b", 0.4},
+                                                    {3, "b", "b", 0.8},
+                                                    {4, "b", "b", 0.6}}),
+                                             {"a", "b"});
+  EXPECT_DOUBLE_EQ(m.duration, 5.0);
+  EXPECT_DOUBLE_EQ(m.correct, 1.0 + 1.0 + 1.0);
+  EXPECT_DOUBLE_EQ(m.accuracy(), 0.6);
+  EXPECT_DOUBLE_EQ(m.confusion.at("a").at("a"), 1.0);
+  EXPECT_DOUBLE_EQ(m.confusion.at("a").at("b"), 2.0);
+  EXPECT_DOUBLE_EQ(m.confusion.at("b").at("b"), 2.0);
+  EXPECT_DOUBLE_EQ(m.mean_truth_probability(), (0.9 * 1 + 0.4 * 2 + 0.8 * 1 + 0.6 * 1) / 5.0);
+}
+
+TEST(ModeMetrics, SwitchLatencyFirstAndSettled) {
+  // Switch a -> b at t = 2; the estimate reaches b at 3, flickers back at 4,
+  // settles at 5. Switch b -> c at 7 is never followed.
+  const ModeMetrics m = compute_mode_metrics(steps({{0, "a", "a", 1},
+                                                    {1, "a", "a", 1},
+                                                    {2, "b", "a", 0},
+                                                    {3, "b", "b", 1},
+                                                    {4, "b", "a", 0},
+                                                    {5, "b", "b", 1},
+                                                    {6, "b", "b", 1},
+                                                    {7, "c", "b", 0},
+                                                    {8, "c", "b", 0}}),
+                                             {"a", "b", "c"});
+  ASSERT_EQ(m.switches.size(), 2u);
+  EXPECT_EQ(m.switches[0].from, "a");
+  EXPECT_EQ(m.switches[0].to, "b");
+  EXPECT_DOUBLE_EQ(m.switches[0].time, 2.0);
+  EXPECT_DOUBLE_EQ(m.switches[0].first_latency, 1.0);
+  EXPECT_DOUBLE_EQ(m.switches[0].latency, 3.0);
+  EXPECT_TRUE(m.switches[0].detected());
+  EXPECT_FALSE(m.switches[1].detected());
+  EXPECT_TRUE(std::isnan(m.switches[1].first_latency));
+}
+
+TEST(ModeMetrics, ImmediateDetectionHasZeroLatency) {
+  const ModeMetrics m = compute_mode_metrics(steps({{0, "a", "a", 1}, {1, "b", "b", 1}, {2, "b", "b", 1}}), {"a", "b"});
+  ASSERT_EQ(m.switches.size(), 1u);
+  EXPECT_DOUBLE_EQ(m.switches[0].latency, 0.0);
+}
+
+TEST(ModeMetrics, TruthModeAbsentFromTheBankIsAlwaysWrong) {
+  const ModeMetrics m = compute_mode_metrics(steps({{0, "ice", "asphalt", 0}, {1, "ice", "grass", 0}, {2, "asphalt", "asphalt", 1}}),
+                                             {"asphalt", "grass"});
+  EXPECT_DOUBLE_EQ(m.truth_absent.at("ice"), 2.0);
+  EXPECT_DOUBLE_EQ(m.accuracy(), 1.0 / 3.0);
+  EXPECT_DOUBLE_EQ(m.mean_truth_probability(), 1.0 / 3.0);
+}
+
+TEST(ModeMetrics, UnlabelledRowsAreIgnoredAndRunsMerge) {
+  ModeMetrics m = compute_mode_metrics(steps({{0, "", "a", 0}, {1, "a", "a", 1}, {2, "a", "a", 1}}), {"a"});
+  EXPECT_DOUBLE_EQ(m.duration, 2.0);
+  const ModeMetrics other = compute_mode_metrics(steps({{0, "a", "b", 0}, {1, "a", "b", 0}}), {"a", "b"});
+  m.merge(other);
+  EXPECT_DOUBLE_EQ(m.duration, 4.0);
+  EXPECT_DOUBLE_EQ(m.accuracy(), 0.5);
+}
+
+TEST(Consistency, ChiSquareQuantilesMatchTables) {
+  // Reference values from standard chi-square tables.
+  EXPECT_NEAR(chi_square_quantile(0.975, 10), 20.483, 0.1);
+  EXPECT_NEAR(chi_square_quantile(0.025, 10), 3.247, 0.05);
+  EXPECT_NEAR(chi_square_quantile(0.975, 100), 129.561, 0.1);
+  EXPECT_NEAR(chi_square_quantile(0.025, 100), 74.222, 0.1);
+  EXPECT_NEAR(chi_square_quantile(0.5, 2000), 1999.33, 0.5);
+}
+
+TEST(Consistency, VerdictFollowsTheBounds) {
+  NisAccumulator consistent, overconfident, underconfident;
+  for (int k = 0; k < 1000; ++k) {
+    consistent.add(2.0, 2);
+    overconfident.add(3.0, 2);
+    underconfident.add(1.0, 2);
+  }
+  EXPECT_STREQ(consistent.verdict(), "consistent");
+  EXPECT_STREQ(overconfident.verdict(), "overconfident");
+  EXPECT_STREQ(underconfident.verdict(), "underconfident");
+  EXPECT_NEAR(consistent.upper_bound(), 1.0 + 1.96 * std::sqrt(2.0 / 2000.0), 0.005);
+}
+
+}  // namespace
+}  // namespace evaluation
+}  // namespace skidimm
