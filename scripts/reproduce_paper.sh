@@ -9,7 +9,8 @@ cd "$root"
 seeds=${1:-20}
 skidimm=${SKIDIMM:-build/bin/skidimm}
 work=${SKIDIMM_PAPER_DIR:-build/paper}
-figures=docs/images/results
+figures=${SKIDIMM_FIGURES_DIR:-docs/images/results}
+results=${SKIDIMM_RESULTS_MD:-docs/results.md}
 python=$(command -v /usr/bin/python3 || command -v python3)
 [ -x "$skidimm" ] || { echo "$0: build skidimm first (scripts/build.sh)" >&2; exit 1; }
 mkdir -p "$work/logs" "$work/eval" "$figures"
@@ -55,5 +56,5 @@ for s in stc_singular_no_slip stc_singular_slip_FL_FR stc_singular_slip_FR_RR st
   figure "$s" stc_slip4
 done
 
-"$python" scripts/results_tables.py "$work/eval" docs/results.md "$seeds"
-echo "updated docs/results.md and $figures/" >&2
+"$python" scripts/results_tables.py "$work/eval" "$results" "$seeds"
+echo "updated $results and $figures/" >&2

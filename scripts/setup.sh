@@ -8,7 +8,7 @@ packages=(
   build-essential cmake
   libeigen3-dev libboost-dev libyaml-cpp-dev libceres-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
-  gnuplot-nox  # figures (scripts/plot_mode_probabilities.sh)
+  gnuplot-nox  # figures (skidimm plot)
 )
 
 missing=()
