@@ -38,11 +38,11 @@ int simulate(const SimulateOptions& options);
 
 struct FitCommandOptions {
   std::filesystem::path bank;
-  std::vector<std::string> logs;       // [MODE=]FILE[+FILE...]
-  std::vector<std::string> held_out;   // same form, evaluated after the fit
-  std::string mode;                    // the mode unlabelled logs belong to
-  std::string name;                    // output name of that mode (a new terrain)
-  bool shared = false;                 // fit the bank-level parameters jointly
+  std::vector<std::string> logs;      // [MODE=]FILE[+FILE...]
+  std::vector<std::string> held_out;  // same form, evaluated after the fit
+  std::string mode;                   // the mode unlabelled logs belong to
+  std::string name;                   // output name of that mode (a new terrain)
+  bool shared = false;                // fit the bank-level parameters jointly
   int window = 1;
   std::string loss = "huber";
   double loss_scale = 3.0;
@@ -50,7 +50,7 @@ struct FitCommandOptions {
   std::filesystem::path append_to;
   std::filesystem::path output_bank;
   std::vector<std::filesystem::path> plugin_paths;
-  std::string command_line;            // recorded in written files
+  std::string command_line;  // recorded in written files
 };
 int fit(const FitCommandOptions& options);
 
@@ -68,7 +68,7 @@ struct PlotOptions {
   std::filesystem::path output;     // .png or .svg
   std::filesystem::path log;        // optional: the input log, for measurements and true states
   std::string title;
-  bool states = false;              // add a panel per state
+  bool states = false;  // add a panel per state
 };
 int plot(const PlotOptions& options);
 int validate(const std::filesystem::path& bank, const std::vector<std::filesystem::path>& plugin_paths);

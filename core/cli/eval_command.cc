@@ -87,7 +87,9 @@ std::vector<std::vector<double>> truth_states(const BankConfig& config, const st
     while (reader.next(&fields)) {
       for (std::size_t s = 0; s < index.size(); ++s) {
         if (index[s] < 0) continue;
-        columns[s].push_back(fields[static_cast<std::size_t>(index[s])].empty() ? kNaN : std::stod(fields[static_cast<std::size_t>(index[s])]));
+        columns[s].push_back(fields[static_cast<std::size_t>(index[s])].empty()
+                                 ? kNaN
+                                 : std::stod(fields[static_cast<std::size_t>(index[s])]));
       }
     }
   }
@@ -97,12 +99,14 @@ std::vector<std::vector<double>> truth_states(const BankConfig& config, const st
 LogResult evaluate_log(const Bank& bank, const std::vector<fs::path>& files) {
   const BankConfig& config = bank.config;
   if (config.columns.truth_mode.empty()) {
-    throw Error(config.file.string() + ": the bank names no columns.truth_mode, so there is nothing to evaluate against");
+    throw Error(config.file.string() +
+                ": the bank names no columns.truth_mode, so there is nothing to evaluate against");
   }
   Imm imm(bank);
   LogReader reader(config, files);
   if (!reader.has_truth()) {
-    throw LogError(files.front().string(), 1, "no truth column '" + config.columns.truth_mode + "' (the bank's columns.truth_mode)");
+    throw LogError(files.front().string(), 1,
+                   "no truth column '" + config.columns.truth_mode + "' (the bank's columns.truth_mode)");
   }
   const std::vector<std::vector<double>> truth = truth_states(config, files);
   std::vector<std::string> names;
@@ -124,7 +128,8 @@ LogResult evaluate_log(const Bank& bank, const std::vector<fs::path>& files) {
       result.nis[sample.truth_mode].add(e.nis[truth_index], e.num_measured);
     }
     for (std::size_t s = 0; s < truth.size(); ++s) {
-      if (static_cast<std::size_t>(row) >= truth[s].size() || !std::isfinite(truth[s][static_cast<std::size_t>(row)])) continue;
+      if (static_cast<std::size_t>(row) >= truth[s].size() || !std::isfinite(truth[s][static_cast<std::size_t>(row)]))
+        continue;
       double d = e.state[static_cast<Eigen::Index>(s)] - truth[s][static_cast<std::size_t>(row)];
       if (config.angle_mask[s]) d = sdk::wrap_angle(d);
       result.squared_state_error[s] += d * d;
@@ -185,7 +190,8 @@ Summary summarize(const std::vector<const LogResult*>& logs, std::size_t states)
     }
     s.accuracies.push_back(log->metrics.accuracy());
   }
-  for (std::size_t i = 0; i < states; ++i) s.state_rmse.push_back(counts[i] > 0 ? std::sqrt(squared[i] / counts[i]) : kNaN);
+  for (std::size_t i = 0; i < states; ++i)
+    s.state_rmse.push_back(counts[i] > 0 ? std::sqrt(squared[i] / counts[i]) : kNaN);
   return s;
 }
 
@@ -249,8 +255,8 @@ void print_table(std::ostream& out, const std::string& title, const Summary& s, 
   out << "\n" << title << ": " << s.accuracies.size() << " log(s), " << fmt(m.duration, "%.1f") << " s labelled\n";
   out << "  accuracy (time fraction)        " << fmt(m.accuracy());
   if (s.accuracies.size() > 1) {
-    out << "   per log: mean " << fmt(mean(s.accuracies)) << " +- " << fmt(standard_deviation(s.accuracies))
-        << ", min " << fmt(*std::min_element(s.accuracies.begin(), s.accuracies.end()));
+    out << "   per log: mean " << fmt(mean(s.accuracies)) << " +- " << fmt(standard_deviation(s.accuracies)) << ", min "
+        << fmt(*std::min_element(s.accuracies.begin(), s.accuracies.end()));
   }
   out << "\n  mean probability of the true mode " << fmt(m.mean_truth_probability()) << "\n";
   for (const auto& [mode, seconds] : m.truth_absent) {
@@ -281,8 +287,8 @@ void print_table(std::ostream& out, const std::string& title, const Summary& s, 
   if (l.switches > 0) {
     out << "  switches " << l.switches << "; new mode first most likely after: median " << fmt(f.median, "%.2f")
         << " s, max " << fmt(f.max, "%.2f") << " s, never " << (f.switches - f.detected) << "\n";
-    out << "    ... and most likely from then on until the next switch: median " << fmt(l.median, "%.2f")
-        << " s, max " << fmt(l.max, "%.2f") << " s, never " << (l.switches - l.detected) << "\n";
+    out << "    ... and most likely from then on until the next switch: median " << fmt(l.median, "%.2f") << " s, max "
+        << fmt(l.max, "%.2f") << " s, never " << (l.switches - l.detected) << "\n";
     if (list_switches) {
       for (const auto& d : m.switches) {
         out << "    " << fmt(d.time, "%8.2f") << " s  " << d.from << " -> " << d.to << ": first "
@@ -301,8 +307,9 @@ void print_table(std::ostream& out, const std::string& title, const Summary& s, 
   if (!s.nis.empty()) {
     out << "  consistency of the true mode's filter (mean NIS per measured component, 95% bounds):\n";
     for (const auto& [mode, acc] : s.nis) {
-      out << "    " << mode << std::string(label + 2 - std::min(label + 2, mode.size()), ' ') << fmt(acc.mean_per_dof(), "%.2f") << " ["
-          << fmt(acc.lower_bound(), "%.2f") << ", " << fmt(acc.upper_bound(), "%.2f") << "] " << acc.verdict() << "\n";
+      out << "    " << mode << std::string(label + 2 - std::min(label + 2, mode.size()), ' ')
+          << fmt(acc.mean_per_dof(), "%.2f") << " [" << fmt(acc.lower_bound(), "%.2f") << ", "
+          << fmt(acc.upper_bound(), "%.2f") << "] " << acc.verdict() << "\n";
     }
   }
 }
@@ -311,9 +318,10 @@ std::string json_summary(const Summary& s, const std::vector<std::string>& state
   const ModeMetrics& m = s.metrics;
   std::ostringstream o;
   o << "{\"logs\": " << s.accuracies.size() << ", \"duration\": " << json_number(m.duration)
-    << ", \"accuracy\": " << json_number(m.accuracy()) << ", \"accuracy_per_log\": {\"mean\": "
-    << json_number(mean(s.accuracies)) << ", \"std\": " << json_number(standard_deviation(s.accuracies))
-    << ", \"min\": " << json_number(s.accuracies.empty() ? kNaN : *std::min_element(s.accuracies.begin(), s.accuracies.end()))
+    << ", \"accuracy\": " << json_number(m.accuracy())
+    << ", \"accuracy_per_log\": {\"mean\": " << json_number(mean(s.accuracies))
+    << ", \"std\": " << json_number(standard_deviation(s.accuracies)) << ", \"min\": "
+    << json_number(s.accuracies.empty() ? kNaN : *std::min_element(s.accuracies.begin(), s.accuracies.end()))
     << "}, \"mean_truth_probability\": " << json_number(m.mean_truth_probability()) << ", \"confusion_seconds\": {";
   bool first = true;
   for (const auto& [truth, row] : m.confusion) {
@@ -408,11 +416,13 @@ int eval(const EvalOptions& options) {
       for (std::size_t i = 0; i < groups.size(); ++i) {
         std::vector<const LogResult*> logs;
         for (const LogResult& l : groups[i].logs) logs.push_back(&l);
-        std::cout << (i ? ", " : "") << json_string(groups[i].name) << ": " << json_summary(summarize(logs, states.size()), states);
+        std::cout << (i ? ", " : "") << json_string(groups[i].name) << ": "
+                  << json_summary(summarize(logs, states.size()), states);
       }
       std::cout << "}, \"logs\": {";
       for (std::size_t i = 0; i < all.size(); ++i) {
-        std::cout << (i ? ", " : "") << json_string(all[i]->name) << ": " << json_summary(summarize({all[i]}, states.size()), states);
+        std::cout << (i ? ", " : "") << json_string(all[i]->name) << ": "
+                  << json_summary(summarize({all[i]}, states.size()), states);
       }
       std::cout << "}}\n";
       return kExitOk;

@@ -98,8 +98,8 @@ std::string rmse_text(const BankConfig& config, const Eigen::VectorXd& rmse) {
 
 void print_report(const BankConfig& config, const std::string& name, const ModeLogs& data, const FitReport& r) {
   std::cerr << "mode '" << name << "': " << data.logs.size() << " log(s), " << r.residuals << " residuals, "
-            << r.iterations << " iterations, cost " << fixed(r.initial_cost) << " -> " << fixed(r.final_cost)
-            << ", condition number " << fixed(r.condition_number, 3) << "\n";
+            << r.derivatives << " derivatives, " << r.iterations << " iterations, cost " << fixed(r.initial_cost)
+            << " -> " << fixed(r.final_cost) << ", condition number " << fixed(r.condition_number, 3) << "\n";
   for (const fitting::ParameterEstimate& p : r.parameters) {
     std::cerr << "  " << p.name << " = " << fixed(p.value, 6) << " +- " << fixed(p.standard_deviation, 2) << "\n";
   }
@@ -163,8 +163,8 @@ int fit(const FitCommandOptions& options) {
     for (const std::string& text : options.held_out) {
       const std::vector<ModeLogs> held = load_logs(config, {text}, options.mode);
       const FitReport r = fitting::evaluate(bank, held.front());
-      std::cerr << "held out " << text << ": one-step RMSE " << rmse_text(config, r.rmse)
-                << " (no-change baseline " << rmse_text(config, persistence_rmse(held.front())) << ")\n";
+      std::cerr << "held out " << text << ": one-step RMSE " << rmse_text(config, r.rmse) << " (no-change baseline "
+                << rmse_text(config, persistence_rmse(held.front())) << ")\n";
     }
 
     if (!options.append_to.empty()) {

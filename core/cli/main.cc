@@ -105,7 +105,8 @@ int main(int argc, char** argv) {
   CLI::App* plot = app.add_subcommand("plot", "Draw mode probabilities over time (PNG or SVG, needs gnuplot)");
   plot->add_option("--estimates,-e", plot_estimates, "A `skidimm run` output")->required()->check(CLI::ExistingFile);
   plot->add_option("--output,-o", plot_output, "Figure to write: .png or .svg")->required();
-  plot->add_option("--log,-l", plot_log, "The input log, to draw measurements and true states")->check(CLI::ExistingFile);
+  plot->add_option("--log,-l", plot_log, "The input log, to draw measurements and true states")
+      ->check(CLI::ExistingFile);
   plot->add_option("--title", plot_options.title, "Figure title");
   plot->add_flag("--states", plot_options.states, "Add a panel per state: estimate, measurement, truth");
 

@@ -49,8 +49,9 @@ int plot(const PlotOptions& options) {
   try {
     const std::string gnuplot = find_gnuplot();
     if (gnuplot.empty()) {
-      throw Error("gnuplot is not installed or not on PATH; install it with `apt-get install gnuplot-nox` "
-                  "(scripts/setup.sh does)");
+      throw Error(
+          "gnuplot is not installed or not on PATH; install it with `apt-get install gnuplot-nox` "
+          "(scripts/setup.sh does)");
     }
     const std::string extension = options.output.extension().string();
     std::string terminal;
@@ -111,8 +112,8 @@ int plot(const PlotOptions& options) {
     if (panels > 1) {
       g << "set lmargin 10\nset rmargin 24\nset multiplot layout " << panels << ",1 title " << quoted(options.title)
         << " noenhanced\n";
-    }
-    else g << "set title " << quoted(options.title) << " noenhanced\n";
+    } else
+      g << "set title " << quoted(options.title) << " noenhanced\n";
     // Mode probabilities, the truth as bands coloured like the mode's line.
     std::map<std::string, int> line_of;
     for (std::size_t i = 0; i < modes.size(); ++i) line_of[modes[i].second] = static_cast<int>(i) + 1;
@@ -124,23 +125,24 @@ int plot(const PlotOptions& options) {
           << (b + 1 < bands.size() ? bands[b + 1].start : bands[b].end) << ", graph 1 back fc lt " << it->second
           << " fs transparent solid 0.12 noborder\n";
       }
-      if (b > 0) g << "set arrow " << b << " from " << bands[b].start << ", graph 0 to " << bands[b].start
-                   << ", graph 1 nohead dt 2 lc rgb '#444444'\n";
+      if (b > 0)
+        g << "set arrow " << b << " from " << bands[b].start << ", graph 0 to " << bands[b].start
+          << ", graph 1 nohead dt 2 lc rgb '#444444'\n";
     }
     g << "set ylabel 'mode probability'\nset yrange [-0.02:1.05]\n";
     if (panels == 1) g << "set xlabel 'time (s)'\n";
     g << "plot ";
     for (std::size_t i = 0; i < modes.size(); ++i) {
-      g << (i ? ", " : "") << quoted(options.estimates.string()) << " using 1:" << modes[i].first
-        << " with lines lt " << i + 1 << " lw 2 title " << quoted(modes[i].second);
+      g << (i ? ", " : "") << quoted(options.estimates.string()) << " using 1:" << modes[i].first << " with lines lt "
+        << i + 1 << " lw 2 title " << quoted(modes[i].second);
     }
     g << "\n";
     if (panels > 1) {
       g << "unset object\nunset arrow\nset yrange [*:*]\n";
       for (std::size_t s = 0; s < states.size(); ++s) {
         if (s + 1 == states.size()) g << "set xlabel 'time (s)'\n";
-        g << "set ylabel " << quoted(states[s]) << "\nplot " << quoted(options.estimates.string()) << " using 1:"
-          << column_of(header, states[s]) << " with lines lw 2 lc rgb '#1f77b4' title 'estimate'";
+        g << "set ylabel " << quoted(states[s]) << "\nplot " << quoted(options.estimates.string())
+          << " using 1:" << column_of(header, states[s]) << " with lines lw 2 lc rgb '#1f77b4' title 'estimate'";
         const int measured = column_of(log_header, states[s]);
         const int true_state = column_of(log_header, "true_" + states[s]);
         const int time = column_of(log_header, "t");
@@ -162,7 +164,8 @@ int plot(const PlotOptions& options) {
       std::ofstream out(script);
       out << g.str();
     }
-    const std::string command = quoted(gnuplot) + " " + quoted(script.string()) + " 2>" + quoted(script.string() + ".err");
+    const std::string command =
+        quoted(gnuplot) + " " + quoted(script.string()) + " 2>" + quoted(script.string() + ".err");
     const int status = std::system(command.c_str());
     std::ifstream err(script.string() + ".err");
     const std::string messages((std::istreambuf_iterator<char>(err)), std::istreambuf_iterator<char>());

@@ -21,8 +21,8 @@ int simulate(const SimulateOptions& options) {
                    "skidimm simulate: scenario '%s' (%s, %.1f s, seed %llu): %ld rows -> %s\n"
                    "  modes: %s\n  peak horizontal acceleration %.2f m/s^2 (friction limit %.2f m/s^2)\n",
                    scenario.name.c_str(), simulation::to_string(scenario.maneuver.type), scenario.duration,
-                   static_cast<unsigned long long>(seed), summary.rows, options.output.string().c_str(),
-                   modes.c_str(), summary.max_horizontal_accel, summary.max_friction_accel);
+                   static_cast<unsigned long long>(seed), summary.rows, options.output.string().c_str(), modes.c_str(),
+                   summary.max_horizontal_accel, summary.max_friction_accel);
     }
     return kExitOk;
   } catch (const Error& e) {

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "ltc_common/ltc_predict.h"
+#include "skidimm/sdk/autodiff_parameter_jacobian.h"
 #include "skidimm/sdk/sized_motion_model.h"
 
 namespace skidimm {
@@ -69,6 +70,19 @@ class LtcModel final : public sdk::SizedMotionModel<2, 2> {
     return true;
   }
   bool has_analytic_jacobian() const noexcept override { return true; }
+
+  // d x_next / d [A row-major, B row-major], by Ceres jets on ltc_predict.
+  bool parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+                          double dt, Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept override {
+    double parameters[8];
+    Eigen::Map<Eigen::Matrix<double, 8, 1>> flat(parameters);
+    get_parameters(flat);
+    return sdk::autodiff_parameter_jacobian<2, 2, 8>(
+        [](const auto* x_in, const auto* u_in, const auto* p, const auto& step, auto* out) {
+          ltc_predict(x_in, u_in, p, p + 4, step, out);
+        },
+        x, u, parameters, dt, jacobian);
+  }
 
  private:
   LtcModel(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) : a_(a), b_(b) {

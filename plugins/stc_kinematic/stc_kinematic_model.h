@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "skidimm/sdk/angles.h"
+#include "skidimm/sdk/autodiff_parameter_jacobian.h"
 #include "skidimm/sdk/sized_motion_model.h"
 #include "stc_kinematic/stc_kinematic_predict.h"
 
@@ -78,6 +79,17 @@ class StcKinematicModel final : public sdk::SizedMotionModel<3, 2> {
     return jacobian->allFinite();
   }
   bool has_analytic_jacobian() const noexcept override { return true; }
+
+  // d x_next / d [k, m, r, b], by Ceres jets on stc_predict.
+  bool parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+                          double dt, Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept override {
+    const double parameters[kNumStcParameters] = {p_.k, p_.m, p_.r, p_.b};
+    return sdk::autodiff_parameter_jacobian<3, 2, kNumStcParameters>(
+        [](const auto* x_in, const auto* u_in, const auto* p, const auto& step, auto* out) {
+          stc_predict(x_in, u_in, p[kK], p[kM], p[kR], p[kB], step, out);
+        },
+        x, u, parameters, dt, jacobian);
+  }
 
  private:
   StcKinematicModel() {

@@ -192,7 +192,8 @@ TEST(Cli, AFittedTerrainAppendedToABankIsIdentifiedWithoutRebuilding) {
       {"skidpad_right", "{type: skidpad, speed: 0.9, radius: 1.5, direction: right}"},
       {"sinusoidal", "{type: sinusoidal, speed: 0.7, yaw_rate_amplitude: 0.9, period: 5}"}};
   for (const auto& [name, maneuver] : maneuvers) {
-    write_file(dir / (name + ".yaml"), "name: ice_" + name + "\nduration: 20\nmodes: {ice: {terrain: ice}}\nmode: ice\n" +
+    write_file(dir / (name + ".yaml"), "name: ice_" + name +
+                                           "\nduration: 20\nmodes: {ice: {terrain: ice}}\nmode: ice\n" +
                                            "maneuver: " + maneuver + "\nsensors: {rate: 50, jitter: 0.3}\n");
     const Result sim = run_skidimm("simulate -q --scenario " + (dir / (name + ".yaml")).string() + " --output " +
                                    (dir / (name + ".csv")).string() + " --seed 3");
@@ -215,16 +216,16 @@ TEST(Cli, AFittedTerrainAppendedToABankIsIdentifiedWithoutRebuilding) {
       {"skidpad", "{type: skidpad, speed: 1.0, radius: 1.0}", 0.95},
       {"sinusoidal", "{type: sinusoidal, speed: 0.8, yaw_rate_amplitude: 1.1, period: 4}", 0.75}};
   for (const auto& [name, maneuver, threshold] : checks) {
-    write_file(dir / ("fresh_" + name + ".yaml"), "name: fresh\nduration: 30\nmodes: {ice: {terrain: ice}}\nmode: ice\n" +
-                                                      std::string("maneuver: ") + maneuver +
-                                                      "\nsensors: {rate: 50, jitter: 0.3}\n");
+    write_file(dir / ("fresh_" + name + ".yaml"),
+               "name: fresh\nduration: 30\nmodes: {ice: {terrain: ice}}\nmode: ice\n" + std::string("maneuver: ") +
+                   maneuver + "\nsensors: {rate: 50, jitter: 0.3}\n");
     ASSERT_EQ(run_skidimm("simulate -q --scenario " + (dir / ("fresh_" + name + ".yaml")).string() + " --output " +
                           (dir / ("fresh_" + name + ".csv")).string() + " --seed 99")
                   .exit_code,
               0);
-    const Result run = run_skidimm("run -q --bank " + bank.string() + " --input " +
-                                   (dir / ("fresh_" + name + ".csv")).string() + " --output " +
-                                   (dir / "out.csv").string() + " --plugin-path " + kPlugins);
+    const Result run =
+        run_skidimm("run -q --bank " + bank.string() + " --input " + (dir / ("fresh_" + name + ".csv")).string() +
+                    " --output " + (dir / "out.csv").string() + " --plugin-path " + kPlugins);
     ASSERT_EQ(run.exit_code, 0) << run.err;
     const auto rows = read_csv(dir / "out.csv");
     long ice = 0;
@@ -279,11 +280,11 @@ TEST(Cli, EvalReportsAccuracyLatencyAndConsistencyAsTextAndJson) {
 TEST(Cli, PlotDrawsPngAndSvgAndSaysWhenGnuplotIsMissing) {
   const fs::path dir = test_directory();
   const std::string log = kSource + "/configs/examples/stc_switching.csv";
-  ASSERT_EQ(run_skidimm("run -q --bank " + kSource + "/configs/stc_slip4.yaml --input " + log + " --output " +
-                        (dir / "out.csv").string() + " --plugin-path " + kPlugins + " --plot " +
-                        (dir / "run.png").string())
-                .exit_code,
-            0);
+  ASSERT_EQ(
+      run_skidimm("run -q --bank " + kSource + "/configs/stc_slip4.yaml --input " + log + " --output " +
+                  (dir / "out.csv").string() + " --plugin-path " + kPlugins + " --plot " + (dir / "run.png").string())
+          .exit_code,
+      0);
   const Result svg = run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --log " + log +
                                  " --states --output " + (dir / "states.svg").string());
   ASSERT_EQ(svg.exit_code, 0) << svg.err;
@@ -309,8 +310,8 @@ TEST(Cli, BundledExampleLogsAreReproducibleFromTheirScenarios) {
   const fs::path dir = test_directory();
   for (const std::string name : {"ltc_switching", "stc_switching"}) {
     const fs::path out = dir / (name + ".csv");
-    const Result r = run_skidimm("simulate -q --scenario " + kSource + "/configs/scenarios/" + name + ".yaml --output " +
-                                 out.string());
+    const Result r = run_skidimm("simulate -q --scenario " + kSource + "/configs/scenarios/" + name +
+                                 ".yaml --output " + out.string());
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_EQ(read_file(out), read_file(kSource + "/configs/examples/" + name + ".csv"))
         << "regenerate with scripts/make_examples.sh";

@@ -7,6 +7,7 @@
 
 #include "core/temp_files.h"
 #include "skidimm/errors.h"
+#include "skidimm/sdk/abi.h"
 
 namespace skidimm {
 namespace {
@@ -97,7 +98,8 @@ TEST(PluginRegistry, WrongAbiIsRefusedNamingPluginAndVersions) {
   const std::string e = plugin_error([&] { registry.find("stale_model"); });
   EXPECT_THAT(e, HasSubstr("plugin 'stale_model' at "));
   EXPECT_THAT(e, HasSubstr("wrong_abi_plugin.so"));
-  EXPECT_THAT(e, HasSubstr("built for skidimm plugin ABI 2, but this skidimm uses ABI 1"));
+  EXPECT_THAT(e, HasSubstr("built for skidimm plugin ABI " + std::to_string(sdk::kAbiVersion + 1) +
+                           ", but this skidimm uses ABI " + std::to_string(sdk::kAbiVersion)));
 }
 
 TEST(PluginRegistry, MissingFactoryIsNamed) {

@@ -23,7 +23,11 @@ class ScalarLinearModel : public skidimm::sdk::SizedMotionModel<1, 1> {
   const std::vector<std::string>& input_names() const noexcept override { return inputs_; }
   const std::vector<skidimm::sdk::ParameterInfo>& parameter_info() const noexcept override { return info_; }
   void get_parameters(Eigen::Ref<Eigen::VectorXd> v) const noexcept override { v << a_, b_; }
-  bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>& v, std::string*) noexcept override {
+  bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>& v, std::string* error) noexcept override {
+    if (v.size() != 2 || !v.allFinite()) {
+      if (error != nullptr) *error = "expected a, b";
+      return false;
+    }
     a_ = v[0];
     b_ = v[1];
     return true;

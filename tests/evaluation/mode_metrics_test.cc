@@ -15,11 +15,8 @@ std::vector<LabelledStep> steps(std::initializer_list<LabelledStep> list) { retu
 
 TEST(ModeMetrics, AccuracyConfusionAndProbabilityByTime) {
   // Rows at t = 0, 1, 3, 4: weights 1, 2, 1 and (last row) 1 s.
-  const ModeMetrics m = compute_mode_metrics(steps({{0, "a", "a", 0.9},
-                                                    {1, "a", "b", 0.4},
-                                                    {3, "b", "b", 0.8},
-                                                    {4, "b", "b", 0.6}}),
-                                             {"a", "b"});
+  const ModeMetrics m = compute_mode_metrics(
+      steps({{0, "a", "a", 0.9}, {1, "a", "b", 0.4}, {3, "b", "b", 0.8}, {4, "b", "b", 0.6}}), {"a", "b"});
   EXPECT_DOUBLE_EQ(m.duration, 5.0);
   EXPECT_DOUBLE_EQ(m.correct, 1.0 + 1.0 + 1.0);
   EXPECT_DOUBLE_EQ(m.accuracy(), 0.6);
@@ -60,8 +57,8 @@ TEST(ModeMetrics, ImmediateDetectionHasZeroLatency) {
 }
 
 TEST(ModeMetrics, TruthModeAbsentFromTheBankIsAlwaysWrong) {
-  const ModeMetrics m = compute_mode_metrics(steps({{0, "ice", "asphalt", 0}, {1, "ice", "grass", 0}, {2, "asphalt", "asphalt", 1}}),
-                                             {"asphalt", "grass"});
+  const ModeMetrics m = compute_mode_metrics(
+      steps({{0, "ice", "asphalt", 0}, {1, "ice", "grass", 0}, {2, "asphalt", "asphalt", 1}}), {"asphalt", "grass"});
   EXPECT_DOUBLE_EQ(m.truth_absent.at("ice"), 2.0);
   EXPECT_DOUBLE_EQ(m.accuracy(), 1.0 / 3.0);
   EXPECT_DOUBLE_EQ(m.mean_truth_probability(), 1.0 / 3.0);

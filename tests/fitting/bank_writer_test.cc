@@ -10,10 +10,10 @@ namespace skidimm {
 namespace fitting {
 namespace {
 
-using ::testing::HasSubstr;
 using skidimm_test::read_file;
 using skidimm_test::test_directory;
 using skidimm_test::write_file;
+using ::testing::HasSubstr;
 
 const std::string kBank = R"(# A hand-written bank: this comment must survive appends.
 name: writer_test
@@ -58,7 +58,8 @@ TEST(BankWriter, AnAppendThatWouldBreakTheBankChangesNothing) {
   const auto file = write_file(test_directory() / "b.yaml", kBank);
   Bank bank = Bank::load(file, {SKIDIMM_PLUGIN_DIR});
   try {
-    append_mode_to_bank(file, format_mode_entry("asphalt", "ltc_linear", *bank.models[0], Eigen::Matrix2d::Identity(), {}));
+    append_mode_to_bank(file,
+                        format_mode_entry("asphalt", "ltc_linear", *bank.models[0], Eigen::Matrix2d::Identity(), {}));
     FAIL();
   } catch (const ConfigError& e) {
     EXPECT_THAT(e.what(), HasSubstr("the result would not be a valid bank, nothing was written"));
@@ -71,9 +72,10 @@ TEST(BankWriter, AnAppendThatWouldBreakTheBankChangesNothing) {
 TEST(BankWriter, WritesABankFromATemplateWithANewHeaderAndModes) {
   const auto dir = test_directory();
   const auto file = write_file(dir / "template.yaml", kBank);
-  write_bank_from_template(file, dir / "out.yaml", {"Written by a test"}, "",
-                           "modes:\n  - name: grass\n    model: ltc_linear\n"
-                           "    params: {A: [[-3, 0], [0, -3]], B: [[0.3, 0.3], [-0.5, 0.5]]}\n    Q: [[0.02, 0], [0, 0.02]]\n");
+  write_bank_from_template(
+      file, dir / "out.yaml", {"Written by a test"}, "",
+      "modes:\n  - name: grass\n    model: ltc_linear\n"
+      "    params: {A: [[-3, 0], [0, -3]], B: [[0.3, 0.3], [-0.5, 0.5]]}\n    Q: [[0.02, 0], [0, 0.02]]\n");
   const std::string text = read_file(dir / "out.yaml");
   EXPECT_EQ(text.rfind("# Written by a test\nname: writer_test\n", 0), 0u) << text;
   EXPECT_THAT(text, HasSubstr("# sensor noise"));

@@ -14,10 +14,10 @@ namespace skidimm {
 namespace simulation {
 namespace {
 
-using ::testing::HasSubstr;
 using skidimm_test::read_file;
 using skidimm_test::test_directory;
 using skidimm_test::write_file;
+using ::testing::HasSubstr;
 
 const std::string kSource = SKIDIMM_SOURCE_DIR;
 
@@ -67,8 +67,8 @@ TEST(Scenario, WritesTheScheduleSensorsAndTruth) {
     EXPECT_FALSE(f[1].empty() || f[3].empty() || f[4].empty());
   }
   EXPECT_EQ(summary.rows, rows);
-  EXPECT_NEAR(rows, 4.0 * 50.0, 10.0);   // 50 Hz with jitter
-  EXPECT_NEAR(gps, 4.0 * 10.0, 2.0);     // 10 Hz GPS fixes
+  EXPECT_NEAR(rows, 4.0 * 50.0, 10.0);  // 50 Hz with jitter
+  EXPECT_NEAR(gps, 4.0 * 10.0, 2.0);    // 10 Hz GPS fixes
 }
 
 TEST(Scenario, DropoutsLeaveCellsEmpty) {
@@ -91,8 +91,9 @@ TEST(Scenario, ErrorsNameFileLineAndField) {
     }
     return std::string("no error");
   };
-  EXPECT_THAT(error(replace(kScenario, "terrain: grass", "terrain: mud")),
-              HasSubstr("bad.yaml:4: modes.grass: unknown terrain 'mud' (known: asphalt, crushed_concrete, grass, ice)"));
+  EXPECT_THAT(
+      error(replace(kScenario, "terrain: grass", "terrain: mud")),
+      HasSubstr("bad.yaml:4: modes.grass: unknown terrain 'mud' (known: asphalt, crushed_concrete, grass, ice)"));
   EXPECT_THAT(error(replace(kScenario, "{at: 0, mode: grass}", "{at: 1, mode: grass}")),
               HasSubstr("schedule[0].at: the first entry must start at 0"));
   EXPECT_THAT(error(replace(kScenario, "{at: 2, mode: slip}", "{at: 2, mode: ice}")),
@@ -100,7 +101,8 @@ TEST(Scenario, ErrorsNameFileLineAndField) {
   EXPECT_THAT(error(replace(kScenario, "type: sinusoidal", "type: zigzag")),
               HasSubstr("maneuver.type: expected straight, skidpad, clothoid, sinusoidal or spiral"));
   EXPECT_THAT(error(replace(kScenario, "jitter: 0.2", "jitter: 1.5")), HasSubstr("sensors.jitter: must be below 1"));
-  EXPECT_THAT(error(replace(kScenario, "duration: 4", "duration: -4")), HasSubstr("duration: must be a finite number > 0"));
+  EXPECT_THAT(error(replace(kScenario, "duration: 4", "duration: -4")),
+              HasSubstr("duration: must be a finite number > 0"));
 }
 
 // The bundled, fitted LTC bank identifies each terrain on spirals it was not

@@ -78,7 +78,8 @@ TEST(SkidSteerDynamics, TurningScrubsMoreOnGroundThatResistsSidewaysSliding) {
   // Same command, yaw achieved: isotropic asphalt turns more than crushed concrete.
   double lateral = 0.0, total = 0.0;
   const RobotState on_asphalt = drive(make_traction_mode("a", "asphalt", {}), 3.0, 6.0, 6.0, &lateral, &total);
-  const RobotState on_concrete = drive(make_traction_mode("c", "crushed_concrete", {}), 3.0, 6.0, 6.0, &lateral, &total);
+  const RobotState on_concrete =
+      drive(make_traction_mode("c", "crushed_concrete", {}), 3.0, 6.0, 6.0, &lateral, &total);
   const double ideal = 0.165 * 3.0 / 0.555;
   EXPECT_LT(on_asphalt.omega, ideal);
   EXPECT_LT(on_concrete.omega, 0.85 * on_asphalt.omega);

@@ -18,7 +18,8 @@ void ModeMetrics::merge(const ModeMetrics& other) {
   for (const auto& [mode, seconds] : other.truth_absent) truth_absent[mode] += seconds;
 }
 
-ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps, const std::vector<std::string>& bank_modes) {
+ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps,
+                                 const std::vector<std::string>& bank_modes) {
   std::vector<LabelledStep> steps;
   for (const LabelledStep& s : all_steps) {
     if (!s.truth.empty()) steps.push_back(s);

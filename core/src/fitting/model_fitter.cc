@@ -26,10 +26,10 @@ namespace {
 struct MeasurementLayout {
   std::vector<int> state_row;
   Eigen::MatrixXd h;
-  Eigen::VectorXd sigma;          // sqrt(R_ii)
+  Eigen::VectorXd sigma;  // sqrt(R_ii)
   std::vector<bool> row_is_angle;
   std::vector<bool> state_is_angle;
-  Eigen::MatrixXd r_state;        // R in state order
+  Eigen::MatrixXd r_state;  // R in state order
 };
 
 MeasurementLayout layout_of(const BankConfig& bank) {
@@ -166,6 +166,81 @@ class WindowResidual {
   Window window_;
 };
 
+// The same residuals with exact derivatives: the sensitivity S = dx/dtheta
+// of the propagated state is carried through the window,
+//   S_{k+1} = F_k S_k + df/dtheta|_k,   S_start = 0 (the start is measured),
+// with F_k from jacobian() and df/dtheta from parameter_jacobian().
+class AnalyticWindowCost : public ceres::CostFunction {
+ public:
+  AnalyticWindowCost(sdk::MotionModel* model, Eigen::VectorXd base, ParameterMapping mapping,
+                     const MeasurementLayout* m, Window window, int block_size)
+      : model_(model), base_(std::move(base)), mapping_(std::move(mapping)), m_(m), window_(std::move(window)) {
+    mutable_parameter_block_sizes()->push_back(block_size);
+    set_num_residuals(window_.residuals);
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    Eigen::VectorXd full = base_;
+    for (std::size_t i = 0; i < mapping_.model_index.size(); ++i) {
+      full[mapping_.model_index[i]] = parameters[0][mapping_.block_index[i]];
+    }
+    if (!model_->set_parameters(full, nullptr)) return false;
+    const Trajectory& t = *window_.trajectory;
+    const int n = model_->state_dim();
+    const int block = parameter_block_sizes()[0];
+    Eigen::VectorXd x = measured_state(*m_, t, window_.start), next(n);
+    Eigen::MatrixXd sensitivity = Eigen::MatrixXd::Zero(n, block);
+    Eigen::MatrixXd f(n, n), g(n, full.size());
+    int row = window_.start;
+    int r = 0;
+    for (int target : window_.targets) {
+      for (int k = row; k < target; ++k) {
+        const double dt = t.t[k + 1] - t.t[k];
+        if (jacobians != nullptr) {
+          if (!model_->jacobian(x, t.u.col(k), dt, f) || !model_->parameter_jacobian(x, t.u.col(k), dt, g))
+            return false;
+          Eigen::MatrixXd updated = f * sensitivity;
+          for (std::size_t i = 0; i < mapping_.model_index.size(); ++i) {
+            updated.col(mapping_.block_index[i]) += g.col(mapping_.model_index[i]);
+          }
+          sensitivity = updated;
+        }
+        if (!model_->predict(x, t.u.col(k), dt, next)) return false;
+        x = next;
+      }
+      row = target;
+      const Eigen::VectorXd predicted = m_->h * x;
+      for (Eigen::Index c = 0; c < t.z.rows(); ++c) {
+        if (!std::isfinite(t.z(c, target))) continue;
+        double e = t.z(c, target) - predicted[c];
+        if (m_->row_is_angle[c]) e = sdk::wrap_angle(e);
+        residuals[r] = e / m_->sigma[c];
+        if (jacobians != nullptr && jacobians[0] != nullptr) {
+          const Eigen::RowVectorXd d = -(m_->h.row(c) * sensitivity) / m_->sigma[c];
+          for (int p = 0; p < block; ++p) jacobians[0][r * block + p] = d[p];
+        }
+        ++r;
+      }
+    }
+    return x.allFinite();
+  }
+
+ private:
+  sdk::MotionModel* model_;
+  Eigen::VectorXd base_;
+  ParameterMapping mapping_;
+  const MeasurementLayout* m_;
+  Window window_;
+};
+
+// True if the model gives exact parameter derivatives at the log's first row.
+bool has_parameter_jacobian(const sdk::MotionModel& model, const Trajectory& t) {
+  if (t.size() < 2) return false;
+  Eigen::MatrixXd g(model.state_dim(), static_cast<Eigen::Index>(model.parameter_info().size()));
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(model.state_dim());
+  return model.parameter_jacobian(x, t.u.col(0), t.t[1] - t.t[0], g);
+}
+
 ceres::LossFunction* make_loss(const FitOptions& options) {
   if (options.loss == "huber") return new ceres::HuberLoss(options.loss_scale);
   if (options.loss == "cauchy") return new ceres::CauchyLoss(options.loss_scale);
@@ -173,14 +248,23 @@ ceres::LossFunction* make_loss(const FitOptions& options) {
   throw FitError("unknown loss '" + options.loss + "' (expected huber, cauchy or none)");
 }
 
-std::string describe_direction(const Eigen::VectorXd& v, const std::vector<std::string>& names) {
-  std::vector<std::pair<double, std::string>> parts;
-  for (Eigen::Index i = 0; i < v.size(); ++i) {
-    if (std::abs(v[i]) > 0.2) parts.emplace_back(std::abs(v[i]), names[static_cast<std::size_t>(i)]);
-  }
-  std::sort(parts.rbegin(), parts.rend());
+// "[B[0,0], B[0,1]], [A[1,1]]": the parameters in each direction the logs do
+// not excite (right singular vectors of the Jacobian with negligible singular
+// values), largest components first.
+std::string describe_unexcited(const Eigen::MatrixXd& v, const Eigen::VectorXd& singular, double threshold,
+                               const std::vector<std::string>& names) {
   std::string out;
-  for (const auto& p : parts) out += (out.empty() ? "" : ", ") + p.second;
+  for (Eigen::Index k = 0; k < singular.size(); ++k) {
+    if (singular[k] >= threshold) continue;
+    std::vector<std::pair<double, std::string>> parts;
+    for (Eigen::Index i = 0; i < v.rows(); ++i) {
+      if (std::abs(v(i, k)) > 0.2) parts.emplace_back(std::abs(v(i, k)), names[static_cast<std::size_t>(i)]);
+    }
+    std::sort(parts.rbegin(), parts.rend());
+    std::string direction;
+    for (const auto& p : parts) direction += (direction.empty() ? "" : ", ") + p.second;
+    out += (out.empty() ? "[" : ", [") + direction + "]";
+  }
   return out;
 }
 
@@ -206,8 +290,8 @@ Eigen::VectorXd mean_component_nis(const Bank& bank, const sdk::MotionModel& mod
       if (selected.size == 0) continue;
       // Per-component innovation and variance before the update.
       const Eigen::VectorXd predicted = config.measurement.h * filter.state();
-      const Eigen::MatrixXd s = config.measurement.h * filter.covariance() * config.measurement.h.transpose() +
-                                config.measurement.r;
+      const Eigen::MatrixXd s =
+          config.measurement.h * filter.covariance() * config.measurement.h.transpose() + config.measurement.r;
       for (int a = 0; a < selected.size; ++a) {
         const int c = selected.rows[a];
         double e = t.z(c, k) - predicted[c];
@@ -341,6 +425,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
     problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
     ceres::Problem problem(problem_options);
     int residuals = 0;
+    bool all_analytic = true;
     for (const ModeLogs* d : group) {
       if (d->logs.empty()) throw FitError(who + ": no logs given");
       for (const Trajectory& t : d->logs) {
@@ -352,11 +437,20 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
                          ") with a measured row after it");
         }
         sdk::MotionModel* model = bank->models[static_cast<std::size_t>(d->mode)].get();
+        const bool analytic = !options.numeric_derivatives && has_parameter_jacobian(*model, t);
+        all_analytic = all_analytic && analytic;
         for (const Window& w : windows) {
-          auto* cost = new ceres::DynamicNumericDiffCostFunction<WindowResidual, ceres::CENTRAL>(
-              new WindowResidual(model, per_mode[d->mode].first, per_mode[d->mode].second, &m, w));
-          cost->AddParameterBlock(static_cast<int>(block.size()));
-          cost->SetNumResiduals(w.residuals);
+          ceres::CostFunction* cost = nullptr;
+          if (analytic) {
+            cost = new AnalyticWindowCost(model, per_mode[d->mode].first, per_mode[d->mode].second, &m, w,
+                                          static_cast<int>(block.size()));
+          } else {
+            auto* numeric = new ceres::DynamicNumericDiffCostFunction<WindowResidual, ceres::CENTRAL>(
+                new WindowResidual(model, per_mode[d->mode].first, per_mode[d->mode].second, &m, w));
+            numeric->AddParameterBlock(static_cast<int>(block.size()));
+            numeric->SetNumResiduals(w.residuals);
+            cost = numeric;
+          }
           problem.AddResidualBlock(cost, make_loss(options), block.data());
           residuals += w.residuals;
         }
@@ -397,9 +491,9 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
     const double largest = singular[0];
     const double smallest = singular[singular.size() - 1];
     if (!(largest > 0.0) || smallest < options.identifiability_threshold * largest) {
-      throw FitError(who + ": the logs do not excite every parameter: no information on a combination of [" +
-                     describe_direction(svd.matrixV().col(singular.size() - 1), names) +
-                     "]; drive maneuvers that move them (turns and speed changes), or fix them");
+      throw FitError(who + ": the logs do not excite every parameter: no information on the combinations " +
+                     describe_unexcited(svd.matrixV(), singular, options.identifiability_threshold * largest, names) +
+                     "; drive maneuvers that move them (turns and speed changes), or fix them");
     }
 
     std::vector<double> deviations(block.size(), std::nan(""));
@@ -440,6 +534,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
       }
       if (!std::isfinite(deviations[0])) report.warnings.push_back("Ceres could not compute the covariance");
       report.residuals = residuals;
+      report.derivatives = all_analytic ? "autodiff" : "numeric";
       report.iterations = static_cast<int>(summary.iterations.size());
       report.initial_cost = summary.initial_cost;
       report.final_cost = summary.final_cost;

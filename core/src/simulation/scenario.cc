@@ -69,7 +69,8 @@ void parse_maneuver(const YamlFields& y, const YAML::Node& node, Maneuver* m) {
   if (node["radius"]) m->radius = positive(y, node["radius"], "maneuver.radius");
   if (node["initial_radius"]) m->initial_radius = positive(y, node["initial_radius"], "maneuver.initial_radius");
   if (node["radius_rate"]) m->radius_rate = non_negative(y, node["radius_rate"], "maneuver.radius_rate");
-  if (node["initial_curvature"]) m->initial_curvature = y.number(node["initial_curvature"], "maneuver.initial_curvature");
+  if (node["initial_curvature"])
+    m->initial_curvature = y.number(node["initial_curvature"], "maneuver.initial_curvature");
   if (node["curvature_rate"]) m->curvature_rate = y.number(node["curvature_rate"], "maneuver.curvature_rate");
   if (node["yaw_rate_amplitude"]) {
     m->yaw_rate_amplitude = non_negative(y, node["yaw_rate_amplitude"], "maneuver.yaw_rate_amplitude");
@@ -158,7 +159,8 @@ Scenario load_scenario(const fs::path& file) {
   if (root["robot"]) parse_robot(y, root["robot"], &s.robot);
 
   const YAML::Node modes = y.required(root, "modes", "");
-  if (!modes.IsMap() || modes.size() == 0) y.fail(modes, "modes", "expected a mapping from mode name to {terrain, tarp}");
+  if (!modes.IsMap() || modes.size() == 0)
+    y.fail(modes, "modes", "expected a mapping from mode name to {terrain, tarp}");
   for (const auto& entry : modes) {
     const std::string name = entry.first.as<std::string>();
     const std::string field = "modes." + name;
@@ -178,7 +180,8 @@ Scenario load_scenario(const fs::path& file) {
   if (root["mode"] && root["schedule"]) y.fail(root, "schedule", "give either 'mode' (singular) or 'schedule'");
   if (root["mode"]) {
     s.schedule.push_back({0.0, y.string(root["mode"], "mode")});
-    if (!mode_exists(s.schedule[0].mode)) y.fail(root["mode"], "mode", "no mode '" + s.schedule[0].mode + "' under modes");
+    if (!mode_exists(s.schedule[0].mode))
+      y.fail(root["mode"], "mode", "no mode '" + s.schedule[0].mode + "' under modes");
   } else {
     const YAML::Node schedule = y.required(root, "schedule", "");
     if (!schedule.IsSequence() || schedule.size() == 0) y.fail(schedule, "schedule", "expected a list of {at, mode}");
@@ -212,9 +215,9 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
     summary.max_friction_accel = std::max(summary.max_friction_accel, mu * 9.81);
   }
 
-  CsvWriter out(output, {"t", "phi_dot_L", "phi_dot_R", "V", "omega", "ax", "ay", "X", "Y", "theta", "mode",
-                         "true_V", "true_vy", "true_omega", "true_X", "true_Y", "true_theta", "true_phi_dot_L",
-                         "true_phi_dot_R"});
+  CsvWriter out(
+      output, {"t", "phi_dot_L", "phi_dot_R", "V", "omega", "ax", "ay", "X", "Y", "theta", "mode", "true_V", "true_vy",
+               "true_omega", "true_X", "true_Y", "true_theta", "true_phi_dot_L", "true_phi_dot_R"});
   RobotState state;
   const double h = scenario.integration_step;
   const double period = 1.0 / sensors.rate;

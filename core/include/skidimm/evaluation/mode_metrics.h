@@ -14,8 +14,8 @@ namespace evaluation {
 
 struct LabelledStep {
   double t = 0.0;
-  std::string truth;           // true mode; empty rows are ignored
-  std::string estimate;        // most likely mode
+  std::string truth;               // true mode; empty rows are ignored
+  std::string estimate;            // most likely mode
   double truth_probability = 0.0;  // probability the estimator gave the true mode (0 if not in the bank)
 };
 
@@ -34,9 +34,9 @@ struct SwitchDetection {
 };
 
 struct ModeMetrics {
-  double duration = 0.0;            // s with a truth label
-  double correct = 0.0;             // s where estimate == truth
-  double truth_probability = 0.0;   // integral of the true mode's probability (s)
+  double duration = 0.0;           // s with a truth label
+  double correct = 0.0;            // s where estimate == truth
+  double truth_probability = 0.0;  // integral of the true mode's probability (s)
   // confusion[truth][estimate] = seconds.
   std::map<std::string, std::map<std::string, double>> confusion;
   std::vector<SwitchDetection> switches;

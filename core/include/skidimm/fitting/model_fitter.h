@@ -13,8 +13,10 @@
 // the multi-step (simulation-error) objective, started at every `window`-th
 // fully measured row (multiple shooting). A robust loss (Huber, Cauchy) limits
 // the pull of outliers; parameter bounds come from the plugin. Derivatives are
-// central differences of predict() (the plugin boundary carries no templated
-// form). After the fit:
+// exact where the plugin provides parameter_jacobian() (the bundled plugins
+// differentiate their templated equations with Ceres jets): the state's
+// sensitivity is chained through each window. Otherwise they are central
+// differences of predict(). After the fit:
 //
 //   * parameter standard deviations from Ceres' covariance, scaled by the
 //     residual variance;
@@ -49,9 +51,9 @@ class FitError : public Error {
 };
 
 struct FitOptions {
-  int window = 1;                   // measured rows per prediction window; 1 = one-step
-  std::string loss = "huber";       // huber, cauchy, none
-  double loss_scale = 3.0;          // in measurement standard deviations
+  int window = 1;              // measured rows per prediction window; 1 = one-step
+  std::string loss = "huber";  // huber, cauchy, none
+  double loss_scale = 3.0;     // in measurement standard deviations
   int max_iterations = 200;
   // Which parameters to fit, by scope: kMode fits each mode's own, kBank the
   // bank-level (shared:) ones jointly over every mode's logs.
@@ -59,6 +61,8 @@ struct FitOptions {
   // Singular values below this fraction of the largest mark a direction as
   // not identifiable.
   double identifiability_threshold = 1e-7;
+  // Central differences even where the plugin gives exact derivatives.
+  bool numeric_derivatives = false;
 };
 
 struct ParameterEstimate {
@@ -68,11 +72,12 @@ struct ParameterEstimate {
 };
 
 struct FitReport {
-  std::vector<ParameterEstimate> parameters;   // the fitted ones
-  Eigen::VectorXd rmse;                        // one-step, per measurement component
-  Eigen::MatrixXd q_intensity;                 // estimated process noise (state_dim x state_dim)
+  std::vector<ParameterEstimate> parameters;  // the fitted ones
+  Eigen::VectorXd rmse;                       // one-step, per measurement component
+  Eigen::MatrixXd q_intensity;                // estimated process noise (state_dim x state_dim)
   std::vector<std::string> warnings;
   int residuals = 0;
+  std::string derivatives;  // "autodiff" (from the plugin) or "numeric"
   int iterations = 0;
   double initial_cost = 0.0;
   double final_cost = 0.0;

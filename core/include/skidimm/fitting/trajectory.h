@@ -14,10 +14,10 @@ namespace skidimm {
 namespace fitting {
 
 struct Trajectory {
-  std::string source;          // file names, for messages
-  std::vector<double> t;       // s, strictly increasing
-  Eigen::MatrixXd u;           // input_dim x N
-  Eigen::MatrixXd z;           // measurement_dim x N, NaN = missing
+  std::string source;     // file names, for messages
+  std::vector<double> t;  // s, strictly increasing
+  Eigen::MatrixXd u;      // input_dim x N
+  Eigen::MatrixXd z;      // measurement_dim x N, NaN = missing
   int size() const { return static_cast<int>(t.size()); }
 };
 

@@ -14,14 +14,14 @@ namespace simulation {
 struct Maneuver {
   enum class Type { kStraight, kSkidpad, kClothoid, kSinusoidal, kSpiral };
   Type type = Type::kSpiral;
-  double speed = 0.8;             // m/s, reached after `ramp` seconds
-  double ramp = 1.0;              // s
-  double direction = 1.0;         // +1 turns left (counter-clockwise), -1 right
-  double radius = 2.0;            // skidpad: turning radius (m)
-  double initial_radius = 0.6;    // spiral: radius at t = 0 (m)
-  double radius_rate = 0.12;      // spiral: radius growth (m/s)
-  double initial_curvature = 0.0; // clothoid: curvature at t = 0 (1/m)
-  double curvature_rate = 0.1;    // clothoid: curvature growth (1/m/s)
+  double speed = 0.8;               // m/s, reached after `ramp` seconds
+  double ramp = 1.0;                // s
+  double direction = 1.0;           // +1 turns left (counter-clockwise), -1 right
+  double radius = 2.0;              // skidpad: turning radius (m)
+  double initial_radius = 0.6;      // spiral: radius at t = 0 (m)
+  double radius_rate = 0.12;        // spiral: radius growth (m/s)
+  double initial_curvature = 0.0;   // clothoid: curvature at t = 0 (1/m)
+  double curvature_rate = 0.1;      // clothoid: curvature growth (1/m/s)
   double yaw_rate_amplitude = 0.8;  // sinusoidal: rad/s
   double period = 6.0;              // sinusoidal: s
 

@@ -19,8 +19,8 @@ namespace skidimm {
 namespace simulation {
 
 struct SensorConfig {
-  double rate = 50.0;           // Hz: one log row per sample
-  double jitter = 0.0;          // each interval is (1 +- jitter) / rate, uniformly
+  double rate = 50.0;             // Hz: one log row per sample
+  double jitter = 0.0;            // each interval is (1 +- jitter) / rate, uniformly
   double wheel_speed_std = 0.05;  // rad/s, encoder speed noise
   double velocity_std = 0.05;     // m/s, body forward speed V_B
   double yaw_rate_std = 0.02;     // rad/s, IMU
@@ -58,8 +58,8 @@ Scenario load_scenario(const std::filesystem::path& file);
 
 struct SimulationSummary {
   long rows = 0;
-  double max_horizontal_accel = 0.0;   // m/s^2, |(ax, ay)| of the body
-  double max_friction_accel = 0.0;     // m/s^2, max over modes of mu_max g
+  double max_horizontal_accel = 0.0;  // m/s^2, |(ax, ay)| of the body
+  double max_friction_accel = 0.0;    // m/s^2, max over modes of mu_max g
   std::vector<std::string> modes_driven;
 };
 

@@ -25,17 +25,17 @@ namespace skidimm {
 namespace simulation {
 
 struct RobotParameters {
-  double mass = 50.0;                // kg, Clearpath Husky
-  double yaw_inertia = 6.0;          // kg m^2: m (0.99^2 + 0.67^2) / 12 for the Husky's 0.99 x 0.67 m box
-  double wheel_radius = 0.165;       // m
-  double track = 0.555;              // m, lateral distance between wheel centres
-  double wheelbase = 0.512;          // m, longitudinal distance between axles
-  double motor_time_constant = 0.05; // s, wheel speed loop
+  double mass = 50.0;                 // kg, Clearpath Husky
+  double yaw_inertia = 6.0;           // kg m^2: m (0.99^2 + 0.67^2) / 12 for the Husky's 0.99 x 0.67 m box
+  double wheel_radius = 0.165;        // m
+  double track = 0.555;               // m, lateral distance between wheel centres
+  double wheelbase = 0.512;           // m, longitudinal distance between axles
+  double motor_time_constant = 0.05;  // s, wheel speed loop
 };
 
 struct RobotState {
-  double x = 0.0, y = 0.0, psi = 0.0;   // world pose (m, m, rad)
-  double vx = 0.0, vy = 0.0, omega = 0.0;  // body velocity (m/s, m/s, rad/s)
+  double x = 0.0, y = 0.0, psi = 0.0;            // world pose (m, m, rad)
+  double vx = 0.0, vy = 0.0, omega = 0.0;        // body velocity (m/s, m/s, rad/s)
   std::array<double, kNumWheels> wheel_speed{};  // rad/s
 };
 
@@ -43,7 +43,7 @@ struct RobotState {
 struct ContactForces {
   std::array<double, kNumWheels> fx{};  // N, body x
   std::array<double, kNumWheels> fy{};  // N, body y
-  double ax = 0.0;  // body acceleration (sum F / m), what an IMU measures, m/s^2
+  double ax = 0.0;                      // body acceleration (sum F / m), what an IMU measures, m/s^2
   double ay = 0.0;
 };
 
@@ -59,9 +59,7 @@ class SkidSteerDynamics {
   void step(const std::array<double, kNumWheels>& commands, const TractionMode& mode, double h, RobotState* s) const;
 
   // Wheel commands for a wheel-speed pair: left wheels get `left`, right `right`.
-  static std::array<double, kNumWheels> side_commands(double left, double right) {
-    return {left, right, left, right};
-  }
+  static std::array<double, kNumWheels> side_commands(double left, double right) { return {left, right, left, right}; }
 
  private:
   RobotState derivative(const RobotState& s, const std::array<double, kNumWheels>& commands,

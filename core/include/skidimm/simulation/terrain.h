@@ -29,11 +29,11 @@ inline constexpr const char* kWheelNames[kNumWheels] = {"FL", "FR", "RL", "RR"};
 // this ratio, more than mu itself, sets how much of a commanded yaw rate it
 // achieves on a terrain.
 struct WheelGroundContact {
-  double friction = 0.9;             // peak longitudinal friction coefficient mu (-)
-  double lateral_ratio = 1.0;        // peak lateral over longitudinal friction (-)
-  double stiffness = 10.0;           // Pacejka B (-)
-  double shape = 1.9;                // Pacejka C (-)
-  double rolling_resistance = 0.015; // c_rr (-)
+  double friction = 0.9;              // peak longitudinal friction coefficient mu (-)
+  double lateral_ratio = 1.0;         // peak lateral over longitudinal friction (-)
+  double stiffness = 10.0;            // Pacejka B (-)
+  double shape = 1.9;                 // Pacejka C (-)
+  double rolling_resistance = 0.015;  // c_rr (-)
 };
 
 struct Terrain {

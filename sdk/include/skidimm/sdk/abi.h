@@ -12,7 +12,8 @@
 namespace skidimm {
 namespace sdk {
 
-inline constexpr int kAbiVersion = 1;
+// 2: MotionModel::parameter_jacobian() added.
+inline constexpr int kAbiVersion = 2;
 
 // Names of the symbols SKIDIMM_EXPORT_MOTION_MODEL exports.
 // The ABI version and the plugin name are plain C types, readable even from a

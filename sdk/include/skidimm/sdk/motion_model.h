@@ -74,6 +74,17 @@ class BOOST_SYMBOL_VISIBLE MotionModel {
   }
   virtual bool has_analytic_jacobian() const noexcept { return false; }
 
+  // Jacobian of predict() with respect to the flat parameter vector
+  // (state_dim x parameter_info().size()), for fitting. Models whose
+  // equations are a templated function get it exactly from
+  // autodiff_parameter_jacobian() (autodiff_parameter_jacobian.h); the
+  // default returns false and the fitter differentiates numerically.
+  virtual bool parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& /*x*/,
+                                  const Eigen::Ref<const Eigen::VectorXd>& /*u*/, double /*dt*/,
+                                  Eigen::Ref<Eigen::MatrixXd> /*jacobian*/) const noexcept {
+    return false;
+  }
+
   // Covariance of the process noise added over a step of dt seconds, given the
   // mode's continuous-time intensity `intensity` (the bank's Q). The default,
   // Q * dt, is the usual random-walk discretisation (robot_localization, fuse)

@@ -16,7 +16,8 @@
 //  * the parameters round-trip through get/set, with unique names, valid
 //    bounds and current values inside them;
 //  * process_noise(I, x, u, dt) is symmetric positive semidefinite;
-//  * the reported Jacobian matches central differences of predict().
+//  * the reported Jacobian matches central differences of predict(), and so
+//    does the parameter Jacobian if the model provides one.
 // The model is left with the parameters it had.
 #ifndef SKIDIMM_SDK_TESTING_CONFORMANCE_H_
 #define SKIDIMM_SDK_TESTING_CONFORMANCE_H_
@@ -25,7 +26,9 @@
 
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <string>
@@ -159,6 +162,41 @@ inline ::testing::AssertionResult MotionModelConforms(MotionModel& model, const 
         std::ostringstream out;
         out << "jacobian() differs from central differences by " << error_norm << "\n    reported:\n"
             << jacobian << "\n    numeric:\n"
+            << numeric;
+        fail(out.str());
+      }
+    }
+  }
+
+  // Parameter Jacobian, if provided, against differences over set_parameters().
+  Eigen::MatrixXd parameter_jacobian(n, num_parameters);
+  if (num_parameters > 0 && model.parameter_jacobian(x, u, dt, parameter_jacobian)) {
+    Eigen::MatrixXd numeric(n, num_parameters);
+    Eigen::VectorXd plus(n), minus(n), perturbed = values;
+    bool evaluated = true;
+    for (Eigen::Index j = 0; j < num_parameters && evaluated; ++j) {
+      const double h = std::cbrt(std::numeric_limits<double>::epsilon()) * std::max(1.0, std::abs(values[j]));
+      perturbed[j] = values[j] + h;
+      evaluated = model.set_parameters(perturbed, nullptr) && model.predict(x, u, dt, plus);
+      perturbed[j] = values[j] - h;
+      evaluated = evaluated && model.set_parameters(perturbed, nullptr) && model.predict(x, u, dt, minus);
+      perturbed[j] = values[j];
+      for (int i = 0; i < n; ++i) {
+        double difference = plus[i] - minus[i];
+        if (model.is_angle(i)) difference = wrap_angle(difference);
+        numeric(i, j) = difference / (2.0 * h);
+      }
+    }
+    model.set_parameters(values, nullptr);
+    if (!evaluated) {
+      fail("could not perturb the parameters to check parameter_jacobian() (a parameter on its bound?)");
+    } else {
+      const double scale = std::max(1.0, numeric.cwiseAbs().maxCoeff());
+      const double error_norm = (parameter_jacobian - numeric).cwiseAbs().maxCoeff();
+      if (error_norm > options.jacobian_tolerance * scale) {
+        std::ostringstream out;
+        out << "parameter_jacobian() differs from central differences by " << error_norm << "\n    reported:\n"
+            << parameter_jacobian << "\n    numeric:\n"
             << numeric;
         fail(out.str());
       }

@@ -1,0 +1,71 @@
+// The conformance kit must catch broken models, or its passes prove nothing.
+#include "skidimm/sdk/testing/conformance.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "core/test_banks.h"
+
+namespace {
+
+using skidimm_test::ScalarLinearModel;
+using ::testing::HasSubstr;
+
+// x_next = x + (a x + b u) dt, with deliberate defects switched on.
+class BrokenModel : public ScalarLinearModel {
+ public:
+  enum Defect { kNone, kWrongJacobian, kWrongParameterJacobian, kMovesAtZeroDt };
+  explicit BrokenModel(Defect defect) : ScalarLinearModel(-2.0, 0.5), defect_(defect) {}
+
+  bool predict_fixed(const State& x, const Input& u, double dt, State* next) const noexcept override {
+    ScalarLinearModel::predict_fixed(x, u, dt, next);
+    if (defect_ == kMovesAtZeroDt) (*next)[0] += 1e-3;
+    return true;
+  }
+  bool jacobian_fixed(const State& x, const Input& u, double dt, Jacobian* j) const noexcept override {
+    ScalarLinearModel::jacobian_fixed(x, u, dt, j);
+    if (defect_ == kWrongJacobian) (*j)(0, 0) += 0.5 * dt;  // a sign slip in a hand derivation
+    return true;
+  }
+  // d next / d [a, b] = [x dt, u dt]; the defect drops the dt on b.
+  bool parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+                          double dt, Eigen::Ref<Eigen::MatrixXd> j) const noexcept override {
+    j(0, 0) = x[0] * dt;
+    j(0, 1) = defect_ == kWrongParameterJacobian ? u[0] : u[0] * dt;
+    return true;
+  }
+
+ private:
+  Defect defect_;
+};
+
+const Eigen::VectorXd kX = Eigen::VectorXd::Constant(1, 0.7);
+const Eigen::VectorXd kU = Eigen::VectorXd::Constant(1, 2.0);
+
+TEST(ConformanceKit, PassesACorrectModel) {
+  BrokenModel model(BrokenModel::kNone);
+  EXPECT_MOTION_MODEL_CONFORMS(model, kX, kU, 0.1);
+}
+
+TEST(ConformanceKit, CatchesAWrongStateJacobian) {
+  BrokenModel model(BrokenModel::kWrongJacobian);
+  const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
+  EXPECT_FALSE(result);
+  EXPECT_THAT(result.message(), HasSubstr("jacobian() differs from central differences"));
+}
+
+TEST(ConformanceKit, CatchesAWrongParameterJacobian) {
+  BrokenModel model(BrokenModel::kWrongParameterJacobian);
+  const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
+  EXPECT_FALSE(result);
+  EXPECT_THAT(result.message(), HasSubstr("parameter_jacobian() differs from central differences"));
+}
+
+TEST(ConformanceKit, CatchesAModelThatMovesInZeroTime) {
+  BrokenModel model(BrokenModel::kMovesAtZeroDt);
+  const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
+  EXPECT_FALSE(result);
+  EXPECT_THAT(result.message(), HasSubstr("predict(x, u, 0) changed component 0"));
+}
+
+}  // namespace
