@@ -245,17 +245,7 @@ int BankConfig::mode_index(const std::string& mode_name) const {
 
 BankConfig load_bank_config(const fs::path& file) {
   const YamlFields y(file.string());
-  std::error_code ec;
-  if (!fs::is_regular_file(file, ec)) throw ConfigError(file.string(), 0, "", "no such bank file");
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file.string());
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(file.string(), e.mark.line + 1, "", "malformed YAML: " + e.msg);
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(file.string(), 0, "", std::string("cannot read YAML: ") + e.what());
-  }
-  if (!root.IsMap()) throw ConfigError(file.string(), 1, "", "a bank file must be a YAML mapping");
+  const YAML::Node root = y.load_mapping("bank");
 
   y.check_keys(root,
                {"name", "description", "states", "angles", "inputs", "columns", "measurement", "transition", "initial",

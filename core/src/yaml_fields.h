@@ -6,6 +6,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <Eigen/Core>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,24 @@ class YamlFields {
   explicit YamlFields(std::string file) : file_(std::move(file)) {}
 
   const std::string& file() const { return file_; }
+
+  // Loads the file as a YAML mapping. `kind` names it in messages ("bank",
+  // "scenario"): a missing file, a syntax error (with its line) and a
+  // non-mapping document are ConfigErrors.
+  YAML::Node load_mapping(const std::string& kind) const {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(file_, ec)) throw ConfigError(file_, 0, "", "no such " + kind + " file");
+    YAML::Node root;
+    try {
+      root = YAML::LoadFile(file_);
+    } catch (const YAML::ParserException& e) {
+      throw ConfigError(file_, e.mark.line + 1, "", "malformed YAML: " + e.msg);
+    } catch (const YAML::Exception& e) {
+      throw ConfigError(file_, 0, "", std::string("cannot read YAML: ") + e.what());
+    }
+    if (!root.IsMap()) throw ConfigError(file_, 1, "", "a " + kind + " file must be a YAML mapping");
+    return root;
+  }
 
   static int line_of(const YAML::Node& node) { return node.Mark().is_null() ? 0 : node.Mark().line + 1; }
 

@@ -131,17 +131,7 @@ std::string number(double v) { return CsvWriter::format(std::round(v * 1e6) / 1e
 
 Scenario load_scenario(const fs::path& file) {
   const YamlFields y(file.string());
-  std::error_code ec;
-  if (!fs::is_regular_file(file, ec)) throw ConfigError(file.string(), 0, "", "no such scenario file");
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file.string());
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(file.string(), e.mark.line + 1, "", "malformed YAML: " + e.msg);
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(file.string(), 0, "", std::string("cannot read YAML: ") + e.what());
-  }
-  if (!root.IsMap()) throw ConfigError(file.string(), 1, "", "a scenario file must be a YAML mapping");
+  const YAML::Node root = y.load_mapping("scenario");
   y.check_keys(root,
                {"name", "description", "duration", "seed", "integration_step", "robot", "modes", "mode", "schedule",
                 "maneuver", "sensors"},
