@@ -128,52 +128,29 @@ struct ParameterMapping {
   std::vector<int> block_index;
 };
 
-class WindowResidual {
- public:
-  WindowResidual(sdk::MotionModel* model, Eigen::VectorXd base, ParameterMapping mapping, const MeasurementLayout* m,
-                 Window window)
-      : model_(model), base_(std::move(base)), mapping_(std::move(mapping)), m_(m), window_(std::move(window)) {}
-
-  bool operator()(double const* const* parameters, double* residuals) const {
-    Eigen::VectorXd full = base_;
-    for (std::size_t i = 0; i < mapping_.model_index.size(); ++i) {
-      full[mapping_.model_index[i]] = parameters[0][mapping_.block_index[i]];
-    }
-    if (!model_->set_parameters(full, nullptr)) return false;
-    const Trajectory& t = *window_.trajectory;
-    Eigen::VectorXd x = measured_state(*m_, t, window_.start);
-    int row = window_.start;
-    int r = 0;
-    for (int target : window_.targets) {
-      if (!propagate(*model_, t, row, target, &x)) return false;
-      row = target;
-      const Eigen::VectorXd predicted = m_->h * x;
-      for (Eigen::Index c = 0; c < t.z.rows(); ++c) {
-        if (!std::isfinite(t.z(c, target))) continue;
-        double e = t.z(c, target) - predicted[c];
-        if (m_->row_is_angle[c]) e = sdk::wrap_angle(e);
-        residuals[r++] = e / m_->sigma[c];
-      }
-    }
-    return true;
+// Calls f(component, error) for each measured component of row `target`,
+// with error = z - H x (wrapped for angles).
+template <typename F>
+void for_each_error(const MeasurementLayout& m, const Trajectory& t, int target, const Eigen::VectorXd& x, F&& f) {
+  const Eigen::VectorXd predicted = m.h * x;
+  for (Eigen::Index c = 0; c < t.z.rows(); ++c) {
+    if (!std::isfinite(t.z(c, target))) continue;
+    double e = t.z(c, target) - predicted[c];
+    if (m.row_is_angle[c]) e = sdk::wrap_angle(e);
+    f(c, e);
   }
+}
 
- private:
-  sdk::MotionModel* model_;
-  Eigen::VectorXd base_;
-  ParameterMapping mapping_;
-  const MeasurementLayout* m_;
-  Window window_;
-};
-
-// The same residuals with exact derivatives: the sensitivity S = dx/dtheta
-// of the propagated state is carried through the window,
+// The residuals of one window, each error divided by its measurement
+// standard deviation. With `jacobians`, also their exact derivatives: the
+// sensitivity S = dx/dtheta of the propagated state is carried through the
+// window,
 //   S_{k+1} = F_k S_k + df/dtheta|_k,   S_start = 0 (the start is measured),
 // with F_k from jacobian() and df/dtheta from parameter_jacobian().
-class AnalyticWindowCost : public ceres::CostFunction {
+class WindowCost : public ceres::CostFunction {
  public:
-  AnalyticWindowCost(sdk::MotionModel* model, Eigen::VectorXd base, ParameterMapping mapping,
-                     const MeasurementLayout* m, Window window, int block_size)
+  WindowCost(sdk::MotionModel* model, Eigen::VectorXd base, ParameterMapping mapping, const MeasurementLayout* m,
+             Window window, int block_size)
       : model_(model), base_(std::move(base)), mapping_(std::move(mapping)), m_(m), window_(std::move(window)) {
     mutable_parameter_block_sizes()->push_back(block_size);
     set_num_residuals(window_.residuals);
@@ -185,6 +162,7 @@ class AnalyticWindowCost : public ceres::CostFunction {
       full[mapping_.model_index[i]] = parameters[0][mapping_.block_index[i]];
     }
     if (!model_->set_parameters(full, nullptr)) return false;
+    const bool derivatives = jacobians != nullptr && jacobians[0] != nullptr;
     const Trajectory& t = *window_.trajectory;
     const int n = model_->state_dim();
     const int block = parameter_block_sizes()[0];
@@ -196,9 +174,8 @@ class AnalyticWindowCost : public ceres::CostFunction {
     for (int target : window_.targets) {
       for (int k = row; k < target; ++k) {
         const double dt = t.t[k + 1] - t.t[k];
-        if (jacobians != nullptr) {
-          if (!model_->jacobian(x, t.u.col(k), dt, f) || !model_->parameter_jacobian(x, t.u.col(k), dt, g))
-            return false;
+        if (derivatives) {
+          if (!model_->jacobian(x, t.u.col(k), dt, f) || !model_->parameter_jacobian(x, t.u.col(k), dt, g)) return false;
           Eigen::MatrixXd updated = f * sensitivity;
           for (std::size_t i = 0; i < mapping_.model_index.size(); ++i) {
             updated.col(mapping_.block_index[i]) += g.col(mapping_.model_index[i]);
@@ -209,18 +186,14 @@ class AnalyticWindowCost : public ceres::CostFunction {
         x = next;
       }
       row = target;
-      const Eigen::VectorXd predicted = m_->h * x;
-      for (Eigen::Index c = 0; c < t.z.rows(); ++c) {
-        if (!std::isfinite(t.z(c, target))) continue;
-        double e = t.z(c, target) - predicted[c];
-        if (m_->row_is_angle[c]) e = sdk::wrap_angle(e);
+      for_each_error(*m_, t, target, x, [&](Eigen::Index c, double e) {
         residuals[r] = e / m_->sigma[c];
-        if (jacobians != nullptr && jacobians[0] != nullptr) {
+        if (derivatives) {
           const Eigen::RowVectorXd d = -(m_->h.row(c) * sensitivity) / m_->sigma[c];
           for (int p = 0; p < block; ++p) jacobians[0][r * block + p] = d[p];
         }
         ++r;
-      }
+      });
     }
     return x.allFinite();
   }
@@ -231,6 +204,15 @@ class AnalyticWindowCost : public ceres::CostFunction {
   ParameterMapping mapping_;
   const MeasurementLayout* m_;
   Window window_;
+};
+
+// The same residuals for Ceres' numeric differentiation, for models without
+// parameter_jacobian().
+struct NumericWindowResidual {
+  std::unique_ptr<WindowCost> cost;
+  bool operator()(double const* const* parameters, double* residuals) const {
+    return cost->Evaluate(parameters, residuals, nullptr);
+  }
 };
 
 // True if the model gives exact parameter derivatives at the log's first row.
@@ -289,16 +271,12 @@ Eigen::VectorXd mean_component_nis(const Bank& bank, const sdk::MotionModel& mod
       measurement.select(t.z.col(k), &selected);
       if (selected.size == 0) continue;
       // Per-component innovation and variance before the update.
-      const Eigen::VectorXd predicted = config.measurement.h * filter.state();
-      const Eigen::MatrixXd s =
-          config.measurement.h * filter.covariance() * config.measurement.h.transpose() + config.measurement.r;
-      for (int a = 0; a < selected.size; ++a) {
-        const int c = selected.rows[a];
-        double e = t.z(c, k) - predicted[c];
-        if (m.row_is_angle[c]) e = sdk::wrap_angle(e);
+      const Eigen::MatrixXd s = config.measurement.h * filter.covariance() * config.measurement.h.transpose() +
+                                config.measurement.r;
+      for_each_error(m, t, k, filter.state(), [&](Eigen::Index c, double e) {
         sum[c] += e * e / s(c, c);
         count[c] += 1.0;
-      }
+      });
       if (!filter.update(selected).ok) break;
     }
   }
@@ -322,14 +300,10 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data) {
       if (previous >= 0) {
         Eigen::VectorXd x = measured_state(m, t, previous);
         if (propagate(model, t, previous, k, &x)) {
-          const Eigen::VectorXd predicted = m.h * x;
-          for (Eigen::Index c = 0; c < rows; ++c) {
-            if (!std::isfinite(t.z(c, k))) continue;
-            double e = t.z(c, k) - predicted[c];
-            if (m.row_is_angle[c]) e = sdk::wrap_angle(e);
+          for_each_error(m, t, k, x, [&](Eigen::Index c, double e) {
             squared[c] += e * e;
             counts[c] += 1.0;
-          }
+          });
         }
       }
       previous = k;
@@ -440,13 +414,14 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
         const bool analytic = !options.numeric_derivatives && has_parameter_jacobian(*model, t);
         all_analytic = all_analytic && analytic;
         for (const Window& w : windows) {
+          auto window_cost = std::make_unique<WindowCost>(model, per_mode[d->mode].first, per_mode[d->mode].second,
+                                                          &m, w, static_cast<int>(block.size()));
           ceres::CostFunction* cost = nullptr;
           if (analytic) {
-            cost = new AnalyticWindowCost(model, per_mode[d->mode].first, per_mode[d->mode].second, &m, w,
-                                          static_cast<int>(block.size()));
+            cost = window_cost.release();
           } else {
-            auto* numeric = new ceres::DynamicNumericDiffCostFunction<WindowResidual, ceres::CENTRAL>(
-                new WindowResidual(model, per_mode[d->mode].first, per_mode[d->mode].second, &m, w));
+            auto* numeric = new ceres::DynamicNumericDiffCostFunction<NumericWindowResidual, ceres::CENTRAL>(
+                new NumericWindowResidual{std::move(window_cost)});
             numeric->AddParameterBlock(static_cast<int>(block.size()));
             numeric->SetNumResiduals(w.residuals);
             cost = numeric;
