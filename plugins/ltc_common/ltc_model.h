@@ -50,10 +50,7 @@ class LtcModel final : public sdk::SizedMotionModel<2, 2> {
   }
 
   bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>& values, std::string* error) noexcept override {
-    if (values.size() != 8 || !values.allFinite()) {
-      if (error != nullptr) *error = "expected 8 finite values (A row-major, then B row-major)";
-      return false;
-    }
+    if (!sdk::check_parameter_values(parameter_info_, values, error)) return false;
     Eigen::Map<Eigen::Matrix<double, 4, 1>>(a_.data()) = values.head<4>();
     Eigen::Map<Eigen::Matrix<double, 4, 1>>(b_.data()) = values.tail<4>();
     return true;

@@ -48,20 +48,7 @@ class StcKinematicModel final : public sdk::SizedMotionModel<3, 2> {
   }
 
   bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>& values, std::string* error) noexcept override {
-    if (values.size() != kNumStcParameters || !values.allFinite()) {
-      if (error != nullptr) *error = "expected 4 finite values (k, m, r, b)";
-      return false;
-    }
-    for (int i = 0; i < kNumStcParameters; ++i) {
-      const sdk::ParameterInfo& info = parameter_info_[i];
-      if (values[i] < info.lower_bound || values[i] > info.upper_bound) {
-        if (error != nullptr) {
-          *error = "parameter '" + info.name + "' = " + std::to_string(values[i]) + " is outside [" +
-                   std::to_string(info.lower_bound) + ", " + std::to_string(info.upper_bound) + "]";
-        }
-        return false;
-      }
-    }
+    if (!sdk::check_parameter_values(parameter_info_, values, error)) return false;
     p_ = StcParameters{values[kK], values[kM], values[kR], values[kB]};
     return true;
   }

@@ -43,19 +43,7 @@ class IcrKinematicModel final : public skidimm::sdk::SizedMotionModel<3, 2> {
   }
 
   bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>& values, std::string* error) noexcept override {
-    if (values.size() != kNumParameters || !values.allFinite()) {
-      if (error != nullptr) *error = "expected 5 finite values (y_icr_l, y_icr_r, x_icr_v, efficiency, r)";
-      return false;
-    }
-    for (int i = 0; i < kNumParameters; ++i) {
-      if (values[i] < info_[i].lower_bound || values[i] > info_[i].upper_bound) {
-        if (error != nullptr) {
-          *error = "parameter '" + info_[i].name + "' = " + std::to_string(values[i]) + " is outside [" +
-                   std::to_string(info_[i].lower_bound) + ", " + std::to_string(info_[i].upper_bound) + "]";
-        }
-        return false;
-      }
-    }
+    if (!skidimm::sdk::check_parameter_values(info_, values, error)) return false;
     p_ =
         IcrParameters<double>{values[kYLeft], values[kYRight], values[kXVehicle], values[kEfficiency], values[kRadius]};
     return true;

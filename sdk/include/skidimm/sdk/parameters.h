@@ -108,6 +108,34 @@ class ParameterSet {
   std::map<std::string, Eigen::MatrixXd> values_;
 };
 
+// Checks a flat parameter vector against a model's parameter_info(): its
+// size, finiteness and every entry's bounds. The usual first line of
+// set_parameters(); on failure *error names the parameter and its bounds.
+inline bool check_parameter_values(const std::vector<ParameterInfo>& info,
+                                   const Eigen::Ref<const Eigen::VectorXd>& values, std::string* error) {
+  auto fail = [error](const std::string& message) {
+    if (error != nullptr) *error = message;
+    return false;
+  };
+  if (values.size() != static_cast<Eigen::Index>(info.size())) {
+    std::string names;
+    for (const ParameterInfo& p : info) names += (names.empty() ? "" : ", ") + p.name;
+    return fail("expected " + std::to_string(info.size()) + " values (" + names + "), got " +
+                std::to_string(values.size()));
+  }
+  for (std::size_t i = 0; i < info.size(); ++i) {
+    const double v = values[static_cast<Eigen::Index>(i)];
+    if (!(v == v) || v == std::numeric_limits<double>::infinity() || v == -std::numeric_limits<double>::infinity()) {
+      return fail("parameter '" + info[i].name + "' is not finite");
+    }
+    if (v < info[i].lower_bound || v > info[i].upper_bound) {
+      return fail("parameter '" + info[i].name + "' = " + std::to_string(v) + " is outside [" +
+                  std::to_string(info[i].lower_bound) + ", " + std::to_string(info[i].upper_bound) + "]");
+    }
+  }
+  return true;
+}
+
 // Builds the flat entries for a rows x cols matrix parameter, row-major
 // ("A[0,0]", "A[0,1]", ...), which is the order plugins use in get/set.
 inline void append_matrix_parameter_info(const std::string& key, int rows, int cols, const std::string& description,
