@@ -68,7 +68,7 @@ class ProgressLine {
 int run(const RunOptions& options) {
   std::optional<CsvWriter> writer;
   long rows = 0;
-  try {
+  const int code = report_errors("skidimm run", [&] {
     Imm imm = Imm::from_yaml(options.bank, options.plugin_paths);
     const BankConfig& config = imm.config();
     LogReader reader(config, options.inputs);
@@ -123,20 +123,16 @@ int run(const RunOptions& options) {
       }
     }
     return kExitOk;
-  } catch (const Error& e) {
-    std::cerr << "skidimm run: error: " << e.what() << "\n";
-  } catch (const std::exception& e) {
-    std::cerr << "skidimm run: unexpected error: " << e.what() << "\n";
-  }
-  if (writer && rows > 0) {
+  });
+  if (code != kExitOk && writer && rows > 0) {
     std::cerr << "skidimm run: the " << rows << " rows computed before the error are in "
               << writer->partial_path().string() << "\n";
   }
-  return kExitFailure;
+  return code;
 }
 
 int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_paths) {
-  try {
+  return report_errors("skidimm validate", [&] {
     const Bank bank = Bank::load(bank_file, plugin_paths);
     const BankConfig& c = bank.config;
     std::cout << bank_file.string() << ": OK\n";
@@ -158,12 +154,7 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
                   c.initial_mode_probabilities[static_cast<Eigen::Index>(j)]);
     }
     return kExitOk;
-  } catch (const Error& e) {
-    std::cerr << "skidimm validate: error: " << e.what() << "\n";
-  } catch (const std::exception& e) {
-    std::cerr << "skidimm validate: unexpected error: " << e.what() << "\n";
-  }
-  return kExitFailure;
+  });
 }
 
 int plugins(const std::vector<fs::path>& plugin_paths) {

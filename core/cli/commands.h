@@ -3,9 +3,13 @@
 #ifndef SKIDIMM_CLI_COMMANDS_H_
 #define SKIDIMM_CLI_COMMANDS_H_
 
+#include <exception>
 #include <filesystem>
+#include <iostream>
 #include <string>
 #include <vector>
+
+#include "skidimm/errors.h"
 
 namespace skidimm {
 namespace cli {
@@ -14,6 +18,20 @@ namespace cli {
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;  // bad bank, plugin, log, or I/O
 inline constexpr int kExitUsage = 2;    // bad command line
+
+// Runs a command's body; a library error becomes "<command>: error: ..." on
+// stderr and kExitFailure, never an uncaught exception.
+template <typename Body>
+int report_errors(const char* command, Body&& body) {
+  try {
+    return body();
+  } catch (const Error& e) {
+    std::cerr << command << ": error: " << e.what() << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << command << ": unexpected error: " << e.what() << "\n";
+  }
+  return kExitFailure;
+}
 
 struct RunOptions {
   std::filesystem::path bank;

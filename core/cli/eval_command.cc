@@ -373,7 +373,7 @@ std::string json_summary(const Summary& s, const std::vector<std::string>& state
 }  // namespace
 
 int eval(const EvalOptions& options) {
-  try {
+  return report_errors("skidimm eval", [&] {
     std::vector<Group> groups;
     std::vector<std::string> modes, states;
     if (!options.estimates.empty()) {
@@ -436,12 +436,7 @@ int eval(const EvalOptions& options) {
     }
     print_table(std::cout, groups.size() > 1 ? "all" : groups[0].name, overall, modes, states, all.size() <= 3);
     return kExitOk;
-  } catch (const Error& e) {
-    std::cerr << "skidimm eval: error: " << e.what() << "\n";
-  } catch (const std::exception& e) {
-    std::cerr << "skidimm eval: unexpected error: " << e.what() << "\n";
-  }
-  return kExitFailure;
+  });
 }
 
 }  // namespace cli

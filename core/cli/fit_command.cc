@@ -112,7 +112,7 @@ void print_report(const BankConfig& config, const std::string& name, const ModeL
 }  // namespace
 
 int fit(const FitCommandOptions& options) {
-  try {
+  return report_errors("skidimm fit", [&] {
     Bank bank = Bank::load(options.bank, options.plugin_paths);
     const BankConfig& config = bank.config;
     const std::vector<ModeLogs> data = load_logs(config, options.logs, options.mode);
@@ -206,12 +206,7 @@ int fit(const FitCommandOptions& options) {
     }
     if (options.append_to.empty() && options.output_bank.empty() && options.output_entry.empty()) std::cout << entries;
     return kExitOk;
-  } catch (const Error& e) {
-    std::cerr << "skidimm fit: error: " << e.what() << "\n";
-  } catch (const std::exception& e) {
-    std::cerr << "skidimm fit: unexpected error: " << e.what() << "\n";
-  }
-  return kExitFailure;
+  });
 }
 
 }  // namespace cli

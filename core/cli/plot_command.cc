@@ -46,7 +46,7 @@ int column_of(const std::vector<std::string>& header, const std::string& name) {
 }  // namespace
 
 int plot(const PlotOptions& options) {
-  try {
+  return report_errors("skidimm plot", [&] {
     const std::string gnuplot = find_gnuplot();
     if (gnuplot.empty()) {
       throw Error(
@@ -176,12 +176,7 @@ int plot(const PlotOptions& options) {
     }
     fs::remove(script);
     return kExitOk;
-  } catch (const Error& e) {
-    std::cerr << "skidimm plot: error: " << e.what() << "\n";
-  } catch (const std::exception& e) {
-    std::cerr << "skidimm plot: unexpected error: " << e.what() << "\n";
-  }
-  return kExitFailure;
+  });
 }
 
 }  // namespace cli

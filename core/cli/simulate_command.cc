@@ -9,7 +9,7 @@ namespace skidimm {
 namespace cli {
 
 int simulate(const SimulateOptions& options) {
-  try {
+  return report_errors("skidimm simulate", [&] {
     simulation::Scenario scenario = simulation::load_scenario(options.scenario);
     if (options.duration > 0.0) scenario.duration = options.duration;
     const std::uint64_t seed = options.has_seed ? options.seed : scenario.seed;
@@ -25,12 +25,7 @@ int simulate(const SimulateOptions& options) {
                    summary.max_horizontal_accel, summary.max_friction_accel);
     }
     return kExitOk;
-  } catch (const Error& e) {
-    std::cerr << "skidimm simulate: error: " << e.what() << "\n";
-  } catch (const std::exception& e) {
-    std::cerr << "skidimm simulate: unexpected error: " << e.what() << "\n";
-  }
-  return kExitFailure;
+  });
 }
 
 }  // namespace cli
