@@ -9,6 +9,7 @@ packages=(
   libeigen3-dev libboost-dev libyaml-cpp-dev libceres-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   gnuplot-nox  # figures (skidimm plot)
+  python3      # scripts/results_tables.py and scripts/derive_physical_configs.py (standard library only)
 )
 
 missing=()
