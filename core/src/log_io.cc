@@ -154,9 +154,20 @@ LogReader::ColumnRef LogReader::resolve(const std::string& column, const std::st
     if (index >= 0) return ColumnRef{static_cast<int>(f), index, column};
   }
   if (!required) return ColumnRef{};
+  // The header as read, made printable and short: a binary file given by
+  // mistake must not flood the terminal.
   std::string present;
+  int listed = 0;
   for (const auto& reader : readers_) {
-    for (const std::string& h : reader->header()) present += (present.empty() ? "" : ", ") + h;
+    for (const std::string& h : reader->header()) {
+      if (++listed > 40 || present.size() > 400) {
+        present += ", ...";
+        break;
+      }
+      std::string printable;
+      for (unsigned char c : h.substr(0, 40)) printable += (c >= 32 && c < 127) ? static_cast<char>(c) : '?';
+      present += (present.empty() ? "" : ", ") + printable;
+    }
   }
   throw LogError(readers_[0]->path().string(), 1,
                  "no column '" + column + "' (the bank's " + bank_field + "); columns present: " + present);

@@ -90,6 +90,21 @@ TEST(LogReader, MissingColumnNamesTheBankFieldAndWhatIsThere) {
       {"log.csv:1: no column 'right' (the bank's columns.inputs.phi_dot_R)", "columns present: t, left, rigth, v, w"});
 }
 
+TEST(LogReader, ABinaryFileGivesAShortPrintableError) {
+  std::string garbage(3000, '\0');
+  for (std::size_t i = 0; i < garbage.size(); ++i) garbage[i] = static_cast<char>((i * 37 + 11) % 256);
+  const auto file = write_file(test_directory() / "binary.csv", garbage);
+  try {
+    LogReader(simple_bank(), {file});
+    FAIL();
+  } catch (const LogError& e) {
+    const std::string message = e.what();
+    EXPECT_THAT(message, HasSubstr("no column 't'"));
+    EXPECT_LT(message.size(), 700u);
+    for (unsigned char c : message.substr(message.find("present:"))) EXPECT_TRUE(c >= 32 && c < 127) << int(c);
+  }
+}
+
 TEST(LogReader, NonNumericCellNamesLineAndColumn) {
   const auto file = write_file(test_directory() / "log.csv", "t,left,right,v,w\n0,1,2,3,4\n0.1,1,fast,3,4\n");
   LogReader reader(simple_bank(), {file});
