@@ -199,10 +199,14 @@ int fit(const FitCommandOptions& options) {
                                         shared_block, modes_block);
       std::cerr << "wrote " << options.output_bank.string() << "\n";
     }
-    if (!options.output_entry.empty()) {
-      std::ofstream out(options.output_entry, std::ios::binary | std::ios::trunc);
-      out << entries;
-      if (!out) throw Error("cannot write " + options.output_entry.string());
+    if (!options.output_entry.empty()) {  // written whole, then renamed: never half a file
+      const fs::path temporary = options.output_entry.string() + ".partial";
+      {
+        std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+        out << entries;
+        if (!out) throw Error("cannot write " + temporary.string());
+      }
+      fs::rename(temporary, options.output_entry);
     }
     if (options.append_to.empty() && options.output_bank.empty() && options.output_entry.empty()) std::cout << entries;
     return kExitOk;

@@ -105,7 +105,10 @@ int plot(const PlotOptions& options) {
     std::ostringstream g;
     g << "set terminal " << terminal << " size 1100," << (panels == 1 ? 420 : 300 + 220 * panels)
       << " font 'sans,10'\n";
-    g << "set output " << quoted(options.output.string()) << "\n";
+    // gnuplot writes a temporary file, renamed when it succeeded: a failed
+    // plot never leaves a truncated figure under the final name.
+    const fs::path drawing = options.output.string() + ".partial";
+    g << "set output " << quoted(drawing.string()) << "\n";
     g << "set datafile separator ','\nset key outside right noenhanced\nset grid ytics lc rgb '#dddddd'\n";
     g << "set xrange [0:" << last_t << "]\n";
     // Fixed margins so the panels' time axes line up whatever their keys' widths.
@@ -171,9 +174,11 @@ int plot(const PlotOptions& options) {
     const std::string messages((std::istreambuf_iterator<char>(err)), std::istreambuf_iterator<char>());
     fs::remove(script.string() + ".err");
     std::error_code ec;
-    if (status != 0 || !fs::exists(options.output, ec) || fs::file_size(options.output, ec) == 0) {
+    if (status != 0 || !fs::exists(drawing, ec) || fs::file_size(drawing, ec) == 0) {
+      fs::remove(drawing, ec);
       throw Error("gnuplot failed on " + script.string() + ":\n" + messages);
     }
+    fs::rename(drawing, options.output);
     fs::remove(script);
     return kExitOk;
   });
