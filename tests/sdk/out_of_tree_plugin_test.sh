@@ -71,4 +71,13 @@ step "without the plugin's directory the bank fails with a clear error"
 if "$prefix/bin/skidimm" validate "$bank" 2>"$work/missing.txt"; then fail "validate passed without the plugin"; fi
 grep -q "no plugin named 'icr_kinematic'" "$work/missing.txt" || fail "message: $(cat "$work/missing.txt")"
 
-echo "out-of-tree plugin: all checks passed"
+step "a program of the user's links skidimm::core from the install and runs the IMM"
+cmake -S "$source/sdk/examples/online_imm" -B "$work/online_imm-build" -DCMAKE_PREFIX_PATH="$prefix" \
+  -DCMAKE_BUILD_TYPE=Release >"$work/online_configure.log" 2>&1 || { cat "$work/online_configure.log"; fail "configure online_imm"; }
+cmake --build "$work/online_imm-build" -j 2 >"$work/online_build.log" 2>&1 || { cat "$work/online_build.log"; fail "build online_imm"; }
+"$work/online_imm-build/online_imm" "$prefix/share/skidimm/configs/ltc_terrains.yaml" \
+  "$prefix/share/skidimm/configs/examples/ltc_switching.csv" >"$work/online.txt"
+grep -q "now on crushed_concrete" "$work/online.txt" || fail "online_imm: $(cat "$work/online.txt")"
+grep -q "now on asphalt" "$work/online.txt" || fail "online_imm: $(cat "$work/online.txt")"
+
+echo "out-of-tree plugin and program: all checks passed"
