@@ -80,22 +80,16 @@ class StcKinematicModel final : public sdk::SizedMotionModel<3, 2> {
 
  private:
   StcKinematicModel() {
-    auto add = [this](const char* name, const char* description, double lower, double upper,
-                      sdk::ParameterScope scope) {
-      sdk::ParameterInfo info;
-      info.name = info.key = name;
-      info.description = description;
-      info.lower_bound = lower;
-      info.upper_bound = upper;
-      info.scope = scope;
-      parameter_info_.push_back(info);
-    };
     const double inf = std::numeric_limits<double>::infinity();
-    add("k", "longitudinal efficiency: actual / requested forward speed (-)", 0.0, 2.0, sdk::ParameterScope::kMode);
-    add("m", "yaw efficiency: actual / requested yaw rate (-)", 0.0, 2.0, sdk::ParameterScope::kMode);
-    // Geometry is the robot's, not the terrain's: one value for the whole bank.
-    add("r", "wheel radius (m)", 1e-6, inf, sdk::ParameterScope::kBank);
-    add("b", "track width (m)", 1e-6, inf, sdk::ParameterScope::kBank);
+    using sdk::ParameterScope;
+    using sdk::scalar_parameter_info;
+    parameter_info_ = {
+        scalar_parameter_info("k", "longitudinal efficiency: actual / requested forward speed (-)", 0.0, 2.0),
+        scalar_parameter_info("m", "yaw efficiency: actual / requested yaw rate (-)", 0.0, 2.0),
+        // Geometry is the robot's, not the terrain's: one value for the whole bank.
+        scalar_parameter_info("r", "wheel radius (m)", 1e-6, inf, ParameterScope::kBank),
+        scalar_parameter_info("b", "track width (m)", 1e-6, inf, ParameterScope::kBank),
+    };
   }
 
   StcParameters p_{1.0, 1.0, 1.0, 1.0};

@@ -70,21 +70,15 @@ class IcrKinematicModel final : public skidimm::sdk::SizedMotionModel<3, 2> {
  private:
   IcrKinematicModel() {
     using skidimm::sdk::ParameterScope;
+    using skidimm::sdk::scalar_parameter_info;
     const double inf = std::numeric_limits<double>::infinity();
-    auto add = [this](const char* name, const char* description, double lower, double upper, ParameterScope scope) {
-      skidimm::sdk::ParameterInfo info;
-      info.name = info.key = name;
-      info.description = description;
-      info.lower_bound = lower;
-      info.upper_bound = upper;
-      info.scope = scope;
-      info_.push_back(info);
+    info_ = {
+        scalar_parameter_info("y_icr_l", "lateral position of the left tread's ICR (m)", 1e-3, 10.0),
+        scalar_parameter_info("y_icr_r", "lateral position of the right tread's ICR (m)", -10.0, -1e-3),
+        scalar_parameter_info("x_icr_v", "longitudinal position of the vehicle's ICR (m)", -10.0, 10.0),
+        scalar_parameter_info("efficiency", "tread speed over r * wheel speed (-)", 0.0, 2.0),
+        scalar_parameter_info("r", "wheel radius (m)", 1e-6, inf, ParameterScope::kBank),
     };
-    add("y_icr_l", "lateral position of the left tread's ICR (m)", 1e-3, 10.0, ParameterScope::kMode);
-    add("y_icr_r", "lateral position of the right tread's ICR (m)", -10.0, -1e-3, ParameterScope::kMode);
-    add("x_icr_v", "longitudinal position of the vehicle's ICR (m)", -10.0, 10.0, ParameterScope::kMode);
-    add("efficiency", "tread speed over r * wheel speed (-)", 0.0, 2.0, ParameterScope::kMode);
-    add("r", "wheel radius (m)", 1e-6, inf, ParameterScope::kBank);
   }
 
   IcrParameters<double> p_{0.3, -0.3, 0.0, 1.0, 0.1};

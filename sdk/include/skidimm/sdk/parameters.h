@@ -136,6 +136,18 @@ inline bool check_parameter_values(const std::vector<ParameterInfo>& info,
   return true;
 }
 
+// The entry of a scalar parameter (its name is its ParameterSet key).
+inline ParameterInfo scalar_parameter_info(const std::string& name, const std::string& description, double lower_bound,
+                                           double upper_bound, ParameterScope scope = ParameterScope::kMode) {
+  ParameterInfo info;
+  info.name = info.key = name;
+  info.description = description;
+  info.lower_bound = lower_bound;
+  info.upper_bound = upper_bound;
+  info.scope = scope;
+  return info;
+}
+
 // Builds the flat entries for a rows x cols matrix parameter, row-major
 // ("A[0,0]", "A[0,1]", ...), which is the order plugins use in get/set.
 inline void append_matrix_parameter_info(const std::string& key, int rows, int cols, const std::string& description,
