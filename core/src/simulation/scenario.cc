@@ -101,14 +101,12 @@ void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s)
   set("gps_rate", &s->gps_rate, false);
   set("gps_std", &s->gps_std, false);
   set("heading_std", &s->heading_std, false);
-  for (const char* key : {"velocity_dropout", "imu_dropout", "gps_dropout"}) {
-    if (node[key]) {
-      const double p = probability(y, node[key], std::string("sensors.") + key);
-      if (std::string(key) == "velocity_dropout") s->velocity_dropout = p;
-      if (std::string(key) == "imu_dropout") s->imu_dropout = p;
-      if (std::string(key) == "gps_dropout") s->gps_dropout = p;
-    }
-  }
+  auto set_probability = [&](const char* key, double* out) {
+    if (node[key]) *out = probability(y, node[key], std::string("sensors.") + key);
+  };
+  set_probability("velocity_dropout", &s->velocity_dropout);
+  set_probability("imu_dropout", &s->imu_dropout);
+  set_probability("gps_dropout", &s->gps_dropout);
 }
 
 // Uniform and Gaussian draws that give the same numbers on every platform.
