@@ -156,8 +156,10 @@ int fit(const FitCommandOptions& options) {
       std::string comment = "fitted by skidimm fit (window " + std::to_string(options.window) + ", " + options.loss +
                             ") from " + std::to_string(d.logs.size()) + " log(s); one-step RMSE " +
                             rmse_text(config, r.rmse);
-      entries += fitting::format_mode_entry(output_name(d.mode), config.modes[static_cast<std::size_t>(d.mode)].model,
-                                            *bank.models[static_cast<std::size_t>(d.mode)], r.q_intensity, {comment});
+      const ModeConfig& mode = config.modes[static_cast<std::size_t>(d.mode)];
+      entries += fitting::format_mode_entry(output_name(d.mode), mode.model,
+                                            *bank.models[static_cast<std::size_t>(d.mode)], r.q_intensity, {comment},
+                                            mode.params);
     }
 
     for (const std::string& text : options.held_out) {
@@ -183,17 +185,20 @@ int fit(const FitCommandOptions& options) {
                                   std::to_string(d.logs.size()) + " log(s)";
             modes_block += fitting::format_mode_entry(output_name(j), config.modes[static_cast<std::size_t>(j)].model,
                                                       *bank.models[static_cast<std::size_t>(j)],
-                                                      fitted->second.q_intensity, {comment});
+                                                      fitted->second.q_intensity, {comment},
+                                                      config.modes[static_cast<std::size_t>(j)].params);
           }
         } else {
           modes_block += fitting::format_mode_entry(output_name(j), config.modes[static_cast<std::size_t>(j)].model,
                                                     *bank.models[static_cast<std::size_t>(j)],
                                                     config.modes[static_cast<std::size_t>(j)].q_intensity,
-                                                    {"not fitted: no log given for this mode"});
+                                                    {"not fitted: no log given for this mode"},
+                                                    config.modes[static_cast<std::size_t>(j)].params);
         }
       }
       const std::string shared_block =
-          options.shared ? "shared: " + fitting::format_parameters(*bank.models[0], sdk::ParameterScope::kBank) : "";
+          options.shared ? "shared: " + fitting::format_parameters(*bank.models[0], sdk::ParameterScope::kBank, config.shared)
+                         : "";
       fitting::write_bank_from_template(options.bank, options.output_bank,
                                         {"Written by skidimm fit; reproduce with:", "  " + options.command_line},
                                         shared_block, modes_block);

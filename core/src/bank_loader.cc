@@ -223,7 +223,7 @@ void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) 
       if (!params.IsMap()) y.fail(params, field + ".params", "expected a mapping from parameter name to value");
       for (const auto& entry : params) {
         const std::string key = entry.first.as<std::string>();
-        mode.params.set(key, y.matrix(entry.second, field + ".params." + key));
+        y.parameter(entry.second, key, field + ".params." + key, &mode.params);
         mode.param_lines[key] = YamlFields::line_of(entry.first);
       }
     }
@@ -308,7 +308,7 @@ BankConfig load_bank_config(const fs::path& file) {
     if (!shared.IsMap()) y.fail(shared, "shared", "expected a mapping from parameter name to value");
     for (const auto& entry : shared) {
       const std::string key = entry.first.as<std::string>();
-      bank.shared.set(key, y.matrix(entry.second, "shared." + key));
+      y.parameter(entry.second, key, "shared." + key, &bank.shared);
       bank.shared_lines[key] = YamlFields::line_of(entry.first);
     }
   }
@@ -332,13 +332,18 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry) {
     }
     // The bank's shared parameters this plugin documents, overridden by the mode's own.
     sdk::ParameterSet params;
+    params.set_bank_names(config.state_names, config.angle_mask, config.input_names);
+    auto copy = [&params](const sdk::ParameterSet& from, const std::string& key) {
+      if (const Eigen::MatrixXd* value = from.find(key)) params.set(key, *value);
+      if (const std::vector<std::string>* text = from.find_text(key)) params.set_text(key, *text);
+    };
     for (const std::string& key : descriptor->parameter_keys) {
-      if (const Eigen::MatrixXd* value = config.shared.find(key)) {
-        params.set(key, *value);
+      if (config.shared.contains(key)) {
+        copy(config.shared, key);
         shared_keys_used.insert(key);
       }
     }
-    for (const std::string& key : mode.params.keys()) params.set(key, *mode.params.find(key));
+    for (const std::string& key : mode.params.keys()) copy(mode.params, key);
 
     ModelHandle model;
     try {

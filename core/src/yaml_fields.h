@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "skidimm/errors.h"
+#include "skidimm/sdk/parameters.h"
 
 namespace skidimm {
 namespace internal {
@@ -125,6 +126,40 @@ class YamlFields {
       }
     }
     return out;
+  }
+
+  // A model parameter: a matrix (a number, a list or a list of rows of
+  // numbers), or text (a string, or a list of strings). A quoted scalar is
+  // always text, so `["1"]` is the text "1" and `[1]` the number.
+  void parameter(const YAML::Node& node, const std::string& key, const std::string& field,
+                 sdk::ParameterSet* params) const {
+    auto is_text = [](const YAML::Node& n) {
+      if (!n.IsScalar()) return false;
+      if (n.Tag() == "!") return true;  // quoted
+      double ignored;
+      return !YAML::convert<double>::decode(n, ignored);
+    };
+    bool text = is_text(node);
+    if (node.IsSequence() && node.size() > 0) {
+      bool any_text = false, all_scalars = true;
+      for (std::size_t i = 0; i < node.size(); ++i) {
+        any_text = any_text || is_text(node[i]);
+        all_scalars = all_scalars && node[i].IsScalar();
+      }
+      if (any_text && !all_scalars) fail(node, field, "expected a list of numbers, of rows of numbers, or of strings");
+      text = any_text;
+    }
+    if (!text) {
+      params->set(key, matrix(node, field));
+      return;
+    }
+    std::vector<std::string> values;
+    if (node.IsScalar()) {
+      values.push_back(node.Scalar());
+    } else {
+      for (std::size_t i = 0; i < node.size(); ++i) values.push_back(node[i].Scalar());
+    }
+    params->set_text(key, std::move(values));
   }
 
   // A rows x cols matrix, exactly.

@@ -162,6 +162,28 @@ TEST(BankConfig, NonNumericMatrixEntry) {
                       {"modes[1].params.A[1][1]: expected a number, got 'fast'"});
 }
 
+TEST(BankConfig, TextParametersAreStringsOrListsOfStrings) {
+  const BankConfig c = load_bank_config(write_file(
+      test_directory() / "bank.yaml",
+      replace(kValidBank, "params: {A: [[-2, 0], [0, -1]]",
+              "params: {note: fast ice, features: [v, \"abs(dv)\", \"1\"], gains: [1, 2], A: [[-2, 0], [0, -1]]")));
+  const sdk::ParameterSet& p = c.modes[1].params;
+  ASSERT_NE(p.find_text("note"), nullptr);
+  EXPECT_EQ(*p.find_text("note"), std::vector<std::string>{"fast ice"});
+  ASSERT_NE(p.find_text("features"), nullptr);
+  EXPECT_EQ(*p.find_text("features"), (std::vector<std::string>{"v", "abs(dv)", "1"}));  // a quoted "1" is text
+  ASSERT_NE(p.find("gains"), nullptr);                                                    // numbers stay a matrix
+  EXPECT_EQ(p.find("gains")->rows(), 2);
+  EXPECT_EQ(p.find_text("gains"), nullptr);
+  EXPECT_EQ(p.keys(), (std::vector<std::string>{"A", "B", "features", "gains", "note"}));
+}
+
+TEST(Bank, ModelsReceiveTheBanksNamesAndUnknownTextIsRejected) {
+  // ltc_linear takes A and B only: a text parameter is an unknown key, named.
+  expect_config_error(replace(kValidBank, "params: {A: [[-2, 0], [0, -1]]", "params: {note: x, A: [[-2, 0], [0, -1]]"),
+                      {"modes[1].params", "unknown parameter 'note'"}, /*with_plugins=*/true);
+}
+
 TEST(Bank, UnknownPluginListsWhatWasFound) {
   expect_config_error(
       replace(kValidBank, "model: ltc_linear\n    params: {A: [[-2", "model: ltc_lineer\n    params: {A: [[-2"),

@@ -39,6 +39,16 @@ TEST(BankWriter, FormatsParametersByKeyAndShape) {
   EXPECT_EQ(format_matrix(Eigen::MatrixXd::Constant(1, 1, 0.123456789)), "0.1234568");
 }
 
+TEST(BankWriter, KeepsWhatTheBankGaveThatWasNotFitted) {
+  const Bank bank = Bank::load(write_file(test_directory() / "b.yaml", kBank), {SKIDIMM_PLUGIN_DIR});
+  sdk::ParameterSet original;
+  original.set_text("features", {"abs(v)", "say \"hi\""});
+  original.set("offset", Eigen::Vector2d(1.5, -2));
+  EXPECT_EQ(format_parameters(*bank.models[0], sdk::ParameterScope::kMode, original),
+            "{features: [\"abs(v)\", \"say \\\"hi\\\"\"], offset: [1.5, -2], A: [[-5, 0], [0, -4]], "
+            "B: [[0.4, 0.4], [-0.8, 0.8]]}");
+}
+
 TEST(BankWriter, AppendKeepsCommentsAndTheResultLoads) {
   const auto file = write_file(test_directory() / "b.yaml", kBank);
   Bank bank = Bank::load(file, {SKIDIMM_PLUGIN_DIR});

@@ -1,5 +1,6 @@
 #include "skidimm/fitting/bank_writer.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -82,6 +83,10 @@ std::string join_lines(const std::vector<std::string>& lines) {
 std::string format_matrix(const Eigen::MatrixXd& m) {
   if (m.size() == 1) return number(m(0, 0));
   std::string out = "[";
+  if (m.cols() == 1) {  // a vector: a flat list, as banks write them
+    for (Eigen::Index r = 0; r < m.rows(); ++r) out += (r ? ", " : "") + number(m(r, 0));
+    return out + "]";
+  }
   for (Eigen::Index r = 0; r < m.rows(); ++r) {
     out += (r ? ", [" : "[");
     for (Eigen::Index c = 0; c < m.cols(); ++c) out += (c ? ", " : "") + number(m(r, c));
@@ -90,43 +95,76 @@ std::string format_matrix(const Eigen::MatrixXd& m) {
   return out + "]";
 }
 
-std::string format_parameters(const sdk::MotionModel& model, sdk::ParameterScope scope) {
+std::string format_text(const std::vector<std::string>& values) {
+  std::string out = "[";
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    out += (i ? ", \"" : "\"");
+    for (char c : values[i]) {
+      if (c == '"' || c == '\\') out += '\\';
+      out += c;
+    }
+    out += "\"";
+  }
+  return out + "]";
+}
+
+std::string format_parameters(const sdk::MotionModel& model, sdk::ParameterScope scope,
+                              const sdk::ParameterSet& original) {
   const auto& info = model.parameter_info();
   Eigen::VectorXd values(static_cast<Eigen::Index>(info.size()));
   model.get_parameters(values);
-  // Group the flat entries by key; "A[r,c]" entries form a matrix.
+  // Group the flat entries by key; "A[r,c]" entries form a matrix, "a[i]" a column.
   static const std::regex element(R"(^.*\[(\d+),(\d+)\]$)");
-  std::vector<std::string> keys;
+  static const std::regex vector_element(R"(^.*\[(\d+)\]$)");
+  std::vector<std::string> keys = original.keys();
   std::map<std::string, std::vector<std::tuple<int, int, double>>> entries;
   for (std::size_t i = 0; i < info.size(); ++i) {
     if (info[i].scope != scope) continue;
-    if (!entries.count(info[i].key)) keys.push_back(info[i].key);
+    if (!entries.count(info[i].key) && std::find(keys.begin(), keys.end(), info[i].key) == keys.end()) {
+      keys.push_back(info[i].key);
+    }
     std::smatch match;
     int r = 0, c = 0;
     if (std::regex_match(info[i].name, match, element)) {
       r = std::stoi(match[1]);
       c = std::stoi(match[2]);
+    } else if (std::regex_match(info[i].name, match, vector_element)) {
+      r = std::stoi(match[1]);
     }
     entries[info[i].key].emplace_back(r, c, values[static_cast<Eigen::Index>(i)]);
   }
   std::string out;
   for (const std::string& key : keys) {
-    int rows = 0, cols = 0;
-    for (const auto& [r, c, v] : entries[key]) rows = std::max(rows, r + 1), cols = std::max(cols, c + 1);
-    Eigen::MatrixXd m = Eigen::MatrixXd::Zero(rows, cols);
-    for (const auto& [r, c, v] : entries[key]) m(r, c) = v;
-    out += (out.empty() ? "" : ", ") + key + ": " + format_matrix(m);
+    std::string value;
+    const auto fitted = entries.find(key);
+    if (fitted != entries.end()) {
+      int rows = 0, cols = 0;
+      for (const auto& [r, c, v] : fitted->second) rows = std::max(rows, r + 1), cols = std::max(cols, c + 1);
+      // Start from the bank's value so entries the model holds fixed survive.
+      const Eigen::MatrixXd* given = original.find(key);
+      Eigen::MatrixXd m = given != nullptr && given->rows() >= rows && given->cols() >= cols
+                              ? *given
+                              : Eigen::MatrixXd::Zero(rows, cols);
+      for (const auto& [r, c, v] : fitted->second) m(r, c) = v;
+      value = format_matrix(m);
+    } else if (const Eigen::MatrixXd* given = original.find(key)) {
+      value = format_matrix(*given);
+    } else if (const std::vector<std::string>* text = original.find_text(key)) {
+      value = format_text(*text);
+    }
+    out += (out.empty() ? "" : ", ") + key + ": " + value;
   }
   return "{" + out + "}";
 }
 
 std::string format_mode_entry(const std::string& name, const std::string& model_name, const sdk::MotionModel& model,
-                              const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments) {
+                              const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments,
+                              const sdk::ParameterSet& original) {
   std::string out;
   for (const std::string& c : comments) out += "  # " + c + "\n";
   out += "  - name: " + name + "\n";
   out += "    model: " + model_name + "\n";
-  const std::string params = format_parameters(model, sdk::ParameterScope::kMode);
+  const std::string params = format_parameters(model, sdk::ParameterScope::kMode, original);
   if (params != "{}") out += "    params: " + params + "\n";
   out += "    Q: " + format_matrix(q_intensity) + "\n";
   return out;

@@ -18,14 +18,24 @@ namespace fitting {
 
 // The `params:` of a model's parameters of one scope, as YAML flow text:
 // "{A: [[-5, 0], [0, -4]], B: [[...]]}" or "{k: 0.85, m: 0.68}".
-std::string format_parameters(const sdk::MotionModel& model, sdk::ParameterScope scope);
+// `original` is what the bank gave (the mode's `params:` or the bank's
+// `shared:`): its keys that are not the model's parameters of this scope
+// (text such as expressions, or entries the model holds fixed) are written
+// back unchanged, so a fitted entry keeps everything that was not fitted.
+std::string format_parameters(const sdk::MotionModel& model, sdk::ParameterScope scope,
+                              const sdk::ParameterSet& original = {});
+
+// A list of text as YAML flow text, each entry double-quoted: ["abs(v)", "x"].
+std::string format_text(const std::vector<std::string>& values);
 
 // A matrix as YAML flow text, 7 significant digits.
 std::string format_matrix(const Eigen::MatrixXd& m);
 
 // One `modes:` list item (two-space indented), with comment lines above it.
+// `original`: the mode's `params:` as the bank gave them (see format_parameters).
 std::string format_mode_entry(const std::string& name, const std::string& model_name, const sdk::MotionModel& model,
-                              const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments);
+                              const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments,
+                              const sdk::ParameterSet& original = {});
 
 // Appends a mode entry at the end of the bank file's `modes:` list. Throws
 // ConfigError if the result is not a valid bank (e.g. a mode of that name

@@ -13,7 +13,8 @@ namespace skidimm {
 namespace sdk {
 
 // 2: MotionModel::parameter_jacobian() added.
-inline constexpr int kAbiVersion = 2;
+// 3: ParameterSet carries text parameters and the bank's state/input names.
+inline constexpr int kAbiVersion = 3;
 
 // Names of the symbols SKIDIMM_EXPORT_MOTION_MODEL exports.
 // The ABI version and the plugin name are plain C types, readable even from a

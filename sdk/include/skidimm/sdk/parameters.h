@@ -1,9 +1,12 @@
 // Parameters: how a model is configured and how generic tools see it.
 //
 // Two views of the same numbers:
-//  * ParameterSet: the named matrices a bank file gives a mode (`params:` and
-//    the bank's `shared:` block). The core fills it from YAML, so plugins never
-//    see yaml-cpp. A scalar is a 1x1 matrix, a vector an n x 1 matrix.
+//  * ParameterSet: what a bank file gives a mode (`params:` and the bank's
+//    `shared:` block): named matrices and named lists of text (names,
+//    expressions), plus the bank's declared state, input and angle names for
+//    models whose dimensions come from the bank. The core fills it from YAML,
+//    so plugins never see yaml-cpp. A scalar is a 1x1 matrix, a vector an
+//    n x 1 matrix, a string a one-entry text list.
 //  * ParameterInfo: the model's parameters as a flat vector of scalars, each
 //    with a name, bounds and scope, so that tools such as the fitter work on
 //    any plugin without plugin-specific code.
@@ -11,6 +14,7 @@
 #define SKIDIMM_SDK_PARAMETERS_H_
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <initializer_list>
 #include <limits>
 #include <map>
@@ -40,20 +44,49 @@ struct ParameterInfo {
 // Named matrices handed to a plugin's factory.
 class ParameterSet {
  public:
-  void set(const std::string& key, Eigen::MatrixXd value) { values_[key] = std::move(value); }
-  void set_scalar(const std::string& key, double value) { values_[key] = Eigen::MatrixXd::Constant(1, 1, value); }
+  void set(const std::string& key, Eigen::MatrixXd value) {
+    texts_.erase(key);
+    values_[key] = std::move(value);
+  }
+  void set_scalar(const std::string& key, double value) { set(key, Eigen::MatrixXd::Constant(1, 1, value)); }
+  void set_text(const std::string& key, std::vector<std::string> value) {
+    values_.erase(key);
+    texts_[key] = std::move(value);
+  }
 
-  bool contains(const std::string& key) const { return values_.count(key) != 0; }
+  bool contains(const std::string& key) const { return values_.count(key) != 0 || texts_.count(key) != 0; }
+  // The numeric value of `key`; nullptr if absent or text.
   const Eigen::MatrixXd* find(const std::string& key) const {
     const auto it = values_.find(key);
     return it == values_.end() ? nullptr : &it->second;
   }
+  // The text value of `key`; nullptr if absent or numeric.
+  const std::vector<std::string>* find_text(const std::string& key) const {
+    const auto it = texts_.find(key);
+    return it == texts_.end() ? nullptr : &it->second;
+  }
+  // Every key, numeric and text, sorted.
   std::vector<std::string> keys() const {
     std::vector<std::string> out;
     for (const auto& entry : values_) out.push_back(entry.first);
+    for (const auto& entry : texts_) out.push_back(entry.first);
+    std::sort(out.begin(), out.end());
     return out;
   }
-  bool empty() const { return values_.empty(); }
+  bool empty() const { return values_.empty() && texts_.empty(); }
+
+  // The bank's `states`, `angles` (one flag per state) and `inputs`. Set by
+  // the bank loader for every model; empty when a model is created outside a
+  // bank. Models with fixed names ignore them; a model whose dimensions come
+  // from the bank (linear_features) takes its names from here.
+  void set_bank_names(std::vector<std::string> states, std::vector<bool> angles, std::vector<std::string> inputs) {
+    bank_states_ = std::move(states);
+    bank_angles_ = std::move(angles);
+    bank_inputs_ = std::move(inputs);
+  }
+  const std::vector<std::string>& bank_states() const { return bank_states_; }
+  const std::vector<bool>& bank_angles() const { return bank_angles_; }
+  const std::vector<std::string>& bank_inputs() const { return bank_inputs_; }
 
   // Reads a required scalar. On failure returns false and explains in *error.
   bool get_scalar(const std::string& key, double* value, std::string* error) const {
@@ -81,16 +114,27 @@ class ParameterSet {
     return true;
   }
 
+  // Reads a required list of text (a YAML string or list of strings).
+  bool get_text(const std::string& key, std::vector<std::string>* value, std::string* error) const {
+    const std::vector<std::string>* t = find_text(key);
+    if (t == nullptr) {
+      return fail(error, values_.count(key) ? "parameter '" + key + "' must be text (a string or a list of strings)"
+                                            : "missing parameter '" + key + "' (text)");
+    }
+    *value = *t;
+    return true;
+  }
+
   // Fails on any key outside `allowed`, so a typo in a bank is an error
   // instead of a silently ignored value.
   bool check_only(std::initializer_list<const char*> allowed, std::string* error) const {
-    for (const auto& entry : values_) {
+    for (const std::string& key : keys()) {
       bool known = false;
-      for (const char* key : allowed) known = known || entry.first == key;
+      for (const char* a : allowed) known = known || key == a;
       if (!known) {
         std::string list;
-        for (const char* key : allowed) list += (list.empty() ? "" : ", ") + std::string(key);
-        return fail(error, "unknown parameter '" + entry.first + "' (this model takes: " + list + ")");
+        for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+        return fail(error, "unknown parameter '" + key + "' (this model takes: " + list + ")");
       }
     }
     return true;
@@ -106,6 +150,10 @@ class ParameterSet {
   }
 
   std::map<std::string, Eigen::MatrixXd> values_;
+  std::map<std::string, std::vector<std::string>> texts_;
+  std::vector<std::string> bank_states_;
+  std::vector<bool> bank_angles_;
+  std::vector<std::string> bank_inputs_;
 };
 
 // Checks a flat parameter vector against a model's parameter_info(): its
