@@ -8,6 +8,7 @@ packages=(
   build-essential cmake
   libeigen3-dev libboost-dev libyaml-cpp-dev libceres-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
+  libmuparser-dev  # expressions of log columns in banks
   gnuplot-nox  # figures (skidimm plot)
   python3      # scripts/results_tables.py and scripts/derive_physical_configs.py (standard library only)
 )

@@ -1,0 +1,1 @@
+// Placeholder until the likelihood fitter lands.

@@ -1,0 +1,1 @@
+// Placeholder until the linear_features tests land.
