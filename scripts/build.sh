@@ -5,8 +5,10 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${SKIDIMM_BUILD_DIR:-$root/build}
 jobs=${SKIDIMM_JOBS:-$(nproc 2>/dev/null || echo 2)}
-cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DSKIDIMM_BUILD_TESTS=ON >"$build.configure.log" 2>&1 || {
-  cat "$build.configure.log" >&2
+mkdir -p "$build"
+# The configure output belongs to the build, not the source tree.
+cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DSKIDIMM_BUILD_TESTS=ON >"$build/configure.log" 2>&1 || {
+  cat "$build/configure.log" >&2
   exit 1
 }
 cmake --build "$build" -j "$jobs" "$@"

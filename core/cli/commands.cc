@@ -1,4 +1,5 @@
 #include "commands.h"
+#include "log_arguments.h"
 
 #include <unistd.h>
 
@@ -65,20 +66,43 @@ class ProgressLine {
 
 }  // namespace
 
+LogSpec join_inputs(const std::vector<std::string>& inputs) {
+  LogSpec log;
+  for (const std::string& input : inputs) {
+    const LogSpec part = parse_log_spec(input);
+    if (!part.label.empty()) {
+      if (!log.label.empty() && log.label != part.label) {
+        throw Error("--input: two labels for one log ('" + log.label + "' and '" + part.label + "')");
+      }
+      log.label = part.label;
+    }
+    log.files.insert(log.files.end(), part.files.begin(), part.files.end());
+    log.text += (log.text.empty() ? "" : "+") + input;
+  }
+  if (log.files.empty()) throw Error("no input log given (--input)");
+  return log;
+}
+
 int run(const RunOptions& options) {
   std::optional<CsvWriter> writer;
   long rows = 0;
   const int code = report_errors("skidimm run", [&] {
     Imm imm = Imm::from_yaml(options.bank, options.plugin_paths);
     const BankConfig& config = imm.config();
-    LogReader reader(config, options.inputs);
-    writer.emplace(options.output, output_header(config, reader.has_truth()));
+    const LogSpec log = join_inputs(options.inputs);
+    if (!log.label.empty() && config.class_index(log.label) < 0) {
+      throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'");
+    }
+    LogReader reader(config, log.files, sampling_of(config, options.rate));
+    const bool with_truth = reader.has_truth() || !log.label.empty();
+    writer.emplace(options.output, output_header(config, with_truth));
 
     std::vector<std::string> mode_names;
     for (const ModeConfig& mode : config.modes) mode_names.push_back(mode.name);
     const int n = config.state_dim();
     const int num_modes = config.num_modes();
-    std::vector<std::string> cells(static_cast<std::size_t>(1 + num_modes + 2 * n + 2 + (reader.has_truth() ? 1 : 0)));
+    std::vector<std::string> cells(static_cast<std::size_t>(1 + num_modes + 2 * n + 2 + (with_truth ? 1 : 0)));
+    const std::vector<int> class_of_mode = config.class_of_modes();
     ModeTimeline timeline;
     long truth_rows = 0, truth_matches = 0, predict_only = 0, rejected = 0;
     ProgressLine progress(options.progress && !options.quiet);
@@ -93,11 +117,12 @@ int run(const RunOptions& options) {
       for (int i = 0; i < n; ++i) cells[c++] = CsvWriter::format(e.state[i]);
       for (int i = 0; i < n; ++i) cells[c++] = CsvWriter::format(e.covariance(i, i));
       cells[c++] = mode_names[static_cast<std::size_t>(e.most_likely_mode)];
-      if (reader.has_truth()) {
-        cells[c++] = sample.truth_mode;
-        if (!sample.truth_mode.empty()) {
+      if (with_truth) {
+        const std::string& truth = log.label.empty() ? sample.truth_mode : log.label;
+        cells[c++] = truth;
+        if (!truth.empty()) {
           ++truth_rows;
-          truth_matches += sample.truth_mode == mode_names[static_cast<std::size_t>(e.most_likely_mode)];
+          truth_matches += config.class_index(truth) == class_of_mode[static_cast<std::size_t>(e.most_likely_mode)];
         }
       }
       cells[c++] = to_string(e.status);
@@ -108,18 +133,23 @@ int run(const RunOptions& options) {
       progress.update(reader.progress(), rows);
     }
     progress.clear();
-    if (rows == 0) throw LogError(options.inputs.front().string(), 0, "the log has a header but no data rows");
+    if (rows == 0) {
+      throw LogError(log.text, 0, "the log gives no step: no data rows, or no row where every input has a value");
+    }
     writer->commit();
 
     if (!options.quiet) {
       std::cerr << "skidimm run: bank '" << config.name << "' (" << num_modes << " modes), " << rows << " rows -> "
                 << options.output.string() << "\n";
       std::cerr << "dominant mode over time:\n" << timeline.format(mode_names);
+      std::cerr << reader.describe_stats(config);
       if (predict_only > 0) std::cerr << "  " << predict_only << " rows had no measurement (predict only)\n";
       if (rejected > 0) std::cerr << "  " << rejected << " rows had at least one mode's filter rejected\n";
       if (truth_rows > 0) {
-        std::fprintf(stderr, "most likely mode equals column '%s' on %.1f%% of %ld labelled rows\n",
-                     config.columns.truth_mode.c_str(), 100.0 * truth_matches / truth_rows, truth_rows);
+        std::fprintf(stderr, "most likely mode equals %s on %.1f%% of %ld labelled rows%s\n",
+                     log.label.empty() ? ("column '" + config.columns.truth_mode + "'").c_str() : "the log's label",
+                     100.0 * truth_matches / truth_rows, truth_rows,
+                     config.classes.empty() ? "" : " (a mode counts for its class)");
       }
     }
     return kExitOk;

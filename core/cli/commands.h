@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "skidimm/errors.h"
+#include "skidimm/log_reader.h"
 
 namespace skidimm {
 namespace cli {
@@ -35,7 +36,8 @@ int report_errors(const char* command, Body&& body) {
 
 struct RunOptions {
   std::filesystem::path bank;
-  std::vector<std::filesystem::path> inputs;
+  std::vector<std::string> inputs;  // the files of one log: [LABEL=]FILE[@OFFSET][+FILE...], repeatable
+  double rate = 0.0;                // Hz; > 0 overrides the bank's sampling.rate
   std::filesystem::path output;
   std::vector<std::filesystem::path> plugin_paths;
   bool quiet = false;
@@ -43,6 +45,8 @@ struct RunOptions {
 };
 
 int run(const RunOptions& options);
+// The --input arguments of one log joined into one: their files in order.
+LogSpec join_inputs(const std::vector<std::string>& inputs);
 
 struct SimulateOptions {
   std::filesystem::path scenario;
@@ -61,7 +65,8 @@ struct FitCommandOptions {
   std::string mode;                   // the mode unlabelled logs belong to
   std::string name;                   // output name of that mode (a new terrain)
   bool shared = false;                // fit the bank-level parameters jointly
-  int window = 1;
+  double rate = 0.0;                  // Hz; > 0 overrides the bank's sampling.rate
+  double window = 0.0;                // s; 0: one-step
   std::string loss = "huber";
   double loss_scale = 3.0;
   std::filesystem::path output_entry;
@@ -77,6 +82,7 @@ struct EvalOptions {
   std::vector<std::string> inputs;     // logs: FILE[+FILE...] or directories; each argument is a group
   std::vector<std::string> estimates;  // `skidimm run` outputs (files or directories) instead of running
   std::vector<std::filesystem::path> plugin_paths;
+  double rate = 0.0;  // Hz; > 0 overrides the bank's sampling.rate
   bool json = false;
 };
 int eval(const EvalOptions& options);
@@ -84,7 +90,13 @@ int eval(const EvalOptions& options);
 struct PlotOptions {
   std::filesystem::path estimates;  // a `skidimm run` output
   std::filesystem::path output;     // .png or .svg
-  std::filesystem::path log;        // optional: the input log, for measurements and true states
+  // Optional: the input log, for measurements and true states. With a bank it
+  // is read like `run` reads it (any log form); without, it must be one CSV
+  // whose columns are named like the states.
+  std::vector<std::string> log;  // the log's files, as `run --input` takes them
+  std::filesystem::path bank;
+  std::vector<std::filesystem::path> plugin_paths;
+  double rate = 0.0;
   std::string title;
   bool states = false;  // add a panel per state
 };

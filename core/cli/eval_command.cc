@@ -1,15 +1,19 @@
 // skidimm eval: identification metrics over one or many logs.
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include "commands.h"
+#include "log_arguments.h"
 #include "skidimm/errors.h"
 #include "skidimm/evaluation/consistency.h"
+#include "skidimm/evaluation/log_evaluation.h"
 #include "skidimm/evaluation/mode_metrics.h"
 #include "skidimm/imm.h"
 #include "skidimm/log_io.h"
@@ -27,146 +31,87 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// One log's results.
-struct LogResult {
-  std::string name;
-  ModeMetrics metrics;
-  std::map<std::string, NisAccumulator> nis;  // per mode, while it is the truth
-  std::vector<double> squared_state_error;    // per state; NaN if no truth column
-  std::vector<long> state_error_count;
-};
+using evaluation::LogResult;
 
 struct Group {
   std::string name;
   std::vector<LogResult> logs;
 };
 
-// A log argument: FILE[+FILE...] or a directory of *.csv (each one log).
-std::vector<std::vector<fs::path>> expand(const std::string& argument) {
-  std::vector<std::vector<fs::path>> logs;
-  std::error_code ec;
-  if (fs::is_directory(argument, ec)) {
-    std::vector<fs::path> files;
-    for (const auto& entry : fs::directory_iterator(argument)) {
-      if (entry.path().extension() == ".csv") files.push_back(entry.path());
-    }
-    std::sort(files.begin(), files.end());
-    if (files.empty()) throw Error(argument + ": no .csv logs in this directory");
-    for (const fs::path& f : files) logs.push_back({f});
-    return logs;
-  }
-  std::vector<fs::path> parts;
-  std::stringstream in(argument);
-  std::string part;
-  while (std::getline(in, part, '+')) parts.emplace_back(part);
-  logs.push_back(parts);
-  return logs;
-}
-
-// A group's name: the directory's name, or the (first) file's stem.
+// A group's name: the label, else the directory's name or the (first) file's stem.
 std::string group_name(const std::string& argument) {
-  const fs::path p = fs::path(argument.substr(0, argument.find('+'))).lexically_normal();
+  const LogSpec spec = parse_log_spec(argument);
+  if (!spec.label.empty()) return spec.label;
+  const fs::path p = spec.files.front().path.lexically_normal();
   std::error_code ec;
   if (fs::is_directory(p, ec)) return (p.filename().empty() ? p.parent_path() : p).filename().string();
   return p.stem().string();
 }
 
-// Reads the truth state columns true_<state> (if any) of a log, in row order.
-std::vector<std::vector<double>> truth_states(const BankConfig& config, const std::vector<fs::path>& files) {
-  std::vector<std::vector<double>> columns(config.state_names.size());
-  for (const fs::path& file : files) {
-    CsvReader reader(file);
-    std::vector<int> index(config.state_names.size(), -1);
-    bool any = false;
-    for (std::size_t s = 0; s < config.state_names.size(); ++s) {
-      index[s] = reader.column("true_" + config.state_names[s]);
-      any = any || index[s] >= 0;
+double parse_cell(const CsvReader& reader, const std::vector<std::string>& fields, int column) {
+  const std::string& cell = fields[static_cast<std::size_t>(column)];
+  double value = 0.0;
+  const char* begin = cell.data();
+  const auto parsed = std::from_chars(begin, cell.data() + cell.size(), value);
+  if (cell.empty() || parsed.ec != std::errc() || parsed.ptr != cell.data() + cell.size() || !std::isfinite(value)) {
+    throw LogError(reader.path().string(), reader.line(),
+                   "column '" + reader.header()[static_cast<std::size_t>(column)] + "': expected a finite number, got '" +
+                       cell + "'");
+  }
+  return value;
+}
+
+// Evaluates an existing `skidimm run` output (t, mu_<mode>..., truth_mode).
+// With a bank, its classes are scored; without one, every mode is a class.
+LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank) {
+  CsvReader reader(file);
+  const int t = reader.column("t"), truth = reader.column("truth_mode");
+  if (t < 0 || truth < 0) {
+    throw LogError(file.string(), 1, "expected the columns t and truth_mode of a `skidimm run` output");
+  }
+  std::vector<int> probability_columns;
+  BankConfig modes_only;
+  for (std::size_t c = 0; c < reader.header().size(); ++c) {
+    if (reader.header()[c].rfind("mu_", 0) == 0) {
+      probability_columns.push_back(static_cast<int>(c));
+      ModeConfig m;
+      m.name = reader.header()[c].substr(3);
+      modes_only.modes.push_back(m);
     }
-    if (!any) continue;
-    std::vector<std::string> fields;
-    while (reader.next(&fields)) {
-      for (std::size_t s = 0; s < index.size(); ++s) {
-        if (index[s] < 0) continue;
-        columns[s].push_back(fields[static_cast<std::size_t>(index[s])].empty()
-                                 ? kNaN
-                                 : std::stod(fields[static_cast<std::size_t>(index[s])]));
+  }
+  if (probability_columns.empty()) throw LogError(file.string(), 1, "no mu_<mode> columns: not a `skidimm run` output");
+  if (bank != nullptr) {
+    for (std::size_t j = 0; j < modes_only.modes.size(); ++j) {
+      if (static_cast<int>(j) >= bank->num_modes() || bank->modes[j].name != modes_only.modes[j].name) {
+        throw LogError(file.string(), 1, "its modes differ from bank '" + bank->name + "': it was run with another bank");
       }
     }
   }
-  return columns;
-}
-
-LogResult evaluate_log(const Bank& bank, const std::vector<fs::path>& files) {
-  const BankConfig& config = bank.config;
-  if (config.columns.truth_mode.empty()) {
-    throw Error(config.file.string() +
-                ": the bank names no columns.truth_mode, so there is nothing to evaluate against");
-  }
-  Imm imm(bank);
-  LogReader reader(config, files);
-  if (!reader.has_truth()) {
-    throw LogError(files.front().string(), 1,
-                   "no truth column '" + config.columns.truth_mode + "' (the bank's columns.truth_mode)");
-  }
-  const std::vector<std::vector<double>> truth = truth_states(config, files);
-  std::vector<std::string> names;
-  for (const ModeConfig& m : config.modes) names.push_back(m.name);
-
-  LogResult result;
-  for (const fs::path& f : files) result.name += (result.name.empty() ? "" : "+") + f.filename().string();
-  result.squared_state_error.assign(config.state_names.size(), 0.0);
-  result.state_error_count.assign(config.state_names.size(), 0);
-  std::vector<LabelledStep> steps;
-  LogSample sample;
-  long row = 0;
-  while (reader.next(&sample)) {
-    const ImmEstimate& e = imm.step(sample.t, sample.u, sample.z);
-    const int truth_index = config.mode_index(sample.truth_mode);
-    steps.push_back({sample.t, sample.truth_mode, names[static_cast<std::size_t>(e.most_likely_mode)],
-                     truth_index >= 0 ? e.mode_probabilities[truth_index] : 0.0});
-    if (truth_index >= 0 && e.status == StepStatus::kUpdated && std::isfinite(e.nis[truth_index])) {
-      result.nis[sample.truth_mode].add(e.nis[truth_index], e.num_measured);
-    }
-    for (std::size_t s = 0; s < truth.size(); ++s) {
-      if (static_cast<std::size_t>(row) >= truth[s].size() || !std::isfinite(truth[s][static_cast<std::size_t>(row)]))
-        continue;
-      double d = e.state[static_cast<Eigen::Index>(s)] - truth[s][static_cast<std::size_t>(row)];
-      if (config.angle_mask[s]) d = sdk::wrap_angle(d);
-      result.squared_state_error[s] += d * d;
-      ++result.state_error_count[s];
-    }
-    ++row;
-  }
-  result.metrics = evaluation::compute_mode_metrics(steps, names);
-  return result;
-}
-
-// Evaluates an existing `skidimm run` output (t, mu_<mode>..., mode, truth_mode).
-LogResult evaluate_estimates(const fs::path& file) {
-  CsvReader reader(file);
-  const int t = reader.column("t"), mode = reader.column("mode"), truth = reader.column("truth_mode");
-  if (t < 0 || mode < 0 || truth < 0) {
-    throw LogError(file.string(), 1, "expected the columns t, mode and truth_mode of a `skidimm run` output");
-  }
-  std::map<std::string, int> probability;
-  std::vector<std::string> names;
-  for (std::size_t c = 0; c < reader.header().size(); ++c) {
-    if (reader.header()[c].rfind("mu_", 0) == 0) {
-      names.push_back(reader.header()[c].substr(3));
-      probability[names.back()] = static_cast<int>(c);
-    }
-  }
+  const evaluation::ClassScorer scorer(bank != nullptr ? *bank : modes_only);
   std::vector<LabelledStep> steps;
   std::vector<std::string> f;
+  Eigen::VectorXd mu(static_cast<Eigen::Index>(probability_columns.size()));
+  double last_t = -std::numeric_limits<double>::infinity();
   while (reader.next(&f)) {
-    const std::string& true_mode = f[static_cast<std::size_t>(truth)];
-    const auto p = probability.find(true_mode);
-    steps.push_back({std::stod(f[static_cast<std::size_t>(t)]), true_mode, f[static_cast<std::size_t>(mode)],
-                     p == probability.end() ? 0.0 : std::stod(f[static_cast<std::size_t>(p->second)])});
+    const double time = parse_cell(reader, f, t);
+    if (!(time > last_t)) {
+      throw LogError(file.string(), reader.line(), "column 't': time must increase strictly");
+    }
+    last_t = time;
+    for (std::size_t j = 0; j < probability_columns.size(); ++j) {
+      mu[static_cast<Eigen::Index>(j)] = parse_cell(reader, f, probability_columns[j]);
+      if (mu[static_cast<Eigen::Index>(j)] < 0.0 || mu[static_cast<Eigen::Index>(j)] > 1.0 + 1e-9) {
+        throw LogError(file.string(), reader.line(),
+                       "column '" + reader.header()[static_cast<std::size_t>(probability_columns[j])] +
+                           "': a probability must be in [0, 1]");
+      }
+    }
+    steps.push_back(scorer.score(time, f[static_cast<std::size_t>(truth)], mu));
   }
+  if (steps.empty()) throw LogError(file.string(), 1, "the file has a header but no rows");
   LogResult result;
   result.name = file.filename().string();
-  result.metrics = evaluation::compute_mode_metrics(steps, names);
+  result.metrics = evaluation::compute_mode_metrics(steps, scorer.class_names());
   return result;
 }
 
@@ -259,6 +204,7 @@ void print_table(std::ostream& out, const std::string& title, const Summary& s, 
         << fmt(*std::min_element(s.accuracies.begin(), s.accuracies.end()));
   }
   out << "\n  mean probability of the true mode " << fmt(m.mean_truth_probability()) << "\n";
+  out << "  mean log probability of the truth " << fmt(m.mean_truth_log_probability()) << "\n";
   for (const auto& [mode, seconds] : m.truth_absent) {
     out << "  truth mode '" << mode << "' is not in the bank (" << fmt(seconds, "%.1f") << " s, always wrong)\n";
   }
@@ -322,7 +268,8 @@ std::string json_summary(const Summary& s, const std::vector<std::string>& state
     << ", \"accuracy_per_log\": {\"mean\": " << json_number(mean(s.accuracies))
     << ", \"std\": " << json_number(standard_deviation(s.accuracies)) << ", \"min\": "
     << json_number(s.accuracies.empty() ? kNaN : *std::min_element(s.accuracies.begin(), s.accuracies.end()))
-    << "}, \"mean_truth_probability\": " << json_number(m.mean_truth_probability()) << ", \"confusion_seconds\": {";
+    << "}, \"mean_truth_probability\": " << json_number(m.mean_truth_probability())
+    << ", \"mean_truth_log_probability\": " << json_number(m.mean_truth_log_probability()) << ", \"confusion_seconds\": {";
   bool first = true;
   for (const auto& [truth, row] : m.confusion) {
     o << (first ? "" : ", ") << json_string(truth) << ": {";
@@ -377,9 +324,13 @@ int eval(const EvalOptions& options) {
     std::vector<Group> groups;
     std::vector<std::string> modes, states;
     if (!options.estimates.empty()) {
+      std::optional<BankConfig> bank;
+      if (!options.bank.empty()) bank = load_bank_config(options.bank);
       for (const std::string& argument : options.estimates) {
         Group g{group_name(argument), {}};
-        for (const auto& files : expand(argument)) g.logs.push_back(evaluate_estimates(files.front()));
+        for (const LogSpec& log : expand_log_argument(argument)) {
+          g.logs.push_back(evaluate_estimates(log.files.front().path, bank ? &*bank : nullptr));
+        }
         groups.push_back(std::move(g));
       }
       std::map<std::string, bool> seen;
@@ -396,11 +347,14 @@ int eval(const EvalOptions& options) {
     } else {
       if (options.bank.empty()) throw Error("give --bank with --input, or --estimates");
       const Bank bank = Bank::load(options.bank, options.plugin_paths);
-      for (const ModeConfig& m : bank.config.modes) modes.push_back(m.name);
+      modes = bank.config.class_names();
       states = bank.config.state_names;
+      const SamplingConfig sampling = sampling_of(bank.config, options.rate);
       for (const std::string& argument : options.inputs) {
         Group g{group_name(argument), {}};
-        for (const auto& files : expand(argument)) g.logs.push_back(evaluate_log(bank, files));
+        for (const LogSpec& log : expand_log_argument(argument)) {
+          g.logs.push_back(evaluation::evaluate_log(bank, log, sampling));
+        }
         groups.push_back(std::move(g));
       }
     }

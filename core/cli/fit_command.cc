@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "commands.h"
+#include "log_arguments.h"
 #include "skidimm/bank.h"
 #include "skidimm/errors.h"
 #include "skidimm/fitting/bank_writer.h"
@@ -21,40 +22,55 @@ using fitting::ModeLogs;
 
 namespace {
 
-struct LabelledLog {
-  std::string mode;  // empty: the --mode
-  std::vector<fs::path> files;
-};
-
-// "[MODE=]a.csv[+b.csv...]"
-LabelledLog parse_log(const std::string& text) {
-  LabelledLog log;
-  std::string files = text;
-  const auto equals = text.find('=');
-  if (equals != std::string::npos) {
-    log.mode = text.substr(0, equals);
-    files = text.substr(equals + 1);
-  }
-  std::stringstream in(files);
-  std::string file;
-  while (std::getline(in, file, '+')) {
-    if (!file.empty()) log.files.emplace_back(file);
-  }
-  if (log.files.empty()) throw Error("--log '" + text + "': no file given");
-  return log;
-}
-
-std::vector<ModeLogs> load_logs(const BankConfig& config, const std::vector<std::string>& texts,
-                                const std::string& default_mode) {
+// The logs of the --log (or --held-out) arguments, by mode. Which mode a log
+// shows: its MODE= label, else --mode, else the bank's truth column, whose
+// runs of one label become logs of their own.
+std::vector<ModeLogs> load_logs(const BankConfig& config, const std::vector<std::string>& arguments,
+                                const std::string& default_mode, const SamplingConfig& sampling) {
   std::map<int, ModeLogs> by_mode;
-  for (const std::string& text : texts) {
-    const LabelledLog log = parse_log(text);
-    const std::string mode = log.mode.empty() ? default_mode : log.mode;
-    if (mode.empty()) throw Error("--log '" + text + "': say which mode it shows (MODE=FILE) or give --mode");
-    const int j = config.mode_index(mode);
-    if (j < 0) throw Error("--log '" + text + "': the bank has no mode '" + mode + "'");
-    by_mode[j].mode = j;
-    by_mode[j].logs.push_back(fitting::load_trajectory(config, log.files));
+  auto mode_of = [&config](const std::string& label, const std::string& where) {
+    int j = config.mode_index(label);
+    if (j < 0) {
+      // A class of one mode names that mode.
+      for (const ClassConfig& c : config.classes) {
+        if (c.name == label && c.modes.size() == 1) j = c.modes[0];
+      }
+    }
+    if (j < 0) {
+      throw Error(where + ": the bank has no mode '" + label + "'" +
+                  (config.class_index(label) >= 0 ? " ('" + label + "' is a class of several modes; fit needs a mode)"
+                                                  : ""));
+    }
+    return j;
+  };
+  for (const std::string& argument : arguments) {
+    for (const LogSpec& log : expand_log_argument(argument)) {
+      const std::string label = !log.label.empty() ? log.label : default_mode;
+      const int labelled_mode = label.empty() ? -1 : mode_of(label, "--log '" + log.text + "'");
+      if (label.empty() && config.columns.truth_mode.empty()) {
+        throw Error("--log '" + log.text +
+                    "': say which mode it shows (MODE=FILE) or give --mode (or give the bank a truth column, "
+                    "columns.truth_mode)");
+      }
+      fitting::Trajectory trajectory = fitting::load_trajectory(config, log.files, sampling);
+      if (trajectory.size() == 0) throw Error(log.text + ": the log gives no step");
+      if (labelled_mode >= 0) {
+        const int j = labelled_mode;
+        by_mode[j].mode = j;
+        by_mode[j].logs.push_back(std::move(trajectory));
+        continue;
+      }
+      const auto parts = fitting::split_by_truth(trajectory);
+      if (parts.empty()) {
+        throw Error("--log '" + log.text + "': say which mode it shows (MODE=FILE) or give --mode; its truth column '" +
+                    config.columns.truth_mode + "' is absent or empty");
+      }
+      for (const auto& [part_label, part] : parts) {
+        const int j = mode_of(part_label, "--log '" + log.text + "', truth column '" + config.columns.truth_mode + "'");
+        by_mode[j].mode = j;
+        by_mode[j].logs.push_back(part);
+      }
+    }
   }
   std::vector<ModeLogs> out;
   for (auto& [j, logs] : by_mode) out.push_back(std::move(logs));
@@ -115,7 +131,8 @@ int fit(const FitCommandOptions& options) {
   return report_errors("skidimm fit", [&] {
     Bank bank = Bank::load(options.bank, options.plugin_paths);
     const BankConfig& config = bank.config;
-    const std::vector<ModeLogs> data = load_logs(config, options.logs, options.mode);
+    const SamplingConfig sampling = sampling_of(config, options.rate);
+    const std::vector<ModeLogs> data = load_logs(config, options.logs, options.mode, sampling);
     if (data.empty()) throw Error("no logs given (--log)");
 
     fitting::FitOptions fit_options;
@@ -153,7 +170,7 @@ int fit(const FitCommandOptions& options) {
     for (const ModeLogs& d : data) {
       const FitReport& r = reports[d.mode];
       print_report(config, output_name(d.mode), d, r);
-      std::string comment = "fitted by skidimm fit (window " + std::to_string(options.window) + ", " + options.loss +
+      std::string comment = "fitted by skidimm fit (window " + fixed(options.window) + " s, " + options.loss +
                             ") from " + std::to_string(d.logs.size()) + " log(s); one-step RMSE " +
                             rmse_text(config, r.rmse);
       const ModeConfig& mode = config.modes[static_cast<std::size_t>(d.mode)];
@@ -163,10 +180,12 @@ int fit(const FitCommandOptions& options) {
     }
 
     for (const std::string& text : options.held_out) {
-      const std::vector<ModeLogs> held = load_logs(config, {text}, options.mode);
-      const FitReport r = fitting::evaluate(bank, held.front());
-      std::cerr << "held out " << text << ": one-step RMSE " << rmse_text(config, r.rmse) << " (no-change baseline "
-                << rmse_text(config, persistence_rmse(held.front())) << ")\n";
+      for (const ModeLogs& held : load_logs(config, {text}, options.mode, sampling)) {
+        const FitReport r = fitting::evaluate(bank, held);
+        std::cerr << "held out " << text << " (" << config.modes[static_cast<std::size_t>(held.mode)].name
+                  << "): one-step RMSE " << rmse_text(config, r.rmse) << " (no-change baseline "
+                  << rmse_text(config, persistence_rmse(held)) << ")\n";
+      }
     }
 
     if (!options.append_to.empty()) {

@@ -30,15 +30,23 @@ int main(int argc, char** argv) {
         ->check(CLI::ExistingPath);
   };
 
+  auto add_rate = [](CLI::App* command, double* rate) {
+    command
+        ->add_option("--rate", *rate,
+                     "Filter steps per second on a fixed grid (overrides the bank's sampling.rate); "
+                     "default: a step at every time stamp of the log")
+        ->check(CLI::PositiveNumber);
+  };
+
   RunOptions run_options;
   std::string bank, output;
-  std::vector<std::string> inputs;
-  CLI::App* run = app.add_subcommand("run", "Run a bank of modes over a log and write per-row estimates");
+  CLI::App* run = app.add_subcommand("run", "Run a bank of modes over a log and write per-step estimates");
   run->add_option("--bank,-b", bank, "Bank file (YAML), see docs/bank-format.md")->required()->check(CLI::ExistingFile);
-  run->add_option("--input,-i", inputs,
-                  "Log CSV; repeat to read several files side by side (row i of each is one sample)")
-      ->required()
-      ->check(CLI::ExistingFile);
+  run->add_option("--input,-i", run_options.inputs,
+                  "[MODE=]FILE[@OFFSET][+FILE...]: the log's files; repeat for more files of the same log "
+                  "(merged by time, or row by row with the bank's sampling.join: rows)")
+      ->required();
+  add_rate(run, &run_options.rate);
   run->add_option("--output,-o", output, "Output CSV (written as <output>.partial, renamed when complete)")->required();
   run->add_flag("--quiet,-q", run_options.quiet, "No summary or progress on stderr");
   std::string run_plot;
@@ -70,14 +78,17 @@ int main(int argc, char** argv) {
       ->required()
       ->check(CLI::ExistingFile);
   fit->add_option("--log,-l", fit_options.logs,
-                  "[MODE=]FILE[+FILE...]: a log of MODE (files joined with + are read side by side); repeatable")
+                  "[MODE=]FILE[@OFFSET][+FILE...]: a log of MODE (a directory or a '*' pattern for several); "
+                  "without MODE=, --mode or else the bank's truth column says which; repeatable")
       ->required();
   fit->add_option("--mode,-m", fit_options.mode, "The mode that logs without MODE= show; its values start the fit");
   fit->add_option("--name", fit_options.name, "Name of the fitted --mode in the output (e.g. a new terrain)");
   fit->add_flag("--shared", fit_options.shared,
                 "Also fit the bank-level (shared:) parameters jointly over every mode's logs, then each mode's own");
-  fit->add_option("--window", fit_options.window, "Measured rows per prediction window: 1 = one-step (default)")
-      ->check(CLI::PositiveNumber);
+  fit->add_option("--window", fit_options.window,
+                  "Window objective: seconds each prediction runs from a measured start; 0 = one-step (default)")
+      ->check(CLI::NonNegativeNumber);
+  add_rate(fit, &fit_options.rate);
   fit->add_option("--loss", fit_options.loss, "Robust loss: huber (default), cauchy, none")
       ->check(CLI::IsMember({"huber", "cauchy", "none"}));
   fit->add_option("--loss-scale", fit_options.loss_scale, "Loss scale in measurement standard deviations (3)")
@@ -94,19 +105,25 @@ int main(int argc, char** argv) {
   CLI::App* eval = app.add_subcommand("eval", "Measure how well a bank identifies the true modes of logs");
   eval->add_option("--bank,-b", eval_bank, "Bank to run over the logs")->check(CLI::ExistingFile);
   eval->add_option("--input,-i", eval_options.inputs,
-                   "Log FILE[+FILE...] or a directory of logs; each argument is one group (e.g. a scenario)");
+                   "[MODE=]FILE[@OFFSET][+FILE...], a directory or a '*' pattern of logs; each argument is one group "
+                   "(e.g. a scenario or a terrain)");
+  add_rate(eval, &eval_options.rate);
   eval->add_option("--estimates,-e", eval_options.estimates,
                    "Evaluate `skidimm run` outputs (files or directories) instead of running a bank");
   eval->add_flag("--json", eval_options.json, "Print JSON instead of tables");
   add_plugin_path(eval);
 
   PlotOptions plot_options;
-  std::string plot_estimates, plot_output, plot_log;
+  std::string plot_estimates, plot_output;
   CLI::App* plot = app.add_subcommand("plot", "Draw mode probabilities over time (PNG or SVG, needs gnuplot)");
   plot->add_option("--estimates,-e", plot_estimates, "A `skidimm run` output")->required()->check(CLI::ExistingFile);
   plot->add_option("--output,-o", plot_output, "Figure to write: .png or .svg")->required();
-  plot->add_option("--log,-l", plot_log, "The input log, to draw measurements and true states")
+  plot->add_option("--log,-l", plot_options.log,
+                   "The input log, to draw measurements and true states; with --bank any log form `run` reads");
+  plot->add_option("--bank,-b", plot_options.bank, "The bank the estimates came from: reads --log with its columns")
       ->check(CLI::ExistingFile);
+  add_rate(plot, &plot_options.rate);
+  add_plugin_path(plot);
   plot->add_option("--title", plot_options.title, "Figure title");
   plot->add_flag("--states", plot_options.states, "Add a panel per state: estimate, measurement, truth");
 
@@ -123,7 +140,6 @@ int main(int argc, char** argv) {
   std::vector<fs::path> paths(plugin_paths.begin(), plugin_paths.end());
   if (*run) {
     run_options.bank = bank;
-    run_options.inputs.assign(inputs.begin(), inputs.end());
     run_options.output = output;
     run_options.plugin_paths = paths;
     const int code = skidimm::cli::run(run_options);
@@ -131,8 +147,11 @@ int main(int argc, char** argv) {
     PlotOptions figure;
     figure.estimates = output;
     figure.output = run_plot;
-    figure.log = inputs.size() == 1 ? fs::path(inputs[0]) : fs::path();
-    figure.title = fs::path(bank).stem().string() + " on " + fs::path(inputs[0]).filename().string();
+    figure.bank = bank;
+    figure.plugin_paths = paths;
+    figure.rate = run_options.rate;
+    figure.log = run_options.inputs;
+    figure.title = fs::path(bank).stem().string() + " on " + join_inputs(run_options.inputs).name();
     return skidimm::cli::plot(figure);
   }
   if (*validate) return skidimm::cli::validate(validate_bank, paths);
@@ -144,7 +163,7 @@ int main(int argc, char** argv) {
   if (*plot) {
     plot_options.estimates = plot_estimates;
     plot_options.output = plot_output;
-    plot_options.log = plot_log;
+    plot_options.plugin_paths = paths;
     if (plot_options.title.empty()) plot_options.title = fs::path(plot_estimates).filename().string();
     return skidimm::cli::plot(plot_options);
   }

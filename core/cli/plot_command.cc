@@ -9,7 +9,9 @@
 #include <sstream>
 
 #include "commands.h"
+#include "log_arguments.h"
 #include "skidimm/errors.h"
+#include "skidimm/bank.h"
 #include "skidimm/log_io.h"
 
 namespace skidimm {
@@ -98,8 +100,42 @@ int plot(const PlotOptions& options) {
       bands.back().end = t;
     }
 
+    // The log's measurements and true states: read with the bank exactly as
+    // `run` read them (any log form) into a data file for gnuplot, or, without
+    // a bank, straight from a single CSV whose columns are named like the states.
+    fs::path log_file;
     std::vector<std::string> log_header;
-    if (!options.log.empty()) log_header = CsvReader(options.log).header();
+    const fs::path log_data = options.output.string() + ".log.csv";
+    if (!options.log.empty()) {
+      if (!options.bank.empty()) {
+        const BankConfig config = load_bank_config(options.bank);
+        const LogSpec log = join_inputs(options.log);
+        LogReader reader(config, log.files, sampling_of(config, options.rate));
+        std::vector<std::string> header{"t"};
+        for (const std::string& m : config.measurement.names) header.push_back(m);
+        for (const std::string& s : config.state_names) header.push_back("true_" + s);
+        CsvWriter writer(log_data, header);
+        std::vector<std::string> cells(header.size());
+        LogSample sample;
+        while (reader.next(&sample)) {
+          std::size_t c = 0;
+          cells[c++] = CsvWriter::format(sample.t);
+          for (Eigen::Index i = 0; i < sample.z.size(); ++i) cells[c++] = CsvWriter::format(sample.z[i]);
+          for (Eigen::Index i = 0; i < sample.true_state.size(); ++i) {
+            cells[c++] = CsvWriter::format(sample.true_state[i]);
+          }
+          writer.write_row(cells);
+        }
+        writer.commit();
+        log_file = log_data;
+      } else {
+        if (options.log.size() != 1 || parse_log_spec(options.log[0]).files.size() != 1) {
+          throw Error("--log with several files needs --bank to read them");
+        }
+        log_file = parse_log_spec(options.log[0]).files[0].path;
+      }
+      log_header = CsvReader(log_file).header();
+    }
     const int panels = 1 + (options.states ? static_cast<int>(states.size()) : 0);
 
     std::ostringstream g;
@@ -150,11 +186,11 @@ int plot(const PlotOptions& options) {
         const int true_state = column_of(log_header, "true_" + states[s]);
         const int time = column_of(log_header, "t");
         if (measured > 0 && time > 0) {
-          g << ", " << quoted(options.log.string()) << " using " << time << ":" << measured
+          g << ", " << quoted(log_file.string()) << " using " << time << ":" << measured
             << " with points pt 7 ps 0.3 lc rgb '#999999' title 'measured'";
         }
         if (true_state > 0 && time > 0) {
-          g << ", " << quoted(options.log.string()) << " using " << time << ":" << true_state
+          g << ", " << quoted(log_file.string()) << " using " << time << ":" << true_state
             << " with lines dt 2 lw 1.5 lc rgb '#d62728' title 'true'";
         }
         g << "\n";
@@ -180,6 +216,7 @@ int plot(const PlotOptions& options) {
     }
     fs::rename(drawing, options.output);
     fs::remove(script);
+    fs::remove(log_data, ec);
     return kExitOk;
   });
 }

@@ -243,13 +243,99 @@ int BankConfig::mode_index(const std::string& mode_name) const {
   return -1;
 }
 
+std::vector<std::string> BankConfig::class_names() const {
+  std::vector<std::string> names;
+  for (const ClassConfig& c : classes) names.push_back(c.name);
+  const std::vector<int> of = class_of_modes();
+  for (std::size_t j = 0; j < modes.size(); ++j) {
+    if (of[j] >= static_cast<int>(classes.size())) names.push_back(modes[j].name);
+  }
+  return names;
+}
+
+std::vector<int> BankConfig::class_of_modes() const {
+  std::vector<int> of(modes.size(), -1);
+  for (std::size_t c = 0; c < classes.size(); ++c) {
+    for (int j : classes[c].modes) of[static_cast<std::size_t>(j)] = static_cast<int>(c);
+  }
+  int next = static_cast<int>(classes.size());
+  for (int& c : of) {
+    if (c < 0) c = next++;
+  }
+  return of;
+}
+
+int BankConfig::class_index(const std::string& label) const {
+  for (std::size_t c = 0; c < classes.size(); ++c) {
+    if (classes[c].name == label) return static_cast<int>(c);
+  }
+  const int j = mode_index(label);
+  return j < 0 ? -1 : class_of_modes()[static_cast<std::size_t>(j)];
+}
+
+namespace {
+
+void parse_sampling(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {
+  const YAML::Node node = root["sampling"];
+  if (!node) return;
+  y.check_keys(node, {"join", "rate"}, "sampling");
+  if (const YAML::Node join = node["join"]) {
+    const std::string value = y.string(join, "sampling.join");
+    if (value == "time") {
+      bank->sampling.join = SamplingConfig::Join::kTime;
+    } else if (value == "rows") {
+      bank->sampling.join = SamplingConfig::Join::kRows;
+    } else {
+      y.fail(join, "sampling.join",
+             "expected 'time' (files merged on their own time columns) or 'rows' (files matched row for row), got '" +
+                 value + "'");
+    }
+  }
+  if (const YAML::Node rate = node["rate"]) {
+    bank->sampling.rate = y.number(rate, "sampling.rate");
+    if (!(bank->sampling.rate > 0.0 && bank->sampling.rate <= 1e6)) {
+      y.fail(rate, "sampling.rate", "must be a rate in Hz, > 0 and at most 1e6");
+    }
+  }
+}
+
+void parse_classes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {
+  const YAML::Node node = root["classes"];
+  if (!node) return;
+  if (!node.IsMap()) y.fail(node, "classes", "expected a mapping from class name to a list of modes");
+  std::set<int> used;
+  for (const auto& entry : node) {
+    ClassConfig c;
+    c.name = y.string(entry.first, "classes");
+    const std::string field = "classes." + c.name;
+    if (c.name.empty()) y.fail(entry.first, "classes", "class names cannot be empty");
+    for (const ClassConfig& other : bank->classes) {
+      if (other.name == c.name) y.fail(entry.first, field, "class '" + c.name + "' appears twice");
+    }
+    const int mode = bank->mode_index(c.name);
+    for (const std::string& m : y.string_list(entry.second, field)) {
+      const int j = bank->mode_index(m);
+      if (j < 0) y.fail(entry.second, field, "'" + m + "' is not a mode");
+      if (!used.insert(j).second) y.fail(entry.second, field, "mode '" + m + "' is in two classes");
+      c.modes.push_back(j);
+    }
+    if (c.modes.empty()) y.fail(entry.second, field, "a class needs at least one mode");
+    if (mode >= 0 && (c.modes.size() != 1 || c.modes[0] != mode)) {
+      y.fail(entry.first, field, "'" + c.name + "' is also a mode's name: a class may share a name only with its one mode");
+    }
+    bank->classes.push_back(std::move(c));
+  }
+}
+
+}  // namespace
+
 BankConfig load_bank_config(const fs::path& file) {
   const YamlFields y(file.string());
   const YAML::Node root = y.load_mapping("bank");
 
   y.check_keys(root,
-               {"name", "description", "states", "angles", "inputs", "columns", "measurement", "transition", "initial",
-                "mode_probability_floor", "plugin_paths", "shared", "modes"},
+               {"name", "description", "states", "angles", "inputs", "columns", "sampling", "measurement", "transition",
+                "initial", "mode_probability_floor", "plugin_paths", "shared", "modes", "classes"},
                "");
   BankConfig bank;
   bank.file = fs::absolute(file);
@@ -276,6 +362,8 @@ BankConfig load_bank_config(const fs::path& file) {
   parse_measurement(y, root, &bank);
   parse_transition(y, root, &bank);
   parse_initial(y, root, &bank);
+  parse_sampling(y, root, &bank);
+  parse_classes(y, root, &bank);
 
   const YAML::Node columns = root["columns"];
   if (columns) y.check_keys(columns, {"time", "inputs", "measurements", "truth_mode"}, "columns");

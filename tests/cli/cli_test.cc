@@ -244,9 +244,12 @@ TEST(Cli, FitReportsBadLogsAndUnknownModes) {
   const Result unknown = run_skidimm("fit --bank " + bank + " --log mud=" + log.string());
   EXPECT_EQ(unknown.exit_code, 1);
   EXPECT_THAT(unknown.err, HasSubstr("the bank has no mode 'mud'"));
-  const Result unlabelled = run_skidimm("fit --bank " + bank + " --log " + log.string());
+  // Without MODE= or --mode, the bank's truth column says which mode: here it is absent.
+  const fs::path complete = write_file(dir / "complete.csv", "t,phi_dot_L,phi_dot_R,V,omega\n0,1,1,0,0\n");
+  const Result unlabelled = run_skidimm("fit --bank " + bank + " --log " + complete.string());
   EXPECT_EQ(unlabelled.exit_code, 1);
-  EXPECT_THAT(unlabelled.err, HasSubstr("say which mode it shows (MODE=FILE) or give --mode"));
+  EXPECT_THAT(unlabelled.err, HasSubstr("say which mode it shows (MODE=FILE) or give --mode; its truth column 'mode' "
+                                        "is absent or empty"));
 }
 
 TEST(Cli, EvalReportsAccuracyLatencyAndConsistencyAsTextAndJson) {
@@ -317,5 +320,103 @@ TEST(Cli, BundledExampleLogsAreReproducibleFromTheirScenarios) {
         << "regenerate with scripts/make_examples.sh";
   }
 }
+
+
+namespace multi_rate {
+
+// A log in two files at two rates: inputs and V at 10 Hz, omega at 50 Hz,
+// split from the bundled example (V and omega come from its rows).
+struct SplitLog {
+  fs::path slow, fast;
+  long fast_rows = 0;
+};
+SplitLog split_example(const fs::path& dir) {
+  const auto rows = read_csv(kSource + "/configs/examples/ltc_switching.csv");
+  const auto& h = rows[0];
+  std::string slow = "t,phi_dot_L,phi_dot_R,V,mode\n", fast = "t,omega\n";
+  SplitLog log;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const auto& r = rows[i];
+    fast += r[column(h, "t")] + "," + r[column(h, "omega")] + "\n";
+    ++log.fast_rows;
+    if (i % 5 == 1) {
+      slow += r[column(h, "t")] + "," + r[column(h, "phi_dot_L")] + "," + r[column(h, "phi_dot_R")] + "," +
+              r[column(h, "V")] + "," + r[column(h, "mode")] + "\n";
+    }
+  }
+  log.slow = write_file(dir / "slow.csv", slow);
+  log.fast = write_file(dir / "fast.csv", fast);
+  return log;
+}
+
+TEST(Cli, RunMergesFilesByTimeAndSteadiesAtAFixedRate) {
+  const fs::path dir = test_directory();
+  const SplitLog log = split_example(dir);
+  const std::string bank = kSource + "/configs/ltc_terrains.yaml";
+  const Result events = run_skidimm("run -q --bank " + bank + " --input " + log.slow.string() + " --input " +
+                                    log.fast.string() + " --output " + (dir / "events.csv").string());
+  ASSERT_EQ(events.exit_code, 0) << events.err;
+  const auto rows = read_csv(dir / "events.csv");
+  // A step per time stamp until the slow file (the inputs) ends.
+  EXPECT_GT(rows.size(), static_cast<std::size_t>(log.fast_rows - 10));
+  long right = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) right += rows[i][column(rows[0], "mode")] == rows[i][column(rows[0], "truth_mode")];
+  EXPECT_GT(static_cast<double>(right) / static_cast<double>(rows.size() - 1), 0.85);
+
+  const Result fixed = run_skidimm("run --bank " + bank + " --input " + log.slow.string() + "+" + log.fast.string() +
+                                   " --rate 10 --output " + (dir / "fixed.csv").string());
+  ASSERT_EQ(fixed.exit_code, 0) << fixed.err;
+  const auto steps = read_csv(dir / "fixed.csv");
+  EXPECT_NEAR(static_cast<double>(steps.size() - 1), 300.0, 2.0) << "30 s at 10 Hz";
+  EXPECT_THAT(fixed.err, HasSubstr("measurement 'omega': "));
+  EXPECT_THAT(fixed.err, HasSubstr("replaced by a later one in the same step"));
+}
+
+TEST(Cli, FitTakesEachModeFromTheTruthColumnAndEvalTakesLabelsAndPatterns) {
+  const fs::path dir = test_directory();
+  // One log, three terrains: the truth column splits it into each mode's segments.
+  const Result fit = run_skidimm("fit --bank " + kSource + "/configs/physical/ltc_terrains.yaml --window 0.5 --log " +
+                                 kSource + "/configs/examples/ltc_switching.csv --output-bank " +
+                                 (dir / "fitted.yaml").string() + " --plugin-path " + kPlugins);
+  ASSERT_EQ(fit.exit_code, 0) << fit.err;
+  for (const char* mode : {"asphalt", "grass", "crushed_concrete"}) {
+    EXPECT_THAT(fit.err, HasSubstr(std::string("mode '") + mode + "': 1 log(s)"));
+  }
+  EXPECT_THAT(read_file(dir / "fitted.yaml"), ::testing::Not(HasSubstr("not fitted")));
+
+  // Labels and '*' patterns: the same file twice, labelled as the terrain it is not and is.
+  fs::create_directories(dir / "runs");
+  write_file(dir / "runs" / "a_1.csv", read_file(kSource + "/configs/examples/ltc_switching.csv"));
+  write_file(dir / "runs" / "a_2.csv", read_file(kSource + "/configs/examples/ltc_switching.csv"));
+  const Result eval = run_skidimm("eval --bank " + kSource + "/configs/ltc_terrains.yaml --input 'grass=" +
+                                  (dir / "runs" / "a_*.csv").string() + "' --json --plugin-path " + kPlugins);
+  ASSERT_EQ(eval.exit_code, 0) << eval.err;
+  EXPECT_THAT(eval.out, HasSubstr("\"grass\": {\"logs\": 2"));
+  const Result bad = run_skidimm("eval --bank " + kSource + "/configs/ltc_terrains.yaml --input 'mud=" +
+                                 (dir / "runs" / "a_*.csv").string() + "'");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_THAT(bad.err, HasSubstr("'mud' is neither a mode nor a class of bank 'ltc_terrains'"));
+  const Result none = run_skidimm("eval --bank " + kSource + "/configs/ltc_terrains.yaml --input '" +
+                                  (dir / "runs" / "b_*.csv").string() + "'");
+  EXPECT_EQ(none.exit_code, 1);
+  EXPECT_THAT(none.err, HasSubstr("no file matches"));
+}
+
+TEST(Cli, ClassesScoreSeveralModesAsOne) {
+  const fs::path dir = test_directory();
+  std::string bank = read_file(kSource + "/configs/ltc_terrains.yaml");
+  bank += "classes:\n  soft: [grass, crushed_concrete]\n";
+  write_file(dir / "classes.yaml", bank);
+  const Result eval = run_skidimm("eval --bank " + (dir / "classes.yaml").string() + " --input " + kSource +
+                                  "/configs/examples/ltc_switching.csv --plugin-path " + kPlugins);
+  ASSERT_EQ(eval.exit_code, 0) << eval.err;
+  EXPECT_THAT(eval.out, HasSubstr("soft asphalt"));  // the confusion's columns: classes
+  // Grass taken for crushed concrete is now right: the class accuracy is at least the mode accuracy.
+  const std::string key = "accuracy (time fraction)";
+  ASSERT_NE(eval.out.find(key), std::string::npos);
+  EXPECT_GE(std::stod(eval.out.substr(eval.out.find(key) + key.size())), 0.976);
+}
+
+}  // namespace multi_rate
 
 }  // namespace

@@ -81,7 +81,7 @@ TEST(ModelFitter, RecoversLtcLinearParametersFromItsOwnData) {
                                          Eigen::Vector2d(0.01, 0.01), 1);
   Bank bank = load_bank(kLtcBank);  // starts from A = -I, B small
   FitOptions options;
-  options.window = 10;
+  options.window = 0.2;  // s: 10 rows at 50 Hz
   const FitReport report = fit(&bank, {ModeLogs{0, {data}}}, options).front();
   Eigen::VectorXd fitted(8);
   bank.models[0]->get_parameters(fitted);
@@ -105,7 +105,7 @@ TEST(ModelFitter, ExactAndNumericDerivativesReachTheSameFit) {
   const Trajectory data = simulate_model(*truth.models[0], 3000, 0.02, rich_wheel_speeds, Eigen::Vector2d(1e-4, 1e-4),
                                          Eigen::Vector2d(0.01, 0.01), 5);
   FitOptions options;
-  options.window = 10;
+  options.window = 0.2;  // s: 10 rows at 50 Hz
   Bank exact = load_bank(kLtcBank, "exact.yaml");
   const FitReport exact_report = fit(&exact, {ModeLogs{0, {data}}}, options).front();
   options.numeric_derivatives = true;
@@ -139,7 +139,7 @@ modes:
                                          Eigen::Vector3d(0.02, 0.02, 0.02), 2, 5);
   Bank bank = load_bank(bank_yaml);
   FitOptions options;
-  options.window = 5;
+  options.window = 0.5;  // s: 5 GPS fixes at 10 Hz
   const FitReport report = fit(&bank, {ModeLogs{0, {data}}}, options).front();
   ASSERT_EQ(report.parameters.size(), 2u);  // r and b are bank-level: not fitted per mode
   EXPECT_NEAR(report.parameters[0].value, 0.82, 0.01);
@@ -168,7 +168,7 @@ modes:
                                           Eigen::Vector2d(0.01, 0.01), 4);
   Bank bank = load_bank(bank_yaml);
   FitOptions options;
-  options.window = 10;
+  options.window = 0.2;  // s: 10 rows at 50 Hz
   options.scope = sdk::ParameterScope::kBank;
   const std::vector<FitReport> reports = fit(&bank, {ModeLogs{0, {smooth}}, ModeLogs{1, {rough}}}, options);
   Eigen::VectorXd a(8), b(8);

@@ -46,11 +46,31 @@ struct MeasurementConfig {
   std::vector<bool> is_angle;      // row measures an angle state directly
 };
 
+// Where the log's values come from. Each input or measurement is a CSV
+// column or an expression of columns (log_io.h); measurements may aggregate
+// the rows of a filter step with mean(), std() or rms().
 struct ColumnConfig {
   std::string time;
   std::vector<std::string> inputs;        // one per input, in input order
   std::vector<std::string> measurements;  // one per measurement row
   std::string truth_mode;                 // empty: none
+};
+
+// How the files of one log become filter steps (docs/bank-format.md, `sampling`).
+struct SamplingConfig {
+  enum class Join {
+    kTime,  // every file has its own time column; rows are merged by time
+    kRows,  // files match row for row; the time comes from the first file that has it
+  };
+  Join join = Join::kTime;
+  double rate = 0.0;  // Hz of the filter's steps on a fixed grid; 0: a step at every time stamp
+};
+
+// Modes scored as one class by eval and tune (`classes:`), e.g. the left- and
+// right-turn modes of one wheel configuration.
+struct ClassConfig {
+  std::string name;
+  std::vector<int> modes;  // indices into BankConfig::modes
 };
 
 struct BankConfig {
@@ -61,6 +81,7 @@ struct BankConfig {
   std::vector<bool> angle_mask;
   std::vector<std::string> input_names;
   ColumnConfig columns;
+  SamplingConfig sampling;
   MeasurementConfig measurement;
   TransitionConfig transition;
   Eigen::VectorXd initial_state;
@@ -71,11 +92,20 @@ struct BankConfig {
   sdk::ParameterSet shared;
   std::map<std::string, int> shared_lines;
   std::vector<ModeConfig> modes;
+  std::vector<ClassConfig> classes;  // empty: every mode is its own class
 
   int state_dim() const { return static_cast<int>(state_names.size()); }
   int input_dim() const { return static_cast<int>(input_names.size()); }
   int num_modes() const { return static_cast<int>(modes.size()); }
   int mode_index(const std::string& mode_name) const;  // -1 if absent
+  // The class names in scoring order: the bank's classes, then every mode in
+  // no class under its own name.
+  std::vector<std::string> class_names() const;
+  // For each mode, its index in class_names().
+  std::vector<int> class_of_modes() const;
+  // The index in class_names() of a truth label that names a class or a
+  // mode; -1 if it names neither.
+  int class_index(const std::string& label) const;
 };
 
 // Parses and validates a bank file. Throws ConfigError.

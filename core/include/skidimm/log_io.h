@@ -1,13 +1,10 @@
-// Reading logs and writing results as CSV.
+// Reading and writing CSV.
 //
 //  * CsvReader streams one file row by row (RFC 4180 quoting: the Husky
 //    joint-state export has a quoted list in its `name` column) and knows the
 //    line of every row for error messages.
-//  * LogReader binds a bank's columns (time, inputs, measurements, truth) to
-//    one or more CSV files read side by side: row i of every file is one
-//    sample, which is how the Husky logs split odometry/IMU/GPS and wheel
-//    states. It checks that the columns exist, that numbers parse, and that
-//    time increases strictly, throwing LogError with file, line and column.
+//  * LogReader (log_reader.h, included here) turns a log's files into the
+//    filter's steps with the bank's columns.
 //  * CsvWriter writes "<path>.partial", flushing as it goes, and renames it to
 //    <path> only on commit(): a file under the final name is always complete,
 //    and rows computed before an error are kept in the .partial file.
@@ -23,6 +20,7 @@
 #include <vector>
 
 #include "skidimm/bank.h"
+#include "skidimm/log_reader.h"
 
 namespace skidimm {
 
@@ -53,47 +51,6 @@ class CsvReader {
   long next_line_ = 1;  // line where the next record starts
   std::uintmax_t bytes_read_ = 0;
   std::uintmax_t file_size_ = 0;
-};
-
-// One row of a log, in bank order.
-struct LogSample {
-  double t = 0.0;
-  Eigen::VectorXd u;
-  Eigen::VectorXd z;       // NaN where the cell is empty or "nan"
-  std::string truth_mode;  // empty if the bank has no truth column
-  long row = 0;            // 1-based data row
-};
-
-class LogReader {
- public:
-  // Opens the files and resolves every column the bank names. Throws
-  // LogError naming the missing column, the bank field and the columns present.
-  LogReader(const BankConfig& bank, const std::vector<std::filesystem::path>& files);
-
-  // Reads the next sample. Returns false at the end of the files.
-  bool next(LogSample* sample);
-
-  bool has_truth() const { return truth_.file >= 0; }
-  double progress() const;  // fraction of bytes read, 0..1
-
- private:
-  struct ColumnRef {
-    int file = -1;
-    int index = -1;
-    std::string name;
-  };
-  ColumnRef resolve(const std::string& column, const std::string& bank_field, bool required) const;
-  double parse(const ColumnRef& ref, bool allow_missing) const;
-
-  std::vector<std::unique_ptr<CsvReader>> readers_;
-  std::vector<std::vector<std::string>> fields_;
-  ColumnRef time_;
-  std::vector<ColumnRef> inputs_;
-  std::vector<ColumnRef> measurements_;
-  ColumnRef truth_;
-  long row_ = 0;
-  bool have_last_t_ = false;
-  double last_t_ = 0.0;
 };
 
 class CsvWriter {

@@ -11,6 +11,7 @@ void ModeMetrics::merge(const ModeMetrics& other) {
   duration += other.duration;
   correct += other.correct;
   truth_probability += other.truth_probability;
+  truth_log_probability += other.truth_log_probability;
   for (const auto& [truth, row] : other.confusion) {
     for (const auto& [estimate, seconds] : row) confusion[truth][estimate] += seconds;
   }
@@ -38,6 +39,7 @@ ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps,
     m.confusion[s.truth][s.estimate] += w;
     if (s.estimate == s.truth) m.correct += w;
     m.truth_probability += w * s.truth_probability;
+    m.truth_log_probability += w * std::log(std::max(s.truth_probability, kMinScoredProbability));
     if (std::find(bank_modes.begin(), bank_modes.end(), s.truth) == bank_modes.end()) m.truth_absent[s.truth] += w;
   }
   // Switches: the truth changes between rows k-1 and k.

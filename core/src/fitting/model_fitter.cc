@@ -6,6 +6,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -101,21 +102,25 @@ struct Window {
   int residuals;
 };
 
-std::vector<Window> make_windows(const MeasurementLayout& m, const Trajectory& t, int window) {
+std::vector<Window> make_windows(const MeasurementLayout& m, const Trajectory& t, double window) {
+  // Times within this of a window's end belong to it: a 0.5 s window at 50 Hz
+  // holds 25 rows whatever the rounding of the logged times.
+  constexpr double kTimeTolerance = 1e-9;
   std::vector<Window> out;
-  std::vector<int> full;
-  for (int k = 0; k < t.size(); ++k) {
-    if (fully_measured(m, t, k)) full.push_back(k);
-  }
-  // One-step windows start at every fully measured row; multi-step windows
-  // every `window`-th one, so they do not overlap (multiple shooting).
-  for (std::size_t i = 0; i < full.size(); i += static_cast<std::size_t>(window)) {
-    Window w{&t, full[i], {}, 0};
-    for (int k = full[i] + 1; k < t.size() && static_cast<int>(w.targets.size()) < window; ++k) {
+  double next_start = -std::numeric_limits<double>::infinity();
+  for (int start = 0; start < t.size(); ++start) {
+    if (!fully_measured(m, t, start) || t.t[start] < next_start - kTimeTolerance) continue;
+    Window w{&t, start, {}, 0};
+    const double end = t.t[start] + window + kTimeTolerance;
+    for (int k = start + 1; k < t.size(); ++k) {
       if (!any_measured(t, k)) continue;
+      if (!w.targets.empty() && t.t[k] > end) break;
       w.targets.push_back(k);
       w.residuals += static_cast<int>(t.z.col(k).array().isFinite().count());
+      if (window <= 0.0) break;  // one-step: the next measured row only
     }
+    // Multi-step windows do not overlap (multiple shooting); one-step ones start at every fully measured row.
+    next_start = window > 0.0 ? t.t[start] + window : -std::numeric_limits<double>::infinity();
     if (!w.targets.empty()) out.push_back(w);
   }
   return out;
@@ -345,7 +350,9 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data) {
 }
 
 std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const FitOptions& options) {
-  if (options.window < 1) throw FitError("the window must be at least 1 measured row");
+  if (!(options.window >= 0.0) || !std::isfinite(options.window)) {
+    throw FitError("the window must be 0 (one-step) or a number of seconds");
+  }
   const MeasurementLayout m = layout_of(bank->config);
 
   // The parameter block: for kMode one problem per mode (its own parameters);

@@ -1,29 +1,60 @@
 #include "skidimm/fitting/trajectory.h"
 
-#include "skidimm/log_io.h"
+#include <cstdio>
 
 namespace skidimm {
 namespace fitting {
 
-Trajectory load_trajectory(const BankConfig& bank, const std::vector<std::filesystem::path>& files) {
-  LogReader reader(bank, files);
+Trajectory load_trajectory(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling) {
+  LogReader reader(bank, files, sampling);
   Trajectory trajectory;
-  for (const auto& f : files) trajectory.source += (trajectory.source.empty() ? "" : "+") + f.string();
+  for (const LogFile& f : files) trajectory.source += (trajectory.source.empty() ? "" : "+") + f.path.string();
   std::vector<Eigen::VectorXd> inputs, measurements;
   LogSample sample;
   while (reader.next(&sample)) {
     trajectory.t.push_back(sample.t);
     inputs.push_back(sample.u);
     measurements.push_back(sample.z);
+    trajectory.truth.push_back(sample.truth_mode);
   }
   const int n = trajectory.size();
   trajectory.u.resize(bank.input_dim(), n);
   trajectory.z.resize(static_cast<Eigen::Index>(bank.measurement.names.size()), n);
   for (int k = 0; k < n; ++k) {
-    trajectory.u.col(k) = inputs[k];
-    trajectory.z.col(k) = measurements[k];
+    trajectory.u.col(k) = inputs[static_cast<std::size_t>(k)];
+    trajectory.z.col(k) = measurements[static_cast<std::size_t>(k)];
   }
   return trajectory;
+}
+
+Trajectory load_trajectory(const BankConfig& bank, const std::vector<LogFile>& files) {
+  return load_trajectory(bank, files, bank.sampling);
+}
+
+std::vector<std::pair<std::string, Trajectory>> split_by_truth(const Trajectory& trajectory) {
+  std::vector<std::pair<std::string, Trajectory>> out;
+  const int n = trajectory.size();
+  int begin = 0;
+  while (begin < n) {
+    int end = begin + 1;
+    while (end < n && trajectory.truth[static_cast<std::size_t>(end)] == trajectory.truth[static_cast<std::size_t>(begin)])
+      ++end;
+    const std::string& label = trajectory.truth[static_cast<std::size_t>(begin)];
+    if (!label.empty()) {
+      Trajectory part;
+      char span[96];
+      std::snprintf(span, sizeof(span), "[%.6g-%.6g s]", trajectory.t[static_cast<std::size_t>(begin)],
+                    trajectory.t[static_cast<std::size_t>(end - 1)]);
+      part.source = trajectory.source + span;
+      part.t.assign(trajectory.t.begin() + begin, trajectory.t.begin() + end);
+      part.u = trajectory.u.middleCols(begin, end - begin);
+      part.z = trajectory.z.middleCols(begin, end - begin);
+      part.truth.assign(trajectory.truth.begin() + begin, trajectory.truth.begin() + end);
+      out.emplace_back(label, std::move(part));
+    }
+    begin = end;
+  }
+  return out;
 }
 
 }  // namespace fitting

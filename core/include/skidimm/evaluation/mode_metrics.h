@@ -14,10 +14,15 @@ namespace evaluation {
 
 struct LabelledStep {
   double t = 0.0;
-  std::string truth;               // true mode; empty rows are ignored
-  std::string estimate;            // most likely mode
-  double truth_probability = 0.0;  // probability the estimator gave the true mode (0 if not in the bank)
+  std::string truth;               // true mode (or class); empty rows are ignored
+  std::string estimate;            // most likely mode (or class)
+  double truth_probability = 0.0;  // probability the estimator gave the truth (0 if not in the bank)
 };
+
+// The floor under log(truth_probability): a truth the bank cannot answer, or
+// a probability of exactly 0, counts as log(1e-12) instead of -infinity, so
+// one such row cannot decide a mean.
+inline constexpr double kMinScoredProbability = 1e-12;
 
 // A true switch from `from` to `to` at `time`, and when the estimate
 // followed. `latency`: until the most likely mode becomes `to` and stays so
@@ -37,6 +42,7 @@ struct ModeMetrics {
   double duration = 0.0;           // s with a truth label
   double correct = 0.0;            // s where estimate == truth
   double truth_probability = 0.0;  // integral of the true mode's probability (s)
+  double truth_log_probability = 0.0;  // integral of its log, floored at kMinScoredProbability (s)
   // confusion[truth][estimate] = seconds.
   std::map<std::string, std::map<std::string, double>> confusion;
   std::vector<SwitchDetection> switches;
@@ -45,6 +51,10 @@ struct ModeMetrics {
 
   double accuracy() const { return duration > 0.0 ? correct / duration : 0.0; }
   double mean_truth_probability() const { return duration > 0.0 ? truth_probability / duration : 0.0; }
+  // The time average of log p(truth): what `skidimm tune` maximises. It
+  // rewards confidence in the right answer and punishes confidence in a wrong
+  // one, where accuracy only counts the argmax.
+  double mean_truth_log_probability() const { return duration > 0.0 ? truth_log_probability / duration : 0.0; }
 
   // Adds another run's metrics (several logs, seeds or scenarios).
   void merge(const ModeMetrics& other);

@@ -5,13 +5,15 @@
 // model's prediction error over windows of a log:
 //
 //   start at a row where every state is measured (x_s = the measurement),
-//   propagate with the logged inputs (zero-order hold) through the next
-//   `window` measured rows, and compare predicted and measured components,
-//   each divided by its measurement standard deviation sqrt(R_ii).
+//   propagate with the logged inputs (zero-order hold) through the measured
+//   rows of the next `window` seconds, and compare predicted and measured
+//   components, each divided by its measurement standard deviation sqrt(R_ii).
 //
-// window = 1 is the one-step (equation-error) objective; larger windows are
-// the multi-step (simulation-error) objective, started at every `window`-th
-// fully measured row (multiple shooting). A robust loss (Huber, Cauchy) limits
+// window = 0 is the one-step (equation-error) objective (the next measured
+// row only); a window of W > 0 seconds is the multi-step (simulation-error)
+// objective, with windows that do not overlap (multiple shooting). The
+// likelihood objective (likelihood_fitter.h) has none of this objective's
+// needs (every state measured) nor its bias; docs/fitting.md compares them. A robust loss (Huber, Cauchy) limits
 // the pull of outliers; parameter bounds come from the plugin. Derivatives are
 // exact where the plugin provides parameter_jacobian() (the bundled plugins
 // differentiate their templated equations with Ceres jets): the state's
@@ -51,7 +53,7 @@ class FitError : public Error {
 };
 
 struct FitOptions {
-  int window = 1;              // measured rows per prediction window; 1 = one-step
+  double window = 0.0;         // seconds per prediction window; 0 = one-step
   std::string loss = "huber";  // huber, cauchy, none
   double loss_scale = 3.0;     // in measurement standard deviations
   int max_iterations = 200;

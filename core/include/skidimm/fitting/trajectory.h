@@ -1,29 +1,37 @@
-// A log loaded whole for fitting: times, inputs and measurements in the
-// bank's order, with missing measurements as NaN.
+// A log loaded whole for fitting: the filter's steps (log_reader.h) with
+// their times, inputs and measurements in the bank's order, missing
+// measurements as NaN, and the truth label of every step.
 #ifndef SKIDIMM_FITTING_TRAJECTORY_H_
 #define SKIDIMM_FITTING_TRAJECTORY_H_
 
 #include <Eigen/Core>
-#include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "skidimm/bank.h"
+#include "skidimm/log_reader.h"
 
 namespace skidimm {
 namespace fitting {
 
 struct Trajectory {
-  std::string source;     // file names, for messages
-  std::vector<double> t;  // s, strictly increasing
-  Eigen::MatrixXd u;      // input_dim x N
-  Eigen::MatrixXd z;      // measurement_dim x N, NaN = missing
+  std::string source;              // file names, for messages
+  std::vector<double> t;           // s, strictly increasing
+  Eigen::MatrixXd u;               // input_dim x N
+  Eigen::MatrixXd z;               // measurement_dim x N, NaN = missing
+  std::vector<std::string> truth;  // the truth column's label at each step ("" if none)
   int size() const { return static_cast<int>(t.size()); }
 };
 
-// Reads a log (several files side by side) with the bank's columns.
-// Throws LogError.
-Trajectory load_trajectory(const BankConfig& bank, const std::vector<std::filesystem::path>& files);
+// Reads a log with the bank's columns and the given sampling. Throws LogError.
+Trajectory load_trajectory(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling);
+Trajectory load_trajectory(const BankConfig& bank, const std::vector<LogFile>& files);
+
+// The runs of consecutive steps with one truth label, each a trajectory of
+// its own (source "<source>[t0-t1 s]"), with its label. Steps without a label
+// are left out.
+std::vector<std::pair<std::string, Trajectory>> split_by_truth(const Trajectory& trajectory);
 
 }  // namespace fitting
 }  // namespace skidimm

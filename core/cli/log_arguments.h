@@ -1,0 +1,29 @@
+// Log arguments, read the same way by every command (run, fit, tune, eval,
+// plot): "[LABEL=]FILE[@OFFSET][+FILE[@OFFSET]...]" (log_reader.h), where
+//  * a directory stands for each of its *.csv files, one log each;
+//  * a '*' in the first file's name matches several runs, and the other
+//    files' '*' take the same text: 'ice=data/ICE/pro_*.csv+data/ICE/imu_*.csv'
+//    pairs pro_02.csv with imu_02.csv. (Quote it so the shell leaves it.)
+#ifndef SKIDIMM_CLI_LOG_ARGUMENTS_H_
+#define SKIDIMM_CLI_LOG_ARGUMENTS_H_
+
+#include <string>
+#include <vector>
+
+#include "skidimm/bank.h"
+#include "skidimm/log_reader.h"
+
+namespace skidimm {
+namespace cli {
+
+// The logs one argument stands for, sorted by name. Throws Error when a
+// pattern or directory matches nothing, or a paired file is missing.
+std::vector<LogSpec> expand_log_argument(const std::string& argument);
+
+// The bank's sampling, with the command line's --rate when it is > 0.
+SamplingConfig sampling_of(const BankConfig& bank, double rate);
+
+}  // namespace cli
+}  // namespace skidimm
+
+#endif  // SKIDIMM_CLI_LOG_ARGUMENTS_H_

@@ -1,0 +1,60 @@
+// Running a bank over a labelled log and scoring it: what `skidimm eval`
+// prints and `skidimm tune` maximises.
+//
+// Truth comes from the log's label (LABEL=FILE on the command line) or else
+// the bank's truth column, and may name a mode or a class (`classes:` in the
+// bank). Scores are by class: a class's probability is the sum of its modes',
+// and the estimate is the most probable class. A bank without classes scores
+// every mode as its own class, which is mode identification.
+#ifndef SKIDIMM_EVALUATION_LOG_EVALUATION_H_
+#define SKIDIMM_EVALUATION_LOG_EVALUATION_H_
+
+#include <Eigen/Core>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "skidimm/bank.h"
+#include "skidimm/evaluation/consistency.h"
+#include "skidimm/evaluation/mode_metrics.h"
+#include "skidimm/log_reader.h"
+
+namespace skidimm {
+namespace evaluation {
+
+// Turns mode probabilities into a scored step.
+class ClassScorer {
+ public:
+  explicit ClassScorer(const BankConfig& bank);
+
+  const std::vector<std::string>& class_names() const { return names_; }
+  // The class index of a mode or class name; -1 if neither.
+  int class_of_label(const std::string& label) const;
+  // The step for truth `label` ("" for unlabelled) given the modes' probabilities.
+  LabelledStep score(double t, const std::string& label, const Eigen::VectorXd& mode_probabilities) const;
+
+ private:
+  const BankConfig* bank_;
+  std::vector<std::string> names_;
+  std::vector<int> class_of_mode_;
+  mutable Eigen::VectorXd class_probabilities_;
+};
+
+// One log's results.
+struct LogResult {
+  std::string name;
+  ModeMetrics metrics;
+  std::map<std::string, NisAccumulator> nis;  // per true mode, while it is the truth
+  std::vector<double> squared_state_error;    // per state, against true_<state> columns
+  std::vector<long> state_error_count;
+  long steps = 0;
+};
+
+// Runs a fresh IMM of `bank` over `log` and scores it. Throws Error when the
+// log has neither a label nor the bank's truth column, and LogError on bad rows.
+LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfig& sampling);
+
+}  // namespace evaluation
+}  // namespace skidimm
+
+#endif  // SKIDIMM_EVALUATION_LOG_EVALUATION_H_

@@ -1,0 +1,125 @@
+// LogReader: turns a robot's log files into the filter's steps.
+//
+// A log is one recording: one CSV file, or several that share a clock (wheel
+// speeds and currents at 6.5 Hz in one file, the IMU at 100 Hz in another).
+// The bank says how its files combine (`sampling.join`, bank.h):
+//
+//  * join: time (default). Every file has the bank's time column; rows of all
+//    files are merged in time order. A file may carry a time offset (added to
+//    its times) to align clocks.
+//  * join: rows. The files match row for row (the Husky ice export); the time
+//    comes from the first file that has the time column.
+//
+// and where the filter steps (`sampling.rate`):
+//
+//  * no rate: a step at every distinct time stamp of the log;
+//  * rate R Hz: steps on the grid t0 + k/R, where t0 is the first time every
+//    input has a value.
+//
+// What a step sees:
+//  * inputs are held: each is evaluated from the latest value of its columns
+//    (an empty cell keeps the previous value), so a 6.5 Hz wheel speed drives
+//    every step of a 100 Hz filter;
+//  * a measurement is applied at the step it arrived in (a row of its file
+//    with its columns present, at or before the step's time and after the
+//    previous step's). If several rows of it arrive within one step, the last
+//    is used, unless the measurement aggregates them: `mean(x)`, `std(x)` (the
+//    sample standard deviation, needs two rows) and `rms(x)` over the rows of
+//    the step, e.g. `mean(wz)` or `log(std(az))`. A step without it has it
+//    missing (NaN). A measurement whose value is not finite (log(0)) is
+//    missing too, and counted.
+//  * the truth columns (`columns.truth_mode`, `true_<state>`) are held.
+//
+// Rows before every input has a value, and after the last row of a file that
+// feeds an input, are not used (counted in stats()). Errors are LogErrors
+// naming the file, line and column; expressions are checked against the
+// files' headers before any row is read.
+#ifndef SKIDIMM_LOG_READER_H_
+#define SKIDIMM_LOG_READER_H_
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "skidimm/bank.h"
+
+namespace skidimm {
+
+// One file of a log and the offset added to its times (s).
+struct LogFile {
+  LogFile() = default;
+  LogFile(std::filesystem::path file, double offset = 0.0) : path(std::move(file)), time_offset(offset) {}  // NOLINT
+  LogFile(const std::string& file) : path(file) {}                                                          // NOLINT
+  LogFile(const char* file) : path(file) {}                                                                 // NOLINT
+
+  std::filesystem::path path;
+  double time_offset = 0.0;
+};
+
+// A log as given on the command line: "[LABEL=]FILE[@OFFSET][+FILE[@OFFSET]...]".
+// LABEL names the mode (or class) the whole log shows; OFFSET is in seconds.
+struct LogSpec {
+  std::string label;
+  std::vector<LogFile> files;
+  std::string text;  // as given, for messages
+  std::string name() const;  // the files' names joined with '+', for tables
+};
+
+// Parses one log argument. A '=' or '@' that is part of an existing file's
+// name is kept in the name. Throws Error on an empty file list or a bad offset.
+LogSpec parse_log_spec(const std::string& text);
+
+// One filter step of a log, in bank order.
+struct LogSample {
+  double t = 0.0;
+  Eigen::VectorXd u;
+  Eigen::VectorXd z;           // NaN where not measured at this step
+  std::string truth_mode;      // held; empty if the bank has no truth column or none seen yet
+  Eigen::VectorXd true_state;  // held true_<state> columns; NaN where absent
+  long row = 0;                // 1-based step number
+};
+
+// What reading a log did with its rows, for the summary a user reads.
+struct LogStats {
+  long steps = 0;
+  std::vector<std::string> files;
+  std::vector<long> rows;           // data rows read, per file
+  long dropped_before_start = 0;    // measurement values before every input had a value
+  long dropped_after_end = 0;       // rows after the end of a file feeding an input (rows join: none)
+  std::vector<long> superseded;     // per measurement: values replaced by a later one in the same step
+  std::vector<long> not_finite;     // per measurement: expression values that were not finite
+};
+
+class LogReader {
+ public:
+  // Opens the files, resolves every column and expression the bank names and
+  // checks them against the headers. `sampling` overrides the bank's (e.g. the
+  // command line's --rate). Throws LogError or Error.
+  LogReader(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling);
+  LogReader(const BankConfig& bank, const std::vector<LogFile>& files);
+  ~LogReader();
+  LogReader(const LogReader&) = delete;
+  LogReader& operator=(const LogReader&) = delete;
+
+  // Reads the next step. Returns false at the end of the log.
+  bool next(LogSample* sample);
+
+  bool has_truth() const;
+  bool has_true_states() const;
+  double progress() const;  // fraction of bytes read, 0..1
+  const LogStats& stats() const;
+  // A few lines for the user about rows not used or measurements replaced;
+  // empty when there is nothing to say.
+  std::string describe_stats(const BankConfig& bank) const;
+
+ private:
+  class Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace skidimm
+
+#endif  // SKIDIMM_LOG_READER_H_

@@ -1,0 +1,82 @@
+#include "skidimm/evaluation/log_evaluation.h"
+
+#include <cmath>
+
+#include "skidimm/errors.h"
+#include "skidimm/imm.h"
+#include "skidimm/sdk/angles.h"
+
+namespace skidimm {
+namespace evaluation {
+
+ClassScorer::ClassScorer(const BankConfig& bank)
+    : bank_(&bank), names_(bank.class_names()), class_of_mode_(bank.class_of_modes()) {
+  class_probabilities_.resize(static_cast<Eigen::Index>(names_.size()));
+}
+
+int ClassScorer::class_of_label(const std::string& label) const { return bank_->class_index(label); }
+
+LabelledStep ClassScorer::score(double t, const std::string& label, const Eigen::VectorXd& mode_probabilities) const {
+  class_probabilities_.setZero();
+  for (Eigen::Index j = 0; j < mode_probabilities.size(); ++j) {
+    class_probabilities_[class_of_mode_[static_cast<std::size_t>(j)]] += mode_probabilities[j];
+  }
+  Eigen::Index best = 0;
+  class_probabilities_.maxCoeff(&best);
+  LabelledStep step;
+  step.t = t;
+  step.estimate = names_[static_cast<std::size_t>(best)];
+  if (!label.empty()) {
+    const int c = class_of_label(label);
+    step.truth = c >= 0 ? names_[static_cast<std::size_t>(c)] : label;
+    step.truth_probability = c >= 0 ? class_probabilities_[c] : 0.0;
+  }
+  return step;
+}
+
+LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfig& sampling) {
+  const BankConfig& config = bank.config;
+  if (log.label.empty() && config.columns.truth_mode.empty()) {
+    throw Error(config.file.string() + ": the bank names no columns.truth_mode, so there is nothing to evaluate " +
+                log.text + " against; label the log (MODE=" + log.text + ") or name the truth column");
+  }
+  if (!log.label.empty() && config.class_index(log.label) < 0) {
+    throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'");
+  }
+  Imm imm(bank);
+  LogReader reader(config, log.files, sampling);
+  if (log.label.empty() && !reader.has_truth()) {
+    throw Error(log.text + ": nothing to score against: label the log (MODE=" + log.text +
+                ") or give the bank a truth column (columns.truth_mode)" +
+                (config.columns.truth_mode.empty() ? "" : "; the log has no column '" + config.columns.truth_mode + "'"));
+  }
+  const ClassScorer scorer(config);
+  LogResult result;
+  result.name = log.name();
+  result.squared_state_error.assign(config.state_names.size(), 0.0);
+  result.state_error_count.assign(config.state_names.size(), 0);
+  std::vector<LabelledStep> steps;
+  LogSample sample;
+  while (reader.next(&sample)) {
+    const ImmEstimate& e = imm.step(sample.t, sample.u, sample.z);
+    const std::string& label = log.label.empty() ? sample.truth_mode : log.label;
+    steps.push_back(scorer.score(sample.t, label, e.mode_probabilities));
+    const int truth_mode = config.mode_index(label);
+    if (truth_mode >= 0 && e.status == StepStatus::kUpdated && std::isfinite(e.nis[truth_mode])) {
+      result.nis[label].add(e.nis[truth_mode], e.num_measured);
+    }
+    for (Eigen::Index s = 0; s < sample.true_state.size(); ++s) {
+      if (!std::isfinite(sample.true_state[s])) continue;
+      double d = e.state[s] - sample.true_state[s];
+      if (config.angle_mask[static_cast<std::size_t>(s)]) d = sdk::wrap_angle(d);
+      result.squared_state_error[static_cast<std::size_t>(s)] += d * d;
+      ++result.state_error_count[static_cast<std::size_t>(s)];
+    }
+    ++result.steps;
+  }
+  result.metrics = compute_mode_metrics(steps, scorer.class_names());
+  return result;
+}
+
+}  // namespace evaluation
+}  // namespace skidimm
