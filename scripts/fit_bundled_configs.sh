@@ -55,9 +55,9 @@ for terrain in asphalt grass crushed_concrete; do
   ltc_logs+=("${more[@]}")
   seed=$((seed + 1))
 done
-"$skidimm" fit --bank configs/physical/ltc_terrains.yaml --window 0.5 "${ltc_logs[@]}" \
+"$skidimm" fit --bank configs/physical/ltc_terrains.yaml --objective window --window 0.5 "${ltc_logs[@]}" \
   --output-bank "$out/ltc_terrains.yaml" 2>"$logs/ltc_terrains.report"
-"$skidimm" fit --bank configs/physical/ltc_shared.yaml --window 0.5 --shared "${ltc_logs[@]}" \
+"$skidimm" fit --bank configs/physical/ltc_shared.yaml --objective window --window 0.5 --shared "${ltc_logs[@]}" \
   --output-bank "$out/ltc_shared.yaml" 2>"$logs/ltc_shared.report"
 
 echo "== STC slip modes" >&2
@@ -75,7 +75,7 @@ for mask in $(seq 0 15); do
   stc_logs+=("${more[@]}")
   seed=$((seed + 1))
 done
-"$skidimm" fit --bank configs/physical/stc_slip16.yaml --window 1 "${stc_logs[@]}" \
+"$skidimm" fit --bank configs/physical/stc_slip16.yaml --objective window --window 1 "${stc_logs[@]}" \
   --output-bank "$out/stc_slip16.yaml" 2>"$logs/stc_slip16.report"
 slip4_logs=()
 for ((i = 0; i < ${#stc_logs[@]}; i += 2)); do
@@ -83,6 +83,6 @@ for ((i = 0; i < ${#stc_logs[@]}; i += 2)); do
     no_slip=* | slip_FL_FR=* | slip_FR_RR=* | slip_FL_FR_RL_RR=*) slip4_logs+=(--log "${stc_logs[$((i + 1))]}") ;;
   esac
 done
-"$skidimm" fit --bank configs/physical/stc_slip4.yaml --window 1 "${slip4_logs[@]}" \
+"$skidimm" fit --bank configs/physical/stc_slip4.yaml --objective window --window 1 "${slip4_logs[@]}" \
   --output-bank "$out/stc_slip4.yaml" 2>"$logs/stc_slip4.report"
 echo "wrote $out/{ltc_terrains,ltc_shared,stc_slip4,stc_slip16}.yaml; fit reports in $logs/*.report" >&2

@@ -11,7 +11,7 @@ skidimm=${SKIDIMM:-build/bin/skidimm}
 [ -d "$data" ] || { echo "$0: no Husky data at $data" >&2; exit 1; }
 logs=()
 for run in 01 02 03 04 05 06 07 08 09; do logs+=(--log "$data/TSyn_$run.csv+$data/joint_states_$run.csv"); done
-"$skidimm" fit --bank configs/husky/ice_ltc_start.yaml --mode ice --window 0 "${logs[@]}" \
+"$skidimm" fit --bank configs/husky/ice_ltc_start.yaml --mode ice --objective window --window 0 "${logs[@]}" \
   --held-out "$data/TSyn_10.csv+$data/joint_states_10.csv" \
   --held-out "$data/TSyn_11.csv+$data/joint_states_11.csv" \
   --output-bank configs/husky/ice_ltc.yaml 2>&1 | sed "s|$data/||g" | tee configs/husky/ice_ltc.report

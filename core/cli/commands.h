@@ -66,6 +66,9 @@ struct FitCommandOptions {
   std::string name;                   // output name of that mode (a new terrain)
   bool shared = false;                // fit the bank-level parameters jointly
   double rate = 0.0;                  // Hz; > 0 overrides the bank's sampling.rate
+  std::string objective = "likelihood";  // likelihood or window
+  bool fit_r = false;                 // likelihood: one R for the bank
+  bool full_q = false;                // likelihood: Q with off-diagonal terms
   double window = 0.0;                // s; 0: one-step
   std::string loss = "huber";
   double loss_scale = 3.0;
@@ -76,6 +79,28 @@ struct FitCommandOptions {
   std::string command_line;  // recorded in written files
 };
 int fit(const FitCommandOptions& options);
+
+struct TuneCommandOptions {
+  std::filesystem::path bank;
+  std::vector<std::string> logs;  // [MODE=]FILE[@OFFSET][+FILE...], directories and patterns
+  std::string mode;               // the mode logs without MODE= (and without a truth column) show
+  double rate = 0.0;
+  std::string objectives = "likelihood";  // comma-separated fit objectives to compare
+  std::string knobs;                      // comma-separated settings to tune; empty: the default set
+  int folds = 0;                          // 0: leave one log out
+  int inner_folds = 4;
+  bool no_assess = false;
+  int threads = 0;
+  double window = 0.0;  // the window objective's window (s)
+  bool fit_r = false;
+  bool full_q = false;
+  std::filesystem::path output_bank;
+  std::filesystem::path table;  // per-log scores as CSV
+  std::vector<std::filesystem::path> plugin_paths;
+  bool quiet = false;
+  std::string command_line;
+};
+int tune(const TuneCommandOptions& options);
 
 struct EvalOptions {
   std::filesystem::path bank;

@@ -9,6 +9,7 @@
 #include "log_arguments.h"
 #include "skidimm/bank.h"
 #include "skidimm/errors.h"
+#include "skidimm/fitting/bank_fit.h"
 #include "skidimm/fitting/bank_writer.h"
 #include "skidimm/fitting/model_fitter.h"
 #include "skidimm/fitting/trajectory.h"
@@ -22,53 +23,15 @@ using fitting::ModeLogs;
 
 namespace {
 
-// The logs of the --log (or --held-out) arguments, by mode. Which mode a log
-// shows: its MODE= label, else --mode, else the bank's truth column, whose
-// runs of one label become logs of their own.
+// The logs of the --log (or --held-out) arguments, by mode (mode_segments).
 std::vector<ModeLogs> load_logs(const BankConfig& config, const std::vector<std::string>& arguments,
                                 const std::string& default_mode, const SamplingConfig& sampling) {
   std::map<int, ModeLogs> by_mode;
-  auto mode_of = [&config](const std::string& label, const std::string& where) {
-    int j = config.mode_index(label);
-    if (j < 0) {
-      // A class of one mode names that mode.
-      for (const ClassConfig& c : config.classes) {
-        if (c.name == label && c.modes.size() == 1) j = c.modes[0];
-      }
-    }
-    if (j < 0) {
-      throw Error(where + ": the bank has no mode '" + label + "'" +
-                  (config.class_index(label) >= 0 ? " ('" + label + "' is a class of several modes; fit needs a mode)"
-                                                  : ""));
-    }
-    return j;
-  };
   for (const std::string& argument : arguments) {
     for (const LogSpec& log : expand_log_argument(argument)) {
-      const std::string label = !log.label.empty() ? log.label : default_mode;
-      const int labelled_mode = label.empty() ? -1 : mode_of(label, "--log '" + log.text + "'");
-      if (label.empty() && config.columns.truth_mode.empty()) {
-        throw Error("--log '" + log.text +
-                    "': say which mode it shows (MODE=FILE) or give --mode (or give the bank a truth column, "
-                    "columns.truth_mode)");
-      }
-      fitting::Trajectory trajectory = fitting::load_trajectory(config, log.files, sampling);
-      if (trajectory.size() == 0) throw Error(log.text + ": the log gives no step");
-      if (labelled_mode >= 0) {
-        const int j = labelled_mode;
-        by_mode[j].mode = j;
-        by_mode[j].logs.push_back(std::move(trajectory));
-        continue;
-      }
-      const auto parts = fitting::split_by_truth(trajectory);
-      if (parts.empty()) {
-        throw Error("--log '" + log.text + "': say which mode it shows (MODE=FILE) or give --mode; its truth column '" +
-                    config.columns.truth_mode + "' is absent or empty");
-      }
-      for (const auto& [part_label, part] : parts) {
-        const int j = mode_of(part_label, "--log '" + log.text + "', truth column '" + config.columns.truth_mode + "'");
-        by_mode[j].mode = j;
-        by_mode[j].logs.push_back(part);
+      for (ModeLogs& d : mode_segments(config, log, default_mode, sampling)) {
+        by_mode[d.mode].mode = d.mode;
+        for (auto& t : d.logs) by_mode[d.mode].logs.push_back(std::move(t));
       }
     }
   }
@@ -135,30 +98,15 @@ int fit(const FitCommandOptions& options) {
     const std::vector<ModeLogs> data = load_logs(config, options.logs, options.mode, sampling);
     if (data.empty()) throw Error("no logs given (--log)");
 
-    fitting::FitOptions fit_options;
-    fit_options.window = options.window;
-    fit_options.loss = options.loss;
-    fit_options.loss_scale = options.loss_scale;
-    std::map<int, FitReport> reports;
-    if (options.shared) {
-      fit_options.scope = sdk::ParameterScope::kBank;
-      const std::vector<FitReport> shared = fitting::fit(&bank, data, fit_options);
-      for (std::size_t i = 0; i < data.size(); ++i) reports[data[i].mode] = shared[i];
-    }
-    fit_options.scope = sdk::ParameterScope::kMode;
-    for (const ModeLogs& d : data) {
-      bool has_mode_parameters = false;
-      for (const auto& info : bank.models[static_cast<std::size_t>(d.mode)]->parameter_info()) {
-        has_mode_parameters = has_mode_parameters || info.scope == sdk::ParameterScope::kMode;
-      }
-      if (!has_mode_parameters) continue;
-      FitReport report = fitting::fit(&bank, {d}, fit_options).front();
-      if (reports.count(d.mode)) {  // keep the shared estimates in the report too
-        report.parameters.insert(report.parameters.begin(), reports[d.mode].parameters.begin(),
-                                 reports[d.mode].parameters.end());
-      }
-      reports[d.mode] = report;
-    }
+    fitting::BankFitOptions fit_options;
+    fit_options.objective = fitting::objective_from_string(options.objective);
+    fit_options.window.window = options.window;
+    fit_options.window.loss = options.loss;
+    fit_options.window.loss_scale = options.loss_scale;
+    fit_options.shared = options.shared;
+    fit_options.fit_measurement_noise = options.fit_r;
+    fit_options.full_process_noise = options.full_q;
+    std::map<int, FitReport> reports = fitting::fit_bank(&bank, data, fit_options);
 
     auto output_name = [&](int j) {
       const std::string& original = config.modes[static_cast<std::size_t>(j)].name;
@@ -215,12 +163,15 @@ int fit(const FitCommandOptions& options) {
                                                     config.modes[static_cast<std::size_t>(j)].params);
         }
       }
-      const std::string shared_block =
-          options.shared ? "shared: " + fitting::format_parameters(*bank.models[0], sdk::ParameterScope::kBank, config.shared)
-                         : "";
+      std::vector<std::pair<std::string, std::string>> blocks;
+      if (options.shared) {
+        blocks.emplace_back(
+            "shared", "shared: " +
+                          fitting::format_parameters(*bank.models[0], sdk::ParameterScope::kBank, config.shared) + "\n");
+      }
+      blocks.emplace_back("modes", modes_block);
       fitting::write_bank_from_template(options.bank, options.output_bank,
-                                        {"Written by skidimm fit; reproduce with:", "  " + options.command_line},
-                                        shared_block, modes_block);
+                                        {"Written by skidimm fit; reproduce with:", "  " + options.command_line}, blocks);
       std::cerr << "wrote " << options.output_bank.string() << "\n";
     }
     if (!options.output_entry.empty()) {  // written whole, then renamed: never half a file

@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <map>
 #include <system_error>
 
 #include "skidimm/errors.h"
+#include "skidimm/fitting/trajectory.h"
 
 namespace skidimm {
 namespace cli {
@@ -72,6 +74,50 @@ SamplingConfig sampling_of(const BankConfig& bank, double rate) {
   SamplingConfig sampling = bank.sampling;
   if (rate > 0.0) sampling.rate = rate;
   return sampling;
+}
+
+std::vector<fitting::ModeLogs> mode_segments(const BankConfig& config, const LogSpec& log,
+                                             const std::string& default_mode, const SamplingConfig& sampling) {
+  auto mode_of = [&config](const std::string& label, const std::string& where) {
+    int j = config.mode_index(label);
+    for (const ClassConfig& c : config.classes) {
+      if (j < 0 && c.name == label && c.modes.size() == 1) j = c.modes[0];
+    }
+    if (j < 0) {
+      throw Error(where + ": the bank has no mode '" + label + "'" +
+                  (config.class_index(label) >= 0 ? " ('" + label + "' is a class of several modes; fitting needs a mode)"
+                                                  : ""));
+    }
+    return j;
+  };
+  const std::string label = !log.label.empty() ? log.label : default_mode;
+  const int labelled_mode = label.empty() ? -1 : mode_of(label, "--log '" + log.text + "'");
+  if (label.empty() && config.columns.truth_mode.empty()) {
+    throw Error("--log '" + log.text +
+                "': say which mode it shows (MODE=FILE) or give --mode (or give the bank a truth column, "
+                "columns.truth_mode)");
+  }
+  fitting::Trajectory trajectory = fitting::load_trajectory(config, log.files, sampling);
+  if (trajectory.size() == 0) throw Error(log.text + ": the log gives no step");
+  std::map<int, fitting::ModeLogs> by_mode;
+  if (labelled_mode >= 0) {
+    by_mode[labelled_mode].mode = labelled_mode;
+    by_mode[labelled_mode].logs.push_back(std::move(trajectory));
+  } else {
+    const auto parts = fitting::split_by_truth(trajectory);
+    if (parts.empty()) {
+      throw Error("--log '" + log.text + "': say which mode it shows (MODE=FILE) or give --mode; its truth column '" +
+                  config.columns.truth_mode + "' is absent or empty");
+    }
+    for (const auto& [part_label, part] : parts) {
+      const int j = mode_of(part_label, "--log '" + log.text + "', truth column '" + config.columns.truth_mode + "'");
+      by_mode[j].mode = j;
+      by_mode[j].logs.push_back(part);
+    }
+  }
+  std::vector<fitting::ModeLogs> out;
+  for (auto& [j, d] : by_mode) out.push_back(std::move(d));
+  return out;
 }
 
 }  // namespace cli

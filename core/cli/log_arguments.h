@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "skidimm/bank.h"
+#include "skidimm/fitting/model_fitter.h"
 #include "skidimm/log_reader.h"
 
 namespace skidimm {
@@ -22,6 +23,13 @@ std::vector<LogSpec> expand_log_argument(const std::string& argument);
 
 // The bank's sampling, with the command line's --rate when it is > 0.
 SamplingConfig sampling_of(const BankConfig& bank, double rate);
+
+// The segments one log gives each mode for fitting. Which mode a log shows:
+// its MODE= label, else `default_mode` (--mode), else the bank's truth
+// column, whose runs of one label become segments of their own. A label
+// that is a class of one mode names that mode. Throws Error.
+std::vector<fitting::ModeLogs> mode_segments(const BankConfig& config, const LogSpec& log,
+                                             const std::string& default_mode, const SamplingConfig& sampling);
 
 }  // namespace cli
 }  // namespace skidimm

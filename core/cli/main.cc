@@ -4,6 +4,7 @@
 //   skidimm validate B.yaml
 //   skidimm simulate --scenario S.yaml --output log.csv
 //   skidimm fit --bank B.yaml --log MODE=log.csv [--append-to B.yaml]
+//   skidimm tune --bank B.yaml --log MODE=log.csv ... --output-bank tuned.yaml
 //   skidimm eval --bank B.yaml --input logs/ [--json]
 //   skidimm plot --estimates out.csv --output figure.png
 //   skidimm plugins
@@ -85,6 +86,13 @@ int main(int argc, char** argv) {
   fit->add_option("--name", fit_options.name, "Name of the fitted --mode in the output (e.g. a new terrain)");
   fit->add_flag("--shared", fit_options.shared,
                 "Also fit the bank-level (shared:) parameters jointly over every mode's logs, then each mode's own");
+  fit->add_option("--objective", fit_options.objective,
+                  "likelihood (default): each mode's own filter innovation likelihood; window: prediction error "
+                  "over windows started from measured states (see docs/fitting.md)")
+      ->check(CLI::IsMember({"likelihood", "window"}));
+  fit->add_flag("--fit-r", fit_options.fit_r,
+                "Likelihood objective: also fit one measurement noise R (diagonal) for the whole bank");
+  fit->add_flag("--full-q", fit_options.full_q, "Likelihood objective: fit Q with off-diagonal terms");
   fit->add_option("--window", fit_options.window,
                   "Window objective: seconds each prediction runs from a measured start; 0 = one-step (default)")
       ->check(CLI::NonNegativeNumber);
@@ -99,6 +107,39 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   fit->add_option("--output-bank", bank_output, "Write the whole bank with fitted values to this file");
   add_plugin_path(fit);
+
+  TuneCommandOptions tune_options;
+  std::string tune_bank;
+  CLI::App* tune = app.add_subcommand(
+      "tune", "Choose noise scales, dwell time, floor and fit objective by cross-validation over labelled logs");
+  tune->add_option("--bank,-b", tune_bank, "Bank giving the models, columns and starting values")
+      ->required()
+      ->check(CLI::ExistingFile);
+  tune->add_option("--log,-l", tune_options.logs,
+                   "[MODE=]FILE[@OFFSET][+FILE...], a directory or a '*' pattern: labelled logs; each log is a "
+                   "cross-validation group; repeatable")
+      ->required();
+  tune->add_option("--mode,-m", tune_options.mode, "The mode logs without MODE= show");
+  add_rate(tune, &tune_options.rate);
+  tune->add_option("--objective", tune_options.objectives,
+                   "Fit objectives to compare, comma-separated: likelihood, window (default likelihood)");
+  tune->add_option("--tune", tune_options.knobs,
+                   "Settings to choose, comma-separated: r-scale, r-components, q-scale, q-modes, dwell, floor "
+                   "(default r-scale,q-scale,dwell,floor)");
+  tune->add_option("--folds", tune_options.folds, "Groups of logs for cross-validation; 0 = leave one log out (default)")
+      ->check(CLI::NonNegativeNumber);
+  tune->add_option("--inner-folds", tune_options.inner_folds, "Groups of the nested assessment's inner cross-validation")
+      ->check(CLI::Range(2, 1000));
+  tune->add_flag("--no-assess", tune_options.no_assess, "Skip the nested assessment (its scores are the honest ones)");
+  tune->add_option("--threads", tune_options.threads, "Worker threads (default: every core)")->check(CLI::NonNegativeNumber);
+  tune->add_option("--window", tune_options.window, "The window objective's window in seconds (0: one-step)")
+      ->check(CLI::NonNegativeNumber);
+  tune->add_flag("--fit-r", tune_options.fit_r, "Likelihood objective: also fit one R for the bank");
+  tune->add_flag("--full-q", tune_options.full_q, "Likelihood objective: fit Q with off-diagonal terms");
+  tune->add_option("--output-bank", tune_options.output_bank, "Write the tuned bank (fitted on every log) here");
+  tune->add_option("--table", tune_options.table, "Write every log's held-out scores to this CSV");
+  tune->add_flag("--quiet,-q", tune_options.quiet, "No progress on stderr");
+  add_plugin_path(tune);
 
   EvalOptions eval_options;
   std::string eval_bank;
@@ -176,6 +217,13 @@ int main(int argc, char** argv) {
     fit_options.command_line = "skidimm";
     for (int i = 1; i < argc; ++i) fit_options.command_line += std::string(" ") + argv[i];
     return skidimm::cli::fit(fit_options);
+  }
+  if (*tune) {
+    tune_options.bank = tune_bank;
+    tune_options.plugin_paths = paths;
+    tune_options.command_line = "skidimm";
+    for (int i = 1; i < argc; ++i) tune_options.command_line += std::string(" ") + argv[i];
+    return skidimm::cli::tune(tune_options);
   }
   if (*simulate) {
     simulate_options.scenario = scenario;

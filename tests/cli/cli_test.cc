@@ -200,7 +200,7 @@ TEST(Cli, AFittedTerrainAppendedToABankIsIdentifiedWithoutRebuilding) {
     ASSERT_EQ(sim.exit_code, 0) << sim.err;
     logs += " --log " + (dir / (name + ".csv")).string();
   }
-  const Result fit = run_skidimm("fit --bank " + bank.string() + " --mode asphalt --name ice --window 25" + logs +
+  const Result fit = run_skidimm("fit --bank " + bank.string() + " --mode asphalt --name ice --objective window --window 0.5" + logs +
                                  " --append-to " + bank.string() + " --plugin-path " + kPlugins);
   ASSERT_EQ(fit.exit_code, 0) << fit.err;
   EXPECT_THAT(fit.err, HasSubstr("mode 'ice': 3 log(s)"));
@@ -375,7 +375,7 @@ TEST(Cli, RunMergesFilesByTimeAndSteadiesAtAFixedRate) {
 TEST(Cli, FitTakesEachModeFromTheTruthColumnAndEvalTakesLabelsAndPatterns) {
   const fs::path dir = test_directory();
   // One log, three terrains: the truth column splits it into each mode's segments.
-  const Result fit = run_skidimm("fit --bank " + kSource + "/configs/physical/ltc_terrains.yaml --window 0.5 --log " +
+  const Result fit = run_skidimm("fit --bank " + kSource + "/configs/physical/ltc_terrains.yaml --objective window --window 0.5 --log " +
                                  kSource + "/configs/examples/ltc_switching.csv --output-bank " +
                                  (dir / "fitted.yaml").string() + " --plugin-path " + kPlugins);
   ASSERT_EQ(fit.exit_code, 0) << fit.err;

@@ -83,14 +83,42 @@ TEST(BankWriter, WritesABankFromATemplateWithANewHeaderAndModes) {
   const auto dir = test_directory();
   const auto file = write_file(dir / "template.yaml", kBank);
   write_bank_from_template(
-      file, dir / "out.yaml", {"Written by a test"}, "",
-      "modes:\n  - name: grass\n    model: ltc_linear\n"
-      "    params: {A: [[-3, 0], [0, -3]], B: [[0.3, 0.3], [-0.5, 0.5]]}\n    Q: [[0.02, 0], [0, 0.02]]\n");
+      file, dir / "out.yaml", {"Written by a test"},
+      {{"modes", "modes:\n  - name: grass\n    model: ltc_linear\n"
+                 "    params: {A: [[-3, 0], [0, -3]], B: [[0.3, 0.3], [-0.5, 0.5]]}\n    Q: [[0.02, 0], [0, 0.02]]\n"}});
   const std::string text = read_file(dir / "out.yaml");
   EXPECT_EQ(text.rfind("# Written by a test\nname: writer_test\n", 0), 0u) << text;
   EXPECT_THAT(text, HasSubstr("# sensor noise"));
   EXPECT_THAT(text, ::testing::Not(HasSubstr("asphalt")));
   EXPECT_EQ(load_bank_config(dir / "out.yaml").modes[0].name, "grass");
+}
+
+TEST(BankWriter, MeasurementTransitionAndFloorBlocksLoadBackToTheSameValues) {
+  const auto dir = test_directory();
+  const auto file = write_file(dir / "template.yaml", kBank);
+  BankConfig config = load_bank_config(file);
+  config.measurement.r << 0.0004, 0.0001, 0.0001, 0.0009;  // correlated
+  config.transition.kind = TransitionConfig::Kind::kDwellTimes;
+  config.transition.dwell_seconds = Eigen::VectorXd::Constant(1, 42.5);
+  config.mode_probability_floor = 1e-4;
+  EXPECT_EQ(format_measurement_block(config), "measurement:\n  observe: [V, omega]\n  R: [[0.0004, 0.0001], [0.0001, 0.0009]]\n");
+  write_bank_from_template(file, dir / "out.yaml", {"tuned"},
+                           {{"measurement", format_measurement_block(config)},
+                            {"transition", format_transition_block(config)},
+                            {"mode_probability_floor", format_floor_block(config)}});
+  const BankConfig back = load_bank_config(dir / "out.yaml");
+  EXPECT_EQ(back.measurement.r, config.measurement.r);
+  EXPECT_EQ(back.measurement.h, config.measurement.h);
+  EXPECT_EQ(back.transition.kind, TransitionConfig::Kind::kDwellTimes);
+  EXPECT_EQ(back.transition.dwell_seconds[0], 42.5);
+  EXPECT_EQ(back.mode_probability_floor, 1e-4);
+  EXPECT_THAT(read_file(dir / "out.yaml"), HasSubstr("  # the asphalt mode"));  // the rest is kept
+  // A general H is written as H with names.
+  config.measurement.h << 1, 0.5, 0, 1;
+  config.measurement.names = {"mixed", "omega"};
+  config.measurement.r = Eigen::Matrix2d::Identity() * 0.01;
+  EXPECT_EQ(format_measurement_block(config),
+            "measurement:\n  H: [[1, 0.5], [0, 1]]\n  names: [mixed, omega]\n  R: {diagonal: [0.01, 0.01]}\n");
 }
 
 }  // namespace

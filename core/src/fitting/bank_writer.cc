@@ -183,36 +183,96 @@ void append_mode_to_bank(const fs::path& bank_file, const std::string& entry) {
 }
 
 void write_bank_from_template(const fs::path& template_file, const fs::path& output,
-                              const std::vector<std::string>& header, const std::string& shared_block,
-                              const std::string& modes_block) {
+                              const std::vector<std::string>& header,
+                              const std::vector<std::pair<std::string, std::string>>& blocks) {
   std::vector<std::string> lines = split_lines(read_text(template_file));
   std::size_t first = 0;
   while (first < lines.size() && (lines[first].empty() || lines[first][0] == '#')) ++first;
   lines.erase(lines.begin(), lines.begin() + static_cast<std::ptrdiff_t>(first));
-  auto replace = [&lines](const std::string& key, const std::string& block) {
+  for (const auto& [key, block] : blocks) {
     const auto [begin, end] = block_of(lines, key);
-    std::vector<std::string> replacement = block.empty() ? std::vector<std::string>{} : split_lines(block);
+    const std::vector<std::string> replacement = block.empty() ? std::vector<std::string>{} : split_lines(block);
     if (begin == lines.size()) {
-      lines.insert(lines.end(), replacement.begin(), replacement.end());
+      // A new block goes before modes: (or at the end).
+      const std::size_t at = key == "modes" ? lines.size() : block_of(lines, "modes").first;
+      lines.insert(lines.begin() + static_cast<std::ptrdiff_t>(at), replacement.begin(), replacement.end());
     } else {
       lines.erase(lines.begin() + static_cast<std::ptrdiff_t>(begin), lines.begin() + static_cast<std::ptrdiff_t>(end));
       lines.insert(lines.begin() + static_cast<std::ptrdiff_t>(begin), replacement.begin(), replacement.end());
     }
-  };
-  // modes last, so a new shared: block goes before it.
-  if (!shared_block.empty()) {
-    const auto modes_at = block_of(lines, "modes").first;
-    if (block_of(lines, "shared").first == lines.size() && modes_at < lines.size()) {
-      std::vector<std::string> s = split_lines(shared_block);
-      lines.insert(lines.begin() + static_cast<std::ptrdiff_t>(modes_at), s.begin(), s.end());
-    } else {
-      replace("shared", shared_block);
-    }
   }
-  replace("modes", modes_block);
   std::string text;
   for (const std::string& h : header) text += "# " + h + "\n";
   write_validated(output, text + join_lines(lines));
+}
+
+namespace {
+
+std::string format_covariance(const Eigen::MatrixXd& m) {
+  const Eigen::MatrixXd off = m - Eigen::MatrixXd(m.diagonal().asDiagonal());
+  if (off.cwiseAbs().maxCoeff() == 0.0) {
+    Eigen::VectorXd d = m.diagonal();
+    return "{diagonal: " + format_matrix(d) + "}";
+  }
+  return format_matrix(m);
+}
+
+std::string join_names(const std::vector<std::string>& names) {
+  std::string out;
+  for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
+  return "[" + out + "]";
+}
+
+}  // namespace
+
+std::string format_measurement_block(const BankConfig& config) {
+  const MeasurementConfig& m = config.measurement;
+  // `observe:` when every row picks one state by name, as the loader builds it.
+  bool observe = true;
+  for (Eigen::Index r = 0; r < m.h.rows() && observe; ++r) {
+    int picked = -1;
+    for (Eigen::Index c = 0; c < m.h.cols(); ++c) {
+      if (m.h(r, c) == 1.0 && picked < 0) {
+        picked = static_cast<int>(c);
+      } else if (m.h(r, c) != 0.0) {
+        observe = false;
+      }
+    }
+    observe = observe && picked >= 0 && config.state_names[static_cast<std::size_t>(picked)] == m.names[static_cast<std::size_t>(r)];
+  }
+  std::string out = "measurement:\n";
+  if (observe) {
+    out += "  observe: " + join_names(m.names) + "\n";
+  } else {
+    out += "  H: " + format_matrix(m.h) + "\n  names: " + join_names(m.names) + "\n";
+  }
+  Eigen::MatrixXd r = m.r;
+  if (r.size() == 1) return out + "  R: {diagonal: [" + number(r(0, 0)) + "]}\n";
+  return out + "  R: " + format_covariance(r) + "\n";
+}
+
+std::string format_transition_block(const BankConfig& config) {
+  const TransitionConfig& t = config.transition;
+  switch (t.kind) {
+    case TransitionConfig::Kind::kStay:
+      return "transition:\n  stay: " + number(t.stay) + "\n";
+    case TransitionConfig::Kind::kMatrix:
+      return "transition:\n  matrix: " + format_matrix(t.matrix) + "\n";
+    case TransitionConfig::Kind::kDwellTimes:
+      if ((t.dwell_seconds.array() == t.dwell_seconds[0]).all()) {
+        return "transition:\n  mean_dwell_time: " + number(t.dwell_seconds[0]) + "\n";
+      }
+      std::string out = "transition:\n  mean_dwell_time: {";
+      for (int j = 0; j < config.num_modes(); ++j) {
+        out += (j ? ", " : "") + config.modes[static_cast<std::size_t>(j)].name + ": " + number(t.dwell_seconds[j]);
+      }
+      return out + "}\n";
+  }
+  return "";
+}
+
+std::string format_floor_block(const BankConfig& config) {
+  return "mode_probability_floor: " + number(config.mode_probability_floor) + "\n";
 }
 
 }  // namespace fitting

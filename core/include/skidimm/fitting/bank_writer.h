@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "skidimm/bank.h"
@@ -44,11 +45,17 @@ std::string format_mode_entry(const std::string& name, const std::string& model_
 void append_mode_to_bank(const std::filesystem::path& bank_file, const std::string& entry);
 
 // Writes `output`: the template's text with its leading comment replaced by
-// `header` (lines, without '#'), its `shared:` block set to `shared_block`
-// (omitted if empty) and its `modes:` block set to `modes_block`.
+// `header` (lines, without '#') and each listed top-level block (key, text
+// starting with "key:") replaced, or inserted before `modes:` when the
+// template has none. The rest, comments included, is kept.
 void write_bank_from_template(const std::filesystem::path& template_file, const std::filesystem::path& output,
-                              const std::vector<std::string>& header, const std::string& shared_block,
-                              const std::string& modes_block);
+                              const std::vector<std::string>& header,
+                              const std::vector<std::pair<std::string, std::string>>& blocks);
+
+// Top-level blocks of a bank, as YAML text that loads back to the same values.
+std::string format_measurement_block(const BankConfig& config);  // "measurement:\n  observe: ...\n  R: ..."
+std::string format_transition_block(const BankConfig& config);   // "transition:\n  ..."
+std::string format_floor_block(const BankConfig& config);        // "mode_probability_floor: ..." 
 
 }  // namespace fitting
 }  // namespace skidimm

@@ -1,0 +1,187 @@
+// skidimm tune: choose what decides identification by cross-validation
+// grouped by log file (fitting/tuning.h), and write the tuned bank.
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <mutex>
+#include <sstream>
+
+#include "commands.h"
+#include "log_arguments.h"
+#include "skidimm/errors.h"
+#include "skidimm/fitting/bank_fit.h"
+#include "skidimm/fitting/bank_writer.h"
+#include "skidimm/fitting/tuning.h"
+
+namespace skidimm {
+namespace cli {
+
+namespace fs = std::filesystem;
+using fitting::LogScore;
+using fitting::Summary;
+
+namespace {
+
+std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    if (!item.empty()) out.push_back(item);
+  }
+  return out;
+}
+
+std::string number(double v, const char* format = "%.3f") {
+  char b[64];
+  std::snprintf(b, sizeof(b), format, v);
+  return b;
+}
+
+void print_scores(std::ostream& out, const std::string& title, const std::vector<LogScore>& scores,
+                  const Summary& summary, bool with_settings) {
+  std::size_t width = 8;
+  for (const LogScore& s : scores) width = std::max(width, s.log.size());
+  out << "\n" << title << "\n  " << std::string(width, ' ') << "  truth            accuracy  mean log p(truth)\n";
+  for (const LogScore& s : scores) {
+    out << "  " << s.log << std::string(width - s.log.size(), ' ') << "  " << s.truth
+        << std::string(s.truth.size() < 16 ? 16 - s.truth.size() : 1, ' ') << " " << number(s.accuracy) << "     "
+        << number(s.mean_log_probability) << (with_settings ? "   " + s.settings : "") << "\n";
+  }
+  out << "  per class (mean over its logs):";
+  for (const auto& [c, a] : summary.class_accuracy) {
+    out << " " << c << " " << number(a) << " (" << number(summary.class_log_probability.at(c), "%.2f") << ")";
+  }
+  out << "\n  mean over classes: accuracy " << number(summary.accuracy) << ", mean log p(truth) "
+      << number(summary.mean_log_probability) << "\n";
+}
+
+void write_table(const fs::path& file, const std::vector<LogScore>& selection, const std::vector<LogScore>& assessment) {
+  const fs::path partial = file.string() + ".partial";
+  {
+    std::ofstream out(partial, std::ios::binary | std::ios::trunc);
+    out << "kind,log,truth,accuracy,mean_log_probability,seconds\n";
+    for (const auto& [kind, scores] : {std::make_pair("assessment", &assessment), std::make_pair("selection", &selection)}) {
+      for (const LogScore& s : *scores) {
+        out << kind << "," << s.log << "," << s.truth << "," << number(s.accuracy, "%.6f") << ","
+            << number(s.mean_log_probability, "%.6f") << "," << number(s.seconds, "%.3f") << "\n";
+      }
+    }
+    out.close();
+    if (!out) throw Error("cannot write " + partial.string());
+  }
+  fs::rename(partial, file);
+}
+
+}  // namespace
+
+int tune(const TuneCommandOptions& options) {
+  return report_errors("skidimm tune", [&] {
+    const Bank start = Bank::load(options.bank, options.plugin_paths);
+    const BankConfig& config = start.config;
+    const SamplingConfig sampling = sampling_of(config, options.rate);
+
+    std::vector<fitting::TuningLog> logs;
+    for (const std::string& argument : options.logs) {
+      for (LogSpec& spec : expand_log_argument(argument)) {
+        fitting::TuningLog log;
+        log.fit_data = mode_segments(config, spec, options.mode, sampling);
+        if (spec.label.empty() && !options.mode.empty()) spec.label = options.mode;
+        log.spec = spec;
+        logs.push_back(std::move(log));
+      }
+    }
+    if (logs.size() < 2) throw Error("tune needs at least two logs to cross-validate (--log)");
+
+    fitting::TuneOptions tune_options;
+    tune_options.objectives = split_list(options.objectives);
+    if (!options.knobs.empty()) {
+      tune_options.knobs.clear();
+      for (const std::string& k : split_list(options.knobs)) tune_options.knobs.push_back(fitting::knob_from_string(k));
+    }
+    tune_options.folds = options.folds;
+    tune_options.inner_folds = options.inner_folds;
+    tune_options.assess = !options.no_assess;
+    tune_options.threads = options.threads;
+    tune_options.sampling = sampling;
+    std::mutex print;
+    tune_options.progress = [&](const std::string& line) {
+      if (options.quiet) return;
+      std::lock_guard<std::mutex> lock(print);
+      std::cerr << "skidimm tune: " << line << "\n";
+    };
+
+    std::map<std::string, fitting::BankFitter> fitters;
+    for (const std::string& name : tune_options.objectives) {
+      fitting::BankFitOptions fit_options;
+      fit_options.objective = fitting::objective_from_string(name);
+      fit_options.window.window = options.window;
+      fit_options.fit_measurement_noise = options.fit_r;
+      fit_options.full_process_noise = options.full_q;
+      fitters[name] = [fit_options](Bank* bank, const std::vector<fitting::ModeLogs>& data) {
+        fitting::fit_bank(bank, data, fit_options);
+      };
+    }
+    tune_options.progress(std::to_string(logs.size()) + " logs, " +
+                          (options.folds > 0 ? std::to_string(options.folds) + "-fold" : "leave-one-log-out") +
+                          " cross-validation" +
+                          (tune_options.assess ? ", nested " + std::to_string(options.inner_folds) + "-fold assessment"
+                                               : ""));
+    const fitting::TuneResult result = fitting::tune(
+        [&] { return Bank::load(options.bank, options.plugin_paths); }, logs, fitters, tune_options);
+
+    std::ostream& out = std::cout;
+    out << "chosen: " << result.settings.describe(config) << "\n";
+    print_scores(out,
+                 "cross-validation with the chosen settings (optimistic: the settings were chosen on these scores)",
+                 result.selection_scores, result.selection, false);
+    if (tune_options.assess) {
+      print_scores(out,
+                   "nested assessment (each log scored by models fitted and settings tuned without it)",
+                   result.assessment_scores, result.assessment, true);
+    }
+    for (const std::string& w : result.warnings) std::cerr << "skidimm tune: warning: " << w << "\n";
+    if (!options.table.empty()) write_table(options.table, result.selection_scores, result.assessment_scores);
+
+    if (!options.output_bank.empty()) {
+      Bank tuned = Bank::load(options.bank, options.plugin_paths);
+      fitting::apply(result.fitted, result.settings, &tuned);
+      const BankConfig& c = tuned.config;
+      std::string modes_block = "modes:\n";
+      for (int j = 0; j < c.num_modes(); ++j) {
+        modes_block += fitting::format_mode_entry(c.modes[static_cast<std::size_t>(j)].name,
+                                                  c.modes[static_cast<std::size_t>(j)].model,
+                                                  *tuned.models[static_cast<std::size_t>(j)],
+                                                  c.modes[static_cast<std::size_t>(j)].q_intensity, {},
+                                                  c.modes[static_cast<std::size_t>(j)].params);
+      }
+      std::vector<std::pair<std::string, std::string>> blocks{
+          {"measurement", fitting::format_measurement_block(c)},
+          {"transition", fitting::format_transition_block(c)},
+          {"mode_probability_floor", fitting::format_floor_block(c)}};
+      bool bank_parameters = false;
+      for (const auto& info : tuned.models[0]->parameter_info()) {
+        bank_parameters = bank_parameters || info.scope == sdk::ParameterScope::kBank;
+      }
+      if (bank_parameters) {
+        blocks.emplace_back(
+            "shared", "shared: " + fitting::format_parameters(*tuned.models[0], sdk::ParameterScope::kBank, c.shared) +
+                          "\n");
+      }
+      blocks.emplace_back("modes", modes_block);
+      std::vector<std::string> header{"Written by skidimm tune; reproduce with:", "  " + options.command_line,
+                                      "Chosen: " + result.settings.describe(config)};
+      if (tune_options.assess) {
+        header.push_back("Nested cross-validated accuracy " + number(result.assessment.accuracy) +
+                         ", mean log p(truth) " + number(result.assessment.mean_log_probability) +
+                         " (mean over classes of the mean over their logs)");
+      }
+      fitting::write_bank_from_template(options.bank, options.output_bank, header, blocks);
+      std::cerr << "skidimm tune: wrote " << options.output_bank.string() << "\n";
+    }
+    return kExitOk;
+  });
+}
+
+}  // namespace cli
+}  // namespace skidimm

@@ -1,0 +1,45 @@
+// Fitting a whole bank: every mode that has logs, with one objective, the
+// way `skidimm fit` and `skidimm tune` do it.
+//
+// The window objective (model_fitter.h) fits each mode's own parameters (after
+// the bank-level ones, jointly over all modes, when asked), then the process
+// noise Q that makes each mode's filter consistent. The likelihood objective
+// (likelihood_fitter.h) fits parameters and Q together, and optionally one R
+// for the bank. Either way the fitted Q is written into the bank's config, so
+// the bank is ready to run.
+#ifndef SKIDIMM_FITTING_BANK_FIT_H_
+#define SKIDIMM_FITTING_BANK_FIT_H_
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "skidimm/bank.h"
+#include "skidimm/fitting/model_fitter.h"
+
+namespace skidimm {
+namespace fitting {
+
+enum class Objective {
+  kLikelihood,  // the modes' own innovation likelihood (prediction-error method)
+  kWindow,      // prediction error over windows started from measured states
+};
+const char* to_string(Objective objective);
+Objective objective_from_string(const std::string& name);  // throws Error
+
+struct BankFitOptions {
+  Objective objective = Objective::kLikelihood;
+  FitOptions window;           // the window objective's options
+  bool shared = false;         // window objective: fit the bank-level parameters first
+  bool fit_measurement_noise = false;  // likelihood objective: one R for the bank
+  bool full_process_noise = false;     // likelihood objective: Q with off-diagonal terms
+};
+
+// Fits the modes in `data` in place. Returns their reports by mode index.
+// Throws FitError.
+std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data, const BankFitOptions& options);
+
+}  // namespace fitting
+}  // namespace skidimm
+
+#endif  // SKIDIMM_FITTING_BANK_FIT_H_

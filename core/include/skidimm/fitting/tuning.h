@@ -1,0 +1,138 @@
+// Tuning: choosing what decides identification by cross-validation grouped
+// by log file (`skidimm tune`).
+//
+// Fitting makes each mode's filter predict its own logs well. Identification
+// also hangs on settings no single mode's fit can choose: how noisy the
+// sensors are taken to be (R), how much each mode's filter trusts its model
+// (a scale on Q), how sticky the modes are (the mean dwell time) and how far
+// an unlikely mode may fall (the probability floor), and which fit objective
+// built the models. The tuner chooses them to maximise the held-out mean log
+// probability of the truth (accuracy is reported beside it):
+//
+//   for each fold (one log held out, or K groups of logs), fit the bank on the
+//   other logs with each candidate objective, then score the held-out logs
+//   with the IMM under each candidate setting, searched coordinate-wise over
+//   log-spaced grids. The score is the mean over classes of the mean over
+//   their logs, so a terrain with many runs does not outvote one with few.
+//
+// Scores reported for the chosen settings on the same folds are optimistic:
+// the settings were chosen on them. The assessment is therefore nested: every
+// log is scored by settings tuned (by an inner cross-validation) and models
+// fitted without it. No number the tuner reports as held out was scored on a
+// log used to fit or tune what scored it.
+#ifndef SKIDIMM_FITTING_TUNING_H_
+#define SKIDIMM_FITTING_TUNING_H_
+
+#include <Eigen/Core>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "skidimm/bank.h"
+#include "skidimm/fitting/model_fitter.h"
+#include "skidimm/log_reader.h"
+
+namespace skidimm {
+namespace fitting {
+
+// One log of the tuning set: what the evaluator reads, and the segments it
+// gives each mode for fitting.
+struct TuningLog {
+  LogSpec spec;
+  std::vector<ModeLogs> fit_data;
+};
+
+// What a fit produced, apart from the bank it was fitted in.
+struct FittedValues {
+  std::vector<Eigen::VectorXd> parameters;  // per mode, the model's flat parameter vector
+  std::vector<Eigen::MatrixXd> q;           // per mode, Q intensity
+  Eigen::MatrixXd r;                        // the bank's R
+};
+
+// Fits `bank` in place to `data` (parameters, Q, and R if the objective fits
+// it). Throws FitError. Called from several threads, each with its own bank.
+using BankFitter = std::function<void(Bank* bank, const std::vector<ModeLogs>& data)>;
+
+// The settings the tuner chooses, applied on top of fitted values.
+struct TunedSettings {
+  std::string objective;             // which BankFitter built the models
+  double r_scale = 1.0;              // R <- r_scale * diag(r_component) R diag(r_component)
+  Eigen::VectorXd r_component;       // per measurement component (sqrt scale on its std), empty = 1
+  double q_scale = 1.0;              // Q_j <- q_scale * q_mode[j] * Q_j
+  Eigen::VectorXd q_mode;            // per mode, empty = 1
+  double dwell_seconds = 0.0;        // > 0: transition.mean_dwell_time for every mode
+  double probability_floor = -1.0;   // >= 0: mode_probability_floor
+  std::string describe(const BankConfig& config) const;
+};
+
+// Writes fitted values and settings into `bank` (its models' parameters and
+// its config's Q, R, transition and floor).
+void apply(const FittedValues& fitted, const TunedSettings& settings, Bank* bank);
+// Reads a bank's current values.
+FittedValues values_of(const Bank& bank);
+
+enum class Knob { kRScale, kRComponents, kQScale, kQModes, kDwell, kFloor };
+const char* to_string(Knob knob);
+Knob knob_from_string(const std::string& name);  // throws Error listing the names
+
+struct TuneOptions {
+  std::vector<std::string> objectives;  // keys of the fitters map, compared by cross-validation
+  std::vector<Knob> knobs = {Knob::kRScale, Knob::kQScale, Knob::kDwell, Knob::kFloor};
+  int folds = 0;        // 0: leave one log out; K >= 2: K groups of logs
+  int inner_folds = 4;  // the nested assessment's inner cross-validation
+  bool assess = true;   // run the nested assessment
+  int sweeps = 2;       // coordinate-search passes over the knobs
+  int threads = 0;      // 0: the machine's cores
+  SamplingConfig sampling;
+  std::function<void(const std::string&)> progress;  // one line at a time; may be empty
+};
+
+// A held-out log's score.
+struct LogScore {
+  std::string log;
+  std::string truth;  // the class with the most time in it
+  double accuracy = 0.0;
+  double mean_log_probability = 0.0;
+  double seconds = 0.0;
+  std::string settings;  // the settings that scored it (nested: this fold's own)
+};
+
+// Over logs: mean over classes of the mean over each class's logs.
+struct Summary {
+  double accuracy = 0.0;
+  double mean_log_probability = 0.0;
+  std::map<std::string, double> class_accuracy;
+  std::map<std::string, double> class_log_probability;
+};
+Summary summarize(const std::vector<LogScore>& scores);
+
+struct TuneResult {
+  TunedSettings settings;            // chosen on all logs
+  Summary selection;                 // the folds' scores with the chosen settings: optimistic
+  std::vector<LogScore> selection_scores;
+  Summary assessment;                // nested: honest
+  std::vector<LogScore> assessment_scores;
+  FittedValues fitted;               // the final fit on every log
+  std::vector<std::string> warnings;
+};
+
+// `make_bank` returns a fresh bank at the starting values (it is called from
+// the calling thread only). Throws FitError or Error.
+TuneResult tune(const std::function<Bank()>& make_bank, const std::vector<TuningLog>& logs,
+                const std::map<std::string, BankFitter>& fitters, const TuneOptions& options);
+
+// Cross-validation groups of `members` (indices into `classes`): one log each
+// when folds is 0 (or at least the number of logs), else `folds` groups dealt
+// out class by class, so each group holds every class it can.
+std::vector<std::vector<int>> grouped_folds(const std::vector<int>& members, const std::vector<std::string>& classes,
+                                            int folds);
+
+// Scores logs with a bank as it is (no fitting): the evaluator tune uses.
+std::vector<LogScore> score_logs(const Bank& bank, const std::vector<const TuningLog*>& logs,
+                                 const SamplingConfig& sampling);
+
+}  // namespace fitting
+}  // namespace skidimm
+
+#endif  // SKIDIMM_FITTING_TUNING_H_

@@ -1,0 +1,76 @@
+#include "skidimm/fitting/bank_fit.h"
+
+#include "skidimm/errors.h"
+
+namespace skidimm {
+namespace fitting {
+
+const char* to_string(Objective objective) {
+  switch (objective) {
+    case Objective::kLikelihood:
+      return "likelihood";
+    case Objective::kWindow:
+      return "window";
+  }
+  return "?";
+}
+
+Objective objective_from_string(const std::string& name) {
+  if (name == "likelihood") return Objective::kLikelihood;
+  if (name == "window") return Objective::kWindow;
+  throw Error("unknown fit objective '" + name + "' (expected likelihood or window)");
+}
+
+namespace {
+
+bool has_parameters(const sdk::MotionModel& model, sdk::ParameterScope scope) {
+  for (const auto& info : model.parameter_info()) {
+    if (info.scope == scope) return true;
+  }
+  return false;
+}
+
+std::map<int, FitReport> fit_window(Bank* bank, const std::vector<ModeLogs>& data, const BankFitOptions& options) {
+  std::map<int, FitReport> reports;
+  FitOptions fit_options = options.window;
+  if (options.shared) {
+    fit_options.scope = sdk::ParameterScope::kBank;
+    const std::vector<FitReport> shared = fit(bank, data, fit_options);
+    for (std::size_t i = 0; i < data.size(); ++i) reports[data[i].mode] = shared[i];
+  }
+  fit_options.scope = sdk::ParameterScope::kMode;
+  for (const ModeLogs& d : data) {
+    const bool after_shared = reports.count(d.mode) > 0;
+    if (!has_parameters(*bank->models[static_cast<std::size_t>(d.mode)], sdk::ParameterScope::kMode)) {
+      // Nothing of its own to fit: the shared fit's report stands, or just the consistent Q.
+      if (!after_shared) reports[d.mode] = evaluate(*bank, d);
+      continue;
+    }
+    FitReport report = fit(bank, {d}, fit_options).front();
+    if (after_shared) {  // keep the shared estimates in the report too
+      report.parameters.insert(report.parameters.begin(), reports[d.mode].parameters.begin(),
+                               reports[d.mode].parameters.end());
+    }
+    reports[d.mode] = report;
+  }
+  return reports;
+}
+
+}  // namespace
+
+std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data, const BankFitOptions& options) {
+  if (data.empty()) throw FitError("no logs to fit");
+  std::map<int, FitReport> reports;
+  switch (options.objective) {
+    case Objective::kWindow:
+      reports = fit_window(bank, data, options);
+      break;
+    case Objective::kLikelihood:
+      throw FitError("the likelihood objective is not available yet");
+  }
+  for (const auto& [mode, report] : reports) bank->config.modes[static_cast<std::size_t>(mode)].q_intensity = report.q_intensity;
+  return reports;
+}
+
+}  // namespace fitting
+}  // namespace skidimm

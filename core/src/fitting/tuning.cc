@@ -1,0 +1,500 @@
+#include "skidimm/fitting/tuning.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <limits>
+#include <mutex>
+#include <set>
+#include <thread>
+
+#include "skidimm/check.h"
+#include "skidimm/errors.h"
+#include "skidimm/evaluation/log_evaluation.h"
+
+namespace skidimm {
+namespace fitting {
+
+namespace {
+
+std::string number(double v) {
+  char b[32];
+  std::snprintf(b, sizeof(b), "%.4g", v);
+  return b;
+}
+
+// Runs task(i, worker) for i in [0, count) on `workers` threads; worker is the
+// thread's index, so each may own a bank. The first exception is rethrown.
+void parallel_for(int count, int workers, const std::function<void(int, int)>& task) {
+  std::atomic<int> next{0};
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
+  auto work = [&](int worker) {
+    while (true) {
+      const int i = next++;
+      if (i >= count) return;
+      try {
+        task(i, worker);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(failure_mutex);
+        if (!failure) failure = std::current_exception();
+        next = count;
+        return;
+      }
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int w = 1; w < std::min(workers, count); ++w) threads.emplace_back(work, w);
+  work(0);
+  for (std::thread& t : threads) t.join();
+  if (failure) std::rethrow_exception(failure);
+}
+
+// The modes' logs of a set of tuning logs, merged by mode.
+std::vector<ModeLogs> training_data(const std::vector<TuningLog>& logs, const std::vector<int>& members) {
+  std::map<int, ModeLogs> by_mode;
+  for (int i : members) {
+    for (const ModeLogs& d : logs[static_cast<std::size_t>(i)].fit_data) {
+      by_mode[d.mode].mode = d.mode;
+      by_mode[d.mode].logs.insert(by_mode[d.mode].logs.end(), d.logs.begin(), d.logs.end());
+    }
+  }
+  std::vector<ModeLogs> out;
+  for (auto& [mode, d] : by_mode) out.push_back(std::move(d));
+  return out;
+}
+
+// The class a log is mostly labelled with: its label, else the truth column's.
+std::string main_class(const evaluation::ModeMetrics& m) {
+  std::string best;
+  double seconds = -1.0;
+  for (const auto& [truth, row] : m.confusion) {
+    double total = 0.0;
+    for (const auto& [estimate, s] : row) total += s;
+    if (total > seconds) {
+      seconds = total;
+      best = truth;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+std::vector<std::vector<int>> grouped_folds(const std::vector<int>& members, const std::vector<std::string>& classes,
+                                         int folds) {
+  std::vector<std::vector<int>> out;
+  if (folds <= 0 || folds >= static_cast<int>(members.size())) {
+    for (int i : members) out.push_back({i});
+    return out;
+  }
+  std::vector<int> order = members;
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return classes[static_cast<std::size_t>(a)] < classes[static_cast<std::size_t>(b)];
+  });
+  out.resize(static_cast<std::size_t>(folds));
+  for (std::size_t k = 0; k < order.size(); ++k) out[k % static_cast<std::size_t>(folds)].push_back(order[k]);
+  return out;
+}
+
+namespace {
+
+// The members of `within` not in `excluded`.
+std::vector<int> complement(const std::vector<int>& excluded, const std::vector<int>& within) {
+  std::vector<int> out;
+  for (int i : within) {
+    if (std::find(excluded.begin(), excluded.end(), i) == excluded.end()) out.push_back(i);
+  }
+  return out;
+}
+
+}  // namespace
+
+const char* to_string(Knob knob) {
+  switch (knob) {
+    case Knob::kRScale:
+      return "r-scale";
+    case Knob::kRComponents:
+      return "r-components";
+    case Knob::kQScale:
+      return "q-scale";
+    case Knob::kQModes:
+      return "q-modes";
+    case Knob::kDwell:
+      return "dwell";
+    case Knob::kFloor:
+      return "floor";
+  }
+  return "?";
+}
+
+Knob knob_from_string(const std::string& name) {
+  for (Knob k : {Knob::kRScale, Knob::kRComponents, Knob::kQScale, Knob::kQModes, Knob::kDwell, Knob::kFloor}) {
+    if (name == to_string(k)) return k;
+  }
+  throw Error("unknown setting '" + name + "' (expected r-scale, r-components, q-scale, q-modes, dwell, floor)");
+}
+
+std::string TunedSettings::describe(const BankConfig& config) const {
+  std::string out = "objective " + objective + ", R x " + number(r_scale);
+  for (Eigen::Index i = 0; i < r_component.size(); ++i) {
+    if (r_component[i] != 1.0) out += ", R[" + config.measurement.names[static_cast<std::size_t>(i)] + "] std x " + number(r_component[i]);
+  }
+  out += ", Q x " + number(q_scale);
+  for (Eigen::Index j = 0; j < q_mode.size(); ++j) {
+    if (q_mode[j] != 1.0) out += ", Q[" + config.modes[static_cast<std::size_t>(j)].name + "] x " + number(q_mode[j]);
+  }
+  if (dwell_seconds > 0.0) out += ", dwell " + number(dwell_seconds) + " s";
+  if (probability_floor >= 0.0) out += ", floor " + number(probability_floor);
+  return out;
+}
+
+FittedValues values_of(const Bank& bank) {
+  FittedValues v;
+  for (std::size_t j = 0; j < bank.models.size(); ++j) {
+    Eigen::VectorXd p(static_cast<Eigen::Index>(bank.models[j]->parameter_info().size()));
+    bank.models[j]->get_parameters(p);
+    v.parameters.push_back(p);
+    v.q.push_back(bank.config.modes[j].q_intensity);
+  }
+  v.r = bank.config.measurement.r;
+  return v;
+}
+
+void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
+  BankConfig& config = bank->config;
+  for (std::size_t j = 0; j < bank->models.size(); ++j) {
+    std::string error;
+    if (!bank->models[j]->set_parameters(fitted.parameters[j], &error)) {
+      throw FitError("mode '" + config.modes[j].name + "' rejected its fitted parameters: " + error);
+    }
+    const double mode_scale = s.q_mode.size() > 0 ? s.q_mode[static_cast<Eigen::Index>(j)] : 1.0;
+    config.modes[j].q_intensity = fitted.q[j] * (s.q_scale * mode_scale);
+  }
+  Eigen::MatrixXd r = fitted.r * s.r_scale;
+  if (s.r_component.size() > 0) r = s.r_component.asDiagonal() * r * s.r_component.asDiagonal();
+  config.measurement.r = r;
+  if (s.dwell_seconds > 0.0) {
+    config.transition.kind = TransitionConfig::Kind::kDwellTimes;
+    config.transition.dwell_seconds = Eigen::VectorXd::Constant(config.num_modes(), s.dwell_seconds);
+  }
+  if (s.probability_floor >= 0.0) config.mode_probability_floor = s.probability_floor;
+}
+
+std::vector<LogScore> score_logs(const Bank& bank, const std::vector<const TuningLog*>& logs,
+                                 const SamplingConfig& sampling) {
+  std::vector<LogScore> out;
+  for (const TuningLog* log : logs) {
+    const evaluation::LogResult r = evaluation::evaluate_log(bank, log->spec, sampling);
+    LogScore s;
+    s.log = log->spec.name();
+    s.truth = main_class(r.metrics);
+    s.accuracy = r.metrics.accuracy();
+    s.mean_log_probability = r.metrics.mean_truth_log_probability();
+    s.seconds = r.metrics.duration;
+    out.push_back(s);
+  }
+  return out;
+}
+
+Summary summarize(const std::vector<LogScore>& scores) {
+  Summary s;
+  std::map<std::string, std::pair<double, double>> sums;  // accuracy, log p
+  std::map<std::string, int> counts;
+  for (const LogScore& l : scores) {
+    sums[l.truth].first += l.accuracy;
+    sums[l.truth].second += l.mean_log_probability;
+    ++counts[l.truth];
+  }
+  for (const auto& [c, sum] : sums) {
+    s.class_accuracy[c] = sum.first / counts[c];
+    s.class_log_probability[c] = sum.second / counts[c];
+    s.accuracy += s.class_accuracy[c];
+    s.mean_log_probability += s.class_log_probability[c];
+  }
+  if (!sums.empty()) {
+    s.accuracy /= static_cast<double>(sums.size());
+    s.mean_log_probability /= static_cast<double>(sums.size());
+  }
+  return s;
+}
+
+namespace {
+
+// The tuner's working state: worker banks, the fit cache, the logs.
+class Tuner {
+ public:
+  Tuner(const std::function<Bank()>& make_bank, const std::vector<TuningLog>& logs,
+        const std::map<std::string, BankFitter>& fitters, const TuneOptions& options)
+      : logs_(logs), fitters_(fitters), options_(options) {
+    workers_ = options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+    for (int w = 0; w < workers_; ++w) banks_.push_back(make_bank());
+    base_ = values_of(banks_[0]);
+    const BankConfig& config = banks_[0].config;
+    base_transition_ = config.transition;
+    if (config.transition.kind == TransitionConfig::Kind::kDwellTimes &&
+        (config.transition.dwell_seconds.array() == config.transition.dwell_seconds[0]).all()) {
+      base_dwell_ = config.transition.dwell_seconds[0];
+    }
+    base_floor_ = config.mode_probability_floor;
+    // Each log's class, for stratified folds and summaries: from a first scoring at the starting values.
+    classes_.resize(logs.size());
+    std::vector<const TuningLog*> all;
+    for (const TuningLog& l : logs) all.push_back(&l);
+    parallel_for(static_cast<int>(logs.size()), workers_, [&](int i, int w) {
+      classes_[static_cast<std::size_t>(i)] = score_logs(banks_[static_cast<std::size_t>(w)], {all[static_cast<std::size_t>(i)]},
+                                                         options_.sampling)
+                                                  .front()
+                                                  .truth;
+    });
+  }
+
+  TuneResult run() {
+    std::vector<int> everything(logs_.size());
+    for (std::size_t i = 0; i < logs_.size(); ++i) everything[i] = static_cast<int>(i);
+    const auto outer = grouped_folds(everything, classes_, options_.folds);
+    // Every fit the run needs, computed once, in parallel.
+    std::vector<std::pair<std::string, std::vector<int>>> fits;
+    for (const std::string& objective : options_.objectives) {
+      for (const auto& held : outer) fits.emplace_back(objective, complement(held, everything));
+      if (options_.assess) {
+        for (const auto& held : outer) {
+          const std::vector<int> inner_logs = complement(held, everything);
+          for (const auto& inner_held : grouped_folds(inner_logs, classes_, options_.inner_folds)) {
+            fits.emplace_back(objective, complement(inner_held, inner_logs));
+          }
+        }
+      }
+    }
+    compute_fits(fits);
+
+    TuneResult result;
+    // Selection: the settings that score best over the outer folds.
+    double best = -std::numeric_limits<double>::infinity();
+    for (const std::string& objective : options_.objectives) {
+      TunedSettings s = search(objective, outer, everything, &result.selection_scores);
+      const double score = summarize(result.selection_scores).mean_log_probability;
+      progress("objective " + objective + ": cross-validated mean log p(truth) " + number(score));
+      if (score > best) {
+        best = score;
+        result.settings = s;
+      }
+    }
+    result.selection_scores = evaluate(result.settings, outer, everything);
+    result.selection = summarize(result.selection_scores);
+
+    // Assessment: each outer fold's settings tuned on the other logs alone.
+    if (options_.assess) {
+      int done = 0;
+      for (const auto& held : outer) {
+        const std::vector<int> inner_logs = complement(held, everything);
+        const auto inner = grouped_folds(inner_logs, classes_, options_.inner_folds);
+        TunedSettings fold_best;
+        double fold_score = -std::numeric_limits<double>::infinity();
+        for (const std::string& objective : options_.objectives) {
+          std::vector<LogScore> scores;
+          TunedSettings s = search(objective, inner, inner_logs, &scores, /*quiet=*/true);
+          const double score = summarize(scores).mean_log_probability;
+          if (score > fold_score) {
+            fold_score = score;
+            fold_best = s;
+          }
+        }
+        for (LogScore& score : evaluate(fold_best, {held}, everything)) {
+          score.settings = fold_best.describe(banks_[0].config);
+          result.assessment_scores.push_back(score);
+        }
+        progress("assessment: " + std::to_string(++done) + "/" + std::to_string(outer.size()) + " folds");
+      }
+      result.assessment = summarize(result.assessment_scores);
+    }
+
+    // The final bank: the chosen objective fitted on every log.
+    compute_fits({{result.settings.objective, everything}});
+    result.fitted = fit_of(result.settings.objective, everything);
+    result.warnings = warnings_;
+    return result;
+  }
+
+ private:
+  using FitKey = std::pair<std::string, std::vector<int>>;
+
+  void progress(const std::string& line) const {
+    if (options_.progress) options_.progress(line);
+  }
+
+  void compute_fits(const std::vector<FitKey>& keys) {
+    std::vector<FitKey> todo;
+    std::set<FitKey> seen;
+    for (const FitKey& k : keys) {
+      if (fits_.count(k) == 0 && seen.insert(k).second) todo.push_back(k);
+    }
+    if (todo.empty()) return;
+    std::vector<FittedValues> values(todo.size());
+    std::vector<std::string> notes(todo.size());
+    std::atomic<int> finished{0};
+    std::mutex progress_mutex;
+    parallel_for(static_cast<int>(todo.size()), workers_, [&](int i, int w) {
+      Bank& bank = banks_[static_cast<std::size_t>(w)];
+      reset(&bank);
+      const auto& [objective, members] = todo[static_cast<std::size_t>(i)];
+      const std::vector<ModeLogs> data = training_data(logs_, members);
+      for (int j = 0; j < bank.config.num_modes(); ++j) {
+        bool present = false;
+        for (const ModeLogs& d : data) present = present || d.mode == j;
+        if (!present) notes[static_cast<std::size_t>(i)] += " '" + bank.config.modes[static_cast<std::size_t>(j)].name + "'";
+      }
+      fitters_.at(objective)(&bank, data);
+      values[static_cast<std::size_t>(i)] = values_of(bank);
+      const int n = ++finished;
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      if (n == static_cast<int>(todo.size()) || n % 10 == 0) {
+        progress("fitted " + std::to_string(n) + "/" + std::to_string(todo.size()) + " folds");
+      }
+    });
+    for (std::size_t i = 0; i < todo.size(); ++i) {
+      fits_[todo[i]] = values[i];
+      if (!notes[i].empty()) {
+        warnings_.push_back("a fold without logs of mode(s)" + notes[i] + " kept their starting values (objective " +
+                            todo[i].first + ")");
+      }
+    }
+  }
+
+  const FittedValues& fit_of(const std::string& objective, const std::vector<int>& members) const {
+    return fits_.at(FitKey{objective, members});
+  }
+
+  // Back to the starting values, before a fit or a scoring.
+  void reset(Bank* bank) const {
+    bank->config.transition = base_transition_;
+    bank->config.mode_probability_floor = base_floor_;
+    apply(base_, TunedSettings{}, bank);
+  }
+
+  // Scores each fold's held-out logs with the fold's fit and `settings`.
+  std::vector<LogScore> evaluate(const TunedSettings& settings, const std::vector<std::vector<int>>& folds,
+                                 const std::vector<int>& within) {
+    std::vector<std::vector<LogScore>> per_fold(folds.size());
+    parallel_for(static_cast<int>(folds.size()), workers_, [&](int f, int w) {
+      Bank& bank = banks_[static_cast<std::size_t>(w)];
+      reset(&bank);
+      const std::vector<int>& held_out = folds[static_cast<std::size_t>(f)];
+      const std::vector<int> training = complement(held_out, within);
+      for (int i : held_out) {
+        SKIDIMM_CHECK(std::find(training.begin(), training.end(), i) == training.end(),
+                      "a held-out log is in its fold's training set");
+      }
+      apply(fit_of(settings.objective, training), settings, &bank);
+      std::vector<const TuningLog*> held;
+      for (int i : held_out) held.push_back(&logs_[static_cast<std::size_t>(i)]);
+      per_fold[static_cast<std::size_t>(f)] = score_logs(bank, held, options_.sampling);
+    });
+    std::vector<LogScore> out;
+    for (auto& scores : per_fold) out.insert(out.end(), scores.begin(), scores.end());
+    return out;
+  }
+
+  // Coordinate search over the knobs on log-spaced grids, coarse then fine.
+  TunedSettings search(const std::string& objective, const std::vector<std::vector<int>>& folds,
+                       const std::vector<int>& within, std::vector<LogScore>* best_scores, bool quiet = false) {
+    const BankConfig& config = banks_[0].config;
+    TunedSettings current;
+    current.objective = objective;
+    current.dwell_seconds = base_dwell_;
+    current.probability_floor = base_floor_;
+    auto score_of = [&](const TunedSettings& s, std::vector<LogScore>* scores) {
+      *scores = evaluate(s, folds, within);
+      return summarize(*scores).mean_log_probability;
+    };
+    double best = score_of(current, best_scores);
+    const double floor_limit = 0.5 / config.num_modes();
+    for (int sweep = 0; sweep < options_.sweeps; ++sweep) {
+      const double factor = sweep == 0 ? 4.0 : 1.5;
+      const int steps = sweep == 0 ? 3 : 2;
+      // Tries value * factor^k for k in [-steps, steps] on one scalar of the settings.
+      auto line = [&](const std::string& name, double* value, double lowest, double highest) {
+        const double start = *value;
+        double chosen = start;
+        for (int k = -steps; k <= steps; ++k) {
+          if (k == 0) continue;
+          const double candidate = start * std::pow(factor, k);
+          if (candidate < lowest || candidate > highest) continue;
+          *value = candidate;
+          std::vector<LogScore> scores;
+          const double score = score_of(current, &scores);
+          if (score > best + 1e-9) {
+            best = score;
+            chosen = candidate;
+            *best_scores = scores;
+          }
+        }
+        *value = chosen;
+        if (!quiet) progress("  " + objective + ": " + name + " " + number(chosen) + " -> mean log p(truth) " + number(best));
+      };
+      for (Knob knob : options_.knobs) {
+        switch (knob) {
+          case Knob::kRScale:
+            line("R scale", &current.r_scale, 1e-4, 1e6);
+            break;
+          case Knob::kRComponents:
+            if (current.r_component.size() == 0) current.r_component = Eigen::VectorXd::Ones(config.measurement.r.rows());
+            for (Eigen::Index i = 0; i < current.r_component.size(); ++i) {
+              line("R std scale of " + config.measurement.names[static_cast<std::size_t>(i)], &current.r_component[i],
+                   1e-2, 1e3);
+            }
+            break;
+          case Knob::kQScale:
+            line("Q scale", &current.q_scale, 1e-6, 1e6);
+            break;
+          case Knob::kQModes:
+            if (current.q_mode.size() == 0) current.q_mode = Eigen::VectorXd::Ones(config.num_modes());
+            for (Eigen::Index j = 0; j < current.q_mode.size(); ++j) {
+              line("Q scale of " + config.modes[static_cast<std::size_t>(j)].name, &current.q_mode[j], 1e-4, 1e4);
+            }
+            break;
+          case Knob::kDwell:
+            if (current.dwell_seconds <= 0.0) current.dwell_seconds = 10.0;
+            line("dwell (s)", &current.dwell_seconds, 1e-2, 1e6);
+            break;
+          case Knob::kFloor:
+            if (current.probability_floor <= 0.0) current.probability_floor = 1e-9;
+            line("probability floor", &current.probability_floor, 1e-15, floor_limit);
+            break;
+        }
+      }
+    }
+    return current;
+  }
+
+  const std::vector<TuningLog>& logs_;
+  const std::map<std::string, BankFitter>& fitters_;
+  const TuneOptions& options_;
+  int workers_ = 1;
+  std::vector<Bank> banks_;
+  FittedValues base_;
+  TransitionConfig base_transition_;
+  double base_dwell_ = 0.0;
+  double base_floor_ = 1e-9;
+  std::vector<std::string> classes_;
+  std::map<FitKey, FittedValues> fits_;
+  std::vector<std::string> warnings_;
+};
+
+}  // namespace
+
+TuneResult tune(const std::function<Bank()>& make_bank, const std::vector<TuningLog>& logs,
+                const std::map<std::string, BankFitter>& fitters, const TuneOptions& options) {
+  if (logs.size() < 2) throw Error("tuning by cross-validation needs at least two logs");
+  if (options.objectives.empty()) throw Error("no fit objective to tune");
+  for (const std::string& o : options.objectives) {
+    if (fitters.count(o) == 0) throw Error("unknown fit objective '" + o + "'");
+  }
+  Tuner tuner(make_bank, logs, fitters, options);
+  return tuner.run();
+}
+
+}  // namespace fitting
+}  // namespace skidimm
