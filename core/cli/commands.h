@@ -50,6 +50,11 @@ LogSpec join_inputs(const std::vector<std::string>& inputs);
 
 struct SimulateOptions {
   std::filesystem::path scenario;
+  // Or: the bank's own models, driven by another log's inputs and truth.
+  std::filesystem::path bank;
+  std::string inputs_from;
+  std::vector<std::filesystem::path> plugin_paths;
+  double rate = 0.0;
   std::filesystem::path output;
   bool has_seed = false;
   unsigned long long seed = 0;

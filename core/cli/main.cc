@@ -64,8 +64,15 @@ int main(int argc, char** argv) {
   CLI::App* simulate =
       app.add_subcommand("simulate", "Simulate a skid-steer robot driving a scenario and write its sensor log");
   simulate->add_option("--scenario,-s", scenario, "Scenario file (YAML), see docs/simulation.md")
-      ->required()
       ->check(CLI::ExistingFile);
+  std::string simulate_bank;
+  simulate->add_option("--bank,-b", simulate_bank,
+                       "Instead of a scenario: simulate this bank's own models (known truth, for testing fits)")
+      ->check(CLI::ExistingFile);
+  simulate->add_option("--inputs-from", simulate_options.inputs_from,
+                       "With --bank: the log whose inputs, times and truth (or MODE= label) drive the models");
+  add_rate(simulate, &simulate_options.rate);
+  add_plugin_path(simulate);
   simulate->add_option("--output,-o", simulate_output, "Log CSV to write")->required();
   simulate->add_option("--seed", simulate_options.seed, "Random seed (default: the scenario's)");
   simulate->add_option("--duration", simulate_options.duration, "Seconds to simulate (default: the scenario's)")
@@ -227,6 +234,8 @@ int main(int argc, char** argv) {
   }
   if (*simulate) {
     simulate_options.scenario = scenario;
+    simulate_options.bank = simulate_bank;
+    simulate_options.plugin_paths = paths;
     simulate_options.output = simulate_output;
     simulate_options.has_seed = simulate->count("--seed") > 0;
     return skidimm::cli::simulate(simulate_options);

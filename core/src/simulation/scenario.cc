@@ -11,6 +11,7 @@
 #include "skidimm/errors.h"
 #include "skidimm/log_io.h"
 #include "skidimm/sdk/angles.h"
+#include "skidimm/simulation/random.h"
 
 namespace skidimm {
 namespace simulation {
@@ -108,20 +109,6 @@ void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s)
   set_probability("imu_dropout", &s->imu_dropout);
   set_probability("gps_dropout", &s->gps_dropout);
 }
-
-// Uniform and Gaussian draws that give the same numbers on every platform.
-class Random {
- public:
-  explicit Random(std::uint64_t seed) : engine_(seed) {}
-  double uniform() { return (static_cast<double>(engine_() >> 11) + 0.5) * (1.0 / 9007199254740992.0); }
-  double gaussian() {
-    const double u1 = uniform(), u2 = uniform();
-    return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * sdk::kPi * u2);
-  }
-
- private:
-  std::mt19937_64 engine_;
-};
 
 std::string number(double v) { return CsvWriter::format(std::round(v * 1e6) / 1e6); }
 

@@ -1,0 +1,115 @@
+#include "skidimm/simulation/model_simulation.h"
+
+#include <Eigen/Cholesky>
+#include <cmath>
+
+#include "skidimm/errors.h"
+#include "skidimm/expression.h"
+#include "skidimm/log_io.h"
+#include "skidimm/sdk/angles.h"
+#include "skidimm/simulation/random.h"
+
+namespace skidimm {
+namespace simulation {
+
+namespace {
+
+// The column a value is written under: the bank's column when it reads a
+// plain column, else the value's own name.
+std::string column_for(const std::string& spec, const std::string& name) {
+  return Expression::is_identifier(spec) ? spec : name;
+}
+
+// A square root of a covariance that tolerates semidefinite ones (a state
+// without process noise): LDLT, with negative round-off pivots at zero.
+Eigen::MatrixXd square_root(const Eigen::MatrixXd& covariance) {
+  Eigen::LDLT<Eigen::MatrixXd> ldlt(covariance);
+  const Eigen::VectorXd d = ldlt.vectorD().cwiseMax(0.0).cwiseSqrt();
+  Eigen::MatrixXd l = ldlt.matrixL();
+  return ldlt.transpositionsP().transpose() * (l * d.asDiagonal());
+}
+
+std::string number(double v) { return std::isnan(v) ? "" : CsvWriter::format(v); }
+
+}  // namespace
+
+ModelSimulationSummary simulate_models(const Bank& bank, const LogSpec& source, const SamplingConfig& sampling,
+                                       std::uint64_t seed, const std::filesystem::path& output) {
+  const BankConfig& config = bank.config;
+  LogReader reader(config, source.files, sampling);
+  if (source.label.empty() && !reader.has_truth()) {
+    throw Error(source.text + ": the source log needs a truth column '" + config.columns.truth_mode +
+                "' or a label (MODE=...) to say which mode drives each step");
+  }
+  const int n = config.state_dim();
+  std::vector<std::string> header{config.columns.time};
+  for (std::size_t i = 0; i < config.input_names.size(); ++i) {
+    header.push_back(column_for(config.columns.inputs[i], config.input_names[i]));
+  }
+  for (std::size_t i = 0; i < config.measurement.names.size(); ++i) {
+    header.push_back(column_for(config.columns.measurements[i], config.measurement.names[i]));
+  }
+  header.push_back(config.columns.truth_mode.empty() ? "mode" : config.columns.truth_mode);
+  for (const std::string& s : config.state_names) header.push_back("true_" + s);
+  CsvWriter writer(output, header);
+
+  Random random(seed);
+  const Eigen::MatrixXd r_root = square_root(config.measurement.r);
+  const Eigen::MatrixXd p0_root = square_root(config.initial_covariance);
+  Eigen::VectorXd x = config.initial_state, next(n), noise(n);
+  Eigen::VectorXd draw(std::max<Eigen::Index>(n, config.measurement.r.rows()));
+  auto gaussian_vector = [&](Eigen::Index size) {
+    for (Eigen::Index i = 0; i < size; ++i) draw[i] = random.gaussian();
+    return draw.head(size);
+  };
+  Eigen::MatrixXd qd(n, n);
+  ModelSimulationSummary summary;
+  LogSample sample, previous;
+  int previous_mode = -1;
+  std::vector<std::string> cells(header.size());
+  while (reader.next(&sample)) {
+    const std::string& label = source.label.empty() ? sample.truth_mode : source.label;
+    const int mode = config.mode_index(label);
+    if (mode < 0) {
+      throw Error(source.text + ": step at t = " + CsvWriter::format(sample.t) + ": '" + label +
+                  "' is not a mode of bank '" + config.name + "'");
+    }
+    const sdk::MotionModel& model = *bank.models[static_cast<std::size_t>(mode)];
+    if (summary.rows == 0) {
+      x = config.initial_state + p0_root * gaussian_vector(n);
+    } else {
+      const double dt = sample.t - previous.t;
+      if (!model.predict(x, previous.u, dt, next) ||
+          !model.process_noise(config.modes[static_cast<std::size_t>(mode)].q_intensity, x, previous.u, dt, qd)) {
+        throw Error(source.text + ": mode '" + label + "' could not propagate the state at t = " +
+                    CsvWriter::format(sample.t));
+      }
+      x = next + square_root(0.5 * (qd + qd.transpose())) * gaussian_vector(n);
+      summary.mode_switches += mode != previous_mode;
+    }
+    for (int i = 0; i < n; ++i) {
+      if (config.angle_mask[static_cast<std::size_t>(i)]) x[i] = sdk::wrap_angle(x[i]);
+    }
+    Eigen::VectorXd z = config.measurement.h * x + r_root * gaussian_vector(config.measurement.r.rows());
+    std::size_t c = 0;
+    cells[c++] = CsvWriter::format(sample.t);
+    for (Eigen::Index i = 0; i < sample.u.size(); ++i) cells[c++] = CsvWriter::format(sample.u[i]);
+    for (Eigen::Index i = 0; i < z.size(); ++i) {
+      double value = z[i];
+      if (config.measurement.is_angle[static_cast<std::size_t>(i)]) value = sdk::wrap_angle(value);
+      cells[c++] = std::isfinite(sample.z[i]) ? number(value) : "";  // measured where the source was
+    }
+    cells[c++] = label;
+    for (int i = 0; i < n; ++i) cells[c++] = CsvWriter::format(x[i]);
+    writer.write_row(cells);
+    previous = sample;
+    previous_mode = mode;
+    ++summary.rows;
+  }
+  if (summary.rows == 0) throw Error(source.text + ": the source log gives no step");
+  writer.commit();
+  return summary;
+}
+
+}  // namespace simulation
+}  // namespace skidimm
