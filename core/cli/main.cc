@@ -129,7 +129,8 @@ int main(int argc, char** argv) {
   tune->add_option("--mode,-m", tune_options.mode, "The mode logs without MODE= show");
   add_rate(tune, &tune_options.rate);
   tune->add_option("--objective", tune_options.objectives,
-                   "Fit objectives to compare, comma-separated: likelihood, window (default likelihood)");
+                   "Fit objectives to compare, comma-separated: likelihood, window, none (the bank's models as they "
+                   "are: tune the settings only); default likelihood");
   tune->add_option("--tune", tune_options.knobs,
                    "Settings to choose, comma-separated: r-scale, r-components, q-scale, q-modes, dwell, floor "
                    "(default r-scale,q-scale,dwell,floor)");

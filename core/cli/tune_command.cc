@@ -113,6 +113,10 @@ int tune(const TuneCommandOptions& options) {
 
     std::map<std::string, fitting::BankFitter> fitters;
     for (const std::string& name : tune_options.objectives) {
+      if (name == "none") {  // the bank's models as they are: tune the settings only
+        fitters[name] = [](Bank*, const std::vector<fitting::ModeLogs>&) {};
+        continue;
+      }
       fitting::BankFitOptions fit_options;
       fit_options.objective = fitting::objective_from_string(name);
       fit_options.window.window = options.window;
