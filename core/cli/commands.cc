@@ -11,6 +11,7 @@
 
 #include "skidimm/bank.h"
 #include "skidimm/errors.h"
+#include "skidimm/estimates_writer.h"
 #include "skidimm/imm.h"
 #include "skidimm/log_io.h"
 #include "skidimm/mode_timeline.h"
@@ -27,17 +28,6 @@ std::string join(const std::vector<std::string>& items, const char* separator = 
   std::string out;
   for (const std::string& s : items) out += (out.empty() ? "" : separator) + s;
   return out;
-}
-
-std::vector<std::string> output_header(const BankConfig& config, bool with_truth) {
-  std::vector<std::string> header{"t"};
-  for (const ModeConfig& mode : config.modes) header.push_back("mu_" + mode.name);
-  for (const std::string& s : config.state_names) header.push_back(s);
-  for (const std::string& s : config.state_names) header.push_back("var_" + s);
-  header.push_back("mode");
-  if (with_truth) header.push_back("truth_mode");
-  header.push_back("status");
-  return header;
 }
 
 class ProgressLine {
@@ -84,7 +74,7 @@ LogSpec join_inputs(const std::vector<std::string>& inputs) {
 }
 
 int run(const RunOptions& options) {
-  std::optional<CsvWriter> writer;
+  std::optional<EstimatesWriter> writer;
   long rows = 0;
   const int code = report_errors("skidimm run", [&] {
     Imm imm = Imm::from_yaml(options.bank, options.plugin_paths);
@@ -95,13 +85,11 @@ int run(const RunOptions& options) {
     }
     LogReader reader(config, log.files, sampling_of(config, options.rate));
     const bool with_truth = reader.has_truth() || !log.label.empty();
-    writer.emplace(options.output, output_header(config, with_truth));
+    writer.emplace(options.output, config, with_truth);
 
     std::vector<std::string> mode_names;
     for (const ModeConfig& mode : config.modes) mode_names.push_back(mode.name);
-    const int n = config.state_dim();
     const int num_modes = config.num_modes();
-    std::vector<std::string> cells(static_cast<std::size_t>(1 + num_modes + 2 * n + 2 + (with_truth ? 1 : 0)));
     const std::vector<int> class_of_mode = config.class_of_modes();
     ModeTimeline timeline;
     long truth_rows = 0, truth_matches = 0, predict_only = 0, rejected = 0;
@@ -111,22 +99,12 @@ int run(const RunOptions& options) {
     while (reader.next(&sample)) {
       const ImmEstimate& e = imm.step(sample.t, sample.u, sample.z);
       ++rows;
-      std::size_t c = 0;
-      cells[c++] = CsvWriter::format(sample.t);
-      for (int j = 0; j < num_modes; ++j) cells[c++] = CsvWriter::format(e.mode_probabilities[j]);
-      for (int i = 0; i < n; ++i) cells[c++] = CsvWriter::format(e.state[i]);
-      for (int i = 0; i < n; ++i) cells[c++] = CsvWriter::format(e.covariance(i, i));
-      cells[c++] = mode_names[static_cast<std::size_t>(e.most_likely_mode)];
-      if (with_truth) {
-        const std::string& truth = log.label.empty() ? sample.truth_mode : log.label;
-        cells[c++] = truth;
-        if (!truth.empty()) {
-          ++truth_rows;
-          truth_matches += config.class_index(truth) == class_of_mode[static_cast<std::size_t>(e.most_likely_mode)];
-        }
+      const std::string& truth = log.label.empty() ? sample.truth_mode : log.label;
+      writer->write(sample.t, e, truth);
+      if (with_truth && !truth.empty()) {
+        ++truth_rows;
+        truth_matches += config.class_index(truth) == class_of_mode[static_cast<std::size_t>(e.most_likely_mode)];
       }
-      cells[c++] = to_string(e.status);
-      writer->write_row(cells);
       predict_only += e.status == StepStatus::kPredictOnly;
       rejected += e.num_rejected_modes > 0;
       timeline.add(sample.t, e.most_likely_mode, e.mode_probabilities[e.most_likely_mode]);

@@ -100,7 +100,8 @@ struct TuneCommandOptions {
   bool fit_r = false;
   bool full_q = false;
   std::filesystem::path output_bank;
-  std::filesystem::path table;  // per-log scores as CSV
+  std::filesystem::path table;      // per-log scores as CSV
+  std::filesystem::path estimates;  // the nested assessment's per-step outputs, one file per log
   std::vector<std::filesystem::path> plugin_paths;
   bool quiet = false;
   std::string command_line;

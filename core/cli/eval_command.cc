@@ -15,6 +15,7 @@
 #include "skidimm/evaluation/consistency.h"
 #include "skidimm/evaluation/log_evaluation.h"
 #include "skidimm/evaluation/mode_metrics.h"
+#include "skidimm/fitting/tuning.h"
 #include "skidimm/imm.h"
 #include "skidimm/log_io.h"
 #include "skidimm/sdk/angles.h"
@@ -194,14 +195,39 @@ std::string json_string(const std::string& s) {
   return out + "\"";
 }
 
+// Per class, the mean over its logs; then the mean over classes (a log's
+// class is its main truth): the figure `skidimm tune` reports.
+fitting::Summary class_summary(const std::vector<const LogResult*>& logs) {
+  std::vector<fitting::LogScore> scores;
+  for (const LogResult* log : logs) {
+    fitting::LogScore s;
+    s.log = log->name;
+    s.truth = evaluation::main_truth(log->metrics);
+    s.accuracy = log->metrics.accuracy();
+    s.mean_log_probability = log->metrics.mean_truth_log_probability();
+    s.seconds = log->metrics.duration;
+    if (!s.truth.empty()) scores.push_back(s);
+  }
+  return fitting::summarize(scores);
+}
+
 void print_table(std::ostream& out, const std::string& title, const Summary& s, const std::vector<std::string>& modes,
-                 const std::vector<std::string>& states, bool list_switches) {
+                 const std::vector<std::string>& states, bool list_switches,
+                 const std::vector<const LogResult*>& logs) {
   const ModeMetrics& m = s.metrics;
   out << "\n" << title << ": " << s.accuracies.size() << " log(s), " << fmt(m.duration, "%.1f") << " s labelled\n";
   out << "  accuracy (time fraction)        " << fmt(m.accuracy());
   if (s.accuracies.size() > 1) {
     out << "   per log: mean " << fmt(mean(s.accuracies)) << " +- " << fmt(standard_deviation(s.accuracies)) << ", min "
         << fmt(*std::min_element(s.accuracies.begin(), s.accuracies.end()));
+  }
+  if (logs.size() > 1) {
+    const fitting::Summary c = class_summary(logs);
+    if (c.class_accuracy.size() > 1) {
+      out << "\n  per class, mean over its logs:  ";
+      for (const auto& [name, accuracy] : c.class_accuracy) out << " " << name << " " << fmt(accuracy);
+      out << "; mean over classes " << fmt(c.accuracy);
+    }
   }
   out << "\n  mean probability of the true mode " << fmt(m.mean_truth_probability()) << "\n";
   out << "  mean log probability of the truth " << fmt(m.mean_truth_log_probability()) << "\n";
@@ -260,15 +286,25 @@ void print_table(std::ostream& out, const std::string& title, const Summary& s, 
   }
 }
 
-std::string json_summary(const Summary& s, const std::vector<std::string>& states) {
+std::string json_summary(const Summary& s, const std::vector<std::string>& states,
+                         const std::vector<const LogResult*>& logs) {
   const ModeMetrics& m = s.metrics;
+  const fitting::Summary by_class = class_summary(logs);
   std::ostringstream o;
   o << "{\"logs\": " << s.accuracies.size() << ", \"duration\": " << json_number(m.duration)
     << ", \"accuracy\": " << json_number(m.accuracy())
     << ", \"accuracy_per_log\": {\"mean\": " << json_number(mean(s.accuracies))
     << ", \"std\": " << json_number(standard_deviation(s.accuracies)) << ", \"min\": "
     << json_number(s.accuracies.empty() ? kNaN : *std::min_element(s.accuracies.begin(), s.accuracies.end()))
-    << "}, \"mean_truth_probability\": " << json_number(m.mean_truth_probability())
+    << "}, \"mean_over_classes\": {\"accuracy\": " << json_number(by_class.accuracy)
+    << ", \"mean_truth_log_probability\": " << json_number(by_class.mean_log_probability) << ", \"per_class\": {";
+  bool listed = false;
+  for (const auto& [name, accuracy] : by_class.class_accuracy) {
+    o << (listed ? ", " : "") << json_string(name) << ": {\"accuracy\": " << json_number(accuracy)
+      << ", \"mean_truth_log_probability\": " << json_number(by_class.class_log_probability.at(name)) << "}";
+    listed = true;
+  }
+  o << "}}, \"mean_truth_probability\": " << json_number(m.mean_truth_probability())
     << ", \"mean_truth_log_probability\": " << json_number(m.mean_truth_log_probability()) << ", \"confusion_seconds\": {";
   bool first = true;
   for (const auto& [truth, row] : m.confusion) {
@@ -366,17 +402,17 @@ int eval(const EvalOptions& options) {
     }
     const Summary overall = summarize(all, states.size());
     if (options.json) {
-      std::cout << "{\"overall\": " << json_summary(overall, states) << ", \"groups\": {";
+      std::cout << "{\"overall\": " << json_summary(overall, states, all) << ", \"groups\": {";
       for (std::size_t i = 0; i < groups.size(); ++i) {
         std::vector<const LogResult*> logs;
         for (const LogResult& l : groups[i].logs) logs.push_back(&l);
         std::cout << (i ? ", " : "") << json_string(groups[i].name) << ": "
-                  << json_summary(summarize(logs, states.size()), states);
+                  << json_summary(summarize(logs, states.size()), states, logs);
       }
       std::cout << "}, \"logs\": {";
       for (std::size_t i = 0; i < all.size(); ++i) {
         std::cout << (i ? ", " : "") << json_string(all[i]->name) << ": "
-                  << json_summary(summarize({all[i]}, states.size()), states);
+                  << json_summary(summarize({all[i]}, states.size()), states, {all[i]});
       }
       std::cout << "}}\n";
       return kExitOk;
@@ -385,10 +421,10 @@ int eval(const EvalOptions& options) {
       for (const Group& g : groups) {
         std::vector<const LogResult*> logs;
         for (const LogResult& l : g.logs) logs.push_back(&l);
-        print_table(std::cout, g.name, summarize(logs, states.size()), modes, states, logs.size() == 1);
+        print_table(std::cout, g.name, summarize(logs, states.size()), modes, states, logs.size() == 1, logs);
       }
     }
-    print_table(std::cout, groups.size() > 1 ? "all" : groups[0].name, overall, modes, states, all.size() <= 3);
+    print_table(std::cout, groups.size() > 1 ? "all" : groups[0].name, overall, modes, states, all.size() <= 3, all);
     return kExitOk;
   });
 }

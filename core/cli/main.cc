@@ -146,6 +146,8 @@ int main(int argc, char** argv) {
   tune->add_flag("--full-q", tune_options.full_q, "Likelihood objective: fit Q with off-diagonal terms");
   tune->add_option("--output-bank", tune_options.output_bank, "Write the tuned bank (fitted on every log) here");
   tune->add_option("--table", tune_options.table, "Write every log's held-out scores to this CSV");
+  tune->add_option("--estimates", tune_options.estimates,
+                   "Write each log's nested-assessment steps to this directory, as `run` does, for `eval --estimates`");
   tune->add_flag("--quiet,-q", tune_options.quiet, "No progress on stderr");
   add_plugin_path(tune);
 

@@ -104,6 +104,7 @@ int tune(const TuneCommandOptions& options) {
     tune_options.assess = !options.no_assess;
     tune_options.threads = options.threads;
     tune_options.sampling = sampling;
+    tune_options.assessment_estimates = options.estimates;
     std::mutex print;
     tune_options.progress = [&](const std::string& line) {
       if (options.quiet) return;

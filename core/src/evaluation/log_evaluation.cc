@@ -1,8 +1,10 @@
 #include "skidimm/evaluation/log_evaluation.h"
 
 #include <cmath>
+#include <optional>
 
 #include "skidimm/errors.h"
+#include "skidimm/estimates_writer.h"
 #include "skidimm/imm.h"
 #include "skidimm/sdk/angles.h"
 
@@ -34,7 +36,8 @@ LabelledStep ClassScorer::score(double t, const std::string& label, const Eigen:
   return step;
 }
 
-LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfig& sampling) {
+LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfig& sampling,
+                       const std::filesystem::path& estimates) {
   const BankConfig& config = bank.config;
   if (log.label.empty() && config.columns.truth_mode.empty()) {
     throw Error(config.file.string() + ": the bank names no columns.truth_mode, so there is nothing to evaluate " +
@@ -55,11 +58,14 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
   result.name = log.name();
   result.squared_state_error.assign(config.state_names.size(), 0.0);
   result.state_error_count.assign(config.state_names.size(), 0);
+  std::optional<EstimatesWriter> writer;
+  if (!estimates.empty()) writer.emplace(estimates, config, /*with_truth=*/true);
   std::vector<LabelledStep> steps;
   LogSample sample;
   while (reader.next(&sample)) {
     const ImmEstimate& e = imm.step(sample.t, sample.u, sample.z);
     const std::string& label = log.label.empty() ? sample.truth_mode : log.label;
+    if (writer) writer->write(sample.t, e, label);
     steps.push_back(scorer.score(sample.t, label, e.mode_probabilities));
     const int truth_mode = config.mode_index(label);
     if (truth_mode >= 0 && e.status == StepStatus::kUpdated && std::isfinite(e.nis[truth_mode])) {
@@ -75,6 +81,7 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
     ++result.steps;
   }
   result.metrics = compute_mode_metrics(steps, scorer.class_names());
+  if (writer) writer->commit();
   return result;
 }
 

@@ -19,6 +19,20 @@ void ModeMetrics::merge(const ModeMetrics& other) {
   for (const auto& [mode, seconds] : other.truth_absent) truth_absent[mode] += seconds;
 }
 
+std::string main_truth(const ModeMetrics& m) {
+  std::string best;
+  double most = -1.0;
+  for (const auto& [truth, row] : m.confusion) {
+    double seconds = 0.0;
+    for (const auto& [estimate, s] : row) seconds += s;
+    if (seconds > most) {
+      most = seconds;
+      best = truth;
+    }
+  }
+  return best;
+}
+
 ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps,
                                  const std::vector<std::string>& bank_modes) {
   std::vector<LabelledStep> steps;

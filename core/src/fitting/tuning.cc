@@ -66,21 +66,6 @@ std::vector<ModeLogs> training_data(const std::vector<TuningLog>& logs, const st
   return out;
 }
 
-// The class a log is mostly labelled with: its label, else the truth column's.
-std::string main_class(const evaluation::ModeMetrics& m) {
-  std::string best;
-  double seconds = -1.0;
-  for (const auto& [truth, row] : m.confusion) {
-    double total = 0.0;
-    for (const auto& [estimate, s] : row) total += s;
-    if (total > seconds) {
-      seconds = total;
-      best = truth;
-    }
-  }
-  return best;
-}
-
 }  // namespace
 
 std::vector<std::vector<int>> grouped_folds(const std::vector<int>& members, const std::vector<std::string>& classes,
@@ -184,13 +169,15 @@ void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
 }
 
 std::vector<LogScore> score_logs(const Bank& bank, const std::vector<const TuningLog*>& logs,
-                                 const SamplingConfig& sampling) {
+                                 const SamplingConfig& sampling, const std::vector<std::filesystem::path>& estimates) {
   std::vector<LogScore> out;
-  for (const TuningLog* log : logs) {
-    const evaluation::LogResult r = evaluation::evaluate_log(bank, log->spec, sampling);
+  for (std::size_t i = 0; i < logs.size(); ++i) {
+    const TuningLog* log = logs[i];
+    const evaluation::LogResult r =
+        evaluation::evaluate_log(bank, log->spec, sampling, i < estimates.size() ? estimates[i] : std::filesystem::path());
     LogScore s;
     s.log = log->spec.name();
-    s.truth = main_class(r.metrics);
+    s.truth = evaluation::main_truth(r.metrics);
     s.accuracy = r.metrics.accuracy();
     s.mean_log_probability = r.metrics.mean_truth_log_probability();
     s.seconds = r.metrics.duration;
@@ -287,6 +274,7 @@ class Tuner {
 
     // Assessment: each outer fold's settings tuned on the other logs alone.
     if (options_.assess) {
+      if (!options_.assessment_estimates.empty()) std::filesystem::create_directories(options_.assessment_estimates);
       int done = 0;
       for (const auto& held : outer) {
         const std::vector<int> inner_logs = complement(held, everything);
@@ -302,7 +290,7 @@ class Tuner {
             fold_best = s;
           }
         }
-        for (LogScore& score : evaluate(fold_best, {held}, everything)) {
+        for (LogScore& score : evaluate(fold_best, {held}, everything, /*write_estimates=*/true)) {
           score.settings = fold_best.describe(banks_[0].config);
           result.assessment_scores.push_back(score);
         }
@@ -367,6 +355,16 @@ class Tuner {
     return fits_.at(FitKey{objective, members});
   }
 
+  // NNN_<label>_<first file's stem>.csv: unique even when runs of two
+  // terrains share file names.
+  std::filesystem::path estimates_path(int i) const {
+    const LogSpec& spec = logs_[static_cast<std::size_t>(i)].spec;
+    char index[16];
+    std::snprintf(index, sizeof(index), "%03d_", i);
+    return options_.assessment_estimates /
+           (index + (spec.label.empty() ? "" : spec.label + "_") + spec.files.front().path.stem().string() + ".csv");
+  }
+
   // Back to the starting values, before a fit or a scoring.
   void reset(Bank* bank) const {
     bank->config.transition = base_transition_;
@@ -376,7 +374,7 @@ class Tuner {
 
   // Scores each fold's held-out logs with the fold's fit and `settings`.
   std::vector<LogScore> evaluate(const TunedSettings& settings, const std::vector<std::vector<int>>& folds,
-                                 const std::vector<int>& within) {
+                                 const std::vector<int>& within, bool write_estimates = false) {
     std::vector<std::vector<LogScore>> per_fold(folds.size());
     parallel_for(static_cast<int>(folds.size()), workers_, [&](int f, int w) {
       Bank& bank = banks_[static_cast<std::size_t>(w)];
@@ -389,8 +387,12 @@ class Tuner {
       }
       apply(fit_of(settings.objective, training), settings, &bank);
       std::vector<const TuningLog*> held;
-      for (int i : held_out) held.push_back(&logs_[static_cast<std::size_t>(i)]);
-      per_fold[static_cast<std::size_t>(f)] = score_logs(bank, held, options_.sampling);
+      std::vector<std::filesystem::path> estimates;
+      for (int i : held_out) {
+        held.push_back(&logs_[static_cast<std::size_t>(i)]);
+        if (write_estimates && !options_.assessment_estimates.empty()) estimates.push_back(estimates_path(i));
+      }
+      per_fold[static_cast<std::size_t>(f)] = score_logs(bank, held, options_.sampling, estimates);
     });
     std::vector<LogScore> out;
     for (auto& scores : per_fold) out.insert(out.end(), scores.begin(), scores.end());

@@ -10,6 +10,7 @@
 #define SKIDIMM_EVALUATION_LOG_EVALUATION_H_
 
 #include <Eigen/Core>
+#include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
@@ -50,9 +51,12 @@ struct LogResult {
   long steps = 0;
 };
 
-// Runs a fresh IMM of `bank` over `log` and scores it. Throws Error when the
-// log has neither a label nor the bank's truth column, and LogError on bad rows.
-LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfig& sampling);
+// Runs a fresh IMM of `bank` over `log` and scores it; with `estimates`, also
+// writes the steps there as `skidimm run` does (estimates_writer.h). Throws
+// Error when the log has neither a label nor the bank's truth column, and
+// LogError on bad rows.
+LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfig& sampling,
+                       const std::filesystem::path& estimates = {});
 
 }  // namespace evaluation
 }  // namespace skidimm

@@ -60,6 +60,9 @@ struct ModeMetrics {
   void merge(const ModeMetrics& other);
 };
 
+// The truth with the most time in `m` (a log's class); empty if none.
+std::string main_truth(const ModeMetrics& m);
+
 // `bank_modes`: the names the estimator can answer with.
 ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& steps, const std::vector<std::string>& bank_modes);
 

@@ -24,6 +24,7 @@
 #define SKIDIMM_FITTING_TUNING_H_
 
 #include <Eigen/Core>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <string>
@@ -86,6 +87,9 @@ struct TuneOptions {
   int threads = 0;      // 0: the machine's cores
   SamplingConfig sampling;
   std::function<void(const std::string&)> progress;  // one line at a time; may be empty
+  // When set, the nested assessment writes each held-out log's steps there,
+  // as `skidimm run` would (NNN_<label>_<first file>.csv), for `eval --estimates`.
+  std::filesystem::path assessment_estimates;
 };
 
 // A held-out log's score.
@@ -129,8 +133,10 @@ std::vector<std::vector<int>> grouped_folds(const std::vector<int>& members, con
                                             int folds);
 
 // Scores logs with a bank as it is (no fitting): the evaluator tune uses.
+// With `estimates`, one file per log is written there (estimates[i]).
 std::vector<LogScore> score_logs(const Bank& bank, const std::vector<const TuningLog*>& logs,
-                                 const SamplingConfig& sampling);
+                                 const SamplingConfig& sampling,
+                                 const std::vector<std::filesystem::path>& estimates = {});
 
 }  // namespace fitting
 }  // namespace skidimm
