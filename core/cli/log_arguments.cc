@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <system_error>
 
 #include "skidimm/errors.h"
+#include "skidimm/expression.h"
 #include "skidimm/fitting/trajectory.h"
 
 namespace skidimm {
@@ -76,22 +78,81 @@ SamplingConfig sampling_of(const BankConfig& bank, double rate) {
   return sampling;
 }
 
+namespace {
+
+// Splits a segment labelled with a class of several modes among them: each
+// step goes to the first mode whose fit_when holds for its inputs, else to
+// the mode without one; steps no mode takes are left out.
+void split_class(const BankConfig& config, const ClassConfig& c, const fitting::Trajectory& t,
+                 std::map<int, fitting::ModeLogs>* by_mode) {
+  struct Condition {
+    int mode;
+    std::unique_ptr<Expression> expression;
+    std::vector<int> inputs;
+    std::vector<double> values;
+  };
+  std::vector<Condition> conditions;
+  int fallback = -1;
+  for (int j : c.modes) {
+    const ModeConfig& m = config.modes[static_cast<std::size_t>(j)];
+    if (m.fit_when.empty()) {
+      if (fallback < 0) fallback = j;
+      continue;
+    }
+    Condition k{j, std::make_unique<Expression>(m.fit_when), {}, {}};
+    for (const std::string& v : k.expression->variables()) {
+      k.inputs.push_back(static_cast<int>(std::find(config.input_names.begin(), config.input_names.end(), v) -
+                                          config.input_names.begin()));
+    }
+    k.values.resize(k.inputs.size());
+    conditions.push_back(std::move(k));
+  }
+  std::vector<int> owner(static_cast<std::size_t>(t.size()), fallback);
+  for (int k = 0; k < t.size(); ++k) {
+    for (Condition& cond : conditions) {
+      for (std::size_t i = 0; i < cond.inputs.size(); ++i) cond.values[i] = t.u(cond.inputs[i], k);
+      if (cond.expression->evaluate(cond.values.data()) != 0.0) {
+        owner[static_cast<std::size_t>(k)] = cond.mode;
+        break;
+      }
+    }
+  }
+  fitting::Trajectory labelled = t;
+  for (int k = 0; k < t.size(); ++k) {
+    const int j = owner[static_cast<std::size_t>(k)];
+    labelled.truth[static_cast<std::size_t>(k)] = j < 0 ? "" : config.modes[static_cast<std::size_t>(j)].name;
+  }
+  for (auto& [name, part] : fitting::split_by_truth(labelled)) {
+    const int j = config.mode_index(name);
+    (*by_mode)[j].mode = j;
+    (*by_mode)[j].logs.push_back(std::move(part));
+  }
+}
+
+}  // namespace
+
 std::vector<fitting::ModeLogs> mode_segments(const BankConfig& config, const LogSpec& log,
                                              const std::string& default_mode, const SamplingConfig& sampling) {
-  auto mode_of = [&config](const std::string& label, const std::string& where) {
-    int j = config.mode_index(label);
+  // A label names a mode, or a class (whose modes share its steps by fit_when).
+  auto check_label = [&config](const std::string& label, const std::string& where) {
+    if (config.mode_index(label) < 0 && config.class_index(label) < 0) {
+      throw Error(where + ": the bank has no mode or class '" + label + "'");
+    }
+  };
+  std::map<int, fitting::ModeLogs> by_mode;
+  auto add = [&](const std::string& label, fitting::Trajectory part) {
+    const int j = config.mode_index(label);
+    if (j >= 0) {
+      by_mode[j].mode = j;
+      by_mode[j].logs.push_back(std::move(part));
+      return;
+    }
     for (const ClassConfig& c : config.classes) {
-      if (j < 0 && c.name == label && c.modes.size() == 1) j = c.modes[0];
+      if (c.name == label) split_class(config, c, part, &by_mode);
     }
-    if (j < 0) {
-      throw Error(where + ": the bank has no mode '" + label + "'" +
-                  (config.class_index(label) >= 0 ? " ('" + label + "' is a class of several modes; fitting needs a mode)"
-                                                  : ""));
-    }
-    return j;
   };
   const std::string label = !log.label.empty() ? log.label : default_mode;
-  const int labelled_mode = label.empty() ? -1 : mode_of(label, "--log '" + log.text + "'");
+  if (!label.empty()) check_label(label, "--log '" + log.text + "'");
   if (label.empty() && config.columns.truth_mode.empty()) {
     throw Error("--log '" + log.text +
                 "': say which mode it shows (MODE=FILE) or give --mode (or give the bank a truth column, "
@@ -99,10 +160,8 @@ std::vector<fitting::ModeLogs> mode_segments(const BankConfig& config, const Log
   }
   fitting::Trajectory trajectory = fitting::load_trajectory(config, log.files, sampling);
   if (trajectory.size() == 0) throw Error(log.text + ": the log gives no step");
-  std::map<int, fitting::ModeLogs> by_mode;
-  if (labelled_mode >= 0) {
-    by_mode[labelled_mode].mode = labelled_mode;
-    by_mode[labelled_mode].logs.push_back(std::move(trajectory));
+  if (!label.empty()) {
+    add(label, std::move(trajectory));
   } else {
     const auto parts = fitting::split_by_truth(trajectory);
     if (parts.empty()) {
@@ -110,9 +169,8 @@ std::vector<fitting::ModeLogs> mode_segments(const BankConfig& config, const Log
                   config.columns.truth_mode + "' is absent or empty");
     }
     for (const auto& [part_label, part] : parts) {
-      const int j = mode_of(part_label, "--log '" + log.text + "', truth column '" + config.columns.truth_mode + "'");
-      by_mode[j].mode = j;
-      by_mode[j].logs.push_back(part);
+      check_label(part_label, "--log '" + log.text + "', truth column '" + config.columns.truth_mode + "'");
+      add(part_label, part);
     }
   }
   std::vector<fitting::ModeLogs> out;

@@ -26,8 +26,9 @@ SamplingConfig sampling_of(const BankConfig& bank, double rate);
 
 // The segments one log gives each mode for fitting. Which mode a log shows:
 // its MODE= label, else `default_mode` (--mode), else the bank's truth
-// column, whose runs of one label become segments of their own. A label
-// that is a class of one mode names that mode. Throws Error.
+// column, whose runs of one label become segments of their own. A label may
+// name a class: its steps go to the class's modes by their fit_when (the
+// first whose condition holds, else the one without). Throws Error.
 std::vector<fitting::ModeLogs> mode_segments(const BankConfig& config, const LogSpec& log,
                                              const std::string& default_mode, const SamplingConfig& sampling);
 

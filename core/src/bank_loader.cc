@@ -1,6 +1,7 @@
 // Parses bank files (docs/bank-format.md) and instantiates their models.
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <sstream>
@@ -8,6 +9,7 @@
 #include "skidimm/bank.h"
 #include "skidimm/covariance.h"
 #include "skidimm/errors.h"
+#include "skidimm/expression.h"
 #include "yaml_fields.h"
 
 namespace skidimm {
@@ -212,7 +214,7 @@ void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) 
   for (std::size_t i = 0; i < node.size(); ++i) {
     const YAML::Node m = node[i];
     const std::string field = "modes[" + std::to_string(i) + "]";
-    y.check_keys(m, {"name", "model", "params", "Q", "description"}, field);
+    y.check_keys(m, {"name", "model", "params", "Q", "description", "fit_when"}, field);
     ModeConfig mode;
     mode.line = YamlFields::line_of(m);
     mode.name = y.string(y.required(m, "name", field), field + ".name");
@@ -225,6 +227,19 @@ void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) 
         const std::string key = entry.first.as<std::string>();
         y.parameter(entry.second, key, field + ".params." + key, &mode.params);
         mode.param_lines[key] = YamlFields::line_of(entry.first);
+      }
+    }
+    if (const YAML::Node when = m["fit_when"]) {
+      mode.fit_when = y.string(when, field + ".fit_when");
+      try {
+        const Expression condition(mode.fit_when);
+        for (const std::string& v : condition.variables()) {
+          if (index_of(bank->input_names, v) < 0) {
+            y.fail(when, field + ".fit_when", "'" + v + "' is not an input (inputs: " + join(bank->input_names) + ")");
+          }
+        }
+      } catch (const ExpressionError& e) {
+        y.fail(when, field + ".fit_when", e.what());
       }
     }
     const YAML::Node q = y.required(m, "Q", field);
@@ -364,6 +379,19 @@ BankConfig load_bank_config(const fs::path& file) {
   parse_initial(y, root, &bank);
   parse_sampling(y, root, &bank);
   parse_classes(y, root, &bank);
+  for (std::size_t j = 0; j < bank.modes.size(); ++j) {
+    if (bank.modes[j].fit_when.empty()) continue;
+    bool shared_class = false;
+    for (const ClassConfig& c : bank.classes) {
+      shared_class = shared_class ||
+                     (c.modes.size() > 1 && std::find(c.modes.begin(), c.modes.end(), static_cast<int>(j)) != c.modes.end());
+    }
+    if (!shared_class) {
+      y.fail(root["modes"][j]["fit_when"], "modes[" + std::to_string(j) + "].fit_when",
+             "only modes of a class of several modes (classes:) split that class's logs; mode '" + bank.modes[j].name +
+                 "' is in none");
+    }
+  }
 
   const YAML::Node columns = root["columns"];
   if (columns) y.check_keys(columns, {"time", "inputs", "measurements", "truth_mode"}, "columns");

@@ -417,6 +417,46 @@ TEST(Cli, ClassesScoreSeveralModesAsOne) {
   EXPECT_GE(std::stod(eval.out.substr(eval.out.find(key) + key.size())), 0.976);
 }
 
+TEST(Cli, AClassLabelTrainsItsModesByTheirFitWhen) {
+  const fs::path dir = test_directory();
+  std::string bank = read_file(kSource + "/configs/physical/ltc_terrains.yaml");
+  // Two modes for crushed concrete, one per turning direction.
+  const std::string from = "  - name: crushed_concrete\n";
+  const auto at = bank.find(from);
+  ASSERT_NE(at, std::string::npos);
+  const std::string entry = bank.substr(at, bank.find("\n  - name:", at + 1) == std::string::npos
+                                                ? std::string::npos
+                                                : bank.find("\n  - name:", at + 1) - at + 1);
+  std::string left = entry, right = entry;
+  left.replace(0, from.size(), "  - name: concrete_left\n    fit_when: phi_dot_R > phi_dot_L\n");
+  right.replace(0, from.size(), "  - name: concrete_right\n");
+  bank.replace(at, entry.size(), left + right);
+  bank += "\nclasses:\n  crushed_concrete: [concrete_left, concrete_right]\n";
+  write_file(dir / "sided.yaml", bank);
+  // A log that turns left for 5 s, then right for 5 s.
+  // States from eq. 2 (A = diag(-5, -4)) with varied wheel speeds, and a little deterministic noise.
+  std::string log = "t,phi_dot_L,phi_dot_R,V,omega\n";
+  double v = 0.0, w = 0.0;
+  for (int k = 0; k < 1000; ++k) {
+    const double t = 0.02 * k, turn = k < 500 ? 1.0 : -1.0;
+    const double l = 4.0 - turn + 1.5 * std::sin(1.3 * t), r = 4.0 + turn + 1.5 * std::cos(0.7 * t);
+    log += std::to_string(t) + "," + std::to_string(l) + "," + std::to_string(r) + "," +
+           std::to_string(v + 0.01 * std::sin(37.0 * t)) + "," + std::to_string(w + 0.01 * std::cos(41.0 * t)) + "\n";
+    const double v_next = v + 0.02 * (-5.0 * v + 0.4 * l + 0.4 * r);
+    w += 0.02 * (-4.0 * w - 0.8 * l + 0.8 * r);
+    v = v_next;
+  }
+  write_file(dir / "concrete.csv", log);
+  const Result fit = run_skidimm("fit --bank " + (dir / "sided.yaml").string() + " --objective window --window 0.5 --log " +
+                                 "crushed_concrete=" + (dir / "concrete.csv").string() + " --plugin-path " + kPlugins);
+  EXPECT_EQ(fit.exit_code, 0) << fit.err;
+  // Each mode gets the steps of its turning direction (several segments each: dv changes sign in both halves).
+  EXPECT_THAT(fit.err, HasSubstr("mode 'concrete_left': 3 log(s), 1054 residuals"));
+  EXPECT_THAT(fit.err, HasSubstr("mode 'concrete_right': 3 log(s), 934 residuals"));
+  EXPECT_THAT(fit.err, HasSubstr("B[1,1] = 0.79"));
+  EXPECT_THAT(fit.out, HasSubstr("- name: concrete_left\n    model: ltc_linear"));
+}
+
 }  // namespace multi_rate
 
 }  // namespace

@@ -184,6 +184,36 @@ TEST(Bank, ModelsReceiveTheBanksNamesAndUnknownTextIsRejected) {
                       {"modes[1].params", "unknown parameter 'note'"}, /*with_plugins=*/true);
 }
 
+TEST(BankConfig, ClassesAndFitWhenAreChecked) {
+  const std::string with_classes = kValidBank + "classes:\n  slippery: [grip, ice]\n";
+  const BankConfig c = load_bank_config(write_file(
+      test_directory() / "bank.yaml",
+      replace(with_classes, "    Q: [[0.02, 0], [0, 0.02]]", "    Q: [[0.02, 0], [0, 0.02]]\n    fit_when: phi_dot_R > phi_dot_L")));
+  EXPECT_EQ(c.modes[1].fit_when, "phi_dot_R > phi_dot_L");
+  EXPECT_EQ(c.class_names(), std::vector<std::string>{"slippery"});
+  EXPECT_EQ(c.class_index("ice"), 0);
+  EXPECT_EQ(c.class_index("slippery"), 0);
+  EXPECT_EQ(c.class_index("mud"), -1);
+  expect_config_error(replace(with_classes, "    Q: [[0.02, 0], [0, 0.02]]", "    Q: [[0.02, 0], [0, 0.02]]\n    fit_when: v > 0"),
+                      {"modes[1].fit_when", "'v' is not an input (inputs: phi_dot_L, phi_dot_R)"});
+  expect_config_error(replace(kValidBank, "    Q: [[0.02, 0], [0, 0.02]]", "    Q: [[0.02, 0], [0, 0.02]]\n    fit_when: phi_dot_L >"),
+                      {"modes[1].fit_when", "cannot parse"});
+  expect_config_error(replace(kValidBank, "    Q: [[0.02, 0], [0, 0.02]]", "    Q: [[0.02, 0], [0, 0.02]]\n    fit_when: phi_dot_L > 0"),
+                      {"modes[1].fit_when", "mode 'ice' is in none"});
+  expect_config_error(kValidBank + "classes:\n  slippery: [grip, snow]\n", {"classes.slippery", "'snow' is not a mode"});
+  expect_config_error(kValidBank + "classes:\n  a: [grip]\n  b: [grip, ice]\n", {"classes.b", "mode 'grip' is in two classes"});
+  expect_config_error(kValidBank + "classes:\n  ice: [grip]\n", {"classes.ice", "also a mode's name"});
+}
+
+TEST(BankConfig, SamplingIsChecked) {
+  const BankConfig c = load_bank_config(
+      write_file(test_directory() / "bank.yaml", kValidBank + "sampling: {join: rows, rate: 12.5}\n"));
+  EXPECT_EQ(c.sampling.join, SamplingConfig::Join::kRows);
+  EXPECT_EQ(c.sampling.rate, 12.5);
+  expect_config_error(kValidBank + "sampling: {join: side_by_side}\n", {"sampling.join", "expected 'time'"});
+  expect_config_error(kValidBank + "sampling: {rate: 0}\n", {"sampling.rate", "must be a rate in Hz"});
+}
+
 TEST(Bank, UnknownPluginListsWhatWasFound) {
   expect_config_error(
       replace(kValidBank, "model: ltc_linear\n    params: {A: [[-2", "model: ltc_lineer\n    params: {A: [[-2"),

@@ -27,6 +27,10 @@ struct ModeConfig {
   std::string model;            // plugin name
   sdk::ParameterSet params;     // the mode's own `params:`
   Eigen::MatrixXd q_intensity;  // continuous-time process noise Q (per second)
+  // Which steps of a log labelled with this mode's class train this mode: an
+  // expression of the bank's inputs, true when non-zero ("dv > 0"). Empty:
+  // every step not claimed by another mode of the class.
+  std::string fit_when;
   int line = 0;                 // where the mode starts in the file
   std::map<std::string, int> param_lines;
 };
