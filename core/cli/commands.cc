@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "skidimm/bank.h"
+#include "skidimm/decision.h"
 #include "skidimm/errors.h"
 #include "skidimm/estimates_writer.h"
 #include "skidimm/imm.h"
@@ -91,6 +92,18 @@ int run(const RunOptions& options) {
     for (const ModeConfig& mode : config.modes) mode_names.push_back(mode.name);
     const int num_modes = config.num_modes();
     const std::vector<int> class_of_mode = config.class_of_modes();
+    DecisionConfig decision_settings = config.decision;
+    if (options.decision_enter >= 0.0) decision_settings.enter = options.decision_enter;
+    if (options.decision_leave >= 0.0) decision_settings.leave = options.decision_leave;
+    if (options.decision_hold >= 0.0) decision_settings.min_hold = options.decision_hold;
+    if (!(decision_settings.enter > 0.0 && decision_settings.enter <= 1.0 && decision_settings.leave >= 0.0 &&
+          decision_settings.leave < decision_settings.enter)) {
+      throw Error("decision thresholds: need 0 <= leave < enter <= 1, got enter " +
+                  CsvWriter::format(decision_settings.enter) + ", leave " + CsvWriter::format(decision_settings.leave));
+    }
+    ModeDecision decision(config, decision_settings);
+    int last_decision = ModeDecision::kUnknown;
+    long decision_changes = 0;
     ModeTimeline timeline;
     long truth_rows = 0, truth_matches = 0, predict_only = 0, rejected = 0;
     ProgressLine progress(options.progress && !options.quiet);
@@ -100,7 +113,10 @@ int run(const RunOptions& options) {
       const ImmEstimate& e = imm.step(sample.t, sample.u, sample.z);
       ++rows;
       const std::string& truth = log.label.empty() ? sample.truth_mode : log.label;
-      writer->write(sample.t, e, truth);
+      const int decided = decision.update(sample.t, e.mode_probabilities);
+      decision_changes += decided != last_decision && rows > 1;
+      last_decision = decided;
+      writer->write(sample.t, e, decision.name(decided), truth);
       if (with_truth && !truth.empty()) {
         ++truth_rows;
         truth_matches += config.class_index(truth) == class_of_mode[static_cast<std::size_t>(e.most_likely_mode)];
@@ -120,6 +136,10 @@ int run(const RunOptions& options) {
       std::cerr << "skidimm run: bank '" << config.name << "' (" << num_modes << " modes), " << rows << " rows -> "
                 << options.output.string() << "\n";
       std::cerr << "dominant mode over time:\n" << timeline.format(mode_names);
+      std::cerr << "  the decision (enter " << CsvWriter::format(decision_settings.enter) << ", leave "
+                << CsvWriter::format(decision_settings.leave) << ", hold " << CsvWriter::format(decision_settings.min_hold)
+                << " s) changed " << decision_changes << " time(s), the most likely mode "
+                << timeline.intervals().size() - 1 << " time(s)\n";
       std::cerr << reader.describe_stats(config);
       if (predict_only > 0) std::cerr << "  " << predict_only << " rows had no measurement (predict only)\n";
       if (rejected > 0) std::cerr << "  " << rejected << " rows had at least one mode's filter rejected\n";

@@ -38,6 +38,10 @@ struct RunOptions {
   std::filesystem::path bank;
   std::vector<std::string> inputs;  // the files of one log: [LABEL=]FILE[@OFFSET][+FILE...], repeatable
   double rate = 0.0;                // Hz; > 0 overrides the bank's sampling.rate
+  // >= 0: override the bank's decision: settings.
+  double decision_enter = -1.0;
+  double decision_leave = -1.0;
+  double decision_hold = -1.0;
   std::filesystem::path output;
   std::vector<std::filesystem::path> plugin_paths;
   bool quiet = false;

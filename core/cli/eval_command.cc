@@ -89,7 +89,8 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank) {
     }
   }
   const evaluation::ClassScorer scorer(bank != nullptr ? *bank : modes_only);
-  std::vector<LabelledStep> steps;
+  const int decision = reader.column("decision");
+  std::vector<LabelledStep> steps, decisions;
   std::vector<std::string> f;
   Eigen::VectorXd mu(static_cast<Eigen::Index>(probability_columns.size()));
   double last_t = -std::numeric_limits<double>::infinity();
@@ -108,16 +109,22 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank) {
       }
     }
     steps.push_back(scorer.score(time, f[static_cast<std::size_t>(truth)], mu));
+    if (decision >= 0) {
+      decisions.push_back(steps.back());
+      decisions.back().estimate = f[static_cast<std::size_t>(decision)];
+    }
   }
   if (steps.empty()) throw LogError(file.string(), 1, "the file has a header but no rows");
   LogResult result;
   result.name = file.filename().string();
   result.metrics = evaluation::compute_mode_metrics(steps, scorer.class_names());
+  if (!decisions.empty()) result.decision_metrics = evaluation::compute_mode_metrics(decisions, scorer.class_names());
   return result;
 }
 
 struct Summary {
   ModeMetrics metrics;
+  ModeMetrics decisions;
   std::map<std::string, NisAccumulator> nis;
   std::vector<double> state_rmse;
   std::vector<double> accuracies;
@@ -129,6 +136,7 @@ Summary summarize(const std::vector<const LogResult*>& logs, std::size_t states)
   std::vector<long> counts(states, 0);
   for (const LogResult* log : logs) {
     s.metrics.merge(log->metrics);
+    s.decisions.merge(log->decision_metrics);
     for (const auto& [mode, acc] : log->nis) s.nis[mode].merge(acc);
     for (std::size_t i = 0; i < log->squared_state_error.size() && i < states; ++i) {
       squared[i] += log->squared_state_error[i];
@@ -269,6 +277,21 @@ void print_table(std::ostream& out, const std::string& title, const Summary& s, 
       }
     }
   }
+  if (s.decisions.duration > 0.0) {
+    const ModeMetrics& d = s.decisions;
+    const LatencyStats dl = latency_stats(d);
+    const LatencyStats df = latency_stats(d, true);
+    out << "  decision (hysteresis, hold, unknown): accuracy " << fmt(d.accuracy()) << ", unknown "
+        << fmt(d.duration > 0 ? d.unknown_seconds / d.duration : 0.0) << " of the time\n";
+    out << "    changes per minute: decision " << fmt(d.estimate_changes_per_minute(), "%.2f") << ", most likely "
+        << fmt(m.estimate_changes_per_minute(), "%.2f") << ", truth " << fmt(m.truth_changes_per_minute(), "%.2f")
+        << "\n";
+    if (dl.switches > 0) {
+      out << "    switches " << dl.switches << ": first decided after median " << fmt(df.median, "%.2f")
+          << " s, never " << (df.switches - df.detected) << "; settled after median " << fmt(dl.median, "%.2f")
+          << " s, max " << fmt(dl.max, "%.2f") << " s, never " << (dl.switches - dl.detected) << "\n";
+    }
+  }
   bool any_rmse = false;
   for (double r : s.state_rmse) any_rmse = any_rmse || std::isfinite(r);
   if (any_rmse) {
@@ -341,6 +364,17 @@ std::string json_summary(const Summary& s, const std::vector<std::string>& state
   for (std::size_t i = 0; i < states.size() && i < s.state_rmse.size(); ++i) {
     o << (i ? ", " : "") << json_string(states[i]) << ": " << json_number(s.state_rmse[i]);
   }
+  const ModeMetrics& d = s.decisions;
+  const LatencyStats dl = latency_stats(d);
+  const LatencyStats df = latency_stats(d, true);
+  o << "}, \"changes_per_minute\": {\"most_likely\": " << json_number(m.estimate_changes_per_minute())
+    << ", \"decision\": " << json_number(d.estimate_changes_per_minute())
+    << ", \"truth\": " << json_number(m.truth_changes_per_minute()) << "}, \"decision\": {\"accuracy\": "
+    << json_number(d.duration > 0 ? d.accuracy() : kNaN) << ", \"unknown_fraction\": "
+    << json_number(d.duration > 0 ? d.unknown_seconds / d.duration : kNaN) << ", \"switches\": " << dl.switches
+    << ", \"first_detected\": " << df.detected << ", \"first_median\": " << json_number(df.median)
+    << ", \"settled\": " << dl.detected << ", \"settled_median\": " << json_number(dl.median)
+    << ", \"settled_max\": " << json_number(dl.max);
   o << "}, \"nis\": {";
   first = true;
   for (const auto& [mode, acc] : s.nis) {

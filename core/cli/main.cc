@@ -48,6 +48,14 @@ int main(int argc, char** argv) {
                   "(merged by time, or row by row with the bank's sampling.join: rows)")
       ->required();
   add_rate(run, &run_options.rate);
+  run->add_option("--decision-enter", run_options.decision_enter,
+                  "Probability at which a mode (class) is decided (overrides the bank's decision.enter)")
+      ->check(CLI::Range(0.0, 1.0));
+  run->add_option("--decision-leave", run_options.decision_leave,
+                  "Probability below which the decided mode is given up for unknown (decision.leave; 0: never)")
+      ->check(CLI::Range(0.0, 1.0));
+  run->add_option("--decision-hold", run_options.decision_hold, "Seconds a decision is kept at least (decision.min_hold)")
+      ->check(CLI::NonNegativeNumber);
   run->add_option("--output,-o", output, "Output CSV (written as <output>.partial, renamed when complete)")->required();
   run->add_flag("--quiet,-q", run_options.quiet, "No summary or progress on stderr");
   std::string run_plot;

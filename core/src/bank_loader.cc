@@ -314,6 +314,21 @@ void parse_sampling(const YamlFields& y, const YAML::Node& root, BankConfig* ban
   }
 }
 
+void parse_decision(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {
+  const YAML::Node node = root["decision"];
+  if (!node) return;
+  y.check_keys(node, {"enter", "leave", "min_hold"}, "decision");
+  DecisionConfig& d = bank->decision;
+  if (node["enter"]) d.enter = y.number(node["enter"], "decision.enter");
+  if (node["leave"]) d.leave = y.number(node["leave"], "decision.leave");
+  if (node["min_hold"]) d.min_hold = y.number(node["min_hold"], "decision.min_hold");
+  if (!(d.enter > 0.0 && d.enter <= 1.0)) y.fail(node, "decision.enter", "must be a probability in (0, 1]");
+  if (!(d.leave >= 0.0 && d.leave < d.enter)) {
+    y.fail(node, "decision.leave", "must be a probability in [0, decision.enter)");
+  }
+  if (!(d.min_hold >= 0.0 && d.min_hold < 1e9)) y.fail(node, "decision.min_hold", "must be seconds >= 0");
+}
+
 void parse_classes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {
   const YAML::Node node = root["classes"];
   if (!node) return;
@@ -350,7 +365,7 @@ BankConfig load_bank_config(const fs::path& file) {
 
   y.check_keys(root,
                {"name", "description", "states", "angles", "inputs", "columns", "sampling", "measurement", "transition",
-                "initial", "mode_probability_floor", "plugin_paths", "shared", "modes", "classes"},
+                "initial", "mode_probability_floor", "plugin_paths", "shared", "modes", "classes", "decision"},
                "");
   BankConfig bank;
   bank.file = fs::absolute(file);
@@ -379,6 +394,7 @@ BankConfig load_bank_config(const fs::path& file) {
   parse_initial(y, root, &bank);
   parse_sampling(y, root, &bank);
   parse_classes(y, root, &bank);
+  parse_decision(y, root, &bank);
   for (std::size_t j = 0; j < bank.modes.size(); ++j) {
     if (bank.modes[j].fit_when.empty()) continue;
     bool shared_class = false;

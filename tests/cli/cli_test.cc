@@ -59,8 +59,19 @@ TEST(Cli, RunIdentifiesTheTerrainsOfTheBundledSwitchingExample) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto rows = read_csv(out);
   EXPECT_EQ(rows[0], (std::vector<std::string>{"t", "mu_asphalt", "mu_grass", "mu_crushed_concrete", "V", "omega",
-                                               "var_V", "var_omega", "mode", "truth_mode", "status"}));
+                                               "var_V", "var_omega", "mode", "decision", "truth_mode", "status"}));
   EXPECT_EQ(rows.size(), read_csv(input).size()) << "one output row per input row";
+  // The decision: unknown until confident, then one change per true switch (the argmax changes 20 times here).
+  long decision_changes = 0, decision_right = 0;
+  const int decision = column(rows[0], "decision"), truth = column(rows[0], "truth_mode");
+  EXPECT_EQ(rows[1][static_cast<std::size_t>(decision)], "unknown");
+  for (std::size_t i = 2; i < rows.size(); ++i) {
+    decision_changes += rows[i][static_cast<std::size_t>(decision)] != rows[i - 1][static_cast<std::size_t>(decision)];
+    decision_right += rows[i][static_cast<std::size_t>(decision)] == rows[i][static_cast<std::size_t>(truth)];
+  }
+  EXPECT_EQ(decision_changes, 3) << "unknown -> crushed concrete -> grass -> asphalt";
+  EXPECT_GT(static_cast<double>(decision_right) / static_cast<double>(rows.size() - 2), 0.95);
+  EXPECT_THAT(r.err, HasSubstr("the decision (enter 0.9, leave 0.05, hold 1 s) changed 3 time(s), the most likely mode 20"));
   long correct = 0;
   for (std::size_t i = 1; i < rows.size(); ++i) {
     const double sum = std::stod(rows[i][1]) + std::stod(rows[i][2]) + std::stod(rows[i][3]);
@@ -243,7 +254,7 @@ TEST(Cli, FitReportsBadLogsAndUnknownModes) {
   EXPECT_THAT(missing.err, HasSubstr("no column 'omega' (the bank's columns.measurements.omega)"));
   const Result unknown = run_skidimm("fit --bank " + bank + " --log mud=" + log.string());
   EXPECT_EQ(unknown.exit_code, 1);
-  EXPECT_THAT(unknown.err, HasSubstr("the bank has no mode 'mud'"));
+  EXPECT_THAT(unknown.err, HasSubstr("the bank has no mode or class 'mud'"));
   // Without MODE= or --mode, the bank's truth column says which mode: here it is absent.
   const fs::path complete = write_file(dir / "complete.csv", "t,phi_dot_L,phi_dot_R,V,omega\n0,1,1,0,0\n");
   const Result unlabelled = run_skidimm("fit --bank " + bank + " --log " + complete.string());

@@ -8,6 +8,7 @@
 
 #include "core/malloc_counter.h"
 #include "core/test_banks.h"
+#include "skidimm/decision.h"
 #include "skidimm/imm.h"
 #include "stc_kinematic/stc_kinematic_model.h"
 
@@ -16,7 +17,7 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-TEST(ImmAllocation, StepAllocatesNothingWithIrregularTimeMissingRowsAndAngles) {
+TEST(ImmAllocation, StepAndDecisionAllocateNothingWithIrregularTimeMissingRowsAndAngles) {
   // 16 STC modes (EKF with an angle), dwell-time transitions with unequal
   // rates (the uniformisation path), irregular dt, partial measurements.
   skidimm_test::BankBuilder b;
@@ -37,7 +38,9 @@ TEST(ImmAllocation, StepAllocatesNothingWithIrregularTimeMissingRowsAndAngles) {
   Bank bank = b.build();
   bank.config.transition.kind = TransitionConfig::Kind::kDwellTimes;
   bank.config.transition.dwell_seconds = Eigen::VectorXd::LinSpaced(16, 5.0, 20.0);
+  bank.config.classes.push_back(ClassConfig{"first_eight", {0, 1, 2, 3, 4, 5, 6, 7}});
   Imm imm(std::move(bank));
+  ModeDecision decision(imm.config());
 
   const Eigen::Vector2d u(3.0, 4.0);
   Eigen::Vector3d z(0.0, 0.0, 0.0);
@@ -48,7 +51,7 @@ TEST(ImmAllocation, StepAllocatesNothingWithIrregularTimeMissingRowsAndAngles) {
       z = Eigen::Vector3d(0.5 * t, 0.1 * t, std::remainder(3.0 + 0.3 * t, 2.0 * M_PI));
       if (k % 5 != 0) z[0] = z[1] = kNaN;    // GPS at a fifth of the rate
       if (k % 11 == 0) z.setConstant(kNaN);  // nothing measured at all
-      imm.step(t, u, z);
+      decision.update(t, imm.step(t, u, z).mode_probabilities);
     }
   };
   {
@@ -61,7 +64,7 @@ TEST(ImmAllocation, StepAllocatesNothingWithIrregularTimeMissingRowsAndAngles) {
   run(10);  // warm-up
   const long before = skidimm_test::g_malloc_calls.load();
   run(1000);
-  EXPECT_EQ(skidimm_test::g_malloc_calls.load() - before, 0) << "heap allocations during 1000 steps";
+  EXPECT_EQ(skidimm_test::g_malloc_calls.load() - before, 0) << "heap allocations during 1000 steps and decisions";
   EXPECT_TRUE(imm.estimate().state.allFinite());
 }
 

@@ -95,6 +95,25 @@ TEST(Consistency, VerdictFollowsTheBounds) {
   EXPECT_NEAR(consistent.upper_bound(), 1.0 + 1.96 * std::sqrt(2.0 / 2000.0), 0.005);
 }
 
+TEST(ModeMetrics, CountsChangesUnknownTimeAndLogProbability) {
+  // Truth a (0-2 s), b (2-4 s); the estimate starts unknown, decides a, flickers, and follows b.
+  const std::vector<LabelledStep> steps{
+      {0.0, "a", "unknown", 0.4}, {1.0, "a", "a", 0.9}, {2.0, "b", "a", 0.5},
+      {3.0, "b", "unknown", 0.5}, {4.0, "b", "b", 0.99}};
+  const ModeMetrics m = compute_mode_metrics(steps, {"a", "b"});
+  EXPECT_EQ(m.estimate_changes, 2) << "a -> unknown -> b; the first decision out of unknown is not a change";
+  EXPECT_EQ(m.truth_changes, 1);
+  EXPECT_DOUBLE_EQ(m.unknown_seconds, 2.0);
+  EXPECT_DOUBLE_EQ(m.duration, 5.0);
+  EXPECT_NEAR(m.estimate_changes_per_minute(), 24.0, 1e-12);
+  EXPECT_NEAR(m.mean_truth_log_probability(),
+              (std::log(0.4) + std::log(0.9) + std::log(0.5) + std::log(0.5) + std::log(0.99)) / 5.0, 1e-12);
+  // A probability of 0 is floored, not -infinity.
+  const ModeMetrics z = compute_mode_metrics({{0.0, "a", "b", 0.0}, {1.0, "a", "b", 0.0}}, {"a", "b"});
+  EXPECT_NEAR(z.mean_truth_log_probability(), std::log(kMinScoredProbability), 1e-12);
+  EXPECT_EQ(main_truth(m), "b");
+}
+
 }  // namespace
 }  // namespace evaluation
 }  // namespace skidimm

@@ -70,6 +70,14 @@ struct SamplingConfig {
   double rate = 0.0;  // Hz of the filter's steps on a fixed grid; 0: a step at every time stamp
 };
 
+// How a decision a controller can act on is made from the probabilities
+// (decision.h, `decision:` in the bank).
+struct DecisionConfig {
+  double enter = 0.9;     // a mode (class) is taken when its probability reaches this
+  double leave = 0.05;    // ... and given up for unknown when it falls below this (0: never)
+  double min_hold = 1.0;  // s a decision is kept at least
+};
+
 // Modes scored as one class by eval and tune (`classes:`), e.g. the left- and
 // right-turn modes of one wheel configuration.
 struct ClassConfig {
@@ -86,6 +94,7 @@ struct BankConfig {
   std::vector<std::string> input_names;
   ColumnConfig columns;
   SamplingConfig sampling;
+  DecisionConfig decision;
   MeasurementConfig measurement;
   TransitionConfig transition;
   Eigen::VectorXd initial_state;

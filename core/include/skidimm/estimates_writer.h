@@ -3,7 +3,8 @@
 //
 // Columns: t, mu_<mode> for every mode in bank order, the combined state (one
 // column per state), var_<state> (the diagonal of the combined covariance),
-// mode (the most likely), truth_mode (when there is a truth), status. Numbers
+// mode (the most likely), decision (decision.h: a class, or "unknown"),
+// truth_mode (when there is a truth), status. Numbers
 // are the shortest text that reads back to the same double. The file is
 // written as <path>.partial and renamed by commit() (log_io.h, CsvWriter).
 #ifndef SKIDIMM_ESTIMATES_WRITER_H_
@@ -24,7 +25,7 @@ class EstimatesWriter {
   EstimatesWriter(const std::filesystem::path& path, const BankConfig& config, bool with_truth);
 
   // One row; `truth` is written only when the writer has a truth column.
-  void write(double t, const ImmEstimate& estimate, const std::string& truth);
+  void write(double t, const ImmEstimate& estimate, const std::string& decision, const std::string& truth);
   void commit() { writer_.commit(); }
   const std::filesystem::path& partial_path() const { return writer_.partial_path(); }
 

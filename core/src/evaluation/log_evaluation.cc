@@ -3,6 +3,7 @@
 #include <cmath>
 #include <optional>
 
+#include "skidimm/decision.h"
 #include "skidimm/errors.h"
 #include "skidimm/estimates_writer.h"
 #include "skidimm/imm.h"
@@ -60,13 +61,17 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
   result.state_error_count.assign(config.state_names.size(), 0);
   std::optional<EstimatesWriter> writer;
   if (!estimates.empty()) writer.emplace(estimates, config, /*with_truth=*/true);
-  std::vector<LabelledStep> steps;
+  std::vector<LabelledStep> steps, decisions;
+  ModeDecision decision(config);
   LogSample sample;
   while (reader.next(&sample)) {
     const ImmEstimate& e = imm.step(sample.t, sample.u, sample.z);
     const std::string& label = log.label.empty() ? sample.truth_mode : log.label;
-    if (writer) writer->write(sample.t, e, label);
+    const std::string& decided = decision.name(decision.update(sample.t, e.mode_probabilities));
+    if (writer) writer->write(sample.t, e, decided, label);
     steps.push_back(scorer.score(sample.t, label, e.mode_probabilities));
+    decisions.push_back(steps.back());
+    decisions.back().estimate = decided;
     const int truth_mode = config.mode_index(label);
     if (truth_mode >= 0 && e.status == StepStatus::kUpdated && std::isfinite(e.nis[truth_mode])) {
       result.nis[label].add(e.nis[truth_mode], e.num_measured);
@@ -81,6 +86,7 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
     ++result.steps;
   }
   result.metrics = compute_mode_metrics(steps, scorer.class_names());
+  result.decision_metrics = compute_mode_metrics(decisions, scorer.class_names());
   if (writer) writer->commit();
   return result;
 }

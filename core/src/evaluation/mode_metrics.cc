@@ -17,6 +17,9 @@ void ModeMetrics::merge(const ModeMetrics& other) {
   }
   switches.insert(switches.end(), other.switches.begin(), other.switches.end());
   for (const auto& [mode, seconds] : other.truth_absent) truth_absent[mode] += seconds;
+  estimate_changes += other.estimate_changes;
+  truth_changes += other.truth_changes;
+  unknown_seconds += other.unknown_seconds;
 }
 
 std::string main_truth(const ModeMetrics& m) {
@@ -46,6 +49,8 @@ ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps,
     if (n == 1) return 0.0;
     return k + 1 < n ? steps[k + 1].t - steps[k].t : steps[k].t - steps[k - 1].t;
   };
+  // While the log's leading run of "unknown" lasts, no decision has been taken yet.
+  bool undecided = steps[0].estimate == "unknown";
   for (std::size_t k = 0; k < n; ++k) {
     const double w = weight(k);
     const LabelledStep& s = steps[k];
@@ -55,6 +60,13 @@ ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps,
     m.truth_probability += w * s.truth_probability;
     m.truth_log_probability += w * std::log(std::max(s.truth_probability, kMinScoredProbability));
     if (std::find(bank_modes.begin(), bank_modes.end(), s.truth) == bank_modes.end()) m.truth_absent[s.truth] += w;
+    if (s.estimate == "unknown") m.unknown_seconds += w;
+    if (k > 0) {
+      const bool changed = steps[k].estimate != steps[k - 1].estimate;
+      m.estimate_changes += changed && !undecided;
+      undecided = undecided && steps[k].estimate == "unknown";
+      m.truth_changes += steps[k].truth != steps[k - 1].truth;
+    }
   }
   // Switches: the truth changes between rows k-1 and k.
   for (std::size_t k = 1; k < n; ++k) {

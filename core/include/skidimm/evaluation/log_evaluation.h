@@ -44,7 +44,8 @@ class ClassScorer {
 // One log's results.
 struct LogResult {
   std::string name;
-  ModeMetrics metrics;
+  ModeMetrics metrics;           // of the most likely mode (class)
+  ModeMetrics decision_metrics;  // of the decision (decision.h), "unknown" counted wrong
   std::map<std::string, NisAccumulator> nis;  // per true mode, while it is the truth
   std::vector<double> squared_state_error;    // per state, against true_<state> columns
   std::vector<long> state_error_count;

@@ -48,8 +48,14 @@ struct ModeMetrics {
   std::vector<SwitchDetection> switches;
   // True modes that are not in the bank, with their duration (s).
   std::map<std::string, double> truth_absent;
+  long estimate_changes = 0;    // times the estimate changed between labelled steps (a log's first
+                                // decision, out of a leading "unknown", is not a change)
+  long truth_changes = 0;       // ... and the truth
+  double unknown_seconds = 0.0; // time the estimate was "unknown" (a decision not yet, or no longer, taken)
 
   double accuracy() const { return duration > 0.0 ? correct / duration : 0.0; }
+  double estimate_changes_per_minute() const { return duration > 0.0 ? 60.0 * estimate_changes / duration : 0.0; }
+  double truth_changes_per_minute() const { return duration > 0.0 ? 60.0 * truth_changes / duration : 0.0; }
   double mean_truth_probability() const { return duration > 0.0 ? truth_probability / duration : 0.0; }
   // The time average of log p(truth): what `skidimm tune` maximises. It
   // rewards confidence in the right answer and punishes confidence in a wrong

@@ -1,0 +1,49 @@
+#include "skidimm/decision.h"
+
+#include "skidimm/check.h"
+
+namespace skidimm {
+
+namespace {
+const std::string kUnknownName = "unknown";
+}
+
+ModeDecision::ModeDecision(const BankConfig& config) : ModeDecision(config, config.decision) {}
+
+ModeDecision::ModeDecision(const BankConfig& config, const DecisionConfig& settings)
+    : settings_(settings), names_(config.class_names()), class_of_mode_(config.class_of_modes()) {
+  SKIDIMM_CHECK(settings.enter > 0.0 && settings.enter <= 1.0 && settings.leave >= 0.0 &&
+                    settings.leave < settings.enter && settings.min_hold >= 0.0,
+                "decision settings out of range (the bank loader checks them)");
+  class_probabilities_.resize(static_cast<Eigen::Index>(names_.size()));
+}
+
+const std::string& ModeDecision::name(int decision) const {
+  return decision == kUnknown ? kUnknownName : names_[static_cast<std::size_t>(decision)];
+}
+
+void ModeDecision::reset() {
+  decision_ = kUnknown;
+  decided_at_ = 0.0;
+}
+
+int ModeDecision::update(double t, const Eigen::Ref<const Eigen::VectorXd>& mode_probabilities) {
+  class_probabilities_.setZero();
+  for (Eigen::Index j = 0; j < mode_probabilities.size(); ++j) {
+    class_probabilities_[class_of_mode_[static_cast<std::size_t>(j)]] += mode_probabilities[j];
+  }
+  Eigen::Index best = 0;
+  const double best_probability = class_probabilities_.maxCoeff(&best);
+  const bool held = decision_ == kUnknown || t - decided_at_ >= settings_.min_hold;
+  if (!held) return decision_;
+  if (best != decision_ && best_probability >= settings_.enter) {
+    decision_ = static_cast<int>(best);
+    decided_at_ = t;
+  } else if (decision_ != kUnknown && class_probabilities_[decision_] < settings_.leave) {
+    decision_ = kUnknown;
+    decided_at_ = t;
+  }
+  return decision_;
+}
+
+}  // namespace skidimm

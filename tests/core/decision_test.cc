@@ -1,0 +1,69 @@
+#include "skidimm/decision.h"
+
+#include <gtest/gtest.h>
+
+namespace skidimm {
+namespace {
+
+BankConfig three_modes() {
+  BankConfig c;
+  for (const char* name : {"asphalt", "grass", "ice"}) {
+    ModeConfig m;
+    m.name = name;
+    c.modes.push_back(m);
+  }
+  return c;
+}
+
+DecisionConfig settings(double enter, double leave, double hold) {
+  DecisionConfig d;
+  d.enter = enter;
+  d.leave = leave;
+  d.min_hold = hold;
+  return d;
+}
+
+TEST(ModeDecision, UnknownUntilAModeIsConfidentThenHysteresis) {
+  ModeDecision d(three_modes(), settings(0.9, 0.0, 0.0));
+  EXPECT_EQ(d.update(0.0, Eigen::Vector3d(0.5, 0.3, 0.2)), ModeDecision::kUnknown);
+  EXPECT_EQ(d.name(d.decision()), "unknown");
+  EXPECT_EQ(d.update(0.1, Eigen::Vector3d(0.91, 0.05, 0.04)), 0);
+  EXPECT_DOUBLE_EQ(d.probability(), 0.91);
+  // Asphalt is no longer the most likely, but grass has not reached 0.9: kept.
+  EXPECT_EQ(d.update(0.2, Eigen::Vector3d(0.3, 0.6, 0.1)), 0);
+  EXPECT_EQ(d.update(0.3, Eigen::Vector3d(0.05, 0.89, 0.06)), 0);
+  EXPECT_EQ(d.update(0.4, Eigen::Vector3d(0.05, 0.9, 0.05)), 1);
+  EXPECT_EQ(d.name(1), "grass");
+  d.reset();
+  EXPECT_EQ(d.decision(), ModeDecision::kUnknown);
+}
+
+TEST(ModeDecision, AMinimumHoldIgnoresASpike) {
+  ModeDecision d(three_modes(), settings(0.9, 0.0, 1.0));
+  EXPECT_EQ(d.update(0.0, Eigen::Vector3d(0.95, 0.03, 0.02)), 0);
+  EXPECT_EQ(d.update(0.5, Eigen::Vector3d(0.02, 0.96, 0.02)), 0) << "held for 1 s";
+  EXPECT_EQ(d.update(0.9, Eigen::Vector3d(0.97, 0.02, 0.01)), 0);
+  EXPECT_EQ(d.update(1.2, Eigen::Vector3d(0.02, 0.96, 0.02)), 1) << "after the hold, grass takes over";
+}
+
+TEST(ModeDecision, LeavingBelowTheThresholdGivesUnknownAfterTheHold) {
+  ModeDecision d(three_modes(), settings(0.9, 0.2, 0.5));
+  EXPECT_EQ(d.update(0.0, Eigen::Vector3d(0.95, 0.03, 0.02)), 0);
+  EXPECT_EQ(d.update(0.1, Eigen::Vector3d(0.1, 0.5, 0.4)), 0) << "still held";
+  EXPECT_EQ(d.update(0.6, Eigen::Vector3d(0.1, 0.5, 0.4)), ModeDecision::kUnknown);
+  EXPECT_EQ(d.update(0.7, Eigen::Vector3d(0.1, 0.85, 0.05)), ModeDecision::kUnknown);
+  EXPECT_EQ(d.update(0.8, Eigen::Vector3d(0.04, 0.93, 0.03)), 1);
+}
+
+TEST(ModeDecision, DecidesOverClassesWhenTheBankHasThem) {
+  BankConfig c = three_modes();
+  c.classes.push_back(ClassConfig{"grip", {0, 1}});
+  ModeDecision d(c, settings(0.9, 0.0, 0.0));
+  ASSERT_EQ(d.names(), (std::vector<std::string>{"grip", "ice"}));
+  // Neither asphalt nor grass alone is confident; together they are.
+  EXPECT_EQ(d.update(0.0, Eigen::Vector3d(0.5, 0.45, 0.05)), 0);
+  EXPECT_EQ(d.name(0), "grip");
+}
+
+}  // namespace
+}  // namespace skidimm
