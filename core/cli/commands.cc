@@ -15,6 +15,7 @@
 #include "skidimm/estimates_writer.h"
 #include "skidimm/imm.h"
 #include "skidimm/log_io.h"
+#include "skidimm/log_run.h"
 #include "skidimm/mode_timeline.h"
 #include "skidimm/plugin_registry.h"
 
@@ -78,8 +79,8 @@ int run(const RunOptions& options) {
   std::optional<EstimatesWriter> writer;
   long rows = 0;
   const int code = report_errors("skidimm run", [&] {
-    Imm imm = Imm::from_yaml(options.bank, options.plugin_paths);
-    const BankConfig& config = imm.config();
+    const Bank bank = Bank::load(options.bank, options.plugin_paths);
+    const BankConfig& config = bank.config;
     const LogSpec log = join_inputs(options.inputs);
     if (!log.label.empty() && config.class_index(log.label) < 0) {
       throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'");
@@ -108,9 +109,14 @@ int run(const RunOptions& options) {
     long truth_rows = 0, truth_matches = 0, predict_only = 0, rejected = 0;
     ProgressLine progress(options.progress && !options.quiet);
 
-    LogSample sample;
-    while (reader.next(&sample)) {
-      const ImmEstimate& e = imm.step(sample.t, sample.u, sample.z);
+    EstimatorOptions estimator;
+    if (options.smooth) estimator.kind = EstimatorOptions::Kind::kFixedInterval;
+    if (options.lag >= 0.0) {
+      if (options.smooth) throw Error("give --smooth or --lag, not both");
+      estimator.kind = EstimatorOptions::Kind::kFixedLag;
+      estimator.lag = options.lag;
+    }
+    run_log(bank, &reader, estimator, [&](const LogSample& sample, const ImmEstimate& e) {
       ++rows;
       const std::string& truth = log.label.empty() ? sample.truth_mode : log.label;
       const int decided = decision.update(sample.t, e.mode_probabilities);
@@ -125,7 +131,7 @@ int run(const RunOptions& options) {
       rejected += e.num_rejected_modes > 0;
       timeline.add(sample.t, e.most_likely_mode, e.mode_probabilities[e.most_likely_mode]);
       progress.update(reader.progress(), rows);
-    }
+    });
     progress.clear();
     if (rows == 0) {
       throw LogError(log.text, 0, "the log gives no step: no data rows, or no row where every input has a value");
@@ -134,7 +140,11 @@ int run(const RunOptions& options) {
 
     if (!options.quiet) {
       std::cerr << "skidimm run: bank '" << config.name << "' (" << num_modes << " modes), " << rows << " rows -> "
-                << options.output.string() << "\n";
+                << options.output.string()
+                << (options.smooth ? " (smoothed over the whole log)"
+                    : options.lag >= 0.0 ? " (smoothed with a lag of " + CsvWriter::format(options.lag) + " s)"
+                                         : "")
+                << "\n";
       std::cerr << "dominant mode over time:\n" << timeline.format(mode_names);
       std::cerr << "  the decision (enter " << CsvWriter::format(decision_settings.enter) << ", leave "
                 << CsvWriter::format(decision_settings.leave) << ", hold " << CsvWriter::format(decision_settings.min_hold)

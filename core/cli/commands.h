@@ -42,6 +42,8 @@ struct RunOptions {
   double decision_enter = -1.0;
   double decision_leave = -1.0;
   double decision_hold = -1.0;
+  bool smooth = false;  // fixed-interval smoothing over the whole log
+  double lag = -1.0;    // >= 0: fixed-lag smoothing with this lag (s)
   std::filesystem::path output;
   std::vector<std::filesystem::path> plugin_paths;
   bool quiet = false;
@@ -118,6 +120,8 @@ struct EvalOptions {
   std::vector<std::string> estimates;  // `skidimm run` outputs (files or directories) instead of running
   std::vector<std::filesystem::path> plugin_paths;
   double rate = 0.0;  // Hz; > 0 overrides the bank's sampling.rate
+  bool smooth = false;
+  double lag = -1.0;
   bool json = false;
 };
 int eval(const EvalOptions& options);

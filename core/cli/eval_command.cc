@@ -420,10 +420,17 @@ int eval(const EvalOptions& options) {
       modes = bank.config.class_names();
       states = bank.config.state_names;
       const SamplingConfig sampling = sampling_of(bank.config, options.rate);
+      EstimatorOptions estimator;
+      if (options.smooth) estimator.kind = EstimatorOptions::Kind::kFixedInterval;
+      if (options.lag >= 0.0) {
+        if (options.smooth) throw Error("give --smooth or --lag, not both");
+        estimator.kind = EstimatorOptions::Kind::kFixedLag;
+        estimator.lag = options.lag;
+      }
       for (const std::string& argument : options.inputs) {
         Group g{group_name(argument), {}};
         for (const LogSpec& log : expand_log_argument(argument)) {
-          g.logs.push_back(evaluation::evaluate_log(bank, log, sampling));
+          g.logs.push_back(evaluation::evaluate_log(bank, log, sampling, {}, estimator));
         }
         groups.push_back(std::move(g));
       }

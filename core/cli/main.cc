@@ -48,6 +48,11 @@ int main(int argc, char** argv) {
                   "(merged by time, or row by row with the bank's sampling.join: rows)")
       ->required();
   add_rate(run, &run_options.rate);
+  run->add_flag("--smooth", run_options.smooth,
+                "Write probabilities and states smoothed over the whole log (offline labelling; docs/engine.md)");
+  run->add_option("--lag", run_options.lag,
+                  "Write each step smoothed with this many seconds of later data (online, delayed)")
+      ->check(CLI::NonNegativeNumber);
   run->add_option("--decision-enter", run_options.decision_enter,
                   "Probability at which a mode (class) is decided (overrides the bank's decision.enter)")
       ->check(CLI::Range(0.0, 1.0));
@@ -167,6 +172,9 @@ int main(int argc, char** argv) {
                    "[MODE=]FILE[@OFFSET][+FILE...], a directory or a '*' pattern of logs; each argument is one group "
                    "(e.g. a scenario or a terrain)");
   add_rate(eval, &eval_options.rate);
+  eval->add_flag("--smooth", eval_options.smooth, "Score the probabilities smoothed over each whole log");
+  eval->add_option("--lag", eval_options.lag, "Score the probabilities smoothed with this lag (s)")
+      ->check(CLI::NonNegativeNumber);
   eval->add_option("--estimates,-e", eval_options.estimates,
                    "Evaluate `skidimm run` outputs (files or directories) instead of running a bank");
   eval->add_flag("--json", eval_options.json, "Print JSON instead of tables");

@@ -6,6 +6,7 @@
 
 #include "skidimm/check.h"
 #include "skidimm/covariance.h"
+#include "skidimm/gaussian_mixture.h"
 #include "skidimm/sdk/angles.h"
 
 namespace skidimm {
@@ -14,18 +15,6 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kMinusInfinity = -std::numeric_limits<double>::infinity();
-
-ModeTransition make_transition(const BankConfig& config) {
-  switch (config.transition.kind) {
-    case TransitionConfig::Kind::kMatrix:
-      return ModeTransition::per_step(config.transition.matrix);
-    case TransitionConfig::Kind::kStay:
-      return ModeTransition::per_step_stay(config.num_modes(), config.transition.stay);
-    case TransitionConfig::Kind::kDwellTimes:
-      return ModeTransition::from_dwell_times(config.transition.dwell_seconds);
-  }
-  return ModeTransition::per_step_stay(config.num_modes(), config.transition.stay);
-}
 
 }  // namespace
 
@@ -51,7 +40,7 @@ Imm Imm::from_yaml(const std::filesystem::path& bank_file, const std::vector<std
 
 Imm::Imm(Bank bank)
     : bank_(std::move(bank)),
-      transition_(make_transition(bank_.config)),
+      transition_(ModeTransition::from_config(bank_.config.transition, bank_.config.num_modes())),
       measurement_model_(bank_.config.measurement.h, bank_.config.measurement.r, bank_.config.measurement.is_angle),
       angle_mask_(bank_.config.angle_mask) {
   const BankConfig& config = bank_.config;
@@ -169,30 +158,6 @@ const ImmEstimate& Imm::step(double t, const Eigen::Ref<const Eigen::VectorXd>& 
   return estimate_;
 }
 
-void Imm::moment_match(const Eigen::Ref<const Eigen::VectorXd>& weights, const Eigen::MatrixXd& means,
-                       Eigen::Ref<Eigen::VectorXd> mean, Eigen::MatrixXd& deviations) const {
-  const Eigen::Index n = means.rows();
-  Eigen::Index heaviest = 0;
-  weights.maxCoeff(&heaviest);
-  for (Eigen::Index d = 0; d < n; ++d) {
-    if (angle_mask_[d]) {
-      // Average the wrapped offsets from the heaviest component's angle.
-      const double reference = means(d, heaviest);
-      double offset = 0.0;
-      for (Eigen::Index i = 0; i < weights.size(); ++i) {
-        offset += weights[i] * sdk::wrap_angle(means(d, i) - reference);
-      }
-      mean[d] = sdk::wrap_angle(reference + offset);
-      for (Eigen::Index i = 0; i < weights.size(); ++i) {
-        deviations(d, i) = sdk::wrap_angle(means(d, i) - mean[d]);
-      }
-    } else {
-      mean[d] = means.row(d).dot(weights);
-      deviations.row(d) = means.row(d).array() - mean[d];
-    }
-  }
-}
-
 void Imm::mix(const Eigen::MatrixXd& transition) {
   const int num_modes = this->num_modes();
   const Eigen::VectorXd& mu = estimate_.mode_probabilities;
@@ -204,7 +169,7 @@ void Imm::mix(const Eigen::MatrixXd& transition) {
     } else {
       mixing_.col(j) = mu;  // nothing flows into j: mixing degenerates to the prior weights
     }
-    moment_match(mixing_.col(j), means_, mixed_mean_, deviations_);
+    weighted_mean(angle_mask_, mixing_.col(j), means_, mixed_mean_, deviations_);
     mixed_covariance_.setZero();
     for (int i = 0; i < num_modes; ++i) {
       const double w = mixing_(i, j);
@@ -247,7 +212,7 @@ void Imm::combine() {
     means_.col(j) = filters_[j].state();
   }
   const Eigen::VectorXd& mu = estimate_.mode_probabilities;
-  moment_match(mu, means_, estimate_.state, deviations_);
+  weighted_mean(angle_mask_, mu, means_, estimate_.state, deviations_);
   estimate_.covariance.setZero();
   for (int j = 0; j < num_modes; ++j) {
     estimate_.covariance.noalias() += mu[j] * estimate_.mode_covariances[j];

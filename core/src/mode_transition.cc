@@ -6,6 +6,18 @@
 
 namespace skidimm {
 
+ModeTransition ModeTransition::from_config(const TransitionConfig& config, int num_modes) {
+  switch (config.kind) {
+    case TransitionConfig::Kind::kMatrix:
+      return per_step(config.matrix);
+    case TransitionConfig::Kind::kStay:
+      return per_step_stay(num_modes, config.stay);
+    case TransitionConfig::Kind::kDwellTimes:
+      return from_dwell_times(config.dwell_seconds);
+  }
+  return per_step_stay(num_modes, config.stay);
+}
+
 ModeTransition ModeTransition::per_step(const Eigen::MatrixXd& matrix) {
   SKIDIMM_CHECK(matrix.rows() == matrix.cols() && matrix.rows() > 0, "transition matrix must be square");
   ModeTransition t;

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "skidimm/mode_transition.h"
 #include "skidimm/plugin_registry.h"
 #include "skidimm/sdk/parameters.h"
 
@@ -35,13 +36,6 @@ struct ModeConfig {
   std::map<std::string, int> param_lines;
 };
 
-struct TransitionConfig {
-  enum class Kind { kMatrix, kStay, kDwellTimes };
-  Kind kind = Kind::kStay;
-  Eigen::MatrixXd matrix;         // kMatrix: per-step p_ij, row = from
-  double stay = 0.95;             // kStay: per-step probability of staying
-  Eigen::VectorXd dwell_seconds;  // kDwellTimes: mean time in each mode
-};
 
 struct MeasurementConfig {
   std::vector<std::string> names;  // one per row of H

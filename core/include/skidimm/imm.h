@@ -67,10 +67,6 @@ class Imm {
   void mix(const Eigen::MatrixXd& transition);
   void update_mode_probabilities(bool have_likelihoods);
   void combine();
-  // Weighted mean of `means` (one per column) with angle components averaged
-  // on the circle; spreads (x_i - mean, wrapped) go to `deviations`.
-  void moment_match(const Eigen::Ref<const Eigen::VectorXd>& weights, const Eigen::MatrixXd& means,
-                    Eigen::Ref<Eigen::VectorXd> mean, Eigen::MatrixXd& deviations) const;
 
   Bank bank_;
   ModeTransition transition_;

@@ -21,8 +21,19 @@
 
 namespace skidimm {
 
+// The `transition:` of a bank (docs/bank-format.md).
+struct TransitionConfig {
+  enum class Kind { kMatrix, kStay, kDwellTimes };
+  Kind kind = Kind::kStay;
+  Eigen::MatrixXd matrix;         // kMatrix: per-step p_ij, row = from
+  double stay = 0.95;             // kStay: per-step probability of staying
+  Eigen::VectorXd dwell_seconds;  // kDwellTimes: mean time in each mode
+};
+
 class ModeTransition {
  public:
+  // The chain a bank's `transition:` describes, for `num_modes` modes.
+  static ModeTransition from_config(const TransitionConfig& config, int num_modes);
   // A per-step matrix. Checked by the bank loader; here only asserted square.
   static ModeTransition per_step(const Eigen::MatrixXd& matrix);
   // Equal stay probability on the diagonal, the rest spread evenly.

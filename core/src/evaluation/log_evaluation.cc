@@ -38,7 +38,7 @@ LabelledStep ClassScorer::score(double t, const std::string& label, const Eigen:
 }
 
 LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfig& sampling,
-                       const std::filesystem::path& estimates) {
+                       const std::filesystem::path& estimates, const EstimatorOptions& estimator) {
   const BankConfig& config = bank.config;
   if (log.label.empty() && config.columns.truth_mode.empty()) {
     throw Error(config.file.string() + ": the bank names no columns.truth_mode, so there is nothing to evaluate " +
@@ -47,7 +47,6 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
   if (!log.label.empty() && config.class_index(log.label) < 0) {
     throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'");
   }
-  Imm imm(bank);
   LogReader reader(config, log.files, sampling);
   if (log.label.empty() && !reader.has_truth()) {
     throw Error(log.text + ": nothing to score against: label the log (MODE=" + log.text +
@@ -63,9 +62,7 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
   if (!estimates.empty()) writer.emplace(estimates, config, /*with_truth=*/true);
   std::vector<LabelledStep> steps, decisions;
   ModeDecision decision(config);
-  LogSample sample;
-  while (reader.next(&sample)) {
-    const ImmEstimate& e = imm.step(sample.t, sample.u, sample.z);
+  run_log(bank, &reader, estimator, [&](const LogSample& sample, const ImmEstimate& e) {
     const std::string& label = log.label.empty() ? sample.truth_mode : log.label;
     const std::string& decided = decision.name(decision.update(sample.t, e.mode_probabilities));
     if (writer) writer->write(sample.t, e, decided, label);
@@ -84,7 +81,7 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
       ++result.state_error_count[static_cast<std::size_t>(s)];
     }
     ++result.steps;
-  }
+  });
   result.metrics = compute_mode_metrics(steps, scorer.class_names());
   result.decision_metrics = compute_mode_metrics(decisions, scorer.class_names());
   if (writer) writer->commit();

@@ -19,6 +19,7 @@
 #include "skidimm/evaluation/consistency.h"
 #include "skidimm/evaluation/mode_metrics.h"
 #include "skidimm/log_reader.h"
+#include "skidimm/log_run.h"
 
 namespace skidimm {
 namespace evaluation {
@@ -56,8 +57,9 @@ struct LogResult {
 // writes the steps there as `skidimm run` does (estimates_writer.h). Throws
 // Error when the log has neither a label nor the bank's truth column, and
 // LogError on bad rows.
+// `estimator`: score the filter's probabilities (default) or the smoother's.
 LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfig& sampling,
-                       const std::filesystem::path& estimates = {});
+                       const std::filesystem::path& estimates = {}, const EstimatorOptions& estimator = {});
 
 }  // namespace evaluation
 }  // namespace skidimm

@@ -1,0 +1,181 @@
+#include "skidimm/imm_smoother.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+
+#include "skidimm/covariance.h"
+#include "skidimm/gaussian_mixture.h"
+#include "skidimm/sdk/angles.h"
+
+namespace skidimm {
+
+ForwardStep record_step(double t, const Eigen::Ref<const Eigen::VectorXd>& u, const ImmEstimate& e) {
+  ForwardStep step;
+  step.t = t;
+  step.u = u;
+  step.mode_probabilities = e.mode_probabilities;
+  step.mode_states = e.mode_states;
+  step.mode_covariances = e.mode_covariances;
+  return step;
+}
+
+ImmSmoother::ImmSmoother(const Bank& bank)
+    : bank_(bank),
+      transition_(ModeTransition::from_config(bank.config.transition, bank.config.num_modes())),
+      angle_mask_(bank.config.angle_mask) {
+  const int n = bank.config.state_dim(), modes = bank.config.num_modes();
+  pair_means_.resize(n, modes);
+  deviations_.resize(n, modes);
+  means_.resize(n, modes);
+}
+
+void ImmSmoother::combine(SmoothedStep* s) const {
+  const int modes = bank_.config.num_modes();
+  Eigen::MatrixXd means(bank_.config.state_dim(), modes), deviations(bank_.config.state_dim(), modes);
+  for (int j = 0; j < modes; ++j) means.col(j) = s->mode_states[static_cast<std::size_t>(j)];
+  s->state.resize(bank_.config.state_dim());
+  weighted_mean(angle_mask_, s->mode_probabilities, means, s->state, deviations);
+  s->covariance.setZero(bank_.config.state_dim(), bank_.config.state_dim());
+  for (int j = 0; j < modes; ++j) {
+    s->covariance.noalias() += s->mode_probabilities[j] * s->mode_covariances[static_cast<std::size_t>(j)];
+    s->covariance.noalias() += s->mode_probabilities[j] * deviations.col(j) * deviations.col(j).transpose();
+  }
+  symmetrize(s->covariance);
+  s->mode_probabilities.maxCoeff(&s->most_likely_mode);
+}
+
+void ImmSmoother::backward(const ForwardStep& k, double t_next, const SmoothedStep& next, SmoothedStep* out) {
+  const BankConfig& config = bank_.config;
+  const int modes = config.num_modes();
+  const int n = config.state_dim();
+  const double dt = t_next - k.t;
+  const Eigen::MatrixXd& p = transition_.matrix(dt);  // row j (from, at k), column i (to, at k+1)
+  const Eigen::VectorXd& mu = k.mode_probabilities;
+  const Eigen::VectorXd c = p.transpose() * mu;  // predicted probabilities of k+1
+
+  // Smoothed joint probabilities of (m_k = j, m_{k+1} = i), Kim's approximation.
+  Eigen::MatrixXd joint(modes, modes);
+  for (int j = 0; j < modes; ++j) {
+    for (int i = 0; i < modes; ++i) {
+      joint(j, i) = c[i] > 0.0 ? next.mode_probabilities[i] * p(j, i) * mu[j] / c[i] : 0.0;
+    }
+  }
+  out->t = k.t;
+  out->mode_probabilities = joint.rowwise().sum();
+  const double total = out->mode_probabilities.sum();
+  if (total > 0.0) out->mode_probabilities /= total;
+  const double floor = config.mode_probability_floor;
+  if (floor > 0.0) {
+    out->mode_probabilities = out->mode_probabilities.cwiseMax(floor);
+    out->mode_probabilities /= out->mode_probabilities.sum();
+  }
+  out->mode_states.resize(static_cast<std::size_t>(modes));
+  out->mode_covariances.resize(static_cast<std::size_t>(modes));
+
+  Eigen::VectorXd predicted(n), difference(n);
+  Eigen::MatrixXd f(n, n), q(n, n), predicted_covariance(n, n), gain(n, n);
+  std::vector<Eigen::MatrixXd> pair_covariances(static_cast<std::size_t>(modes), Eigen::MatrixXd(n, n));
+  Eigen::VectorXd weights(modes);
+  for (int j = 0; j < modes; ++j) {
+    const Eigen::VectorXd& x = k.mode_states[static_cast<std::size_t>(j)];
+    const Eigen::MatrixXd& px = k.mode_covariances[static_cast<std::size_t>(j)];
+    const double row = joint.row(j).sum();
+    for (int i = 0; i < modes; ++i) {
+      weights[i] = row > 0.0 ? joint(j, i) / row : (i == j ? 1.0 : 0.0);
+      const sdk::MotionModel& model = *bank_.models[static_cast<std::size_t>(i)];
+      // The prediction of mode j's filtered estimate through mode i's model, as the filter predicts.
+      bool ok = model.jacobian(x, k.u, dt, f) &&
+                model.process_noise(config.modes[static_cast<std::size_t>(i)].q_intensity, x, k.u, dt, q) &&
+                model.predict(x, k.u, dt, predicted) && predicted.allFinite() && f.allFinite();
+      if (ok) {
+        for (int d = 0; d < n; ++d) {
+          if (angle_mask_[static_cast<std::size_t>(d)]) predicted[d] = sdk::wrap_angle(predicted[d]);
+        }
+        predicted_covariance.noalias() = f * px * f.transpose();
+        predicted_covariance += q;
+        symmetrize(predicted_covariance);
+        // J = P F' (P^ji)^-1, solved: J' = (P^ji)^-1 F P.
+        Eigen::LDLT<Eigen::MatrixXd> ldlt(predicted_covariance);
+        ok = ldlt.info() == Eigen::Success && ldlt.isPositive() && (ldlt.vectorD().array() > 0.0).all();
+        if (ok) gain = ldlt.solve(f * px).transpose();
+        ok = ok && gain.allFinite();
+      }
+      if (!ok) {  // this pair cannot be smoothed: keep the filtered estimate for it
+        pair_means_.col(i) = x;
+        pair_covariances[static_cast<std::size_t>(i)] = px;
+        continue;
+      }
+      difference = next.mode_states[static_cast<std::size_t>(i)] - predicted;
+      for (int d = 0; d < n; ++d) {
+        if (angle_mask_[static_cast<std::size_t>(d)]) difference[d] = sdk::wrap_angle(difference[d]);
+      }
+      pair_means_.col(i) = x + gain * difference;
+      for (int d = 0; d < n; ++d) {
+        if (angle_mask_[static_cast<std::size_t>(d)]) pair_means_(d, i) = sdk::wrap_angle(pair_means_(d, i));
+      }
+      Eigen::MatrixXd& pc = pair_covariances[static_cast<std::size_t>(i)];
+      pc = px + gain * (next.mode_covariances[static_cast<std::size_t>(i)] - predicted_covariance) * gain.transpose();
+      symmetrize(pc);
+    }
+    Eigen::VectorXd mean(n);
+    weighted_mean(angle_mask_, weights, pair_means_, mean, deviations_);
+    Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(n, n);
+    for (int i = 0; i < modes; ++i) {
+      if (weights[i] == 0.0) continue;
+      covariance.noalias() += weights[i] * pair_covariances[static_cast<std::size_t>(i)];
+      covariance.noalias() += weights[i] * deviations_.col(i) * deviations_.col(i).transpose();
+    }
+    symmetrize(covariance);
+    out->mode_states[static_cast<std::size_t>(j)] = mean;
+    out->mode_covariances[static_cast<std::size_t>(j)] = covariance;
+  }
+  combine(out);
+}
+
+template <typename Steps>
+void ImmSmoother::smooth_range(const Steps& forward, std::vector<SmoothedStep>* out) {
+  const std::size_t count = forward.size();
+  out->assign(count, SmoothedStep{});
+  if (count == 0) return;
+  SmoothedStep& last = (*out)[count - 1];
+  last.t = forward[count - 1].t;
+  last.mode_probabilities = forward[count - 1].mode_probabilities;
+  last.mode_states = forward[count - 1].mode_states;
+  last.mode_covariances = forward[count - 1].mode_covariances;
+  combine(&last);
+  for (std::size_t k = count - 1; k-- > 0;) backward(forward[k], forward[k + 1].t, (*out)[k + 1], &(*out)[k]);
+}
+
+void ImmSmoother::smooth(const std::vector<ForwardStep>& forward, std::vector<SmoothedStep>* out) {
+  smooth_range(forward, out);
+}
+
+void ImmSmoother::smooth(const std::deque<ForwardStep>& forward, std::vector<SmoothedStep>* out) {
+  smooth_range(forward, out);
+}
+
+FixedLagSmoother::FixedLagSmoother(const Bank& bank, double lag_seconds) : smoother_(bank), lag_(lag_seconds) {}
+
+void FixedLagSmoother::add(ForwardStep step, std::vector<SmoothedStep>* ready) {
+  const double newest = step.t;
+  window_.push_back(std::move(step));
+  // Release every step that is now `lag` behind the newest, each smoothed
+  // over the window that ends at the newest step.
+  if (window_.front().t > newest - lag_) return;
+  smoother_.smooth(window_, &smoothed_);
+  std::size_t released = 0;
+  while (released < window_.size() && window_[released].t <= newest - lag_) {
+    ready->push_back(smoothed_[released]);
+    ++released;
+  }
+  window_.erase(window_.begin(), window_.begin() + static_cast<std::ptrdiff_t>(released));
+}
+
+void FixedLagSmoother::finish(std::vector<SmoothedStep>* ready) {
+  smoother_.smooth(window_, &smoothed_);
+  ready->insert(ready->end(), smoothed_.begin(), smoothed_.end());
+  window_.clear();
+}
+
+}  // namespace skidimm

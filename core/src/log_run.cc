@@ -1,0 +1,94 @@
+#include "skidimm/log_run.h"
+
+#include <deque>
+#include <utility>
+#include <vector>
+
+#include "skidimm/imm.h"
+#include "skidimm/imm_smoother.h"
+
+namespace skidimm {
+
+namespace {
+
+// The smoothed step in the filter's shape, with the filter's bookkeeping.
+void fill(const SmoothedStep& s, const ImmEstimate& filtered, ImmEstimate* out) {
+  *out = filtered;
+  out->mode_probabilities = s.mode_probabilities;
+  out->mode_states = s.mode_states;
+  out->mode_covariances = s.mode_covariances;
+  out->state = s.state;
+  out->covariance = s.covariance;
+  out->most_likely_mode = s.most_likely_mode;
+}
+
+bool accepted(StepStatus status) {
+  return status != StepStatus::kRejectedTime && status != StepStatus::kRejectedInput;
+}
+
+}  // namespace
+
+long run_log(const Bank& bank, LogReader* reader, const EstimatorOptions& options,
+             const std::function<void(const LogSample&, const ImmEstimate&)>& sink) {
+  Imm imm(bank);
+  LogSample sample;
+  long steps = 0;
+  if (options.kind == EstimatorOptions::Kind::kFilter) {
+    while (reader->next(&sample)) {
+      sink(sample, imm.step(sample.t, sample.u, sample.z));
+      ++steps;
+    }
+    return steps;
+  }
+
+  // The smoothers hold each step's sample and filter estimate until its
+  // smoothed estimate is known.
+  struct Held {
+    LogSample sample;
+    ImmEstimate filtered;
+  };
+  std::deque<Held> held;
+  ImmEstimate out;
+  auto release = [&](const std::vector<SmoothedStep>& smoothed) {
+    for (const SmoothedStep& s : smoothed) {
+      // Pass rejected steps before it through unchanged.
+      while (!held.empty() && !accepted(held.front().filtered.status)) {
+        sink(held.front().sample, held.front().filtered);
+        held.pop_front();
+      }
+      fill(s, held.front().filtered, &out);
+      sink(held.front().sample, out);
+      held.pop_front();
+    }
+  };
+  std::vector<SmoothedStep> ready;
+  if (options.kind == EstimatorOptions::Kind::kFixedInterval) {
+    std::vector<ForwardStep> forward;
+    while (reader->next(&sample)) {
+      const ImmEstimate& e = imm.step(sample.t, sample.u, sample.z);
+      if (accepted(e.status)) forward.push_back(record_step(sample.t, sample.u, e));
+      held.push_back(Held{sample, e});
+      ++steps;
+    }
+    ImmSmoother(bank).smooth(forward, &ready);
+    release(ready);
+  } else {
+    FixedLagSmoother smoother(bank, options.lag);
+    while (reader->next(&sample)) {
+      const ImmEstimate& e = imm.step(sample.t, sample.u, sample.z);
+      held.push_back(Held{sample, e});
+      ++steps;
+      if (!accepted(e.status)) continue;
+      ready.clear();
+      smoother.add(record_step(sample.t, sample.u, e), &ready);
+      release(ready);
+    }
+    ready.clear();
+    smoother.finish(&ready);
+    release(ready);
+  }
+  for (const Held& h : held) sink(h.sample, h.filtered);  // trailing rejected steps
+  return steps;
+}
+
+}  // namespace skidimm
