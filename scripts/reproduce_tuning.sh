@@ -14,8 +14,9 @@
 #     tuning logs; fresh logs compare it with the bank as shipped and the
 #     bank told the true sensor noise.
 #
-# Seeds: fitting and tuning logs 7001-7100, evaluation logs 8001-8100; the
-# script checks they are disjoint.
+# Seeds (scripts/seeds.sh): fitting drivers 7001-7003, tuning logs
+# 7011-7020, evaluation logs 8001-8020; the script checks they are disjoint
+# from every seed used to build what they score.
 #   scripts/reproduce_tuning.sh [evaluation seeds, default 20]
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -29,14 +30,11 @@ python=$(command -v /usr/bin/python3 || command -v python3)
 rm -rf "$work"
 mkdir -p "$work"/{drivers,fit,fresh,poor_tune,poor_eval,eval}
 
-fit_seeds=(7001 7002 7003)
-tune_seeds=$(seq 7011 7020)
-eval_seeds=$(seq 8001 $((8000 + seeds)))
-for s in "${fit_seeds[@]}" $tune_seeds; do
-  for e in $eval_seeds; do
-    [ "$s" != "$e" ] || { echo "$0: seed $s is used for fitting and for evaluation" >&2; exit 1; }
-  done
-done
+source scripts/seeds.sh
+fit_seeds=($(tuning_fit_seeds | head -n 3))
+tune_seeds=$(tuning_fit_seeds | tail -n +4)
+eval_seeds=$(tuning_eval_seeds "$seeds")
+check_disjoint "$eval_seeds" "$(tuning_fit_seeds)" "$(bundled_fit_seeds)" "$(decision_default_seeds)"
 
 echo "== A: a known linear switching system" >&2
 # One 20 s sinusoidal drive per terrain drives each mode's fitting segment.

@@ -15,21 +15,48 @@ def fmt(x, digits=2):
     return "-" if x is None else f"{x:.{digits}f}"
 
 
+def detection(first, settled, switches):
+    if not switches:
+        return "no switch", "-"
+    return (f"{fmt(first['median'])} s / {fmt(first['max'])} s, never {switches - first['detected']}",
+            f"{fmt(settled['median'])} s, never {switches - settled['followed']}")
+
+
 def summary_table(evals, seeds):
-    rows = ["| scenario | bank | accuracy (mean ± sd over seeds) | worst seed | p(true mode) | "
-            "new mode first most likely: median / max | stays until next switch: median, never |",
-            "|---|---|---|---|---|---|---|"]
-    for bank, data in evals:
+    """One row per scenario, bank and estimate: the filter's most likely mode,
+    the filter's decision (decision.h) and the smoothed most likely mode."""
+    rows = ["| scenario | bank | estimate | accuracy (mean ± sd over seeds) | worst seed | p(true mode) | "
+            "changes per minute (truth) | new mode first: median / max, never | stays until next switch: median, never |",
+            "|---|---|---|---|---|---|---|---|---|"]
+    for bank, data, smoothed in evals:
         for group, g in data["groups"].items():
+            s = smoothed["groups"][group] if smoothed else None
+            switches = g["latency"]["switches"]
+            per_minute = g["changes_per_minute"]
+            first, stays = detection(g["first_latency"], g["latency"], switches)
             acc = g["accuracy_per_log"]
-            first, settled = g["first_latency"], g["latency"]
-            switches = settled["switches"]
-            latency = (f"{fmt(first['median'])} s / {fmt(first['max'])} s" if switches else "no switch")
-            stays = (f"{fmt(settled['median'])} s, {switches - settled['followed']} of {switches}"
-                     if switches else "-")
-            rows.append(f"| {group} | {bank} | {fmt(acc['mean'], 3)} ± {fmt(acc['std'], 3)} | {fmt(acc['min'], 3)} | "
-                        f"{fmt(g['mean_truth_probability'], 3)} | {latency} | {stays} |")
-    return "\n".join(rows) + f"\n\n{seeds} seeds per scenario; accuracy is the fraction of time the most likely mode is the true one.\n"
+            rows.append(f"| {group} | {bank} | most likely | {fmt(acc['mean'], 3)} ± {fmt(acc['std'], 3)} | "
+                        f"{fmt(acc['min'], 3)} | {fmt(g['mean_truth_probability'], 3)} | "
+                        f"{fmt(per_minute['most_likely'], 1)} ({fmt(per_minute['truth'], 1)}) | {first} | {stays} |")
+            d = g["decision"]
+            dacc = d["accuracy_per_log"]
+            first = (f"{fmt(d['first_median'])} s, never {switches - d['first_detected']}" if switches else "no switch")
+            stays = (f"{fmt(d['settled_median'])} s, never {switches - d['settled']}" if switches else "-")
+            rows.append(f"| {group} | {bank} | decision | {fmt(dacc['mean'], 3)} ± {fmt(dacc['std'], 3)} | "
+                        f"{fmt(dacc['min'], 3)} | - | {fmt(per_minute['decision'], 1)} ({fmt(per_minute['truth'], 1)}) | "
+                        f"{first} | {stays} |")
+            if s:
+                sacc = s["accuracy_per_log"]
+                first, stays = detection(s["first_latency"], s["latency"], switches)
+                rows.append(f"| {group} | {bank} | smoothed | {fmt(sacc['mean'], 3)} ± {fmt(sacc['std'], 3)} | "
+                            f"{fmt(sacc['min'], 3)} | {fmt(s['mean_truth_probability'], 3)} | "
+                            f"{fmt(s['changes_per_minute']['most_likely'], 1)} ({fmt(per_minute['truth'], 1)}) | "
+                            f"{first} | {stays} |")
+    return "\n".join(rows) + (
+        f"\n\n{seeds} seeds per scenario. *most likely*: the filter's most likely mode at each step; *decision*: "
+        "the filter's decision with the default thresholds (enter 0.9, leave 0.05, hold 1 s; `unknown` counts as "
+        "wrong); *smoothed*: the most likely mode smoothed over the whole log (`run --smooth`). Accuracy is the "
+        "fraction of time the estimate is the true mode; *never* counts the switches where it did not happen.\n")
 
 
 def confusion_table(data, bank):
@@ -57,9 +84,17 @@ def main():
         evals = []
         for path in sorted(glob.glob(os.path.join(eval_dir, experiment + "__*.json"))):
             bank = os.path.basename(path)[len(experiment) + 2:-5]
+            if bank.endswith("__smoothed"):
+                continue
             with open(path) as f:
-                evals.append((bank, json.load(f)))
-        blocks[experiment] = summary_table(evals, seeds) + "\n" + "\n".join(confusion_table(d, b) for b, d in evals)
+                data = json.load(f)
+            smoothed_path = path[:-5] + "__smoothed.json"
+            smoothed = None
+            if os.path.exists(smoothed_path):
+                with open(smoothed_path) as f:
+                    smoothed = json.load(f)
+            evals.append((bank, data, smoothed))
+        blocks[experiment] = summary_table(evals, seeds) + "\n" + "\n".join(confusion_table(d, b) for b, d, _ in evals)
     with open(results) as f:
         text = f.read()
     for name, block in blocks.items():

@@ -128,6 +128,7 @@ struct Summary {
   std::map<std::string, NisAccumulator> nis;
   std::vector<double> state_rmse;
   std::vector<double> accuracies;
+  std::vector<double> decision_accuracies;
 };
 
 Summary summarize(const std::vector<const LogResult*>& logs, std::size_t states) {
@@ -143,6 +144,7 @@ Summary summarize(const std::vector<const LogResult*>& logs, std::size_t states)
       counts[i] += log->state_error_count[i];
     }
     s.accuracies.push_back(log->metrics.accuracy());
+    if (log->decision_metrics.duration > 0.0) s.decision_accuracies.push_back(log->decision_metrics.accuracy());
   }
   for (std::size_t i = 0; i < states; ++i)
     s.state_rmse.push_back(counts[i] > 0 ? std::sqrt(squared[i] / counts[i]) : kNaN);
@@ -370,7 +372,13 @@ std::string json_summary(const Summary& s, const std::vector<std::string>& state
   o << "}, \"changes_per_minute\": {\"most_likely\": " << json_number(m.estimate_changes_per_minute())
     << ", \"decision\": " << json_number(d.estimate_changes_per_minute())
     << ", \"truth\": " << json_number(m.truth_changes_per_minute()) << "}, \"decision\": {\"accuracy\": "
-    << json_number(d.duration > 0 ? d.accuracy() : kNaN) << ", \"unknown_fraction\": "
+    << json_number(d.duration > 0 ? d.accuracy() : kNaN) << ", \"accuracy_per_log\": {\"mean\": "
+    << json_number(mean(s.decision_accuracies)) << ", \"std\": " << json_number(standard_deviation(s.decision_accuracies))
+    << ", \"min\": "
+    << json_number(s.decision_accuracies.empty()
+                       ? kNaN
+                       : *std::min_element(s.decision_accuracies.begin(), s.decision_accuracies.end()))
+    << "}, \"unknown_fraction\": "
     << json_number(d.duration > 0 ? d.unknown_seconds / d.duration : kNaN) << ", \"switches\": " << dl.switches
     << ", \"first_detected\": " << df.detected << ", \"first_median\": " << json_number(df.median)
     << ", \"settled\": " << dl.detected << ", \"settled_median\": " << json_number(dl.median)

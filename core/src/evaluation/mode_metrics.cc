@@ -85,11 +85,17 @@ ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps,
         break;
       }
     }
-    // The last row in [k, end) whose estimate is not `to`; detection is the row after it.
+    // The last row in [k, end) whose estimate is not `to`; detection is the
+    // row after it. Moving to the next true mode within kAnticipation seconds
+    // of the next switch (a smoother, which sees the future, does) does not
+    // count against following this one.
+    const bool has_next = end < n;
     std::size_t last_wrong = k;
     bool any_wrong = false;
     for (std::size_t j = k; j < end; ++j) {
-      if (steps[j].estimate != d.to) {
+      const bool anticipates = has_next && steps[j].estimate == steps[end].truth &&
+                               steps[end].t - steps[j].t <= kAnticipation;
+      if (steps[j].estimate != d.to && !anticipates) {
         last_wrong = j;
         any_wrong = true;
       }

@@ -24,9 +24,14 @@ struct LabelledStep {
 // one such row cannot decide a mean.
 inline constexpr double kMinScoredProbability = 1e-12;
 
+// How early (s) an estimate may move to the next true mode and still count as
+// having followed the current one: smoothed estimates see switches coming.
+inline constexpr double kAnticipation = 1.0;
+
 // A true switch from `from` to `to` at `time`, and when the estimate
 // followed. `latency`: until the most likely mode becomes `to` and stays so
-// until the next switch (or the end). `first_latency`: until it is `to` for
+// until the next switch (or the end); moving on to the next true mode up to
+// kAnticipation seconds before that next switch still counts as staying. `first_latency`: until it is `to` for
 // the first time (a flicker back later does not count against it). Both are
 // NaN when that never happens.
 struct SwitchDetection {

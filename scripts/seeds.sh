@@ -1,0 +1,35 @@
+# The seeds of every simulated log the project's scripts fit, tune or choose
+# defaults on, and of the logs they score; sourced by those scripts, whose
+# check_disjoint fails loudly if a scored seed was also used to build what is
+# scored. No number in docs/ comes from a log that shaped it.
+#   source scripts/seeds.sh
+
+# scripts/fit_bundled_configs.sh: LTC modes 100-102 and STC modes 200-215,
+# four maneuvers each (seed * 10 + maneuver).
+bundled_fit_seeds() {
+  local s i
+  for s in $(seq 100 102) $(seq 200 215); do
+    for i in 0 1 2 3; do echo $((s * 10 + i)); done
+  done
+}
+# scripts/reproduce_tuning.sh: fitting drivers and tuning logs.
+tuning_fit_seeds() { seq 7001 7003; seq 7011 7020; }
+# The switching logs the decision layer's default thresholds were chosen on.
+decision_default_seeds() { seq 8101 8120; }
+# Scored logs.
+paper_eval_seeds() { seq 5001 $((5000 + ${1:-20})); }
+tuning_eval_seeds() { seq 8001 $((8000 + ${1:-20})); }
+
+# check_disjoint "<scored seeds>" "<seeds used to build>..." : exits 1 naming a shared seed.
+check_disjoint() {
+  local scored=$1
+  shift
+  local used
+  used=$(printf '%s\n' "$@" | tr ' ' '\n' | sort -u)
+  local shared
+  shared=$(comm -12 <(printf '%s\n' $scored | sort -u) <(printf '%s\n' $used))
+  if [ -n "$shared" ]; then
+    echo "seeds used both to build and to score: $(echo $shared | tr '\n' ' ')" >&2
+    exit 1
+  fi
+}
