@@ -26,8 +26,9 @@ def summary_table(evals, seeds):
     """One row per scenario, bank and estimate: the filter's most likely mode,
     the filter's decision (decision.h) and the smoothed most likely mode."""
     rows = ["| scenario | bank | estimate | accuracy (mean ± sd over seeds) | worst seed | p(true mode) | "
-            "changes per minute (truth) | new mode first: median / max, never | stays until next switch: median, never |",
-            "|---|---|---|---|---|---|---|---|---|"]
+            "changes per minute (truth) | changes per switch (median) | new mode first: median / max, never | "
+            "stays until next switch: median, never |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
     for bank, data, smoothed in evals:
         for group, g in data["groups"].items():
             s = smoothed["groups"][group] if smoothed else None
@@ -35,23 +36,25 @@ def summary_table(evals, seeds):
             per_minute = g["changes_per_minute"]
             first, stays = detection(g["first_latency"], g["latency"], switches)
             acc = g["accuracy_per_log"]
+            per_switch = lambda x: fmt(x, 1) if switches else "-"
             rows.append(f"| {group} | {bank} | most likely | {fmt(acc['mean'], 3)} ± {fmt(acc['std'], 3)} | "
                         f"{fmt(acc['min'], 3)} | {fmt(g['mean_truth_probability'], 3)} | "
-                        f"{fmt(per_minute['most_likely'], 1)} ({fmt(per_minute['truth'], 1)}) | {first} | {stays} |")
+                        f"{fmt(per_minute['most_likely'], 1)} ({fmt(per_minute['truth'], 1)}) | "
+                        f"{per_switch(g['latency']['median_changes_per_switch'])} | {first} | {stays} |")
             d = g["decision"]
             dacc = d["accuracy_per_log"]
             first = (f"{fmt(d['first_median'])} s, never {switches - d['first_detected']}" if switches else "no switch")
             stays = (f"{fmt(d['settled_median'])} s, never {switches - d['settled']}" if switches else "-")
             rows.append(f"| {group} | {bank} | decision | {fmt(dacc['mean'], 3)} ± {fmt(dacc['std'], 3)} | "
                         f"{fmt(dacc['min'], 3)} | - | {fmt(per_minute['decision'], 1)} ({fmt(per_minute['truth'], 1)}) | "
-                        f"{first} | {stays} |")
+                        f"{per_switch(d['median_changes_per_switch'])} | {first} | {stays} |")
             if s:
                 sacc = s["accuracy_per_log"]
                 first, stays = detection(s["first_latency"], s["latency"], switches)
                 rows.append(f"| {group} | {bank} | smoothed | {fmt(sacc['mean'], 3)} ± {fmt(sacc['std'], 3)} | "
                             f"{fmt(sacc['min'], 3)} | {fmt(s['mean_truth_probability'], 3)} | "
                             f"{fmt(s['changes_per_minute']['most_likely'], 1)} ({fmt(per_minute['truth'], 1)}) | "
-                            f"{first} | {stays} |")
+                            f"{per_switch(s['latency']['median_changes_per_switch'])} | {first} | {stays} |")
     return "\n".join(rows) + (
         f"\n\n{seeds} seeds per scenario. *most likely*: the filter's most likely mode at each step; *decision*: "
         "the filter's decision with the default thresholds (enter 0.9, leave 0.05, hold 1 s; `unknown` counts as "

@@ -167,6 +167,7 @@ double standard_deviation(const std::vector<double>& v) {
 struct LatencyStats {
   long switches = 0, detected = 0;
   double median = kNaN, mean = kNaN, max = kNaN;
+  double median_changes = kNaN;  // estimate changes per switch, the median over switches
 };
 // Over the switches' settled latencies, or their first-detection ones.
 LatencyStats latency_stats(const ModeMetrics& m, bool first = false) {
@@ -178,6 +179,13 @@ LatencyStats latency_stats(const ModeMetrics& m, bool first = false) {
     if (latency == latency) values.push_back(latency);
   }
   s.detected = static_cast<long>(values.size());
+  std::vector<double> changes;
+  for (const auto& d : m.switches) changes.push_back(static_cast<double>(d.changes));
+  if (!changes.empty()) {
+    std::sort(changes.begin(), changes.end());
+    s.median_changes = changes.size() % 2 ? changes[changes.size() / 2]
+                                          : 0.5 * (changes[changes.size() / 2 - 1] + changes[changes.size() / 2]);
+  }
   if (!values.empty()) {
     std::sort(values.begin(), values.end());
     s.median = values.size() % 2 ? values[values.size() / 2]
@@ -291,7 +299,9 @@ void print_table(std::ostream& out, const std::string& title, const Summary& s, 
     if (dl.switches > 0) {
       out << "    switches " << dl.switches << ": first decided after median " << fmt(df.median, "%.2f")
           << " s, never " << (df.switches - df.detected) << "; settled after median " << fmt(dl.median, "%.2f")
-          << " s, max " << fmt(dl.max, "%.2f") << " s, never " << (dl.switches - dl.detected) << "\n";
+          << " s, max " << fmt(dl.max, "%.2f") << " s, never " << (dl.switches - dl.detected)
+          << "; changes per switch: median " << fmt(dl.median_changes, "%.1f") << " (most likely "
+          << fmt(latency_stats(m).median_changes, "%.1f") << ")\n";
     }
   }
   bool any_rmse = false;
@@ -359,6 +369,7 @@ std::string json_summary(const Summary& s, const std::vector<std::string>& state
   }
   const LatencyStats f = latency_stats(m, true);
   o << "], \"latency\": {\"switches\": " << l.switches << ", \"followed\": " << l.detected
+    << ", \"median_changes_per_switch\": " << json_number(l.median_changes)
     << ", \"median\": " << json_number(l.median) << ", \"mean\": " << json_number(l.mean)
     << ", \"max\": " << json_number(l.max) << "}, \"first_latency\": {\"detected\": " << f.detected
     << ", \"median\": " << json_number(f.median) << ", \"mean\": " << json_number(f.mean)
@@ -382,7 +393,8 @@ std::string json_summary(const Summary& s, const std::vector<std::string>& state
     << json_number(d.duration > 0 ? d.unknown_seconds / d.duration : kNaN) << ", \"switches\": " << dl.switches
     << ", \"first_detected\": " << df.detected << ", \"first_median\": " << json_number(df.median)
     << ", \"settled\": " << dl.detected << ", \"settled_median\": " << json_number(dl.median)
-    << ", \"settled_max\": " << json_number(dl.max);
+    << ", \"settled_max\": " << json_number(dl.max) << ", \"median_changes_per_switch\": "
+    << json_number(dl.median_changes);
   o << "}, \"nis\": {";
   first = true;
   for (const auto& [mode, acc] : s.nis) {

@@ -79,6 +79,7 @@ ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps,
     d.first_latency = std::numeric_limits<double>::quiet_NaN();
     std::size_t end = k;
     while (end < n && steps[end].truth == d.to) ++end;
+    for (std::size_t j = k; j < end; ++j) d.changes += steps[j].estimate != steps[j - 1].estimate;
     for (std::size_t j = k; j < end; ++j) {
       if (steps[j].estimate == d.to) {
         d.first_latency = steps[j].t - d.time;

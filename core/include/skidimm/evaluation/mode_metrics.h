@@ -40,6 +40,7 @@ struct SwitchDetection {
   std::string to;
   double latency = 0.0;
   double first_latency = 0.0;
+  long changes = 0;  // times the estimate changed from this switch until the next one
   bool detected() const { return latency == latency; }
 };
 
