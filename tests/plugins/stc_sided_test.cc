@@ -1,0 +1,1 @@
+// Placeholder until the stc_sided tests land.
