@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "skidimm/errors.h"
+#include "skidimm/printable.h"
 #include "skidimm/log_reader.h"
 
 namespace skidimm {
@@ -22,14 +23,15 @@ inline constexpr int kExitUsage = 2;    // bad command line
 
 // Runs a command's body; a library error becomes "<command>: error: ..." on
 // stderr and kExitFailure, never an uncaught exception.
+// Messages are made printable (printable.h): they often quote file contents.
 template <typename Body>
 int report_errors(const char* command, Body&& body) {
   try {
     return body();
   } catch (const Error& e) {
-    std::cerr << command << ": error: " << e.what() << "\n";
+    std::cerr << command << ": error: " << printable(e.what()) << "\n";
   } catch (const std::exception& e) {
-    std::cerr << command << ": unexpected error: " << e.what() << "\n";
+    std::cerr << command << ": unexpected error: " << printable(e.what()) << "\n";
   }
   return kExitFailure;
 }

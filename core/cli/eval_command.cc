@@ -206,8 +206,12 @@ std::string fmt(double v, const char* format = "%.3f") {
 std::string json_number(double v) { return std::isfinite(v) ? fmt(v, "%.6g") : "null"; }
 std::string json_string(const std::string& s) {
   std::string out = "\"";
-  for (char c : s) {
+  for (char c : printable(s)) {
     if (c == '"' || c == '\\') out += '\\';
+    if (static_cast<unsigned char>(c) < 0x20) {  // tab and newline: JSON escapes
+      out += c == '\t' ? "\\t" : "\\n";
+      continue;
+    }
     out += c;
   }
   return out + "\"";

@@ -10,6 +10,7 @@
 #include "skidimm/covariance.h"
 #include "skidimm/errors.h"
 #include "skidimm/expression.h"
+#include "skidimm/printable.h"
 #include "yaml_fields.h"
 
 namespace skidimm {
@@ -30,6 +31,16 @@ int index_of(const std::vector<std::string>& names, const std::string& name) {
     if (names[i] == name) return static_cast<int>(i);
   }
   return -1;
+}
+
+// A mode's or class's name appears in output columns, tables and YAML
+// written back: printable, one line, and not the decision's "unknown".
+void check_name(const YamlFields& y, const YAML::Node& node, const std::string& name, const std::string& field) {
+  if (name.empty()) y.fail(node, field, "cannot be empty");
+  if (printable(name) != name || name.find_first_of("\t\n") != std::string::npos) {
+    y.fail(node, field, "'" + printable(name) + "' has control characters or invalid UTF-8");
+  }
+  if (name == "unknown") y.fail(node, field, "'unknown' is the decision's answer when no mode is confident: pick another");
 }
 
 void check_unique(const YamlFields& y, const YAML::Node& node, const std::vector<std::string>& names,
@@ -218,7 +229,7 @@ void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) 
     ModeConfig mode;
     mode.line = YamlFields::line_of(m);
     mode.name = y.string(y.required(m, "name", field), field + ".name");
-    if (mode.name.empty()) y.fail(m, field + ".name", "cannot be empty");
+    check_name(y, m["name"], mode.name, field + ".name");
     if (bank->mode_index(mode.name) >= 0) y.fail(m["name"], field + ".name", "mode '" + mode.name + "' appears twice");
     mode.model = y.string(y.required(m, "model", field), field + ".model");
     if (const YAML::Node params = m["params"]) {
@@ -337,8 +348,8 @@ void parse_classes(const YamlFields& y, const YAML::Node& root, BankConfig* bank
   for (const auto& entry : node) {
     ClassConfig c;
     c.name = y.string(entry.first, "classes");
-    const std::string field = "classes." + c.name;
-    if (c.name.empty()) y.fail(entry.first, "classes", "class names cannot be empty");
+    const std::string field = "classes." + printable(c.name);
+    check_name(y, entry.first, c.name, field);
     for (const ClassConfig& other : bank->classes) {
       if (other.name == c.name) y.fail(entry.first, field, "class '" + c.name + "' appears twice");
     }

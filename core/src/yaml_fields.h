@@ -7,7 +7,9 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "skidimm/errors.h"
@@ -37,7 +39,40 @@ class YamlFields {
       throw ConfigError(file_, 0, "", std::string("cannot read YAML: ") + e.what());
     }
     if (!root.IsMap()) throw ConfigError(file_, 1, "", "a " + kind + " file must be a YAML mapping");
+    std::set<int> visited;
+    reject_duplicate_keys(root, "", &visited);
     return root;
+  }
+
+  // yaml-cpp keeps every entry of a mapping but looks keys up by the first,
+  // so a repeated key would silently lose its second value: an error instead,
+  // anywhere in the document.
+  // Each node of the text is checked once (by its position), so aliases that
+  // repeat a node a billion times cost nothing.
+  void reject_duplicate_keys(const YAML::Node& node, const std::string& field, std::set<int>* visited) const {
+    if ((node.IsMap() || node.IsSequence()) && !node.Mark().is_null() && !visited->insert(node.Mark().pos).second) {
+      return;
+    }
+    if (node.IsMap()) {
+      std::vector<std::pair<std::string, int>> seen;
+      for (const auto& entry : node) {
+        const std::string key = entry.first.IsScalar() ? entry.first.Scalar() : std::string("?");
+        const std::string path = field.empty() ? key : field + "." + key;
+        for (const auto& [other, line] : seen) {
+          if (other == key) {
+            fail(entry.first, path,
+                 "appears twice in one mapping (first on line " + std::to_string(line) +
+                     "); a repeated key would silently lose one of its values");
+          }
+        }
+        seen.emplace_back(key, line_of(entry.first));
+        reject_duplicate_keys(entry.second, path, visited);
+      }
+    } else if (node.IsSequence()) {
+      for (std::size_t i = 0; i < node.size(); ++i) {
+        reject_duplicate_keys(node[i], field + "[" + std::to_string(i) + "]", visited);
+      }
+    }
   }
 
   static int line_of(const YAML::Node& node) { return node.Mark().is_null() ? 0 : node.Mark().line + 1; }

@@ -205,6 +205,31 @@ TEST(BankConfig, ClassesAndFitWhenAreChecked) {
   expect_config_error(kValidBank + "classes:\n  ice: [grip]\n", {"classes.ice", "also a mode's name"});
 }
 
+TEST(BankConfig, ARepeatedKeyIsAnErrorAnywhereAndAliasesCostNothing) {
+  expect_config_error(replace(kValidBank, "    Q: [[0.02, 0], [0, 0.02]]", "    Q: [[0.02, 0], [0, 0.02]]\n    Q: [[1, 0], [0, 1]]"),
+                      {"modes[1].Q: appears twice in one mapping (first on line"});
+  expect_config_error(replace(kValidBank, "name: two_terrains\n", "name: two_terrains\nname: other\n"),
+                      {":2: name: appears twice"});
+  expect_config_error(replace(kValidBank, "  time: time\n", "  time: time\n  time: t\n"), {"columns.time: appears twice"});
+  // A billion laughs: ten levels of ten aliases. Rejected for its unknown key, at once.
+  std::string bomb = "name: bomb\nl0: &l0 [x, x, x, x, x, x, x, x, x, x]\n";
+  for (int level = 1; level < 10; ++level) {
+    const std::string previous = "*l" + std::to_string(level - 1);
+    bomb += "l" + std::to_string(level) + ": &l" + std::to_string(level) + " [";
+    for (int k = 0; k < 10; ++k) bomb += (k ? ", " : "") + previous;
+    bomb += "]\n";
+  }
+  expect_config_error(bomb, {"l0: unknown key"});
+}
+
+TEST(BankConfig, NamesArePrintableAndNotTheDecisionsUnknown) {
+  expect_config_error(replace(kValidBank, "name: ice", "name: \"ice\\e[2J\""), {"modes[1].name", "control characters"});
+  expect_config_error(replace(kValidBank, "name: ice", "name: unknown"), {"modes[1].name", "'unknown' is the decision's answer"});
+  const ConfigError e = expect_config_error(replace(kValidBank, "name: ice", "name: \"i\\x1b]0;pwned\\x07ce\""),
+                                            {"modes[1].name"});
+  for (unsigned char c : std::string(e.what())) EXPECT_TRUE(c >= 0x20 || c == '\n' || c == '\t') << int(c);
+}
+
 TEST(BankConfig, SamplingIsChecked) {
   const BankConfig c = load_bank_config(
       write_file(test_directory() / "bank.yaml", kValidBank + "sampling: {join: rows, rate: 12.5}\n"));

@@ -49,6 +49,21 @@ TEST(BankWriter, KeepsWhatTheBankGaveThatWasNotFitted) {
             "B: [[0.4, 0.4], [-0.8, 0.8]]}");
 }
 
+TEST(BankWriter, NamesThatYamlWouldReadOtherwiseAreQuoted) {
+  const auto file = write_file(test_directory() / "b.yaml", kBank);
+  Bank bank = Bank::load(file, {SKIDIMM_PLUGIN_DIR});
+  append_mode_to_bank(file, format_mode_entry("ice: slick #1", "ltc_linear", *bank.models[0],
+                                              Eigen::Matrix2d::Identity() * 0.02, {}));
+  EXPECT_THAT(read_file(file), HasSubstr("  - name: \"ice: slick #1\"\n"));
+  EXPECT_EQ(load_bank_config(file).modes[1].name, "ice: slick #1");
+  // A name with a line break cannot add keys to the bank: the result does not validate, nothing is written.
+  const std::string before = read_file(file);
+  EXPECT_THROW(append_mode_to_bank(file, format_mode_entry("ice\n    model: x", "ltc_linear", *bank.models[0],
+                                                           Eigen::Matrix2d::Identity() * 0.02, {})),
+               ConfigError);
+  EXPECT_EQ(read_file(file), before);
+}
+
 TEST(BankWriter, AppendKeepsCommentsAndTheResultLoads) {
   const auto file = write_file(test_directory() / "b.yaml", kBank);
   Bank bank = Bank::load(file, {SKIDIMM_PLUGIN_DIR});

@@ -183,6 +183,23 @@ modes:
   }
 }
 
+TEST(ModelFitter, ANonFinitePredictionNamesItsStepInsteadOfFittingInfinity) {
+  Bank truth = load_bank(kLtcBank, "truth.yaml");
+  Trajectory data = simulate_model(*truth.models[0], 500, 0.02, rich_wheel_speeds, Eigen::Vector2d(1e-4, 1e-4),
+                                   Eigen::Vector2d(0.01, 0.01), 1);
+  data.u(0, 200) = 1e200;  // a corrupt cell
+  Bank bank = load_bank(kLtcBank);
+  FitOptions options;
+  options.window = 0.2;
+  try {
+    fit(&bank, {ModeLogs{0, {data}}}, options);
+    FAIL();
+  } catch (const FitError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("simulated: the prediction from step"));
+    EXPECT_THAT(e.what(), HasSubstr("is not finite (or absurd) with the starting values of mode 'a'"));
+  }
+}
+
 TEST(ModelFitter, TooShortALogIsAnError) {
   Bank truth = load_bank(kLtcBank, "truth.yaml");
   const Trajectory data = simulate_model(*truth.models[0], 4, 0.02, rich_wheel_speeds, Eigen::Vector2d(0, 0),

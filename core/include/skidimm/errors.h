@@ -9,11 +9,16 @@
 #include <stdexcept>
 #include <string>
 
+#include "skidimm/printable.h"
+
 namespace skidimm {
 
+// Every message is made printable (printable.h) when it is built: messages
+// quote file contents, which may hold control characters, escape sequences,
+// invalid UTF-8 or NUL bytes.
 class Error : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit Error(const std::string& message) : std::runtime_error(printable(message)) {}
 };
 
 // A bank file (YAML) is malformed or inconsistent.

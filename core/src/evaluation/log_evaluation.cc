@@ -7,6 +7,7 @@
 #include "skidimm/errors.h"
 #include "skidimm/estimates_writer.h"
 #include "skidimm/imm.h"
+#include "skidimm/printable.h"
 #include "skidimm/sdk/angles.h"
 
 namespace skidimm {
@@ -31,7 +32,7 @@ LabelledStep ClassScorer::score(double t, const std::string& label, const Eigen:
   step.estimate = names_[static_cast<std::size_t>(best)];
   if (!label.empty()) {
     const int c = class_of_label(label);
-    step.truth = c >= 0 ? names_[static_cast<std::size_t>(c)] : label;
+    step.truth = c >= 0 ? names_[static_cast<std::size_t>(c)] : printable(label);  // a CSV cell: make it safe
     step.truth_probability = c >= 0 ? class_probabilities_[c] : 0.0;
   }
   return step;

@@ -157,13 +157,36 @@ std::string format_parameters(const sdk::MotionModel& model, sdk::ParameterScope
   return "{" + out + "}";
 }
 
+namespace {
+
+// A name as a YAML scalar that reads back as the same string: plain when it
+// is a simple identifier, else double-quoted. Names come from the command line
+// (--name), so they must not be able to add keys to the bank.
+std::string yaml_scalar(const std::string& text) {
+  static const std::regex plain(R"(^[A-Za-z_][A-Za-z0-9_.+-]*$)");
+  static const std::regex reserved(R"(^(true|false|yes|no|on|off|null|True|False|Yes|No|On|Off|Null|TRUE|FALSE|NULL|YES|NO|ON|OFF)$)");
+  if (std::regex_match(text, plain) && !std::regex_match(text, reserved)) return text;
+  std::string out = "\"";
+  for (char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (c == '\n') {
+      out += "\\n";
+      continue;
+    }
+    out += c;
+  }
+  return out + "\"";
+}
+
+}  // namespace
+
 std::string format_mode_entry(const std::string& name, const std::string& model_name, const sdk::MotionModel& model,
                               const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments,
                               const sdk::ParameterSet& original) {
   std::string out;
   for (const std::string& c : comments) out += "  # " + c + "\n";
-  out += "  - name: " + name + "\n";
-  out += "    model: " + model_name + "\n";
+  out += "  - name: " + yaml_scalar(name) + "\n";
+  out += "    model: " + yaml_scalar(model_name) + "\n";
   const std::string params = format_parameters(model, sdk::ParameterScope::kMode, original);
   if (params != "{}") out += "    params: " + params + "\n";
   out += "    Q: " + format_matrix(q_intensity) + "\n";

@@ -423,6 +423,23 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
         for (const Window& w : windows) {
           auto window_cost = std::make_unique<WindowCost>(model, per_mode[d->mode].first, per_mode[d->mode].second,
                                                           &m, w, static_cast<int>(block.size()));
+          // A window whose prediction is not finite at the starting values
+          // (an input of 1e200, say) would make the cost infinite and the fit
+          // meaningless: name the row instead.
+          {
+            std::vector<double> r(static_cast<std::size_t>(w.residuals));
+            const double* p[] = {block.data()};
+            const bool ok = window_cost->Evaluate(p, r.data(), nullptr);
+            bool finite = ok;
+            for (double v : r) finite = finite && std::isfinite(v) && std::abs(v) < 1e150;
+            if (!finite) {
+              const int last = w.targets.back();
+              throw FitError(t.source + ": the prediction from step " + std::to_string(w.start + 1) + " (t = " +
+                             std::to_string(t.t[w.start]) + " s) to t = " + std::to_string(t.t[last]) +
+                             " s is not finite (or absurd) with the starting values of " + who +
+                             "; check the log's inputs and measurements there");
+            }
+          }
           ceres::CostFunction* cost = nullptr;
           if (analytic) {
             cost = window_cost.release();
@@ -457,6 +474,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
     ceres::Solver::Summary summary;
     ceres::Solve(solver_options, &problem, &summary);
     if (!summary.IsSolutionUsable()) throw FitError(who + ": the solver failed: " + summary.message);
+    if (!std::isfinite(summary.final_cost)) throw FitError(who + ": the fit ended at a cost that is not finite");
 
     // Identifiability: singular values of the Jacobian at the solution.
     ceres::CRSMatrix crs;
