@@ -43,7 +43,8 @@ TEST(PluginRegistry, FindsTheBundledPluginsWithTheirMetadata) {
     EXPECT_TRUE(d.error.empty()) << d.path << ": " << d.error;
     names.push_back(d.name);
   }
-  EXPECT_THAT(names, ::testing::UnorderedElementsAre("ltc_linear", "ltc_shared", "stc_kinematic"));
+  EXPECT_THAT(names, ::testing::UnorderedElementsAre("linear_features", "ltc_linear", "ltc_shared", "stc_kinematic",
+                                                    "stc_sided"));
   const PluginDescriptor& stc = registry.find("stc_kinematic");
   EXPECT_EQ(stc.version, "1.0.0");
   EXPECT_EQ(stc.parameter_keys, (std::vector<std::string>{"k", "m", "r", "b"}));
@@ -68,7 +69,7 @@ TEST(PluginRegistry, UnknownNameListsSearchPathAndFoundPlugins) {
   const std::string e = plugin_error([&] { registry.find("icr_kinematic"); });
   EXPECT_THAT(e, HasSubstr("no plugin named 'icr_kinematic' on the search path"));
   EXPECT_THAT(e, HasSubstr("/nonexistent/dir (missing)"));
-  EXPECT_THAT(e, HasSubstr("found: ltc_linear"));
+  EXPECT_THAT(e, HasSubstr("found: linear_features, ltc_linear, ltc_shared, stc_kinematic"));
 }
 
 TEST(PluginRegistry, MissingFileOnTheSearchPathMeansNothingFound) {
