@@ -17,7 +17,12 @@
 //   B  n x m matrix ("B[r,c]");
 //   c  optional list of n numbers ("c[i]"); absent, it is zero and not a
 //      parameter.
-// The flat parameter vector is A, then B, then c, each row-major.
+//   fixed  optional text list of the keys held at their given values and not
+//      offered for fitting, e.g. [A]: at a low filter rate a fast state
+//      settles within a step and only B/a shows in a log, so a and B cannot
+//      both be fitted; fix A at a time constant you choose.
+// The flat parameter vector is A, then B, then c, each row-major, without
+// the fixed keys.
 //
 // Step (zero_order_hold.h): exact over dt with the input held,
 //   x+ = Phi x + Gamma (B u + c),  Phi = expm(A dt),  Gamma = int_0^dt expm(A s) ds,
@@ -97,7 +102,24 @@ class LinearFeaturesModel final : public sdk::MotionModel {
     std::vector<bool> angles = params.bank_angles();
     if (angles.empty()) angles.assign(states.size(), false);
     if (angles.size() != states.size()) return fail("the bank's angle flags do not match its states");
-    if (!params.check_only({"A", "B", "c"}, error)) return nullptr;
+    if (!params.check_only({"A", "B", "c", "fixed"}, error)) return nullptr;
+    bool fixed[3] = {false, false, false};  // A, B, c
+    if (params.contains("fixed")) {
+      const std::vector<std::string>* keys = params.find_text("fixed");
+      if (keys == nullptr) return fail("parameter 'fixed' must be a list of keys among A, B, c");
+      for (const std::string& key : *keys) {
+        if (key == "A") {
+          fixed[0] = true;
+        } else if (key == "B") {
+          fixed[1] = true;
+        } else if (key == "c") {
+          fixed[2] = true;
+        } else {
+          return fail("parameter 'fixed': '" + key + "' is not a key of linear_features (A, B, c)");
+        }
+      }
+      if (fixed[2] && !params.contains("c")) return fail("parameter 'fixed' names c, but the bank gives no c");
+    }
 
     // Shapes in the bank's own terms, for the messages below.
     const std::string b_shape =
@@ -145,13 +167,14 @@ class LinearFeaturesModel final : public sdk::MotionModel {
       return fail("parameter 'c' must be " + c_shape + ", got " + shape(*c));
     }
 
-    std::unique_ptr<LinearFeaturesModel> model(new LinearFeaturesModel(states, angles, inputs, form, *a, b, c));
-    // Finiteness, through the flat view so the message names the entry
-    // ("parameter 'B[1,0]' is not finite").
-    Eigen::VectorXd values(static_cast<Eigen::Index>(model->parameter_info_.size()));
-    model->get_parameters(values);
-    if (!sdk::check_parameter_values(model->parameter_info_, values, error)) return nullptr;
-    return model;
+    // Finiteness, through the flat view of every entry so the message names
+    // it ("parameter 'B[1,0]' is not finite"), fixed or not.
+    std::unique_ptr<LinearFeaturesModel> all(new LinearFeaturesModel(states, angles, inputs, form, *a, b, c, {}));
+    Eigen::VectorXd values(static_cast<Eigen::Index>(all->parameter_info_.size()));
+    all->get_parameters(values);
+    if (!sdk::check_parameter_values(all->parameter_info_, values, error)) return nullptr;
+    return std::unique_ptr<LinearFeaturesModel>(
+        new LinearFeaturesModel(states, angles, inputs, form, *a, b, c, {fixed[0], fixed[1], fixed[2]}));
   }
 
   int state_dim() const noexcept override { return n_; }
@@ -169,17 +192,21 @@ class LinearFeaturesModel final : public sdk::MotionModel {
 
   void get_parameters(Eigen::Ref<Eigen::VectorXd> values) const noexcept override {
     Eigen::Index at = 0;
-    if (form_ == StateMatrixForm::kDiagonal) {
-      for (int i = 0; i < n_; ++i) values[at++] = a_diagonal_[i];
-    } else {
-      for (int r = 0; r < n_; ++r) {
-        for (int c = 0; c < n_; ++c) values[at++] = a_(r, c);
+    if (!fixed_.a) {
+      if (form_ == StateMatrixForm::kDiagonal) {
+        for (int i = 0; i < n_; ++i) values[at++] = a_diagonal_[i];
+      } else {
+        for (int r = 0; r < n_; ++r) {
+          for (int c = 0; c < n_; ++c) values[at++] = a_(r, c);
+        }
       }
     }
-    for (int r = 0; r < n_; ++r) {
-      for (int c = 0; c < m_; ++c) values[at++] = b_(r, c);
+    if (!fixed_.b) {
+      for (int r = 0; r < n_; ++r) {
+        for (int c = 0; c < m_; ++c) values[at++] = b_(r, c);
+      }
     }
-    if (has_offset_) {
+    if (has_offset_ && !fixed_.c) {
       for (int i = 0; i < n_; ++i) values[at++] = c_[i];
     }
   }
@@ -187,17 +214,21 @@ class LinearFeaturesModel final : public sdk::MotionModel {
   bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>& values, std::string* error) noexcept override {
     if (!sdk::check_parameter_values(parameter_info_, values, error)) return false;
     Eigen::Index at = 0;
-    if (form_ == StateMatrixForm::kDiagonal) {
-      for (int i = 0; i < n_; ++i) a_diagonal_[i] = values[at++];
-    } else {
-      for (int r = 0; r < n_; ++r) {
-        for (int c = 0; c < n_; ++c) a_(r, c) = values[at++];
+    if (!fixed_.a) {
+      if (form_ == StateMatrixForm::kDiagonal) {
+        for (int i = 0; i < n_; ++i) a_diagonal_[i] = values[at++];
+      } else {
+        for (int r = 0; r < n_; ++r) {
+          for (int c = 0; c < n_; ++c) a_(r, c) = values[at++];
+        }
       }
     }
-    for (int r = 0; r < n_; ++r) {
-      for (int c = 0; c < m_; ++c) b_(r, c) = values[at++];
+    if (!fixed_.b) {
+      for (int r = 0; r < n_; ++r) {
+        for (int c = 0; c < m_; ++c) b_(r, c) = values[at++];
+      }
     }
-    if (has_offset_) {
+    if (has_offset_ && !fixed_.c) {
       for (int i = 0; i < n_; ++i) c_[i] = values[at++];
     }
     return true;
@@ -280,34 +311,46 @@ class LinearFeaturesModel final : public sdk::MotionModel {
     jacobian.setZero();
     if (dt == 0.0) return true;  // x+ = x whatever the parameters
     const Vector w = drive(u);
+    // The blocks of the fitted keys, in order (fixed ones take no columns).
+    const Eigen::Index a_count = fixed_.a ? 0 : num_a_parameters();
+    const Eigen::Index b_offset = a_count;
+    const Eigen::Index c_offset = b_offset + (fixed_.b ? 0 : n_ * m_);
     Matrix gamma = Matrix::Zero(n_, n_);
     if (form_ == StateMatrixForm::kDiagonal) {
       for (int i = 0; i < n_; ++i) {
         const double a = a_diagonal_[i];
-        jacobian(i, i) = dt * std::exp(a * dt) * x[i] + exp_integral_derivative(a, dt) * w[i];
+        if (!fixed_.a) jacobian(i, i) = dt * std::exp(a * dt) * x[i] + exp_integral_derivative(a, dt) * w[i];
         gamma(i, i) = exp_integral(a, dt);
       }
-    } else if (!zoh_step_derivatives(a_, Vector(x), w, dt, jacobian.leftCols(n_ * n_), &gamma)) {
+    } else if (!fixed_.a) {
+      if (!zoh_step_derivatives(a_, Vector(x), w, dt, jacobian.leftCols(n_ * n_), &gamma)) return false;
+    } else if (!zoh_gamma(a_, dt, &gamma)) {
       return false;
     }
-    const Eigen::Index b_offset = num_a_parameters();
-    const Eigen::Index c_offset = b_offset + n_ * m_;
     for (int r = 0; r < n_; ++r) {
-      for (int j = 0; j < m_; ++j) jacobian.col(b_offset + r * m_ + j) = gamma.col(r) * u[j];
-      if (has_offset_) jacobian.col(c_offset + r) = gamma.col(r);
+      if (!fixed_.b) {
+        for (int j = 0; j < m_; ++j) jacobian.col(b_offset + r * m_ + j) = gamma.col(r) * u[j];
+      }
+      if (has_offset_ && !fixed_.c) jacobian.col(c_offset + r) = gamma.col(r);
     }
     return jacobian.allFinite();
   }
 
  private:
+  // Keys held at their given values (`fixed:`), not parameters.
+  struct Fixed {
+    bool a = false, b = false, c = false;
+  };
+
   // `b` may be null only without inputs, `c` when the bank gives no c.
   LinearFeaturesModel(std::vector<std::string> states, std::vector<bool> angles, std::vector<std::string> inputs,
                       StateMatrixForm form, const Eigen::MatrixXd& a, const Eigen::MatrixXd* b,
-                      const Eigen::MatrixXd* c)
+                      const Eigen::MatrixXd* c, Fixed fixed)
       : n_(static_cast<int>(states.size())),
         m_(static_cast<int>(inputs.size())),
         form_(form),
         has_offset_(c != nullptr),
+        fixed_(fixed),
         a_(Matrix::Zero(n_, n_)),
         a_diagonal_(Vector::Zero(n_)),
         b_(InputMatrix::Zero(n_, m_)),
@@ -323,7 +366,9 @@ class LinearFeaturesModel final : public sdk::MotionModel {
     if (b != nullptr && m_ > 0) b_ = *b;
     if (c != nullptr) c_ = c->col(0);
     const std::vector<std::string>& s = state_names_;
-    if (form_ == StateMatrixForm::kDiagonal) {
+    if (fixed_.a) {
+      // held at its given values: no parameters
+    } else if (form_ == StateMatrixForm::kDiagonal) {
       for (int i = 0; i < n_; ++i) {
         add_parameter(
             "A[" + std::to_string(i) + "]", "A",
@@ -336,12 +381,12 @@ class LinearFeaturesModel final : public sdk::MotionModel {
         }
       }
     }
-    for (int r = 0; r < n_; ++r) {
+    for (int r = 0; r < n_ && !fixed_.b; ++r) {
       for (int col = 0; col < m_; ++col) {
         add_parameter(index_name("B", r, col), "B", "d(" + s[r] + ")/dt per unit of input " + input_names_[col]);
       }
     }
-    if (has_offset_) {
+    if (has_offset_ && !fixed_.c) {
       for (int i = 0; i < n_; ++i) {
         add_parameter("c[" + std::to_string(i) + "]", "c",
                       "constant term of d(" + s[i] + ")/dt (units of " + s[i] + " per s)");
@@ -387,6 +432,7 @@ class LinearFeaturesModel final : public sdk::MotionModel {
   int m_;
   StateMatrixForm form_;
   bool has_offset_;
+  Fixed fixed_;
   Matrix a_;           // full form
   Vector a_diagonal_;  // diagonal form
   InputMatrix b_;

@@ -110,6 +110,19 @@ inline bool zoh_transition(const ZohMatrix& a, double dt, ZohMatrix* phi) noexce
   return matrix_exponential(ZohMatrix(a * dt), phi);
 }
 
+// Gamma = int_0^dt expm(A s) ds, the top-right block of expm(dt [[A, I], [0, 0]]);
+// what the input and offset columns need when A is held fixed.
+inline bool zoh_gamma(const ZohMatrix& a, double dt, ZohMatrix* gamma) noexcept {
+  const Eigen::Index n = a.rows();
+  ZohVanLoanMatrix block = ZohVanLoanMatrix::Zero(2 * n, 2 * n);
+  block.topLeftCorner(n, n) = a * dt;
+  block.topRightCorner(n, n) = ZohMatrix::Identity(n, n) * dt;
+  ZohVanLoanMatrix exp_block;
+  if (!matrix_exponential(block, &exp_block)) return false;
+  *gamma = exp_block.topRightCorner(n, n);
+  return gamma->allFinite();
+}
+
 // Qd = int_0^dt expm(A s) Q expm(A s)' ds, symmetric.
 //
 // Van Loan: expm(h [[-A, Q], [0, A']]) = [[., F12], [0, F22]] gives

@@ -203,9 +203,9 @@ TEST_F(LinearFeatures, SurvivesRepeatedLoadAndUnload) {
 
 TEST_F(LinearFeatures, DocumentsItselfAndItsKeys) {
   const PluginDescriptor& descriptor = registry_.find("linear_features");
-  EXPECT_EQ(descriptor.version, "1.0.0");
+  EXPECT_EQ(descriptor.version, "1.1.0");
   EXPECT_THAT(descriptor.description, HasSubstr("dx/dt = A x + B u + c"));
-  EXPECT_EQ(descriptor.parameter_keys, (std::vector<std::string>{"A", "B", "c"}));
+  EXPECT_EQ(descriptor.parameter_keys, (std::vector<std::string>{"A", "B", "c", "fixed"}));
 }
 
 // n = 1: x+ = e^{a dt} x + (e^{a dt} - 1) / a (b u + c), F = e^{a dt},
@@ -399,6 +399,41 @@ TEST_F(LinearFeatures, ParameterJacobianMatchesCentralDifferencesInBothForms) {
   EXPECT_LT(max_abs(exact - numeric_parameter_jacobian(*slow, kX, kU, 0.7)), 1e-8);
 }
 
+TEST_F(LinearFeatures, FixedKeysAreHeldAndNotOffered) {
+  for (const Form& form : kForms) {
+    for (const std::vector<std::string>& keys :
+         {std::vector<std::string>{"A"}, std::vector<std::string>{"B"}, std::vector<std::string>{"A", "B"}}) {
+      sdk::ParameterSet params = form_params(form);
+      params.set_text("fixed", keys);
+      ModelHandle fixed = create(params);
+      ModelHandle free = create(form_params(form));
+      // The same step; only the flat parameter vector differs.
+      Eigen::VectorXd a(3), b(3);
+      ASSERT_TRUE(fixed->predict(kX, kU, 0.4, a) && free->predict(kX, kU, 0.4, b));
+      EXPECT_EQ(a, b) << form.name;
+      const std::size_t a_count = form.full ? 9 : 3;
+      std::size_t expected = free->parameter_info().size();
+      for (const std::string& k : keys) expected -= k == "A" ? a_count : 6;
+      ASSERT_EQ(fixed->parameter_info().size(), expected) << form.name;
+      for (const auto& info : fixed->parameter_info()) {
+        for (const std::string& k : keys) EXPECT_NE(info.key, k) << form.name;
+      }
+      // The exact Jacobian of what is left, against central differences.
+      const Eigen::Index p = static_cast<Eigen::Index>(expected);
+      if (p == 0) continue;
+      Eigen::MatrixXd exact(3, p);
+      ASSERT_TRUE(fixed->parameter_jacobian(kX, kU, 0.4, exact)) << form.name;
+      const Eigen::MatrixXd numeric = numeric_parameter_jacobian(*fixed, kX, kU, 0.4);
+      EXPECT_LT(max_abs(exact - numeric), 1e-8 * std::max(1.0, max_abs(numeric))) << form.name;
+    }
+  }
+  sdk::ParameterSet bad = form_params(kForms[0]);
+  bad.set_text("fixed", {"Q"});
+  EXPECT_THAT(creation_error(bad), HasSubstr("'Q' is not a key of linear_features (A, B, c)"));
+  bad.set_text("fixed", {"c"});
+  EXPECT_THAT(creation_error(bad), HasSubstr("names c, but the bank gives no c"));
+}
+
 TEST_F(LinearFeatures, LongStepOfAFastStateIsFiniteAndReachesTheSteadyState) {
   Eigen::Matrix3d a;
   a << -50.0, 10.0, 0.0,  //
@@ -580,7 +615,7 @@ TEST_F(LinearFeaturesBankErrors, NameTheKeyAndTheShapeInTheBanksTerms) {
                         "(states omega, current, vibration), got 2x1"));
   EXPECT_THAT(load_error("      A: [-4.0, -20.0, -0.8]\n      B: [[0.0, 0.35], [1.2, 0.5], [0.0, 0.7]]\n"
                          "      C: [1, 2, 3]\n"),
-              HasSubstr("unknown parameter 'C' (this model takes: A, B, c)"));
+              HasSubstr("unknown parameter 'C' (this model takes: A, B, c, fixed)"));
 }
 
 TEST_F(LinearFeaturesBankErrors, TooManyStatesAreRejectedWithTheLimit) {
