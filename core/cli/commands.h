@@ -82,6 +82,7 @@ struct FitCommandOptions {
   std::string objective = "likelihood";  // likelihood or window
   bool fit_r = false;                 // likelihood: one R for the bank
   bool full_q = false;                // likelihood: Q with off-diagonal terms
+  bool hold_unexcited = false;        // hold parameters the logs do not excite at their starting values
   double window = 0.0;                // s; 0: one-step
   std::string loss = "huber";
   double loss_scale = 3.0;
@@ -107,6 +108,7 @@ struct TuneCommandOptions {
   double window = 0.0;  // the window objective's window (s)
   bool fit_r = false;
   bool full_q = false;
+  bool hold_unexcited = false;
   std::filesystem::path output_bank;
   std::filesystem::path table;      // per-log scores as CSV
   std::filesystem::path estimates;  // the nested assessment's per-step outputs, one file per log

@@ -103,6 +103,7 @@ int fit(const FitCommandOptions& options) {
     fit_options.window.window = options.window;
     fit_options.window.loss = options.loss;
     fit_options.window.loss_scale = options.loss_scale;
+    fit_options.window.hold_unexcited = options.hold_unexcited;
     fit_options.shared = options.shared;
     fit_options.fit_measurement_noise = options.fit_r;
     fit_options.full_process_noise = options.full_q;

@@ -113,6 +113,8 @@ int main(int argc, char** argv) {
   fit->add_flag("--fit-r", fit_options.fit_r,
                 "Likelihood objective: also fit one measurement noise R (diagonal) for the whole bank");
   fit->add_flag("--full-q", fit_options.full_q, "Likelihood objective: fit Q with off-diagonal terms");
+  fit->add_flag("--hold-unexcited", fit_options.hold_unexcited,
+                "Hold parameters the logs do not excite at their starting values instead of failing (each is named)");
   fit->add_option("--window", fit_options.window,
                   "Window objective: seconds each prediction runs from a measured start; 0 = one-step (default)")
       ->check(CLI::NonNegativeNumber);
@@ -157,6 +159,8 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   tune->add_flag("--fit-r", tune_options.fit_r, "Likelihood objective: also fit one R for the bank");
   tune->add_flag("--full-q", tune_options.full_q, "Likelihood objective: fit Q with off-diagonal terms");
+  tune->add_flag("--hold-unexcited", tune_options.hold_unexcited,
+                 "Hold parameters the logs do not excite at their starting values instead of failing the fit");
   tune->add_option("--output-bank", tune_options.output_bank, "Write the tuned bank (fitted on every log) here");
   tune->add_option("--table", tune_options.table, "Write every log's held-out scores to this CSV");
   tune->add_option("--estimates", tune_options.estimates,

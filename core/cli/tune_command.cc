@@ -121,6 +121,7 @@ int tune(const TuneCommandOptions& options) {
       fitting::BankFitOptions fit_options;
       fit_options.objective = fitting::objective_from_string(name);
       fit_options.window.window = options.window;
+      fit_options.window.hold_unexcited = options.hold_unexcited;
       fit_options.fit_measurement_noise = options.fit_r;
       fit_options.full_process_noise = options.full_q;
       fitters[name] = [fit_options](Bank* bank, const std::vector<fitting::ModeLogs>& data) {

@@ -231,6 +231,28 @@ TEST(ModelFitter, DrivingStraightDoesNotExciteTheYawParameters) {
   }
 }
 
+TEST(ModelFitter, HoldingUnexcitedParametersFitsTheRest) {
+  Bank truth = load_bank(kLtcBank, "truth.yaml");
+  auto straight = [](double t) { return Eigen::Vector2d(4.0 + std::sin(t), 4.0 + std::sin(t)); };
+  const Trajectory data =
+      simulate_model(*truth.models[0], 1000, 0.02, straight, Eigen::Vector2d(0, 0), Eigen::Vector2d(0.02, 0.02), 1);
+  Bank bank = load_bank(kLtcBank);
+  Eigen::VectorXd start(8);
+  bank.models[0]->get_parameters(start);
+  FitOptions options;
+  options.hold_unexcited = true;
+  const FitReport report = fit(&bank, {ModeLogs{0, {data}}}, options).front();
+  Eigen::VectorXd fitted(8);
+  bank.models[0]->get_parameters(fitted);
+  // Each row's pair (B[r,0], B[r,1]) is held: equal wheel speeds see only their sum.
+  for (int i : {4, 5, 6, 7}) EXPECT_EQ(fitted[i], start[i]) << report.parameters[static_cast<std::size_t>(i)].name;
+  EXPECT_NE(fitted[0], start[0]) << "A[0,0] is still fitted";
+  int held = 0;
+  for (const std::string& w : report.warnings) held += w.find("is held at its starting value") != std::string::npos;
+  EXPECT_EQ(held, 4);
+  EXPECT_TRUE(std::isnan(report.parameters[4].standard_deviation));
+}
+
 TEST(ModelFitter, EveryStateMustBeMeasured) {
   std::string yaml = kLtcBank;
   yaml.replace(yaml.find("observe: [V, omega], R: {std: [0.02, 0.02]}"), 43, "observe: [V], R: {std: [0.02]}");

@@ -407,15 +407,16 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
     ceres::Problem problem(problem_options);
     int residuals = 0;
     bool all_analytic = true;
+    std::vector<std::string> empty_sources;
     for (const ModeLogs* d : group) {
       if (d->logs.empty()) throw FitError(who + ": no logs given");
       for (const Trajectory& t : d->logs) {
         const std::vector<Window> windows = make_windows(m, t, options.window);
         if (windows.empty()) {
-          std::string states;
-          for (const std::string& s : bank->config.state_names) states += (states.empty() ? "" : ", ") + s;
-          throw FitError(t.source + ": no prediction window: no row measures every state (" + states +
-                         ") with a measured row after it");
+          // A short segment (a class's log split by fit_when) may hold no
+          // window; only a mode with no window at all is an error (below).
+          empty_sources.push_back(t.source);
+          continue;
         }
         sdk::MotionModel* model = bank->models[static_cast<std::size_t>(d->mode)].get();
         const bool analytic = !options.numeric_derivatives && has_parameter_jacobian(*model, t);
@@ -455,6 +456,13 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
         }
       }
     }
+    if (residuals == 0 && !empty_sources.empty()) {
+      std::string states;
+      for (const std::string& s : bank->config.state_names) states += (states.empty() ? "" : ", ") + s;
+      throw FitError(empty_sources.front() + (empty_sources.size() > 1 ? " (and the other logs of " + who + ")" : "") +
+                     ": no prediction window: no row measures every state (" + states +
+                     ") with a measured row after it");
+    }
     if (residuals <= static_cast<int>(block.size())) {
       throw FitError(who + ": the logs are too short: " + std::to_string(residuals) + " residuals for " +
                      std::to_string(block.size()) + " parameters");
@@ -472,28 +480,69 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
     solver_options.num_threads = 1;  // residual blocks share the model instance
     solver_options.logging_type = ceres::SILENT;
     ceres::Solver::Summary summary;
-    ceres::Solve(solver_options, &problem, &summary);
-    if (!summary.IsSolutionUsable()) throw FitError(who + ": the solver failed: " + summary.message);
-    if (!std::isfinite(summary.final_cost)) throw FitError(who + ": the fit ended at a cost that is not finite");
+    // Solve; with hold_unexcited, parameters the logs do not excite are held
+    // at their starting values and the rest solved again.
+    const std::vector<double> start = block;
+    std::vector<int> held;
+    std::vector<std::string> free_names;
+    Eigen::VectorXd singular;
+    double largest = 0.0, smallest = 0.0;
+    double first_initial_cost = -1.0;
+    while (true) {
+      ceres::Solve(solver_options, &problem, &summary);
+      if (first_initial_cost < 0.0) first_initial_cost = summary.initial_cost;
+      if (!summary.IsSolutionUsable()) throw FitError(who + ": the solver failed: " + summary.message);
+      if (!std::isfinite(summary.final_cost)) throw FitError(who + ": the fit ended at a cost that is not finite");
 
-    // Identifiability: singular values of the Jacobian at the solution.
-    ceres::CRSMatrix crs;
-    double cost = 0.0;
-    problem.Evaluate(ceres::Problem::EvaluateOptions(), &cost, nullptr, nullptr, &crs);
-    Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
-    for (int row = 0; row < crs.num_rows; ++row) {
-      for (int k = crs.rows[static_cast<std::size_t>(row)]; k < crs.rows[static_cast<std::size_t>(row) + 1]; ++k) {
-        jacobian(row, crs.cols[static_cast<std::size_t>(k)]) = crs.values[static_cast<std::size_t>(k)];
+      // Identifiability: singular values of the Jacobian at the solution (in
+      // the free parameters: the held ones have no column).
+      ceres::CRSMatrix crs;
+      double cost = 0.0;
+      problem.Evaluate(ceres::Problem::EvaluateOptions(), &cost, nullptr, nullptr, &crs);
+      Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
+      for (int row = 0; row < crs.num_rows; ++row) {
+        for (int k = crs.rows[static_cast<std::size_t>(row)]; k < crs.rows[static_cast<std::size_t>(row) + 1]; ++k) {
+          jacobian(row, crs.cols[static_cast<std::size_t>(k)]) = crs.values[static_cast<std::size_t>(k)];
+        }
       }
-    }
-    Eigen::JacobiSVD<Eigen::MatrixXd> svd(jacobian, Eigen::ComputeThinV);
-    const Eigen::VectorXd singular = svd.singularValues();
-    const double largest = singular[0];
-    const double smallest = singular[singular.size() - 1];
-    if (!(largest > 0.0) || smallest < options.identifiability_threshold * largest) {
-      throw FitError(who + ": the logs do not excite every parameter: no information on the combinations " +
-                     describe_unexcited(svd.matrixV(), singular, options.identifiability_threshold * largest, names) +
-                     "; drive maneuvers that move them (turns and speed changes), or fix them");
+      free_names.clear();
+      std::vector<int> free_index;
+      for (std::size_t i = 0; i < names.size(); ++i) {
+        if (std::find(held.begin(), held.end(), static_cast<int>(i)) == held.end()) {
+          free_names.push_back(names[i]);
+          free_index.push_back(static_cast<int>(i));
+        }
+      }
+      Eigen::JacobiSVD<Eigen::MatrixXd> svd(jacobian, Eigen::ComputeThinV);
+      singular = svd.singularValues();
+      largest = singular[0];
+      smallest = singular[singular.size() - 1];
+      const double threshold = options.identifiability_threshold * largest;
+      if (largest > 0.0 && smallest >= threshold) break;
+      const std::string unexcited = describe_unexcited(svd.matrixV(), singular, threshold, free_names);
+      if (!options.hold_unexcited || !(largest > 0.0)) {
+        throw FitError(who + ": the logs do not excite every parameter: no information on the combinations " +
+                       unexcited + "; drive maneuvers that move them (turns and speed changes), or fix them" +
+                       (options.hold_unexcited ? "" : " (or let the fit hold them: --hold-unexcited)"));
+      }
+      const std::size_t before = held.size();
+      const Eigen::MatrixXd& v = svd.matrixV();
+      for (Eigen::Index k = 0; k < singular.size(); ++k) {
+        if (singular[k] >= threshold) continue;
+        for (Eigen::Index i = 0; i < v.rows(); ++i) {
+          const int parameter = free_index[static_cast<std::size_t>(i)];
+          if (std::abs(v(i, k)) > 0.2 && std::find(held.begin(), held.end(), parameter) == held.end()) {
+            held.push_back(parameter);
+            block[static_cast<std::size_t>(parameter)] = start[static_cast<std::size_t>(parameter)];
+          }
+        }
+      }
+      if (held.size() == before || held.size() == block.size()) {
+        throw FitError(who + ": the logs do not excite every parameter: no information on the combinations " +
+                       unexcited + "; drive maneuvers that move them, or fix them");
+      }
+      std::sort(held.begin(), held.end());
+      problem.SetManifold(block.data(), new ceres::SubsetManifold(static_cast<int>(block.size()), held));
     }
 
     std::vector<double> deviations(block.size(), std::nan(""));
@@ -506,6 +555,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
       covariance.GetCovarianceBlock(block.data(), block.data(), c.data());
       const double variance = 2.0 * summary.final_cost / dof;  // residuals are whitened by the assumed R
       for (std::size_t i = 0; i < block.size(); ++i) deviations[i] = std::sqrt(c[i * block.size() + i] * variance);
+      for (int i : held) deviations[static_cast<std::size_t>(i)] = std::nan("");
     }
 
     // Leave every model of the group at the solution.
@@ -524,6 +574,11 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
       FitReport report = evaluate(*bank, *d);
       for (std::size_t i = 0; i < block.size(); ++i) {
         report.parameters.push_back({names[i], block[i], deviations[i]});
+        if (std::find(held.begin(), held.end(), static_cast<int>(i)) != held.end()) {
+          report.warnings.push_back("parameter '" + names[i] + "' is held at its starting value " +
+                                    std::to_string(block[i]) + ": the logs do not excite it");
+          continue;
+        }
         if (std::isfinite(deviations[i]) && deviations[i] > std::max(std::abs(block[i]), 1e-9)) {
           report.warnings.push_back("parameter '" + names[i] + "' is poorly determined: standard deviation " +
                                     std::to_string(deviations[i]) + " exceeds its value");
@@ -536,7 +591,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
       report.residuals = residuals;
       report.derivatives = all_analytic ? "autodiff" : "numeric";
       report.iterations = static_cast<int>(summary.iterations.size());
-      report.initial_cost = summary.initial_cost;
+      report.initial_cost = first_initial_cost;
       report.final_cost = summary.final_cost;
       report.condition_number = largest / smallest;
       if (report.condition_number > 1e6) {

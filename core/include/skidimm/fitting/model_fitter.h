@@ -65,6 +65,10 @@ struct FitOptions {
   double identifiability_threshold = 1e-7;
   // Central differences even where the plugin gives exact derivatives.
   bool numeric_derivatives = false;
+  // Parameters the logs do not excite (a straight-driving mode's turn gains)
+  // are held at their starting values instead of failing the fit; each is
+  // named in the report's warnings.
+  bool hold_unexcited = false;
 };
 
 struct ParameterEstimate {
