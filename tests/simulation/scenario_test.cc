@@ -4,11 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 
 #include "core/temp_files.h"
 #include "skidimm/errors.h"
 #include "skidimm/imm.h"
 #include "skidimm/log_io.h"
+#include "skidimm/sdk/angles.h"
 
 namespace skidimm {
 namespace simulation {
@@ -81,6 +83,128 @@ TEST(Scenario, DropoutsLeaveCellsEmpty) {
   while (reader.next(&f)) ASSERT_TRUE(f[3].empty());
 }
 
+// One log's columns by name, as numbers (NaN for an empty cell).
+std::map<std::string, std::vector<double>> read_columns(const std::filesystem::path& file) {
+  CsvReader reader(file);
+  std::map<std::string, std::vector<double>> columns;
+  std::vector<std::string> f;
+  while (reader.next(&f)) {
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      const std::string& name = reader.header()[i];
+      if (name == "mode") continue;
+      columns[name].push_back(f[i].empty() ? std::nan("") : std::stod(f[i]));
+    }
+  }
+  return columns;
+}
+
+double mean(const std::vector<double>& v) {
+  double sum = 0.0;
+  for (double x : v) sum += x;
+  return sum / static_cast<double>(v.size());
+}
+
+double standard_deviation(const std::vector<double>& v) {
+  const double m = mean(v);
+  double sum = 0.0;
+  for (double x : v) sum += (x - m) * (x - m);
+  return std::sqrt(sum / static_cast<double>(v.size()));
+}
+
+const std::string kHuskyScenario = R"(name: husky
+duration: 240
+modes: {front: {terrain: asphalt, tarp: [FL, FR]}}
+mode: front
+maneuver: {type: skidpad, speed: 0.8, radius: 1.5}
+sensors: {preset: husky}
+)";
+
+// The ideal sensors are what every earlier result used: `preset: ideal` is
+// the default, byte for byte.
+TEST(Scenario, IdealPresetIsTheDefault) {
+  const auto dir = test_directory();
+  simulate(load_scenario(write_file(dir / "a.yaml", kScenario)), 3, dir / "a.csv");
+  simulate(load_scenario(write_file(dir / "b.yaml", replace(kScenario, "sensors: {", "sensors: {preset: ideal, "))), 3,
+           dir / "b.csv");
+  EXPECT_EQ(read_file(dir / "a.csv"), read_file(dir / "b.csv"));
+}
+
+// The Husky preset: speed from wheel odometry, heading from the GPS course
+// over ground, a gyro turn-on bias, RTK fixes with correlated errors,
+// dropouts and outages (docs/simulation.md).
+TEST(Scenario, HuskyPresetSensorsAreWhatARobotHas) {
+  const auto dir = test_directory();
+  const Scenario s = load_scenario(write_file(dir / "s.yaml", kHuskyScenario));
+  EXPECT_EQ(s.sensors.speed, SensorConfig::Speed::kOdometry);
+  EXPECT_EQ(s.sensors.heading, SensorConfig::Heading::kGpsCourse);
+  simulate(s, 11, dir / "log.csv");
+  auto c = read_columns(dir / "log.csv");
+  const std::size_t rows = c["t"].size();
+
+  // V is odometry from the logged wheel speeds, blind to slip.
+  std::vector<double> odometry_error;
+  for (std::size_t k = 0; k < rows; ++k) {
+    if (std::isnan(c["V"][k])) continue;
+    const double odometry = 1.02 * 0.165 * (c["phi_dot_L"][k] + c["phi_dot_R"][k]) / 2.0;
+    EXPECT_NEAR(c["V"][k], odometry, 2e-6) << "row " << k;
+    odometry_error.push_back(c["V"][k] - c["true_V"][k]);
+  }
+  EXPECT_NEAR(static_cast<double>(odometry_error.size()) / rows, 0.995, 0.01);
+
+  // theta is the course over ground: here the front slides out, so the body
+  // moves at a sideslip to its heading that the course includes.
+  std::vector<double> course_minus_heading, course_minus_course;
+  long fixes = 0, gaps = 0;
+  double last_fix = 0.0;
+  for (std::size_t k = 0; k < rows; ++k) {
+    if (std::isnan(c["X"][k])) continue;
+    ++fixes;
+    gaps += c["t"][k] - last_fix > 0.5;
+    last_fix = c["t"][k];
+    if (std::isnan(c["theta"][k]) || c["t"][k] < 5.0) continue;
+    const double sideslip = std::atan2(c["true_vy"][k], c["true_V"][k]);
+    course_minus_heading.push_back(sdk::wrap_angle(c["theta"][k] - c["true_theta"][k]));
+    course_minus_course.push_back(sdk::wrap_angle(c["theta"][k] - c["true_theta"][k] - sideslip));
+  }
+  EXPECT_GT(mean(course_minus_heading), 0.1);  // front tarps: the body slides about 7 deg to the left
+  EXPECT_NEAR(mean(course_minus_course), 0.0, 0.005);
+  EXPECT_NEAR(standard_deviation(course_minus_course), 0.035 / 0.8, 0.01);
+  // 10 Hz RTK fixes, 2% lost singly and an outage a minute.
+  EXPECT_NEAR(static_cast<double>(fixes), 240.0 * 10.0 * 0.95, 240.0 * 10.0 * 0.04);
+  EXPECT_GE(gaps, 1);
+
+  // One gyro bias for the run, another for another run.
+  std::vector<double> gyro_error;
+  for (std::size_t k = 0; k < rows; ++k) {
+    if (!std::isnan(c["omega"][k])) gyro_error.push_back(c["omega"][k] - c["true_omega"][k]);
+  }
+  simulate(s, 12, dir / "other.csv");
+  auto other = read_columns(dir / "other.csv");
+  std::vector<double> other_error;
+  for (std::size_t k = 0; k < other["t"].size(); ++k) {
+    if (!std::isnan(other["omega"][k])) other_error.push_back(other["omega"][k] - other["true_omega"][k]);
+  }
+  EXPECT_NEAR(standard_deviation(gyro_error), 0.02, 0.002);
+  EXPECT_GT(std::abs(mean(gyro_error) - mean(other_error)), 1e-3);
+}
+
+// Below 0.1 m/s a receiver gives no course: standing, only when the
+// velocity noise (0.035 m/s per axis) happens to exceed it.
+TEST(Scenario, GpsCourseIsEmptyWhenStanding) {
+  const auto dir = test_directory();
+  const Scenario s = load_scenario(write_file(
+      dir / "s.yaml", replace(replace(kHuskyScenario, "duration: 240", "duration: 60"), "speed: 0.8", "speed: 0")));
+  simulate(s, 1, dir / "log.csv");
+  auto c = read_columns(dir / "log.csv");
+  long fixes = 0, courses = 0;
+  for (std::size_t k = 0; k < c["t"].size(); ++k) {
+    fixes += !std::isnan(c["X"][k]);
+    courses += !std::isnan(c["theta"][k]);
+  }
+  EXPECT_GT(fixes, 500);
+  EXPECT_LT(courses, 0.05 * fixes);  // exp(-0.1^2 / (2 0.035^2)) = 1.7% expected
+}
+
 TEST(Scenario, ErrorsNameFileLineAndField) {
   const auto dir = test_directory();
   auto error = [&](const std::string& yaml) {
@@ -103,6 +227,12 @@ TEST(Scenario, ErrorsNameFileLineAndField) {
   EXPECT_THAT(error(replace(kScenario, "jitter: 0.2", "jitter: 1.5")), HasSubstr("sensors.jitter: must be below 1"));
   EXPECT_THAT(error(replace(kScenario, "duration: 4", "duration: -4")),
               HasSubstr("duration: must be a finite number > 0"));
+  EXPECT_THAT(error(replace(kScenario, "sensors: {", "sensors: {preset: robot, ")),
+              HasSubstr("sensors.preset: expected ideal or husky"));
+  EXPECT_THAT(error(replace(kScenario, "sensors: {", "sensors: {heading: compass, ")),
+              HasSubstr("sensors.heading: expected direct or gps_course"));
+  EXPECT_THAT(error(replace(kScenario, "sensors: {", "sensors: {gps_correlation_time: 0, ")),
+              HasSubstr("sensors.gps_correlation_time: must be a finite number > 0"));
 }
 
 // The bundled, fitted LTC bank identifies each terrain on spirals it was not

@@ -105,6 +105,54 @@ TEST(SkidSteerDynamics, ARollingRobotWithStoppedWheelsOnlyLosesEnergy) {
   EXPECT_LT(energy(s), 1e-3 * energy(start));
 }
 
+// Steady yaw efficiency (omega over the commanded r (phi_R - phi_L) / b) and
+// speed efficiency (v_x over r (phi_L + phi_R) / 2) after 12 s of wheel
+// commands for speed v and turning radius radius (> 0 turns left).
+struct Efficiency {
+  double yaw, speed;
+};
+Efficiency steady_turn(const TractionMode& mode, double v, double radius) {
+  const RobotParameters robot;
+  const double omega = v / radius;
+  const double left = (v - omega * robot.track / 2.0) / robot.wheel_radius;
+  const double right = (v + omega * robot.track / 2.0) / robot.wheel_radius;
+  double lateral = 0.0, total = 0.0;
+  const RobotState s = drive(mode, left, right, 12.0, &lateral, &total);
+  return {s.omega / (robot.wheel_radius * (right - left) / robot.track),
+          s.vx / (robot.wheel_radius * (left + right) / 2.0)};
+}
+
+// Scaling every wheel's friction by one factor leaves the quasi-static force
+// balance, and so the motion, unchanged: only inertia and rolling
+// resistance, small against friction on wide turns, tell a robot with a tarp
+// on every wheel from one with none (docs/simulation.md; the paper's own
+// explanation of its baseline/four-wheel confusion). On tight turns the
+// tarps' lower friction saturates and the two part.
+TEST(SkidSteerDynamics, TarpOnEveryWheelTurnsWideLikeNoTarp) {
+  const TractionMode none = make_traction_mode("none", "asphalt", {});
+  const TractionMode all = make_traction_mode("all", "asphalt", {"FL", "FR", "RL", "RR"});
+  for (double radius : {3.0, 6.0}) {
+    const Efficiency a = steady_turn(none, 0.8, radius), b = steady_turn(all, 0.8, radius);
+    EXPECT_NEAR(b.yaw, a.yaw, 0.02 * a.yaw) << "radius " << radius;
+    EXPECT_NEAR(b.speed, a.speed, 0.01) << "radius " << radius;
+  }
+  // At 1 m the tarps saturate: the robot with four tarps slides round (yaw
+  // efficiency 0.90) where the one without scrubs (0.55).
+  const Efficiency tight_none = steady_turn(none, 0.8, 1.0), tight_all = steady_turn(all, 0.8, 1.0);
+  EXPECT_GT(tight_all.yaw - tight_none.yaw, 0.2);
+}
+
+// A tarp on one side: a turn towards the grippy side (the slippery side
+// outside, having to push) turns less and drives slower than the mirrored
+// turn, which eq. 3's single (k, m) cannot express and stc_sided can.
+TEST(SkidSteerDynamics, ASlipperySideTurnsLeftAndRightDifferently) {
+  const TractionMode right_tarp = make_traction_mode("right", "asphalt", {"FR", "RR"});
+  const Efficiency left_turn = steady_turn(right_tarp, 0.8, 1.5), right_turn = steady_turn(right_tarp, 0.8, -1.5);
+  EXPECT_LT(left_turn.yaw, 0.75 * right_turn.yaw);
+  EXPECT_LT(left_turn.speed, 0.9);
+  EXPECT_GT(right_turn.speed, 1.1);
+}
+
 TEST(TractionMode, TarpScalesTheWrappedWheelsFriction) {
   const TractionMode m = make_traction_mode("slip", "asphalt", {"FR", "RR"});
   EXPECT_DOUBLE_EQ(m.wheels[kFrontLeft].friction, 0.9);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <set>
 
@@ -81,9 +82,23 @@ void parse_maneuver(const YamlFields& y, const YAML::Node& node, Maneuver* m) {
 
 void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s) {
   y.check_keys(node,
-               {"rate", "jitter", "wheel_speed_std", "velocity_std", "yaw_rate_std", "yaw_rate_bias", "accel_std",
-                "gps_rate", "gps_std", "heading_std", "velocity_dropout", "imu_dropout", "gps_dropout"},
+               {"preset", "rate", "jitter", "wheel_speed_std", "speed", "velocity_std", "odometry_scale_error",
+                "yaw_rate_std", "yaw_rate_bias", "yaw_rate_bias_std", "accel_std", "gps_rate", "gps_std",
+                "gps_correlated_std", "gps_correlation_time", "heading", "heading_std", "gps_velocity_std",
+                "course_min_speed", "velocity_dropout", "imu_dropout", "gps_dropout", "gps_outage_rate",
+                "gps_outage_duration"},
                "sensors");
+  // A preset first; every other key overrides it.
+  if (node["preset"]) {
+    const std::string preset = y.string(node["preset"], "sensors.preset");
+    if (preset == "husky") {
+      *s = husky_sensors();
+    } else if (preset == "ideal") {
+      *s = SensorConfig();
+    } else {
+      y.fail(node["preset"], "sensors.preset", "expected ideal or husky");
+    }
+  }
   if (node["rate"]) s->rate = positive(y, node["rate"], "sensors.rate");
   if (node["jitter"]) {
     s->jitter = non_negative(y, node["jitter"], "sensors.jitter");
@@ -96,12 +111,36 @@ void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s)
   };
   set("wheel_speed_std", &s->wheel_speed_std, false);
   set("velocity_std", &s->velocity_std, false);
+  set("odometry_scale_error", &s->odometry_scale_error, true);
   set("yaw_rate_std", &s->yaw_rate_std, false);
   set("yaw_rate_bias", &s->yaw_rate_bias, true);
+  set("yaw_rate_bias_std", &s->yaw_rate_bias_std, false);
   set("accel_std", &s->accel_std, false);
   set("gps_rate", &s->gps_rate, false);
   set("gps_std", &s->gps_std, false);
+  set("gps_correlated_std", &s->gps_correlated_std, false);
   set("heading_std", &s->heading_std, false);
+  set("gps_velocity_std", &s->gps_velocity_std, false);
+  set("course_min_speed", &s->course_min_speed, false);
+  set("gps_outage_rate", &s->gps_outage_rate, false);
+  if (node["gps_correlation_time"]) {
+    s->gps_correlation_time = positive(y, node["gps_correlation_time"], "sensors.gps_correlation_time");
+  }
+  if (node["gps_outage_duration"]) {
+    s->gps_outage_duration = positive(y, node["gps_outage_duration"], "sensors.gps_outage_duration");
+  }
+  if (node["speed"]) {
+    const std::string speed = y.string(node["speed"], "sensors.speed");
+    if (speed != "body" && speed != "odometry") y.fail(node["speed"], "sensors.speed", "expected body or odometry");
+    s->speed = speed == "body" ? SensorConfig::Speed::kBody : SensorConfig::Speed::kOdometry;
+  }
+  if (node["heading"]) {
+    const std::string heading = y.string(node["heading"], "sensors.heading");
+    if (heading != "direct" && heading != "gps_course") {
+      y.fail(node["heading"], "sensors.heading", "expected direct or gps_course");
+    }
+    s->heading = heading == "direct" ? SensorConfig::Heading::kDirect : SensorConfig::Heading::kGpsCourse;
+  }
   auto set_probability = [&](const char* key, double* out) {
     if (node[key]) *out = probability(y, node[key], std::string("sensors.") + key);
   };
@@ -113,6 +152,32 @@ void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s)
 std::string number(double v) { return CsvWriter::format(std::round(v * 1e6) / 1e6); }
 
 }  // namespace
+
+SensorConfig husky_sensors() {
+  // Sources and reasoning: docs/simulation.md, "Sensors".
+  SensorConfig s;
+  s.rate = 50.0;  // wheel and IMU rows (the Husky's joint states and a 50 Hz IMU stream)
+  s.jitter = 0.3;
+  s.wheel_speed_std = 0.05;
+  s.speed = SensorConfig::Speed::kOdometry;  // the Husky's velocity is wheel odometry
+  s.odometry_scale_error = 0.02;             // rolling radius 2% off the nominal one (assumed)
+  s.yaw_rate_std = 0.02;
+  s.yaw_rate_bias_std = 0.005;  // rad/s (0.3 deg/s) turn-on bias of a MEMS gyro (assumed)
+  s.accel_std = 0.05;
+  s.gps_rate = 10.0;                  // RTK fixes at 10 Hz
+  s.gps_std = 0.006;                  // m per axis, white
+  s.gps_correlated_std = 0.006;       // m per axis, multipath: 0.0085 m in all, 1 cm CEP (RTK fix)
+  s.gps_correlation_time = 60.0;      // s
+  s.heading = SensorConfig::Heading::kGpsCourse;
+  s.gps_velocity_std = 0.035;         // m/s per axis: 0.05 m/s velocity accuracy
+  s.course_min_speed = 0.1;           // m/s: receivers give no course below it
+  s.velocity_dropout = 0.005;
+  s.imu_dropout = 0.005;
+  s.gps_dropout = 0.02;               // single lost fixes
+  s.gps_outage_rate = 1.0 / 60.0;     // an outage a minute on average ...
+  s.gps_outage_duration = 2.0;        // ... of 2 s on average (lost corrections, shading)
+  return s;
+}
 
 Scenario load_scenario(const fs::path& file) {
   const YamlFields y(file.string());
@@ -178,11 +243,70 @@ Scenario load_scenario(const fs::path& file) {
   return s;
 }
 
+namespace {
+
+// The realistic sensors' error states over a run, drawn from their own
+// random stream so that the ideal sensors' draws (and logs) are unchanged.
+class RealisticErrors {
+ public:
+  RealisticErrors(const SensorConfig& sensors, std::uint64_t seed)
+      : sensors_(sensors), random_(seed ^ 0x9E3779B97F4A7C15ULL) {
+    if (sensors_.yaw_rate_bias_std > 0.0) yaw_rate_bias_ = sensors_.yaw_rate_bias_std * random_.gaussian();
+    if (sensors_.gps_correlated_std > 0.0) {
+      gps_error_[0] = sensors_.gps_correlated_std * random_.gaussian();
+      gps_error_[1] = sensors_.gps_correlated_std * random_.gaussian();
+    }
+  }
+
+  double yaw_rate_bias() const { return sensors_.yaw_rate_bias + yaw_rate_bias_; }
+
+  // Advances the GPS error states to a fix due at time t; false during an outage.
+  bool gps_epoch(double t) {
+    const double elapsed = last_epoch_ < 0.0 ? 0.0 : t - last_epoch_;
+    last_epoch_ = t;
+    if (sensors_.gps_correlated_std > 0.0 && elapsed > 0.0) {
+      const double a = std::exp(-elapsed / sensors_.gps_correlation_time);
+      const double spread = sensors_.gps_correlated_std * std::sqrt(1.0 - a * a);
+      gps_error_[0] = a * gps_error_[0] + spread * random_.gaussian();
+      gps_error_[1] = a * gps_error_[1] + spread * random_.gaussian();
+    }
+    if (sensors_.gps_outage_rate > 0.0) {
+      if (t < outage_end_) return false;
+      if (elapsed > 0.0 && random_.uniform() < 1.0 - std::exp(-sensors_.gps_outage_rate * elapsed)) {
+        outage_end_ = t - sensors_.gps_outage_duration * std::log(random_.uniform());
+        return false;
+      }
+    }
+    return true;
+  }
+  double gps_error(int axis) const { return gps_error_[axis]; }
+
+  // Course over ground of the world velocity (vx, vy) measured with noise;
+  // NaN below the receiver's minimum speed.
+  double course(double world_vx, double world_vy) {
+    const double vx = world_vx + sensors_.gps_velocity_std * random_.gaussian();
+    const double vy = world_vy + sensors_.gps_velocity_std * random_.gaussian();
+    if (std::hypot(vx, vy) < sensors_.course_min_speed) return std::numeric_limits<double>::quiet_NaN();
+    return std::atan2(vy, vx);
+  }
+
+ private:
+  const SensorConfig& sensors_;
+  Random random_;
+  double yaw_rate_bias_ = 0.0;
+  double gps_error_[2] = {0.0, 0.0};
+  double last_epoch_ = -1.0;
+  double outage_end_ = -1.0;
+};
+
+}  // namespace
+
 SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const fs::path& output) {
   const SkidSteerDynamics dynamics(scenario.robot);
   const RobotParameters& robot = scenario.robot;
   const SensorConfig& sensors = scenario.sensors;
   Random random(seed);
+  RealisticErrors realistic(sensors, seed);
   SimulationSummary summary;
   for (const TractionMode& m : scenario.modes) {
     double mu = 0.0;
@@ -225,25 +349,40 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
       const double heading = sdk::wrap_angle(state.psi);
       std::fill(row.begin(), row.end(), std::string());
       row[0] = number(t);
-      row[1] = number(true_left + sensors.wheel_speed_std * random.gaussian());
-      row[2] = number(true_right + sensors.wheel_speed_std * random.gaussian());
+      const double measured_left = true_left + sensors.wheel_speed_std * random.gaussian();
+      const double measured_right = true_right + sensors.wheel_speed_std * random.gaussian();
+      row[1] = number(measured_left);
+      row[2] = number(measured_right);
       const double noise_v = sensors.velocity_std * random.gaussian();
-      if (random.uniform() >= sensors.velocity_dropout) row[3] = number(state.vx + noise_v);
+      if (random.uniform() >= sensors.velocity_dropout) {
+        const double speed = sensors.speed == SensorConfig::Speed::kBody
+                                 ? state.vx + noise_v
+                                 : (1.0 + sensors.odometry_scale_error) * robot.wheel_radius *
+                                       (measured_left + measured_right) / 2.0;
+        row[3] = number(speed);
+      }
       const double noise_w = sensors.yaw_rate_std * random.gaussian();
       const double noise_ax = sensors.accel_std * random.gaussian();
       const double noise_ay = sensors.accel_std * random.gaussian();
       if (random.uniform() >= sensors.imu_dropout) {
-        row[4] = number(state.omega + sensors.yaw_rate_bias + noise_w);
+        row[4] = number(state.omega + realistic.yaw_rate_bias() + noise_w);
         row[5] = number(forces.ax + noise_ax);
         row[6] = number(forces.ay + noise_ay);
       }
       if (sensors.gps_rate > 0.0 && t + 1e-12 >= next_gps) {
         const double nx = sensors.gps_std * random.gaussian(), ny = sensors.gps_std * random.gaussian();
         const double nh = sensors.heading_std * random.gaussian();
-        if (random.uniform() >= sensors.gps_dropout) {
-          row[7] = number(state.x + nx);
-          row[8] = number(state.y + ny);
-          row[9] = number(sdk::wrap_angle(heading + nh));
+        const bool received = random.uniform() >= sensors.gps_dropout;
+        if (realistic.gps_epoch(t) && received) {
+          row[7] = number(state.x + nx + realistic.gps_error(0));
+          row[8] = number(state.y + ny + realistic.gps_error(1));
+          if (sensors.heading == SensorConfig::Heading::kDirect) {
+            row[9] = number(sdk::wrap_angle(heading + nh));
+          } else {
+            const double c = std::cos(state.psi), s = std::sin(state.psi);
+            const double course = realistic.course(state.vx * c - state.vy * s, state.vx * s + state.vy * c);
+            if (std::isfinite(course)) row[9] = number(sdk::wrap_angle(course));
+          }
         }
         next_gps += 1.0 / sensors.gps_rate;
       }

@@ -18,21 +18,51 @@
 namespace skidimm {
 namespace simulation {
 
+// What the robot's sensors report (docs/simulation.md, "Sensors"). The
+// defaults are the "ideal" sensors of the earlier results: white noise on the
+// true body speed, the true heading and 3 cm GPS fixes, no bias. `preset:
+// husky` (husky_sensors()) is a Husky-class robot: speed from wheel
+// odometry, heading from the course over ground of an RTK receiver, a gyro
+// turn-on bias, time-correlated GPS errors, dropouts and outages.
 struct SensorConfig {
+  enum class Speed { kBody, kOdometry };
+  enum class Heading { kDirect, kGpsCourse };
+
   double rate = 50.0;             // Hz: one log row per sample
   double jitter = 0.0;            // each interval is (1 +- jitter) / rate, uniformly
-  double wheel_speed_std = 0.05;  // rad/s, encoder speed noise
-  double velocity_std = 0.05;     // m/s, body forward speed V_B
-  double yaw_rate_std = 0.02;     // rad/s, IMU
-  double yaw_rate_bias = 0.0;     // rad/s, IMU
-  double accel_std = 0.05;        // m/s^2, IMU
-  double gps_rate = 10.0;         // Hz; 0 = no GPS
-  double gps_std = 0.03;          // m
-  double heading_std = 0.03;      // rad, GPS-derived heading
-  double velocity_dropout = 0.0;  // probability that a row lacks V_B
-  double imu_dropout = 0.0;       // ... lacks the IMU
-  double gps_dropout = 0.0;       // ... lacks a due GPS fix
+  double wheel_speed_std = 0.05;  // rad/s, encoder speed noise (the phi_dot columns)
+  // The V column: the true body speed plus white noise (kBody), or wheel
+  // odometry r (1 + odometry_scale_error) (phi_L + phi_R) / 2 from the
+  // measured wheel speeds (kOdometry), which sees no slip at all.
+  Speed speed = Speed::kBody;
+  double velocity_std = 0.05;          // m/s, kBody
+  double odometry_scale_error = 0.0;   // kOdometry: relative error of the radius odometry assumes
+  double yaw_rate_std = 0.02;          // rad/s, IMU
+  double yaw_rate_bias = 0.0;          // rad/s, IMU, every run
+  double yaw_rate_bias_std = 0.0;      // rad/s, IMU turn-on bias drawn once per run
+  double accel_std = 0.05;             // m/s^2, IMU
+  double gps_rate = 10.0;              // Hz; 0 = no GPS
+  double gps_std = 0.03;               // m, white position noise per axis
+  double gps_correlated_std = 0.0;     // m, first-order Gauss-Markov position error per axis (multipath)
+  double gps_correlation_time = 60.0;  // s, of that error
+  // The theta column: the true heading plus white noise (kDirect), or the
+  // course over ground of the GPS velocity (kGpsCourse: atan2 of the noisy
+  // velocity, empty below course_min_speed, as receivers do), which differs
+  // from the heading by the body's sideslip.
+  Heading heading = Heading::kDirect;
+  double heading_std = 0.03;        // rad, kDirect
+  double gps_velocity_std = 0.035;  // m/s per horizontal axis, kGpsCourse
+  double course_min_speed = 0.1;    // m/s, kGpsCourse
+  double velocity_dropout = 0.0;    // probability that a row lacks V_B
+  double imu_dropout = 0.0;         // ... lacks the IMU
+  double gps_dropout = 0.0;         // ... lacks a due GPS fix
+  double gps_outage_rate = 0.0;     // 1/s: outages (no fix at all) start at this rate
+  double gps_outage_duration = 2.0; // s, mean (exponential) length of an outage
 };
+
+// The sensors of a Husky-class robot with an RTK receiver (`preset: husky`);
+// the values and their sources are in docs/simulation.md.
+SensorConfig husky_sensors();
 
 struct ScheduleEntry {
   double start = 0.0;  // s
@@ -65,8 +95,11 @@ struct SimulationSummary {
 
 // Simulates and writes the log (atomically) to `output`.
 // Columns: t, phi_dot_L, phi_dot_R (measured), V, omega, ax, ay, X, Y, theta
-// (empty when not measured), mode, then truth: true_V, true_vy, true_omega,
-// true_X, true_Y, true_theta, true_phi_dot_L, true_phi_dot_R.
+// (as SensorConfig describes; empty when not measured), mode, then truth:
+// true_V, true_vy, true_omega, true_X, true_Y, true_theta, true_phi_dot_L,
+// true_phi_dot_R. The sensors of the default (ideal) SensorConfig draw the
+// same random numbers as before the realistic ones existed, so their logs
+// are unchanged; the realistic sensors draw from a second stream.
 SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const std::filesystem::path& output);
 
 }  // namespace simulation
