@@ -1,14 +1,26 @@
 #!/usr/bin/env bash
-# Regenerates the bundled banks (configs/*.yaml) by fitting the physically
-# derived starting points (configs/physical/*.yaml) to simulated maneuvers,
-# as the paper's authors fitted theirs to skidpad, clothoid and sinusoidal
-# runs. Every number in the bundled banks comes from this script.
+# Regenerates the bundled banks by fitting the physically derived starting
+# points to simulated maneuvers, as the paper's authors fitted theirs to
+# skidpad, clothoid and sinusoidal runs. Every number in the bundled banks
+# comes from this script.
 #
 #   scripts/fit_bundled_configs.sh [output dir, default configs]
+#
+# Two sensor sets (docs/simulation.md):
+#  * ideal: the simulator's ideal sensors; configs/physical/*.yaml fitted to
+#    them give configs/{ltc_terrains,ltc_shared,stc_slip4,stc_slip16,stc_sided4,stc_sided16}.yaml,
+#    whose R is the ideal sensors' own noise (labelled so in docs/results.md).
+#  * realistic: a Husky-class robot's sensors (sensors: {preset: husky});
+#    configs/physical/realistic/*.yaml (a data-sheet prior R) fitted to them,
+#    then R (per measurement) and a scale on Q estimated by `skidimm tune` on
+#    other logs, give configs/realistic/*.yaml. No R is copied from the simulator.
 #
 # Each mode is driven through four 20 s maneuvers with a fixed seed: skidpads
 # turning left and right (asymmetric slip turns differently each way), a
 # clothoid sweeping curvature from -1.2 to +1.2 1/m, and sinusoidal steering.
+# Seeds (scripts/seeds.sh, bundled_fit_seeds): ideal fits LTC 100-102, STC
+# 200-215; realistic fits LTC 110-112, STC 220-235; realistic tuning LTC
+# 120-122, STC 240-255; each times 10 plus the maneuver's index.
 # Logs go to ${SKIDIMM_FIT_LOGS:-build/fit_logs}.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -16,8 +28,9 @@ cd "$root"
 out=${1:-configs}
 logs=${SKIDIMM_FIT_LOGS:-build/fit_logs}
 skidimm=${SKIDIMM:-build/bin/skidimm}
+threads=${SKIDIMM_JOBS:-2}
 [ -x "$skidimm" ] || { echo "$0: build skidimm first (scripts/build.sh)" >&2; exit 1; }
-mkdir -p "$out" "$logs"
+mkdir -p "$out" "$out/realistic" "$logs" "$logs/realistic" "$logs/realistic_tune"
 
 maneuvers=(
   "skidpad_left|{type: skidpad, speed: 0.9, radius: 1.5, direction: left}"
@@ -25,64 +38,127 @@ maneuvers=(
   "clothoid|{type: clothoid, speed: 0.8, initial_curvature: -1.2, curvature_rate: 0.12}"
   "sinusoidal|{type: sinusoidal, speed: 0.7, yaw_rate_amplitude: 0.9, period: 5}"
 )
+ideal_sensors="{rate: 50, jitter: 0.3, gps_rate: 10}"
+realistic_sensors="{preset: husky}"
 
-# simulate MODE "TERRAIN" "[TARP]" SEED -> prints the --log arguments
+# simulate DIR MODE "TERRAIN" "[TARP]" SEED "SENSORS" -> prints the --log arguments
 simulate() {
-  local mode=$1 terrain=$2 tarp=$3 seed=$4 args=() i=0
-  for entry in "${maneuvers[@]}"; do
+  local dir=$1 mode=$2 terrain=$3 tarp=$4 seed=$5 sensors=$6 args=() i
+  for i in 0 1 2 3; do
+    local entry=${maneuvers[$i]}
     local name=${entry%%|*} maneuver=${entry#*|}
-    local scenario="$logs/${mode}_${name}.yaml" log="$logs/${mode}_${name}.csv"
+    local scenario="$dir/${mode}_${name}.yaml" log="$dir/${mode}_${name}.csv"
     cat >"$scenario" <<SCENARIO
 name: fit_${mode}_${name}
 duration: 20
 modes: {${mode}: {terrain: ${terrain}, tarp: [${tarp}]}}
 mode: ${mode}
 maneuver: ${maneuver}
-sensors: {rate: 50, jitter: 0.3, gps_rate: 10}
+sensors: ${sensors}
 SCENARIO
     "$skidimm" simulate -q --scenario "$scenario" --output "$log" --seed $((seed * 10 + i))
     args+=(--log "${mode}=${log}")
-    i=$((i + 1))
   done
   echo "${args[@]}"
 }
 
-echo "== LTC terrains" >&2
-ltc_logs=()
-seed=100
-for terrain in asphalt grass crushed_concrete; do
-  read -r -a more <<<"$(simulate "$terrain" "$terrain" "" "$seed")"
-  ltc_logs+=("${more[@]}")
-  seed=$((seed + 1))
-done
-"$skidimm" fit --bank configs/physical/ltc_terrains.yaml --objective window --window 0.5 "${ltc_logs[@]}" \
-  --output-bank "$out/ltc_terrains.yaml" 2>"$logs/ltc_terrains.report"
-"$skidimm" fit --bank configs/physical/ltc_shared.yaml --objective window --window 0.5 --shared "${ltc_logs[@]}" \
-  --output-bank "$out/ltc_shared.yaml" 2>"$logs/ltc_shared.report"
-
-echo "== STC slip modes" >&2
-wheels=(FL FR RL RR)
-stc_logs=()
-seed=200
-for mask in $(seq 0 15); do
-  tarp=() name=""
-  for w in 0 1 2 3; do
-    if (((mask >> w) & 1)); then tarp+=("${wheels[$w]}"); name+="_${wheels[$w]}"; fi
+# ltc_logs DIR SEED "SENSORS" -> --log arguments of the three terrains (seeds SEED..SEED+2)
+ltc_logs() {
+  local dir=$1 seed=$2 sensors=$3 args=()
+  for terrain in asphalt grass crushed_concrete; do
+    read -r -a more <<<"$(simulate "$dir" "$terrain" "$terrain" "" "$seed" "$sensors")"
+    args+=("${more[@]}")
+    seed=$((seed + 1))
   done
-  mode=${name:+slip$name}
-  mode=${mode:-no_slip}
-  read -r -a more <<<"$(simulate "$mode" asphalt "$(IFS=,; echo "${tarp[*]:-}")" "$seed")"
-  stc_logs+=("${more[@]}")
-  seed=$((seed + 1))
+  echo "${args[@]}"
+}
+
+# stc_logs DIR SEED "SENSORS" -> --log arguments of the 16 slip modes (seeds SEED..SEED+15)
+wheels=(FL FR RL RR)
+stc_logs() {
+  local dir=$1 seed=$2 sensors=$3 args=()
+  for mask in $(seq 0 15); do
+    local tarp=() name=""
+    for w in 0 1 2 3; do
+      if (((mask >> w) & 1)); then tarp+=("${wheels[$w]}"); name+="_${wheels[$w]}"; fi
+    done
+    local mode=${name:+slip$name}
+    mode=${mode:-no_slip}
+    read -r -a more <<<"$(simulate "$dir" "$mode" asphalt "$(IFS=,; echo "${tarp[*]:-}")" "$seed" "$sensors")"
+    args+=("${more[@]}")
+    seed=$((seed + 1))
+  done
+  echo "${args[@]}"
+}
+
+# four_of "--log M=F ..." -> the --log arguments of the paper's four slip modes
+four_of() {
+  local all=("$@") picked=()
+  for ((i = 0; i < ${#all[@]}; i += 2)); do
+    case "${all[$((i + 1))]}" in
+      no_slip=* | slip_FL_FR=* | slip_FR_RR=* | slip_FL_FR_RL_RR=*) picked+=(--log "${all[$((i + 1))]}") ;;
+    esac
+  done
+  echo "${picked[@]}"
+}
+
+fit() {  # fit STARTING_BANK OUTPUT REPORT ARGS...
+  local bank=$1 output=$2 report=$3
+  shift 3
+  "$skidimm" fit --bank "$bank" --objective window "$@" --output-bank "$output" 2>"$report"
+}
+
+echo "== ideal sensors: LTC terrains" >&2
+read -r -a ltc <<<"$(ltc_logs "$logs" 100 "$ideal_sensors")"
+fit configs/physical/ltc_terrains.yaml "$out/ltc_terrains.yaml" "$logs/ltc_terrains.report" --window 0.5 "${ltc[@]}"
+fit configs/physical/ltc_shared.yaml "$out/ltc_shared.yaml" "$logs/ltc_shared.report" --window 0.5 --shared "${ltc[@]}"
+
+echo "== ideal sensors: STC slip modes" >&2
+read -r -a stc <<<"$(stc_logs "$logs" 200 "$ideal_sensors")"
+read -r -a stc4 <<<"$(four_of "${stc[@]}")"
+for model in slip sided; do
+  fit "configs/physical/stc_${model}16.yaml" "$out/stc_${model}16.yaml" "$logs/stc_${model}16.report" --window 1 "${stc[@]}"
+  fit "configs/physical/stc_${model}4.yaml" "$out/stc_${model}4.yaml" "$logs/stc_${model}4.report" --window 1 "${stc4[@]}"
 done
-"$skidimm" fit --bank configs/physical/stc_slip16.yaml --objective window --window 1 "${stc_logs[@]}" \
-  --output-bank "$out/stc_slip16.yaml" 2>"$logs/stc_slip16.report"
-slip4_logs=()
-for ((i = 0; i < ${#stc_logs[@]}; i += 2)); do
-  case "${stc_logs[$((i + 1))]}" in
-    no_slip=* | slip_FL_FR=* | slip_FR_RR=* | slip_FL_FR_RL_RR=*) slip4_logs+=(--log "${stc_logs[$((i + 1))]}") ;;
-  esac
+
+echo "== realistic sensors: fitting" >&2
+read -r -a ltc <<<"$(ltc_logs "$logs/realistic" 110 "$realistic_sensors")"
+read -r -a stc <<<"$(stc_logs "$logs/realistic" 220 "$realistic_sensors")"
+read -r -a stc4 <<<"$(four_of "${stc[@]}")"
+fitted="$logs/realistic/fitted"
+mkdir -p "$fitted"
+fit configs/physical/realistic/ltc_terrains.yaml "$fitted/ltc_terrains.yaml" "$fitted/ltc_terrains.report" \
+  --window 0.5 "${ltc[@]}"
+fit configs/physical/realistic/ltc_shared.yaml "$fitted/ltc_shared.yaml" "$fitted/ltc_shared.report" \
+  --window 0.5 --shared "${ltc[@]}"
+for model in slip sided; do
+  fit "configs/physical/realistic/stc_${model}16.yaml" "$fitted/stc_${model}16.yaml" "$fitted/stc_${model}16.report" \
+    --window 1 "${stc[@]}"
+  fit "configs/physical/realistic/stc_${model}4.yaml" "$fitted/stc_${model}4.yaml" "$fitted/stc_${model}4.report" \
+    --window 1 "${stc4[@]}"
 done
-"$skidimm" fit --bank configs/physical/stc_slip4.yaml --objective window --window 1 "${slip4_logs[@]}" \
-  --output-bank "$out/stc_slip4.yaml" 2>"$logs/stc_slip4.report"
-echo "wrote $out/{ltc_terrains,ltc_shared,stc_slip4,stc_slip16}.yaml; fit reports in $logs/*.report" >&2
+
+echo "== realistic sensors: estimating R and the scale of Q (skidimm tune)" >&2
+read -r -a ltc <<<"$(ltc_logs "$logs/realistic_tune" 120 "$realistic_sensors")"
+read -r -a stc <<<"$(stc_logs "$logs/realistic_tune" 240 "$realistic_sensors")"
+read -r -a stc4 <<<"$(four_of "${stc[@]}")"
+tune() {  # tune BANK ARGS...: every log is one mode's; leave-one-log-out
+  local bank=$1 result="$out/realistic/$1.yaml"
+  shift
+  "$skidimm" tune -q --bank "$fitted/$bank.yaml" "$@" --objective none --tune r-components,q-scale --no-assess \
+    --threads "$threads" --output-bank "$result" >"$fitted/$bank.tune" 2>&1
+  # The header of the tuned bank says how it was tuned; add how it was fitted.
+  { grep '^#' "$result"
+    echo "# Its models were fitted, from configs/physical/realistic/$bank.yaml, by:"
+    grep '^#   skidimm fit' "$fitted/$bank.yaml"
+    grep -v '^#' "$result"; } >"$result.partial"
+  mv "$result.partial" "$result"
+}
+tune ltc_terrains "${ltc[@]}"
+tune ltc_shared "${ltc[@]}"
+for model in slip sided; do
+  tune "stc_${model}16" "${stc[@]}"
+  tune "stc_${model}4" "${stc4[@]}"
+done
+echo "wrote $out/{ltc_terrains,ltc_shared,stc_slip4,stc_slip16,stc_sided4,stc_sided16}.yaml and the same under" \
+  "$out/realistic/; fit reports and tuning tables in $logs" >&2

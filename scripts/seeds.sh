@@ -5,10 +5,12 @@
 #   source scripts/seeds.sh
 
 # scripts/fit_bundled_configs.sh: LTC modes 100-102 and STC modes 200-215,
-# four maneuvers each (seed * 10 + maneuver).
+# four maneuvers each (seed * 10 + maneuver), with the ideal sensors; with a
+# Husky-class robot's sensors, fitting LTC 110-112 and STC 220-235, tuning
+# (estimating R) LTC 120-122 and STC 240-255.
 bundled_fit_seeds() {
   local s i
-  for s in $(seq 100 102) $(seq 200 215); do
+  for s in $(seq 100 102) $(seq 200 215) $(seq 110 112) $(seq 220 235) $(seq 120 122) $(seq 240 255); do
     for i in 0 1 2 3; do echo $((s * 10 + i)); done
   done
 }

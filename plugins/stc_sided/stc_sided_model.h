@@ -24,7 +24,11 @@ class StcSidedModel final : public sdk::SizedMotionModel<stc_sided::kNumStates, 
 
   static std::unique_ptr<StcSidedModel> Create(const sdk::ParameterSet& params, std::string* error) {
     std::unique_ptr<StcSidedModel> model(new StcSidedModel());
-    if (!params.check_only({"eta_l", "eta_r", "alpha_l", "alpha_r", "x_icr", "r", "b"}, error)) return nullptr;
+    if (!params.check_only({"eta_l", "eta_r", "alpha_l_outer", "alpha_l_inner", "alpha_r_outer", "alpha_r_inner",
+                            "x_icr", "r", "b"},
+                           error)) {
+      return nullptr;
+    }
     Parameters values;
     for (int i = 0; i < stc_sided::kNumParameters; ++i) {
       if (!params.get_scalar(model->parameter_info_[static_cast<std::size_t>(i)].name, &values[i], error)) {
@@ -63,7 +67,8 @@ class StcSidedModel final : public sdk::SizedMotionModel<stc_sided::kNumStates, 
   }
   bool has_analytic_jacobian() const noexcept override { return true; }
 
-  // d x_next / d [eta_l, eta_r, alpha_l, alpha_r, x_icr, r, b], by Ceres jets
+  // d x_next / d [eta_l, eta_r, alpha_l_outer, alpha_l_inner, alpha_r_outer,
+  // alpha_r_inner, x_icr, r, b], by Ceres jets
   // on stc_sided::predict.
   bool parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                           double dt, Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept override {
@@ -84,14 +89,20 @@ class StcSidedModel final : public sdk::SizedMotionModel<stc_sided::kNumStates, 
     parameter_info_ = {
         scalar_parameter_info("eta_l", "left tread efficiency: ground speed / (r phi_dot_L) (-)", 0.0, 2.0),
         scalar_parameter_info("eta_r", "right tread efficiency: ground speed / (r phi_dot_R) (-)", 0.0, 2.0),
-        scalar_parameter_info("alpha_l", "left tread ICR at +alpha_l b / 2 (-; 1 = on the wheels)", 0.1, 100.0),
-        scalar_parameter_info("alpha_r", "right tread ICR at -alpha_r b / 2 (-; 1 = on the wheels)", 0.1, 100.0),
+        scalar_parameter_info("alpha_l_outer", "left tread ICR at +alpha b / 2 turning right (-; 1 = on the wheels)",
+                              0.1, 100.0),
+        scalar_parameter_info("alpha_l_inner", "left tread ICR at +alpha b / 2 turning left (-; 1 = on the wheels)",
+                              0.1, 100.0),
+        scalar_parameter_info("alpha_r_outer", "right tread ICR at -alpha b / 2 turning left (-; 1 = on the wheels)",
+                              0.1, 100.0),
+        scalar_parameter_info("alpha_r_inner", "right tread ICR at -alpha b / 2 turning right (-; 1 = on the wheels)",
+                              0.1, 100.0),
         scalar_parameter_info("x_icr", "longitudinal position of the vehicle's ICR (m)", -2.0, 2.0),
         // Geometry is the robot's, not the ground's: one value for the whole bank.
         scalar_parameter_info("r", "wheel radius (m)", 1e-6, inf, ParameterScope::kBank),
         scalar_parameter_info("b", "track width (m)", 1e-6, inf, ParameterScope::kBank),
     };
-    p_ << 1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0;
+    p_ << 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0;
   }
 
   Parameters p_;

@@ -1,5 +1,6 @@
 // `stc_sided`: pose model [X, Y, theta] with per-side tread efficiencies and
-// tread ICRs per mode (Mandow et al. 2007); equations in stc_sided_predict.h.
+// tread ICRs (outer and inner) per mode (Mandow et al. 2007); equations in
+// stc_sided_predict.h.
 #include "skidimm/sdk/export.h"
 #include "stc_sided/stc_sided_model.h"
 
@@ -8,8 +9,10 @@ namespace {
 constexpr skidimm::sdk::ParameterDoc kParameters[] = {
     {"eta_l", "scalar", "left tread efficiency in [0, 2] (-), per mode"},
     {"eta_r", "scalar", "right tread efficiency in [0, 2] (-), per mode"},
-    {"alpha_l", "scalar", "left tread ICR at +alpha_l b/2, alpha_l in [0.1, 100] (-), per mode"},
-    {"alpha_r", "scalar", "right tread ICR at -alpha_r b/2, alpha_r in [0.1, 100] (-), per mode"},
+    {"alpha_l_outer", "scalar", "left tread ICR at +alpha b/2 when it is the outer tread, in [0.1, 100] (-), per mode"},
+    {"alpha_l_inner", "scalar", "left tread ICR at +alpha b/2 when it is the inner tread, in [0.1, 100] (-), per mode"},
+    {"alpha_r_outer", "scalar", "right tread ICR at -alpha b/2 when it is the outer tread, in [0.1, 100] (-), per mode"},
+    {"alpha_r_inner", "scalar", "right tread ICR at -alpha b/2 when it is the inner tread, in [0.1, 100] (-), per mode"},
     {"x_icr", "scalar", "longitudinal position of the vehicle ICR in [-2, 2] (m), per mode"},
     {"r", "scalar", "wheel radius (m), bank-level (shared:)"},
     {"b", "scalar", "track width (m), bank-level (shared:)"},
@@ -18,7 +21,7 @@ constexpr skidimm::sdk::ParameterDoc kParameters[] = {
 constexpr skidimm::sdk::PluginInfo kInfo = {
     "stc_sided", "1.0.0",
     "Kinematic pose model [X, Y, theta] with per-side tread efficiencies and tread ICRs per mode (Mandow et al. 2007)",
-    kParameters, 7};
+    kParameters, 9};
 
 }  // namespace
 

@@ -10,6 +10,8 @@
 //
 //   v_l = eta_l r phi_dot_L       v_r = eta_r r phi_dot_R       tread speeds (m/s)
 //   y_l = +alpha_l b / 2          y_r = -alpha_r b / 2          tread ICRs, body y (m)
+//   alpha_l = alpha_l_inner, alpha_r = alpha_r_outer   turning left  (phi_dot_R > phi_dot_L)
+//   alpha_l = alpha_l_outer, alpha_r = alpha_r_inner   turning right (phi_dot_R < phi_dot_L)
 //   omega = (v_r - v_l) / (y_l - y_r)
 //   v_x   = (v_r y_l - v_l y_r) / (y_l - y_r)
 //   v_y   = -x_icr omega
@@ -22,20 +24,30 @@
 //
 // Per mode: eta_l, eta_r, the tread efficiencies (ground speed of a side's
 // contact points over r phi_dot: below 1 when the side's wheels spin, the
-// traction of each side); alpha_l, alpha_r, how far outside its wheels each
-// tread's ICR lies, in half tracks (1: on the wheel line, the ideal
-// differential drive; larger: the side skids more as the robot turns);
-// x_icr, the longitudinal position of the vehicle's ICR (m; 0 for symmetric
-// grip, negative when the front slides out, positive when the rear does).
-// Per bank: r and b.
+// traction of each side); alpha_<side>_<role>, how far outside its wheels
+// each tread's ICR lies, in half tracks (1: on the wheel line, the ideal
+// differential drive; larger: the tread skids more as the robot turns), for
+// the tread on the outside of the turn, which pushes, and on the inside,
+// which brakes; x_icr, the longitudinal position of the vehicle's ICR (m; 0
+// for symmetric grip, negative when the front slides out, positive when the
+// rear does). Per bank: r and b.
 //
-// With eta_l = eta_r = 1, alpha_l = alpha_r = 1 and x_icr = 0 this is the
-// ideal differential drive. With eta_l = eta_r = k, alpha_l = alpha_r = k / m
-// and x_icr = 0 it is eq. 3 with (k, m): the model contains eq. 3. What eq. 3
-// cannot say and this model can: which side slips (eta_l != eta_r), so that a
-// left and a right turn at the same speed differ (the speed-weighted term
-// (eta_r - eta_l) r (phi_dot_L + phi_dot_R) / 2 of omega changes sign with
-// nothing but the turn), and which end slides out (x_icr).
+// Why an ICR per role: a tread slips under its traction force, and in a
+// skid-steer turn the outer tread drives and the inner one brakes. A side
+// whose wheels are slippery slips most where it has to push, so its ICR
+// moves out further when it is the outer tread: a left and a right turn of
+// the same radius then differ, as they do on the robot and the simulator
+// (docs/simulation.md), while driving straight (no force to slip under) stays
+// straight. Going straight (phi_dot_L = phi_dot_R) omega = 0 and v_x = the
+// tread speed whichever ICRs apply, so the motion is continuous across the
+// switch of roles.
+//
+// With eta_l = eta_r = 1, every alpha = 1 and x_icr = 0 this is the ideal
+// differential drive. With eta_l = eta_r = k, every alpha = k / m and
+// x_icr = 0 it is eq. 3 with (k, m): the model contains eq. 3. What eq. 3
+// cannot say and this model can: which side slips (eta_l != eta_r, or the
+// alphas of one side larger), so that left and right turns differ, and which
+// end slides out (x_icr).
 #ifndef SKIDIMM_PLUGINS_STC_SIDED_STC_SIDED_PREDICT_H_
 #define SKIDIMM_PLUGINS_STC_SIDED_STC_SIDED_PREDICT_H_
 
@@ -51,12 +63,14 @@ enum Input { kPhiDotLeft = 0, kPhiDotRight = 1, kNumInputs = 2 };
 enum Parameter {
   kEtaLeft = 0,
   kEtaRight = 1,
-  kAlphaLeft = 2,
-  kAlphaRight = 3,
-  kXIcr = 4,
-  kRadius = 5,
-  kTrack = 6,
-  kNumParameters = 7
+  kAlphaLeftOuter = 2,
+  kAlphaLeftInner = 3,
+  kAlphaRightOuter = 4,
+  kAlphaRightInner = 5,
+  kXIcr = 6,
+  kRadius = 7,
+  kTrack = 8,
+  kNumParameters = 9
 };
 
 // Body velocity (v_x, v_y, omega) from the wheel speeds u and parameters p
@@ -65,8 +79,11 @@ template <typename T>
 void body_velocity(const T* u, const T* p, T* v_x, T* v_y, T* omega) {
   const T v_left = p[kEtaLeft] * p[kRadius] * u[kPhiDotLeft];
   const T v_right = p[kEtaRight] * p[kRadius] * u[kPhiDotRight];
-  const T y_left = p[kAlphaLeft] * p[kTrack] / T(2.0);
-  const T y_right = -p[kAlphaRight] * p[kTrack] / T(2.0);
+  const bool turning_left = u[kPhiDotRight] > u[kPhiDotLeft];
+  const T& alpha_left = turning_left ? p[kAlphaLeftInner] : p[kAlphaLeftOuter];
+  const T& alpha_right = turning_left ? p[kAlphaRightOuter] : p[kAlphaRightInner];
+  const T y_left = alpha_left * p[kTrack] / T(2.0);
+  const T y_right = -alpha_right * p[kTrack] / T(2.0);
   const T spread = y_left - y_right;
   *omega = (v_right - v_left) / spread;
   *v_x = (v_right * y_left - v_left * y_right) / spread;

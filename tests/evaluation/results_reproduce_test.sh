@@ -16,5 +16,8 @@ if ! diff "$source/docs/results.md" "$work/results.md" >"$work/results.diff"; th
   head -n 30 "$work/results.diff" >&2
   exit 1
 fi
-for f in "$work"/figures/*.png; do [ -s "$f" ] || { echo "FAIL: empty figure $f" >&2; exit 1; }; done
+figures=$(find "$work/figures" -name '*.png' | wc -l)
+[ "$figures" -gt 0 ] || { echo "FAIL: no figures in $work/figures" >&2; exit 1; }
+while IFS= read -r f; do [ -s "$f" ] || { echo "FAIL: empty figure $f" >&2; exit 1; }; done \
+  < <(find "$work/figures" -name '*.png')
 echo "docs/results.md reproduced"

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Reruns scripts/fit_bundled_configs.sh into a temporary directory and checks
-# that it reproduces every bundled bank (all but the recorded command line).
+# that it reproduces every bundled bank (all but the recorded command line),
+# for the ideal sensors (configs/) and a Husky-class robot's (configs/realistic/).
 #   bundled_banks_reproduce_test.sh <source dir> <skidimm> <work dir>
 set -euo pipefail
 source=$1
@@ -10,10 +11,12 @@ rm -rf "$work"
 mkdir -p "$work/out"
 SKIDIMM="$skidimm" SKIDIMM_FIT_LOGS="$work/logs" "$source/scripts/fit_bundled_configs.sh" "$work/out" 2>"$work/log.txt"
 status=0
-for bank in ltc_terrains ltc_shared stc_slip4 stc_slip16; do
-  if ! diff <(grep -v '^#' "$source/configs/$bank.yaml") <(grep -v '^#' "$work/out/$bank.yaml") >"$work/$bank.diff"; then
+banks=(ltc_terrains ltc_shared stc_slip4 stc_slip16 stc_sided4 stc_sided16)
+for bank in "${banks[@]}" "${banks[@]/#/realistic/}"; do
+  if ! diff <(grep -v '^#' "$source/configs/$bank.yaml") <(grep -v '^#' "$work/out/$bank.yaml") \
+      >"$work/${bank//\//_}.diff"; then
     echo "FAIL: configs/$bank.yaml differs from what scripts/fit_bundled_configs.sh produces:" >&2
-    head -n 20 "$work/$bank.diff" >&2
+    head -n 20 "$work/${bank//\//_}.diff" >&2
     status=1
   fi
 done
