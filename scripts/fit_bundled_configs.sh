@@ -28,7 +28,6 @@ cd "$root"
 out=${1:-configs}
 logs=${SKIDIMM_FIT_LOGS:-build/fit_logs}
 skidimm=${SKIDIMM:-build/bin/skidimm}
-threads=${SKIDIMM_JOBS:-2}
 [ -x "$skidimm" ] || { echo "$0: build skidimm first (scripts/build.sh)" >&2; exit 1; }
 mkdir -p "$out" "$out/realistic" "$logs" "$logs/realistic" "$logs/realistic_tune"
 
@@ -108,45 +107,40 @@ fit() {  # fit STARTING_BANK OUTPUT REPORT ARGS...
   "$skidimm" fit --bank "$bank" --objective window "$@" --output-bank "$output" 2>"$report"
 }
 
-echo "== ideal sensors: LTC terrains" >&2
-read -r -a ltc <<<"$(ltc_logs "$logs" 100 "$ideal_sensors")"
-fit configs/physical/ltc_terrains.yaml "$out/ltc_terrains.yaml" "$logs/ltc_terrains.report" --window 0.5 "${ltc[@]}"
-fit configs/physical/ltc_shared.yaml "$out/ltc_shared.yaml" "$logs/ltc_shared.report" --window 0.5 --shared "${ltc[@]}"
+# Three independent pipelines share the two cores: the ideal banks, and the
+# realistic banks of each model (LTC with eq. 3). Each writes its own files.
+ideal() {
+  echo "== ideal sensors: LTC terrains" >&2
+  local ltc stc stc4
+  read -r -a ltc <<<"$(ltc_logs "$logs" 100 "$ideal_sensors")"
+  fit configs/physical/ltc_terrains.yaml "$out/ltc_terrains.yaml" "$logs/ltc_terrains.report" --window 0.5 "${ltc[@]}"
+  fit configs/physical/ltc_shared.yaml "$out/ltc_shared.yaml" "$logs/ltc_shared.report" --window 0.5 --shared "${ltc[@]}"
+  echo "== ideal sensors: STC slip modes" >&2
+  read -r -a stc <<<"$(stc_logs "$logs" 200 "$ideal_sensors")"
+  read -r -a stc4 <<<"$(four_of "${stc[@]}")"
+  for model in slip sided; do
+    fit "configs/physical/stc_${model}16.yaml" "$out/stc_${model}16.yaml" "$logs/stc_${model}16.report" --window 1 "${stc[@]}"
+    fit "configs/physical/stc_${model}4.yaml" "$out/stc_${model}4.yaml" "$logs/stc_${model}4.report" --window 1 "${stc4[@]}"
+  done
+}
+ideal &
+ideal_job=$!
 
-echo "== ideal sensors: STC slip modes" >&2
-read -r -a stc <<<"$(stc_logs "$logs" 200 "$ideal_sensors")"
-read -r -a stc4 <<<"$(four_of "${stc[@]}")"
-for model in slip sided; do
-  fit "configs/physical/stc_${model}16.yaml" "$out/stc_${model}16.yaml" "$logs/stc_${model}16.report" --window 1 "${stc[@]}"
-  fit "configs/physical/stc_${model}4.yaml" "$out/stc_${model}4.yaml" "$logs/stc_${model}4.report" --window 1 "${stc4[@]}"
-done
-
-echo "== realistic sensors: fitting" >&2
-read -r -a ltc <<<"$(ltc_logs "$logs/realistic" 110 "$realistic_sensors")"
-read -r -a stc <<<"$(stc_logs "$logs/realistic" 220 "$realistic_sensors")"
-read -r -a stc4 <<<"$(four_of "${stc[@]}")"
+echo "== realistic sensors: simulating fitting and tuning logs" >&2
+read -r -a ltc_fit <<<"$(ltc_logs "$logs/realistic" 110 "$realistic_sensors")"
+read -r -a stc_fit <<<"$(stc_logs "$logs/realistic" 220 "$realistic_sensors")"
+read -r -a stc4_fit <<<"$(four_of "${stc_fit[@]}")"
+read -r -a ltc_tune <<<"$(ltc_logs "$logs/realistic_tune" 120 "$realistic_sensors")"
+read -r -a stc_tune <<<"$(stc_logs "$logs/realistic_tune" 240 "$realistic_sensors")"
+read -r -a stc4_tune <<<"$(four_of "${stc_tune[@]}")"
 fitted="$logs/realistic/fitted"
 mkdir -p "$fitted"
-fit configs/physical/realistic/ltc_terrains.yaml "$fitted/ltc_terrains.yaml" "$fitted/ltc_terrains.report" \
-  --window 0.5 "${ltc[@]}"
-fit configs/physical/realistic/ltc_shared.yaml "$fitted/ltc_shared.yaml" "$fitted/ltc_shared.report" \
-  --window 0.5 --shared "${ltc[@]}"
-for model in slip sided; do
-  fit "configs/physical/realistic/stc_${model}16.yaml" "$fitted/stc_${model}16.yaml" "$fitted/stc_${model}16.report" \
-    --window 1 "${stc[@]}"
-  fit "configs/physical/realistic/stc_${model}4.yaml" "$fitted/stc_${model}4.yaml" "$fitted/stc_${model}4.report" \
-    --window 1 "${stc4[@]}"
-done
 
-echo "== realistic sensors: estimating R and the scale of Q (skidimm tune)" >&2
-read -r -a ltc <<<"$(ltc_logs "$logs/realistic_tune" 120 "$realistic_sensors")"
-read -r -a stc <<<"$(stc_logs "$logs/realistic_tune" 240 "$realistic_sensors")"
-read -r -a stc4 <<<"$(four_of "${stc[@]}")"
 tune() {  # tune BANK ARGS...: every log is one mode's; leave-one-log-out
   local bank=$1 result="$out/realistic/$1.yaml"
   shift
   "$skidimm" tune -q --bank "$fitted/$bank.yaml" "$@" --objective none --tune r-components,q-scale --no-assess \
-    --threads "$threads" --output-bank "$result" >"$fitted/$bank.tune" 2>&1
+    --threads 1 --output-bank "$result" >"$fitted/$bank.tune" 2>&1
   # The header of the tuned bank says how it was tuned; add how it was fitted.
   { grep '^#' "$result"
     echo "# Its models were fitted, from configs/physical/realistic/$bank.yaml, by:"
@@ -154,11 +148,31 @@ tune() {  # tune BANK ARGS...: every log is one mode's; leave-one-log-out
     grep -v '^#' "$result"; } >"$result.partial"
   mv "$result.partial" "$result"
 }
-tune ltc_terrains "${ltc[@]}"
-tune ltc_shared "${ltc[@]}"
-for model in slip sided; do
-  tune "stc_${model}16" "${stc[@]}"
-  tune "stc_${model}4" "${stc4[@]}"
-done
+realistic() {  # realistic MODEL: fit, then estimate R and the scale of Q with skidimm tune
+  local model=$1
+  echo "== realistic sensors: stc_${model}, fitting and tuning" >&2
+  fit "configs/physical/realistic/stc_${model}16.yaml" "$fitted/stc_${model}16.yaml" "$fitted/stc_${model}16.report" \
+    --window 1 "${stc_fit[@]}"
+  fit "configs/physical/realistic/stc_${model}4.yaml" "$fitted/stc_${model}4.yaml" "$fitted/stc_${model}4.report" \
+    --window 1 "${stc4_fit[@]}"
+  tune "stc_${model}16" "${stc_tune[@]}"
+  tune "stc_${model}4" "${stc4_tune[@]}"
+  if [ "$model" = slip ]; then
+    echo "== realistic sensors: LTC, fitting and tuning" >&2
+    fit configs/physical/realistic/ltc_terrains.yaml "$fitted/ltc_terrains.yaml" "$fitted/ltc_terrains.report" \
+      --window 0.5 "${ltc_fit[@]}"
+    fit configs/physical/realistic/ltc_shared.yaml "$fitted/ltc_shared.yaml" "$fitted/ltc_shared.report" \
+      --window 0.5 --shared "${ltc_fit[@]}"
+    tune ltc_terrains "${ltc_tune[@]}"
+    tune ltc_shared "${ltc_tune[@]}"
+  fi
+}
+realistic slip &
+slip_job=$!
+realistic sided &
+sided_job=$!
+status=0
+for job in $ideal_job $slip_job $sided_job; do wait "$job" || status=1; done
+[ $status -eq 0 ] || { echo "$0: a fitting pipeline failed (reports in $logs)" >&2; exit 1; }
 echo "wrote $out/{ltc_terrains,ltc_shared,stc_slip4,stc_slip16,stc_sided4,stc_sided16}.yaml and the same under" \
   "$out/realistic/; fit reports and tuning tables in $logs" >&2
