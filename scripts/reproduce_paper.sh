@@ -3,6 +3,13 @@
 # fitted banks, over many seeds, and regenerates the tables and figures of
 # docs/results.md (between its <!-- results:NAME --> markers).
 #   scripts/reproduce_paper.sh [seeds, default 20]
+#
+# Every experiment runs twice: with the simulator's ideal sensors
+# (configs/scenarios/*.yaml, scored with the banks in configs/, whose R is
+# those sensors' own noise) and with a Husky-class robot's sensors
+# (configs/scenarios/realistic/*.yaml, scored with configs/realistic/, whose R
+# skidimm tune estimated). The STC experiments compare eq. 3 (stc_slip*) with
+# the sided model (stc_sided*), with 4 and 16 modes.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
@@ -17,50 +24,110 @@ source scripts/seeds.sh
 eval_seeds=$(paper_eval_seeds "$seeds")
 check_disjoint "$eval_seeds" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(decision_default_seeds)"
 first_seed=$(echo "$eval_seeds" | head -n 1)
-rm -rf "$work/logs" "$work/eval"  # a rerun must not score last run's logs
-mkdir -p "$work/logs" "$work/eval" "$figures"
+rm -rf "$work/logs" "$work/eval" "$work/banks" "$work/kinematics"  # a rerun must not score last run's logs
+mkdir -p "$work/logs" "$work/eval" "$work/banks" "$work/kinematics" "$figures/realistic"
 
 scenarios=(ltc_singular_crushed_concrete ltc_singular_grass ltc_singular_asphalt ltc_switching
            stc_singular_no_slip stc_singular_slip_FL_FR stc_singular_slip_FR_RR stc_singular_slip_FL_FR_RL_RR
            stc_switching)
-echo "== simulating ${#scenarios[@]} scenarios x $seeds seeds" >&2
-for scenario in "${scenarios[@]}"; do
-  mkdir -p "$work/logs/$scenario"
-  for seed in $eval_seeds; do
-    "$skidimm" simulate -q --scenario "configs/scenarios/$scenario.yaml" \
-      --output "$work/logs/$scenario/seed_$seed.csv" --seed "$seed"
+scenario_file() {  # scenario_file SENSORS SCENARIO
+  if [ "$1" = ideal ]; then echo "configs/scenarios/$2.yaml"; else echo "configs/scenarios/$1/$2.yaml"; fi
+}
+bank_file() {  # bank_file SENSORS BANK
+  if [ "$1" = ideal ]; then echo "configs/$2.yaml"; else echo "configs/$1/$2.yaml"; fi
+}
+
+echo "== simulating ${#scenarios[@]} scenarios x $seeds seeds x 2 sensor sets" >&2
+simulate_all() {  # simulate_all SENSORS
+  local sensors=$1 scenario seed
+  for scenario in "${scenarios[@]}"; do
+    mkdir -p "$work/logs/$sensors/$scenario"
+    for seed in $eval_seeds; do
+      "$skidimm" simulate -q --scenario "$(scenario_file "$sensors" "$scenario")" \
+        --output "$work/logs/$sensors/$scenario/seed_$seed.csv" --seed "$seed"
+    done
   done
-done
+}
+# Each sensor set on its own core.
+run_both() {  # run_both FUNCTION: FUNCTION ideal and FUNCTION realistic in parallel
+  "$1" ideal &
+  local ideal_job=$!
+  local status=0
+  "$1" realistic || status=1
+  wait "$ideal_job" || status=1
+  [ $status -eq 0 ] || { echo "$0: $1 failed" >&2; exit 1; }
+}
+run_both simulate_all
 
 echo "== evaluating" >&2
-evaluate() {  # evaluate NAME BANK SCENARIO...
-  local name=$1 bank=$2
-  shift 2
+evaluate() {  # evaluate NAME SENSORS BANK SCENARIO...
+  local name=$1 sensors=$2 bank=$3
+  shift 3
   local inputs=()
-  for s in "$@"; do inputs+=(--input "$work/logs/$s"); done
-  "$skidimm" eval --bank "configs/$bank.yaml" "${inputs[@]}" --json >"$work/eval/${name}__${bank}.json"
-  "$skidimm" eval --bank "configs/$bank.yaml" "${inputs[@]}" --smooth --json >"$work/eval/${name}__${bank}__smoothed.json"
+  for s in "$@"; do inputs+=(--input "$work/logs/$sensors/$s"); done
+  local file
+  file=$(bank_file "$sensors" "$bank")
+  "$skidimm" eval --bank "$file" "${inputs[@]}" --json >"$work/eval/${name}__${sensors}__${bank}.json"
+  # Smoothing 16 modes costs 16^2 per step and would take most of this script's
+  # time: the 16-mode banks are scored filtered only.
+  case "$bank" in
+    *16) ;;
+    *) "$skidimm" eval --bank "$file" "${inputs[@]}" --smooth --json \
+         >"$work/eval/${name}__${sensors}__${bank}__smoothed.json" ;;
+  esac
 }
-for bank in ltc_terrains ltc_shared; do
-  evaluate ltc_singular "$bank" ltc_singular_crushed_concrete ltc_singular_grass ltc_singular_asphalt
-  evaluate ltc_switching "$bank" ltc_switching
-done
-for bank in stc_slip4 stc_slip16; do
-  evaluate stc_singular "$bank" stc_singular_no_slip stc_singular_slip_FL_FR stc_singular_slip_FR_RR \
-    stc_singular_slip_FL_FR_RL_RR
-  evaluate stc_switching "$bank" stc_switching
+evaluate_all() {  # evaluate_all SENSORS
+  local sensors=$1 bank
+  for bank in ltc_terrains ltc_shared; do
+    evaluate ltc_singular "$sensors" "$bank" ltc_singular_crushed_concrete ltc_singular_grass ltc_singular_asphalt
+    evaluate ltc_switching "$sensors" "$bank" ltc_switching
+  done
+  for bank in stc_slip4 stc_sided4 stc_slip16 stc_sided16; do
+    evaluate stc_singular "$sensors" "$bank" stc_singular_no_slip stc_singular_slip_FL_FR stc_singular_slip_FR_RR \
+      stc_singular_slip_FL_FR_RL_RR
+    evaluate stc_switching "$sensors" "$bank" stc_switching
+  done
+}
+run_both evaluate_all
+
+# What the evaluation maneuver lets a filter see: every wheel configuration
+# driven through the spiral (noise-free truth columns; the seed only moves
+# the sample times).
+echo "== the 16 wheel configurations on the spiral" >&2
+wheels=(FL FR RL RR)
+for mask in $(seq 0 15); do
+  tarp=() name=""
+  for w in 0 1 2 3; do
+    if (((mask >> w) & 1)); then tarp+=("${wheels[$w]}"); name+="_${wheels[$w]}"; fi
+  done
+  mode=${name:+slip$name}
+  mode=${mode:-no_slip}
+  cat >"$work/kinematics/$mode.yaml" <<SCENARIO
+name: spiral_$mode
+duration: 30
+modes: {$mode: {terrain: asphalt, tarp: [$(IFS=,; echo "${tarp[*]:-}")]}}
+mode: $mode
+maneuver: {type: spiral, speed: 0.8, initial_radius: 0.6, radius_rate: 0.12}
+sensors: {rate: 50, jitter: 0.3, gps_rate: 10}
+SCENARIO
+  "$skidimm" simulate -q --scenario "$work/kinematics/$mode.yaml" --output "$work/kinematics/$mode.csv" \
+    --seed "$first_seed"
 done
 
 echo "== figures (seed $first_seed)" >&2
-figure() {  # figure SCENARIO BANK
-  local out="$work/run_${1}__${2}.csv"
-  "$skidimm" run -q --bank "configs/$2.yaml" --input "$work/logs/$1/seed_$first_seed.csv" --output "$out"
-  "$skidimm" plot --estimates "$out" --output "$figures/${1}__${2}.png" --title "$1, bank $2 (seed $first_seed)"
+figure() {  # figure SENSORS SCENARIO BANK
+  local out="$work/run_${1}_${2}__${3}.csv"
+  "$skidimm" run -q --bank "$(bank_file "$1" "$3")" --input "$work/logs/$1/$2/seed_$first_seed.csv" --output "$out"
+  "$skidimm" plot --estimates "$out" --output "$figures/$1/${2}__${3}.png" \
+    --title "$2, $1 sensors, bank $3 (seed $first_seed)"
 }
-for s in ltc_singular_crushed_concrete ltc_singular_grass ltc_singular_asphalt ltc_switching; do figure "$s" ltc_terrains; done
+for s in ltc_singular_crushed_concrete ltc_singular_grass ltc_singular_asphalt ltc_switching; do
+  figure realistic "$s" ltc_terrains
+done
 for s in stc_singular_no_slip stc_singular_slip_FL_FR stc_singular_slip_FR_RR stc_singular_slip_FL_FR_RL_RR stc_switching; do
-  figure "$s" stc_slip4
+  figure realistic "$s" stc_slip4
+  figure realistic "$s" stc_sided4
 done
 
-"$python" scripts/results_tables.py "$work/eval" "$results" "$seeds"
+"$python" scripts/results_tables.py "$work/eval" "$results" "$seeds" "$work/kinematics"
 echo "updated $results and $figures/" >&2

@@ -1,14 +1,36 @@
 #!/usr/bin/env python3
 """Fills the <!-- results:NAME --> ... <!-- end --> blocks of docs/results.md
-from `skidimm eval --json` outputs. Standard library only.
+from `skidimm eval --json` outputs and simulated logs. Standard library only.
 
-    results_tables.py <eval dir> <results.md> <seeds>
+    results_tables.py <eval dir> <results.md> <seeds> [<kinematics dir>]
+
+Eval outputs are named EXPERIMENT__SENSORS__BANK.json (and
+...__smoothed.json), SENSORS being "ideal" or "realistic". The kinematics
+directory holds one noise-free spiral per wheel configuration (truth columns).
 """
+import csv
 import glob
 import json
+import math
 import os
 import re
 import sys
+
+SENSORS = ("realistic", "ideal")
+SENSOR_LABEL = {"realistic": "realistic", "ideal": "ideal"}
+# Banks in the order the tables list them; the sided model next to eq. 3.
+BANK_ORDER = ["ltc_terrains", "ltc_shared", "stc_slip4", "stc_sided4", "stc_slip16", "stc_sided16"]
+MODEL = {"stc_slip4": "eq. 3", "stc_slip16": "eq. 3", "stc_sided4": "sided", "stc_sided16": "sided"}
+# Configurations that move alike whatever the maneuver: scaling every wheel's
+# friction by one factor leaves the quasi-static motion unchanged
+# (docs/simulation.md), so a tarp on all four wheels is no slip up to inertia
+# and rolling resistance. The 16-mode banks are also scored with these as one.
+INDISTINGUISHABLE = [{"no_slip", "slip_FL_FR_RL_RR"}]
+FOUR = ["no_slip", "slip_FL_FR", "slip_FR_RR", "slip_FL_FR_RL_RR"]
+TARGET_ACCURACY_4 = 0.8
+TARGET_SWITCH_SECONDS = 3.0
+TARGET_SWITCH_SEEDS = 18
+TARGET_ACCURACY_16 = 0.7
 
 
 def fmt(x, digits=2):
@@ -22,14 +44,36 @@ def detection(first, settled, switches):
             f"{fmt(settled['median'])} s, never {switches - settled['followed']}")
 
 
+def load_evals(eval_dir):
+    """{experiment: [(sensors, bank, data, smoothed)]} in table order."""
+    out = {}
+    for path in glob.glob(os.path.join(eval_dir, "*.json")):
+        parts = os.path.basename(path)[:-5].split("__")
+        if len(parts) != 3:
+            continue
+        experiment, sensors, bank = parts
+        with open(path) as f:
+            data = json.load(f)
+        smoothed = None
+        if os.path.exists(path[:-5] + "__smoothed.json"):
+            with open(path[:-5] + "__smoothed.json") as f:
+                smoothed = json.load(f)
+        out.setdefault(experiment, []).append((sensors, bank, data, smoothed))
+    for experiment in out:
+        out[experiment].sort(key=lambda e: (SENSORS.index(e[0]), BANK_ORDER.index(e[1])))
+    return out
+
+
 def summary_table(evals, seeds):
-    """One row per scenario, bank and estimate: the filter's most likely mode,
-    the filter's decision (decision.h) and the smoothed most likely mode."""
-    rows = ["| scenario | bank | estimate | accuracy (mean ± sd over seeds) | worst seed | p(true mode) | "
+    """One row per sensor set, scenario, bank and estimate: the filter's most
+    likely mode, the filter's decision (decision.h) and the smoothed most
+    likely mode."""
+    rows = ["| sensors | scenario | bank | estimate | accuracy (mean ± sd over seeds) | worst seed | p(true mode) | "
             "changes per minute (truth) | changes per switch (median) | new mode first: median / max, never | "
             "stays until next switch: median, never |",
-            "|---|---|---|---|---|---|---|---|---|---|"]
-    for bank, data, smoothed in evals:
+            "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for sensors, bank, data, smoothed in evals:
+        label = SENSOR_LABEL[sensors]
         for group, g in data["groups"].items():
             s = smoothed["groups"][group] if smoothed else None
             switches = g["latency"]["switches"]
@@ -37,7 +81,7 @@ def summary_table(evals, seeds):
             first, stays = detection(g["first_latency"], g["latency"], switches)
             acc = g["accuracy_per_log"]
             per_switch = lambda x: fmt(x, 1) if switches else "-"
-            rows.append(f"| {group} | {bank} | most likely | {fmt(acc['mean'], 3)} ± {fmt(acc['std'], 3)} | "
+            rows.append(f"| {label} | {group} | {bank} | most likely | {fmt(acc['mean'], 3)} ± {fmt(acc['std'], 3)} | "
                         f"{fmt(acc['min'], 3)} | {fmt(g['mean_truth_probability'], 3)} | "
                         f"{fmt(per_minute['most_likely'], 1)} ({fmt(per_minute['truth'], 1)}) | "
                         f"{per_switch(g['latency']['median_changes_per_switch'])} | {first} | {stays} |")
@@ -45,27 +89,30 @@ def summary_table(evals, seeds):
             dacc = d["accuracy_per_log"]
             first = (f"{fmt(d['first_median'])} s, never {switches - d['first_detected']}" if switches else "no switch")
             stays = (f"{fmt(d['settled_median'])} s, never {switches - d['settled']}" if switches else "-")
-            rows.append(f"| {group} | {bank} | decision | {fmt(dacc['mean'], 3)} ± {fmt(dacc['std'], 3)} | "
+            rows.append(f"| {label} | {group} | {bank} | decision | {fmt(dacc['mean'], 3)} ± {fmt(dacc['std'], 3)} | "
                         f"{fmt(dacc['min'], 3)} | - | {fmt(per_minute['decision'], 1)} ({fmt(per_minute['truth'], 1)}) | "
                         f"{per_switch(d['median_changes_per_switch'])} | {first} | {stays} |")
             if s:
                 sacc = s["accuracy_per_log"]
                 first, stays = detection(s["first_latency"], s["latency"], switches)
-                rows.append(f"| {group} | {bank} | smoothed | {fmt(sacc['mean'], 3)} ± {fmt(sacc['std'], 3)} | "
+                rows.append(f"| {label} | {group} | {bank} | smoothed | {fmt(sacc['mean'], 3)} ± {fmt(sacc['std'], 3)} | "
                             f"{fmt(sacc['min'], 3)} | {fmt(s['mean_truth_probability'], 3)} | "
                             f"{fmt(s['changes_per_minute']['most_likely'], 1)} ({fmt(per_minute['truth'], 1)}) | "
                             f"{per_switch(s['latency']['median_changes_per_switch'])} | {first} | {stays} |")
     return "\n".join(rows) + (
-        f"\n\n{seeds} seeds per scenario. *most likely*: the filter's most likely mode at each step; *decision*: "
+        f"\n\n{seeds} seeds per scenario. *ideal*: the simulator's ideal sensors, banks in `configs/` (R is those "
+        "sensors' own noise); *realistic*: a Husky-class robot's sensors, banks in `configs/realistic/` (R estimated "
+        "by `skidimm tune`). *most likely*: the filter's most likely mode at each step; *decision*: "
         "the filter's decision with the default thresholds (enter 0.9, leave 0.05, hold 1 s; `unknown` counts as "
         "wrong); *smoothed*: the most likely mode smoothed over the whole log (`run --smooth`). Accuracy is the "
         "fraction of time the estimate is the true mode; *never* counts the switches where it did not happen.\n")
 
 
-def confusion_table(data, bank):
+def confusion_table(data, sensors, bank):
     confusion = data["overall"]["confusion_seconds"]
     modes = sorted({e for row in confusion.values() for e in row} | set(confusion))
-    rows = [f"Confusion, bank `{bank}`, all seeds (rows: truth, columns: estimate, fraction of the truth's time):", "",
+    rows = [f"Confusion, {SENSOR_LABEL[sensors]} sensors, bank `{bank}`, all seeds (rows: truth, columns: estimate, "
+            "fraction of the truth's time):", "",
             "| truth \\ estimate | " + " | ".join(modes) + " |", "|---" * (len(modes) + 1) + "|"]
     for truth in sorted(confusion):
         total = sum(confusion[truth].values())
@@ -79,32 +126,173 @@ def confusion_table(data, bank):
     return "\n".join(rows) + "\n"
 
 
+def shows_confusion(experiment, sensors, bank):
+    """Which confusion tables the page prints: every 3- and 4-mode bank, and
+    the 16-mode banks with the realistic sensors only (16 columns each)."""
+    return not bank.endswith("16") or sensors == "realistic"
+
+
+def block(evals, seeds, experiment):
+    text = summary_table(evals, seeds) + "\n"
+    text += "\n".join(confusion_table(d, s, b) for s, b, d, _ in evals if shows_confusion(experiment, s, b))
+    return text
+
+
+def group_of(evals, sensors, bank, group, smoothed=False):
+    for s, b, d, sm in evals:
+        if s == sensors and b == bank:
+            source = sm if smoothed else d
+            return source["groups"].get(group) if source else None
+    return None
+
+
+def class_of(mode):
+    for c in INDISTINGUISHABLE:
+        if mode in c:
+            return c
+    return {mode}
+
+
+def class_accuracy(g):
+    """Time fraction the estimate is the truth or indistinguishable from it."""
+    right = total = 0.0
+    for truth, row in g["confusion_seconds"].items():
+        same = class_of(truth)
+        for estimate, seconds in row.items():
+            total += seconds
+            right += seconds if estimate in same else 0.0
+    return right / total if total else None
+
+
+def followed_within(data, smoothed, seconds):
+    """Switches (one per seed) whose new mode is most likely, decided and
+    smoothed from within `seconds` of the switch until the end."""
+    def count(source):
+        n = 0
+        for g in source["groups"].values():
+            n += sum(1 for s in g["switches"] if s["latency"] is not None and s["latency"] <= seconds)
+        return n
+    decided = sum(1 for log in data["logs"].values()
+                  if log["decision"]["settled"] and log["decision"]["settled_median"] <= seconds)
+    first_never = sum(g["latency"]["switches"] - g["first_latency"]["detected"] for g in data["groups"].values())
+    total = sum(g["latency"]["switches"] for g in data["groups"].values())
+    return count(data), decided, count(smoothed) if smoothed else None, first_never, total
+
+
+def verdict(met):
+    return "**met**" if met else "not met"
+
+
+def targets_table(all_evals, seeds):
+    singular = all_evals.get("stc_singular", [])
+    switching = all_evals.get("stc_switching", [])
+    rows = ["| target (realistic sensors, %s seeds) | estimate | eq. 3 (`stc_slip4`, `stc_slip16`) | "
+            "sided (`stc_sided4`, `stc_sided16`) | met by the sided model? |" % seeds,
+            "|---|---|---|---|---|"]
+    # 1. Four modes: each configuration identified at least 80% of the time.
+    for estimate, smoothed in (("most likely", False), ("smoothed", True)):
+        cells = {}
+        for bank in ("stc_slip4", "stc_sided4"):
+            values = []
+            for mode in FOUR:
+                g = group_of(singular, "realistic", bank, "stc_singular_" + mode, smoothed)
+                values.append(None if g is None else g["accuracy_per_log"]["mean"])
+            cells[bank] = values
+        text = lambda vs: ", ".join(fmt(v) for v in vs)
+        met = all(v is not None and v >= TARGET_ACCURACY_4 for v in cells["stc_sided4"])
+        rows.append(f"| 4 modes: each of no slip, front two, right two, all four identified >= "
+                    f"{TARGET_ACCURACY_4:.0%} of the time | {estimate} | {text(cells['stc_slip4'])} | "
+                    f"{text(cells['stc_sided4'])} | {verdict(met)} |")
+    # 2. Fig. 6: the switch followed and held within 3 s in at least 18 of 20 seeds.
+    results = {}
+    for bank in ("stc_slip4", "stc_sided4"):
+        for s, b, d, sm in switching:
+            if s == "realistic" and b == bank:
+                results[bank] = followed_within(d, sm, TARGET_SWITCH_SECONDS)
+    if results:
+        for index, estimate in ((0, "most likely"), (1, "decision"), (2, "smoothed")):
+            cell = lambda r: f"{r[index]} of {r[4]}"
+            met = results["stc_sided4"][index] is not None and results["stc_sided4"][index] >= TARGET_SWITCH_SEEDS
+            rows.append(f"| Fig. 6: right two -> all four followed and held within {TARGET_SWITCH_SECONDS:.0f} s "
+                        f"in >= {TARGET_SWITCH_SEEDS} of 20 seeds | {estimate} | {cell(results['stc_slip4'])} | "
+                        f"{cell(results['stc_sided4'])} | {verdict(met)} |")
+        rows.append(f"| Fig. 6: the switch never detected at all (most likely) | most likely | "
+                    f"{results['stc_slip4'][3]} of {results['stc_slip4'][4]} | "
+                    f"{results['stc_sided4'][3]} of {results['stc_sided4'][4]} | - |")
+    # 3. Sixteen modes: the true configuration or one indistinguishable from it
+    # (the 16-mode banks are not smoothed: reproduce_paper.sh).
+    for estimate, smoothed in (("most likely", False),):
+        cells = {}
+        for bank in ("stc_slip16", "stc_sided16"):
+            values = []
+            for mode in FOUR:
+                g = group_of(singular, "realistic", bank, "stc_singular_" + mode, smoothed)
+                values.append(None if g is None else class_accuracy(g))
+            cells[bank] = values
+        text = lambda vs: ", ".join(fmt(v) for v in vs)
+        met = all(v is not None and v >= TARGET_ACCURACY_16 for v in cells["stc_sided16"])
+        rows.append(f"| 16 modes: the true configuration, or no slip and all four taken for each other, >= "
+                    f"{TARGET_ACCURACY_16:.0%} of the time | {estimate} | {text(cells['stc_slip16'])} | "
+                    f"{text(cells['stc_sided16'])} | {verdict(met)} |")
+    return "\n".join(rows) + (
+        "\n\nAccuracies are listed for no slip, front two, right two and all four slipping, in that order: the "
+        "fraction of time over the seeds' 30 s spirals. *Followed and held*: the new mode is the estimate from "
+        "within 3 s of the switch until the end of the run (the decision: it settles on it within 3 s). For 16 "
+        "modes, the estimate counts as right when it is the true configuration or, for no slip and all four, "
+        "either of them (docs/simulation.md: scaling every wheel's friction alike does not change the motion).\n")
+
+
+def kinematics_table(directory, window=5.0, duration=30.0):
+    """Per configuration and window of the spiral: yaw efficiency (omega over
+    the wheels' r (phi_R - phi_L) / b) and speed efficiency (v_x over
+    r (phi_L + phi_R) / 2), from the truth columns."""
+    r, b = 0.165, 0.555
+    files = sorted(glob.glob(os.path.join(directory, "*.csv")))
+    if not files:
+        return None
+    starts = [window * i for i in range(int(duration / window))]
+    rows = ["| configuration | " + " | ".join(f"{s:.0f}-{s + window:.0f} s" for s in starts) + " |",
+            "|---" * (len(starts) + 1) + "|"]
+    order = sorted(files, key=lambda p: (len(os.path.basename(p)), os.path.basename(p)))
+    for path in order:
+        sums = [[0.0, 0.0, 0.0, 0.0] for _ in starts]  # omega, requested yaw, v_x, requested speed
+        with open(path) as f:
+            for row in csv.DictReader(f):
+                t = float(row["t"])
+                i = int(t // window)
+                if i >= len(starts):
+                    continue
+                left, right = float(row["true_phi_dot_L"]), float(row["true_phi_dot_R"])
+                sums[i][0] += float(row["true_omega"])
+                sums[i][1] += r * (right - left) / b
+                sums[i][2] += float(row["true_V"])
+                sums[i][3] += r * (left + right) / 2.0
+        cells = [f"{fmt(s[0] / s[1])} / {fmt(s[2] / s[3])}" if s[1] and s[3] else "-" for s in sums]
+        rows.append(f"| {os.path.basename(path)[:-4]} | " + " | ".join(cells) + " |")
+    return "\n".join(rows) + (
+        "\n\nEach cell: yaw efficiency / speed efficiency, the body's yaw rate and forward speed over what the "
+        "measured wheel speeds would give an ideal differential drive, averaged over the window (truth columns of "
+        "one run per configuration; the spiral's radius grows from 0.6 m to 4.2 m).\n")
+
+
 def main():
     eval_dir, results, seeds = sys.argv[1], sys.argv[2], sys.argv[3]
-    blocks = {}
-    experiments = sorted({os.path.basename(p).split("__")[0] for p in glob.glob(os.path.join(eval_dir, "*.json"))})
-    for experiment in experiments:
-        evals = []
-        for path in sorted(glob.glob(os.path.join(eval_dir, experiment + "__*.json"))):
-            bank = os.path.basename(path)[len(experiment) + 2:-5]
-            if bank.endswith("__smoothed"):
-                continue
-            with open(path) as f:
-                data = json.load(f)
-            smoothed_path = path[:-5] + "__smoothed.json"
-            smoothed = None
-            if os.path.exists(smoothed_path):
-                with open(smoothed_path) as f:
-                    smoothed = json.load(f)
-            evals.append((bank, data, smoothed))
-        blocks[experiment] = summary_table(evals, seeds) + "\n" + "\n".join(confusion_table(d, b) for b, d, _ in evals)
+    kinematics_dir = sys.argv[4] if len(sys.argv) > 4 else None
+    evals = load_evals(eval_dir)
+    blocks = {experiment: block(e, seeds, experiment) for experiment, e in evals.items()}
+    if "stc_singular" in evals and "stc_switching" in evals:
+        blocks["stc_targets"] = targets_table(evals, seeds)
+    if kinematics_dir:
+        table = kinematics_table(kinematics_dir)
+        if table:
+            blocks["stc_kinematics"] = table
     with open(results) as f:
         text = f.read()
-    for name, block in blocks.items():
+    for name, content in blocks.items():
         pattern = re.compile(r"(<!-- results:%s -->\n).*?(<!-- end -->)" % re.escape(name), re.S)
         if not pattern.search(text):
             sys.exit(f"{results}: no <!-- results:{name} --> block")
-        text = pattern.sub(lambda m: m.group(1) + block + m.group(2), text)
+        text = pattern.sub(lambda m: m.group(1) + content + m.group(2), text)
     with open(results, "w") as f:
         f.write(text)
 
