@@ -24,9 +24,9 @@ class StcSidedModel final : public sdk::SizedMotionModel<stc_sided::kNumStates, 
 
   static std::unique_ptr<StcSidedModel> Create(const sdk::ParameterSet& params, std::string* error) {
     std::unique_ptr<StcSidedModel> model(new StcSidedModel());
-    if (!params.check_only({"eta_l", "eta_r", "alpha_l_outer", "alpha_l_inner", "alpha_r_outer", "alpha_r_inner",
-                            "x_icr", "r", "b"},
-                           error)) {
+    if (!params.check_only(
+            {"eta_l", "eta_r", "alpha_l_outer", "alpha_l_inner", "alpha_r_outer", "alpha_r_inner", "x_icr", "r", "b"},
+            error)) {
       return nullptr;
     }
     Parameters values;
@@ -72,8 +72,7 @@ class StcSidedModel final : public sdk::SizedMotionModel<stc_sided::kNumStates, 
   // on stc_sided::predict.
   bool parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                           double dt, Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept override {
-    return sdk::autodiff_parameter_jacobian<stc_sided::kNumStates, stc_sided::kNumInputs,
-                                            stc_sided::kNumParameters>(
+    return sdk::autodiff_parameter_jacobian<stc_sided::kNumStates, stc_sided::kNumInputs, stc_sided::kNumParameters>(
         [](const auto* x_in, const auto* u_in, const auto* p, const auto& step, auto* out) {
           stc_sided::predict(x_in, u_in, p, step, out);
         },

@@ -97,7 +97,7 @@ TEST_F(StcSided, PredictsTheIcrKinematicsByHand) {
     const double phi_l = turn[0], phi_r = turn[1];
     Eigen::VectorXd next(3);
     ASSERT_TRUE(model->predict(Eigen::Vector3d(1.0, 2.0, theta), Eigen::Vector2d(phi_l, phi_r), dt, next));
-    const double v_l = 0.9 * kRadius * phi_l, v_r = 0.6 * kRadius * phi_r;    // tread speeds
+    const double v_l = 0.9 * kRadius * phi_l, v_r = 0.6 * kRadius * phi_r;     // tread speeds
     const double y_l = turn[2] * kTrack / 2.0, y_r = -turn[3] * kTrack / 2.0;  // tread ICRs
     const double omega = (v_r - v_l) / (y_l - y_r);
     const double v_x = (v_r * y_l - v_l * y_r) / (y_l - y_r);
@@ -186,8 +186,8 @@ TEST_F(StcSided, GeometryIsBankScopedAndSlipIsPerMode) {
   ModelHandle model = registry_.create("stc_sided", sided_params({}));
   const auto& info = model->parameter_info();
   ASSERT_EQ(info.size(), 9u);
-  const char* names[] = {"eta_l", "eta_r", "alpha_l_outer", "alpha_l_inner", "alpha_r_outer", "alpha_r_inner",
-                         "x_icr", "r", "b"};
+  const char* names[] = {"eta_l", "eta_r", "alpha_l_outer", "alpha_l_inner", "alpha_r_outer", "alpha_r_inner", "x_icr",
+                         "r",     "b"};
   for (std::size_t i = 0; i < info.size(); ++i) {
     EXPECT_EQ(info[i].name, names[i]);
     EXPECT_EQ(info[i].scope, i < 7 ? sdk::ParameterScope::kMode : sdk::ParameterScope::kBank) << names[i];
@@ -205,7 +205,8 @@ TEST_F(StcSided, BadParametersAreRejectedWithTheirName) {
   }
   sdk::ParameterSet missing = sided_params({});
   sdk::ParameterSet without;
-  for (const char* key : {"eta_l", "eta_r", "alpha_l_outer", "alpha_l_inner", "alpha_r_outer", "alpha_r_inner", "r", "b"}) {
+  for (const char* key :
+       {"eta_l", "eta_r", "alpha_l_outer", "alpha_l_inner", "alpha_r_outer", "alpha_r_inner", "r", "b"}) {
     double v = 0.0;
     ASSERT_TRUE(missing.get_scalar(key, &v, nullptr));
     without.set_scalar(key, v);

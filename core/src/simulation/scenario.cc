@@ -82,10 +82,29 @@ void parse_maneuver(const YamlFields& y, const YAML::Node& node, Maneuver* m) {
 
 void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s) {
   y.check_keys(node,
-               {"preset", "rate", "jitter", "wheel_speed_std", "speed", "velocity_std", "odometry_scale_error",
-                "yaw_rate_std", "yaw_rate_bias", "yaw_rate_bias_std", "accel_std", "gps_rate", "gps_std",
-                "gps_correlated_std", "gps_correlation_time", "heading", "heading_std", "gps_velocity_std",
-                "course_min_speed", "velocity_dropout", "imu_dropout", "gps_dropout", "gps_outage_rate",
+               {"preset",
+                "rate",
+                "jitter",
+                "wheel_speed_std",
+                "speed",
+                "velocity_std",
+                "odometry_scale_error",
+                "yaw_rate_std",
+                "yaw_rate_bias",
+                "yaw_rate_bias_std",
+                "accel_std",
+                "gps_rate",
+                "gps_std",
+                "gps_correlated_std",
+                "gps_correlation_time",
+                "heading",
+                "heading_std",
+                "gps_velocity_std",
+                "course_min_speed",
+                "velocity_dropout",
+                "imu_dropout",
+                "gps_dropout",
+                "gps_outage_rate",
                 "gps_outage_duration"},
                "sensors");
   // A preset first; every other key overrides it.
@@ -164,18 +183,18 @@ SensorConfig husky_sensors() {
   s.yaw_rate_std = 0.02;
   s.yaw_rate_bias_std = 0.005;  // rad/s (0.3 deg/s) turn-on bias of a MEMS gyro (assumed)
   s.accel_std = 0.05;
-  s.gps_rate = 10.0;                  // RTK fixes at 10 Hz
-  s.gps_std = 0.006;                  // m per axis, white
-  s.gps_correlated_std = 0.006;       // m per axis, multipath: 0.0085 m in all, 1 cm CEP (RTK fix)
-  s.gps_correlation_time = 60.0;      // s
+  s.gps_rate = 10.0;              // RTK fixes at 10 Hz
+  s.gps_std = 0.006;              // m per axis, white
+  s.gps_correlated_std = 0.006;   // m per axis, multipath: 0.0085 m in all, 1 cm CEP (RTK fix)
+  s.gps_correlation_time = 60.0;  // s
   s.heading = SensorConfig::Heading::kGpsCourse;
-  s.gps_velocity_std = 0.035;         // m/s per axis: 0.05 m/s velocity accuracy
-  s.course_min_speed = 0.1;           // m/s: receivers give no course below it
+  s.gps_velocity_std = 0.035;  // m/s per axis: 0.05 m/s velocity accuracy
+  s.course_min_speed = 0.1;    // m/s: receivers give no course below it
   s.velocity_dropout = 0.005;
   s.imu_dropout = 0.005;
-  s.gps_dropout = 0.02;               // single lost fixes
-  s.gps_outage_rate = 1.0 / 60.0;     // an outage a minute on average ...
-  s.gps_outage_duration = 2.0;        // ... of 2 s on average (lost corrections, shading)
+  s.gps_dropout = 0.02;            // single lost fixes
+  s.gps_outage_rate = 1.0 / 60.0;  // an outage a minute on average ...
+  s.gps_outage_duration = 2.0;     // ... of 2 s on average (lost corrections, shading)
   return s;
 }
 
@@ -355,10 +374,10 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
       row[2] = number(measured_right);
       const double noise_v = sensors.velocity_std * random.gaussian();
       if (random.uniform() >= sensors.velocity_dropout) {
-        const double speed = sensors.speed == SensorConfig::Speed::kBody
-                                 ? state.vx + noise_v
-                                 : (1.0 + sensors.odometry_scale_error) * robot.wheel_radius *
-                                       (measured_left + measured_right) / 2.0;
+        const double speed =
+            sensors.speed == SensorConfig::Speed::kBody
+                ? state.vx + noise_v
+                : (1.0 + sensors.odometry_scale_error) * robot.wheel_radius * (measured_left + measured_right) / 2.0;
         row[3] = number(speed);
       }
       const double noise_w = sensors.yaw_rate_std * random.gaussian();

@@ -50,14 +50,14 @@ struct SensorConfig {
   // velocity, empty below course_min_speed, as receivers do), which differs
   // from the heading by the body's sideslip.
   Heading heading = Heading::kDirect;
-  double heading_std = 0.03;        // rad, kDirect
-  double gps_velocity_std = 0.035;  // m/s per horizontal axis, kGpsCourse
-  double course_min_speed = 0.1;    // m/s, kGpsCourse
-  double velocity_dropout = 0.0;    // probability that a row lacks V_B
-  double imu_dropout = 0.0;         // ... lacks the IMU
-  double gps_dropout = 0.0;         // ... lacks a due GPS fix
-  double gps_outage_rate = 0.0;     // 1/s: outages (no fix at all) start at this rate
-  double gps_outage_duration = 2.0; // s, mean (exponential) length of an outage
+  double heading_std = 0.03;         // rad, kDirect
+  double gps_velocity_std = 0.035;   // m/s per horizontal axis, kGpsCourse
+  double course_min_speed = 0.1;     // m/s, kGpsCourse
+  double velocity_dropout = 0.0;     // probability that a row lacks V_B
+  double imu_dropout = 0.0;          // ... lacks the IMU
+  double gps_dropout = 0.0;          // ... lacks a due GPS fix
+  double gps_outage_rate = 0.0;      // 1/s: outages (no fix at all) start at this rate
+  double gps_outage_duration = 2.0;  // s, mean (exponential) length of an outage
 };
 
 // The sensors of a Husky-class robot with an RTK receiver (`preset: husky`);
