@@ -35,6 +35,7 @@
 #define SKIDIMM_FITTING_MODEL_FITTER_H_
 
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -88,6 +89,19 @@ struct FitReport {
   double initial_cost = 0.0;
   double final_cost = 0.0;
   double condition_number = 0.0;
+
+  // Filled by the likelihood objective (likelihood_fitter.h) only.
+  // Rows with at least one measured component.
+  int measured_rows = 0;
+  // This mode's own negative log-likelihood at the fit, and per measured row.
+  double negative_log_likelihood = std::numeric_limits<double>::quiet_NaN();
+  double negative_log_likelihood_per_row = std::numeric_limits<double>::quiet_NaN();
+  // Per measurement component: mean nu_c^2 / S_cc, 1 when the filter is consistent.
+  Eigen::VectorXd mean_nis;
+  // The fitted entries of Q ("Q[i,j]", lower triangle) and R ("R[i,i]").
+  std::vector<ParameterEstimate> noise_parameters;
+  // The fitted bank R; empty when R was not fitted.
+  Eigen::MatrixXd measurement_noise;
 };
 
 // A mode's logs.
