@@ -1,10 +1,43 @@
 #include "skidimm/mode_transition.h"
 
+#include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 
 #include "skidimm/check.h"
 
 namespace skidimm {
+
+namespace {
+
+// Past this many expected jumps of the fastest mode in one step (max r dt),
+// uniformisation needs too many terms: the eigenvectors take over.
+constexpr double kMaxUniformisedRate = 50.0;
+// An anchor serves steps with ||Pi_c (dt - dt_a)|| up to this; its Taylor
+// series then reaches 1e-17 in at most 12 terms.
+constexpr double kMaxCorrection = 0.1;
+
+// out = a' b for column-major a (N x N) and b (N x C), without Eigen's GEMM
+// (which may take its blocking space from the heap for large N).
+void transpose_times(const Eigen::MatrixXd& a, const Eigen::Ref<const Eigen::MatrixXd>& b,
+                     Eigen::Ref<Eigen::MatrixXd> out) {
+  const Eigen::Index n = a.rows(), columns = b.cols();
+  if (n < 16) {
+    for (Eigen::Index c = 0; c < columns; ++c) {
+      for (Eigen::Index j = 0; j < n; ++j) {
+        double sum = 0.0;
+        for (Eigen::Index i = 0; i < n; ++i) sum += a(i, j) * b(i, c);
+        out(j, c) = sum;
+      }
+    }
+    return;
+  }
+  for (Eigen::Index j = 0; j < n; ++j) {
+    for (Eigen::Index c = 0; c < columns; ++c) out(j, c) = a.col(j).dot(b.col(c));
+  }
+}
+
+}  // namespace
 
 ModeTransition ModeTransition::from_config(const TransitionConfig& config, int num_modes) {
   switch (config.kind) {
@@ -39,7 +72,6 @@ ModeTransition ModeTransition::from_dwell_times(const Eigen::VectorXd& mean_dwel
   const Eigen::Index n = mean_dwell_seconds.size();
   SKIDIMM_CHECK(n > 0 && (mean_dwell_seconds.array() > 0.0).all(), "dwell times must be positive");
   ModeTransition t;
-  t.continuous_ = true;
   t.generator_ = Eigen::MatrixXd::Zero(n, n);
   if (n > 1) {
     for (Eigen::Index i = 0; i < n; ++i) {
@@ -49,65 +81,232 @@ ModeTransition ModeTransition::from_dwell_times(const Eigen::VectorXd& mean_dwel
     }
   }
   t.max_rate_ = (-t.generator_.diagonal()).maxCoeff();
-  t.uniform_rates_ = (mean_dwell_seconds.array() == mean_dwell_seconds[0]).all();
   t.matrix_ = Eigen::MatrixXd::Identity(n, n);
-  t.jump_ = Eigen::MatrixXd::Identity(n, n);
-  if (t.max_rate_ > 0.0) t.jump_ += t.generator_ / t.max_rate_;
+  const bool equal = (mean_dwell_seconds.array() == mean_dwell_seconds[0]).all();
+  t.form_ = n == 1 || equal ? Form::kEqualRates : Form::kDwellTimes;
+  if (t.form_ == Form::kEqualRates) return t;
+
+  const double nn = static_cast<double>(n);
+  t.rates_ = -t.generator_.diagonal();
+  t.decay_ = t.rates_ * (nn / (nn - 1.0));
+  t.spread_ = 1.0 / (nn - 1.0);
+  for (Anchor& a : t.anchors_) a.p.resize(n, n);
   t.power_.resize(n, n);
   t.scratch_.resize(n, n);
+  // Pi_c = R K with K = (1 1' - N I) / (N - 1) symmetric, so Pi_c is similar
+  // to the symmetric R^1/2 K R^1/2 = (s s' - N R) / (N - 1), s = sqrt(r).
+  t.sqrt_rates_ = t.rates_.cwiseSqrt();
+  Eigen::MatrixXd symmetric = t.sqrt_rates_ * t.sqrt_rates_.transpose();
+  symmetric.diagonal() -= nn * t.rates_;
+  symmetric *= t.spread_;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(symmetric);
+  SKIDIMM_CHECK(solver.info() == Eigen::Success, "eigendecomposition of the dwell-time generator failed");
+  t.eigenvalues_ = solver.eigenvalues().cwiseMin(0.0);  // the chain's rates are <= 0; round-off may not be
+  t.eigenvectors_ = solver.eigenvectors();
+  // The stationary direction exactly: eigenvalue 0 (the largest; round-off
+  // would make exp(L dt) drift from 1 over long gaps) with eigenvector
+  // R^-1/2 1, normalised, so that P(dt) tends to 1 pi', pi_i = tau_i / sum tau.
+  const Eigen::Index last = n - 1;
+  t.eigenvalues_[last] = 0.0;
+  t.eigenvectors_.col(last) = t.sqrt_rates_.cwiseInverse().normalized();
+  t.eigenvectors_transposed_ = t.eigenvectors_.transpose();
+  t.reserve_columns(1);
   return t;
 }
 
-const Eigen::MatrixXd& ModeTransition::matrix(double dt) {
-  if (!continuous_ || dt == cached_dt_) return matrix_;
-  exponentiate(dt);
-  cached_dt_ = dt;
-  return matrix_;
+void ModeTransition::reserve_columns(int columns) {
+  const Eigen::Index n = matrix_.rows();
+  if (term_.cols() >= columns && term_.rows() == n) return;
+  term_.resize(n, columns);
+  term2_.resize(n, columns);
+  row_.resize(columns);
 }
 
-void ModeTransition::exponentiate(double dt) {
+double ModeTransition::equal_rates_decay(double dt) const {
+  // Equal rates r: the chain forgets its state at rate r n/(n-1), so
+  // P = 1/n + (delta_ij - 1/n) exp(-r n dt / (n-1)).
+  const double nn = static_cast<double>(matrix_.rows());
+  return std::exp(-max_rate_ * nn / (nn - 1.0) * dt);
+}
+
+const Eigen::MatrixXd& ModeTransition::matrix(double dt) {
+  if (form_ == Form::kPerStep || dt == cached_dt_) return matrix_;
+  cached_dt_ = dt;
   const Eigen::Index n = matrix_.rows();
   if (n == 1 || max_rate_ == 0.0 || dt <= 0.0) {
     matrix_.setIdentity();
-    return;
+    return matrix_;
   }
-  if (uniform_rates_) {
-    // Equal rates r: the chain forgets its state at rate r n/(n-1), so
-    // P = 1/n + (delta_ij - 1/n) exp(-r n dt / (n-1)).
-    const double nn = static_cast<double>(n);
-    const double decay = std::exp(-max_rate_ * nn / (nn - 1.0) * dt);
-    matrix_.setConstant((1.0 - decay) / nn);
+  if (form_ == Form::kEqualRates) {
+    const double decay = equal_rates_decay(dt);
+    matrix_.setConstant((1.0 - decay) / static_cast<double>(n));
     matrix_.diagonal().array() += decay;
-    return;
+    return matrix_;
   }
+  const int a = anchor_for(dt);
+  if (a < 0) {
+    // P = R^1/2 U exp(L dt) U' R^-1/2, formed in O(N^3): only past the
+    // uniformisation threshold (a gap of many dwell times).
+    power_ = eigenvectors_ * (eigenvalues_ * dt).array().exp().matrix().asDiagonal();
+    for (Eigen::Index j = 0; j < n; ++j) {
+      for (Eigen::Index i = 0; i < n; ++i) {
+        matrix_(i, j) = sqrt_rates_[i] * power_.row(i).dot(eigenvectors_transposed_.col(j)) / sqrt_rates_[j];
+      }
+    }
+    return matrix_;
+  }
+  // P(dt) = P(dt_a) expm(Pi_c delta) = sum_k P(dt_a) (Pi_c delta)^k / k!.
+  const double delta = dt - anchors_[static_cast<std::size_t>(a)].dt;
+  matrix_ = anchors_[static_cast<std::size_t>(a)].p;
+  if (delta == 0.0) return matrix_;
+  power_ = matrix_;
+  const double bound = 2.0 * max_rate_ * std::abs(delta);
+  double size = 1.0;
+  for (int k = 1; k < 30 && size > 1e-18; ++k) {
+    times_generator(power_, &scratch_);
+    power_ = scratch_ * (delta / k);
+    matrix_ += power_;
+    size *= bound / k;
+  }
+  return matrix_;
+}
+
+void ModeTransition::times_generator(const Eigen::MatrixXd& x, Eigen::MatrixXd* out) const {
+  // x Pi_c = a (x r) 1' - x diag(d).
+  const Eigen::Index n = x.rows();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    double flow = 0.0;
+    for (Eigen::Index k = 0; k < n; ++k) flow += x(i, k) * rates_[k];
+    flow *= spread_;
+    for (Eigen::Index j = 0; j < n; ++j) (*out)(i, j) = flow - x(i, j) * decay_[j];
+  }
+}
+
+void ModeTransition::generator_transpose_times(const Eigen::Ref<const Eigen::MatrixXd>& x,
+                                               Eigen::Ref<Eigen::MatrixXd> out) const {
+  // Pi_c' x = a 1 (r' x) - diag(d) x.
+  const Eigen::Index n = x.rows(), columns = x.cols();
+  for (Eigen::Index c = 0; c < columns; ++c) {
+    const double flow = spread_ * rates_.dot(x.col(c));
+    for (Eigen::Index i = 0; i < n; ++i) out(i, c) = flow - decay_[i] * x(i, c);
+  }
+}
+
+void ModeTransition::uniformise(double dt, Eigen::MatrixXd* p) {
   // Uniformisation: expm(Pi h) = sum_k Poisson(k; r h) J^k, with J = I + Pi/r
-  // stochastic, so every term is non-negative and nothing cancels. Scale h so
-  // that r h <= 1/2 (about 15 terms reach 1e-17), then square back.
-  int squarings = 0;
-  double h = dt;
-  while (max_rate_ * h > 0.5) {
-    h *= 0.5;
-    ++squarings;
-  }
-  const double lambda = max_rate_ * h;
+  // stochastic, so every term is non-negative and nothing cancels. Each
+  // power is the last times J, O(N^2) with the structured generator. Up to
+  // r h = 1/2, the same terms as the original scaling-and-squaring
+  // implementation; beyond, more terms instead of squarings (each O(N^3)).
+  const Eigen::Index n = matrix_.rows();
+  const double lambda = max_rate_ * dt;
   double weight = std::exp(-lambda);
   double accumulated = weight;
-  matrix_.setIdentity();
-  matrix_ *= weight;
+  p->setIdentity();
+  *p *= weight;
   power_.setIdentity();
-  for (int k = 1; k < 64 && 1.0 - accumulated > 1e-17; ++k) {
-    scratch_.noalias() = power_ * jump_;
-    power_.swap(scratch_);
+  const int most = lambda <= 0.5 ? 64 : static_cast<int>(lambda + 30.0 * std::sqrt(lambda) + 100.0);
+  for (int k = 1; k < most; ++k) {
+    const bool more = lambda <= 0.5 ? 1.0 - accumulated > 1e-17 : (k <= lambda || weight > 1e-18);
+    if (!more) break;
+    times_generator(power_, &scratch_);
+    power_ += scratch_ / max_rate_;
     weight *= lambda / k;
     accumulated += weight;
-    matrix_ += weight * power_;
-  }
-  for (int s = 0; s < squarings; ++s) {
-    scratch_.noalias() = matrix_ * matrix_;
-    matrix_.swap(scratch_);
+    *p += weight * power_;
   }
   // Remove the truncated tail so rows sum to one to machine precision.
-  for (Eigen::Index i = 0; i < n; ++i) matrix_.row(i) /= matrix_.row(i).sum();
+  for (Eigen::Index i = 0; i < n; ++i) p->row(i) /= p->row(i).sum();
+}
+
+int ModeTransition::anchor_for(double dt) {
+  if (max_rate_ * dt > kMaxUniformisedRate) return -1;
+  int best = -1, oldest = 0;
+  double best_distance = 0.0;
+  for (int a = 0; a < kAnchors; ++a) {
+    const Anchor& anchor = anchors_[static_cast<std::size_t>(a)];
+    if (anchor.used < anchors_[static_cast<std::size_t>(oldest)].used) oldest = a;
+    if (anchor.dt < 0.0) continue;
+    const double distance = std::abs(dt - anchor.dt);
+    if (best < 0 || distance < best_distance) {
+      best = a;
+      best_distance = distance;
+    }
+  }
+  if (best < 0 || 2.0 * max_rate_ * best_distance > kMaxCorrection) {
+    best = oldest;
+    Anchor& anchor = anchors_[static_cast<std::size_t>(best)];
+    uniformise(dt, &anchor.p);
+    anchor.dt = dt;
+  }
+  anchors_[static_cast<std::size_t>(best)].used = ++uses_;
+  return best;
+}
+
+void ModeTransition::eigen_propagate(double dt, const Eigen::Ref<const Eigen::MatrixXd>& in,
+                                     Eigen::Ref<Eigen::MatrixXd> out) {
+  // P(dt)' x = R^-1/2 U exp(L dt) U' R^1/2 x.
+  const Eigen::Index n = in.rows(), columns = in.cols();
+  auto scaled = term2_.leftCols(columns);
+  for (Eigen::Index c = 0; c < columns; ++c) scaled.col(c) = sqrt_rates_.cwiseProduct(in.col(c));
+  auto rotated = term_.leftCols(columns);
+  transpose_times(eigenvectors_, scaled, rotated);  // U' R^1/2 x
+  for (Eigen::Index m = 0; m < n; ++m) rotated.row(m) *= std::exp(eigenvalues_[m] * dt);
+  transpose_times(eigenvectors_transposed_, rotated, out);  // U (...)
+  for (Eigen::Index c = 0; c < columns; ++c) out.col(c).array() /= sqrt_rates_.array();
+}
+
+void ModeTransition::propagate(double dt, const Eigen::Ref<const Eigen::MatrixXd>& in,
+                               Eigen::Ref<Eigen::MatrixXd> out) {
+  const Eigen::Index n = matrix_.rows(), columns = in.cols();
+  SKIDIMM_CHECK(in.rows() == n && out.rows() == n && out.cols() == columns, "propagate: shapes differ");
+  switch (form_) {
+    case Form::kPerStep:
+      transpose_times(matrix_, in, out);
+      return;
+    case Form::kEqualRates: {
+      if (n == 1 || max_rate_ == 0.0 || dt <= 0.0) {
+        out = in;
+        return;
+      }
+      const double decay = equal_rates_decay(dt);
+      const double spread = (1.0 - decay) / static_cast<double>(n);
+      for (Eigen::Index c = 0; c < columns; ++c) {
+        const double total = spread * in.col(c).sum();
+        for (Eigen::Index i = 0; i < n; ++i) out(i, c) = decay * in(i, c) + total;
+      }
+      return;
+    }
+    case Form::kDwellTimes:
+      break;
+  }
+  SKIDIMM_CHECK(term_.cols() >= columns, "propagate: call reserve_columns() first");
+  if (dt <= 0.0) {
+    out = in;
+    return;
+  }
+  const int a = anchor_for(dt);
+  if (a < 0) {
+    eigen_propagate(dt, in, out);
+    return;
+  }
+  // P(dt)' x = expm(Pi_c delta)' P(dt_a)' x: one dense product, then a
+  // Taylor series of O(N C) products with Pi_c'.
+  const Anchor& anchor = anchors_[static_cast<std::size_t>(a)];
+  const double delta = dt - anchor.dt;
+  transpose_times(anchor.p, in, out);
+  if (delta == 0.0) return;
+  auto term = term_.leftCols(columns);
+  auto next = term2_.leftCols(columns);
+  term = out;
+  const double bound = 2.0 * max_rate_ * std::abs(delta);
+  double size = 1.0;
+  for (int k = 1; k < 30 && size > 1e-18; ++k) {
+    generator_transpose_times(term, next);
+    term = next * (delta / k);
+    out += term;
+    size *= bound / k;
+  }
 }
 
 }  // namespace skidimm

@@ -53,15 +53,19 @@ class StcKinematicModel final : public sdk::SizedMotionModel<3, 2> {
     return true;
   }
 
+  // The EKF asks for the Jacobian and then the prediction at the same state:
+  // sin and cos of its heading are computed once for both (HeadingTrig).
   bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const noexcept override {
-    stc_predict(x.data(), u.data(), p_.k, p_.m, p_.r, p_.b, dt, x_next->data());
+    const HeadingTrig& trig = heading_trig(x[kTheta]);
+    stc_predict_trig(x.data(), u.data(), trig.sin, trig.cos, p_.k, p_.m, p_.r, p_.b, dt, x_next->data());
     (*x_next)[kTheta] = sdk::wrap_angle((*x_next)[kTheta]);
     return x_next->allFinite();
   }
 
   bool jacobian_fixed(const State& x, const Input& u, double dt, Jacobian* jacobian) const noexcept override {
     Eigen::Matrix<double, 3, 3, Eigen::RowMajor> row_major;
-    stc_jacobian(x.data(), u.data(), p_, dt, row_major.data());
+    const HeadingTrig& trig = heading_trig(x[kTheta]);
+    stc_jacobian_trig(u.data(), trig.sin, trig.cos, p_, dt, row_major.data());
     *jacobian = row_major;
     return jacobian->allFinite();
   }
@@ -90,6 +94,24 @@ class StcKinematicModel final : public sdk::SizedMotionModel<3, 2> {
         scalar_parameter_info("r", "wheel radius (m)", 1e-6, inf, ParameterScope::kBank),
         scalar_parameter_info("b", "track width (m)", 1e-6, inf, ParameterScope::kBank),
     };
+  }
+
+  // sin and cos of the last heading this thread asked for: the same state's
+  // Jacobian and prediction follow each other. A pure function of theta, so
+  // the cache cannot change a result; per thread, so models stay shareable.
+  struct HeadingTrig {
+    double theta = 0.0;
+    double sin = 0.0;
+    double cos = 1.0;
+  };
+  static const HeadingTrig& heading_trig(double theta) noexcept {
+    static thread_local HeadingTrig last;
+    if (!(theta == last.theta)) {  // a NaN heading is recomputed (and stays NaN)
+      last.sin = std::sin(theta);
+      last.cos = std::cos(theta);
+      last.theta = theta;
+    }
+    return last;
   }
 
   StcParameters p_{1.0, 1.0, 1.0, 1.0};

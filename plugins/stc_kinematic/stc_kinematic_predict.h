@@ -32,27 +32,38 @@ void stc_requested_velocities(const T* u, const T& r, const T& b, T* forward, T*
   *yaw_rate = r * (u[kStcPhiDotRight] - u[kStcPhiDotLeft]) / b;
 }
 
+// The step with sin(theta), cos(theta) given (computed once for the
+// prediction and its Jacobian).
+template <typename T>
+void stc_predict_trig(const T* x, const T* u, const T& sin_theta, const T& cos_theta, const T& k, const T& m,
+                      const T& r, const T& b, const T& dt, T* x_next) {
+  T forward, yaw_rate;
+  stc_requested_velocities(u, r, b, &forward, &yaw_rate);
+  x_next[kX] = x[kX] + k * cos_theta * forward * dt;
+  x_next[kY] = x[kY] + k * sin_theta * forward * dt;
+  x_next[kTheta] = x[kTheta] + m * yaw_rate * dt;
+}
+
 template <typename T>
 void stc_predict(const T* x, const T* u, const T& k, const T& m, const T& r, const T& b, const T& dt, T* x_next) {
   using std::cos;
   using std::sin;
-  T forward, yaw_rate;
-  stc_requested_velocities(u, r, b, &forward, &yaw_rate);
-  x_next[kX] = x[kX] + k * cos(x[kTheta]) * forward * dt;
-  x_next[kY] = x[kY] + k * sin(x[kTheta]) * forward * dt;
-  x_next[kTheta] = x[kTheta] + m * yaw_rate * dt;
+  stc_predict_trig(x, u, T(sin(x[kTheta])), T(cos(x[kTheta])), k, m, r, b, dt, x_next);
 }
 
-// Row-major 3x3 Jacobian d x_next / d x.
-inline void stc_jacobian(const double* x, const double* u, const StcParameters& p, double dt, double* jacobian) {
+// Row-major 3x3 Jacobian d x_next / d x, with sin(theta), cos(theta) given.
+inline void stc_jacobian_trig(const double* u, double sin_theta, double cos_theta, const StcParameters& p, double dt,
+                              double* jacobian) {
   double forward, yaw_rate;
   stc_requested_velocities(u, p.r, p.b, &forward, &yaw_rate);
-  const double s = std::sin(x[kTheta]);
-  const double c = std::cos(x[kTheta]);
-  const double rows[9] = {1.0, 0.0, -p.k * s * forward * dt,  //
-                          0.0, 1.0, p.k * c * forward * dt,   //
+  const double rows[9] = {1.0, 0.0, -p.k * sin_theta * forward * dt,  //
+                          0.0, 1.0, p.k * cos_theta * forward * dt,   //
                           0.0, 0.0, 1.0};
   for (int i = 0; i < 9; ++i) jacobian[i] = rows[i];
+}
+
+inline void stc_jacobian(const double* x, const double* u, const StcParameters& p, double dt, double* jacobian) {
+  stc_jacobian_trig(u, std::sin(x[kTheta]), std::cos(x[kTheta]), p, dt, jacobian);
 }
 
 }  // namespace plugins

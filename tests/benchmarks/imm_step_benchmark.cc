@@ -1,86 +1,112 @@
-// Speed and memory of one IMM step as the bank grows.
+// Time of one Imm::step, as a multiple of a hand-written fixed-size IMM of the
+// same math timed in the same run (tests/core/reference_imm.h), and as the
+// share of a core it takes at 100 Hz for 1 to 256 modes and every form of
+// transition.
 //
-// Absolute times depend on the machine; ratios within one run do not, so the
-// report ends with each bank size's time per step as a multiple of the
-// one-mode bank (a plain EKF), measured in the same run. Memory is the heap
-// the Imm takes at construction (malloc is counted), and the heap it
-// takes per step (which must be 0).
-//   build/bin/skidimm_benchmarks
+//   Imm/<bank>, Reference/<bank>: the bundled banks (ltc_terrains 3 modes x 2
+//     states, stc_slip4 4 x 3, stc_slip16 16 x 3) and a 16 x 2 LTC bank, every
+//     row measured, regular 50 Hz steps: the same steps for both.
+//   Scaling/<form>/<states>/<modes>: LTC (2 states) and STC (3 states, with an
+//     angle) banks of 1 to 256 modes with each transition form (a per-step
+//     matrix, equal dwell times, per-mode dwell times) at 100 Hz with a jittered
+//     dt (+-10%), as real logs have. Counters: the heap the Imm takes at
+//     construction and the allocations per step (must be 0).
 #include <benchmark/benchmark.h>
 
 #include <cmath>
-#include <cstdio>
 #include <string>
 #include <utility>
-#include <vector>
 
-#include "core/malloc_counter.h"
-#include "core/test_banks.h"
+#include "benchmark_data.h"
+#include "benchmark_support.h"
 #include "skidimm/imm.h"
 
+namespace skidimm_bench {
 namespace {
 
-skidimm::Bank make_ltc_bank(int num_modes) {
-  skidimm_test::BankBuilder b;
-  b.states = {"V", "omega"};
-  b.angles = {false, false};
-  b.inputs = {"phi_dot_L", "phi_dot_R"};
-  Eigen::Matrix2d input;
-  input << 0.4, 0.4, -0.8, 0.8;
-  for (int j = 0; j < num_modes; ++j) {
-    b.models.push_back(
-        skidimm_test::make_ltc(Eigen::Matrix2d::Identity() * -(1.0 + 0.1 * j), (0.3 + 0.01 * j) * input));
-  }
-  b.q = {Eigen::Matrix2d::Identity() * 0.01};
-  b.r = Eigen::Matrix2d::Identity() * 0.01;
-  return b.build();
-}
+constexpr int kSteps = 1 << 14;
 
-void BM_ImmStep(benchmark::State& state) {
-  skidimm::Bank bank = make_ltc_bank(static_cast<int>(state.range(0)));
-  const long bytes_before = skidimm_test::g_malloc_bytes.load();
-  skidimm::Imm imm(std::move(bank));
-  const long construction_bytes = skidimm_test::g_malloc_bytes.load() - bytes_before;
-  double t = 0.0;
-  const long allocations_before = skidimm_test::g_malloc_calls.load();
+// Cycles through precomputed steps; at the end, resets the filter so that
+// time starts over.
+template <typename Filter, typename Step>
+void cycle(benchmark::State& state, Filter& filter, const Steps& steps, Step&& step) {
+  int k = 0;
   for (auto _ : state) {
-    t += 0.02;
-    const auto& e = imm.step(t, Eigen::Vector2d(3.0, 4.0), Eigen::Vector2d(0.5 + 0.1 * std::sin(t), 0.1));
-    benchmark::DoNotOptimize(e.state.data());
-  }
-  state.counters["imm_bytes"] = static_cast<double>(construction_bytes);
-  state.counters["allocs_per_step"] = static_cast<double>(skidimm_test::g_malloc_calls.load() - allocations_before) /
-                                      static_cast<double>(state.iterations());
-}
-BENCHMARK(BM_ImmStep)->Arg(1)->Arg(4)->Arg(16)->Arg(64)->Arg(256);
-
-// Prints each run as usual, then the time per step relative to the first run.
-class RatioReporter : public benchmark::ConsoleReporter {
- public:
-  void ReportRuns(const std::vector<Run>& runs) override {
-    for (const Run& run : runs) {
-      if (run.run_type == Run::RT_Iteration) times_.emplace_back(run.benchmark_name(), run.GetAdjustedCPUTime());
+    if (k == steps.size()) {
+      filter.reset();
+      k = 0;
     }
-    ConsoleReporter::ReportRuns(runs);
+    step(k);
+    ++k;
   }
-  void Finalize() override {
-    ConsoleReporter::Finalize();
-    if (times_.empty()) return;
-    const double reference = times_.front().second;  // registered first: the one-mode bank
-    std::printf("\ntime per step relative to BM_ImmStep/1 (one mode, a plain EKF) in this run:\n");
-    for (const auto& [name, time] : times_) std::printf("  %-16s %8.1fx\n", name.c_str(), time / reference);
-  }
+  state.SetItemsProcessed(state.iterations());
+}
 
- private:
-  std::vector<std::pair<std::string, double>> times_;
-};
+void bank_benchmark(benchmark::State& state, const std::string& name, bool reference) {
+  skidimm::Bank bank = name == "ltc16" ? ltc_bank(16, TransitionForm::kPerStep) : bundled_bank(name);
+  const Steps steps = simulate_steps(bank, kSteps, 0.02, 0.0);
+  const Eigen::MatrixXd transition = transition_matrix(bank.config, 0.02);
+  if (!reference) {
+    skidimm::Imm imm(std::move(bank));
+    cycle(state, imm, steps, [&](int k) {
+      const skidimm::ImmEstimate& e = imm.step(steps.t[k], steps.u[k], steps.z[k]);
+      benchmark::DoNotOptimize(e.state.data());
+    });
+  } else if (bank.config.state_dim() == 2) {
+    LtcReference filter = ltc_reference(bank);
+    cycle(state, filter, steps, [&](int k) {
+      filter.step(steps.t[k], steps.u[k], steps.z[k], transition);
+      benchmark::DoNotOptimize(filter.state().data());
+    });
+  } else {
+    StcReference filter = stc_reference(bank);
+    cycle(state, filter, steps, [&](int k) {
+      filter.step(steps.t[k], steps.u[k], steps.z[k], transition);
+      benchmark::DoNotOptimize(filter.state().data());
+    });
+  }
+}
+
+void scaling_benchmark(benchmark::State& state, TransitionForm form, int states) {
+  const int modes = static_cast<int>(state.range(0));
+  skidimm::Bank bank = states == 2 ? ltc_bank(modes, form) : stc_bank(modes, form);
+  const Steps steps = simulate_steps(bank, kSteps, 0.01, 0.1);
+  const long bytes_before = malloc_bytes();
+  skidimm::Imm imm(std::move(bank));
+  const long construction_bytes = malloc_bytes() - bytes_before;
+  for (int k = 0; k < 20; ++k) imm.step(steps.t[k], steps.u[k], steps.z[k]);  // warm up
+  imm.reset();
+  const long allocations_before = malloc_calls();
+  cycle(state, imm, steps, [&](int k) {
+    const skidimm::ImmEstimate& e = imm.step(steps.t[k], steps.u[k], steps.z[k]);
+    benchmark::DoNotOptimize(e.state.data());
+  });
+  state.counters["imm_bytes"] = static_cast<double>(construction_bytes);
+  state.counters["allocs_per_step"] =
+      static_cast<double>(malloc_calls() - allocations_before) / static_cast<double>(state.iterations());
+}
+
+void register_benchmarks() {
+  for (const char* bank : {"ltc_terrains", "stc_slip4", "stc_slip16", "ltc16"}) {
+    for (bool reference : {false, true}) {
+      const std::string name = std::string(reference ? "Reference/" : "Imm/") + bank;
+      benchmark::RegisterBenchmark(name.c_str(), [bank, reference](benchmark::State& s) {
+        bank_benchmark(s, bank, reference);
+      });
+    }
+  }
+  for (TransitionForm form :
+       {TransitionForm::kPerStep, TransitionForm::kUniformDwell, TransitionForm::kPerModeDwell}) {
+    for (int states : {2, 3}) {
+      const std::string name = std::string("Scaling/") + form_name(form) + "/" + (states == 2 ? "ltc" : "stc");
+      benchmark::RegisterBenchmark(name.c_str(), [form, states](benchmark::State& s) {
+        scaling_benchmark(s, form, states);
+      })->Arg(1)->Arg(4)->Arg(16)->Arg(64)->Arg(256);
+    }
+  }
+}
+
+const bool registered = (register_benchmarks(), true);
 
 }  // namespace
-
-int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  RatioReporter reporter;
-  benchmark::RunSpecifiedBenchmarks(&reporter);
-  benchmark::Shutdown();
-  return 0;
-}
+}  // namespace skidimm_bench

@@ -68,5 +68,54 @@ TEST(ImmAllocation, StepAndDecisionAllocateNothingWithIrregularTimeMissingRowsAn
   EXPECT_TRUE(imm.estimate().state.allFinite());
 }
 
+// Every kernel and every path of the dwell-time transition: the dynamic
+// kernel, 64 modes (products past Eigen's small-size paths), steps jittered
+// in their last digits, alternating rates (several anchors), and gaps long
+// enough for the eigenvector path.
+TEST(ImmAllocation, EveryKernelAndTransitionPathAllocatesNothing) {
+  for (ImmKernelChoice choice : {ImmKernelChoice::kFastest, ImmKernelChoice::kDynamic}) {
+    for (TransitionConfig::Kind kind :
+         {TransitionConfig::Kind::kStay, TransitionConfig::Kind::kDwellTimes, TransitionConfig::Kind::kMatrix}) {
+      skidimm_test::BankBuilder b;
+      b.states = {"V", "omega"};
+      b.angles = {false, false};
+      b.inputs = {"phi_dot_L", "phi_dot_R"};
+      Eigen::Matrix2d input;
+      input << 0.4, 0.4, -0.8, 0.8;
+      for (int j = 0; j < 64; ++j) {
+        b.models.push_back(skidimm_test::make_ltc(Eigen::Matrix2d::Identity() * -(1.0 + 0.1 * j), 0.3 * input));
+      }
+      b.q = {Eigen::Matrix2d::Identity() * 0.01};
+      b.r = Eigen::Matrix2d::Identity() * 0.01;
+      Bank bank = b.build();
+      bank.config.transition.kind = kind;
+      bank.config.transition.dwell_seconds = Eigen::VectorXd::LinSpaced(64, 0.2, 20.0);
+      bank.config.transition.matrix = Eigen::MatrixXd::Constant(64, 64, 0.01 / 63);
+      bank.config.transition.matrix.diagonal().setConstant(0.99);
+      Imm imm(std::move(bank), choice);
+      double t = 0.0;
+      auto run = [&](int steps) {
+        for (int k = 0; k < steps; ++k) {
+          const double dt = k % 50 == 49   ? 400.0                                  // a gap: eigenvectors
+                            : k % 3 == 0   ? 0.01 + 1e-7 * std::sin(0.37 * k)       // jitter: one anchor
+                            : k % 3 == 1   ? 0.0035                                  // merged files:
+                                           : 0.154;                                  // other anchors
+          t += dt;
+          Eigen::Vector2d z(0.5 + 0.1 * std::sin(t), 0.1);
+          if (k % 7 == 0) z[0] = kNaN;
+          imm.step(t, Eigen::Vector2d(3.0, 4.0), z);
+        }
+      };
+      run(60);  // warm-up
+      const long before = skidimm_test::g_malloc_calls.load();
+      run(300);
+      EXPECT_EQ(skidimm_test::g_malloc_calls.load() - before, 0)
+          << (choice == ImmKernelChoice::kDynamic ? "dynamic" : "fixed-size") << " kernel, transition kind "
+          << static_cast<int>(kind);
+      EXPECT_TRUE(imm.estimate().state.allFinite());
+    }
+  }
+}
+
 }  // namespace
 }  // namespace skidimm

@@ -3,11 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
+#include <unsupported/Eigen/MatrixFunctions>
 
+#include "core/reference_imm.h"
 #include "core/test_banks.h"
+#include "stc_kinematic/stc_kinematic_model.h"
 
 namespace skidimm {
 namespace {
@@ -346,6 +350,334 @@ TEST(Imm, ResetReturnsToThePrior) {
   imm.step(0.1, vec({1.0}), vec({2.0}));
   imm.reset();
   EXPECT_EQ(imm.step(5.0, vec({1.0}), vec({0.6})).state[0], first);
+}
+
+// ---------------------------------------------------------------- references
+//
+// The engine against ReferenceImm (reference_imm.h): fixed-size, hand-written,
+// mixing each target around its own heaviest component. Every transition
+// form, irregular dt, partial rows, headings across +-pi; both the fixed-size
+// kernels and the dynamic one.
+
+enum class Form { kPerStep, kEqualDwell, kPerModeDwell };
+
+void set_form(Form form, BankBuilder* b, Bank* bank) {
+  const int n = static_cast<int>(b->models.size());
+  TransitionConfig& t = bank->config.transition;
+  switch (form) {
+    case Form::kPerStep:
+      t.kind = TransitionConfig::Kind::kMatrix;
+      t.matrix = Eigen::MatrixXd::Constant(n, n, 0.03 / (n - 1));
+      t.matrix.diagonal().setConstant(0.97);
+      t.matrix(0, 1) += 0.01;  // not symmetric
+      t.matrix(0, 0) -= 0.01;
+      break;
+    case Form::kEqualDwell:
+      t.kind = TransitionConfig::Kind::kDwellTimes;
+      t.dwell_seconds = Eigen::VectorXd::Constant(n, 2.0);
+      break;
+    case Form::kPerModeDwell:
+      t.kind = TransitionConfig::Kind::kDwellTimes;
+      t.dwell_seconds = Eigen::VectorXd::LinSpaced(n, 0.5, 6.0);
+      break;
+  }
+}
+
+// P(dt) for the reference, independently: Eigen's Pade exponential of the
+// generator written out here, or the per-step matrix.
+Eigen::MatrixXd reference_transition(const TransitionConfig& t, double dt) {
+  if (t.kind == TransitionConfig::Kind::kMatrix) return t.matrix;
+  const Eigen::Index n = t.dwell_seconds.size();
+  Eigen::MatrixXd generator(n, n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    generator.row(i).setConstant(1.0 / t.dwell_seconds[i] / static_cast<double>(n - 1));
+    generator(i, i) = -1.0 / t.dwell_seconds[i];
+  }
+  return (generator * dt).exp();
+}
+
+template <typename Reference>
+void expect_same(const ImmEstimate& e, const Reference& reference, int k) {
+  const int modes = reference.num_modes();
+  for (int j = 0; j < modes; ++j) {
+    ASSERT_NEAR(e.mode_probabilities[j], reference.mode_probabilities()[j], 1e-10) << "step " << k << " mode " << j;
+    ASSERT_TRUE(e.mode_states[j].isApprox(reference.mode_state(j), 1e-10) ||
+                (e.mode_states[j] - reference.mode_state(j)).norm() < 1e-10)
+        << "step " << k << " mode " << j << ": " << e.mode_states[j].transpose() << " vs "
+        << reference.mode_state(j).transpose();
+    ASSERT_LT((e.mode_covariances[j] - reference.mode_covariance(j)).cwiseAbs().maxCoeff(), 1e-10)
+        << "step " << k << " mode " << j;
+    if (e.status == StepStatus::kUpdated) {
+      ASSERT_NEAR(e.log_likelihoods[j], reference.log_likelihood(j), 1e-9) << "step " << k << " mode " << j;
+    }
+  }
+  Eigen::VectorXd difference = e.state - reference.state();
+  for (int d = 0; d < difference.size(); ++d) difference[d] = sdk::wrap_angle(difference[d] + 0.0);
+  ASSERT_LT(difference.cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+  ASSERT_LT((e.covariance - reference.covariance()).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+}
+
+// Three linear terrain modes, [V, omega] measured, V missing on some rows.
+struct LtcCase {
+  BankBuilder builder;
+  std::vector<skidimm_test::LtcReferenceModel> models;
+  LtcCase() {
+    builder.states = {"V", "omega"};
+    builder.angles = {false, false};
+    builder.inputs = {"phi_dot_L", "phi_dot_R"};
+    Eigen::Matrix2d a1, a2, a3, b1;
+    a1 << -5, 0, 0, -4;
+    a2 << -3, 0.1, 0, -2.5;
+    a3 << -2, 0, -0.2, -2;
+    b1 << 0.4, 0.4, -0.8, 0.8;
+    for (const auto& [a, b] : {std::pair<Eigen::Matrix2d, Eigen::Matrix2d>{a1, b1}, {a2, 0.6 * b1}, {a3, 0.4 * b1}}) {
+      builder.models.push_back(skidimm_test::make_ltc(a, b));
+      models.push_back(skidimm_test::LtcReferenceModel{a, b});
+    }
+    builder.q = {Eigen::Matrix2d::Identity() * 0.01, Eigen::Vector2d(0.02, 0.03).asDiagonal(),
+                 Eigen::Matrix2d::Identity() * 0.05};
+    builder.r.resize(2, 2);
+    builder.r << 0.0025, 0.0004, 0.0004, 0.001;
+    builder.mu0 = vec({0.5, 0.3, 0.2});
+  }
+};
+
+void run_ltc_against_reference(Form form, ImmKernelChoice choice) {
+  LtcCase c;
+  Bank bank = c.builder.build();
+  set_form(form, &c.builder, &bank);
+  const TransitionConfig transition = bank.config.transition;
+  std::vector<Eigen::Matrix2d> q;
+  for (const Eigen::MatrixXd& m : c.builder.q) q.push_back(m);
+  skidimm_test::ReferenceImm<skidimm_test::LtcReferenceModel, 2> reference(
+      c.models, q, Eigen::Matrix2d::Identity(), c.builder.r, {false, false}, Eigen::Vector2d::Zero(),
+      Eigen::Matrix2d::Identity(), c.builder.mu0, 1e-9);
+  Imm imm(std::move(bank), choice);
+  ASSERT_EQ(imm.uses_fixed_size_kernel(), choice == ImmKernelChoice::kFastest);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  double t = 0.0, last_t = 0.0;
+  for (int k = 0; k < 600; ++k) {
+    const Eigen::Vector2d u(3.0 + noise(rng), 4.0 + 2.0 * std::sin(0.05 * k));
+    Eigen::Vector2d z(0.5 + 0.3 * std::sin(0.02 * k) + 0.05 * noise(rng), 0.2 * std::cos(0.03 * k) + 0.03 * noise(rng));
+    if (k % 7 == 3) z[0] = kNaN;
+    if (k % 11 == 5) z.setConstant(kNaN);
+    const ImmEstimate& e = imm.step(t, u, z);
+    reference.step(t, u, z, reference_transition(transition, t - last_t));
+    expect_same(e, reference, k);
+    if (::testing::Test::HasFatalFailure()) return;
+    last_t = t;
+    t += 0.02 * (1.0 + 0.3 * std::sin(0.37 * k));  // irregular sampling
+  }
+}
+
+TEST(Imm, TwoStatesMatchAHandWrittenFixedSizeImmForEveryTransitionForm) {
+  for (Form form : {Form::kPerStep, Form::kEqualDwell, Form::kPerModeDwell}) {
+    SCOPED_TRACE(static_cast<int>(form));
+    run_ltc_against_reference(form, ImmKernelChoice::kFastest);
+    run_ltc_against_reference(form, ImmKernelChoice::kDynamic);
+  }
+}
+
+// Four kinematic slip modes turning in circles: the heading crosses +-pi
+// again and again; a compass every row (an angle measured alone), GPS every
+// fifth.
+void run_stc_against_reference(Form form, ImmKernelChoice choice) {
+  BankBuilder b;
+  b.states = {"X", "Y", "theta"};
+  b.angles = {false, false, true};
+  b.inputs = {"phi_dot_L", "phi_dot_R"};
+  std::vector<skidimm_test::StcReferenceModel> models;
+  const double ks[] = {1.0, 0.9, 0.8, 0.95}, ms[] = {0.55, 0.5, 0.6, 0.45};
+  for (int j = 0; j < 4; ++j) {
+    sdk::ParameterSet p;
+    p.set_scalar("k", ks[j]);
+    p.set_scalar("m", ms[j]);
+    p.set_scalar("r", 0.165);
+    p.set_scalar("b", 0.555);
+    std::string error;
+    b.models.push_back(std::shared_ptr<sdk::MotionModel>(plugins::StcKinematicModel::Create(p, &error).release()));
+    models.push_back(skidimm_test::StcReferenceModel{ks[j], ms[j], 0.165, 0.555});
+  }
+  b.q = {Eigen::Vector3d(1e-3, 2e-3, 4e-3).asDiagonal()};
+  b.r = Eigen::Vector3d(0.03 * 0.03, 0.03 * 0.03, 0.02 * 0.02).asDiagonal();
+  b.x0 = vec({0.0, 0.0, 3.0});
+  b.p0 = Eigen::Vector3d(0.01, 0.01, 0.01).asDiagonal();
+  Bank bank = b.build();
+  set_form(form, &b, &bank);
+  const TransitionConfig transition = bank.config.transition;
+  skidimm_test::ReferenceImm<skidimm_test::StcReferenceModel, 3> reference(
+      models, {b.q[0], b.q[0], b.q[0], b.q[0]}, Eigen::Matrix3d::Identity(), b.r, {false, false, true},
+      Eigen::Vector3d(0.0, 0.0, 3.0), b.p0, Eigen::Vector4d::Constant(0.25), 1e-9);
+  Imm imm(std::move(bank), choice);
+  std::mt19937 rng(9);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  Eigen::Vector3d truth(0.0, 0.0, 3.0);
+  double t = 0.0, last_t = 0.0;
+  int crossings = 0;
+  for (int k = 0; k < 1000; ++k) {
+    const Eigen::Vector2d u(2.0, 12.0 + std::sin(0.01 * k));  // turning left, about 1.5 rad/s
+    Eigen::Vector3d z(truth[0] + 0.03 * noise(rng), truth[1] + 0.03 * noise(rng),
+                      sdk::wrap_angle(truth[2] + 0.02 * noise(rng)));
+    if (k % 5 != 0) z[0] = z[1] = kNaN;
+    const ImmEstimate& e = imm.step(t, u, z);
+    reference.step(t, u, z, reference_transition(transition, t - last_t));
+    expect_same(e, reference, k);
+    if (::testing::Test::HasFatalFailure()) return;
+    const double dt = 0.02 * (1.0 + 0.3 * std::sin(0.37 * k));
+    Eigen::Vector3d next;
+    Eigen::Matrix3d f;
+    models[1].predict(truth, u, dt, &next, &f);
+    crossings += std::abs(next[2] - truth[2]) > 3.0;
+    truth = next;
+    last_t = t;
+    t += dt;
+  }
+  EXPECT_GE(crossings, 4) << "the heading must cross the seam";
+}
+
+TEST(Imm, ThreeStatesWithAnAngleMatchAHandWrittenFixedSizeImmForEveryTransitionForm) {
+  for (Form form : {Form::kPerStep, Form::kEqualDwell, Form::kPerModeDwell}) {
+    SCOPED_TRACE(static_cast<int>(form));
+    run_stc_against_reference(form, ImmKernelChoice::kFastest);
+    run_stc_against_reference(form, ImmKernelChoice::kDynamic);
+  }
+}
+
+// Every fixed size the kernels cover (states and measurements 1 to 4, the
+// rest dynamic, more measurements than states included): the fixed-size
+// kernel and the dynamic one agree to 1e-10, as the references above.
+TEST(Imm, FixedSizeKernelsAgreeWithTheDynamicOneAtEverySize) {
+  for (int n = 1; n <= 5; ++n) {
+    for (int m = 1; m <= std::min(n + 1, 5); ++m) {
+      SCOPED_TRACE("states " + std::to_string(n) + ", measurements " + std::to_string(m));
+      BankBuilder b;
+      b.states.clear();
+      b.angles.assign(static_cast<std::size_t>(n), false);
+      for (int i = 0; i < n; ++i) b.states.push_back("x" + std::to_string(i));
+      b.angles[static_cast<std::size_t>(n - 1)] = true;  // the last state is a heading
+      b.inputs = {"u"};
+      // n-state linear model: x' = A x + B u with a coupled A, per mode.
+      class Linear : public sdk::MotionModel {
+       public:
+        Linear(int n, double scale) : a_(Eigen::MatrixXd::Identity(n, n) * -scale), names_(n, "x") {
+          for (int i = 0; i + 1 < n; ++i) a_(i, i + 1) = 0.1 * scale;
+        }
+        int state_dim() const noexcept override { return static_cast<int>(a_.rows()); }
+        int input_dim() const noexcept override { return 1; }
+        const std::vector<std::string>& state_names() const noexcept override { return names_; }
+        const std::vector<std::string>& input_names() const noexcept override { return inputs_; }
+        bool is_angle(int i) const noexcept override { return i == a_.rows() - 1; }
+        const std::vector<sdk::ParameterInfo>& parameter_info() const noexcept override { return info_; }
+        void get_parameters(Eigen::Ref<Eigen::VectorXd>) const noexcept override {}
+        bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>&, std::string*) noexcept override { return true; }
+        bool predict(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                     Eigen::Ref<Eigen::VectorXd> next) const noexcept override {
+          next = x + (a_ * x + Eigen::VectorXd::Constant(x.size(), u[0])) * dt;
+          next[next.size() - 1] = sdk::wrap_angle(next[next.size() - 1]);
+          return true;
+        }
+        bool jacobian(const Eigen::Ref<const Eigen::VectorXd>&, const Eigen::Ref<const Eigen::VectorXd>&, double dt,
+                      Eigen::Ref<Eigen::MatrixXd> f) const noexcept override {
+          f = Eigen::MatrixXd::Identity(a_.rows(), a_.rows()) + a_ * dt;
+          return true;
+        }
+        bool has_analytic_jacobian() const noexcept override { return true; }
+
+       private:
+        Eigen::MatrixXd a_;
+        std::vector<std::string> names_, inputs_{"u"};
+        std::vector<sdk::ParameterInfo> info_;
+      };
+      for (int j = 0; j < 3; ++j) b.models.push_back(std::make_shared<Linear>(n, 1.0 + j));
+      b.q = {Eigen::MatrixXd::Identity(n, n) * 0.01};
+      // Row a measures state a % n; rows past n a combination of two. The row
+      // measuring the heading alone is an angle.
+      b.h = Eigen::MatrixXd::Zero(m, n);
+      for (int a = 0; a < m; ++a) b.h(a, a % n) = 1.0;
+      for (int a = n; a < m; ++a) b.h(a, (a + 1) % n) += 0.5;
+      b.r = Eigen::MatrixXd::Identity(m, m) * 0.01;
+      b.r(0, m - 1) = b.r(m - 1, 0) = m > 1 ? 0.002 : 0.01;
+      b.x0 = Eigen::VectorXd::Constant(n, 3.0);
+      Bank bank = b.build();
+      bank.config.measurement.is_angle.assign(static_cast<std::size_t>(m), false);
+      if (n - 1 < m) bank.config.measurement.is_angle[static_cast<std::size_t>(n - 1)] = true;
+      bank.config.transition.kind = TransitionConfig::Kind::kDwellTimes;
+      bank.config.transition.dwell_seconds = vec({1.0, 2.0, 4.0});
+      Imm fixed(bank, ImmKernelChoice::kFastest), dynamic(bank, ImmKernelChoice::kDynamic);
+      EXPECT_EQ(fixed.uses_fixed_size_kernel(), n <= 4 && m <= 4);
+      std::mt19937 rng(1);
+      std::normal_distribution<double> noise(0.0, 1.0);
+      for (int k = 0; k < 300; ++k) {
+        const double t = 0.05 * k + 0.01 * std::sin(k);
+        Eigen::VectorXd z(m);
+        for (int a = 0; a < m; ++a) z[a] = sdk::wrap_angle(3.0 + 0.5 * std::sin(0.1 * k + a) + 0.1 * noise(rng));
+        if (k % 4 == 1) z[0] = kNaN;
+        if (k % 9 == 2) z.setConstant(kNaN);
+        const Eigen::VectorXd u = vec({std::sin(0.2 * k)});
+        const ImmEstimate& a = fixed.step(t, u, z);
+        const ImmEstimate& d = dynamic.step(t, u, z);
+        ASSERT_EQ(a.status, d.status) << "step " << k;
+        ASSERT_LT((a.mode_probabilities - d.mode_probabilities).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+        for (int j = 0; j < 3; ++j) {
+          ASSERT_LT((a.mode_states[j] - d.mode_states[j]).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+          ASSERT_LT((a.mode_covariances[j] - d.mode_covariances[j]).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+          if (a.status == StepStatus::kUpdated) {
+            ASSERT_NEAR(a.log_likelihoods[j], d.log_likelihoods[j], 1e-11 * std::max(1.0, std::abs(d.log_likelihoods[j])))
+                << "step " << k;
+          }
+        }
+        ASSERT_LT((a.covariance - d.covariance).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
+      }
+    }
+  }
+}
+
+// Before the first measurement every mode has its prior probability, and the
+// most likely mode is decided by how the chain's round-off falls (docs/results.md
+// counts those changes). For per-step matrices and equal dwell times, the IMM
+// still computes c = P' mu with the same dense product, bit for bit, so the
+// published results do not move.
+TEST(Imm, PredictedProbabilitiesAreTheDenseProductBitForBit) {
+  for (bool dwell : {false, true}) {
+    BankBuilder b;
+    b.states = {"V", "omega"};
+    b.angles = {false, false};
+    b.inputs = {"phi_dot_L", "phi_dot_R"};
+    Eigen::Matrix2d input;
+    input << 0.4, 0.4, -0.8, 0.8;
+    for (int j = 0; j < 16; ++j) b.models.push_back(skidimm_test::make_ltc(-Eigen::Matrix2d::Identity(), input));
+    b.q = {Eigen::Matrix2d::Identity() * 0.01};
+    b.r = Eigen::Matrix2d::Identity() * 0.01;
+    Bank bank = b.build();
+    if (dwell) {
+      bank.config.transition.kind = TransitionConfig::Kind::kDwellTimes;
+      bank.config.transition.dwell_seconds = Eigen::VectorXd::Constant(16, 20.0);
+    }
+    ModeTransition chain = ModeTransition::from_config(bank.config.transition, 16);
+    Imm imm(std::move(bank));
+    Eigen::VectorXd mu = Eigen::VectorXd::Constant(16, 1.0 / 16.0);
+    double t = 0.0;
+    for (int k = 0; k < 20; ++k) {
+      const double dt = 0.0185 + 0.004 * std::sin(k);
+      t += k == 0 ? 0.0 : dt;
+      const ImmEstimate& e = imm.step(t, Eigen::Vector2d(1.0, 2.0), Eigen::Vector2d(kNaN, kNaN));
+      if (k == 0) continue;
+      // What the IMM did before issue 11, written out.
+      const Eigen::VectorXd c = chain.matrix(dt).transpose() * mu;
+      Eigen::VectorXd expected(16);
+      const double largest = c.array().log().maxCoeff();
+      for (int j = 0; j < 16; ++j) expected[j] = std::exp(std::log(c[j]) - largest);
+      expected /= expected.sum();
+      expected = expected.cwiseMax(1e-9);
+      expected /= expected.sum();
+      ASSERT_EQ(e.mode_probabilities, expected) << "step " << k;
+      Eigen::Index first = 0;
+      expected.maxCoeff(&first);
+      ASSERT_EQ(e.most_likely_mode, first);
+      mu = expected;
+    }
+  }
 }
 
 TEST(ImmDeathTest, WrongInputSizeIsAProgrammerError) {

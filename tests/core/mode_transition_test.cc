@@ -2,10 +2,57 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <random>
 #include <unsupported/Eigen/MatrixFunctions>
+#include <vector>
 
 namespace skidimm {
 namespace {
+
+// The implementation this one replaced (before issue 11), kept to pin the
+// new one to it: uniformisation with scaling and squaring, O(N^3) for every
+// new dt.
+Eigen::MatrixXd original_uniformisation(const Eigen::MatrixXd& generator, double dt) {
+  const Eigen::Index n = generator.rows();
+  const double max_rate = (-generator.diagonal()).maxCoeff();
+  Eigen::MatrixXd matrix = Eigen::MatrixXd::Identity(n, n);
+  if (n == 1 || max_rate == 0.0 || dt <= 0.0) return matrix;
+  const Eigen::MatrixXd jump = Eigen::MatrixXd::Identity(n, n) + generator / max_rate;
+  int squarings = 0;
+  double h = dt;
+  while (max_rate * h > 0.5) {
+    h *= 0.5;
+    ++squarings;
+  }
+  const double lambda = max_rate * h;
+  double weight = std::exp(-lambda);
+  double accumulated = weight;
+  matrix *= weight;
+  Eigen::MatrixXd power = Eigen::MatrixXd::Identity(n, n);
+  for (int k = 1; k < 64 && 1.0 - accumulated > 1e-17; ++k) {
+    power = (power * jump).eval();
+    weight *= lambda / k;
+    accumulated += weight;
+    matrix += weight * power;
+  }
+  for (int s = 0; s < squarings; ++s) matrix = (matrix * matrix).eval();
+  for (Eigen::Index i = 0; i < n; ++i) matrix.row(i) /= matrix.row(i).sum();
+  return matrix;
+}
+
+// Steps as logs have them: a nominal rate with jitter in the last digits,
+// merged sensors, and gaps.
+std::vector<double> irregular_steps() {
+  std::vector<double> steps;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> jitter(-1.0, 1.0);
+  for (int k = 0; k < 200; ++k) steps.push_back(0.01 + 1e-6 * jitter(rng));  // text-log rounding
+  for (int k = 0; k < 200; ++k) steps.push_back(0.02 * (1.0 + 0.3 * jitter(rng)));  // jittered sensor
+  for (int k = 0; k < 50; ++k) steps.push_back(k % 3 == 0 ? 0.0035 : k % 3 == 1 ? 0.0065 : 0.154);  // merged files
+  for (double gap : {0.4, 1.3, 7.5, 30.0, 100.0, 1000.0, 1e5, 0.01, 0.0100001, 2.0, 0.01}) steps.push_back(gap);
+  return steps;
+}
 
 TEST(ModeTransition, StaySpreadsTheRestEvenly) {
   ModeTransition t = ModeTransition::per_step_stay(4, 0.91);
@@ -63,6 +110,78 @@ TEST(ModeTransition, IsASemigroupSoIrregularStepsKeepTheStatistics) {
   const Eigen::MatrixXd one = t.matrix(0.013);
   const Eigen::MatrixXd two = t.matrix(0.026);
   EXPECT_TRUE(two.isApprox(one * one, 1e-13));
+}
+
+// Per-mode dwell times: O(N^2) per new dt (anchors and a Taylor correction,
+// eigenvectors past 50 expected jumps); the matrix and its transposed product
+// agree with the original uniformisation to 1e-12 on every step of an
+// irregular log, from jittered 10 ms steps to a day-long gap.
+TEST(ModeTransition, PerModeDwellTimesMatchTheOriginalUniformisationOnIrregularSteps) {
+  Eigen::VectorXd dwell(6);
+  dwell << 2.0, 5.0, 0.5, 30.0, 10.0, 7.0;
+  ModeTransition t = ModeTransition::from_dwell_times(dwell);
+  ModeTransition fresh = ModeTransition::from_dwell_times(dwell);
+  t.reserve_columns(3);
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  Eigen::MatrixXd in(6, 3), out(6, 3);
+  double worst_matrix = 0.0, worst_product = 0.0;
+  for (double dt : irregular_steps()) {
+    const Eigen::MatrixXd expected = original_uniformisation(t.generator(), dt);
+    for (int i = 0; i < in.size(); ++i) in.data()[i] = uniform(rng);
+    t.propagate(dt, in, out);
+    worst_product = std::max(worst_product, (out - expected.transpose() * in).cwiseAbs().maxCoeff());
+    const Eigen::MatrixXd& actual = fresh.matrix(dt);
+    worst_matrix = std::max(worst_matrix, (actual - expected).cwiseAbs().maxCoeff());
+    ASSERT_LT((actual - expected).cwiseAbs().maxCoeff(), 1e-12) << "dt = " << dt;
+    for (int i = 0; i < 6; ++i) ASSERT_NEAR(actual.row(i).sum(), 1.0, 1e-13) << "dt = " << dt;
+  }
+  EXPECT_LT(worst_product, 1e-12);
+  // Not just within tolerance: close to round-off.
+  EXPECT_LT(worst_matrix, 1e-14);
+}
+
+TEST(ModeTransition, PerModeDwellTimesMatchEigensExponentialPastTheUniformisationRange) {
+  Eigen::VectorXd dwell(5);
+  dwell << 0.2, 0.3, 1.0, 4.0, 20.0;  // the fastest mode: 5 jumps/s, so dt > 10 s takes the eigenvectors
+  ModeTransition t = ModeTransition::from_dwell_times(dwell);
+  for (double dt : {9.0, 11.0, 40.0, 250.0}) {
+    const Eigen::MatrixXd expected = (t.generator() * dt).exp();
+    EXPECT_LT((t.matrix(dt) - expected).cwiseAbs().maxCoeff(), 1e-12) << "dt = " << dt;
+  }
+}
+
+TEST(ModeTransition, PropagateIsTheTransposedMatrixTimesItsInputForEveryForm) {
+  Eigen::MatrixXd p(3, 3);
+  p << 0.8, 0.15, 0.05, 0.1, 0.7, 0.2, 0.0, 0.3, 0.7;
+  std::vector<ModeTransition> forms = {ModeTransition::per_step(p), ModeTransition::per_step_stay(3, 0.9),
+                                       ModeTransition::from_dwell_times(Eigen::Vector3d(4.0, 4.0, 4.0)),
+                                       ModeTransition::from_dwell_times(Eigen::Vector3d(1.0, 4.0, 9.0))};
+  const Eigen::MatrixXd in = Eigen::MatrixXd::Random(3, 7);
+  Eigen::MatrixXd out(3, 7);
+  for (ModeTransition& t : forms) {
+    t.reserve_columns(7);
+    for (double dt : {0.01, 0.0137, 0.5, 0.01, 60.0}) {
+      t.propagate(dt, in, out);
+      const Eigen::MatrixXd expected = t.matrix(dt).transpose() * in;
+      EXPECT_LT((out - expected).cwiseAbs().maxCoeff(), 1e-14) << "dt = " << dt;
+    }
+  }
+}
+
+// Larger banks, where the old implementation's N^3 per new dt hurt: 64
+// modes, every step a slightly different dt.
+TEST(ModeTransition, SixtyFourModesWithJitteredStepsMatchTheOriginal) {
+  ModeTransition t = ModeTransition::from_dwell_times(Eigen::VectorXd::LinSpaced(64, 1.0, 40.0));
+  t.reserve_columns(10);
+  const Eigen::MatrixXd in = Eigen::MatrixXd::Random(64, 10).cwiseAbs();
+  Eigen::MatrixXd out(64, 10);
+  for (int k = 0; k < 20; ++k) {
+    const double dt = 0.01 * (1.0 + 0.1 * std::sin(0.37 * k));
+    t.propagate(dt, in, out);
+    const Eigen::MatrixXd expected = original_uniformisation(t.generator(), dt).transpose() * in;
+    ASSERT_LT((out - expected).cwiseAbs().maxCoeff(), 1e-12) << "step " << k;
+  }
 }
 
 TEST(ModeTransition, SingleModeIsAlwaysIdentity) {

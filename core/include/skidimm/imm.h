@@ -24,6 +24,15 @@
 //
 // step() allocates nothing after construction. One Imm is used from one
 // thread at a time.
+//
+// Speed: the step runs in a kernel chosen once, here, for the bank's shape:
+// fixed-size Eigen types when the state and the measurement have at most 4
+// components each, dynamic ones otherwise; mixing (eq. 6-7) is one product of
+// the transition with the modes' moments about a common reference
+// (gaussian_mixture.h), and the transition for dwell times costs O(N^2) per
+// step like a per-step matrix (mode_transition.h). docs/performance.md has the
+// figures; tests/core/imm_test.cc pins the results against a hand-written
+// per-target IMM.
 #ifndef SKIDIMM_IMM_H_
 #define SKIDIMM_IMM_H_
 
@@ -40,15 +49,25 @@
 
 namespace skidimm {
 
+namespace internal {
+class ImmKernel;  // imm_kernel.h, private
+}  // namespace internal
+
+// Which kernel runs the step: the fastest for the bank's shape (fixed sizes
+// when both dimensions are at most 4), or always the dynamic one (tests and
+// benchmarks compare the two).
+enum class ImmKernelChoice { kFastest, kDynamic };
+
 class Imm {
  public:
   // Loads a bank file and its plugins; see Bank::load for the search path.
   static Imm from_yaml(const std::filesystem::path& bank_file,
                        const std::vector<std::filesystem::path>& plugin_paths = {});
 
-  explicit Imm(Bank bank);
-  Imm(Imm&&) = default;
-  Imm& operator=(Imm&&) = default;
+  explicit Imm(Bank bank, ImmKernelChoice kernel = ImmKernelChoice::kFastest);
+  Imm(Imm&&) noexcept;
+  Imm& operator=(Imm&&) noexcept;
+  ~Imm();
 
   // One filter cycle at time t (s) with input u (bank input order) and
   // measurement z (bank measurement order, NaN = not measured).
@@ -63,31 +82,18 @@ class Imm {
   // Back to the prior; the next step is a first step again.
   void reset();
 
- private:
-  void mix(const Eigen::MatrixXd& transition);
-  void update_mode_probabilities(bool have_likelihoods);
-  void combine();
+  // Whether the bank runs on a fixed-size kernel (both dimensions <= 4).
+  bool uses_fixed_size_kernel() const { return fixed_size_; }
 
+ private:
   Bank bank_;
-  ModeTransition transition_;
-  MeasurementModel measurement_model_;
-  std::vector<ExtendedKalmanFilter> filters_;
-  std::vector<bool> angle_mask_;
+  std::unique_ptr<internal::ImmKernel> kernel_;
+  bool fixed_size_ = false;
 
   ImmEstimate estimate_;
   bool initialized_ = false;
   double last_t_ = 0.0;
   Eigen::VectorXd held_input_;
-
-  // Workspace.
-  SelectedMeasurement selection_;
-  Eigen::VectorXd predicted_probabilities_;  // c_j
-  Eigen::MatrixXd mixing_;                   // mu^{i|j}, column j
-  Eigen::MatrixXd means_;                    // x^i, one per column
-  Eigen::MatrixXd deviations_;
-  Eigen::VectorXd mixed_mean_;
-  Eigen::MatrixXd mixed_covariance_;
-  Eigen::VectorXd log_posterior_;
 };
 
 }  // namespace skidimm

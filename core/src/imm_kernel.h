@@ -1,0 +1,390 @@
+// The body of Imm::step, for one shape of bank, chosen once when the Imm is
+// built (imm.cc, make_kernel): fixed-size Eigen types for states and
+// measurements of up to 4 components (FixedFilters<N, M>), dynamic ones with
+// ExtendedKalmanFilter for everything else (DynamicFilters). The mixing,
+// probabilities and combination around them are the same code for both.
+// Private to imm.cc.
+#ifndef SKIDIMM_CORE_SRC_IMM_KERNEL_H_
+#define SKIDIMM_CORE_SRC_IMM_KERNEL_H_
+
+#include <Eigen/Core>
+#include <Eigen/StdVector>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include "skidimm/bank.h"
+#include "skidimm/covariance.h"
+#include "skidimm/ekf.h"
+#include "skidimm/gaussian_mixture.h"
+#include "skidimm/imm_estimate.h"
+#include "skidimm/measurement_model.h"
+#include "skidimm/mode_transition.h"
+
+namespace skidimm {
+namespace internal {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kMinusInfinity = -std::numeric_limits<double>::infinity();
+
+class ImmKernel {
+ public:
+  virtual ~ImmKernel() = default;
+  // One accepted step (t increased, u finite) of Imm::step. `first`: the
+  // prior holds, no prediction. Writes everything in *e but t.
+  virtual void step(bool first, double dt, const Eigen::Ref<const Eigen::VectorXd>& u,
+                    const Eigen::Ref<const Eigen::VectorXd>& z, ImmEstimate* e) = 0;
+};
+
+// The mode-matched filters, fixed size: N states, M measurement components.
+template <int N, int M>
+class FixedFilters {
+ public:
+  static constexpr int kStates = N;
+  using State = Eigen::Matrix<double, N, 1>;
+  using Covariance = Eigen::Matrix<double, N, N>;
+
+  explicit FixedFilters(const Bank& bank) : h_(bank.config.measurement.h), r_(bank.config.measurement.r) {
+    const BankConfig& c = bank.config;
+    for (int j = 0; j < c.num_modes(); ++j) {
+      models_.push_back(bank.models[static_cast<std::size_t>(j)].get());
+      q_.push_back(c.modes[static_cast<std::size_t>(j)].q_intensity);
+    }
+    for (int i = 0; i < N; ++i) {
+      if (c.angle_mask[static_cast<std::size_t>(i)]) state_angles_ |= 1u << i;
+    }
+    for (int a = 0; a < M; ++a) {
+      if (c.measurement.is_angle[static_cast<std::size_t>(a)]) z_angles_ |= 1u << a;
+    }
+    x_.assign(models_.size(), State::Zero());
+    p_.assign(models_.size(), Covariance::Identity());
+  }
+
+  State& state(int j) { return x_[static_cast<std::size_t>(j)]; }
+  Covariance& covariance(int j) { return p_[static_cast<std::size_t>(j)]; }
+
+  bool predict(int j, const Eigen::Ref<const Eigen::VectorXd>& u, double dt) {
+    return predict_fixed<N>(*models_[static_cast<std::size_t>(j)], q_[static_cast<std::size_t>(j)], state_angles_, u,
+                            dt, &x_[static_cast<std::size_t>(j)], &p_[static_cast<std::size_t>(j)]);
+  }
+
+  // Updates every mode whose log-likelihood is not already -inf with the
+  // finite rows of z; writes log-likelihoods and NIS. Returns the number of
+  // rows used.
+  int update(const Eigen::Ref<const Eigen::VectorXd>& z, ImmEstimate* e, int* rejected) {
+    std::array<int, M> rows{};
+    int k = 0;
+    for (int a = 0; a < M; ++a) {
+      if (std::isfinite(z[a])) rows[static_cast<std::size_t>(k++)] = a;
+    }
+    switch (k) {
+      case 1:
+        update_rows<1>(rows, z, e, rejected);
+        break;
+      case 2:
+        update_rows<2>(rows, z, e, rejected);
+        break;
+      case 3:
+        update_rows<3>(rows, z, e, rejected);
+        break;
+      case 4:
+        update_rows<4>(rows, z, e, rejected);
+        break;
+      default:
+        break;
+    }
+    return k;
+  }
+
+ private:
+  template <int K>
+  void update_rows(const std::array<int, M>& rows, const Eigen::Ref<const Eigen::VectorXd>& z, ImmEstimate* e,
+                   int* rejected) {
+    if constexpr (K <= M) {
+      Eigen::Matrix<double, K, 1> zk;
+      Eigen::Matrix<double, K, N> hk;
+      Eigen::Matrix<double, K, K> rk;
+      AngleMask angles = 0;
+      for (int a = 0; a < K; ++a) {
+        const int row = rows[static_cast<std::size_t>(a)];
+        zk[a] = z[row];
+        hk.row(a) = h_.row(row);
+        for (int b = 0; b < K; ++b) rk(a, b) = r_(row, rows[static_cast<std::size_t>(b)]);
+        if (z_angles_ >> row & 1u) angles |= 1u << a;
+      }
+      const int modes = static_cast<int>(models_.size());
+      for (int j = 0; j < modes; ++j) {
+        if (e->log_likelihoods[j] == kMinusInfinity) continue;  // failed in predict
+        const UpdateResult result = update_fixed<N, K>(zk, hk, rk, angles, state_angles_,
+                                                       &x_[static_cast<std::size_t>(j)], &p_[static_cast<std::size_t>(j)]);
+        if (result.ok) {
+          e->log_likelihoods[j] = result.log_likelihood;
+          e->nis[j] = result.nis;
+        } else {
+          e->log_likelihoods[j] = kMinusInfinity;
+          ++*rejected;
+        }
+      }
+    }
+  }
+
+  std::vector<const sdk::MotionModel*> models_;
+  std::vector<Covariance, Eigen::aligned_allocator<Covariance>> q_;
+  Eigen::Matrix<double, M, N> h_;
+  Eigen::Matrix<double, M, M> r_;
+  AngleMask state_angles_ = 0;
+  AngleMask z_angles_ = 0;
+  std::vector<State, Eigen::aligned_allocator<State>> x_;
+  std::vector<Covariance, Eigen::aligned_allocator<Covariance>> p_;
+};
+
+// The mode-matched filters for any size: ExtendedKalmanFilter.
+class DynamicFilters {
+ public:
+  static constexpr int kStates = Eigen::Dynamic;
+  using State = Eigen::VectorXd;
+  using Covariance = Eigen::MatrixXd;
+
+  explicit DynamicFilters(const Bank& bank)
+      : measurement_model_(bank.config.measurement.h, bank.config.measurement.r, bank.config.measurement.is_angle) {
+    const BankConfig& c = bank.config;
+    filters_.reserve(static_cast<std::size_t>(c.num_modes()));
+    for (int j = 0; j < c.num_modes(); ++j) {
+      filters_.emplace_back(*bank.models[static_cast<std::size_t>(j)], c.modes[static_cast<std::size_t>(j)].q_intensity,
+                            measurement_model_.measurement_dim());
+    }
+    selection_ = measurement_model_.make_selection();
+  }
+
+  State& state(int j) { return filters_[static_cast<std::size_t>(j)].state(); }
+  Covariance& covariance(int j) { return filters_[static_cast<std::size_t>(j)].covariance(); }
+
+  bool predict(int j, const Eigen::Ref<const Eigen::VectorXd>& u, double dt) {
+    return filters_[static_cast<std::size_t>(j)].predict(u, dt);
+  }
+
+  int update(const Eigen::Ref<const Eigen::VectorXd>& z, ImmEstimate* e, int* rejected) {
+    measurement_model_.select(z, &selection_);
+    if (selection_.size == 0) return 0;
+    const int modes = static_cast<int>(filters_.size());
+    for (int j = 0; j < modes; ++j) {
+      if (e->log_likelihoods[j] == kMinusInfinity) continue;  // failed in predict
+      const UpdateResult result = filters_[static_cast<std::size_t>(j)].update(selection_);
+      if (result.ok) {
+        e->log_likelihoods[j] = result.log_likelihood;
+        e->nis[j] = result.nis;
+      } else {
+        e->log_likelihoods[j] = kMinusInfinity;
+        ++*rejected;
+      }
+    }
+    return selection_.size;
+  }
+
+ private:
+  MeasurementModel measurement_model_;
+  std::vector<ExtendedKalmanFilter> filters_;
+  SelectedMeasurement selection_;
+};
+
+// Mixing (eq. 4-7, all targets in one product), the filters, the mode
+// probabilities (eq. 9 with c_j, log domain, floored) and the combination
+// (eq. 10-11).
+template <typename Filters>
+class Kernel final : public ImmKernel {
+ public:
+  using State = typename Filters::State;
+  using Covariance = typename Filters::Covariance;
+
+  explicit Kernel(const Bank& bank)
+      : filters_(bank),
+        transition_(ModeTransition::from_config(bank.config.transition, bank.config.num_modes())),
+        n_(bank.config.state_dim()),
+        modes_(bank.config.num_modes()),
+        floor_(bank.config.mode_probability_floor),
+        initial_state_(bank.config.initial_state),
+        initial_covariance_(bank.config.initial_covariance) {
+    is_angle_.reset(new bool[static_cast<std::size_t>(n_)]);
+    for (int d = 0; d < n_; ++d) {
+      is_angle_[static_cast<std::size_t>(d)] = bank.config.angle_mask[static_cast<std::size_t>(d)];
+    }
+    const int columns = moment_columns(n_);
+    moments_.resize(modes_, columns);
+    flowed_.resize(modes_, columns);
+    prior_moments_.resize(columns);
+    transition_.reserve_columns(columns);
+    predicted_.resize(modes_);
+    log_posterior_.resize(modes_);
+    reference_.resize(n_);
+    offset_.resize(n_);
+    mean_.resize(n_);
+    deviation_.resize(n_);
+    combined_.resize(n_, n_);
+  }
+
+  void step(bool first, double dt, const Eigen::Ref<const Eigen::VectorXd>& u,
+            const Eigen::Ref<const Eigen::VectorXd>& z, ImmEstimate* e) override {
+    int rejected = 0;
+    e->log_likelihoods.setConstant(kNaN);
+    e->nis.setConstant(kNaN);
+    if (first) {
+      for (int j = 0; j < modes_; ++j) {
+        filters_.state(j) = initial_state_;
+        filters_.covariance(j) = initial_covariance_;
+      }
+      predicted_ = e->mode_probabilities;
+    } else {
+      mix(dt, e->mode_probabilities);
+      for (int j = 0; j < modes_; ++j) {
+        if (!filters_.predict(j, u, dt)) {
+          e->log_likelihoods[j] = kMinusInfinity;
+          ++rejected;
+        }
+      }
+    }
+    const int measured = filters_.update(z, e, &rejected);
+    // A failed filter restarts from the last combined estimate, so one bad
+    // step does not leave NaN in a mode forever.
+    for (int j = 0; j < modes_; ++j) {
+      if (e->log_likelihoods[j] == kMinusInfinity) {
+        filters_.state(j) = e->state;
+        filters_.covariance(j) = e->covariance;
+      }
+    }
+    const bool all_rejected = rejected == modes_;
+    e->status = measured == 0 ? StepStatus::kPredictOnly
+                : all_rejected ? StepStatus::kAllModesRejected
+                               : StepStatus::kUpdated;
+    e->num_measured = measured;
+    e->num_rejected_modes = rejected;
+    update_mode_probabilities(measured > 0 && !all_rejected, e);
+    combine(e);
+  }
+
+ private:
+  // Mixed initial conditions of every target (eq. 4-7) from the last step's
+  // probabilities and estimates: one product with P(dt)' (gaussian_mixture.h).
+  void mix(double dt, const Eigen::VectorXd& mu) {
+    Eigen::Index heaviest = 0;
+    mu.maxCoeff(&heaviest);
+    reference_ = filters_.state(static_cast<int>(heaviest));
+    for (int i = 0; i < modes_; ++i) {
+      pack_moments(is_angle_.get(), mu[i], filters_.state(i), filters_.covariance(i), reference_, offset_,
+                   moments_.row(i));
+    }
+    transition_.propagate(dt, moments_, flowed_);
+    if (transition_.matrix_in_closed_form()) {
+      // c = P' mu as the IMM always computed it (mode_transition.h): exact
+      // ties between modes stay ties, broken by index as before.
+      predicted_.noalias() = transition_.matrix(dt).transpose() * mu;
+    } else {
+      predicted_ = flowed_.col(0);
+    }
+    bool prior_ready = false;
+    for (int j = 0; j < modes_; ++j) {
+      const double c = flowed_(j, 0);
+      if (c > 0.0) {
+        unpack_moments(is_angle_.get(), flowed_.row(j), c, reference_, offset_, filters_.state(j),
+                       filters_.covariance(j));
+      } else {
+        // Nothing flows into j: mixing degenerates to the prior weights.
+        if (!prior_ready) prior_moments_ = moments_.colwise().sum().transpose();
+        prior_ready = true;
+        unpack_moments(is_angle_.get(), prior_moments_, 1.0, reference_, offset_, filters_.state(j),
+                       filters_.covariance(j));
+      }
+    }
+  }
+
+  void update_mode_probabilities(bool have_likelihoods, ImmEstimate* e) {
+    for (int j = 0; j < modes_; ++j) {
+      const double c = predicted_[j];
+      log_posterior_[j] = c > 0.0 ? std::log(c) : kMinusInfinity;
+      if (have_likelihoods) log_posterior_[j] += e->log_likelihoods[j];
+    }
+    // log-sum-exp: the largest term is exp(0) = 1, so nothing underflows to an
+    // all-zero vector however small the likelihoods are.
+    const double largest = log_posterior_.maxCoeff();
+    Eigen::VectorXd& mu = e->mode_probabilities;
+    for (int j = 0; j < modes_; ++j) mu[j] = std::exp(log_posterior_[j] - largest);
+    mu /= mu.sum();
+    if (floor_ > 0.0) {
+      mu = mu.cwiseMax(floor_);
+      mu /= mu.sum();
+    }
+    mu.maxCoeff(&e->most_likely_mode);
+  }
+
+  // Combined estimate (eq. 10-11), angles around the most probable mode's
+  // (weighted_mean's rule, gaussian_mixture.h).
+  void combine(ImmEstimate* e) {
+    const Eigen::VectorXd& mu = e->mode_probabilities;
+    Eigen::Index heaviest = 0;
+    mu.maxCoeff(&heaviest);
+    const State& reference = filters_.state(static_cast<int>(heaviest));
+    for (int d = 0; d < n_; ++d) {
+      double sum = 0.0;
+      if (is_angle_[static_cast<std::size_t>(d)]) {
+        const double r = reference[d];
+        for (int j = 0; j < modes_; ++j) sum += mu[j] * wrap_angle_fast(filters_.state(j)[d] - r);
+        mean_[d] = wrap_angle_fast(r + sum);
+      } else {
+        for (int j = 0; j < modes_; ++j) sum += mu[j] * filters_.state(j)[d];
+        mean_[d] = sum;
+      }
+    }
+    combined_.setZero();
+    for (int j = 0; j < modes_; ++j) {
+      const State& x = filters_.state(j);
+      for (int d = 0; d < n_; ++d) {
+        const double v = x[d] - mean_[d];
+        deviation_[d] = is_angle_[static_cast<std::size_t>(d)] ? wrap_angle_fast(v) : v;
+      }
+      combined_.noalias() += mu[j] * filters_.covariance(j);
+      combined_.noalias() += mu[j] * deviation_ * deviation_.transpose();
+      copy_out(x, &e->mode_states[static_cast<std::size_t>(j)]);
+      copy_out(filters_.covariance(j), &e->mode_covariances[static_cast<std::size_t>(j)]);
+    }
+    symmetrize(combined_);
+    copy_out(mean_, &e->state);
+    copy_out(combined_, &e->covariance);
+  }
+
+  // Into the estimate's dynamic storage (already of the right size): a
+  // fixed-size copy when the kernel's sizes are fixed.
+  template <typename From, typename To>
+  static void copy_out(const From& from, To* to) {
+    if constexpr (From::SizeAtCompileTime == Eigen::Dynamic) {
+      *to = from;
+    } else {
+      Eigen::Map<typename From::PlainObject>(to->data()) = from;
+    }
+  }
+
+  Filters filters_;
+  ModeTransition transition_;
+  int n_;
+  int modes_;
+  double floor_;
+  Eigen::VectorXd initial_state_;
+  Eigen::MatrixXd initial_covariance_;
+  std::unique_ptr<bool[]> is_angle_;
+  // Workspace.
+  Eigen::MatrixXd moments_;  // row i: mu_i [1, y_i, vech(P_i + y_i y_i')]
+  Eigen::MatrixXd flowed_;   // P(dt)' moments
+  Eigen::VectorXd prior_moments_;
+  Eigen::VectorXd predicted_;  // c_j
+  Eigen::VectorXd log_posterior_;
+  State reference_;
+  State offset_;
+  State mean_;
+  State deviation_;
+  Covariance combined_;
+};
+
+}  // namespace internal
+}  // namespace skidimm
+
+#endif  // SKIDIMM_CORE_SRC_IMM_KERNEL_H_
