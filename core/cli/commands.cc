@@ -10,7 +10,6 @@
 #include <optional>
 
 #include "skidimm/bank.h"
-#include "skidimm/decision.h"
 #include "skidimm/errors.h"
 #include "skidimm/estimates_writer.h"
 #include "skidimm/imm.h"
@@ -77,7 +76,7 @@ LogSpec join_inputs(const std::vector<std::string>& inputs) {
 
 int run(const RunOptions& options) {
   std::optional<EstimatesWriter> writer;
-  long rows = 0;
+  RunSummary summary;
   const int code = report_errors("skidimm run", [&] {
     const Bank bank = Bank::load(options.bank, options.plugin_paths);
     const BankConfig& config = bank.config;
@@ -87,12 +86,12 @@ int run(const RunOptions& options) {
     }
     LogReader reader(config, log.files, sampling_of(config, options.rate));
     const bool with_truth = reader.has_truth() || !log.label.empty();
+    // A path ending in .npy gets a NumPy array (estimates_writer.h), anything else CSV.
     writer.emplace(options.output, config, with_truth);
 
     std::vector<std::string> mode_names;
     for (const ModeConfig& mode : config.modes) mode_names.push_back(mode.name);
     const int num_modes = config.num_modes();
-    const std::vector<int> class_of_mode = config.class_of_modes();
     DecisionConfig decision_settings = config.decision;
     if (options.decision_enter >= 0.0) decision_settings.enter = options.decision_enter;
     if (options.decision_leave >= 0.0) decision_settings.leave = options.decision_leave;
@@ -102,11 +101,6 @@ int run(const RunOptions& options) {
       throw Error("decision thresholds: need 0 <= leave < enter <= 1, got enter " +
                   CsvWriter::format(decision_settings.enter) + ", leave " + CsvWriter::format(decision_settings.leave));
     }
-    ModeDecision decision(config, decision_settings);
-    int last_decision = ModeDecision::kUnknown;
-    long decision_changes = 0;
-    ModeTimeline timeline;
-    long truth_rows = 0, truth_matches = 0, predict_only = 0, rejected = 0;
     ProgressLine progress(options.progress && !options.quiet);
 
     EstimatorOptions estimator;
@@ -116,29 +110,18 @@ int run(const RunOptions& options) {
       estimator.kind = EstimatorOptions::Kind::kFixedLag;
       estimator.lag = options.lag;
     }
-    run_log(bank, &reader, estimator, [&](const LogSample& sample, const ImmEstimate& e) {
-      ++rows;
-      const std::string& truth = log.label.empty() ? sample.truth_mode : log.label;
-      const int decided = decision.update(sample.t, e.mode_probabilities);
-      decision_changes += decided != last_decision && rows > 1;
-      last_decision = decided;
-      writer->write(sample.t, e, decision.name(decided), truth);
-      if (with_truth && !truth.empty()) {
-        ++truth_rows;
-        truth_matches += config.class_index(truth) == class_of_mode[static_cast<std::size_t>(e.most_likely_mode)];
-      }
-      predict_only += e.status == StepStatus::kPredictOnly;
-      rejected += e.num_rejected_modes > 0;
-      timeline.add(sample.t, e.most_likely_mode, e.mode_probabilities[e.most_likely_mode]);
-      progress.update(reader.progress(), rows);
-    });
+    // The loop (log_run.h) allocates nothing per row.
+    write_estimates(bank, &reader, estimator, decision_settings, log.label, with_truth, &*writer, &summary,
+                    [&] { progress.update(reader.progress(), summary.rows); });
     progress.clear();
+    const long rows = summary.rows;
     if (rows == 0) {
       throw LogError(log.text, 0, "the log gives no step: no data rows, or no row where every input has a value");
     }
     writer->commit();
 
     if (!options.quiet) {
+      const ModeTimeline& timeline = summary.timeline;
       std::cerr << "skidimm run: bank '" << config.name << "' (" << num_modes << " modes), " << rows << " rows -> "
                 << options.output.string()
                 << (options.smooth ? " (smoothed over the whole log)"
@@ -148,22 +131,24 @@ int run(const RunOptions& options) {
       std::cerr << "dominant mode over time:\n" << timeline.format(mode_names);
       std::cerr << "  the decision (enter " << CsvWriter::format(decision_settings.enter) << ", leave "
                 << CsvWriter::format(decision_settings.leave) << ", hold " << CsvWriter::format(decision_settings.min_hold)
-                << " s) changed " << decision_changes << " time(s), the most likely mode "
+                << " s) changed " << summary.decision_changes << " time(s), the most likely mode "
                 << timeline.intervals().size() - 1 << " time(s)\n";
       std::cerr << reader.describe_stats(config);
-      if (predict_only > 0) std::cerr << "  " << predict_only << " rows had no measurement (predict only)\n";
-      if (rejected > 0) std::cerr << "  " << rejected << " rows had at least one mode's filter rejected\n";
-      if (truth_rows > 0) {
+      if (summary.predict_only > 0) {
+        std::cerr << "  " << summary.predict_only << " rows had no measurement (predict only)\n";
+      }
+      if (summary.rejected > 0) std::cerr << "  " << summary.rejected << " rows had at least one mode's filter rejected\n";
+      if (summary.truth_rows > 0) {
         std::fprintf(stderr, "most likely mode equals %s on %.1f%% of %ld labelled rows%s\n",
                      log.label.empty() ? ("column '" + config.columns.truth_mode + "'").c_str() : "the log's label",
-                     100.0 * truth_matches / truth_rows, truth_rows,
+                     100.0 * summary.truth_matches / summary.truth_rows, summary.truth_rows,
                      config.classes.empty() ? "" : " (a mode counts for its class)");
       }
     }
     return kExitOk;
   });
-  if (code != kExitOk && writer && rows > 0) {
-    std::cerr << "skidimm run: the " << rows << " rows computed before the error are in "
+  if (code != kExitOk && writer && summary.rows > 0) {
+    std::cerr << "skidimm run: the " << summary.rows << " rows computed before the error are in "
               << writer->partial_path().string() << "\n";
   }
   return code;

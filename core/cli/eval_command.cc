@@ -1,6 +1,7 @@
 // skidimm eval: identification metrics over one or many logs.
 #include <algorithm>
 #include <charconv>
+#include <exception>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -18,6 +19,7 @@
 #include "skidimm/fitting/tuning.h"
 #include "skidimm/imm.h"
 #include "skidimm/log_io.h"
+#include "skidimm/parallel.h"
 #include "skidimm/sdk/angles.h"
 
 namespace skidimm {
@@ -130,6 +132,31 @@ struct Summary {
   std::vector<double> accuracies;
   std::vector<double> decision_accuracies;
 };
+
+// One log to evaluate, in the order one thread would: the group it belongs
+// to, or the error expanding its argument gave (which one thread would have
+// met after evaluating every log before it).
+struct LogJob {
+  std::size_t group = 0;
+  LogSpec log;
+  std::exception_ptr error;
+};
+
+std::vector<LogJob> log_jobs(const std::vector<std::string>& arguments, std::vector<Group>* groups) {
+  std::vector<LogJob> jobs;
+  for (const std::string& argument : arguments) {
+    try {
+      Group g{group_name(argument), {}};
+      const std::vector<LogSpec> logs = expand_log_argument(argument);
+      groups->push_back(std::move(g));
+      for (const LogSpec& log : logs) jobs.push_back(LogJob{groups->size() - 1, log, nullptr});
+    } catch (...) {
+      jobs.push_back(LogJob{0, LogSpec{}, std::current_exception()});
+      break;
+    }
+  }
+  return jobs;
+}
 
 Summary summarize(const std::vector<const LogResult*>& logs, std::size_t states) {
   Summary s;
@@ -420,13 +447,16 @@ int eval(const EvalOptions& options) {
     if (!options.estimates.empty()) {
       std::optional<BankConfig> bank;
       if (!options.bank.empty()) bank = load_bank_config(options.bank);
-      for (const std::string& argument : options.estimates) {
-        Group g{group_name(argument), {}};
-        for (const LogSpec& log : expand_log_argument(argument)) {
-          g.logs.push_back(evaluate_estimates(log.files.front().path, bank ? &*bank : nullptr));
-        }
-        groups.push_back(std::move(g));
-      }
+      // Every file on its own thread (parallel.h): the results, and any
+      // error, are those of one thread.
+      const std::vector<LogJob> jobs = log_jobs(options.estimates, &groups);
+      std::vector<LogResult> results(jobs.size());
+      parallel_for(static_cast<int>(jobs.size()), worker_count(), [&](int i, int) {
+        const LogJob& job = jobs[static_cast<std::size_t>(i)];
+        if (job.error) std::rethrow_exception(job.error);
+        results[static_cast<std::size_t>(i)] = evaluate_estimates(job.log.files.front().path, bank ? &*bank : nullptr);
+      });
+      for (std::size_t i = 0; i < jobs.size(); ++i) groups[jobs[i].group].logs.push_back(std::move(results[i]));
       std::map<std::string, bool> seen;
       for (const Group& g : groups) {
         for (const LogResult& l : g.logs) {
@@ -451,13 +481,17 @@ int eval(const EvalOptions& options) {
         estimator.kind = EstimatorOptions::Kind::kFixedLag;
         estimator.lag = options.lag;
       }
-      for (const std::string& argument : options.inputs) {
-        Group g{group_name(argument), {}};
-        for (const LogSpec& log : expand_log_argument(argument)) {
-          g.logs.push_back(evaluation::evaluate_log(bank, log, sampling, {}, estimator));
-        }
-        groups.push_back(std::move(g));
-      }
+      // Every log on its own thread (parallel.h), each with its own filter
+      // over the shared, read-only bank: the results, and any error, are
+      // those of one thread (SKIDIMM_THREADS=1).
+      const std::vector<LogJob> jobs = log_jobs(options.inputs, &groups);
+      std::vector<LogResult> results(jobs.size());
+      parallel_for(static_cast<int>(jobs.size()), worker_count(), [&](int i, int) {
+        const LogJob& job = jobs[static_cast<std::size_t>(i)];
+        if (job.error) std::rethrow_exception(job.error);
+        results[static_cast<std::size_t>(i)] = evaluation::evaluate_log(bank, job.log, sampling, {}, estimator);
+      });
+      for (std::size_t i = 0; i < jobs.size(); ++i) groups[jobs[i].group].logs.push_back(std::move(results[i]));
     }
     if (groups.empty()) throw Error("nothing to evaluate: give --input (with --bank) or --estimates");
 

@@ -1,5 +1,6 @@
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -13,6 +14,7 @@
 #include "skidimm/fitting/bank_writer.h"
 #include "skidimm/fitting/model_fitter.h"
 #include "skidimm/fitting/trajectory.h"
+#include "skidimm/parallel.h"
 
 namespace skidimm {
 namespace cli {
@@ -24,15 +26,35 @@ using fitting::ModeLogs;
 namespace {
 
 // The logs of the --log (or --held-out) arguments, by mode (mode_segments).
+// Each log is read on its own thread (parallel.h), then merged in argument
+// order: the same segments, in the same order, as one thread reads them, and
+// the same first error.
 std::vector<ModeLogs> load_logs(const BankConfig& config, const std::vector<std::string>& arguments,
                                 const std::string& default_mode, const SamplingConfig& sampling) {
-  std::map<int, ModeLogs> by_mode;
+  struct Job {
+    LogSpec log;
+    std::exception_ptr error;  // expanding its argument failed
+  };
+  std::vector<Job> jobs;
   for (const std::string& argument : arguments) {
-    for (const LogSpec& log : expand_log_argument(argument)) {
-      for (ModeLogs& d : mode_segments(config, log, default_mode, sampling)) {
-        by_mode[d.mode].mode = d.mode;
-        for (auto& t : d.logs) by_mode[d.mode].logs.push_back(std::move(t));
-      }
+    try {
+      for (const LogSpec& log : expand_log_argument(argument)) jobs.push_back(Job{log, nullptr});
+    } catch (...) {
+      jobs.push_back(Job{LogSpec{}, std::current_exception()});
+      break;
+    }
+  }
+  std::vector<std::vector<ModeLogs>> segments(jobs.size());
+  parallel_for(static_cast<int>(jobs.size()), worker_count(), [&](int i, int) {
+    const Job& job = jobs[static_cast<std::size_t>(i)];
+    if (job.error) std::rethrow_exception(job.error);
+    segments[static_cast<std::size_t>(i)] = mode_segments(config, job.log, default_mode, sampling);
+  });
+  std::map<int, ModeLogs> by_mode;
+  for (std::vector<ModeLogs>& log : segments) {
+    for (ModeLogs& d : log) {
+      by_mode[d.mode].mode = d.mode;
+      for (auto& t : d.logs) by_mode[d.mode].logs.push_back(std::move(t));
     }
   }
   std::vector<ModeLogs> out;
@@ -129,6 +151,7 @@ int fit(const FitCommandOptions& options) {
     }
 
     for (const std::string& text : options.held_out) {
+      // load_logs reads the argument's logs on their own threads.
       for (const ModeLogs& held : load_logs(config, {text}, options.mode, sampling)) {
         const FitReport r = fitting::evaluate(bank, held);
         std::cerr << "held out " << text << " (" << config.modes[static_cast<std::size_t>(held.mode)].name

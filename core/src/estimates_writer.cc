@@ -1,6 +1,17 @@
 #include "skidimm/estimates_writer.h"
 
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <string_view>
+#include <system_error>
+
+#include "skidimm/check.h"
+#include "skidimm/errors.h"
+
 namespace skidimm {
+
+namespace fs = std::filesystem;
 
 std::vector<std::string> EstimatesWriter::header(const BankConfig& config, bool with_truth) {
   std::vector<std::string> header{"t"};
@@ -14,23 +25,203 @@ std::vector<std::string> EstimatesWriter::header(const BankConfig& config, bool 
   return header;
 }
 
-EstimatesWriter::EstimatesWriter(const std::filesystem::path& path, const BankConfig& config, bool with_truth)
-    : writer_(path, header(config, with_truth)), with_truth_(with_truth) {
+bool EstimatesWriter::is_npy(const fs::path& path) { return path.extension() == ".npy"; }
+
+// ---------------------------------------------------------------- .npy
+
+// A NumPy .npy file of records (numpy/lib/format.py): magic, version, a
+// Python-literal header padded to 64 bytes, then the records back to back.
+// The row count is written as the header's shape when the file is closed.
+class EstimatesWriter::Npy {
+ public:
+  Npy(const fs::path& path, const std::vector<std::string>& names, std::size_t numbers,
+      const std::vector<std::size_t>& text_widths)
+      : path_(path), partial_(path.string() + ".partial"), text_widths_(text_widths) {
+    std::uint16_t probe = 1;
+    unsigned char first = 0;
+    std::memcpy(&first, &probe, 1);
+    const char* order = first == 1 ? "<" : ">";
+    std::string descr = "[";
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      descr += (i ? ", (" : "(") + python_string(names[i]) + ", ";
+      descr += i < numbers ? std::string("'") + order + "f8'" : "'S" + std::to_string(text_widths[i - numbers]) + "'";
+      descr += ")";
+    }
+    descr += "]";
+    std::string dict = "{'descr': " + descr + ", 'fortran_order': False, 'shape': (";
+    shape_offset_ = dict.size();
+    dict += std::string(kShapeDigits, ' ') + "0,), }";
+    // magic (6) + version (2) + header length (2 or 4) + dict + padding + '\n', a multiple of 64.
+    const bool version2 = dict.size() + 11 > 65535;
+    const std::size_t prefix = version2 ? 12 : 10;
+    const std::size_t total = (prefix + dict.size() + 1 + 63) / 64 * 64;
+    dict += std::string(total - prefix - dict.size() - 1, ' ') + "\n";
+    std::string head = "\x93NUMPY";
+    head += static_cast<char>(version2 ? 2 : 1);
+    head += '\0';
+    const std::size_t length = dict.size();
+    for (std::size_t b = 0; b < (version2 ? 4u : 2u); ++b) head += static_cast<char>((length >> (8 * b)) & 0xff);
+    shape_offset_ += head.size();
+    head += dict;
+    out_ = std::fopen(partial_.c_str(), "wb");
+    if (out_ == nullptr) throw LogError(partial_.string(), 0, "cannot open for writing");
+    std::setvbuf(out_, nullptr, _IONBF, 0);
+    buffer_.reserve(1 << 16);
+    buffer_ = head;
+    write_buffer();
+  }
+
+  ~Npy() {
+    if (out_ == nullptr) return;
+    // Keep what was computed in the .partial file, loadable.
+    try {
+      finish();
+    } catch (const Error&) {
+    }
+    std::fclose(out_);
+  }
+
+  void add_number(double value) {
+    char bytes[8];
+    std::memcpy(bytes, &value, 8);
+    buffer_.append(bytes, 8);
+  }
+
+  void add_text(std::string_view text, std::size_t column, const char* what) {
+    const std::size_t width = text_widths_[column];
+    if (text.size() > width) {
+      throw LogError(partial_.string(), rows_ + 1,
+                     std::string(what) + " '" + std::string(text) + "' is longer than the " + std::to_string(width) +
+                         " bytes of its .npy column; write CSV instead");
+    }
+    buffer_.append(text);
+    buffer_.append(width - text.size(), '\0');
+  }
+
+  void end_row() {
+    if (++rows_ % 1000 == 0) write_buffer();
+  }
+
+  void commit() {
+    finish();
+    const bool closed = std::fclose(out_) == 0;
+    out_ = nullptr;
+    if (!closed) throw LogError(partial_.string(), 0, "write failed when closing");
+    std::error_code ec;
+    fs::rename(partial_, path_, ec);
+    if (ec) throw LogError(path_.string(), 0, "cannot rename " + partial_.string() + ": " + ec.message());
+  }
+
+  const fs::path& partial_path() const { return partial_; }
+
+ private:
+  static constexpr std::size_t kShapeDigits = 20;
+
+  // A Python string literal for literal_eval.
+  static std::string python_string(const std::string& s) {
+    std::string out = "'";
+    for (unsigned char c : s) {
+      if (c == '\\' || c == '\'') {
+        out += '\\';
+        out += static_cast<char>(c);
+      } else if (c < 32 || c >= 127) {
+        static const char kHex[] = "0123456789abcdef";
+        out += "\\x";
+        out += kHex[c >> 4];
+        out += kHex[c & 15];
+      } else {
+        out += static_cast<char>(c);
+      }
+    }
+    return out + "'";
+  }
+
+  void write_buffer() {
+    if (buffer_.empty()) return;
+    const std::size_t size = buffer_.size();
+    const std::size_t written = std::fwrite(buffer_.data(), 1, size, out_);
+    buffer_.clear();
+    if (written != size) throw LogError(partial_.string(), rows_ + 1, "write failed (disk full?)");
+  }
+
+  // The rows so far, and their count in the header.
+  void finish() {
+    write_buffer();
+    std::string count = std::to_string(rows_);
+    count.insert(0, kShapeDigits + 1 - count.size(), ' ');
+    if (std::fseek(out_, static_cast<long>(shape_offset_), SEEK_SET) != 0 ||
+        std::fwrite(count.data(), 1, count.size(), out_) != count.size() || std::fseek(out_, 0, SEEK_END) != 0) {
+      throw LogError(partial_.string(), 0, "write failed (disk full?)");
+    }
+  }
+
+  fs::path path_;
+  fs::path partial_;
+  std::FILE* out_ = nullptr;
+  std::string buffer_;
+  std::vector<std::size_t> text_widths_;
+  std::size_t shape_offset_ = 0;
+  long rows_ = 0;
+};
+
+// ---------------------------------------------------------------- writer
+
+EstimatesWriter::EstimatesWriter(const fs::path& path, const BankConfig& config, bool with_truth)
+    : with_truth_(with_truth) {
   for (const ModeConfig& mode : config.modes) mode_names_.push_back(mode.name);
-  cells_.resize(header(config, with_truth).size());
+  const std::vector<std::string> names = header(config, with_truth);
+  if (!is_npy(path)) {
+    csv_ = std::make_unique<CsvWriter>(path, names);
+    return;
+  }
+  std::size_t longest_mode = 1, longest_class = 7;  // "unknown"
+  for (const std::string& m : mode_names_) longest_mode = std::max(longest_mode, m.size());
+  for (const std::string& c : config.class_names()) longest_class = std::max(longest_class, c.size());
+  std::vector<std::size_t> widths{longest_mode, longest_class};
+  if (with_truth) widths.push_back(std::max<std::size_t>(64, std::max(longest_mode, longest_class)));
+  widths.push_back(18);  // "all_modes_rejected"
+  npy_ = std::make_unique<Npy>(path, names, names.size() - widths.size(), widths);
+}
+
+EstimatesWriter::~EstimatesWriter() = default;
+
+const fs::path& EstimatesWriter::partial_path() const { return csv_ ? csv_->partial_path() : npy_->partial_path(); }
+
+void EstimatesWriter::commit() {
+  if (csv_) {
+    csv_->commit();
+  } else {
+    npy_->commit();
+  }
 }
 
 void EstimatesWriter::write(double t, const ImmEstimate& e, const std::string& decision, const std::string& truth) {
-  std::size_t c = 0;
-  cells_[c++] = CsvWriter::format(t);
-  for (Eigen::Index j = 0; j < e.mode_probabilities.size(); ++j) cells_[c++] = CsvWriter::format(e.mode_probabilities[j]);
-  for (Eigen::Index i = 0; i < e.state.size(); ++i) cells_[c++] = CsvWriter::format(e.state[i]);
-  for (Eigen::Index i = 0; i < e.state.size(); ++i) cells_[c++] = CsvWriter::format(e.covariance(i, i));
-  cells_[c++] = mode_names_[static_cast<std::size_t>(e.most_likely_mode)];
-  cells_[c++] = decision;
-  if (with_truth_) cells_[c++] = truth;
-  cells_[c++] = to_string(e.status);
-  writer_.write_row(cells_);
+  const std::string& mode = mode_names_[static_cast<std::size_t>(e.most_likely_mode)];
+  const Eigen::Index n = e.state.size();
+  if (csv_) {
+    CsvWriter& w = *csv_;
+    w.add_number(t);
+    for (Eigen::Index j = 0; j < e.mode_probabilities.size(); ++j) w.add_number(e.mode_probabilities[j]);
+    for (Eigen::Index i = 0; i < n; ++i) w.add_number(e.state[i]);
+    for (Eigen::Index i = 0; i < n; ++i) w.add_number(e.covariance(i, i));
+    w.add_text(mode);
+    w.add_text(decision);
+    if (with_truth_) w.add_text(truth);
+    w.add_text(to_string(e.status));
+    w.end_row();
+    return;
+  }
+  Npy& w = *npy_;
+  w.add_number(t);
+  for (Eigen::Index j = 0; j < e.mode_probabilities.size(); ++j) w.add_number(e.mode_probabilities[j]);
+  for (Eigen::Index i = 0; i < n; ++i) w.add_number(e.state[i]);
+  for (Eigen::Index i = 0; i < n; ++i) w.add_number(e.covariance(i, i));
+  std::size_t column = 0;
+  w.add_text(mode, column++, "mode");
+  w.add_text(decision, column++, "decision");
+  if (with_truth_) w.add_text(truth, column++, "truth label");
+  w.add_text(to_string(e.status), column, "status");
+  w.end_row();
 }
 
 }  // namespace skidimm

@@ -8,6 +8,7 @@
 #include <map>
 #include <system_error>
 
+#include "number_text.h"
 #include "skidimm/errors.h"
 #include "skidimm/expression.h"
 #include "skidimm/log_io.h"
@@ -72,18 +73,22 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string trim(const std::string& s) {
+std::string_view trim(std::string_view s) {
   const auto begin = s.find_first_not_of(" \t");
-  if (begin == std::string::npos) return "";
+  if (begin == std::string_view::npos) return {};
   const auto end = s.find_last_not_of(" \t");
   return s.substr(begin, end - begin + 1);
 }
 
+std::string trim(const std::string& s) { return std::string(trim(std::string_view(s))); }
+
 // Locale-independent parse of a whole cell. Missing: empty, nan, NaN, NA.
-bool parse_number(const std::string& cell, double* value, bool* missing) {
-  const std::string text = trim(cell);
+bool parse_number(std::string_view cell, double* value, bool* missing) {
+  const auto blank = [](char c) { return c == ' ' || c == '\t'; };
+  const std::string_view text = !cell.empty() && (blank(cell.front()) || blank(cell.back())) ? trim(cell) : cell;
   *missing = false;
-  if (text.empty() || text == "nan" || text == "NaN" || text == "NAN" || text == "NA") {
+  if (text.empty() || ((text.front() == 'n' || text.front() == 'N') &&
+                       (text == "nan" || text == "NaN" || text == "NAN" || text == "NA"))) {
     *missing = true;
     *value = kNaN;
     return true;
@@ -91,6 +96,10 @@ bool parse_number(const std::string& cell, double* value, bool* missing) {
   const char* begin = text.data();
   if (*begin == '+') ++begin;
   const char* end = text.data() + text.size();
+  // Most cells are plain decimals: exactly from_chars's value, faster (number_text.h).
+  if (number_text::parse_plain_decimal(std::string_view(begin, static_cast<std::size_t>(end - begin)), value)) {
+    return true;
+  }
   const auto result = std::from_chars(begin, end, *value);
   return result.ec == std::errc() && result.ptr == end;
 }
@@ -200,14 +209,13 @@ struct MeasurementBinding {
 // One time-ordered source of rows: a file (join: time) or all files read
 // side by side (join: rows).
 struct Stream {
-  std::vector<std::unique_ptr<CsvReader>> files;
-  std::vector<std::vector<std::string>> fields;
+  std::vector<std::unique_ptr<CsvReader>> files;  // each holds its current row (CsvReader::field)
   double offset = 0.0;
   int time_file = -1;
   int time_index = -1;
   std::vector<int> columns;             // column ids read from this stream
   std::vector<std::size_t> stat_index;  // per file, its entry in LogStats::rows
-  bool has_row = false;      // `fields` hold a row not yet applied
+  bool has_row = false;      // the files hold a row not yet applied
   bool ended = false;
   double row_t = 0.0;
   double last_t = -std::numeric_limits<double>::infinity();
@@ -313,7 +321,6 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
     }
     Stream& s = streams_.back();
     s.files.push_back(std::make_unique<CsvReader>(file.path));
-    s.fields.emplace_back();
     s.stat_index.push_back(stats_.files.size());
     stats_.files.push_back(file.path.string());
     stats_.rows.push_back(0);
@@ -536,7 +543,7 @@ bool LogReader::Impl::read_row_or_throw(Stream& s) {
   if (s.ended) return false;
   std::size_t ended = 0, an_ended = 0, a_longer = 0;
   for (std::size_t f = 0; f < s.files.size(); ++f) {
-    if (s.files[f]->next(&s.fields[f])) {
+    if (s.files[f]->next_row()) {
       a_longer = f;
     } else {
       ++ended;
@@ -553,12 +560,12 @@ bool LogReader::Impl::read_row_or_throw(Stream& s) {
                        s.files[an_ended]->path().string() + " has ended");
   }
   const CsvReader& reader = *s.files[static_cast<std::size_t>(s.time_file)];
-  const std::string& cell = s.fields[static_cast<std::size_t>(s.time_file)][static_cast<std::size_t>(s.time_index)];
+  const std::string_view cell = reader.field(s.time_index);
   double t = 0.0;
   bool missing = false;
   if (!parse_number(cell, &t, &missing) || missing || !std::isfinite(t)) {
     throw LogError(reader.path().string(), reader.line(),
-                   "column '" + bank_.columns.time + "': expected a time in seconds, got '" + cell + "'");
+                   "column '" + bank_.columns.time + "': expected a time in seconds, got '" + std::string(cell) + "'");
   }
   t += s.offset;
   if (t <= s.last_t) {
@@ -578,12 +585,12 @@ void LogReader::Impl::apply_row(int k) {
   for (int c : s.columns) {
     const Column& col = columns_[static_cast<std::size_t>(c)];
     const CsvReader& reader = *s.files[static_cast<std::size_t>(col.file)];
-    const std::string& cell = s.fields[static_cast<std::size_t>(col.file)][static_cast<std::size_t>(col.index)];
+    const std::string_view cell = reader.field(col.index);
     double value = kNaN;
     bool missing = false;
     if (!parse_number(cell, &value, &missing)) {
       throw LogError(reader.path().string(), reader.line(),
-                     "column '" + col.name + "': expected a number, got '" + cell + "'");
+                     "column '" + col.name + "': expected a number, got '" + std::string(cell) + "'");
     }
     if (!missing && !std::isfinite(value)) {
       throw LogError(reader.path().string(), reader.line(), "column '" + col.name + "': value is not finite");
@@ -614,8 +621,8 @@ void LogReader::Impl::apply_row(int k) {
     }
   }
   if (truth_stream_ == k) {
-    const std::string label = trim(s.fields[static_cast<std::size_t>(truth_file_)][static_cast<std::size_t>(truth_index_)]);
-    if (!label.empty()) held_truth_ = label;
+    const std::string_view label = trim(s.files[static_cast<std::size_t>(truth_file_)]->field(truth_index_));
+    if (!label.empty()) held_truth_.assign(label);
   }
   s.last_t = s.row_t;
   for (std::size_t i : s.stat_index) ++stats_.rows[i];

@@ -1,9 +1,11 @@
 #include "skidimm/log_run.h"
 
 #include <deque>
+#include <string>
 #include <utility>
 #include <vector>
 
+#include "skidimm/decision.h"
 #include "skidimm/imm.h"
 #include "skidimm/imm_smoother.h"
 
@@ -89,6 +91,49 @@ long run_log(const Bank& bank, LogReader* reader, const EstimatorOptions& option
   }
   for (const Held& h : held) sink(h.sample, h.filtered);  // trailing rejected steps
   return steps;
+}
+
+void write_estimates(const Bank& bank, LogReader* reader, const EstimatorOptions& options,
+                     const DecisionConfig& decision_settings, const std::string& label, bool with_truth,
+                     EstimatesWriter* writer, RunSummary* summary, const std::function<void()>& progress) {
+  const BankConfig& config = bank.config;
+  const std::vector<int> class_of_mode = config.class_of_modes();
+  ModeDecision decision(config, decision_settings);
+  int last_decision = ModeDecision::kUnknown;
+  // The truth's class: each label looked up once (class_index builds the
+  // class names), then by comparison with the last one and the few seen.
+  std::vector<std::pair<std::string, int>> classes_seen;
+  const std::pair<std::string, int>* last = nullptr;
+  run_log(bank, reader, options, [&](const LogSample& sample, const ImmEstimate& e) {
+    RunSummary& s = *summary;
+    ++s.rows;
+    const std::string& truth = label.empty() ? sample.truth_mode : label;
+    const int decided = decision.update(sample.t, e.mode_probabilities);
+    s.decision_changes += decided != last_decision && s.rows > 1;
+    last_decision = decided;
+    writer->write(sample.t, e, decision.name(decided), truth);
+    if (with_truth && !truth.empty()) {
+      if (last == nullptr || last->first != truth) {
+        last = nullptr;
+        for (const auto& seen : classes_seen) {
+          if (seen.first == truth) last = &seen;
+        }
+        if (last == nullptr) {
+          classes_seen.emplace_back(truth, config.class_index(truth));
+          last = nullptr;  // emplace_back may have moved the others
+          for (const auto& seen : classes_seen) {
+            if (seen.first == truth) last = &seen;
+          }
+        }
+      }
+      ++s.truth_rows;
+      s.truth_matches += last->second == class_of_mode[static_cast<std::size_t>(e.most_likely_mode)];
+    }
+    s.predict_only += e.status == StepStatus::kPredictOnly;
+    s.rejected += e.num_rejected_modes > 0;
+    s.timeline.add(sample.t, e.most_likely_mode, e.mode_probabilities[e.most_likely_mode]);
+    if (progress && s.rows % 1024 == 0) progress();
+  });
 }
 
 }  // namespace skidimm

@@ -125,8 +125,11 @@ void ModeTransition::reserve_columns(int columns) {
 double ModeTransition::equal_rates_decay(double dt) const {
   // Equal rates r: the chain forgets its state at rate r n/(n-1), so
   // P = 1/n + (delta_ij - 1/n) exp(-r n dt / (n-1)).
+  if (dt == decay_dt_) return decay_value_;
   const double nn = static_cast<double>(matrix_.rows());
-  return std::exp(-max_rate_ * nn / (nn - 1.0) * dt);
+  decay_value_ = std::exp(-max_rate_ * nn / (nn - 1.0) * dt);
+  decay_dt_ = dt;
+  return decay_value_;
 }
 
 const Eigen::MatrixXd& ModeTransition::matrix(double dt) {

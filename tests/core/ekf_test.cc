@@ -8,6 +8,7 @@
 
 #include "core/test_banks.h"
 #include "skidimm/measurement_model.h"
+#include "stc_kinematic/stc_kinematic_model.h"
 
 namespace skidimm {
 namespace {
@@ -71,6 +72,76 @@ TEST(ExtendedKalmanFilter, SingularInnovationCovarianceIsReportedNotCrashed) {
   SelectedMeasurement selected = measurement.make_selection();
   measurement.select(Eigen::VectorXd::Constant(1, 1.0), &selected);
   EXPECT_FALSE(filter.update(selected).ok);
+}
+
+// The fixed-size filter the IMM's kernels run agrees with
+// ExtendedKalmanFilter: a heading across the seam, every subset of rows.
+TEST(FixedSizeFilter, AgreesWithTheDynamicFilterOnEverySubsetOfRows) {
+  sdk::ParameterSet params;
+  params.set_scalar("k", 0.9);
+  params.set_scalar("m", 0.6);
+  params.set_scalar("r", 0.165);
+  params.set_scalar("b", 0.555);
+  std::string error;
+  const auto model = plugins::StcKinematicModel::Create(params, &error);
+  ASSERT_TRUE(model) << error;
+  const Eigen::Matrix3d q = Eigen::Vector3d(1e-3, 2e-3, 3e-3).asDiagonal();
+  Eigen::Matrix3d r;
+  r << 9e-4, 1e-4, 0, 1e-4, 9e-4, 0, 0, 0, 4e-4;
+  const MeasurementModel measurement(Eigen::Matrix3d::Identity(), r, {false, false, true});
+  SelectedMeasurement selected = measurement.make_selection();
+  const Eigen::Vector2d u(2.0, 12.0);
+  for (int rows = 1; rows < 8; ++rows) {  // every non-empty subset of {X, Y, theta}
+    ExtendedKalmanFilter dynamic(*model, q, 3);
+    Eigen::Vector3d x(1.0, -2.0, 3.1);
+    Eigen::Matrix3d p;
+    p << 0.02, 0.005, 0.001, 0.005, 0.03, -0.002, 0.001, -0.002, 0.01;
+    dynamic.state() = x;
+    dynamic.covariance() = p;
+    for (int k = 0; k < 30; ++k) {
+      ASSERT_TRUE(dynamic.predict(u, 0.02));
+      ASSERT_TRUE(predict_fixed<3>(*model, q, 0b100, u, 0.02, &x, &p));
+      ASSERT_LT((dynamic.state() - x).cwiseAbs().maxCoeff(), 1e-13) << "step " << k;
+      ASSERT_LT((dynamic.covariance() - p).cwiseAbs().maxCoeff(), 1e-14) << "step " << k;
+      Eigen::Vector3d z(1.0 + 0.1 * k, -2.0 + 0.05 * k, sdk::wrap_angle(3.1 + 0.3 * k));
+      for (int a = 0; a < 3; ++a) {
+        if (!(rows >> a & 1)) z[a] = std::numeric_limits<double>::quiet_NaN();
+      }
+      measurement.select(z, &selected);
+      const UpdateResult expected = dynamic.update(selected);
+      UpdateResult actual;
+      const int n = selected.size;
+      AngleMask z_angles = 0;
+      for (int a = 0; a < n; ++a) z_angles |= selected.is_angle[a] ? 1u << a : 0u;
+      if (n == 1) {
+        actual = update_fixed<3, 1>(selected.z.head<1>(), selected.h.topRows<1>(), selected.r.topLeftCorner<1, 1>(),
+                                    z_angles, 0b100, &x, &p);
+      } else if (n == 2) {
+        actual = update_fixed<3, 2>(selected.z.head<2>(), selected.h.topRows<2>(), selected.r.topLeftCorner<2, 2>(),
+                                    z_angles, 0b100, &x, &p);
+      } else {
+        actual = update_fixed<3, 3>(selected.z.head<3>(), selected.h.topRows<3>(), selected.r.topLeftCorner<3, 3>(),
+                                    z_angles, 0b100, &x, &p);
+      }
+      ASSERT_EQ(actual.ok, expected.ok);
+      ASSERT_NEAR(actual.log_likelihood, expected.log_likelihood, 1e-12 * std::max(1.0, std::abs(expected.log_likelihood)));
+      ASSERT_NEAR(actual.nis, expected.nis, 1e-12 * std::max(1.0, expected.nis));
+      ASSERT_LT((dynamic.state() - x).cwiseAbs().maxCoeff(), 1e-13) << "rows " << rows << " step " << k;
+      ASSERT_LT((dynamic.covariance() - p).cwiseAbs().maxCoeff(), 1e-14) << "rows " << rows << " step " << k;
+    }
+  }
+}
+
+TEST(FixedSizeFilter, ANonPositiveDefiniteInnovationIsReportedLikeTheDynamicFilter) {
+  Eigen::Matrix<double, 1, 1> z, r;
+  z << 1.0;
+  r << 0.0;
+  Eigen::Matrix<double, 1, 2> h(1.0, 0.0);
+  Eigen::Vector2d x(0.0, 0.0);
+  Eigen::Matrix2d p = Eigen::Matrix2d::Zero();
+  EXPECT_FALSE((update_fixed<2, 1>(z, h, r, 0, 0, &x, &p).ok));
+  p(0, 0) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE((update_fixed<2, 1>(z, h, r, 0, 0, &x, &p).ok));
 }
 
 TEST(MeasurementModel, SelectsTheFiniteRowsWithTheirBlockOfR) {

@@ -4,12 +4,20 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <limits>
+#include <string>
+#include <vector>
 
 #include "core/malloc_counter.h"
 #include "core/test_banks.h"
 #include "skidimm/decision.h"
+#include "skidimm/estimates_writer.h"
 #include "skidimm/imm.h"
+#include "skidimm/log_reader.h"
+#include "skidimm/log_run.h"
 #include "stc_kinematic/stc_kinematic_model.h"
 
 namespace skidimm {
@@ -113,6 +121,65 @@ TEST(ImmAllocation, EveryKernelAndTransitionPathAllocatesNothing) {
           << (choice == ImmKernelChoice::kDynamic ? "dynamic" : "fixed-size") << " kernel, transition kind "
           << static_cast<int>(kind);
       EXPECT_TRUE(imm.estimate().state.allFinite());
+    }
+  }
+}
+
+// `skidimm run`'s whole loop (log_run.h, write_estimates): reading the log in
+// place, stepping, deciding, writing CSV or .npy. After the first rows (the
+// Imm, its workspaces, the first labels), the only allocations left are the
+// mode timeline's amortised growth: at most one per doubling of its
+// intervals, O(log rows) over a log, none per row.
+std::filesystem::path tiled_log(const std::string& example, int copies) {
+  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / "skidimm_allocation_run";
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path path = dir / (example + ".csv");
+  std::ifstream in(std::filesystem::path(SKIDIMM_SOURCE_DIR) / "configs" / "examples" / (example + ".csv"));
+  std::string header, line;
+  std::getline(in, header);
+  std::vector<std::pair<double, std::string>> rows;
+  while (std::getline(in, line)) {
+    const auto comma = line.find(',');
+    rows.emplace_back(std::stod(line.substr(0, comma)), line.substr(comma));
+  }
+  const double period = rows.back().first + 0.02;
+  std::ofstream out(path);
+  out << header << "\n";
+  char t[32];
+  for (int c = 0; c < copies; ++c) {
+    for (const auto& [time, rest] : rows) {
+      std::snprintf(t, sizeof(t), "%.4f", time + period * c);
+      out << t << rest << "\n";
+    }
+  }
+  return path;
+}
+
+TEST(ImmAllocation, TheRunLoopAllocatesNothingPerRow) {
+  for (const char* bank_name : {"ltc_terrains", "stc_slip16"}) {
+    for (const char* extension : {".csv", ".npy"}) {
+      SCOPED_TRACE(std::string(bank_name) + extension);
+      const Bank bank =
+          Bank::load(std::filesystem::path(SKIDIMM_SOURCE_DIR) / "configs" / (std::string(bank_name) + ".yaml"),
+                     {SKIDIMM_PLUGIN_DIR});
+      const std::filesystem::path log =
+          tiled_log(std::string(bank_name).rfind("ltc", 0) == 0 ? "ltc_switching" : "stc_switching", 12);
+      LogReader reader(bank.config, {log});
+      EstimatesWriter writer(log.parent_path() / (std::string("out_") + bank_name + extension), bank.config, true);
+      RunSummary summary;
+      long before = -1, rows_before = 0;
+      write_estimates(bank, &reader, {}, bank.config.decision, "", true, &writer, &summary, [&] {
+        if (before >= 0) return;
+        before = skidimm_test::g_malloc_calls.load();  // from the 1024th row on
+        rows_before = summary.rows;
+      });
+      const long allocations = skidimm_test::g_malloc_calls.load() - before;
+      const long rows = summary.rows - rows_before;
+      writer.commit();
+      ASSERT_GT(rows, 10000);
+      const double intervals = static_cast<double>(summary.timeline.intervals().size());
+      EXPECT_LE(allocations, static_cast<long>(std::log2(intervals)) + 1)
+          << allocations << " allocations in " << rows << " rows (" << intervals << " timeline intervals)";
     }
   }
 }

@@ -229,8 +229,16 @@ UpdateResult update_fixed(const Eigen::Matrix<double, K, 1>& z, const Eigen::Mat
   Eigen::Matrix<double, K, 1> whitened = nu;
   forward_substitute<K, 1>(s, inverse_diagonal, &whitened);  // L^-1 nu
   result.nis = whitened.squaredNorm();                       // nu' S^-1 nu
+  // log det S = 2 sum log L_aa: one log of the product while it is safely
+  // inside double's range (always, for real sensors), the sum otherwise.
+  double product = 1.0;
+  for (int a = 0; a < K; ++a) product *= s(a, a);
   double log_det = 0.0;
-  for (int a = 0; a < K; ++a) log_det += std::log(s(a, a));
+  if (product > 1e-280 && product < 1e280) {
+    log_det = std::log(product);
+  } else {
+    for (int a = 0; a < K; ++a) log_det += std::log(s(a, a));
+  }
   result.log_likelihood = -0.5 * (result.nis + 2.0 * log_det + K * kLog2Pi);
   // K' = S^-1 H P-   (S and P- symmetric), solved in place over H P-.
   forward_substitute<K, N>(s, inverse_diagonal, &hp);

@@ -7,10 +7,24 @@
 // truth_mode (when there is a truth), status. Numbers
 // are the shortest text that reads back to the same double. The file is
 // written as <path>.partial and renamed by commit() (log_io.h, CsvWriter).
+//
+// A path ending in ".npy" is written as a NumPy array instead (format 1.0,
+// or 2.0 for very wide headers): one record per step with the same columns,
+// numbers as little-endian doubles ('<f8', exactly the filter's values, no
+// text round trip) and the text columns as fixed-width byte strings ('S<n>':
+// mode and decision as wide as the longest name, truth_mode 64 bytes or the
+// longest name, status 18). numpy.load() reads it, pandas.DataFrame() takes
+// it as it is. A truth label longer than its column is an error (CSV has no
+// such limit). Millions of rows load in a fraction of a second.
+//
+// write() allocates nothing per row in either format (once the labels it has
+// seen have been quoted).
 #ifndef SKIDIMM_ESTIMATES_WRITER_H_
 #define SKIDIMM_ESTIMATES_WRITER_H_
 
+#include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -23,19 +37,26 @@ namespace skidimm {
 class EstimatesWriter {
  public:
   EstimatesWriter(const std::filesystem::path& path, const BankConfig& config, bool with_truth);
+  ~EstimatesWriter();
+  EstimatesWriter(const EstimatesWriter&) = delete;
+  EstimatesWriter& operator=(const EstimatesWriter&) = delete;
 
   // One row; `truth` is written only when the writer has a truth column.
   void write(double t, const ImmEstimate& estimate, const std::string& decision, const std::string& truth);
-  void commit() { writer_.commit(); }
-  const std::filesystem::path& partial_path() const { return writer_.partial_path(); }
+  void commit();
+  const std::filesystem::path& partial_path() const;
 
   static std::vector<std::string> header(const BankConfig& config, bool with_truth);
+  // True for paths written as NumPy arrays (".npy").
+  static bool is_npy(const std::filesystem::path& path);
 
  private:
-  CsvWriter writer_;
+  class Npy;
+
+  std::unique_ptr<CsvWriter> csv_;
+  std::unique_ptr<Npy> npy_;
   std::vector<std::string> mode_names_;
   bool with_truth_;
-  std::vector<std::string> cells_;
 };
 
 }  // namespace skidimm

@@ -8,15 +8,22 @@
 //  * CsvWriter writes "<path>.partial", flushing as it goes, and renames it to
 //    <path> only on commit(): a file under the final name is always complete,
 //    and rows computed before an error are kept in the .partial file.
+//
+// Both have a path that allocates nothing per row (next_row() and field(),
+// add_number()/add_text()/end_row()): the reader splits rows in place in a
+// block buffer, the writer formats numbers with std::to_chars into its own;
+// every 1000 rows it hands them to the file, as the row-by-row writer flushed.
 #ifndef SKIDIMM_LOG_IO_H_
 #define SKIDIMM_LOG_IO_H_
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
-#include <fstream>
+#include <fstream>  // kept: includers have relied on it
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "skidimm/bank.h"
@@ -28,6 +35,9 @@ class CsvReader {
  public:
   // Opens the file and reads its header. Throws LogError.
   explicit CsvReader(const std::filesystem::path& path);
+  ~CsvReader();
+  CsvReader(const CsvReader&) = delete;
+  CsvReader& operator=(const CsvReader&) = delete;
 
   const std::filesystem::path& path() const { return path_; }
   const std::vector<std::string>& header() const { return header_; }
@@ -37,15 +47,35 @@ class CsvReader {
   // false at end of file. Blank lines are skipped. Throws LogError on a row
   // with the wrong number of fields or an unterminated quote.
   bool next(std::vector<std::string>* fields);
+  // The same without copying: the row's fields are read in place, as views
+  // valid until the next call to next_row() or next(). Allocates nothing
+  // once its buffers have grown to the longest row.
+  bool next_row();
+  std::string_view field(int index) const { return fields_[static_cast<std::size_t>(index)]; }
+
   long line() const { return line_; }  // line of the row last read (1-based)
   std::uintmax_t bytes_read() const { return bytes_read_; }
   std::uintmax_t file_size() const { return file_size_; }
 
  private:
-  bool read_record(std::vector<std::string>* fields);
+  bool read_line(std::string_view* line);
+  bool read_record();
+  void fill();
+  void set_field(std::size_t index, const char* begin, const char* end) {
+    if (index == fields_.size()) fields_.emplace_back();  // grows to the widest row, once
+    fields_[index] = std::string_view(begin, static_cast<std::size_t>(end - begin));
+  }
 
   std::filesystem::path path_;
-  std::ifstream in_;
+  std::FILE* file_ = nullptr;
+  std::vector<char> buffer_;  // [begin_, end_) read but not yet consumed
+  std::size_t begin_ = 0;
+  std::size_t end_ = 0;
+  bool end_of_file_ = false;
+  std::string record_;                   // a quoted record, unescaped
+  std::vector<std::size_t> field_ends_;  // ... and where its fields end
+  std::vector<std::string_view> fields_;  // the first field_count_ are the row's
+  std::size_t field_count_ = 0;
   std::vector<std::string> header_;
   long line_ = 0;       // line where the current record starts
   long next_line_ = 1;  // line where the next record starts
@@ -61,20 +91,40 @@ class CsvWriter {
   CsvWriter(const CsvWriter&) = delete;
   CsvWriter& operator=(const CsvWriter&) = delete;
 
+  // One row, one cell per header column (quoted when it holds ',', '"' or a
+  // line break).
   void write_row(const std::vector<std::string>& cells);
+  // The same a cell at a time, into the writer's buffer, allocating nothing
+  // once it has grown: numbers as format() writes them (never quoted), text
+  // quoted like write_row's. end_row() checks the count.
+  void add_number(double value);
+  void add_text(std::string_view text);
+  void end_row();
   // Flushes, closes and renames to the final path.
   void commit();
   const std::filesystem::path& partial_path() const { return partial_; }
   const std::filesystem::path& path() const { return path_; }
 
-  // Shortest text that reads back to exactly the same double.
+  // Shortest text that reads back to exactly the same double ("nan" for NaN).
   static std::string format(double value);
+  // The same into [first, last) (32 characters are always enough); returns
+  // the end of what was written.
+  static char* format(double value, char* first, char* last);
 
  private:
+  void write_buffer();
+  // Room for `bytes` more at the end of the buffer (grown, never shrunk).
+  char* reserve(std::size_t bytes);
+
   std::filesystem::path path_;
   std::filesystem::path partial_;
-  std::ofstream out_;
+  std::FILE* out_ = nullptr;
+  std::unique_ptr<char[]> buffer_;  // rows not yet handed to the file
+  std::size_t size_ = 0;
+  std::size_t capacity_ = 0;
+  std::string quoted_;  // a cell that needs quotes
   std::size_t columns_ = 0;
+  std::size_t cells_ = 0;  // in the row being added
   long rows_ = 0;
   bool committed_ = false;
 };

@@ -5,10 +5,13 @@
 #define SKIDIMM_LOG_RUN_H_
 
 #include <functional>
+#include <string>
 
 #include "skidimm/bank.h"
+#include "skidimm/estimates_writer.h"
 #include "skidimm/imm_estimate.h"
 #include "skidimm/log_reader.h"
+#include "skidimm/mode_timeline.h"
 
 namespace skidimm {
 
@@ -29,6 +32,31 @@ struct EstimatorOptions {
 // filter's estimate. Returns the number of steps.
 long run_log(const Bank& bank, LogReader* reader, const EstimatorOptions& options,
              const std::function<void(const LogSample&, const ImmEstimate&)>& sink);
+
+// What `skidimm run` reports about a log besides its rows.
+struct RunSummary {
+  long rows = 0;
+  long truth_rows = 0;        // rows with a truth label
+  long truth_matches = 0;     // ... whose most likely mode's class is the truth's
+  long predict_only = 0;      // rows without a measurement
+  long rejected = 0;          // rows where at least one mode's filter failed
+  long decision_changes = 0;  // changes of the decision after the first row
+  ModeTimeline timeline;      // the most likely mode over time
+};
+
+// `skidimm run`'s loop: runs the log (run_log), decides each step
+// (decision.h, with `decision` settings), writes it (`writer`, whose truth
+// column, if any, gets `label` or else the log's truth column) and counts into
+// *summary as it goes, so that a caller catching an error knows how many rows
+// were written. `progress` (may be empty) is called every 1024 rows.
+//
+// With the filter (not a smoother), nothing here allocates per row: the log
+// is read in place, the step allocates nothing, numbers are formatted into
+// the writer's buffer. (The timeline grows by an interval when the most likely
+// mode changes, amortised; a longer truth label than any before is copied.)
+void write_estimates(const Bank& bank, LogReader* reader, const EstimatorOptions& options,
+                     const DecisionConfig& decision, const std::string& label, bool with_truth,
+                     EstimatesWriter* writer, RunSummary* summary, const std::function<void()>& progress = {});
 
 }  // namespace skidimm
 

@@ -103,6 +103,8 @@ class ModeTransition {
 
   Form form_ = Form::kPerStep;
   double cached_dt_ = -1.0;
+  mutable double decay_dt_ = -1.0;  // equal rates: the last dt's decay, for matrix() and propagate()
+  mutable double decay_value_ = 1.0;
   double max_rate_ = 0.0;
   Eigen::MatrixXd matrix_;
   Eigen::MatrixXd generator_;
