@@ -11,6 +11,11 @@ packages=(
   libmuparser-dev  # expressions of log columns in banks
   gnuplot-nox  # figures (skidimm plot)
   python3      # scripts/results_tables.py and scripts/derive_physical_configs.py (standard library only)
+  pybind11-dev python3-pybind11  # the Python package (python/, docs/python.md)
+  python3-numpy python3-pandas   # ... its arrays and data frames
+  python3-pytest                 # ... its tests (run by ctest)
+  python3-dask python3-distributed  # ... fleet-scale eval and fit (skidimm.dask)
+  python3-matplotlib             # ... the figure of docs/python.md
 )
 
 missing=()

@@ -1,0 +1,319 @@
+"""skidimm: which traction mode is a skid-steer robot in? (docs/python.md)
+
+The C++ engine (an Interacting Multiple Model estimator over a bank of
+motion-model plugins) from Python:
+
+    import skidimm
+    imm = skidimm.Imm.from_yaml("configs/ltc_terrains.yaml")
+    est = imm.step(t, u, z)               # one step; numpy arrays
+    out = imm.run(t, u, z)                # whole arrays in C++: the columns `skidimm run` writes
+    report = skidimm.eval("configs/ltc_terrains.yaml", ["logs/"])   # `skidimm eval --json`
+
+Plugins are found as the ``skidimm`` tool finds them: ``plugin_paths``, the
+bank's ``plugin_paths``, ``$SKIDIMM_PLUGIN_PATH``, then the plugins bundled
+next to this package (in a build tree and in an install alike).
+
+Errors are :class:`Error` subclasses carrying the C++ message (file, line,
+field): :class:`ConfigError` and :class:`LogError` are also ``ValueError``.
+The GIL is released while C++ runs.
+"""
+
+import json as _json
+import os as _os
+import tempfile as _tempfile
+
+import numpy as _np
+
+from . import _skidimm as _native
+from ._models import MotionModel, register_model, registered_models
+from ._models import models_for as _models_for
+from ._skidimm import (  # noqa: F401  (re-exported)
+    ConfigError,
+    Error,
+    Estimate,
+    FitError,
+    LogError,
+    LogResult,
+    PluginError,
+    evaluate_expression,
+    expand_log_argument,
+    group_name,
+    module_plugin_directory,
+    parse_log_spec,
+    plugin_search_path,
+    plugins,
+    read_csv,
+)
+
+__version__ = _native.__version__
+
+__all__ = [
+    "Bank", "Imm", "MotionModel", "register_model", "registered_models", "run", "run_log", "simulate",
+    "simulate_models", "fit", "eval", "evaluate_log", "eval_report", "to_frame", "Error", "ConfigError", "LogError",
+    "PluginError", "FitError", "Estimate", "LogResult", "plugins", "plugin_search_path", "module_plugin_directory",
+    "read_csv", "expand_log_argument", "parse_log_spec", "group_name", "evaluate_expression",
+]
+
+_AGGREGATES = ("mean(", "std(", "rms(")
+
+
+def _paths(paths):
+    if paths is None:
+        return []
+    if isinstance(paths, (str, _os.PathLike)):
+        paths = [paths]
+    return [_os.fspath(p) for p in paths]
+
+
+def _rate(rate):
+    return 0.0 if rate is None else float(rate)
+
+
+class Bank(_native.Bank):
+    """A bank: its YAML configuration and one motion model per mode.
+
+    ``Bank(file, plugin_paths=(), models=None)`` loads ``file`` and its
+    plugins. ``models`` maps model names to :class:`MotionModel` subclasses
+    (added to those registered with :func:`register_model`), for modes whose
+    ``model:`` names a Python model.
+
+    Read-only: ``name``, ``file``, ``states``, ``angles``, ``inputs``,
+    ``measurements``, ``modes``, ``models`` (each mode's model name),
+    ``classes``, ``columns``, ``sampling_rate``, ``decision``;
+    ``parameters(mode)`` gives a mode's model parameters.
+    """
+
+    def __init__(self, file, plugin_paths=(), models=None):
+        super().__init__(_os.fspath(file), _paths(plugin_paths), _models_for(models))
+
+
+def _bank(bank, plugin_paths=(), models=None):
+    if isinstance(bank, _native.Bank):
+        return bank
+    return Bank(bank, plugin_paths, models)
+
+
+def _column(frame, text, what):
+    """A bank column (a name, or an expression of names) from a DataFrame."""
+    if text in frame.columns:
+        return _np.asarray(frame[text], dtype=float)
+    if any(a in text.replace(" ", "") for a in _AGGREGATES):
+        raise LogError(f"{what} '{text}' aggregates rows of a filter step, which needs the log reader and a "
+                       "sampling rate: use skidimm.run_log on the log's files")
+    names = {c: _np.asarray(frame[c], dtype=float) for c in frame.columns
+             if isinstance(c, str) and c.isidentifier()}
+    try:
+        return evaluate_expression(text, names)
+    except KeyError as e:
+        raise LogError(f"{what} '{text}': the frame has no such column ({e.args[0]})") from None
+
+
+class Imm(_native.Imm):
+    """The IMM estimator (imm.h) over a :class:`Bank`.
+
+    ``Imm(bank, kernel="fastest", decision=None)``: ``bank`` is a Bank or a
+    bank file; ``decision`` overrides the bank's ``decision:`` settings
+    (``{"enter": 0.9, "leave": 0.05, "min_hold": 1.0}``).
+
+    ``step(t, u, z)`` runs one cycle and returns an :class:`Estimate`
+    (numpy arrays: ``mode_probabilities``, ``state``, ``covariance``,
+    ``mode_states``, ``mode_covariances``, ``log_likelihoods``, ``nis``;
+    ``mode``, ``decision``, ``status``...). ``run`` runs whole arrays in C++.
+    """
+
+    def __init__(self, bank, kernel="fastest", decision=None, plugin_paths=(), models=None):
+        super().__init__(_bank(bank, plugin_paths, models), kernel, decision)
+
+    @classmethod
+    def from_yaml(cls, file, plugin_paths=(), models=None, **options):
+        """Loads a bank file and its plugins (like ``skidimm::Imm::from_yaml``)."""
+        return cls(Bank(file, plugin_paths, models), **options)
+
+    def run(self, t, u=None, z=None, *, smooth=False, lag=None, truth=None, reset=True):
+        """Runs the IMM over whole arrays in C++ (no Python per row).
+
+        ``t``: n times (s, increasing); ``u``: n x inputs; ``z``: n x
+        measurements, NaN where not measured (bank order). Or ``t`` is a
+        pandas DataFrame whose columns the bank names (``columns:``; plain
+        names or expressions of them, one filter step per row), and a
+        DataFrame comes back.
+
+        Returns the columns ``skidimm run`` writes, in its order: ``t``,
+        ``mu_<mode>``, each state, ``var_<state>``, ``mode``, ``decision``,
+        ``truth_mode`` (with ``truth`` labels, or the frame's truth column)
+        and ``status`` (numpy arrays; text as str objects).
+
+        ``smooth=True``: fixed-interval smoothing over the whole run; ``lag=s``:
+        fixed-lag smoothing (imm_smoother.h). ``reset=False`` continues the
+        filter (and the decision) from the last step, for logs in chunks.
+        """
+        frame = None
+        if u is None and z is None and hasattr(t, "columns"):
+            frame = t
+            bank = self.bank
+            columns = bank.columns
+            if columns["time"] not in frame.columns:
+                raise LogError(f"the frame has no time column '{columns['time']}' (bank '{bank.name}')")
+            t = _np.asarray(frame[columns["time"]], dtype=float)
+            n = len(t)
+            u = _np.empty((n, len(bank.inputs)))
+            for i, text in enumerate(columns["inputs"]):
+                u[:, i] = _column(frame, text, f"input '{bank.inputs[i]}'")
+            z = _np.empty((n, len(bank.measurements)))
+            for i, text in enumerate(columns["measurements"]):
+                z[:, i] = _column(frame, text, f"measurement '{bank.measurements[i]}'")
+            if truth is None and columns["truth_mode"] and columns["truth_mode"] in frame.columns:
+                truth = [("" if v is None or (isinstance(v, float) and v != v) else str(v))
+                         for v in frame[columns["truth_mode"]]]
+        out = self._run(t, u, z, smooth=smooth, lag=lag, truth=truth, reset=reset)
+        if frame is not None:
+            return to_frame(out, index=frame.index)
+        return out
+
+
+def to_frame(columns, index=None):
+    """A pandas DataFrame of the columns ``run``/``run_log``/``simulate`` return."""
+    import pandas as pd
+
+    frame = pd.DataFrame(columns, copy=False)
+    if index is not None:
+        frame.index = index
+    return frame
+
+
+def run(bank, t, u=None, z=None, *, smooth=False, lag=None, truth=None, decision=None, plugin_paths=(), models=None):
+    """``Imm(bank).run(...)``: a fresh IMM over whole arrays (or a DataFrame)."""
+    return Imm(bank, decision=decision, plugin_paths=plugin_paths, models=models).run(
+        t, u, z, smooth=smooth, lag=lag, truth=truth)
+
+
+def run_log(bank, inputs, *, rate=None, smooth=False, lag=None, decision=None, plugin_paths=(), models=None):
+    """What ``skidimm run --input ...`` writes, as columns (numbers exactly equal).
+
+    ``inputs``: the log's files as ``--input`` takes them (a string or a
+    list: ``[LABEL=]FILE[@OFFSET][+FILE...]``), read by the CLI's log reader
+    (multi-rate files, expressions, aggregates, ``rate``).
+    """
+    if isinstance(inputs, (str, _os.PathLike)):
+        inputs = [inputs]
+    return _native.run_log(_bank(bank, plugin_paths, models), [_os.fspath(i) for i in inputs], _rate(rate), smooth,
+                           lag, decision)
+
+
+def simulate(scenario, *, seed=None, duration=None, output=None):
+    """``skidimm simulate --scenario``: the simulated log as columns.
+
+    With ``output`` the CSV is also kept there. Numbers are read back
+    exactly; ``mode`` is text.
+    """
+    def go(path):
+        _native.simulate_scenario(_os.fspath(scenario), path, seed, 0.0 if duration is None else float(duration))
+        return read_csv(path)
+
+    if output is not None:
+        return go(_os.fspath(output))
+    with _tempfile.TemporaryDirectory(prefix="skidimm_") as directory:
+        return go(_os.path.join(directory, "log.csv"))
+
+
+def simulate_models(bank, inputs_from, *, seed=1, rate=None, output=None, plugin_paths=(), models=None):
+    """``skidimm simulate --bank --inputs-from``: the bank's own models driven by a log."""
+    loaded = _bank(bank, plugin_paths, models)
+
+    def go(path):
+        _native.simulate_models(loaded, _os.fspath(inputs_from), path, int(seed), _rate(rate))
+        return read_csv(path)
+
+    if output is not None:
+        return go(_os.fspath(output))
+    with _tempfile.TemporaryDirectory(prefix="skidimm_") as directory:
+        return go(_os.path.join(directory, "log.csv"))
+
+
+def evaluate_log(bank, log, *, rate=None, smooth=False, lag=None, plugin_paths=(), models=None):
+    """One log scored as ``skidimm eval`` scores it: a picklable :class:`LogResult`."""
+    return _native.evaluate_log(_bank(bank, plugin_paths, models), log, _rate(rate), smooth, lag)
+
+
+def eval_report(bank, groups, output="dict"):
+    """``skidimm eval``'s report for ``groups`` ([(name, [LogResult, ...])]), reduced in that order.
+
+    ``output``: ``"dict"`` (the JSON parsed), ``"json"`` (the text
+    ``skidimm eval --json`` prints) or ``"table"`` (the text it prints
+    without ``--json``).
+    """
+    bank = _bank(bank)
+    text, table = _native.eval_report([(name, list(logs)) for name, logs in groups], bank.states, bank.classes)
+    if output == "json":
+        return text
+    if output == "table":
+        return table
+    if output == "dict":
+        return _json.loads(text)
+    raise ValueError("output must be 'dict', 'json' or 'table'")
+
+
+def eval(bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", plugin_paths=(), models=None):  # noqa: A001
+    """``skidimm eval --bank B --input ...``: each argument a group of logs (files, directories, patterns).
+
+    Returns what ``skidimm eval --json`` prints, parsed (``output="dict"``),
+    or its text (``"json"``), or the table (``"table"``). The metrics and
+    their reduction are the CLI's own code. For many logs on many machines,
+    see :mod:`skidimm.dask`.
+    """
+    if isinstance(inputs, (str, _os.PathLike)):
+        inputs = [inputs]
+    loaded = _bank(bank, plugin_paths, models)
+    groups = []
+    for argument in inputs:
+        argument = _os.fspath(argument)
+        specs = expand_log_argument(argument)
+        groups.append((group_name(argument),
+                       [_native.evaluate_log(loaded, spec, _rate(rate), smooth, lag) for spec in specs]))
+    return eval_report(loaded, groups, output)
+
+
+def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", window=0.0, loss="huber",
+        loss_scale=3.0, hold_unexcited=False, shared=False, fit_r=False, full_q=False, output_bank=None,
+        plugin_paths=(), models=None):
+    """``skidimm fit``: fits the bank's modes to ``logs`` (``--log`` arguments).
+
+    Returns a dict: ``bank_yaml`` (the whole fitted bank, as
+    ``--output-bank`` writes it, validated), ``entries`` (the fitted mode
+    entries, as ``fit`` prints them), ``reports`` (per fitted mode: parameter
+    values and standard deviations, one-step RMSE, Q, warnings...) and
+    ``bank`` (the fitted :class:`Bank`, ready to run). With ``output_bank``
+    the bank is also written there. Raises :class:`FitError` when the logs
+    cannot determine the parameters.
+    """
+    if isinstance(logs, (str, _os.PathLike)):
+        logs = [logs]
+    logs = [_os.fspath(log) for log in logs]
+    options = _native.fit_options(objective, float(window), loss, float(loss_scale), hold_unexcited, shared, fit_r,
+                                  full_q)
+    bank_file = _os.fspath(bank.file if isinstance(bank, _native.Bank) else bank)
+    if isinstance(bank, _native.Bank):
+        plugin_paths, models = bank.plugin_paths, bank.python_models
+    fresh = Bank(bank_file, plugin_paths, models)  # fitted in place
+    data = _native.load_fit_logs(fresh, logs, mode, _rate(rate))
+    fitted = _native.fit_in_place(fresh, data, options)
+    return _fit_result(fresh, fitted, options, mode, name, output_bank, plugin_paths, models,
+                       "skidimm.fit(" + ", ".join(repr(log) for log in logs) + ")")
+
+
+def _fit_result(bank, fitted, options, mode, name, output_bank, plugin_paths, models, call):
+    header = ["Written by skidimm fit (Python); reproduce with:", "  " + call]
+
+    def go(path):
+        entries, text = _native.fit_texts(bank, fitted, options, mode, name, header, path)
+        loaded = Bank(path, plugin_paths, models)
+        return loaded, entries, text
+
+    if output_bank is not None:
+        loaded, entries, text = go(_os.fspath(output_bank))
+    else:
+        with _tempfile.TemporaryDirectory(prefix="skidimm_") as directory:
+            loaded, entries, text = go(_os.path.join(directory, _os.path.basename(_os.fspath(bank.file))))
+    modes = bank.modes
+    reports = {modes[j]: entry["report"] for j, entry in sorted(fitted.items())}
+    return {"bank_yaml": text, "entries": entries, "reports": reports, "bank": loaded}

@@ -1,0 +1,155 @@
+"""Fleet-scale ``eval`` and ``fit`` on a Dask cluster (docs/python.md, "Many logs on Dask").
+
+Each log is independent work: a worker reads it from shared storage, runs
+the bank's IMM over it and scores it (``eval``), or splits it into the
+segments of each mode (``fit``). What travels back is small: a log's
+:class:`skidimm.LogResult` (its metrics, a few kilobytes), or a mode's
+fitted parameters. The reduction happens on the client, in the order
+``skidimm eval`` and ``skidimm fit`` use (arguments in order, each
+directory's logs sorted by name), with the CLI's own code, so the figures
+are those the CLI prints, to the last digit.
+
+Workers load the bank once per process (and its plugins, found as
+everywhere: ``plugin_paths``, the bank's, ``$SKIDIMM_PLUGIN_PATH``, the
+plugins installed next to the package). Every machine needs the package,
+the plugins and the same paths to the bank and the logs.
+
+Dask starts worker processes by spawning: the driving program must be a
+file whose work is under ``if __name__ == "__main__":``.
+"""
+
+import os
+import threading
+
+import skidimm
+
+__all__ = ["eval", "evaluate_logs", "fit"]
+
+_banks = {}
+_banks_lock = threading.Lock()
+
+
+def _key(bank_file, plugin_paths, models):
+    names = tuple(sorted((name, f"{cls.__module__}.{cls.__qualname__}") for name, cls in (models or {}).items()))
+    return (os.path.abspath(bank_file), tuple(plugin_paths), names)
+
+
+def _worker_bank(bank_file, plugin_paths, models):
+    """The bank, loaded once per worker process (read-only afterwards)."""
+    key = _key(bank_file, plugin_paths, models)
+    with _banks_lock:
+        bank = _banks.get(key)
+        if bank is None:
+            bank = skidimm.Bank(bank_file, plugin_paths, models)
+            _banks[key] = bank
+        return bank
+
+
+def _evaluate(spec, bank_file, plugin_paths, models, rate, smooth, lag):
+    bank = _worker_bank(bank_file, plugin_paths, models)
+    return skidimm.evaluate_log(bank, spec, rate=rate, smooth=smooth, lag=lag)
+
+
+def _bank_arguments(bank, plugin_paths, models):
+    if isinstance(bank, skidimm._native.Bank):
+        return os.fspath(bank.file), list(bank.plugin_paths), dict(bank.python_models)
+    return os.path.abspath(os.fspath(bank)), [os.path.abspath(os.fspath(p)) for p in (plugin_paths or [])], models
+
+
+def evaluate_logs(client, bank, inputs, *, rate=None, smooth=False, lag=None, plugin_paths=(), models=None):
+    """Scores every log of ``inputs`` on the cluster: [(group name, [LogResult, ...])] in the CLI's order."""
+    if isinstance(inputs, (str, os.PathLike)):
+        inputs = [inputs]
+    bank_file, plugin_paths, models = _bank_arguments(bank, plugin_paths, models)
+    groups, specs = [], []
+    for argument in inputs:
+        argument = os.fspath(argument)
+        expanded = skidimm.expand_log_argument(argument)  # lists directories here, on the client
+        groups.append((skidimm.group_name(argument), len(expanded)))
+        specs.extend(expanded)
+    futures = client.map(_evaluate, specs, bank_file=bank_file, plugin_paths=plugin_paths, models=models, rate=rate,
+                         smooth=smooth, lag=lag, pure=False)
+    results = client.gather(futures)  # in submission order, whatever finished first
+    out, at = [], 0
+    for name, count in groups:
+        out.append((name, results[at:at + count]))
+        at += count
+    return out
+
+
+def eval(client, bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", plugin_paths=(),  # noqa: A001
+         models=None):
+    """``skidimm eval --bank B --input ...`` with each log scored on the cluster.
+
+    Same arguments and result as :func:`skidimm.eval`; ``client`` is a
+    ``distributed.Client``. Only the reduction (merging per-log metrics,
+    formatting) runs here, on the client.
+    """
+    groups = evaluate_logs(client, bank, inputs, rate=rate, smooth=smooth, lag=lag, plugin_paths=plugin_paths,
+                           models=models)
+    bank_file, plugin_paths, models = _bank_arguments(bank, plugin_paths, models)
+    return skidimm.eval_report(skidimm.Bank(bank_file, plugin_paths, models), groups, output)
+
+
+def _segments(spec, bank_file, plugin_paths, models, mode, rate):
+    bank = _worker_bank(bank_file, plugin_paths, models)
+    return skidimm._native.mode_segments(bank, spec, mode, rate)
+
+
+def _modes_in(segments):
+    return [j for j, logs in segments if logs]
+
+
+def _fit(bank_file, plugin_paths, models, options, modes, *segments):
+    """Fits `modes` (None: every mode in the segments) of a fresh bank to their segments, in log order."""
+    bank = skidimm.Bank(bank_file, plugin_paths, models)  # fitted in place: never the cached one
+    by_mode = {}
+    for log in segments:
+        for j, logs in log:
+            if modes is None or j in modes:
+                by_mode.setdefault(j, []).extend(logs)
+    data = [(j, by_mode[j]) for j in sorted(by_mode)]
+    return skidimm._native.fit_in_place(bank, data, options)
+
+
+def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihood", window=0.0, loss="huber",
+        loss_scale=3.0, hold_unexcited=False, shared=False, fit_r=False, full_q=False, output_bank=None,
+        plugin_paths=(), models=None):
+    """``skidimm fit`` with the logs read on the cluster and each mode fitted on its own worker.
+
+    Same arguments and result as :func:`skidimm.fit`. Reading and splitting
+    the logs is per log; fitting is per mode (each mode's fit depends only on
+    its own segments), except when the fit couples the modes (``shared``
+    bank-level parameters, one ``fit_r`` for the bank), which runs as one
+    task. The segments go from the workers that read them to the worker that
+    fits their mode, not through the client.
+    """
+    if isinstance(logs, (str, os.PathLike)):
+        logs = [logs]
+    bank_file, plugin_paths, models = _bank_arguments(bank, plugin_paths, models)
+    options = skidimm._native.fit_options(objective, float(window), loss, float(loss_scale), hold_unexcited, shared,
+                                          fit_r, full_q)
+    rate = 0.0 if rate is None else float(rate)
+    specs = []
+    for argument in logs:
+        specs.extend(skidimm.expand_log_argument(os.fspath(argument)))
+    segments = client.map(_segments, specs, bank_file=bank_file, plugin_paths=plugin_paths, models=models, mode=mode,
+                          rate=rate, pure=False)
+    modes_per_log = client.gather(client.map(_modes_in, segments, pure=False))
+    if not any(modes_per_log):
+        raise skidimm.Error("no logs to fit")
+    if shared or fit_r:  # the modes are fitted jointly
+        tasks = [client.submit(_fit, bank_file, plugin_paths, models, options, None, *segments, pure=False)]
+    else:
+        tasks = []
+        for j in sorted({j for modes in modes_per_log for j in modes}):
+            mine = [s for s, modes in zip(segments, modes_per_log) if j in modes]
+            tasks.append(client.submit(_fit, bank_file, plugin_paths, models, options, {j}, *mine, pure=False))
+    fitted = {}
+    for result in client.gather(tasks):
+        fitted.update(result)
+    local = skidimm.Bank(bank_file, plugin_paths, models)
+    for j, entry in fitted.items():
+        skidimm._native.apply_fit(local, j, entry["parameters"], entry["q"])
+    call = "skidimm.dask.fit(" + ", ".join(repr(os.fspath(log)) for log in logs) + ")"
+    return skidimm._fit_result(local, fitted, options, mode, name, output_bank, plugin_paths, models, call)
