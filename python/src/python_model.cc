@@ -170,8 +170,7 @@ PythonMotionModel::~PythonMotionModel() {
 template <typename Out, typename... Args>
 bool PythonMotionModel::call(const py::object& method, const char* what, Eigen::Index rows, Eigen::Index cols, Out out,
                              Args&&... args) const noexcept {
-  py::gil_scoped_acquire gil;
-  if (pending_error()) return false;  // one exception is enough: stop calling Python
+  // The GIL is held by the caller (it made the arguments).
   try {
     const py::object result = method(std::forward<Args>(args)...);
     const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(result);
@@ -197,6 +196,8 @@ bool PythonMotionModel::call(const py::object& method, const char* what, Eigen::
 
 bool PythonMotionModel::predict(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                                 double dt, Eigen::Ref<Eigen::VectorXd> x_next) const noexcept {
+  py::gil_scoped_acquire gil;  // before the arguments are made
+  if (pending_error()) return false;
   return call(
       *predict_, "predict", x.size(), 1, [&](Eigen::Index i, Eigen::Index) -> double& { return x_next[i]; }, vector_to_array(x),
       vector_to_array(u), dt);
@@ -205,6 +206,8 @@ bool PythonMotionModel::predict(const Eigen::Ref<const Eigen::VectorXd>& x, cons
 bool PythonMotionModel::jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                                  double dt, Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept {
   if (!has_jacobian_) return sdk::MotionModel::jacobian(x, u, dt, jacobian);
+  py::gil_scoped_acquire gil;
+  if (pending_error()) return false;
   return call(
       *jacobian_, "jacobian", x.size(), x.size(),
       [&](Eigen::Index i, Eigen::Index j) -> double& { return jacobian(i, j); }, vector_to_array(x), vector_to_array(u), dt);
@@ -215,6 +218,8 @@ bool PythonMotionModel::process_noise(const Eigen::Ref<const Eigen::MatrixXd>& i
                                       const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
                                       Eigen::Ref<Eigen::MatrixXd> noise) const noexcept {
   if (!process_noise_) return sdk::MotionModel::process_noise(intensity, x, u, dt, noise);
+  py::gil_scoped_acquire gil;
+  if (pending_error()) return false;
   return call(
       *process_noise_, "process_noise", intensity.rows(), intensity.cols(),
       [&](Eigen::Index i, Eigen::Index j) -> double& { return noise(i, j); }, matrix_to_array(intensity), vector_to_array(x),

@@ -97,6 +97,7 @@ class PythonMotionModel final : public sdk::MotionModel {
   };
 
   // Calls `method(args...)` and copies the result, `rows` x `cols`, into out.
+  // The GIL must be held (the arguments are Python objects).
   template <typename Out, typename... Args>
   bool call(const pybind11::object& method, const char* what, Eigen::Index rows, Eigen::Index cols, Out out,
             Args&&... args) const noexcept;

@@ -1,0 +1,113 @@
+"""Loading banks, finding plugins without configuration, and errors as Python exceptions."""
+
+import os
+import pathlib
+
+import numpy as np
+import pytest
+
+import skidimm
+
+
+def test_bundled_plugins_are_found_next_to_the_module(configs):
+    directory = pathlib.Path(skidimm.module_plugin_directory())
+    assert directory.is_dir()
+    assert directory.parts[-2:] == ("skidimm", "plugins")
+    names = {p["name"] for p in skidimm.plugins() if not p["error"]}
+    assert {"ltc_linear", "ltc_shared", "stc_kinematic", "stc_sided", "linear_features"} <= names
+    # No plugin_paths, no $SKIDIMM_PLUGIN_PATH: the bank loads all the same.
+    bank = skidimm.Bank(configs / "stc_slip4.yaml")
+    assert bank.models == ["stc_kinematic"] * 4
+
+
+def test_search_path_order_is_the_clis(tmp_path, monkeypatch):
+    monkeypatch.setenv("SKIDIMM_PLUGIN_PATH", str(tmp_path / "env"))
+    path = [pathlib.Path(p) for p in skidimm.plugin_search_path([str(tmp_path / "explicit")], [str(tmp_path / "bank")])]
+    here = pathlib.Path(skidimm.module_plugin_directory())
+    assert path[:4] == [tmp_path / "explicit", tmp_path / "bank", tmp_path / "env", here]
+
+
+def test_bank_properties(configs):
+    bank = skidimm.Bank(configs / "ltc_terrains.yaml")
+    assert bank.name == "ltc_terrains"
+    assert bank.states == ["V", "omega"] and bank.inputs == ["phi_dot_L", "phi_dot_R"]
+    assert bank.measurements == ["V", "omega"]
+    assert bank.modes == ["asphalt", "grass", "crushed_concrete"]
+    assert bank.columns["truth_mode"] == "mode"
+    assert bank.parameters("asphalt")["A[0,0]"] == pytest.approx(-36.28555)
+    with pytest.raises(KeyError):
+        bank.parameters("ice")
+
+
+def write_bank(tmp_path, text):
+    path = tmp_path / "bank.yaml"
+    path.write_text(text)
+    return path
+
+
+BROKEN = """name: broken
+states: [V, omega]
+inputs: [phi_dot_L, phi_dot_R]
+measurement:
+  observe: [V, omega]
+  R: {std: [0.05, 0.02]}
+transition: {mean_dwell_time: 10.0}
+initial:
+  covariance: {std: [0.5, 0.5]}
+modes:
+  - name: asphalt
+    model: ltc_linear
+    params: {A: [[-5, 0], [0, -4]], B: [[0.39, 0.39], [-0.83, 0.83]]}
+    Q: [[0.01, 0, 0], [0, 0.01, 0]]
+"""
+
+
+def test_config_error_is_a_value_error_with_file_line_and_field(tmp_path, cli):
+    path = write_bank(tmp_path, BROKEN)
+    with pytest.raises(skidimm.ConfigError) as caught:
+        skidimm.Bank(path)
+    error = caught.value
+    assert isinstance(error, ValueError) and isinstance(error, skidimm.Error)
+    assert error.file == str(path) and error.line == 14 and error.field == "modes[0].Q"
+    # The same message as the CLI's.
+    import subprocess
+
+    executable = os.environ.get("SKIDIMM_EXECUTABLE")
+    if executable:
+        result = subprocess.run([executable, "validate", str(path)], capture_output=True, text=True)
+        assert result.returncode == 1
+        assert str(error) in result.stderr
+
+
+def test_unknown_plugin_is_a_config_error_naming_the_search_path(tmp_path):
+    path = write_bank(tmp_path, BROKEN.replace("ltc_linear", "no_such_model").replace(
+        "[[0.01, 0, 0], [0, 0.01, 0]]", "{diagonal: [0.01, 0.01]}"))
+    with pytest.raises(skidimm.ConfigError, match="no plugin named 'no_such_model'") as caught:
+        skidimm.Bank(path)
+    assert caught.value.field == "modes[0].model"
+
+
+def test_log_error_names_file_and_line(tmp_path, configs):
+    log = tmp_path / "bad.csv"
+    log.write_text("t,phi_dot_L,phi_dot_R,V,omega,mode\n0,1,1,0.1,0,asphalt\n0.02,1,oops,0.1,0,asphalt\n")
+    with pytest.raises(skidimm.LogError) as caught:
+        skidimm.run_log(configs / "ltc_terrains.yaml", log)
+    assert isinstance(caught.value, ValueError)
+    assert caught.value.file == str(log) and caught.value.line == 3
+
+
+def test_wrong_array_shapes_raise_instead_of_aborting(configs):
+    imm = skidimm.Imm(configs / "ltc_terrains.yaml")
+    with pytest.raises(ValueError, match="u: expected shape"):
+        imm.step(0.0, [1.0, 2.0, 3.0], [0.0, 0.0])
+    with pytest.raises(ValueError, match="z: expected shape"):
+        imm.run(np.arange(3.0), np.zeros((3, 2)), np.zeros((2, 2)))
+    assert imm.step(0.0, [1.0, 1.0], [0.0, 0.0]).status == "updated"  # still usable
+
+
+def test_fit_error(tmp_path, configs, singular_logs):
+    short = tmp_path / "short.csv"
+    lines = pathlib.Path(singular_logs["asphalt"][0]).read_text().splitlines()[:4]
+    short.write_text("\n".join(lines) + "\n")
+    with pytest.raises(skidimm.FitError):
+        skidimm.fit(configs / "ltc_terrains.yaml", [f"asphalt={short}"], objective="window", window=0.5)

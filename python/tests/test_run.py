@@ -1,0 +1,120 @@
+"""step and run from Python against each other and against `skidimm run`."""
+
+import threading
+
+import numpy as np
+import pytest
+
+import skidimm
+
+EXAMPLE = "examples/ltc_switching.csv"
+
+
+def arrays(configs, bank):
+    log = skidimm.read_csv(configs / EXAMPLE)
+    t = log["t"]
+    u = np.column_stack([log[c] for c in bank.inputs])
+    z = np.column_stack([log[c] for c in bank.measurements])
+    return log, t, u, z
+
+
+def cli_run(cli, tmp_path, configs, *extra):
+    out = tmp_path / "cli.csv"
+    cli("run", "--bank", configs / "ltc_terrains.yaml", "--input", configs / EXAMPLE, "--output", out, "--quiet",
+        *extra)
+    return skidimm.read_csv(out)
+
+
+def test_run_over_arrays_equals_the_cli_exactly(tmp_path, configs, cli):
+    bank = skidimm.Bank(configs / "ltc_terrains.yaml")
+    log, t, u, z = arrays(configs, bank)
+    out = skidimm.Imm(bank).run(t, u, z, truth=log["mode"])
+    expected = cli_run(cli, tmp_path, configs)
+    assert list(out) == list(expected)  # every column, in the CLI's order
+    for name, column in expected.items():
+        if column.dtype == object:
+            assert list(out[name]) == list(column), name
+        else:
+            np.testing.assert_array_equal(out[name], column, err_msg=name)  # shortest round-trip text: exact
+
+
+@pytest.mark.parametrize("smoothing", [{"smooth": True}, {"lag": 1.5}])
+def test_smoothed_runs_equal_the_cli(tmp_path, configs, cli, smoothing):
+    bank = skidimm.Bank(configs / "ltc_terrains.yaml")
+    log, t, u, z = arrays(configs, bank)
+    out = skidimm.Imm(bank).run(t, u, z, **smoothing)
+    extra = ["--smooth"] if "smooth" in smoothing else ["--lag", smoothing["lag"]]
+    expected = cli_run(cli, tmp_path, configs, *extra)
+    for name in ["mu_asphalt", "mu_grass", "V", "var_omega"]:
+        np.testing.assert_array_equal(out[name], expected[name], err_msg=name)
+    assert list(out["decision"]) == list(expected["decision"])
+
+
+def test_run_log_reads_logs_as_the_cli_does(tmp_path, configs, cli):
+    out = skidimm.run_log(configs / "ltc_terrains.yaml", configs / EXAMPLE)
+    expected = cli_run(cli, tmp_path, configs)
+    assert list(out) == list(expected)
+    np.testing.assert_array_equal(out["mu_grass"], expected["mu_grass"])
+    assert list(out["truth_mode"]) == list(expected["truth_mode"])
+
+
+def test_step_by_step_equals_run(configs):
+    bank = skidimm.Bank(configs / "ltc_terrains.yaml")
+    _, t, u, z = arrays(configs, bank)
+    out = skidimm.Imm(bank).run(t[:200], u[:200], z[:200])
+    imm = skidimm.Imm(bank)
+    for k in range(200):
+        e = imm.step(t[k], u[k], z[k])
+        assert e.mode_probabilities.tolist() == [out[f"mu_{m}"][k] for m in bank.modes]
+        assert e.state.tolist() == [out["V"][k], out["omega"][k]]
+        assert e.mode == out["mode"][k] and e.status == out["status"][k] and e.decision == out["decision"][k]
+    assert e.mode_states.shape == (3, 2) and e.mode_covariances.shape == (3, 2, 2)
+    # A run in chunks, continuing, equals one run.
+    imm.reset()
+    first = imm.run(t[:120], u[:120], z[:120])
+    rest = imm.run(t[120:200], u[120:200], z[120:200], reset=False)
+    np.testing.assert_array_equal(np.concatenate([first["mu_grass"], rest["mu_grass"]]), out["mu_grass"])
+    assert list(first["decision"]) + list(rest["decision"]) == list(out["decision"])
+
+
+def test_missing_measurements_and_rejected_steps(configs):
+    imm = skidimm.Imm(configs / "ltc_terrains.yaml")
+    t = np.array([0.0, 0.02, 0.02, 0.04, 0.06])
+    u = np.ones((5, 2))
+    u[3, 0] = np.nan
+    z = np.zeros((5, 2))
+    z[1] = np.nan
+    out = imm.run(t, u, z)
+    assert list(out["status"]) == ["updated", "predict_only", "rejected_time", "rejected_input", "updated"]
+
+
+def test_dataframe_in_dataframe_out(configs):
+    pd = pytest.importorskip("pandas")
+    bank = skidimm.Bank(configs / "ltc_terrains.yaml")
+    frame = pd.DataFrame(skidimm.read_csv(configs / EXAMPLE))
+    out = skidimm.Imm(bank).run(frame)
+    assert isinstance(out, pd.DataFrame) and len(out) == len(frame)
+    assert list(out.columns)[-3:] == ["decision", "truth_mode", "status"]
+    log, t, u, z = arrays(configs, bank)
+    np.testing.assert_array_equal(out["mu_grass"].to_numpy(), skidimm.Imm(bank).run(t, u, z)["mu_grass"])
+    # Expressions of columns are evaluated like the bank's (muparser).
+    assert skidimm.evaluate_expression("abs(a - b) / 2", {"a": np.array([1.0, 4.0]), "b": np.array([3.0, 1.0])}
+                                       ).tolist() == [1.0, 1.5]
+
+
+def test_runs_in_threads_release_the_gil(configs):
+    bank = skidimm.Bank(configs / "ltc_terrains.yaml")
+    _, t, u, z = arrays(configs, bank)
+    t = np.concatenate([t + 40.0 * k for k in range(20)])  # about 30 000 rows
+    u, z = np.tile(u, (20, 1)), np.tile(z, (20, 1))
+    results = [None, None]
+
+    def work(i):
+        results[i] = skidimm.Imm(bank).run(t, u, z)["mu_grass"]
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(2)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    np.testing.assert_array_equal(results[0], results[1])
