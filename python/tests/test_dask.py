@@ -1,0 +1,44 @@
+"""skidimm.dask on a LocalCluster of worker processes: the figures equal the CLI's."""
+
+import pytest
+
+import skidimm
+
+distributed = pytest.importorskip("distributed")
+import skidimm.dask  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def client():
+    # Worker processes are spawned; pytest's own __main__ is guarded, so they start cleanly.
+    with distributed.LocalCluster(n_workers=3, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=40) as cluster, distributed.Client(cluster) as client:
+        yield client
+
+
+def test_eval_on_the_cluster_equals_skidimm_eval_json(client, configs, cli, switching_logs):
+    bank = configs / "ltc_terrains.yaml"
+    arguments = [str(switching_logs), f"grass={switching_logs / 'run_05.csv'}"]
+    text = skidimm.dask.eval(client, bank, arguments, output="json")
+    # Every figure, group and log, as the CLI prints them (the same text, to the last digit).
+    assert text == cli("eval", "--bank", bank, "--input", arguments[0], "--input", arguments[1], "--json")
+    workers = client.run(lambda: sorted(skidimm.dask._banks))  # each worker loaded the bank once
+    assert len(workers) == 3 and sum(1 for loaded in workers.values() if loaded) >= 2
+    report = skidimm.dask.eval(client, bank, [switching_logs], smooth=True)
+    assert report == skidimm.eval(bank, [switching_logs], smooth=True)
+    assert report["overall"]["logs"] == 24
+
+
+def test_fit_on_the_cluster_equals_the_local_fit(client, configs, singular_logs):
+    bank = configs / "ltc_terrains.yaml"
+    logs = [f"asphalt={p}" for p in singular_logs["asphalt"]] + [f"grass={p}" for p in singular_logs["grass"]]
+    here = skidimm.fit(bank, logs, objective="window", window=0.5)
+    there = skidimm.dask.fit(client, bank, logs, objective="window", window=0.5)
+
+    def body(text):
+        return [line for line in text.splitlines() if not line.startswith("# ")]
+
+    assert body(there["bank_yaml"]) == body(here["bank_yaml"])
+    assert there["entries"] == here["entries"]
+    for mode in ("asphalt", "grass"):
+        assert there["reports"][mode]["parameters"] == here["reports"][mode]["parameters"]

@@ -1,0 +1,77 @@
+"""simulate, fit and eval as functions, against the CLI's output."""
+
+import json
+
+import numpy as np
+import pytest
+
+import skidimm
+
+
+def test_simulate_equals_the_cli(tmp_path, configs, cli):
+    scenario = configs / "scenarios" / "ltc_switching.yaml"
+    out = skidimm.simulate(scenario, seed=11, duration=5.0)
+    cli("simulate", "--scenario", scenario, "--seed", 11, "--duration", 5, "--output", tmp_path / "cli.csv", "--quiet")
+    expected = skidimm.read_csv(tmp_path / "cli.csv")
+    assert list(out) == list(expected)
+    for name, column in expected.items():
+        if column.dtype == object:
+            assert list(out[name]) == list(column)
+        else:
+            np.testing.assert_array_equal(out[name], column, err_msg=name)
+
+
+def test_simulate_models(tmp_path, configs):
+    out = skidimm.simulate_models(configs / "ltc_terrains.yaml", str(configs / "examples/ltc_switching.csv"), seed=3)
+    assert {"t", "phi_dot_L", "V", "omega", "mode", "true_V"} <= set(out)
+    assert set(out["mode"]) == {"asphalt", "grass", "crushed_concrete"}
+
+
+def test_eval_equals_the_cli_json(configs, cli, switching_logs):
+    bank = configs / "ltc_terrains.yaml"
+    first = switching_logs / "run_00.csv"
+    arguments = [str(first), f"grass={switching_logs / 'run_01.csv'}"]
+    text = skidimm.eval(bank, arguments, output="json")
+    assert text == cli("eval", "--bank", bank, "--input", arguments[0], "--input", arguments[1], "--json")
+    report = skidimm.eval(bank, arguments)
+    assert report == json.loads(text)
+    assert set(report["groups"]) == {"run_00", "grass"}
+    table = skidimm.eval(bank, arguments, output="table")
+    assert table == cli("eval", "--bank", bank, "--input", arguments[0], "--input", arguments[1])
+
+
+def test_log_results_pickle_losslessly(configs, switching_logs):
+    import pickle
+
+    result = skidimm.evaluate_log(configs / "ltc_terrains.yaml", str(switching_logs / "run_02.csv"), smooth=True)
+    back = pickle.loads(pickle.dumps(result))
+    assert back.to_dict() == result.to_dict()
+    assert result.accuracy > 0.5 and result.steps > 100
+
+
+def test_fit_equals_the_cli(tmp_path, configs, cli, singular_logs):
+    bank = configs / "ltc_terrains.yaml"
+    logs = [f"asphalt={p}" for p in singular_logs["asphalt"]] + [f"grass={p}" for p in singular_logs["grass"]]
+    result = skidimm.fit(bank, logs, objective="window", window=0.5, output_bank=tmp_path / "python.yaml")
+    arguments = ["fit", "--bank", bank, "--objective", "window", "--window", 0.5, "--output-bank", tmp_path / "cli.yaml"]
+    for log in logs:
+        arguments += ["--log", log]
+    cli(*arguments)
+
+    def body(text):  # everything but the leading comment (which records the command)
+        lines = text.splitlines()
+        while lines and lines[0].startswith("#"):
+            lines.pop(0)
+        return lines
+
+    assert body(result["bank_yaml"]) == body((tmp_path / "cli.yaml").read_text())
+    assert (tmp_path / "python.yaml").read_text() == result["bank_yaml"]
+    assert set(result["reports"]) == {"asphalt", "grass"}
+    report = result["reports"]["asphalt"]
+    assert report["rmse"].shape == (2,) and report["q"].shape == (2, 2)
+    value, sd = report["parameters"]["A[0,0]"]
+    assert value < 0 and sd > 0
+    assert "- name: asphalt" in result["entries"]
+    fitted = result["bank"]
+    assert fitted.parameters("asphalt")["A[0,0]"] == pytest.approx(value, rel=1e-6)
+    skidimm.Imm(fitted).step(0.0, [1.0, 1.0], [0.1, 0.0])
