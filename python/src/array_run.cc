@@ -12,14 +12,13 @@ namespace {
 
 using ConstVectorMap = Eigen::Map<const Eigen::VectorXd>;
 
-bool accepted(StepStatus status) {
-  return status != StepStatus::kRejectedTime && status != StepStatus::kRejectedInput;
-}
+bool accepted(StepStatus status) { return status != StepStatus::kRejectedTime && status != StepStatus::kRejectedInput; }
 
 // Appends one row; the decision is left for the caller.
 void append(double t, const ImmEstimate& e, RunColumns* out) {
   out->t.push_back(t);
-  for (std::size_t j = 0; j < out->mu.size(); ++j) out->mu[j].push_back(e.mode_probabilities[static_cast<Eigen::Index>(j)]);
+  for (std::size_t j = 0; j < out->mu.size(); ++j)
+    out->mu[j].push_back(e.mode_probabilities[static_cast<Eigen::Index>(j)]);
   for (std::size_t i = 0; i < out->state.size(); ++i) {
     const auto s = static_cast<Eigen::Index>(i);
     out->state[i].push_back(e.state[s]);

@@ -62,12 +62,13 @@ Bank load_bank(const fs::path& file, const std::vector<fs::path>& plugin_paths, 
       try {
         documented = registry.find(mode.model).parameter_keys;
       } catch (const PluginError& e) {
-        throw ConfigError(file_name, mode.line, field + ".model",
-                          std::string(e.what()) + " (nor a Python model: registered are " + [&] {
-                            std::vector<std::string> names;
-                            for (const auto& [name, cls] : python_models) names.push_back(name);
-                            return "[" + join(names) + "]";
-                          }() + ")");
+        throw ConfigError(
+            file_name, mode.line,
+            field + ".model", std::string(e.what()) + " (nor a Python model: registered are " + [&] {
+              std::vector<std::string> names;
+              for (const auto& [name, cls] : python_models) names.push_back(name);
+              return "[" + join(names) + "]";
+            }() + ")");
       }
     }
     sdk::ParameterSet params;

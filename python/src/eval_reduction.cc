@@ -4,11 +4,11 @@
 // (requested in the report of issue 14); until they move, including the
 // file keeps Python's figures identical to the CLI's by construction rather
 // than by a copy that could drift. Nothing else of the CLI is linked.
-#include "eval_command.cc"  // NOLINT(bugprone-suspicious-include)
+#include "eval_reduction.h"
 
 #include <sstream>
 
-#include "eval_reduction.h"
+#include "eval_command.cc"  // NOLINT(bugprone-suspicious-include)
 
 namespace skidimm {
 namespace python {

@@ -2,13 +2,13 @@
 // writes (load_logs, fixed, rmse_text in an unnamed namespace there), so that
 // skidimm.fit writes what `skidimm fit` writes. A stopgap like
 // eval_reduction.cc's include (see the report of issue 14).
-#include "fit_command.cc"  // NOLINT(bugprone-suspicious-include)
+#include "fit_and_simulate.h"
 
 #include <charconv>
 #include <fstream>
 #include <sstream>
 
-#include "fit_and_simulate.h"
+#include "fit_command.cc"  // NOLINT(bugprone-suspicious-include)
 #include "skidimm/log_io.h"
 #include "skidimm/simulation/scenario.h"
 
@@ -37,9 +37,9 @@ FitTexts fit_texts(const Bank& bank, const std::vector<FittedMode>& fitted, cons
                                 ") from " + std::to_string(f.logs) + " log(s); one-step RMSE " +
                                 cli::rmse_text(config, f.report.rmse);
     const ModeConfig& mode = config.modes[static_cast<std::size_t>(f.mode)];
-    texts.entries += fitting::format_mode_entry(output_name(f.mode), mode.model,
-                                                *bank.models[static_cast<std::size_t>(f.mode)], f.report.q_intensity,
-                                                {comment}, mode.params);
+    texts.entries +=
+        fitting::format_mode_entry(output_name(f.mode), mode.model, *bank.models[static_cast<std::size_t>(f.mode)],
+                                   f.report.q_intensity, {comment}, mode.params);
   }
   std::string modes_block = "modes:\n";
   for (int j = 0; j < config.num_modes(); ++j) {
@@ -54,17 +54,16 @@ FitTexts fit_texts(const Bank& bank, const std::vector<FittedMode>& fitted, cons
       modes_block += fitting::format_mode_entry(output_name(j), mode.model, *bank.models[static_cast<std::size_t>(j)],
                                                 f->report.q_intensity, {comment}, mode.params);
     } else {
-      modes_block += fitting::format_mode_entry(output_name(j), mode.model, *bank.models[static_cast<std::size_t>(j)],
-                                                mode.q_intensity, {"not fitted: no log given for this mode"},
-                                                mode.params);
+      modes_block +=
+          fitting::format_mode_entry(output_name(j), mode.model, *bank.models[static_cast<std::size_t>(j)],
+                                     mode.q_intensity, {"not fitted: no log given for this mode"}, mode.params);
     }
   }
   std::vector<std::pair<std::string, std::string>> blocks;
   if (request.options.shared) {
-    blocks.emplace_back("shared", "shared: " +
-                                      fitting::format_parameters(*bank.models[0], sdk::ParameterScope::kBank,
-                                                                 config.shared) +
-                                      "\n");
+    blocks.emplace_back(
+        "shared",
+        "shared: " + fitting::format_parameters(*bank.models[0], sdk::ParameterScope::kBank, config.shared) + "\n");
   }
   blocks.emplace_back("modes", modes_block);
   fitting::write_bank_from_template(config.file, output, request.header, blocks);

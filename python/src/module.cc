@@ -11,12 +11,12 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
 #include <memory>
 #include <optional>
-#include <unistd.h>
 
 #include "array_run.h"
 #include "bank_loading.h"
@@ -120,7 +120,8 @@ py::dict columns_to_dict(RunColumns&& c, const BankConfig& config) {
         adopt(std::move(c.mu[static_cast<std::size_t>(j)]));
   }
   for (int i = 0; i < config.state_dim(); ++i) {
-    out[py::str(config.state_names[static_cast<std::size_t>(i)])] = adopt(std::move(c.state[static_cast<std::size_t>(i)]));
+    out[py::str(config.state_names[static_cast<std::size_t>(i)])] =
+        adopt(std::move(c.state[static_cast<std::size_t>(i)]));
   }
   for (int i = 0; i < config.state_dim(); ++i) {
     out[py::str("var_" + config.state_names[static_cast<std::size_t>(i)])] =
@@ -254,7 +255,8 @@ struct PyImm {
 
   PyImm(PyBank b, const std::string& kernel, const py::object& decision_settings) : bank(std::move(b)) {
     if (kernel != "fastest" && kernel != "dynamic") throw py::value_error("kernel must be 'fastest' or 'dynamic'");
-    imm = std::make_unique<Imm>(*bank.bank, kernel == "dynamic" ? ImmKernelChoice::kDynamic : ImmKernelChoice::kFastest);
+    imm =
+        std::make_unique<Imm>(*bank.bank, kernel == "dynamic" ? ImmKernelChoice::kDynamic : ImmKernelChoice::kFastest);
     decision = std::make_unique<ModeDecision>(bank.config(), decision_of(bank.config(), decision_settings));
   }
   const BankConfig& config() const { return imm->config(); }
@@ -494,8 +496,9 @@ PYBIND11_MODULE(_skidimm, m) {
   register_errors(m);
 
   // ---------------------------------------------------------------- plugins
-  m.def("module_plugin_directory", [] { return module_plugin_directory(); },
-        "The bundled plugins' directory next to this module (build tree or install).");
+  m.def(
+      "module_plugin_directory", [] { return module_plugin_directory(); },
+      "The bundled plugins' directory next to this module (build tree or install).");
   m.def("plugin_search_path", &plugin_search_path, py::arg("plugin_paths") = std::vector<fs::path>{},
         py::arg("bank_paths") = std::vector<fs::path>{}, "The search path a bank's plugins are looked up on.");
   m.def(
@@ -516,7 +519,8 @@ PYBIND11_MODULE(_skidimm, m) {
         }
         return out;
       },
-      py::arg("plugin_paths") = std::vector<fs::path>{}, "Every plugin library on the search path (`skidimm plugins`).");
+      py::arg("plugin_paths") = std::vector<fs::path>{},
+      "Every plugin library on the search path (`skidimm plugins`).");
 
   // ---------------------------------------------------------------- Bank
   py::class_<PyBank>(m, "Bank", "A bank file's configuration and its modes' models (bank.h).")
@@ -618,11 +622,13 @@ PYBIND11_MODULE(_skidimm, m) {
            "One filter cycle at time t (s) with inputs u and measurements z (NaN = not measured).")
       .def("_run", &run, py::arg("t"), py::arg("u"), py::arg("z"), py::arg("smooth") = false,
            py::arg("lag") = py::none(), py::arg("truth") = py::none(), py::arg("reset") = true)
-      .def("reset", [](PyImm& self) {
-        self.imm->reset();
-        self.decision->reset();
-      })
-      .def_property_readonly("uses_fixed_size_kernel", [](const PyImm& self) { return self.imm->uses_fixed_size_kernel(); })
+      .def("reset",
+           [](PyImm& self) {
+             self.imm->reset();
+             self.decision->reset();
+           })
+      .def_property_readonly("uses_fixed_size_kernel",
+                             [](const PyImm& self) { return self.imm->uses_fixed_size_kernel(); })
       .def(
           "_step_loop",
           [](PyImm& self, const py::object& t, const py::object& u, const py::object& z) {
@@ -731,7 +737,8 @@ PYBIND11_MODULE(_skidimm, m) {
       .def_readonly("steps", &evaluation::LogResult::steps)
       .def_property_readonly("accuracy", [](const evaluation::LogResult& r) { return r.metrics.accuracy(); })
       .def_property_readonly("duration", [](const evaluation::LogResult& r) { return r.metrics.duration; })
-      .def_property_readonly("main_truth", [](const evaluation::LogResult& r) { return evaluation::main_truth(r.metrics); })
+      .def_property_readonly("main_truth",
+                             [](const evaluation::LogResult& r) { return evaluation::main_truth(r.metrics); })
       .def("to_dict", &to_dict)
       .def_static("from_dict", &log_result_from_dict)
       .def(py::pickle([](const evaluation::LogResult& r) { return to_dict(r); },
@@ -859,8 +866,8 @@ PYBIND11_MODULE(_skidimm, m) {
         std::vector<FittedMode> modes;
         for (const auto& [index, entry] : fitted) {
           const py::dict e = py::reinterpret_borrow<py::dict>(entry);
-          modes.push_back(FittedMode{index.cast<int>(), e["logs"].cast<int>(),
-                                     report_from_dict(e["report"].cast<py::dict>())});
+          modes.push_back(
+              FittedMode{index.cast<int>(), e["logs"].cast<int>(), report_from_dict(e["report"].cast<py::dict>())});
         }
         std::sort(modes.begin(), modes.end(), [](const FittedMode& a, const FittedMode& b) { return a.mode < b.mode; });
         FitRequest request;

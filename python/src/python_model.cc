@@ -90,13 +90,13 @@ py::dict parameters_to_dict(const sdk::ParameterSet& params) {
 
 PythonMotionModel::PythonMotionModel(const py::object& cls, const std::string& model_name,
                                      const sdk::ParameterSet& params, const std::vector<std::string>& bank_states,
-                                     const std::vector<bool>& bank_angles,
-                                     const std::vector<std::string>& bank_inputs)
+                                     const std::vector<bool>& bank_angles, const std::vector<std::string>& bank_inputs)
     : model_name_(model_name) {
   instance_ = std::make_unique<py::object>(cls(parameters_to_dict(params)));
   const py::object& self = *instance_;
   if (!overrides(self, "predict")) {
-    throw Error("Python model '" + model_name + "' (" + py::str(cls).cast<std::string>() + ") defines no predict(x, u, dt)");
+    throw Error("Python model '" + model_name + "' (" + py::str(cls).cast<std::string>() +
+                ") defines no predict(x, u, dt)");
   }
   predict_ = std::make_unique<py::object>(self.attr("predict"));
   has_jacobian_ = overrides(self, "jacobian");
@@ -199,8 +199,8 @@ bool PythonMotionModel::predict(const Eigen::Ref<const Eigen::VectorXd>& x, cons
   py::gil_scoped_acquire gil;  // before the arguments are made
   if (pending_error()) return false;
   return call(
-      *predict_, "predict", x.size(), 1, [&](Eigen::Index i, Eigen::Index) -> double& { return x_next[i]; }, vector_to_array(x),
-      vector_to_array(u), dt);
+      *predict_, "predict", x.size(), 1, [&](Eigen::Index i, Eigen::Index) -> double& { return x_next[i]; },
+      vector_to_array(x), vector_to_array(u), dt);
 }
 
 bool PythonMotionModel::jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
@@ -210,7 +210,8 @@ bool PythonMotionModel::jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, con
   if (pending_error()) return false;
   return call(
       *jacobian_, "jacobian", x.size(), x.size(),
-      [&](Eigen::Index i, Eigen::Index j) -> double& { return jacobian(i, j); }, vector_to_array(x), vector_to_array(u), dt);
+      [&](Eigen::Index i, Eigen::Index j) -> double& { return jacobian(i, j); }, vector_to_array(x), vector_to_array(u),
+      dt);
 }
 
 bool PythonMotionModel::process_noise(const Eigen::Ref<const Eigen::MatrixXd>& intensity,
@@ -222,8 +223,8 @@ bool PythonMotionModel::process_noise(const Eigen::Ref<const Eigen::MatrixXd>& i
   if (pending_error()) return false;
   return call(
       *process_noise_, "process_noise", intensity.rows(), intensity.cols(),
-      [&](Eigen::Index i, Eigen::Index j) -> double& { return noise(i, j); }, matrix_to_array(intensity), vector_to_array(x),
-      vector_to_array(u), dt);
+      [&](Eigen::Index i, Eigen::Index j) -> double& { return noise(i, j); }, matrix_to_array(intensity),
+      vector_to_array(x), vector_to_array(u), dt);
 }
 
 void PythonMotionModel::get_parameters(Eigen::Ref<Eigen::VectorXd> values) const noexcept {
