@@ -2,6 +2,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <sstream>
@@ -27,7 +28,10 @@ struct Result {
 };
 
 Result run_skidimm(const std::string& arguments) {
-  const fs::path dir = fs::path(::testing::TempDir()) / "skidimm_cli_capture";
+  // One capture directory per test process: ctest runs the tests of this file in parallel.
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const fs::path dir = fs::path(::testing::TempDir()) /
+                       ("skidimm_cli_capture_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const std::string command = std::string(SKIDIMM_EXECUTABLE) + " " + arguments + " > " + (dir / "out").string() +
                               " 2> " + (dir / "err").string() + " < /dev/null";
