@@ -139,8 +139,13 @@ class FigureReporter : public benchmark::ConsoleReporter {
       const auto rows = f.counters.find("rows");
       const auto allocations = f.counters.find("allocs_per_row");
       const double rows_per_second = rows == f.counters.end() ? 0.0 : rows->second / f.seconds;
-      std::printf("  %-28s %12.0f rows/s", name.c_str(), rows_per_second);
-      if (allocations != f.counters.end()) std::printf("   %.4f heap allocations per row", allocations->second);
+      std::string shown = name;
+      for (const char* suffix : {"/manual_time", "/iterations:1"}) {
+        const auto at = shown.find(suffix);
+        if (at != std::string::npos) shown.erase(at, std::strlen(suffix));
+      }
+      std::printf("  %-24s %10.0f rows/s", shown.c_str(), rows_per_second);
+      if (allocations != f.counters.end()) std::printf("   %.2g heap allocations per row", allocations->second);
       std::printf("\n");
     }
   }

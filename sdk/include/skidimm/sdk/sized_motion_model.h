@@ -39,18 +39,25 @@ class SizedMotionModel : public MotionModel {
     return false;
   }
 
+  // The dynamic-size virtuals the engine calls, once for all sized models.
+  // Vectors behind an Eigen::Ref<VectorXd> are contiguous, so the arguments
+  // reach the fixed-size forms through fixed-size maps: an unrolled copy of
+  // the n + m doubles their signatures take by value, no dynamic-size
+  // evaluation, and the results go straight into the caller's storage.
   bool predict(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
                Eigen::Ref<Eigen::VectorXd> x_next) const noexcept final {
+    const State x_fixed = Eigen::Map<const State>(x.data());
+    const Input u_fixed = input(u);
     State next;
-    if (!predict_fixed(State(x), Input(u), dt, &next)) return false;
-    x_next = next;
+    if (!predict_fixed(x_fixed, u_fixed, dt, &next)) return false;
+    Eigen::Map<State>(x_next.data()) = next;
     return true;
   }
 
   bool jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
                 Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept final {
-    const State x_fixed(x);
-    const Input u_fixed(u);
+    const State x_fixed = Eigen::Map<const State>(x.data());
+    const Input u_fixed = input(u);
     Jacobian fixed;
     if (has_analytic_jacobian()) {
       if (!jacobian_fixed(x_fixed, u_fixed, dt, &fixed)) return false;
@@ -60,11 +67,24 @@ class SizedMotionModel : public MotionModel {
       auto angle = [this](int i) { return is_angle(i); };
       if (!numeric_state_jacobian_fixed(step, angle, x_fixed, &fixed)) return false;
     }
-    // Element-wise: for 1x1 models GCC 12 misreads a packet copy as out of bounds.
-    for (int i = 0; i < kStateDim; ++i) {
-      for (int j = 0; j < kStateDim; ++j) jacobian(i, j) = fixed(i, j);
+    if (kStateDim > 1 && jacobian.outerStride() == kStateDim) {
+      Eigen::Map<Jacobian>(jacobian.data()) = fixed;
+    } else {
+      // Element-wise: for 1x1 models GCC 12 misreads a packet copy as out of bounds.
+      for (int i = 0; i < kStateDim; ++i) {
+        for (int j = 0; j < kStateDim; ++j) jacobian(i, j) = fixed(i, j);
+      }
     }
     return true;
+  }
+
+ private:
+  static Input input(const Eigen::Ref<const Eigen::VectorXd>& u) {
+    if constexpr (kInputDim == 0) {
+      return Input();
+    } else {
+      return Eigen::Map<const Input>(u.data());
+    }
   }
 };
 
