@@ -104,7 +104,21 @@ void print_report(const BankConfig& config, const std::string& name, const ModeL
   for (const fitting::ParameterEstimate& p : r.parameters) {
     std::cerr << "  " << p.name << " = " << fixed(p.value, 6) << " +- " << fixed(p.standard_deviation, 2) << "\n";
   }
-  std::cerr << "  one-step RMSE: " << rmse_text(config, r.rmse) << "\n";
+  for (const fitting::ParameterEstimate& p : r.noise_parameters) {
+    std::cerr << "  " << p.name << " = " << fixed(p.value, 6) << " +- " << fixed(p.standard_deviation, 2) << "\n";
+  }
+  if (std::isfinite(r.negative_log_likelihood)) {
+    std::cerr << "  negative log-likelihood " << fixed(r.negative_log_likelihood, 8) << " over " << r.measured_rows
+              << " measured rows (" << fixed(r.negative_log_likelihood_per_row) << " per row)\n";
+    std::cerr << "  innovation RMSE: " << rmse_text(config, r.rmse) << "\n";
+    std::string nis;
+    for (Eigen::Index c = 0; c < r.mean_nis.size(); ++c) {
+      nis += (c ? ", " : "") + config.measurement.names[static_cast<std::size_t>(c)] + " " + fixed(r.mean_nis[c], 3);
+    }
+    std::cerr << "  mean NIS (1 when consistent): " << nis << "\n";
+  } else {
+    std::cerr << "  one-step RMSE: " << rmse_text(config, r.rmse) << "\n";
+  }
   std::cerr << "  (no-change baseline: " << rmse_text(config, persistence_rmse(data)) << ")\n";
   std::cerr << "  Q = " << fitting::format_matrix(r.q_intensity) << "\n";
   for (const std::string& w : r.warnings) std::cerr << "  warning: " << w << "\n";
@@ -119,6 +133,9 @@ int fit(const FitCommandOptions& options) {
     const SamplingConfig sampling = sampling_of(config, options.rate);
     const std::vector<ModeLogs> data = load_logs(config, options.logs, options.mode, sampling);
     if (data.empty()) throw Error("no logs given (--log)");
+    if (options.fit_r && !options.append_to.empty()) {
+      throw Error("--fit-r fits the bank's R, which --append-to cannot change: use --output-bank");
+    }
 
     fitting::BankFitOptions fit_options;
     fit_options.objective = fitting::objective_from_string(options.objective);
@@ -131,6 +148,7 @@ int fit(const FitCommandOptions& options) {
     fit_options.full_process_noise = options.full_q;
     std::map<int, FitReport> reports = fitting::fit_bank(&bank, data, fit_options);
 
+    if (options.fit_r) std::cerr << "fitted bank R = " << fitting::format_matrix(bank.config.measurement.r) << "\n";
     auto output_name = [&](int j) {
       const std::string& original = config.modes[static_cast<std::size_t>(j)].name;
       return !options.name.empty() && original == options.mode ? options.name : original;
@@ -141,13 +159,16 @@ int fit(const FitCommandOptions& options) {
     for (const ModeLogs& d : data) {
       const FitReport& r = reports[d.mode];
       print_report(config, output_name(d.mode), d, r);
-      std::string comment = "fitted by skidimm fit (window " + fixed(options.window) + " s, " + options.loss +
-                            ") from " + std::to_string(d.logs.size()) + " log(s); one-step RMSE " +
-                            rmse_text(config, r.rmse);
+      const bool likelihood = fit_options.objective == fitting::Objective::kLikelihood;
+      std::string comment = (likelihood ? std::string("fitted by skidimm fit (likelihood) from ")
+                                        : "fitted by skidimm fit (window " + fixed(options.window) + " s, " +
+                                              options.loss + ") from ") +
+                            std::to_string(d.logs.size()) + " log(s); " +
+                            (likelihood ? "innovation RMSE " : "one-step RMSE ") + rmse_text(config, r.rmse);
       const ModeConfig& mode = config.modes[static_cast<std::size_t>(d.mode)];
       entries += fitting::format_mode_entry(output_name(d.mode), mode.model,
                                             *bank.models[static_cast<std::size_t>(d.mode)], r.q_intensity, {comment},
-                                            mode.params);
+                                            mode.params, mode.fit_when);
     }
 
     for (const std::string& text : options.held_out) {
@@ -172,19 +193,24 @@ int fit(const FitCommandOptions& options) {
         if (fitted != reports.end()) {
           for (const ModeLogs& d : data) {
             if (d.mode != j) continue;
-            std::string comment = "one-step RMSE " + rmse_text(config, fitted->second.rmse) + " on " +
+            std::string comment = std::string(fit_options.objective == fitting::Objective::kLikelihood
+                                                  ? "innovation RMSE "
+                                                  : "one-step RMSE ") +
+                                  rmse_text(config, fitted->second.rmse) + " on " +
                                   std::to_string(d.logs.size()) + " log(s)";
             modes_block += fitting::format_mode_entry(output_name(j), config.modes[static_cast<std::size_t>(j)].model,
                                                       *bank.models[static_cast<std::size_t>(j)],
                                                       fitted->second.q_intensity, {comment},
-                                                      config.modes[static_cast<std::size_t>(j)].params);
+                                                      config.modes[static_cast<std::size_t>(j)].params,
+                                                    config.modes[static_cast<std::size_t>(j)].fit_when);
           }
         } else {
           modes_block += fitting::format_mode_entry(output_name(j), config.modes[static_cast<std::size_t>(j)].model,
                                                     *bank.models[static_cast<std::size_t>(j)],
                                                     config.modes[static_cast<std::size_t>(j)].q_intensity,
                                                     {"not fitted: no log given for this mode"},
-                                                    config.modes[static_cast<std::size_t>(j)].params);
+                                                    config.modes[static_cast<std::size_t>(j)].params,
+                                                    config.modes[static_cast<std::size_t>(j)].fit_when);
         }
       }
       std::vector<std::pair<std::string, std::string>> blocks;
@@ -193,6 +219,7 @@ int fit(const FitCommandOptions& options) {
             "shared", "shared: " +
                           fitting::format_parameters(*bank.models[0], sdk::ParameterScope::kBank, config.shared) + "\n");
       }
+      if (options.fit_r) blocks.emplace_back("measurement", fitting::format_measurement_block(bank.config));
       blocks.emplace_back("modes", modes_block);
       fitting::write_bank_from_template(options.bank, options.output_bank,
                                         {"Written by skidimm fit; reproduce with:", "  " + options.command_line}, blocks);

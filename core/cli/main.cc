@@ -151,8 +151,9 @@ int main(int argc, char** argv) {
                    "(default r-scale,q-scale,dwell,floor)");
   tune->add_option("--folds", tune_options.folds, "Groups of logs for cross-validation; 0 = leave one log out (default)")
       ->check(CLI::NonNegativeNumber);
-  tune->add_option("--inner-folds", tune_options.inner_folds, "Groups of the nested assessment's inner cross-validation")
-      ->check(CLI::Range(2, 1000));
+  tune->add_option("--inner-folds", tune_options.inner_folds,
+                   "Groups of the nested assessment's inner cross-validation; 0 = leave one log out (default 4)")
+      ->check(CLI::Range(0, 1000) & !CLI::IsMember({1}));
   tune->add_flag("--no-assess", tune_options.no_assess, "Skip the nested assessment (its scores are the honest ones)");
   tune->add_option("--threads", tune_options.threads, "Worker threads (default: every core)")->check(CLI::NonNegativeNumber);
   tune->add_option("--window", tune_options.window, "The window objective's window in seconds (0: one-step)")

@@ -116,6 +116,7 @@ int tune(const TuneCommandOptions& options) {
     for (const std::string& name : tune_options.objectives) {
       if (name == "none") {  // the bank's models as they are: tune the settings only
         fitters[name] = [](Bank*, const std::vector<fitting::ModeLogs>&) {};
+        tune_options.separable.insert(name);
         continue;
       }
       fitting::BankFitOptions fit_options;
@@ -124,6 +125,8 @@ int tune(const TuneCommandOptions& options) {
       fit_options.window.hold_unexcited = options.hold_unexcited;
       fit_options.fit_measurement_noise = options.fit_r;
       fit_options.full_process_noise = options.full_q;
+      // Without a joint R each mode's fit depends on its own logs alone.
+      if (!options.fit_r) tune_options.separable.insert(name);
       fitters[name] = [fit_options](Bank* bank, const std::vector<fitting::ModeLogs>& data) {
         fitting::fit_bank(bank, data, fit_options);
       };
@@ -131,7 +134,10 @@ int tune(const TuneCommandOptions& options) {
     tune_options.progress(std::to_string(logs.size()) + " logs, " +
                           (options.folds > 0 ? std::to_string(options.folds) + "-fold" : "leave-one-log-out") +
                           " cross-validation" +
-                          (tune_options.assess ? ", nested " + std::to_string(options.inner_folds) + "-fold assessment"
+                          (tune_options.assess ? (options.inner_folds > 0
+                                                                   ? ", nested " + std::to_string(options.inner_folds) +
+                                                                         "-fold assessment"
+                                                                   : ", nested leave-one-log-out assessment")
                                                : ""));
     const fitting::TuneResult result = fitting::tune(
         [&] { return Bank::load(options.bank, options.plugin_paths); }, logs, fitters, tune_options);
@@ -159,7 +165,7 @@ int tune(const TuneCommandOptions& options) {
                                                   c.modes[static_cast<std::size_t>(j)].model,
                                                   *tuned.models[static_cast<std::size_t>(j)],
                                                   c.modes[static_cast<std::size_t>(j)].q_intensity, {},
-                                                  c.modes[static_cast<std::size_t>(j)].params);
+                                                  c.modes[static_cast<std::size_t>(j)].params, c.modes[static_cast<std::size_t>(j)].fit_when);
       }
       std::vector<std::pair<std::string, std::string>> blocks{
           {"measurement", fitting::format_measurement_block(c)},

@@ -30,7 +30,7 @@ bool accepted(StepStatus status) {
 
 }  // namespace
 
-long run_log(const Bank& bank, LogReader* reader, const EstimatorOptions& options,
+long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
              const std::function<void(const LogSample&, const ImmEstimate&)>& sink) {
   Imm imm(bank);
   LogSample sample;
@@ -93,7 +93,7 @@ long run_log(const Bank& bank, LogReader* reader, const EstimatorOptions& option
   return steps;
 }
 
-void write_estimates(const Bank& bank, LogReader* reader, const EstimatorOptions& options,
+void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
                      const DecisionConfig& decision_settings, const std::string& label, bool with_truth,
                      EstimatesWriter* writer, RunSummary* summary, const std::function<void()>& progress) {
   const BankConfig& config = bank.config;

@@ -33,13 +33,16 @@ FitTexts fit_texts(const Bank& bank, const std::vector<FittedMode>& fitted, cons
   const fitting::FitOptions& window = request.options.window;
   FitTexts texts;
   for (const FittedMode& f : fitted) {
-    const std::string comment = "fitted by skidimm fit (window " + cli::fixed(window.window) + " s, " + window.loss +
-                                ") from " + std::to_string(f.logs) + " log(s); one-step RMSE " +
-                                cli::rmse_text(config, f.report.rmse);
+    const bool likelihood = request.options.objective == fitting::Objective::kLikelihood;
+    const std::string comment =
+        (likelihood ? std::string("fitted by skidimm fit (likelihood) from ")
+                    : "fitted by skidimm fit (window " + cli::fixed(window.window) + " s, " + window.loss + ") from ") +
+        std::to_string(f.logs) + " log(s); " + (likelihood ? "innovation RMSE " : "one-step RMSE ") +
+        cli::rmse_text(config, f.report.rmse);
     const ModeConfig& mode = config.modes[static_cast<std::size_t>(f.mode)];
     texts.entries +=
         fitting::format_mode_entry(output_name(f.mode), mode.model, *bank.models[static_cast<std::size_t>(f.mode)],
-                                   f.report.q_intensity, {comment}, mode.params);
+                                   f.report.q_intensity, {comment}, mode.params, mode.fit_when);
   }
   std::string modes_block = "modes:\n";
   for (int j = 0; j < config.num_modes(); ++j) {
@@ -50,13 +53,15 @@ FitTexts fit_texts(const Bank& bank, const std::vector<FittedMode>& fitted, cons
     }
     if (f != nullptr) {
       const std::string comment =
-          "one-step RMSE " + cli::rmse_text(config, f->report.rmse) + " on " + std::to_string(f->logs) + " log(s)";
+          std::string(request.options.objective == fitting::Objective::kLikelihood ? "innovation RMSE "
+                                                                                    : "one-step RMSE ") +
+          cli::rmse_text(config, f->report.rmse) + " on " + std::to_string(f->logs) + " log(s)";
       modes_block += fitting::format_mode_entry(output_name(j), mode.model, *bank.models[static_cast<std::size_t>(j)],
-                                                f->report.q_intensity, {comment}, mode.params);
+                                                f->report.q_intensity, {comment}, mode.params, mode.fit_when);
     } else {
       modes_block +=
           fitting::format_mode_entry(output_name(j), mode.model, *bank.models[static_cast<std::size_t>(j)],
-                                     mode.q_intensity, {"not fitted: no log given for this mode"}, mode.params);
+                                     mode.q_intensity, {"not fitted: no log given for this mode"}, mode.params, mode.fit_when);
     }
   }
   std::vector<std::pair<std::string, std::string>> blocks;
@@ -64,6 +69,9 @@ FitTexts fit_texts(const Bank& bank, const std::vector<FittedMode>& fitted, cons
     blocks.emplace_back(
         "shared",
         "shared: " + fitting::format_parameters(*bank.models[0], sdk::ParameterScope::kBank, config.shared) + "\n");
+  }
+  if (request.options.fit_measurement_noise) {
+    blocks.emplace_back("measurement", fitting::format_measurement_block(config));
   }
   blocks.emplace_back("modes", modes_block);
   fitting::write_bank_from_template(config.file, output, request.header, blocks);

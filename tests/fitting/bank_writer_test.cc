@@ -79,6 +79,20 @@ TEST(BankWriter, AppendKeepsCommentsAndTheResultLoads) {
   EXPECT_DOUBLE_EQ(config.modes[1].q_intensity(1, 1), 0.02);
 }
 
+TEST(BankWriter, AModesFitConditionIsKept) {
+  Bank bank = Bank::load(write_file(test_directory() / "b.yaml", kBank), {SKIDIMM_PLUGIN_DIR});
+  const std::string turning = format_mode_entry("ice_turning", "ltc_linear", *bank.models[0],
+                                                Eigen::Matrix2d::Identity() * 0.02, {}, {}, "abs(phi_dot_R - phi_dot_L) > 0.5");
+  EXPECT_THAT(turning, HasSubstr("    fit_when: \"abs(phi_dot_R - phi_dot_L) > 0.5\"\n"));
+  const std::string straight =
+      format_mode_entry("ice_straight", "ltc_linear", *bank.models[0], Eigen::Matrix2d::Identity() * 0.02, {});
+  const std::string head = kBank.substr(0, kBank.find("modes:"));
+  const auto file =
+      write_file(test_directory() / "classes.yaml",
+                 head + "classes: {ice: [ice_turning, ice_straight]}\nmodes:\n" + turning + straight);
+  EXPECT_EQ(load_bank_config(file).modes[0].fit_when, "abs(phi_dot_R - phi_dot_L) > 0.5");
+}
+
 TEST(BankWriter, AnAppendThatWouldBreakTheBankChangesNothing) {
   const auto file = write_file(test_directory() / "b.yaml", kBank);
   Bank bank = Bank::load(file, {SKIDIMM_PLUGIN_DIR});

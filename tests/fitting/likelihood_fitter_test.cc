@@ -634,15 +634,21 @@ TEST(LikelihoodFitter, FitsOnlyTheNoiseOfAModelWithoutParameters) {
   auto input = [](double t) { return Eigen::VectorXd::Constant(1, 3.0 + std::sin(t)); };
   const Trajectory log = simulate(*heading, q, Eigen::MatrixXd::Identity(1, 1), r, 4000, 0.05, input, 61);
   Bank bank = make_bank({heading}, {diagonal({0.1})}, Eigen::MatrixXd::Identity(1, 1), r, {true});
+  Options keep;
+  keep.process_noise = Options::ProcessNoise::kKeep;
   try {
-    fit_likelihood(&bank, {ModeLogs{0, {log}}});
-    FAIL() << "the model has no parameters";
+    fit_likelihood(&bank, {ModeLogs{0, {log}}}, keep);
+    FAIL() << "no parameters, Q kept, R not fitted";
   } catch (const FitError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("mode 'mode0' (model 'in-process'): the model has no per-mode parameters to fit"));
+    EXPECT_THAT(e.what(), HasSubstr("mode 'mode0': nothing to fit"));
   }
+  // Asked for its parameters, a model with none fits its noise alone, as when asked for none.
+  const FitReport report = fit_likelihood(&bank, {ModeLogs{0, {log}}}).front();
   Options options;
   options.fit_model_parameters = false;
-  const FitReport report = fit_likelihood(&bank, {ModeLogs{0, {log}}}, options).front();
+  const FitReport noise_only = fit_likelihood(&bank, {ModeLogs{0, {log}}}, options).front();
+  EXPECT_NEAR(report.noise_parameters[0].value, noise_only.noise_parameters[0].value,
+              1e-3 * noise_only.noise_parameters[0].standard_deviation);
   EXPECT_TRUE(report.parameters.empty());
   EXPECT_EQ(report.derivatives, "none");
   print_recovery("heading's Q alone", report.noise_parameters, {4e-3});

@@ -45,6 +45,7 @@
 #include <vector>
 
 #include "skidimm/bank.h"
+#include "skidimm/sample_source.h"
 
 namespace skidimm {
 
@@ -73,14 +74,7 @@ struct LogSpec {
 LogSpec parse_log_spec(const std::string& text);
 
 // One filter step of a log, in bank order.
-struct LogSample {
-  double t = 0.0;
-  Eigen::VectorXd u;
-  Eigen::VectorXd z;           // NaN where not measured at this step
-  std::string truth_mode;      // held; empty if the bank has no truth column or none seen yet
-  Eigen::VectorXd true_state;  // held true_<state> columns; NaN where absent
-  long row = 0;                // 1-based step number
-};
+// LogSample: sample_source.h.
 
 // What reading a log did with its rows, for the summary a user reads.
 struct LogStats {
@@ -93,21 +87,21 @@ struct LogStats {
   std::vector<long> not_finite;     // per measurement: expression values that were not finite
 };
 
-class LogReader {
+class LogReader : public SampleSource {
  public:
   // Opens the files, resolves every column and expression the bank names and
   // checks them against the headers. `sampling` overrides the bank's (e.g. the
   // command line's --rate). Throws LogError or Error.
   LogReader(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling);
   LogReader(const BankConfig& bank, const std::vector<LogFile>& files);
-  ~LogReader();
+  ~LogReader() override;
   LogReader(const LogReader&) = delete;
   LogReader& operator=(const LogReader&) = delete;
 
   // Reads the next step. Returns false at the end of the log.
-  bool next(LogSample* sample);
+  bool next(LogSample* sample) override;
 
-  bool has_truth() const;
+  bool has_truth() const override;
   bool has_true_states() const;
   double progress() const;  // fraction of bytes read, 0..1
   const LogStats& stats() const;

@@ -30,7 +30,7 @@ struct EstimatorOptions {
 // and combined state (the filter's status, likelihoods and NIS). Steps the
 // filter rejected (rejected_time, rejected_input) are passed through with the
 // filter's estimate. Returns the number of steps.
-long run_log(const Bank& bank, LogReader* reader, const EstimatorOptions& options,
+long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
              const std::function<void(const LogSample&, const ImmEstimate&)>& sink);
 
 // What `skidimm run` reports about a log besides its rows.
@@ -54,7 +54,7 @@ struct RunSummary {
 // is read in place, the step allocates nothing, numbers are formatted into
 // the writer's buffer. (The timeline grows by an interval when the most likely
 // mode changes, amortised; a longer truth label than any before is copied.)
-void write_estimates(const Bank& bank, LogReader* reader, const EstimatorOptions& options,
+void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
                      const DecisionConfig& decision, const std::string& label, bool with_truth,
                      EstimatesWriter* writer, RunSummary* summary, const std::function<void()>& progress = {});
 

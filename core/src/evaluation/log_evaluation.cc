@@ -54,17 +54,23 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
                 ") or give the bank a truth column (columns.truth_mode)" +
                 (config.columns.truth_mode.empty() ? "" : "; the log has no column '" + config.columns.truth_mode + "'"));
   }
+  return evaluate_log(bank, &reader, log.name(), log.label, estimates, estimator);
+}
+
+LogResult evaluate_log(const Bank& bank, SampleSource* source, const std::string& name, const std::string& label_given,
+                       const std::filesystem::path& estimates, const EstimatorOptions& estimator) {
+  const BankConfig& config = bank.config;
   const ClassScorer scorer(config);
   LogResult result;
-  result.name = log.name();
+  result.name = name;
   result.squared_state_error.assign(config.state_names.size(), 0.0);
   result.state_error_count.assign(config.state_names.size(), 0);
   std::optional<EstimatesWriter> writer;
   if (!estimates.empty()) writer.emplace(estimates, config, /*with_truth=*/true);
   std::vector<LabelledStep> steps, decisions;
   ModeDecision decision(config);
-  run_log(bank, &reader, estimator, [&](const LogSample& sample, const ImmEstimate& e) {
-    const std::string& label = log.label.empty() ? sample.truth_mode : log.label;
+  run_log(bank, source, estimator, [&](const LogSample& sample, const ImmEstimate& e) {
+    const std::string& label = label_given.empty() ? sample.truth_mode : label_given;
     const std::string& decided = decision.name(decision.update(sample.t, e.mode_probabilities));
     if (writer) writer->write(sample.t, e, decided, label);
     steps.push_back(scorer.score(sample.t, label, e.mode_probabilities));

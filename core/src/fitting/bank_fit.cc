@@ -1,6 +1,7 @@
 #include "skidimm/fitting/bank_fit.h"
 
 #include "skidimm/errors.h"
+#include "skidimm/fitting/likelihood_fitter.h"
 
 namespace skidimm {
 namespace fitting {
@@ -56,6 +57,23 @@ std::map<int, FitReport> fit_window(Bank* bank, const std::vector<ModeLogs>& dat
   return reports;
 }
 
+std::map<int, FitReport> fit_by_likelihood(Bank* bank, const std::vector<ModeLogs>& data,
+                                           const BankFitOptions& options) {
+  if (options.shared) {
+    throw FitError(
+        "bank-level (shared:) parameters are fitted by the window objective only (--objective window); the "
+        "likelihood objective fits each mode's own parameters and noise");
+  }
+  LikelihoodFitOptions likelihood;
+  likelihood.process_noise = options.full_process_noise ? LikelihoodFitOptions::ProcessNoise::kFull
+                                                        : LikelihoodFitOptions::ProcessNoise::kDiagonal;
+  likelihood.fit_measurement_noise = options.fit_measurement_noise;
+  const std::vector<FitReport> fitted = fit_likelihood(bank, data, likelihood);
+  std::map<int, FitReport> reports;
+  for (std::size_t i = 0; i < data.size(); ++i) reports[data[i].mode] = fitted[i];
+  return reports;
+}
+
 }  // namespace
 
 std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data, const BankFitOptions& options) {
@@ -66,7 +84,8 @@ std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data,
       reports = fit_window(bank, data, options);
       break;
     case Objective::kLikelihood:
-      throw FitError("the likelihood objective is not available yet");
+      reports = fit_by_likelihood(bank, data, options);
+      break;
   }
   for (const auto& [mode, report] : reports) bank->config.modes[static_cast<std::size_t>(mode)].q_intensity = report.q_intensity;
   return reports;

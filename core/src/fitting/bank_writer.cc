@@ -182,11 +182,12 @@ std::string yaml_scalar(const std::string& text) {
 
 std::string format_mode_entry(const std::string& name, const std::string& model_name, const sdk::MotionModel& model,
                               const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments,
-                              const sdk::ParameterSet& original) {
+                              const sdk::ParameterSet& original, const std::string& fit_when) {
   std::string out;
   for (const std::string& c : comments) out += "  # " + c + "\n";
   out += "  - name: " + yaml_scalar(name) + "\n";
   out += "    model: " + yaml_scalar(model_name) + "\n";
+  if (!fit_when.empty()) out += "    fit_when: " + yaml_scalar(fit_when) + "\n";
   const std::string params = format_parameters(model, sdk::ParameterScope::kMode, original);
   if (params != "{}") out += "    params: " + params + "\n";
   out += "    Q: " + format_matrix(q_intensity) + "\n";

@@ -1357,11 +1357,6 @@ std::map<int, FitReport> fit_group(Bank* bank, const std::vector<std::pair<int, 
     b.model->get_parameters(b.start_parameters);
     b.fixed_q = config.modes[static_cast<std::size_t>(mode)].q_intensity;
     const std::string name = mode_name(config, mode);
-    if (options.fit_model_parameters && b.par.num_model() == 0) {
-      throw FitError(name + " (model '" + config.modes[static_cast<std::size_t>(mode)].model +
-                     "'): the model has no per-mode parameters to fit; fit only its noise (fit_model_parameters = "
-                     "false)");
-    }
     if (b.par.size() == 0) {
       throw FitError(name + ": nothing to fit: no model parameters, Q kept and R not fitted");
     }

@@ -9,6 +9,7 @@
 #include <mutex>
 #include <set>
 #include <thread>
+#include <tuple>
 
 #include "skidimm/check.h"
 #include "skidimm/errors.h"
@@ -168,20 +169,27 @@ void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
   if (s.probability_floor >= 0.0) config.mode_probability_floor = s.probability_floor;
 }
 
+namespace {
+
+LogScore score_of(const evaluation::LogResult& r) {
+  LogScore s;
+  s.log = r.name;
+  s.truth = evaluation::main_truth(r.metrics);
+  s.accuracy = r.metrics.accuracy();
+  s.mean_log_probability = r.metrics.mean_truth_log_probability();
+  s.seconds = r.metrics.duration;
+  return s;
+}
+
+}  // namespace
+
 std::vector<LogScore> score_logs(const Bank& bank, const std::vector<const TuningLog*>& logs,
                                  const SamplingConfig& sampling, const std::vector<std::filesystem::path>& estimates) {
   std::vector<LogScore> out;
   for (std::size_t i = 0; i < logs.size(); ++i) {
     const TuningLog* log = logs[i];
-    const evaluation::LogResult r =
-        evaluation::evaluate_log(bank, log->spec, sampling, i < estimates.size() ? estimates[i] : std::filesystem::path());
-    LogScore s;
-    s.log = log->spec.name();
-    s.truth = evaluation::main_truth(r.metrics);
-    s.accuracy = r.metrics.accuracy();
-    s.mean_log_probability = r.metrics.mean_truth_log_probability();
-    s.seconds = r.metrics.duration;
-    out.push_back(s);
+    out.push_back(score_of(
+        evaluation::evaluate_log(bank, log->spec, sampling, i < estimates.size() ? estimates[i] : std::filesystem::path())));
   }
   return out;
 }
@@ -230,11 +238,17 @@ class Tuner {
     classes_.resize(logs.size());
     std::vector<const TuningLog*> all;
     for (const TuningLog& l : logs) all.push_back(&l);
+    // The logs are read once, here (which also checks that each can be
+    // scored), and replayed from memory for the hundreds of scorings below.
+    recorded_.resize(logs.size());
     parallel_for(static_cast<int>(logs.size()), workers_, [&](int i, int w) {
       classes_[static_cast<std::size_t>(i)] = score_logs(banks_[static_cast<std::size_t>(w)], {all[static_cast<std::size_t>(i)]},
                                                          options_.sampling)
                                                   .front()
                                                   .truth;
+      LogReader reader(banks_[static_cast<std::size_t>(w)].config, all[static_cast<std::size_t>(i)]->spec.files,
+                       options_.sampling);
+      recorded_[static_cast<std::size_t>(i)] = RecordedLog::record(&reader);
     });
   }
 
@@ -314,6 +328,87 @@ class Tuner {
   }
 
   void compute_fits(const std::vector<FitKey>& keys) {
+    std::vector<FitKey> joint;
+    std::vector<FitKey> separable;
+    for (const FitKey& k : keys) (options_.separable.count(k.first) ? separable : joint).push_back(k);
+    compute_separable_fits(separable);
+    compute_joint_fits(joint);
+  }
+
+  // The logs among `members` that train mode j.
+  std::vector<int> members_of_mode(const std::vector<int>& members, int j) const {
+    std::vector<int> out;
+    for (int i : members) {
+      for (const ModeLogs& d : logs_[static_cast<std::size_t>(i)].fit_data) {
+        if (d.mode == j) {
+          out.push_back(i);
+          break;
+        }
+      }
+    }
+    return out;
+  }
+
+  // An objective that fits each mode from its own logs alone (no joint R,
+  // no bank-level parameters): a mode is fitted once per distinct set of its
+  // training logs. Leaving out a run of one terrain then refits that
+  // terrain's modes only, and nested leave-one-out folds share most fits.
+  void compute_separable_fits(const std::vector<FitKey>& keys) {
+    using ModeKey = std::tuple<std::string, int, std::vector<int>>;
+    const int modes = banks_[0].config.num_modes();
+    std::vector<ModeKey> todo;
+    std::set<ModeKey> seen;
+    for (const FitKey& k : keys) {
+      if (fits_.count(k)) continue;
+      for (int j = 0; j < modes; ++j) {
+        ModeKey key{k.first, j, members_of_mode(k.second, j)};
+        if (!std::get<2>(key).empty() && mode_fits_.count(key) == 0 && seen.insert(key).second) todo.push_back(key);
+      }
+    }
+    std::vector<std::pair<Eigen::VectorXd, Eigen::MatrixXd>> values(todo.size());
+    std::atomic<int> finished{0};
+    std::mutex progress_mutex;
+    parallel_for(static_cast<int>(todo.size()), workers_, [&](int i, int w) {
+      Bank& bank = banks_[static_cast<std::size_t>(w)];
+      reset(&bank);
+      const auto& [objective, j, members] = todo[static_cast<std::size_t>(i)];
+      std::vector<ModeLogs> data;
+      for (ModeLogs& d : training_data(logs_, members)) {
+        if (d.mode == j) data.push_back(std::move(d));
+      }
+      fitters_.at(objective)(&bank, data);
+      const FittedValues fitted = values_of(bank);
+      values[static_cast<std::size_t>(i)] = {fitted.parameters[static_cast<std::size_t>(j)],
+                                             fitted.q[static_cast<std::size_t>(j)]};
+      const int n = ++finished;
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      if (n == static_cast<int>(todo.size()) || n % 20 == 0) {
+        progress("fitted " + std::to_string(n) + "/" + std::to_string(todo.size()) + " modes");
+      }
+    });
+    for (std::size_t i = 0; i < todo.size(); ++i) mode_fits_[todo[i]] = values[i];
+    for (const FitKey& k : keys) {
+      if (fits_.count(k)) continue;
+      FittedValues v = base_;
+      std::string missing;
+      for (int j = 0; j < modes; ++j) {
+        const auto found = mode_fits_.find(ModeKey{k.first, j, members_of_mode(k.second, j)});
+        if (found == mode_fits_.end()) {
+          missing += " '" + banks_[0].config.modes[static_cast<std::size_t>(j)].name + "'";
+          continue;
+        }
+        v.parameters[static_cast<std::size_t>(j)] = found->second.first;
+        v.q[static_cast<std::size_t>(j)] = found->second.second;
+      }
+      fits_[k] = v;
+      if (!missing.empty()) {
+        warnings_.push_back("a fold without logs of mode(s)" + missing + " kept their starting values (objective " +
+                            k.first + ")");
+      }
+    }
+  }
+
+  void compute_joint_fits(const std::vector<FitKey>& keys) {
     std::vector<FitKey> todo;
     std::set<FitKey> seen;
     for (const FitKey& k : keys) {
@@ -386,17 +481,21 @@ class Tuner {
                       "a held-out log is in its fold's training set");
       }
       apply(fit_of(settings.objective, training), settings, &bank);
-      std::vector<const TuningLog*> held;
-      std::vector<std::filesystem::path> estimates;
       for (int i : held_out) {
-        held.push_back(&logs_[static_cast<std::size_t>(i)]);
-        if (write_estimates && !options_.assessment_estimates.empty()) estimates.push_back(estimates_path(i));
+        const std::filesystem::path estimates =
+            write_estimates && !options_.assessment_estimates.empty() ? estimates_path(i) : std::filesystem::path();
+        per_fold[static_cast<std::size_t>(f)].push_back(score_recorded(bank, i, estimates));
       }
-      per_fold[static_cast<std::size_t>(f)] = score_logs(bank, held, options_.sampling, estimates);
     });
     std::vector<LogScore> out;
     for (auto& scores : per_fold) out.insert(out.end(), scores.begin(), scores.end());
     return out;
+  }
+
+  LogScore score_recorded(const Bank& bank, int i, const std::filesystem::path& estimates) const {
+    const LogSpec& spec = logs_[static_cast<std::size_t>(i)].spec;
+    RecordedLog::Replay replay = recorded_[static_cast<std::size_t>(i)].replay();
+    return score_of(evaluation::evaluate_log(bank, &replay, spec.name(), spec.label, estimates));
   }
 
   // Coordinate search over the knobs on log-spaced grids, coarse then fine.
@@ -481,7 +580,9 @@ class Tuner {
   double base_dwell_ = 0.0;
   double base_floor_ = 1e-9;
   std::vector<std::string> classes_;
+  std::vector<RecordedLog> recorded_;
   std::map<FitKey, FittedValues> fits_;
+  std::map<std::tuple<std::string, int, std::vector<int>>, std::pair<Eigen::VectorXd, Eigen::MatrixXd>> mode_fits_;
   std::vector<std::string> warnings_;
 };
 

@@ -61,6 +61,12 @@ struct LogResult {
 LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfig& sampling,
                        const std::filesystem::path& estimates = {}, const EstimatorOptions& estimator = {});
 
+// The same over steps from any source (e.g. a RecordedLog's replay), named
+// `name` in the result; `label` (may be empty: the source's truth column) is
+// the truth for every step. The caller has checked that there is a truth.
+LogResult evaluate_log(const Bank& bank, SampleSource* source, const std::string& name, const std::string& label,
+                       const std::filesystem::path& estimates = {}, const EstimatorOptions& estimator = {});
+
 }  // namespace evaluation
 }  // namespace skidimm
 

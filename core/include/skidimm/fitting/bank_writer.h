@@ -33,10 +33,11 @@ std::string format_text(const std::vector<std::string>& values);
 std::string format_matrix(const Eigen::MatrixXd& m);
 
 // One `modes:` list item (two-space indented), with comment lines above it.
-// `original`: the mode's `params:` as the bank gave them (see format_parameters).
+// `original`: the mode's `params:` as the bank gave them (see format_parameters);
+// `fit_when`: the mode's condition on the steps it is fitted on (kept).
 std::string format_mode_entry(const std::string& name, const std::string& model_name, const sdk::MotionModel& model,
                               const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments,
-                              const sdk::ParameterSet& original = {});
+                              const sdk::ParameterSet& original = {}, const std::string& fit_when = "");
 
 // Appends a mode entry at the end of the bank file's `modes:` list. Throws
 // ConfigError if the result is not a valid bank (e.g. a mode of that name

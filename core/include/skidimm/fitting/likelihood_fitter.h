@@ -108,7 +108,8 @@ struct LikelihoodFitOptions {
     kFull,      // a full symmetric positive definite Q
   };
 
-  // The mode's own (ParameterScope::kMode) model parameters. Bank-level
+  // The mode's own (ParameterScope::kMode) model parameters, where its model
+  // has any (a mode whose model has none fits its noise only). Bank-level
   // (shared:) parameters are never fitted here.
   bool fit_model_parameters = true;
   ProcessNoise process_noise = ProcessNoise::kDiagonal;
@@ -146,8 +147,8 @@ struct LikelihoodFitOptions {
 //                       differences of predict(); "none": no model parameters)
 //   condition_number    of the scaled information matrix
 // On error the models are restored to their starting parameters. Throws
-// FitError: no logs or no measured row for a mode; nothing to fit (e.g.
-// fit_model_parameters with a model that has no per-mode parameters); an NLL
+// FitError: no logs or no measured row for a mode; nothing to fit (a
+// model without per-mode parameters, Q kept and R not fitted); an NLL
 // that is not finite at the starting values (naming the log and the row);
 // process_noise() not linear in Q; parameters the logs do not identify.
 std::vector<FitReport> fit_likelihood(Bank* bank, const std::vector<ModeLogs>& data,

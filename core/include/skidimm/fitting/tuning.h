@@ -27,6 +27,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -79,6 +80,10 @@ Knob knob_from_string(const std::string& name);  // throws Error listing the nam
 
 struct TuneOptions {
   std::vector<std::string> objectives;  // keys of the fitters map, compared by cross-validation
+  // Objectives whose fit of a mode depends on that mode's logs alone (no
+  // joint R, no bank-level parameters): each mode is fitted once per distinct
+  // set of its training logs, and the folds share those fits.
+  std::set<std::string> separable;
   std::vector<Knob> knobs = {Knob::kRScale, Knob::kQScale, Knob::kDwell, Knob::kFloor};
   int folds = 0;        // 0: leave one log out; K >= 2: K groups of logs
   int inner_folds = 4;  // the nested assessment's inner cross-validation
