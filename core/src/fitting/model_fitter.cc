@@ -527,15 +527,23 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
       }
       const std::size_t before = held.size();
       const Eigen::MatrixXd& v = svd.matrixV();
+      // One parameter per unexcited direction: the one that moves most along
+      // it. A combination (speed x B + c at a constant speed) keeps its other
+      // members free, so what the logs do determine is still fitted.
       for (Eigen::Index k = 0; k < singular.size(); ++k) {
         if (singular[k] >= threshold) continue;
+        int chosen = -1;
+        double weight = 0.0;
         for (Eigen::Index i = 0; i < v.rows(); ++i) {
           const int parameter = free_index[static_cast<std::size_t>(i)];
-          if (std::abs(v(i, k)) > 0.2 && std::find(held.begin(), held.end(), parameter) == held.end()) {
-            held.push_back(parameter);
-            block[static_cast<std::size_t>(parameter)] = start[static_cast<std::size_t>(parameter)];
+          if (std::abs(v(i, k)) > weight && std::find(held.begin(), held.end(), parameter) == held.end()) {
+            weight = std::abs(v(i, k));
+            chosen = parameter;
           }
         }
+        if (chosen < 0) continue;
+        held.push_back(chosen);
+        block[static_cast<std::size_t>(chosen)] = start[static_cast<std::size_t>(chosen)];
       }
       if (held.size() == before || held.size() == block.size()) {
         throw FitError(who + ": the logs do not excite every parameter: no information on the combinations " +
