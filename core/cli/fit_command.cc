@@ -12,6 +12,7 @@
 #include "skidimm/errors.h"
 #include "skidimm/fitting/bank_fit.h"
 #include "skidimm/fitting/bank_writer.h"
+#include "skidimm/fitting/likelihood_fitter.h"
 #include "skidimm/fitting/model_fitter.h"
 #include "skidimm/fitting/trajectory.h"
 #include "skidimm/parallel.h"
@@ -177,7 +178,17 @@ int fit(const FitCommandOptions& options) {
         const FitReport r = fitting::evaluate(bank, held);
         std::cerr << "held out " << text << " (" << config.modes[static_cast<std::size_t>(held.mode)].name
                   << "): one-step RMSE " << rmse_text(config, r.rmse) << " (no-change baseline "
-                  << rmse_text(config, persistence_rmse(held)) << ")\n";
+                  << rmse_text(config, persistence_rmse(held)) << ")";
+        if (fit_options.objective == fitting::Objective::kLikelihood) {
+          const fitting::LikelihoodEvaluation e = fitting::evaluate_likelihood(bank, held);
+          if (e.failure.empty()) {
+            std::cerr << "; negative log-likelihood per measured row " << fixed(e.negative_log_likelihood / e.measured_rows)
+                      << ", innovation RMSE " << rmse_text(config, e.rmse);
+          } else {
+            std::cerr << "; the filter failed: " << e.failure;
+          }
+        }
+        std::cerr << "\n";
       }
     }
 
