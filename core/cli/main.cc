@@ -247,6 +247,16 @@ int main(int argc, char** argv) {
     fit_options.plugin_paths = paths;
     fit_options.command_line = "skidimm";
     for (int i = 1; i < argc; ++i) fit_options.command_line += std::string(" ") + argv[i];
+    if (fit_options.objective == "likelihood") {
+      // The window objective's options would be silently ignored.
+      for (const char* name : {"--window", "--loss", "--loss-scale"}) {
+        if (fit->get_option(name)->count() > 0) {
+          std::cerr << "skidimm fit: " << name << " is an option of the window objective; add --objective window "
+                    << "(the default objective is likelihood: docs/fitting.md)\n";
+          return 2;
+        }
+      }
+    }
     return skidimm::cli::fit(fit_options);
   }
   if (*tune) {

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "core/temp_files.h"
+#include "skidimm/bank.h"
 #include "skidimm/log_io.h"
 
 namespace {
@@ -265,6 +266,31 @@ TEST(Cli, FitReportsBadLogsAndUnknownModes) {
   EXPECT_EQ(unlabelled.exit_code, 1);
   EXPECT_THAT(unlabelled.err, HasSubstr("say which mode it shows (MODE=FILE) or give --mode; its truth column 'mode' "
                                         "is absent or empty"));
+}
+
+TEST(Cli, FitByLikelihoodWritesTheBanksRAndRefusesTheWindowsOptions) {
+  const fs::path dir = test_directory();
+  const std::string bank = kSource + "/configs/ltc_terrains.yaml";
+  const std::string log = kSource + "/configs/examples/ltc_switching.csv";
+  const Result window = run_skidimm("fit --bank " + bank + " --window 3 --log " + log);
+  EXPECT_EQ(window.exit_code, 2);
+  EXPECT_THAT(window.err, HasSubstr("--window is an option of the window objective; add --objective window"));
+  const Result append = run_skidimm("fit --bank " + bank + " --fit-r --mode asphalt --append-to " + bank + " --log " + log);
+  EXPECT_EQ(append.exit_code, 1);
+  EXPECT_THAT(append.err, HasSubstr("--fit-r fits the bank's R, which --append-to cannot change: use --output-bank"));
+  // The example log's truth column gives each mode its segments; R is fitted over all of them.
+  const fs::path out = dir / "fitted.yaml";
+  const Result fit = run_skidimm("fit --bank " + bank + " --fit-r --log " + log + " --output-bank " + out.string() +
+                                 " --plugin-path " + kPlugins);
+  ASSERT_EQ(fit.exit_code, 0) << fit.err;
+  EXPECT_THAT(fit.err, HasSubstr("fitted bank R = "));
+  EXPECT_THAT(fit.err, HasSubstr("mean NIS (1 when consistent)"));
+  const skidimm::BankConfig fitted = skidimm::load_bank_config(out);
+  const skidimm::BankConfig shipped = skidimm::load_bank_config(bank);
+  EXPECT_NE(fitted.measurement.r, shipped.measurement.r) << "the fitted R is written";
+  EXPECT_THAT(read_file(out), HasSubstr("# innovation RMSE V "));
+  const Result run = run_skidimm("eval --bank " + out.string() + " --input " + log + " --plugin-path " + kPlugins);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
 }
 
 TEST(Cli, EvalReportsAccuracyLatencyAndConsistencyAsTextAndJson) {
