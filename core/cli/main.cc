@@ -112,7 +112,8 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"likelihood", "window"}));
   fit->add_flag("--fit-r", fit_options.fit_r,
                 "Likelihood objective: also fit one measurement noise R (diagonal) for the whole bank");
-  fit->add_flag("--full-q", fit_options.full_q, "Likelihood objective: fit Q with off-diagonal terms");
+  fit->add_flag("--full-q", fit_options.full_q,
+                "Q with off-diagonal terms (likelihood: fitted; window: the correlations of the one-step errors)");
   fit->add_flag("--hold-unexcited", fit_options.hold_unexcited,
                 "Hold parameters the logs do not excite at their starting values instead of failing (each is named)");
   fit->add_option("--window", fit_options.window,
@@ -159,7 +160,8 @@ int main(int argc, char** argv) {
   tune->add_option("--window", tune_options.window, "The window objective's window in seconds (0: one-step)")
       ->check(CLI::NonNegativeNumber);
   tune->add_flag("--fit-r", tune_options.fit_r, "Likelihood objective: also fit one R for the bank");
-  tune->add_flag("--full-q", tune_options.full_q, "Likelihood objective: fit Q with off-diagonal terms");
+  tune->add_flag("--full-q", tune_options.full_q,
+                 "Q with off-diagonal terms (likelihood: fitted; window: the correlations of the one-step errors)");
   tune->add_flag("--hold-unexcited", tune_options.hold_unexcited,
                  "Hold parameters the logs do not excite at their starting values instead of failing the fit");
   tune->add_option("--output-bank", tune_options.output_bank, "Write the tuned bank (fitted on every log) here");

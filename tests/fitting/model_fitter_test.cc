@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
 #include <cmath>
 #include <random>
 
@@ -263,6 +264,45 @@ TEST(ModelFitter, HoldingUnexcitedParametersFitsTheRest) {
   int held = 0;
   for (const std::string& w : report.warnings) held += w.find("is held at its starting value") != std::string::npos;
   EXPECT_EQ(held, 2);
+}
+
+TEST(ModelFitter, CorrelatedProcessNoiseTakesTheOneStepErrorsCorrelation) {
+  Bank truth = load_bank(kLtcBank, "truth.yaml");
+  const sdk::MotionModel& model = *truth.models[0];
+  // V and omega driven by process noise correlated at 0.8; R small against it.
+  const double dt = 0.02, q_v = 0.04, q_omega = 0.09, rho = 0.8;
+  Eigen::Matrix2d q;
+  q << q_v, rho * std::sqrt(q_v * q_omega), rho * std::sqrt(q_v * q_omega), q_omega;
+  const Eigen::Matrix2d l = Eigen::LLT<Eigen::Matrix2d>(q * dt).matrixL();
+  std::mt19937 rng(5);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Trajectory t;
+  t.source = "simulated";
+  const int rows = 20000;
+  t.u.resize(2, rows);
+  t.z.resize(2, rows);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(2), next(2);
+  for (int k = 0; k < rows; ++k) {
+    t.t.push_back(k * dt);
+    t.u.col(k) = Eigen::Vector2d(3.0 + std::sin(0.3 * k * dt), 3.0 + std::cos(0.2 * k * dt));
+    for (int i = 0; i < 2; ++i) t.z(i, k) = x[i] + 1e-3 * normal(rng);
+    model.predict(x, t.u.col(k), dt, next);
+    x = next + l * Eigen::Vector2d(normal(rng), normal(rng));
+  }
+  std::string yaml = kLtcBank;
+  yaml.replace(yaml.find("R: {std: [0.02, 0.02]}"), 22, "R: {std: [0.001, 0.001]}");
+  Bank bank = load_bank(yaml);
+  const FitReport diagonal = evaluate(bank, ModeLogs{0, {t}});
+  const FitReport correlated = evaluate(bank, ModeLogs{0, {t}}, /*correlated=*/true);
+  EXPECT_EQ(diagonal.q_intensity(0, 1), 0.0);
+  EXPECT_NEAR(correlated.q_intensity(0, 0), diagonal.q_intensity(0, 0), 1e-12) << "the diagonal is unchanged";
+  EXPECT_NEAR(correlated.q_intensity(1, 1), diagonal.q_intensity(1, 1), 1e-12);
+  EXPECT_NEAR(correlated.q_intensity(0, 0), q_v, 0.1 * q_v);
+  EXPECT_NEAR(correlated.q_intensity(1, 1), q_omega, 0.1 * q_omega);
+  const double fitted_rho =
+      correlated.q_intensity(0, 1) / std::sqrt(correlated.q_intensity(0, 0) * correlated.q_intensity(1, 1));
+  EXPECT_NEAR(fitted_rho, rho, 0.03);
+  EXPECT_EQ(correlated.q_intensity(0, 1), correlated.q_intensity(1, 0));
 }
 
 TEST(ModelFitter, EveryStateMustBeMeasured) {

@@ -34,6 +34,7 @@ bool has_parameters(const sdk::MotionModel& model, sdk::ParameterScope scope) {
 std::map<int, FitReport> fit_window(Bank* bank, const std::vector<ModeLogs>& data, const BankFitOptions& options) {
   std::map<int, FitReport> reports;
   FitOptions fit_options = options.window;
+  fit_options.correlated_process_noise = fit_options.correlated_process_noise || options.full_process_noise;
   if (options.shared) {
     fit_options.scope = sdk::ParameterScope::kBank;
     const std::vector<FitReport> shared = fit(bank, data, fit_options);
@@ -44,7 +45,7 @@ std::map<int, FitReport> fit_window(Bank* bank, const std::vector<ModeLogs>& dat
     const bool after_shared = reports.count(d.mode) > 0;
     if (!has_parameters(*bank->models[static_cast<std::size_t>(d.mode)], sdk::ParameterScope::kMode)) {
       // Nothing of its own to fit: the shared fit's report stands, or just the consistent Q.
-      if (!after_shared) reports[d.mode] = evaluate(*bank, d);
+      if (!after_shared) reports[d.mode] = evaluate(*bank, d, fit_options.correlated_process_noise);
       continue;
     }
     FitReport report = fit(bank, {d}, fit_options).front();

@@ -290,7 +290,7 @@ Eigen::VectorXd mean_component_nis(const Bank& bank, const sdk::MotionModel& mod
 
 }  // namespace
 
-FitReport evaluate(const Bank& bank, const ModeLogs& data) {
+FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
   const MeasurementLayout m = layout_of(bank.config);
   const sdk::MotionModel& model = *bank.models[static_cast<std::size_t>(data.mode)];
   const int n = bank.config.state_dim();
@@ -298,6 +298,12 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data) {
   FitReport report;
   Eigen::VectorXd squared = Eigen::VectorXd::Zero(rows);
   Eigen::VectorXd counts = Eigen::VectorXd::Zero(rows);
+  // Per state, the one-step errors of rows where every state's error is known
+  // (for the correlations of Q).
+  Eigen::MatrixXd cross = Eigen::MatrixXd::Zero(n, n);
+  Eigen::VectorXd error_sum = Eigen::VectorXd::Zero(n);
+  Eigen::VectorXd state_error(n);
+  double complete_rows = 0.0;
   for (const Trajectory& t : data.logs) {
     int previous = -1;
     for (int k = 0; k < t.size(); ++k) {
@@ -305,10 +311,19 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data) {
       if (previous >= 0) {
         Eigen::VectorXd x = measured_state(m, t, previous);
         if (propagate(model, t, previous, k, &x)) {
+          state_error.setConstant(std::numeric_limits<double>::quiet_NaN());
           for_each_error(m, t, k, x, [&](Eigen::Index c, double e) {
             squared[c] += e * e;
             counts[c] += 1.0;
+            for (int s = 0; s < n; ++s) {
+              if (m.state_row[static_cast<std::size_t>(s)] == c) state_error[s] = e;
+            }
           });
+          if (state_error.allFinite()) {
+            cross += state_error * state_error.transpose();
+            error_sum += state_error;
+            complete_rows += 1.0;
+          }
         }
       }
       previous = k;
@@ -343,6 +358,31 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data) {
       report.warnings.push_back("the measurement noise R alone explains the innovations of '" +
                                 bank.config.state_names[static_cast<std::size_t>(s)] +
                                 "': its process noise is at the floor 1e-10; check R");
+    }
+  }
+  if (correlated && n > 1) {
+    if (complete_rows < 2.0 * n) {
+      report.warnings.push_back("too few rows measuring every state to estimate Q's correlations; Q is diagonal");
+    } else {
+      const Eigen::VectorXd mean = error_sum / complete_rows;
+      const Eigen::MatrixXd covariance = cross / complete_rows - mean * mean.transpose();
+      const Eigen::VectorXd scale = covariance.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+      const Eigen::MatrixXd correlation = scale.asDiagonal() * covariance * scale.asDiagonal();
+      const Eigen::VectorXd deviation = q.diagonal().cwiseSqrt();
+      for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < i; ++j) {
+          q(i, j) = q(j, i) = std::clamp(correlation(i, j), -0.999, 0.999) * deviation[i] * deviation[j];
+        }
+      }
+      // A sample correlation matrix is positive semi-definite; clamping and
+      // round-off may leave it barely not so: lift the spectrum's floor.
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(q);
+      const double floor = 1e-9 * eigen.eigenvalues().cwiseAbs().maxCoeff();
+      if (eigen.eigenvalues().minCoeff() < floor) {
+        const Eigen::VectorXd lifted = eigen.eigenvalues().cwiseMax(floor);
+        q = eigen.eigenvectors() * lifted.asDiagonal() * eigen.eigenvectors().transpose();
+        q = 0.5 * (q + q.transpose()).eval();
+      }
     }
   }
   report.q_intensity = q;
@@ -579,7 +619,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
       }
     }
     for (const ModeLogs* d : group) {
-      FitReport report = evaluate(*bank, *d);
+      FitReport report = evaluate(*bank, *d, options.correlated_process_noise);
       for (std::size_t i = 0; i < block.size(); ++i) {
         report.parameters.push_back({names[i], block[i], deviations[i]});
         if (std::find(held.begin(), held.end(), static_cast<int>(i)) != held.end()) {

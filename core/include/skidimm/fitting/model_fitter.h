@@ -70,6 +70,14 @@ struct FitOptions {
   // are held at their starting values instead of failing the fit; each is
   // named in the report's warnings.
   bool hold_unexcited = false;
+  // Q with off-diagonal terms: each diagonal entry makes its component's
+  // filter consistent (as without), and the correlations are those of the
+  // one-step prediction errors (rows measuring every state). Their
+  // covariance is Qd + R + F R F', so this is Q's correlation when R is small
+  // against Qd, and understates it otherwise. Features that move together
+  // (vibration on every IMU axis) are then not counted as independent
+  // evidence, which makes a bank overconfident.
+  bool correlated_process_noise = false;
 };
 
 struct ParameterEstimate {
@@ -118,8 +126,9 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
 
 // One-step RMSE and the process-noise estimate of mode `data.mode` at the
 // model's current parameters (part of every FitReport; exposed for held-out
-// evaluation).
-FitReport evaluate(const Bank& bank, const ModeLogs& data);
+// evaluation). With `correlated`, Q gets off-diagonal terms: see
+// FitOptions::correlated_process_noise.
+FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated = false);
 
 }  // namespace fitting
 }  // namespace skidimm
