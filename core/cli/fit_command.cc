@@ -179,14 +179,13 @@ int fit(const FitCommandOptions& options) {
         std::cerr << "held out " << text << " (" << config.modes[static_cast<std::size_t>(held.mode)].name
                   << "): one-step RMSE " << rmse_text(config, r.rmse) << " (no-change baseline "
                   << rmse_text(config, persistence_rmse(held)) << ")";
-        if (fit_options.objective == fitting::Objective::kLikelihood) {
-          const fitting::LikelihoodEvaluation e = fitting::evaluate_likelihood(bank, held);
-          if (e.failure.empty()) {
-            std::cerr << "; negative log-likelihood per measured row " << fixed(e.negative_log_likelihood / e.measured_rows)
-                      << ", innovation RMSE " << rmse_text(config, e.rmse);
-          } else {
-            std::cerr << "; the filter failed: " << e.failure;
-          }
+        // The mode's own filter on the held-out log, whichever objective fitted it.
+        const fitting::LikelihoodEvaluation e = fitting::evaluate_likelihood(bank, held);
+        if (e.failure.empty()) {
+          std::cerr << "; negative log-likelihood per measured row " << fixed(e.negative_log_likelihood / e.measured_rows)
+                    << ", innovation RMSE " << rmse_text(config, e.rmse);
+        } else {
+          std::cerr << "; the filter failed: " << e.failure;
         }
         std::cerr << "\n";
       }

@@ -2,6 +2,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
@@ -86,11 +87,22 @@ int plot(const PlotOptions& options) {
       std::string mode;
     };
     std::vector<Band> bands;
+    // The decision track (`skidimm run`'s decision column), as intervals.
+    const int decision = column_of(header, "decision");
+    std::vector<Band> decisions;
     std::vector<std::string> fields;
     double last_t = 0.0;
     while (reader.next(&fields)) {
       const double t = std::stod(fields[0]);
       last_t = t;
+      if (decision > 0) {
+        const std::string& decided = fields[static_cast<std::size_t>(decision - 1)];
+        if (decisions.empty() || decisions.back().mode != decided) {
+          if (!decisions.empty()) decisions.back().end = t;
+          decisions.push_back({t, t, decided});
+        }
+        decisions.back().end = t;
+      }
       if (truth == 0) continue;
       const std::string& mode = fields[static_cast<std::size_t>(truth - 1)];
       if (bands.empty() || bands.back().mode != mode) {
@@ -136,7 +148,7 @@ int plot(const PlotOptions& options) {
       }
       log_header = CsvReader(log_file).header();
     }
-    const int panels = 1 + (options.states ? static_cast<int>(states.size()) : 0);
+    const int panels = 1 + (decision > 0 ? 1 : 0) + (options.states ? static_cast<int>(states.size()) : 0);
 
     std::ostringstream g;
     g << "set terminal " << terminal << " size 1100," << (panels == 1 ? 420 : 300 + 220 * panels)
@@ -149,7 +161,10 @@ int plot(const PlotOptions& options) {
     g << "set xrange [0:" << last_t << "]\n";
     // Fixed margins so the panels' time axes line up whatever their keys' widths.
     if (panels > 1) {
-      g << "set lmargin 10\nset rmargin 24\nset multiplot layout " << panels << ",1 title " << quoted(options.title)
+      std::size_t longest = 0;  // the decision panel's row labels are mode names
+      for (const auto& m : modes) longest = std::max(longest, m.second.size());
+      g << "set termoption noenhanced\nset lmargin " << std::max<std::size_t>(10, decision > 0 ? longest + 4 : 0)
+        << "\nset rmargin 24\nset multiplot layout " << panels << ",1 title " << quoted(options.title)
         << " noenhanced\n";
     } else
       g << "set title " << quoted(options.title) << " noenhanced\n";
@@ -176,7 +191,29 @@ int plot(const PlotOptions& options) {
         << i + 1 << " lw 2 title " << quoted(modes[i].second);
     }
     g << "\n";
-    if (panels > 1) {
+    if (decision > 0) {
+      // One row per mode (and `unknown` below them), a bar where the decision
+      // held it, coloured like the mode's probability line.
+      g << "unset object\nunset arrow\nset ylabel 'decision'\n";
+      g << "set ytics (" << quoted("unknown") << " 0";
+      for (std::size_t i = 0; i < modes.size(); ++i) g << ", " << quoted(modes[i].second) << " " << i + 1;
+      g << ")\nset yrange [-0.6:" << modes.size() + 0.6 << "]\n";
+      if (panels == 2) g << "set xlabel 'time (s)'\n";
+      for (std::size_t b = 0; b < decisions.size(); ++b) {
+        const auto it = line_of.find(decisions[b].mode);
+        const int row = it == line_of.end() ? 0 : it->second;
+        const double end = b + 1 < decisions.size() ? decisions[b + 1].start : decisions[b].end;
+        g << "set object " << object++ << " rect from " << decisions[b].start << ", " << row - 0.35 << " to " << end
+          << ", " << row + 0.35 << " front fc " << (row == 0 ? "rgb '#999999'" : "lt " + std::to_string(row))
+          << " fs solid 0.9 noborder\n";
+      }
+      for (std::size_t b = 1; b < bands.size(); ++b) {
+        g << "set arrow " << b << " from " << bands[b].start << ", graph 0 to " << bands[b].start
+          << ", graph 1 nohead dt 2 lc rgb '#444444'\n";
+      }
+      g << "plot NaN notitle\nset ytics autofreq\n";
+    }
+    if (panels > 1 && options.states) {
       g << "unset object\nunset arrow\nset yrange [*:*]\n";
       for (std::size_t s = 0; s < states.size(); ++s) {
         if (s + 1 == states.size()) g << "set xlabel 'time (s)'\n";
@@ -195,8 +232,8 @@ int plot(const PlotOptions& options) {
         }
         g << "\n";
       }
-      g << "unset multiplot\n";
     }
+    if (panels > 1) g << "unset multiplot\n";
 
     const fs::path script = options.output.string() + ".gnuplot";
     {

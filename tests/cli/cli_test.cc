@@ -339,6 +339,9 @@ TEST(Cli, PlotDrawsPngAndSvgAndSaysWhenGnuplotIsMissing) {
   EXPECT_THAT(drawing, HasSubstr("<svg"));
   EXPECT_THAT(drawing, HasSubstr("slip_FR_RR"));
   EXPECT_THAT(drawing, HasSubstr("theta"));
+  // The decision track: a row per mode and one for `unknown`, under the probabilities.
+  EXPECT_THAT(drawing, HasSubstr(">decision<"));
+  EXPECT_THAT(drawing, HasSubstr(">unknown<"));
   EXPECT_FALSE(fs::exists(dir / "states.svg.gnuplot")) << "the script is removed after a successful plot";
   // Without gnuplot on PATH: a clear error, not a crash.
   const std::string command = "env PATH=/nonexistent " + std::string(SKIDIMM_EXECUTABLE) + " plot --estimates " +
