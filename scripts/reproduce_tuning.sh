@@ -31,8 +31,9 @@ rm -rf "$work"
 mkdir -p "$work"/{drivers,fit,fresh,poor_tune,poor_eval,eval}
 
 source scripts/seeds.sh
-fit_seeds=($(tuning_fit_seeds | head -n 3))
-tune_seeds=$(tuning_fit_seeds | tail -n +4)
+all_fit_seeds=($(tuning_fit_seeds))  # no `| head`: with pipefail, seq's SIGPIPE would end the script
+fit_seeds=("${all_fit_seeds[@]:0:3}")
+tune_seeds="${all_fit_seeds[*]:3}"
 eval_seeds=$(tuning_eval_seeds "$seeds")
 check_disjoint "$eval_seeds" "$(tuning_fit_seeds)" "$(bundled_fit_seeds)" "$(decision_default_seeds)"
 
