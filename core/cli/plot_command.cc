@@ -194,14 +194,28 @@ int plot(const PlotOptions& options) {
     if (decision > 0) {
       // One row per mode (and `unknown` below them), a bar where the decision
       // held it, coloured like the mode's probability line.
+      // The rows are the modes, or, for a bank with classes (whose decision
+      // names a class), the classes decided, in order of first appearance.
+      std::vector<std::string> rows;
+      std::map<std::string, int> row_of;
+      bool all_modes = true;
+      for (const Band& d : decisions) all_modes = all_modes && (d.mode == "unknown" || line_of.count(d.mode) > 0);
+      if (all_modes) {
+        for (const auto& m : modes) rows.push_back(m.second);
+      } else {
+        for (const Band& d : decisions) {
+          if (d.mode != "unknown" && std::find(rows.begin(), rows.end(), d.mode) == rows.end()) rows.push_back(d.mode);
+        }
+      }
+      for (std::size_t i = 0; i < rows.size(); ++i) row_of[rows[i]] = static_cast<int>(i) + 1;
       g << "unset object\nunset arrow\nset ylabel 'decision'\n";
       g << "set ytics (" << quoted("unknown") << " 0";
-      for (std::size_t i = 0; i < modes.size(); ++i) g << ", " << quoted(modes[i].second) << " " << i + 1;
-      g << ")\nset yrange [-0.6:" << modes.size() + 0.6 << "]\n";
+      for (std::size_t i = 0; i < rows.size(); ++i) g << ", " << quoted(rows[i]) << " " << i + 1;
+      g << ")\nset yrange [-0.6:" << rows.size() + 0.6 << "]\n";
       if (panels == 2) g << "set xlabel 'time (s)'\n";
       for (std::size_t b = 0; b < decisions.size(); ++b) {
-        const auto it = line_of.find(decisions[b].mode);
-        const int row = it == line_of.end() ? 0 : it->second;
+        const auto it = row_of.find(decisions[b].mode);
+        const int row = it == row_of.end() ? 0 : it->second;
         const double end = b + 1 < decisions.size() ? decisions[b + 1].start : decisions[b].end;
         g << "set object " << object++ << " rect from " << decisions[b].start << ", " << row - 0.35 << " to " << end
           << ", " << row + 0.35 << " front fc " << (row == 0 ? "rgb '#999999'" : "lt " + std::to_string(row))
