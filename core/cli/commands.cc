@@ -55,6 +55,32 @@ class ProgressLine {
   std::chrono::steady_clock::time_point last_{};
 };
 
+// "plugin ltc_linear 1.0.0 (/path/skidimm_ltc_linear.so)" for mode j.
+std::string plugin_of(const Bank& bank, std::size_t j) {
+  if (j >= bank.model_sources.size()) return "model " + bank.config.modes[j].model;
+  const ModelSource& source = bank.model_sources[j];
+  return "plugin " + source.plugin + " " + source.version + " (" + source.file.string() + ")";
+}
+
+// Per mode whose filter was rejected: how often, why, and where first.
+void print_rejections(const Bank& bank, const RunSummary& summary) {
+  for (std::size_t j = 0; j < summary.rejections.size(); ++j) {
+    const ModeRejections& r = summary.rejections[j];
+    if (r.rows == 0) continue;
+    std::cerr << "  mode '" << bank.config.modes[j].name << "' (" << plugin_of(bank, j) << ") was rejected on "
+              << r.rows << " row(s):";
+    const char* separator = " ";
+    for (ModeFailure f : {ModeFailure::kModel, ModeFailure::kNotFinite, ModeFailure::kUpdate}) {
+      const long count = r.by_failure[static_cast<int>(f)];
+      if (count == 0) continue;
+      std::cerr << separator << count << " because " << to_string(f);
+      separator = "; ";
+    }
+    std::cerr << "\n    first on row " << r.first_row << " (t = " << CsvWriter::format(r.first_t)
+              << "): " << to_string(r.first_failure) << (r.first_reason.empty() ? "" : ": " + r.first_reason) << "\n";
+  }
+}
+
 }  // namespace
 
 LogSpec join_inputs(const std::vector<std::string>& inputs) {
@@ -128,6 +154,9 @@ int run(const RunOptions& options) {
                     : options.lag >= 0.0 ? " (smoothed with a lag of " + CsvWriter::format(options.lag) + " s)"
                                          : "")
                 << "\n";
+      for (std::size_t j = 0; j < bank.model_sources.size(); ++j) {
+        std::cerr << "  mode '" << config.modes[j].name << "': " << plugin_of(bank, j) << "\n";
+      }
       std::cerr << "dominant mode over time:\n" << timeline.format(mode_names);
       std::cerr << "  the decision (enter " << CsvWriter::format(decision_settings.enter) << ", leave "
                 << CsvWriter::format(decision_settings.leave) << ", hold " << CsvWriter::format(decision_settings.min_hold)
@@ -144,6 +173,7 @@ int run(const RunOptions& options) {
                      100.0 * summary.truth_matches / summary.truth_rows, summary.truth_rows,
                      config.classes.empty() ? "" : " (a mode counts for its class)");
       }
+      print_rejections(bank, summary);
     }
     return kExitOk;
   });
@@ -176,6 +206,10 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
       std::printf("    %-24s %-16s p0 = %.3f\n", c.modes[j].name.c_str(), c.modes[j].model.c_str(),
                   c.initial_mode_probabilities[static_cast<Eigen::Index>(j)]);
     }
+    std::cout << "  plugins:\n";
+    for (std::size_t j = 0; j < bank.model_sources.size(); ++j) {
+      std::cout << "    " << c.modes[j].name << ": " << plugin_of(bank, j) << "\n";
+    }
     return kExitOk;
   });
 }
@@ -200,6 +234,24 @@ int plugins(const std::vector<fs::path>& plugin_paths) {
     }
     std::cout << d.name << " " << d.version << (d.shadowed ? "  (shadowed by an earlier plugin of this name)" : "")
               << "\n    " << d.description << "\n    file: " << d.path.string() << "\n";
+    if (!d.duplicate_of.empty()) {
+      std::cout << "    DUPLICATE: " << d.duplicate_of.string() << " in the same directory is also named '" << d.name
+                << "'; a bank using it fails until one is removed or renamed\n";
+    }
+    auto variables = [](const char* title, const std::vector<PluginVariable>& list, const char* none) {
+      std::cout << "    " << title << ":";
+      if (list.empty()) {
+        std::cout << " " << none << "\n";
+        return;
+      }
+      std::cout << "\n";
+      for (const PluginVariable& v : list) {
+        std::cout << "      " << v.name << (v.is_angle ? " (angle, wrapped to [-pi, pi))" : "")
+                  << (v.description.empty() ? "" : ": " + v.description) << "\n";
+      }
+    };
+    variables("states", d.states, "the bank's own (not declared by the plugin)");
+    variables("inputs", d.inputs, "the bank's own (not declared by the plugin)");
     if (!d.parameter_docs.empty()) {
       std::cout << "    parameters:\n";
       for (const std::string& doc : d.parameter_docs) std::cout << "      " << doc << "\n";

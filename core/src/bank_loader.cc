@@ -522,6 +522,7 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry) {
                             join(config.input_names) + "]");
     }
     bank.models.push_back(std::move(model));
+    bank.model_sources.push_back({descriptor->path, descriptor->name, descriptor->version});
   }
   for (const std::string& key : config.shared.keys()) {
     if (shared_keys_used.count(key) == 0) {

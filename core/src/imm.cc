@@ -114,6 +114,8 @@ void Imm::reset() {
   estimate_.mode_probabilities = config.initial_mode_probabilities;
   estimate_.log_likelihoods = Eigen::VectorXd::Constant(num_modes(), kNaN);
   estimate_.nis = Eigen::VectorXd::Constant(num_modes(), kNaN);
+  estimate_.mode_failures.assign(static_cast<std::size_t>(num_modes()), ModeFailure::kNone);
+  estimate_.failure_reasons.assign(static_cast<std::size_t>(num_modes()), std::string());
   estimate_.mode_states.assign(num_modes(), config.initial_state);
   estimate_.mode_covariances.assign(num_modes(), config.initial_covariance);
   estimate_.state = config.initial_state;
@@ -135,11 +137,34 @@ const ImmEstimate& Imm::step(double t, const Eigen::Ref<const Eigen::VectorXd>& 
     return estimate_;
   }
   kernel_->step(!initialized_, initialized_ ? t - last_t_ : 0.0, held_input_, z, &estimate_);
+  if (estimate_.num_rejected_modes > 0) {
+    // The kernel names failures in prediction; the others came later.
+    for (int j = 0; j < num_modes(); ++j) {
+      ModeFailure& failure = estimate_.mode_failures[static_cast<std::size_t>(j)];
+      if (failure == ModeFailure::kNone && std::isinf(estimate_.log_likelihoods[j])) {
+        failure = ModeFailure::kUpdate;
+      }
+    }
+  }
   estimate_.t = t;
   held_input_ = u;
   last_t_ = t;
   initialized_ = true;
   return estimate_;
+}
+
+const char* to_string(ModeFailure failure) {
+  switch (failure) {
+    case ModeFailure::kNone:
+      return "none";
+    case ModeFailure::kModel:
+      return "the model failed";
+    case ModeFailure::kNotFinite:
+      return "the model returned a non-finite state, Jacobian or process noise";
+    case ModeFailure::kUpdate:
+      return "the measurement update failed or the filter diverged";
+  }
+  return "unknown";
 }
 
 }  // namespace skidimm

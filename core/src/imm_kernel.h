@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/StdVector>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -64,6 +65,7 @@ class FixedFilters {
 
   State& state(int j) { return x_[static_cast<std::size_t>(j)]; }
   Covariance& covariance(int j) { return p_[static_cast<std::size_t>(j)]; }
+  const sdk::MotionModel& model(int j) const { return *models_[static_cast<std::size_t>(j)]; }
 
   bool predict(int j, const Eigen::Ref<const Eigen::VectorXd>& u, double dt) {
     return predict_fixed<N>(*models_[static_cast<std::size_t>(j)], q_[static_cast<std::size_t>(j)], state_angles_, u,
@@ -152,6 +154,7 @@ class DynamicFilters {
     const BankConfig& c = bank.config;
     filters_.reserve(static_cast<std::size_t>(c.num_modes()));
     for (int j = 0; j < c.num_modes(); ++j) {
+      models_.push_back(bank.models[static_cast<std::size_t>(j)].get());
       filters_.emplace_back(*bank.models[static_cast<std::size_t>(j)], c.modes[static_cast<std::size_t>(j)].q_intensity,
                             measurement_model_.measurement_dim());
     }
@@ -160,6 +163,7 @@ class DynamicFilters {
 
   State& state(int j) { return filters_[static_cast<std::size_t>(j)].state(); }
   Covariance& covariance(int j) { return filters_[static_cast<std::size_t>(j)].covariance(); }
+  const sdk::MotionModel& model(int j) const { return *models_[static_cast<std::size_t>(j)]; }
 
   bool predict(int j, const Eigen::Ref<const Eigen::VectorXd>& u, double dt) {
     return filters_[static_cast<std::size_t>(j)].predict(u, dt);
@@ -184,6 +188,7 @@ class DynamicFilters {
   }
 
  private:
+  std::vector<const sdk::MotionModel*> models_;
   MeasurementModel measurement_model_;
   std::vector<ExtendedKalmanFilter> filters_;
   SelectedMeasurement selection_;
@@ -229,6 +234,7 @@ class Kernel final : public ImmKernel {
     int rejected = 0;
     e->log_likelihoods.setConstant(kNaN);
     e->nis.setConstant(kNaN);
+    std::fill(e->mode_failures.begin(), e->mode_failures.end(), ModeFailure::kNone);
     if (first) {
       for (int j = 0; j < modes_; ++j) {
         filters_.state(j) = initial_state_;
@@ -240,6 +246,7 @@ class Kernel final : public ImmKernel {
       for (int j = 0; j < modes_; ++j) {
         if (!filters_.predict(j, u, dt)) {
           e->log_likelihoods[j] = kMinusInfinity;
+          record_predict_failure(j, e);
           ++rejected;
         }
       }
@@ -264,6 +271,24 @@ class Kernel final : public ImmKernel {
   }
 
  private:
+  // Why mode j's prediction failed. A model that returns false leaves the
+  // filter's state as it was (finite, as every failed filter restarts from
+  // the combined estimate); one that returns non-finite numbers does not.
+  void record_predict_failure(int j, ImmEstimate* e) {
+    const std::size_t m = static_cast<std::size_t>(j);
+    const char* reason = filters_.model(j).failure_reason();
+    const bool finite = filters_.state(j).allFinite() && filters_.covariance(j).allFinite();
+    if ((reason != nullptr && reason[0] != '\0') || finite) {
+      e->mode_failures[m] = ModeFailure::kModel;
+      e->failure_reasons[m] = reason != nullptr && reason[0] != '\0'
+                                  ? reason
+                                  : "predict(), jacobian() or process_noise() returned false without a reason "
+                                    "(report_failure(), sdk/failure.h)";
+    } else {
+      e->mode_failures[m] = ModeFailure::kNotFinite;
+    }
+  }
+
   // Mixed initial conditions of every target (eq. 4-7) from the last step's
   // probabilities and estimates: one product with P(dt)' (gaussian_mixture.h).
   void mix(double dt, const Eigen::VectorXd& mu) {

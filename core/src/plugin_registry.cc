@@ -78,6 +78,21 @@ std::shared_ptr<boost::dll::shared_library> inspect(const fs::path& path, Plugin
                         std::to_string(sdk::kAbiVersion) + ": rebuild the plugin against this SDK";
     return nullptr;
   }
+  // Same version, other standard library: std::string and std::vector in the
+  // factory's arguments would be read with another layout (abi.h).
+  if (!library->has(sdk::kStdlibAbiTagSymbol)) {
+    descriptor->error = std::string("incomplete plugin: missing symbol '") + sdk::kStdlibAbiTagSymbol + "'";
+    return nullptr;
+  }
+  const char* tag = library->get_alias<const char*()>(sdk::kStdlibAbiTagSymbol)();
+  if (tag == nullptr || std::string(tag) != sdk::kStdlibAbiTag) {
+    descriptor->error = std::string("built with another C++ standard library configuration (") +
+                        (tag == nullptr ? "none given" : tag) + ") than this skidimm (" + sdk::kStdlibAbiTag +
+                        "): std::string and std::vector would cross between them with different layouts. Rebuild "
+                        "the plugin with the same standard library settings (no -D_GLIBCXX_USE_CXX11_ABI=0, "
+                        "-D_GLIBCXX_DEBUG or -stdlib=libc++ unless skidimm was built with it)";
+    return nullptr;
+  }
   for (const char* symbol : {sdk::kPluginNameSymbol, sdk::kPluginInfoSymbol, sdk::kFactorySymbol}) {
     if (!library->has(symbol)) {
       descriptor->error = std::string("incomplete plugin: missing symbol '") + symbol + "'";
@@ -97,6 +112,14 @@ std::shared_ptr<boost::dll::shared_library> inspect(const fs::path& path, Plugin
     descriptor->parameter_keys.emplace_back(doc.key);
     descriptor->parameter_docs.push_back(std::string(doc.key) + " (" + doc.shape + "): " + doc.description);
   }
+  auto variables = [](const sdk::VariableDoc* docs, int count, std::vector<PluginVariable>* out) {
+    for (int i = 0; docs != nullptr && i < count; ++i) {
+      out->push_back({docs[i].name != nullptr ? docs[i].name : "?",
+                      docs[i].description != nullptr ? docs[i].description : "", docs[i].is_angle});
+    }
+  };
+  variables(info->states, info->num_states, &descriptor->states);
+  variables(info->inputs, info->num_inputs, &descriptor->inputs);
   return library;
 }
 
@@ -149,19 +172,24 @@ void PluginRegistry::scan() {
     } else {
       continue;  // a missing directory on the search path is normal (e.g. no install)
     }
-    std::set<std::string> names_in_entry;
+    std::map<std::string, std::size_t> names_in_entry;  // name -> its first descriptor in this entry
     for (const fs::path& file : files) {
       PluginDescriptor descriptor;
       std::shared_ptr<boost::dll::shared_library> library = inspect(file, &descriptor);
       if (library != nullptr) {
         descriptor.shadowed = names_seen.count(descriptor.name) != 0;  // claimed by an earlier entry
-        names_in_entry.insert(descriptor.name);
+        const auto first = names_in_entry.emplace(descriptor.name, descriptors_.size());
+        if (!first.second) {
+          PluginDescriptor& other = descriptors_[first.first->second];
+          descriptor.duplicate_of = other.path;
+          if (other.duplicate_of.empty()) other.duplicate_of = file;
+        }
       }
       descriptors_.push_back(std::move(descriptor));
       libraries_.push_back(std::move(library));
       search_entry_of_.push_back(entry);
     }
-    names_seen.insert(names_in_entry.begin(), names_in_entry.end());
+    for (const auto& claimed : names_in_entry) names_seen.insert(claimed.first);
   }
 }
 
@@ -220,7 +248,29 @@ ModelHandle PluginRegistry::create(const std::string& name, const sdk::Parameter
   }
   // The deleter owns a reference to the library: the object's code (its
   // destructor, its vtable) stays mapped until the object is gone.
-  return ModelHandle(raw, [library](sdk::MotionModel* model) { delete model; });
+  ModelHandle model(raw, [library](sdk::MotionModel* m) { delete m; });
+  // A plugin that declares its states and inputs must create models that have them.
+  auto check = [&](const char* what, const std::vector<PluginVariable>& declared,
+                   const std::vector<std::string>& actual, bool states) {
+    if (declared.empty()) return;
+    bool same = declared.size() == actual.size();
+    for (std::size_t i = 0; same && i < declared.size(); ++i) {
+      same = declared[i].name == actual[i] && (!states || declared[i].is_angle == model->is_angle(static_cast<int>(i)));
+    }
+    if (same) return;
+    std::string expected, got;
+    for (std::size_t i = 0; i < declared.size(); ++i) {
+      expected += (i ? ", " : "") + declared[i].name + (declared[i].is_angle ? " (angle)" : "");
+    }
+    for (std::size_t i = 0; i < actual.size(); ++i) {
+      got += (i ? ", " : "") + actual[i] + (states && model->is_angle(static_cast<int>(i)) ? " (angle)" : "");
+    }
+    throw PluginError("plugin '" + name + "' (" + descriptor.path.string() + ") declares " + what + " [" + expected +
+                      "] in its PluginInfo, but its model has [" + got + "]");
+  };
+  check("states", descriptor.states, model->state_names(), true);
+  check("inputs", descriptor.inputs, model->input_names(), false);
+  return model;
 }
 
 }  // namespace skidimm

@@ -16,9 +16,15 @@ constexpr ParameterDoc kParameters[] = {
 };
 
 constexpr PluginInfo kInfo = {
-    "linear_features", "1.1.0",
-    "Linear model dx/dt = A x + B u + c over the bank's own states and inputs, exact zero-order-hold step", kParameters,
-    4};
+    "linear_features",
+    "1.1.0",
+    "Linear model dx/dt = A x + B u + c over the bank's own states and inputs, exact zero-order-hold step",
+    kParameters,
+    4,
+    nullptr,
+    0,
+    nullptr,
+    0};  // the bank's own states and inputs
 
 }  // namespace
 

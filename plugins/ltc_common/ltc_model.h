@@ -56,13 +56,13 @@ class LtcModel final : public sdk::SizedMotionModel<2, 2> {
     return true;
   }
 
-  bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const noexcept override {
+  bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const override {
     ltc_predict(x.data(), u.data(), a_.data(), b_.data(), dt, x_next->data());
     return x_next->allFinite();
   }
 
   // F = I + A dt, exact for the Euler step.
-  bool jacobian_fixed(const State& /*x*/, const Input& /*u*/, double dt, Jacobian* jacobian) const noexcept override {
+  bool jacobian_fixed(const State& /*x*/, const Input& /*u*/, double dt, Jacobian* jacobian) const override {
     *jacobian = Jacobian::Identity() + a_ * dt;
     return true;
   }

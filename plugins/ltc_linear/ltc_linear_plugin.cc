@@ -12,9 +12,24 @@ constexpr ParameterDoc kParameters[] = {
     {"B", "2x2", "input matrix: row V in m/rad/s, row omega in 1/s"},
 };
 
-constexpr PluginInfo kInfo = {"ltc_linear", "1.0.0",
+constexpr skidimm::sdk::VariableDoc kStates[] = {
+    {"V", "forward speed (m/s)", false},
+    {"omega", "yaw rate (rad/s)", false},
+};
+constexpr skidimm::sdk::VariableDoc kInputs[] = {
+    {"phi_dot_L", "left wheel speed (rad/s)", false},
+    {"phi_dot_R", "right wheel speed (rad/s)", false},
+};
+
+constexpr PluginInfo kInfo = {"ltc_linear",
+                              "1.0.0",
                               "Linear terrain model [V, omega] driven by wheel speeds, per-mode A_i, B_i (paper eq. 2)",
-                              kParameters, 2};
+                              kParameters,
+                              2,
+                              kStates,
+                              2,
+                              kInputs,
+                              2};
 
 using Model = skidimm::plugins::LtcModel<skidimm::sdk::ParameterScope::kMode>;
 

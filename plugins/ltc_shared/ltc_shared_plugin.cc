@@ -13,9 +13,24 @@ constexpr ParameterDoc kParameters[] = {
     {"B", "2x2", "bank-level (shared:) input matrix of eq. 2"},
 };
 
-constexpr PluginInfo kInfo = {"ltc_shared", "1.0.0",
+constexpr skidimm::sdk::VariableDoc kStates[] = {
+    {"V", "forward speed (m/s)", false},
+    {"omega", "yaw rate (rad/s)", false},
+};
+constexpr skidimm::sdk::VariableDoc kInputs[] = {
+    {"phi_dot_L", "left wheel speed (rad/s)", false},
+    {"phi_dot_R", "right wheel speed (rad/s)", false},
+};
+
+constexpr PluginInfo kInfo = {"ltc_shared",
+                              "1.0.0",
                               "Linear terrain model [V, omega] with one A, B shared by all modes; modes differ by Q_i",
-                              kParameters, 2};
+                              kParameters,
+                              2,
+                              kStates,
+                              2,
+                              kInputs,
+                              2};
 
 using Model = skidimm::plugins::LtcModel<skidimm::sdk::ParameterScope::kBank>;
 

@@ -55,14 +55,14 @@ class StcKinematicModel final : public sdk::SizedMotionModel<3, 2> {
 
   // The EKF asks for the Jacobian and then the prediction at the same state:
   // sin and cos of its heading are computed once for both (HeadingTrig).
-  bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const noexcept override {
+  bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const override {
     const HeadingTrig& trig = heading_trig(x[kTheta]);
     stc_predict_trig(x.data(), u.data(), trig.sin, trig.cos, p_.k, p_.m, p_.r, p_.b, dt, x_next->data());
     (*x_next)[kTheta] = sdk::wrap_angle((*x_next)[kTheta]);
     return x_next->allFinite();
   }
 
-  bool jacobian_fixed(const State& x, const Input& u, double dt, Jacobian* jacobian) const noexcept override {
+  bool jacobian_fixed(const State& x, const Input& u, double dt, Jacobian* jacobian) const override {
     Eigen::Matrix<double, 3, 3, Eigen::RowMajor> row_major;
     const HeadingTrig& trig = heading_trig(x[kTheta]);
     stc_jacobian_trig(u.data(), trig.sin, trig.cos, p_, dt, row_major.data());

@@ -53,13 +53,13 @@ class StcSidedModel final : public sdk::SizedMotionModel<stc_sided::kNumStates, 
     return true;
   }
 
-  bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const noexcept override {
+  bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const override {
     stc_sided::predict(x.data(), u.data(), p_.data(), dt, x_next->data());
     (*x_next)[stc_sided::kTheta] = sdk::wrap_angle((*x_next)[stc_sided::kTheta]);
     return x_next->allFinite();
   }
 
-  bool jacobian_fixed(const State& x, const Input& u, double dt, Jacobian* jacobian) const noexcept override {
+  bool jacobian_fixed(const State& x, const Input& u, double dt, Jacobian* jacobian) const override {
     Eigen::Matrix<double, 3, 3, Eigen::RowMajor> row_major;
     stc_sided::state_jacobian(x.data(), u.data(), p_.data(), dt, row_major.data());
     *jacobian = row_major;

@@ -20,10 +20,26 @@ constexpr skidimm::sdk::ParameterDoc kParameters[] = {
     {"b", "scalar", "track width (m), bank-level (shared:)"},
 };
 
+constexpr skidimm::sdk::VariableDoc kStates[] = {
+    {"X", "position in the world frame (m)", false},
+    {"Y", "position in the world frame (m)", false},
+    {"theta", "heading (rad)", true},
+};
+constexpr skidimm::sdk::VariableDoc kInputs[] = {
+    {"phi_dot_L", "left wheel speed (rad/s)", false},
+    {"phi_dot_R", "right wheel speed (rad/s)", false},
+};
+
 constexpr skidimm::sdk::PluginInfo kInfo = {
-    "stc_sided", "1.0.0",
+    "stc_sided",
+    "1.0.0",
     "Kinematic pose model [X, Y, theta] with per-side tread efficiencies and tread ICRs per mode (Mandow et al. 2007)",
-    kParameters, 9};
+    kParameters,
+    9,
+    kStates,
+    3,
+    kInputs,
+    2};
 
 }  // namespace
 

@@ -184,6 +184,100 @@ TEST(Cli, PluginsListsTheBundledPluginsWithMetadata) {
   EXPECT_THAT(r.out, HasSubstr("k (scalar): longitudinal efficiency"));
 }
 
+const std::string kFixturePlugins = SKIDIMM_TEST_PLUGIN_ROOT;
+
+// ltc_terrains' asphalt and a mode whose plugin fails as `failure` says above 0.5 m/s.
+fs::path faulty_bank(const fs::path& dir, const std::string& failure) {
+  return write_file(dir / "faulty.yaml", R"(
+name: faulty
+states: [V, omega]
+inputs: [phi_dot_L, phi_dot_R]
+columns: {time: t, truth_mode: mode}
+measurement:
+  observe: [V, omega]
+  R: {std: [0.05, 0.02]}
+transition: {mean_dwell_time: 10.0}
+initial:
+  covariance: {std: [0.5, 0.5]}
+modes:
+  - name: asphalt
+    model: ltc_linear
+    params: {A: [[-36.28555, 0.935196], [0.5454627, -29.78963]], B: [[3.164964, 2.846713], [-4.866783, 4.78034]]}
+    Q: [[0.00556329, 0], [0, 0.003817253]]
+  - name: slippery
+    model: faulty_model
+    params: {failure: )" + failure + R"(, above: 0.5}
+    Q: {diagonal: [0.01, 0.01]}
+)");
+}
+
+// Issue 13: an .at() out of range in predict ended in `terminate called`.
+TEST(Cli, RunSurvivesAPluginThatThrowsAndNamesTheModePluginAndReason) {
+  const fs::path dir = test_directory();
+  const fs::path out = dir / "out.csv";
+  const std::string input = kSource + "/configs/examples/ltc_switching.csv";
+  const std::string faulty = kFixturePlugins + "/faulty";
+  const Result r = run_skidimm("run --bank " + faulty_bank(dir, "predict_throws").string() + " --input " + input +
+                               " --output " + out.string() + " --plugin-path " + kPlugins + " --plugin-path " + faulty);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(read_csv(out).size(), read_csv(input).size());
+  EXPECT_THAT(r.err, HasSubstr("mode 'slippery' (plugin faulty_model 0.0.2 (" + faulty +
+                               "/faulty_plugin.so)) was rejected on "));
+  EXPECT_THAT(r.err, HasSubstr("because the model failed"));
+  EXPECT_THAT(r.err, HasSubstr("): the model failed: predict_fixed() threw: vector::_M_range_check"));
+  EXPECT_THAT(r.err, ::testing::Not(HasSubstr("mode 'asphalt' (plugin")));
+  // Which file and version each mode's plugin came from.
+  EXPECT_THAT(r.err, HasSubstr("mode 'asphalt': plugin ltc_linear 1.0.0 (" + kPlugins + "/skidimm_ltc_linear.so)"));
+
+  const Result nan = run_skidimm("run --bank " + faulty_bank(dir, "nan").string() + " --input " + input + " --output " +
+                                 out.string() + " --plugin-path " + kPlugins + " --plugin-path " + faulty);
+  ASSERT_EQ(nan.exit_code, 0) << nan.err;
+  EXPECT_THAT(nan.err, HasSubstr("because the model returned a non-finite state, Jacobian or process noise"));
+}
+
+TEST(Cli, ValidateNamesEachModesPluginFileAndVersion) {
+  const Result r = run_skidimm("validate " + kSource + "/configs/stc_slip4.yaml --plugin-path " + kPlugins);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("  plugins:\n    no_slip: plugin stc_kinematic 1.0.0 (" + kPlugins +
+                               "/skidimm_stc_kinematic.so)"));
+}
+
+TEST(Cli, PluginsShowsStatesInputsAnglesAndFlagsDuplicates) {
+  const Result r = run_skidimm("plugins --plugin-path " + kFixturePlugins + "/duplicates");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("duplicate_a.so\n    DUPLICATE: " + kFixturePlugins +
+                               "/duplicates/duplicate_b.so in the same directory is also named 'duplicate_model'"));
+  EXPECT_THAT(r.out, HasSubstr("DUPLICATE: " + kFixturePlugins + "/duplicates/duplicate_a.so"));
+  EXPECT_THAT(r.out, HasSubstr("    states:\n      X: position in the world frame (m)\n"));
+  EXPECT_THAT(r.out, HasSubstr("      theta (angle, wrapped to [-pi, pi)): heading (rad)\n"));
+  EXPECT_THAT(r.out, HasSubstr("    inputs:\n      phi_dot_L: left wheel speed (rad/s)\n"));
+  EXPECT_THAT(r.out, HasSubstr("    states: the bank's own (not declared by the plugin)"));  // linear_features
+}
+
+TEST(Cli, PluginsAndValidateRefuseAPluginOfAnotherStandardLibraryWithoutCrashing) {
+  const std::string dir = kFixturePlugins + "/old_string_abi";
+  const Result listed = run_skidimm("plugins --plugin-path " + dir);
+  ASSERT_EQ(listed.exit_code, 0) << listed.err;
+  EXPECT_THAT(listed.out, HasSubstr("duplicate_model  UNUSABLE  " + dir +
+                                    "/old_string_abi_plugin.so\n"
+                                    "    built with another C++ standard library configuration"));
+  const fs::path bank = write_file(test_directory() / "bank.yaml", R"(
+name: stale
+states: [x]
+inputs: []
+measurement: {observe: [x], R: {std: [1]}}
+transition: {mean_dwell_time: 1.0}
+initial: {covariance: {std: [1]}}
+modes:
+  - {name: only, model: duplicate_model, Q: {diagonal: [1]}}
+)");
+  const Result validated =
+      run_skidimm("validate " + bank.string() + " --plugin-path " + kFixturePlugins + "/debug_stdlib");
+  EXPECT_EQ(validated.exit_code, 1) << validated.out;
+  EXPECT_THAT(validated.err, HasSubstr("_GLIBCXX_DEBUG=1"));
+  EXPECT_THAT(validated.err, HasSubstr("debug_stdlib_plugin.so is unusable"));
+}
+
 TEST(Cli, UsageErrorsExitWithTwoAndHelpWithZero) {
   EXPECT_EQ(run_skidimm("").exit_code, 2);
   EXPECT_EQ(run_skidimm("run --bank").exit_code, 2);

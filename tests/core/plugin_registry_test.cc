@@ -140,6 +140,101 @@ TEST(PluginRegistry, RejectedParametersNameThePluginFile) {
   EXPECT_THAT(e, HasSubstr("skidimm_ltc_linear.so) rejected its parameters: unknown parameter 'C'"));
 }
 
+TEST(PluginRegistry, DescriptorsShowDeclaredStatesInputsAndAngles) {
+  PluginRegistry registry({kPluginDir});
+  const PluginDescriptor& stc = registry.find("stc_kinematic");
+  ASSERT_EQ(stc.states.size(), 3u);
+  EXPECT_EQ(stc.states[0].name, "X");
+  EXPECT_FALSE(stc.states[0].is_angle);
+  EXPECT_EQ(stc.states[2].name, "theta");
+  EXPECT_TRUE(stc.states[2].is_angle);
+  EXPECT_THAT(stc.states[2].description, HasSubstr("rad"));
+  ASSERT_EQ(stc.inputs.size(), 2u);
+  EXPECT_EQ(stc.inputs[1].name, "phi_dot_R");
+  // A plugin over the bank's own states declares none.
+  EXPECT_TRUE(registry.find("linear_features").states.empty());
+}
+
+TEST(PluginRegistry, DuplicatesInOneDirectoryAreFlaggedInTheListing) {
+  PluginRegistry registry({kFixtures / "duplicates"});
+  ASSERT_EQ(registry.plugins().size(), 2u);
+  EXPECT_EQ(registry.plugins()[0].duplicate_of.filename(), "duplicate_b.so");
+  EXPECT_EQ(registry.plugins()[1].duplicate_of.filename(), "duplicate_a.so");
+  PluginRegistry single({kFixtures / "duplicates" / "duplicate_a.so", kPluginDir});
+  for (const PluginDescriptor& d : single.plugins()) EXPECT_TRUE(d.duplicate_of.empty()) << d.path;
+}
+
+// The same fixture built with -D_GLIBCXX_USE_CXX11_ABI=0 or -D_GLIBCXX_DEBUG:
+// std::string and std::vector in ParameterSet have another layout there.
+TEST(PluginRegistry, PluginBuiltWithTheOldStringAbiIsRefusedBeforeAnythingCrosses) {
+  PluginRegistry registry({kFixtures / "old_string_abi"});
+  ASSERT_EQ(registry.plugins().size(), 1u);
+  const std::string& error = registry.plugins()[0].error;
+  EXPECT_THAT(error, HasSubstr("built with another C++ standard library configuration "
+                               "(libstdc++ _GLIBCXX_USE_CXX11_ABI=0 _GLIBCXX_DEBUG=0)"));
+  EXPECT_THAT(error, HasSubstr("than this skidimm (libstdc++ _GLIBCXX_USE_CXX11_ABI=1 _GLIBCXX_DEBUG=0)"));
+  const std::string e = plugin_error([&] { registry.create("duplicate_model", {}); });
+  EXPECT_THAT(e, HasSubstr("old_string_abi_plugin.so is unusable"));
+  EXPECT_THAT(e, HasSubstr("Rebuild the plugin with the same standard library settings"));
+}
+
+TEST(PluginRegistry, PluginBuiltWithTheDebugStandardLibraryIsRefused) {
+  PluginRegistry registry({kFixtures / "debug_stdlib"});
+  ASSERT_EQ(registry.plugins().size(), 1u);
+  EXPECT_THAT(registry.plugins()[0].error, HasSubstr("(libstdc++ _GLIBCXX_USE_CXX11_ABI=1 _GLIBCXX_DEBUG=1)"));
+  EXPECT_THAT(plugin_error([&] { registry.create("duplicate_model", {}); }), HasSubstr("debug_stdlib_plugin.so"));
+}
+
+sdk::ParameterSet faulty(const std::string& failure, double above = -1.0) {
+  sdk::ParameterSet p;
+  p.set_text("failure", {failure});
+  p.set_scalar("above", above);
+  return p;
+}
+
+// predict/jacobian/process_noise are noexcept: SizedMotionModel catches what
+// model code throws and reports it by return value and failure_reason().
+TEST(PluginRegistry, ExceptionsInModelCodeBecomeFailuresWithTheirReason) {
+  PluginRegistry registry({kFixtures / "faulty"});
+  const Eigen::Vector2d x(1.0, 0.5), u(2.0, 3.0);
+  Eigen::VectorXd next(2);
+  Eigen::MatrixXd matrix(2, 2);
+  const Eigen::MatrixXd intensity = Eigen::Matrix2d::Identity();
+
+  ModelHandle model = registry.create("faulty_model", faulty("predict_throws"));
+  EXPECT_FALSE(model->predict(x, u, 0.1, next));
+  EXPECT_THAT(model->failure_reason(), HasSubstr("predict_fixed() threw: vector::_M_range_check"));
+  EXPECT_STREQ(model->failure_reason(), "");  // read once
+  // The numeric fallback calls predict_fixed() too; this model has an analytic Jacobian.
+  EXPECT_TRUE(model->jacobian(x, u, 0.1, matrix));
+
+  model = registry.create("faulty_model", faulty("jacobian_throws"));
+  EXPECT_TRUE(model->predict(x, u, 0.1, next));
+  EXPECT_FALSE(model->jacobian(x, u, 0.1, matrix));
+  EXPECT_STREQ(model->failure_reason(), "jacobian_fixed() threw: no Jacobian here");
+
+  model = registry.create("faulty_model", faulty("noise_throws"));
+  EXPECT_FALSE(model->process_noise(intensity, x, u, 0.1, matrix));
+  EXPECT_STREQ(model->failure_reason(), "process_noise_fixed() threw: noise table missing");
+
+  model = registry.create("faulty_model", faulty("false"));
+  EXPECT_FALSE(model->predict(x, u, 0.1, next));
+  EXPECT_STREQ(model->failure_reason(), "the slip ratio is undefined at this speed");
+
+  // Below the threshold nothing fails and the default noise is Q dt.
+  model = registry.create("faulty_model", faulty("noise_throws", 2.0));
+  ASSERT_TRUE(model->process_noise(intensity, x, u, 0.1, matrix));
+  EXPECT_TRUE(matrix.isApprox(0.1 * intensity));
+}
+
+TEST(PluginRegistry, ModelsMustHaveTheStatesTheirPluginDeclares) {
+  PluginRegistry registry({kFixtures / "faulty"});
+  EXPECT_NO_THROW(registry.create("faulty_model", faulty("nan")));
+  const std::string e = plugin_error([&] { registry.create("faulty_model", faulty("wrong_states")); });
+  EXPECT_THAT(e,
+              HasSubstr("faulty_plugin.so) declares states [V, omega] in its PluginInfo, but its model has [V, yaw]"));
+}
+
 TEST(PluginRegistry, StandardSearchPathOrder) {
   setenv("SKIDIMM_PLUGIN_PATH", "/env/one:/env/two", 1);
   const std::vector<fs::path> path = PluginRegistry::standard_search_path({"/explicit"}, {"/bank"});

@@ -32,11 +32,11 @@ class ScalarLinearModel : public skidimm::sdk::SizedMotionModel<1, 1> {
     b_ = v[1];
     return true;
   }
-  bool predict_fixed(const State& x, const Input& u, double dt, State* next) const noexcept override {
+  bool predict_fixed(const State& x, const Input& u, double dt, State* next) const override {
     (*next)[0] = x[0] + (a_ * x[0] + b_ * u[0]) * dt;
     return true;
   }
-  bool jacobian_fixed(const State&, const Input&, double dt, Jacobian* j) const noexcept override {
+  bool jacobian_fixed(const State&, const Input&, double dt, Jacobian* j) const override {
     (*j)(0, 0) = 1.0 + a_ * dt;
     return true;
   }
@@ -59,7 +59,7 @@ class HeadingModel : public skidimm::sdk::SizedMotionModel<1, 1> {
   const std::vector<skidimm::sdk::ParameterInfo>& parameter_info() const noexcept override { return info_; }
   void get_parameters(Eigen::Ref<Eigen::VectorXd>) const noexcept override {}
   bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>&, std::string*) noexcept override { return true; }
-  bool predict_fixed(const State& x, const Input& u, double dt, State* next) const noexcept override {
+  bool predict_fixed(const State& x, const Input& u, double dt, State* next) const override {
     (*next)[0] = skidimm::sdk::wrap_angle(x[0] + rate_ * u[0] * dt);
     return true;
   }

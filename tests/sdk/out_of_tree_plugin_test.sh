@@ -38,9 +38,9 @@ cmake -S "$source/sdk/examples/icr_kinematic" -B "$example_build" -DCMAKE_PREFIX
 cmake --build "$example_build" -j 2 >"$work/build.log" 2>&1 || { cat "$work/build.log"; fail "build"; }
 plugin="$example_build/icr_kinematic.so"
 [ -f "$plugin" ] || fail "no $plugin"
-# Hidden visibility: only the four plugin symbols (and Boost.DLL's section) are exported.
+# Hidden visibility: only the five plugin symbols (and Boost.DLL's section) are exported.
 exported=$(nm -D --defined-only "$plugin" | awk '{print $3}' | grep -c '^skidimm_' || true)
-[ "$exported" -eq 4 ] || fail "expected 4 exported skidimm_ symbols, found $exported"
+[ "$exported" -eq 5 ] || fail "expected 5 exported skidimm_ symbols, found $exported"
 if nm -DC --defined-only "$plugin" | grep -q "IcrKinematicModel::"; then fail "model internals are exported"; fi
 
 step "the example's own conformance and reload tests"

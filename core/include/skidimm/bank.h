@@ -118,9 +118,19 @@ struct BankConfig {
 // Parses and validates a bank file. Throws ConfigError.
 BankConfig load_bank_config(const std::filesystem::path& file);
 
+// Which plugin file (and version) a mode's model was created from.
+struct ModelSource {
+  std::filesystem::path file;
+  std::string plugin;  // its name, the mode's `model:`
+  std::string version;
+};
+
 struct Bank {
   BankConfig config;
   std::vector<ModelHandle> models;  // one per mode, same order
+  // One per mode when the models came from plugins (load, instantiate);
+  // empty for a Bank assembled from models made in process.
+  std::vector<ModelSource> model_sources;
 
   // Loads the file and its plugins. The search path is `plugin_paths`
   // (e.g. --plugin-path), then the bank's, then the standard locations.

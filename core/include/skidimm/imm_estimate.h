@@ -3,6 +3,7 @@
 #define SKIDIMM_IMM_ESTIMATE_H_
 
 #include <Eigen/Core>
+#include <string>
 #include <vector>
 
 namespace skidimm {
@@ -17,6 +18,16 @@ enum class StepStatus {
 
 const char* to_string(StepStatus status);
 
+// Why a mode's filter was rejected in a step.
+enum class ModeFailure : unsigned char {
+  kNone,
+  kModel,      // the model's predict/jacobian/process_noise returned false (or threw): failure_reasons says why
+  kNotFinite,  // the model returned a non-finite state, Jacobian or process noise
+  kUpdate,     // the measurement update failed: innovation covariance not positive definite, or not finite
+};
+
+const char* to_string(ModeFailure failure);
+
 struct ImmEstimate {
   double t = 0.0;
   StepStatus status = StepStatus::kUpdated;
@@ -26,6 +37,8 @@ struct ImmEstimate {
   Eigen::VectorXd mode_probabilities;             // mu_k^j, sums to 1 (eq. 9 with c_j)
   Eigen::VectorXd log_likelihoods;                // log Lambda_k^j; NaN on predict-only, -inf if rejected
   Eigen::VectorXd nis;                            // nu' S^-1 nu per mode; NaN when not updated
+  std::vector<ModeFailure> mode_failures;         // per mode: kNone unless its filter was rejected this step
+  std::vector<std::string> failure_reasons;       // per mode: the model's reason, where mode_failures is kModel
   std::vector<Eigen::VectorXd> mode_states;       // x_k^{+j}
   std::vector<Eigen::MatrixXd> mode_covariances;  // P_k^{+j}
   Eigen::VectorXd state;                          // combined, eq. 10

@@ -6,6 +6,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "skidimm/bank.h"
 #include "skidimm/estimates_writer.h"
@@ -33,6 +34,16 @@ struct EstimatorOptions {
 long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
              const std::function<void(const LogSample&, const ImmEstimate&)>& sink);
 
+// How often one mode's filter was rejected over a run, and the first time why.
+struct ModeRejections {
+  long rows = 0;                      // rows where this mode's filter was rejected
+  long by_failure[4] = {0, 0, 0, 0};  // ... by ModeFailure
+  long first_row = 0;                 // the first such row (1-based, as in the output)
+  double first_t = 0.0;
+  ModeFailure first_failure = ModeFailure::kNone;
+  std::string first_reason;  // the model's own words (ModeFailure::kModel)
+};
+
 // What `skidimm run` reports about a log besides its rows.
 struct RunSummary {
   long rows = 0;
@@ -42,6 +53,8 @@ struct RunSummary {
   long rejected = 0;          // rows where at least one mode's filter failed
   long decision_changes = 0;  // changes of the decision after the first row
   ModeTimeline timeline;      // the most likely mode over time
+  // One per mode once a mode's filter was rejected (empty until then).
+  std::vector<ModeRejections> rejections;
 };
 
 // `skidimm run`'s loop: runs the log (run_log), decides each step

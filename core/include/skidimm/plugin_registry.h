@@ -36,6 +36,13 @@ namespace skidimm {
 // A model instance whose deleter keeps its plugin library loaded.
 using ModelHandle = std::shared_ptr<sdk::MotionModel>;
 
+// A state or input a plugin declares (sdk::VariableDoc).
+struct PluginVariable {
+  std::string name;
+  std::string description;
+  bool is_angle = false;
+};
+
 // What `skidimm plugins` shows about one library found on the search path.
 struct PluginDescriptor {
   std::filesystem::path path;
@@ -44,8 +51,14 @@ struct PluginDescriptor {
   std::string description;
   std::vector<std::string> parameter_docs;  // "key (shape): description"
   std::vector<std::string> parameter_keys;
+  // Empty when the plugin's models take the bank's own states (inputs).
+  std::vector<PluginVariable> states;
+  std::vector<PluginVariable> inputs;
   std::string error;      // non-empty: the library is unusable, and why
   bool shadowed = false;  // a plugin of the same name comes earlier on the path
+  // Another file in the same search-path entry claims the same name (neither
+  // can be used: find() refuses to choose); the other file's path.
+  std::filesystem::path duplicate_of;
 };
 
 class PluginRegistry {

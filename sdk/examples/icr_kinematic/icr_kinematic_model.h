@@ -49,13 +49,13 @@ class IcrKinematicModel final : public skidimm::sdk::SizedMotionModel<3, 2> {
     return true;
   }
 
-  bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const noexcept override {
+  bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const override {
     icr_predict(x.data(), u.data(), p_, dt, x_next->data());
     (*x_next)[kTheta] = skidimm::sdk::wrap_angle((*x_next)[kTheta]);
     return x_next->allFinite();
   }
 
-  bool jacobian_fixed(const State& x, const Input& u, double dt, Jacobian* jacobian) const noexcept override {
+  bool jacobian_fixed(const State& x, const Input& u, double dt, Jacobian* jacobian) const override {
     double v_x, v_y, omega;
     icr_body_velocity(u.data(), p_, &v_x, &v_y, &omega);
     const double c = std::cos(x[kTheta]);

@@ -12,8 +12,25 @@ constexpr skidimm::sdk::ParameterDoc kParameters[] = {
     {"r", "scalar", "wheel radius (m), bank-level (shared:)"},
 };
 
-constexpr skidimm::sdk::PluginInfo kInfo = {
-    "icr_kinematic", "0.1.0", "ICR-based skid-steer kinematics [X, Y, theta] (Mandow et al. 2007)", kParameters, 5};
+constexpr skidimm::sdk::VariableDoc kStates[] = {
+    {"X", "position in the world frame (m)", false},
+    {"Y", "position in the world frame (m)", false},
+    {"theta", "heading (rad)", true},
+};
+constexpr skidimm::sdk::VariableDoc kInputs[] = {
+    {"phi_dot_L", "left wheel speed (rad/s)", false},
+    {"phi_dot_R", "right wheel speed (rad/s)", false},
+};
+
+constexpr skidimm::sdk::PluginInfo kInfo = {"icr_kinematic",
+                                            "0.1.0",
+                                            "ICR-based skid-steer kinematics [X, Y, theta] (Mandow et al. 2007)",
+                                            kParameters,
+                                            5,
+                                            kStates,
+                                            3,
+                                            kInputs,
+                                            2};
 
 }  // namespace
 

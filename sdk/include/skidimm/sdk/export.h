@@ -12,7 +12,7 @@
 //
 // returning nullptr (with *error set) when the parameters are invalid.
 //
-// The macro exports, through BOOST_DLL_ALIAS, the four symbols named in abi.h.
+// The macro exports, through BOOST_DLL_ALIAS, the five symbols named in abi.h.
 // The generated factory catches every exception: nothing is thrown across the
 // boundary. One plugin library holds one model.
 #ifndef SKIDIMM_SDK_EXPORT_H_
@@ -64,6 +64,7 @@ MotionModel* create_model(const ParameterSet& params, std::string* error) noexce
   namespace skidimm_plugin_exports {                                                                             \
   int abi_version() noexcept { return ::skidimm::sdk::kAbiVersion; }                                             \
   const char* plugin_name() noexcept { return (plugin_info).name; }                                              \
+  const char* stdlib_abi() noexcept { return ::skidimm::sdk::kStdlibAbiTag; }                                    \
   const ::skidimm::sdk::PluginInfo* info() noexcept { return &(plugin_info); }                                   \
   ::skidimm::sdk::MotionModel* create(const ::skidimm::sdk::ParameterSet& params, std::string* error) noexcept { \
     return ::skidimm::sdk::internal::create_model<ModelClass>(params, error);                                    \
@@ -71,6 +72,7 @@ MotionModel* create_model(const ParameterSet& params, std::string* error) noexce
   }                                                                                                              \
   BOOST_DLL_ALIAS(skidimm_plugin_exports::abi_version, skidimm_abi_version)                                      \
   BOOST_DLL_ALIAS(skidimm_plugin_exports::plugin_name, skidimm_plugin_name)                                      \
+  BOOST_DLL_ALIAS(skidimm_plugin_exports::stdlib_abi, skidimm_stdlib_abi)                                        \
   BOOST_DLL_ALIAS(skidimm_plugin_exports::info, skidimm_plugin_info)                                             \
   BOOST_DLL_ALIAS(skidimm_plugin_exports::create, skidimm_create_motion_model)
 

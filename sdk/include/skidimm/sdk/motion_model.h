@@ -14,8 +14,11 @@
 //
 // Errors never cross the plugin boundary as exceptions (Boost.DLL gives no
 // guarantee they could be caught): every virtual is noexcept and reports
-// failure by its return value. A false from predict()/jacobian() makes the
-// engine reject that mode for the step, never crash.
+// failure by its return value. A false from predict()/jacobian()/
+// process_noise() makes the engine reject that mode for the step, never
+// crash, and report the reason the model gave with report_failure()
+// (failure.h). SizedMotionModel also turns exceptions thrown by its fixed-size
+// forms into such a failure; a plain MotionModel must catch its own.
 //
 // Authors who know their dimensions at compile time derive from
 // SizedMotionModel<kStateDim, kInputDim> (sized_motion_model.h) instead.
@@ -27,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "skidimm/sdk/failure.h"
 #include "skidimm/sdk/numeric_jacobian.h"
 #include "skidimm/sdk/parameters.h"
 
@@ -97,6 +101,12 @@ class BOOST_SYMBOL_VISIBLE MotionModel {
     noise = intensity * dt;
     return true;
   }
+
+  // --- Failures ---
+  // Why the last predict(), jacobian() or process_noise() on this thread
+  // returned false, as given to report_failure() (failure.h); "" if no reason
+  // was given. Reading it clears it. The engine calls it only after a false.
+  virtual const char* failure_reason() const noexcept { return take_failure(); }
 
  protected:
   MotionModel() = default;

@@ -15,12 +15,27 @@ struct ParameterDoc {
   const char* description;  // one line, with units
 };
 
+// Documents one state or input component of the model.
+struct VariableDoc {
+  const char* name;         // "theta": the name the bank's `states:` or `inputs:` must use
+  const char* description;  // one line, with units
+  bool is_angle;            // wraps at +-pi (MotionModel::is_angle); false for inputs
+};
+
 struct PluginInfo {
   const char* name;         // the `model:` a bank file uses; unique on the search path
   const char* version;      // the plugin's own version, e.g. "1.0.0"
   const char* description;  // one line
   const ParameterDoc* parameters;
   int num_parameters;
+  // The states and inputs every model of the plugin has, in order. A plugin
+  // whose models take the bank's own states or inputs (ParameterSet's bank
+  // names) leaves them null with a count of 0. When given, the loader checks
+  // that each created model reports exactly these.
+  const VariableDoc* states;
+  int num_states;
+  const VariableDoc* inputs;
+  int num_inputs;
 };
 
 }  // namespace sdk

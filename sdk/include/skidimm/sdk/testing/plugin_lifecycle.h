@@ -37,13 +37,19 @@ inline ::testing::AssertionResult PluginSurvivesReload(const std::string& path, 
     } catch (const std::exception& e) {
       return ::testing::AssertionFailure() << "cannot load " << path << ": " << e.what();
     }
-    for (const char* symbol : {kAbiVersionSymbol, kPluginNameSymbol, kPluginInfoSymbol, kFactorySymbol}) {
+    for (const char* symbol :
+         {kAbiVersionSymbol, kStdlibAbiTagSymbol, kPluginNameSymbol, kPluginInfoSymbol, kFactorySymbol}) {
       if (!library.has(symbol)) return ::testing::AssertionFailure() << path << " does not export " << symbol;
     }
     const int abi = library.get_alias<int()>(kAbiVersionSymbol)();
     if (abi != kAbiVersion) {
       return ::testing::AssertionFailure()
              << path << " was built for ABI " << abi << ", the SDK is ABI " << kAbiVersion;
+    }
+    const char* tag = library.get_alias<const char*()>(kStdlibAbiTagSymbol)();
+    if (tag == nullptr || std::string(tag) != kStdlibAbiTag) {
+      return ::testing::AssertionFailure() << path << " was built with the standard library configuration "
+                                           << (tag == nullptr ? "(none)" : tag) << ", the test with " << kStdlibAbiTag;
     }
     const PluginInfo* info = library.get_alias<const PluginInfo*()>(kPluginInfoSymbol)();
     if (info == nullptr || info->name == nullptr || std::string(info->name).empty()) {

@@ -1,0 +1,62 @@
+// Why a plugin's predict(), jacobian() or process_noise() failed.
+//
+// The plugin virtuals report failure by returning false (no exception crosses
+// the boundary, abi.h). The reason travels beside the return value: model code
+// calls report_failure("...") before returning false, SizedMotionModel's
+// trampolines do it for exceptions thrown by model code, and the engine reads
+// it once through MotionModel::failure_reason(), right after the false, on the
+// same thread. The text lives in a thread-local buffer of the library that
+// reported it, so reporting allocates nothing and models shared by several
+// threads do not mix their reasons.
+#ifndef SKIDIMM_SDK_FAILURE_H_
+#define SKIDIMM_SDK_FAILURE_H_
+
+#include <algorithm>
+#include <cstddef>
+#include <cstring>
+
+namespace skidimm {
+namespace sdk {
+namespace internal {
+
+struct FailureBuffer {
+  static constexpr std::size_t kCapacity = 512;
+  char text[kCapacity] = {};
+};
+
+inline FailureBuffer& failure_buffer() noexcept {
+  static thread_local FailureBuffer buffer;
+  return buffer;
+}
+
+}  // namespace internal
+
+// Records why the current call is about to return false; `prefix` and
+// `detail` are joined (either may be null), the result is cut at 511 bytes.
+inline void report_failure(const char* prefix, const char* detail = nullptr) noexcept {
+  char* out = internal::failure_buffer().text;
+  std::size_t used = 0;
+  for (const char* part : {prefix, detail}) {
+    if (part == nullptr) continue;
+    const std::size_t room = internal::FailureBuffer::kCapacity - 1 - used;
+    const std::size_t length = std::min(std::strlen(part), room);
+    std::memcpy(out + used, part, length);
+    used += length;
+  }
+  out[used] = '\0';
+}
+
+// The reason last reported on this thread ("" if none), which is then cleared.
+// The pointer stays valid until the next report_failure() on this thread.
+inline const char* take_failure() noexcept {
+  internal::FailureBuffer& buffer = internal::failure_buffer();
+  static thread_local char taken[internal::FailureBuffer::kCapacity];
+  std::memcpy(taken, buffer.text, internal::FailureBuffer::kCapacity);
+  buffer.text[0] = '\0';
+  return taken;
+}
+
+}  // namespace sdk
+}  // namespace skidimm
+
+#endif  // SKIDIMM_SDK_FAILURE_H_
