@@ -145,6 +145,8 @@ struct PlotOptions {
 };
 int plot(const PlotOptions& options);
 int validate(const std::filesystem::path& bank, const std::vector<std::filesystem::path>& plugin_paths);
+// Writes the project of a new plugin NAME into parent/NAME (which must not exist).
+int new_plugin(const std::string& name, const std::filesystem::path& parent);
 int plugins(const std::vector<std::filesystem::path>& plugin_paths);
 
 }  // namespace cli

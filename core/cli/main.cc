@@ -8,6 +8,7 @@
 //   skidimm eval --bank B.yaml --input logs/ [--json]
 //   skidimm plot --estimates out.csv --output figure.png
 //   skidimm plugins
+//   skidimm new-plugin NAME [--dir DIR]
 #include <CLI/CLI.hpp>
 #include <filesystem>
 #include <string>
@@ -204,6 +205,12 @@ int main(int argc, char** argv) {
   CLI::App* plugins = app.add_subcommand("plugins", "List the motion-model plugins found on the search path");
   add_plugin_path(plugins);
 
+  std::string new_plugin_name, new_plugin_dir = ".";
+  CLI::App* new_plugin_command = app.add_subcommand(
+      "new-plugin", "Write a buildable out-of-tree plugin project: model, CMakeLists, conformance test, example bank");
+  new_plugin_command->add_option("name", new_plugin_name, "The plugin's name (lowercase, digits, '_')")->required();
+  new_plugin_command->add_option("--dir", new_plugin_dir, "Where to create the project's directory NAME (default: .)");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -276,5 +283,6 @@ int main(int argc, char** argv) {
     simulate_options.has_seed = simulate->count("--seed") > 0;
     return skidimm::cli::simulate(simulate_options);
   }
+  if (*new_plugin_command) return skidimm::cli::new_plugin(new_plugin_name, new_plugin_dir);
   return skidimm::cli::plugins(paths);
 }

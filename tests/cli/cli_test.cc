@@ -278,6 +278,24 @@ modes:
   EXPECT_THAT(validated.err, HasSubstr("debug_stdlib_plugin.so is unusable"));
 }
 
+TEST(Cli, NewPluginWritesAProjectAndRefusesBadNames) {
+  const fs::path dir = test_directory();
+  const Result bad = run_skidimm("new-plugin 9Lives --dir " + dir.string());
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_THAT(bad.err, HasSubstr("'9Lives' is not a plugin name: use lowercase letters, digits and '_'"));
+  EXPECT_TRUE(fs::is_empty(dir));
+  const Result ok = run_skidimm("new-plugin wet_grass --dir " + dir.string());
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_THAT(read_file(dir / "wet_grass" / "wet_grass_plugin.cc"),
+              HasSubstr("SKIDIMM_EXPORT_MOTION_MODEL(wet_grass::Model, kInfo)"));
+  EXPECT_THAT(read_file(dir / "wet_grass" / "wet_grass_test.cc"),
+              HasSubstr("TEST(WetGrass, ConformsToTheMotionModelContract"));
+  EXPECT_THAT(read_file(dir / "wet_grass" / "CMakeLists.txt"),
+              HasSubstr("skidimm_add_motion_model(wet_grass wet_grass_plugin.cc)"));
+  EXPECT_THAT(read_file(dir / "wet_grass" / "wet_grass_bank.yaml"), HasSubstr("model: wet_grass"));
+  EXPECT_EQ(run_skidimm("new-plugin wet_grass --dir " + dir.string()).exit_code, 1);  // exists
+}
+
 TEST(Cli, UsageErrorsExitWithTwoAndHelpWithZero) {
   EXPECT_EQ(run_skidimm("").exit_code, 2);
   EXPECT_EQ(run_skidimm("run --bank").exit_code, 2);
