@@ -1,0 +1,128 @@
+// A model written as one templated function (sdk/function_model.h): the
+// fixture slip_ratio plugin, issue 13's 3-state model, loaded as skidimm
+// loads any plugin.
+#include "skidimm/sdk/function_model.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <string>
+
+#include "skidimm/errors.h"
+#include "skidimm/plugin_registry.h"
+#include "skidimm/sdk/testing/conformance.h"
+
+namespace skidimm {
+namespace {
+
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+const fs::path kSlipRatioDir = fs::path(SKIDIMM_TEST_PLUGIN_ROOT) / "slip_ratio";
+
+sdk::ParameterSet husky() {
+  sdk::ParameterSet p;
+  p.set_scalar("s_ss", 0.2);
+  p.set_scalar("m", 0.6);
+  p.set_scalar("tau", 0.05);
+  p.set_scalar("tau_s", 0.5);
+  p.set_scalar("r", 0.165);
+  p.set_scalar("b", 0.555);
+  return p;
+}
+
+TEST(FunctionModel, TheSlipRatioModelIsAtMostFortyLinesWithItsParameterTable) {
+  std::ifstream source(std::string(SKIDIMM_SOURCE_DIR) + "/tests/fixtures/plugins/slip_ratio_plugin.cc");
+  ASSERT_TRUE(source);
+  int lines = 0;
+  for (std::string line; std::getline(source, line);) ++lines;
+  EXPECT_LE(lines, 40);
+}
+
+TEST(FunctionModel, ConformsAtManyOperatingPoints) {
+  PluginRegistry registry({kSlipRatioDir});
+  ModelHandle model = registry.create("slip_ratio", husky());
+  ASSERT_EQ(model->state_dim(), 3);
+  EXPECT_TRUE(model->has_analytic_jacobian());  // by jets
+  for (double v : {-0.5, 0.0, 0.7, 2.0}) {
+    for (double s : {0.0, 0.3}) {
+      for (double dt : {0.001, 0.05}) {
+        EXPECT_MOTION_MODEL_CONFORMS(*model, Eigen::Vector3d(v, 0.4 * v, s), Eigen::Vector2d(5.0, 9.0), dt);
+      }
+    }
+  }
+  // The values are the function's.
+  Eigen::VectorXd next(3);
+  ASSERT_TRUE(model->predict(Eigen::Vector3d(1.0, 0.0, 0.1), Eigen::Vector2d(10.0, 10.0), 0.01, next));
+  EXPECT_DOUBLE_EQ(next[0], 1.0 + 0.01 * ((1.0 - 0.1) * 0.165 * 10.0 - 1.0) / 0.05);
+  EXPECT_DOUBLE_EQ(next[2], 0.1 + 0.01 * (0.2 - 0.1) / 0.5);
+}
+
+TEST(FunctionModel, TheParameterJacobianIsExact) {
+  PluginRegistry registry({kSlipRatioDir});
+  ModelHandle model = registry.create("slip_ratio", husky());
+  const Eigen::Vector3d x(1.2, -0.3, 0.15);
+  const Eigen::Vector2d u(4.0, 7.0);
+  const double dt = 0.02;
+  Eigen::MatrixXd jacobian(3, 6);
+  ASSERT_TRUE(model->parameter_jacobian(x, u, dt, jacobian));
+  Eigen::VectorXd p(6), plus(3), minus(3);
+  model->get_parameters(p);
+  for (int k = 0; k < 6; ++k) {
+    const double h = 1e-6 * std::max(1.0, std::abs(p[k]));
+    Eigen::VectorXd q = p;
+    q[k] += h;
+    ASSERT_TRUE(model->set_parameters(q, nullptr));
+    ASSERT_TRUE(model->predict(x, u, dt, plus));
+    q[k] -= 2 * h;
+    ASSERT_TRUE(model->set_parameters(q, nullptr));
+    ASSERT_TRUE(model->predict(x, u, dt, minus));
+    ASSERT_TRUE(model->set_parameters(p, nullptr));
+    const Eigen::Vector3d numeric = (plus - minus) / (2 * h);
+    EXPECT_TRUE(jacobian.col(k).isApprox(numeric, 1e-6) || (jacobian.col(k) - numeric).norm() < 1e-8)
+        << model->parameter_info()[static_cast<std::size_t>(k)].name << ": " << jacobian.col(k).transpose() << " vs "
+        << numeric.transpose();
+  }
+}
+
+TEST(FunctionModel, CreateNamesUnknownMissingAndOutOfBoundsParameters) {
+  PluginRegistry registry({kSlipRatioDir});
+  auto error = [&](const sdk::ParameterSet& p) {
+    try {
+      registry.create("slip_ratio", p);
+    } catch (const PluginError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  sdk::ParameterSet typo = husky();
+  typo.set_scalar("tua", 1.0);
+  EXPECT_THAT(error(typo), HasSubstr("unknown parameter 'tua' (this model takes: s_ss, m, tau, tau_s, r, b)"));
+  sdk::ParameterSet missing;
+  missing.set_scalar("s_ss", 0.1);
+  EXPECT_THAT(error(missing), HasSubstr("missing parameter 'm' (a number)"));
+  sdk::ParameterSet outside = husky();
+  outside.set_scalar("s_ss", 1.5);
+  EXPECT_THAT(error(outside), HasSubstr("parameter 's_ss' = 1.500000 is outside [0.000000, 1.000000]"));
+}
+
+TEST(FunctionModel, ThePluginDescribesStatesInputsAndEveryParameterWithBoundsAndScope) {
+  PluginRegistry registry({kSlipRatioDir});
+  const PluginDescriptor& d = registry.find("slip_ratio");
+  EXPECT_EQ(d.version, "0.1.0");
+  ASSERT_EQ(d.states.size(), 3u);
+  EXPECT_EQ(d.states[2].name, "s");
+  EXPECT_EQ(d.states[2].description, "longitudinal slip ratio (-)");
+  ASSERT_EQ(d.inputs.size(), 2u);
+  EXPECT_EQ(d.parameter_keys, (std::vector<std::string>{"s_ss", "m", "tau", "tau_s", "r", "b"}));
+  EXPECT_THAT(d.parameter_docs, ::testing::Contains("s_ss (scalar): steady slip ratio (-), in [0, 1], per mode"));
+  EXPECT_THAT(d.parameter_docs,
+              ::testing::Contains("r (scalar): wheel radius (m), in [0.001, 1], bank-level (shared:)"));
+  ModelHandle model = registry.create("slip_ratio", husky());
+  EXPECT_EQ(model->parameter_info()[4].scope, sdk::ParameterScope::kBank);
+  EXPECT_EQ(model->parameter_info()[2].lower_bound, 1e-3);
+}
+
+}  // namespace
+}  // namespace skidimm
