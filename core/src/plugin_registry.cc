@@ -7,12 +7,12 @@
 #include <exception>
 #include <set>
 #include <sstream>
-#include <system_error>
 
 #include "skidimm/errors.h"
 #include "skidimm/sdk/abi.h"
 #include "skidimm/sdk/export.h"
 #include "skidimm/sdk/plugin_info.h"
+#include "skidimm/sdk/private_library.h"
 
 #ifndef SKIDIMM_INSTALLED_PLUGIN_DIR
 #define SKIDIMM_INSTALLED_PLUGIN_DIR ""
@@ -25,17 +25,6 @@ namespace skidimm {
 namespace fs = std::filesystem;
 
 namespace {
-
-// Boost.DLL's message ends with errno text ("Bad file descriptor") that has
-// nothing to do with the failure; keep only dlerror's part.
-std::string loader_message(const std::system_error& e) {
-  std::string message = e.what();
-  const std::string noise = ": " + e.code().message();
-  if (message.size() > noise.size() && message.compare(message.size() - noise.size(), noise.size(), noise) == 0) {
-    message.resize(message.size() - noise.size());
-  }
-  return message;
-}
 
 std::vector<fs::path> split_path_list(const char* list) {
   std::vector<fs::path> out;
@@ -54,14 +43,12 @@ bool is_shared_library(const fs::path& path) { return path.extension() == boost:
 // a usable plugin, nullptr otherwise (descriptor.error says why).
 std::shared_ptr<boost::dll::shared_library> inspect(const fs::path& path, PluginDescriptor* descriptor) {
   descriptor->path = path;
-  auto library = std::make_shared<boost::dll::shared_library>();
-  try {
-    library->load(path, boost::dll::load_mode::rtld_now | boost::dll::load_mode::rtld_local);
-  } catch (const std::system_error& e) {
-    descriptor->error = "cannot load: " + loader_message(e);
-    return nullptr;
-  } catch (const std::exception& e) {
-    descriptor->error = std::string("cannot load: ") + e.what();
+  // From a private copy: rewriting or truncating the file later cannot
+  // reach the loaded code, and a truncated file is refused, not mapped.
+  std::string load_error;
+  std::shared_ptr<boost::dll::shared_library> library = sdk::load_private_copy(path, &load_error);
+  if (library == nullptr) {
+    descriptor->error = "cannot load: " + load_error;
     return nullptr;
   }
   if (!library->has(sdk::kAbiVersionSymbol)) {

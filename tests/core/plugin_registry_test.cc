@@ -247,5 +247,71 @@ TEST(PluginRegistry, StandardSearchPathOrder) {
   EXPECT_EQ(path[4].filename(), "plugins");  // next to the executable: <bin>/../lib/skidimm/plugins
 }
 
+// A plugin file truncated on disk (a copy still in progress, a full disk):
+// its segments run past the file's end. Mapping it would be SIGBUS at the
+// first touch of a missing page; it is refused with the reason instead.
+TEST(PluginRegistry, TruncatedLibraryIsRefusedNotMapped) {
+  const fs::path dir = skidimm_test::test_directory();
+  const std::string whole = skidimm_test::read_file(kPluginDir / "skidimm_ltc_linear.so");
+  ASSERT_GT(whole.size(), 8192u);
+  skidimm_test::write_file(dir / "ltc_linear.so", whole.substr(0, whole.size() / 2));
+  PluginRegistry registry({dir});
+  ASSERT_EQ(registry.plugins().size(), 1u);
+  const std::string error = registry.plugins()[0].error;
+  EXPECT_THAT(error, HasSubstr("cannot load: " + (dir / "ltc_linear.so").string() + ": truncated: its ELF segment"));
+  EXPECT_THAT(error, HasSubstr("but the file has " + std::to_string(whole.size() / 2)));
+  EXPECT_THAT(error, HasSubstr("replace plugin files with mv or install, not cp"));
+  EXPECT_THAT(plugin_error([&] { registry.find("ltc_linear"); }), HasSubstr("no plugin named 'ltc_linear'"));
+}
+
+TEST(PluginRegistry, EmptyLibraryIsRefused) {
+  const fs::path dir = skidimm_test::test_directory();
+  skidimm_test::write_file(dir / "empty.so", "");
+  PluginRegistry registry({dir});
+  ASSERT_EQ(registry.plugins().size(), 1u);
+  EXPECT_THAT(registry.plugins()[0].error, HasSubstr("empty.so: the file is empty"));
+}
+
+// `cp other.so plugin.so` while a run uses plugin.so truncates and rewrites
+// the loaded file in place. The model was loaded from a private copy, so it
+// keeps stepping with its own code.
+TEST(PluginRegistry, RewritingTheFileInPlaceDoesNotReachALoadedModel) {
+  const fs::path dir = skidimm_test::test_directory();
+  const fs::path file = dir / "ltc_linear.so";
+  fs::copy_file(kPluginDir / "skidimm_ltc_linear.so", file);
+  PluginRegistry registry({dir});
+  ModelHandle model = registry.create("ltc_linear", ltc_params());
+  EXPECT_EQ(registry.plugins()[0].path, file);  // the original is what is reported
+
+  // Same inode, new bytes: first a few bytes (every page of the old file
+  // gone), then another plugin's bytes.
+  skidimm_test::write_file(file, "rewritten");
+  Eigen::VectorXd next(2);
+  ASSERT_TRUE(model->predict(Eigen::Vector2d(1.0, 0.0), Eigen::Vector2d(0.0, 0.0), 0.5, next));
+  EXPECT_DOUBLE_EQ(next[0], 0.0);  // 1 + (-2 * 1) * 0.5
+  skidimm_test::write_file(file, skidimm_test::read_file(kPluginDir / "skidimm_stc_kinematic.so"));
+  ASSERT_TRUE(model->predict(Eigen::Vector2d(2.0, 1.0), Eigen::Vector2d(1.0, 0.0), 0.25, next));
+  EXPECT_DOUBLE_EQ(next[0], 2.0 + (-2.0 * 2.0 + 1.0) * 0.25);
+  EXPECT_DOUBLE_EQ(next[1], 1.0 + (-2.0 * 1.0) * 0.25);
+  model.reset();  // the destructor's code is still there too
+
+  // A new registry sees the new file.
+  PluginRegistry again({dir});
+  ASSERT_EQ(again.plugins().size(), 1u);
+  EXPECT_EQ(again.plugins()[0].name, "stc_kinematic");
+}
+
+// Many loads and unloads: a descriptor number freed by one library is not
+// mistaken for it when the next library is loaded from the same number.
+TEST(PluginRegistry, SuccessiveRegistriesLoadTheFilesTheyAreGiven) {
+  for (int i = 0; i < 3; ++i) {
+    for (const char* file : {"skidimm_ltc_linear.so", "skidimm_stc_kinematic.so"}) {
+      PluginRegistry registry({kPluginDir / file});
+      ASSERT_EQ(registry.plugins().size(), 1u);
+      EXPECT_EQ(registry.plugins()[0].name, std::string(file).substr(8, std::string(file).size() - 11));
+    }
+  }
+}
+
 }  // namespace
 }  // namespace skidimm
