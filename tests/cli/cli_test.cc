@@ -615,4 +615,42 @@ TEST(Cli, AClassLabelTrainsItsModesByTheirFitWhen) {
 
 }  // namespace multi_rate
 
+namespace plugin_files {
+
+// A plugin file cut short (a copy in progress, a full disk): today's loader
+// mapped it and died of SIGBUS (exit 135) even when only listing plugins.
+TEST(Cli, PluginsAndValidateRefuseATruncatedPluginFileWithoutCrashing) {
+  const fs::path dir = test_directory();
+  const std::string whole = read_file(kPlugins + "/skidimm_ltc_linear.so");
+  write_file(dir / "ltc_linear.so", whole.substr(0, whole.size() / 2));
+  const Result listed = run_skidimm("plugins --plugin-path " + dir.string());
+  ASSERT_EQ(listed.exit_code, 0) << listed.err;
+  EXPECT_THAT(listed.out, HasSubstr("?  UNUSABLE  " + (dir / "ltc_linear.so").string() + "\n    cannot load: " +
+                                    (dir / "ltc_linear.so").string() + ": truncated: its ELF segment"));
+  EXPECT_THAT(listed.out, HasSubstr("replace plugin files with mv or install, not cp"));
+
+  // A bank whose plugin's only file is truncated: refused, the file named.
+  const std::string slip = read_file(kFixturePlugins + "/slip_ratio/slip_ratio_plugin.so");
+  fs::create_directories(dir / "slip");
+  write_file(dir / "slip" / "slip_ratio.so", slip.substr(0, slip.size() * 2 / 3));
+  const fs::path bank = write_file(dir / "bank.yaml", R"(
+name: truncated
+states: [V, omega, s]
+inputs: [phi_dot_L, phi_dot_R]
+measurement: {observe: [V, omega], R: {std: [0.1, 0.1]}}
+transition: {mean_dwell_time: 1.0}
+initial: {covariance: {std: [1, 1, 1]}}
+shared: {r: 0.165, b: 0.555}
+modes:
+  - {name: only, model: slip_ratio, params: {s_ss: 0.1, m: 0.8, tau: 0.05, tau_s: 0.5}, Q: {diagonal: [1, 1, 1]}}
+)");
+  const Result validated = run_skidimm("validate " + bank.string() + " --plugin-path " + (dir / "slip").string());
+  EXPECT_EQ(validated.exit_code, 1) << validated.out << validated.err;
+  EXPECT_THAT(validated.err, HasSubstr("no plugin named 'slip_ratio'"));
+  EXPECT_THAT(validated.err, HasSubstr("skipped " + (dir / "slip" / "slip_ratio.so").string() + ": cannot load: "));
+  EXPECT_THAT(validated.err, HasSubstr("truncated: its ELF segment"));
+}
+
+}  // namespace plugin_files
+
 }  // namespace

@@ -33,7 +33,7 @@ sdk::ParameterSet husky() {
 }
 
 TEST(FunctionModel, TheSlipRatioModelIsAtMostFortyLinesWithItsParameterTable) {
-  std::ifstream source(std::string(SKIDIMM_SOURCE_DIR) + "/tests/fixtures/plugins/slip_ratio_plugin.cc");
+  std::ifstream source(std::string(SKIDIMM_SOURCE_DIR) + "/sdk/examples/slip_ratio/slip_ratio_plugin.cc");
   ASSERT_TRUE(source);
   int lines = 0;
   for (std::string line; std::getline(source, line);) ++lines;
@@ -122,6 +122,46 @@ TEST(FunctionModel, ThePluginDescribesStatesInputsAndEveryParameterWithBoundsAnd
   ModelHandle model = registry.create("slip_ratio", husky());
   EXPECT_EQ(model->parameter_info()[4].scope, sdk::ParameterScope::kBank);
   EXPECT_EQ(model->parameter_info()[2].lower_bound, 1e-3);
+}
+
+// A heading that turns at rate * u, with its own (hand-written) Jacobian.
+struct Turning {
+  static constexpr const char* kName = "turning";
+  static constexpr const char* kVersion = "0.1.0";
+  static constexpr const char* kDescription = "heading driven by a turn rate";
+  static constexpr sdk::VariableDoc kStates[] = {{"theta", "heading (rad)", true}, {"w", "rate (rad/s)", false}};
+  static constexpr sdk::VariableDoc kInputs[] = {{"u", "command (-)", false}};
+  static constexpr sdk::ParameterSpec kParameters[] = {{"gain", "rate per command (rad/s)", 0.0, 10.0}};
+  template <typename T>
+  static void predict(const T* x, const double* u, const T* p, double dt, T* x_next) {
+    x_next[0] = x[0] + x[1] * dt;
+    x_next[1] = x[1] + (p[0] * u[0] - x[1]) * dt;
+  }
+  static inline int jacobian_calls = 0;
+  static void jacobian(const double*, const double*, const double*, double dt, double* j) {
+    ++jacobian_calls;
+    j[0] = 1.0, j[1] = dt, j[2] = 0.0, j[3] = 1.0 - dt;
+  }
+};
+
+TEST(FunctionModel, WrapsAngleStatesAndUsesAHandWrittenJacobianIfGiven) {
+  sdk::ParameterSet p;
+  p.set_scalar("gain", 2.0);
+  std::string error;
+  auto model = sdk::FunctionModel<Turning>::Create(p, &error);
+  ASSERT_TRUE(model) << error;
+  EXPECT_TRUE(model->is_angle(0));
+  Eigen::VectorXd next(2);
+  ASSERT_TRUE(model->predict(Eigen::Vector2d(3.0, 2.0), Eigen::VectorXd::Constant(1, 1.0), 0.1, next));
+  EXPECT_NEAR(next[0], 3.2 - 2.0 * M_PI, 1e-12);  // 3.2 wrapped into [-pi, pi)
+  EXPECT_NEAR(next[1], 2.0, 1e-15);
+  Turning::jacobian_calls = 0;
+  Eigen::MatrixXd j(2, 2);
+  ASSERT_TRUE(model->jacobian(Eigen::Vector2d(3.0, 2.0), Eigen::VectorXd::Constant(1, 1.0), 0.1, j));
+  EXPECT_EQ(Turning::jacobian_calls, 1);
+  EXPECT_DOUBLE_EQ(j(0, 1), 0.1);
+  EXPECT_DOUBLE_EQ(j(1, 1), 0.9);
+  EXPECT_MOTION_MODEL_CONFORMS(*model, Eigen::Vector2d(3.1, 1.0), Eigen::VectorXd::Constant(1, 0.5), 0.05);
 }
 
 }  // namespace

@@ -32,10 +32,14 @@ step "the installed skidimm finds its bundled plugins without being told where"
 grep -q "^ltc_linear 1.0.0" "$work/plugins.txt" || fail "installed skidimm does not list ltc_linear: $(cat "$work/plugins.txt")"
 grep -q "$prefix" "$work/plugins.txt" || fail "bundled plugins not found under the prefix"
 
-step "build the example plugin against the installed SDK only"
+step "build the example plugin against the installed SDK only (COMPONENTS sdk)"
 cmake -S "$source/sdk/examples/icr_kinematic" -B "$example_build" -DCMAKE_PREFIX_PATH="$prefix" \
   -DCMAKE_BUILD_TYPE=Release >"$work/configure.log" 2>&1 || { cat "$work/configure.log"; fail "configure"; }
 cmake --build "$example_build" -j 2 >"$work/build.log" 2>&1 || { cat "$work/build.log"; fail "build"; }
+# COMPONENTS sdk: the engine's dependencies' package files are not loaded.
+for dep in Ceres glog gflags yaml-cpp muparser; do
+  if grep -q "^${dep}_DIR:" "$example_build/CMakeCache.txt"; then fail "COMPONENTS sdk looked up $dep"; fi
+done
 plugin="$example_build/icr_kinematic.so"
 [ -f "$plugin" ] || fail "no $plugin"
 # Hidden visibility: only the five plugin symbols (and Boost.DLL's section) are exported.
@@ -70,6 +74,32 @@ tail -n 1 "$work/out.csv" | grep -q ",slip_FL_FR_RL_RR,slip_FL_FR_RL_RR," || fai
 step "without the plugin's directory the bank fails with a clear error"
 if "$prefix/bin/skidimm" validate "$bank" 2>"$work/missing.txt"; then fail "validate passed without the plugin"; fi
 grep -q "no plugin named 'icr_kinematic'" "$work/missing.txt" || fail "message: $(cat "$work/missing.txt")"
+
+step "the slip_ratio example (one function): builds, conforms over its region, installs by rename, runs"
+slip_build="$work/slip_ratio-build"
+slip_prefix="$work/slip_prefix"
+cmake -S "$source/sdk/examples/slip_ratio" -B "$slip_build" -DCMAKE_PREFIX_PATH="$prefix" \
+  -DCMAKE_BUILD_TYPE=Release >"$work/slip_configure.log" 2>&1 || { cat "$work/slip_configure.log"; fail "configure slip_ratio"; }
+if grep -q "^Ceres_DIR:" "$slip_build/CMakeCache.txt"; then fail "slip_ratio: COMPONENTS sdk looked up Ceres"; fi
+cmake --build "$slip_build" -j 2 >"$work/slip_build.log" 2>&1 || { cat "$work/slip_build.log"; fail "build slip_ratio"; }
+"$slip_build/slip_ratio_test" --gtest_brief=1 >"$work/slip_test.log" 2>&1 || { cat "$work/slip_test.log"; fail "slip_ratio tests"; }
+cmake --install "$slip_build" --prefix "$slip_prefix" >"$work/slip_install.log"
+installed="$slip_prefix/lib/skidimm/plugins/slip_ratio.so"
+[ -f "$installed" ] || fail "not installed: $installed ($(cat "$work/slip_install.log"))"
+grep -q "Installing (by rename): $installed" "$work/slip_install.log" || fail "install: $(cat "$work/slip_install.log")"
+cmp -s "$installed" "$slip_build/slip_ratio.so" || fail "installed file differs from the built one"
+first_inode=$(stat -c %i "$installed")
+cmake --install "$slip_build" --prefix "$slip_prefix" >"$work/slip_install2.log"
+[ "$(stat -c %i "$installed")" != "$first_inode" ] || fail "reinstalling wrote the plugin file in place (same inode)"
+ls -A "$slip_prefix/lib/skidimm/plugins" | grep -q installing && fail "a temporary file was left behind"
+grep -q "$installed" "$slip_build/install_manifest.txt" || fail "not in install_manifest.txt"
+slip_bank="$source/sdk/examples/slip_ratio/slip_ratio_bank.yaml"
+"$prefix/bin/skidimm" validate "$slip_bank" --plugin-path "$slip_prefix/lib/skidimm/plugins" >"$work/slip_validate.txt"
+grep -q "slip_ratio" "$work/slip_validate.txt" || fail "validate slip_ratio: $(cat "$work/slip_validate.txt")"
+"$prefix/bin/skidimm" run --bank "$slip_bank" --plugin-path "$slip_prefix/lib/skidimm/plugins" \
+  --input "$prefix/share/skidimm/configs/examples/ltc_switching.csv" --output "$work/slip_out.csv" 2>"$work/slip_run.txt" ||
+  { cat "$work/slip_run.txt"; fail "run slip_ratio"; }
+head -n 1 "$work/slip_out.csv" | grep -q "^t,mu_grip,mu_slip,V,omega,s," || fail "slip_ratio header: $(head -n 1 "$work/slip_out.csv")"
 
 step "a program of the user's links skidimm::core from the install and runs the IMM"
 cmake -S "$source/sdk/examples/online_imm" -B "$work/online_imm-build" -DCMAKE_PREFIX_PATH="$prefix" \

@@ -28,9 +28,17 @@
 // exception thrown by predict becomes a rejected step with its text, as for
 // any SizedMotionModel.
 //
-// Every parameter is a scalar. A model with matrix parameters, or a
-// hand-written Jacobian, derives from SizedMotionModel instead
-// (sized_motion_model.h); FunctionModel is one such class.
+// Angle states (VariableDoc::is_angle) are wrapped to [-pi, pi) after
+// predict. A spec may add its own state Jacobian, used instead of jets:
+//
+//     static void jacobian(const double* x, const double* u, const double* p, double dt,
+//                          double* jacobian);  // row-major, state x state
+//
+// (the conformance kit checks it against differences like any other).
+//
+// Every parameter is a scalar. A model with matrix parameters derives from
+// SizedMotionModel instead (sized_motion_model.h); FunctionModel is one such
+// class.
 #ifndef SKIDIMM_SDK_FUNCTION_MODEL_H_
 #define SKIDIMM_SDK_FUNCTION_MODEL_H_
 
@@ -41,8 +49,10 @@
 #include <iterator>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
+#include "skidimm/sdk/angles.h"
 #include "skidimm/sdk/export.h"
 #include "skidimm/sdk/parameters.h"
 #include "skidimm/sdk/plugin_info.h"
@@ -59,6 +69,20 @@ struct ParameterSpec {
   double upper_bound;
   ParameterScope scope = ParameterScope::kMode;
 };
+
+namespace internal {
+
+// Whether Spec has `static void jacobian(const double* x, const double* u,
+// const double* p, double dt, double* jacobian)` (row-major, state x state).
+template <typename Spec, typename = void>
+struct HasHandWrittenJacobian : std::false_type {};
+template <typename Spec>
+struct HasHandWrittenJacobian<Spec, std::void_t<decltype(Spec::jacobian(
+                                        static_cast<const double*>(nullptr), static_cast<const double*>(nullptr),
+                                        static_cast<const double*>(nullptr), 0.0, static_cast<double*>(nullptr)))>>
+    : std::true_type {};
+
+}  // namespace internal
 
 template <typename Spec>
 class FunctionModel final
@@ -112,13 +136,25 @@ class FunctionModel final
     return true;
   }
 
+  // Angle states (is_angle in kStates) are wrapped to [-pi, pi) after the
+  // function, so the function itself need not wrap.
   bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const override {
     Spec::predict(x.data(), input_data(u), p_.data(), dt, x_next->data());
+    for (int i = 0; i < kStates; ++i) {
+      if (Spec::kStates[i].is_angle) (*x_next)[i] = wrap_angle((*x_next)[i]);
+    }
     return true;
   }
 
-  // d predict / d x, exact: one pass of jets seeded on the states.
+  // d predict / d x: the spec's own `jacobian` if it has one, else exact by
+  // one pass of jets seeded on the states.
   bool jacobian_fixed(const State& x, const Input& u, double dt, Jacobian* jacobian) const override {
+    if constexpr (internal::HasHandWrittenJacobian<Spec>::value) {
+      Eigen::Matrix<double, kStates, kStates, Eigen::RowMajor> row_major;
+      Spec::jacobian(x.data(), input_data(u), p_.data(), dt, row_major.data());
+      *jacobian = row_major;
+      return jacobian->allFinite();
+    }
     using Jet = ceres::Jet<double, kStates>;
     Jet x_jet[kStates], p_jet[kNumParameters > 0 ? kNumParameters : 1], out[kStates];
     for (int i = 0; i < kStates; ++i) x_jet[i] = Jet(x[i], i);

@@ -8,6 +8,12 @@
 //     EXPECT_MOTION_MODEL_CONFORMS(*model, x, u, dt);
 //   }
 //
+// or, better, over the region where the model will be used:
+//
+//   OperatingRegion region;
+//   region.x_min = ...; region.x_max = ...; region.u_min = ...; region.u_max = ...;
+//   EXPECT_MOTION_MODEL_CONFORMS_OVER(*model, region);
+//
 // Checks, at the operating point (x, u, dt) you choose (pick one away from
 // singular configurations, with non-zero inputs so every term is exercised):
 //  * dimensions and names agree and names are unique and non-empty;
@@ -28,10 +34,13 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <set>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "skidimm/sdk/angles.h"
 #include "skidimm/sdk/motion_model.h"
@@ -45,6 +54,44 @@ struct ConformanceOptions {
   double identity_tolerance = 1e-12;  // predict(x, u, 0) vs x, relative to max(1, |x|)
   double jacobian_tolerance = 1e-6;   // analytic vs numeric, relative to max(1, |J|)
 };
+
+namespace internal {
+
+inline std::string vector_text(const Eigen::VectorXd& v) {
+  std::ostringstream out;
+  out.precision(6);
+  out << "[";
+  for (Eigen::Index i = 0; i < v.size(); ++i) out << (i ? ", " : "") << v[i];
+  out << "]";
+  return out.str();
+}
+
+// The entries of `analytic` that differ from `numeric` by more than
+// `tolerance`, worst first (at most five), each named by row and column.
+inline std::string differing_entries(const Eigen::MatrixXd& analytic, const Eigen::MatrixXd& numeric, double tolerance,
+                                     const std::vector<std::string>& row_names,
+                                     const std::vector<std::string>& column_names) {
+  std::vector<std::pair<double, std::pair<int, int>>> entries;
+  for (int r = 0; r < analytic.rows(); ++r) {
+    for (int c = 0; c < analytic.cols(); ++c) {
+      const double difference = std::abs(analytic(r, c) - numeric(r, c));
+      if (!(difference <= tolerance)) entries.push_back({std::isnan(difference) ? HUGE_VAL : difference, {r, c}});
+    }
+  }
+  std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::ostringstream out;
+  out.precision(10);
+  for (std::size_t k = 0; k < entries.size() && k < 5; ++k) {
+    const int r = entries[k].second.first, c = entries[k].second.second;
+    out << "\n    entry (row " << r << " '" << (r < static_cast<int>(row_names.size()) ? row_names[r] : "?")
+        << "', column " << c << " '" << (c < static_cast<int>(column_names.size()) ? column_names[c] : "?")
+        << "'): analytic " << analytic(r, c) << ", numeric " << numeric(r, c);
+  }
+  if (entries.size() > 5) out << "\n    and " << entries.size() - 5 << " more entries";
+  return out.str();
+}
+
+}  // namespace internal
 
 inline ::testing::AssertionResult MotionModelConforms(MotionModel& model, const Eigen::VectorXd& x,
                                                       const Eigen::VectorXd& u, double dt,
@@ -93,8 +140,12 @@ inline ::testing::AssertionResult MotionModelConforms(MotionModel& model, const 
     fail("jacobian(x, u, 0) is not the identity");
   }
 
-  if (!model.predict(x, u, dt, next) || !next.allFinite()) {
-    fail("predict(x, u, dt) failed or is not finite");
+  if (!model.predict(x, u, dt, next)) {
+    const char* reason = model.failure_reason();
+    fail("predict(x, u, dt) failed" + std::string(reason != nullptr && reason[0] != '\0' ? ": " : "") +
+         (reason != nullptr ? reason : ""));
+  } else if (!next.allFinite()) {
+    fail("predict(x, u, dt) is not finite: " + internal::vector_text(next));
   } else {
     for (int i = 0; i < n; ++i) {
       if (model.is_angle(i) && !(next[i] >= -kPi && next[i] < kPi)) fail("predict() left an angle outside [-pi, pi)");
@@ -160,7 +211,11 @@ inline ::testing::AssertionResult MotionModelConforms(MotionModel& model, const 
       const double error_norm = (jacobian - numeric).cwiseAbs().maxCoeff();
       if (error_norm > options.jacobian_tolerance * scale) {
         std::ostringstream out;
-        out << "jacobian() differs from central differences by " << error_norm << "\n    reported:\n"
+        out << "jacobian() differs from central differences by " << error_norm << " at x = "
+            << internal::vector_text(x) << ", u = " << internal::vector_text(u) << ", dt = " << dt
+            << internal::differing_entries(jacobian, numeric, options.jacobian_tolerance * scale,
+                                           model.state_names(), model.state_names())
+            << "\n    reported:\n"
             << jacobian << "\n    numeric:\n"
             << numeric;
         fail(out.str());
@@ -195,7 +250,13 @@ inline ::testing::AssertionResult MotionModelConforms(MotionModel& model, const 
       const double error_norm = (parameter_jacobian - numeric).cwiseAbs().maxCoeff();
       if (error_norm > options.jacobian_tolerance * scale) {
         std::ostringstream out;
-        out << "parameter_jacobian() differs from central differences by " << error_norm << "\n    reported:\n"
+        std::vector<std::string> parameter_names;
+        for (const auto& entry : info) parameter_names.push_back(entry.name);
+        out << "parameter_jacobian() differs from central differences by " << error_norm << " at x = "
+            << internal::vector_text(x) << ", u = " << internal::vector_text(u) << ", dt = " << dt
+            << internal::differing_entries(parameter_jacobian, numeric, options.jacobian_tolerance * scale,
+                                           model.state_names(), parameter_names)
+            << "\n    reported:\n"
             << parameter_jacobian << "\n    numeric:\n"
             << numeric;
         fail(out.str());
@@ -207,11 +268,77 @@ inline ::testing::AssertionResult MotionModelConforms(MotionModel& model, const 
   return ::testing::AssertionFailure() << "motion model does not conform:" << failures.str();
 }
 
+// Where a model is used: each state and input between its bounds, dt between
+// its bounds. A single operating point misses what only happens elsewhere (a
+// NaN or a throw above some speed, a Jacobian entry wrong only when a state
+// is negative); MotionModelConformsOver checks the region at many points.
+struct OperatingRegion {
+  Eigen::VectorXd x_min, x_max;
+  Eigen::VectorXd u_min, u_max;
+  double dt_min = 0.01;
+  double dt_max = 0.1;
+  int samples = 64;          // points drawn uniformly, besides the centre and the two extreme corners
+  std::uint64_t seed = 13;   // the same points on every run and platform
+};
+
+// MotionModelConforms at the region's centre, its all-minimum and
+// all-maximum corners and `samples` uniformly drawn points. The message says
+// how many points failed and, for the first three, the point and what failed
+// (a wrong Jacobian entry is named by row and column with both values).
+inline ::testing::AssertionResult MotionModelConformsOver(MotionModel& model, const OperatingRegion& region,
+                                                          const ConformanceOptions& options = {}) {
+  const int n = model.state_dim(), p = model.input_dim();
+  if (region.x_min.size() != n || region.x_max.size() != n || region.u_min.size() != p ||
+      region.u_max.size() != p) {
+    return ::testing::AssertionFailure() << "the operating region's bounds have the wrong sizes for this model ("
+                                         << n << " states, " << p << " inputs)";
+  }
+  std::uint64_t state = region.seed;
+  auto uniform = [&state](double lo, double hi) {  // splitmix64: portable, unlike std:: distributions
+    state += 0x9E3779B97F4A7C15ull;
+    std::uint64_t z = state;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return lo + (hi - lo) * (static_cast<double>(z >> 11) * 0x1.0p-53);
+  };
+  const int points = 3 + std::max(0, region.samples);
+  int failed = 0;
+  std::ostringstream report;
+  Eigen::VectorXd x(n), u(p);
+  for (int k = 0; k < points; ++k) {
+    double dt;
+    if (k < 3) {
+      const double w = k == 0 ? 0.5 : (k == 1 ? 0.0 : 1.0);  // centre, then the two extreme corners
+      x = region.x_min + w * (region.x_max - region.x_min);
+      u = region.u_min + w * (region.u_max - region.u_min);
+      dt = region.dt_min + w * (region.dt_max - region.dt_min);
+    } else {
+      for (int i = 0; i < n; ++i) x[i] = uniform(region.x_min[i], region.x_max[i]);
+      for (int i = 0; i < p; ++i) u[i] = uniform(region.u_min[i], region.u_max[i]);
+      dt = uniform(region.dt_min, region.dt_max);
+    }
+    const ::testing::AssertionResult result = MotionModelConforms(model, x, u, dt, options);
+    if (result) continue;
+    if (++failed <= 3) {
+      report << "\n at operating point " << k << ": x = " << internal::vector_text(x)
+             << ", u = " << internal::vector_text(u) << ", dt = " << dt << ": " << result.message();
+    }
+  }
+  if (failed == 0) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "motion model does not conform at " << failed << " of " << points
+                                       << " operating points" << report.str();
+}
+
 }  // namespace testing
 }  // namespace sdk
 }  // namespace skidimm
 
 #define EXPECT_MOTION_MODEL_CONFORMS(model, x, u, dt) \
   EXPECT_TRUE(::skidimm::sdk::testing::MotionModelConforms((model), (x), (u), (dt)))
+
+// EXPECT_MOTION_MODEL_CONFORMS_OVER(model, region): at many points of an OperatingRegion.
+#define EXPECT_MOTION_MODEL_CONFORMS_OVER(model, region) \
+  EXPECT_TRUE(::skidimm::sdk::testing::MotionModelConformsOver((model), (region)))
 
 #endif  // SKIDIMM_SDK_TESTING_CONFORMANCE_H_
