@@ -16,6 +16,7 @@ packages=(
   python3-pytest                 # ... its tests (run by ctest)
   python3-dask python3-distributed  # ... fleet-scale eval and fit (skidimm.dask)
   python3-matplotlib             # ... the figure of docs/python.md
+  clang libclang-rt-14-dev llvm-14  # the sanitizer stage (scripts/check.sh): ASan, UBSan, TSan, libFuzzer, llvm-symbolizer
 )
 
 missing=()

@@ -26,6 +26,7 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 TEST(ImmAllocation, StepAndDecisionAllocateNothingWithIrregularTimeMissingRowsAndAngles) {
+  SKIDIMM_SKIP_UNLESS_MALLOC_COUNTED();
   // 16 STC modes (EKF with an angle), dwell-time transitions with unequal
   // rates (the uniformisation path), irregular dt, partial measurements.
   skidimm_test::BankBuilder b;
@@ -81,6 +82,7 @@ TEST(ImmAllocation, StepAndDecisionAllocateNothingWithIrregularTimeMissingRowsAn
 // in their last digits, alternating rates (several anchors), and gaps long
 // enough for the eigenvector path.
 TEST(ImmAllocation, EveryKernelAndTransitionPathAllocatesNothing) {
+  SKIDIMM_SKIP_UNLESS_MALLOC_COUNTED();
   for (ImmKernelChoice choice : {ImmKernelChoice::kFastest, ImmKernelChoice::kDynamic}) {
     for (TransitionConfig::Kind kind :
          {TransitionConfig::Kind::kStay, TransitionConfig::Kind::kDwellTimes, TransitionConfig::Kind::kMatrix}) {
@@ -156,6 +158,7 @@ std::filesystem::path tiled_log(const std::string& example, int copies) {
 }
 
 TEST(ImmAllocation, TheRunLoopAllocatesNothingPerRow) {
+  SKIDIMM_SKIP_UNLESS_MALLOC_COUNTED();
   for (const char* bank_name : {"ltc_terrains", "stc_slip16"}) {
     for (const char* extension : {".csv", ".npy"}) {
       SCOPED_TRACE(std::string(bank_name) + extension);

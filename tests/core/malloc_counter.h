@@ -2,8 +2,32 @@
 // friends (glibc): operator new, Eigen's aligned allocator and code in
 // loaded plugins all end up here. Include in exactly one file of a test or
 // benchmark executable.
+//
+// Under a sanitizer (ASan, TSan, MSan), which owns malloc itself, nothing is
+// replaced: memory from glibc's allocator freed through the sanitizer's would
+// be a false report or a crash. SKIDIMM_MALLOC_COUNTED is then 0 and the
+// tests that count skip themselves (SKIDIMM_SKIP_UNLESS_MALLOC_COUNTED).
 #ifndef SKIDIMM_TESTS_CORE_MALLOC_COUNTER_H_
 #define SKIDIMM_TESTS_CORE_MALLOC_COUNTER_H_
+
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
+#define SKIDIMM_MALLOC_SANITIZED 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define SKIDIMM_MALLOC_SANITIZED 1
+#endif
+#ifdef SKIDIMM_MALLOC_SANITIZED
+#define SKIDIMM_MALLOC_COUNTED 0
+#else
+#define SKIDIMM_MALLOC_COUNTED 1
+#endif
+
+// In a GoogleTest body: skips the test, saying why, when allocations are not counted.
+#define SKIDIMM_SKIP_UNLESS_MALLOC_COUNTED()                                                          \
+  if (!SKIDIMM_MALLOC_COUNTED) GTEST_SKIP() << "built with a sanitizer, which replaces malloc itself: " \
+                                               "allocations are not counted"
 
 #include <atomic>
 #include <cstddef>
@@ -21,6 +45,7 @@ inline std::atomic<long> g_malloc_calls{0};
 inline std::atomic<long> g_malloc_bytes{0};
 }  // namespace skidimm_test
 
+#if SKIDIMM_MALLOC_COUNTED
 extern "C" {
 void* malloc(std::size_t size) noexcept {
   ++skidimm_test::g_malloc_calls;
@@ -49,5 +74,6 @@ int posix_memalign(void** out, std::size_t alignment, std::size_t size) noexcept
   return *out == nullptr ? 12 /* ENOMEM */ : 0;
 }
 }
+#endif  // SKIDIMM_MALLOC_COUNTED
 
 #endif  // SKIDIMM_TESTS_CORE_MALLOC_COUNTER_H_

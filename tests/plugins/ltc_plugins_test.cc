@@ -2,6 +2,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <type_traits>
+#include <utility>
+
 #include "skidimm/plugin_registry.h"
 #include "skidimm/sdk/testing/conformance.h"
 #include "skidimm/sdk/testing/plugin_lifecycle.h"
@@ -80,12 +83,36 @@ INSTANTIATE_TEST_SUITE_P(Bundled, LtcPlugins, ::testing::Values("ltc_linear", "l
 
 TEST(LtcScopes, SharedVariantDeclaresBankScope) {
   PluginRegistry registry({SKIDIMM_PLUGIN_DIR});
-  for (const auto& info : registry.create("ltc_shared", terrain_params())->parameter_info()) {
+  // The handles are named: the vectors parameter_info() returns live in the models.
+  const ModelHandle shared = registry.create("ltc_shared", terrain_params());
+  ASSERT_EQ(shared->parameter_info().size(), 8u);
+  for (const auto& info : shared->parameter_info()) {
     EXPECT_EQ(info.scope, sdk::ParameterScope::kBank) << info.name;
   }
-  for (const auto& info : registry.create("ltc_linear", terrain_params())->parameter_info()) {
+  const ModelHandle linear = registry.create("ltc_linear", terrain_params());
+  ASSERT_EQ(linear->parameter_info().size(), 8u);
+  for (const auto& info : linear->parameter_info()) {
     EXPECT_EQ(info.scope, sdk::ParameterScope::kMode) << info.name;
   }
+}
+
+// Whether `expr->` compiles for an expression of type T (an rvalue when T is
+// not a reference).
+template <typename T, typename = void>
+struct CanArrow : std::false_type {};
+template <typename T>
+struct CanArrow<T, std::void_t<decltype(std::declval<T>().operator->())>> : std::true_type {};
+
+// Issue 12, row 12: `for (auto& x : registry.create(...)->parameter_info())`
+// read a destroyed model. A temporary handle cannot be dereferenced; a named
+// one can.
+TEST(ModelHandleLifetime, ATemporaryHandleCannotBeDereferencedANamedOneCan) {
+  constexpr bool temporary = CanArrow<ModelHandle>::value;
+  constexpr bool named = CanArrow<ModelHandle&>::value;
+  constexpr bool named_const = CanArrow<const ModelHandle&>::value;
+  EXPECT_FALSE(temporary);
+  EXPECT_TRUE(named);
+  EXPECT_TRUE(named_const);
 }
 
 }  // namespace

@@ -8,6 +8,13 @@
 //    registry and checks the models against the file (dimensions, names,
 //    angles, parameter scopes).
 // Every problem is a ConfigError naming the file, the line and the field.
+//
+// Thread safety: load_bank_config() and Bank::load() may run on several
+// threads at once (each load has its own PluginRegistry); instantiate() uses
+// the registry it is given, which one thread at a time may use. A loaded Bank
+// is not changed by the engine: copies share its models and may be read, and
+// run by separate Imms, on separate threads (imm.h). Pinned by
+// tests/core/thread_safety_test.cc under ThreadSanitizer (docs/engine.md).
 #ifndef SKIDIMM_BANK_H_
 #define SKIDIMM_BANK_H_
 

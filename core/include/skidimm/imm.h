@@ -22,8 +22,14 @@
 // NaN entries of z are missing: with none present the step is predict-only and
 // no likelihood is applied; with some present only those are used.
 //
-// step() allocates nothing after construction. One Imm is used from one
-// thread at a time.
+// step() allocates nothing after construction.
+//
+// Thread safety: one Imm is used from one thread at a time (step() and
+// reset() change it). Separate Imms may run on separate threads, also when
+// they share model instances (Imms made from copies of one Bank): the engine
+// calls only a model's const members, which the SDK requires to be safe to
+// call concurrently (sdk/motion_model.h). Pinned by
+// tests/core/thread_safety_test.cc under ThreadSanitizer (docs/engine.md).
 //
 // Speed: the step runs in a kernel chosen once, here, for the bank's shape:
 // fixed-size Eigen types when the state and the measurement have at most 4

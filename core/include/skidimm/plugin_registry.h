@@ -12,7 +12,15 @@
 //
 // Lifetime: a model created here owns a reference to its library, so the
 // library stays loaded while the model lives, even after the registry is gone
-// (Boost.DLL tutorial 8). Not thread safe: load banks from one thread.
+// (Boost.DLL tutorial 8). A plugin is unloaded when the registry and the
+// last model created from it are destroyed, on whichever thread destroys the
+// last of them; never while a model from it lives.
+//
+// Thread safety: a PluginRegistry is used by one thread at a time (plugins(),
+// find() and create() scan and cache). Separate registries on separate
+// threads are independent, even over the same plugin files. Models created
+// here may be used and destroyed on any thread. Pinned by
+// tests/core/thread_safety_test.cc under ThreadSanitizer (docs/engine.md).
 #ifndef SKIDIMM_PLUGIN_REGISTRY_H_
 #define SKIDIMM_PLUGIN_REGISTRY_H_
 
@@ -20,6 +28,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "skidimm/sdk/motion_model.h"
@@ -33,8 +42,24 @@ class shared_library;
 
 namespace skidimm {
 
-// A model instance whose deleter keeps its plugin library loaded.
-using ModelHandle = std::shared_ptr<sdk::MotionModel>;
+// A model instance whose deleter keeps its plugin library loaded: a
+// shared_ptr that cannot be dereferenced while it is a temporary. In
+//   for (const auto& info : registry.create(...)->parameter_info())
+// the model would be destroyed before the loop reads the vector it returned
+// a reference to (issue 12, row 12); that line does not compile. Name the
+// handle first: `ModelHandle model = registry.create(...);`.
+class ModelHandle : public std::shared_ptr<sdk::MotionModel> {
+ public:
+  using std::shared_ptr<sdk::MotionModel>::shared_ptr;
+  ModelHandle() = default;
+  ModelHandle(std::shared_ptr<sdk::MotionModel> model) noexcept  // NOLINT: a handle is a shared_ptr
+      : std::shared_ptr<sdk::MotionModel>(std::move(model)) {}
+
+  sdk::MotionModel* operator->() const& noexcept { return get(); }
+  sdk::MotionModel* operator->() const&& = delete;
+  sdk::MotionModel& operator*() const& noexcept { return *get(); }
+  sdk::MotionModel& operator*() const&& = delete;
+};
 
 // A state or input a plugin declares (sdk::VariableDoc).
 struct PluginVariable {

@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
+#include <optional>
 #include <random>
 #include <set>
 
@@ -170,7 +172,78 @@ void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s)
 
 std::string number(double v) { return CsvWriter::format(std::round(v * 1e6) / 1e6); }
 
+struct Problem {
+  std::string field;
+  std::string message;
+};
+
+std::optional<Problem> simulation_problem(const Scenario& s) {
+  const double h = s.integration_step;
+  const SkidSteerDynamics dynamics(s.robot);
+  for (const TractionMode& mode : s.modes) {
+    const FastestResponse fastest = dynamics.fastest_response(mode);
+    if (!(h * fastest.rate <= kMaxStepTimesRate)) {
+      // The wheel loop and the yaw response are set by robot parameters (an
+      // implausible one is the usual cause); the body's sliding by the terrain.
+      const std::string what = fastest.what;
+      const std::string knob = what == "wheel speed loop" ? "robot.motor_time_constant"
+                               : what == "yaw"            ? "robot.yaw_inertia"
+                                                          : "";
+      char text[512];
+      std::snprintf(text, sizeof(text),
+                    "integration_step %.6g s does not resolve the %s response on mode '%s' (time constant %.3g s): "
+                    "RK4 diverges beyond 2.785 time constants a step, and the step must be <= %.2g of them, %.3g s. "
+                    "Lower integration_step%s%s%s",
+                    h, fastest.what, printable(mode.name).c_str(), 1.0 / fastest.rate, kMaxStepTimesRate,
+                    kMaxStepTimesRate / fastest.rate, knob.empty() ? "" : " or raise ", knob.c_str(),
+                    knob.empty() ? "" : " to a physical value");
+      // At the default step the robot is what changed; a chosen step is named.
+      const bool default_step = h == Scenario().integration_step;
+      return Problem{knob.empty() || !default_step ? "integration_step" : knob, text};
+    }
+  }
+  const double steps = std::ceil(s.duration / h);
+  if (!(steps <= static_cast<double>(kMaxIntegrationSteps))) {
+    char text[256];
+    std::snprintf(text, sizeof(text),
+                  "%.6g s at integration_step %.6g s is %.4g integration steps, more than the limit of %ld: "
+                  "shorten the run or split it into several scenarios",
+                  s.duration, h, steps, kMaxIntegrationSteps);
+    return Problem{"duration", text};
+  }
+  if (s.sensors.rate * h > 1.0 + 1e-9) {
+    return Problem{"sensors.rate", "a row is written at most once per integration step, so the rate must be <= 1 / "
+                                   "integration_step = " +
+                                       number(1.0 / h) + " Hz, got " + number(s.sensors.rate) + " Hz"};
+  }
+  if (s.sensors.gps_rate > s.sensors.rate * (1.0 + 1e-9)) {
+    return Problem{"sensors.gps_rate", "a GPS fix is written on a sensor row, so it must be <= sensors.rate = " +
+                                           number(s.sensors.rate) + " Hz, got " + number(s.sensors.gps_rate) + " Hz"};
+  }
+  return std::nullopt;
+}
+
+// The node a dotted field names, or its deepest ancestor present (for a line).
+YAML::Node node_of(const YAML::Node& root, const std::string& field) {
+  YAML::Node node = root;
+  std::size_t begin = 0;
+  while (begin <= field.size()) {
+    const std::size_t end = std::min(field.find('.', begin), field.size());
+    const YAML::Node child = node[field.substr(begin, end - begin)];
+    if (!child) break;
+    node = child;
+    begin = end + 1;
+  }
+  return node;
+}
+
 }  // namespace
+
+void check_simulable(const Scenario& scenario) {
+  if (const std::optional<Problem> problem = simulation_problem(scenario)) {
+    throw ConfigError(scenario.file.string(), 0, problem->field, problem->message);
+  }
+}
 
 SensorConfig husky_sensors() {
   // Sources and reasoning: docs/simulation.md, "Sensors".
@@ -259,6 +332,9 @@ Scenario load_scenario(const fs::path& file) {
   }
   parse_maneuver(y, y.required(root, "maneuver", ""), &s.maneuver);
   if (root["sensors"]) parse_sensors(y, root["sensors"], &s.sensors);
+  if (const std::optional<Problem> problem = simulation_problem(s)) {
+    y.fail(node_of(root, problem->field), problem->field, problem->message);
+  }
   return s;
 }
 
@@ -318,9 +394,17 @@ class RealisticErrors {
   double outage_end_ = -1.0;
 };
 
+bool finite(const RobotState& s) {
+  bool ok = std::isfinite(s.x) && std::isfinite(s.y) && std::isfinite(s.psi) && std::isfinite(s.vx) &&
+            std::isfinite(s.vy) && std::isfinite(s.omega);
+  for (const double w : s.wheel_speed) ok = ok && std::isfinite(w);
+  return ok;
+}
+
 }  // namespace
 
 SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const fs::path& output) {
+  check_simulable(scenario);
   const SkidSteerDynamics dynamics(scenario.robot);
   const RobotParameters& robot = scenario.robot;
   const SensorConfig& sensors = scenario.sensors;
@@ -420,6 +504,15 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
       next_sample = t + period * (1.0 + jitter);
     }
     dynamics.step(SkidSteerDynamics::side_commands(left, right), *mode, h, &state);
+    if (!finite(state)) {
+      // The checks above bound the step by the fastest linear response; a
+      // state that still blows up must stop the run, not fill the log with NaN.
+      char time[32];
+      std::snprintf(time, sizeof(time), "%.9g", t + h);
+      throw Error(scenario.file.string() + ": the simulated state is not finite at t = " + time + " s (mode '" +
+                  mode_name + "'): the robot or maneuver is outside what the simulator integrates; "
+                  "lower integration_step or check robot and maneuver");
+    }
   }
   out.commit();
   return summary;

@@ -51,6 +51,30 @@ ContactForces SkidSteerDynamics::forces(const RobotState& s, const TractionMode&
   return out;
 }
 
+FastestResponse SkidSteerDynamics::fastest_response(const TractionMode& mode) const {
+  const double half_track = robot_.track / 2.0;
+  const double half_base = robot_.wheelbase / 2.0;
+  const double normal = robot_.mass * kGravity / kNumWheels;
+  double longitudinal = 0.0, lateral = 0.0, yaw = 0.0;
+  for (const WheelGroundContact& c : mode.wheels) {
+    // d/d(slip) of mu N sin(C atan(B slip)) at slip 0; slip = speed / v0.
+    const double slope = std::abs(c.friction * normal * c.shape * c.stiffness) / kSlipSpeedFloor;
+    longitudinal += slope;
+    lateral += std::abs(c.lateral_ratio) * slope;
+    yaw += slope * (std::abs(c.lateral_ratio) * half_base * half_base + half_track * half_track);
+  }
+  const FastestResponse candidates[] = {{1.0 / robot_.motor_time_constant, "wheel speed loop"},
+                                        {longitudinal / robot_.mass, "longitudinal"},
+                                        {lateral / robot_.mass, "lateral"},
+                                        {yaw / robot_.yaw_inertia, "yaw"}};
+  FastestResponse fastest;
+  for (const FastestResponse& r : candidates) {
+    // A NaN or infinite rate (a parameter of 1e-320) must win, not be skipped.
+    if (!(r.rate <= fastest.rate)) fastest = r;
+  }
+  return fastest;
+}
+
 RobotState SkidSteerDynamics::derivative(const RobotState& s, const std::array<double, kNumWheels>& commands,
                                          const TractionMode& mode) const {
   const ContactForces f = forces(s, mode);

@@ -83,8 +83,28 @@ struct Scenario {
   SensorConfig sensors;
 };
 
-// Throws ConfigError with file, line and field.
+// Bounds on what simulate() integrates (docs/simulation.md, "Integration
+// step"). Classical RK4 on a response decaying at rate r diverges once
+// integration_step * r exceeds 2.785; the step must stay below
+// kMaxStepTimesRate / r for the fastest response of every mode
+// (SkidSteerDynamics::fastest_response), a margin under that limit.
+inline constexpr double kMaxStepTimesRate = 2.5;
+// duration / integration_step may not exceed this: 20 million steps is
+// 10,000 s at the default step of 0.5 ms, minutes of CPU and a log of
+// 500,000 rows at 50 Hz. Longer runs are several scenarios with other seeds.
+inline constexpr long kMaxIntegrationSteps = 20000000;
+
+// Throws ConfigError with file, line and field: for a malformed file, and for
+// a scenario simulate() cannot integrate (check_simulable()).
 Scenario load_scenario(const std::filesystem::path& file);
+
+// Throws ConfigError naming the field (no line: the scenario may have been
+// changed after loading, e.g. by --duration) when the integration step does
+// not resolve the fastest response of some mode, the run needs more than
+// kMaxIntegrationSteps steps, or a sensor rate asks for rows more often than
+// integration steps (sensors.rate > 1 / integration_step) or GPS fixes more
+// often than rows (they are written on rows: gps_rate > rate).
+void check_simulable(const Scenario& scenario);
 
 struct SimulationSummary {
   long rows = 0;
@@ -93,7 +113,9 @@ struct SimulationSummary {
   std::vector<std::string> modes_driven;
 };
 
-// Simulates and writes the log (atomically) to `output`.
+// Simulates and writes the log (atomically) to `output`. Calls
+// check_simulable() first; throws Error naming the time (and writes nothing)
+// if the simulated state nevertheless stops being finite.
 // Columns: t, phi_dot_L, phi_dot_R (measured), V, omega, ax, ay, X, Y, theta
 // (as SensorConfig describes; empty when not measured), mode, then truth:
 // true_V, true_vy, true_omega, true_X, true_Y, true_theta, true_phi_dot_L,

@@ -47,6 +47,16 @@ struct ContactForces {
   double ay = 0.0;
 };
 
+// The fastest response of the dynamics on one traction mode: the largest
+// rate (1/s) of its linearisation where it is stiffest, at rest, where slips
+// are normalised by the slip speed floor. RK4, like every explicit method,
+// diverges when the step exceeds a limit set by this rate (docs/simulation.md,
+// "Integration step").
+struct FastestResponse {
+  double rate = 0.0;  // 1/s; its time constant is 1 / rate
+  const char* what = "";  // "wheel speed loop", "longitudinal", "lateral" or "yaw"
+};
+
 class SkidSteerDynamics {
  public:
   explicit SkidSteerDynamics(const RobotParameters& robot) : robot_(robot) {}
@@ -57,6 +67,15 @@ class SkidSteerDynamics {
 
   // Advances the state by h seconds with per-wheel speed commands (rad/s).
   void step(const std::array<double, kNumWheels>& commands, const TractionMode& mode, double h, RobotState* s) const;
+
+  // Each response's rate is the magnitude of the diagonal entry of the
+  // Jacobian at rest: 1/tau_m for the wheels, and for the body, with each
+  // wheel's force slope mu N C B at zero slip, sum(slope) / (m v0)
+  // (longitudinal), sum(lateral_ratio slope) / (m v0) (lateral) and
+  // sum(slope (lateral_ratio x_i^2 + y_i^2)) / (Iz v0) (yaw), v0 the slip
+  // speed floor. Symmetric wheel positions make the off-diagonal coupling
+  // cancel, so these are the eigenvalues for equal wheels.
+  FastestResponse fastest_response(const TractionMode& mode) const;
 
   // Wheel commands for a wheel-speed pair: left wheels get `left`, right `right`.
   static std::array<double, kNumWheels> side_commands(double left, double right) { return {left, right, left, right}; }

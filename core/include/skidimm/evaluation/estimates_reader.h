@@ -1,0 +1,25 @@
+// Reading back a `skidimm run` output (`skidimm eval --estimates`): the
+// columns t, mu_<mode>... and truth_mode (and decision, if present), scored
+// as eval scores a run.
+#ifndef SKIDIMM_EVALUATION_ESTIMATES_READER_H_
+#define SKIDIMM_EVALUATION_ESTIMATES_READER_H_
+
+#include <filesystem>
+
+#include "skidimm/bank.h"
+#include "skidimm/evaluation/log_evaluation.h"
+
+namespace skidimm {
+namespace evaluation {
+
+// Scores the estimates in `file`. With a bank, its classes are scored (its
+// modes must be the file's mu_ columns, in order); without one, every mode is
+// a class. Throws LogError naming the file, line and column for a cell that
+// is not a finite number, a probability outside [0, 1], time that does not
+// increase, missing columns or a file without rows.
+LogResult evaluate_estimates(const std::filesystem::path& file, const BankConfig* bank);
+
+}  // namespace evaluation
+}  // namespace skidimm
+
+#endif  // SKIDIMM_EVALUATION_ESTIMATES_READER_H_
