@@ -62,15 +62,19 @@ std::string plugin_of(const Bank& bank, std::size_t j) {
   return "plugin " + source.plugin + " " + source.version + " (" + source.file.string() + ")";
 }
 
-// Per mode whose filter was rejected: how often, why, and where first.
+// Per mode whose filter was rejected: how often, why, and where first; and
+// how often each mode gated the measurement.
 void print_rejections(const Bank& bank, const RunSummary& summary) {
   for (std::size_t j = 0; j < summary.rejections.size(); ++j) {
     const ModeRejections& r = summary.rejections[j];
+    const long gated = r.by_failure[static_cast<int>(ModeFailure::kGated)];
+    if (gated > 0) std::cerr << "  mode '" << bank.config.modes[j].name << "' gated the measurement on " << gated << " row(s)\n";
     if (r.rows == 0) continue;
     std::cerr << "  mode '" << bank.config.modes[j].name << "' (" << plugin_of(bank, j) << ") was rejected on "
               << r.rows << " row(s):";
     const char* separator = " ";
-    for (ModeFailure f : {ModeFailure::kModel, ModeFailure::kNotFinite, ModeFailure::kUpdate}) {
+    for (ModeFailure f :
+         {ModeFailure::kModel, ModeFailure::kNotFinite, ModeFailure::kUpdate, ModeFailure::kDiverged}) {
       const long count = r.by_failure[static_cast<int>(f)];
       if (count == 0) continue;
       std::cerr << separator << count << " because " << to_string(f);
@@ -104,7 +108,11 @@ int run(const RunOptions& options) {
   std::optional<EstimatesWriter> writer;
   RunSummary summary;
   const int code = report_errors("skidimm run", [&] {
-    const Bank bank = Bank::load(options.bank, options.plugin_paths);
+    Bank bank = Bank::load(options.bank, options.plugin_paths);
+    if (options.innovation_gate >= 0.0) {
+      if (!(options.innovation_gate < 1.0)) throw Error("--innovation-gate: expected a probability in (0, 1), or 0 for none");
+      bank.config.innovation_gate = options.innovation_gate;
+    }
     const BankConfig& config = bank.config;
     const LogSpec log = join_inputs(options.inputs);
     if (!log.label.empty() && config.class_index(log.label) < 0) {
@@ -138,7 +146,7 @@ int run(const RunOptions& options) {
     }
     // The loop (log_run.h) allocates nothing per row.
     write_estimates(bank, &reader, estimator, decision_settings, log.label, with_truth, &*writer, &summary,
-                    [&] { progress.update(reader.progress(), summary.rows); });
+                    [&] { progress.update(reader.progress(), summary.rows); }, options.strict);
     progress.clear();
     const long rows = summary.rows;
     if (rows == 0) {
@@ -166,7 +174,14 @@ int run(const RunOptions& options) {
       if (summary.predict_only > 0) {
         std::cerr << "  " << summary.predict_only << " rows had no measurement (predict only)\n";
       }
-      if (summary.rejected > 0) std::cerr << "  " << summary.rejected << " rows had at least one mode's filter rejected\n";
+      if (summary.rejected > 0) {
+        std::cerr << "  " << summary.rejected << " rows had at least one mode's filter rejected and reset\n";
+      }
+      if (config.innovation_gate > 0.0) {
+        std::cerr << "  innovation gate " << CsvWriter::format(config.innovation_gate) << ": " << summary.gated
+                  << " measurement(s) gated by every mode (status gated), " << summary.mode_gated
+                  << " by some modes only\n";
+      }
       if (summary.truth_rows > 0) {
         std::fprintf(stderr, "most likely mode equals %s on %.1f%% of %ld labelled rows%s\n",
                      log.label.empty() ? ("column '" + config.columns.truth_mode + "'").c_str() : "the log's label",

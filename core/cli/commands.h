@@ -50,6 +50,8 @@ struct RunOptions {
   std::vector<std::filesystem::path> plugin_paths;
   bool quiet = false;
   bool progress = true;  // shown only when stderr is a terminal
+  double innovation_gate = -1.0;  // >= 0: overrides the bank's innovation_gate (0: none)
+  bool strict = false;            // the first rejected mode filter is an error
 };
 
 int run(const RunOptions& options);

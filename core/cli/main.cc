@@ -64,6 +64,12 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   run->add_option("--output,-o", output, "Output CSV (written as <output>.partial, renamed when complete)")->required();
   run->add_flag("--quiet,-q", run_options.quiet, "No summary or progress on stderr");
+  run->add_option("--innovation-gate", run_options.innovation_gate,
+                  "Chi-square innovation gate: probability a consistent measurement passes, in (0, 1); 0: none "
+                  "(overrides the bank's innovation_gate; docs/engine.md)")
+      ->check(CLI::Range(0.0, 1.0));
+  run->add_flag("--strict", run_options.strict,
+                "The first row where a mode's filter is rejected ends the run with an error (rows so far are kept)");
   std::string run_plot;
   run->add_option("--plot", run_plot, "Also draw the mode probabilities to this .png or .svg (needs gnuplot)");
   add_plugin_path(run);

@@ -52,8 +52,32 @@ void check_unique(const YamlFields& y, const YAML::Node& node, const std::vector
   }
 }
 
+// The largest magnitude a matrix entry of the bank (Q, R, H, the prior) may
+// have. One filter step multiplies a handful of these together (F P F' + Q dt,
+// H P H' + R, the gain, the Joseph form, the mixing's y y'), so entries of at
+// most 1e15 keep every intermediate below about 1e90 even with dt in the
+// millions of seconds, far from double's 1.8e308, and a variance of 1e15
+// next to one of 1e-15 is already at the end of double's 16 digits: larger
+// values are not a tighter or looser model but a mistake (1e300 gave negative
+// variances in the output, issue 12).
+constexpr double kMaxBankEntry = 1e15;
+
+void check_magnitude(const YamlFields& y, const YAML::Node& node, const Eigen::MatrixXd& m, const std::string& field) {
+  for (Eigen::Index j = 0; j < m.cols(); ++j) {
+    for (Eigen::Index i = 0; i < m.rows(); ++i) {
+      if (std::abs(m(i, j)) > kMaxBankEntry) {
+        std::ostringstream out;
+        out << "entry (" << i << ", " << j << ") = " << m(i, j) << " is larger in magnitude than " << kMaxBankEntry
+            << ", which a filter step cannot carry without overflow or a total loss of precision";
+        y.fail(node, field, out.str());
+      }
+    }
+  }
+}
+
 void check_cov(const YamlFields& y, const YAML::Node& node, const Eigen::MatrixXd& m, bool strict,
                const std::string& field) {
+  check_magnitude(y, node, m, field);
   std::string why;
   if (!check_covariance(m, strict, &why)) y.fail(node, field, "must be a covariance: " + why);
 }
@@ -109,6 +133,7 @@ void parse_measurement(const YamlFields& y, const YAML::Node& root, BankConfig* 
     y.fail(node, "measurement", "give 'observe: [state names]' or 'H' with 'names'");
   }
   if (!mc.h.allFinite()) y.fail(node, "measurement.H", "must be finite");
+  check_magnitude(y, node["H"] ? node["H"] : node, mc.h, "measurement.H");
   const int m = static_cast<int>(mc.h.rows());
   if (m == 0) y.fail(node, "measurement", "measures nothing");
   const YAML::Node r = y.required(node, "R", "measurement");
@@ -192,6 +217,7 @@ void parse_initial(const YamlFields& y, const YAML::Node& root, BankConfig* bank
              "expected " + std::to_string(n) + " values (" + join(bank->state_names) + ")");
     }
     if (!bank->initial_state.allFinite()) y.fail(node["state"], "initial.state", "must be finite");
+    check_magnitude(y, node["state"], bank->initial_state, "initial.state");
   }
   const YAML::Node cov = y.required(node, "covariance", "initial");
   bank->initial_covariance = y.covariance(cov, n, "initial.covariance");
@@ -376,7 +402,7 @@ BankConfig load_bank_config(const fs::path& file) {
 
   y.check_keys(root,
                {"name", "description", "states", "angles", "inputs", "columns", "sampling", "measurement", "transition",
-                "initial", "mode_probability_floor", "plugin_paths", "shared", "modes", "classes", "decision"},
+                "initial", "mode_probability_floor", "innovation_gate", "plugin_paths", "shared", "modes", "classes", "decision"},
                "");
   BankConfig bank;
   bank.file = fs::absolute(file);
@@ -432,6 +458,13 @@ BankConfig load_bank_config(const fs::path& file) {
     bank.mode_probability_floor = y.number(floor, "mode_probability_floor");
     if (!(bank.mode_probability_floor >= 0.0 && bank.mode_probability_floor * bank.num_modes() < 1.0)) {
       y.fail(floor, "mode_probability_floor", "must be >= 0 and below 1/(number of modes)");
+    }
+  }
+  if (const YAML::Node gate = root["innovation_gate"]) {
+    bank.innovation_gate = y.number(gate, "innovation_gate");
+    if (!(bank.innovation_gate == 0.0 || (bank.innovation_gate > 0.0 && bank.innovation_gate < 1.0))) {
+      y.fail(gate, "innovation_gate",
+             "must be the probability that a consistent measurement passes, in (0, 1) (e.g. 0.9999), or 0 for no gate");
     }
   }
   if (const YAML::Node paths = root["plugin_paths"]) {

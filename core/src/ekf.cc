@@ -54,7 +54,7 @@ bool ExtendedKalmanFilter::predict(const Eigen::Ref<const Eigen::VectorXd>& u, d
   return x_.allFinite() && p_.allFinite();
 }
 
-UpdateResult ExtendedKalmanFilter::update(const SelectedMeasurement& measurement) {
+UpdateResult ExtendedKalmanFilter::update(const SelectedMeasurement& measurement, double gate) {
   UpdateResult result;
   const int k = measurement.size;
   if (k == 0) {
@@ -84,6 +84,12 @@ UpdateResult ExtendedKalmanFilter::update(const SelectedMeasurement& measurement
   llt.solveInPlace(whitened);  // S^-1 nu
   result.nis = nu.dot(whitened);
   const double log_det = 2.0 * s.diagonal().array().log().sum();
+  if (result.nis > gate) {
+    result.gated = true;
+    result.log_likelihood = -0.5 * (gate + log_det + k * kLog2Pi);
+    result.ok = std::isfinite(result.log_likelihood);
+    return result;
+  }
   result.log_likelihood = -0.5 * (result.nis + log_det + k * kLog2Pi);
 
   // K' = S^-1 H P-   (S and P- symmetric), solved in place over H P-.

@@ -1,6 +1,7 @@
 #include "skidimm/estimates_writer.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdint>
 #include <cstring>
 #include <string_view>
@@ -22,8 +23,54 @@ std::vector<std::string> EstimatesWriter::header(const BankConfig& config, bool 
   header.push_back("decision");
   if (with_truth) header.push_back("truth_mode");
   header.push_back("status");
+  header.push_back("reason");
   return header;
 }
+
+namespace {
+
+// The reason column's text, into *out (cleared; its capacity is reused, so a
+// run allocates only while the longest reason so far grows): for each mode
+// rejected or gated in the step, "<mode>: <what>", joined by "; ". Empty when
+// every mode ran normally.
+void describe_step(const ImmEstimate& e, const std::vector<std::string>& mode_names, std::string* out) {
+  out->clear();
+  for (std::size_t j = 0; j < e.mode_failures.size(); ++j) {
+    const ModeFailure failure = e.mode_failures[j];
+    if (failure == ModeFailure::kNone) continue;
+    if (!out->empty()) out->append("; ");
+    out->append(mode_names[j]);
+    out->append(": ");
+    switch (failure) {
+      case ModeFailure::kModel:
+        out->append("model failed, reset: ");
+        out->append(e.failure_reasons[j]);
+        break;
+      case ModeFailure::kNotFinite:
+        out->append("model returned non-finite values, reset");
+        break;
+      case ModeFailure::kUpdate:
+        out->append("update failed, reset");
+        break;
+      case ModeFailure::kDiverged:
+        out->append("diverged, reset");
+        break;
+      case ModeFailure::kGated: {
+        char nis[48];
+        std::snprintf(nis, sizeof nis, "gated (NIS %.4g)", e.nis[static_cast<Eigen::Index>(j)]);
+        out->append(nis);
+        break;
+      }
+      case ModeFailure::kNone:
+        break;
+    }
+  }
+}
+
+// Width of the reason column in .npy files; longer reasons are cut there.
+constexpr std::size_t kNpyReasonWidth = 256;
+
+}  // namespace
 
 bool EstimatesWriter::is_npy(const fs::path& path) { return path.extension() == ".npy"; }
 
@@ -180,6 +227,7 @@ EstimatesWriter::EstimatesWriter(const fs::path& path, const BankConfig& config,
   std::vector<std::size_t> widths{longest_mode, longest_class};
   if (with_truth) widths.push_back(std::max<std::size_t>(64, std::max(longest_mode, longest_class)));
   widths.push_back(18);  // "all_modes_rejected"
+  widths.push_back(kNpyReasonWidth);
   npy_ = std::make_unique<Npy>(path, names, names.size() - widths.size(), widths);
 }
 
@@ -208,6 +256,8 @@ void EstimatesWriter::write(double t, const ImmEstimate& e, const std::string& d
     w.add_text(decision);
     if (with_truth_) w.add_text(truth);
     w.add_text(to_string(e.status));
+    describe_step(e, mode_names_, &reason_);
+    w.add_text(reason_);
     w.end_row();
     return;
   }
@@ -220,7 +270,10 @@ void EstimatesWriter::write(double t, const ImmEstimate& e, const std::string& d
   w.add_text(mode, column++, "mode");
   w.add_text(decision, column++, "decision");
   if (with_truth_) w.add_text(truth, column++, "truth label");
-  w.add_text(to_string(e.status), column, "status");
+  w.add_text(to_string(e.status), column++, "status");
+  describe_step(e, mode_names_, &reason_);
+  if (reason_.size() > kNpyReasonWidth) reason_.replace(kNpyReasonWidth - 3, std::string::npos, "...");
+  w.add_text(reason_, column, "reason");
   w.end_row();
 }
 

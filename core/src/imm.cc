@@ -1,5 +1,6 @@
 #include "skidimm/imm.h"
 
+#include <boost/math/special_functions/gamma.hpp>
 #include <cmath>
 #include <limits>
 #include <utility>
@@ -27,9 +28,24 @@ const char* to_string(StepStatus status) {
       return "rejected_time";
     case StepStatus::kRejectedInput:
       return "rejected_input";
+    case StepStatus::kGated:
+      return "gated";
+    case StepStatus::kModeGated:
+      return "mode_gated";
+    case StepStatus::kModeReset:
+      return "mode_reset";
   }
   return "unknown";
 }
+
+namespace internal {
+
+double chi_square_quantile(double probability, int dof) {
+  // chi2(k) is Gamma(k/2, scale 2).
+  return 2.0 * boost::math::gamma_p_inv(0.5 * dof, probability);
+}
+
+}  // namespace internal
 
 Imm Imm::from_yaml(const std::filesystem::path& bank_file, const std::vector<std::filesystem::path>& plugin_paths) {
   return Imm(Bank::load(bank_file, plugin_paths));
@@ -162,7 +178,11 @@ const char* to_string(ModeFailure failure) {
     case ModeFailure::kNotFinite:
       return "the model returned a non-finite state, Jacobian or process noise";
     case ModeFailure::kUpdate:
-      return "the measurement update failed or the filter diverged";
+      return "the measurement update failed (innovation covariance not positive definite, or a non-finite result)";
+    case ModeFailure::kDiverged:
+      return "the filter diverged (a non-finite or absurd state, or a negative variance) and was reset";
+    case ModeFailure::kGated:
+      return "the measurement was outside the innovation gate";
   }
   return "unknown";
 }

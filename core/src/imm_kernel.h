@@ -16,6 +16,8 @@
 #include <memory>
 #include <vector>
 
+#include "filter_health.h"
+#include "probability_floor.h"
 #include "skidimm/bank.h"
 #include "skidimm/covariance.h"
 #include "skidimm/ekf.h"
@@ -29,6 +31,22 @@ namespace internal {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kMinusInfinity = -std::numeric_limits<double>::infinity();
+
+// The NIS below which a consistent measurement of `dof` components falls with
+// `probability` (imm.cc).
+double chi_square_quantile(double probability, int dof);
+
+// Mode j's update result into the estimate.
+inline void record_update(int j, const UpdateResult& result, ImmEstimate* e, int* rejected) {
+  if (result.ok) {
+    e->log_likelihoods[j] = result.log_likelihood;
+    e->nis[j] = result.nis;
+    if (result.gated) e->mode_failures[static_cast<std::size_t>(j)] = ModeFailure::kGated;
+  } else {
+    e->log_likelihoods[j] = kMinusInfinity;
+    ++*rejected;
+  }
+}
 
 class ImmKernel {
  public:
@@ -73,9 +91,9 @@ class FixedFilters {
   }
 
   // Updates every mode whose log-likelihood is not already -inf with the
-  // finite rows of z; writes log-likelihoods and NIS. Returns the number of
-  // rows used.
-  int update(const Eigen::Ref<const Eigen::VectorXd>& z, ImmEstimate* e, int* rejected) {
+  // finite rows of z, gating at gates[k] for k rows; writes log-likelihoods,
+  // NIS and kGated. Returns the number of rows used.
+  int update(const Eigen::Ref<const Eigen::VectorXd>& z, const double* gates, ImmEstimate* e, int* rejected) {
     std::array<int, M> rows{};
     int k = 0;
     for (int a = 0; a < M; ++a) {
@@ -83,16 +101,16 @@ class FixedFilters {
     }
     switch (k) {
       case 1:
-        update_rows<1>(rows, z, e, rejected);
+        update_rows<1>(rows, z, gates[1], e, rejected);
         break;
       case 2:
-        update_rows<2>(rows, z, e, rejected);
+        update_rows<2>(rows, z, gates[2], e, rejected);
         break;
       case 3:
-        update_rows<3>(rows, z, e, rejected);
+        update_rows<3>(rows, z, gates[3], e, rejected);
         break;
       case 4:
-        update_rows<4>(rows, z, e, rejected);
+        update_rows<4>(rows, z, gates[4], e, rejected);
         break;
       default:
         break;
@@ -102,8 +120,8 @@ class FixedFilters {
 
  private:
   template <int K>
-  void update_rows(const std::array<int, M>& rows, const Eigen::Ref<const Eigen::VectorXd>& z, ImmEstimate* e,
-                   int* rejected) {
+  void update_rows(const std::array<int, M>& rows, const Eigen::Ref<const Eigen::VectorXd>& z, double gate,
+                   ImmEstimate* e, int* rejected) {
     if constexpr (K <= M) {
       Eigen::Matrix<double, K, 1> zk;
       Eigen::Matrix<double, K, N> hk;
@@ -119,15 +137,10 @@ class FixedFilters {
       const int modes = static_cast<int>(models_.size());
       for (int j = 0; j < modes; ++j) {
         if (e->log_likelihoods[j] == kMinusInfinity) continue;  // failed in predict
-        const UpdateResult result = update_fixed<N, K>(zk, hk, rk, angles, state_angles_,
-                                                       &x_[static_cast<std::size_t>(j)], &p_[static_cast<std::size_t>(j)]);
-        if (result.ok) {
-          e->log_likelihoods[j] = result.log_likelihood;
-          e->nis[j] = result.nis;
-        } else {
-          e->log_likelihoods[j] = kMinusInfinity;
-          ++*rejected;
-        }
+        const UpdateResult result =
+            update_fixed<N, K>(zk, hk, rk, angles, state_angles_, &x_[static_cast<std::size_t>(j)],
+                               &p_[static_cast<std::size_t>(j)], gate);
+        record_update(j, result, e, rejected);
       }
     }
   }
@@ -169,20 +182,14 @@ class DynamicFilters {
     return filters_[static_cast<std::size_t>(j)].predict(u, dt);
   }
 
-  int update(const Eigen::Ref<const Eigen::VectorXd>& z, ImmEstimate* e, int* rejected) {
+  int update(const Eigen::Ref<const Eigen::VectorXd>& z, const double* gates, ImmEstimate* e, int* rejected) {
     measurement_model_.select(z, &selection_);
     if (selection_.size == 0) return 0;
     const int modes = static_cast<int>(filters_.size());
     for (int j = 0; j < modes; ++j) {
       if (e->log_likelihoods[j] == kMinusInfinity) continue;  // failed in predict
-      const UpdateResult result = filters_[static_cast<std::size_t>(j)].update(selection_);
-      if (result.ok) {
-        e->log_likelihoods[j] = result.log_likelihood;
-        e->nis[j] = result.nis;
-      } else {
-        e->log_likelihoods[j] = kMinusInfinity;
-        ++*rejected;
-      }
+      const UpdateResult result = filters_[static_cast<std::size_t>(j)].update(selection_, gates[selection_.size]);
+      record_update(j, result, e, rejected);
     }
     return selection_.size;
   }
@@ -227,6 +234,12 @@ class Kernel final : public ImmKernel {
     mean_.resize(n_);
     deviation_.resize(n_);
     combined_.resize(n_, n_);
+    // gates_[k]: the chi-square quantile for k measured components.
+    const int m = static_cast<int>(bank.config.measurement.h.rows());
+    gates_.assign(static_cast<std::size_t>(m) + 1, std::numeric_limits<double>::infinity());
+    if (bank.config.innovation_gate > 0.0) {
+      for (int k = 1; k <= m; ++k) gates_[static_cast<std::size_t>(k)] = chi_square_quantile(bank.config.innovation_gate, k);
+    }
   }
 
   void step(bool first, double dt, const Eigen::Ref<const Eigen::VectorXd>& u,
@@ -251,26 +264,68 @@ class Kernel final : public ImmKernel {
         }
       }
     }
-    const int measured = filters_.update(z, e, &rejected);
-    // A failed filter restarts from the last combined estimate, so one bad
-    // step does not leave NaN in a mode forever.
+    const int measured = filters_.update(z, gates_.data(), e, &rejected);
+    // A filter that ran but holds absurd numbers has diverged (filter_health.h).
+    for (int j = 0; j < modes_; ++j) {
+      if (e->log_likelihoods[j] == kMinusInfinity) continue;
+      if (!filter_is_healthy(filters_.state(j), filters_.covariance(j))) {
+        e->log_likelihoods[j] = kMinusInfinity;
+        e->mode_failures[static_cast<std::size_t>(j)] = ModeFailure::kDiverged;
+        ++rejected;
+      }
+    }
+    // A failed or diverged filter restarts from the last combined estimate
+    // (sound, see combine()), so one bad step does not leave NaN in a mode
+    // forever.
     for (int j = 0; j < modes_; ++j) {
       if (e->log_likelihoods[j] == kMinusInfinity) {
         filters_.state(j) = e->state;
         filters_.covariance(j) = e->covariance;
       }
     }
-    const bool all_rejected = rejected == modes_;
-    e->status = measured == 0 ? StepStatus::kPredictOnly
-                : all_rejected ? StepStatus::kAllModesRejected
-                               : StepStatus::kUpdated;
+    const int gated = score_gated_modes(e);
+    const int accepted = measured == 0 ? 0 : modes_ - rejected - gated;
+    e->status = rejected == modes_ ? StepStatus::kAllModesRejected
+                : rejected > 0     ? StepStatus::kModeReset
+                : measured == 0    ? StepStatus::kPredictOnly
+                : accepted == 0    ? StepStatus::kGated
+                : gated > 0        ? StepStatus::kModeGated
+                                   : StepStatus::kUpdated;
     e->num_measured = measured;
     e->num_rejected_modes = rejected;
-    update_mode_probabilities(measured > 0 && !all_rejected, e);
+    e->num_gated_modes = gated;
+    // Likelihoods count only when some mode applied the measurement: a
+    // measurement every mode gated (or failed on) says nothing about which
+    // mode is right.
+    update_mode_probabilities(accepted > 0, e);
     combine(e);
   }
 
  private:
+  // A gated mode is scored at its gate's boundary, and no better than the
+  // worst mode that applied the measurement, so rejecting a measurement can
+  // never make a mode win (docs/engine.md). Returns the number of gated modes.
+  int score_gated_modes(ImmEstimate* e) const {
+    int gated = 0;
+    double worst_applied = std::numeric_limits<double>::infinity();
+    for (int j = 0; j < modes_; ++j) {
+      const ModeFailure failure = e->mode_failures[static_cast<std::size_t>(j)];
+      const double log_likelihood = e->log_likelihoods[j];
+      if (failure == ModeFailure::kGated) {
+        ++gated;
+      } else if (failure == ModeFailure::kNone && log_likelihood > kMinusInfinity) {
+        worst_applied = std::min(worst_applied, log_likelihood);
+      }
+    }
+    if (gated == 0 || worst_applied == std::numeric_limits<double>::infinity()) return gated;
+    for (int j = 0; j < modes_; ++j) {
+      if (e->mode_failures[static_cast<std::size_t>(j)] == ModeFailure::kGated) {
+        e->log_likelihoods[j] = std::min(e->log_likelihoods[j], worst_applied);
+      }
+    }
+    return gated;
+  }
+
   // Why mode j's prediction failed. A model that returns false leaves the
   // filter's state as it was (finite, as every failed filter restarts from
   // the combined estimate); one that returns non-finite numbers does not.
@@ -335,10 +390,7 @@ class Kernel final : public ImmKernel {
     Eigen::VectorXd& mu = e->mode_probabilities;
     for (int j = 0; j < modes_; ++j) mu[j] = std::exp(log_posterior_[j] - largest);
     mu /= mu.sum();
-    if (floor_ > 0.0) {
-      mu = mu.cwiseMax(floor_);
-      mu /= mu.sum();
-    }
+    apply_probability_floor(floor_, mu);
     mu.maxCoeff(&e->most_likely_mode);
   }
 
@@ -373,8 +425,25 @@ class Kernel final : public ImmKernel {
       copy_out(filters_.covariance(j), &e->mode_covariances[static_cast<std::size_t>(j)]);
     }
     symmetrize(combined_);
+    if (!estimate_is_sound(mean_, combined_)) {
+      // Cannot happen with every mode healthy (filter_health.h); kept so
+      // that the output's promise holds whatever a model does.
+      restart_from_prior(e);
+      return;
+    }
     copy_out(mean_, &e->state);
     copy_out(combined_, &e->covariance);
+  }
+
+  void restart_from_prior(ImmEstimate* e) {
+    for (int j = 0; j < modes_; ++j) {
+      filters_.state(j) = initial_state_;
+      filters_.covariance(j) = initial_covariance_;
+      copy_out(filters_.state(j), &e->mode_states[static_cast<std::size_t>(j)]);
+      copy_out(filters_.covariance(j), &e->mode_covariances[static_cast<std::size_t>(j)]);
+    }
+    e->state = initial_state_;  // same size: no allocation
+    e->covariance = initial_covariance_;
   }
 
   // Into the estimate's dynamic storage (already of the right size): a
@@ -393,6 +462,7 @@ class Kernel final : public ImmKernel {
   int n_;
   int modes_;
   double floor_;
+  std::vector<double> gates_;  // by number of measured components; +inf: no gate
   Eigen::VectorXd initial_state_;
   Eigen::MatrixXd initial_covariance_;
   std::unique_ptr<bool[]> is_angle_;

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "filter_health.h"
+#include "probability_floor.h"
 #include "skidimm/covariance.h"
 #include "skidimm/gaussian_mixture.h"
 #include "skidimm/sdk/angles.h"
@@ -65,11 +67,7 @@ void ImmSmoother::backward(const ForwardStep& k, double t_next, const SmoothedSt
   out->mode_probabilities = joint.rowwise().sum();
   const double total = out->mode_probabilities.sum();
   if (total > 0.0) out->mode_probabilities /= total;
-  const double floor = config.mode_probability_floor;
-  if (floor > 0.0) {
-    out->mode_probabilities = out->mode_probabilities.cwiseMax(floor);
-    out->mode_probabilities /= out->mode_probabilities.sum();
-  }
+  internal::apply_probability_floor(config.mode_probability_floor, out->mode_probabilities);
   out->mode_states.resize(static_cast<std::size_t>(modes));
   out->mode_covariances.resize(static_cast<std::size_t>(modes));
 
@@ -117,6 +115,13 @@ void ImmSmoother::backward(const ForwardStep& k, double t_next, const SmoothedSt
       Eigen::MatrixXd& pc = pair_covariances[static_cast<std::size_t>(i)];
       pc = px + gain * (next.mode_covariances[static_cast<std::size_t>(i)] - predicted_covariance) * gain.transpose();
       symmetrize(pc);
+      // Across a step where the filter reset a mode (or a near-singular
+      // P^ji), the RTS correction can be absurd: keep the filtered estimate
+      // for the pair, as for a pair that cannot be smoothed.
+      if (!internal::filter_is_healthy(pair_means_.col(i), pc)) {
+        pair_means_.col(i) = x;
+        pc = px;
+      }
     }
     Eigen::VectorXd mean(n);
     weighted_mean(angle_mask_, weights, pair_means_, mean, deviations_);

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "skidimm/decision.h"
+#include "skidimm/errors.h"
 #include "skidimm/imm.h"
 #include "skidimm/imm_smoother.h"
 
@@ -13,7 +14,7 @@ namespace skidimm {
 
 namespace {
 
-// Which modes' filters were rejected in the step just counted in s->rows.
+// Which modes' filters were rejected or gated in the step just counted in s->rows.
 void count_rejections(const ImmEstimate& e, double t, RunSummary* s) {
   const std::size_t modes = e.mode_failures.size();
   if (s->rejections.size() != modes) s->rejections.resize(modes);
@@ -21,13 +22,14 @@ void count_rejections(const ImmEstimate& e, double t, RunSummary* s) {
     const ModeFailure failure = e.mode_failures[j];
     if (failure == ModeFailure::kNone) continue;
     ModeRejections& r = s->rejections[j];
+    ++r.by_failure[static_cast<int>(failure)];
+    if (!is_rejection(failure)) continue;
     if (r.rows++ == 0) {
       r.first_row = s->rows;
       r.first_t = t;
       r.first_failure = failure;
       if (failure == ModeFailure::kModel) r.first_reason = e.failure_reasons[j];
     }
-    ++r.by_failure[static_cast<int>(failure)];
   }
 }
 
@@ -47,6 +49,23 @@ bool accepted(StepStatus status) {
 }
 
 }  // namespace
+
+std::string describe_first_rejection(const Bank& bank, const ImmEstimate& e, long row) {
+  for (std::size_t j = 0; j < e.mode_failures.size(); ++j) {
+    const ModeFailure failure = e.mode_failures[j];
+    if (!is_rejection(failure)) continue;
+    std::string plugin = "model " + bank.config.modes[j].model;
+    if (j < bank.model_sources.size()) {
+      const ModelSource& source = bank.model_sources[j];
+      plugin = "plugin " + source.plugin + " " + source.version + " (" + source.file.string() + ")";
+    }
+    std::string text = "row " + std::to_string(row) + " (t = " + CsvWriter::format(e.t) + "): mode '" +
+                       bank.config.modes[j].name + "' (" + plugin + ") was rejected: " + to_string(failure);
+    if (failure == ModeFailure::kModel && !e.failure_reasons[j].empty()) text += ": " + e.failure_reasons[j];
+    return text + " (--strict stops at the first rejection)";
+  }
+  return "row " + std::to_string(row) + ": no mode was rejected";
+}
 
 long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
              const std::function<void(const LogSample&, const ImmEstimate&)>& sink) {
@@ -113,7 +132,8 @@ long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& opt
 
 void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
                      const DecisionConfig& decision_settings, const std::string& label, bool with_truth,
-                     EstimatesWriter* writer, RunSummary* summary, const std::function<void()>& progress) {
+                     EstimatesWriter* writer, RunSummary* summary, const std::function<void()>& progress,
+                     bool strict) {
   const BankConfig& config = bank.config;
   const std::vector<int> class_of_mode = config.class_of_modes();
   ModeDecision decision(config, decision_settings);
@@ -130,7 +150,8 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
     s.decision_changes += decided != last_decision && s.rows > 1;
     last_decision = decided;
     writer->write(sample.t, e, decision.name(decided), truth);
-    if (e.num_rejected_modes > 0) count_rejections(e, sample.t, &s);
+    if (e.num_rejected_modes > 0 || e.num_gated_modes > 0) count_rejections(e, sample.t, &s);
+    if (strict && e.num_rejected_modes > 0) throw Error(describe_first_rejection(bank, e, s.rows));
     if (with_truth && !truth.empty()) {
       if (last == nullptr || last->first != truth) {
         last = nullptr;
@@ -150,6 +171,8 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
     }
     s.predict_only += e.status == StepStatus::kPredictOnly;
     s.rejected += e.num_rejected_modes > 0;
+    s.gated += e.status == StepStatus::kGated;
+    s.mode_gated += e.num_gated_modes > 0 && e.status != StepStatus::kGated;
     s.timeline.add(sample.t, e.most_likely_mode, e.mode_probabilities[e.most_likely_mode]);
     if (progress && s.rows % 1024 == 0) progress();
   });

@@ -137,7 +137,8 @@ py::dict columns_to_dict(RunColumns&& c, const BankConfig& config) {
   }
   std::vector<std::string> statuses;
   for (StepStatus s : {StepStatus::kUpdated, StepStatus::kPredictOnly, StepStatus::kAllModesRejected,
-                       StepStatus::kRejectedTime, StepStatus::kRejectedInput}) {
+                       StepStatus::kRejectedTime, StepStatus::kRejectedInput, StepStatus::kGated,
+                       StepStatus::kModeGated, StepStatus::kModeReset}) {
     statuses.emplace_back(to_string(s));
   }
   std::vector<std::int32_t> status_codes(c.status.begin(), c.status.end());

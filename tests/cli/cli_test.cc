@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <sstream>
 
@@ -654,3 +655,140 @@ modes:
 }  // namespace plugin_files
 
 }  // namespace
+
+namespace {
+
+// The bundled switching log with one measurement cell replaced: data row
+// `row` (1-based, file line row + 1), column V.
+fs::path log_with_outlier(const fs::path& dir, int row, const std::string& value) {
+  std::string log = read_file(kSource + "/configs/examples/ltc_switching.csv");
+  std::size_t at = 0;
+  for (int line = 0; line < row; ++line) at = log.find('\n', at) + 1;
+  std::size_t cell = at;
+  for (int c = 0; c < 3; ++c) cell = log.find(',', cell) + 1;  // t, phi_dot_L, phi_dot_R, V
+  log.replace(cell, log.find(',', cell) - cell, value);
+  return write_file(dir / ("outlier_" + value + ".csv"), log);
+}
+
+// Every state finite and every variance >= 0 on every row.
+void expect_sound_rows(const std::vector<std::vector<std::string>>& rows, const std::string& where) {
+  const auto& header = rows[0];
+  for (const char* name : {"V", "omega", "var_V", "var_omega"}) {
+    const int c = column(header, name);
+    for (std::size_t r = 1; r < rows.size(); ++r) {
+      const double value = std::stod(rows[r][static_cast<std::size_t>(c)]);
+      ASSERT_TRUE(std::isfinite(value)) << where << ", row " << r << ", " << name;
+      if (name[0] == 'v') ASSERT_GE(value, 0.0) << where << ", row " << r << ", " << name;
+    }
+  }
+}
+
+}  // namespace
+
+// Issue 12, row 1: one measurement cell of 1e150 left every later row
+// all_modes_rejected with a negative var_V, exit 0.
+TEST(Cli, RunRecoversFromA1e150MeasurementWithinAFewRows) {
+  const fs::path dir = test_directory();
+  const fs::path input = log_with_outlier(dir, 187, "1e150");
+  const fs::path out = dir / "out.csv";
+  const std::string run = "run --bank " + kSource + "/configs/ltc_terrains.yaml --output " + out.string() +
+                          " --plugin-path " + kPlugins + " --input ";
+  const Result r = run_skidimm(run + input.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto rows = read_csv(out);
+  expect_sound_rows(rows, "1e150");
+  const int status = column(rows[0], "status"), reason = column(rows[0], "reason");
+  EXPECT_EQ(rows[187][status], "all_modes_rejected");
+  EXPECT_EQ(rows[187][reason], "asphalt: diverged, reset; grass: diverged, reset; crushed_concrete: diverged, reset");
+  for (std::size_t k = 190; k < rows.size(); ++k) ASSERT_EQ(rows[k][status], "updated") << "row " << k;
+  EXPECT_EQ(rows[186][reason], "");
+  EXPECT_THAT(r.err, HasSubstr("1 rows had at least one mode's filter rejected and reset"));
+  EXPECT_THAT(r.err, HasSubstr("because the filter diverged"));
+  // The estimates a few rows later are the clean log's.
+  const fs::path clean_out = dir / "clean.csv";
+  ASSERT_EQ(run_skidimm("run -q --bank " + kSource + "/configs/ltc_terrains.yaml --output " + clean_out.string() +
+                        " --plugin-path " + kPlugins + " --input " + kSource + "/configs/examples/ltc_switching.csv")
+                .exit_code,
+            0);
+  const auto clean = read_csv(clean_out);
+  const int v = column(rows[0], "V"), mode = column(rows[0], "mode");
+  for (std::size_t k = 195; k < rows.size(); ++k) {
+    ASSERT_NEAR(std::stod(rows[k][static_cast<std::size_t>(v)]), std::stod(clean[k][static_cast<std::size_t>(v)]), 0.02)
+        << "row " << k;
+  }
+  EXPECT_EQ(rows.back()[mode], clean.back()[mode]);
+
+  // With the smoother too: nothing non-finite, no negative variance.
+  const Result smoothed = run_skidimm(run + input.string() + " --smooth");
+  ASSERT_EQ(smoothed.exit_code, 0) << smoothed.err;
+  expect_sound_rows(read_csv(out), "1e150, smoothed");
+}
+
+TEST(Cli, RunStaysSoundForOutliersFrom1e6To1e300AndTheGateRemovesThem) {
+  const fs::path dir = test_directory();
+  const fs::path out = dir / "out.csv";
+  const std::string run = "run --bank " + kSource + "/configs/ltc_terrains.yaml --output " + out.string() +
+                          " --plugin-path " + kPlugins;
+  for (int exponent = 6; exponent <= 300; exponent += exponent < 140 || exponent >= 160 ? 20 : 2) {
+    const std::string value = "1e" + std::to_string(exponent);
+    const fs::path input = log_with_outlier(dir, 187, value);
+    const Result plain = run_skidimm(run + " -q --input " + input.string());
+    ASSERT_EQ(plain.exit_code, 0) << value << ": " << plain.err;
+    expect_sound_rows(read_csv(out), value);
+
+    const Result gated = run_skidimm(run + " --innovation-gate 0.9999 --input " + input.string());
+    ASSERT_EQ(gated.exit_code, 0) << value << ": " << gated.err;
+    const auto rows = read_csv(out);
+    expect_sound_rows(rows, value + ", gated");
+    const int status = column(rows[0], "status"), reason = column(rows[0], "reason");
+    EXPECT_EQ(rows[187][status], "gated") << value;
+    EXPECT_THAT(rows[187][reason], HasSubstr("asphalt: gated (NIS ")) << value;
+    EXPECT_EQ(rows[188][status], "updated") << value;
+    EXPECT_THAT(gated.err, HasSubstr("innovation gate 0.9999: ")) << value;
+  }
+}
+
+TEST(Cli, StrictStopsAtTheFirstRejectionNamingRowModePluginAndReasonAndKeepsTheRows) {
+  const fs::path dir = test_directory();
+  const fs::path out = dir / "out.csv";
+  const std::string input = kSource + "/configs/examples/ltc_switching.csv";
+  const std::string faulty = kFixturePlugins + "/faulty";
+  const Result r = run_skidimm("run --strict --bank " + faulty_bank(dir, "predict_throws").string() + " --input " +
+                               input + " --output " + out.string() + " --plugin-path " + kPlugins +
+                               " --plugin-path " + faulty);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("mode 'slippery' (plugin faulty_model 0.0.2 (" + faulty +
+                               "/faulty_plugin.so)) was rejected: the model failed: predict_fixed() threw"));
+  EXPECT_THAT(r.err, HasSubstr("--strict stops at the first rejection"));
+  EXPECT_FALSE(fs::exists(out));
+  const auto rows = read_csv(dir / "out.csv.partial");
+  ASSERT_GE(rows.size(), 3u);
+  // The error names the last row written, which carries the reason.
+  const std::size_t last = rows.size() - 1;
+  EXPECT_THAT(r.err, HasSubstr("row " + std::to_string(last) + " (t = " + rows[last][0] + "): mode 'slippery'"));
+  EXPECT_EQ(rows[last][column(rows[0], "status")], "mode_reset");
+  EXPECT_THAT(rows[last][column(rows[0], "reason")], HasSubstr("slippery: model failed, reset: predict_fixed() threw"));
+  EXPECT_THAT(r.err, HasSubstr("the " + std::to_string(last) + " rows computed before the error are in"));
+
+  // The same run without --strict goes to the end; a diverged filter stops a strict run too.
+  const Result outlier = run_skidimm("run --strict --bank " + kSource + "/configs/ltc_terrains.yaml --input " +
+                                     log_with_outlier(dir, 187, "1e150").string() + " --output " + out.string() +
+                                     " --plugin-path " + kPlugins);
+  EXPECT_EQ(outlier.exit_code, 1);
+  EXPECT_THAT(outlier.err, HasSubstr("row 187 (t = 3.714): mode 'asphalt' (plugin ltc_linear 1.0.0 ("));
+  EXPECT_THAT(outlier.err, HasSubstr("was rejected: the filter diverged"));
+}
+
+TEST(Cli, ValidateRefusesAQOf1e300) {
+  const fs::path dir = test_directory();
+  std::string bank = read_file(kSource + "/configs/ltc_terrains.yaml");
+  const std::size_t q = bank.find("Q:");
+  ASSERT_NE(q, std::string::npos);
+  bank.replace(q, bank.find('\n', q) - q, "Q: [[1e300, 0], [0, 1e300]]");
+  const fs::path file = write_file(dir / "huge_q.yaml", bank);
+  const Result r = run_skidimm("validate " + file.string() + " --plugin-path " + kPlugins);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("huge_q.yaml:"));
+  EXPECT_THAT(r.err, HasSubstr(".Q (mode '"));
+  EXPECT_THAT(r.err, HasSubstr("entry (0, 0) = 1e+300 is larger in magnitude than 1e+15"));
+}

@@ -287,3 +287,27 @@ TEST(Bank, MissingFileIsAConfigError) { EXPECT_THROW(load_bank_config("/nonexist
 
 }  // namespace
 }  // namespace skidimm
+
+// Issue 12, row 2: entries a filter step cannot carry are refused.
+TEST(BankConfig, MatrixEntriesAbove1e15AreRefusedNamingModeFieldAndEntry) {
+  expect_config_error(replace(kValidBank, "Q: [[0.02, 0], [0, 0.02]]", "Q: [[1e300, 0], [0, 1e300]]"),
+                      {"bank.yaml:22: modes[1].Q (mode 'ice'): entry (0, 0) = 1e+300 is larger in magnitude than 1e+15"});
+  expect_config_error(replace(kValidBank, "R: {std: [0.05, 0.03]}", "R: {diagonal: [2e15, 1]}"),
+                      {"measurement.R: entry (0, 0) = 2e+15"});
+  expect_config_error(replace(kValidBank, "covariance: {diagonal: [1, 1]}", "covariance: {diagonal: [1, 1e16]}"),
+                      {"initial.covariance: entry (1, 1) = 1e+16"});
+  expect_config_error(replace(kValidBank, "covariance: {diagonal: [1, 1]}",
+                              "covariance: {diagonal: [1, 1]}\n  state: [0, -1e200]"),
+                      {"initial.state: entry (1, 0) = -1e+200"});
+  // 1e15 itself is accepted.
+  EXPECT_NO_THROW(load_bank_config(write_file(
+      test_directory() / "ok.yaml", replace(kValidBank, "Q: [[0.02, 0], [0, 0.02]]", "Q: [[1e15, 0], [0, 1e15]]"))));
+}
+
+TEST(BankConfig, InnovationGateIsAProbability) {
+  const auto ok = write_file(test_directory() / "ok.yaml", "innovation_gate: 0.9999\n" + kValidBank);
+  EXPECT_EQ(load_bank_config(ok).innovation_gate, 0.9999);
+  EXPECT_EQ(load_bank_config(write_file(test_directory() / "none.yaml", kValidBank)).innovation_gate, 0.0);
+  expect_config_error("innovation_gate: 1\n" + kValidBank, {"bank.yaml:1: innovation_gate", "in (0, 1)"});
+  expect_config_error("innovation_gate: -0.5\n" + kValidBank, {"innovation_gate"});
+}

@@ -102,6 +102,9 @@ struct BankConfig {
   Eigen::MatrixXd initial_covariance;
   Eigen::VectorXd initial_mode_probabilities;
   double mode_probability_floor = 1e-9;
+  // Chi-square innovation gate (docs/engine.md): the probability a consistent
+  // measurement passes, in (0, 1); 0: no gate.
+  double innovation_gate = 0.0;
   std::vector<std::filesystem::path> plugin_paths;  // absolute
   sdk::ParameterSet shared;
   std::map<std::string, int> shared_lines;

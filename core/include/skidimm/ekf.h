@@ -24,6 +24,7 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "skidimm/covariance.h"
@@ -35,8 +36,11 @@ namespace skidimm {
 
 struct UpdateResult {
   bool ok = false;              // false: S not positive definite or result non-finite
-  double log_likelihood = 0.0;  // log N(nu; 0, S)
-  double nis = 0.0;             // nu' S^-1 nu, chi-square with size() dof if consistent
+  bool gated = false;           // nis was above the gate: x and P were left as predicted
+  // log N(nu; 0, S); when gated, the density at the gate's boundary,
+  // -1/2 (gate + log det(2 pi S)): the most a gated measurement can score.
+  double log_likelihood = 0.0;
+  double nis = 0.0;  // nu' S^-1 nu, chi-square with size() dof if consistent
 };
 
 class ExtendedKalmanFilter {
@@ -53,8 +57,10 @@ class ExtendedKalmanFilter {
   // the model fails or produces non-finite values (state is then unspecified).
   bool predict(const Eigen::Ref<const Eigen::VectorXd>& u, double dt);
 
-  // Corrects state() and covariance() with the selected measurement.
-  UpdateResult update(const SelectedMeasurement& measurement);
+  // Corrects state() and covariance() with the selected measurement, unless
+  // its NIS is above `gate` (then only the result is written, gated).
+  UpdateResult update(const SelectedMeasurement& measurement,
+                      double gate = std::numeric_limits<double>::infinity());
 
   // Wraps the angle components of a state in place.
   void wrap_angles(Eigen::Ref<Eigen::VectorXd> x) const;
@@ -208,11 +214,13 @@ void back_substitute(const Eigen::Matrix<double, K, K>& l, const Eigen::Matrix<d
 }
 
 // Corrects x, P with a measurement z = H x + v, v ~ N(0, R) of K components;
-// bit a of z_angles: row a measures an angle.
+// bit a of z_angles: row a measures an angle. A measurement whose NIS is
+// above `gate` is not applied (result.gated).
 template <int N, int K>
 UpdateResult update_fixed(const Eigen::Matrix<double, K, 1>& z, const Eigen::Matrix<double, K, N>& h,
                           const Eigen::Matrix<double, K, K>& r, AngleMask z_angles, AngleMask state_angles,
-                          Eigen::Matrix<double, N, 1>* x, Eigen::Matrix<double, N, N>* p) {
+                          Eigen::Matrix<double, N, 1>* x, Eigen::Matrix<double, N, N>* p,
+                          double gate = std::numeric_limits<double>::infinity()) {
   constexpr double kLog2Pi = 1.8378770664093454835606594728112;
   UpdateResult result;
   Eigen::Matrix<double, K, 1> nu = z;
@@ -238,6 +246,12 @@ UpdateResult update_fixed(const Eigen::Matrix<double, K, 1>& z, const Eigen::Mat
     log_det = std::log(product);
   } else {
     for (int a = 0; a < K; ++a) log_det += std::log(s(a, a));
+  }
+  if (result.nis > gate) {
+    result.gated = true;
+    result.log_likelihood = -0.5 * (gate + 2.0 * log_det + K * kLog2Pi);
+    result.ok = std::isfinite(result.log_likelihood);
+    return result;
   }
   result.log_likelihood = -0.5 * (result.nis + 2.0 * log_det + K * kLog2Pi);
   // K' = S^-1 H P-   (S and P- symmetric), solved in place over H P-.

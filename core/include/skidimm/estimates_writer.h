@@ -4,7 +4,8 @@
 // Columns: t, mu_<mode> for every mode in bank order, the combined state (one
 // column per state), var_<state> (the diagonal of the combined covariance),
 // mode (the most likely), decision (decision.h: a class, or "unknown"),
-// truth_mode (when there is a truth), status. Numbers
+// truth_mode (when there is a truth), status, reason (empty unless a mode's
+// filter was rejected or gated in the step: "<mode>: <what>; ..."). Numbers
 // are the shortest text that reads back to the same double. The file is
 // written as <path>.partial and renamed by commit() (log_io.h, CsvWriter).
 //
@@ -13,7 +14,8 @@
 // numbers as little-endian doubles ('<f8', exactly the filter's values, no
 // text round trip) and the text columns as fixed-width byte strings ('S<n>':
 // mode and decision as wide as the longest name, truth_mode 64 bytes or the
-// longest name, status 18). numpy.load() reads it, pandas.DataFrame() takes
+// longest name, status 18, reason 256, longer reasons cut to 253 bytes and
+// "..."). numpy.load() reads it, pandas.DataFrame() takes
 // it as it is. A truth label longer than its column is an error (CSV has no
 // such limit). Millions of rows load in a fraction of a second.
 //
@@ -56,6 +58,7 @@ class EstimatesWriter {
   std::unique_ptr<CsvWriter> csv_;
   std::unique_ptr<Npy> npy_;
   std::vector<std::string> mode_names_;
+  std::string reason_;  // the row's reason column, reused
   bool with_truth_;
 };
 

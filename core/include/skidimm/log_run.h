@@ -34,10 +34,11 @@ struct EstimatorOptions {
 long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
              const std::function<void(const LogSample&, const ImmEstimate&)>& sink);
 
-// How often one mode's filter was rejected over a run, and the first time why.
+// How often one mode's filter was rejected (and reset) over a run, and the
+// first time why; and how often it gated the measurement.
 struct ModeRejections {
-  long rows = 0;                      // rows where this mode's filter was rejected
-  long by_failure[4] = {0, 0, 0, 0};  // ... by ModeFailure
+  long rows = 0;                          // rows where this mode's filter was rejected (is_rejection)
+  long by_failure[kNumModeFailures] = {};  // rows by ModeFailure, kGated included
   long first_row = 0;                 // the first such row (1-based, as in the output)
   double first_t = 0.0;
   ModeFailure first_failure = ModeFailure::kNone;
@@ -50,12 +51,19 @@ struct RunSummary {
   long truth_rows = 0;        // rows with a truth label
   long truth_matches = 0;     // ... whose most likely mode's class is the truth's
   long predict_only = 0;      // rows without a measurement
-  long rejected = 0;          // rows where at least one mode's filter failed
+  long rejected = 0;          // rows where at least one mode's filter failed or diverged (and was reset)
+  long gated = 0;             // rows whose measurement every mode gated (status gated)
+  long mode_gated = 0;        // rows whose measurement some modes gated (status mode_gated or mode_reset)
   long decision_changes = 0;  // changes of the decision after the first row
   ModeTimeline timeline;      // the most likely mode over time
-  // One per mode once a mode's filter was rejected (empty until then).
+  // One per mode once a mode's filter was rejected or gated (empty until then).
   std::vector<ModeRejections> rejections;
 };
+
+// What `skidimm run --strict` throws at the first row where a mode's filter
+// was rejected: an Error naming the row, the mode, its plugin file and the
+// reason. The row itself has been written.
+std::string describe_first_rejection(const Bank& bank, const ImmEstimate& e, long row);
 
 // `skidimm run`'s loop: runs the log (run_log), decides each step
 // (decision.h, with `decision` settings), writes it (`writer`, whose truth
@@ -67,9 +75,13 @@ struct RunSummary {
 // is read in place, the step allocates nothing, numbers are formatted into
 // the writer's buffer. (The timeline grows by an interval when the most likely
 // mode changes, amortised; a longer truth label than any before is copied.)
+// `strict`: the first row with a rejected mode filter is written, then an
+// Error (describe_first_rejection) ends the run; a gated measurement is not a
+// rejection.
 void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
                      const DecisionConfig& decision, const std::string& label, bool with_truth,
-                     EstimatesWriter* writer, RunSummary* summary, const std::function<void()>& progress = {});
+                     EstimatesWriter* writer, RunSummary* summary, const std::function<void()>& progress = {},
+                     bool strict = false);
 
 }  // namespace skidimm
 
