@@ -678,7 +678,9 @@ void expect_sound_rows(const std::vector<std::vector<std::string>>& rows, const 
     for (std::size_t r = 1; r < rows.size(); ++r) {
       const double value = std::stod(rows[r][static_cast<std::size_t>(c)]);
       ASSERT_TRUE(std::isfinite(value)) << where << ", row " << r << ", " << name;
-      if (name[0] == 'v') ASSERT_GE(value, 0.0) << where << ", row " << r << ", " << name;
+      if (name[0] == 'v') {
+        ASSERT_GE(value, 0.0) << where << ", row " << r << ", " << name;
+      }
     }
   }
 }

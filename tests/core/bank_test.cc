@@ -285,9 +285,6 @@ TEST(BankConfig, MissingPluginPathIsNamed) {
 
 TEST(Bank, MissingFileIsAConfigError) { EXPECT_THROW(load_bank_config("/nonexistent/bank.yaml"), ConfigError); }
 
-}  // namespace
-}  // namespace skidimm
-
 // Issue 12, row 2: entries a filter step cannot carry are refused.
 TEST(BankConfig, MatrixEntriesAbove1e15AreRefusedNamingModeFieldAndEntry) {
   expect_config_error(replace(kValidBank, "Q: [[0.02, 0], [0, 0.02]]", "Q: [[1e300, 0], [0, 1e300]]"),
@@ -311,3 +308,6 @@ TEST(BankConfig, InnovationGateIsAProbability) {
   expect_config_error("innovation_gate: 1\n" + kValidBank, {"bank.yaml:1: innovation_gate", "in (0, 1)"});
   expect_config_error("innovation_gate: -0.5\n" + kValidBank, {"innovation_gate"});
 }
+
+}  // namespace
+}  // namespace skidimm
