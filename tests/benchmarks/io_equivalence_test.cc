@@ -339,6 +339,7 @@ TEST(EstimatesWriter, CsvIsByteForByteTheOriginalFormat) {
       cells.push_back(decision);
       cells.push_back(truth);
       cells.push_back(to_string(e.status));
+      cells.push_back("");  // reason: no mode failed or gated
       for (std::size_t i = 0; i < cells.size(); ++i) expected += (i ? "," : "") + original_quoted(cells[i]);
       expected += "\n";
     }
@@ -382,6 +383,9 @@ TEST(EstimatesWriter, NpyHoldsTheExactValuesAndTheTextColumns) {
   e.covariance = Eigen::Matrix2d::Identity() * 0.1;
   e.most_likely_mode = 1;
   e.status = StepStatus::kAllModesRejected;
+  e.mode_failures = {ModeFailure::kNone, ModeFailure::kGated};
+  e.failure_reasons = {"", ""};
+  e.nis = Eigen::Vector2d(1.0, 25.5);
   {
     EstimatesWriter writer(dir / "out.npy", config, true);
     for (int k = 0; k < 2500; ++k) writer.write(0.01 * k, e, k % 2 ? "grass, wet" : "unknown", "asphalt");
@@ -390,11 +394,12 @@ TEST(EstimatesWriter, NpyHoldsTheExactValuesAndTheTextColumns) {
   const Npy npy = read_npy(dir / "out.npy");
   EXPECT_NE(npy.header.find("{'descr': [('t', '<f8'), ('mu_asphalt', '<f8'), ('mu_grass, wet', '<f8'), ('V', '<f8'), "
                             "('omega', '<f8'), ('var_V', '<f8'), ('var_omega', '<f8'), ('mode', 'S10'), "
-                            "('decision', 'S10'), ('truth_mode', 'S64'), ('status', 'S18')], 'fortran_order': False"),
+                            "('decision', 'S10'), ('truth_mode', 'S64'), ('status', 'S18'), ('reason', 'S256')], "
+                            "'fortran_order': False"),
             std::string::npos)
       << npy.header;
   EXPECT_EQ(npy.rows, 2500);
-  const std::size_t record = 7 * 8 + 10 + 10 + 64 + 18;
+  const std::size_t record = 7 * 8 + 10 + 10 + 64 + 18 + 256;
   ASSERT_EQ(npy.data.size(), record * 2500);
   for (int k : {0, 1, 2499}) {
     const char* r = npy.data.data() + record * static_cast<std::size_t>(k);
@@ -409,6 +414,8 @@ TEST(EstimatesWriter, NpyHoldsTheExactValuesAndTheTextColumns) {
     EXPECT_EQ(std::string(r + 66, 10), k % 2 ? std::string("grass, wet") : std::string("unknown\0\0\0", 10));
     EXPECT_EQ(std::string(r + 76, 7), "asphalt");
     EXPECT_EQ(std::string(r + 140, 18), "all_modes_rejected");
+    const std::string reason = "grass, wet: gated (NIS 25.5)";
+    EXPECT_EQ(std::string(r + 158, 256), reason + std::string(256 - reason.size(), '\0'));
   }
 }
 

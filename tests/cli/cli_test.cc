@@ -65,7 +65,7 @@ TEST(Cli, RunIdentifiesTheTerrainsOfTheBundledSwitchingExample) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto rows = read_csv(out);
   EXPECT_EQ(rows[0], (std::vector<std::string>{"t", "mu_asphalt", "mu_grass", "mu_crushed_concrete", "V", "omega",
-                                               "var_V", "var_omega", "mode", "decision", "truth_mode", "status"}));
+                                               "var_V", "var_omega", "mode", "decision", "truth_mode", "status", "reason"}));
   EXPECT_EQ(rows.size(), read_csv(input).size()) << "one output row per input row";
   // The decision: unknown until confident, then one change per true switch (the argmax changes 20 times here).
   long decision_changes = 0, decision_right = 0;
