@@ -64,8 +64,9 @@ TEST(Cli, RunIdentifiesTheTerrainsOfTheBundledSwitchingExample) {
                                out.string() + " --plugin-path " + kPlugins);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto rows = read_csv(out);
-  EXPECT_EQ(rows[0], (std::vector<std::string>{"t", "mu_asphalt", "mu_grass", "mu_crushed_concrete", "V", "omega",
-                                               "var_V", "var_omega", "mode", "decision", "truth_mode", "status", "reason"}));
+  EXPECT_EQ(rows[0],
+            (std::vector<std::string>{"t", "mu_asphalt", "mu_grass", "mu_crushed_concrete", "V", "omega", "var_V",
+                                      "var_omega", "mode", "decision", "truth_mode", "status", "reason"}));
   EXPECT_EQ(rows.size(), read_csv(input).size()) << "one output row per input row";
   // The decision: unknown until confident, then one change per true switch (the argmax changes 20 times here).
   long decision_changes = 0, decision_right = 0;
@@ -724,6 +725,11 @@ TEST(Cli, RunRecoversFromA1e150MeasurementWithinAFewRows) {
   const Result smoothed = run_skidimm(run + input.string() + " --smooth");
   ASSERT_EQ(smoothed.exit_code, 0) << smoothed.err;
   expect_sound_rows(read_csv(out), "1e150, smoothed");
+  const Result lagged = run_skidimm(run + input.string() + " --lag 0.5 --innovation-gate 0.9999");
+  ASSERT_EQ(lagged.exit_code, 0) << lagged.err;
+  const auto lagged_rows = read_csv(out);
+  expect_sound_rows(lagged_rows, "1e150, gated, lag 0.5");
+  EXPECT_EQ(lagged_rows[187][status], "gated");
 }
 
 TEST(Cli, RunStaysSoundForOutliersFrom1e6To1e300AndTheGateRemovesThem) {
