@@ -68,13 +68,14 @@ void print_rejections(const Bank& bank, const RunSummary& summary) {
   for (std::size_t j = 0; j < summary.rejections.size(); ++j) {
     const ModeRejections& r = summary.rejections[j];
     const long gated = r.by_failure[static_cast<int>(ModeFailure::kGated)];
-    if (gated > 0) std::cerr << "  mode '" << bank.config.modes[j].name << "' gated the measurement on " << gated << " row(s)\n";
+    if (gated > 0) {
+      std::cerr << "  mode '" << bank.config.modes[j].name << "' gated the measurement on " << gated << " row(s)\n";
+    }
     if (r.rows == 0) continue;
     std::cerr << "  mode '" << bank.config.modes[j].name << "' (" << plugin_of(bank, j) << ") was rejected on "
               << r.rows << " row(s):";
     const char* separator = " ";
-    for (ModeFailure f :
-         {ModeFailure::kModel, ModeFailure::kNotFinite, ModeFailure::kUpdate, ModeFailure::kDiverged}) {
+    for (ModeFailure f : {ModeFailure::kModel, ModeFailure::kNotFinite, ModeFailure::kUpdate, ModeFailure::kDiverged}) {
       const long count = r.by_failure[static_cast<int>(f)];
       if (count == 0) continue;
       std::cerr << separator << count << " because " << to_string(f);
@@ -110,7 +111,9 @@ int run(const RunOptions& options) {
   const int code = report_errors("skidimm run", [&] {
     Bank bank = Bank::load(options.bank, options.plugin_paths);
     if (options.innovation_gate >= 0.0) {
-      if (!(options.innovation_gate < 1.0)) throw Error("--innovation-gate: expected a probability in (0, 1), or 0 for none");
+      if (!(options.innovation_gate < 1.0)) {
+        throw Error("--innovation-gate: expected a probability in (0, 1), or 0 for none");
+      }
       bank.config.innovation_gate = options.innovation_gate;
     }
     const BankConfig& config = bank.config;
@@ -145,8 +148,9 @@ int run(const RunOptions& options) {
       estimator.lag = options.lag;
     }
     // The loop (log_run.h) allocates nothing per row.
-    write_estimates(bank, &reader, estimator, decision_settings, log.label, with_truth, &*writer, &summary,
-                    [&] { progress.update(reader.progress(), summary.rows); }, options.strict);
+    write_estimates(
+        bank, &reader, estimator, decision_settings, log.label, with_truth, &*writer, &summary,
+        [&] { progress.update(reader.progress(), summary.rows); }, options.strict);
     progress.clear();
     const long rows = summary.rows;
     if (rows == 0) {

@@ -1,8 +1,8 @@
 #include "skidimm/estimates_writer.h"
 
 #include <algorithm>
-#include <cstdio>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <string_view>
 #include <system_error>

@@ -238,7 +238,8 @@ class Kernel final : public ImmKernel {
     const int m = static_cast<int>(bank.config.measurement.h.rows());
     gates_.assign(static_cast<std::size_t>(m) + 1, std::numeric_limits<double>::infinity());
     if (bank.config.innovation_gate > 0.0) {
-      for (int k = 1; k <= m; ++k) gates_[static_cast<std::size_t>(k)] = chi_square_quantile(bank.config.innovation_gate, k);
+      for (int k = 1; k <= m; ++k)
+        gates_[static_cast<std::size_t>(k)] = chi_square_quantile(bank.config.innovation_gate, k);
     }
   }
 

@@ -132,8 +132,7 @@ long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& opt
 
 void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
                      const DecisionConfig& decision_settings, const std::string& label, bool with_truth,
-                     EstimatesWriter* writer, RunSummary* summary, const std::function<void()>& progress,
-                     bool strict) {
+                     EstimatesWriter* writer, RunSummary* summary, const std::function<void()>& progress, bool strict) {
   const BankConfig& config = bank.config;
   const std::vector<int> class_of_mode = config.class_of_modes();
   ModeDecision decision(config, decision_settings);

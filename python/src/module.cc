@@ -136,9 +136,9 @@ py::dict columns_to_dict(RunColumns&& c, const BankConfig& config) {
     out["truth_mode"] = text_array(c.truth);
   }
   std::vector<std::string> statuses;
-  for (StepStatus s : {StepStatus::kUpdated, StepStatus::kPredictOnly, StepStatus::kAllModesRejected,
-                       StepStatus::kRejectedTime, StepStatus::kRejectedInput, StepStatus::kGated,
-                       StepStatus::kModeGated, StepStatus::kModeReset}) {
+  for (StepStatus s :
+       {StepStatus::kUpdated, StepStatus::kPredictOnly, StepStatus::kAllModesRejected, StepStatus::kRejectedTime,
+        StepStatus::kRejectedInput, StepStatus::kGated, StepStatus::kModeGated, StepStatus::kModeReset}) {
     statuses.emplace_back(to_string(s));
   }
   std::vector<std::int32_t> status_codes(c.status.begin(), c.status.end());

@@ -735,8 +735,8 @@ TEST(Cli, RunRecoversFromA1e150MeasurementWithinAFewRows) {
 TEST(Cli, RunStaysSoundForOutliersFrom1e6To1e300AndTheGateRemovesThem) {
   const fs::path dir = test_directory();
   const fs::path out = dir / "out.csv";
-  const std::string run = "run --bank " + kSource + "/configs/ltc_terrains.yaml --output " + out.string() +
-                          " --plugin-path " + kPlugins;
+  const std::string run =
+      "run --bank " + kSource + "/configs/ltc_terrains.yaml --output " + out.string() + " --plugin-path " + kPlugins;
   for (int exponent = 6; exponent <= 300; exponent += exponent < 140 || exponent >= 160 ? 20 : 2) {
     const std::string value = "1e" + std::to_string(exponent);
     const fs::path input = log_with_outlier(dir, 187, value);
@@ -761,9 +761,9 @@ TEST(Cli, StrictStopsAtTheFirstRejectionNamingRowModePluginAndReasonAndKeepsTheR
   const fs::path out = dir / "out.csv";
   const std::string input = kSource + "/configs/examples/ltc_switching.csv";
   const std::string faulty = kFixturePlugins + "/faulty";
-  const Result r = run_skidimm("run --strict --bank " + faulty_bank(dir, "predict_throws").string() + " --input " +
-                               input + " --output " + out.string() + " --plugin-path " + kPlugins +
-                               " --plugin-path " + faulty);
+  const Result r =
+      run_skidimm("run --strict --bank " + faulty_bank(dir, "predict_throws").string() + " --input " + input +
+                  " --output " + out.string() + " --plugin-path " + kPlugins + " --plugin-path " + faulty);
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("mode 'slippery' (plugin faulty_model 0.0.2 (" + faulty +
                                "/faulty_plugin.so)) was rejected: the model failed: predict_fixed() threw"));

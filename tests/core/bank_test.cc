@@ -287,15 +287,16 @@ TEST(Bank, MissingFileIsAConfigError) { EXPECT_THROW(load_bank_config("/nonexist
 
 // Issue 12, row 2: entries a filter step cannot carry are refused.
 TEST(BankConfig, MatrixEntriesAbove1e15AreRefusedNamingModeFieldAndEntry) {
-  expect_config_error(replace(kValidBank, "Q: [[0.02, 0], [0, 0.02]]", "Q: [[1e300, 0], [0, 1e300]]"),
-                      {"bank.yaml:22: modes[1].Q (mode 'ice'): entry (0, 0) = 1e+300 is larger in magnitude than 1e+15"});
+  expect_config_error(
+      replace(kValidBank, "Q: [[0.02, 0], [0, 0.02]]", "Q: [[1e300, 0], [0, 1e300]]"),
+      {"bank.yaml:22: modes[1].Q (mode 'ice'): entry (0, 0) = 1e+300 is larger in magnitude than 1e+15"});
   expect_config_error(replace(kValidBank, "R: {std: [0.05, 0.03]}", "R: {diagonal: [2e15, 1]}"),
                       {"measurement.R: entry (0, 0) = 2e+15"});
   expect_config_error(replace(kValidBank, "covariance: {diagonal: [1, 1]}", "covariance: {diagonal: [1, 1e16]}"),
                       {"initial.covariance: entry (1, 1) = 1e+16"});
-  expect_config_error(replace(kValidBank, "covariance: {diagonal: [1, 1]}",
-                              "covariance: {diagonal: [1, 1]}\n  state: [0, -1e200]"),
-                      {"initial.state: entry (1, 0) = -1e+200"});
+  expect_config_error(
+      replace(kValidBank, "covariance: {diagonal: [1, 1]}", "covariance: {diagonal: [1, 1]}\n  state: [0, -1e200]"),
+      {"initial.state: entry (1, 0) = -1e+200"});
   // 1e15 itself is accepted.
   EXPECT_NO_THROW(load_bank_config(write_file(
       test_directory() / "ok.yaml", replace(kValidBank, "Q: [[0.02, 0], [0, 0.02]]", "Q: [[1e15, 0], [0, 1e15]]"))));

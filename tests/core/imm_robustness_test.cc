@@ -149,7 +149,8 @@ TEST(ImmRobustness, AModeThatGatesScoresAtItsBoundaryAndNeverAboveTheWorstModeTh
 }
 
 TEST(ImmRobustness, WithoutAGateEveryOutlierMagnitudeLeavesEveryOutputSound) {
-  for (const skidimm::ImmKernelChoice kernel : {skidimm::ImmKernelChoice::kFastest, skidimm::ImmKernelChoice::kDynamic}) {
+  for (const skidimm::ImmKernelChoice kernel :
+       {skidimm::ImmKernelChoice::kFastest, skidimm::ImmKernelChoice::kDynamic}) {
     for (int exponent = 6; exponent <= 308; exponent += 2) {
       for (const double sign : {1.0, -1.0}) {
         const double outlier = sign * std::pow(10.0, exponent);

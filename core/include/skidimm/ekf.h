@@ -59,8 +59,7 @@ class ExtendedKalmanFilter {
 
   // Corrects state() and covariance() with the selected measurement, unless
   // its NIS is above `gate` (then only the result is written, gated).
-  UpdateResult update(const SelectedMeasurement& measurement,
-                      double gate = std::numeric_limits<double>::infinity());
+  UpdateResult update(const SelectedMeasurement& measurement, double gate = std::numeric_limits<double>::infinity());
 
   // Wraps the angle components of a state in place.
   void wrap_angles(Eigen::Ref<Eigen::VectorXd> x) const;

@@ -37,7 +37,7 @@ long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& opt
 // How often one mode's filter was rejected (and reset) over a run, and the
 // first time why; and how often it gated the measurement.
 struct ModeRejections {
-  long rows = 0;                          // rows where this mode's filter was rejected (is_rejection)
+  long rows = 0;                           // rows where this mode's filter was rejected (is_rejection)
   long by_failure[kNumModeFailures] = {};  // rows by ModeFailure, kGated included
   long first_row = 0;                 // the first such row (1-based, as in the output)
   double first_t = 0.0;
@@ -79,9 +79,8 @@ std::string describe_first_rejection(const Bank& bank, const ImmEstimate& e, lon
 // Error (describe_first_rejection) ends the run; a gated measurement is not a
 // rejection.
 void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
-                     const DecisionConfig& decision, const std::string& label, bool with_truth,
-                     EstimatesWriter* writer, RunSummary* summary, const std::function<void()>& progress = {},
-                     bool strict = false);
+                     const DecisionConfig& decision, const std::string& label, bool with_truth, EstimatesWriter* writer,
+                     RunSummary* summary, const std::function<void()>& progress = {}, bool strict = false);
 
 }  // namespace skidimm
 
