@@ -434,7 +434,7 @@ TEST(EstimatesWriter, AnInterruptedNpyIsLoadableWithTheRowsSoFar) {
   EXPECT_FALSE(std::filesystem::exists(dir / "cut.npy"));
   const Npy npy = read_npy(dir / "cut.npy.partial");
   EXPECT_EQ(npy.rows, 1234);
-  EXPECT_EQ(npy.data.size(), static_cast<std::size_t>(1234) * (7 * 8 + 10 + 10 + 18));
+  EXPECT_EQ(npy.data.size(), static_cast<std::size_t>(1234) * (7 * 8 + 10 + 10 + 18 + 256));
   EXPECT_EQ(npy.header.find("truth_mode"), std::string::npos);
 }
 
