@@ -125,6 +125,7 @@ int run(const RunOptions& options) {
     const bool with_truth = reader.has_truth() || !log.label.empty();
     // A path ending in .npy gets a NumPy array (estimates_writer.h), anything else CSV.
     writer.emplace(options.output, config, with_truth);
+    if (options.flush) writer->flush_each_row();
 
     std::vector<std::string> mode_names;
     for (const ModeConfig& mode : config.modes) mode_names.push_back(mode.name);

@@ -52,6 +52,7 @@ struct RunOptions {
   bool progress = true;  // shown only when stderr is a terminal
   double innovation_gate = -1.0;  // >= 0: overrides the bank's innovation_gate (0: none)
   bool strict = false;            // the first rejected mode filter is an error
+  bool flush = false;             // every row handed to the output as it is computed
 };
 
 int run(const RunOptions& options);

@@ -14,7 +14,9 @@
 #include "skidimm/fitting/bank_writer.h"
 #include "skidimm/fitting/likelihood_fitter.h"
 #include "skidimm/fitting/model_fitter.h"
+#include "skidimm/fitting/solver_messages.h"
 #include "skidimm/fitting/trajectory.h"
+#include "skidimm/output_file.h"
 #include "skidimm/parallel.h"
 
 namespace skidimm {
@@ -31,7 +33,8 @@ namespace {
 // order: the same segments, in the same order, as one thread reads them, and
 // the same first error.
 std::vector<ModeLogs> load_logs(const BankConfig& config, const std::vector<std::string>& arguments,
-                                const std::string& default_mode, const SamplingConfig& sampling) {
+                                const std::string& default_mode, const SamplingConfig& sampling,
+                                const std::string& option) {
   struct Job {
     LogSpec log;
     std::exception_ptr error;  // expanding its argument failed
@@ -49,7 +52,7 @@ std::vector<ModeLogs> load_logs(const BankConfig& config, const std::vector<std:
   parallel_for(static_cast<int>(jobs.size()), worker_count(), [&](int i, int) {
     const Job& job = jobs[static_cast<std::size_t>(i)];
     if (job.error) std::rethrow_exception(job.error);
-    segments[static_cast<std::size_t>(i)] = mode_segments(config, job.log, default_mode, sampling);
+    segments[static_cast<std::size_t>(i)] = mode_segments(config, job.log, default_mode, sampling, option);
   });
   std::map<int, ModeLogs> by_mode;
   for (std::vector<ModeLogs>& log : segments) {
@@ -128,11 +131,12 @@ void print_report(const BankConfig& config, const std::string& name, const ModeL
 }  // namespace
 
 int fit(const FitCommandOptions& options) {
-  return report_errors("skidimm fit", [&] {
+  fitting::capture_solver_messages();  // Ceres' glog output, summarised below instead of flooding stderr
+  const int code = report_errors("skidimm fit", [&] {
     Bank bank = Bank::load(options.bank, options.plugin_paths);
     const BankConfig& config = bank.config;
     const SamplingConfig sampling = sampling_of(config, options.rate);
-    const std::vector<ModeLogs> data = load_logs(config, options.logs, options.mode, sampling);
+    const std::vector<ModeLogs> data = load_logs(config, options.logs, options.mode, sampling, "--log");
     if (data.empty()) throw Error("no logs given (--log)");
     if (options.fit_r && !options.append_to.empty()) {
       throw Error("--fit-r fits the bank's R, which --append-to cannot change: use --output-bank");
@@ -174,8 +178,13 @@ int fit(const FitCommandOptions& options) {
 
     for (const std::string& text : options.held_out) {
       // load_logs reads the argument's logs on their own threads.
-      for (const ModeLogs& held : load_logs(config, {text}, options.mode, sampling)) {
-        const FitReport r = fitting::evaluate(bank, held);
+      for (const ModeLogs& held : load_logs(config, {text}, options.mode, sampling, "--held-out")) {
+        FitReport r;
+        try {
+          r = fitting::evaluate(bank, held);
+        } catch (const Error& e) {
+          throw Error("--held-out '" + text + "': " + e.what());
+        }
         std::cerr << "held out " << text << " (" << config.modes[static_cast<std::size_t>(held.mode)].name
                   << "): one-step RMSE " << rmse_text(config, r.rmse) << " (no-change baseline "
                   << rmse_text(config, persistence_rmse(held)) << ")";
@@ -235,18 +244,15 @@ int fit(const FitCommandOptions& options) {
                                         {"Written by skidimm fit; reproduce with:", "  " + options.command_line}, blocks);
       std::cerr << "wrote " << options.output_bank.string() << "\n";
     }
-    if (!options.output_entry.empty()) {  // written whole, then renamed: never half a file
-      const fs::path temporary = options.output_entry.string() + ".partial";
-      {
-        std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-        out << entries;
-        if (!out) throw Error("cannot write " + temporary.string());
-      }
-      fs::rename(temporary, options.output_entry);
-    }
+    // Written whole, then renamed (output_file.h): never half a file, and a
+    // full disk is an error with its reason.
+    if (!options.output_entry.empty()) write_file_atomically(options.output_entry, entries);
     if (options.append_to.empty() && options.output_bank.empty() && options.output_entry.empty()) std::cout << entries;
     return kExitOk;
   });
+  const std::string solver = fitting::take_solver_messages("");
+  if (!solver.empty()) std::cerr << "skidimm fit: " << solver;
+  return code;
 }
 
 }  // namespace cli

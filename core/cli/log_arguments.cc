@@ -9,6 +9,7 @@
 #include "skidimm/errors.h"
 #include "skidimm/expression.h"
 #include "skidimm/fitting/trajectory.h"
+#include "skidimm/log_io.h"
 
 namespace skidimm {
 namespace cli {
@@ -72,6 +73,16 @@ std::vector<LogSpec> expand_log_argument(const std::string& argument) {
   return logs;
 }
 
+void require_rereadable(const LogSpec& log, const std::string& who) {
+  for (const LogFile& file : log.files) {
+    if (!is_rereadable(file.path)) {
+      throw Error(log.text + ": " + (is_standard_input(file.path) ? std::string("standard input") : file.path.string()) +
+                  " can be read only once (standard input, a pipe or a FIFO), but " + who +
+                  ": save it to a file first");
+    }
+  }
+}
+
 SamplingConfig sampling_of(const BankConfig& bank, double rate) {
   SamplingConfig sampling = bank.sampling;
   if (rate > 0.0) sampling.rate = rate;
@@ -132,7 +143,8 @@ void split_class(const BankConfig& config, const ClassConfig& c, const fitting::
 }  // namespace
 
 std::vector<fitting::ModeLogs> mode_segments(const BankConfig& config, const LogSpec& log,
-                                             const std::string& default_mode, const SamplingConfig& sampling) {
+                                             const std::string& default_mode, const SamplingConfig& sampling,
+                                             const std::string& option) {
   // A label names a mode, or a class (whose modes share its steps by fit_when).
   auto check_label = [&config](const std::string& label, const std::string& where) {
     if (config.mode_index(label) < 0 && config.class_index(label) < 0) {
@@ -152,24 +164,24 @@ std::vector<fitting::ModeLogs> mode_segments(const BankConfig& config, const Log
     }
   };
   const std::string label = !log.label.empty() ? log.label : default_mode;
-  if (!label.empty()) check_label(label, "--log '" + log.text + "'");
+  if (!label.empty()) check_label(label, option + " '" + log.text + "'");
   if (label.empty() && config.columns.truth_mode.empty()) {
-    throw Error("--log '" + log.text +
+    throw Error(option + " '" + log.text +
                 "': say which mode it shows (MODE=FILE) or give --mode (or give the bank a truth column, "
                 "columns.truth_mode)");
   }
   fitting::Trajectory trajectory = fitting::load_trajectory(config, log.files, sampling);
-  if (trajectory.size() == 0) throw Error(log.text + ": the log gives no step");
+  if (trajectory.size() == 0) throw Error(option + " '" + log.text + "': the log gives no step");
   if (!label.empty()) {
     add(label, std::move(trajectory));
   } else {
     const auto parts = fitting::split_by_truth(trajectory);
     if (parts.empty()) {
-      throw Error("--log '" + log.text + "': say which mode it shows (MODE=FILE) or give --mode; its truth column '" +
+      throw Error(option + " '" + log.text + "': say which mode it shows (MODE=FILE) or give --mode; its truth column '" +
                   config.columns.truth_mode + "' is absent or empty");
     }
     for (const auto& [part_label, part] : parts) {
-      check_label(part_label, "--log '" + log.text + "', truth column '" + config.columns.truth_mode + "'");
+      check_label(part_label, option + " '" + log.text + "', truth column '" + config.columns.truth_mode + "'");
       add(part_label, part);
     }
   }

@@ -21,6 +21,11 @@ namespace cli {
 // pattern or directory matches nothing, or a paired file is missing.
 std::vector<LogSpec> expand_log_argument(const std::string& argument);
 
+// Throws Error unless every file of `log` can be read again (a regular file,
+// not standard input, a pipe or a FIFO: log_io.h, is_rereadable); `who` says
+// which command and why, e.g. "tune reads each log more than once".
+void require_rereadable(const LogSpec& log, const std::string& who);
+
 // The bank's sampling, with the command line's --rate when it is > 0.
 SamplingConfig sampling_of(const BankConfig& bank, double rate);
 
@@ -28,9 +33,11 @@ SamplingConfig sampling_of(const BankConfig& bank, double rate);
 // its MODE= label, else `default_mode` (--mode), else the bank's truth
 // column, whose runs of one label become segments of their own. A label may
 // name a class: its steps go to the class's modes by their fit_when (the
-// first whose condition holds, else the one without). Throws Error.
+// first whose condition holds, else the one without). Throws Error; its
+// messages name the log as `option` gave it ("--log", "--held-out").
 std::vector<fitting::ModeLogs> mode_segments(const BankConfig& config, const LogSpec& log,
-                                             const std::string& default_mode, const SamplingConfig& sampling);
+                                             const std::string& default_mode, const SamplingConfig& sampling,
+                                             const std::string& option = "--log");
 
 }  // namespace cli
 }  // namespace skidimm

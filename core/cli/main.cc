@@ -15,6 +15,8 @@
 #include <vector>
 
 #include "commands.h"
+#include "skidimm/log_io.h"
+#include "skidimm/output_file.h"
 
 namespace fs = std::filesystem;
 using namespace skidimm::cli;
@@ -62,7 +64,11 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1.0));
   run->add_option("--decision-hold", run_options.decision_hold, "Seconds a decision is kept at least (decision.min_hold)")
       ->check(CLI::NonNegativeNumber);
-  run->add_option("--output,-o", output, "Output CSV (written as <output>.partial, renamed when complete)")->required();
+  run->add_option("--output,-o", output,
+                  "Output CSV (written as <output>.partial, renamed when complete); '-' for standard output")
+      ->required();
+  run->add_flag("--flush", run_options.flush,
+                "Write each row as soon as it is computed (run behind another program, through a pipe)");
   run->add_flag("--quiet,-q", run_options.quiet, "No summary or progress on stderr");
   run->add_option("--innovation-gate", run_options.innovation_gate,
                   "Chi-square innovation gate: probability a consistent measurement passes, in (0, 1); 0: none "
@@ -229,6 +235,24 @@ int main(int argc, char** argv) {
     run_options.bank = bank;
     run_options.output = output;
     run_options.plugin_paths = paths;
+    if (!run_plot.empty()) {
+      // The figure reads the estimates and the log again after the run.
+      std::string once;
+      if (skidimm::OutputFile::writes_directly(output)) once = "--output " + output;
+      for (const std::string& input : run_options.inputs) {
+        try {
+          for (const skidimm::LogFile& file : skidimm::parse_log_spec(input).files) {
+            if (!skidimm::is_rereadable(file.path)) once = "--input " + file.path.string();
+          }
+        } catch (const skidimm::Error&) {  // run reports it
+        }
+      }
+      if (!once.empty()) {
+        std::cerr << "skidimm run: --plot reads the estimates and the log again after the run, which " << once
+                  << " (standard input, a pipe or a device) cannot give: write to files and run skidimm plot\n";
+        return kExitUsage;
+      }
+    }
     const int code = skidimm::cli::run(run_options);
     if (code != kExitOk || run_plot.empty()) return code;
     PlotOptions figure;

@@ -11,7 +11,9 @@
 #include "skidimm/errors.h"
 #include "skidimm/fitting/bank_fit.h"
 #include "skidimm/fitting/bank_writer.h"
+#include "skidimm/fitting/solver_messages.h"
 #include "skidimm/fitting/tuning.h"
+#include "skidimm/output_file.h"
 
 namespace skidimm {
 namespace cli {
@@ -57,26 +59,22 @@ void print_scores(std::ostream& out, const std::string& title, const std::vector
 }
 
 void write_table(const fs::path& file, const std::vector<LogScore>& selection, const std::vector<LogScore>& assessment) {
-  const fs::path partial = file.string() + ".partial";
-  {
-    std::ofstream out(partial, std::ios::binary | std::ios::trunc);
-    out << "kind,log,truth,accuracy,mean_log_probability,seconds\n";
-    for (const auto& [kind, scores] : {std::make_pair("assessment", &assessment), std::make_pair("selection", &selection)}) {
-      for (const LogScore& s : *scores) {
-        out << kind << "," << s.log << "," << s.truth << "," << number(s.accuracy, "%.6f") << ","
-            << number(s.mean_log_probability, "%.6f") << "," << number(s.seconds, "%.3f") << "\n";
-      }
+  std::ostringstream out;
+  out << "kind,log,truth,accuracy,mean_log_probability,seconds\n";
+  for (const auto& [kind, scores] : {std::make_pair("assessment", &assessment), std::make_pair("selection", &selection)}) {
+    for (const LogScore& s : *scores) {
+      out << kind << "," << s.log << "," << s.truth << "," << number(s.accuracy, "%.6f") << ","
+          << number(s.mean_log_probability, "%.6f") << "," << number(s.seconds, "%.3f") << "\n";
     }
-    out.close();
-    if (!out) throw Error("cannot write " + partial.string());
   }
-  fs::rename(partial, file);
+  write_file_atomically(file, out.str());  // output_file.h: checked, renamed when whole
 }
 
 }  // namespace
 
 int tune(const TuneCommandOptions& options) {
-  return report_errors("skidimm tune", [&] {
+  fitting::capture_solver_messages();  // Ceres' glog output, summarised at the end
+  const int code = report_errors("skidimm tune", [&] {
     const Bank start = Bank::load(options.bank, options.plugin_paths);
     const BankConfig& config = start.config;
     const SamplingConfig sampling = sampling_of(config, options.rate);
@@ -84,6 +82,7 @@ int tune(const TuneCommandOptions& options) {
     std::vector<fitting::TuningLog> logs;
     for (const std::string& argument : options.logs) {
       for (LogSpec& spec : expand_log_argument(argument)) {
+        require_rereadable(spec, "tune reads each log more than once");
         fitting::TuningLog log;
         log.fit_data = mode_segments(config, spec, options.mode, sampling);
         if (spec.label.empty() && !options.mode.empty()) spec.label = options.mode;
@@ -193,6 +192,9 @@ int tune(const TuneCommandOptions& options) {
     }
     return kExitOk;
   });
+  const std::string solver = fitting::take_solver_messages("");
+  if (!solver.empty()) std::cerr << "skidimm tune: " << solver;
+  return code;
 }
 
 }  // namespace cli

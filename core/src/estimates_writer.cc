@@ -9,6 +9,7 @@
 
 #include "skidimm/check.h"
 #include "skidimm/errors.h"
+#include "skidimm/output_file.h"
 
 namespace skidimm {
 
@@ -83,7 +84,7 @@ class EstimatesWriter::Npy {
  public:
   Npy(const fs::path& path, const std::vector<std::string>& names, std::size_t numbers,
       const std::vector<std::size_t>& text_widths)
-      : path_(path), partial_(path.string() + ".partial"), text_widths_(text_widths) {
+      : text_widths_(text_widths) {
     std::uint16_t probe = 1;
     unsigned char first = 0;
     std::memcpy(&first, &probe, 1);
@@ -110,22 +111,22 @@ class EstimatesWriter::Npy {
     for (std::size_t b = 0; b < (version2 ? 4u : 2u); ++b) head += static_cast<char>((length >> (8 * b)) & 0xff);
     shape_offset_ += head.size();
     head += dict;
-    out_ = std::fopen(partial_.c_str(), "wb");
-    if (out_ == nullptr) throw LogError(partial_.string(), 0, "cannot open for writing");
-    std::setvbuf(out_, nullptr, _IONBF, 0);
+    out_ = std::make_unique<OutputFile>(path);  // output_file.h
     buffer_.reserve(1 << 16);
     buffer_ = head;
     write_buffer();
+    // The row count is written into the header at the end: fail now on a pipe.
+    out_->seek(static_cast<long>(head.size()));
   }
 
   ~Npy() {
-    if (out_ == nullptr) return;
+    if (out_->committed()) return;
     // Keep what was computed in the .partial file, loadable.
+    if (rows_ > 0) out_->keep_partial();
     try {
       finish();
     } catch (const Error&) {
     }
-    std::fclose(out_);
   }
 
   void add_number(double value) {
@@ -137,7 +138,7 @@ class EstimatesWriter::Npy {
   void add_text(std::string_view text, std::size_t column, const char* what) {
     const std::size_t width = text_widths_[column];
     if (text.size() > width) {
-      throw LogError(partial_.string(), rows_ + 1,
+      throw LogError(partial_path().string(), rows_ + 1,
                      std::string(what) + " '" + std::string(text) + "' is longer than the " + std::to_string(width) +
                          " bytes of its .npy column; write CSV instead");
     }
@@ -151,15 +152,10 @@ class EstimatesWriter::Npy {
 
   void commit() {
     finish();
-    const bool closed = std::fclose(out_) == 0;
-    out_ = nullptr;
-    if (!closed) throw LogError(partial_.string(), 0, "write failed when closing");
-    std::error_code ec;
-    fs::rename(partial_, path_, ec);
-    if (ec) throw LogError(path_.string(), 0, "cannot rename " + partial_.string() + ": " + ec.message());
+    out_->commit();
   }
 
-  const fs::path& partial_path() const { return partial_; }
+  const fs::path& partial_path() const { return out_->written_path(); }
 
  private:
   static constexpr std::size_t kShapeDigits = 20;
@@ -185,10 +181,8 @@ class EstimatesWriter::Npy {
 
   void write_buffer() {
     if (buffer_.empty()) return;
-    const std::size_t size = buffer_.size();
-    const std::size_t written = std::fwrite(buffer_.data(), 1, size, out_);
+    out_->write(buffer_);
     buffer_.clear();
-    if (written != size) throw LogError(partial_.string(), rows_ + 1, "write failed (disk full?)");
   }
 
   // The rows so far, and their count in the header.
@@ -196,15 +190,12 @@ class EstimatesWriter::Npy {
     write_buffer();
     std::string count = std::to_string(rows_);
     count.insert(0, kShapeDigits + 1 - count.size(), ' ');
-    if (std::fseek(out_, static_cast<long>(shape_offset_), SEEK_SET) != 0 ||
-        std::fwrite(count.data(), 1, count.size(), out_) != count.size() || std::fseek(out_, 0, SEEK_END) != 0) {
-      throw LogError(partial_.string(), 0, "write failed (disk full?)");
-    }
+    out_->seek(static_cast<long>(shape_offset_));
+    out_->write(count);
+    out_->seek_end();
   }
 
-  fs::path path_;
-  fs::path partial_;
-  std::FILE* out_ = nullptr;
+  std::unique_ptr<OutputFile> out_;
   std::string buffer_;
   std::vector<std::size_t> text_widths_;
   std::size_t shape_offset_ = 0;
@@ -234,6 +225,11 @@ EstimatesWriter::EstimatesWriter(const fs::path& path, const BankConfig& config,
 EstimatesWriter::~EstimatesWriter() = default;
 
 const fs::path& EstimatesWriter::partial_path() const { return csv_ ? csv_->partial_path() : npy_->partial_path(); }
+
+void EstimatesWriter::flush_each_row() {
+  if (!csv_) throw Error("--flush writes CSV rows as they are computed; a .npy file is complete only at the end");
+  csv_->set_flush_each_row(true);
+}
 
 void EstimatesWriter::commit() {
   if (csv_) {

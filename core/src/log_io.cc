@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <system_error>
+
+#include <unistd.h>
 
 #include "number_text.h"
 #include "skidimm/check.h"
@@ -34,16 +37,46 @@ constexpr bool kLittleEndian = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;
 
 }  // namespace
 
+bool parse_finite_number(std::string_view cell, double* value) {
+  const auto begin = cell.find_first_not_of(" \t");
+  if (begin == std::string_view::npos) return false;
+  cell = cell.substr(begin, cell.find_last_not_of(" \t") - begin + 1);
+  if (cell.front() == '+') cell.remove_prefix(1);
+  bool overflow = false;
+  if (!number_text::parse_plain_decimal(cell, value) && !number_text::parse_general(cell, value, &overflow)) return false;
+  return std::isfinite(*value);
+}
+
+bool is_standard_input(const fs::path& path) { return path.string() == "-"; }
+
+bool is_rereadable(const fs::path& path) {
+  if (is_standard_input(path)) return false;
+  std::error_code ec;
+  return fs::is_regular_file(path, ec);
+}
+
 CsvReader::CsvReader(const fs::path& path) : path_(path) {
   std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw LogError(path.string(), 0, "no such log file");
-  file_size_ = fs::file_size(path, ec);
-  file_ = std::fopen(path.c_str(), "rb");
-  if (file_ == nullptr) throw LogError(path.string(), 0, "cannot open for reading");
+  if (is_standard_input(path)) {
+    path_ = "standard input";
+    file_ = stdin;
+    owns_file_ = false;
+  } else {
+    const fs::file_status status = fs::status(path, ec);
+    if (!fs::exists(status)) throw LogError(path.string(), 0, "no such log file");
+    if (fs::is_directory(status)) throw LogError(path.string(), 0, "is a directory, not a log file");
+    // Regular files, and pipes, FIFOs, /dev/stdin and <(...): read front to back.
+    if (fs::is_regular_file(status)) file_size_ = fs::file_size(path, ec);
+    errno = 0;
+    file_ = std::fopen(path.c_str(), "rb");
+    if (file_ == nullptr) {
+      throw LogError(path.string(), 0, std::string("cannot open for reading: ") + std::strerror(errno));
+    }
+  }
   buffer_.resize(kReadBlock);
   if (!read_record()) {
-    std::fclose(file_);
-    throw LogError(path.string(), 1, "empty file: expected a header row of column names");
+    close();
+    throw LogError(path_.string(), 1, "empty file: expected a header row of column names");
   }
   header_.assign(fields_.begin(), fields_.begin() + static_cast<std::ptrdiff_t>(field_count_));
   if (!header_.empty() && header_[0].size() >= 3 && header_[0].compare(0, 3, "\xEF\xBB\xBF") == 0) {
@@ -52,15 +85,18 @@ CsvReader::CsvReader(const fs::path& path) : path_(path) {
   for (std::size_t i = 0; i < header_.size(); ++i) {
     for (std::size_t j = 0; j < i; ++j) {
       if (header_[i] == header_[j] && !header_[i].empty()) {
-        std::fclose(file_);
-        throw LogError(path.string(), 1, "column '" + header_[i] + "' appears twice in the header");
+        close();
+        throw LogError(path_.string(), 1, "column '" + header_[i] + "' appears twice in the header");
       }
     }
   }
 }
 
-CsvReader::~CsvReader() {
-  if (file_ != nullptr) std::fclose(file_);
+CsvReader::~CsvReader() { close(); }
+
+void CsvReader::close() {
+  if (file_ != nullptr && owns_file_) std::fclose(file_);
+  file_ = nullptr;
 }
 
 int CsvReader::column(const std::string& name) const {
@@ -103,12 +139,15 @@ void CsvReader::fill() {
     begin_ = 0;
   }
   if (end_ == buffer_.size()) buffer_.resize(buffer_.size() * 2);
-  const std::size_t got = std::fread(buffer_.data() + end_, 1, buffer_.size() - end_, file_);
-  if (got == 0) {
-    if (std::ferror(file_)) throw LogError(path_.string(), next_line_, "read failed");
-    end_of_file_ = true;
-  }
-  end_ += got;
+  // read(), not fread(): from a pipe it returns what has arrived instead of
+  // waiting for a whole block, so each row is seen as soon as it is written.
+  ssize_t got = 0;
+  do {
+    got = ::read(::fileno(file_), buffer_.data() + end_, buffer_.size() - end_);
+  } while (got < 0 && errno == EINTR);
+  if (got < 0) throw LogError(path_.string(), next_line_, std::string("read failed: ") + std::strerror(errno));
+  if (got == 0) end_of_file_ = true;
+  end_ += static_cast<std::size_t>(got);
 }
 
 // RFC 4180 as the original reader had it: a '"' anywhere opens quotes, "" in
@@ -272,10 +311,7 @@ constexpr long kRowsPerWrite = 1000;
 }  // namespace
 
 CsvWriter::CsvWriter(const fs::path& path, const std::vector<std::string>& header)
-    : path_(path), partial_(path.string() + ".partial"), columns_(header.size()) {
-  out_ = std::fopen(partial_.c_str(), "wb");
-  if (out_ == nullptr) throw LogError(partial_.string(), 0, "cannot open for writing");
-  std::setvbuf(out_, nullptr, _IONBF, 0);  // buffer_ is the buffer
+    : path_(path), out_(std::make_unique<OutputFile>(path)), columns_(header.size()) {
   reserve(1 << 16);
   write_row(header);
   write_buffer();
@@ -283,10 +319,16 @@ CsvWriter::CsvWriter(const fs::path& path, const std::vector<std::string>& heade
 }
 
 CsvWriter::~CsvWriter() {
-  if (out_ == nullptr) return;
-  // Keep what was computed in the .partial file.
-  if (size_ > 0) std::fwrite(buffer_.get(), 1, size_, out_);
-  std::fclose(out_);
+  if (out_->committed()) return;
+  // Keep what was computed in the .partial file (OutputFile removes it when a
+  // write failed, its end then being cut anywhere).
+  if (rows_ > 0) {
+    out_->keep_partial();
+    try {
+      write_buffer();
+    } catch (const Error&) {
+    }
+  }
 }
 
 void CsvWriter::write_row(const std::vector<std::string>& cells) {
@@ -336,26 +378,19 @@ void CsvWriter::end_row() {
   ++size_;
   cells_ = 0;
   // Hand the rows to the file regularly so an interrupted run leaves them on disk.
-  if (++rows_ % kRowsPerWrite == 0) write_buffer();
+  if (++rows_ % kRowsPerWrite == 0 || flush_each_row_) write_buffer();
 }
 
 void CsvWriter::write_buffer() {
   if (size_ == 0) return;
   const std::size_t size = size_;
-  const std::size_t written = std::fwrite(buffer_.get(), 1, size, out_);
   size_ = 0;
-  if (written != size) throw LogError(partial_.string(), rows_ + 1, "write failed (disk full?)");
+  out_->write(std::string_view(buffer_.get(), size));
 }
 
 void CsvWriter::commit() {
   write_buffer();
-  const bool closed = std::fclose(out_) == 0;
-  out_ = nullptr;
-  if (!closed) throw LogError(partial_.string(), 0, "write failed when closing");
-  std::error_code ec;
-  fs::rename(partial_, path_, ec);
-  if (ec) throw LogError(path_.string(), 0, "cannot rename " + partial_.string() + ": " + ec.message());
-  committed_ = true;
+  out_->commit();
 }
 
 char* CsvWriter::format(double value, char* first, char* last) {

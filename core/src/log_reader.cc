@@ -100,8 +100,14 @@ bool parse_number(std::string_view cell, double* value, bool* missing) {
   if (number_text::parse_plain_decimal(std::string_view(begin, static_cast<std::size_t>(end - begin)), value)) {
     return true;
   }
-  const auto result = std::from_chars(begin, end, *value);
-  return result.ec == std::errc() && result.ptr == end;
+  bool overflow = false;
+  return number_text::parse_general(std::string_view(begin, static_cast<std::size_t>(end - begin)), value, &overflow);
+}
+
+// What a cell that parse_number refused was expected to be, for the message.
+std::string bad_number(const CsvReader& reader, int index, std::string_view cell, const char* expected) {
+  return "column " + std::to_string(index + 1) + " ('" + reader.header()[static_cast<std::size_t>(index)] +
+         "'): expected " + expected + ", got '" + std::string(cell.substr(0, 80)) + (cell.size() > 80 ? "...'" : "'");
 }
 
 // A header made printable and short: a binary file given by mistake must not
@@ -216,6 +222,10 @@ struct Stream {
   std::vector<int> columns;             // column ids read from this stream
   std::vector<std::size_t> stat_index;  // per file, its entry in LogStats::rows
   bool has_row = false;      // the files hold a row not yet applied
+  // Its next row is read only when it is needed (read_pending_rows): a log
+  // coming through a pipe gives each step as soon as its row has arrived,
+  // not when the row after it does.
+  bool read_pending = false;
   bool ended = false;
   double row_t = 0.0;
   double last_t = -std::numeric_limits<double>::infinity();
@@ -302,7 +312,8 @@ class LogReader::Impl {
   bool read_row_or_throw(Stream& s);
   void throw_pending_error() const;
   void apply_row(int stream);
-  double next_row_time() const;
+  void read_pending_rows();
+  double next_row_time();
   bool inputs_known() const;
   void discard_measurements();
   bool past_end(double t) const;
@@ -312,6 +323,9 @@ class LogReader::Impl {
 LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling)
     : bank_(bank), sampling_(sampling) {
   if (files.empty()) throw LogError("", 0, "no input log given");
+  int standard_inputs = 0;
+  for (const LogFile& file : files) standard_inputs += is_standard_input(file.path) ? 1 : 0;
+  if (standard_inputs > 1) throw LogError("-", 0, "standard input ('-') can be one file of a log, not several");
   const bool by_rows = sampling.join == SamplingConfig::Join::kRows;
   if (by_rows) streams_.emplace_back();
   for (const LogFile& file : files) {
@@ -380,7 +394,7 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
   held_values_.assign(columns_.size(), kNaN);
   stats_.superseded.assign(measurements_.size(), 0);
   stats_.not_finite.assign(measurements_.size(), 0);
-  for (Stream& s : streams_) read_row(s);
+  for (Stream& s : streams_) s.read_pending = true;
 }
 
 void LogReader::Impl::missing_column(const std::string& column, const std::string& field) const {
@@ -565,7 +579,7 @@ bool LogReader::Impl::read_row_or_throw(Stream& s) {
   bool missing = false;
   if (!parse_number(cell, &t, &missing) || missing || !std::isfinite(t)) {
     throw LogError(reader.path().string(), reader.line(),
-                   "column '" + bank_.columns.time + "': expected a time in seconds, got '" + std::string(cell) + "'");
+                   bad_number(reader, s.time_index, cell, "a finite time in seconds"));
   }
   t += s.offset;
   if (t <= s.last_t) {
@@ -590,10 +604,11 @@ void LogReader::Impl::apply_row(int k) {
     bool missing = false;
     if (!parse_number(cell, &value, &missing)) {
       throw LogError(reader.path().string(), reader.line(),
-                     "column '" + col.name + "': expected a number, got '" + std::string(cell) + "'");
+                     bad_number(reader, col.index, cell, "a finite number (or an empty cell, nan or NA for none)"));
     }
     if (!missing && !std::isfinite(value)) {
-      throw LogError(reader.path().string(), reader.line(), "column '" + col.name + "': value is not finite");
+      throw LogError(reader.path().string(), reader.line(),
+                     bad_number(reader, col.index, cell, "a finite number (or an empty cell, nan or NA for none)"));
     }
     row_values_[static_cast<std::size_t>(c)] = value;
     if (!missing) held_values_[static_cast<std::size_t>(c)] = value;
@@ -626,10 +641,20 @@ void LogReader::Impl::apply_row(int k) {
   }
   s.last_t = s.row_t;
   for (std::size_t i : s.stat_index) ++stats_.rows[i];
-  read_row(s);
+  s.has_row = false;
+  s.read_pending = true;
 }
 
-double LogReader::Impl::next_row_time() const {
+void LogReader::Impl::read_pending_rows() {
+  for (Stream& s : streams_) {
+    if (!s.read_pending) continue;
+    s.read_pending = false;
+    read_row(s);
+  }
+}
+
+double LogReader::Impl::next_row_time() {
+  read_pending_rows();
   double t = std::numeric_limits<double>::infinity();
   for (const Stream& s : streams_) {
     if (s.has_row) t = std::min(t, s.row_t);
@@ -772,6 +797,7 @@ bool LogReader::Impl::next(LogSample* sample) {
   if (past_end(step_t)) {
     throw_pending_error();
     // Count what is left unread so the summary can say so.
+    read_pending_rows();
     for (Stream& s : streams_) {
       while (s.has_row) {
         ++stats_.dropped_after_end;

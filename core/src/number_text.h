@@ -15,7 +15,9 @@
 //    below 2^53 and at most 22 decimals is m / 10^k, one correctly rounded
 //    division of exact operands (Clinger's fast path): exactly what
 //    std::from_chars returns. Returns false for anything else (exponents,
-//    long mantissas, inf, nan, junk): the caller then uses std::from_chars.
+//    long mantissas, inf, nan, junk): the caller then uses parse_general.
+//  * parse_general: std::from_chars, with subnormal values read as values
+//    (see below).
 #ifndef SKIDIMM_CORE_SRC_NUMBER_TEXT_H_
 #define SKIDIMM_CORE_SRC_NUMBER_TEXT_H_
 
@@ -23,6 +25,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <string_view>
 #include <vector>
@@ -301,6 +304,34 @@ inline bool parse_plain_decimal(std::string_view text, double* value) {
   if (length == 0 || decimals > 22) return false;  // "", "-", ".", "-."
   const double magnitude = static_cast<double>(mantissa) / kPowers[decimals];
   *value = negative ? -magnitude : magnitude;
+  return true;
+}
+
+// The fallback for what parse_plain_decimal declines: std::from_chars over
+// the whole of `text`, except that a value below the smallest normal double
+// (1e-320, say) is read as strtod reads it, the nearest subnormal double (or
+// zero), where from_chars reports it out of range. Subnormal cells are legal
+// numbers a logger may write; refusing them would make a log unreadable for
+// a value that is, to the filter, zero. Returns false for anything that is
+// not a number, and for a value too large for a double (1e400): *overflow
+// tells the two apart.
+inline bool parse_general(std::string_view text, double* value, bool* overflow) {
+  *overflow = false;
+  const char* const end = text.data() + text.size();
+  const auto result = std::from_chars(text.data(), end, *value);
+  if (result.ptr != end) return false;
+  if (result.ec == std::errc()) return true;
+  if (result.ec != std::errc::result_out_of_range) return false;
+  char buffer[400];
+  if (text.size() >= sizeof(buffer)) return false;
+  std::memcpy(buffer, text.data(), text.size());
+  buffer[text.size()] = '\0';
+  const double v = std::strtod(buffer, nullptr);
+  if (std::isinf(v)) {
+    *overflow = true;
+    return false;
+  }
+  *value = v;
   return true;
 }
 

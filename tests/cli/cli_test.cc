@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
 #include <sstream>
 
 #include "core/temp_files.h"
@@ -654,6 +655,311 @@ modes:
 }
 
 }  // namespace plugin_files
+
+// ---------------------------------------------------------------- issue 12: pipes, writes, bad cells, fitter errors
+namespace io_reliability {
+
+const std::string kTerrains = kSource + "/configs/ltc_terrains.yaml";
+const std::string kSwitching = kSource + "/configs/examples/ltc_switching.csv";
+
+// A shell command line (bash: <(...), pipefail), its stdout and stderr captured.
+Result run_shell(const std::string& script) {
+  // Beside the test's directory (test_directory() would empty it).
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const fs::path dir = fs::path(::testing::TempDir()) / ("skidimm_cli_shell_" + std::string(info->name()));
+  fs::create_directories(dir);
+  write_file(dir / "script.sh", "set -o pipefail\n" + script + "\n");
+  const std::string command = "bash " + (dir / "script.sh").string() + " > " + (dir / "out").string() + " 2> " +
+                              (dir / "err").string() + " < /dev/null";
+  const int status = std::system(command.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_file(dir / "out"), read_file(dir / "err")};
+}
+
+const std::string kSkidimm = SKIDIMM_EXECUTABLE;
+
+std::string run_arguments(const std::string& input, const std::string& output) {
+  return kSkidimm + " run -q --bank " + kTerrains + " --plugin-path " + kPlugins + " --input " + input +
+         " --output " + output;
+}
+
+TEST(CliIo, RunReadsLogsFromStandardInputPipesAndFifos) {
+  const fs::path dir = test_directory();
+  const fs::path reference = dir / "reference.csv";
+  ASSERT_EQ(run_shell(run_arguments(kSwitching, reference.string())).exit_code, 0);
+  const std::string expected = read_file(reference);
+  ASSERT_GT(expected.size(), 1000u);
+  struct Case {
+    std::string name, script;
+  };
+  const fs::path out = dir / "out.csv";
+  const std::vector<Case> cases = {
+      {"--input -", "cat " + kSwitching + " | " + run_arguments("-", out.string())},
+      {"/dev/stdin", "cat " + kSwitching + " | " + run_arguments("/dev/stdin", out.string())},
+      {"<(...)", run_arguments("<(cat " + kSwitching + ")", out.string())},
+      {"FIFO", "mkfifo " + (dir / "fifo").string() + " && { cat " + kSwitching + " > " + (dir / "fifo").string() +
+                   " & } && " + run_arguments((dir / "fifo").string(), out.string())},
+      {"--output -", "cat " + kSwitching + " | " + run_arguments("-", "-") + " > " + out.string()},
+  };
+  for (const Case& c : cases) {
+    fs::remove(out);
+    const Result r = run_shell(c.script);
+    EXPECT_EQ(r.exit_code, 0) << c.name << ": " << r.err;
+    EXPECT_EQ(read_file(out), expected) << c.name;
+    EXPECT_FALSE(fs::exists(out.string() + ".partial")) << c.name;
+  }
+  // Standard input twice in one log cannot be.
+  const Result twice = run_shell("cat " + kSwitching + " | " + run_arguments("- --input -", out.string()));
+  EXPECT_EQ(twice.exit_code, 1);
+  EXPECT_THAT(twice.err, HasSubstr("standard input ('-') can be one file of a log, not several"));
+}
+
+TEST(CliIo, CommandsThatReadALogTwiceRefuseAPipeAndSaySo) {
+  const fs::path dir = test_directory();
+  const Result tune = run_shell("cat " + kSwitching + " | " + kSkidimm + " tune --bank " + kTerrains +
+                                " --plugin-path " + kPlugins + " --log - --log " + kSwitching);
+  EXPECT_EQ(tune.exit_code, 1);
+  EXPECT_THAT(tune.err, HasSubstr("-: standard input can be read only once (standard input, a pipe or a FIFO), but tune "
+                                  "reads each log more than once: save it to a file first"));
+  const Result plot = run_shell("cat " + kSwitching + " | " + run_arguments("-", (dir / "out.csv").string()) +
+                                " --plot " + (dir / "figure.png").string());
+  EXPECT_EQ(plot.exit_code, 2);
+  EXPECT_THAT(plot.err, HasSubstr("--plot reads the estimates and the log again after the run, which --input -"));
+}
+
+// The coprocess: writes one row, waits for its output row, then writes the next.
+TEST(CliIo, RunFlushWritesEachRowBeforeTheNextIsRead) {
+  int to_child[2], from_child[2];
+  ASSERT_EQ(::pipe(to_child), 0);
+  ASSERT_EQ(::pipe(from_child), 0);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    ::dup2(to_child[0], 0);
+    ::dup2(from_child[1], 1);
+    ::close(to_child[1]);
+    ::close(from_child[0]);
+    ::execl(kSkidimm.c_str(), kSkidimm.c_str(), "run", "-q", "--flush", "--bank", kTerrains.c_str(), "--plugin-path",
+            kPlugins.c_str(), "--input", "-", "--output", "-", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  ::close(to_child[0]);
+  ::close(from_child[1]);
+  std::FILE* in = ::fdopen(to_child[1], "w");
+  std::FILE* out = ::fdopen(from_child[0], "r");
+  ASSERT_NE(in, nullptr);
+  ASSERT_NE(out, nullptr);
+  std::ifstream log(kSwitching);
+  std::string line;
+  std::getline(log, line);
+  std::fprintf(in, "%s\n", line.c_str());
+  std::fflush(in);
+  auto read_line = [&] {
+    char buffer[4096];
+    if (std::fgets(buffer, sizeof(buffer), out) == nullptr) return std::string("<end>");
+    return std::string(buffer);
+  };
+  EXPECT_THAT(read_line(), HasSubstr("t,mu_asphalt,mu_grass,mu_crushed_concrete"));
+  for (int row = 0; row < 5 && std::getline(log, line); ++row) {
+    std::fprintf(in, "%s\n", line.c_str());
+    std::fflush(in);
+    // Blocks until the row for this input row is written: the input is still open.
+    const std::string output = read_line();
+    EXPECT_EQ(output.substr(0, output.find(',')), line.substr(0, line.find(','))) << "row " << row;
+  }
+  std::fclose(in);
+  EXPECT_EQ(read_line(), "<end>");
+  std::fclose(out);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+}
+
+TEST(CliIo, WritesOntoAFullDiskFailWithTheReasonAndLeaveNoFile) {
+  const fs::path dir = test_directory();
+  // A file-size limit of 0 (with SIGXFSZ ignored) makes every write to a
+  // regular file fail, as a full disk does; stderr goes through a pipe.
+  const std::string limited = "trap '' XFSZ; ulimit -f 0; ";
+  const fs::path entry = dir / "entry.yaml";
+  const Result fit = run_shell("(" + limited + kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                               " --objective window --log " + kSwitching + " --output-entry " + entry.string() +
+                               ") 2>&1 | cat >&2");
+  EXPECT_EQ(fit.exit_code, 1) << fit.err;
+  EXPECT_THAT(fit.err, HasSubstr(entry.string() + ".partial: cannot write: File too large"));
+  EXPECT_FALSE(fs::exists(entry));
+  EXPECT_FALSE(fs::exists(entry.string() + ".partial"));
+  const fs::path out = dir / "out.csv";
+  const Result run = run_shell("(" + limited + run_arguments(kSwitching, out.string()) + ") 2>&1 | cat >&2");
+  EXPECT_EQ(run.exit_code, 1) << run.err;
+  EXPECT_THAT(run.err, HasSubstr(out.string() + ".partial: cannot write: File too large"));
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_FALSE(fs::exists(out.string() + ".partial"));
+  // A device is written in place, never replaced by a renamed file.
+  const Result full = run_shell(kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                                " --objective window --log " + kSwitching + " --output-entry /dev/full");
+  EXPECT_EQ(full.exit_code, 1);
+  EXPECT_THAT(full.err, HasSubstr("/dev/full: cannot write: No space left on device"));
+  const Result run_full = run_shell(run_arguments(kSwitching, "/dev/full"));
+  EXPECT_EQ(run_full.exit_code, 1);
+  EXPECT_THAT(run_full.err, HasSubstr("/dev/full: cannot write: No space left on device"));
+  const Result run_null = run_shell(run_arguments(kSwitching, "/dev/null"));
+  EXPECT_EQ(run_null.exit_code, 0) << run_null.err;
+  EXPECT_TRUE(fs::is_character_file("/dev/null"));
+  EXPECT_TRUE(fs::is_character_file("/dev/full"));
+  EXPECT_FALSE(fs::exists("/dev/null.partial"));
+  const Result to_pipe = run_shell(run_arguments(kSwitching, "/dev/stdout") + " | cat > /dev/null");
+  EXPECT_EQ(to_pipe.exit_code, 0) << "CSV to a pipe: " << to_pipe.err;
+}
+
+// A log whose input at row 100 is `value` (1e200 makes every cost infinite).
+fs::path corrupt_log(const fs::path& dir, const std::string& value = "1e200") {
+  std::ifstream in(kSwitching);
+  std::string text, line;
+  for (int row = 0; std::getline(in, line) && row < 400; ++row) {
+    if (row == 100) line = line.substr(0, line.find(',') + 1) + value + line.substr(line.find(',', line.find(',') + 1));
+    text += line + "\n";
+  }
+  return write_file(dir / "corrupt.csv", text);
+}
+
+TEST(CliIo, FittingANonFiniteCostIsAnErrorNamingTheLogAndAppendsNothing) {
+  const fs::path dir = test_directory();
+  const fs::path bank = dir / "bank.yaml";
+  fs::copy_file(kTerrains, bank);
+  const std::string before = read_file(bank);
+  const fs::path log = corrupt_log(dir);
+  for (const std::string objective : {"likelihood", "window"}) {
+    const Result fit = run_shell(kSkidimm + " fit --bank " + bank.string() + " --plugin-path " + kPlugins +
+                                 " --objective " + objective + " --mode asphalt --name ice --log " + log.string() +
+                                 " --append-to " + bank.string());
+    EXPECT_EQ(fit.exit_code, 1) << objective << ": " << fit.err;
+    EXPECT_THAT(fit.err, HasSubstr(log.string())) << objective;
+    EXPECT_THAT(fit.err, HasSubstr("not finite")) << objective;
+    EXPECT_THAT(fit.err, ::testing::Not(HasSubstr("appended"))) << objective;
+    EXPECT_EQ(read_file(bank), before) << objective;
+  }
+}
+
+TEST(CliIo, BadCellsNameTheFileLineColumnAndWhatWasExpected) {
+  const fs::path dir = test_directory();
+  // A true_<state> cell that is not a number, in the log eval runs over.
+  std::ifstream in(kSwitching);
+  std::string text, line;
+  for (int row = 0; std::getline(in, line) && row < 50; ++row) {
+    if (row == 20) {  // column 12, true_V
+      std::size_t at = 0;
+      for (int comma = 0; comma < 11; ++comma) at = line.find(',', at) + 1;
+      line = line.substr(0, at) + "fast" + line.substr(line.find(',', at));
+    }
+    text += line + "\n";
+  }
+  const fs::path bad_truth = write_file(dir / "bad_truth.csv", text);
+  const Result truth = run_shell(kSkidimm + " eval --bank " + kTerrains + " --plugin-path " + kPlugins + " --input " +
+                                 bad_truth.string());
+  EXPECT_EQ(truth.exit_code, 1);
+  EXPECT_THAT(truth.err, HasSubstr(bad_truth.string() + ":21: column 12 ('true_V'): expected a finite number"));
+  EXPECT_THAT(truth.err, HasSubstr("got 'fast'"));
+  // A subnormal cell is a number: the nearest double, as strtod reads it.
+  text.replace(text.find("fast"), 4, "1e-320");
+  write_file(bad_truth, text);
+  const Result subnormal = run_shell(kSkidimm + " eval --bank " + kTerrains + " --plugin-path " + kPlugins +
+                                     " --input " + bad_truth.string());
+  EXPECT_EQ(subnormal.exit_code, 0) << subnormal.err;
+
+  // eval --estimates: the output of run, then broken in each way.
+  const fs::path estimates = dir / "estimates.csv";
+  ASSERT_EQ(run_shell(run_arguments(kSwitching, estimates.string())).exit_code, 0);
+  std::vector<std::string> lines;
+  {
+    std::ifstream e(estimates);
+    while (std::getline(e, line)) lines.push_back(line);
+  }
+  auto with_row = [&](std::size_t index, const std::string& replacement) {
+    std::string out;
+    for (std::size_t i = 0; i < lines.size() && i < 40; ++i) out += (i == index ? replacement : lines[i]) + "\n";
+    return write_file(dir / "broken.csv", out);
+  };
+  auto cells = [&](std::size_t index) {
+    std::vector<std::string> c;
+    std::stringstream row(lines[index]);
+    std::string cell;
+    while (std::getline(row, cell, ',')) c.push_back(cell);
+    return c;
+  };
+  auto join = [](const std::vector<std::string>& c) {
+    std::string out;
+    for (const std::string& x : c) out += (out.empty() ? "" : ",") + x;
+    return out;
+  };
+  struct Case {
+    std::string name;
+    std::vector<std::string> row;
+    std::string expected;
+  };
+  std::vector<Case> cases;
+  std::vector<std::string> c = cells(10);
+  c[0] = "soon";
+  cases.push_back({"bad t", c, ":11: column 1 ('t'): expected a finite time in seconds, got 'soon'"});
+  c = cells(10);
+  c[1] = "x";
+  cases.push_back({"bad mu", c, ":11: column 2 ('mu_asphalt'): expected a probability in [0, 1], got 'x'"});
+  c = cells(10);
+  c[1] = "7";
+  cases.push_back({"mu = 7", c, ":11: column 2 ('mu_asphalt'): expected a probability in [0, 1], got 7"});
+  c = cells(10);
+  c[1] = "0.5";
+  c[2] = "0.5";
+  c[3] = "0.5";
+  cases.push_back({"sum 1.5", c, ":11: the mode probabilities (mu_ columns) sum to 1.5"});
+  c = cells(10);
+  c[0] = cells(5)[0];
+  cases.push_back({"time backwards", c, ":11: column 1 ('t'): time must increase strictly, but "});
+  for (const Case& k : cases) {
+    const fs::path broken = with_row(10, join(k.row));
+    const Result r = run_shell(kSkidimm + " eval --estimates " + broken.string());
+    EXPECT_EQ(r.exit_code, 1) << k.name;
+    EXPECT_THAT(r.err, HasSubstr(broken.string() + k.expected)) << k.name;
+    EXPECT_THAT(r.err, ::testing::Not(HasSubstr("unexpected error"))) << k.name;
+  }
+  const fs::path header_only = write_file(dir / "header_only.csv", lines[0] + "\n");
+  const Result empty = run_shell(kSkidimm + " eval --estimates " + header_only.string());
+  EXPECT_EQ(empty.exit_code, 1);
+  EXPECT_THAT(empty.err, HasSubstr(header_only.string() + ":1: the file has a header but no rows"));
+}
+
+TEST(CliIo, FitterErrorsNameTheLogAndTheOptionAndCeresStaysQuiet) {
+  const fs::path dir = test_directory();
+  // Too short for the window objective: two rows.
+  std::ifstream in(kSwitching);
+  std::string text, line;
+  for (int row = 0; std::getline(in, line) && row < 3; ++row) text += line + "\n";
+  const fs::path short_log = write_file(dir / "short.csv", text);
+  const Result fit = run_shell(kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                               " --objective window --mode asphalt --log " + short_log.string());
+  EXPECT_EQ(fit.exit_code, 1);
+  EXPECT_THAT(fit.err, HasSubstr(short_log.string()));
+  // A bad held-out log is blamed on --held-out, not --log.
+  const fs::path bad = write_file(dir / "bad.csv", "t,phi_dot_L,phi_dot_R,V\n0,1,1,0\n");
+  const Result held = run_shell(kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                                " --objective window --log " + kSwitching + " --held-out asphalt=" + bad.string());
+  EXPECT_EQ(held.exit_code, 1);
+  EXPECT_THAT(held.err, HasSubstr("no column 'omega'"));
+  EXPECT_THAT(held.err, ::testing::Not(HasSubstr("--log '")));
+  const Result held_label = run_shell(kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                                      " --objective window --log " + kSwitching + " --held-out mud=" +
+                                      kSwitching);
+  EXPECT_EQ(held_label.exit_code, 1);
+  EXPECT_THAT(held_label.err, HasSubstr("--held-out 'mud=" + kSwitching + "': the bank has no mode or class 'mud'"));
+  // Ceres' glog warnings are summarised after the error, not printed raw as they come.
+  const fs::path absurd = corrupt_log(dir, "1e100");
+  const Result quiet = run_shell(kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                                 " --hold-unexcited --mode asphalt --log " + absurd.string());
+  EXPECT_EQ(quiet.exit_code, 1);
+  EXPECT_THAT(quiet.err, HasSubstr("(logs: " + absurd.string() + "): the logs do not identify every parameter"));
+  EXPECT_THAT(quiet.err, HasSubstr("skidimm fit: Ceres reported 1 warning(s) or error(s):\n  polynomial.cc:"));
+  EXPECT_THAT(quiet.err, ::testing::Not(::testing::ContainsRegex("(^|\n)[IWEF][0-9]{4} ")));
+}
+
+}  // namespace io_reliability
 
 }  // namespace
 

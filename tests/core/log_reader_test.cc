@@ -2,6 +2,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +12,7 @@
 #include "core/temp_files.h"
 #include "skidimm/errors.h"
 #include "skidimm/imm.h"
+#include "skidimm/log_io.h"
 
 namespace skidimm {
 namespace {
@@ -329,7 +331,44 @@ TEST(LogReader, NonNumericCellNamesLineAndColumn) {
   LogReader reader(simple_bank(), {file});
   LogSample s;
   reader.next(&s);
-  expect_error([&] { reader.next(&s); }, {"log.csv:3: column 'right': expected a number, got 'fast'"});
+  expect_error([&] { reader.next(&s); },
+               {"log.csv:3: column 3 ('right'): expected a finite number (or an empty cell, nan or NA for none), got "
+                "'fast'"});
+}
+
+TEST(LogReader, SubnormalCellsAreReadAsTheNearestDoubleAndOverflowIsAnError) {
+  const auto dir = test_directory();
+  LogReader reader(simple_bank(), {write_file(dir / "log.csv", "t,left,right,v,w\n0,1,2,1e-320,4\n0.1,1,2,1e400,4\n")});
+  LogSample s;
+  ASSERT_TRUE(reader.next(&s));
+  EXPECT_EQ(s.z[0], 1e-320);
+  EXPECT_GT(s.z[0], 0.0) << "subnormal, not flushed to zero";
+  expect_error([&] { reader.next(&s); }, {"log.csv:3: column 4 ('v'): expected a finite number", "got '1e400'"});
+}
+
+TEST(LogReader, ReadsAPipeAsItArrivesAndStandardInputByDash) {
+  int fds[2];
+  ASSERT_EQ(::pipe(fds), 0);
+  const std::string head = "t,left,right,v,w\n0,1,2,3,4\n";
+  ASSERT_EQ(::write(fds[1], head.data(), head.size()), static_cast<ssize_t>(head.size()));
+  // The write end stays open: the reader must give the first step without
+  // waiting for a second row (it reads the next row only when asked).
+  LogReader reader(simple_bank(), {"/dev/fd/" + std::to_string(fds[0])});
+  LogSample s;
+  ASSERT_TRUE(reader.next(&s));
+  EXPECT_EQ(s.t, 0.0);
+  const std::string rest = "0.1,1,2,5,4\n";
+  ASSERT_EQ(::write(fds[1], rest.data(), rest.size()), static_cast<ssize_t>(rest.size()));
+  ::close(fds[1]);
+  ASSERT_TRUE(reader.next(&s));
+  EXPECT_EQ(s.z[0], 5.0);
+  EXPECT_FALSE(reader.next(&s));
+  ::close(fds[0]);
+  EXPECT_FALSE(is_rereadable("-"));
+  EXPECT_FALSE(is_rereadable("/dev/stdin"));
+  EXPECT_TRUE(is_standard_input("-"));
+  expect_error([&] { LogReader twice(simple_bank(), {"-", "-"}); },
+               {"standard input ('-') can be one file of a log, not several"});
 }
 
 TEST(LogReader, TimeMustIncreaseStrictly) {

@@ -330,7 +330,7 @@ TEST(ModelFitter, LogsWithMissingColumnsOrNonFiniteValuesAreRejected) {
     load_trajectory(config, {write_file(dir / "b.csv", "t,phi_dot_L,phi_dot_R,V,omega\n0,1,1,0,0\n0.1,1,1,inf,0\n")});
     FAIL();
   } catch (const LogError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("b.csv:3: column 'V': value is not finite"));
+    EXPECT_THAT(e.what(), HasSubstr("b.csv:3: column 4 ('V'): expected a finite number"));
   }
 }
 

@@ -7,7 +7,8 @@
 // truth_mode (when there is a truth), status, reason (empty unless a mode's
 // filter was rejected or gated in the step: "<mode>: <what>; ..."). Numbers
 // are the shortest text that reads back to the same double. The file is
-// written as <path>.partial and renamed by commit() (log_io.h, CsvWriter).
+// written as <path>.partial and renamed by commit() (output_file.h; "-",
+// devices and FIFOs are written directly).
 //
 // A path ending in ".npy" is written as a NumPy array instead (format 1.0,
 // or 2.0 for very wide headers): one record per step with the same columns,
@@ -46,6 +47,9 @@ class EstimatesWriter {
   // One row; `truth` is written only when the writer has a truth column.
   void write(double t, const ImmEstimate& estimate, const std::string& decision, const std::string& truth);
   void commit();
+  // Every row handed to the file as it is written (CSV only; run --flush).
+  // Throws Error for .npy, whose header is completed at the end.
+  void flush_each_row();
   const std::filesystem::path& partial_path() const;
 
   static std::vector<std::string> header(const BankConfig& config, bool with_truth);

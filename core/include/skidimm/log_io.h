@@ -5,9 +5,11 @@
 //    line of every row for error messages.
 //  * LogReader (log_reader.h, included here) turns a log's files into the
 //    filter's steps with the bank's columns.
-//  * CsvWriter writes "<path>.partial", flushing as it goes, and renames it to
-//    <path> only on commit(): a file under the final name is always complete,
-//    and rows computed before an error are kept in the .partial file.
+//  * CsvWriter writes through an OutputFile (output_file.h): "<path>.partial",
+//    renamed to <path> only on commit(), so a file under the final name is
+//    always complete; rows computed before an error are kept in the .partial
+//    file (unless writing itself failed, or no row was written). Standard
+//    output ("-"), devices and FIFOs are written directly.
 //
 // Both have a path that allocates nothing per row (next_row() and field(),
 // add_number()/add_text()/end_row()): the reader splits rows in place in a
@@ -28,12 +30,29 @@
 
 #include "skidimm/bank.h"
 #include "skidimm/log_reader.h"
+#include "skidimm/output_file.h"
 
 namespace skidimm {
 
+// "-": standard input, as log and estimates arguments name it.
+bool is_standard_input(const std::filesystem::path& path);
+// Whether a file can be read more than once: a regular file. Standard input,
+// pipes, FIFOs and <(...) can be read once, front to back; a command that
+// needs a log twice says so instead of reading an empty second copy.
+bool is_rereadable(const std::filesystem::path& path);
+
+// A number in a CSV cell, read the way LogReader reads log cells: blanks
+// around it ignored, an optional '+', decimal or scientific, locale
+// independent; a subnormal value (1e-320) is read as the nearest double
+// (number_text.h). False for anything else, including an empty cell, nan,
+// inf, and values too large for a double.
+bool parse_finite_number(std::string_view cell, double* value);
+
 class CsvReader {
  public:
-  // Opens the file and reads its header. Throws LogError.
+  // Opens the file and reads its header. "-" is standard input; pipes, FIFOs
+  // and /dev/stdin are read like files, once (see is_rereadable). Throws
+  // LogError.
   explicit CsvReader(const std::filesystem::path& path);
   ~CsvReader();
   CsvReader(const CsvReader&) = delete;
@@ -55,12 +74,13 @@ class CsvReader {
 
   long line() const { return line_; }  // line of the row last read (1-based)
   std::uintmax_t bytes_read() const { return bytes_read_; }
-  std::uintmax_t file_size() const { return file_size_; }
+  std::uintmax_t file_size() const { return file_size_; }  // 0 for a pipe
 
  private:
   bool read_line(std::string_view* line);
   bool read_record();
   void fill();
+  void close();
   void set_field(std::size_t index, const char* begin, const char* end) {
     if (index == fields_.size()) fields_.emplace_back();  // grows to the widest row, once
     fields_[index] = std::string_view(begin, static_cast<std::size_t>(end - begin));
@@ -68,6 +88,7 @@ class CsvReader {
 
   std::filesystem::path path_;
   std::FILE* file_ = nullptr;
+  bool owns_file_ = true;  // false for standard input
   std::vector<char> buffer_;  // [begin_, end_) read but not yet consumed
   std::size_t begin_ = 0;
   std::size_t end_ = 0;
@@ -85,7 +106,8 @@ class CsvReader {
 
 class CsvWriter {
  public:
-  // Creates "<path>.partial". Throws LogError if it cannot be written.
+  // Creates "<path>.partial" (output_file.h). Throws Error with the OS reason
+  // if it cannot be written.
   CsvWriter(const std::filesystem::path& path, const std::vector<std::string>& header);
   ~CsvWriter();
   CsvWriter(const CsvWriter&) = delete;
@@ -100,9 +122,13 @@ class CsvWriter {
   void add_number(double value);
   void add_text(std::string_view text);
   void end_row();
+  // Hand every row to the file as soon as it ends (run --flush), instead of
+  // every 1000 rows: a program reading a pipe sees each row at once.
+  void set_flush_each_row(bool flush) { flush_each_row_ = flush; }
   // Flushes, closes and renames to the final path.
   void commit();
-  const std::filesystem::path& partial_path() const { return partial_; }
+  // Where rows are being written: "<path>.partial", or the path itself.
+  const std::filesystem::path& partial_path() const { return out_->written_path(); }
   const std::filesystem::path& path() const { return path_; }
 
   // Shortest text that reads back to exactly the same double ("nan" for NaN).
@@ -117,8 +143,7 @@ class CsvWriter {
   char* reserve(std::size_t bytes);
 
   std::filesystem::path path_;
-  std::filesystem::path partial_;
-  std::FILE* out_ = nullptr;
+  std::unique_ptr<OutputFile> out_;
   std::unique_ptr<char[]> buffer_;  // rows not yet handed to the file
   std::size_t size_ = 0;
   std::size_t capacity_ = 0;
@@ -126,7 +151,7 @@ class CsvWriter {
   std::size_t columns_ = 0;
   std::size_t cells_ = 0;  // in the row being added
   long rows_ = 0;
-  bool committed_ = false;
+  bool flush_each_row_ = false;
 };
 
 }  // namespace skidimm

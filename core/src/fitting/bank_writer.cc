@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "skidimm/errors.h"
+#include "skidimm/output_file.h"
 
 namespace skidimm {
 namespace fitting {
@@ -28,22 +29,21 @@ std::string read_text(const fs::path& file) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-// Writes text to <file>.tmp, checks it loads as a bank, then renames.
+// Writes text to <file>.tmp, checks it loads as a bank, then renames
+// (output_file.h: a full disk or a failed close is an error with its reason,
+// and the .tmp file is removed).
 void write_validated(const fs::path& file, const std::string& text) {
-  const fs::path temporary = file.string() + ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out << text;
-    if (!out) throw ConfigError(temporary.string(), 0, "", "cannot write");
-  }
-  try {
-    load_bank_config(temporary);
-  } catch (const ConfigError& e) {
-    fs::remove(temporary);
-    throw ConfigError(file.string(), e.line(), e.field(),
-                      "the result would not be a valid bank, nothing was written: " + std::string(e.what()));
-  }
-  fs::rename(temporary, file);
+  write_file_atomically(
+      file, text,
+      [&](const fs::path& temporary) {
+        try {
+          load_bank_config(temporary);
+        } catch (const ConfigError& e) {
+          throw ConfigError(file.string(), e.line(), e.field(),
+                            "the result would not be a valid bank, nothing was written: " + std::string(e.what()));
+        }
+      },
+      ".tmp");
 }
 
 bool is_top_level_key(const std::string& line) {

@@ -1340,6 +1340,16 @@ std::map<int, FitReport> fit_group(Bank* bank, const std::vector<std::pair<int, 
   const std::string who = group.size() == 1 && !options.fit_measurement_noise
                               ? mode_name(config, group.front().first)
                               : "the bank's joint fit (" + std::to_string(group.size()) + " modes and R)";
+  // The logs a whole-fit error is about, for its message.
+  std::string logs_text;
+  int listed = 0;
+  for (const auto& entry : group) {
+    for (const Trajectory* t : entry.second) {
+      if (++listed <= 3) logs_text += (logs_text.empty() ? "" : ", ") + t->source;
+    }
+  }
+  if (listed > 3) logs_text += " and " + std::to_string(listed - 3) + " more";
+  logs_text = " (logs: " + logs_text + ")";
 
   // Blocks and the start.
   std::vector<ModeBlock> blocks;
@@ -1498,7 +1508,7 @@ std::map<int, FitReport> fit_group(Bank* bank, const std::vector<std::pair<int, 
     if (!problem.evaluate(phi.data(), true, true, &final_result, nullptr, &seen)) {
       // Ceres returns the last accepted point, which evaluated; this only
       // happens if the model is not deterministic.
-      throw FitError(who + ": the solution could not be evaluated again: " + final_result.failure);
+      throw FitError(who + logs_text + ": the solution could not be evaluated again: " + final_result.failure);
     }
     bool covered = true;
     for (std::size_t j = 0; j < seen.size(); ++j) covered = covered && structure[j].covers(seen[j]);
@@ -1585,7 +1595,7 @@ std::map<int, FitReport> fit_group(Bank* bank, const std::vector<std::pair<int, 
   const double threshold = options.identifiability_threshold * largest;
   if (unexcited.empty()) unexcited = describe_unidentified(eigen.eigenvectors(), eigenvalues, threshold, names);
   if (!unexcited.empty() || !(largest > 0.0)) {
-    throw FitError(who + ": the logs do not identify every parameter: no information on the combinations " + unexcited +
+    throw FitError(who + logs_text + ": the logs do not identify every parameter: no information on the combinations " + unexcited +
                    "; drive maneuvers that move them (turns and speed changes), or fix them");
   }
   const double smallest = eigenvalues.minCoeff();

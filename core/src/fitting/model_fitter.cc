@@ -503,8 +503,18 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
                      ": no prediction window: no row measures every state (" + states +
                      ") with a measured row after it");
     }
+    // The logs a whole-fit error is about, for its message.
+    std::string logs_text;
+    int listed = 0;
+    for (const ModeLogs* d : group) {
+      for (const Trajectory& t : d->logs) {
+        if (++listed <= 3) logs_text += (logs_text.empty() ? "" : ", ") + t.source;
+      }
+    }
+    if (listed > 3) logs_text += " and " + std::to_string(listed - 3) + " more";
+    logs_text = " (logs: " + logs_text + ")";
     if (residuals <= static_cast<int>(block.size())) {
-      throw FitError(who + ": the logs are too short: " + std::to_string(residuals) + " residuals for " +
+      throw FitError(who + logs_text + ": the logs are too short: " + std::to_string(residuals) + " residuals for " +
                      std::to_string(block.size()) + " parameters");
     }
     for (std::size_t i = 0; i < block.size(); ++i) {
@@ -531,8 +541,11 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
     while (true) {
       ceres::Solve(solver_options, &problem, &summary);
       if (first_initial_cost < 0.0) first_initial_cost = summary.initial_cost;
-      if (!summary.IsSolutionUsable()) throw FitError(who + ": the solver failed: " + summary.message);
-      if (!std::isfinite(summary.final_cost)) throw FitError(who + ": the fit ended at a cost that is not finite");
+      if (!summary.IsSolutionUsable()) throw FitError(who + logs_text + ": the solver failed: " + summary.message);
+      if (!std::isfinite(summary.initial_cost) || !std::isfinite(summary.final_cost)) {
+        throw FitError(who + logs_text + ": the cost is not finite (" + std::to_string(summary.initial_cost) + " -> " +
+                       std::to_string(summary.final_cost) + "); a cell of the logs is absurd");
+      }
 
       // Identifiability: singular values of the Jacobian at the solution (in
       // the free parameters: the held ones have no column).
@@ -561,7 +574,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
       if (largest > 0.0 && smallest >= threshold) break;
       const std::string unexcited = describe_unexcited(svd.matrixV(), singular, threshold, free_names);
       if (!options.hold_unexcited || !(largest > 0.0)) {
-        throw FitError(who + ": the logs do not excite every parameter: no information on the combinations " +
+        throw FitError(who + logs_text + ": the logs do not excite every parameter: no information on the combinations " +
                        unexcited + "; drive maneuvers that move them (turns and speed changes), or fix them" +
                        (options.hold_unexcited ? "" : " (or let the fit hold them: --hold-unexcited)"));
       }
@@ -586,7 +599,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
         block[static_cast<std::size_t>(chosen)] = start[static_cast<std::size_t>(chosen)];
       }
       if (held.size() == before || held.size() == block.size()) {
-        throw FitError(who + ": the logs do not excite every parameter: no information on the combinations " +
+        throw FitError(who + logs_text + ": the logs do not excite every parameter: no information on the combinations " +
                        unexcited + "; drive maneuvers that move them, or fix them");
       }
       std::sort(held.begin(), held.end());

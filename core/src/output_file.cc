@@ -1,0 +1,140 @@
+#include "skidimm/output_file.h"
+
+#include <cerrno>
+#include <cstring>
+#include <system_error>
+
+#include "skidimm/errors.h"
+
+namespace skidimm {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Written in place: standard output, devices, FIFOs, and anything reached
+// through /dev or /proc (/dev/stdout may resolve to a regular file, but
+// renaming over it would replace the link, not write to the descriptor).
+bool writes_to_device(const fs::path& path) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (ec || !fs::exists(status)) return false;
+  const std::string text = path.string();
+  return !fs::is_regular_file(status) || text.rfind("/dev/", 0) == 0 || text.rfind("/proc/", 0) == 0;
+}
+
+}  // namespace
+
+bool OutputFile::writes_directly(const fs::path& path) { return path.string() == "-" || writes_to_device(path); }
+
+namespace {
+
+std::string reason(int error) { return error != 0 ? std::strerror(error) : "unknown error"; }
+
+}  // namespace
+
+OutputFile::OutputFile(const fs::path& path, const std::string& suffix) : path_(path) {
+  if (path.string() == "-") {
+    direct_ = standard_output_ = true;
+    written_ = "standard output";
+    out_ = stdout;
+    return;
+  }
+  direct_ = writes_to_device(path);
+  written_ = direct_ ? path : fs::path(path.string() + suffix);
+  errno = 0;
+  out_ = std::fopen(written_.c_str(), "wb");
+  if (out_ == nullptr) {
+    throw Error(written_.string() + ": cannot open for writing: " + reason(errno));
+  }
+  std::setvbuf(out_, nullptr, _IONBF, 0);  // callers hand whole blocks
+}
+
+OutputFile::~OutputFile() {
+  if (committed_) return;
+  if (out_ != nullptr && !standard_output_) std::fclose(out_);
+  if (standard_output_ && out_ != nullptr) std::fflush(out_);
+  out_ = nullptr;
+  if (!direct_ && (!keep_partial_ || write_failed_)) {
+    std::error_code ec;
+    fs::remove(written_, ec);
+  }
+}
+
+void OutputFile::close_for_failure() {
+  write_failed_ = true;
+  if (out_ != nullptr && !standard_output_) std::fclose(out_);
+  out_ = nullptr;
+  if (!direct_) {
+    std::error_code ec;
+    fs::remove(written_, ec);
+  }
+}
+
+void OutputFile::fail(const char* what, int error) {
+  close_for_failure();
+  throw Error(written_.string() + ": cannot " + what + ": " + reason(error) +
+              (direct_ ? "" : " (nothing was written to " + path_.string() + ")"));
+}
+
+void OutputFile::write(std::string_view bytes) {
+  if (out_ == nullptr) throw Error(written_.string() + ": write after the file was closed");
+  if (bytes.empty()) return;
+  errno = 0;
+  if (std::fwrite(bytes.data(), 1, bytes.size(), out_) != bytes.size()) fail("write", errno);
+  // Standard output keeps its own buffer: hand the bytes on now, so a reader
+  // of a pipe sees every block as it is written.
+  if (standard_output_ && std::fflush(out_) != 0) fail("write", errno);
+}
+
+void OutputFile::seek(long offset) {
+  errno = 0;
+  if (out_ == nullptr || std::fseek(out_, offset, SEEK_SET) != 0) {
+    const int error = errno;
+    close_for_failure();
+    throw Error(written_.string() + ": cannot seek (" + reason(error) +
+                "): this output must be a regular file or a device, not a pipe or standard output");
+  }
+}
+
+void OutputFile::seek_end() {
+  errno = 0;
+  if (out_ == nullptr || std::fseek(out_, 0, SEEK_END) != 0) fail("seek", errno);
+}
+
+void OutputFile::commit() {
+  if (committed_) return;
+  if (out_ == nullptr) throw Error(written_.string() + ": commit after a failed write");
+  errno = 0;
+  if (std::fflush(out_) != 0) fail("write", errno);
+  if (!standard_output_) {
+    // close() reports what a network or full file system only notices then.
+    errno = 0;
+    const int closed = std::fclose(out_);
+    out_ = nullptr;
+    if (closed != 0) fail("close", errno);
+  } else if (std::ferror(out_)) {
+    fail("write", EIO);
+  }
+  out_ = nullptr;
+  if (!direct_) {
+    std::error_code ec;
+    fs::rename(written_, path_, ec);
+    if (ec) {
+      close_for_failure();
+      throw Error(path_.string() + ": cannot rename " + written_.string() + " to it: " + ec.message());
+    }
+  }
+  committed_ = true;
+}
+
+void write_file_atomically(const fs::path& path, std::string_view text,
+                           const std::function<void(const fs::path&)>& check, const std::string& suffix) {
+  OutputFile out(path, suffix);
+  out.write(text);
+  // The stream is unbuffered: the bytes are in the file when it is checked.
+  if (check && !out.direct()) check(out.written_path());
+  out.commit();
+}
+
+}  // namespace skidimm

@@ -1,0 +1,142 @@
+#include "skidimm/output_file.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+
+#include <csignal>
+
+#include "core/temp_files.h"
+#include "skidimm/errors.h"
+
+namespace skidimm {
+namespace {
+
+using ::testing::HasSubstr;
+using skidimm_test::read_file;
+using skidimm_test::test_directory;
+using skidimm_test::write_file;
+namespace fs = std::filesystem;
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "<no error>";
+}
+
+// Every write to a regular file fails with EFBIG while one lives, as writes
+// onto a full disk fail with ENOSPC.
+class FileSizeLimit {
+ public:
+  explicit FileSizeLimit(rlim_t bytes) {
+    getrlimit(RLIMIT_FSIZE, &saved_);
+    previous_ = std::signal(SIGXFSZ, SIG_IGN);
+    rlimit limit = saved_;
+    limit.rlim_cur = bytes;
+    setrlimit(RLIMIT_FSIZE, &limit);
+  }
+  ~FileSizeLimit() {
+    setrlimit(RLIMIT_FSIZE, &saved_);
+    std::signal(SIGXFSZ, previous_);
+  }
+
+ private:
+  rlimit saved_{};
+  void (*previous_)(int) = nullptr;
+};
+
+TEST(OutputFile, ARegularFileAppearsWholeOnCommitOnly) {
+  const fs::path dir = test_directory();
+  {
+    OutputFile out(dir / "a.txt");
+    EXPECT_FALSE(out.direct());
+    EXPECT_EQ(out.written_path(), dir / "a.txt.partial");
+    out.write("hello ");
+    out.write("world");
+    EXPECT_FALSE(fs::exists(dir / "a.txt"));
+    out.commit();
+  }
+  EXPECT_EQ(read_file(dir / "a.txt"), "hello world");
+  EXPECT_FALSE(fs::exists(dir / "a.txt.partial"));
+  {
+    OutputFile abandoned(dir / "b.txt");
+    abandoned.write("half");
+  }
+  EXPECT_FALSE(fs::exists(dir / "b.txt")) << "not committed: nothing under the final name";
+  EXPECT_FALSE(fs::exists(dir / "b.txt.partial")) << "and no leftover";
+  {
+    OutputFile kept(dir / "c.txt");
+    kept.write("rows so far");
+    kept.keep_partial();
+  }
+  EXPECT_EQ(read_file(dir / "c.txt.partial"), "rows so far");
+}
+
+TEST(OutputFile, AFailedWriteNamesTheReasonAndLeavesNoFile) {
+  const fs::path dir = test_directory();
+  write_file(dir / "old.txt", "the previous content");
+  {
+    const FileSizeLimit limit(4);
+    OutputFile out(dir / "old.txt");
+    out.keep_partial();  // even so: a file cut at a write failure is not kept
+    EXPECT_EQ(error_of([&] { out.write("more than four bytes"); }),
+              (dir / "old.txt.partial").string() + ": cannot write: File too large (nothing was written to " +
+                  (dir / "old.txt").string() + ")");
+    EXPECT_THAT(error_of([&] { out.commit(); }), HasSubstr("commit after a failed write"));
+  }
+  EXPECT_EQ(read_file(dir / "old.txt"), "the previous content");
+  EXPECT_FALSE(fs::exists(dir / "old.txt.partial"));
+  const FileSizeLimit limit(0);
+  EXPECT_THAT(error_of([&] { write_file_atomically(dir / "new.yaml", "a: 1\n"); }),
+              HasSubstr("new.yaml.partial: cannot write: File too large"));
+  EXPECT_FALSE(fs::exists(dir / "new.yaml"));
+  EXPECT_FALSE(fs::exists(dir / "new.yaml.partial"));
+}
+
+TEST(OutputFile, DevicesAndFifosAreWrittenInPlace) {
+  {
+    OutputFile null("/dev/null");
+    EXPECT_TRUE(null.direct());
+    null.write("discarded");
+    null.commit();
+  }
+  EXPECT_TRUE(fs::is_character_file("/dev/null"));
+  EXPECT_FALSE(fs::exists("/dev/null.partial"));
+  OutputFile full("/dev/full");
+  EXPECT_EQ(error_of([&] { full.write("x"); }), "/dev/full: cannot write: No space left on device");
+  EXPECT_TRUE(fs::is_character_file("/dev/full"));
+  EXPECT_TRUE(OutputFile::writes_directly("-"));
+  const fs::path dir = test_directory();
+  EXPECT_FALSE(OutputFile::writes_directly(dir / "new.csv"));
+  ASSERT_EQ(::mkfifo((dir / "fifo").c_str(), 0600), 0);
+  EXPECT_TRUE(OutputFile::writes_directly(dir / "fifo"));
+}
+
+TEST(OutputFile, ACheckThatThrowsLeavesTheOldFileAndNoTemporary) {
+  const fs::path dir = test_directory();
+  write_file(dir / "bank.yaml", "old");
+  EXPECT_EQ(error_of([&] {
+              write_file_atomically(
+                  dir / "bank.yaml", "new",
+                  [](const fs::path& written) {
+                    EXPECT_EQ(read_file(written), "new") << "the bytes are in the file when it is checked";
+                    throw Error("invalid");
+                  },
+                  ".tmp");
+            }),
+            "invalid");
+  EXPECT_EQ(read_file(dir / "bank.yaml"), "old");
+  EXPECT_FALSE(fs::exists(dir / "bank.yaml.tmp"));
+}
+
+TEST(OutputFile, AnUnwritableDirectoryNamesTheReason) {
+  EXPECT_THAT(error_of([] { OutputFile out("/nonexistent-directory/x.csv"); }),
+              HasSubstr("/nonexistent-directory/x.csv.partial: cannot open for writing: No such file or directory"));
+}
+
+}  // namespace
+}  // namespace skidimm
