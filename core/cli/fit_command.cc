@@ -34,7 +34,7 @@ namespace {
 // the same first error.
 std::vector<ModeLogs> load_logs(const BankConfig& config, const std::vector<std::string>& arguments,
                                 const std::string& default_mode, const SamplingConfig& sampling,
-                                const std::string& option) {
+                                const std::string& option = "--log") {
   struct Job {
     LogSpec log;
     std::exception_ptr error;  // expanding its argument failed

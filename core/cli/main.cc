@@ -12,6 +12,7 @@
 #include <CLI/CLI.hpp>
 #include <filesystem>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "commands.h"
@@ -242,7 +243,9 @@ int main(int argc, char** argv) {
       for (const std::string& input : run_options.inputs) {
         try {
           for (const skidimm::LogFile& file : skidimm::parse_log_spec(input).files) {
-            if (!skidimm::is_rereadable(file.path)) once = "--input " + file.path.string();
+            std::error_code missing;
+            const bool exists = skidimm::is_standard_input(file.path) || fs::exists(file.path, missing);
+            if (exists && !skidimm::is_rereadable(file.path)) once = "--input " + file.path.string();
           }
         } catch (const skidimm::Error&) {  // run reports it
         }

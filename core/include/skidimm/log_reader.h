@@ -33,7 +33,13 @@
 // Rows before every input has a value, and after the last row of a file that
 // feeds an input, are not used (counted in stats()). Errors are LogErrors
 // naming the file, line and column; expressions are checked against the
-// files' headers before any row is read.
+// files' headers before any row is read. Numbers: see parse_finite_number
+// (log_io.h); a subnormal cell (1e-320) is read as the nearest double.
+//
+// A file may be "-" (standard input, once per log), a pipe or a FIFO: it is
+// read front to back, once, and a stream's next row is read only when a step
+// needs it, so without a fixed rate next() returns a row's step as soon as
+// the row has arrived (with a rate, when a row after the grid step has).
 #ifndef SKIDIMM_LOG_READER_H_
 #define SKIDIMM_LOG_READER_H_
 

@@ -1,7 +1,6 @@
 // skidimm eval --estimates: a `skidimm run` output read back and scored.
 #include "skidimm/evaluation/estimates_reader.h"
 
-#include <charconv>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -18,18 +17,22 @@ namespace fs = std::filesystem;
 
 namespace {
 
-double parse_cell(const CsvReader& reader, const std::vector<std::string>& fields, int column) {
+double parse_cell(const CsvReader& reader, const std::vector<std::string>& fields, int column, const char* expected) {
   const std::string& cell = fields[static_cast<std::size_t>(column)];
   double value = 0.0;
-  const char* begin = cell.data();
-  const auto parsed = std::from_chars(begin, cell.data() + cell.size(), value);
-  if (cell.empty() || parsed.ec != std::errc() || parsed.ptr != cell.data() + cell.size() || !std::isfinite(value)) {
+  if (!parse_finite_number(cell, &value)) {  // log_io.h: the log reader's rule, subnormals included
     throw LogError(reader.path().string(), reader.line(),
-                   "column '" + reader.header()[static_cast<std::size_t>(column)] + "': expected a finite number, got '" +
-                       cell + "'");
+                   "column " + std::to_string(column + 1) + " ('" +
+                       reader.header()[static_cast<std::size_t>(column)] + "'): expected " + expected + ", got '" +
+                       cell.substr(0, 80) + (cell.size() > 80 ? "...'" : "'"));
   }
   return value;
 }
+
+// How far a run's probabilities may stray from [0, 1] and from summing to 1:
+// they are written with every digit, so the sum is 1 to a few ulps; anything
+// beyond this did not come from `skidimm run`.
+constexpr double kProbabilityTolerance = 1e-6;
 
 }  // namespace
 
@@ -57,25 +60,37 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank) {
       }
     }
   }
-  const evaluation::ClassScorer scorer(bank != nullptr ? *bank : modes_only);
+  const ClassScorer scorer(bank != nullptr ? *bank : modes_only);
   const int decision = reader.column("decision");
   std::vector<LabelledStep> steps, decisions;
   std::vector<std::string> f;
   Eigen::VectorXd mu(static_cast<Eigen::Index>(probability_columns.size()));
   double last_t = -std::numeric_limits<double>::infinity();
   while (reader.next(&f)) {
-    const double time = parse_cell(reader, f, t);
+    const double time = parse_cell(reader, f, t, "a finite time in seconds");
     if (!(time > last_t)) {
-      throw LogError(file.string(), reader.line(), "column 't': time must increase strictly");
+      throw LogError(reader.path().string(), reader.line(),
+                     "column " + std::to_string(t + 1) + " ('t'): time must increase strictly, but " +
+                         CsvWriter::format(time) + " follows " + CsvWriter::format(last_t));
     }
     last_t = time;
+    double sum = 0.0;
     for (std::size_t j = 0; j < probability_columns.size(); ++j) {
-      mu[static_cast<Eigen::Index>(j)] = parse_cell(reader, f, probability_columns[j]);
-      if (mu[static_cast<Eigen::Index>(j)] < 0.0 || mu[static_cast<Eigen::Index>(j)] > 1.0 + 1e-9) {
-        throw LogError(file.string(), reader.line(),
-                       "column '" + reader.header()[static_cast<std::size_t>(probability_columns[j])] +
-                           "': a probability must be in [0, 1]");
+      const int column = probability_columns[j];
+      const double p = parse_cell(reader, f, column, "a probability in [0, 1]");
+      if (p < -kProbabilityTolerance || p > 1.0 + kProbabilityTolerance) {
+        throw LogError(reader.path().string(), reader.line(),
+                       "column " + std::to_string(column + 1) + " ('" +
+                           reader.header()[static_cast<std::size_t>(column)] + "'): expected a probability in [0, 1], got " +
+                           f[static_cast<std::size_t>(column)]);
       }
+      mu[static_cast<Eigen::Index>(j)] = p;
+      sum += p;
+    }
+    if (std::abs(sum - 1.0) > kProbabilityTolerance) {
+      throw LogError(reader.path().string(), reader.line(),
+                     "the mode probabilities (mu_ columns) sum to " + CsvWriter::format(sum) +
+                         "; in a `skidimm run` output they sum to 1");
     }
     steps.push_back(scorer.score(time, f[static_cast<std::size_t>(truth)], mu));
     if (decision >= 0) {
@@ -83,11 +98,13 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank) {
       decisions.back().estimate = f[static_cast<std::size_t>(decision)];
     }
   }
-  if (steps.empty()) throw LogError(file.string(), 1, "the file has a header but no rows");
+  if (steps.empty()) {
+    throw LogError(reader.path().string(), 1, "the file has a header but no rows: no step to evaluate");
+  }
   LogResult result;
   result.name = file.filename().string();
-  result.metrics = evaluation::compute_mode_metrics(steps, scorer.class_names());
-  if (!decisions.empty()) result.decision_metrics = evaluation::compute_mode_metrics(decisions, scorer.class_names());
+  result.metrics = compute_mode_metrics(steps, scorer.class_names());
+  if (!decisions.empty()) result.decision_metrics = compute_mode_metrics(decisions, scorer.class_names());
   return result;
 }
 

@@ -1,6 +1,8 @@
 #include "skidimm/fitting/bank_writer.h"
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -24,8 +26,9 @@ std::string number(double v) {
 }
 
 std::string read_text(const fs::path& file) {
+  errno = 0;
   std::ifstream in(file, std::ios::binary);
-  if (!in) throw ConfigError(file.string(), 0, "", "cannot read");
+  if (!in) throw ConfigError(file.string(), 0, "", std::string("cannot read: ") + std::strerror(errno));
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 

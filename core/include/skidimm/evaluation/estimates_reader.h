@@ -12,11 +12,14 @@
 namespace skidimm {
 namespace evaluation {
 
-// Scores the estimates in `file`. With a bank, its classes are scored (its
-// modes must be the file's mu_ columns, in order); without one, every mode is
-// a class. Throws LogError naming the file, line and column for a cell that
-// is not a finite number, a probability outside [0, 1], time that does not
-// increase, missing columns or a file without rows.
+// Scores the estimates in `file` ("-": standard input). With a bank, its
+// classes are scored (its modes must be the file's mu_ columns, in order);
+// without one, every mode is a class. Throws LogError naming the file, line
+// and column (number and name) and what was expected for: a t or mu cell that
+// is not a finite number (read as the log reader reads cells: subnormals are
+// numbers, log_io.h parse_finite_number), a probability outside [0, 1] or
+// probabilities of a row not summing to 1 (both within 1e-6), time that does
+// not increase strictly, missing columns, or a file with a header but no rows.
 LogResult evaluate_estimates(const std::filesystem::path& file, const BankConfig* bank);
 
 }  // namespace evaluation
