@@ -152,7 +152,7 @@ TEST(Cli, BadRowMidLogKeepsTheRowsAlreadyComputed) {
   const Result r = run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml --input " + input.string() +
                                " --output " + (dir / "out.csv").string() + " --plugin-path " + kPlugins);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_THAT(r.err, HasSubstr("corrupt.csv:103: column 'phi_dot_L': expected a number"));
+  EXPECT_THAT(r.err, HasSubstr("corrupt.csv:103: column 2 ('phi_dot_L'): expected a finite number"));
   EXPECT_THAT(r.err, HasSubstr("the 101 rows computed before the error are in"));
   EXPECT_FALSE(fs::exists(dir / "out.csv")) << "an incomplete file must not carry the final name";
   EXPECT_EQ(read_csv(dir / "out.csv.partial").size(), 102u);
