@@ -704,7 +704,7 @@ TEST(LikelihoodFitter, DrivingStraightDoesNotIdentifyTheTurnGains) {
     fit_likelihood(&bank, {ModeLogs{0, {log}}});
     FAIL() << "equal wheel speeds cannot separate the left and right gains";
   } catch (const FitError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("mode 'mode0': the logs do not identify every parameter"));
+    EXPECT_THAT(e.what(), HasSubstr("mode 'mode0' (logs: simulated): the logs do not identify every parameter"));
     EXPECT_THAT(e.what(), HasSubstr("[B[0,0], B[0,1]]"));
     EXPECT_THAT(e.what(), HasSubstr("[B[1,0], B[1,1]]"));
   }
