@@ -8,6 +8,12 @@
 // (issue 12, row 1: a measurement of 1e150). SKIDIMM_FUZZ_CHECK_ESTIMATES=0
 // turns that check off, to hunt memory and undefined-behaviour findings only.
 
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <optional>
+
 #include "fuzz_input_file.h"
 #include "skidimm/bank.h"
 #include "skidimm/errors.h"
