@@ -28,12 +28,6 @@ std::vector<std::string> EstimatesWriter::header(const BankConfig& config, bool 
   return header;
 }
 
-namespace {
-
-// The reason column's text, into *out (cleared; its capacity is reused, so a
-// run allocates only while the longest reason so far grows): for each mode
-// rejected or gated in the step, "<mode>: <what>", joined by "; ". Empty when
-// every mode ran normally.
 void describe_step(const ImmEstimate& e, const std::vector<std::string>& mode_names, std::string* out) {
   out->clear();
   for (std::size_t j = 0; j < e.mode_failures.size(); ++j) {
@@ -67,6 +61,8 @@ void describe_step(const ImmEstimate& e, const std::vector<std::string>& mode_na
     }
   }
 }
+
+namespace {
 
 // Width of the reason column in .npy files; longer reasons are cut there.
 constexpr std::size_t kNpyReasonWidth = 256;

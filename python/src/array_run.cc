@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 
 #include "skidimm/decision.h"
+#include "skidimm/estimates_writer.h"
 #include "skidimm/imm_smoother.h"
 
 namespace skidimm {
@@ -26,6 +27,8 @@ void append(double t, const ImmEstimate& e, RunColumns* out) {
   }
   out->mode.push_back(e.most_likely_mode);
   out->status.push_back(static_cast<std::int8_t>(e.status));
+  out->reason.emplace_back();
+  describe_step(e, out->mode_names, &out->reason.back());
 }
 
 // Overwrites row k with a smoothed step (the filter's status stays).
@@ -64,6 +67,9 @@ void RunColumns::reserve(const BankConfig& config, std::size_t rows) {
   mode.reserve(rows);
   decision.reserve(rows);
   status.reserve(rows);
+  reason.reserve(rows);
+  mode_names.clear();
+  for (const ModeConfig& m : config.modes) mode_names.push_back(m.name);
 }
 
 void run_arrays(Imm* imm, const ArrayLog& log, const EstimatorOptions& estimator, ModeDecision* decision,

@@ -29,7 +29,9 @@ struct RunColumns {
   std::vector<std::int32_t> mode;
   std::vector<std::int32_t> decision;
   std::vector<std::int8_t> status;
-  std::vector<std::string> truth;  // when with_truth
+  std::vector<std::string> reason;  // the CLI's reason column (estimates_writer.h)
+  std::vector<std::string> truth;   // when with_truth
+  std::vector<std::string> mode_names;
   bool with_truth = false;
 
   void reserve(const BankConfig& config, std::size_t rows);

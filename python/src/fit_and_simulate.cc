@@ -98,6 +98,14 @@ CsvColumns read_csv_columns(const fs::path& file) {
   out.numbers.assign(n, {});
   out.text.assign(n, {});
   out.is_text.assign(n, false);
+  // The text columns of a `skidimm run` output stay text even when every
+  // cell is empty (a run's reason column usually is), so a run read back
+  // compares equal to the same run done in Python.
+  for (std::size_t c = 0; c < n; ++c) {
+    for (const char* text : {"mode", "decision", "truth_mode", "status", "reason"}) {
+      if (out.names[c] == text) out.is_text[c] = true;
+    }
+  }
   std::vector<std::string> fields;
   while (reader.next(&fields)) {
     for (std::size_t c = 0; c < n; ++c) {

@@ -143,6 +143,7 @@ py::dict columns_to_dict(RunColumns&& c, const BankConfig& config) {
   }
   std::vector<std::int32_t> status_codes(c.status.begin(), c.status.end());
   out["status"] = text_column(status_codes, statuses);
+  out["reason"] = text_array(c.reason);
   return out;
 }
 

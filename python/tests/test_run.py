@@ -94,7 +94,7 @@ def test_dataframe_in_dataframe_out(configs):
     frame = pd.DataFrame(skidimm.read_csv(configs / EXAMPLE))
     out = skidimm.Imm(bank).run(frame)
     assert isinstance(out, pd.DataFrame) and len(out) == len(frame)
-    assert list(out.columns)[-3:] == ["decision", "truth_mode", "status"]
+    assert list(out.columns)[-4:] == ["decision", "truth_mode", "status", "reason"]
     log, t, u, z = arrays(configs, bank)
     np.testing.assert_array_equal(out["mu_grass"].to_numpy(), skidimm.Imm(bank).run(t, u, z)["mu_grass"])
     # Expressions of columns are evaluated like the bank's (muparser).

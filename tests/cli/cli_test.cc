@@ -290,11 +290,12 @@ TEST(Cli, NewPluginWritesAProjectAndRefusesBadNames) {
   const Result ok = run_skidimm("new-plugin wet_grass --dir " + dir.string());
   ASSERT_EQ(ok.exit_code, 0) << ok.err;
   EXPECT_THAT(read_file(dir / "wet_grass" / "wet_grass_plugin.cc"),
-              HasSubstr("SKIDIMM_EXPORT_MOTION_MODEL(wet_grass::Model, kInfo)"));
+              HasSubstr("SKIDIMM_EXPORT_FUNCTION_MODEL(WetGrass)"));
   EXPECT_THAT(read_file(dir / "wet_grass" / "wet_grass_test.cc"),
-              HasSubstr("TEST(WetGrass, ConformsToTheMotionModelContract"));
-  EXPECT_THAT(read_file(dir / "wet_grass" / "CMakeLists.txt"),
-              HasSubstr("skidimm_add_motion_model(wet_grass wet_grass_plugin.cc)"));
+              HasSubstr("TEST(WetGrass, ConformsOverItsOperatingRegion"));
+  const std::string cmake = read_file(dir / "wet_grass" / "CMakeLists.txt");
+  EXPECT_THAT(cmake, HasSubstr("find_package(skidimm 0.1 REQUIRED COMPONENTS sdk)"));
+  EXPECT_THAT(cmake, HasSubstr("skidimm_add_motion_model(wet_grass wet_grass_plugin.cc INSTALL)"));
   EXPECT_THAT(read_file(dir / "wet_grass" / "wet_grass_bank.yaml"), HasSubstr("model: wet_grass"));
   EXPECT_EQ(run_skidimm("new-plugin wet_grass --dir " + dir.string()).exit_code, 1);  // exists
 }

@@ -37,6 +37,13 @@
 
 namespace skidimm {
 
+// The reason column's text for one step, into *out (cleared; its capacity is
+// reused, so a run allocates only while the longest reason so far grows): for
+// each mode rejected or gated in the step, "<mode>: <what>", joined by "; ".
+// Empty when every mode ran normally. The Python package's run() writes the
+// same column with it.
+void describe_step(const ImmEstimate& estimate, const std::vector<std::string>& mode_names, std::string* out);
+
 class EstimatesWriter {
  public:
   EstimatesWriter(const std::filesystem::path& path, const BankConfig& config, bool with_truth);
