@@ -20,15 +20,9 @@ using skidimm::StepStatus;
 using skidimm_test::BankBuilder;
 using skidimm_test::make_ltc;
 using skidimm_test::ScalarLinearModel;
+using skidimm_test::vec;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-Eigen::VectorXd vec(std::initializer_list<double> v) {
-  Eigen::VectorXd out(static_cast<Eigen::Index>(v.size()));
-  Eigen::Index i = 0;
-  for (double x : v) out[i++] = x;
-  return out;
-}
 
 // Two scalar modes that predict differently under a large input.
 BankBuilder scalar_bank() {

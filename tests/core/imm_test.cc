@@ -19,15 +19,9 @@ namespace {
 using skidimm_test::BankBuilder;
 using skidimm_test::HeadingModel;
 using skidimm_test::ScalarLinearModel;
+using skidimm_test::vec;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-Eigen::VectorXd vec(std::initializer_list<double> values) {
-  Eigen::VectorXd v(static_cast<Eigen::Index>(values.size()));
-  Eigen::Index i = 0;
-  for (double x : values) v[i++] = x;
-  return v;
-}
 
 double min_eigenvalue(const Eigen::MatrixXd& m) {
   return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(m).eigenvalues().minCoeff();

@@ -4,6 +4,7 @@
 #define SKIDIMM_TESTS_CORE_TEST_BANKS_H_
 
 #include <Eigen/Core>
+#include <initializer_list>
 #include <memory>
 #include <string>
 #include <vector>
@@ -14,6 +15,14 @@
 #include "skidimm/sdk/sized_motion_model.h"
 
 namespace skidimm_test {
+
+// A vector from a brace list: vec({1.0, 2.0}).
+inline Eigen::VectorXd vec(std::initializer_list<double> values) {
+  Eigen::VectorXd v(static_cast<Eigen::Index>(values.size()));
+  Eigen::Index i = 0;
+  for (double x : values) v[i++] = x;
+  return v;
+}
 
 // x_next = x + (a x + b u) dt: the scalar case of eq. 2.
 class ScalarLinearModel : public skidimm::sdk::SizedMotionModel<1, 1> {
