@@ -105,12 +105,16 @@ void print_report(const BankConfig& config, const std::string& name, const ModeL
   std::cerr << "mode '" << name << "': " << data.logs.size() << " log(s), " << r.residuals << " residuals, "
             << r.derivatives << " derivatives, " << r.iterations << " iterations, cost " << fixed(r.initial_cost)
             << " -> " << fixed(r.final_cost) << ", condition number " << fixed(r.condition_number, 3) << "\n";
-  for (const fitting::ParameterEstimate& p : r.parameters) {
-    std::cerr << "  " << p.name << " = " << fixed(p.value, 6) << " +- " << fixed(p.standard_deviation, 2) << "\n";
-  }
-  for (const fitting::ParameterEstimate& p : r.noise_parameters) {
-    std::cerr << "  " << p.name << " = " << fixed(p.value, 6) << " +- " << fixed(p.standard_deviation, 2) << "\n";
-  }
+  // A standard deviation is NaN when Ceres could not compute the covariance
+  // (warned below) or the parameter was held: say so rather than "+- nan".
+  auto print_estimate = [](const fitting::ParameterEstimate& p) {
+    std::cerr << "  " << p.name << " = " << fixed(p.value, 6)
+              << (std::isfinite(p.standard_deviation) ? " +- " + fixed(p.standard_deviation, 2)
+                                                      : std::string(" (no standard deviation)"))
+              << "\n";
+  };
+  for (const fitting::ParameterEstimate& p : r.parameters) print_estimate(p);
+  for (const fitting::ParameterEstimate& p : r.noise_parameters) print_estimate(p);
   if (std::isfinite(r.negative_log_likelihood)) {
     std::cerr << "  negative log-likelihood " << fixed(r.negative_log_likelihood, 8) << " over " << r.measured_rows
               << " measured rows (" << fixed(r.negative_log_likelihood_per_row) << " per row)\n";

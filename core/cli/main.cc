@@ -35,6 +35,10 @@ int main(int argc, char** argv) {
         ->check(CLI::ExistingPath);
   };
 
+  // A file to read, or "-" for standard input.
+  const CLI::Validator existing_file_or_stdin(
+      [](std::string& path) { return path == "-" ? std::string() : CLI::ExistingFile(path); }, "FILE or -");
+
   auto add_rate = [](CLI::App* command, double* rate) {
     command
         ->add_option("--rate", *rate,
@@ -204,7 +208,9 @@ int main(int argc, char** argv) {
   PlotOptions plot_options;
   std::string plot_estimates, plot_output;
   CLI::App* plot = app.add_subcommand("plot", "Draw mode probabilities over time (PNG or SVG, needs gnuplot)");
-  plot->add_option("--estimates,-e", plot_estimates, "A `skidimm run` output")->required()->check(CLI::ExistingFile);
+  plot->add_option("--estimates,-e", plot_estimates, "A `skidimm run` output ('-': standard input)")
+      ->required()
+      ->check(existing_file_or_stdin);
   plot->add_option("--output,-o", plot_output, "Figure to write: .png or .svg")->required();
   plot->add_option("--log,-l", plot_options.log,
                    "The input log, to draw measurements and true states; with --bank any log form `run` reads");

@@ -1,12 +1,17 @@
 // skidimm plot: the paper's figure, drawn by gnuplot.
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
 #include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include "commands.h"
@@ -14,6 +19,8 @@
 #include "skidimm/errors.h"
 #include "skidimm/bank.h"
 #include "skidimm/log_io.h"
+#include "skidimm/output_file.h"
+#include "skidimm/printable.h"
 
 namespace skidimm {
 namespace cli {
@@ -33,10 +40,73 @@ std::string find_gnuplot() {
   return "";
 }
 
-std::string quoted(const std::string& s) {
+// A gnuplot string. Text from the files (mode names from the header) is
+// made printable first: a newline in a mode name would otherwise end the
+// string and start a gnuplot command of the file's choosing.
+std::string gnuplot_string(const std::string& s) {
   std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
+  for (char c : printable(s)) {  // printable() keeps line breaks and tabs, for messages
+    if (c == '\'') {
+      out += "''";
+    } else if (c == '\n') {
+      out += "\\x0A";
+    } else if (c == '\t') {
+      out += "\\x09";
+    } else {
+      out += c;
+    }
+  }
   return out + "'";
+}
+
+// A file gnuplot reads or writes: its name must reach gnuplot unchanged.
+std::string file_name(const fs::path& path) {
+  const std::string name = path.string();
+  if (printable(name) != name || name.find_first_of("\t\n") != std::string::npos) {
+    throw Error("'" + name + "': gnuplot cannot be given a file name with control characters; rename the file");
+  }
+  return gnuplot_string(name);
+}
+
+// Files plot writes for gnuplot, removed when plot ends.
+class TemporaryFiles {
+ public:
+  TemporaryFiles() = default;
+  TemporaryFiles(const TemporaryFiles&) = delete;
+  TemporaryFiles& operator=(const TemporaryFiles&) = delete;
+  ~TemporaryFiles() {
+    if (kept_) return;
+    std::error_code ec;
+    for (const fs::path& p : paths_) fs::remove(p, ec);
+  }
+  void push_back(const fs::path& path) { paths_.push_back(path); }
+  void keep() { kept_ = true; }
+
+ private:
+  std::vector<fs::path> paths_;
+  bool kept_ = false;
+};
+
+// Runs `gnuplot script` without a shell (no quoting of the names to get
+// wrong), its standard error into `errors`. Returns its exit status, or -1
+// when it could not be started or did not exit normally.
+int run_gnuplot(const std::string& gnuplot, const fs::path& script, const fs::path& errors) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, errors.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  std::string program = gnuplot;
+  std::string argument = script.string();
+  char* argv[] = {program.data(), argument.data(), nullptr};
+  pid_t pid = 0;
+  const int started = posix_spawn(&pid, gnuplot.c_str(), &actions, nullptr, argv, environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (started != 0) return -1;
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) return -1;
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 int column_of(const std::vector<std::string>& header, const std::string& name) {
@@ -66,8 +136,18 @@ int plot(const PlotOptions& options) {
       throw Error(options.output.string() + ": the figure must end in .png or .svg");
     }
 
+    TemporaryFiles temporary;  // removed however plot ends, unless kept
     CsvReader reader(options.estimates);
     const std::vector<std::string> header = reader.header();
+    // gnuplot reads the estimates again: standard input or a pipe is copied
+    // to a file beside the figure as it is read (removed at the end).
+    fs::path estimates_file = options.estimates;
+    std::optional<CsvWriter> estimates_copy;
+    if (!is_rereadable(options.estimates)) {
+      estimates_file = options.output.string() + ".estimates.csv";
+      estimates_copy.emplace(estimates_file, header);
+      temporary.push_back(estimates_copy->partial_path());  // kept by CsvWriter if plot fails midway
+    }
     std::vector<std::pair<int, std::string>> modes;
     for (std::size_t i = 0; i < header.size(); ++i) {
       if (header[i].rfind("mu_", 0) == 0) modes.emplace_back(static_cast<int>(i) + 1, header[i].substr(3));
@@ -93,7 +173,12 @@ int plot(const PlotOptions& options) {
     std::vector<std::string> fields;
     double last_t = 0.0;
     while (reader.next(&fields)) {
-      const double t = std::stod(fields[0]);
+      double t = 0.0;
+      if (!parse_finite_number(fields[0], &t)) {
+        throw LogError(options.estimates.string(), reader.line(),
+                       "column 1 ('t'): expected the time, a finite number, got '" + fields[0].substr(0, 80) + "'");
+      }
+      if (estimates_copy) estimates_copy->write_row(fields);
       last_t = t;
       if (decision > 0) {
         const std::string& decided = fields[static_cast<std::size_t>(decision - 1)];
@@ -112,12 +197,18 @@ int plot(const PlotOptions& options) {
       bands.back().end = t;
     }
 
+    if (estimates_copy) {
+      estimates_copy->commit();
+      temporary.push_back(estimates_file);
+    }
+
     // The log's measurements and true states: read with the bank exactly as
     // `run` read them (any log form) into a data file for gnuplot, or, without
     // a bank, straight from a single CSV whose columns are named like the states.
     fs::path log_file;
     std::vector<std::string> log_header;
     const fs::path log_data = options.output.string() + ".log.csv";
+    temporary.push_back(log_data.string() + ".partial");
     if (!options.log.empty()) {
       if (!options.bank.empty()) {
         const BankConfig config = load_bank_config(options.bank);
@@ -139,12 +230,22 @@ int plot(const PlotOptions& options) {
           writer.write_row(cells);
         }
         writer.commit();
+        temporary.push_back(log_data);
         log_file = log_data;
       } else {
         if (options.log.size() != 1 || parse_log_spec(options.log[0]).files.size() != 1) {
           throw Error("--log with several files needs --bank to read them");
         }
         log_file = parse_log_spec(options.log[0]).files[0].path;
+        if (!is_rereadable(log_file)) {  // read here for its header, then by gnuplot: copy it
+          CsvReader log_reader(log_file);
+          CsvWriter copy(log_data, log_reader.header());
+          std::vector<std::string> cells;
+          while (log_reader.next(&cells)) copy.write_row(cells);
+          copy.commit();
+          temporary.push_back(log_data);
+          log_file = log_data;
+        }
       }
       log_header = CsvReader(log_file).header();
     }
@@ -156,7 +257,7 @@ int plot(const PlotOptions& options) {
     // gnuplot writes a temporary file, renamed when it succeeded: a failed
     // plot never leaves a truncated figure under the final name.
     const fs::path drawing = options.output.string() + ".partial";
-    g << "set output " << quoted(drawing.string()) << "\n";
+    g << "set output " << file_name(drawing) << "\n";
     g << "set datafile separator ','\nset key outside right noenhanced\nset grid ytics lc rgb '#dddddd'\n";
     g << "set xrange [0:" << last_t << "]\n";
     // Fixed margins so the panels' time axes line up whatever their keys' widths.
@@ -164,10 +265,10 @@ int plot(const PlotOptions& options) {
       std::size_t longest = 0;  // the decision panel's row labels are mode names
       for (const auto& m : modes) longest = std::max(longest, m.second.size());
       g << "set termoption noenhanced\nset lmargin " << std::max<std::size_t>(10, decision > 0 ? longest + 4 : 0)
-        << "\nset rmargin 24\nset multiplot layout " << panels << ",1 title " << quoted(options.title)
+        << "\nset rmargin 24\nset multiplot layout " << panels << ",1 title " << gnuplot_string(options.title)
         << " noenhanced\n";
     } else
-      g << "set title " << quoted(options.title) << " noenhanced\n";
+      g << "set title " << gnuplot_string(options.title) << " noenhanced\n";
     // Mode probabilities, the truth as bands coloured like the mode's line.
     std::map<std::string, int> line_of;
     for (std::size_t i = 0; i < modes.size(); ++i) line_of[modes[i].second] = static_cast<int>(i) + 1;
@@ -187,8 +288,8 @@ int plot(const PlotOptions& options) {
     if (panels == 1) g << "set xlabel 'time (s)'\n";
     g << "plot ";
     for (std::size_t i = 0; i < modes.size(); ++i) {
-      g << (i ? ", " : "") << quoted(options.estimates.string()) << " using 1:" << modes[i].first << " with lines lt "
-        << i + 1 << " lw 2 title " << quoted(modes[i].second);
+      g << (i ? ", " : "") << file_name(estimates_file) << " using 1:" << modes[i].first << " with lines lt "
+        << i + 1 << " lw 2 title " << gnuplot_string(modes[i].second);
     }
     g << "\n";
     if (decision > 0) {
@@ -209,8 +310,8 @@ int plot(const PlotOptions& options) {
       }
       for (std::size_t i = 0; i < rows.size(); ++i) row_of[rows[i]] = static_cast<int>(i) + 1;
       g << "unset object\nunset arrow\nset ylabel 'decision'\n";
-      g << "set ytics (" << quoted("unknown") << " 0";
-      for (std::size_t i = 0; i < rows.size(); ++i) g << ", " << quoted(rows[i]) << " " << i + 1;
+      g << "set ytics (" << gnuplot_string("unknown") << " 0";
+      for (std::size_t i = 0; i < rows.size(); ++i) g << ", " << gnuplot_string(rows[i]) << " " << i + 1;
       g << ")\nset yrange [-0.6:" << rows.size() + 0.6 << "]\n";
       if (panels == 2) g << "set xlabel 'time (s)'\n";
       for (std::size_t b = 0; b < decisions.size(); ++b) {
@@ -231,17 +332,17 @@ int plot(const PlotOptions& options) {
       g << "unset object\nunset arrow\nset yrange [*:*]\n";
       for (std::size_t s = 0; s < states.size(); ++s) {
         if (s + 1 == states.size()) g << "set xlabel 'time (s)'\n";
-        g << "set ylabel " << quoted(states[s]) << "\nplot " << quoted(options.estimates.string())
+        g << "set ylabel " << gnuplot_string(states[s]) << "\nplot " << file_name(estimates_file)
           << " using 1:" << column_of(header, states[s]) << " with lines lw 2 lc rgb '#1f77b4' title 'estimate'";
         const int measured = column_of(log_header, states[s]);
         const int true_state = column_of(log_header, "true_" + states[s]);
         const int time = column_of(log_header, "t");
         if (measured > 0 && time > 0) {
-          g << ", " << quoted(log_file.string()) << " using " << time << ":" << measured
+          g << ", " << file_name(log_file) << " using " << time << ":" << measured
             << " with points pt 7 ps 0.3 lc rgb '#999999' title 'measured'";
         }
         if (true_state > 0 && time > 0) {
-          g << ", " << quoted(log_file.string()) << " using " << time << ":" << true_state
+          g << ", " << file_name(log_file) << " using " << time << ":" << true_state
             << " with lines dt 2 lw 1.5 lc rgb '#d62728' title 'true'";
         }
         g << "\n";
@@ -250,24 +351,26 @@ int plot(const PlotOptions& options) {
     if (panels > 1) g << "unset multiplot\n";
 
     const fs::path script = options.output.string() + ".gnuplot";
-    {
-      std::ofstream out(script);
-      out << g.str();
-    }
-    const std::string command =
-        quoted(gnuplot) + " " + quoted(script.string()) + " 2>" + quoted(script.string() + ".err");
-    const int status = std::system(command.c_str());
-    std::ifstream err(script.string() + ".err");
+    write_file_atomically(script, g.str());
+    temporary.push_back(script);
+    const fs::path errors = script.string() + ".err";
+    const int status = run_gnuplot(gnuplot, script, errors);
+    std::ifstream err(errors);
     const std::string messages((std::istreambuf_iterator<char>(err)), std::istreambuf_iterator<char>());
-    fs::remove(script.string() + ".err");
+    err.close();
     std::error_code ec;
+    fs::remove(errors, ec);
     if (status != 0 || !fs::exists(drawing, ec) || fs::file_size(drawing, ec) == 0) {
       fs::remove(drawing, ec);
-      throw Error("gnuplot failed on " + script.string() + ":\n" + messages);
+      temporary.keep();  // the script and its data, to rerun gnuplot by hand
+      throw Error("gnuplot failed on " + script.string() + (status < 0 ? " (it could not be started)" : "") + ":\n" +
+                  messages);
     }
-    fs::rename(drawing, options.output);
-    fs::remove(script);
-    fs::remove(log_data, ec);
+    fs::rename(drawing, options.output, ec);
+    if (ec) {
+      fs::remove(drawing, ec);
+      throw Error(options.output.string() + ": cannot rename " + drawing.string() + " to it: " + ec.message());
+    }
     return kExitOk;
   });
 }

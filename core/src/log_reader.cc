@@ -284,7 +284,9 @@ class LogReader::Impl {
   Impl(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling);
   bool next(LogSample* sample);
 
-  const BankConfig& bank_;
+  // A copy: a reader built from a temporary config (LogReader(load_bank_config(f), files))
+  // once read it after its end, found by AddressSanitizer.
+  const BankConfig bank_;
   SamplingConfig sampling_;
   std::vector<Stream> streams_;
   std::vector<Column> columns_;

@@ -1,5 +1,8 @@
 #include "skidimm/output_file.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <cerrno>
 #include <cstring>
 #include <system_error>
@@ -30,6 +33,16 @@ bool OutputFile::writes_directly(const fs::path& path) { return path.string() ==
 namespace {
 
 std::string reason(int error) { return error != 0 ? std::strerror(error) : "unknown error"; }
+
+// Makes a rename in `path`'s directory durable. Best effort: the file is
+// complete either way, and some file systems cannot sync a directory.
+void sync_directory_of(const fs::path& path) {
+  const fs::path parent = path.has_parent_path() ? path.parent_path() : fs::path(".");
+  const int fd = ::open(parent.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;
+  ::fsync(fd);
+  ::close(fd);
+}
 
 }  // namespace
 
@@ -107,6 +120,12 @@ void OutputFile::commit() {
   if (out_ == nullptr) throw Error(written_.string() + ": commit after a failed write");
   errno = 0;
   if (std::fflush(out_) != 0) fail("write", errno);
+  if (!direct_) {
+    // The bytes reach the disk before the name does: after a power cut the
+    // final name holds the whole file or the old one, never a hole.
+    errno = 0;
+    if (::fsync(::fileno(out_)) != 0 && errno != EINVAL && errno != EROFS) fail("sync", errno);
+  }
   if (!standard_output_) {
     // close() reports what a network or full file system only notices then.
     errno = 0;
@@ -124,6 +143,7 @@ void OutputFile::commit() {
       close_for_failure();
       throw Error(path_.string() + ": cannot rename " + written_.string() + " to it: " + ec.message());
     }
+    sync_directory_of(path_);
   }
   committed_ = true;
 }

@@ -205,7 +205,11 @@ TEST(Imm, IdentifiesTheTrueModeAndFollowsASwitch) {
   for (int k = 0; k < 1000; ++k) {
     const double t = k * dt;
     const Eigen::Vector2d u(4.0 + 2.0 * std::sin(0.7 * t), 4.0 + 2.0 * std::cos(0.5 * t));
-    const Eigen::Vector2d z(x[0] + 0.05 * noise(rng), x[1] + 0.03 * noise(rng));
+    // Drawn one statement each: the order of two draws in one argument list
+    // is the compiler's choice, and clang's gave other data than gcc's.
+    const double v_noise = noise(rng);
+    const double omega_noise = noise(rng);
+    const Eigen::Vector2d z(x[0] + 0.05 * v_noise, x[1] + 0.03 * omega_noise);
     const ImmEstimate& e = imm.step(t, u, z);
     const int truth = k < switch_step ? 0 : 1;
     if (k == switch_step - 1) {

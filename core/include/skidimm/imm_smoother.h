@@ -70,6 +70,8 @@ class ImmSmoother {
  public:
   // `bank` (its models, transition, floor) must outlive the smoother.
   explicit ImmSmoother(const Bank& bank);
+  // A temporary bank would be gone before the first smooth(): refused at compile time.
+  explicit ImmSmoother(Bank&& bank) = delete;
 
   // Fixed-interval smoothing of a whole forward pass: out[k] for forward[k].
   void smooth(const std::vector<ForwardStep>& forward, std::vector<SmoothedStep>* out);
@@ -100,6 +102,7 @@ class ImmSmoother {
 class FixedLagSmoother {
  public:
   FixedLagSmoother(const Bank& bank, double lag_seconds);
+  FixedLagSmoother(Bank&& bank, double lag_seconds) = delete;  // as ImmSmoother's
 
   // Adds the newest forward step; appends the steps now `lag` behind it,
   // oldest first, to *ready.

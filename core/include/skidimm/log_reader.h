@@ -97,7 +97,8 @@ class LogReader : public SampleSource {
  public:
   // Opens the files, resolves every column and expression the bank names and
   // checks them against the headers. `sampling` overrides the bank's (e.g. the
-  // command line's --rate). Throws LogError or Error.
+  // command line's --rate). The reader keeps its own copy of what it needs of
+  // `bank`, which may be a temporary. Throws LogError or Error.
   LogReader(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling);
   LogReader(const BankConfig& bank, const std::vector<LogFile>& files);
   ~LogReader() override;

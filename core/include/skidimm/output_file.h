@@ -3,15 +3,16 @@
 // Where the bytes go depends on what the path is:
 //  * a regular file, or a path that does not exist yet: "<path><suffix>"
 //    (".partial" unless told otherwise) is written, and renamed to <path> by
-//    commit() once every byte is written and the file closed without error.
-//    A file under the final name is therefore always complete: never empty,
-//    never cut short by a full disk or a kill.
+//    commit() once every byte is written, synced to the disk (fsync) and the
+//    file closed without error; the directory is then synced too. A file
+//    under the final name is therefore always complete: never empty, never
+//    cut short by a full disk, a kill or a power cut.
 //  * "-": standard output, written directly (`run --output -`).
 //  * an existing file that is not a regular file (a device such as /dev/null
 //    or /dev/full, a FIFO, /dev/stdout): written directly. Renaming a
 //    temporary file over a device node would replace the node itself.
 //
-// Every failure (open, write, flush, close, rename) throws skidimm::Error
+// Every failure (open, write, flush, sync, close, rename) throws skidimm::Error
 // naming the file and the operating system's reason (strerror), e.g.
 // "out.yaml.partial: cannot write: No space left on device".
 //

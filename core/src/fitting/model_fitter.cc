@@ -6,6 +6,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <memory>
@@ -124,6 +125,31 @@ std::vector<Window> make_windows(const MeasurementLayout& m, const Trajectory& t
     if (!w.targets.empty()) out.push_back(w);
   }
   return out;
+}
+
+// "<log>: the prediction from step k (t = ...) to t = ... s", for messages.
+std::string window_text(const Trajectory& t, const Window& w) {
+  return t.source + ": the prediction from step " + std::to_string(w.start + 1) + " (t = " +
+         std::to_string(t.t[w.start]) + " s) to t = " + std::to_string(t.t[w.targets.back()]) + " s";
+}
+
+// A window's largest residual (in units of R) at the starting values.
+struct StartResidual {
+  double largest;
+  const Trajectory* trajectory;
+  Window window;
+};
+
+// How many times the median window's residual (at least one sigma) a window
+// may miss by before it is called a corrupt cell rather than a poor start:
+// a start far off a robot's dynamics misses by tens of sigma, a cell of 1e100
+// by 1e90.
+constexpr double kAbsurdWindowRatio = 1e6;
+
+std::string format_number(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", value);
+  return text;
 }
 
 // Which entries of a model's flat parameter vector the problem's parameter
@@ -448,6 +474,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
     int residuals = 0;
     bool all_analytic = true;
     std::vector<std::string> empty_sources;
+    std::vector<StartResidual> start_residuals;
     for (const ModeLogs* d : group) {
       if (d->logs.empty()) throw FitError(who + ": no logs given");
       for (const Trajectory& t : d->logs) {
@@ -466,20 +493,23 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
                                                           &m, w, static_cast<int>(block.size()));
           // A window whose prediction is not finite at the starting values
           // (an input of 1e200, say) would make the cost infinite and the fit
-          // meaningless: name the row instead.
+          // meaningless: name the row instead. Finite but absurd windows
+          // (an input of 1e100) are compared with the others below.
           {
             std::vector<double> r(static_cast<std::size_t>(w.residuals));
             const double* p[] = {block.data()};
             const bool ok = window_cost->Evaluate(p, r.data(), nullptr);
             bool finite = ok;
-            for (double v : r) finite = finite && std::isfinite(v) && std::abs(v) < 1e150;
+            double largest_residual = 0.0;
+            for (double v : r) {
+              finite = finite && std::isfinite(v) && std::abs(v) < 1e150;
+              largest_residual = std::max(largest_residual, std::abs(v));
+            }
             if (!finite) {
-              const int last = w.targets.back();
-              throw FitError(t.source + ": the prediction from step " + std::to_string(w.start + 1) + " (t = " +
-                             std::to_string(t.t[w.start]) + " s) to t = " + std::to_string(t.t[last]) +
-                             " s is not finite (or absurd) with the starting values of " + who +
+              throw FitError(window_text(t, w) + " is not finite (or absurd) with the starting values of " + who +
                              "; check the log's inputs and measurements there");
             }
+            start_residuals.push_back({largest_residual, &t, w});
           }
           ceres::CostFunction* cost = nullptr;
           if (analytic) {
@@ -494,6 +524,27 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
           problem.AddResidualBlock(cost, make_loss(options), block.data());
           residuals += w.residuals;
         }
+      }
+    }
+    // One window a million times further from its measurements than the
+    // typical one (residuals are in units of the measurement noise, R) is not
+    // a poor starting value but a corrupt cell: it would dominate the fit,
+    // which would then end "converged" with an RMSE of 1e80. Name it.
+    if (!start_residuals.empty()) {
+      std::vector<double> sizes;
+      for (const StartResidual& s : start_residuals) sizes.push_back(s.largest);
+      std::nth_element(sizes.begin(), sizes.begin() + static_cast<std::ptrdiff_t>(sizes.size() / 2), sizes.end());
+      const double typical = std::max(1.0, sizes[sizes.size() / 2]);
+      const auto worst = std::max_element(start_residuals.begin(), start_residuals.end(),
+                                          [](const StartResidual& a, const StartResidual& b) {
+                                            return a.largest < b.largest;
+                                          });
+      if (worst->largest > kAbsurdWindowRatio * typical) {
+        throw FitError(window_text(*worst->trajectory, worst->window) + " misses its measurements by " +
+                       format_number(worst->largest) + " times their noise (R) with the starting values of " + who +
+                       ", against " + format_number(sizes[sizes.size() / 2]) +
+                       " for the median window: an absurd input or measurement there (a corrupt cell?); "
+                       "fix or remove it");
       }
     }
     if (residuals == 0 && !empty_sources.empty()) {
