@@ -862,12 +862,13 @@ TEST(CliIo, FittingWithAFiniteButAbsurdCellIsAnErrorNamingWhereAndAppendsNothing
     EXPECT_THAT(fit.err, HasSubstr("an absurd input or measurement there")) << extra;
     EXPECT_EQ(read_file(bank), before) << extra;
   }
-  // The likelihood fit fails too (its information matrix is swamped by the
-  // row): an error and an untouched bank, if not yet the row.
+  // The likelihood fit starts from the window fit where every state is
+  // measured, so it names the window too.
   const Result likelihood = run_shell(kSkidimm + " fit --bank " + bank.string() + " --plugin-path " + kPlugins +
                                       " --mode asphalt --name ice --log " + log.string() + " --append-to " +
                                       bank.string());
   EXPECT_EQ(likelihood.exit_code, 1) << likelihood.err;
+  EXPECT_THAT(likelihood.err, HasSubstr("an absurd input or measurement there"));
   EXPECT_EQ(read_file(bank), before);
   // The same log without the corrupt cell fits: the check does not fire on a clean log.
   const Result clean = run_shell(kSkidimm + " fit --bank " + bank.string() + " --plugin-path " + kPlugins +
@@ -1039,9 +1040,18 @@ TEST(CliIo, FitterErrorsNameTheLogAndTheOptionAndCeresStaysQuiet) {
                                       kSwitching);
   EXPECT_EQ(held_label.exit_code, 1);
   EXPECT_THAT(held_label.err, HasSubstr("--held-out 'mud=" + kSwitching + "': the bank has no mode or class 'mud'"));
-  // Ceres' glog warnings are summarised after the error, not printed raw as they come.
+  // Ceres' glog warnings are summarised after the error, not printed raw as
+  // they come. (A bank measuring only omega: with every state measured, the
+  // absurd cell is caught before Ceres runs.)
   const fs::path absurd = corrupt_log(dir, "1e100");
-  const Result quiet = run_shell(kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+  std::string omega_only = read_file(kTerrains);
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"observe: [V, omega]", "observe: [omega]"},
+                                 {"R: {std: [0.05, 0.02]}", "R: {std: [0.02]}"}}) {
+    ASSERT_NE(omega_only.find(from), std::string::npos) << from;
+    omega_only.replace(omega_only.find(from), from.size(), to);
+  }
+  const fs::path omega_bank = write_file(dir / "omega_only.yaml", omega_only);
+  const Result quiet = run_shell(kSkidimm + " fit --bank " + omega_bank.string() + " --plugin-path " + kPlugins +
                                  " --hold-unexcited --mode asphalt --log " + absurd.string());
   EXPECT_EQ(quiet.exit_code, 1);
   EXPECT_THAT(quiet.err, HasSubstr("(logs: " + absurd.string() + "): the logs do not identify every parameter"));
