@@ -90,7 +90,7 @@ std::vector<std::string> column_map(const YamlFields& y, const YAML::Node& node,
   if (!node || node.IsNull()) return columns;  // absent: every name reads the column of the same name
   if (!node.IsMap()) y.fail(node, field, "expected a mapping from name to CSV column");
   for (const auto& entry : node) {
-    const std::string key = entry.first.as<std::string>();
+    const std::string key = y.key(entry.first, field);
     const int i = index_of(names, key);
     if (i < 0) y.fail(entry.first, field + "." + key, "not one of the names [" + join(names) + "]");
     columns[i] = y.string(entry.second, field + "." + key);
@@ -186,7 +186,7 @@ void parse_transition(const YamlFields& y, const YAML::Node& root, BankConfig* b
     } else if (d.IsMap()) {
       t.dwell_seconds.setConstant(std::nan(""));
       for (const auto& entry : d) {
-        const std::string mode = entry.first.as<std::string>();
+        const std::string mode = y.key(entry.first, "transition.mean_dwell_time");
         const int j = bank->mode_index(mode);
         if (j < 0) y.fail(entry.first, "transition.mean_dwell_time." + mode, "no mode of that name");
         t.dwell_seconds[j] = y.number(entry.second, "transition.mean_dwell_time." + mode);
@@ -229,7 +229,7 @@ void parse_initial(const YamlFields& y, const YAML::Node& root, BankConfig* bank
     if (!p.IsMap()) y.fail(p, "initial.mode_probabilities", "expected a mapping from mode name to probability");
     bank->initial_mode_probabilities.setZero();
     for (const auto& entry : p) {
-      const std::string mode = entry.first.as<std::string>();
+      const std::string mode = y.key(entry.first, "initial.mode_probabilities");
       const std::string field = "initial.mode_probabilities." + mode;
       const int j = bank->mode_index(mode);
       if (j < 0) y.fail(entry.first, field, "no mode of that name");
@@ -261,7 +261,7 @@ void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) 
     if (const YAML::Node params = m["params"]) {
       if (!params.IsMap()) y.fail(params, field + ".params", "expected a mapping from parameter name to value");
       for (const auto& entry : params) {
-        const std::string key = entry.first.as<std::string>();
+        const std::string key = y.key(entry.first, field + ".params");
         y.parameter(entry.second, key, field + ".params." + key, &mode.params);
         mode.param_lines[key] = YamlFields::line_of(entry.first);
       }
@@ -484,7 +484,7 @@ BankConfig load_bank_config(const fs::path& file) {
   if (const YAML::Node shared = root["shared"]) {
     if (!shared.IsMap()) y.fail(shared, "shared", "expected a mapping from parameter name to value");
     for (const auto& entry : shared) {
-      const std::string key = entry.first.as<std::string>();
+      const std::string key = y.key(entry.first, "shared");
       y.parameter(entry.second, key, "shared." + key, &bank.shared);
       bank.shared_lines[key] = YamlFields::line_of(entry.first);
     }

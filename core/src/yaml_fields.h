@@ -99,7 +99,7 @@ class YamlFields {
   void check_keys(const YAML::Node& map, const std::vector<std::string>& allowed, const std::string& field) const {
     if (!map.IsMap()) fail(map, field, "expected a mapping");
     for (const auto& entry : map) {
-      const std::string key = entry.first.as<std::string>();
+      const std::string key = this->key(entry.first, field);
       bool known = false;
       for (const std::string& a : allowed) known = known || a == key;
       if (!known) {
@@ -108,6 +108,18 @@ class YamlFields {
         fail(entry.first, (field.empty() ? "" : field + ".") + key, "unknown key (expected one of: " + list + ")");
       }
     }
+  }
+
+  // A mapping's key: a scalar. (`as<std::string>()` threw yaml-cpp's own
+  // exception, without the file, for a key that is a tag alone, `{!x: 1}`,
+  // or a sequence: found by the scenario fuzzer.)
+  std::string key(const YAML::Node& node, const std::string& field) const {
+    if (!node.IsScalar()) {
+      fail(node, field,
+           std::string("expected a name as the key, got ") +
+               (node.IsNull() ? "nothing (a tag alone?)" : node.IsMap() ? "a mapping" : "a sequence"));
+    }
+    return node.Scalar();
   }
 
   std::string string(const YAML::Node& node, const std::string& field) const {

@@ -294,7 +294,7 @@ Scenario load_scenario(const fs::path& file) {
   if (!modes.IsMap() || modes.size() == 0)
     y.fail(modes, "modes", "expected a mapping from mode name to {terrain, tarp}");
   for (const auto& entry : modes) {
-    const std::string name = entry.first.as<std::string>();
+    const std::string name = y.key(entry.first, "modes");
     const std::string field = "modes." + name;
     y.check_keys(entry.second, {"terrain", "tarp"}, field);
     const std::string terrain = y.string(y.required(entry.second, "terrain", field), field + ".terrain");
