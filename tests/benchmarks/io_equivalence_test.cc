@@ -60,8 +60,12 @@ TEST(NumberText, ShortestTextIsStdToCharsCharacterForCharacter) {
     double v;
     std::memcpy(&v, &bits, sizeof(v));
     if (std::isfinite(v)) values.push_back(v);
-    values.push_back(static_cast<double>(mantissa(rng)) * std::pow(10.0, exponent(rng)));
-    values.push_back(uniform(rng) * std::pow(10.0, exponent(rng)));
+    const double m = static_cast<double>(mantissa(rng));  // one draw per statement: the same
+    const int e1 = exponent(rng);                          // values whatever the compiler
+    values.push_back(m * std::pow(10.0, e1));
+    const double f = uniform(rng);
+    const int e2 = exponent(rng);
+    values.push_back(f * std::pow(10.0, e2));
     values.push_back(static_cast<double>(k) * 0.001);
   }
   long checked = 0;

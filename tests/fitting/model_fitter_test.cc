@@ -287,7 +287,8 @@ TEST(ModelFitter, CorrelatedProcessNoiseTakesTheOneStepErrorsCorrelation) {
     t.u.col(k) = Eigen::Vector2d(3.0 + std::sin(0.3 * k * dt), 3.0 + std::cos(0.2 * k * dt));
     for (int i = 0; i < 2; ++i) t.z(i, k) = x[i] + 1e-3 * normal(rng);
     model.predict(x, t.u.col(k), dt, next);
-    x = next + l * Eigen::Vector2d(normal(rng), normal(rng));
+    const double w0 = normal(rng), w1 = normal(rng);  // in this order, whatever the compiler
+    x = next + l * Eigen::Vector2d(w0, w1);
   }
   std::string yaml = kLtcBank;
   yaml.replace(yaml.find("R: {std: [0.02, 0.02]}"), 22, "R: {std: [0.001, 0.001]}");
