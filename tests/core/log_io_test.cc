@@ -47,6 +47,21 @@ TEST(CsvReader, HandlesQuotesEscapesCrlfAndBlankLines) {
   EXPECT_FALSE(reader.next(&fields));
 }
 
+// Every way a header can be refused closes the file: a reader that throws
+// from its constructor has no destructor to do it.
+TEST(CsvReader, ARefusedHeaderLeavesNoFileOpen) {
+  auto open_descriptors = [] {
+    return std::distance(std::filesystem::directory_iterator("/proc/self/fd"), std::filesystem::directory_iterator());
+  };
+  const std::vector<std::string> headers = {"", "t,\"unterminated\n0,1\n", "t,a,a\n0,1,2\n"};
+  for (std::size_t h = 0; h < headers.size(); ++h) {
+    const auto file = write_file(test_directory() / ("header_" + std::to_string(h) + ".csv"), headers[h]);
+    const auto before = open_descriptors();
+    for (int i = 0; i < 50; ++i) EXPECT_THROW(CsvReader reader(file), LogError) << headers[h];
+    EXPECT_EQ(open_descriptors(), before) << "header " << h << " leaked descriptors";
+  }
+}
+
 TEST(CsvReader, WrongFieldCountNamesTheLine) {
   const auto file = write_file(test_directory() / "bad.csv", "a,b\n1,2\n3\n");
   CsvReader reader(file);
