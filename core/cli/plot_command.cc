@@ -175,7 +175,7 @@ int plot(const PlotOptions& options) {
     while (reader.next(&fields)) {
       double t = 0.0;
       if (!parse_finite_number(fields[0], &t)) {
-        throw LogError(options.estimates.string(), reader.line(),
+        throw LogError(reader.path().string(), reader.line(),  // "standard input" for -
                        "column 1 ('t'): expected the time, a finite number, got '" + fields[0].substr(0, 80) + "'");
       }
       if (estimates_copy) estimates_copy->write_row(fields);

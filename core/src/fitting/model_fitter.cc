@@ -133,13 +133,6 @@ std::string window_text(const Trajectory& t, const Window& w) {
          std::to_string(t.t[w.start]) + " s) to t = " + std::to_string(t.t[w.targets.back()]) + " s";
 }
 
-// A window's largest residual (in units of R) at the starting values.
-struct StartResidual {
-  double largest;
-  const Trajectory* trajectory;
-  Window window;
-};
-
 // How many times the median window's residual (at least one sigma) a window
 // may miss by before it is called a corrupt cell rather than a poor start:
 // a start far off a robot's dynamics misses by tens of sigma, a cell of 1e100
@@ -474,7 +467,12 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
     int residuals = 0;
     bool all_analytic = true;
     std::vector<std::string> empty_sources;
-    std::vector<StartResidual> start_residuals;
+    // Each window's largest residual (in units of R) at the starting values,
+    // and the worst window, for the absurd-cell check below.
+    std::vector<double> start_residuals;
+    double worst_residual = -1.0;
+    const Trajectory* worst_log = nullptr;
+    Window worst_window{};  // a copy: each log's windows go when its loop ends
     for (const ModeLogs* d : group) {
       if (d->logs.empty()) throw FitError(who + ": no logs given");
       for (const Trajectory& t : d->logs) {
@@ -509,7 +507,12 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
               throw FitError(window_text(t, w) + " is not finite (or absurd) with the starting values of " + who +
                              "; check the log's inputs and measurements there");
             }
-            start_residuals.push_back({largest_residual, &t, w});
+            start_residuals.push_back(largest_residual);
+            if (largest_residual > worst_residual) {
+              worst_residual = largest_residual;
+              worst_log = &t;
+              worst_window = w;
+            }
           }
           ceres::CostFunction* cost = nullptr;
           if (analytic) {
@@ -531,18 +534,12 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
     // a poor starting value but a corrupt cell: it would dominate the fit,
     // which would then end "converged" with an RMSE of 1e80. Name it.
     if (!start_residuals.empty()) {
-      std::vector<double> sizes;
-      for (const StartResidual& s : start_residuals) sizes.push_back(s.largest);
-      std::nth_element(sizes.begin(), sizes.begin() + static_cast<std::ptrdiff_t>(sizes.size() / 2), sizes.end());
-      const double typical = std::max(1.0, sizes[sizes.size() / 2]);
-      const auto worst = std::max_element(start_residuals.begin(), start_residuals.end(),
-                                          [](const StartResidual& a, const StartResidual& b) {
-                                            return a.largest < b.largest;
-                                          });
-      if (worst->largest > kAbsurdWindowRatio * typical) {
-        throw FitError(window_text(*worst->trajectory, worst->window) + " misses its measurements by " +
-                       format_number(worst->largest) + " times their noise (R) with the starting values of " + who +
-                       ", against " + format_number(sizes[sizes.size() / 2]) +
+      const auto middle = start_residuals.begin() + static_cast<std::ptrdiff_t>(start_residuals.size() / 2);
+      std::nth_element(start_residuals.begin(), middle, start_residuals.end());
+      if (worst_residual > kAbsurdWindowRatio * std::max(1.0, *middle)) {
+        throw FitError(window_text(*worst_log, worst_window) + " misses its measurements by " +
+                       format_number(worst_residual) + " times their noise (R) with the starting values of " + who +
+                       ", against " + format_number(*middle) +
                        " for the median window: an absurd input or measurement there (a corrupt cell?); "
                        "fix or remove it");
       }
