@@ -11,7 +11,17 @@ namespace skidimm {
 
 namespace {
 constexpr double kLog2Pi = 1.8378770664093454835606594728112;
+
+bool is_diagonal(const Eigen::MatrixXd& m) {
+  for (Eigen::Index j = 0; j < m.cols(); ++j) {
+    for (Eigen::Index i = 0; i < m.rows(); ++i) {
+      if (i != j && m(i, j) != 0.0) return false;
+    }
+  }
+  return true;
 }
+
+}  // namespace
 
 ExtendedKalmanFilter::ExtendedKalmanFilter(const sdk::MotionModel& model, Eigen::MatrixXd q_intensity,
                                            int measurement_dim)
@@ -47,8 +57,19 @@ bool ExtendedKalmanFilter::predict(const Eigen::Ref<const Eigen::VectorXd>& u, d
   if (!model_.predict(x_, u, dt, x_next_)) return false;
   x_ = x_next_;
   wrap_angles(x_);
-  fp_.noalias() = f_ * p_;
-  p_.noalias() = fp_ * f_.transpose();
+  // Structure the products would spend most of their time on, taken
+  // directly: a diagonal F (decoupled states, e.g. linear_features with a
+  // diagonal A) scales P's rows and columns. Each entry is then the same two
+  // roundings as in the product, so the result is the same to the bit.
+  if (is_diagonal(f_)) {
+    const Eigen::Index n = p_.rows();
+    for (Eigen::Index j = 0; j < n; ++j) {
+      for (Eigen::Index i = 0; i < n; ++i) p_(i, j) = (f_(i, i) * p_(i, j)) * f_(j, j);
+    }
+  } else {
+    fp_.noalias() = f_ * p_;
+    p_.noalias() = fp_ * f_.transpose();
+  }
   p_ += q_;
   symmetrize(p_);
   return x_.allFinite() && p_.allFinite();
@@ -68,10 +89,17 @@ UpdateResult ExtendedKalmanFilter::update(const SelectedMeasurement& measurement
     if (measurement.is_angle[a]) nu[a] = sdk::wrap_angle(nu[a]);
   }
 
+  // H P- and H P- H': rows and columns of P- when H picks states (the same
+  // numbers as the products, which add only exact zeros to them).
   auto hp = hp_.topRows(k);
-  hp.noalias() = h * p_;
   auto s = s_.topLeftCorner(k, k);
-  s.noalias() = hp * h.transpose();
+  if (measurement.picks_states) {
+    for (int a = 0; a < k; ++a) hp.row(a) = p_.row(measurement.picked_state[static_cast<std::size_t>(a)]);
+    for (int b = 0; b < k; ++b) s.col(b) = hp.col(measurement.picked_state[static_cast<std::size_t>(b)]);
+  } else {
+    hp.noalias() = h * p_;
+    s.noalias() = hp * h.transpose();
+  }
   s += measurement.r.topLeftCorner(k, k);
   symmetrize(s);
 
@@ -101,7 +129,11 @@ UpdateResult ExtendedKalmanFilter::update(const SelectedMeasurement& measurement
   wrap_angles(x_);
 
   i_kh_.setIdentity();
-  i_kh_.noalias() -= gain * h;
+  if (measurement.picks_states) {
+    for (int a = 0; a < k; ++a) i_kh_.col(measurement.picked_state[static_cast<std::size_t>(a)]) -= gain.col(a);
+  } else {
+    i_kh_.noalias() -= gain * h;
+  }
   fp_.noalias() = i_kh_ * p_;
   p_.noalias() = fp_ * i_kh_.transpose();
   auto kr = kr_.leftCols(k);

@@ -11,6 +11,12 @@ MeasurementModel::MeasurementModel(Eigen::MatrixXd h, Eigen::MatrixXd r, std::ve
     : h_(std::move(h)), r_(std::move(r)), is_angle_(std::move(is_angle)) {
   SKIDIMM_CHECK(r_.rows() == h_.rows() && r_.cols() == h_.rows(), "R must be m x m for an m-row H");
   SKIDIMM_CHECK(static_cast<Eigen::Index>(is_angle_.size()) == h_.rows(), "one angle flag per row of H");
+  picked_state_.assign(static_cast<std::size_t>(h_.rows()), -1);
+  for (Eigen::Index row = 0; row < h_.rows(); ++row) {
+    Eigen::Index state = -1;
+    const bool one_unit_entry = (h_.row(row).array() != 0.0).count() == 1 && h_.row(row).maxCoeff(&state) == 1.0;
+    if (one_unit_entry) picked_state_[static_cast<std::size_t>(row)] = static_cast<int>(state);
+  }
 }
 
 SelectedMeasurement MeasurementModel::make_selection() const {
@@ -21,6 +27,7 @@ SelectedMeasurement MeasurementModel::make_selection() const {
   s.r.resize(m, m);
   s.is_angle.assign(m, false);
   s.rows.assign(m, 0);
+  s.picked_state.assign(m, -1);
   return s;
 }
 
@@ -31,8 +38,11 @@ void MeasurementModel::select(const Eigen::Ref<const Eigen::VectorXd>& z, Select
     if (std::isfinite(z[i])) out->rows[k++] = static_cast<int>(i);
   }
   out->size = k;
+  out->picks_states = true;
   for (int a = 0; a < k; ++a) {
     const int row = out->rows[a];
+    out->picked_state[a] = picked_state_[static_cast<std::size_t>(row)];
+    out->picks_states = out->picks_states && out->picked_state[a] >= 0;
     out->z[a] = z[row];
     out->h.row(a) = h_.row(row);
     out->is_angle[a] = is_angle_[row];

@@ -144,6 +144,86 @@ TEST(FixedSizeFilter, ANonPositiveDefiniteInnovationIsReportedLikeTheDynamicFilt
   EXPECT_FALSE((update_fixed<2, 1>(z, h, r, 0, 0, &x, &p).ok));
 }
 
+// H rows that pick states are applied by gathering rows and columns of P
+// (ekf.cc); the general product path must give the same numbers, to the bit
+// when no state is picked twice, with rows missing, reordered and repeated.
+TEST(ExtendedKalmanFilter, UpdateThatGathersPickedStatesEqualsTheProductPathExactly) {
+  Eigen::Matrix2d a, b;
+  a << -2, 0.3, 0.1, -1;
+  b << 0.4, 0.4, -0.8, 0.8;
+  auto model = skidimm_test::make_ltc(a, b);
+  Eigen::MatrixXd h(3, 2), r(3, 3);
+  h << 0.0, 1.0, 1.0, 0.0, 0.0, 1.0;  // omega, V, omega again
+  r << 0.05, 0.01, 0.0, 0.01, 0.08, 0.002, 0.0, 0.002, 0.03;
+  const MeasurementModel measurement(h, r, {false, false, false});
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const Eigen::Vector3d& z : {Eigen::Vector3d(0.4, 0.2, 0.41), Eigen::Vector3d(nan, 0.2, 0.39),
+                                   Eigen::Vector3d(0.4, nan, nan)}) {
+    SelectedMeasurement gathered = measurement.make_selection();
+    measurement.select(z, &gathered);
+    ASSERT_TRUE(gathered.picks_states);
+    SelectedMeasurement multiplied = gathered;
+    multiplied.picks_states = false;
+    ExtendedKalmanFilter first(*model, Eigen::Matrix2d::Identity() * 0.1, 3);
+    ExtendedKalmanFilter second(*model, Eigen::Matrix2d::Identity() * 0.1, 3);
+    for (ExtendedKalmanFilter* f : {&first, &second}) {
+      f->state() = Eigen::Vector2d(0.3, -0.1);
+      f->covariance() << 0.7, 0.2, 0.2, 0.4;
+    }
+    const UpdateResult x = first.update(gathered);
+    const UpdateResult y = second.update(multiplied);
+    ASSERT_TRUE(x.ok && y.ok);
+    if (gathered.size < 3) {
+      EXPECT_EQ(x.nis, y.nis);
+      EXPECT_EQ(x.log_likelihood, y.log_likelihood);
+      EXPECT_EQ(first.state(), second.state());
+      EXPECT_EQ(first.covariance(), second.covariance());
+    } else {  // omega twice: I - K H sums two gains in an order of its own
+      EXPECT_NEAR(x.nis, y.nis, 1e-14 * std::abs(y.nis));
+      EXPECT_NEAR((first.state() - second.state()).cwiseAbs().maxCoeff(), 0.0, 1e-15);
+      EXPECT_NEAR((first.covariance() - second.covariance()).cwiseAbs().maxCoeff(), 0.0, 1e-15);
+    }
+  }
+}
+
+TEST(MeasurementModel, PicksStatesOnlyWhenEverySelectedRowIsOneUnitEntry) {
+  Eigen::MatrixXd h(3, 2);
+  h << 1.0, 0.0, 0.0, 2.0, 0.5, 0.5;  // picks V; 2 omega; a blend
+  const MeasurementModel measurement(h, Eigen::Matrix3d::Identity(), {false, false, false});
+  SelectedMeasurement s = measurement.make_selection();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  measurement.select(Eigen::Vector3d(1.0, nan, nan), &s);
+  EXPECT_TRUE(s.picks_states);
+  EXPECT_EQ(s.picked_state[0], 0);
+  measurement.select(Eigen::Vector3d(1.0, 1.0, nan), &s);
+  EXPECT_FALSE(s.picks_states);  // a gain of 2 is no pick
+  measurement.select(Eigen::Vector3d(nan, nan, 1.0), &s);
+  EXPECT_FALSE(s.picks_states);
+}
+
+// A diagonal F scales P's rows and columns (ekf.cc): P- = F P F' + Qd by hand.
+TEST(ExtendedKalmanFilter, PredictWithADiagonalJacobianIsFPFPlusQ) {
+  Eigen::Matrix2d a, b;
+  a << -2, 0.0, 0.0, -1;  // decoupled: F = diag(e^{-2 dt}, e^{-dt}) to first order
+  b << 0.4, 0.4, -0.8, 0.8;
+  auto model = skidimm_test::make_ltc(a, b);
+  const Eigen::Matrix2d q = Eigen::Matrix2d::Identity() * 0.1;
+  ExtendedKalmanFilter filter(*model, q, 2);
+  Eigen::Matrix2d p;
+  p << 0.7, 0.2, 0.2, 0.4;
+  filter.covariance() = p;
+  filter.state() = Eigen::Vector2d(0.3, -0.1);
+  const Eigen::Vector2d u(1.0, 2.0);
+  Eigen::MatrixXd f(2, 2), qd(2, 2);
+  ASSERT_TRUE(model->jacobian(filter.state(), u, 0.05, f));
+  ASSERT_TRUE(model->process_noise(q, filter.state(), u, 0.05, qd));
+  ASSERT_EQ(f(0, 1), 0.0);
+  ASSERT_EQ(f(1, 0), 0.0);
+  ASSERT_TRUE(filter.predict(u, 0.05));
+  const Eigen::Matrix2d expected = f * p * f.transpose() + qd;
+  EXPECT_NEAR((filter.covariance() - expected).cwiseAbs().maxCoeff(), 0.0, 1e-16);
+}
+
 TEST(MeasurementModel, SelectsTheFiniteRowsWithTheirBlockOfR) {
   Eigen::MatrixXd h = Eigen::MatrixXd::Identity(3, 3);
   Eigen::MatrixXd r(3, 3);

@@ -10,15 +10,9 @@
 #ifndef SKIDIMM_TESTS_CORE_MALLOC_COUNTER_H_
 #define SKIDIMM_TESTS_CORE_MALLOC_COUNTER_H_
 
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
-#define SKIDIMM_MALLOC_SANITIZED 1
-#endif
-#endif
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-#define SKIDIMM_MALLOC_SANITIZED 1
-#endif
-#ifdef SKIDIMM_MALLOC_SANITIZED
+#include "core/sanitizer.h"
+
+#if SKIDIMM_SANITIZED
 #define SKIDIMM_MALLOC_COUNTED 0
 #else
 #define SKIDIMM_MALLOC_COUNTED 1

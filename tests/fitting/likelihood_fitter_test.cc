@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "core/sanitizer.h"
 #include "core/temp_files.h"
 #include "core/test_banks.h"
 #include "skidimm/ekf.h"
@@ -858,6 +859,7 @@ Trajectory six_state_log(const sdk::MotionModel& model, unsigned seed) {
 }
 
 TEST(LikelihoodFitter, CostOfOneEvaluationOverTenThousandRows) {
+  SKIDIMM_SKIP_COST_MEASUREMENT_WHEN_SANITIZED();
   const LtcTruth truth = ltc_truth();
   const Eigen::MatrixXd r = diagonal({1e-4, 1e-4});
   Bank ltc = ltc_start_bank(r);

@@ -20,6 +20,12 @@ struct SelectedMeasurement {
   Eigen::MatrixXd r;           // selected block of R
   std::vector<bool> is_angle;  // row wraps at +-pi
   std::vector<int> rows;       // which rows of the full z
+  // When every selected row of H picks one state alone (a 1 there, 0
+  // elsewhere: the state is measured directly, the common case), the state
+  // each picks, and picks_states is true: the filter then gathers rows and
+  // columns of P where it would multiply by H (ekf.cc).
+  std::vector<int> picked_state;
+  bool picks_states = false;
 };
 
 class MeasurementModel {
@@ -42,6 +48,7 @@ class MeasurementModel {
   Eigen::MatrixXd h_;
   Eigen::MatrixXd r_;
   std::vector<bool> is_angle_;
+  std::vector<int> picked_state_;  // per row of H: the state it picks alone, or -1
 };
 
 }  // namespace skidimm

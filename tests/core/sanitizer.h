@@ -1,0 +1,26 @@
+// Whether this test binary is built with a sanitizer (scripts/check.sh):
+// SKIDIMM_SANITIZED is then 1. clang says so through __has_feature, gcc
+// through __SANITIZE_ADDRESS__ / __SANITIZE_THREAD__.
+#ifndef SKIDIMM_TESTS_CORE_SANITIZER_H_
+#define SKIDIMM_TESTS_CORE_SANITIZER_H_
+
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
+#define SKIDIMM_SANITIZED 1
+#endif
+#endif
+#if !defined(SKIDIMM_SANITIZED) && (defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__))
+#define SKIDIMM_SANITIZED 1
+#endif
+#ifndef SKIDIMM_SANITIZED
+#define SKIDIMM_SANITIZED 0
+#endif
+
+// In a GoogleTest body that measures cost (times printed for the docs or a
+// reader, nothing asserted on them): skips it under a sanitizer, where the
+// times mean nothing and the run is many times slower.
+#define SKIDIMM_SKIP_COST_MEASUREMENT_WHEN_SANITIZED()                                           \
+  if (SKIDIMM_SANITIZED) GTEST_SKIP() << "a cost measurement: under a sanitizer its times mean " \
+                                         "nothing (the Release suite runs it)"
+
+#endif  // SKIDIMM_TESTS_CORE_SANITIZER_H_
