@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The sanitizer stage (SKIDIMM_CHECK=1 ./scripts/test.sh runs it after the Release suite; see README):
+# The sanitizer stage (./scripts/test.sh runs it after the Release suite,
+# with 30 s per fuzz target; see README):
 #
 #   ./scripts/check.sh           ASan+UBSan build, the test suite under it, each fuzz target for a bounded time
 #   ./scripts/check.sh --tsan    also the ThreadSanitizer build and its thread-safety tests
@@ -9,8 +10,9 @@
 # behaviour fatal (-fno-sanitize-recover), of the core, the plugins, the CLI,
 # the GoogleTest binaries and the libFuzzer targets (tests/fuzz) - no Python
 # package, no benchmarks. The suite runs without the reproduction tests (ctest
-# names matching 'Reproduced|reproduce'): they rerun the paper's experiments
-# and take 15+ minutes even at -O2; the Release suite runs them. Nor the
+# names matching 'Reproduced|reproduce'): they rerun the paper's and the
+# real-data experiments, about 14 minutes on two cores in Release and many
+# times that under ASan; the Release suite runs them. Nor the
 # OutOfTree tests (see below). Each fuzz
 # target then runs for SKIDIMM_FUZZ_SECONDS (default 60) from the seed corpus
 # (configs/ and tests/fuzz/corpus) and the committed regression inputs.
