@@ -1168,6 +1168,45 @@ class Problem {
     return true;
   }
 
+  // The row whose term of the negative log-likelihood at phi is over
+  // kAbsurdRowTerm above the median row's, as "<source>: row <r> (t = ... s)
+  // has a term of X against a median row's Y", or "" if none is. Half a
+  // normalized innovation squared of 1e12 is an innovation of a million
+  // standard deviations: no sensor's noise, a corrupt cell (or starting
+  // values nowhere near the logs). The fit would be that one row's.
+  std::string absurd_row(const double* phi) const {
+    constexpr double kAbsurdRowTerm = 0.5e12;
+    const Eigen::MatrixXd r_matrix = r(phi);
+    std::string worst;
+    double worst_excess = kAbsurdRowTerm;
+    for (const ModeBlock& b : blocks_) {
+      const NaturalValues v = natural(b, phi);
+      if (!b.model->set_parameters(v.parameters, nullptr)) continue;  // evaluate() reports this
+      const ModeEvaluation e = evaluate_mode(config_, b.model, b.logs, b.par, v.q, r_matrix, false, numeric_, false,
+                                             /*rows=*/true);
+      std::vector<double> terms;
+      for (const Eigen::VectorXd& log_terms : e.acc.row_terms) {
+        for (const double term : log_terms) {
+          if (std::isfinite(term)) terms.push_back(term);
+        }
+      }
+      if (terms.empty()) continue;
+      std::nth_element(terms.begin(), terms.begin() + static_cast<std::ptrdiff_t>(terms.size() / 2), terms.end());
+      const double median = terms[terms.size() / 2];
+      for (std::size_t l = 0; l < e.acc.row_terms.size() && l < b.logs.size(); ++l) {
+        const Eigen::VectorXd& log_terms = e.acc.row_terms[l];
+        for (Eigen::Index k = 0; k < log_terms.size(); ++k) {
+          if (!(log_terms[k] - median > worst_excess)) continue;
+          worst_excess = log_terms[k] - median;
+          const Trajectory& t = *b.logs[l];
+          worst = t.source + ": row " + std::to_string(k + 1) + " (t = " + number(t.t[static_cast<std::size_t>(k)]) +
+                  " s) has a term of " + number(log_terms[k]) + " against a median row's " + number(median);
+        }
+      }
+    }
+    return worst;
+  }
+
  private:
   const BankConfig& config_;
   std::vector<ModeBlock> blocks_;
@@ -1467,6 +1506,12 @@ std::map<int, FitReport> fit_group(Bank* bank, const std::vector<std::pair<int, 
   if (!problem.evaluate(phi0.data(), true, true, &first, nullptr, &structure)) {
     throw FitError(first.failure + "; the negative log-likelihood is not finite at the starting values of " + who +
                    "; check the log's inputs and measurements there");
+  }
+  // Finite but absurd: a cell of 1e100 keeps every number finite, and the
+  // fit would then be that row's (or fail with a misleading message).
+  if (const std::string row = problem.absurd_row(phi0.data()); !row.empty()) {
+    throw FitError(row + " in the negative log-likelihood at the starting values of " + who +
+                   ": an absurd input or measurement there (a corrupt cell?); fix or remove that row");
   }
 
   // Solve, skipping the derivatives the model was seen not to have. LBFGS
