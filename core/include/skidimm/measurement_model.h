@@ -38,6 +38,8 @@ class MeasurementModel {
   const Eigen::MatrixXd& h() const { return h_; }
   const Eigen::MatrixXd& r() const { return r_; }
   bool is_angle(int row) const { return is_angle_[row]; }
+  // The state row `row` of H measures alone (a 1 there, 0 elsewhere), or -1.
+  int picked_state(int row) const { return picked_state_[static_cast<std::size_t>(row)]; }
 
   // Storage sized for the full measurement, to pass to select().
   SelectedMeasurement make_selection() const;

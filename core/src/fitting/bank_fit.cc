@@ -1,7 +1,11 @@
 #include "skidimm/fitting/bank_fit.h"
 
+#include <algorithm>
+#include <vector>
+
 #include "skidimm/errors.h"
 #include "skidimm/fitting/likelihood_fitter.h"
+#include "skidimm/measurement_model.h"
 
 namespace skidimm {
 namespace fitting {
@@ -61,15 +65,12 @@ std::map<int, FitReport> fit_window(Bank* bank, const std::vector<ModeLogs>& dat
 // Whether each state has a measurement row that observes it alone: what the
 // window objective needs to start its predictions.
 bool every_state_measured(const BankConfig& config) {
-  const Eigen::MatrixXd& h = config.measurement.h;
-  for (int s = 0; s < config.state_dim(); ++s) {
-    bool measured = false;
-    for (Eigen::Index row = 0; row < h.rows() && !measured; ++row) {
-      measured = h(row, s) == 1.0 && h.row(row).cwiseAbs().sum() == 1.0;
-    }
-    if (!measured) return false;
+  const MeasurementModel measurement(config.measurement.h, config.measurement.r, config.measurement.is_angle);
+  std::vector<bool> measured(static_cast<std::size_t>(config.state_dim()), false);
+  for (int row = 0; row < measurement.measurement_dim(); ++row) {
+    if (const int s = measurement.picked_state(row); s >= 0) measured[static_cast<std::size_t>(s)] = true;
   }
-  return true;
+  return std::find(measured.begin(), measured.end(), false) == measured.end();
 }
 
 std::map<int, FitReport> fit_by_likelihood(Bank* bank, const std::vector<ModeLogs>& data,

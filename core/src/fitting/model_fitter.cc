@@ -45,10 +45,10 @@ MeasurementLayout layout_of(const BankConfig& bank) {
   m.state_is_angle = bank.angle_mask;
   const int n = bank.state_dim();
   m.state_row.assign(n, -1);
-  for (int row = 0; row < mc.h.rows(); ++row) {
-    for (int s = 0; s < n; ++s) {
-      if (mc.h(row, s) == 1.0 && mc.h.row(row).cwiseAbs().sum() == 1.0 && m.state_row[s] < 0) m.state_row[s] = row;
-    }
+  const MeasurementModel measurement(mc.h, mc.r, mc.is_angle);
+  for (int row = 0; row < measurement.measurement_dim(); ++row) {
+    const int s = measurement.picked_state(row);
+    if (s >= 0 && m.state_row[static_cast<std::size_t>(s)] < 0) m.state_row[static_cast<std::size_t>(s)] = row;
   }
   std::string missing;
   for (int s = 0; s < n; ++s) {
@@ -276,15 +276,17 @@ std::string describe_unexcited(const Eigen::MatrixXd& v, const Eigen::VectorXd& 
   return out;
 }
 
-// Mean normalized innovation squared of measurement component c of the
-// mode's EKF with process-noise intensity `q`, over the logs.
-double mean_component_nis(const Bank& bank, const sdk::MotionModel& model, const MeasurementLayout& m,
-                          const ModeLogs& data, const Eigen::MatrixXd& q, Eigen::Index c) {
+// Mean normalized innovation squared of the measurement of state s (the row
+// of H that picks it alone: layout_of) of the mode's EKF with process-noise
+// intensity `q`, over the logs. That row picks s, so its innovation variance
+// is P(s, s) + R(c, c), read off without forming H P H'.
+double mean_state_nis(const Bank& bank, const sdk::MotionModel& model, const MeasurementLayout& m,
+                      const ModeLogs& data, const Eigen::MatrixXd& q, int s) {
   const BankConfig& config = bank.config;
   const MeasurementModel measurement(config.measurement.h, config.measurement.r, config.measurement.is_angle);
   SelectedMeasurement selected = measurement.make_selection();
   const Eigen::Index rows = measurement.measurement_dim();
-  const auto h_c = config.measurement.h.row(c);
+  const int c = m.state_row[static_cast<std::size_t>(s)];
   const double r_c = config.measurement.r(c, c);
   double sum = 0.0, count = 0.0;
   for (const Trajectory& t : data.logs) {
@@ -301,8 +303,7 @@ double mean_component_nis(const Bank& bank, const sdk::MotionModel& model, const
       // The component's innovation and its variance before the update.
       for_each_error(m, t, k, filter.state(), [&](Eigen::Index component, double e) {
         if (component != c) return;
-        const double s = h_c.dot(filter.covariance() * h_c.transpose()) + r_c;
-        sum += e * e / s;
+        sum += e * e / (filter.covariance()(s, s) + r_c);
         count += 1.0;
       });
       if (!filter.update(selected).ok) break;
@@ -366,10 +367,9 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
   std::vector<bool> at_floor(static_cast<std::size_t>(n), false);
   for (int round = 0; round < 2; ++round) {
     for (int s = 0; s < n; ++s) {
-      const int c = m.state_row[static_cast<std::size_t>(s)];
       const auto log_nis = [&](double log_q) {
         q(s, s) = std::exp(log_q);
-        const double nis = mean_component_nis(bank, model, m, data, q, c);
+        const double nis = mean_state_nis(bank, model, m, data, q, s);
         // A filter that failed at its first step scores 0: below any target.
         return std::log(std::isfinite(nis) ? std::max(nis, 1e-300) : 1e-300);
       };
