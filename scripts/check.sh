@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The sanitizer stage (./scripts/test.sh runs it after the Release suite,
-# with 30 s per fuzz target; see README):
+# with 20 s per fuzz target; see README):
 #
 #   ./scripts/check.sh           ASan+UBSan build, the test suite under it, each fuzz target for a bounded time
 #   ./scripts/check.sh --tsan    also the ThreadSanitizer build and its thread-safety tests

@@ -14,8 +14,8 @@ build=${SKIDIMM_BUILD_DIR:-$root/build}
 cd "$build"
 ctest --output-on-failure -j "${SKIDIMM_JOBS:-$(nproc 2>/dev/null || echo 2)}"
 if [ "${SKIDIMM_CHECK:-1}" != 0 ]; then
-  # 30 s per fuzz target keeps the whole script within CI's budget on two
+  # 20 s per fuzz target keeps the whole script within CI's budget on two
   # cores (README); longer runs are for check.sh by hand (tests/fuzz/README.md).
   # shellcheck disable=SC2086 # word splitting of the arguments is intended
-  SKIDIMM_FUZZ_SECONDS=${SKIDIMM_FUZZ_SECONDS:-30} "$root/scripts/check.sh" ${SKIDIMM_CHECK_ARGS:-}
+  SKIDIMM_FUZZ_SECONDS=${SKIDIMM_FUZZ_SECONDS:-20} "$root/scripts/check.sh" ${SKIDIMM_CHECK_ARGS:-}
 fi
