@@ -152,7 +152,7 @@ int main(int argc, char** argv) {
   TuneCommandOptions tune_options;
   std::string tune_bank;
   CLI::App* tune = app.add_subcommand(
-      "tune", "Choose noise scales, dwell time, floor and fit objective by cross-validation over labelled logs");
+      "tune", "Choose noise scales, dwell time, floor, likelihood weight and fit objective by cross-validation over labelled logs");
   tune->add_option("--bank,-b", tune_bank, "Bank giving the models, columns and starting values")
       ->required()
       ->check(CLI::ExistingFile);
@@ -166,8 +166,8 @@ int main(int argc, char** argv) {
                    "Fit objectives to compare, comma-separated: likelihood, window, none (the bank's models as they "
                    "are: tune the settings only); default likelihood");
   tune->add_option("--tune", tune_options.knobs,
-                   "Settings to choose, comma-separated: r-scale, r-components, q-scale, q-modes, dwell, floor "
-                   "(default r-scale,q-scale,dwell,floor)");
+                   "Settings to choose, comma-separated: r-scale, r-components, q-scale, q-modes, dwell, floor, "
+                   "likelihood-weight (default r-scale,q-scale,dwell,floor)");
   tune->add_option("--folds", tune_options.folds, "Groups of logs for cross-validation; 0 = leave one log out (default)")
       ->check(CLI::NonNegativeNumber);
   tune->add_option("--inner-folds", tune_options.inner_folds,

@@ -402,7 +402,7 @@ BankConfig load_bank_config(const fs::path& file) {
 
   y.check_keys(root,
                {"name", "description", "states", "angles", "inputs", "columns", "sampling", "measurement", "transition",
-                "initial", "mode_probability_floor", "innovation_gate", "plugin_paths", "shared", "modes", "classes",
+                "initial", "mode_probability_floor", "likelihood_weight", "innovation_gate", "plugin_paths", "shared", "modes", "classes",
                 "decision"},
                "");
   BankConfig bank;
@@ -459,6 +459,12 @@ BankConfig load_bank_config(const fs::path& file) {
     bank.mode_probability_floor = y.number(floor, "mode_probability_floor");
     if (!(bank.mode_probability_floor >= 0.0 && bank.mode_probability_floor * bank.num_modes() < 1.0)) {
       y.fail(floor, "mode_probability_floor", "must be >= 0 and below 1/(number of modes)");
+    }
+  }
+  if (const YAML::Node weight = root["likelihood_weight"]) {
+    bank.likelihood_weight = y.number(weight, "likelihood_weight");
+    if (!(bank.likelihood_weight > 0.0 && bank.likelihood_weight <= 1.0)) {
+      y.fail(weight, "likelihood_weight", "must be in (0, 1]: the weight of each step's evidence (1: the plain IMM)");
     }
   }
   if (const YAML::Node gate = root["innovation_gate"]) {

@@ -216,6 +216,7 @@ class Kernel final : public ImmKernel {
         n_(bank.config.state_dim()),
         modes_(bank.config.num_modes()),
         floor_(bank.config.mode_probability_floor),
+        likelihood_weight_(bank.config.likelihood_weight),
         initial_state_(bank.config.initial_state),
         initial_covariance_(bank.config.initial_covariance) {
     is_angle_.reset(new bool[static_cast<std::size_t>(n_)]);
@@ -383,7 +384,7 @@ class Kernel final : public ImmKernel {
     for (int j = 0; j < modes_; ++j) {
       const double c = predicted_[j];
       log_posterior_[j] = c > 0.0 ? std::log(c) : kMinusInfinity;
-      if (have_likelihoods) log_posterior_[j] += e->log_likelihoods[j];
+      if (have_likelihoods) log_posterior_[j] += likelihood_weight_ * e->log_likelihoods[j];
     }
     // log-sum-exp: the largest term is exp(0) = 1, so nothing underflows to an
     // all-zero vector however small the likelihoods are.
@@ -463,6 +464,7 @@ class Kernel final : public ImmKernel {
   int n_;
   int modes_;
   double floor_;
+  double likelihood_weight_;  // w of Lambda_j^w (bank.h)
   std::vector<double> gates_;  // by number of measured components; +inf: no gate
   Eigen::VectorXd initial_state_;
   Eigen::MatrixXd initial_covariance_;

@@ -302,6 +302,15 @@ TEST(BankConfig, MatrixEntriesAbove1e15AreRefusedNamingModeFieldAndEntry) {
       test_directory() / "ok.yaml", replace(kValidBank, "Q: [[0.02, 0], [0, 0.02]]", "Q: [[1e15, 0], [0, 1e15]]"))));
 }
 
+TEST(BankConfig, LikelihoodWeightIsInZeroToOne) {
+  const auto ok = write_file(test_directory() / "ok.yaml", "likelihood_weight: 0.25\n" + kValidBank);
+  EXPECT_EQ(load_bank_config(ok).likelihood_weight, 0.25);
+  EXPECT_EQ(load_bank_config(write_file(test_directory() / "none.yaml", kValidBank)).likelihood_weight, 1.0);
+  expect_config_error("likelihood_weight: 0\n" + kValidBank, {"bank.yaml:1: likelihood_weight", "in (0, 1]"});
+  expect_config_error("likelihood_weight: 1.5\n" + kValidBank, {"bank.yaml:1: likelihood_weight", "in (0, 1]"});
+  expect_config_error("likelihood_weight: .nan\n" + kValidBank, {"likelihood_weight"});
+}
+
 TEST(BankConfig, InnovationGateIsAProbability) {
   const auto ok = write_file(test_directory() / "ok.yaml", "innovation_gate: 0.9999\n" + kValidBank);
   EXPECT_EQ(load_bank_config(ok).innovation_gate, 0.9999);

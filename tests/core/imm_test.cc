@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <utility>
 #include <unsupported/Eigen/MatrixFunctions>
 
 #include "core/reference_imm.h"
@@ -49,6 +50,7 @@ struct ReferenceImm {
   double p[2][2] = {{0.9, 0.1}, {0.2, 0.8}};
   double mu[2] = {0.6, 0.4}, x[2] = {0.5, 0.5}, var[2] = {1.0, 1.0};
   double x_combined = 0.5, var_combined = 1.0;
+  double likelihood_weight = 1.0;  // mu_j proportional to c_j * likelihood_j^weight
   bool first = true;
   double last_t = 0.0, held_u = 0.0;
 
@@ -80,6 +82,7 @@ struct ReferenceImm {
       x[j] = xm + k * nu;
       var[j] = pm - k * pm;  // standard form: equal to Joseph's for the optimal gain
     }
+    for (int j = 0; j < 2; ++j) likelihood[j] = std::pow(likelihood[j], likelihood_weight);
     const double total = likelihood[0] * c[0] + likelihood[1] * c[1];
     for (int j = 0; j < 2; ++j) mu[j] = likelihood[j] * c[j] / total;
     x_combined = mu[0] * x[0] + mu[1] * x[1];
@@ -136,6 +139,42 @@ TEST(Imm, MatchesIndependentScalarImplementationOverManySteps) {
     ASSERT_NEAR(e.state[0], reference.x_combined, 1e-10) << "step " << k;
     ASSERT_NEAR(e.covariance(0, 0), reference.var_combined, 1e-10) << "step " << k;
     t += 0.05 + 0.03 * std::cos(k);  // irregular sampling
+  }
+}
+
+// likelihood_weight w: mu_j is proportional to c_j * Lambda_j^w. By hand from
+// the step above: c = [0.62, 0.38], Lambda = [0.6097..., 0.5920...], w = 0.5:
+// 0.62 * sqrt(0.6097...) / (0.62 * sqrt(0.6097...) + 0.38 * sqrt(0.5920...)).
+// The filters themselves, and the likelihoods reported, do not change.
+TEST(Imm, LikelihoodWeightTempersEachStepsEvidence) {
+  Bank bank = two_mode_scalar_bank().build();
+  bank.config.likelihood_weight = 0.5;
+  Imm imm(std::move(bank));
+  imm.step(0.0, vec({1.0}), vec({0.6}));
+  const ImmEstimate& e1 = imm.step(0.1, vec({0.0}), vec({0.7}));
+  EXPECT_NEAR(e1.mode_probabilities[0], 0.6234586034966958, 1e-14);
+  EXPECT_NEAR(e1.log_likelihoods[0], std::log(0.6097098555942483), 1e-13);
+  EXPECT_NEAR(e1.mode_states[0][0], 0.6537914691943127, 1e-14);
+
+  // Over many irregular steps, against the linear-domain reference raising
+  // each likelihood to the weight.
+  Bank tempered = two_mode_scalar_bank().build();
+  tempered.config.likelihood_weight = 0.3;
+  Imm weighted(std::move(tempered));
+  ReferenceImm reference;
+  reference.likelihood_weight = 0.3;
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.5);
+  double t = 0.0;
+  for (int k = 0; k < 200; ++k) {
+    const double u = std::sin(0.1 * k);
+    const double z = 0.8 * std::sin(0.05 * k) + noise(rng);
+    const ImmEstimate& e = weighted.step(t, vec({u}), vec({z}));
+    reference.step(t, u, z);
+    ASSERT_NEAR(e.mode_probabilities[0], reference.mu[0], 1e-10) << "step " << k;
+    ASSERT_NEAR(e.state[0], reference.x_combined, 1e-10) << "step " << k;
+    ASSERT_NEAR(e.covariance(0, 0), reference.var_combined, 1e-10) << "step " << k;
+    t += 0.05 + 0.03 * std::cos(k);
   }
 }
 

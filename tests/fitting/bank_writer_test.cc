@@ -122,7 +122,7 @@ TEST(BankWriter, WritesABankFromATemplateWithANewHeaderAndModes) {
   EXPECT_EQ(load_bank_config(dir / "out.yaml").modes[0].name, "grass");
 }
 
-TEST(BankWriter, MeasurementTransitionAndFloorBlocksLoadBackToTheSameValues) {
+TEST(BankWriter, MeasurementTransitionFloorAndWeightBlocksLoadBackToTheSameValues) {
   const auto dir = test_directory();
   const auto file = write_file(dir / "template.yaml", kBank);
   BankConfig config = load_bank_config(file);
@@ -130,12 +130,16 @@ TEST(BankWriter, MeasurementTransitionAndFloorBlocksLoadBackToTheSameValues) {
   config.transition.kind = TransitionConfig::Kind::kDwellTimes;
   config.transition.dwell_seconds = Eigen::VectorXd::Constant(1, 42.5);
   config.mode_probability_floor = 1e-4;
+  EXPECT_EQ(format_likelihood_weight_block(config), "");  // 1, the default: no key
+  config.likelihood_weight = 0.125;
   EXPECT_EQ(format_measurement_block(config), "measurement:\n  observe: [V, omega]\n  R: [[0.0004, 0.0001], [0.0001, 0.0009]]\n");
   write_bank_from_template(file, dir / "out.yaml", {"tuned"},
                            {{"measurement", format_measurement_block(config)},
                             {"transition", format_transition_block(config)},
-                            {"mode_probability_floor", format_floor_block(config)}});
+                            {"mode_probability_floor", format_floor_block(config)},
+                            {"likelihood_weight", format_likelihood_weight_block(config)}});
   const BankConfig back = load_bank_config(dir / "out.yaml");
+  EXPECT_EQ(back.likelihood_weight, 0.125);
   EXPECT_EQ(back.measurement.r, config.measurement.r);
   EXPECT_EQ(back.measurement.h, config.measurement.h);
   EXPECT_EQ(back.transition.kind, TransitionConfig::Kind::kDwellTimes);

@@ -76,6 +76,7 @@ TEST(TunedSettings, ApplyScalesFittedValuesAndSetsTheTransitionAndFloor) {
   s.q_mode = Eigen::Vector2d(1.0, 0.5);
   s.dwell_seconds = 20.0;
   s.probability_floor = 1e-4;
+  s.likelihood_weight = 0.25;
   apply(fitted, s, &bank);
   Eigen::VectorXd p(8);
   bank.models[1]->get_parameters(p);
@@ -87,10 +88,12 @@ TEST(TunedSettings, ApplyScalesFittedValuesAndSetsTheTransitionAndFloor) {
   EXPECT_EQ(bank.config.transition.kind, TransitionConfig::Kind::kDwellTimes);
   EXPECT_EQ(bank.config.transition.dwell_seconds, Eigen::Vector2d(20.0, 20.0));
   EXPECT_EQ(bank.config.mode_probability_floor, 1e-4);
+  EXPECT_EQ(bank.config.likelihood_weight, 0.25);
   EXPECT_EQ(s.describe(bank.config),
-            "objective , R x 4, R[omega] std x 2, Q x 10, Q[b] x 0.5, dwell 20 s, floor 0.0001");
+            "objective , R x 4, R[omega] std x 2, Q x 10, Q[b] x 0.5, dwell 20 s, floor 0.0001, likelihood weight 0.25");
   EXPECT_THROW(knob_from_string("r_scale"), Error);
   EXPECT_EQ(knob_from_string("q-modes"), Knob::kQModes);
+  EXPECT_EQ(knob_from_string("likelihood-weight"), Knob::kLikelihoodWeight);
 }
 
 }  // namespace

@@ -102,6 +102,11 @@ struct BankConfig {
   Eigen::MatrixXd initial_covariance;
   Eigen::VectorXd initial_mode_probabilities;
   double mode_probability_floor = 1e-9;
+  // The weight w in (0, 1] of each step's evidence in the mode probabilities:
+  // mu_j is proportional to c_j * Lambda_j^w (docs/engine.md, "Likelihood
+  // weight"). 1 is the IMM as derived; below 1 tempers likelihoods that count
+  // the same evidence more than once (correlated features, correlated steps).
+  double likelihood_weight = 1.0;
   // Chi-square innovation gate (docs/engine.md): the probability a consistent
   // measurement passes, in (0, 1); 0: no gate.
   double innovation_gate = 0.0;

@@ -6,7 +6,8 @@
 //   mu^{i|j}  = p_ij mu_{k-1}^i / c_j                          (eq. 4)
 //   x^{0j}, P^{0j}: mixed initial conditions                   (eq. 6-7)
 //   per mode: EKF predict from x^{0j}, P^{0j}, update, Lambda^j (eq. 8)
-//   mu_k^j    = Lambda^j c_j / sum_i Lambda^i c_i
+//   mu_k^j    = (Lambda^j)^w c_j / sum_i (Lambda^i)^w c_i     (w = 1 unless the
+//                                        bank sets likelihood_weight)
 //   x_k, P_k: combined estimate                                (eq. 10-11)
 //
 // The paper's eq. 9 writes mu_{k-1}^j where the predicted probability c_j

@@ -302,5 +302,10 @@ std::string format_floor_block(const BankConfig& config) {
   return "mode_probability_floor: " + number(config.mode_probability_floor) + "\n";
 }
 
+std::string format_likelihood_weight_block(const BankConfig& config) {
+  if (config.likelihood_weight == 1.0) return "";
+  return "likelihood_weight: " + number(config.likelihood_weight) + "\n";
+}
+
 }  // namespace fitting
 }  // namespace skidimm

@@ -112,15 +112,18 @@ const char* to_string(Knob knob) {
       return "dwell";
     case Knob::kFloor:
       return "floor";
+    case Knob::kLikelihoodWeight:
+      return "likelihood-weight";
   }
   return "?";
 }
 
 Knob knob_from_string(const std::string& name) {
-  for (Knob k : {Knob::kRScale, Knob::kRComponents, Knob::kQScale, Knob::kQModes, Knob::kDwell, Knob::kFloor}) {
+  for (Knob k : {Knob::kRScale, Knob::kRComponents, Knob::kQScale, Knob::kQModes, Knob::kDwell, Knob::kFloor,
+                 Knob::kLikelihoodWeight}) {
     if (name == to_string(k)) return k;
   }
-  throw Error("unknown setting '" + name + "' (expected r-scale, r-components, q-scale, q-modes, dwell, floor)");
+  throw Error("unknown setting '" + name + "' (expected r-scale, r-components, q-scale, q-modes, dwell, floor, likelihood-weight)");
 }
 
 std::string TunedSettings::describe(const BankConfig& config) const {
@@ -134,6 +137,8 @@ std::string TunedSettings::describe(const BankConfig& config) const {
   }
   if (dwell_seconds > 0.0) out += ", dwell " + number(dwell_seconds) + " s";
   if (probability_floor >= 0.0) out += ", floor " + number(probability_floor);
+  // Only when not 1, the plain IMM: the description of a bank tuned without it stays as it was.
+  if (likelihood_weight > 0.0 && likelihood_weight != 1.0) out += ", likelihood weight " + number(likelihood_weight);
   return out;
 }
 
@@ -167,6 +172,7 @@ void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
     config.transition.dwell_seconds = Eigen::VectorXd::Constant(config.num_modes(), s.dwell_seconds);
   }
   if (s.probability_floor >= 0.0) config.mode_probability_floor = s.probability_floor;
+  if (s.likelihood_weight > 0.0) config.likelihood_weight = s.likelihood_weight;
 }
 
 namespace {
@@ -234,6 +240,7 @@ class Tuner {
       base_dwell_ = config.transition.dwell_seconds[0];
     }
     base_floor_ = config.mode_probability_floor;
+    base_weight_ = config.likelihood_weight;
     // Each log's class, for stratified folds and summaries: from a first scoring at the starting values.
     classes_.resize(logs.size());
     std::vector<const TuningLog*> all;
@@ -464,6 +471,7 @@ class Tuner {
   void reset(Bank* bank) const {
     bank->config.transition = base_transition_;
     bank->config.mode_probability_floor = base_floor_;
+    bank->config.likelihood_weight = base_weight_;
     apply(base_, TunedSettings{}, bank);
   }
 
@@ -506,6 +514,7 @@ class Tuner {
     current.objective = objective;
     current.dwell_seconds = base_dwell_;
     current.probability_floor = base_floor_;
+    current.likelihood_weight = base_weight_;
     auto score_of = [&](const TunedSettings& s, std::vector<LogScore>* scores) {
       *scores = evaluate(s, folds, within);
       return summarize(*scores).mean_log_probability;
@@ -564,6 +573,9 @@ class Tuner {
             if (current.probability_floor <= 0.0) current.probability_floor = 1e-9;
             line("probability floor", &current.probability_floor, 1e-15, floor_limit);
             break;
+          case Knob::kLikelihoodWeight:
+            line("likelihood weight", &current.likelihood_weight, 1e-4, 1.0);
+            break;
         }
       }
     }
@@ -579,6 +591,7 @@ class Tuner {
   TransitionConfig base_transition_;
   double base_dwell_ = 0.0;
   double base_floor_ = 1e-9;
+  double base_weight_ = 1.0;
   std::vector<std::string> classes_;
   std::vector<RecordedLog> recorded_;
   std::map<FitKey, FittedValues> fits_;

@@ -4,9 +4,9 @@
 // Fitting makes each mode's filter predict its own logs well. Identification
 // also hangs on settings no single mode's fit can choose: how noisy the
 // sensors are taken to be (R), how much each mode's filter trusts its model
-// (a scale on Q), how sticky the modes are (the mean dwell time) and how far
-// an unlikely mode may fall (the probability floor), and which fit objective
-// built the models. The tuner chooses them to maximise the held-out mean log
+// (a scale on Q), how sticky the modes are (the mean dwell time), how far an
+// unlikely mode may fall (the probability floor), how much one step's evidence
+// counts (the likelihood weight), and which fit objective built the models. The tuner chooses them to maximise the held-out mean log
 // probability of the truth (accuracy is reported beside it):
 //
 //   for each fold (one log held out, or K groups of logs), fit the bank on the
@@ -65,16 +65,17 @@ struct TunedSettings {
   Eigen::VectorXd q_mode;            // per mode, empty = 1
   double dwell_seconds = 0.0;        // > 0: transition.mean_dwell_time for every mode
   double probability_floor = -1.0;   // >= 0: mode_probability_floor
+  double likelihood_weight = -1.0;   // > 0: likelihood_weight
   std::string describe(const BankConfig& config) const;
 };
 
 // Writes fitted values and settings into `bank` (its models' parameters and
-// its config's Q, R, transition and floor).
+// its config's Q, R, transition, floor and likelihood weight).
 void apply(const FittedValues& fitted, const TunedSettings& settings, Bank* bank);
 // Reads a bank's current values.
 FittedValues values_of(const Bank& bank);
 
-enum class Knob { kRScale, kRComponents, kQScale, kQModes, kDwell, kFloor };
+enum class Knob { kRScale, kRComponents, kQScale, kQModes, kDwell, kFloor, kLikelihoodWeight };
 const char* to_string(Knob knob);
 Knob knob_from_string(const std::string& name);  // throws Error listing the names
 
