@@ -26,6 +26,18 @@ def pct(x):
     return f"{100 * x:.1f}%"
 
 
+def decision_settings(bank):
+    """The decision layer's settings as the bank states them (`decision: {enter: .., leave: .., min_hold: ..}`
+    on one line), else the engine's defaults (bank.h, DecisionConfig)."""
+    settings = {"enter": 0.9, "leave": 0.05, "min_hold": 1.0}
+    with open(bank) as f:
+        for line in f:
+            if line.startswith("decision:"):
+                for key, value in re.findall(r"(enter|leave|min_hold):\s*([0-9.e+-]+)", line):
+                    settings[key] = float(value)
+    return f"enter {settings['enter']:g}, leave {settings['leave']:g}, hold {settings['min_hold']:g} s"
+
+
 def husky(work):
     rows = ["| objective | fitted on runs 01-09: innovation or one-step RMSE (V m/s, omega rad/s) | "
             "held out run 10: one-step RMSE V, omega | held out run 11 | held-out NLL per measured row (10, 11) |",
@@ -100,8 +112,9 @@ def borealtc(work):
     decision = data["decision"]
     conf_text = "\n".join(conf) + (
         f"\n\nShare of each terrain's time (all its runs) by the most probable terrain. Over all runs' time the "
-        f"most probable terrain is right {pct(data['accuracy'])} of the time; the decision layer (enter 0.9, "
-        f"leave 0.05, hold 1 s) {pct(decision['accuracy'])}, counting `unknown` as wrong "
+        f"most probable terrain is right {pct(data['accuracy'])} of the time; the decision layer "
+        f"({decision_settings(os.path.join(work, 'borealtc', 'terrains.yaml'))}) {pct(decision['accuracy'])}, "
+        f"counting `unknown` as wrong "
         f"({pct(decision['unknown_fraction'])} of the time `unknown`).\n")
     return "\n".join(lines) + "\n" + summary, conf_text
 
@@ -138,7 +151,8 @@ def splices(work):
         data = json.load(f)["overall"]
     latency, first, decision = data["latency"], data["first_latency"], data["decision"]
     switches = latency["switches"]
-    lines = ["| measure | most likely terrain | decision (enter 0.9, leave 0.05, hold 1 s) |", "|---|---|---|",
+    settings = decision_settings(os.path.join(work, "splices", "bank.yaml"))
+    lines = [f"| measure | most likely terrain | decision ({settings}) |", "|---|---|---|",
              f"| accuracy | {pct(data['accuracy'])} | {pct(decision['accuracy'])} |",
              f"| switches | {switches} | {decision['switches']} |",
              f"| new terrain first chosen: median, never | {fmt(first['median'], 1)} s, never {switches - first['detected']} | "

@@ -8,8 +8,10 @@
 #  B. BorealTC (shared/data/borealtc: five terrains, 47 runs, multi-rate):
 #     `skidimm tune` from configs/borealtc/terrains_start.yaml with nested
 #     leave-one-run-out cross-validation: every run is scored by a bank whose
-#     models were fitted, and whose Q scale, dwell time and probability floor
-#     were tuned, on the other 46 runs only. `skidimm eval --estimates`
+#     models were fitted, and whose likelihood weight, Q and R scales and
+#     probability floor were tuned, on the other 46 runs only (the dwell time
+#     is the start bank's: single-terrain runs cannot tell how often terrain
+#     changes). `skidimm eval --estimates`
 #     recomputes every metric from the held-out outputs tune wrote; the
 #     script checks that both agree. The bank fitted and tuned on every run
 #     is configs/borealtc/terrains.yaml.
@@ -49,7 +51,7 @@ echo "== B: BorealTC, nested leave-one-run-out" >&2
 bt=$data/borealtc
 logs=()
 for terrain in "${terrains[@]}"; do logs+=(--log "$terrain=$bt/$terrain/pro_*.csv+$bt/$terrain/imu_*.csv"); done
-tune=(--objective window --hold-unexcited --full-q --tune q-scale,dwell,floor --inner-folds 0)
+tune=(--objective window --hold-unexcited --full-q --tune likelihood-weight,q-scale,r-scale,floor --inner-folds 0)
 "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${logs[@]}" "${tune[@]}" \
   --table "$work/borealtc/scores.csv" --estimates "$work/borealtc/held_out" --output-bank "$work/borealtc/terrains.yaml" \
   >"$work/borealtc/tune.txt"
