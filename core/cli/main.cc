@@ -151,8 +151,9 @@ int main(int argc, char** argv) {
 
   TuneCommandOptions tune_options;
   std::string tune_bank;
-  CLI::App* tune = app.add_subcommand(
-      "tune", "Choose noise scales, dwell time, floor, likelihood weight and fit objective by cross-validation over labelled logs");
+  CLI::App* tune = app.add_subcommand("tune",
+                                      "Choose noise scales, dwell time, floor, likelihood weight and fit objective by "
+                                      "cross-validation over labelled logs");
   tune->add_option("--bank,-b", tune_bank, "Bank giving the models, columns and starting values")
       ->required()
       ->check(CLI::ExistingFile);

@@ -402,8 +402,8 @@ BankConfig load_bank_config(const fs::path& file) {
 
   y.check_keys(root,
                {"name", "description", "states", "angles", "inputs", "columns", "sampling", "measurement", "transition",
-                "initial", "mode_probability_floor", "likelihood_weight", "innovation_gate", "plugin_paths", "shared", "modes", "classes",
-                "decision"},
+                "initial", "mode_probability_floor", "likelihood_weight", "innovation_gate", "plugin_paths", "shared",
+                "modes", "classes", "decision"},
                "");
   BankConfig bank;
   bank.file = fs::absolute(file);

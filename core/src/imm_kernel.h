@@ -464,7 +464,7 @@ class Kernel final : public ImmKernel {
   int n_;
   int modes_;
   double floor_;
-  double likelihood_weight_;  // w of Lambda_j^w (bank.h)
+  double likelihood_weight_;   // w of Lambda_j^w (bank.h)
   std::vector<double> gates_;  // by number of measured components; +inf: no gate
   Eigen::VectorXd initial_state_;
   Eigen::MatrixXd initial_covariance_;

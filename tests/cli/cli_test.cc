@@ -581,8 +581,8 @@ TEST(Cli, TuneTempersTheEvidenceOfABankThatOvercountsItOnRealRuns) {
   }
   const Result tune = run_skidimm("tune --bank " + kSource + "/configs/borealtc/terrains_start.yaml" + logs +
                                   " --objective window --hold-unexcited --full-q --tune likelihood-weight --no-assess"
-                                  " --threads 2 --output-bank " + (dir / "tuned.yaml").string() + " --plugin-path " +
-                                  kPlugins);
+                                  " --threads 2 --output-bank " +
+                                  (dir / "tuned.yaml").string() + " --plugin-path " + kPlugins);
   ASSERT_EQ(tune.exit_code, 0) << tune.err;
   EXPECT_THAT(tune.err, HasSubstr("likelihood weight"));
   const skidimm::BankConfig tuned = skidimm::load_bank_config(dir / "tuned.yaml");

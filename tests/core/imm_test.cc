@@ -7,8 +7,8 @@
 #include <cmath>
 #include <limits>
 #include <random>
-#include <utility>
 #include <unsupported/Eigen/MatrixFunctions>
+#include <utility>
 
 #include "core/reference_imm.h"
 #include "core/test_banks.h"

@@ -89,8 +89,9 @@ TEST(TunedSettings, ApplyScalesFittedValuesAndSetsTheTransitionAndFloor) {
   EXPECT_EQ(bank.config.transition.dwell_seconds, Eigen::Vector2d(20.0, 20.0));
   EXPECT_EQ(bank.config.mode_probability_floor, 1e-4);
   EXPECT_EQ(bank.config.likelihood_weight, 0.25);
-  EXPECT_EQ(s.describe(bank.config),
-            "objective , R x 4, R[omega] std x 2, Q x 10, Q[b] x 0.5, dwell 20 s, floor 0.0001, likelihood weight 0.25");
+  EXPECT_EQ(
+      s.describe(bank.config),
+      "objective , R x 4, R[omega] std x 2, Q x 10, Q[b] x 0.5, dwell 20 s, floor 0.0001, likelihood weight 0.25");
   EXPECT_THROW(knob_from_string("r_scale"), Error);
   EXPECT_EQ(knob_from_string("q-modes"), Knob::kQModes);
   EXPECT_EQ(knob_from_string("likelihood-weight"), Knob::kLikelihoodWeight);

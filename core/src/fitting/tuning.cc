@@ -123,7 +123,8 @@ Knob knob_from_string(const std::string& name) {
                  Knob::kLikelihoodWeight}) {
     if (name == to_string(k)) return k;
   }
-  throw Error("unknown setting '" + name + "' (expected r-scale, r-components, q-scale, q-modes, dwell, floor, likelihood-weight)");
+  throw Error("unknown setting '" + name +
+              "' (expected r-scale, r-components, q-scale, q-modes, dwell, floor, likelihood-weight)");
 }
 
 std::string TunedSettings::describe(const BankConfig& config) const {

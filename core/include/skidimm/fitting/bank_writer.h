@@ -56,9 +56,9 @@ void write_bank_from_template(const std::filesystem::path& template_file, const 
 // Top-level blocks of a bank, as YAML text that loads back to the same values.
 std::string format_measurement_block(const BankConfig& config);  // "measurement:\n  observe: ...\n  R: ..."
 std::string format_transition_block(const BankConfig& config);   // "transition:\n  ..."
-std::string format_floor_block(const BankConfig& config);
-// "likelihood_weight: ..."; empty (no key: the default, 1) when it is 1.
-std::string format_likelihood_weight_block(const BankConfig& config);        // "mode_probability_floor: ..." 
+std::string format_floor_block(const BankConfig& config);        // "mode_probability_floor: ..."
+// "likelihood_weight: ...", or nothing when it is 1 (the default: no key).
+std::string format_likelihood_weight_block(const BankConfig& config);
 
 }  // namespace fitting
 }  // namespace skidimm

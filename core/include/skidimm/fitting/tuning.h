@@ -6,8 +6,9 @@
 // sensors are taken to be (R), how much each mode's filter trusts its model
 // (a scale on Q), how sticky the modes are (the mean dwell time), how far an
 // unlikely mode may fall (the probability floor), how much one step's evidence
-// counts (the likelihood weight), and which fit objective built the models. The tuner chooses them to maximise the held-out mean log
-// probability of the truth (accuracy is reported beside it):
+// counts (the likelihood weight), and which fit objective built the models.
+// The tuner chooses them to maximise the held-out mean log probability of the
+// truth (accuracy is reported beside it):
 //
 //   for each fold (one log held out, or K groups of logs), fit the bank on the
 //   other logs with each candidate objective, then score the held-out logs
