@@ -269,6 +269,19 @@ int plot(const PlotOptions& options) {
         << " noenhanced\n";
     } else
       g << "set title " << gnuplot_string(options.title) << " noenhanced\n";
+    // gnuplot's line types cycle through 8 colours, so in a bank of 10 or 16
+    // modes two modes would share a colour. Line types from 9 on get 12 more
+    // colours, and past 20 modes the colours repeat with another dash pattern.
+    // The first 8 stay gnuplot's own, so smaller banks look as they did.
+    static const char* const kExtraColours[] = {"#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf", "#aec7e8",
+                                                "#ffbb78", "#98df8a", "#ff9896", "#c5b0d5", "#c49c94", "#9edae5"};
+    static const char* const kFirstColours[] = {"#9400d3", "#009e73", "#56b4e9", "#e69f00",
+                                                "#f0e442", "#0072b2", "#e51e10", "#000000"};
+    for (std::size_t k = 9; k <= modes.size(); ++k) {
+      const std::size_t i = (k - 1) % 20;
+      g << "set linetype " << k << " lc rgb '" << (i < 8 ? kFirstColours[i] : kExtraColours[i - 8]) << "' dt "
+        << 1 + (k - 1) / 20 << "\n";
+    }
     // Mode probabilities, the truth as bands coloured like the mode's line.
     std::map<std::string, int> line_of;
     for (std::size_t i = 0; i < modes.size(); ++i) line_of[modes[i].second] = static_cast<int>(i) + 1;

@@ -942,6 +942,32 @@ TEST(CliIo, TheLikelihoodFitNamesAnAbsurdRowWhenAStateIsUnmeasured) {
 // plot reads the estimates twice (here, then gnuplot): from a pipe they are
 // copied first. Text from the file reaches gnuplot printable, and names
 // reach it without a shell.
+// gnuplot's line colours repeat after 8: in a bank of more modes, each mode
+// still gets a colour (or, past 20, a dash pattern) of its own.
+TEST(CliIo, PlotGivesEachOfManyModesItsOwnLine) {
+  const fs::path dir = test_directory();
+  std::string text = "t";
+  for (int j = 0; j < 22; ++j) text += ",mu_m" + std::to_string(j);
+  text += "\n";
+  for (int k = 0; k < 5; ++k) {
+    text += std::to_string(0.5 * k);
+    for (int j = 0; j < 22; ++j) text += "," + std::to_string((j + k) % 22 == 0 ? 0.79 : 0.01);
+    text += "\n";
+  }
+  const fs::path estimates = write_file(dir / "many.csv", text);
+  const fs::path figure = dir / "many.svg";
+  const Result plot = run_skidimm("plot --estimates " + estimates.string() + " --output " + figure.string());
+  ASSERT_EQ(plot.exit_code, 0) << plot.err;
+  const std::string svg = read_file(figure);
+  // Modes 9 and 10 in the 12 colours after gnuplot's 8 (#8c564b, #e377c2),
+  // not in the 1st and 2nd modes' dark violet and green again.
+  EXPECT_THAT(svg, HasSubstr("rgb(140,  86,  75)"));
+  EXPECT_THAT(svg, HasSubstr("rgb(227, 119, 194)"));
+  EXPECT_THAT(svg, HasSubstr("rgb(158, 218, 229)"));  // the 20th, #9edae5
+  // The 21st mode: the 1st mode's colour, dashed (the 1st is solid).
+  EXPECT_THAT(svg, HasSubstr("stroke='rgb(148,   0, 211)' stroke-dasharray"));
+}
+
 TEST(CliIo, PlotReadsAPipeAndGivesGnuplotNoRawTextFromTheFiles) {
   const fs::path dir = test_directory();
   const fs::path piped = dir / "piped.png";
