@@ -145,7 +145,8 @@ TEST(Imm, MatchesIndependentScalarImplementationOverManySteps) {
 // likelihood_weight w: mu_j is proportional to c_j * Lambda_j^w. By hand from
 // the step above: c = [0.62, 0.38], Lambda = [0.6097..., 0.5920...], w = 0.5:
 // 0.62 * sqrt(0.6097...) / (0.62 * sqrt(0.6097...) + 0.38 * sqrt(0.5920...)).
-// The filters themselves, and the likelihoods reported, do not change.
+// At this step the mode filters and their reported likelihoods are as with
+// w = 1; from the next step on, the mixing uses the tempered probabilities.
 TEST(Imm, LikelihoodWeightTempersEachStepsEvidence) {
   Bank bank = two_mode_scalar_bank().build();
   bank.config.likelihood_weight = 0.5;
