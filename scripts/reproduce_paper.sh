@@ -68,13 +68,10 @@ evaluate() {  # evaluate NAME SENSORS BANK SCENARIO...
   local file
   file=$(bank_file "$sensors" "$bank")
   "$skidimm" eval --bank "$file" "${inputs[@]}" --json >"$work/eval/${name}__${sensors}__${bank}.json"
-  # Smoothing 16 modes costs 16^2 per step and would take most of this script's
-  # time: the 16-mode banks are scored filtered only.
-  case "$bank" in
-    *16) ;;
-    *) "$skidimm" eval --bank "$file" "${inputs[@]}" --smooth --json \
-         >"$work/eval/${name}__${sensors}__${bank}__smoothed.json" ;;
-  esac
+  # Every bank is smoothed too, the 16-mode ones included, although their
+  # 16^2 mode pairs per step make that a large part of this script's time.
+  "$skidimm" eval --bank "$file" "${inputs[@]}" --smooth --json \
+    >"$work/eval/${name}__${sensors}__${bank}__smoothed.json"
 }
 evaluate_all() {  # evaluate_all SENSORS
   local sensors=$1 bank
