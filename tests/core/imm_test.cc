@@ -121,10 +121,15 @@ TEST(Imm, OneStepMatchesHandComputation) {
   EXPECT_GT(std::abs(e1.mode_probabilities[0] - 0.6070377458762876), 0.01);
 }
 
-TEST(Imm, MatchesIndependentScalarImplementationOverManySteps) {
-  Imm imm(two_mode_scalar_bank().build());
+// 200 irregular steps of the two-mode bank with `likelihood_weight`, against
+// ReferenceImm with the same weight.
+void ExpectMatchesReferenceOverManySteps(double likelihood_weight, unsigned seed) {
+  Bank bank = two_mode_scalar_bank().build();
+  bank.config.likelihood_weight = likelihood_weight;
+  Imm imm(std::move(bank));
   ReferenceImm reference;
-  std::mt19937 rng(7);
+  reference.likelihood_weight = likelihood_weight;
+  std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, 0.5);
   double t = 0.0;
   for (int k = 0; k < 200; ++k) {
@@ -141,6 +146,8 @@ TEST(Imm, MatchesIndependentScalarImplementationOverManySteps) {
     t += 0.05 + 0.03 * std::cos(k);  // irregular sampling
   }
 }
+
+TEST(Imm, MatchesIndependentScalarImplementationOverManySteps) { ExpectMatchesReferenceOverManySteps(1.0, 7); }
 
 // likelihood_weight w: mu_j is proportional to c_j * Lambda_j^w. By hand from
 // the step above: c = [0.62, 0.38], Lambda = [0.6097..., 0.5920...], w = 0.5:
@@ -159,24 +166,7 @@ TEST(Imm, LikelihoodWeightTempersEachStepsEvidence) {
 
   // Over many irregular steps, against the linear-domain reference raising
   // each likelihood to the weight.
-  Bank tempered = two_mode_scalar_bank().build();
-  tempered.config.likelihood_weight = 0.3;
-  Imm weighted(std::move(tempered));
-  ReferenceImm reference;
-  reference.likelihood_weight = 0.3;
-  std::mt19937 rng(11);
-  std::normal_distribution<double> noise(0.0, 0.5);
-  double t = 0.0;
-  for (int k = 0; k < 200; ++k) {
-    const double u = std::sin(0.1 * k);
-    const double z = 0.8 * std::sin(0.05 * k) + noise(rng);
-    const ImmEstimate& e = weighted.step(t, vec({u}), vec({z}));
-    reference.step(t, u, z);
-    ASSERT_NEAR(e.mode_probabilities[0], reference.mu[0], 1e-10) << "step " << k;
-    ASSERT_NEAR(e.state[0], reference.x_combined, 1e-10) << "step " << k;
-    ASSERT_NEAR(e.covariance(0, 0), reference.var_combined, 1e-10) << "step " << k;
-    t += 0.05 + 0.03 * std::cos(k);
-  }
+  ExpectMatchesReferenceOverManySteps(0.3, 11);
 }
 
 // Three LTC modes with random inputs: the invariants hold at every step.
