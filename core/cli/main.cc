@@ -79,6 +79,17 @@ int main(int argc, char** argv) {
                   "Chi-square innovation gate: probability a consistent measurement passes, in (0, 1); 0: none "
                   "(overrides the bank's innovation_gate; docs/engine.md)")
       ->check(CLI::Range(0.0, 1.0));
+  run->add_option("--likelihood-weight", run_options.likelihood_weight,
+                  "Weight of each step's evidence in the mode probabilities, in (0, 1]; 1: the plain IMM "
+                  "(overrides the bank's likelihood_weight; docs/engine.md)")
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            double weight = 0.0;
+            const bool number = CLI::detail::lexical_cast(text, weight);
+            return number && weight > 0.0 && weight <= 1.0 ? std::string()
+                                                           : "expected a weight in (0, 1], got '" + text + "'";
+          },
+          "W in (0, 1]"));
   run->add_flag("--strict", run_options.strict,
                 "The first row where a mode's filter is rejected ends the run with an error (rows so far are kept)");
   std::string run_plot;

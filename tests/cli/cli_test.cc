@@ -942,6 +942,35 @@ TEST(CliIo, TheLikelihoodFitNamesAnAbsurdRowWhenAStateIsUnmeasured) {
 // plot reads the estimates twice (here, then gnuplot): from a pipe they are
 // copied first. Text from the file reaches gnuplot printable, and names
 // reach it without a shell.
+// --likelihood-weight overrides the bank's: 1 is the plain IMM to the byte,
+// below 1 the probabilities are less sure of every mode; out of (0, 1] it
+// is a usage error.
+TEST(CliIo, RunLikelihoodWeightOverridesTheBanksAndIsChecked) {
+  const fs::path dir = test_directory();
+  const auto mean_largest_probability = [](const fs::path& file) {
+    const auto rows = read_csv(file);
+    double sum = 0.0;
+    for (std::size_t i = 1; i < rows.size(); ++i) {
+      sum += std::max({std::stod(rows[i][1]), std::stod(rows[i][2]), std::stod(rows[i][3])});
+    }
+    return sum / static_cast<double>(rows.size() - 1);
+  };
+  ASSERT_EQ(run_shell(run_arguments(kSwitching, (dir / "plain.csv").string())).exit_code, 0);
+  ASSERT_EQ(run_shell(run_arguments(kSwitching, (dir / "one.csv").string()) + " --likelihood-weight 1").exit_code, 0);
+  EXPECT_EQ(read_file(dir / "one.csv"), read_file(dir / "plain.csv"));
+  const Result tempered =
+      run_shell(run_arguments(kSwitching, (dir / "tempered.csv").string()) + " --likelihood-weight 0.05");
+  ASSERT_EQ(tempered.exit_code, 0) << tempered.err;
+  EXPECT_LT(mean_largest_probability(dir / "tempered.csv"), mean_largest_probability(dir / "plain.csv") - 0.05);
+  for (const std::string bad : {"0", "1.5", "-0.2", "nan", "abc"}) {
+    const Result refused =
+        run_shell(run_arguments(kSwitching, (dir / "bad.csv").string()) + " --likelihood-weight " + bad);
+    EXPECT_EQ(refused.exit_code, 2) << bad;
+    EXPECT_THAT(refused.err, HasSubstr("--likelihood-weight")) << bad;
+    EXPECT_FALSE(fs::exists(dir / "bad.csv")) << bad;
+  }
+}
+
 // gnuplot's line colours repeat after 8: in a bank of more modes, each mode
 // still gets a colour (or, past 20, a dash pattern) of its own.
 TEST(CliIo, PlotGivesEachOfManyModesItsOwnLine) {
