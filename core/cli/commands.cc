@@ -116,12 +116,8 @@ int run(const RunOptions& options) {
       }
       bank.config.innovation_gate = options.innovation_gate;
     }
-    if (options.likelihood_weight >= 0.0) {
-      if (!(options.likelihood_weight > 0.0 && options.likelihood_weight <= 1.0)) {
-        throw Error("--likelihood-weight: expected the weight of each step's evidence, in (0, 1]");
-      }
-      bank.config.likelihood_weight = options.likelihood_weight;
-    }
+    // In (0, 1]: main.cc's validator refuses anything else as a usage error.
+    if (options.likelihood_weight > 0.0) bank.config.likelihood_weight = options.likelihood_weight;
     const BankConfig& config = bank.config;
     const LogSpec log = join_inputs(options.inputs);
     if (!log.label.empty() && config.class_index(log.label) < 0) {

@@ -51,7 +51,7 @@ struct RunOptions {
   bool quiet = false;
   bool progress = true;  // shown only when stderr is a terminal
   double innovation_gate = -1.0;  // >= 0: overrides the bank's innovation_gate (0: none)
-  double likelihood_weight = -1.0;  // > 0: overrides the bank's likelihood_weight
+  double likelihood_weight = -1.0;  // > 0: overrides the bank's likelihood_weight (checked in main.cc)
   bool strict = false;            // the first rejected mode filter is an error
   bool flush = false;             // every row handed to the output as it is computed
 };

@@ -939,9 +939,6 @@ TEST(CliIo, TheLikelihoodFitNamesAnAbsurdRowWhenAStateIsUnmeasured) {
   EXPECT_FALSE(fs::exists(dir / "out.yaml"));
 }
 
-// plot reads the estimates twice (here, then gnuplot): from a pipe they are
-// copied first. Text from the file reaches gnuplot printable, and names
-// reach it without a shell.
 // --likelihood-weight overrides the bank's: 1 is the plain IMM to the byte,
 // below 1 the probabilities are less sure of every mode; out of (0, 1] it
 // is a usage error.
@@ -997,6 +994,9 @@ TEST(CliIo, PlotGivesEachOfManyModesItsOwnLine) {
   EXPECT_THAT(svg, HasSubstr("stroke='rgb(148,   0, 211)' stroke-dasharray"));
 }
 
+// plot reads the estimates twice (here, then gnuplot): from a pipe they are
+// copied first. Text from the file reaches gnuplot printable, and names
+// reach it without a shell.
 TEST(CliIo, PlotReadsAPipeAndGivesGnuplotNoRawTextFromTheFiles) {
   const fs::path dir = test_directory();
   const fs::path piped = dir / "piped.png";
