@@ -188,6 +188,66 @@ TEST(Scenario, HuskyPresetSensorsAreWhatARobotHas) {
   EXPECT_GT(std::abs(mean(gyro_error) - mean(other_error)), 1e-3);
 }
 
+// Motor currents are what the ground resists with. On a 3 m skidpad, where
+// four tarps turn like none (docs/simulation.md), the motors on four tarps
+// carry far less: current_per_torque |T| against the hand-computed
+// rolling-resistance floor on a straight run. Adding the sensor leaves every
+// other column as it was (its noise has its own stream).
+TEST(Scenario, MotorCurrentsSeeWhatTheGroundResistsWith) {
+  const auto dir = test_directory();
+  const std::string skidpad = R"(name: current
+duration: 20
+modes: {MODE: {terrain: asphalt TARP}}
+mode: MODE
+maneuver: {type: MANEUVER, speed: 0.8, radius: 3}
+sensors: {preset: husky, current_dropout: 0}
+)";
+  auto mean_current_after = [&](const std::string& mode, const std::string& tarp, const std::string& maneuver,
+                                double start, double* rate) {
+    std::string text = replace(replace(replace(skidpad, "MODE", mode), "MODE", mode), "TARP", tarp);
+    text = replace(text, "MANEUVER", maneuver);
+    simulate(load_scenario(write_file(dir / (mode + ".yaml"), text)), 4, dir / (mode + ".csv"));
+    auto c = read_columns(dir / (mode + ".csv"));
+    std::vector<double> current;
+    long samples = 0;
+    for (std::size_t k = 0; k < c["t"].size(); ++k) {
+      EXPECT_EQ(std::isnan(c["i_L"][k]), std::isnan(c["i_R"][k]));
+      if (std::isnan(c["i_L"][k])) continue;
+      ++samples;
+      EXPECT_GE(c["i_L"][k], 0.0);  // a magnitude
+      if (c["t"][k] >= start) current.push_back((c["i_L"][k] + c["i_R"][k]) / 2.0);
+    }
+    if (rate != nullptr) *rate = samples / 20.0;
+    return mean(current);
+  };
+  double rate = 0.0;
+  const double no_tarp = mean_current_after("none", "", "skidpad", 10.0, &rate);
+  const double four_tarps = mean_current_after("four", ", tarp: [FL, FR, RL, RR]", "skidpad", 10.0, nullptr);
+  EXPECT_NEAR(rate, 6.5, 0.1);
+  EXPECT_GT(no_tarp, 5.0);
+  EXPECT_LT(four_tarps, 0.6 * no_tarp);
+  // Straight at a steady 0.8 m/s the motors only roll the robot: rolling
+  // resistance c_rr m g / 2 per side at radius r, 0.015 x 50 x 9.81 / 2 x
+  // 0.165 = 0.607 N m, so 1.5 A + 0.4 A/(N m) x 0.607 N m = 1.74 A.
+  EXPECT_NEAR(mean_current_after("straight", "", "straight", 5.0, nullptr), 1.743, 0.05);
+
+  // Without the sensor, the same log less the two columns.
+  const std::string with = read_file(dir / "none.csv");
+  std::string text = replace(replace(replace(skidpad, "MODE", "none"), "MODE", "none"), "TARP", "");
+  text = replace(replace(text, "MANEUVER", "skidpad"), "current_dropout: 0", "current_rate: 0");
+  simulate(load_scenario(write_file(dir / "without.yaml", text)), 4, dir / "without.csv");
+  CsvReader a(dir / "none.csv"), b(dir / "without.csv");
+  ASSERT_EQ(a.header().size(), 21u);
+  ASSERT_EQ(b.header().size(), 19u);
+  std::vector<std::string> fa, fb;
+  while (a.next(&fa)) {
+    ASSERT_TRUE(b.next(&fb));
+    fa.resize(19);
+    ASSERT_EQ(fa, fb);
+  }
+  EXPECT_FALSE(b.next(&fb));
+}
+
 // Below 0.1 m/s a receiver gives no course: standing, only when the
 // velocity noise (0.035 m/s per axis) happens to exceed it.
 TEST(Scenario, GpsCourseIsEmptyWhenStanding) {

@@ -114,6 +114,13 @@ TEST(SimulationBounds, SensorRatesTheIntegrationCannotDeliverAreErrors) {
   EXPECT_THAT(load_error(replace(kScenario, "gps_rate: 10", "gps_rate: 60")),
               HasSubstr("sensors.gps_rate: a GPS fix is written on a sensor row, so it must be <= sensors.rate = 50 "
                         "Hz, got 60 Hz"));
+  EXPECT_THAT(load_error(replace(kScenario, "gps_rate: 10", "gps_rate: 10, current_rate: 51")),
+              HasSubstr("sensors.current_rate: a current sample is written on a sensor row, so it must be <= "
+                        "sensors.rate = 50 Hz, got 51 Hz"));
+  EXPECT_THAT(load_error(replace(kScenario, "gps_rate: 10", "gps_rate: 10, current_std: -1")),
+              HasSubstr("sensors.current_std"));
+  EXPECT_THAT(load_error(replace(kScenario, "gps_rate: 10", "gps_rate: 10, current_dropout: 2")),
+              HasSubstr("sensors.current_dropout"));
 }
 
 TEST(SimulationBounds, AStateThatStopsBeingFiniteIsAnErrorNamingTheTime) {

@@ -121,7 +121,12 @@ void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s)
                 "imu_dropout",
                 "gps_dropout",
                 "gps_outage_rate",
-                "gps_outage_duration"},
+                "gps_outage_duration",
+                "current_rate",
+                "current_per_torque",
+                "current_no_load",
+                "current_std",
+                "current_dropout"},
                "sensors");
   // A preset first; every other key overrides it.
   if (node["preset"]) {
@@ -158,6 +163,10 @@ void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s)
   set("gps_velocity_std", &s->gps_velocity_std, false);
   set("course_min_speed", &s->course_min_speed, false);
   set("gps_outage_rate", &s->gps_outage_rate, false);
+  set("current_rate", &s->current_rate, false);
+  set("current_per_torque", &s->current_per_torque, false);
+  set("current_no_load", &s->current_no_load, false);
+  set("current_std", &s->current_std, false);
   if (node["gps_correlation_time"]) {
     s->gps_correlation_time = positive(y, node["gps_correlation_time"], "sensors.gps_correlation_time");
   }
@@ -182,6 +191,7 @@ void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s)
   set_probability("velocity_dropout", &s->velocity_dropout);
   set_probability("imu_dropout", &s->imu_dropout);
   set_probability("gps_dropout", &s->gps_dropout);
+  set_probability("current_dropout", &s->current_dropout);
 }
 
 std::string number(double v) { return CsvWriter::format(std::round(v * 1e6) / 1e6); }
@@ -234,6 +244,11 @@ std::optional<Problem> simulation_problem(const Scenario& s) {
     return Problem{"sensors.gps_rate", "a GPS fix is written on a sensor row, so it must be <= sensors.rate = " +
                                            number(s.sensors.rate) + " Hz, got " + number(s.sensors.gps_rate) + " Hz"};
   }
+  if (s.sensors.current_rate > s.sensors.rate * (1.0 + 1e-9)) {
+    return Problem{"sensors.current_rate",
+                   "a current sample is written on a sensor row, so it must be <= sensors.rate = " +
+                       number(s.sensors.rate) + " Hz, got " + number(s.sensors.current_rate) + " Hz"};
+  }
   return std::nullopt;
 }
 
@@ -282,6 +297,11 @@ SensorConfig husky_sensors() {
   s.gps_dropout = 0.02;            // single lost fixes
   s.gps_outage_rate = 1.0 / 60.0;  // an outage a minute on average ...
   s.gps_outage_duration = 2.0;     // ... of 2 s on average (lost corrections, shading)
+  s.current_rate = 6.5;            // the rate of BorealTC's Husky A200 current logs
+  s.current_per_torque = 0.4;      // A / (N m) (assumed; real Husky currents, docs/simulation.md)
+  s.current_no_load = 1.5;         // A (assumed)
+  s.current_std = 0.3;             // A (assumed)
+  s.current_dropout = 0.005;
   return s;
 }
 
@@ -431,9 +451,16 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
     summary.max_friction_accel = std::max(summary.max_friction_accel, mu * 9.81);
   }
 
-  CsvWriter out(
-      output, {"t", "phi_dot_L", "phi_dot_R", "V", "omega", "ax", "ay", "X", "Y", "theta", "mode", "true_V", "true_vy",
-               "true_omega", "true_X", "true_Y", "true_theta", "true_phi_dot_L", "true_phi_dot_R"});
+  std::vector<std::string> columns{
+      "t",          "phi_dot_L",      "phi_dot_R",     "V",      "omega",   "ax",         "ay",     "X",
+      "Y",          "theta",          "mode",          "true_V", "true_vy", "true_omega", "true_X", "true_Y",
+      "true_theta", "true_phi_dot_L", "true_phi_dot_R"};
+  const bool measures_current = sensors.current_rate > 0.0;
+  if (measures_current) columns.insert(columns.end(), {"i_L", "i_R"});
+  CsvWriter out(output, columns);
+  // The currents' own stream: the other columns stay as they were without them.
+  Random current_random(seed ^ 0xC2B2AE3D27D4EB4FULL);
+  double next_current = 0.0;
   RobotState state;
   const double h = scenario.integration_step;
   const double period = 1.0 / sensors.rate;
@@ -441,7 +468,7 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
   double next_gps = 0.0;
   const long steps = static_cast<long>(std::ceil(scenario.duration / h));
   std::size_t segment = 0;
-  std::vector<std::string> row(19);
+  std::vector<std::string> row(columns.size());
   for (long k = 0; k <= steps; ++k) {
     const double t = k * h;
     while (segment + 1 < scenario.schedule.size() && t >= scenario.schedule[segment + 1].start) ++segment;
@@ -512,6 +539,21 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
       row[16] = number(heading);
       row[17] = number(true_left);
       row[18] = number(true_right);
+      if (measures_current && t + 1e-12 >= next_current) {
+        // The torque each side's motor holds its wheels' speed against.
+        const double torque_left = robot.wheel_radius * (forces.traction[kFrontLeft] + forces.traction[kRearLeft]);
+        const double torque_right = robot.wheel_radius * (forces.traction[kFrontRight] + forces.traction[kRearRight]);
+        const double noise_left = sensors.current_std * current_random.gaussian();
+        const double noise_right = sensors.current_std * current_random.gaussian();
+        if (current_random.uniform() >= sensors.current_dropout) {
+          // A magnitude, as the drivers report it: noise cannot make it negative.
+          row[19] = number(
+              std::abs(sensors.current_no_load + sensors.current_per_torque * std::abs(torque_left) + noise_left));
+          row[20] = number(
+              std::abs(sensors.current_no_load + sensors.current_per_torque * std::abs(torque_right) + noise_right));
+        }
+        next_current += 1.0 / sensors.current_rate;
+      }
       out.write_row(row);
       ++summary.rows;
       const double jitter = sensors.jitter > 0.0 ? sensors.jitter * (2.0 * random.uniform() - 1.0) : 0.0;

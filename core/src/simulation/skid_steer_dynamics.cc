@@ -40,6 +40,7 @@ ContactForces SkidSteerDynamics::forces(const RobotState& s, const TractionMode&
       fx = magnitude * slip_x / slip;
       fy = -c.lateral_ratio * magnitude * slip_y / slip;
     }
+    out.traction[i] = fx;
     fx -= c.rolling_resistance * normal * std::tanh(contact_vx / kRollingSmoothing);
     out.fx[i] = fx;
     out.fy[i] = fy;

@@ -58,6 +58,18 @@ struct SensorConfig {
   double gps_dropout = 0.0;          // ... lacks a due GPS fix
   double gps_outage_rate = 0.0;      // 1/s: outages (no fix at all) start at this rate
   double gps_outage_duration = 2.0;  // s, mean (exponential) length of an outage
+  // Motor currents, the i_L and i_R columns, written only when current_rate
+  // is above 0. Each side's drive holds its wheels' speed, so its motor
+  // carries the torque T = r (F_front + F_rear) its two wheels' traction
+  // forces need (ContactForces::traction), and reports current_no_load + current_per_torque |T| +
+  // noise: a magnitude, as the Husky's drivers do. The current is what the
+  // ground resists with, which no kinematic sensor sees: a robot with every
+  // wheel on tarp turns like one without, but its motors work far less.
+  double current_rate = 0.0;        // Hz; 0 = no current columns
+  double current_per_torque = 0.0;  // A / (N m) at the wheel: 1 / (torque constant x gear ratio)
+  double current_no_load = 0.0;     // A, drawn at any speed (friction in the drive train)
+  double current_std = 0.0;         // A, white noise
+  double current_dropout = 0.0;     // probability that a due current sample is lost
 };
 
 // The sensors of a Husky-class robot with an RTK receiver (`preset: husky`);
@@ -119,9 +131,11 @@ struct SimulationSummary {
 // Columns: t, phi_dot_L, phi_dot_R (measured), V, omega, ax, ay, X, Y, theta
 // (as SensorConfig describes; empty when not measured), mode, then truth:
 // true_V, true_vy, true_omega, true_X, true_Y, true_theta, true_phi_dot_L,
-// true_phi_dot_R. The sensors of the default (ideal) SensorConfig draw the
+// true_phi_dot_R, and last i_L, i_R when the sensors measure motor current
+// (sensors.current_rate > 0; empty between samples). The sensors of the default (ideal) SensorConfig draw the
 // same random numbers as before the realistic ones existed, so their logs
-// are unchanged; the realistic sensors draw from a second stream.
+// are unchanged; the realistic sensors draw from a second stream, and the
+// motor currents from a third, so that adding them changed no other column.
 SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const std::filesystem::path& output);
 
 }  // namespace simulation

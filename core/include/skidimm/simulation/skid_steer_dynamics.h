@@ -43,6 +43,11 @@ struct RobotState {
 struct ContactForces {
   std::array<double, kNumWheels> fx{};  // N, body x
   std::array<double, kNumWheels> fy{};  // N, body y
+  // N, body x: the slip force alone, before rolling resistance. The wheel's
+  // motor holds its speed against it, so its torque is wheel_radius x this;
+  // rolling resistance is a loss the motor also drives against, so fx =
+  // traction - rolling resistance is what the body feels.
+  std::array<double, kNumWheels> traction{};
   double ax = 0.0;                      // body acceleration (sum F / m), what an IMU measures, m/s^2
   double ay = 0.0;
 };
