@@ -274,6 +274,7 @@ int plugins(const std::vector<fs::path>& plugin_paths) {
     };
     variables("states", d.states, "the bank's own (not declared by the plugin)");
     variables("inputs", d.inputs, "the bank's own (not declared by the plugin)");
+    if (!d.outputs.empty()) variables("outputs", d.outputs, "");
     if (!d.parameter_docs.empty()) {
       std::cout << "    parameters:\n";
       for (const std::string& doc : d.parameter_docs) std::cout << "      " << doc << "\n";

@@ -100,7 +100,7 @@ std::vector<std::string> column_map(const YamlFields& y, const YAML::Node& node,
 
 void parse_measurement(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {
   const YAML::Node node = y.required(root, "measurement", "");
-  y.check_keys(node, {"observe", "H", "names", "R"}, "measurement");
+  y.check_keys(node, {"observe", "H", "names", "outputs", "R"}, "measurement");
   const int n = bank->state_dim();
   MeasurementConfig& mc = bank->measurement;
   if (node["observe"] && node["H"]) y.fail(node, "measurement", "give either 'observe' or 'H', not both");
@@ -134,6 +134,19 @@ void parse_measurement(const YamlFields& y, const YAML::Node& root, BankConfig* 
   }
   if (!mc.h.allFinite()) y.fail(node, "measurement.H", "must be finite");
   check_magnitude(y, node["H"] ? node["H"] : node, mc.h, "measurement.H");
+  if (node["outputs"]) {
+    // Rows after the states' with zero H: each is the model's prediction
+    // (Bank::instantiate checks every mode's model has it).
+    mc.outputs = y.string_list(node["outputs"], "measurement.outputs");
+    if (mc.outputs.empty()) y.fail(node["outputs"], "measurement.outputs", "lists no output (leave it out)");
+    std::vector<std::string> all = mc.names;
+    all.insert(all.end(), mc.outputs.begin(), mc.outputs.end());
+    check_unique(y, node["outputs"], all, "measurement.outputs");
+    mc.names = all;
+    const Eigen::Index states_rows = mc.h.rows();
+    mc.h.conservativeResize(static_cast<Eigen::Index>(all.size()), Eigen::NoChange);
+    mc.h.bottomRows(mc.h.rows() - states_rows).setZero();
+  }
   const int m = static_cast<int>(mc.h.rows());
   if (m == 0) y.fail(node, "measurement", "measures nothing");
   const YAML::Node r = y.required(node, "R", "measurement");
@@ -560,6 +573,13 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry) {
       throw ConfigError(file, mode.line, field + ".model",
                         who + " takes inputs [" + join(model->input_names()) + "] but the bank declares [" +
                             join(config.input_names) + "]");
+    }
+    for (const std::string& output : config.measurement.outputs) {
+      if (index_of(model->output_names(), output) < 0) {
+        throw ConfigError(file, mode.line, field + ".model",
+                          who + " has no output '" + output + "' (measurement.outputs); its outputs are [" +
+                              join(model->output_names()) + "]");
+      }
     }
     bank.models.push_back(std::move(model));
     bank.model_sources.push_back({descriptor->path, descriptor->name, descriptor->version});

@@ -152,7 +152,7 @@ const ImmEstimate& Imm::step(double t, const Eigen::Ref<const Eigen::VectorXd>& 
     estimate_.status = StepStatus::kRejectedTime;
     return estimate_;
   }
-  kernel_->step(!initialized_, initialized_ ? t - last_t_ : 0.0, held_input_, z, &estimate_);
+  kernel_->step(!initialized_, initialized_ ? t - last_t_ : 0.0, held_input_, u, z, &estimate_);
   if (estimate_.num_rejected_modes > 0) {
     // The kernel names failures in prediction; the others came later.
     for (int j = 0; j < num_modes(); ++j) {

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "filter_health.h"
@@ -23,6 +24,7 @@
 #include "skidimm/ekf.h"
 #include "skidimm/gaussian_mixture.h"
 #include "skidimm/imm_estimate.h"
+#include "skidimm/measured_outputs.h"
 #include "skidimm/measurement_model.h"
 #include "skidimm/mode_transition.h"
 
@@ -53,8 +55,12 @@ class ImmKernel {
   virtual ~ImmKernel() = default;
   // One accepted step (t increased, u finite) of Imm::step. `first`: the
   // prior holds, no prediction. Writes everything in *e but t.
+  // u drives the prediction over the last dt (the input held since the last
+  // step); u_now is the input at this step's time, from which the models
+  // predict the outputs measured with z (measured_outputs.h).
   virtual void step(bool first, double dt, const Eigen::Ref<const Eigen::VectorXd>& u,
-                    const Eigen::Ref<const Eigen::VectorXd>& z, ImmEstimate* e) = 0;
+                    const Eigen::Ref<const Eigen::VectorXd>& u_now, const Eigen::Ref<const Eigen::VectorXd>& z,
+                    ImmEstimate* e) = 0;
 };
 
 // The mode-matched filters, fixed size: N states, M measurement components.
@@ -91,9 +97,11 @@ class FixedFilters {
   }
 
   // Updates every mode whose log-likelihood is not already -inf with the
-  // finite rows of z, gating at gates[k] for k rows; writes log-likelihoods,
-  // NIS and kGated. Returns the number of rows used.
-  int update(const Eigen::Ref<const Eigen::VectorXd>& z, const double* gates, ImmEstimate* e, int* rejected) {
+  // finite rows of z, less the mode's expected outputs when `outputs` is
+  // given, gating at gates[k] for k rows; writes log-likelihoods, NIS and
+  // kGated. Returns the number of rows used.
+  int update(const Eigen::Ref<const Eigen::VectorXd>& z, const MeasuredOutputs* outputs, const double* gates,
+             ImmEstimate* e, int* rejected) {
     std::array<int, M> rows{};
     int k = 0;
     for (int a = 0; a < M; ++a) {
@@ -101,16 +109,16 @@ class FixedFilters {
     }
     switch (k) {
       case 1:
-        update_rows<1>(rows, z, gates[1], e, rejected);
+        update_rows<1>(rows, z, outputs, gates[1], e, rejected);
         break;
       case 2:
-        update_rows<2>(rows, z, gates[2], e, rejected);
+        update_rows<2>(rows, z, outputs, gates[2], e, rejected);
         break;
       case 3:
-        update_rows<3>(rows, z, gates[3], e, rejected);
+        update_rows<3>(rows, z, outputs, gates[3], e, rejected);
         break;
       case 4:
-        update_rows<4>(rows, z, gates[4], e, rejected);
+        update_rows<4>(rows, z, outputs, gates[4], e, rejected);
         break;
       default:
         break;
@@ -120,8 +128,8 @@ class FixedFilters {
 
  private:
   template <int K>
-  void update_rows(const std::array<int, M>& rows, const Eigen::Ref<const Eigen::VectorXd>& z, double gate,
-                   ImmEstimate* e, int* rejected) {
+  void update_rows(const std::array<int, M>& rows, const Eigen::Ref<const Eigen::VectorXd>& z,
+                   const MeasuredOutputs* outputs, double gate, ImmEstimate* e, int* rejected) {
     if constexpr (K <= M) {
       Eigen::Matrix<double, K, 1> zk;
       Eigen::Matrix<double, K, N> hk;
@@ -137,8 +145,12 @@ class FixedFilters {
       const int modes = static_cast<int>(models_.size());
       for (int j = 0; j < modes; ++j) {
         if (e->log_likelihoods[j] == kMinusInfinity) continue;  // failed in predict
+        Eigen::Matrix<double, K, 1> zj = zk;
+        if (outputs != nullptr) {
+          for (int a = 0; a < K; ++a) zj[a] -= outputs->expected(j)[rows[static_cast<std::size_t>(a)]];
+        }
         const UpdateResult result =
-            update_fixed<N, K>(zk, hk, rk, angles, state_angles_, &x_[static_cast<std::size_t>(j)],
+            update_fixed<N, K>(zj, hk, rk, angles, state_angles_, &x_[static_cast<std::size_t>(j)],
                                &p_[static_cast<std::size_t>(j)], gate);
         record_update(j, result, e, rejected);
       }
@@ -172,6 +184,7 @@ class DynamicFilters {
                             measurement_model_.measurement_dim());
     }
     selection_ = measurement_model_.make_selection();
+    measured_ = selection_.z;
   }
 
   State& state(int j) { return filters_[static_cast<std::size_t>(j)].state(); }
@@ -182,12 +195,19 @@ class DynamicFilters {
     return filters_[static_cast<std::size_t>(j)].predict(u, dt);
   }
 
-  int update(const Eigen::Ref<const Eigen::VectorXd>& z, const double* gates, ImmEstimate* e, int* rejected) {
+  int update(const Eigen::Ref<const Eigen::VectorXd>& z, const MeasuredOutputs* outputs, const double* gates,
+             ImmEstimate* e, int* rejected) {
     measurement_model_.select(z, &selection_);
     if (selection_.size == 0) return 0;
+    if (outputs != nullptr) measured_ = selection_.z;
     const int modes = static_cast<int>(filters_.size());
     for (int j = 0; j < modes; ++j) {
       if (e->log_likelihoods[j] == kMinusInfinity) continue;  // failed in predict
+      if (outputs != nullptr) {
+        for (int a = 0; a < selection_.size; ++a) {
+          selection_.z[a] = measured_[a] - outputs->expected(j)[selection_.rows[static_cast<std::size_t>(a)]];
+        }
+      }
       const UpdateResult result = filters_[static_cast<std::size_t>(j)].update(selection_, gates[selection_.size]);
       record_update(j, result, e, rejected);
     }
@@ -199,6 +219,7 @@ class DynamicFilters {
   MeasurementModel measurement_model_;
   std::vector<ExtendedKalmanFilter> filters_;
   SelectedMeasurement selection_;
+  Eigen::VectorXd measured_;  // selection_.z as measured, when modes subtract their outputs
 };
 
 // Mixing (eq. 4-7, all targets in one product), the filters, the mode
@@ -212,6 +233,7 @@ class Kernel final : public ImmKernel {
 
   explicit Kernel(const Bank& bank)
       : filters_(bank),
+        outputs_(bank),
         transition_(ModeTransition::from_config(bank.config.transition, bank.config.num_modes())),
         n_(bank.config.state_dim()),
         modes_(bank.config.num_modes()),
@@ -245,7 +267,8 @@ class Kernel final : public ImmKernel {
   }
 
   void step(bool first, double dt, const Eigen::Ref<const Eigen::VectorXd>& u,
-            const Eigen::Ref<const Eigen::VectorXd>& z, ImmEstimate* e) override {
+            const Eigen::Ref<const Eigen::VectorXd>& u_now, const Eigen::Ref<const Eigen::VectorXd>& z,
+            ImmEstimate* e) override {
     int rejected = 0;
     e->log_likelihoods.setConstant(kNaN);
     e->nis.setConstant(kNaN);
@@ -266,7 +289,20 @@ class Kernel final : public ImmKernel {
         }
       }
     }
-    const int measured = filters_.update(z, gates_.data(), e, &rejected);
+    // What each mode predicts for the outputs measured (measured_outputs.h).
+    const bool outputs_measured = outputs_.any() && outputs_.measured(z);
+    if (outputs_measured) {
+      for (int j = 0; j < modes_; ++j) {
+        if (e->log_likelihoods[j] == kMinusInfinity) continue;
+        if (!outputs_.predict(j, u_now, &output_failure_)) {
+          e->log_likelihoods[j] = kMinusInfinity;
+          e->mode_failures[static_cast<std::size_t>(j)] = ModeFailure::kModel;
+          e->failure_reasons[static_cast<std::size_t>(j)] = output_failure_;
+          ++rejected;
+        }
+      }
+    }
+    const int measured = filters_.update(z, outputs_measured ? &outputs_ : nullptr, gates_.data(), e, &rejected);
     // A filter that ran but holds absurd numbers has diverged (filter_health.h).
     for (int j = 0; j < modes_; ++j) {
       if (e->log_likelihoods[j] == kMinusInfinity) continue;
@@ -460,6 +496,8 @@ class Kernel final : public ImmKernel {
   }
 
   Filters filters_;
+  MeasuredOutputs outputs_;
+  std::string output_failure_;
   ModeTransition transition_;
   int n_;
   int modes_;

@@ -107,6 +107,7 @@ std::shared_ptr<boost::dll::shared_library> inspect(const fs::path& path, Plugin
   };
   variables(info->states, info->num_states, &descriptor->states);
   variables(info->inputs, info->num_inputs, &descriptor->inputs);
+  variables(info->outputs, info->num_outputs, &descriptor->outputs);
   return library;
 }
 
@@ -236,7 +237,7 @@ ModelHandle PluginRegistry::create(const std::string& name, const sdk::Parameter
   // The deleter owns a reference to the library: the object's code (its
   // destructor, its vtable) stays mapped until the object is gone.
   ModelHandle model(raw, [library](sdk::MotionModel* m) { delete m; });
-  // A plugin that declares its states and inputs must create models that have them.
+  // A plugin that declares its states, inputs and outputs must create models that have them.
   auto check = [&](const char* what, const std::vector<PluginVariable>& declared,
                    const std::vector<std::string>& actual, bool states) {
     if (declared.empty()) return;
@@ -257,6 +258,7 @@ ModelHandle PluginRegistry::create(const std::string& name, const sdk::Parameter
   };
   check("states", descriptor.states, model->state_names(), true);
   check("inputs", descriptor.inputs, model->input_names(), false);
+  check("outputs", descriptor.outputs, model->output_names(), false);
   return model;
 }
 

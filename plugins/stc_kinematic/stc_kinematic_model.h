@@ -7,6 +7,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "skidimm/sdk/angles.h"
@@ -82,6 +83,29 @@ class StcKinematicModel final : public sdk::SizedMotionModel<3, 2> {
         x, u, parameters, dt, jacobian);
   }
 
+  // Output: the yaw rate the model predicts from the wheel speeds, m r
+  // (phi_dot_R - phi_dot_L) / b, for a gyro (`measurement.outputs: [omega]`).
+  const std::vector<std::string>& output_names() const noexcept override { return output_names_; }
+  bool outputs(const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::VectorXd> y) const noexcept override {
+    const double wheels[2] = {u[kStcPhiDotLeft], u[kStcPhiDotRight]};
+    double forward = 0.0, yaw_rate = 0.0;
+    stc_requested_velocities(wheels, p_.r, p_.b, &forward, &yaw_rate);
+    y[0] = p_.m * yaw_rate;
+    return std::isfinite(y[0]);
+  }
+  bool output_parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& u,
+                                 Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept override {
+    const double parameters[kNumStcParameters] = {p_.k, p_.m, p_.r, p_.b};
+    return sdk::autodiff_output_parameter_jacobian<2, 1, kNumStcParameters>(
+        [](const auto* u_in, const auto* p, auto* out) {
+          using T = std::remove_reference_t<decltype(*out)>;
+          T forward, yaw_rate;
+          stc_requested_velocities(u_in, p[kR], p[kB], &forward, &yaw_rate);
+          out[0] = p[kM] * yaw_rate;
+        },
+        u, parameters, jacobian);
+  }
+
  private:
   StcKinematicModel() {
     const double inf = std::numeric_limits<double>::infinity();
@@ -118,6 +142,7 @@ class StcKinematicModel final : public sdk::SizedMotionModel<3, 2> {
   std::vector<sdk::ParameterInfo> parameter_info_;
   const std::vector<std::string> state_names_{"X", "Y", "theta"};
   const std::vector<std::string> input_names_{"phi_dot_L", "phi_dot_R"};
+  const std::vector<std::string> output_names_{"omega"};
 };
 
 }  // namespace plugins

@@ -20,6 +20,9 @@ constexpr skidimm::sdk::VariableDoc kInputs[] = {
     {"phi_dot_L", "left wheel speed (rad/s)", false},
     {"phi_dot_R", "right wheel speed (rad/s)", false},
 };
+constexpr skidimm::sdk::VariableDoc kOutputs[] = {
+    {"omega", "yaw rate m r (phi_dot_R - phi_dot_L) / b (rad/s), for a gyro", false},
+};
 
 constexpr skidimm::sdk::PluginInfo kInfo = {
     "stc_kinematic",
@@ -30,7 +33,9 @@ constexpr skidimm::sdk::PluginInfo kInfo = {
     kStates,
     3,
     kInputs,
-    2};
+    2,
+    kOutputs,
+    1};
 
 }  // namespace
 

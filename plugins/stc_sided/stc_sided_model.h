@@ -1,6 +1,8 @@
 // StcSidedModel: the plugin class behind `stc_sided` (equations in
-// stc_sided_predict.h). In a header so tests can run it in-process; the
-// plugin .cc only exports it.
+// stc_sided_predict.h), and StcTractionModel, behind `stc_traction`: the
+// same kinematics with the motor currents of stc_sided_currents.h as outputs.
+// In a header so tests can run them in-process; the plugin .cc files only
+// export them.
 #ifndef SKIDIMM_PLUGINS_STC_SIDED_STC_SIDED_MODEL_H_
 #define SKIDIMM_PLUGINS_STC_SIDED_STC_SIDED_MODEL_H_
 
@@ -13,24 +15,28 @@
 #include "skidimm/sdk/angles.h"
 #include "skidimm/sdk/autodiff_parameter_jacobian.h"
 #include "skidimm/sdk/sized_motion_model.h"
+#include "stc_sided/stc_sided_currents.h"
 #include "stc_sided/stc_sided_predict.h"
 
 namespace skidimm {
 namespace plugins {
 
-class StcSidedModel final : public sdk::SizedMotionModel<stc_sided::kNumStates, stc_sided::kNumInputs> {
+// kWithCurrents: false for stc_sided (output: omega), true for stc_traction
+// (outputs: omega, i_L, i_R; six more parameters per mode).
+template <bool kWithCurrents>
+class StcSidedModelOf final : public sdk::SizedMotionModel<stc_sided::kNumStates, stc_sided::kNumInputs> {
  public:
-  using Parameters = Eigen::Matrix<double, stc_sided::kNumParameters, 1>;
+  static constexpr int kNumParameters = kWithCurrents ? stc_sided::kNumTractionParameters : stc_sided::kNumParameters;
+  static constexpr int kNumOutputs = kWithCurrents ? stc_sided::kNumTractionOutputs : 1;
+  using Parameters = Eigen::Matrix<double, kNumParameters, 1>;
 
-  static std::unique_ptr<StcSidedModel> Create(const sdk::ParameterSet& params, std::string* error) {
-    std::unique_ptr<StcSidedModel> model(new StcSidedModel());
-    if (!params.check_only(
-            {"eta_l", "eta_r", "alpha_l_outer", "alpha_l_inner", "alpha_r_outer", "alpha_r_inner", "x_icr", "r", "b"},
-            error)) {
-      return nullptr;
-    }
+  static std::unique_ptr<StcSidedModelOf> Create(const sdk::ParameterSet& params, std::string* error) {
+    std::unique_ptr<StcSidedModelOf> model(new StcSidedModelOf());
+    std::vector<std::string> keys;
+    for (const sdk::ParameterInfo& info : model->parameter_info_) keys.push_back(info.name);
+    if (!params.check_only(keys, error)) return nullptr;
     Parameters values;
-    for (int i = 0; i < stc_sided::kNumParameters; ++i) {
+    for (int i = 0; i < kNumParameters; ++i) {
       if (!params.get_scalar(model->parameter_info_[static_cast<std::size_t>(i)].name, &values[i], error)) {
         return nullptr;
       }
@@ -67,20 +73,45 @@ class StcSidedModel final : public sdk::SizedMotionModel<stc_sided::kNumStates, 
   }
   bool has_analytic_jacobian() const noexcept override { return true; }
 
-  // d x_next / d [eta_l, eta_r, alpha_l_outer, alpha_l_inner, alpha_r_outer,
-  // alpha_r_inner, x_icr, r, b], by Ceres jets
-  // on stc_sided::predict.
+  // d x_next / d parameters (the order of parameter_info()), by Ceres jets
+  // on stc_sided::predict; the current parameters do not move the pose.
   bool parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                           double dt, Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept override {
-    return sdk::autodiff_parameter_jacobian<stc_sided::kNumStates, stc_sided::kNumInputs, stc_sided::kNumParameters>(
+    return sdk::autodiff_parameter_jacobian<stc_sided::kNumStates, stc_sided::kNumInputs, kNumParameters>(
         [](const auto* x_in, const auto* u_in, const auto* p, const auto& step, auto* out) {
           stc_sided::predict(x_in, u_in, p, step, out);
         },
         x, u, p_.data(), dt, jacobian);
   }
 
+  // Outputs: omega, the yaw rate body_velocity() predicts (for a gyro), and
+  // for stc_traction the motor currents i_L, i_R (stc_sided_currents.h).
+  const std::vector<std::string>& output_names() const noexcept override { return output_names_; }
+  bool outputs(const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::VectorXd> y) const noexcept override {
+    const double wheels[stc_sided::kNumInputs] = {u[stc_sided::kPhiDotLeft], u[stc_sided::kPhiDotRight]};
+    double values[kNumOutputs];
+    compute_outputs(wheels, p_.data(), values);
+    for (int k = 0; k < kNumOutputs; ++k) y[k] = values[k];
+    return y.allFinite();
+  }
+  bool output_parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& u,
+                                 Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept override {
+    return sdk::autodiff_output_parameter_jacobian<stc_sided::kNumInputs, kNumOutputs, kNumParameters>(
+        [](const auto* u_in, const auto* p, auto* out) { compute_outputs(u_in, p, out); }, u, p_.data(), jacobian);
+  }
+
  private:
-  StcSidedModel() {
+  template <typename T>
+  static void compute_outputs(const T* u, const T* p, T* y) {
+    if constexpr (kWithCurrents) {
+      stc_sided::traction_outputs(u, p, y);
+    } else {
+      T v_x, v_y;
+      stc_sided::body_velocity(u, p, &v_x, &v_y, &y[0]);
+    }
+  }
+
+  StcSidedModelOf() {
     const double inf = std::numeric_limits<double>::infinity();
     using sdk::ParameterScope;
     using sdk::scalar_parameter_info;
@@ -101,14 +132,35 @@ class StcSidedModel final : public sdk::SizedMotionModel<stc_sided::kNumStates, 
         scalar_parameter_info("r", "wheel radius (m)", 1e-6, inf, ParameterScope::kBank),
         scalar_parameter_info("b", "track width (m)", 1e-6, inf, ParameterScope::kBank),
     };
-    p_ << 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0;
+    p_.template head<stc_sided::kNumParameters>() << 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0;
+    if constexpr (kWithCurrents) {
+      // Indexed by stc_sided::CurrentParameter.
+      parameter_info_.insert(
+          parameter_info_.end(),
+          {scalar_parameter_info("i_straight", "motor current of each side driving straight (A)", 0.0, 1000.0),
+           scalar_parameter_info("i_l_outer", "left side's extra current at the turn's peak, outer side (A)", 0.0,
+                                 1000.0),
+           scalar_parameter_info("i_l_inner", "left side's extra current at the turn's peak, inner side (A)", 0.0,
+                                 1000.0),
+           scalar_parameter_info("i_r_outer", "right side's extra current at the turn's peak, outer side (A)", 0.0,
+                                 1000.0),
+           scalar_parameter_info("i_r_inner", "right side's extra current at the turn's peak, inner side (A)", 0.0,
+                                 1000.0),
+           scalar_parameter_info("s_peak", "wheel-speed turn ratio where the turn current peaks (-)", 0.001, 1.0)});
+      p_.template tail<6>() << 1.0, 1.0, 1.0, 1.0, 1.0, 0.1;
+      output_names_ = {"omega", "i_L", "i_R"};
+    }
   }
 
   Parameters p_;
   std::vector<sdk::ParameterInfo> parameter_info_;
   const std::vector<std::string> state_names_{"X", "Y", "theta"};
   const std::vector<std::string> input_names_{"phi_dot_L", "phi_dot_R"};
+  std::vector<std::string> output_names_{"omega"};
 };
+
+using StcSidedModel = StcSidedModelOf<false>;
+using StcTractionModel = StcSidedModelOf<true>;
 
 }  // namespace plugins
 }  // namespace skidimm

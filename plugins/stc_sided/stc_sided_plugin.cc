@@ -29,6 +29,9 @@ constexpr skidimm::sdk::VariableDoc kInputs[] = {
     {"phi_dot_L", "left wheel speed (rad/s)", false},
     {"phi_dot_R", "right wheel speed (rad/s)", false},
 };
+constexpr skidimm::sdk::VariableDoc kOutputs[] = {
+    {"omega", "yaw rate of the tread ICR kinematics (rad/s), for a gyro", false},
+};
 
 constexpr skidimm::sdk::PluginInfo kInfo = {
     "stc_sided",
@@ -39,7 +42,9 @@ constexpr skidimm::sdk::PluginInfo kInfo = {
     kStates,
     3,
     kInputs,
-    2};
+    2,
+    kOutputs,
+    1};
 
 }  // namespace
 

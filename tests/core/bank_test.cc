@@ -256,6 +256,29 @@ TEST(Bank, StateNamesMustMatchThePlugin) {
                       {"has states [V, omega] but the bank declares [omega, V]"}, true);
 }
 
+// measurement.outputs: rows after the states' with zero H, named and read
+// like the outputs; every mode's model must have each.
+TEST(Bank, MeasuredOutputsFollowTheStatesAndEveryModelMustHaveThem) {
+  std::string yaml = skidimm_test::read_file(std::filesystem::path(kSourceDir) / "configs/stc_sided4.yaml");
+  yaml = replace(yaml, "R: {std: [0.03, 0.03, 0.03]}", "outputs: [omega]\n  R: {std: [0.03, 0.03, 0.03, 0.02]}");
+  const Bank bank = Bank::load(write_file(test_directory() / "outputs.yaml", yaml), {kPluginDir});
+  const MeasurementConfig& m = bank.config.measurement;
+  EXPECT_EQ(m.names, (std::vector<std::string>{"X", "Y", "theta", "omega"}));
+  EXPECT_EQ(m.outputs, (std::vector<std::string>{"omega"}));
+  EXPECT_EQ(m.first_output_row(), 3);
+  EXPECT_EQ(m.h.rows(), 4);
+  EXPECT_TRUE(m.h.row(3).isZero());
+  EXPECT_FALSE(m.is_angle[3]);
+  EXPECT_EQ(bank.config.columns.measurements[3], "omega");
+
+  expect_config_error(
+      replace(yaml, "outputs: [omega]", "outputs: [i_L]"),
+      {"modes[0].model", "mode 'no_slip' (model stc_sided) has no output 'i_L'", "its outputs are [omega]"}, true);
+  expect_config_error(replace(yaml, "outputs: [omega]", "outputs: [theta]"), {"measurement.outputs", "theta"});
+  expect_config_error(replace(yaml, "outputs: [omega]", "outputs: []"), {"measurement.outputs", "lists no output"});
+  expect_config_error(replace(yaml, "0.03, 0.02]", "0.03]"), {"measurement.R"});
+}
+
 TEST(Bank, BankScopedParametersMustBeShared) {
   std::string yaml =
       replace(kValidBank, "model: ltc_linear\n    params: {A: [[-5", "model: ltc_shared\n    params: {A: [[-5");

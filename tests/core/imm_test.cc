@@ -12,6 +12,7 @@
 
 #include "core/reference_imm.h"
 #include "core/test_banks.h"
+#include "skidimm/sdk/failure.h"
 #include "stc_kinematic/stc_kinematic_model.h"
 
 namespace skidimm {
@@ -51,10 +52,13 @@ struct ReferenceImm {
   double mu[2] = {0.6, 0.4}, x[2] = {0.5, 0.5}, var[2] = {1.0, 1.0};
   double x_combined = 0.5, var_combined = 1.0;
   double likelihood_weight = 1.0;  // mu_j proportional to c_j * likelihood_j^weight
+  // A measured output y = gain_j u (this step's input) with variance output_r:
+  // it multiplies mode j's likelihood by N(y - gain_j u; 0, output_r).
+  double output_gain[2] = {0.0, 0.0}, output_r = 1.0;
   bool first = true;
   double last_t = 0.0, held_u = 0.0;
 
-  void step(double t, double u, double z) {
+  void step(double t, double u, double z, double y = std::numeric_limits<double>::quiet_NaN()) {
     double c[2], x0[2], p0[2];
     if (first) {
       c[0] = mu[0];
@@ -79,6 +83,10 @@ struct ReferenceImm {
       }
       const double s = pm + r, nu = z - xm, k = pm / s;
       likelihood[j] = std::exp(-0.5 * nu * nu / s) / std::sqrt(2.0 * M_PI * s);
+      if (!std::isnan(y)) {
+        const double e = y - output_gain[j] * u;
+        likelihood[j] *= std::exp(-0.5 * e * e / output_r) / std::sqrt(2.0 * M_PI * output_r);
+      }
       x[j] = xm + k * nu;
       var[j] = pm - k * pm;  // standard form: equal to Joseph's for the optimal gain
     }
@@ -167,6 +175,99 @@ TEST(Imm, LikelihoodWeightTempersEachStepsEvidence) {
   // Over many irregular steps, against the linear-domain reference raising
   // each likelihood to the weight.
   ExpectMatchesReferenceOverManySteps(0.3, 11);
+}
+
+// ScalarLinearModel that also predicts outputs from the input: "y" = gain u
+// (listed second, so the bank must find it by name), and fails on u > 100.
+class ScalarModelWithOutput : public ScalarLinearModel {
+ public:
+  ScalarModelWithOutput(double a, double b, double gain) : ScalarLinearModel(a, b), gain_(gain) {}
+  const std::vector<std::string>& output_names() const noexcept override { return names_; }
+  bool outputs(const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::VectorXd> y) const noexcept override {
+    if (u[0] > 100.0) {
+      sdk::report_failure("u above 100");
+      return false;
+    }
+    y << -7.0, gain_ * u[0];
+    return true;
+  }
+
+ private:
+  double gain_;
+  const std::vector<std::string> names_{"unused", "y"};
+};
+
+// two_mode_scalar_bank measuring x and the output y = gain_j u (gains 0.5
+// and 1, R_y = 0.04).
+Bank scalar_bank_with_output() {
+  BankBuilder b = two_mode_scalar_bank();
+  b.models = {std::make_shared<ScalarModelWithOutput>(-1.0, 1.0, 0.5),
+              std::make_shared<ScalarModelWithOutput>(-2.0, 0.5, 1.0)};
+  b.h = Eigen::MatrixXd::Zero(2, 1);
+  b.h(0, 0) = 1.0;
+  b.r = Eigen::Vector2d(0.25, 0.04).asDiagonal();
+  Bank bank = b.build();
+  bank.config.measurement.names = {"x", "y"};
+  bank.config.measurement.outputs = {"y"};
+  return bank;
+}
+
+// A measured output leaves every state as without it and multiplies each
+// mode's likelihood by N(y - gain_j u; 0, R_y), u this step's input: by hand
+// at step 1 (u = 0.5, y = 0.3), for the fixed-size and the dynamic kernels.
+TEST(Imm, MeasuredOutputsScoreEachModesPrediction) {
+  for (const ImmKernelChoice choice : {ImmKernelChoice::kFastest, ImmKernelChoice::kDynamic}) {
+    Imm plain(two_mode_scalar_bank().build(), choice);
+    Imm with(scalar_bank_with_output(), choice);
+    plain.step(0.0, vec({1.0}), vec({0.6}));
+    with.step(0.0, vec({1.0}), vec({0.6, kNaN}));
+    const ImmEstimate& p = plain.step(0.1, vec({0.5}), vec({0.7}));
+    const ImmEstimate& e = with.step(0.1, vec({0.5}), vec({0.7, 0.3}));
+    // log N(0.3 - 0.25; 0, 0.04) and log N(0.3 - 0.5; 0, 0.04).
+    const double log_n[2] = {-0.5 * 0.0025 / 0.04 - 0.5 * std::log(2.0 * M_PI * 0.04),
+                             -0.5 * 0.04 / 0.04 - 0.5 * std::log(2.0 * M_PI * 0.04)};
+    const double weight[2] = {p.mode_probabilities[0] * std::exp(log_n[0]),
+                              p.mode_probabilities[1] * std::exp(log_n[1])};
+    for (int j = 0; j < 2; ++j) {
+      EXPECT_NEAR(e.log_likelihoods[j], p.log_likelihoods[j] + log_n[j], 1e-12);
+      EXPECT_NEAR(e.mode_states[j][0], p.mode_states[j][0], 1e-15);
+      EXPECT_NEAR(e.mode_covariances[j](0, 0), p.mode_covariances[j](0, 0), 1e-15);
+      EXPECT_NEAR(e.mode_probabilities[j], weight[j] / (weight[0] + weight[1]), 1e-12);
+    }
+    EXPECT_EQ(e.num_measured, 2);
+
+    // A model whose outputs() fails is rejected for the step, with its reason.
+    const ImmEstimate& failed = with.step(0.2, vec({200.0}), vec({0.7, 0.3}));
+    EXPECT_EQ(failed.status, StepStatus::kAllModesRejected);
+    EXPECT_EQ(failed.mode_failures[0], ModeFailure::kModel);
+    EXPECT_EQ(failed.failure_reasons[0], "u above 100");
+  }
+}
+
+// Over many irregular steps, a third of them without the output, against
+// the independent scalar IMM.
+TEST(Imm, MeasuredOutputsMatchTheReferenceOverManySteps) {
+  for (const ImmKernelChoice choice : {ImmKernelChoice::kFastest, ImmKernelChoice::kDynamic}) {
+    Imm imm(scalar_bank_with_output(), choice);
+    ReferenceImm reference;
+    reference.output_gain[0] = 0.5;
+    reference.output_gain[1] = 1.0;
+    reference.output_r = 0.04;
+    std::mt19937 rng(5);
+    std::normal_distribution<double> noise(0.0, 0.2);
+    double t = 0.0;
+    for (int k = 0; k < 200; ++k) {
+      const double u = std::sin(0.1 * k);
+      const double z = 0.8 * std::sin(0.05 * k) + noise(rng);
+      const double y = k % 3 == 1 ? kNaN : 0.7 * u + noise(rng);
+      const ImmEstimate& e = imm.step(t, vec({u}), vec({z, y}));
+      reference.step(t, u, z, y);
+      ASSERT_NEAR(e.mode_probabilities[0], reference.mu[0], 1e-10) << "step " << k;
+      ASSERT_NEAR(e.mode_states[1][0], reference.x[1], 1e-10) << "step " << k;
+      ASSERT_NEAR(e.covariance(0, 0), reference.var_combined, 1e-10) << "step " << k;
+      t += 0.05 + 0.03 * std::cos(k);
+    }
+  }
 }
 
 // Three LTC modes with random inputs: the invariants hold at every step.

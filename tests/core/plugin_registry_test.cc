@@ -44,11 +44,17 @@ TEST(PluginRegistry, FindsTheBundledPluginsWithTheirMetadata) {
     names.push_back(d.name);
   }
   EXPECT_THAT(names, ::testing::UnorderedElementsAre("linear_features", "ltc_linear", "ltc_shared", "stc_kinematic",
-                                                    "stc_sided"));
+                                                     "stc_sided", "stc_traction"));
   const PluginDescriptor& stc = registry.find("stc_kinematic");
   EXPECT_EQ(stc.version, "1.0.0");
   EXPECT_EQ(stc.parameter_keys, (std::vector<std::string>{"k", "m", "r", "b"}));
   EXPECT_THAT(stc.description, HasSubstr("eq. 3"));
+  ASSERT_EQ(stc.outputs.size(), 1u);
+  EXPECT_EQ(stc.outputs[0].name, "omega");
+  const PluginDescriptor& traction = registry.find("stc_traction");
+  ASSERT_EQ(traction.outputs.size(), 3u);
+  EXPECT_EQ(traction.outputs[1].name, "i_L");
+  EXPECT_TRUE(registry.find("ltc_linear").outputs.empty());
 }
 
 TEST(PluginRegistry, ModelOutlivesTheRegistryThatLoadedIt) {

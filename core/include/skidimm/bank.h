@@ -49,6 +49,11 @@ struct MeasurementConfig {
   Eigen::MatrixXd h;               // m x n
   Eigen::MatrixXd r;               // m x m, positive definite
   std::vector<bool> is_angle;      // row measures an angle state directly
+  // The models' outputs measured (`outputs:`, sdk::MotionModel::outputs()):
+  // the last rows of z, in this order, named as here. Their rows of H are
+  // zero: an output depends on the input, not the state.
+  std::vector<std::string> outputs;
+  int first_output_row() const { return static_cast<int>(h.rows()) - static_cast<int>(outputs.size()); }
 };
 
 // Where the log's values come from. Each input or measurement is a CSV

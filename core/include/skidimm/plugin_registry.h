@@ -79,6 +79,7 @@ struct PluginDescriptor {
   // Empty when the plugin's models take the bank's own states (inputs).
   std::vector<PluginVariable> states;
   std::vector<PluginVariable> inputs;
+  std::vector<PluginVariable> outputs;  // what its models predict besides the state (MotionModel::outputs())
   std::string error;      // non-empty: the library is unusable, and why
   bool shadowed = false;  // a plugin of the same name comes earlier on the path
   // Another file in the same search-path entry claims the same name (neither

@@ -1371,6 +1371,17 @@ std::string mode_name(const BankConfig& config, int mode) {
 }
 
 // Fits one group of modes: one mode alone, or every mode jointly with R.
+// The likelihood's filter pass and its derivatives are written for z = H x
+// + v: a bank measuring model outputs is fitted with the window objective.
+void refuse_outputs(const Bank& bank) {
+  if (!bank.config.measurement.outputs.empty()) {
+    throw FitError("the likelihood objective does not fit banks that measure model outputs (measurement.outputs: " +
+                   bank.config.measurement.outputs.front() +
+                   (bank.config.measurement.outputs.size() > 1 ? ", ...)" : ")") +
+                   "; use the window objective (--objective window)");
+  }
+}
+
 std::map<int, FitReport> fit_group(Bank* bank, const std::vector<std::pair<int, std::vector<const Trajectory*>>>& group,
                                    const LikelihoodFitOptions& options) {
   const BankConfig& config = bank->config;
@@ -1721,6 +1732,7 @@ std::map<int, FitReport> fit_group(Bank* bank, const std::vector<std::pair<int, 
 std::vector<FitReport> fit_likelihood(Bank* bank, const std::vector<ModeLogs>& data,
                                       const LikelihoodFitOptions& options) {
   if (data.empty()) throw FitError("no logs to fit");
+  refuse_outputs(*bank);
   // Pool the logs of a mode listed more than once, in order of first mention.
   std::vector<std::pair<int, std::vector<const Trajectory*>>> modes;
   for (const ModeLogs& d : data) {
@@ -1760,6 +1772,7 @@ LikelihoodEvaluation evaluate_likelihood(const Bank& bank, const ModeLogs& data)
 
 LikelihoodEvaluation evaluate_likelihood_derivatives(Bank* bank, const ModeLogs& data,
                                                      const LikelihoodFitOptions& options) {
+  refuse_outputs(*bank);
   check_mode(*bank, data.mode);
   sdk::MotionModel* model = bank->models[static_cast<std::size_t>(data.mode)].get();
   const Parameterization par = parameterization_of(*model, bank->config.state_dim(),

@@ -34,6 +34,10 @@ struct MeasurementLayout {
   std::vector<bool> row_is_angle;
   std::vector<bool> state_is_angle;
   Eigen::MatrixXd r_state;  // R in state order
+  // The model outputs measured (measurement.outputs): rows first_output_row
+  // on, where H is zero and the prediction is the model's outputs().
+  std::vector<std::string> outputs;
+  int first_output_row = 0;
 };
 
 MeasurementLayout layout_of(const BankConfig& bank) {
@@ -62,7 +66,35 @@ MeasurementLayout layout_of(const BankConfig& bank) {
   for (int a = 0; a < n; ++a) {
     for (int b = 0; b < n; ++b) m.r_state(a, b) = mc.r(m.state_row[a], m.state_row[b]);
   }
+  m.outputs = mc.outputs;
+  m.first_output_row = mc.first_output_row();
   return m;
+}
+
+// Where each output the bank measures is in `model`'s outputs().
+std::vector<int> output_positions(const sdk::MotionModel& model, const MeasurementLayout& m) {
+  std::vector<int> positions;
+  const std::vector<std::string>& names = model.output_names();
+  for (const std::string& output : m.outputs) {
+    const auto at = std::find(names.begin(), names.end(), output);
+    if (at == names.end()) throw FitError("the model has no output '" + output + "', which the bank measures");
+    positions.push_back(static_cast<int>(at - names.begin()));
+  }
+  return positions;
+}
+
+// The measurement the model predicts besides H x: zero on the state rows,
+// its outputs at input u on the output rows. False if outputs() fails or is
+// not finite.
+bool expected_outputs(const sdk::MotionModel& model, const MeasurementLayout& m, const std::vector<int>& positions,
+                      const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::VectorXd* all, Eigen::VectorXd* expected) {
+  if (m.outputs.empty()) return true;
+  all->resize(static_cast<Eigen::Index>(model.output_names().size()));
+  if (!model.outputs(u, *all)) return false;
+  for (std::size_t k = 0; k < positions.size(); ++k) {
+    (*expected)[m.first_output_row + static_cast<Eigen::Index>(k)] = (*all)[positions[k]];
+  }
+  return expected->allFinite();
 }
 
 bool fully_measured(const MeasurementLayout& m, const Trajectory& t, int k) {
@@ -155,10 +187,12 @@ struct ParameterMapping {
 };
 
 // Calls f(component, error) for each measured component of row `target`,
-// with error = z - H x (wrapped for angles).
+// with error = z - H x - expected (wrapped for angles); expected holds the
+// model's outputs on the output rows (expected_outputs()).
 template <typename F>
-void for_each_error(const MeasurementLayout& m, const Trajectory& t, int target, const Eigen::VectorXd& x, F&& f) {
-  const Eigen::VectorXd predicted = m.h * x;
+void for_each_error(const MeasurementLayout& m, const Trajectory& t, int target, const Eigen::VectorXd& x,
+                    const Eigen::VectorXd& expected, F&& f) {
+  const Eigen::VectorXd predicted = m.h * x + expected;
   for (Eigen::Index c = 0; c < t.z.rows(); ++c) {
     if (!std::isfinite(t.z(c, target))) continue;
     double e = t.z(c, target) - predicted[c];
@@ -177,7 +211,12 @@ class WindowCost : public ceres::CostFunction {
  public:
   WindowCost(sdk::MotionModel* model, Eigen::VectorXd base, ParameterMapping mapping, const MeasurementLayout* m,
              Window window, int block_size)
-      : model_(model), base_(std::move(base)), mapping_(std::move(mapping)), m_(m), window_(std::move(window)) {
+      : model_(model),
+        base_(std::move(base)),
+        mapping_(std::move(mapping)),
+        m_(m),
+        window_(std::move(window)),
+        positions_(output_positions(*model, *m)) {
     mutable_parameter_block_sizes()->push_back(block_size);
     set_num_residuals(window_.residuals);
   }
@@ -195,6 +234,9 @@ class WindowCost : public ceres::CostFunction {
     Eigen::VectorXd x = measured_state(*m_, t, window_.start), next(n);
     Eigen::MatrixXd sensitivity = Eigen::MatrixXd::Zero(n, block);
     Eigen::MatrixXd f(n, n), g(n, full.size());
+    // The outputs' own derivatives: they depend on the input, not the state.
+    Eigen::MatrixXd output_g(static_cast<Eigen::Index>(model_->output_names().size()), full.size());
+    Eigen::VectorXd all_outputs, expected = Eigen::VectorXd::Zero(m_->h.rows());
     int row = window_.start;
     int r = 0;
     for (int target : window_.targets) {
@@ -212,10 +254,20 @@ class WindowCost : public ceres::CostFunction {
         x = next;
       }
       row = target;
-      for_each_error(*m_, t, target, x, [&](Eigen::Index c, double e) {
+      if (!expected_outputs(*model_, *m_, positions_, t.u.col(target), &all_outputs, &expected)) return false;
+      if (derivatives && !m_->outputs.empty() && !model_->output_parameter_jacobian(t.u.col(target), output_g)) {
+        return false;
+      }
+      for_each_error(*m_, t, target, x, expected, [&](Eigen::Index c, double e) {
         residuals[r] = e / m_->sigma[c];
         if (derivatives) {
-          const Eigen::RowVectorXd d = -(m_->h.row(c) * sensitivity) / m_->sigma[c];
+          Eigen::RowVectorXd d = -(m_->h.row(c) * sensitivity) / m_->sigma[c];
+          if (c >= m_->first_output_row) {
+            const int output = positions_[static_cast<std::size_t>(c - m_->first_output_row)];
+            for (std::size_t i = 0; i < mapping_.model_index.size(); ++i) {
+              d[mapping_.block_index[i]] -= output_g(output, mapping_.model_index[i]) / m_->sigma[c];
+            }
+          }
           for (int p = 0; p < block; ++p) jacobians[0][r * block + p] = d[p];
         }
         ++r;
@@ -230,6 +282,7 @@ class WindowCost : public ceres::CostFunction {
   ParameterMapping mapping_;
   const MeasurementLayout* m_;
   Window window_;
+  std::vector<int> positions_;  // output_positions()
 };
 
 // The same residuals for Ceres' numeric differentiation, for models without
@@ -241,12 +294,16 @@ struct NumericWindowResidual {
   }
 };
 
-// True if the model gives exact parameter derivatives at the log's first row.
-bool has_parameter_jacobian(const sdk::MotionModel& model, const Trajectory& t) {
+// True if the model gives exact parameter derivatives at the log's first
+// row, of its outputs too when the bank measures some.
+bool has_parameter_jacobian(const sdk::MotionModel& model, const MeasurementLayout& m, const Trajectory& t) {
   if (t.size() < 2) return false;
-  Eigen::MatrixXd g(model.state_dim(), static_cast<Eigen::Index>(model.parameter_info().size()));
+  const Eigen::Index parameters = static_cast<Eigen::Index>(model.parameter_info().size());
+  Eigen::MatrixXd g(model.state_dim(), parameters);
   Eigen::VectorXd x = Eigen::VectorXd::Zero(model.state_dim());
-  return model.parameter_jacobian(x, t.u.col(0), t.t[1] - t.t[0], g);
+  Eigen::MatrixXd output_g(static_cast<Eigen::Index>(model.output_names().size()), parameters);
+  return model.parameter_jacobian(x, t.u.col(0), t.t[1] - t.t[0], g) &&
+         (m.outputs.empty() || model.output_parameter_jacobian(t.u.col(0), output_g));
 }
 
 ceres::LossFunction* make_loss(const FitOptions& options) {
@@ -288,6 +345,9 @@ double mean_state_nis(const Bank& bank, const sdk::MotionModel& model, const Mea
   const Eigen::Index rows = measurement.measurement_dim();
   const int c = m.state_row[static_cast<std::size_t>(s)];
   const double r_c = config.measurement.r(c, c);
+  // Outputs depend on no state: the state's filter leaves them out.
+  Eigen::VectorXd z(rows);
+  const Eigen::VectorXd no_outputs = Eigen::VectorXd::Zero(rows);
   double sum = 0.0, count = 0.0;
   for (const Trajectory& t : data.logs) {
     ExtendedKalmanFilter filter(model, q, static_cast<int>(rows));
@@ -298,10 +358,12 @@ double mean_state_nis(const Bank& bank, const sdk::MotionModel& model, const Mea
     filter.covariance() = m.r_state;
     for (++k; k < t.size(); ++k) {
       if (!filter.predict(t.u.col(k - 1), t.t[k] - t.t[k - 1])) break;
-      measurement.select(t.z.col(k), &selected);
+      z = t.z.col(k);
+      z.tail(static_cast<Eigen::Index>(m.outputs.size())).setConstant(std::numeric_limits<double>::quiet_NaN());
+      measurement.select(z, &selected);
       if (selected.size == 0) continue;
       // The component's innovation and its variance before the update.
-      for_each_error(m, t, k, filter.state(), [&](Eigen::Index component, double e) {
+      for_each_error(m, t, k, filter.state(), no_outputs, [&](Eigen::Index component, double e) {
         if (component != c) return;
         sum += e * e / (filter.covariance()(s, s) + r_c);
         count += 1.0;
@@ -328,7 +390,18 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
   Eigen::VectorXd error_sum = Eigen::VectorXd::Zero(n);
   Eigen::VectorXd state_error(n);
   double complete_rows = 0.0;
+  const std::vector<int> positions = output_positions(model, m);
+  Eigen::VectorXd all_outputs, expected = Eigen::VectorXd::Zero(rows);
   for (const Trajectory& t : data.logs) {
+    // Each output row's error is the model's outputs against the measured ones.
+    for (int k = 0; k < t.size() && !m.outputs.empty(); ++k) {
+      if (!expected_outputs(model, m, positions, t.u.col(k), &all_outputs, &expected)) continue;
+      for (Eigen::Index c = m.first_output_row; c < rows; ++c) {
+        if (!std::isfinite(t.z(c, k))) continue;
+        squared[c] += (t.z(c, k) - expected[c]) * (t.z(c, k) - expected[c]);
+        counts[c] += 1.0;
+      }
+    }
     int previous = -1;
     for (int k = 0; k < t.size(); ++k) {
       if (!fully_measured(m, t, k)) continue;
@@ -336,7 +409,8 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
         Eigen::VectorXd x = measured_state(m, t, previous);
         if (propagate(model, t, previous, k, &x)) {
           state_error.setConstant(std::numeric_limits<double>::quiet_NaN());
-          for_each_error(m, t, k, x, [&](Eigen::Index c, double e) {
+          for_each_error(m, t, k, x, expected.setZero(), [&](Eigen::Index c, double e) {
+            if (c >= m.first_output_row) return;  // counted above, at every row
             squared[c] += e * e;
             counts[c] += 1.0;
             for (int s = 0; s < n; ++s) {
@@ -504,7 +578,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
           continue;
         }
         sdk::MotionModel* model = bank->models[static_cast<std::size_t>(d->mode)].get();
-        const bool analytic = !options.numeric_derivatives && has_parameter_jacobian(*model, t);
+        const bool analytic = !options.numeric_derivatives && has_parameter_jacobian(*model, m, t);
         all_analytic = all_analytic && analytic;
         for (const Window& w : windows) {
           auto window_cost = std::make_unique<WindowCost>(model, per_mode[d->mode].first, per_mode[d->mode].second,

@@ -6,6 +6,7 @@
 #include "skidimm/errors.h"
 #include "skidimm/expression.h"
 #include "skidimm/log_io.h"
+#include "skidimm/measured_outputs.h"
 #include "skidimm/sdk/angles.h"
 #include "skidimm/simulation/random.h"
 
@@ -53,6 +54,7 @@ ModelSimulationSummary simulate_models(const Bank& bank, const LogSpec& source, 
   for (const std::string& s : config.state_names) header.push_back("true_" + s);
   CsvWriter writer(output, header);
 
+  MeasuredOutputs outputs(bank);
   Random random(seed);
   const Eigen::MatrixXd r_root = square_root(config.measurement.r);
   const Eigen::MatrixXd p0_root = square_root(config.initial_covariance);
@@ -91,6 +93,15 @@ ModelSimulationSummary simulate_models(const Bank& bank, const LogSpec& source, 
       if (config.angle_mask[static_cast<std::size_t>(i)]) x[i] = sdk::wrap_angle(x[i]);
     }
     Eigen::VectorXd z = config.measurement.h * x + r_root * gaussian_vector(config.measurement.r.rows());
+    // The outputs measured are the mode's outputs() at this step's input.
+    if (outputs.any()) {
+      std::string reason;
+      if (!outputs.predict(mode, sample.u, &reason)) {
+        throw Error(source.text + ": mode '" + label +
+                    "' could not give its outputs at t = " + CsvWriter::format(sample.t) + ": " + reason);
+      }
+      z += outputs.expected(mode);
+    }
     std::size_t c = 0;
     cells[c++] = CsvWriter::format(sample.t);
     for (Eigen::Index i = 0; i < sample.u.size(); ++i) cells[c++] = CsvWriter::format(sample.u[i]);

@@ -26,7 +26,8 @@ namespace sdk {
 // 3: ParameterSet carries text parameters and the bank's state/input names.
 // 4: MotionModel::failure_reason(); PluginInfo names states and inputs;
 //    plugins export their standard library configuration (kStdlibAbiTagSymbol).
-inline constexpr int kAbiVersion = 4;
+// 5: MotionModel::output_names(), outputs() and output_parameter_jacobian().
+inline constexpr int kAbiVersion = 5;
 
 #define SKIDIMM_SDK_STRINGIFY_(x) #x
 #define SKIDIMM_SDK_STRINGIFY(x) SKIDIMM_SDK_STRINGIFY_(x)

@@ -47,6 +47,32 @@ bool autodiff_parameter_jacobian(const Predict& predict, const Eigen::Ref<const 
   return true;
 }
 
+// The same for MotionModel::output_parameter_jacobian(): outputs a
+// templated function
+//
+//   template <typename T>
+//   void my_outputs(const T* u, const T* parameters, T* y);
+//
+// of the input and the parameters.
+template <int kInputDim, int kNumOutputs, int kNumParameters, typename Outputs>
+bool autodiff_output_parameter_jacobian(const Outputs& outputs, const Eigen::Ref<const Eigen::VectorXd>& u,
+                                        const double* parameters, Eigen::Ref<Eigen::MatrixXd> jacobian) noexcept {
+  using Jet = ceres::Jet<double, kNumParameters>;
+  Jet u_jet[kInputDim > 0 ? kInputDim : 1];
+  Jet p_jet[kNumParameters];
+  Jet out[kNumOutputs];
+  for (int i = 0; i < kInputDim; ++i) u_jet[i] = Jet(u[i]);
+  for (int i = 0; i < kNumParameters; ++i) p_jet[i] = Jet(parameters[i], i);
+  outputs(u_jet, p_jet, out);
+  for (int r = 0; r < kNumOutputs; ++r) {
+    for (int c = 0; c < kNumParameters; ++c) {
+      jacobian(r, c) = out[r].v[c];
+      if (!std::isfinite(jacobian(r, c))) return false;
+    }
+  }
+  return true;
+}
+
 }  // namespace sdk
 }  // namespace skidimm
 

@@ -102,6 +102,33 @@ class BOOST_SYMBOL_VISIBLE MotionModel {
     return true;
   }
 
+  // --- Outputs ---
+  // Quantities the model predicts from the input alone, besides its state:
+  // a yaw rate, a motor current. A bank measures them by name
+  // (`measurement.outputs`, docs/bank-format.md): the measurement of output
+  // k is y_k = outputs(u)_k + v. An output depends on no state, so
+  // measuring it moves no state; it tells the modes apart by how well each
+  // predicts it. (That keeps the update linear in the state: an output of
+  // the state would need its Jacobian, and is a state the bank can observe.)
+  // Every mode of a bank that measures an output must have it.
+  virtual const std::vector<std::string>& output_names() const noexcept {
+    static const std::vector<std::string> kNone;
+    return kNone;
+  }
+  // y.size() == output_names().size(). Returns false if the outputs cannot
+  // be computed for u (the engine then rejects the mode for the step).
+  virtual bool outputs(const Eigen::Ref<const Eigen::VectorXd>& /*u*/,
+                       Eigen::Ref<Eigen::VectorXd> /*y*/) const noexcept {
+    return false;
+  }
+  // d outputs / d parameters (output_names().size() x parameter_info().size()),
+  // for fitting. The default returns false and the fitter differentiates
+  // outputs() numerically.
+  virtual bool output_parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& /*u*/,
+                                         Eigen::Ref<Eigen::MatrixXd> /*jacobian*/) const noexcept {
+    return false;
+  }
+
   // --- Failures ---
   // Why the last predict(), jacobian() or process_noise() on this thread
   // returned false, as given to report_failure() (failure.h); "" if no reason

@@ -128,12 +128,15 @@ class ParameterSet {
   // Fails on any key outside `allowed`, so a typo in a bank is an error
   // instead of a silently ignored value.
   bool check_only(std::initializer_list<const char*> allowed, std::string* error) const {
+    return check_only(std::vector<std::string>(allowed.begin(), allowed.end()), error);
+  }
+  bool check_only(const std::vector<std::string>& allowed, std::string* error) const {
     for (const std::string& key : keys()) {
       bool known = false;
-      for (const char* a : allowed) known = known || key == a;
+      for (const std::string& a : allowed) known = known || key == a;
       if (!known) {
         std::string list;
-        for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
         return fail(error, "unknown parameter '" + key + "' (this model takes: " + list + ")");
       }
     }

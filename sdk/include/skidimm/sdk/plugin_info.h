@@ -36,6 +36,11 @@ struct PluginInfo {
   int num_states;
   const VariableDoc* inputs;
   int num_inputs;
+  // The outputs every model of the plugin predicts (MotionModel::outputs()),
+  // which a bank may measure; none by default. When given, the loader checks
+  // that each created model reports exactly these.
+  const VariableDoc* outputs = nullptr;
+  int num_outputs = 0;
 };
 
 }  // namespace sdk

@@ -23,7 +23,9 @@
 //    bounds and current values inside them;
 //  * process_noise(I, x, u, dt) is symmetric positive semidefinite;
 //  * the reported Jacobian matches central differences of predict(), and so
-//    does the parameter Jacobian if the model provides one.
+//    does the parameter Jacobian if the model provides one;
+//  * outputs, if the model has any, are uniquely named and finite, and their
+//    parameter Jacobian, if provided, matches central differences.
 // The model is left with the parameters it had.
 #ifndef SKIDIMM_SDK_TESTING_CONFORMANCE_H_
 #define SKIDIMM_SDK_TESTING_CONFORMANCE_H_
@@ -261,6 +263,48 @@ inline ::testing::AssertionResult MotionModelConforms(MotionModel& model, const 
             << numeric;
         fail(out.str());
       }
+    }
+  }
+
+  // Outputs, if any: unique names, finite values, and their parameter
+  // Jacobian, if provided, against differences over set_parameters().
+  const std::vector<std::string>& outputs = model.output_names();
+  const Eigen::Index num_outputs = static_cast<Eigen::Index>(outputs.size());
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    if (outputs[i].empty()) fail("output_names()[" + std::to_string(i) + "] is empty");
+    for (std::size_t j = 0; j < i; ++j) {
+      if (outputs[i] == outputs[j]) fail("output name '" + outputs[i] + "' appears twice");
+    }
+  }
+  Eigen::VectorXd y(num_outputs);
+  if (num_outputs > 0 && (!model.outputs(u, y) || !y.allFinite())) {
+    fail("outputs(u) failed or is not finite at u = " + internal::vector_text(u));
+  }
+  Eigen::MatrixXd output_jacobian(num_outputs, num_parameters);
+  if (num_outputs > 0 && num_parameters > 0 && model.output_parameter_jacobian(u, output_jacobian)) {
+    Eigen::MatrixXd numeric(num_outputs, num_parameters);
+    Eigen::VectorXd plus(num_outputs), minus(num_outputs), perturbed = values;
+    bool evaluated = true;
+    for (Eigen::Index j = 0; j < num_parameters && evaluated; ++j) {
+      const double h = std::cbrt(std::numeric_limits<double>::epsilon()) * std::max(1.0, std::abs(values[j]));
+      perturbed[j] = values[j] + h;
+      evaluated = model.set_parameters(perturbed, nullptr) && model.outputs(u, plus);
+      perturbed[j] = values[j] - h;
+      evaluated = evaluated && model.set_parameters(perturbed, nullptr) && model.outputs(u, minus);
+      perturbed[j] = values[j];
+      numeric.col(j) = (plus - minus) / (2.0 * h);
+    }
+    model.set_parameters(values, nullptr);
+    const double scale = std::max(1.0, numeric.cwiseAbs().maxCoeff());
+    if (!evaluated) {
+      fail("could not perturb the parameters to check output_parameter_jacobian() (a parameter on its bound?)");
+    } else if ((output_jacobian - numeric).cwiseAbs().maxCoeff() > options.jacobian_tolerance * scale) {
+      std::ostringstream out;
+      out << "output_parameter_jacobian() differs from central differences at u = " << internal::vector_text(u)
+          << "\n    reported:\n"
+          << output_jacobian << "\n    numeric:\n"
+          << numeric;
+      fail(out.str());
     }
   }
 

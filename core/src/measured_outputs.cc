@@ -1,0 +1,63 @@
+#include "skidimm/measured_outputs.h"
+
+#include <cmath>
+
+#include "skidimm/errors.h"
+
+namespace skidimm {
+
+MeasuredOutputs::MeasuredOutputs(const Bank& bank) {
+  const MeasurementConfig& measurement = bank.config.measurement;
+  first_row_ = measurement.first_output_row();
+  num_outputs_ = static_cast<int>(measurement.outputs.size());
+  const Eigen::Index rows = measurement.h.rows();
+  for (std::size_t j = 0; j < bank.models.size(); ++j) {
+    const sdk::MotionModel& model = *bank.models[j];
+    const std::vector<std::string>& names = model.output_names();
+    std::vector<int> index;
+    for (const std::string& output : measurement.outputs) {
+      int k = 0;
+      while (k < static_cast<int>(names.size()) && names[static_cast<std::size_t>(k)] != output) ++k;
+      if (k == static_cast<int>(names.size())) {
+        throw Error("mode '" + bank.config.modes[j].name + "' (model " + bank.config.modes[j].model +
+                    ") has no output '" + output + "', which the bank measures");
+      }
+      index.push_back(k);
+    }
+    models_.push_back(&model);
+    index_.push_back(std::move(index));
+    model_outputs_.emplace_back(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(names.size())));
+    expected_.emplace_back(Eigen::VectorXd::Zero(rows));
+  }
+}
+
+bool MeasuredOutputs::measured(const Eigen::Ref<const Eigen::VectorXd>& z) const {
+  for (int k = 0; k < num_outputs_; ++k) {
+    if (std::isfinite(z[first_row_ + k])) return true;
+  }
+  return false;
+}
+
+bool MeasuredOutputs::predict(int j, const Eigen::Ref<const Eigen::VectorXd>& u, std::string* reason) {
+  const std::size_t m = static_cast<std::size_t>(j);
+  Eigen::VectorXd& all = model_outputs_[m];
+  if (!models_[m]->outputs(u, all)) {
+    const char* why = models_[m]->failure_reason();
+    if (reason != nullptr) {
+      *reason = why != nullptr && why[0] != '\0' ? why : "outputs() returned false without a reason";
+    }
+    return false;
+  }
+  Eigen::VectorXd& expected = expected_[m];
+  for (int k = 0; k < num_outputs_; ++k) {
+    const double value = all[index_[m][static_cast<std::size_t>(k)]];
+    if (!std::isfinite(value)) {
+      if (reason != nullptr) *reason = "outputs() gave a value that is not finite";
+      return false;
+    }
+    expected[first_row_ + k] = value;
+  }
+  return true;
+}
+
+}  // namespace skidimm

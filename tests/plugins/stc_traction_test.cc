@@ -1,0 +1,120 @@
+// stc_traction: stc_sided's kinematics plus each side's motor current
+// (plugins/stc_sided/stc_sided_currents.h), and the yaw-rate outputs of the
+// kinematic plugins.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "skidimm/errors.h"
+#include "skidimm/plugin_registry.h"
+#include "skidimm/sdk/testing/conformance.h"
+
+namespace skidimm {
+namespace {
+
+constexpr double kRadius = 0.165;
+constexpr double kTrack = 0.555;
+
+// stc_sided's parameters of PredictsTheIcrKinematicsByHand, plus currents.
+sdk::ParameterSet traction_params(bool with_currents = true) {
+  sdk::ParameterSet p;
+  const char* names[] = {"eta_l", "eta_r", "alpha_l_outer", "alpha_l_inner", "alpha_r_outer", "alpha_r_inner", "x_icr"};
+  const double values[] = {0.9, 0.6, 1.4, 1.3, 4.5, 2.5, -0.2};
+  for (int i = 0; i < 7; ++i) p.set_scalar(names[i], values[i]);
+  p.set_scalar("r", kRadius);
+  p.set_scalar("b", kTrack);
+  if (with_currents) {
+    p.set_scalar("i_straight", 2.0);
+    p.set_scalar("i_l_outer", 9.0);
+    p.set_scalar("i_l_inner", 7.0);
+    p.set_scalar("i_r_outer", 5.0);
+    p.set_scalar("i_r_inner", 4.0);
+    p.set_scalar("s_peak", 0.12);
+  }
+  return p;
+}
+
+class StcTraction : public ::testing::Test {
+ protected:
+  PluginRegistry registry_{{SKIDIMM_PLUGIN_DIR}};
+};
+
+TEST_F(StcTraction, ConformsWithItsOutputsTurningBothWaysAndReversing) {
+  ModelHandle model = registry_.create("stc_traction", traction_params());
+  EXPECT_EQ(model->output_names(), (std::vector<std::string>{"omega", "i_L", "i_R"}));
+  for (const Eigen::Vector2d& u : {Eigen::Vector2d(2.0, 7.0), Eigen::Vector2d(6.0, 5.5), Eigen::Vector2d(6.0, -1.5),
+                                   Eigen::Vector2d(-3.0, -3.5)}) {
+    EXPECT_MOTION_MODEL_CONFORMS(*model, Eigen::Vector3d(1.0, -2.0, 0.7), u, 0.05);
+  }
+}
+
+// The currents by hand: turn ratio s, shape 2 (s / s_peak) / (1 + (s /
+// s_peak)^2), each side's gain for its role; omega is the pose's yaw rate.
+TEST_F(StcTraction, PredictsEachSidesCurrentAndTheYawRateByHand) {
+  ModelHandle model = registry_.create("stc_traction", traction_params());
+  Eigen::VectorXd y(3), next(3);
+  const double turns[2][4] = {{4.0, 6.0, 7.0, 5.0}, {6.0, 4.0, 9.0, 4.0}};  // left: L inner, R outer
+  for (const auto& turn : turns) {
+    const Eigen::Vector2d u(turn[0], turn[1]);
+    ASSERT_TRUE(model->outputs(u, y));
+    const double s = std::abs(turn[1] - turn[0]) / (turn[0] + turn[1] + 0.5) / 0.12;
+    const double shape = 2.0 * s / (1.0 + s * s);
+    EXPECT_NEAR(y[1], 2.0 + turn[2] * shape, 1e-12);
+    EXPECT_NEAR(y[2], 2.0 + turn[3] * shape, 1e-12);
+    ASSERT_TRUE(model->predict(Eigen::Vector3d::Zero(), u, 1e-3, next));
+    EXPECT_NEAR(y[0], next[2] / 1e-3, 1e-9);
+  }
+  // Straight, or at rest, each side draws i_straight.
+  ASSERT_TRUE(model->outputs(Eigen::Vector2d(5.0, 5.0), y));
+  EXPECT_EQ(y[1], 2.0);
+  EXPECT_EQ(y[2], 2.0);
+  ASSERT_TRUE(model->outputs(Eigen::Vector2d(0.0, 0.0), y));
+  EXPECT_EQ(y[1], 2.0);
+  // The peak of the turn current is at s_peak.
+  const double phi = 4.0;
+  const double right = phi * (1.0 + 0.12) / (1.0 - 0.12) + 0.5 * 0.12 / (1.0 - 0.12);  // s = 0.12 exactly
+  ASSERT_TRUE(model->outputs(Eigen::Vector2d(phi, right), y));
+  EXPECT_NEAR(y[1], 2.0 + 7.0, 1e-12);
+}
+
+TEST_F(StcTraction, TheKinematicPluginsPredictTheGyrosYawRate) {
+  sdk::ParameterSet eq3;
+  eq3.set_scalar("k", 0.8);
+  eq3.set_scalar("m", 0.6);
+  eq3.set_scalar("r", kRadius);
+  eq3.set_scalar("b", kTrack);
+  for (const auto& [name, params] :
+       {std::make_pair("stc_kinematic", eq3), std::make_pair("stc_sided", traction_params(false)),
+        std::make_pair("stc_traction", traction_params())}) {
+    ModelHandle model = registry_.create(name, params);
+    Eigen::VectorXd y(static_cast<Eigen::Index>(model->output_names().size())), next(3);
+    EXPECT_EQ(model->output_names()[0], "omega") << name;
+    for (const Eigen::Vector2d& u : {Eigen::Vector2d(2.0, 7.0), Eigen::Vector2d(6.0, -1.5)}) {
+      ASSERT_TRUE(model->outputs(u, y)) << name;
+      ASSERT_TRUE(model->predict(Eigen::Vector3d::Zero(), u, 1e-3, next));
+      EXPECT_NEAR(y[0], next[2] / 1e-3, 1e-9) << name;
+    }
+    EXPECT_MOTION_MODEL_CONFORMS(*model, Eigen::Vector3d(1.0, -2.0, 0.7), Eigen::Vector2d(2.0, 7.0), 0.05);
+  }
+}
+
+TEST_F(StcTraction, EveryCurrentParameterIsRequiredAndBounded) {
+  sdk::ParameterSet p = traction_params();
+  p.set_scalar("s_peak", 0.0);
+  try {
+    registry_.create("stc_traction", p);
+    ADD_FAILURE() << "s_peak 0 accepted";
+  } catch (const PluginError& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("s_peak"));
+  }
+  try {
+    registry_.create("stc_traction", traction_params(false));
+    ADD_FAILURE() << "no current parameters accepted";
+  } catch (const PluginError& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("i_straight"));
+  }
+}
+
+}  // namespace
+}  // namespace skidimm
