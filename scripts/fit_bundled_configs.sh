@@ -14,6 +14,9 @@
 #    configs/physical/realistic/*.yaml (a data-sheet prior R) fitted to them,
 #    then R (per measurement) and a scale on Q estimated by `skidimm tune` on
 #    other logs, give configs/realistic/*.yaml. No R is copied from the simulator.
+#    Only these sensors measure motor currents, so only they have the sided
+#    model with currents (stc_traction4, stc_traction16), which also measures
+#    the gyro and the currents (measurement.outputs).
 #
 # Each mode is driven through four 20 s maneuvers with a fixed seed: skidpads
 # turning left and right (asymmetric slip turns differently each way), a
@@ -171,8 +174,11 @@ realistic slip &
 slip_job=$!
 realistic sided &
 sided_job=$!
+# The sided model with motor currents: only the realistic sensors measure them.
+realistic traction &
+traction_job=$!
 status=0
-for job in $ideal_job $slip_job $sided_job; do wait "$job" || status=1; done
+for job in $ideal_job $slip_job $sided_job $traction_job; do wait "$job" || status=1; done
 [ $status -eq 0 ] || { echo "$0: a fitting pipeline failed (reports in $logs)" >&2; exit 1; }
-echo "wrote $out/{ltc_terrains,ltc_shared,stc_slip4,stc_slip16,stc_sided4,stc_sided16}.yaml and the same under" \
-  "$out/realistic/; fit reports and tuning tables in $logs" >&2
+echo "wrote $out/{ltc_terrains,ltc_shared,stc_slip4,stc_slip16,stc_sided4,stc_sided16}.yaml, the same under" \
+  "$out/realistic/ with stc_traction{4,16}.yaml; fit reports and tuning tables in $logs" >&2

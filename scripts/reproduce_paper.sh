@@ -9,7 +9,9 @@
 # those sensors' own noise) and with a Husky-class robot's sensors
 # (configs/scenarios/realistic/*.yaml, scored with configs/realistic/, whose R
 # skidimm tune estimated). The STC experiments compare eq. 3 (stc_slip*) with
-# the sided model (stc_sided*), with 4 and 16 modes.
+# the sided model (stc_sided*), with 4 and 16 modes, and with a Husky's
+# sensors the sided model that also measures the gyro and the motor currents
+# (stc_traction*).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
@@ -79,7 +81,10 @@ evaluate_all() {  # evaluate_all SENSORS
     evaluate ltc_singular "$sensors" "$bank" ltc_singular_crushed_concrete ltc_singular_grass ltc_singular_asphalt
     evaluate ltc_switching "$sensors" "$bank" ltc_switching
   done
-  for bank in stc_slip4 stc_sided4 stc_slip16 stc_sided16; do
+  local stc_banks=(stc_slip4 stc_sided4 stc_slip16 stc_sided16)
+  # Only a Husky's sensors measure motor currents.
+  [ "$sensors" = realistic ] && stc_banks+=(stc_traction4 stc_traction16)
+  for bank in "${stc_banks[@]}"; do
     evaluate stc_singular "$sensors" "$bank" stc_singular_no_slip stc_singular_slip_FL_FR stc_singular_slip_FR_RR \
       stc_singular_slip_FL_FR_RL_RR
     evaluate stc_switching "$sensors" "$bank" stc_switching
@@ -124,6 +129,7 @@ done
 for s in stc_singular_no_slip stc_singular_slip_FL_FR stc_singular_slip_FR_RR stc_singular_slip_FL_FR_RL_RR stc_switching; do
   figure realistic "$s" stc_slip4
   figure realistic "$s" stc_sided4
+  figure realistic "$s" stc_traction4
 done
 
 "$python" scripts/results_tables.py "$work/eval" "$results" "$seeds" "$work/kinematics"

@@ -152,6 +152,22 @@ TEST(BankWriter, MeasurementTransitionFloorAndWeightBlocksLoadBackToTheSameValue
   config.measurement.r = Eigen::Matrix2d::Identity() * 0.01;
   EXPECT_EQ(format_measurement_block(config),
             "measurement:\n  H: [[1, 0.5], [0, 1]]\n  names: [mixed, omega]\n  R: {diagonal: [0.01, 0.01]}\n");
+
+  // Measured outputs are written as `outputs:` after the state rows, and a
+  // tuned bank reads back with the same rows (tune rewrites this block).
+  std::string with_outputs = kBank;
+  with_outputs.replace(with_outputs.find("observe: [V, omega]"), 19, "observe: [V], outputs: [omega]");
+  const auto outputs_file = write_file(dir / "outputs.yaml", with_outputs);
+  const BankConfig outputs = load_bank_config(outputs_file);
+  ASSERT_EQ(outputs.measurement.outputs, std::vector<std::string>{"omega"});
+  EXPECT_EQ(format_measurement_block(outputs),
+            "measurement:\n  observe: [V]\n  outputs: [omega]\n  R: {diagonal: [0.0004, 0.0004]}\n");
+  write_bank_from_template(outputs_file, dir / "outputs_out.yaml", {"tuned"},
+                           {{"measurement", format_measurement_block(outputs)}});
+  const BankConfig outputs_back = load_bank_config(dir / "outputs_out.yaml");
+  EXPECT_EQ(outputs_back.measurement.outputs, outputs.measurement.outputs);
+  EXPECT_EQ(outputs_back.measurement.h, outputs.measurement.h);
+  EXPECT_EQ(outputs_back.measurement.names, outputs.measurement.names);
 }
 
 }  // namespace

@@ -254,9 +254,12 @@ std::string join_names(const std::vector<std::string>& names) {
 
 std::string format_measurement_block(const BankConfig& config) {
   const MeasurementConfig& m = config.measurement;
+  // The state rows; the measured outputs follow them (`outputs:`).
+  const Eigen::Index state_rows = m.first_output_row();
+  const std::vector<std::string> state_names(m.names.begin(), m.names.begin() + state_rows);
   // `observe:` when every row picks one state by name, as the loader builds it.
   bool observe = true;
-  for (Eigen::Index r = 0; r < m.h.rows() && observe; ++r) {
+  for (Eigen::Index r = 0; r < state_rows && observe; ++r) {
     int picked = -1;
     for (Eigen::Index c = 0; c < m.h.cols(); ++c) {
       if (m.h(r, c) == 1.0 && picked < 0) {
@@ -269,10 +272,11 @@ std::string format_measurement_block(const BankConfig& config) {
   }
   std::string out = "measurement:\n";
   if (observe) {
-    out += "  observe: " + join_names(m.names) + "\n";
+    out += "  observe: " + join_names(state_names) + "\n";
   } else {
-    out += "  H: " + format_matrix(m.h) + "\n  names: " + join_names(m.names) + "\n";
+    out += "  H: " + format_matrix(m.h.topRows(state_rows)) + "\n  names: " + join_names(state_names) + "\n";
   }
+  if (!m.outputs.empty()) out += "  outputs: " + join_names(m.outputs) + "\n";
   Eigen::MatrixXd r = m.r;
   if (r.size() == 1) return out + "  R: {diagonal: [" + number(r(0, 0)) + "]}\n";
   return out + "  R: " + format_covariance(r) + "\n";
