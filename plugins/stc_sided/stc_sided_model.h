@@ -26,8 +26,9 @@ namespace plugins {
 template <bool kWithCurrents>
 class StcSidedModelOf final : public sdk::SizedMotionModel<stc_sided::kNumStates, stc_sided::kNumInputs> {
  public:
-  static constexpr int kNumParameters = kWithCurrents ? stc_sided::kNumTractionParameters : stc_sided::kNumParameters;
-  static constexpr int kNumOutputs = kWithCurrents ? stc_sided::kNumTractionOutputs : 1;
+  static constexpr int kNumParameters =
+      kWithCurrents ? static_cast<int>(stc_sided::kNumTractionParameters) : static_cast<int>(stc_sided::kNumParameters);
+  static constexpr int kNumOutputs = kWithCurrents ? static_cast<int>(stc_sided::kNumTractionOutputs) : 1;
   using Parameters = Eigen::Matrix<double, kNumParameters, 1>;
 
   static std::unique_ptr<StcSidedModelOf> Create(const sdk::ParameterSet& params, std::string* error) {

@@ -19,6 +19,7 @@
 #include "skidimm/log_reader.h"
 #include "skidimm/log_run.h"
 #include "stc_kinematic/stc_kinematic_model.h"
+#include "stc_sided/stc_sided_model.h"
 
 namespace skidimm {
 namespace {
@@ -75,6 +76,56 @@ TEST(ImmAllocation, StepAndDecisionAllocateNothingWithIrregularTimeMissingRowsAn
   run(1000);
   EXPECT_EQ(skidimm_test::g_malloc_calls.load() - before, 0) << "heap allocations during 1000 steps and decisions";
   EXPECT_TRUE(imm.estimate().state.allFinite());
+}
+
+// A bank measuring model outputs besides the pose: each mode's outputs are
+// computed and subtracted in place, in the fixed-size kernel (the pose and
+// the gyro: 4 rows) and the dynamic one (the gyro and stc_traction's motor
+// currents too: 6 rows).
+TEST(ImmAllocation, MeasuredOutputsAllocateNothing) {
+  SKIDIMM_SKIP_UNLESS_MALLOC_COUNTED();
+  for (const int outputs : {1, 3}) {
+    skidimm_test::BankBuilder b;
+    b.states = {"X", "Y", "theta"};
+    b.angles = {false, false, true};
+    b.inputs = {"phi_dot_L", "phi_dot_R"};
+    const char* names[] = {
+        "eta_l", "eta_r",      "alpha_l_outer", "alpha_l_inner", "alpha_r_outer", "alpha_r_inner", "x_icr", "r",
+        "b",     "i_straight", "i_l_outer",     "i_l_inner",     "i_r_outer",     "i_r_inner",     "s_peak"};
+    for (int j = 0; j < 4; ++j) {
+      const double values[] = {0.9,   0.95, 1.5 + 0.2 * j, 1.4, 1.6, 1.3, 0.0, 0.165,
+                               0.555, 2.0,  8.0 - j,       7.0, 6.0, 5.0, 0.1};
+      sdk::ParameterSet p;
+      for (int i = 0; i < 15; ++i) p.set_scalar(names[i], values[i]);
+      std::string error;
+      b.models.push_back(std::shared_ptr<sdk::MotionModel>(plugins::StcTractionModel::Create(p, &error).release()));
+    }
+    b.q = {Eigen::Matrix3d::Identity() * 1e-3};
+    b.h = Eigen::MatrixXd::Zero(3 + outputs, 3);
+    b.h.topRows(3).setIdentity();
+    b.r = Eigen::VectorXd::Constant(3 + outputs, 1e-2).asDiagonal();
+    Bank bank = b.build();
+    bank.config.measurement.outputs = {"omega", "i_L", "i_R"};
+    bank.config.measurement.outputs.resize(static_cast<std::size_t>(outputs));
+    Imm imm(std::move(bank));
+    EXPECT_EQ(imm.uses_fixed_size_kernel(), outputs == 1);
+    double t = 0.0;
+    Eigen::VectorXd full(6);
+    auto run = [&](int steps) {
+      for (int k = 0; k < steps; ++k) {
+        t += 0.02;
+        full << 0.5 * t, 0.1 * t, std::remainder(0.3 * t, 2.0 * M_PI), 0.3, 6.0, 5.5;
+        if (k % 5 != 0) full.head(3).setConstant(kNaN);  // GPS at a fifth of the rate
+        if (k % 3 != 0) full.tail(2).setConstant(kNaN);  // currents at a third
+        imm.step(t, Eigen::Vector2d(3.0, 4.0 + std::sin(0.1 * k)), full.head(3 + outputs));
+      }
+    };
+    run(10);  // warm-up
+    const long before = skidimm_test::g_malloc_calls.load();
+    run(500);
+    EXPECT_EQ(skidimm_test::g_malloc_calls.load() - before, 0) << outputs << " output(s) measured";
+    EXPECT_TRUE(imm.estimate().state.allFinite());
+  }
 }
 
 // Every kernel and every path of the dwell-time transition: the dynamic
