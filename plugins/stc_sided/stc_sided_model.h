@@ -1,6 +1,7 @@
 // StcSidedModel: the plugin class behind `stc_sided` (equations in
 // stc_sided_predict.h), and StcTractionModel, behind `stc_traction`: the
-// same kinematics with the motor currents of stc_sided_currents.h as outputs.
+// same kinematics with tread ICRs that move out as the turn tightens and the
+// motor currents as outputs (stc_traction_equations.h).
 // In a header so tests can run them in-process; the plugin .cc files only
 // export them.
 #ifndef SKIDIMM_PLUGINS_STC_SIDED_STC_SIDED_MODEL_H_
@@ -15,8 +16,8 @@
 #include "skidimm/sdk/angles.h"
 #include "skidimm/sdk/autodiff_parameter_jacobian.h"
 #include "skidimm/sdk/sized_motion_model.h"
-#include "stc_sided/stc_sided_currents.h"
 #include "stc_sided/stc_sided_predict.h"
+#include "stc_sided/stc_traction_equations.h"
 
 namespace skidimm {
 namespace plugins {
@@ -61,32 +62,36 @@ class StcSidedModelOf final : public sdk::SizedMotionModel<stc_sided::kNumStates
   }
 
   bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const override {
-    stc_sided::predict(x.data(), u.data(), p_.data(), dt, x_next->data());
+    predict_pose(x.data(), u.data(), p_.data(), dt, x_next->data());
     (*x_next)[stc_sided::kTheta] = sdk::wrap_angle((*x_next)[stc_sided::kTheta]);
     return x_next->allFinite();
   }
 
   bool jacobian_fixed(const State& x, const Input& u, double dt, Jacobian* jacobian) const override {
     Eigen::Matrix<double, 3, 3, Eigen::RowMajor> row_major;
-    stc_sided::state_jacobian(x.data(), u.data(), p_.data(), dt, row_major.data());
+    if constexpr (kWithCurrents) {
+      stc_sided::traction_state_jacobian(x.data(), u.data(), p_.data(), dt, row_major.data());
+    } else {
+      stc_sided::state_jacobian(x.data(), u.data(), p_.data(), dt, row_major.data());
+    }
     *jacobian = row_major;
     return jacobian->allFinite();
   }
   bool has_analytic_jacobian() const noexcept override { return true; }
 
   // d x_next / d parameters (the order of parameter_info()), by Ceres jets
-  // on stc_sided::predict; the current parameters do not move the pose.
+  // on the pose step; the current parameters do not move the pose.
   bool parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                           double dt, Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept override {
     return sdk::autodiff_parameter_jacobian<stc_sided::kNumStates, stc_sided::kNumInputs, kNumParameters>(
         [](const auto* x_in, const auto* u_in, const auto* p, const auto& step, auto* out) {
-          stc_sided::predict(x_in, u_in, p, step, out);
+          predict_pose(x_in, u_in, p, step, out);
         },
         x, u, p_.data(), dt, jacobian);
   }
 
   // Outputs: omega, the yaw rate body_velocity() predicts (for a gyro), and
-  // for stc_traction the motor currents i_L, i_R (stc_sided_currents.h).
+  // for stc_traction the motor currents i_L, i_R (stc_traction_equations.h).
   const std::vector<std::string>& output_names() const noexcept override { return output_names_; }
   bool outputs(const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::VectorXd> y) const noexcept override {
     const double wheels[stc_sided::kNumInputs] = {u[stc_sided::kPhiDotLeft], u[stc_sided::kPhiDotRight]};
@@ -102,6 +107,15 @@ class StcSidedModelOf final : public sdk::SizedMotionModel<stc_sided::kNumStates
   }
 
  private:
+  template <typename T>
+  static void predict_pose(const T* x, const T* u, const T* p, const T& dt, T* x_next) {
+    if constexpr (kWithCurrents) {
+      stc_sided::traction_predict(x, u, p, dt, x_next);
+    } else {
+      stc_sided::predict(x, u, p, dt, x_next);
+    }
+  }
+
   template <typename T>
   static void compute_outputs(const T* u, const T* p, T* y) {
     if constexpr (kWithCurrents) {
@@ -135,10 +149,12 @@ class StcSidedModelOf final : public sdk::SizedMotionModel<stc_sided::kNumStates
     };
     p_.template head<stc_sided::kNumParameters>() << 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0;
     if constexpr (kWithCurrents) {
-      // Indexed by stc_sided::CurrentParameter.
+      // Indexed by stc_sided::TractionParameter.
       parameter_info_.insert(
           parameter_info_.end(),
-          {scalar_parameter_info("i_straight", "motor current of each side driving straight (A)", 0.0, 1000.0),
+          {scalar_parameter_info(
+               "k_skid", "how fast the tread ICRs move out as the turn tightens: by 1 + k_skid s^2 (-)", 0.0, 1e4),
+           scalar_parameter_info("i_straight", "motor current of each side driving straight (A)", 0.0, 1000.0),
            scalar_parameter_info("i_l_outer", "left side's extra current at the turn's peak, outer side (A)", 0.0,
                                  1000.0),
            scalar_parameter_info("i_l_inner", "left side's extra current at the turn's peak, inner side (A)", 0.0,
@@ -148,7 +164,7 @@ class StcSidedModelOf final : public sdk::SizedMotionModel<stc_sided::kNumStates
            scalar_parameter_info("i_r_inner", "right side's extra current at the turn's peak, inner side (A)", 0.0,
                                  1000.0),
            scalar_parameter_info("s_peak", "wheel-speed turn ratio where the turn current peaks (-)", 0.001, 1.0)});
-      p_.template tail<6>() << 1.0, 1.0, 1.0, 1.0, 1.0, 0.1;
+      p_.template tail<7>() << 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.1;
       output_names_ = {"omega", "i_L", "i_R"};
     }
   }

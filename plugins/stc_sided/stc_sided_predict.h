@@ -90,12 +90,11 @@ void body_velocity(const T* u, const T* p, T* v_x, T* v_y, T* omega) {
   *v_y = -p[kXIcr] * *omega;
 }
 
+// The forward-Euler pose step of eq. 1 with body velocity (v_x, v_y, omega).
 template <typename T>
-void predict(const T* x, const T* u, const T* p, const T& dt, T* x_next) {
+void pose_step(const T* x, const T& v_x, const T& v_y, const T& omega, const T& dt, T* x_next) {
   using std::cos;
   using std::sin;
-  T v_x, v_y, omega;
-  body_velocity(u, p, &v_x, &v_y, &omega);
   const T c = cos(x[kTheta]);
   const T s = sin(x[kTheta]);
   x_next[kX] = x[kX] + (v_x * c - v_y * s) * dt;
@@ -103,17 +102,28 @@ void predict(const T* x, const T* u, const T* p, const T& dt, T* x_next) {
   x_next[kTheta] = x[kTheta] + omega * dt;
 }
 
-// Row-major 3x3 Jacobian d x_next / d x of predict(): the identity plus the
-// heading column.
-inline void state_jacobian(const double* x, const double* u, const double* p, double dt, double* jacobian) {
-  double v_x, v_y, omega;
-  body_velocity(u, p, &v_x, &v_y, &omega);
+// Row-major 3x3 Jacobian d x_next / d x of pose_step(): the identity plus
+// the heading column.
+inline void pose_jacobian(const double* x, double v_x, double v_y, double dt, double* jacobian) {
   const double c = std::cos(x[kTheta]);
   const double s = std::sin(x[kTheta]);
   const double rows[9] = {1.0, 0.0, (-v_x * s - v_y * c) * dt,  //
                           0.0, 1.0, (v_x * c - v_y * s) * dt,   //
                           0.0, 0.0, 1.0};
   for (int i = 0; i < 9; ++i) jacobian[i] = rows[i];
+}
+
+template <typename T>
+void predict(const T* x, const T* u, const T* p, const T& dt, T* x_next) {
+  T v_x, v_y, omega;
+  body_velocity(u, p, &v_x, &v_y, &omega);
+  pose_step(x, v_x, v_y, omega, dt, x_next);
+}
+
+inline void state_jacobian(const double* x, const double* u, const double* p, double dt, double* jacobian) {
+  double v_x, v_y, omega;
+  body_velocity(u, p, &v_x, &v_y, &omega);
+  pose_jacobian(x, v_x, v_y, dt, jacobian);
 }
 
 }  // namespace stc_sided

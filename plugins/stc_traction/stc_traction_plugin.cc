@@ -1,8 +1,8 @@
 // `stc_traction`: stc_sided's pose model [X, Y, theta] (per-side tread
-// efficiencies and tread ICRs, Mandow et al. 2007) that also predicts each
-// side's motor current, the one measurement that sees how hard the ground
-// resists: equations in stc_sided/stc_sided_predict.h and
-// stc_sided/stc_sided_currents.h.
+// efficiencies and tread ICRs, Mandow et al. 2007) with ICRs that move out as
+// the turn tightens, which also predicts each side's motor current, the one
+// measurement that sees how hard the ground resists: equations in
+// stc_sided/stc_sided_predict.h and stc_sided/stc_traction_equations.h.
 #include "skidimm/sdk/export.h"
 #include "stc_sided/stc_sided_model.h"
 
@@ -20,6 +20,8 @@ constexpr skidimm::sdk::ParameterDoc kParameters[] = {
     {"x_icr", "scalar", "longitudinal position of the vehicle ICR in [-2, 2] (m), per mode"},
     {"r", "scalar", "wheel radius (m), bank-level (shared:)"},
     {"b", "scalar", "track width (m), bank-level (shared:)"},
+    {"k_skid", "scalar",
+     "tread ICRs move out by 1 + k_skid s^2 with the wheel-speed turn ratio s, in [0, 1e4] (-), per mode"},
     {"i_straight", "scalar", "motor current of each side driving straight in [0, 1000] (A), per mode"},
     {"i_l_outer", "scalar", "left side's extra current at the turn's peak as the outer side (A), per mode"},
     {"i_l_inner", "scalar", "left side's extra current at the turn's peak as the inner side (A), per mode"},
@@ -46,9 +48,10 @@ constexpr skidimm::sdk::VariableDoc kOutputs[] = {
 constexpr skidimm::sdk::PluginInfo kInfo = {
     "stc_traction",
     "1.0.0",
-    "stc_sided's pose model [X, Y, theta] that also predicts each side's motor current (omega, i_L, i_R outputs)",
+    "stc_sided's pose model [X, Y, theta] with turn-dependent skid, predicting each side's motor current (omega, i_L, "
+    "i_R outputs)",
     kParameters,
-    15,
+    16,
     kStates,
     3,
     kInputs,

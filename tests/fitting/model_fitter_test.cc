@@ -166,12 +166,12 @@ modes:
   - name: slip
     model: stc_traction
     params: {eta_l: 1, eta_r: 1, alpha_l_outer: 1, alpha_l_inner: 1, alpha_r_outer: 1, alpha_r_inner: 1, x_icr: 0,
-             i_straight: 2, i_l_outer: 5, i_l_inner: 5, i_r_outer: 5, i_r_inner: 5, s_peak: 0.1}
+             k_skid: 10, i_straight: 2, i_l_outer: 5, i_l_inner: 5, i_r_outer: 5, i_r_inner: 5, s_peak: 0.1}
     Q: {diagonal: [0.001, 0.001, 0.001]}
 )";
   Bank truth = load_bank(bank_yaml, "truth.yaml");
-  Eigen::VectorXd truth_parameters(15);
-  truth_parameters << 0.95, 0.9, 1.6, 1.3, 1.9, 1.4, 0.0, 0.165, 0.555, 2.0, 9.0, 7.0, 5.0, 4.0, 0.12;
+  Eigen::VectorXd truth_parameters(16);
+  truth_parameters << 0.95, 0.9, 1.6, 1.3, 1.9, 1.4, 0.0, 0.165, 0.555, 25.0, 2.0, 9.0, 7.0, 5.0, 4.0, 0.12;
   ASSERT_TRUE(truth.models[0]->set_parameters(truth_parameters, nullptr));
   // Turns both ways, from gentle to tight.
   auto turns = [](double t) {
@@ -186,6 +186,7 @@ modes:
   Eigen::VectorXd y(3);
   for (int k = 0; k < data.size(); ++k) {
     ASSERT_TRUE(truth.models[0]->outputs(data.u.col(k), y));
+    EXPECT_EQ(y.size(), 3);
     data.z(3, k) = y[0] + 0.02 * normal(rng);
     data.z(4, k) = y[1] + 0.3 * normal(rng);
     data.z(5, k) = y[2] + 0.3 * normal(rng);
@@ -195,9 +196,9 @@ modes:
   options.window = 0.5;
   const FitReport report = fit(&bank, {ModeLogs{0, {data}}}, options).front();
   EXPECT_EQ(report.derivatives, "autodiff");
-  ASSERT_EQ(report.parameters.size(), 13u);  // r and b are bank-level
-  const int truth_index[13] = {0, 1, 2, 3, 4, 5, 6, 9, 10, 11, 12, 13, 14};
-  for (std::size_t i = 0; i < 13; ++i) {
+  ASSERT_EQ(report.parameters.size(), 14u);  // r and b are bank-level
+  const int truth_index[14] = {0, 1, 2, 3, 4, 5, 6, 9, 10, 11, 12, 13, 14, 15};
+  for (std::size_t i = 0; i < 14; ++i) {
     const double expected = truth_parameters[truth_index[i]];
     // Within 3%, or 4 of the fit's own standard deviations where the logs
     // say less (the inner treads' ICRs: a turn's yaw rate gives their sum

@@ -1,5 +1,5 @@
 // stc_traction: stc_sided's kinematics plus each side's motor current
-// (plugins/stc_sided/stc_sided_currents.h), and the yaw-rate outputs of the
+// (plugins/stc_sided/stc_traction_equations.h), and the yaw-rate outputs of the
 // kinematic plugins.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -25,6 +25,7 @@ sdk::ParameterSet traction_params(bool with_currents = true) {
   p.set_scalar("r", kRadius);
   p.set_scalar("b", kTrack);
   if (with_currents) {
+    p.set_scalar("k_skid", 30.0);
     p.set_scalar("i_straight", 2.0);
     p.set_scalar("i_l_outer", 9.0);
     p.set_scalar("i_l_inner", 7.0);
@@ -78,6 +79,28 @@ TEST_F(StcTraction, PredictsEachSidesCurrentAndTheYawRateByHand) {
   EXPECT_NEAR(y[1], 2.0 + 7.0, 1e-12);
 }
 
+// The ICRs move out by 1 + k_skid s^2: the yaw rate and the lateral skid are
+// stc_sided's divided by it, the forward speed is stc_sided's.
+TEST_F(StcTraction, TreadIcrsMoveOutAsTheTurnTightens) {
+  ModelHandle traction = registry_.create("stc_traction", traction_params());
+  ModelHandle sided = registry_.create("stc_sided", traction_params(false));
+  Eigen::VectorXd a(3), b(3);
+  const double dt = 1e-3, theta = 0.4;
+  for (const Eigen::Vector2d& u : {Eigen::Vector2d(4.0, 6.0), Eigen::Vector2d(6.5, 2.0), Eigen::Vector2d(5.0, 5.0)}) {
+    ASSERT_TRUE(traction->predict(Eigen::Vector3d(0.0, 0.0, theta), u, dt, a));
+    ASSERT_TRUE(sided->predict(Eigen::Vector3d(0.0, 0.0, theta), u, dt, b));
+    const double s = (u[1] - u[0]) / (u[0] + u[1] + 0.5);
+    const double spread = 1.0 + 30.0 * s * s;
+    EXPECT_NEAR(a[2] - theta, (b[2] - theta) / spread, 1e-15);
+    // Body velocities from the step: v_x is unchanged, v_y divided.
+    const double c = std::cos(theta), sn = std::sin(theta);
+    const double vx_a = (a[0] * c + a[1] * sn) / dt, vy_a = (-a[0] * sn + a[1] * c) / dt;
+    const double vx_b = (b[0] * c + b[1] * sn) / dt, vy_b = (-b[0] * sn + b[1] * c) / dt;
+    EXPECT_NEAR(vx_a, vx_b, 1e-12);
+    EXPECT_NEAR(vy_a, vy_b / spread, 1e-12);
+  }
+}
+
 TEST_F(StcTraction, TheKinematicPluginsPredictTheGyrosYawRate) {
   sdk::ParameterSet eq3;
   eq3.set_scalar("k", 0.8);
@@ -99,7 +122,7 @@ TEST_F(StcTraction, TheKinematicPluginsPredictTheGyrosYawRate) {
   }
 }
 
-TEST_F(StcTraction, EveryCurrentParameterIsRequiredAndBounded) {
+TEST_F(StcTraction, EveryParameterIsRequiredAndBounded) {
   sdk::ParameterSet p = traction_params();
   p.set_scalar("s_peak", 0.0);
   try {
@@ -110,9 +133,20 @@ TEST_F(StcTraction, EveryCurrentParameterIsRequiredAndBounded) {
   }
   try {
     registry_.create("stc_traction", traction_params(false));
-    ADD_FAILURE() << "no current parameters accepted";
+    ADD_FAILURE() << "stc_sided's parameters alone accepted";
   } catch (const PluginError& e) {
-    EXPECT_THAT(e.what(), ::testing::HasSubstr("i_straight"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("missing parameter 'k_skid'"));
+  }
+  const sdk::ParameterSet all = traction_params();
+  sdk::ParameterSet no_current;
+  for (const std::string& key : all.keys()) {
+    if (key != "i_r_inner") no_current.set(key, *all.find(key));
+  }
+  try {
+    registry_.create("stc_traction", no_current);
+    ADD_FAILURE() << "no i_r_inner accepted";
+  } catch (const PluginError& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("missing parameter 'i_r_inner'"));
   }
 }
 

@@ -1,0 +1,132 @@
+// The `stc_traction` model: stc_sided's tread kinematics (stc_sided_predict.h)
+// with tread ICRs that move out as the turn tightens, and each side's motor
+// current as outputs.
+//
+// Both depend on the wheel-speed turn ratio
+//
+//   s = (phi_dot_R - phi_dot_L) / (|phi_dot_L| + |phi_dot_R| + phi_floor)
+//
+// (0 straight, +-1 spinning in place; phi_floor = 0.5 rad/s keeps a robot at
+// rest at s = 0).
+//
+// Skid that grows with the turn. On slippery treads the share of the wheels'
+// yaw rate the body achieves falls steeply as the turn tightens: with the
+// right two wheels on tarp, from about 0.45 at s = 0.04 to 0.04 at s = 0.3, on
+// skidpads, clothoids, sinusoids and the spiral alike (docs/results.md, "What
+// the spiral lets a filter see"). Fixed ICRs hold it constant. Here every
+// tread ICR moves out by the same factor
+//
+//   1 + k_skid s^2
+//
+// which divides omega (and the lateral skid v_y = -x_icr omega) by it and
+// leaves v_x, homogeneous in the ICRs, unchanged. k_skid = 0 is stc_sided.
+//
+// Motor currents. Each side's drive holds its wheels' speed, so its motor
+// draws the current of the torque its wheels' traction needs. Driving
+// straight that is the rolling loss alone; in a turn a skid-steer robot
+// slides its wheels sideways, the outer side pushing and the inner side
+// braking, and each side's torque rises with the turn until the wheels'
+// sideways sliding takes over their friction and it falls again
+// (docs/simulation.md, "Motor currents"). With the turn shape
+//
+//   g(s) = 2 (|s| / s_peak) / (1 + (|s| / s_peak)^2)     (0 at 0, 1 at s_peak)
+//
+// each side draws
+//
+//   i_L = i_straight + i_l_<role> g(s)      i_R = i_straight + i_r_<role> g(s)
+//
+// with role the side's part in the turn: turning left (s > 0) the left side
+// is inner and the right outer, turning right the reverse. A current is a
+// magnitude (as the Husky's drivers report it), so every term is >= 0.
+//
+// Per mode, after stc_sided's: k_skid (-); i_straight, the current driving
+// straight (A: the drive train's own draw and the rolling loss);
+// i_<side>_<role>, how much more a side draws at the turn's peak (A);
+// s_peak, the turn ratio of that peak (-). What the currents say: slippery
+// wheels transmit less torque, so a side on tarp draws less in turns, and a
+// robot on tarp on every wheel draws less on both sides, though it turns
+// like one with none.
+#ifndef SKIDIMM_PLUGINS_STC_SIDED_STC_TRACTION_EQUATIONS_H_
+#define SKIDIMM_PLUGINS_STC_SIDED_STC_TRACTION_EQUATIONS_H_
+
+#include <cmath>
+
+#include "stc_sided/stc_sided_predict.h"
+
+namespace skidimm {
+namespace plugins {
+namespace stc_sided {
+
+// stc_traction's own parameters follow stc_sided's in the flat vector.
+enum TractionParameter {
+  kSkidGrowth = kNumParameters,
+  kCurrentStraight,
+  kCurrentLeftOuter,
+  kCurrentLeftInner,
+  kCurrentRightOuter,
+  kCurrentRightInner,
+  kTurnPeak,
+  kNumTractionParameters
+};
+
+enum Output { kOmegaOutput = 0, kCurrentLeftOutput = 1, kCurrentRightOutput = 2, kNumTractionOutputs = 3 };
+
+// rad/s added to the turn ratio's denominator (see above).
+constexpr double kWheelSpeedFloor = 0.5;
+
+template <typename T>
+T turn_ratio(const T* u) {
+  using std::abs;
+  return (u[kPhiDotRight] - u[kPhiDotLeft]) / (abs(u[kPhiDotLeft]) + abs(u[kPhiDotRight]) + T(kWheelSpeedFloor));
+}
+
+// Body velocity (v_x, v_y, omega) with the ICRs moved out by 1 + k_skid s^2.
+template <typename T>
+void traction_body_velocity(const T* u, const T* p, T* v_x, T* v_y, T* omega) {
+  body_velocity(u, p, v_x, v_y, omega);
+  const T s = turn_ratio(u);
+  const T spread = T(1.0) + p[kSkidGrowth] * s * s;
+  *omega /= spread;
+  *v_y /= spread;
+}
+
+template <typename T>
+void traction_predict(const T* x, const T* u, const T* p, const T& dt, T* x_next) {
+  T v_x, v_y, omega;
+  traction_body_velocity(u, p, &v_x, &v_y, &omega);
+  pose_step(x, v_x, v_y, omega, dt, x_next);
+}
+
+inline void traction_state_jacobian(const double* x, const double* u, const double* p, double dt, double* jacobian) {
+  double v_x, v_y, omega;
+  traction_body_velocity(u, p, &v_x, &v_y, &omega);
+  pose_jacobian(x, v_x, v_y, dt, jacobian);
+}
+
+// i_L, i_R (A) from the wheel speeds u and parameters p.
+template <typename T>
+void motor_currents(const T* u, const T* p, T* current_left, T* current_right) {
+  using std::abs;
+  const T relative = abs(turn_ratio(u)) / p[kTurnPeak];
+  const T shape = T(2.0) * relative / (T(1.0) + relative * relative);
+  const bool turning_left = u[kPhiDotRight] > u[kPhiDotLeft];
+  const T& left_gain = turning_left ? p[kCurrentLeftInner] : p[kCurrentLeftOuter];
+  const T& right_gain = turning_left ? p[kCurrentRightOuter] : p[kCurrentRightInner];
+  *current_left = p[kCurrentStraight] + left_gain * shape;
+  *current_right = p[kCurrentStraight] + right_gain * shape;
+}
+
+// The outputs of stc_traction: omega (the yaw rate it predicts, for a gyro),
+// i_L, i_R.
+template <typename T>
+void traction_outputs(const T* u, const T* p, T* y) {
+  T v_x, v_y;
+  traction_body_velocity(u, p, &v_x, &v_y, &y[kOmegaOutput]);
+  motor_currents(u, p, &y[kCurrentLeftOutput], &y[kCurrentRightOutput]);
+}
+
+}  // namespace stc_sided
+}  // namespace plugins
+}  // namespace skidimm
+
+#endif  // SKIDIMM_PLUGINS_STC_SIDED_STC_TRACTION_EQUATIONS_H_
