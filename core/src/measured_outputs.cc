@@ -1,10 +1,21 @@
 #include "skidimm/measured_outputs.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "skidimm/errors.h"
 
 namespace skidimm {
+
+std::vector<int> output_indices(const sdk::MotionModel& model, const std::vector<std::string>& measured) {
+  const std::vector<std::string>& names = model.output_names();
+  std::vector<int> indices;
+  for (const std::string& output : measured) {
+    const auto at = std::find(names.begin(), names.end(), output);
+    indices.push_back(at == names.end() ? -1 : static_cast<int>(at - names.begin()));
+  }
+  return indices;
+}
 
 MeasuredOutputs::MeasuredOutputs(const Bank& bank) {
   const MeasurementConfig& measurement = bank.config.measurement;
@@ -13,20 +24,16 @@ MeasuredOutputs::MeasuredOutputs(const Bank& bank) {
   const Eigen::Index rows = measurement.h.rows();
   for (std::size_t j = 0; j < bank.models.size(); ++j) {
     const sdk::MotionModel& model = *bank.models[j];
-    const std::vector<std::string>& names = model.output_names();
-    std::vector<int> index;
-    for (const std::string& output : measurement.outputs) {
-      int k = 0;
-      while (k < static_cast<int>(names.size()) && names[static_cast<std::size_t>(k)] != output) ++k;
-      if (k == static_cast<int>(names.size())) {
+    std::vector<int> index = output_indices(model, measurement.outputs);
+    for (std::size_t k = 0; k < index.size(); ++k) {
+      if (index[k] < 0) {
         throw Error("mode '" + bank.config.modes[j].name + "' (model " + bank.config.modes[j].model +
-                    ") has no output '" + output + "', which the bank measures");
+                    ") has no output '" + measurement.outputs[k] + "', which the bank measures");
       }
-      index.push_back(k);
     }
     models_.push_back(&model);
     index_.push_back(std::move(index));
-    model_outputs_.emplace_back(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(names.size())));
+    model_outputs_.emplace_back(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(model.output_names().size())));
     expected_.emplace_back(Eigen::VectorXd::Zero(rows));
   }
 }

@@ -19,6 +19,10 @@
 
 namespace skidimm {
 
+// Where each name of `measured` is in model.output_names(); -1 where the
+// model has no such output.
+std::vector<int> output_indices(const sdk::MotionModel& model, const std::vector<std::string>& measured);
+
 class MeasuredOutputs {
  public:
   // Throws Error naming the mode and output when a mode's model lacks an

@@ -2,11 +2,10 @@
 
 #include <ceres/ceres.h>
 
-#include <boost/math/tools/toms748_solve.hpp>
-
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <algorithm>
+#include <boost/math/tools/toms748_solve.hpp>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -16,6 +15,7 @@
 
 #include "skidimm/covariance.h"
 #include "skidimm/ekf.h"
+#include "skidimm/measured_outputs.h"
 #include "skidimm/measurement_model.h"
 #include "skidimm/sdk/angles.h"
 
@@ -73,12 +73,9 @@ MeasurementLayout layout_of(const BankConfig& bank) {
 
 // Where each output the bank measures is in `model`'s outputs().
 std::vector<int> output_positions(const sdk::MotionModel& model, const MeasurementLayout& m) {
-  std::vector<int> positions;
-  const std::vector<std::string>& names = model.output_names();
-  for (const std::string& output : m.outputs) {
-    const auto at = std::find(names.begin(), names.end(), output);
-    if (at == names.end()) throw FitError("the model has no output '" + output + "', which the bank measures");
-    positions.push_back(static_cast<int>(at - names.begin()));
+  const std::vector<int> positions = output_indices(model, m.outputs);
+  for (std::size_t k = 0; k < positions.size(); ++k) {
+    if (positions[k] < 0) throw FitError("the model has no output '" + m.outputs[k] + "', which the bank measures");
   }
   return positions;
 }
