@@ -14,7 +14,7 @@ using ::testing::HasSubstr;
 // x_next = x + (a x + b u) dt, with deliberate defects switched on.
 class BrokenModel : public ScalarLinearModel {
  public:
-  enum Defect { kNone, kWrongJacobian, kWrongParameterJacobian, kMovesAtZeroDt };
+  enum Defect { kNone, kWrongJacobian, kWrongParameterJacobian, kMovesAtZeroDt, kWrongOutputJacobian };
   explicit BrokenModel(Defect defect) : ScalarLinearModel(-2.0, 0.5), defect_(defect) {}
 
   bool predict_fixed(const State& x, const Input& u, double dt, State* next) const noexcept override {
@@ -34,9 +34,23 @@ class BrokenModel : public ScalarLinearModel {
     j(0, 1) = defect_ == kWrongParameterJacobian ? u[0] : u[0] * dt;
     return true;
   }
+  // Outputs a u and b u; d / d [a, b] = diag(u, u), the defect doubles one.
+  const std::vector<std::string>& output_names() const noexcept override { return output_names_; }
+  bool outputs(const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::VectorXd> y) const noexcept override {
+    Eigen::Vector2d ab;
+    get_parameters(ab);
+    y = ab * u[0];
+    return true;
+  }
+  bool output_parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& u,
+                                 Eigen::Ref<Eigen::MatrixXd> j) const noexcept override {
+    j << u[0], 0.0, 0.0, (defect_ == kWrongOutputJacobian ? 2.0 : 1.0) * u[0];
+    return true;
+  }
 
  private:
   Defect defect_;
+  const std::vector<std::string> output_names_{"ya", "yb"};
 };
 
 const Eigen::VectorXd kX = Eigen::VectorXd::Constant(1, 0.7);
@@ -59,6 +73,13 @@ TEST(ConformanceKit, CatchesAWrongParameterJacobian) {
   const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
   EXPECT_FALSE(result);
   EXPECT_THAT(result.message(), HasSubstr("parameter_jacobian() differs from central differences"));
+}
+
+TEST(ConformanceKit, CatchesAWrongOutputParameterJacobian) {
+  BrokenModel model(BrokenModel::kWrongOutputJacobian);
+  const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
+  EXPECT_FALSE(result);
+  EXPECT_THAT(result.message(), HasSubstr("output_parameter_jacobian() differs from central differences"));
 }
 
 TEST(ConformanceKit, CatchesAModelThatMovesInZeroTime) {

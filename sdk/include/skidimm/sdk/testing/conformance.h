@@ -68,6 +68,32 @@ inline std::string vector_text(const Eigen::VectorXd& v) {
   return out.str();
 }
 
+// Central differences over set_parameters() of evaluate(out), a function of
+// `rows` values (predict() or outputs()), into *numeric (rows x parameters);
+// rows where is_angle(i) are differenced modulo 2 pi. The model gets
+// `values` back. False if a perturbed evaluation fails.
+template <typename Evaluate, typename IsAngle>
+bool numeric_parameter_jacobian(MotionModel& model, const Eigen::VectorXd& values, Eigen::Index rows,
+                                const Evaluate& evaluate, const IsAngle& is_angle, Eigen::MatrixXd* numeric) {
+  Eigen::VectorXd plus(rows), minus(rows), perturbed = values;
+  bool evaluated = true;
+  for (Eigen::Index j = 0; j < values.size() && evaluated; ++j) {
+    const double h = std::cbrt(std::numeric_limits<double>::epsilon()) * std::max(1.0, std::abs(values[j]));
+    perturbed[j] = values[j] + h;
+    evaluated = model.set_parameters(perturbed, nullptr) && evaluate(plus);
+    perturbed[j] = values[j] - h;
+    evaluated = evaluated && model.set_parameters(perturbed, nullptr) && evaluate(minus);
+    perturbed[j] = values[j];
+    for (Eigen::Index i = 0; i < rows; ++i) {
+      double difference = plus[i] - minus[i];
+      if (is_angle(i)) difference = wrap_angle(difference);
+      (*numeric)(i, j) = difference / (2.0 * h);
+    }
+  }
+  model.set_parameters(values, nullptr);
+  return evaluated;
+}
+
 // The entries of `analytic` that differ from `numeric` by more than
 // `tolerance`, worst first (at most five), each named by row and column.
 inline std::string differing_entries(const Eigen::MatrixXd& analytic, const Eigen::MatrixXd& numeric, double tolerance,
@@ -229,22 +255,9 @@ inline ::testing::AssertionResult MotionModelConforms(MotionModel& model, const 
   Eigen::MatrixXd parameter_jacobian(n, num_parameters);
   if (num_parameters > 0 && model.parameter_jacobian(x, u, dt, parameter_jacobian)) {
     Eigen::MatrixXd numeric(n, num_parameters);
-    Eigen::VectorXd plus(n), minus(n), perturbed = values;
-    bool evaluated = true;
-    for (Eigen::Index j = 0; j < num_parameters && evaluated; ++j) {
-      const double h = std::cbrt(std::numeric_limits<double>::epsilon()) * std::max(1.0, std::abs(values[j]));
-      perturbed[j] = values[j] + h;
-      evaluated = model.set_parameters(perturbed, nullptr) && model.predict(x, u, dt, plus);
-      perturbed[j] = values[j] - h;
-      evaluated = evaluated && model.set_parameters(perturbed, nullptr) && model.predict(x, u, dt, minus);
-      perturbed[j] = values[j];
-      for (int i = 0; i < n; ++i) {
-        double difference = plus[i] - minus[i];
-        if (model.is_angle(i)) difference = wrap_angle(difference);
-        numeric(i, j) = difference / (2.0 * h);
-      }
-    }
-    model.set_parameters(values, nullptr);
+    const bool evaluated = internal::numeric_parameter_jacobian(
+        model, values, n, [&](Eigen::VectorXd& out) { return model.predict(x, u, dt, out); },
+        [&](Eigen::Index i) { return model.is_angle(static_cast<int>(i)); }, &numeric);
     if (!evaluated) {
       fail("could not perturb the parameters to check parameter_jacobian() (a parameter on its bound?)");
     } else {
@@ -283,18 +296,9 @@ inline ::testing::AssertionResult MotionModelConforms(MotionModel& model, const 
   Eigen::MatrixXd output_jacobian(num_outputs, num_parameters);
   if (num_outputs > 0 && num_parameters > 0 && model.output_parameter_jacobian(u, output_jacobian)) {
     Eigen::MatrixXd numeric(num_outputs, num_parameters);
-    Eigen::VectorXd plus(num_outputs), minus(num_outputs), perturbed = values;
-    bool evaluated = true;
-    for (Eigen::Index j = 0; j < num_parameters && evaluated; ++j) {
-      const double h = std::cbrt(std::numeric_limits<double>::epsilon()) * std::max(1.0, std::abs(values[j]));
-      perturbed[j] = values[j] + h;
-      evaluated = model.set_parameters(perturbed, nullptr) && model.outputs(u, plus);
-      perturbed[j] = values[j] - h;
-      evaluated = evaluated && model.set_parameters(perturbed, nullptr) && model.outputs(u, minus);
-      perturbed[j] = values[j];
-      numeric.col(j) = (plus - minus) / (2.0 * h);
-    }
-    model.set_parameters(values, nullptr);
+    const bool evaluated = internal::numeric_parameter_jacobian(
+        model, values, num_outputs, [&](Eigen::VectorXd& out) { return model.outputs(u, out); },
+        [](Eigen::Index) { return false; }, &numeric);
     const double scale = std::max(1.0, numeric.cwiseAbs().maxCoeff());
     if (!evaluated) {
       fail("could not perturb the parameters to check output_parameter_jacobian() (a parameter on its bound?)");
