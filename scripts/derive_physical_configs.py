@@ -267,8 +267,8 @@ def stc_sided(filename, name, description, combos, sensors="ideal"):
 
 
 # --- STC with motor currents: stc_sided plus each side's current (stc_traction) -
-# The kinematics start as stc_sided's, with a mild growth of the tread ICRs
-# with the turn (K_SKID, an assumption). The currents: a side's drive holds its
+# The kinematics start as stc_sided's, with a mild growth of each tread ICR
+# with the turn (K_SKID for both sides, an assumption; the fit moves each side's). The currents: a side's drive holds its
 # wheels' speed, so the torque, and the current, it needs in a turn follows
 # the friction its wheels work against, the absolute friction this time (a
 # robot with every wheel on tarp turns like one without, but its motors work
@@ -279,7 +279,7 @@ def stc_sided(filename, name, description, combos, sensors="ideal"):
 # I_TURN is of the order the Husky's motors are rated for (8 A continuous, with
 # spikes of several times that in turns: Clearpath's Husky manual); I_STRAIGHT
 # and S_PEAK are assumptions. Only the realistic sensor set measures currents.
-K_SKID = 10.0     # the ICRs twice as far out at a turn ratio of 0.3; the fit moves it per mode
+K_SKID = 10.0     # the ICRs twice as far out at a turn ratio of 0.3; the fit moves it per mode and side
 I_STRAIGHT = 2.0  # A
 I_TURN = 8.0      # A
 S_PEAK = 0.1      # wheel-speed turn ratio of the turn current's peak
@@ -312,7 +312,7 @@ def stc_traction(filename, name, description, combos):
         out += [f"  - name: {slip_name(tarp)}", "    model: stc_traction",
                 f"    params: {{eta_l: {fmt(eta_l)}, eta_r: {fmt(eta_r)}, alpha_l_outer: {fmt(l_outer)}, "
                 f"alpha_l_inner: {fmt(l_inner)}, alpha_r_outer: {fmt(r_outer)}, alpha_r_inner: {fmt(r_inner)}, "
-                f"x_icr: {fmt(x_icr)}, k_skid: {fmt(K_SKID)}, i_straight: {fmt(I_STRAIGHT)}, i_l_outer: {fmt(left)}, "
+                f"x_icr: {fmt(x_icr)}, k_skid_l: {fmt(K_SKID)}, k_skid_r: {fmt(K_SKID)}, i_straight: {fmt(I_STRAIGHT)}, i_l_outer: {fmt(left)}, "
                 f"i_l_inner: {fmt(left)}, i_r_outer: {fmt(right)}, i_r_inner: {fmt(right)}, s_peak: {fmt(S_PEAK)}}}",
                 "    Q: {diagonal: [0.0004, 0.0004, 0.0004]}"]
     write(filename, "\n".join(out) + "\n", sensors)

@@ -152,8 +152,12 @@ class StcSidedModelOf final : public sdk::SizedMotionModel<stc_sided::kNumStates
       // Indexed by stc_sided::TractionParameter.
       parameter_info_.insert(
           parameter_info_.end(),
-          {scalar_parameter_info(
-               "k_skid", "how fast the tread ICRs move out as the turn tightens: by 1 + k_skid s^2 (-)", 0.0, 1e4),
+          {scalar_parameter_info("k_skid_l",
+                                 "how fast the left tread ICR moves out as the turn tightens: by 1 + k_skid_l s^2 (-)",
+                                 0.0, 1e4),
+           scalar_parameter_info("k_skid_r",
+                                 "how fast the right tread ICR moves out as the turn tightens: by 1 + k_skid_r s^2 (-)",
+                                 0.0, 1e4),
            scalar_parameter_info("i_straight", "motor current of each side driving straight (A)", 0.0, 1000.0),
            scalar_parameter_info("i_l_outer", "left side's extra current at the turn's peak, outer side (A)", 0.0,
                                  1000.0),
@@ -164,7 +168,7 @@ class StcSidedModelOf final : public sdk::SizedMotionModel<stc_sided::kNumStates
            scalar_parameter_info("i_r_inner", "right side's extra current at the turn's peak, inner side (A)", 0.0,
                                  1000.0),
            scalar_parameter_info("s_peak", "wheel-speed turn ratio where the turn current peaks (-)", 0.001, 1.0)});
-      p_.template tail<7>() << 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.1;
+      p_.template tail<8>() << 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.1;
       output_names_ = {"omega", "i_L", "i_R"};
     }
   }

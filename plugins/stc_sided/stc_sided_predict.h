@@ -73,24 +73,37 @@ enum Parameter {
   kNumParameters = 9
 };
 
-// Body velocity (v_x, v_y, omega) from the wheel speeds u and parameters p
-// (in Parameter order).
+// The tread ICRs' lateral positions (body y, m) for the turn u makes: each
+// tread's alpha for its role in that turn.
 template <typename T>
-void body_velocity(const T* u, const T* p, T* v_x, T* v_y, T* omega) {
-  const T v_left = p[kEtaLeft] * p[kRadius] * u[kPhiDotLeft];
-  const T v_right = p[kEtaRight] * p[kRadius] * u[kPhiDotRight];
+void tread_icrs(const T* u, const T* p, T* y_left, T* y_right) {
   const bool turning_left = u[kPhiDotRight] > u[kPhiDotLeft];
   const T& alpha_left = turning_left ? p[kAlphaLeftInner] : p[kAlphaLeftOuter];
   const T& alpha_right = turning_left ? p[kAlphaRightOuter] : p[kAlphaRightInner];
-  const T y_left = alpha_left * p[kTrack] / T(2.0);
-  const T y_right = -alpha_right * p[kTrack] / T(2.0);
+  *y_left = alpha_left * p[kTrack] / T(2.0);
+  *y_right = -alpha_right * p[kTrack] / T(2.0);
+}
+
+// Body velocity (v_x, v_y, omega) from the tread ICRs y_left > 0 > y_right.
+template <typename T>
+void icr_body_velocity(const T* u, const T* p, const T& y_left, const T& y_right, T* v_x, T* v_y, T* omega) {
+  const T v_left = p[kEtaLeft] * p[kRadius] * u[kPhiDotLeft];
+  const T v_right = p[kEtaRight] * p[kRadius] * u[kPhiDotRight];
   const T spread = y_left - y_right;
   *omega = (v_right - v_left) / spread;
   *v_x = (v_right * y_left - v_left * y_right) / spread;
   *v_y = -p[kXIcr] * *omega;
 }
 
-// The forward-Euler pose step of eq. 1 with body velocity (v_x, v_y, omega).
+// Body velocity (v_x, v_y, omega) from the wheel speeds u and parameters p
+// (in Parameter order).
+template <typename T>
+void body_velocity(const T* u, const T* p, T* v_x, T* v_y, T* omega) {
+  T y_left, y_right;
+  tread_icrs(u, p, &y_left, &y_right);
+  icr_body_velocity(u, p, y_left, y_right, v_x, v_y, omega);
+}
+
 template <typename T>
 void pose_step(const T* x, const T& v_x, const T& v_y, const T& omega, const T& dt, T* x_next) {
   using std::cos;

@@ -13,13 +13,21 @@
 // yaw rate the body achieves falls steeply as the turn tightens: with the
 // right two wheels on tarp, from about 0.45 at s = 0.04 to 0.04 at s = 0.3, on
 // skidpads, clothoids, sinusoids and the spiral alike (docs/results.md, "What
-// the spiral lets a filter see"). Fixed ICRs hold it constant. Here every
-// tread ICR moves out by the same factor
+// the spiral lets a filter see"). Fixed ICRs hold it constant. Here each
+// side's tread ICR moves out by its own factor
 //
-//   1 + k_skid s^2
+//   y_l = +alpha_l (b / 2) (1 + k_skid_l s^2)
+//   y_r = -alpha_r (b / 2) (1 + k_skid_r s^2)
 //
-// which divides omega (and the lateral skid v_y = -x_icr omega) by it and
-// leaves v_x, homogeneous in the ICRs, unchanged. k_skid = 0 is stc_sided.
+// because a slippery side slips more the harder it is pushed, and a gripping
+// side hardly at all: with one side on tarp the robot turns ever more about
+// its gripping side, whose ICR stays put, so the forward speed falls from the
+// mean of the treads' towards the gripping tread's as well as the yaw rate
+// falling (in the simulator, right-two slip's forward speed goes from 0.71 of
+// the wheels' mean on the spiral's tightest turn to 0.97 on its widest). With
+// k_skid_l = k_skid_r the ICRs move out together, which divides omega and
+// the lateral skid by the same factor and leaves v_x unchanged; with both 0
+// this is stc_sided.
 //
 // Motor currents. Each side's drive holds its wheels' speed, so its motor
 // draws the current of the torque its wheels' traction needs. Driving
@@ -39,7 +47,7 @@
 // is inner and the right outer, turning right the reverse. A current is a
 // magnitude (as the Husky's drivers report it), so every term is >= 0.
 //
-// Per mode, after stc_sided's: k_skid (-); i_straight, the current driving
+// Per mode, after stc_sided's: k_skid_l, k_skid_r (-); i_straight, the current driving
 // straight (A: the drive train's own draw and the rolling loss);
 // i_<side>_<role>, how much more a side draws at the turn's peak (A);
 // s_peak, the turn ratio of that peak (-). What the currents say: slippery
@@ -59,7 +67,8 @@ namespace stc_sided {
 
 // stc_traction's own parameters follow stc_sided's in the flat vector.
 enum TractionParameter {
-  kSkidGrowth = kNumParameters,
+  kSkidGrowthLeft = kNumParameters,
+  kSkidGrowthRight,
   kCurrentStraight,
   kCurrentLeftOuter,
   kCurrentLeftInner,
@@ -80,14 +89,16 @@ T turn_ratio(const T* u) {
   return (u[kPhiDotRight] - u[kPhiDotLeft]) / (abs(u[kPhiDotLeft]) + abs(u[kPhiDotRight]) + T(kWheelSpeedFloor));
 }
 
-// Body velocity (v_x, v_y, omega) with the ICRs moved out by 1 + k_skid s^2.
+// Body velocity (v_x, v_y, omega) with each tread ICR moved out by its side's
+// 1 + k_skid s^2.
 template <typename T>
 void traction_body_velocity(const T* u, const T* p, T* v_x, T* v_y, T* omega) {
-  body_velocity(u, p, v_x, v_y, omega);
+  T y_left, y_right;
+  tread_icrs(u, p, &y_left, &y_right);
   const T s = turn_ratio(u);
-  const T spread = T(1.0) + p[kSkidGrowth] * s * s;
-  *omega /= spread;
-  *v_y /= spread;
+  y_left *= T(1.0) + p[kSkidGrowthLeft] * s * s;
+  y_right *= T(1.0) + p[kSkidGrowthRight] * s * s;
+  icr_body_velocity(u, p, y_left, y_right, v_x, v_y, omega);
 }
 
 template <typename T>

@@ -91,12 +91,12 @@ TEST(ImmAllocation, MeasuredOutputsAllocateNothing) {
     b.inputs = {"phi_dot_L", "phi_dot_R"};
     const char* names[] = {
         "eta_l", "eta_r",  "alpha_l_outer", "alpha_l_inner", "alpha_r_outer", "alpha_r_inner", "x_icr",     "r",
-        "b",     "k_skid", "i_straight",    "i_l_outer",     "i_l_inner",     "i_r_outer",     "i_r_inner", "s_peak"};
+        "b",     "k_skid_l", "k_skid_r", "i_straight", "i_l_outer", "i_l_inner", "i_r_outer", "i_r_inner", "s_peak"};
     for (int j = 0; j < 4; ++j) {
       const double values[] = {0.9,   0.95,    1.5 + 0.2 * j, 1.4,     1.6, 1.3, 0.0, 0.165,
-                               0.555, 5.0 * j, 2.0,           8.0 - j, 7.0, 6.0, 5.0, 0.1};
+                               0.555, 5.0 * j, 3.0 * j, 2.0, 8.0 - j, 7.0, 6.0, 5.0, 0.1};
       sdk::ParameterSet p;
-      for (int i = 0; i < 16; ++i) p.set_scalar(names[i], values[i]);
+      for (int i = 0; i < 17; ++i) p.set_scalar(names[i], values[i]);
       std::string error;
       b.models.push_back(std::shared_ptr<sdk::MotionModel>(plugins::StcTractionModel::Create(p, &error).release()));
     }

@@ -166,12 +166,12 @@ modes:
   - name: slip
     model: stc_traction
     params: {eta_l: 1, eta_r: 1, alpha_l_outer: 1, alpha_l_inner: 1, alpha_r_outer: 1, alpha_r_inner: 1, x_icr: 0,
-             k_skid: 10, i_straight: 2, i_l_outer: 5, i_l_inner: 5, i_r_outer: 5, i_r_inner: 5, s_peak: 0.1}
+             k_skid_l: 10, k_skid_r: 10, i_straight: 2, i_l_outer: 5, i_l_inner: 5, i_r_outer: 5, i_r_inner: 5, s_peak: 0.1}
     Q: {diagonal: [0.001, 0.001, 0.001]}
 )";
   Bank truth = load_bank(bank_yaml, "truth.yaml");
-  Eigen::VectorXd truth_parameters(16);
-  truth_parameters << 0.95, 0.9, 1.6, 1.3, 1.9, 1.4, 0.0, 0.165, 0.555, 25.0, 2.0, 9.0, 7.0, 5.0, 4.0, 0.12;
+  Eigen::VectorXd truth_parameters(17);
+  truth_parameters << 0.95, 0.9, 1.6, 1.3, 1.9, 1.4, 0.0, 0.165, 0.555, 10.0, 40.0, 2.0, 9.0, 7.0, 5.0, 4.0, 0.12;
   ASSERT_TRUE(truth.models[0]->set_parameters(truth_parameters, nullptr));
   // Turns both ways, from gentle to tight.
   auto turns = [](double t) {
@@ -196,9 +196,9 @@ modes:
   options.window = 0.5;
   const FitReport report = fit(&bank, {ModeLogs{0, {data}}}, options).front();
   EXPECT_EQ(report.derivatives, "autodiff");
-  ASSERT_EQ(report.parameters.size(), 14u);  // r and b are bank-level
-  const int truth_index[14] = {0, 1, 2, 3, 4, 5, 6, 9, 10, 11, 12, 13, 14, 15};
-  for (std::size_t i = 0; i < 14; ++i) {
+  ASSERT_EQ(report.parameters.size(), 15u);  // r and b are bank-level
+  const int truth_index[15] = {0, 1, 2, 3, 4, 5, 6, 9, 10, 11, 12, 13, 14, 15, 16};
+  for (std::size_t i = 0; i < 15; ++i) {
     const double expected = truth_parameters[truth_index[i]];
     // Within 3%, or 4 of the fit's own standard deviations where the logs
     // say less (the inner treads' ICRs: a turn's yaw rate gives their sum
@@ -206,7 +206,9 @@ modes:
     EXPECT_NEAR(report.parameters[i].value, expected,
                 std::max(0.03 * std::max(0.5, std::abs(expected)), 4.0 * report.parameters[i].standard_deviation))
         << report.parameters[i].name;
-    EXPECT_LT(report.parameters[i].standard_deviation, 0.05 * std::max(0.5, std::abs(expected)))
+    // Known to 10%: each tread's ICR and its growth with the turn trade off
+    // against each other over the turns' range.
+    EXPECT_LT(report.parameters[i].standard_deviation, 0.1 * std::max(0.5, std::abs(expected)))
         << report.parameters[i].name;
   }
   // The currents' one-step error is their noise.

@@ -25,7 +25,8 @@ sdk::ParameterSet traction_params(bool with_currents = true) {
   p.set_scalar("r", kRadius);
   p.set_scalar("b", kTrack);
   if (with_currents) {
-    p.set_scalar("k_skid", 30.0);
+    p.set_scalar("k_skid_l", 30.0);
+    p.set_scalar("k_skid_r", 30.0);
     p.set_scalar("i_straight", 2.0);
     p.set_scalar("i_l_outer", 9.0);
     p.set_scalar("i_l_inner", 7.0);
@@ -79,8 +80,9 @@ TEST_F(StcTraction, PredictsEachSidesCurrentAndTheYawRateByHand) {
   EXPECT_NEAR(y[1], 2.0 + 7.0, 1e-12);
 }
 
-// The ICRs move out by 1 + k_skid s^2: the yaw rate and the lateral skid are
-// stc_sided's divided by it, the forward speed is stc_sided's.
+// With k_skid_l = k_skid_r both ICRs move out by 1 + k_skid s^2: the yaw rate
+// and the lateral skid are stc_sided's divided by it, the forward speed is
+// stc_sided's.
 TEST_F(StcTraction, TreadIcrsMoveOutAsTheTurnTightens) {
   ModelHandle traction = registry_.create("stc_traction", traction_params());
   ModelHandle sided = registry_.create("stc_sided", traction_params(false));
@@ -99,6 +101,43 @@ TEST_F(StcTraction, TreadIcrsMoveOutAsTheTurnTightens) {
     EXPECT_NEAR(vx_a, vx_b, 1e-12);
     EXPECT_NEAR(vy_a, vy_b / spread, 1e-12);
   }
+}
+
+// With a side of its own each ICR moves out by its side's factor: the same as
+// stc_sided with that side's alphas multiplied by it, at that input. With the
+// right tread's ICR moving out fast the robot turns about its left tread, so
+// its forward speed moves towards the left tread's (turning left, the right
+// tread outer).
+TEST_F(StcTraction, EachSidesIcrMovesOutByItsOwnFactor) {
+  sdk::ParameterSet params = traction_params();
+  params.set_scalar("k_skid_l", 2.0);
+  params.set_scalar("k_skid_r", 40.0);
+  ModelHandle traction = registry_.create("stc_traction", params);
+  Eigen::VectorXd a(3), b(3);
+  const double dt = 1e-3;
+  for (const Eigen::Vector2d& u : {Eigen::Vector2d(4.0, 6.0), Eigen::Vector2d(6.5, 2.0), Eigen::Vector2d(-3.0, -1.0)}) {
+    const double s = (u[1] - u[0]) / (std::abs(u[0]) + std::abs(u[1]) + 0.5);
+    sdk::ParameterSet moved = traction_params(false);
+    moved.set_scalar("alpha_l_outer", 1.4 * (1.0 + 2.0 * s * s));  // traction_params()' alphas
+    moved.set_scalar("alpha_l_inner", 1.3 * (1.0 + 2.0 * s * s));
+    moved.set_scalar("alpha_r_outer", 4.5 * (1.0 + 40.0 * s * s));
+    moved.set_scalar("alpha_r_inner", 2.5 * (1.0 + 40.0 * s * s));
+    ModelHandle sided = registry_.create("stc_sided", moved);
+    ASSERT_TRUE(traction->predict(Eigen::Vector3d(0.5, -1.0, 0.4), u, dt, a));
+    ASSERT_TRUE(sided->predict(Eigen::Vector3d(0.5, -1.0, 0.4), u, dt, b));
+    EXPECT_TRUE(a.isApprox(b, 1e-14)) << a.transpose() << " vs " << b.transpose();
+  }
+  // Turning left on (3, 6) rad/s: s = 3 / 9.5, the right ICR 5 times as far
+  // out, the left 1.2 times; v_x = (v_r y_l - v_l y_r) / (y_l - y_r).
+  const double s = 3.0 / 9.5;
+  const double y_l = 1.3 * kTrack / 2 * (1.0 + 2.0 * s * s), y_r = -4.5 * kTrack / 2 * (1.0 + 40.0 * s * s);
+  const double v_l = 0.9 * kRadius * 3.0, v_r = 0.6 * kRadius * 6.0;
+  ASSERT_TRUE(traction->predict(Eigen::Vector3d::Zero(), Eigen::Vector2d(3.0, 6.0), dt, a));
+  EXPECT_NEAR(a[0] / dt, (v_r * y_l - v_l * y_r) / (y_l - y_r), 1e-9);
+  EXPECT_NEAR(a[2] / dt, (v_r - v_l) / (y_l - y_r), 1e-9);
+  // Closer to the left tread's speed than with both ICRs moved alike.
+  const double y_r_alike = -4.5 * kTrack / 2 * (1.0 + 2.0 * s * s);
+  EXPECT_LT(std::abs(a[0] / dt - v_l), std::abs((v_r * y_l - v_l * y_r_alike) / (y_l - y_r_alike) - v_l) - 0.01);
 }
 
 TEST_F(StcTraction, TheKinematicPluginsPredictTheGyrosYawRate) {
@@ -135,7 +174,7 @@ TEST_F(StcTraction, EveryParameterIsRequiredAndBounded) {
     registry_.create("stc_traction", traction_params(false));
     ADD_FAILURE() << "stc_sided's parameters alone accepted";
   } catch (const PluginError& e) {
-    EXPECT_THAT(e.what(), ::testing::HasSubstr("missing parameter 'k_skid'"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("missing parameter 'k_skid_l'"));
   }
   const sdk::ParameterSet all = traction_params();
   sdk::ParameterSet no_current;
