@@ -24,7 +24,7 @@ python=$(command -v /usr/bin/python3 || command -v python3)
 [ -x "$skidimm" ] || { echo "$0: build skidimm first (scripts/build.sh)" >&2; exit 1; }
 source scripts/seeds.sh
 eval_seeds=$(paper_eval_seeds "$seeds")
-check_disjoint "$eval_seeds" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(decision_default_seeds)"
+check_disjoint "$eval_seeds" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(decision_default_seeds)" "$(model_selection_seeds)"
 first_seed=$(echo "$eval_seeds" | head -n 1)
 rm -rf "$work/logs" "$work/eval" "$work/banks" "$work/kinematics"  # a rerun must not score last run's logs
 mkdir -p "$work/logs" "$work/eval" "$work/banks" "$work/kinematics" "$figures/realistic"

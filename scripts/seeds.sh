@@ -18,6 +18,11 @@ bundled_fit_seeds() {
 tuning_fit_seeds() { seq 7001 7003; seq 7011 7020; }
 # The switching logs the decision layer's default thresholds were chosen on.
 decision_default_seeds() { seq 8101 8120; }
+# Spirals (the four slip configurations' scenarios) on which choices about
+# stc_traction and its bank were checked while developing it: the skid growth
+# per side, and how far the gyro's noise may be trusted. No bank or setting is
+# fitted or tuned on them, and none is scored on them.
+model_selection_seeds() { seq 8301 8305; }
 # Scored logs.
 paper_eval_seeds() { seq 5001 $((5000 + ${1:-20})); }
 tuning_eval_seeds() { seq 8001 $((8000 + ${1:-20})); }
