@@ -59,6 +59,7 @@ struct Summary {
   std::vector<double> state_rmse;
   std::vector<double> accuracies;
   std::vector<double> decision_accuracies;
+  long decision_lost = 0;  // switches the most likely mode detected and the decision never did
 };
 
 // One log to evaluate, in the order one thread would: the group it belongs
@@ -93,6 +94,7 @@ Summary summarize(const std::vector<const LogResult*>& logs, std::size_t states)
   for (const LogResult* log : logs) {
     s.metrics.merge(log->metrics);
     s.decisions.merge(log->decision_metrics);
+    if (log->decision_metrics.duration > 0.0) s.decision_lost += switches_lost(log->metrics, log->decision_metrics);
     for (const auto& [mode, acc] : log->nis) s.nis[mode].merge(acc);
     for (std::size_t i = 0; i < log->squared_state_error.size() && i < states; ++i) {
       squared[i] += log->squared_state_error[i];
@@ -256,11 +258,11 @@ void print_table(std::ostream& out, const std::string& title, const Summary& s, 
         << fmt(m.estimate_changes_per_minute(), "%.2f") << ", truth " << fmt(m.truth_changes_per_minute(), "%.2f")
         << "\n";
     if (dl.switches > 0) {
-      out << "    switches " << dl.switches << ": first decided after median " << fmt(df.median, "%.2f")
-          << " s, never " << (df.switches - df.detected) << "; settled after median " << fmt(dl.median, "%.2f")
-          << " s, max " << fmt(dl.max, "%.2f") << " s, never " << (dl.switches - dl.detected)
-          << "; changes per switch: median " << fmt(dl.median_changes, "%.1f") << " (most likely "
-          << fmt(latency_stats(m).median_changes, "%.1f") << ")\n";
+      out << "    switches " << dl.switches << ": first decided after median " << fmt(df.median, "%.2f") << " s, never "
+          << (df.switches - df.detected) << "; settled after median " << fmt(dl.median, "%.2f") << " s, max "
+          << fmt(dl.max, "%.2f") << " s, never " << (dl.switches - dl.detected) << "; changes per switch: median "
+          << fmt(dl.median_changes, "%.1f") << " (most likely " << fmt(latency_stats(m).median_changes, "%.1f")
+          << "); lost against the most likely " << s.decision_lost << "\n";
     }
   }
   bool any_rmse = false;
@@ -341,19 +343,18 @@ std::string json_summary(const Summary& s, const std::vector<std::string>& state
   const LatencyStats df = latency_stats(d, true);
   o << "}, \"changes_per_minute\": {\"most_likely\": " << json_number(m.estimate_changes_per_minute())
     << ", \"decision\": " << json_number(d.estimate_changes_per_minute())
-    << ", \"truth\": " << json_number(m.truth_changes_per_minute()) << "}, \"decision\": {\"accuracy\": "
-    << json_number(d.duration > 0 ? d.accuracy() : kNaN) << ", \"accuracy_per_log\": {\"mean\": "
-    << json_number(mean(s.decision_accuracies)) << ", \"std\": " << json_number(standard_deviation(s.decision_accuracies))
-    << ", \"min\": "
+    << ", \"truth\": " << json_number(m.truth_changes_per_minute())
+    << "}, \"decision\": {\"accuracy\": " << json_number(d.duration > 0 ? d.accuracy() : kNaN)
+    << ", \"accuracy_per_log\": {\"mean\": " << json_number(mean(s.decision_accuracies))
+    << ", \"std\": " << json_number(standard_deviation(s.decision_accuracies)) << ", \"min\": "
     << json_number(s.decision_accuracies.empty()
                        ? kNaN
                        : *std::min_element(s.decision_accuracies.begin(), s.decision_accuracies.end()))
-    << "}, \"unknown_fraction\": "
-    << json_number(d.duration > 0 ? d.unknown_seconds / d.duration : kNaN) << ", \"switches\": " << dl.switches
-    << ", \"first_detected\": " << df.detected << ", \"first_median\": " << json_number(df.median)
-    << ", \"settled\": " << dl.detected << ", \"settled_median\": " << json_number(dl.median)
-    << ", \"settled_max\": " << json_number(dl.max) << ", \"median_changes_per_switch\": "
-    << json_number(dl.median_changes);
+    << "}, \"unknown_fraction\": " << json_number(d.duration > 0 ? d.unknown_seconds / d.duration : kNaN)
+    << ", \"switches\": " << dl.switches << ", \"first_detected\": " << df.detected
+    << ", \"first_median\": " << json_number(df.median) << ", \"settled\": " << dl.detected
+    << ", \"settled_median\": " << json_number(dl.median) << ", \"settled_max\": " << json_number(dl.max)
+    << ", \"median_changes_per_switch\": " << json_number(dl.median_changes) << ", \"lost\": " << s.decision_lost;
   o << "}, \"nis\": {";
   first = true;
   for (const auto& [mode, acc] : s.nis) {

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
 
 #include "skidimm/evaluation/consistency.h"
 
@@ -48,6 +49,33 @@ TEST(ModeMetrics, SwitchLatencyFirstAndSettled) {
   EXPECT_TRUE(m.switches[0].detected());
   EXPECT_FALSE(m.switches[1].detected());
   EXPECT_TRUE(std::isnan(m.switches[1].first_latency));
+}
+
+// The decision over the same steps: it reaches b late and never reaches c,
+// which the most likely mode reached once; a switch neither detected is not
+// lost.
+TEST(ModeMetrics, SwitchesLostAgainstTheMostLikelyMode) {
+  const ModeMetrics most_likely = compute_mode_metrics(steps({{0, "a", "a", 1},
+                                                              {1, "b", "a", 0},
+                                                              {2, "b", "b", 1},
+                                                              {3, "c", "c", 1},
+                                                              {4, "c", "b", 0},
+                                                              {5, "d", "b", 0},
+                                                              {6, "d", "b", 0}}),
+                                                       {"a", "b", "c", "d"});
+  const ModeMetrics decision = compute_mode_metrics(steps({{0, "a", "a", 1},
+                                                           {1, "b", "a", 0},
+                                                           {2, "b", "a", 0},
+                                                           {3, "c", "b", 0},
+                                                           {4, "c", "b", 0},
+                                                           {5, "d", "unknown", 0},
+                                                           {6, "d", "unknown", 0}}),
+                                                    {"a", "b", "c", "d"});
+  ASSERT_EQ(most_likely.switches.size(), 3u);
+  EXPECT_EQ(switches_lost(most_likely, decision), 2);  // b (never decided) and c; d by neither
+  EXPECT_EQ(switches_lost(decision, most_likely), 0);
+  const ModeMetrics other_run = compute_mode_metrics(steps({{0, "a", "a", 1}, {1, "b", "b", 1}}), {"a", "b"});
+  EXPECT_THROW(switches_lost(most_likely, other_run), std::invalid_argument);
 }
 
 TEST(ModeMetrics, ImmediateDetectionHasZeroLatency) {

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 namespace skidimm {
 namespace evaluation {
@@ -109,6 +111,24 @@ ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps,
     m.switches.push_back(d);
   }
   return m;
+}
+
+long switches_lost(const ModeMetrics& reference, const ModeMetrics& other) {
+  if (reference.switches.size() != other.switches.size()) {
+    throw std::invalid_argument("switches_lost: " + std::to_string(reference.switches.size()) + " switches against " +
+                                std::to_string(other.switches.size()));
+  }
+  long lost = 0;
+  for (std::size_t i = 0; i < reference.switches.size(); ++i) {
+    const SwitchDetection& r = reference.switches[i];
+    const SwitchDetection& o = other.switches[i];
+    if (r.time != o.time || r.to != o.to) {
+      throw std::invalid_argument("switches_lost: switch " + std::to_string(i) + " differs (" + r.to + " against " +
+                                  o.to + ")");
+    }
+    lost += std::isfinite(r.first_latency) && !std::isfinite(o.first_latency);
+  }
+  return lost;
 }
 
 }  // namespace evaluation

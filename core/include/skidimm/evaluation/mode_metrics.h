@@ -78,6 +78,13 @@ std::string main_truth(const ModeMetrics& m);
 // `bank_modes`: the names the estimator can answer with.
 ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& steps, const std::vector<std::string>& bank_modes);
 
+// Of the true switches `reference` (the most likely mode) ever detected, how
+// many `other` (e.g. the decision over the same steps) never did: what a
+// smoother estimate loses against the raw one. Both must hold the same
+// switches, in the same order (metrics of one labelled run); throws
+// std::invalid_argument if they do not.
+long switches_lost(const ModeMetrics& reference, const ModeMetrics& other);
+
 }  // namespace evaluation
 }  // namespace skidimm
 
