@@ -16,7 +16,8 @@
 #    other logs, give configs/realistic/*.yaml. No R is copied from the simulator.
 #    Only these sensors measure motor currents, so only they have the sided
 #    model with currents (stc_traction4, stc_traction16), which also measures
-#    the gyro and the currents (measurement.outputs).
+#    the gyro and the currents (measurement.outputs), each mode with its own
+#    noise for them (fit --output-noise: its residuals on its fitting logs).
 #
 # Each mode is driven through four 20 s maneuvers with a fixed seed: skidpads
 # turning left and right (asymmetric slip turns differently each way), a
@@ -152,12 +153,15 @@ tune() {  # tune BANK ARGS...: every log is one mode's; leave-one-log-out
   mv "$result.partial" "$result"
 }
 realistic() {  # realistic MODEL: fit, then estimate R and the scale of Q with skidimm tune
-  local model=$1
+  local model=$1 own=()
   echo "== realistic sensors: stc_${model}, fitting and tuning" >&2
+  # A bank that measures its models' outputs gives each mode its own noise for
+  # them: the gyro and currents as well as that mode's model predicts them.
+  if [ "$model" = traction ]; then own=(--output-noise); fi
   fit "configs/physical/realistic/stc_${model}16.yaml" "$fitted/stc_${model}16.yaml" "$fitted/stc_${model}16.report" \
-    --window 1 "${stc_fit[@]}"
+    --window 1 "${own[@]}" "${stc_fit[@]}"
   fit "configs/physical/realistic/stc_${model}4.yaml" "$fitted/stc_${model}4.yaml" "$fitted/stc_${model}4.report" \
-    --window 1 "${stc4_fit[@]}"
+    --window 1 "${own[@]}" "${stc4_fit[@]}"
   tune "stc_${model}16" "${stc_tune[@]}"
   tune "stc_${model}4" "${stc4_tune[@]}"
   if [ "$model" = slip ]; then

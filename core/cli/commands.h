@@ -86,6 +86,7 @@ struct FitCommandOptions {
   std::string objective = "likelihood";  // likelihood or window
   bool fit_r = false;                 // likelihood: one R for the bank
   bool full_q = false;                // likelihood: Q with off-diagonal terms
+  bool output_noise = false;          // window: each mode's own R for the outputs it predicts
   bool hold_unexcited = false;        // hold parameters the logs do not excite at their starting values
   double window = 0.0;                // s; 0: one-step
   std::string loss = "huber";

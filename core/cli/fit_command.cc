@@ -155,6 +155,7 @@ int fit(const FitCommandOptions& options) {
     fit_options.shared = options.shared;
     fit_options.fit_measurement_noise = options.fit_r;
     fit_options.full_process_noise = options.full_q;
+    fit_options.output_noise = options.output_noise;
     std::map<int, FitReport> reports = fitting::fit_bank(&bank, data, fit_options);
 
     if (options.fit_r) std::cerr << "fitted bank R = " << fitting::format_matrix(bank.config.measurement.r) << "\n";
@@ -175,9 +176,9 @@ int fit(const FitCommandOptions& options) {
                             std::to_string(d.logs.size()) + " log(s); " +
                             (likelihood ? "innovation RMSE " : "one-step RMSE ") + rmse_text(config, r.rmse);
       const ModeConfig& mode = config.modes[static_cast<std::size_t>(d.mode)];
-      entries += fitting::format_mode_entry(output_name(d.mode), mode.model,
-                                            *bank.models[static_cast<std::size_t>(d.mode)], r.q_intensity, {comment},
-                                            mode.params, mode.fit_when);
+      entries +=
+          fitting::format_mode_entry(output_name(d.mode), mode.model, *bank.models[static_cast<std::size_t>(d.mode)],
+                                     r.q_intensity, {comment}, mode.params, mode.fit_when, mode.r);
     }
 
     for (const std::string& text : options.held_out) {
@@ -221,19 +222,18 @@ int fit(const FitCommandOptions& options) {
                                                   : "one-step RMSE ") +
                                   rmse_text(config, fitted->second.rmse) + " on " +
                                   std::to_string(d.logs.size()) + " log(s)";
-            modes_block += fitting::format_mode_entry(output_name(j), config.modes[static_cast<std::size_t>(j)].model,
-                                                      *bank.models[static_cast<std::size_t>(j)],
-                                                      fitted->second.q_intensity, {comment},
-                                                      config.modes[static_cast<std::size_t>(j)].params,
-                                                    config.modes[static_cast<std::size_t>(j)].fit_when);
+            modes_block += fitting::format_mode_entry(
+                output_name(j), config.modes[static_cast<std::size_t>(j)].model,
+                *bank.models[static_cast<std::size_t>(j)], fitted->second.q_intensity, {comment},
+                config.modes[static_cast<std::size_t>(j)].params, config.modes[static_cast<std::size_t>(j)].fit_when,
+                config.modes[static_cast<std::size_t>(j)].r);
           }
         } else {
-          modes_block += fitting::format_mode_entry(output_name(j), config.modes[static_cast<std::size_t>(j)].model,
-                                                    *bank.models[static_cast<std::size_t>(j)],
-                                                    config.modes[static_cast<std::size_t>(j)].q_intensity,
-                                                    {"not fitted: no log given for this mode"},
-                                                    config.modes[static_cast<std::size_t>(j)].params,
-                                                    config.modes[static_cast<std::size_t>(j)].fit_when);
+          modes_block += fitting::format_mode_entry(
+              output_name(j), config.modes[static_cast<std::size_t>(j)].model,
+              *bank.models[static_cast<std::size_t>(j)], config.modes[static_cast<std::size_t>(j)].q_intensity,
+              {"not fitted: no log given for this mode"}, config.modes[static_cast<std::size_t>(j)].params,
+              config.modes[static_cast<std::size_t>(j)].fit_when, config.modes[static_cast<std::size_t>(j)].r);
         }
       }
       std::vector<std::pair<std::string, std::string>> blocks;

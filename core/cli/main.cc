@@ -141,6 +141,10 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"likelihood", "window"}));
   fit->add_flag("--fit-r", fit_options.fit_r,
                 "Likelihood objective: also fit one measurement noise R (diagonal) for the whole bank");
+  fit->add_flag(
+      "--output-noise", fit_options.output_noise,
+      "Window objective: give each fitted mode its own R, whose rows of the measured outputs are its outputs' "
+      "residual variance (its model's error included); the state rows keep the bank's R");
   fit->add_flag("--full-q", fit_options.full_q,
                 "Q with off-diagonal terms (likelihood: fitted; window: the correlations of the one-step errors)");
   fit->add_flag("--hold-unexcited", fit_options.hold_unexcited,

@@ -264,7 +264,7 @@ void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) 
   for (std::size_t i = 0; i < node.size(); ++i) {
     const YAML::Node m = node[i];
     const std::string field = "modes[" + std::to_string(i) + "]";
-    y.check_keys(m, {"name", "model", "params", "Q", "description", "fit_when"}, field);
+    y.check_keys(m, {"name", "model", "params", "Q", "R", "description", "fit_when"}, field);
     ModeConfig mode;
     mode.line = YamlFields::line_of(m);
     mode.name = y.string(y.required(m, "name", field), field + ".name");
@@ -296,6 +296,19 @@ void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) 
     mode.q_intensity = y.covariance(q, bank->state_dim(), field + ".Q");
     check_cov(y, q, mode.q_intensity, /*strict=*/false, field + ".Q (mode '" + mode.name + "')");
     bank->modes.push_back(std::move(mode));
+  }
+}
+
+// A mode's own `R:`, over the measurement rows (read after measurement:).
+void parse_mode_measurement_noise(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {
+  const int m = static_cast<int>(bank->measurement.h.rows());
+  for (std::size_t i = 0; i < bank->modes.size(); ++i) {
+    const YAML::Node r = root["modes"][i]["R"];
+    if (!r) continue;
+    ModeConfig& mode = bank->modes[i];
+    const std::string field = "modes[" + std::to_string(i) + "].R";
+    mode.r = y.covariance(r, m, field);  // sized by every measurement row, outputs included
+    check_cov(y, r, mode.r, /*strict=*/true, field + " (mode '" + mode.name + "')");
   }
 }
 
@@ -441,6 +454,7 @@ BankConfig load_bank_config(const fs::path& file) {
   // Modes first: the transition and initial blocks refer to them by name.
   parse_modes(y, root, &bank);
   parse_measurement(y, root, &bank);
+  parse_mode_measurement_noise(y, root, &bank);
   parse_transition(y, root, &bank);
   parse_initial(y, root, &bank);
   parse_sampling(y, root, &bank);

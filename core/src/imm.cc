@@ -111,6 +111,10 @@ Imm::Imm(Bank bank, ImmKernelChoice choice) : bank_(std::move(bank)) {
                     static_cast<int>(config.measurement.is_angle.size()) == m &&
                     static_cast<int>(config.angle_mask.size()) == n,
                 "measurement model and angles must match the state");
+  for (int j = 0; j < num_modes; ++j) {
+    SKIDIMM_CHECK(config.measurement_noise(j).rows() == m && config.measurement_noise(j).cols() == m,
+                  "a mode's own R must cover every measurement row");
+  }
   kernel_ = make_kernel(bank_, choice);
   fixed_size_ = choice == ImmKernelChoice::kFastest && n <= 4 && m >= 1 && m <= 4;
   held_input_ = Eigen::VectorXd::Zero(config.input_dim());

@@ -71,11 +71,12 @@ class FixedFilters {
   using State = Eigen::Matrix<double, N, 1>;
   using Covariance = Eigen::Matrix<double, N, N>;
 
-  explicit FixedFilters(const Bank& bank) : h_(bank.config.measurement.h), r_(bank.config.measurement.r) {
+  explicit FixedFilters(const Bank& bank) : h_(bank.config.measurement.h) {
     const BankConfig& c = bank.config;
     for (int j = 0; j < c.num_modes(); ++j) {
       models_.push_back(bank.models[static_cast<std::size_t>(j)].get());
       q_.push_back(c.modes[static_cast<std::size_t>(j)].q_intensity);
+      r_.push_back(c.measurement_noise(j));
     }
     for (int i = 0; i < N; ++i) {
       if (c.angle_mask[static_cast<std::size_t>(i)]) state_angles_ |= 1u << i;
@@ -139,12 +140,16 @@ class FixedFilters {
         const int row = rows[static_cast<std::size_t>(a)];
         zk[a] = z[row];
         hk.row(a) = h_.row(row);
-        for (int b = 0; b < K; ++b) rk(a, b) = r_(row, rows[static_cast<std::size_t>(b)]);
         if (z_angles_ >> row & 1u) angles |= 1u << a;
       }
       const int modes = static_cast<int>(models_.size());
       for (int j = 0; j < modes; ++j) {
         if (e->log_likelihoods[j] == kMinusInfinity) continue;  // failed in predict
+        const Eigen::Matrix<double, M, M>& r = r_[static_cast<std::size_t>(j)];
+        for (int a = 0; a < K; ++a) {
+          for (int b = 0; b < K; ++b)
+            rk(a, b) = r(rows[static_cast<std::size_t>(a)], rows[static_cast<std::size_t>(b)]);
+        }
         Eigen::Matrix<double, K, 1> zj = zk;
         if (outputs != nullptr) {
           for (int a = 0; a < K; ++a) zj[a] -= outputs->expected(j)[rows[static_cast<std::size_t>(a)]];
@@ -160,7 +165,7 @@ class FixedFilters {
   std::vector<const sdk::MotionModel*> models_;
   std::vector<Covariance, Eigen::aligned_allocator<Covariance>> q_;
   Eigen::Matrix<double, M, N> h_;
-  Eigen::Matrix<double, M, M> r_;
+  std::vector<Eigen::Matrix<double, M, M>, Eigen::aligned_allocator<Eigen::Matrix<double, M, M>>> r_;  // per mode
   AngleMask state_angles_ = 0;
   AngleMask z_angles_ = 0;
   std::vector<State, Eigen::aligned_allocator<State>> x_;
@@ -185,6 +190,11 @@ class DynamicFilters {
     }
     selection_ = measurement_model_.make_selection();
     measured_ = selection_.z;
+    for (int j = 0; j < c.num_modes(); ++j) {
+      if (c.modes[static_cast<std::size_t>(j)].r.size() == 0) continue;
+      own_r_.resize(static_cast<std::size_t>(c.num_modes()));
+      own_r_[static_cast<std::size_t>(j)] = c.modes[static_cast<std::size_t>(j)].r;
+    }
   }
 
   State& state(int j) { return filters_[static_cast<std::size_t>(j)].state(); }
@@ -208,6 +218,8 @@ class DynamicFilters {
           selection_.z[a] = measured_[a] - outputs->expected(j)[selection_.rows[static_cast<std::size_t>(a)]];
         }
       }
+      // The selected block of this mode's R (select() filled the bank's).
+      if (!own_r_.empty()) select_noise(j);
       const UpdateResult result = filters_[static_cast<std::size_t>(j)].update(selection_, gates[selection_.size]);
       record_update(j, result, e, rejected);
     }
@@ -217,9 +229,23 @@ class DynamicFilters {
  private:
   std::vector<const sdk::MotionModel*> models_;
   MeasurementModel measurement_model_;
+  // Writes mode j's R (its own, else the bank's) over the selected rows into
+  // selection_.r, in place.
+  void select_noise(int j) {
+    const Eigen::MatrixXd& own = own_r_[static_cast<std::size_t>(j)];
+    const Eigen::MatrixXd& r = own.size() > 0 ? own : measurement_model_.r();
+    for (int a = 0; a < selection_.size; ++a) {
+      for (int b = 0; b < selection_.size; ++b) {
+        selection_.r(a, b) =
+            r(selection_.rows[static_cast<std::size_t>(a)], selection_.rows[static_cast<std::size_t>(b)]);
+      }
+    }
+  }
+
   std::vector<ExtendedKalmanFilter> filters_;
   SelectedMeasurement selection_;
   Eigen::VectorXd measured_;  // selection_.z as measured, when modes subtract their outputs
+  std::vector<Eigen::MatrixXd> own_r_;  // per mode, its own R (empty: the bank's); empty when no mode has one
 };
 
 // Mixing (eq. 4-7, all targets in one product), the filters, the mode

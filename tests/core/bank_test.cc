@@ -123,6 +123,22 @@ TEST(BankConfig, MeasurementNoiseMustBePositiveDefinite) {
                       {"measurement.R", "not positive definite"});
 }
 
+// A mode's own R: every measurement row, a covariance; without one a mode
+// uses the bank's.
+TEST(BankConfig, AModesOwnMeasurementNoiseIsReadAndChecked) {
+  const std::string own =
+      replace(kValidBank, "Q: [[0.02, 0], [0, 0.02]]", "Q: [[0.02, 0], [0, 0.02]]\n    R: {std: [0.1, 0.2]}");
+  const BankConfig c = load_bank_config(write_file(test_directory() / "own_r.yaml", own));
+  EXPECT_EQ(c.modes[0].r.size(), 0);
+  EXPECT_EQ(c.measurement_noise(0), c.measurement.r);
+  EXPECT_TRUE(c.measurement_noise(1).isApprox(Eigen::Vector2d(0.01, 0.04).asDiagonal().toDenseMatrix()));
+  EXPECT_TRUE(c.any_mode_measurement_noise());
+  expect_config_error(replace(own, "R: {std: [0.1, 0.2]}", "R: {std: [0.1]}"),
+                      {"bank.yaml:23: modes[1].R.std: expected 2 values, got 1"});
+  expect_config_error(replace(own, "R: {std: [0.1, 0.2]}", "R: [[0.01, 0.05], [0.05, 0.01]]"),
+                      {"modes[1].R (mode 'ice')", "not positive definite"});
+}
+
 TEST(BankConfig, TransitionRowsMustSumToOne) {
   expect_config_error(replace(kValidBank, "  stay: 0.98", "  matrix: [[0.9, 0.1], [0.3, 0.6]]"),
                       {"transition.matrix[1]", "sums to 0.9", "rows are 'from', columns 'to'"});

@@ -47,14 +47,14 @@ BankBuilder two_mode_scalar_bank() {
 // Textbook scalar IMM in the linear domain (Bar-Shalom 11.6.6), written out
 // independently of the library, for the two-mode bank above.
 struct ReferenceImm {
-  double a[2] = {-1.0, -2.0}, b[2] = {1.0, 0.5}, q[2] = {0.1, 0.4}, r = 0.25;
+  double a[2] = {-1.0, -2.0}, b[2] = {1.0, 0.5}, q[2] = {0.1, 0.4}, r[2] = {0.25, 0.25};  // r: per mode
   double p[2][2] = {{0.9, 0.1}, {0.2, 0.8}};
   double mu[2] = {0.6, 0.4}, x[2] = {0.5, 0.5}, var[2] = {1.0, 1.0};
   double x_combined = 0.5, var_combined = 1.0;
   double likelihood_weight = 1.0;  // mu_j proportional to c_j * likelihood_j^weight
-  // A measured output y = gain_j u (this step's input) with variance output_r:
-  // it multiplies mode j's likelihood by N(y - gain_j u; 0, output_r).
-  double output_gain[2] = {0.0, 0.0}, output_r = 1.0;
+  // A measured output y = gain_j u (this step's input) with variance
+  // output_r[j]: it multiplies mode j's likelihood by N(y - gain_j u; 0, output_r[j]).
+  double output_gain[2] = {0.0, 0.0}, output_r[2] = {1.0, 1.0};
   bool first = true;
   double last_t = 0.0, held_u = 0.0;
 
@@ -81,14 +81,19 @@ struct ReferenceImm {
         xm = x0[j] + (a[j] * x0[j] + b[j] * held_u) * dt;
         pm = f * p0[j] * f + q[j] * dt;
       }
-      const double s = pm + r, nu = z - xm, k = pm / s;
-      likelihood[j] = std::exp(-0.5 * nu * nu / s) / std::sqrt(2.0 * M_PI * s);
+      likelihood[j] = 1.0;
+      x[j] = xm;
+      var[j] = pm;
+      if (!std::isnan(z)) {  // a step without z: prediction only
+        const double s = pm + r[j], nu = z - xm, k = pm / s;
+        likelihood[j] = std::exp(-0.5 * nu * nu / s) / std::sqrt(2.0 * M_PI * s);
+        x[j] = xm + k * nu;
+        var[j] = pm - k * pm;  // standard form: equal to Joseph's for the optimal gain
+      }
       if (!std::isnan(y)) {
         const double e = y - output_gain[j] * u;
-        likelihood[j] *= std::exp(-0.5 * e * e / output_r) / std::sqrt(2.0 * M_PI * output_r);
+        likelihood[j] *= std::exp(-0.5 * e * e / output_r[j]) / std::sqrt(2.0 * M_PI * output_r[j]);
       }
-      x[j] = xm + k * nu;
-      var[j] = pm - k * pm;  // standard form: equal to Joseph's for the optimal gain
     }
     for (int j = 0; j < 2; ++j) likelihood[j] = std::pow(likelihood[j], likelihood_weight);
     const double total = likelihood[0] * c[0] + likelihood[1] * c[1];
@@ -252,7 +257,7 @@ TEST(Imm, MeasuredOutputsMatchTheReferenceOverManySteps) {
     ReferenceImm reference;
     reference.output_gain[0] = 0.5;
     reference.output_gain[1] = 1.0;
-    reference.output_r = 0.04;
+    reference.output_r[0] = reference.output_r[1] = 0.04;
     std::mt19937 rng(5);
     std::normal_distribution<double> noise(0.0, 0.2);
     double t = 0.0;
@@ -267,6 +272,46 @@ TEST(Imm, MeasuredOutputsMatchTheReferenceOverManySteps) {
       ASSERT_NEAR(e.covariance(0, 0), reference.var_combined, 1e-10) << "step " << k;
       t += 0.05 + 0.03 * std::cos(k);
     }
+  }
+}
+
+// A mode with its own R (ModeConfig::r): its filter takes that noise, for the
+// state's measurement and the output alike, against the independent scalar
+// IMM given the same per-mode noise; both kernels.
+TEST(Imm, EachModesOwnMeasurementNoiseIsItsFiltersNoise) {
+  for (const ImmKernelChoice choice : {ImmKernelChoice::kFastest, ImmKernelChoice::kDynamic}) {
+    Bank bank = scalar_bank_with_output();
+    bank.config.modes[1].r = Eigen::Vector2d(0.6, 0.01).asDiagonal();
+    Imm imm(std::move(bank), choice);
+    ReferenceImm reference;
+    reference.output_gain[0] = 0.5;
+    reference.output_gain[1] = 1.0;
+    reference.r[1] = 0.6;
+    reference.output_r[0] = 0.04;
+    reference.output_r[1] = 0.01;
+    std::mt19937 rng(8);
+    std::normal_distribution<double> noise(0.0, 0.2);
+    double t = 0.0;
+    for (int k = 0; k < 200; ++k) {
+      const double u = std::sin(0.1 * k);
+      const double z = k % 4 == 2 ? kNaN : 0.8 * std::sin(0.05 * k) + noise(rng);
+      const double y = k % 3 == 1 ? kNaN : 0.7 * u + noise(rng);
+      const ImmEstimate& e = imm.step(t, vec({u}), vec({z, y}));
+      reference.step(t, u, z, y);
+      ASSERT_NEAR(e.mode_probabilities[0], reference.mu[0], 1e-10) << "step " << k;
+      ASSERT_NEAR(e.mode_states[1][0], reference.x[1], 1e-10) << "step " << k;
+      ASSERT_NEAR(e.mode_covariances[1](0, 0), reference.var[1], 1e-10) << "step " << k;
+      t += 0.05 + 0.03 * std::cos(k);
+    }
+  }
+  // The same bank with every mode's R equal to the bank's runs as the bank.
+  Bank same = scalar_bank_with_output();
+  for (ModeConfig& m : same.config.modes) m.r = same.config.measurement.r;
+  Imm a(std::move(same)), b(scalar_bank_with_output());
+  for (int k = 0; k < 50; ++k) {
+    const ImmEstimate& ea = a.step(0.1 * k, vec({std::cos(0.2 * k)}), vec({0.3 * k, 0.1}));
+    const ImmEstimate& eb = b.step(0.1 * k, vec({std::cos(0.2 * k)}), vec({0.3 * k, 0.1}));
+    ASSERT_EQ(ea.mode_probabilities, eb.mode_probabilities) << "step " << k;
   }
 }
 

@@ -79,6 +79,27 @@ TEST(BankWriter, AppendKeepsCommentsAndTheResultLoads) {
   EXPECT_DOUBLE_EQ(config.modes[1].q_intensity(1, 1), 0.02);
 }
 
+// A mode's own R is written after its Q and loads back; a mode without one
+// writes none.
+TEST(BankWriter, AModesOwnMeasurementNoiseLoadsBack) {
+  const auto file = write_file(test_directory() / "b.yaml", kBank);
+  Bank bank = Bank::load(file, {SKIDIMM_PLUGIN_DIR});
+  Eigen::Matrix2d r;
+  r << 0.0009, 0.0002, 0.0002, 0.0016;
+  const std::string entry =
+      format_mode_entry("ice", "ltc_linear", *bank.models[0], Eigen::Matrix2d::Identity() * 0.02, {}, {}, "", r);
+  EXPECT_THAT(entry, HasSubstr("    R: [[0.0009, 0.0002], [0.0002, 0.0016]]\n"));
+  EXPECT_THAT(format_mode_entry("ice", "ltc_linear", *bank.models[0], Eigen::Matrix2d::Identity() * 0.02, {}, {}, "",
+                                Eigen::Vector2d(0.01, 0.04).asDiagonal().toDenseMatrix()),
+              HasSubstr("    R: {diagonal: [0.01, 0.04]}\n"));
+  EXPECT_THAT(format_mode_entry("ice", "ltc_linear", *bank.models[0], Eigen::Matrix2d::Identity() * 0.02, {}),
+              ::testing::Not(HasSubstr("R:")));
+  append_mode_to_bank(file, entry);
+  const BankConfig config = load_bank_config(file);
+  EXPECT_EQ(config.modes[0].r.size(), 0);
+  EXPECT_TRUE(config.modes[1].r.isApprox(r));
+}
+
 TEST(BankWriter, AModesFitConditionIsKept) {
   Bank bank = Bank::load(write_file(test_directory() / "b.yaml", kBank), {SKIDIMM_PLUGIN_DIR});
   const std::string turning = format_mode_entry("ice_turning", "ltc_linear", *bank.models[0],

@@ -9,6 +9,7 @@
 
 #include "core/temp_files.h"
 #include "skidimm/errors.h"
+#include "skidimm/fitting/bank_fit.h"
 #include "skidimm/sdk/angles.h"
 
 namespace skidimm {
@@ -214,6 +215,33 @@ modes:
   // The currents' one-step error is their noise.
   EXPECT_NEAR(report.rmse[4], 0.3, 0.03);
   EXPECT_NEAR(report.rmse[3], 0.02, 0.005);
+
+  // With output_noise the mode gets its own R: its outputs' residual
+  // variances, the state rows the bank's.
+  Bank own = load_bank(bank_yaml);
+  BankFitOptions bank_options;
+  bank_options.objective = Objective::kWindow;
+  bank_options.window = options;
+  bank_options.output_noise = true;
+  fit_bank(&own, {ModeLogs{0, {data}}}, bank_options);
+  const Eigen::MatrixXd& r = own.config.modes[0].r;
+  ASSERT_EQ(r.rows(), 6);
+  EXPECT_EQ(r.topLeftCorner(3, 3), own.config.measurement.r.topLeftCorner(3, 3));
+  EXPECT_NEAR(std::sqrt(r(3, 3)), 0.02, 0.005);
+  EXPECT_NEAR(std::sqrt(r(4, 4)), 0.3, 0.03);
+  EXPECT_NEAR(std::sqrt(r(5, 5)), 0.3, 0.03);
+  EXPECT_EQ((r - Eigen::MatrixXd(r.diagonal().asDiagonal())).cwiseAbs().maxCoeff(), 0.0);
+  // The likelihood objective scores modes with the bank's R: it refuses a
+  // bank with a mode's own, and estimates none.
+  bank_options.objective = Objective::kLikelihood;
+  EXPECT_THROW(fit_bank(&own, {ModeLogs{0, {data}}}, bank_options), FitError);
+  bank_options.output_noise = false;
+  try {
+    fit_bank(&own, {ModeLogs{0, {data}}}, bank_options);
+    ADD_FAILURE() << "the likelihood objective fitted a bank with a mode's own R";
+  } catch (const FitError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("--objective window"));
+  }
 }
 
 TEST(ModelFitter, FitsSharedParametersJointlyAndAProcessNoisePerMode) {

@@ -67,6 +67,7 @@ modes:
 
 TEST(TunedSettings, ApplyScalesFittedValuesAndSetsTheTransitionAndFloor) {
   Bank bank = Bank::load(write_file(test_directory() / "b.yaml", kBank), {SKIDIMM_PLUGIN_DIR});
+  bank.config.modes[1].r = Eigen::Vector2d(0.01, 0.0025).asDiagonal();  // mode b's own R: scaled alike
   FittedValues fitted = values_of(bank);
   fitted.parameters[1][0] = -3.0;
   TunedSettings s;
@@ -83,6 +84,9 @@ TEST(TunedSettings, ApplyScalesFittedValuesAndSetsTheTransitionAndFloor) {
   EXPECT_EQ(p[0], -3.0);
   EXPECT_NEAR(bank.config.measurement.r(0, 0), 4.0 * 0.0004, 1e-15);
   EXPECT_NEAR(bank.config.measurement.r(1, 1), 4.0 * 4.0 * 0.0009, 1e-15);
+  EXPECT_EQ(bank.config.modes[0].r.size(), 0);
+  EXPECT_NEAR(bank.config.modes[1].r(0, 0), 4.0 * 0.01, 1e-15);
+  EXPECT_NEAR(bank.config.modes[1].r(1, 1), 4.0 * 4.0 * 0.0025, 1e-15);
   EXPECT_NEAR(bank.config.modes[0].q_intensity(1, 1), 10.0 * 0.02, 1e-15);
   EXPECT_NEAR(bank.config.modes[1].q_intensity(0, 0), 5.0 * 0.03, 1e-15);
   EXPECT_EQ(bank.config.transition.kind, TransitionConfig::Kind::kDwellTimes);

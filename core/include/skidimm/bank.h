@@ -35,6 +35,11 @@ struct ModeConfig {
   std::string model;            // plugin name
   sdk::ParameterSet params;     // the mode's own `params:`
   Eigen::MatrixXd q_intensity;  // continuous-time process noise Q (per second)
+  // The mode's own measurement noise (`R:` in its entry), m x m over every
+  // measurement row; empty: the bank's measurement.r. What a filter takes
+  // for noise includes its model's error where a row is an output the model
+  // predicts (measurement.outputs), and models predict unequally well.
+  Eigen::MatrixXd r;
   // Which steps of a log labelled with this mode's class train this mode: an
   // expression of the bank's inputs, true when non-zero ("dv > 0"). Empty:
   // every step not claimed by another mode of the class.
@@ -125,6 +130,17 @@ struct BankConfig {
   int input_dim() const { return static_cast<int>(input_names.size()); }
   int num_modes() const { return static_cast<int>(modes.size()); }
   int mode_index(const std::string& mode_name) const;  // -1 if absent
+  // Mode j's measurement noise: its own R, else the bank's.
+  const Eigen::MatrixXd& measurement_noise(int j) const {
+    const Eigen::MatrixXd& own = modes[static_cast<std::size_t>(j)].r;
+    return own.size() > 0 ? own : measurement.r;
+  }
+  bool any_mode_measurement_noise() const {
+    for (const ModeConfig& m : modes) {
+      if (m.r.size() > 0) return true;
+    }
+    return false;
+  }
   // The class names in scoring order: the bank's classes, then every mode in
   // no class under its own name.
   std::vector<std::string> class_names() const;

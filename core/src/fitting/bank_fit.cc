@@ -1,6 +1,7 @@
 #include "skidimm/fitting/bank_fit.h"
 
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
 #include "skidimm/errors.h"
@@ -80,6 +81,11 @@ std::map<int, FitReport> fit_by_likelihood(Bank* bank, const std::vector<ModeLog
         "bank-level (shared:) parameters are fitted by the window objective only (--objective window); the "
         "likelihood objective fits each mode's own parameters and noise");
   }
+  if (bank->config.any_mode_measurement_noise()) {
+    throw FitError(
+        "the likelihood objective scores every mode with the bank's R, and a mode of this bank has its own (R: in its "
+        "entry); fit it with the window objective (--objective window)");
+  }
   // The likelihood is not convex: from a rough start (a physical guess) LBFGS
   // can settle in a poor local minimum (on the real Husky ice logs: an
   // innovation RMSE ten times the one-step fit's). Where every state is
@@ -107,6 +113,12 @@ std::map<int, FitReport> fit_by_likelihood(Bank* bank, const std::vector<ModeLog
 
 std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data, const BankFitOptions& options) {
   if (data.empty()) throw FitError("no logs to fit");
+  if (options.output_noise && options.objective != Objective::kWindow) {
+    throw FitError("a mode's own output noise is estimated by the window objective (--objective window)");
+  }
+  if (options.output_noise && bank->config.measurement.outputs.empty()) {
+    throw FitError("the bank measures no model outputs (measurement.outputs): there is no output noise to estimate");
+  }
   std::map<int, FitReport> reports;
   switch (options.objective) {
     case Objective::kWindow:
@@ -116,8 +128,25 @@ std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data,
       reports = fit_by_likelihood(bank, data, options);
       break;
   }
-  for (const auto& [mode, report] : reports) bank->config.modes[static_cast<std::size_t>(mode)].q_intensity = report.q_intensity;
+  for (const auto& [mode, report] : reports) {
+    ModeConfig& config = bank->config.modes[static_cast<std::size_t>(mode)];
+    config.q_intensity = report.q_intensity;
+    if (options.output_noise) config.r = output_noise_from_fit(bank->config, report.rmse);
+  }
   return reports;
+}
+
+Eigen::MatrixXd output_noise_from_fit(const BankConfig& config, const Eigen::VectorXd& rmse) {
+  Eigen::MatrixXd r = config.measurement.r;
+  const Eigen::Index rows = r.rows();
+  if (rmse.size() != rows) throw FitError("output noise: one RMSE per measurement row expected");
+  for (Eigen::Index c = config.measurement.first_output_row(); c < rows; ++c) {
+    const double variance = std::isfinite(rmse[c]) ? rmse[c] * rmse[c] : r(c, c);
+    r.row(c).setZero();
+    r.col(c).setZero();
+    r(c, c) = std::max(variance, 1e-6 * config.measurement.r(c, c));
+  }
+  return r;
 }
 
 }  // namespace fitting

@@ -98,6 +98,20 @@ std::string format_matrix(const Eigen::MatrixXd& m) {
   return out + "]";
 }
 
+namespace {
+
+// A covariance as a bank writes it: {diagonal: [...]} when it is diagonal.
+std::string format_covariance(const Eigen::MatrixXd& m) {
+  const Eigen::MatrixXd off = m - Eigen::MatrixXd(m.diagonal().asDiagonal());
+  if (off.cwiseAbs().maxCoeff() == 0.0) {
+    Eigen::VectorXd d = m.diagonal();
+    return "{diagonal: " + format_matrix(d) + "}";
+  }
+  return format_matrix(m);
+}
+
+}  // namespace
+
 std::string format_text(const std::vector<std::string>& values) {
   std::string out = "[";
   for (std::size_t i = 0; i < values.size(); ++i) {
@@ -185,7 +199,8 @@ std::string yaml_scalar(const std::string& text) {
 
 std::string format_mode_entry(const std::string& name, const std::string& model_name, const sdk::MotionModel& model,
                               const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments,
-                              const sdk::ParameterSet& original, const std::string& fit_when) {
+                              const sdk::ParameterSet& original, const std::string& fit_when,
+                              const Eigen::MatrixXd& measurement_noise) {
   std::string out;
   for (const std::string& c : comments) out += "  # " + c + "\n";
   out += "  - name: " + yaml_scalar(name) + "\n";
@@ -194,6 +209,7 @@ std::string format_mode_entry(const std::string& name, const std::string& model_
   const std::string params = format_parameters(model, sdk::ParameterScope::kMode, original);
   if (params != "{}") out += "    params: " + params + "\n";
   out += "    Q: " + format_matrix(q_intensity) + "\n";
+  if (measurement_noise.size() > 0) out += "    R: " + format_covariance(measurement_noise) + "\n";
   return out;
 }
 
@@ -234,15 +250,6 @@ void write_bank_from_template(const fs::path& template_file, const fs::path& out
 }
 
 namespace {
-
-std::string format_covariance(const Eigen::MatrixXd& m) {
-  const Eigen::MatrixXd off = m - Eigen::MatrixXd(m.diagonal().asDiagonal());
-  if (off.cwiseAbs().maxCoeff() == 0.0) {
-    Eigen::VectorXd d = m.diagonal();
-    return "{diagonal: " + format_matrix(d) + "}";
-  }
-  return format_matrix(m);
-}
 
 std::string join_names(const std::vector<std::string>& names) {
   std::string out;

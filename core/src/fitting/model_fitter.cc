@@ -337,11 +337,13 @@ std::string describe_unexcited(const Eigen::MatrixXd& v, const Eigen::VectorXd& 
 double mean_state_nis(const Bank& bank, const sdk::MotionModel& model, const MeasurementLayout& m,
                       const ModeLogs& data, const Eigen::MatrixXd& q, int s) {
   const BankConfig& config = bank.config;
-  const MeasurementModel measurement(config.measurement.h, config.measurement.r, config.measurement.is_angle);
+  // The mode's own R where it has one: the noise its filter will assume.
+  const Eigen::MatrixXd& r = config.measurement_noise(data.mode);
+  const MeasurementModel measurement(config.measurement.h, r, config.measurement.is_angle);
   SelectedMeasurement selected = measurement.make_selection();
   const Eigen::Index rows = measurement.measurement_dim();
   const int c = m.state_row[static_cast<std::size_t>(s)];
-  const double r_c = config.measurement.r(c, c);
+  const double r_c = r(c, c);
   // Outputs depend on no state: the state's filter leaves them out.
   Eigen::VectorXd z(rows);
   const Eigen::VectorXd no_outputs = Eigen::VectorXd::Zero(rows);

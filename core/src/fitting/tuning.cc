@@ -150,6 +150,7 @@ FittedValues values_of(const Bank& bank) {
     bank.models[j]->get_parameters(p);
     v.parameters.push_back(p);
     v.q.push_back(bank.config.modes[j].q_intensity);
+    v.mode_r.push_back(bank.config.modes[j].r);
   }
   v.r = bank.config.measurement.r;
   return v;
@@ -165,9 +166,14 @@ void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
     const double mode_scale = s.q_mode.size() > 0 ? s.q_mode[static_cast<Eigen::Index>(j)] : 1.0;
     config.modes[j].q_intensity = fitted.q[j] * (s.q_scale * mode_scale);
   }
-  Eigen::MatrixXd r = fitted.r * s.r_scale;
-  if (s.r_component.size() > 0) r = s.r_component.asDiagonal() * r * s.r_component.asDiagonal();
-  config.measurement.r = r;
+  const auto scaled = [&](const Eigen::MatrixXd& r) -> Eigen::MatrixXd {
+    if (s.r_component.size() == 0) return r * s.r_scale;
+    return s.r_component.asDiagonal() * (r * s.r_scale) * s.r_component.asDiagonal();
+  };
+  config.measurement.r = scaled(fitted.r);
+  for (std::size_t j = 0; j < fitted.mode_r.size() && j < config.modes.size(); ++j) {
+    config.modes[j].r = fitted.mode_r[j].size() > 0 ? scaled(fitted.mode_r[j]) : Eigen::MatrixXd();
+  }
   if (s.dwell_seconds > 0.0) {
     config.transition.kind = TransitionConfig::Kind::kDwellTimes;
     config.transition.dwell_seconds = Eigen::VectorXd::Constant(config.num_modes(), s.dwell_seconds);

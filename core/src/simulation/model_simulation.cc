@@ -56,7 +56,8 @@ ModelSimulationSummary simulate_models(const Bank& bank, const LogSpec& source, 
 
   MeasuredOutputs outputs(bank);
   Random random(seed);
-  const Eigen::MatrixXd r_root = square_root(config.measurement.r);
+  std::vector<Eigen::MatrixXd> r_roots;  // per mode: the noise its measurements get (its own R, else the bank's)
+  for (int j = 0; j < config.num_modes(); ++j) r_roots.push_back(square_root(config.measurement_noise(j)));
   const Eigen::MatrixXd p0_root = square_root(config.initial_covariance);
   Eigen::VectorXd x = config.initial_state, next(n), noise(n);
   Eigen::VectorXd draw(std::max<Eigen::Index>(n, config.measurement.r.rows()));
@@ -92,7 +93,8 @@ ModelSimulationSummary simulate_models(const Bank& bank, const LogSpec& source, 
     for (int i = 0; i < n; ++i) {
       if (config.angle_mask[static_cast<std::size_t>(i)]) x[i] = sdk::wrap_angle(x[i]);
     }
-    Eigen::VectorXd z = config.measurement.h * x + r_root * gaussian_vector(config.measurement.r.rows());
+    Eigen::VectorXd z = config.measurement.h * x +
+                        r_roots[static_cast<std::size_t>(mode)] * gaussian_vector(config.measurement.r.rows());
     // The outputs measured are the mode's outputs() at this step's input.
     if (outputs.any()) {
       std::string reason;

@@ -33,7 +33,17 @@ struct BankFitOptions {
   bool shared = false;         // window objective: fit the bank-level parameters first
   bool fit_measurement_noise = false;  // likelihood objective: one R for the bank
   bool full_process_noise = false;     // likelihood objective: Q with off-diagonal terms
+  // Window objective: give each fitted mode its own R (ModeConfig::r) whose
+  // rows of the measured outputs are the variance of its fitted outputs'
+  // residuals on its logs: the noise its filter should expect of them, its
+  // model's error included. The state rows keep the bank's R.
+  bool output_noise = false;
 };
+
+// The R output_noise gives a mode: `r` (the bank's) with each output row's
+// variance replaced by its residual RMSE squared, floored at 1e-6 of the
+// bank's, and that row's correlations dropped.
+Eigen::MatrixXd output_noise_from_fit(const BankConfig& config, const Eigen::VectorXd& rmse);
 
 // Fits the modes in `data` in place. Returns their reports by mode index.
 // Throws FitError.

@@ -37,7 +37,8 @@ std::string format_matrix(const Eigen::MatrixXd& m);
 // `fit_when`: the mode's condition on the steps it is fitted on (kept).
 std::string format_mode_entry(const std::string& name, const std::string& model_name, const sdk::MotionModel& model,
                               const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments,
-                              const sdk::ParameterSet& original = {}, const std::string& fit_when = "");
+                              const sdk::ParameterSet& original = {}, const std::string& fit_when = "",
+                              const Eigen::MatrixXd& measurement_noise = Eigen::MatrixXd());
 
 // Appends a mode entry at the end of the bank file's `modes:` list. Throws
 // ConfigError if the result is not a valid bank (e.g. a mode of that name

@@ -51,6 +51,7 @@ struct FittedValues {
   std::vector<Eigen::VectorXd> parameters;  // per mode, the model's flat parameter vector
   std::vector<Eigen::MatrixXd> q;           // per mode, Q intensity
   Eigen::MatrixXd r;                        // the bank's R
+  std::vector<Eigen::MatrixXd> mode_r;      // per mode, its own R (empty: the bank's)
 };
 
 // Fits `bank` in place to `data` (parameters, Q, and R if the objective fits
@@ -60,7 +61,7 @@ using BankFitter = std::function<void(Bank* bank, const std::vector<ModeLogs>& d
 // The settings the tuner chooses, applied on top of fitted values.
 struct TunedSettings {
   std::string objective;             // which BankFitter built the models
-  double r_scale = 1.0;              // R <- r_scale * diag(r_component) R diag(r_component)
+  double r_scale = 1.0;              // R <- r_scale * diag(r_component) R diag(r_component), a mode's own R too
   Eigen::VectorXd r_component;       // per measurement component (sqrt scale on its std), empty = 1
   double q_scale = 1.0;              // Q_j <- q_scale * q_mode[j] * Q_j
   Eigen::VectorXd q_mode;            // per mode, empty = 1
