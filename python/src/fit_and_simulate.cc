@@ -42,7 +42,7 @@ FitTexts fit_texts(const Bank& bank, const std::vector<FittedMode>& fitted, cons
     const ModeConfig& mode = config.modes[static_cast<std::size_t>(f.mode)];
     texts.entries +=
         fitting::format_mode_entry(output_name(f.mode), mode.model, *bank.models[static_cast<std::size_t>(f.mode)],
-                                   f.report.q_intensity, {comment}, mode.params, mode.fit_when);
+                                   f.report.q_intensity, {comment}, mode.params, mode.fit_when, mode.r);
   }
   std::string modes_block = "modes:\n";
   for (int j = 0; j < config.num_modes(); ++j) {
@@ -57,11 +57,11 @@ FitTexts fit_texts(const Bank& bank, const std::vector<FittedMode>& fitted, cons
                                                                                     : "one-step RMSE ") +
           cli::rmse_text(config, f->report.rmse) + " on " + std::to_string(f->logs) + " log(s)";
       modes_block += fitting::format_mode_entry(output_name(j), mode.model, *bank.models[static_cast<std::size_t>(j)],
-                                                f->report.q_intensity, {comment}, mode.params, mode.fit_when);
+                                                f->report.q_intensity, {comment}, mode.params, mode.fit_when, mode.r);
     } else {
-      modes_block +=
-          fitting::format_mode_entry(output_name(j), mode.model, *bank.models[static_cast<std::size_t>(j)],
-                                     mode.q_intensity, {"not fitted: no log given for this mode"}, mode.params, mode.fit_when);
+      modes_block += fitting::format_mode_entry(output_name(j), mode.model, *bank.models[static_cast<std::size_t>(j)],
+                                                mode.q_intensity, {"not fitted: no log given for this mode"},
+                                                mode.params, mode.fit_when, mode.r);
     }
   }
   std::vector<std::pair<std::string, std::string>> blocks;
