@@ -140,10 +140,10 @@ read -r -a stc4_tune <<<"$(four_of "${stc_tune[@]}")"
 fitted="$logs/realistic/fitted"
 mkdir -p "$fitted"
 
-tune() {  # tune BANK ARGS...: every log is one mode's; leave-one-log-out
-  local bank=$1 result="$out/realistic/$1.yaml"
-  shift
-  "$skidimm" tune -q --bank "$fitted/$bank.yaml" "$@" --objective none --tune r-components,q-scale --no-assess \
+tune() {  # tune BANK KNOBS ARGS...: every log is one mode's; leave-one-log-out
+  local bank=$1 knobs=$2 result="$out/realistic/$1.yaml"
+  shift 2
+  "$skidimm" tune -q --bank "$fitted/$bank.yaml" "$@" --objective none --tune "$knobs" --no-assess \
     --threads 1 --output-bank "$result" >"$fitted/$bank.tune" 2>&1
   # The header of the tuned bank says how it was tuned; add how it was fitted.
   { grep '^#' "$result"
@@ -153,25 +153,31 @@ tune() {  # tune BANK ARGS...: every log is one mode's; leave-one-log-out
   mv "$result.partial" "$result"
 }
 realistic() {  # realistic MODEL: fit, then estimate R and the scale of Q with skidimm tune
-  local model=$1 own=()
+  local model=$1 own=() knobs=r-components,q-scale
   echo "== realistic sensors: stc_${model}, fitting and tuning" >&2
   # A bank that measures its models' outputs gives each mode its own noise for
   # them: the gyro and currents as well as that mode's model predicts them.
-  if [ "$model" = traction ]; then own=(--output-noise); fi
+  # The gyro is then heard, 50 times a second, and its errors, a model's
+  # miss that lasts through a turn, are far from independent from one sample
+  # to the next: tune also chooses the likelihood weight that tempers them.
+  if [ "$model" = traction ]; then
+    own=(--output-noise)
+    knobs=r-components,q-scale,likelihood-weight
+  fi
   fit "configs/physical/realistic/stc_${model}16.yaml" "$fitted/stc_${model}16.yaml" "$fitted/stc_${model}16.report" \
     --window 1 "${own[@]}" "${stc_fit[@]}"
   fit "configs/physical/realistic/stc_${model}4.yaml" "$fitted/stc_${model}4.yaml" "$fitted/stc_${model}4.report" \
     --window 1 "${own[@]}" "${stc4_fit[@]}"
-  tune "stc_${model}16" "${stc_tune[@]}"
-  tune "stc_${model}4" "${stc4_tune[@]}"
+  tune "stc_${model}16" "$knobs" "${stc_tune[@]}"
+  tune "stc_${model}4" "$knobs" "${stc4_tune[@]}"
   if [ "$model" = slip ]; then
     echo "== realistic sensors: LTC, fitting and tuning" >&2
     fit configs/physical/realistic/ltc_terrains.yaml "$fitted/ltc_terrains.yaml" "$fitted/ltc_terrains.report" \
       --window 0.5 "${ltc_fit[@]}"
     fit configs/physical/realistic/ltc_shared.yaml "$fitted/ltc_shared.yaml" "$fitted/ltc_shared.report" \
       --window 0.5 --shared "${ltc_fit[@]}"
-    tune ltc_terrains "${ltc_tune[@]}"
-    tune ltc_shared "${ltc_tune[@]}"
+    tune ltc_terrains r-components,q-scale "${ltc_tune[@]}"
+    tune ltc_shared r-components,q-scale "${ltc_tune[@]}"
   fi
 }
 realistic slip &
