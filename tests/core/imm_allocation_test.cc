@@ -82,9 +82,14 @@ TEST(ImmAllocation, StepAndDecisionAllocateNothingWithIrregularTimeMissingRowsAn
 // computed and subtracted in place, in the fixed-size kernel (the pose and
 // the gyro: 4 rows) and the dynamic one (the gyro and stc_traction's motor
 // currents too: 6 rows).
+// Measured outputs, with the bank's R and with modes that have their own
+// (every other mode: the dynamic kernel then rewrites the selected block per
+// mode).
 TEST(ImmAllocation, MeasuredOutputsAllocateNothing) {
   SKIDIMM_SKIP_UNLESS_MALLOC_COUNTED();
-  for (const int outputs : {1, 3}) {
+  for (const int case_index : {0, 1, 2, 3}) {
+    const int outputs = case_index % 2 ? 3 : 1;
+    const bool own_noise = case_index >= 2;
     skidimm_test::BankBuilder b;
     b.states = {"X", "Y", "theta"};
     b.angles = {false, false, true};
@@ -107,6 +112,11 @@ TEST(ImmAllocation, MeasuredOutputsAllocateNothing) {
     Bank bank = b.build();
     bank.config.measurement.outputs = {"omega", "i_L", "i_R"};
     bank.config.measurement.outputs.resize(static_cast<std::size_t>(outputs));
+    if (own_noise) {
+      for (int j = 0; j < 4; j += 2) {
+        bank.config.modes[static_cast<std::size_t>(j)].r = Eigen::VectorXd::Constant(3 + outputs, 4e-2).asDiagonal();
+      }
+    }
     Imm imm(std::move(bank));
     EXPECT_EQ(imm.uses_fixed_size_kernel(), outputs == 1);
     double t = 0.0;
@@ -123,7 +133,8 @@ TEST(ImmAllocation, MeasuredOutputsAllocateNothing) {
     run(10);  // warm-up
     const long before = skidimm_test::g_malloc_calls.load();
     run(500);
-    EXPECT_EQ(skidimm_test::g_malloc_calls.load() - before, 0) << outputs << " output(s) measured";
+    EXPECT_EQ(skidimm_test::g_malloc_calls.load() - before, 0)
+        << outputs << " output(s) measured" << (own_noise ? ", modes with their own R" : "");
     EXPECT_TRUE(imm.estimate().state.allFinite());
   }
 }
