@@ -190,10 +190,8 @@ class DynamicFilters {
     }
     selection_ = measurement_model_.make_selection();
     measured_ = selection_.z;
-    for (int j = 0; j < c.num_modes(); ++j) {
-      if (c.modes[static_cast<std::size_t>(j)].r.size() == 0) continue;
-      own_r_.resize(static_cast<std::size_t>(c.num_modes()));
-      own_r_[static_cast<std::size_t>(j)] = c.modes[static_cast<std::size_t>(j)].r;
+    if (c.any_mode_measurement_noise()) {
+      for (int j = 0; j < c.num_modes(); ++j) mode_r_.push_back(c.measurement_noise(j));
     }
   }
 
@@ -219,7 +217,7 @@ class DynamicFilters {
         }
       }
       // The selected block of this mode's R (select() filled the bank's).
-      if (!own_r_.empty()) select_noise(j);
+      if (!mode_r_.empty()) MeasurementModel::select_noise(mode_r_[static_cast<std::size_t>(j)], &selection_);
       const UpdateResult result = filters_[static_cast<std::size_t>(j)].update(selection_, gates[selection_.size]);
       record_update(j, result, e, rejected);
     }
@@ -229,23 +227,12 @@ class DynamicFilters {
  private:
   std::vector<const sdk::MotionModel*> models_;
   MeasurementModel measurement_model_;
-  // Writes mode j's R (its own, else the bank's) over the selected rows into
-  // selection_.r, in place.
-  void select_noise(int j) {
-    const Eigen::MatrixXd& own = own_r_[static_cast<std::size_t>(j)];
-    const Eigen::MatrixXd& r = own.size() > 0 ? own : measurement_model_.r();
-    for (int a = 0; a < selection_.size; ++a) {
-      for (int b = 0; b < selection_.size; ++b) {
-        selection_.r(a, b) =
-            r(selection_.rows[static_cast<std::size_t>(a)], selection_.rows[static_cast<std::size_t>(b)]);
-      }
-    }
-  }
-
   std::vector<ExtendedKalmanFilter> filters_;
   SelectedMeasurement selection_;
   Eigen::VectorXd measured_;  // selection_.z as measured, when modes subtract their outputs
-  std::vector<Eigen::MatrixXd> own_r_;  // per mode, its own R (empty: the bank's); empty when no mode has one
+  // Per mode, the R its filter uses (BankConfig::measurement_noise); empty
+  // when every mode uses the bank's, which select() already gives.
+  std::vector<Eigen::MatrixXd> mode_r_;
 };
 
 // Mixing (eq. 4-7, all targets in one product), the filters, the mode

@@ -46,7 +46,13 @@ void MeasurementModel::select(const Eigen::Ref<const Eigen::VectorXd>& z, Select
     out->z[a] = z[row];
     out->h.row(a) = h_.row(row);
     out->is_angle[a] = is_angle_[row];
-    for (int b = 0; b < k; ++b) out->r(a, b) = r_(row, out->rows[b]);
+  }
+  select_noise(r_, out);
+}
+
+void MeasurementModel::select_noise(const Eigen::MatrixXd& r, SelectedMeasurement* out) {
+  for (int a = 0; a < out->size; ++a) {
+    for (int b = 0; b < out->size; ++b) out->r(a, b) = r(out->rows[a], out->rows[b]);
   }
 }
 

@@ -45,6 +45,10 @@ class MeasurementModel {
   SelectedMeasurement make_selection() const;
   // Keeps the finite rows of z. Allocates nothing.
   void select(const Eigen::Ref<const Eigen::VectorXd>& z, SelectedMeasurement* out) const;
+  // Writes the block of `r` (m x m) over out's selected rows into out->r:
+  // what select() does with this model's R, for another R over the same rows
+  // (a mode's own). Allocates nothing.
+  static void select_noise(const Eigen::MatrixXd& r, SelectedMeasurement* out);
 
  private:
   Eigen::MatrixXd h_;
