@@ -132,15 +132,8 @@ int run(const RunOptions& options) {
     std::vector<std::string> mode_names;
     for (const ModeConfig& mode : config.modes) mode_names.push_back(mode.name);
     const int num_modes = config.num_modes();
-    DecisionConfig decision_settings = config.decision;
-    if (options.decision_enter >= 0.0) decision_settings.enter = options.decision_enter;
-    if (options.decision_leave >= 0.0) decision_settings.leave = options.decision_leave;
-    if (options.decision_hold >= 0.0) decision_settings.min_hold = options.decision_hold;
-    if (!(decision_settings.enter > 0.0 && decision_settings.enter <= 1.0 && decision_settings.leave >= 0.0 &&
-          decision_settings.leave < decision_settings.enter)) {
-      throw Error("decision thresholds: need 0 <= leave < enter <= 1, got enter " +
-                  CsvWriter::format(decision_settings.enter) + ", leave " + CsvWriter::format(decision_settings.leave));
-    }
+    const DecisionConfig decision_settings =
+        decision_settings_of(config.decision, options.decision_enter, options.decision_leave, options.decision_hold);
     ProgressLine progress(options.progress && !options.quiet);
 
     EstimatorOptions estimator;

@@ -125,6 +125,11 @@ int tune(const TuneCommandOptions& options);
 
 struct EvalOptions {
   std::filesystem::path bank;
+  // >= 0: override the bank's decision: settings (with --estimates: the
+  // decision is made again from the file's probabilities).
+  double decision_enter = -1.0;
+  double decision_leave = -1.0;
+  double decision_hold = -1.0;
   std::vector<std::string> inputs;     // logs: FILE[+FILE...] or directories; each argument is a group
   std::vector<std::string> estimates;  // `skidimm run` outputs (files or directories) instead of running
   std::vector<std::filesystem::path> plugin_paths;

@@ -376,6 +376,13 @@ int eval(const EvalOptions& options) {
     if (!options.estimates.empty()) {
       std::optional<BankConfig> bank;
       if (!options.bank.empty()) bank = load_bank_config(options.bank);
+      // Given on the command line, the decision is made again from each
+      // file's probabilities (from the bank's settings, or the defaults).
+      std::optional<DecisionConfig> decide;
+      if (options.decision_enter >= 0.0 || options.decision_leave >= 0.0 || options.decision_hold >= 0.0) {
+        decide = decision_settings_of(bank ? bank->decision : DecisionConfig{}, options.decision_enter,
+                                      options.decision_leave, options.decision_hold);
+      }
       // Every file on its own thread (parallel.h): the results, and any
       // error, are those of one thread.
       const std::vector<LogJob> jobs = log_jobs(options.estimates, &groups);
@@ -383,7 +390,8 @@ int eval(const EvalOptions& options) {
       parallel_for(static_cast<int>(jobs.size()), worker_count(), [&](int i, int) {
         const LogJob& job = jobs[static_cast<std::size_t>(i)];
         if (job.error) std::rethrow_exception(job.error);
-        results[static_cast<std::size_t>(i)] = evaluation::evaluate_estimates(job.log.files.front().path, bank ? &*bank : nullptr);
+        results[static_cast<std::size_t>(i)] = evaluation::evaluate_estimates(
+            job.log.files.front().path, bank ? &*bank : nullptr, decide ? &*decide : nullptr);
       });
       for (std::size_t i = 0; i < jobs.size(); ++i) groups[jobs[i].group].logs.push_back(std::move(results[i]));
       std::map<std::string, bool> seen;
@@ -399,7 +407,9 @@ int eval(const EvalOptions& options) {
       }
     } else {
       if (options.bank.empty()) throw Error("give --bank with --input, or --estimates");
-      const Bank bank = Bank::load(options.bank, options.plugin_paths);
+      Bank bank = Bank::load(options.bank, options.plugin_paths);
+      bank.config.decision = decision_settings_of(bank.config.decision, options.decision_enter, options.decision_leave,
+                                                  options.decision_hold);
       modes = bank.config.class_names();
       states = bank.config.state_names;
       const SamplingConfig sampling = sampling_of(bank.config, options.rate);

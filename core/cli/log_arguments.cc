@@ -83,6 +83,18 @@ void require_rereadable(const LogSpec& log, const std::string& who) {
   }
 }
 
+DecisionConfig decision_settings_of(const DecisionConfig& bank, double enter, double leave, double hold) {
+  DecisionConfig d = bank;
+  if (enter >= 0.0) d.enter = enter;
+  if (leave >= 0.0) d.leave = leave;
+  if (hold >= 0.0) d.min_hold = hold;
+  if (!(d.enter > 0.0 && d.enter <= 1.0 && d.leave >= 0.0 && d.leave < d.enter)) {
+    throw Error("decision thresholds: need 0 <= leave < enter <= 1, got enter " + CsvWriter::format(d.enter) +
+                ", leave " + CsvWriter::format(d.leave));
+  }
+  return d;
+}
+
 SamplingConfig sampling_of(const BankConfig& bank, double rate) {
   SamplingConfig sampling = bank.sampling;
   if (rate > 0.0) sampling.rate = rate;

@@ -29,6 +29,11 @@ void require_rereadable(const LogSpec& log, const std::string& who);
 // The bank's sampling, with the command line's --rate when it is > 0.
 SamplingConfig sampling_of(const BankConfig& bank, double rate);
 
+// `bank`'s decision settings with the command line's --decision-enter,
+// --decision-leave and --decision-hold where they are >= 0. Throws Error
+// unless 0 <= leave < enter <= 1.
+DecisionConfig decision_settings_of(const DecisionConfig& bank, double enter, double leave, double hold);
+
 // The segments one log gives each mode for fitting. Which mode a log shows:
 // its MODE= label, else `default_mode` (--mode), else the bank's truth
 // column, whose runs of one label become segments of their own. A label may

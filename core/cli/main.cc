@@ -46,6 +46,22 @@ int main(int argc, char** argv) {
                      "default: a step at every time stamp of the log")
         ->check(CLI::PositiveNumber);
   };
+  auto add_decision_options = [](CLI::App* command, double* enter, double* leave, double* hold) {
+    command
+        ->add_option("--decision-enter", *enter,
+                     "Probability at which a mode (class) is decided (overrides the bank's decision.enter)")
+        ->check(CLI::Range(0.0, 1.0));
+    command
+        ->add_option("--decision-leave", *leave,
+                     "Probability below which, for the hold, the decided mode is given up for unknown "
+                     "(decision.leave; 0: never)")
+        ->check(CLI::Range(0.0, 1.0));
+    command
+        ->add_option("--decision-hold", *hold,
+                     "Seconds a decision is kept at least, and below decision.leave before it is given up "
+                     "(decision.min_hold)")
+        ->check(CLI::NonNegativeNumber);
+  };
 
   RunOptions run_options;
   std::string bank, output;
@@ -61,14 +77,7 @@ int main(int argc, char** argv) {
   run->add_option("--lag", run_options.lag,
                   "Write each step smoothed with this many seconds of later data (online, delayed)")
       ->check(CLI::NonNegativeNumber);
-  run->add_option("--decision-enter", run_options.decision_enter,
-                  "Probability at which a mode (class) is decided (overrides the bank's decision.enter)")
-      ->check(CLI::Range(0.0, 1.0));
-  run->add_option("--decision-leave", run_options.decision_leave,
-                  "Probability below which the decided mode is given up for unknown (decision.leave; 0: never)")
-      ->check(CLI::Range(0.0, 1.0));
-  run->add_option("--decision-hold", run_options.decision_hold, "Seconds a decision is kept at least (decision.min_hold)")
-      ->check(CLI::NonNegativeNumber);
+  add_decision_options(run, &run_options.decision_enter, &run_options.decision_leave, &run_options.decision_hold);
   run->add_option("--output,-o", output,
                   "Output CSV (written as <output>.partial, renamed when complete); '-' for standard output")
       ->required();
@@ -218,6 +227,7 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   eval->add_option("--estimates,-e", eval_options.estimates,
                    "Evaluate `skidimm run` outputs (files or directories) instead of running a bank");
+  add_decision_options(eval, &eval_options.decision_enter, &eval_options.decision_leave, &eval_options.decision_hold);
   eval->add_flag("--json", eval_options.json, "Print JSON instead of tables");
   add_plugin_path(eval);
 

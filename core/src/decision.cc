@@ -25,6 +25,8 @@ const std::string& ModeDecision::name(int decision) const {
 void ModeDecision::reset() {
   decision_ = kUnknown;
   decided_at_ = 0.0;
+  below_leave_ = false;
+  below_leave_since_ = 0.0;
 }
 
 int ModeDecision::update(double t, const Eigen::Ref<const Eigen::VectorXd>& mode_probabilities) {
@@ -34,14 +36,28 @@ int ModeDecision::update(double t, const Eigen::Ref<const Eigen::VectorXd>& mode
   }
   Eigen::Index best = 0;
   const double best_probability = class_probabilities_.maxCoeff(&best);
-  const bool held = decision_ == kUnknown || t - decided_at_ >= settings_.min_hold;
-  if (!held) return decision_;
+  // When the decided class's probability went below `leave` (and stayed),
+  // counted during the hold too.
+  if (decision_ != kUnknown) {
+    if (class_probabilities_[decision_] >= settings_.leave) {
+      below_leave_ = false;
+    } else if (!below_leave_) {
+      below_leave_ = true;
+      below_leave_since_ = t;
+    }
+  }
+  if (decision_ != kUnknown && t - decided_at_ < settings_.min_hold) return decision_;
   if (best != decision_ && best_probability >= settings_.enter) {
     decision_ = static_cast<int>(best);
     decided_at_ = t;
-  } else if (decision_ != kUnknown && class_probabilities_[decision_] < settings_.leave) {
+    below_leave_ = false;
+  } else if (below_leave_ && t - below_leave_since_ >= settings_.min_hold) {
+    // Below `leave` for a whole hold and no other class confident: after a
+    // real switch the new mode is usually confident within that time, and
+    // the decision moves straight to it instead of through unknown.
     decision_ = kUnknown;
     decided_at_ = t;
+    below_leave_ = false;
   }
   return decision_;
 }

@@ -437,6 +437,42 @@ TEST(Cli, EvalReportsAccuracyLatencyAndConsistencyAsTextAndJson) {
   EXPECT_THAT(no_truth.err, HasSubstr("names no columns.truth_mode"));
 }
 
+TEST(Cli, EvalTakesDecisionSettingsAndRemakesARunsDecisionFromItsProbabilities) {
+  const fs::path dir = test_directory();
+  const std::string bank = kSource + "/configs/ltc_terrains.yaml",
+                    log = kSource + "/configs/examples/ltc_switching.csv";
+  const std::string settings = " --decision-enter 0.6 --decision-hold 0.2";
+  ASSERT_EQ(run_skidimm("run -q --bank " + bank + " --input " + log + " --output " + (dir / "given.csv").string() +
+                        settings + " --plugin-path " + kPlugins)
+                .exit_code,
+            0);
+  ASSERT_EQ(run_skidimm("run -q --bank " + bank + " --input " + log + " --output " + (dir / "default.csv").string() +
+                        " --plugin-path " + kPlugins)
+                .exit_code,
+            0);
+  // The decision's JSON scores, from "accuracy" to "lost".
+  const auto decision_of = [](const Result& r) {
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    const std::size_t begin = r.out.find("\"decision\": {\"accuracy\"");
+    const std::size_t end = r.out.find("\"lost\"", begin);
+    return begin == std::string::npos || end == std::string::npos ? std::string() : r.out.substr(begin, end - begin);
+  };
+  const std::string written = decision_of(run_skidimm("eval --json --estimates " + (dir / "given.csv").string()));
+  ASSERT_FALSE(written.empty());
+  EXPECT_EQ(decision_of(run_skidimm("eval --json --bank " + bank + " --input " + log + settings + " --plugin-path " +
+                                    kPlugins)),
+            written)
+      << "eval runs the bank with the settings run was given";
+  EXPECT_EQ(decision_of(run_skidimm("eval --json --estimates " + (dir / "default.csv").string() + settings)), written)
+      << "the decision made again from the probabilities of a run with the bank's own settings";
+  EXPECT_NE(decision_of(run_skidimm("eval --json --estimates " + (dir / "default.csv").string())), written)
+      << "the settings change the decision on this log";
+  const Result bad =
+      run_skidimm("eval --estimates " + (dir / "default.csv").string() + " --decision-enter 0.05 --decision-leave 0.1");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_THAT(bad.err, HasSubstr("need 0 <= leave < enter <= 1, got enter 0.05, leave 0.1"));
+}
+
 TEST(Cli, PlotDrawsPngAndSvgAndSaysWhenGnuplotIsMissing) {
   const fs::path dir = test_directory();
   const std::string log = kSource + "/configs/examples/stc_switching.csv";

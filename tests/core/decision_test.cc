@@ -55,6 +55,31 @@ TEST(ModeDecision, LeavingBelowTheThresholdGivesUnknownAfterTheHold) {
   EXPECT_EQ(d.update(0.8, Eigen::Vector3d(0.04, 0.93, 0.03)), 1);
 }
 
+TEST(ModeDecision, ADipBelowLeaveShorterThanTheHoldKeepsTheDecision) {
+  ModeDecision d(three_modes(), settings(0.9, 0.2, 0.5));
+  EXPECT_EQ(d.update(0.0, Eigen::Vector3d(0.95, 0.03, 0.02)), 0);
+  EXPECT_EQ(d.update(1.0, Eigen::Vector3d(0.1, 0.5, 0.4)), 0) << "below leave for 0 s";
+  EXPECT_EQ(d.update(1.3, Eigen::Vector3d(0.5, 0.3, 0.2)), 0) << "back above leave: the wait restarts";
+  EXPECT_EQ(d.update(1.4, Eigen::Vector3d(0.1, 0.5, 0.4)), 0);
+  EXPECT_EQ(d.update(1.8, Eigen::Vector3d(0.1, 0.5, 0.4)), 0) << "below leave for 0.4 s of 0.5";
+  EXPECT_EQ(d.update(1.9, Eigen::Vector3d(0.1, 0.5, 0.4)), ModeDecision::kUnknown) << "for 0.5 s";
+}
+
+TEST(ModeDecision, AfterASwitchTheDecisionMovesStraightToTheNewModeWithinTheHold) {
+  // The old mode's probability collapses at once; the new one needs 0.6 s to
+  // become confident: one change, not two through unknown.
+  ModeDecision d(three_modes(), settings(0.9, 0.05, 1.0));
+  EXPECT_EQ(d.update(0.0, Eigen::Vector3d(0.95, 0.03, 0.02)), 0);
+  EXPECT_EQ(d.update(5.0, Eigen::Vector3d(0.01, 0.5, 0.49)), 0);
+  EXPECT_EQ(d.update(5.3, Eigen::Vector3d(0.01, 0.7, 0.29)), 0);
+  EXPECT_EQ(d.update(5.6, Eigen::Vector3d(0.01, 0.92, 0.07)), 1);
+  // Without a hold the decision is given up at once.
+  ModeDecision at_once(three_modes(), settings(0.9, 0.05, 0.0));
+  EXPECT_EQ(at_once.update(0.0, Eigen::Vector3d(0.95, 0.03, 0.02)), 0);
+  EXPECT_EQ(at_once.update(5.0, Eigen::Vector3d(0.01, 0.5, 0.49)), ModeDecision::kUnknown);
+  EXPECT_EQ(at_once.update(5.6, Eigen::Vector3d(0.01, 0.92, 0.07)), 1);
+}
+
 TEST(ModeDecision, DecidesOverClassesWhenTheBankHasThem) {
   BankConfig c = three_modes();
   c.classes.push_back(ClassConfig{"grip", {0, 1}});

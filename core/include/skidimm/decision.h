@@ -10,9 +10,14 @@
 //   * a minimum hold: a decision is kept at least `min_hold` seconds, so one
 //     spike cannot flip it back and forth;
 //   * an explicit unknown: before any mode is confident enough, and when the
-//     decided one's probability falls below `leave` (after its hold), the
-//     decision is unknown rather than a guess. leave = 0 never gives up a
-//     decision once taken.
+//     decided one's probability has stayed below `leave` for `min_hold`
+//     seconds (and its own hold is over) with no other confident, the
+//     decision is unknown rather than a guess. The wait is the hold's
+//     debouncing the other way: one dip cannot drop the decision, and after
+//     a real switch, where the old mode's probability collapses before the
+//     new one's has risen past `enter`, the decision usually moves straight
+//     to the new mode, one change where unknown in between would make two.
+//     leave = 0 never gives up a decision once taken.
 //
 // update() allocates nothing: it runs in the robot's loop next to Imm::step,
 // from one thread at a time.
@@ -57,6 +62,8 @@ class ModeDecision {
   Eigen::VectorXd class_probabilities_;
   int decision_ = kUnknown;
   double decided_at_ = 0.0;
+  bool below_leave_ = false;  // the decided class's probability is below `leave`
+  double below_leave_since_ = 0.0;
 };
 
 }  // namespace skidimm

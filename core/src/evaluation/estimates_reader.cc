@@ -3,9 +3,11 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "skidimm/decision.h"
 #include "skidimm/errors.h"
 #include "skidimm/evaluation/mode_metrics.h"
 #include "skidimm/log_io.h"
@@ -36,7 +38,7 @@ constexpr double kProbabilityTolerance = 1e-6;
 
 }  // namespace
 
-LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank) {
+LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank, const DecisionConfig* decide) {
   CsvReader reader(file);
   const int t = reader.column("t"), truth = reader.column("truth_mode");
   if (t < 0 || truth < 0) {
@@ -60,8 +62,11 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank) {
       }
     }
   }
-  const ClassScorer scorer(bank != nullptr ? *bank : modes_only);
-  const int decision = reader.column("decision");
+  const BankConfig& classes = bank != nullptr ? *bank : modes_only;
+  const ClassScorer scorer(classes);
+  const int decision = decide != nullptr ? -1 : reader.column("decision");
+  std::optional<ModeDecision> decider;
+  if (decide != nullptr) decider.emplace(classes, *decide);
   std::vector<LabelledStep> steps, decisions;
   std::vector<std::string> f;
   Eigen::VectorXd mu(static_cast<Eigen::Index>(probability_columns.size()));
@@ -93,9 +98,10 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank) {
                          "; in a `skidimm run` output they sum to 1");
     }
     steps.push_back(scorer.score(time, f[static_cast<std::size_t>(truth)], mu));
-    if (decision >= 0) {
+    if (decision >= 0 || decider) {
       decisions.push_back(steps.back());
-      decisions.back().estimate = f[static_cast<std::size_t>(decision)];
+      decisions.back().estimate =
+          decider ? decider->name(decider->update(time, mu)) : f[static_cast<std::size_t>(decision)];
     }
   }
   if (steps.empty()) {

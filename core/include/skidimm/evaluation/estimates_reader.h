@@ -20,7 +20,11 @@ namespace evaluation {
 // numbers, log_io.h parse_finite_number), a probability outside [0, 1] or
 // probabilities of a row not summing to 1 (both within 1e-6), time that does
 // not increase strictly, missing columns, or a file with a header but no rows.
-LogResult evaluate_estimates(const std::filesystem::path& file, const BankConfig* bank);
+// With `decide`, the decision is made again from the file's probabilities
+// with those settings (over the bank's classes, or the file's modes) instead
+// of read from its decision column: choosing thresholds needs no new run.
+LogResult evaluate_estimates(const std::filesystem::path& file, const BankConfig* bank,
+                             const DecisionConfig* decide = nullptr);
 
 }  // namespace evaluation
 }  // namespace skidimm
