@@ -25,8 +25,10 @@ python=$(command -v /usr/bin/python3 || command -v python3)
 source scripts/seeds.sh
 eval_seeds=$(paper_eval_seeds "$seeds")
 check_disjoint "$eval_seeds" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(decision_default_seeds)" "$(model_selection_seeds)"
+# The decision's defaults are chosen on their own seeds: none may be a fitting one either.
+check_disjoint "$(decision_default_seeds)" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(model_selection_seeds)"
 first_seed=$(echo "$eval_seeds" | head -n 1)
-rm -rf "$work/logs" "$work/eval" "$work/banks" "$work/kinematics"  # a rerun must not score last run's logs
+rm -rf "$work/logs" "$work/eval" "$work/banks" "$work/kinematics" "$work/decision_defaults"  # a rerun must not score last run's logs
 mkdir -p "$work/logs" "$work/eval" "$work/banks" "$work/kinematics" "$figures/realistic"
 
 scenarios=(ltc_singular_crushed_concrete ltc_singular_grass ltc_singular_asphalt ltc_switching
@@ -62,6 +64,12 @@ run_both() {  # run_both FUNCTION: FUNCTION ideal and FUNCTION realistic in para
 run_both simulate_all
 
 echo "== evaluating" >&2
+stc_banks_of() {  # stc_banks_of SENSORS: the STC banks scored with those sensors, on one line
+  local banks=(stc_slip4 stc_sided4 stc_slip16 stc_sided16)
+  # Only a Husky's sensors measure motor currents.
+  [ "$1" != realistic ] || banks+=(stc_traction4 stc_traction16)
+  echo "${banks[@]}"
+}
 evaluate() {  # evaluate NAME SENSORS BANK SCENARIO...
   local name=$1 sensors=$2 bank=$3
   shift 3
@@ -81,9 +89,8 @@ evaluate_all() {  # evaluate_all SENSORS
     evaluate ltc_singular "$sensors" "$bank" ltc_singular_crushed_concrete ltc_singular_grass ltc_singular_asphalt
     evaluate ltc_switching "$sensors" "$bank" ltc_switching
   done
-  local stc_banks=(stc_slip4 stc_sided4 stc_slip16 stc_sided16)
-  # Only a Husky's sensors measure motor currents.
-  [ "$sensors" = realistic ] && stc_banks+=(stc_traction4 stc_traction16)
+  local stc_banks
+  read -r -a stc_banks <<<"$(stc_banks_of "$sensors")"
   for bank in "${stc_banks[@]}"; do
     evaluate stc_singular "$sensors" "$bank" stc_singular_no_slip stc_singular_slip_FL_FR stc_singular_slip_FR_RR \
       stc_singular_slip_FL_FR_RL_RR
@@ -91,6 +98,50 @@ evaluate_all() {  # evaluate_all SENSORS
   done
 }
 run_both evaluate_all
+
+# The decision's default settings against others, on switching logs of
+# their own seeds (decision_default_seeds; results_tables.py,
+# decision_defaults_table): each bank runs once over each log, and every
+# candidate setting remakes the decision from the probabilities it wrote
+# (eval --estimates --decision-*). The defaults are skidimm's compiled ones,
+# which a run's summary names.
+echo "== the decision's settings on their own switching logs" >&2
+compiled_defaults=$("$skidimm" run --bank configs/ltc_terrains.yaml --input configs/examples/ltc_switching.csv \
+  --output "$work/decision_defaults_probe.csv" 2>&1 >/dev/null |
+  sed -n 's/.*the decision (enter \([^,]*\), leave \([^,]*\), hold \([^ ]*\) s).*/\1,\2,\3/p')
+[ -n "$compiled_defaults" ] || { echo "$0: skidimm run's summary names no decision settings" >&2; exit 1; }
+choice="$work/decision_defaults"
+rm -rf "$choice"
+mkdir -p "$choice/eval"
+choose_all() {  # choose_all SENSORS
+  local sensors=$1 scenario seed bank banks enter leave hold
+  for scenario in ltc_switching stc_switching; do
+    mkdir -p "$choice/logs/$sensors/$scenario"
+    for seed in $(decision_default_seeds); do
+      "$skidimm" simulate -q --scenario "$(scenario_file "$sensors" "$scenario")" \
+        --output "$choice/logs/$sensors/$scenario/seed_$seed.csv" --seed "$seed"
+    done
+    if [ "$scenario" = ltc_switching ]; then banks=(ltc_terrains ltc_shared); else read -r -a banks <<<"$(stc_banks_of "$sensors")"; fi
+    for bank in "${banks[@]}"; do
+      local runs="$choice/runs/$sensors/$scenario/$bank"
+      mkdir -p "$runs"
+      for seed in $(decision_default_seeds); do
+        "$skidimm" run -q --bank "$(bank_file "$sensors" "$bank")" \
+          --input "$choice/logs/$sensors/$scenario/seed_$seed.csv" --output "$runs/seed_$seed.csv"
+      done
+      for enter in 0.55 0.6 0.65 0.7 0.75 0.8 0.85 0.9 0.95; do
+        for leave in 0.02 0.05 0.1; do
+          for hold in 0.5 1 2; do
+            "$skidimm" eval --estimates "$runs" --bank "$(bank_file "$sensors" "$bank")" --json \
+              --decision-enter "$enter" --decision-leave "$leave" --decision-hold "$hold" \
+              >"$choice/eval/${scenario}__${sensors}__${bank}__${enter}_${leave}_${hold}.json"
+          done
+        done
+      done
+    done
+  done
+}
+run_both choose_all
 
 # What the evaluation maneuver lets a filter see: every wheel configuration
 # driven through the spiral (noise-free truth columns; the seed only moves
@@ -132,5 +183,6 @@ for s in stc_singular_no_slip stc_singular_slip_FL_FR stc_singular_slip_FR_RR st
   figure realistic "$s" stc_traction4
 done
 
-"$python" scripts/results_tables.py "$work/eval" "$results" "$seeds" "$work/kinematics"
+"$python" scripts/results_tables.py "$work/eval" "$results" "$seeds" "$work/kinematics" \
+  --decision-defaults "$choice/eval" --compiled-defaults "$compiled_defaults"
 echo "updated $results and $figures/" >&2

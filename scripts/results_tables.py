@@ -3,11 +3,18 @@
 from `skidimm eval --json` outputs and simulated logs. Standard library only.
 
     results_tables.py <eval dir> <results.md> <seeds> [<kinematics dir>]
+        [--decision-defaults DIR] [--compiled-defaults ENTER,LEAVE,HOLD]
 
 Eval outputs are named EXPERIMENT__SENSORS__BANK.json (and
 ...__smoothed.json), SENSORS being "ideal" or "realistic". The kinematics
 directory holds one noise-free spiral per wheel configuration (truth columns).
+The decision-defaults directory holds, per candidate setting, the
+`eval --estimates --decision-*` outputs of the switching experiments on the
+seeds kept for choosing the defaults, named
+EXPERIMENT__SENSORS__BANK__ENTER_LEAVE_HOLD.json; --compiled-defaults are
+skidimm's own (DecisionConfig), which the tables name.
 """
+import argparse
 import csv
 import glob
 import json
@@ -67,7 +74,7 @@ def load_evals(eval_dir):
     return out
 
 
-def summary_table(evals, seeds):
+def summary_table(evals, seeds, defaults):
     """One row per sensor set, scenario, bank and estimate: the filter's most
     likely mode, the filter's decision (decision.h) and the smoothed most
     likely mode."""
@@ -106,7 +113,7 @@ def summary_table(evals, seeds):
         f"\n\n{seeds} seeds per scenario. *ideal*: the simulator's ideal sensors, banks in `configs/` (R is those "
         "sensors' own noise); *realistic*: a Husky-class robot's sensors, banks in `configs/realistic/` (R estimated "
         "by `skidimm tune`). *most likely*: the filter's most likely mode at each step; *decision*: "
-        "the filter's decision with the default thresholds (enter 0.9, leave 0.05, hold 1 s; `unknown` counts as "
+        f"the filter's decision with the default thresholds ({settings_text(defaults)}; `unknown` counts as "
         "wrong); *smoothed*: the most likely mode smoothed over the whole log (`run --smooth`). Accuracy is the "
         "fraction of time the estimate is the true mode; *never* counts the switches where it did not happen.\n")
 
@@ -135,8 +142,8 @@ def shows_confusion(experiment, sensors, bank):
     return not bank.endswith("16") or sensors == "realistic"
 
 
-def block(evals, seeds, experiment):
-    text = summary_table(evals, seeds) + "\n"
+def block(evals, seeds, experiment, defaults):
+    text = summary_table(evals, seeds, defaults) + "\n"
     text += "\n".join(confusion_table(d, s, b) for s, b, d, _ in evals if shows_confusion(experiment, s, b))
     return text
 
@@ -252,7 +259,84 @@ TARGET_SETTLED_EXTRA_SECONDS = 1.0
 TARGET_SMOOTHING_BELOW = 0.99
 
 
-def decision_targets_table(all_evals, seeds):
+def decision_target(group):
+    """Issue 9's decision target on one experiment's eval group: (met,
+    changes per switch, switches lost, settled median, most likely's first
+    median)."""
+    d = group["decision"]
+    changes = d["median_changes_per_switch"]
+    lost = d["lost"]
+    settled, first = d["settled_median"], group["first_latency"]["median"]
+    # A decision that never settles on a new mode is not in time, even where
+    # the most likely mode never finds one either.
+    in_time = settled is not None and first is not None and settled <= first + TARGET_SETTLED_EXTRA_SECONDS
+    met = changes is not None and changes <= TARGET_CHANGES_PER_SWITCH and lost == 0 and in_time
+    return met, changes, lost, settled, first
+
+
+def settings_text(settings):
+    enter, leave, hold = settings
+    return f"enter {enter:g}, leave {leave:g}, hold {hold:g} s"
+
+
+def decision_defaults_table(directory, defaults):
+    """The decision's settings tried on switching logs of their own seeds:
+    every candidate setting scored on every switching experiment (sensor set
+    and bank) by issue 9's decision target, the decision's accuracy and how
+    often it changes per true switch (mean over logs: the target's median
+    hides the seeds where it flickers). Marks the defaults and names the
+    setting that meets the target most often."""
+    scores = {}  # (enter, leave, hold) -> [(met, accuracy, [changes per switch of each log])]
+    for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
+        _, _, _, setting = os.path.basename(path)[:-5].split("__")
+        candidate = tuple(float(x) for x in setting.split("_"))
+        with open(path) as f:
+            data = json.load(f)
+        per_log = [l["decision"]["median_changes_per_switch"] for l in data["logs"].values()]
+        for group in data["groups"].values():
+            scores.setdefault(candidate, []).append(
+                (decision_target(group)[0], group["decision"]["accuracy"], [c for c in per_log if c is not None]))
+    if defaults not in scores:
+        sys.exit(f"{directory}: the defaults ({settings_text(defaults)}) are not among the settings tried")
+    counts = {len(v) for v in scores.values()}
+    if len(counts) != 1:
+        sys.exit(f"{directory}: the settings were tried on different numbers of experiments")
+
+    def merit(setting):
+        v = scores[setting]
+        changes = [c for _, _, per_log in v for c in per_log]
+        return (sum(met for met, _, _ in v), sum(a for _, a, _ in v) / len(v),
+                sum(changes) / len(changes) if changes else None)
+
+    def cell(setting):
+        met, accuracy, changes = merit(setting)
+        return f"{met} / {accuracy:.3f} / {fmt(changes)}"
+
+    # Most experiments meeting the target, then the highest accuracy; ties
+    # (settings that differ in leave only, say) go to the defaults' values.
+    most = max(scores, key=lambda c: (merit(c)[0], round(merit(c)[1], 6),
+                                      -sum(abs(a - b) for a, b in zip(c, defaults))))
+    enters = sorted({c[0] for c in scores})
+    leaves = sorted({c[1] for c in scores})
+    holds = sorted({c[2] for c in scores})
+    leave_matters = any(merit((e, l, h)) != merit((e, defaults[1], h)) for e, l, h in scores)
+    rows = ["| enter | " + " | ".join(f"hold {h:g} s" for h in holds) + " |", "|---" * (len(holds) + 1) + "|"]
+    for e in enters:
+        cells = []
+        for h in holds:
+            c = (e, defaults[1], h)
+            cells.append(f"**{cell(c)}**" if c == defaults else cell(c))
+        rows.append(f"| {e:g} | " + " | ".join(cells) + " |")
+    return "\n".join(rows) + (
+        f"\n\nEach cell, with leave {defaults[1]:g}: the switching experiments (of {counts.pop()}: sensor set and "
+        "bank) on which the decision meets issue 9's target / its accuracy averaged over them / its changes per true "
+        f"switch, averaged over every log. Leave {', '.join(f'{x:g}' for x in leaves)} were tried with every enter "
+        f"and hold: {'they differ' if leave_matters else 'it changes no score'}. In bold, the defaults "
+        f"({settings_text(defaults)}): {cell(defaults)}. Meeting the target most often: {settings_text(most)}: "
+        f"{cell(most)}.\n")
+
+
+def decision_targets_table(all_evals, seeds, defaults):
     """Issue 9's targets on the switching experiments, per sensor set and
     bank: the decision with its default settings changes at most once per
     true switch (median), loses no switch the most likely mode detected, and
@@ -267,15 +351,7 @@ def decision_targets_table(all_evals, seeds):
     for experiment in ("ltc_switching", "stc_switching"):
         for sensors, bank, data, smoothed in all_evals.get(experiment, []):
             for group, g in data["groups"].items():
-                d = g["decision"]
-                changes = d["median_changes_per_switch"]
-                lost = d["lost"]
-                settled, first = d["settled_median"], g["first_latency"]["median"]
-                # A decision that never settles on a new mode is not in time,
-                # even where the most likely mode never finds one either.
-                in_time = (settled is not None and first is not None
-                           and settled <= first + TARGET_SETTLED_EXTRA_SECONDS)
-                met = changes is not None and changes <= TARGET_CHANGES_PER_SWITCH and lost == 0 and in_time
+                met, changes, lost, settled, first = decision_target(g)
                 decision_met += met
                 decision_total += 1
                 filtered = g["accuracy_per_log"]["mean"]
@@ -299,7 +375,7 @@ def decision_targets_table(all_evals, seeds):
         "mode after and the decision never was. *Settled*: the decision is the new mode from then until the next "
         "switch; *first*: the most likely mode is the new mode for the first time; a dash where it never happened "
         "(then the target is not met). "
-        "The decision uses its default settings (enter 0.9, leave 0.05, hold 1 s).\n")
+        f"The decision uses its default settings ({settings_text(defaults)}).\n")
 
 
 def kinematics_table(directory, window=5.0, duration=30.0):
@@ -336,26 +412,39 @@ def kinematics_table(directory, window=5.0, duration=30.0):
 
 
 def main():
-    eval_dir, results, seeds = sys.argv[1], sys.argv[2], sys.argv[3]
-    kinematics_dir = sys.argv[4] if len(sys.argv) > 4 else None
-    evals = load_evals(eval_dir)
-    blocks = {experiment: block(e, seeds, experiment) for experiment, e in evals.items()}
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("eval_dir")
+    parser.add_argument("results")
+    parser.add_argument("seeds")
+    parser.add_argument("kinematics_dir", nargs="?")
+    parser.add_argument("--decision-defaults", metavar="DIR")
+    parser.add_argument("--compiled-defaults", metavar="ENTER,LEAVE,HOLD", default="0.9,0.05,1",
+                        help="skidimm's decision defaults (DecisionConfig), as a run's summary names them")
+    args = parser.parse_args()
+    defaults = tuple(float(x) for x in args.compiled_defaults.split(","))
+    if len(defaults) != 3:
+        sys.exit("--compiled-defaults: expected ENTER,LEAVE,HOLD")
+    evals = load_evals(args.eval_dir)
+    seeds = args.seeds
+    blocks = {experiment: block(e, seeds, experiment, defaults) for experiment, e in evals.items()}
     if "stc_singular" in evals and "stc_switching" in evals:
         blocks["stc_targets"] = targets_table(evals, seeds)
     if "ltc_switching" in evals and "stc_switching" in evals:
-        blocks["decision_targets"] = decision_targets_table(evals, seeds)
-    if kinematics_dir:
-        table = kinematics_table(kinematics_dir)
+        blocks["decision_targets"] = decision_targets_table(evals, seeds, defaults)
+    if args.decision_defaults:
+        blocks["decision_defaults"] = decision_defaults_table(args.decision_defaults, defaults)
+    if args.kinematics_dir:
+        table = kinematics_table(args.kinematics_dir)
         if table:
             blocks["stc_kinematics"] = table
-    with open(results) as f:
+    with open(args.results) as f:
         text = f.read()
     for name, content in blocks.items():
         pattern = re.compile(r"(<!-- results:%s -->\n).*?(<!-- end -->)" % re.escape(name), re.S)
         if not pattern.search(text):
-            sys.exit(f"{results}: no <!-- results:{name} --> block")
+            sys.exit(f"{args.results}: no <!-- results:{name} --> block")
         text = pattern.sub(lambda m: m.group(1) + content + m.group(2), text)
-    with open(results, "w") as f:
+    with open(args.results, "w") as f:
         f.write(text)
 
 

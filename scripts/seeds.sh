@@ -16,7 +16,8 @@ bundled_fit_seeds() {
 }
 # scripts/reproduce_tuning.sh: fitting drivers and tuning logs.
 tuning_fit_seeds() { seq 7001 7003; seq 7011 7020; }
-# The switching logs the decision layer's default thresholds were chosen on.
+# The switching logs on which the decision's default settings are weighed
+# against others (scripts/reproduce_paper.sh, docs/results.md).
 decision_default_seeds() { seq 8101 8120; }
 # Spirals (the four slip configurations' scenarios) on which choices about
 # stc_traction and its bank were checked while developing it: the skid growth
