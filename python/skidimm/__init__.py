@@ -274,8 +274,8 @@ def eval(bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", plug
 
 
 def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", window=0.0, loss="huber",
-        loss_scale=3.0, hold_unexcited=False, shared=False, fit_r=False, full_q=False, output_bank=None,
-        plugin_paths=(), models=None):
+        loss_scale=3.0, hold_unexcited=False, shared=False, fit_r=False, full_q=False, output_noise=False,
+        output_bank=None, plugin_paths=(), models=None):
     """``skidimm fit``: fits the bank's modes to ``logs`` (``--log`` arguments).
 
     Returns a dict: ``bank_yaml`` (the whole fitted bank, as
@@ -290,7 +290,7 @@ def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", wind
         logs = [logs]
     logs = [_os.fspath(log) for log in logs]
     options = _native.fit_options(objective, float(window), loss, float(loss_scale), hold_unexcited, shared, fit_r,
-                                  full_q)
+                                  full_q, output_noise)
     bank_file = _os.fspath(bank.file if isinstance(bank, _native.Bank) else bank)
     if isinstance(bank, _native.Bank):
         plugin_paths, models = bank.plugin_paths, bank.python_models

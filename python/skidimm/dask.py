@@ -113,8 +113,8 @@ def _fit(bank_file, plugin_paths, models, options, modes, *segments):
 
 
 def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihood", window=0.0, loss="huber",
-        loss_scale=3.0, hold_unexcited=False, shared=False, fit_r=False, full_q=False, output_bank=None,
-        plugin_paths=(), models=None):
+        loss_scale=3.0, hold_unexcited=False, shared=False, fit_r=False, full_q=False, output_noise=False,
+        output_bank=None, plugin_paths=(), models=None):
     """``skidimm fit`` with the logs read on the cluster and each mode fitted on its own worker.
 
     Same arguments and result as :func:`skidimm.fit`. Reading and splitting
@@ -128,7 +128,7 @@ def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihoo
         logs = [logs]
     bank_file, plugin_paths, models = _bank_arguments(bank, plugin_paths, models)
     options = skidimm._native.fit_options(objective, float(window), loss, float(loss_scale), hold_unexcited, shared,
-                                          fit_r, full_q)
+                                          fit_r, full_q, output_noise)
     rate = 0.0 if rate is None else float(rate)
     specs = []
     for argument in logs:
@@ -150,6 +150,6 @@ def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihoo
         fitted.update(result)
     local = skidimm.Bank(bank_file, plugin_paths, models)
     for j, entry in fitted.items():
-        skidimm._native.apply_fit(local, j, entry["parameters"], entry["q"])
+        skidimm._native.apply_fit(local, j, entry["parameters"], entry["q"], entry["r"])
     call = "skidimm.dask.fit(" + ", ".join(repr(os.fspath(log)) for log in logs) + ")"
     return skidimm._fit_result(local, fitted, options, mode, name, output_bank, plugin_paths, models, call)

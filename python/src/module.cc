@@ -367,7 +367,8 @@ py::dict run(PyImm& self, const py::object& t, const py::object& u, const py::ob
 // ------------------------------------------------------------------ fit
 
 fitting::BankFitOptions fit_options_of(const std::string& objective, double window, const std::string& loss,
-                                       double loss_scale, bool hold_unexcited, bool shared, bool fit_r, bool full_q) {
+                                       double loss_scale, bool hold_unexcited, bool shared, bool fit_r, bool full_q,
+                                       bool output_noise) {
   fitting::BankFitOptions o;
   o.objective = fitting::objective_from_string(objective);
   o.window.window = window;
@@ -377,6 +378,7 @@ fitting::BankFitOptions fit_options_of(const std::string& objective, double wind
   o.shared = shared;
   o.fit_measurement_noise = fit_r;
   o.full_process_noise = full_q;
+  o.output_noise = output_noise;
   return o;
 }
 
@@ -478,6 +480,8 @@ py::dict fit_in_place(PyBank& bank, const std::vector<fitting::ModeLogs>& data,
     entry["report"] = report_to_dict(r);
     entry["parameters"] = vector_array(values);
     entry["q"] = matrix_array(bank.config().modes[static_cast<std::size_t>(d.mode)].q_intensity);
+    const Eigen::MatrixXd& own_r = bank.config().modes[static_cast<std::size_t>(d.mode)].r;
+    entry["r"] = own_r.size() > 0 ? py::object(matrix_array(own_r)) : py::object(py::none());  // the mode's own, if any
     entry["logs"] = static_cast<int>(d.logs.size());
     out[py::int_(d.mode)] = entry;
   }
@@ -804,20 +808,21 @@ PYBIND11_MODULE(_skidimm, m) {
   m.def(
       "fit_options",
       [](const std::string& objective, double window, const std::string& loss, double loss_scale, bool hold_unexcited,
-         bool shared, bool fit_r, bool full_q) {
+         bool shared, bool fit_r, bool full_q, bool output_noise) {
         // Validated here (objective names) so that a bad option fails before any log is read.
-        fit_options_of(objective, window, loss, loss_scale, hold_unexcited, shared, fit_r, full_q);
+        fit_options_of(objective, window, loss, loss_scale, hold_unexcited, shared, fit_r, full_q, output_noise);
         return py::dict(py::arg("objective") = objective, py::arg("window") = window, py::arg("loss") = loss,
                         py::arg("loss_scale") = loss_scale, py::arg("hold_unexcited") = hold_unexcited,
-                        py::arg("shared") = shared, py::arg("fit_r") = fit_r, py::arg("full_q") = full_q);
+                        py::arg("shared") = shared, py::arg("fit_r") = fit_r, py::arg("full_q") = full_q,
+                        py::arg("output_noise") = output_noise);
       },
       py::arg("objective") = "likelihood", py::arg("window") = 0.0, py::arg("loss") = "huber",
       py::arg("loss_scale") = 3.0, py::arg("hold_unexcited") = false, py::arg("shared") = false,
-      py::arg("fit_r") = false, py::arg("full_q") = false);
+      py::arg("fit_r") = false, py::arg("full_q") = false, py::arg("output_noise") = false);
   auto options_from = [](const py::dict& o) {
     return fit_options_of(o["objective"].cast<std::string>(), o["window"].cast<double>(), o["loss"].cast<std::string>(),
                           o["loss_scale"].cast<double>(), o["hold_unexcited"].cast<bool>(), o["shared"].cast<bool>(),
-                          o["fit_r"].cast<bool>(), o["full_q"].cast<bool>());
+                          o["fit_r"].cast<bool>(), o["full_q"].cast<bool>(), o["output_noise"].cast<bool>());
   };
   m.def(
       "load_fit_logs",
@@ -854,17 +859,20 @@ PYBIND11_MODULE(_skidimm, m) {
       "flat parameters, Q and number of segments.");
   m.def(
       "apply_fit",
-      [](PyBank& bank, int mode, const Eigen::VectorXd& parameters, const Eigen::MatrixXd& q) {
+      [](PyBank& bank, int mode, const Eigen::VectorXd& parameters, const Eigen::MatrixXd& q,
+         const std::optional<Eigen::MatrixXd>& r) {
         if (mode < 0 || mode >= bank.config().num_modes()) throw py::index_error("no mode " + std::to_string(mode));
         std::string error;
         if (!bank.bank->models[static_cast<std::size_t>(mode)]->set_parameters(parameters, &error)) throw Error(error);
         bank.bank->config.modes[static_cast<std::size_t>(mode)].q_intensity = q;
+        if (r) bank.bank->config.modes[static_cast<std::size_t>(mode)].r = *r;
       },
-      py::arg("bank"), py::arg("mode"), py::arg("parameters"), py::arg("q"));
+      py::arg("bank"), py::arg("mode"), py::arg("parameters"), py::arg("q"), py::arg("r") = py::none(),
+      "Sets a mode's fitted parameters, Q and (given) its own R, as fit_in_place left them on the bank it fitted.");
   m.def(
       "fit_texts",
-      [](const PyBank& bank, const py::dict& fitted, const py::dict& options, const std::string& mode,
-         const std::string& name, const std::vector<std::string>& header, const fs::path& output) {
+      [options_from](const PyBank& bank, const py::dict& fitted, const py::dict& options, const std::string& mode,
+                     const std::string& name, const std::vector<std::string>& header, const fs::path& output) {
         std::vector<FittedMode> modes;
         for (const auto& [index, entry] : fitted) {
           const py::dict e = py::reinterpret_borrow<py::dict>(entry);
@@ -876,10 +884,7 @@ PYBIND11_MODULE(_skidimm, m) {
         request.mode = mode;
         request.name = name;
         request.header = header;
-        request.options = fit_options_of(options["objective"].cast<std::string>(), options["window"].cast<double>(),
-                                         options["loss"].cast<std::string>(), options["loss_scale"].cast<double>(),
-                                         options["hold_unexcited"].cast<bool>(), options["shared"].cast<bool>(),
-                                         options["fit_r"].cast<bool>(), options["full_q"].cast<bool>());
+        request.options = options_from(options);
         const FitTexts texts = fit_texts(*bank.bank, modes, request, output);
         return py::make_tuple(texts.entries, texts.bank_yaml);
       },

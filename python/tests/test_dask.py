@@ -42,3 +42,22 @@ def test_fit_on_the_cluster_equals_the_local_fit(client, configs, singular_logs)
     assert there["entries"] == here["entries"]
     for mode in ("asphalt", "grass"):
         assert there["reports"][mode]["parameters"] == here["reports"][mode]["parameters"]
+
+
+def test_fit_with_each_modes_own_output_noise_on_the_cluster_equals_the_local_fit(client, configs, tmp_path):
+    bank = configs / "realistic" / "stc_traction4.yaml"
+    logs = []
+    for seed in (21, 22):
+        path = tmp_path / f"slip_FR_RR_{seed}.csv"
+        skidimm.simulate(configs / "scenarios" / "realistic" / "stc_singular_slip_FR_RR.yaml", seed=seed,
+                         duration=12.0, output=path)
+        logs.append(f"slip_FR_RR={path}")
+    options = dict(objective="window", window=1.0, hold_unexcited=True, output_noise=True)
+    here = skidimm.fit(bank, logs, **options)
+    there = skidimm.dask.fit(client, bank, logs, **options)
+
+    def body(text):
+        return [line for line in text.splitlines() if not line.startswith("# ")]
+
+    assert body(there["bank_yaml"]) == body(here["bank_yaml"])
+    assert there["entries"] == here["entries"]

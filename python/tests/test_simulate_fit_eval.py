@@ -75,3 +75,44 @@ def test_fit_equals_the_cli(tmp_path, configs, cli, singular_logs):
     fitted = result["bank"]
     assert fitted.parameters("asphalt")["A[0,0]"] == pytest.approx(value, rel=1e-6)
     skidimm.Imm(fitted).step(0.0, [1.0, 1.0], [0.1, 0.0])
+
+
+@pytest.fixture(scope="module")
+def traction_logs(tmp_path_factory, configs):
+    """Two short realistic runs with right-two slip: the gyro and the motor currents as outputs."""
+    directory = tmp_path_factory.mktemp("traction")
+    scenario = configs / "scenarios" / "realistic" / "stc_singular_slip_FR_RR.yaml"
+    paths = []
+    for seed in (11, 12):
+        path = directory / f"slip_FR_RR_{seed}.csv"
+        skidimm.simulate(scenario, seed=seed, duration=12.0, output=path)
+        paths.append(f"slip_FR_RR={path}")
+    return paths
+
+
+def test_fit_with_each_modes_own_output_noise_equals_the_cli(tmp_path, configs, cli, traction_logs):
+    bank = configs / "realistic" / "stc_traction4.yaml"
+    options = dict(objective="window", window=1.0, hold_unexcited=True)
+    own = skidimm.fit(bank, traction_logs, output_noise=True, **options)
+    arguments = ["fit", "--bank", bank, "--objective", "window", "--window", 1.0, "--hold-unexcited", "--output-noise",
+                 "--output-bank", tmp_path / "cli.yaml"]
+    for log in traction_logs:
+        arguments += ["--log", log]
+    cli(*arguments)
+
+    def body(text):  # everything but the leading comment (which records the command)
+        lines = text.splitlines()
+        while lines and lines[0].startswith("#"):
+            lines.pop(0)
+        return lines
+
+    assert body(own["bank_yaml"]) == body((tmp_path / "cli.yaml").read_text())
+    # Without it the mode keeps the R it had; with it, its outputs' rows are
+    # its residuals' on these logs.
+    kept = skidimm.fit(bank, traction_logs, **options)
+
+    def entry(result):
+        return result["entries"].split("- name: ")[1]
+
+    assert "R:" in entry(own) and "R:" in entry(kept)
+    assert entry(own) != entry(kept)
