@@ -148,14 +148,9 @@ modes:
   EXPECT_NEAR(report.parameters[1].value, 0.57, 0.01);
 }
 
-// Outputs a bank measures (measurement.outputs) are fitted too: stc_traction's
-// motor-current parameters, which move no state, come from the currents
-// alone, and the gyro's yaw rate sharpens the ICR parameters. (From a start
-// far from the truth, gains of 1 A, the fit can find the shape of the turn
-// current flattened to nothing instead: start from the order of the
-// currents the robot draws.)
-TEST(ModelFitter, RecoversMotorCurrentParametersFromMeasuredOutputs) {
-  const std::string bank_yaml = R"(name: traction
+// A bank of one stc_traction mode that measures the gyro and the motor
+// currents (measurement.outputs) as well as the pose.
+const std::string kTractionBank = R"(name: traction
 states: [X, Y, theta]
 angles: [theta]
 inputs: [phi_dot_L, phi_dot_R]
@@ -170,6 +165,15 @@ modes:
              k_skid_l: 10, k_skid_r: 10, i_straight: 2, i_l_outer: 5, i_l_inner: 5, i_r_outer: 5, i_r_inner: 5, s_peak: 0.1}
     Q: {diagonal: [0.001, 0.001, 0.001]}
 )";
+
+// Outputs a bank measures (measurement.outputs) are fitted too: stc_traction's
+// motor-current parameters, which move no state, come from the currents
+// alone, and the gyro's yaw rate sharpens the ICR parameters. (From a start
+// far from the truth, gains of 1 A, the fit can find the shape of the turn
+// current flattened to nothing instead: start from the order of the
+// currents the robot draws.)
+TEST(ModelFitter, RecoversMotorCurrentParametersFromMeasuredOutputs) {
+  const std::string& bank_yaml = kTractionBank;
   Bank truth = load_bank(bank_yaml, "truth.yaml");
   Eigen::VectorXd truth_parameters(17);
   truth_parameters << 0.95, 0.9, 1.6, 1.3, 1.9, 1.4, 0.0, 0.165, 0.555, 10.0, 40.0, 2.0, 9.0, 7.0, 5.0, 4.0, 0.12;
@@ -242,6 +246,56 @@ modes:
   } catch (const FitError& e) {
     EXPECT_THAT(e.what(), HasSubstr("--objective window"));
   }
+}
+
+// A mode with its own R (R: in its entry) has its residuals weighed by it,
+// the noise its filter assumes: fitting it is fitting the same mode in a bank
+// whose R is that one. Here its own R trusts the gyro and the currents far
+// less than the bank's does, which moves the fit.
+TEST(ModelFitter, AModesOwnMeasurementNoiseWeighsItsResiduals) {
+  Bank truth = load_bank(kTractionBank, "truth.yaml");
+  Eigen::VectorXd truth_parameters(17);
+  truth_parameters << 0.95, 0.9, 1.6, 1.3, 1.9, 1.4, 0.0, 0.165, 0.555, 10.0, 40.0, 2.0, 9.0, 7.0, 5.0, 4.0, 0.12;
+  ASSERT_TRUE(truth.models[0]->set_parameters(truth_parameters, nullptr));
+  auto turns = [](double t) {
+    const double turn = 3.0 * std::sin(0.4 * t) * std::abs(std::sin(0.05 * t));
+    return Eigen::Vector2d(5.0 - turn, 5.0 + turn);
+  };
+  Trajectory data = simulate_model(*truth.models[0], 1500, 0.02, turns, Eigen::Vector3d(1e-5, 1e-5, 1e-5),
+                                   Eigen::Vector3d(0.02, 0.02, 0.02), 3, 7);
+  std::mt19937 rng(8);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  data.z.conservativeResize(6, Eigen::NoChange);
+  Eigen::VectorXd y(3);
+  for (int k = 0; k < data.size(); ++k) {
+    ASSERT_TRUE(truth.models[0]->outputs(data.u.col(k), y));
+    data.z(3, k) = y[0] + 0.02 * normal(rng);
+    data.z(4, k) = y[1] + 0.3 * normal(rng);
+    data.z(5, k) = y[2] + 0.3 * normal(rng);
+  }
+  Eigen::VectorXd own_std(6);
+  own_std << 0.02, 0.02, 0.02, 2.0, 30.0, 30.0;
+  const Eigen::MatrixXd own_r = own_std.cwiseAbs2().asDiagonal();
+  Bank with_own = load_bank(kTractionBank);
+  with_own.config.modes[0].r = own_r;
+  Bank bank_wide = load_bank(kTractionBank);
+  bank_wide.config.measurement.r = own_r;
+  Bank bank_r = load_bank(kTractionBank);
+  FitOptions options;
+  options.window = 0.5;
+  const FitReport own = fit(&with_own, {ModeLogs{0, {data}}}, options).front();
+  const FitReport wide = fit(&bank_wide, {ModeLogs{0, {data}}}, options).front();
+  const FitReport plain = fit(&bank_r, {ModeLogs{0, {data}}}, options).front();
+  ASSERT_EQ(own.parameters.size(), wide.parameters.size());
+  double moved = 0.0;
+  for (std::size_t i = 0; i < own.parameters.size(); ++i) {
+    EXPECT_NEAR(own.parameters[i].value, wide.parameters[i].value,
+                1e-9 * std::max(1.0, std::abs(wide.parameters[i].value)))
+        << own.parameters[i].name;
+    moved = std::max(moved, std::abs(own.parameters[i].value - plain.parameters[i].value));
+  }
+  EXPECT_GT(moved, 1e-3) << "weighed by the bank's R the fit is another one";
+  EXPECT_EQ(own.q_intensity, wide.q_intensity);
 }
 
 TEST(ModelFitter, FitsSharedParametersJointlyAndAProcessNoisePerMode) {

@@ -40,11 +40,14 @@ struct MeasurementLayout {
   int first_output_row = 0;
 };
 
-MeasurementLayout layout_of(const BankConfig& bank) {
+// `mode`'s layout: its residuals are weighed by its own R where it has one
+// (R: in its entry), the noise its filter assumes; else by the bank's.
+MeasurementLayout layout_of(const BankConfig& bank, int mode) {
   MeasurementLayout m;
   const MeasurementConfig& mc = bank.measurement;
+  const Eigen::MatrixXd& r = bank.measurement_noise(mode);
   m.h = mc.h;
-  m.sigma = mc.r.diagonal().cwiseSqrt();
+  m.sigma = r.diagonal().cwiseSqrt();
   m.row_is_angle = mc.is_angle;
   m.state_is_angle = bank.angle_mask;
   const int n = bank.state_dim();
@@ -64,7 +67,7 @@ MeasurementLayout layout_of(const BankConfig& bank) {
   }
   m.r_state.resize(n, n);
   for (int a = 0; a < n; ++a) {
-    for (int b = 0; b < n; ++b) m.r_state(a, b) = mc.r(m.state_row[a], m.state_row[b]);
+    for (int b = 0; b < n; ++b) m.r_state(a, b) = r(m.state_row[a], m.state_row[b]);
   }
   m.outputs = mc.outputs;
   m.first_output_row = mc.first_output_row();
@@ -376,7 +379,7 @@ double mean_state_nis(const Bank& bank, const sdk::MotionModel& model, const Mea
 }  // namespace
 
 FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
-  const MeasurementLayout m = layout_of(bank.config);
+  const MeasurementLayout m = layout_of(bank.config, data.mode);
   const sdk::MotionModel& model = *bank.models[static_cast<std::size_t>(data.mode)];
   const int n = bank.config.state_dim();
   const Eigen::Index rows = static_cast<Eigen::Index>(bank.config.measurement.names.size());
@@ -505,7 +508,10 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
   if (!(options.window >= 0.0) || !std::isfinite(options.window)) {
     throw FitError("the window must be 0 (one-step) or a number of seconds");
   }
-  const MeasurementLayout m = layout_of(bank->config);
+  std::map<int, MeasurementLayout> layouts;  // per mode fitted
+  for (const ModeLogs& d : data) {
+    if (layouts.count(d.mode) == 0) layouts.emplace(d.mode, layout_of(bank->config, d.mode));
+  }
 
   // The parameter block: for kMode one problem per mode (its own parameters);
   // for kBank one problem over every mode, on the union of bank-level names.
@@ -568,6 +574,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
     Window worst_window{};  // a copy: each log's windows go when its loop ends
     for (const ModeLogs* d : group) {
       if (d->logs.empty()) throw FitError(who + ": no logs given");
+      const MeasurementLayout& m = layouts.at(d->mode);
       for (const Trajectory& t : d->logs) {
         const std::vector<Window> windows = make_windows(m, t, options.window);
         if (windows.empty()) {
