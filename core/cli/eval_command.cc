@@ -190,9 +190,17 @@ fitting::Summary class_summary(const std::vector<const LogResult*>& logs) {
   return fitting::summarize(scores);
 }
 
+// Decision settings as the eval table names them.
+std::string decision_settings_text(const DecisionConfig& d) {
+  return "enter " + CsvWriter::format(d.enter) + ", leave " + CsvWriter::format(d.leave) + ", hold " +
+         CsvWriter::format(d.min_hold) + " s";
+}
+
+// `decision_made`: how the scored decision was made, e.g. "enter 0.9, leave
+// 0.05, hold 1 s".
 void print_table(std::ostream& out, const std::string& title, const Summary& s, const std::vector<std::string>& modes,
-                 const std::vector<std::string>& states, bool list_switches,
-                 const std::vector<const LogResult*>& logs) {
+                 const std::vector<std::string>& states, bool list_switches, const std::vector<const LogResult*>& logs,
+                 const std::string& decision_made) {
   const ModeMetrics& m = s.metrics;
   out << "\n" << title << ": " << s.accuracies.size() << " log(s), " << fmt(m.duration, "%.1f") << " s labelled\n";
   out << "  accuracy (time fraction)        " << fmt(m.accuracy());
@@ -252,7 +260,7 @@ void print_table(std::ostream& out, const std::string& title, const Summary& s, 
     const ModeMetrics& d = s.decisions;
     const LatencyStats dl = latency_stats(d);
     const LatencyStats df = latency_stats(d, true);
-    out << "  decision (hysteresis, hold, unknown): accuracy " << fmt(d.accuracy()) << ", unknown "
+    out << "  decision (" << decision_made << "): accuracy " << fmt(d.accuracy()) << ", unknown "
         << fmt(d.duration > 0 ? d.unknown_seconds / d.duration : 0.0) << " of the time\n";
     out << "    changes per minute: decision " << fmt(d.estimate_changes_per_minute(), "%.2f") << ", most likely "
         << fmt(m.estimate_changes_per_minute(), "%.2f") << ", truth " << fmt(m.truth_changes_per_minute(), "%.2f")
@@ -373,6 +381,7 @@ int eval(const EvalOptions& options) {
   return report_errors("skidimm eval", [&] {
     std::vector<Group> groups;
     std::vector<std::string> modes, states;
+    std::string decision_made;
     if (!options.estimates.empty()) {
       std::optional<BankConfig> bank;
       if (!options.bank.empty()) bank = load_bank_config(options.bank);
@@ -383,6 +392,8 @@ int eval(const EvalOptions& options) {
         decide = decision_settings_of(bank ? bank->decision : DecisionConfig{}, options.decision_enter,
                                       options.decision_leave, options.decision_hold);
       }
+      decision_made =
+          decide ? "made again: " + decision_settings_text(*decide) : std::string("the files' decision column");
       // Every file on its own thread (parallel.h): the results, and any
       // error, are those of one thread.
       const std::vector<LogJob> jobs = log_jobs(options.estimates, &groups);
@@ -410,6 +421,7 @@ int eval(const EvalOptions& options) {
       Bank bank = Bank::load(options.bank, options.plugin_paths);
       bank.config.decision = decision_settings_of(bank.config.decision, options.decision_enter, options.decision_leave,
                                                   options.decision_hold);
+      decision_made = decision_settings_text(bank.config.decision);
       modes = bank.config.class_names();
       states = bank.config.state_names;
       const SamplingConfig sampling = sampling_of(bank.config, options.rate);
@@ -459,10 +471,12 @@ int eval(const EvalOptions& options) {
       for (const Group& g : groups) {
         std::vector<const LogResult*> logs;
         for (const LogResult& l : g.logs) logs.push_back(&l);
-        print_table(std::cout, g.name, summarize(logs, states.size()), modes, states, logs.size() == 1, logs);
+        print_table(std::cout, g.name, summarize(logs, states.size()), modes, states, logs.size() == 1, logs,
+                    decision_made);
       }
     }
-    print_table(std::cout, groups.size() > 1 ? "all" : groups[0].name, overall, modes, states, all.size() <= 3, all);
+    print_table(std::cout, groups.size() > 1 ? "all" : groups[0].name, overall, modes, states, all.size() <= 3, all,
+                decision_made);
     return kExitOk;
   });
 }

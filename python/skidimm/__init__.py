@@ -243,7 +243,7 @@ def eval_report(bank, groups, output="dict"):
     without ``--json``).
     """
     bank = _bank(bank)
-    text, table = _native.eval_report([(name, list(logs)) for name, logs in groups], bank.states, bank.classes)
+    text, table = _native.eval_report([(name, list(logs)) for name, logs in groups], bank.states, bank.classes, bank)
     if output == "json":
         return text
     if output == "table":

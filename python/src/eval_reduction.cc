@@ -50,7 +50,8 @@ std::string eval_json(const std::vector<EvalGroup>& groups, const std::vector<st
 
 // As the table branch of cli::eval.
 std::string eval_table(const std::vector<EvalGroup>& groups, const std::vector<std::string>& classes,
-                       const std::vector<std::string>& states) {
+                       const std::vector<std::string>& states, const DecisionConfig& decision) {
+  const std::string decision_made = cli::decision_settings_text(decision);
   std::vector<const evaluation::LogResult*> all;
   for (const EvalGroup& g : groups) {
     for (const evaluation::LogResult& l : g.logs) all.push_back(&l);
@@ -59,12 +60,13 @@ std::string eval_table(const std::vector<EvalGroup>& groups, const std::vector<s
   if (groups.size() > 1) {
     for (const EvalGroup& g : groups) {
       const std::vector<const evaluation::LogResult*> logs = pointers(g.logs);
-      cli::print_table(out, g.name, cli::summarize(logs, states.size()), classes, states, logs.size() == 1, logs);
+      cli::print_table(out, g.name, cli::summarize(logs, states.size()), classes, states, logs.size() == 1, logs,
+                       decision_made);
     }
   }
   if (!groups.empty()) {
     cli::print_table(out, groups.size() > 1 ? "all" : groups[0].name, cli::summarize(all, states.size()), classes,
-                     states, all.size() <= 3, all);
+                     states, all.size() <= 3, all, decision_made);
   }
   return out.str();
 }

@@ -31,9 +31,10 @@ std::string eval_group_name(const std::string& argument);
 std::string eval_json(const std::vector<EvalGroup>& groups, const std::vector<std::string>& states);
 
 // What `skidimm eval` prints: a table per group when there are several, then
-// the overall one. `classes`: the bank's class names (columns of the confusion).
+// the overall one. `classes`: the bank's class names (columns of the confusion);
+// `decision`: the settings the scored decision was made with.
 std::string eval_table(const std::vector<EvalGroup>& groups, const std::vector<std::string>& classes,
-                       const std::vector<std::string>& states);
+                       const std::vector<std::string>& states, const DecisionConfig& decision);
 
 }  // namespace python
 }  // namespace skidimm

@@ -771,13 +771,14 @@ PYBIND11_MODULE(_skidimm, m) {
   m.def(
       "eval_report",
       [](const std::vector<std::pair<std::string, std::vector<evaluation::LogResult>>>& groups,
-         const std::vector<std::string>& states, const std::vector<std::string>& classes) {
+         const std::vector<std::string>& states, const std::vector<std::string>& classes, const PyBank& bank) {
         std::vector<EvalGroup> g;
         for (const auto& [name, logs] : groups) g.push_back(EvalGroup{name, logs});
+        const DecisionConfig decision = bank.config().decision;
         py::gil_scoped_release release;
-        return std::make_pair(eval_json(g, states), eval_table(g, classes, states));
+        return std::make_pair(eval_json(g, states), eval_table(g, classes, states, decision));
       },
-      py::arg("groups"), py::arg("states"), py::arg("classes"),
+      py::arg("groups"), py::arg("states"), py::arg("classes"), py::arg("bank"),
       "`skidimm eval`'s JSON and table for groups of per-log results, reduced in the order given.");
 
   // ---------------------------------------------------------------- simulate

@@ -467,6 +467,13 @@ TEST(Cli, EvalTakesDecisionSettingsAndRemakesARunsDecisionFromItsProbabilities) 
       << "the decision made again from the probabilities of a run with the bank's own settings";
   EXPECT_NE(decision_of(run_skidimm("eval --json --estimates " + (dir / "default.csv").string())), written)
       << "the settings change the decision on this log";
+  // The table says how the decision it scores was made.
+  EXPECT_THAT(run_skidimm("eval --bank " + bank + " --input " + log + settings + " --plugin-path " + kPlugins).out,
+              HasSubstr("decision (enter 0.6, leave 0.05, hold 0.2 s): accuracy"));
+  EXPECT_THAT(run_skidimm("eval --estimates " + (dir / "default.csv").string() + settings).out,
+              HasSubstr("decision (made again: enter 0.6, leave 0.05, hold 0.2 s): accuracy"));
+  EXPECT_THAT(run_skidimm("eval --estimates " + (dir / "default.csv").string()).out,
+              HasSubstr("decision (the files' decision column): accuracy"));
   const Result bad =
       run_skidimm("eval --estimates " + (dir / "default.csv").string() + " --decision-enter 0.05 --decision-leave 0.1");
   EXPECT_EQ(bad.exit_code, 1);
