@@ -49,6 +49,14 @@ def test_log_results_pickle_losslessly(configs, switching_logs):
     assert result.accuracy > 0.5 and result.steps > 100
 
 
+def body(text):
+    """A written bank but its leading comment (which records the command)."""
+    lines = text.splitlines()
+    while lines and lines[0].startswith("#"):
+        lines.pop(0)
+    return lines
+
+
 def test_fit_equals_the_cli(tmp_path, configs, cli, singular_logs):
     bank = configs / "ltc_terrains.yaml"
     logs = [f"asphalt={p}" for p in singular_logs["asphalt"]] + [f"grass={p}" for p in singular_logs["grass"]]
@@ -57,12 +65,6 @@ def test_fit_equals_the_cli(tmp_path, configs, cli, singular_logs):
     for log in logs:
         arguments += ["--log", log]
     cli(*arguments)
-
-    def body(text):  # everything but the leading comment (which records the command)
-        lines = text.splitlines()
-        while lines and lines[0].startswith("#"):
-            lines.pop(0)
-        return lines
 
     assert body(result["bank_yaml"]) == body((tmp_path / "cli.yaml").read_text())
     assert (tmp_path / "python.yaml").read_text() == result["bank_yaml"]
@@ -99,12 +101,6 @@ def test_fit_with_each_modes_own_output_noise_equals_the_cli(tmp_path, configs, 
     for log in traction_logs:
         arguments += ["--log", log]
     cli(*arguments)
-
-    def body(text):  # everything but the leading comment (which records the command)
-        lines = text.splitlines()
-        while lines and lines[0].startswith("#"):
-            lines.pop(0)
-        return lines
 
     assert body(own["bank_yaml"]) == body((tmp_path / "cli.yaml").read_text())
     # Without it the mode keeps the R it had; with it, its outputs' rows are

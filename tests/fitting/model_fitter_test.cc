@@ -166,6 +166,42 @@ modes:
     Q: {diagonal: [0.001, 0.001, 0.001]}
 )";
 
+// The stc_traction mode the tests simulate: its 17 parameters in plugin order.
+Eigen::VectorXd traction_truth() {
+  Eigen::VectorXd p(17);
+  p << 0.95, 0.9, 1.6, 1.3, 1.9, 1.4, 0.0, 0.165, 0.555, 10.0, 40.0, 2.0, 9.0, 7.0, 5.0, 4.0, 0.12;
+  return p;
+}
+
+// `rows` steps of 0.02 s of kTractionBank's mode with traction_truth(),
+// turning both ways from gentle to tight: the pose measured every
+// `pose_every` steps with 0.02 noise, the gyro with 0.02 rad/s and the
+// currents with 0.3 A at every step (seed `output_seed`).
+Trajectory simulate_traction(int rows, int pose_every, unsigned output_seed) {
+  Bank truth = load_bank(kTractionBank, "truth.yaml");
+  EXPECT_TRUE(truth.models[0]->set_parameters(traction_truth(), nullptr));
+  auto turns = [](double t) {
+    const double turn = 3.0 * std::sin(0.4 * t) * std::abs(std::sin(0.05 * t));
+    return Eigen::Vector2d(5.0 - turn, 5.0 + turn);
+  };
+  Trajectory data = simulate_model(*truth.models[0], rows, 0.02, turns, Eigen::Vector3d(1e-5, 1e-5, 1e-5),
+                                   Eigen::Vector3d(0.02, 0.02, 0.02), 3, pose_every);
+  std::mt19937 rng(output_seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  data.z.conservativeResize(6, Eigen::NoChange);
+  Eigen::VectorXd y(3);
+  for (int k = 0; k < data.size(); ++k) {
+    if (!truth.models[0]->outputs(data.u.col(k), y) || y.size() != 3) {
+      ADD_FAILURE() << "stc_traction gave no three outputs at row " << k;
+      return data;
+    }
+    data.z(3, k) = y[0] + 0.02 * normal(rng);
+    data.z(4, k) = y[1] + 0.3 * normal(rng);
+    data.z(5, k) = y[2] + 0.3 * normal(rng);
+  }
+  return data;
+}
+
 // Outputs a bank measures (measurement.outputs) are fitted too: stc_traction's
 // motor-current parameters, which move no state, come from the currents
 // alone, and the gyro's yaw rate sharpens the ICR parameters. (From a start
@@ -174,28 +210,8 @@ modes:
 // currents the robot draws.)
 TEST(ModelFitter, RecoversMotorCurrentParametersFromMeasuredOutputs) {
   const std::string& bank_yaml = kTractionBank;
-  Bank truth = load_bank(bank_yaml, "truth.yaml");
-  Eigen::VectorXd truth_parameters(17);
-  truth_parameters << 0.95, 0.9, 1.6, 1.3, 1.9, 1.4, 0.0, 0.165, 0.555, 10.0, 40.0, 2.0, 9.0, 7.0, 5.0, 4.0, 0.12;
-  ASSERT_TRUE(truth.models[0]->set_parameters(truth_parameters, nullptr));
-  // Turns both ways, from gentle to tight.
-  auto turns = [](double t) {
-    const double turn = 3.0 * std::sin(0.4 * t) * std::abs(std::sin(0.05 * t));
-    return Eigen::Vector2d(5.0 - turn, 5.0 + turn);
-  };
-  Trajectory data = simulate_model(*truth.models[0], 6000, 0.02, turns, Eigen::Vector3d(1e-5, 1e-5, 1e-5),
-                                   Eigen::Vector3d(0.02, 0.02, 0.02), 3, 5);
-  std::mt19937 rng(4);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  data.z.conservativeResize(6, Eigen::NoChange);
-  Eigen::VectorXd y(3);
-  for (int k = 0; k < data.size(); ++k) {
-    ASSERT_TRUE(truth.models[0]->outputs(data.u.col(k), y));
-    EXPECT_EQ(y.size(), 3);
-    data.z(3, k) = y[0] + 0.02 * normal(rng);
-    data.z(4, k) = y[1] + 0.3 * normal(rng);
-    data.z(5, k) = y[2] + 0.3 * normal(rng);
-  }
+  const Eigen::VectorXd truth_parameters = traction_truth();
+  const Trajectory data = simulate_traction(6000, 5, 4);
   Bank bank = load_bank(bank_yaml);
   FitOptions options;
   options.window = 0.5;
@@ -253,26 +269,7 @@ TEST(ModelFitter, RecoversMotorCurrentParametersFromMeasuredOutputs) {
 // whose R is that one. Here its own R trusts the gyro and the currents far
 // less than the bank's does, which moves the fit.
 TEST(ModelFitter, AModesOwnMeasurementNoiseWeighsItsResiduals) {
-  Bank truth = load_bank(kTractionBank, "truth.yaml");
-  Eigen::VectorXd truth_parameters(17);
-  truth_parameters << 0.95, 0.9, 1.6, 1.3, 1.9, 1.4, 0.0, 0.165, 0.555, 10.0, 40.0, 2.0, 9.0, 7.0, 5.0, 4.0, 0.12;
-  ASSERT_TRUE(truth.models[0]->set_parameters(truth_parameters, nullptr));
-  auto turns = [](double t) {
-    const double turn = 3.0 * std::sin(0.4 * t) * std::abs(std::sin(0.05 * t));
-    return Eigen::Vector2d(5.0 - turn, 5.0 + turn);
-  };
-  Trajectory data = simulate_model(*truth.models[0], 1500, 0.02, turns, Eigen::Vector3d(1e-5, 1e-5, 1e-5),
-                                   Eigen::Vector3d(0.02, 0.02, 0.02), 3, 7);
-  std::mt19937 rng(8);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  data.z.conservativeResize(6, Eigen::NoChange);
-  Eigen::VectorXd y(3);
-  for (int k = 0; k < data.size(); ++k) {
-    ASSERT_TRUE(truth.models[0]->outputs(data.u.col(k), y));
-    data.z(3, k) = y[0] + 0.02 * normal(rng);
-    data.z(4, k) = y[1] + 0.3 * normal(rng);
-    data.z(5, k) = y[2] + 0.3 * normal(rng);
-  }
+  const Trajectory data = simulate_traction(1500, 7, 8);
   Eigen::VectorXd own_std(6);
   own_std << 0.02, 0.02, 0.02, 2.0, 30.0, 30.0;
   const Eigen::MatrixXd own_r = own_std.cwiseAbs2().asDiagonal();
