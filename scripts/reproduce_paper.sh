@@ -25,7 +25,7 @@ python=$(command -v /usr/bin/python3 || command -v python3)
 source scripts/seeds.sh
 eval_seeds=$(paper_eval_seeds "$seeds")
 check_disjoint "$eval_seeds" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(decision_default_seeds)" "$(model_selection_seeds)"
-# The decision's defaults are chosen on their own seeds: none may be a fitting one either.
+# The decision's settings are weighed on seeds of their own: none may be a fitting one either.
 check_disjoint "$(decision_default_seeds)" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(model_selection_seeds)"
 first_seed=$(echo "$eval_seeds" | head -n 1)
 rm -rf "$work/logs" "$work/eval" "$work/banks" "$work/kinematics" "$work/decision_defaults"  # a rerun must not score last run's logs
