@@ -213,6 +213,8 @@ int fit(const FitCommandOptions& options) {
     if (!options.output_bank.empty()) {
       std::string modes_block = "modes:\n";
       for (int j = 0; j < config.num_modes(); ++j) {
+        const ModeConfig& mode = config.modes[static_cast<std::size_t>(j)];
+        const sdk::MotionModel& model = *bank.models[static_cast<std::size_t>(j)];
         const auto fitted = reports.find(j);
         if (fitted != reports.end()) {
           for (const ModeLogs& d : data) {
@@ -222,18 +224,13 @@ int fit(const FitCommandOptions& options) {
                                                   : "one-step RMSE ") +
                                   rmse_text(config, fitted->second.rmse) + " on " +
                                   std::to_string(d.logs.size()) + " log(s)";
-            modes_block += fitting::format_mode_entry(
-                output_name(j), config.modes[static_cast<std::size_t>(j)].model,
-                *bank.models[static_cast<std::size_t>(j)], fitted->second.q_intensity, {comment},
-                config.modes[static_cast<std::size_t>(j)].params, config.modes[static_cast<std::size_t>(j)].fit_when,
-                config.modes[static_cast<std::size_t>(j)].r);
+            modes_block += fitting::format_mode_entry(output_name(j), mode.model, model, fitted->second.q_intensity,
+                                                      {comment}, mode.params, mode.fit_when, mode.r);
           }
         } else {
-          modes_block += fitting::format_mode_entry(
-              output_name(j), config.modes[static_cast<std::size_t>(j)].model,
-              *bank.models[static_cast<std::size_t>(j)], config.modes[static_cast<std::size_t>(j)].q_intensity,
-              {"not fitted: no log given for this mode"}, config.modes[static_cast<std::size_t>(j)].params,
-              config.modes[static_cast<std::size_t>(j)].fit_when, config.modes[static_cast<std::size_t>(j)].r);
+          modes_block += fitting::format_mode_entry(output_name(j), mode.model, model, mode.q_intensity,
+                                                    {"not fitted: no log given for this mode"}, mode.params,
+                                                    mode.fit_when, mode.r);
         }
       }
       std::vector<std::pair<std::string, std::string>> blocks;

@@ -83,15 +83,20 @@ void require_rereadable(const LogSpec& log, const std::string& who) {
   }
 }
 
+void check_decision_settings(const DecisionConfig& d) {
+  if (!(d.enter > 0.0 && d.enter <= 1.0 && d.leave >= 0.0 && d.leave < d.enter)) {
+    throw Error("decision thresholds: need 0 <= leave < enter <= 1, got enter " + CsvWriter::format(d.enter) +
+                ", leave " + CsvWriter::format(d.leave));
+  }
+  if (!(d.min_hold >= 0.0)) throw Error("decision hold: need min_hold >= 0 s, got " + CsvWriter::format(d.min_hold));
+}
+
 DecisionConfig decision_settings_of(const DecisionConfig& bank, double enter, double leave, double hold) {
   DecisionConfig d = bank;
   if (enter >= 0.0) d.enter = enter;
   if (leave >= 0.0) d.leave = leave;
   if (hold >= 0.0) d.min_hold = hold;
-  if (!(d.enter > 0.0 && d.enter <= 1.0 && d.leave >= 0.0 && d.leave < d.enter)) {
-    throw Error("decision thresholds: need 0 <= leave < enter <= 1, got enter " + CsvWriter::format(d.enter) +
-                ", leave " + CsvWriter::format(d.leave));
-  }
+  check_decision_settings(d);
   return d;
 }
 

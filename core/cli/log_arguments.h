@@ -29,9 +29,14 @@ void require_rereadable(const LogSpec& log, const std::string& who);
 // The bank's sampling, with the command line's --rate when it is > 0.
 SamplingConfig sampling_of(const BankConfig& bank, double rate);
 
+// Throws Error naming the values unless 0 <= leave < enter <= 1 and
+// min_hold >= 0: decision settings given on a command line or from Python
+// (the bank loader checks its own, naming the file and line).
+void check_decision_settings(const DecisionConfig& settings);
+
 // `bank`'s decision settings with the command line's --decision-enter,
-// --decision-leave and --decision-hold where they are >= 0. Throws Error
-// unless 0 <= leave < enter <= 1.
+// --decision-leave and --decision-hold where they are >= 0, checked
+// (check_decision_settings).
 DecisionConfig decision_settings_of(const DecisionConfig& bank, double enter, double leave, double hold);
 
 // The segments one log gives each mode for fitting. Which mode a log shows:

@@ -160,11 +160,9 @@ int tune(const TuneCommandOptions& options) {
       const BankConfig& c = tuned.config;
       std::string modes_block = "modes:\n";
       for (int j = 0; j < c.num_modes(); ++j) {
-        modes_block += fitting::format_mode_entry(
-            c.modes[static_cast<std::size_t>(j)].name, c.modes[static_cast<std::size_t>(j)].model,
-            *tuned.models[static_cast<std::size_t>(j)], c.modes[static_cast<std::size_t>(j)].q_intensity, {},
-            c.modes[static_cast<std::size_t>(j)].params, c.modes[static_cast<std::size_t>(j)].fit_when,
-            c.modes[static_cast<std::size_t>(j)].r);
+        const ModeConfig& mode = c.modes[static_cast<std::size_t>(j)];
+        modes_block += fitting::format_mode_entry(mode.name, mode.model, *tuned.models[static_cast<std::size_t>(j)],
+                                                  mode.q_intensity, {}, mode.params, mode.fit_when, mode.r);
       }
       std::vector<std::pair<std::string, std::string>> blocks{
           {"measurement", fitting::format_measurement_block(c)},

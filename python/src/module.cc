@@ -175,9 +175,7 @@ DecisionConfig decision_of(const BankConfig& config, const py::object& overrides
       throw py::key_error("decision: unknown key '" + k + "' (expected enter, leave, min_hold)");
     }
   }
-  if (!(d.enter > 0.0 && d.enter <= 1.0 && d.leave >= 0.0 && d.leave < d.enter && d.min_hold >= 0.0)) {
-    throw Error("decision thresholds: need 0 <= leave < enter <= 1 and min_hold >= 0");
-  }
+  cli::check_decision_settings(d);
   return d;
 }
 

@@ -111,3 +111,14 @@ def test_fit_error(tmp_path, configs, singular_logs):
     short.write_text("\n".join(lines) + "\n")
     with pytest.raises(skidimm.FitError):
         skidimm.fit(configs / "ltc_terrains.yaml", [f"asphalt={short}"], objective="window", window=0.5)
+
+
+def test_bad_decision_settings_are_an_error_naming_the_values(configs):
+    bank = configs / "ltc_terrains.yaml"
+    with pytest.raises(skidimm.Error, match=r"need 0 <= leave < enter <= 1, got enter 0\.3, leave 0\.4"):
+        skidimm.Imm(bank, decision={"enter": 0.3, "leave": 0.4})
+    with pytest.raises(skidimm.Error, match=r"need min_hold >= 0 s, got -1"):
+        skidimm.Imm(bank, decision={"min_hold": -1.0})
+    with pytest.raises(KeyError, match="unknown key 'hold'"):
+        skidimm.Imm(bank, decision={"hold": 1.0})
+    assert skidimm.Imm(bank, decision={"enter": 0.6}).step(0.0, [1.0, 1.0], [0.1, 0.0]).decision == "unknown"
