@@ -192,7 +192,7 @@ int main(int argc, char** argv) {
                    "are: tune the settings only); default likelihood");
   tune->add_option("--tune", tune_options.knobs,
                    "Settings to choose, comma-separated: r-scale, r-components, q-scale, q-modes, dwell, floor, "
-                   "likelihood-weight (default r-scale,q-scale,dwell,floor)");
+                   "likelihood-weight, likelihood-dof (default r-scale,q-scale,dwell,floor)");
   tune->add_option("--folds", tune_options.folds, "Groups of logs for cross-validation; 0 = leave one log out (default)")
       ->check(CLI::NonNegativeNumber);
   tune->add_option("--inner-folds", tune_options.inner_folds,

@@ -428,7 +428,7 @@ BankConfig load_bank_config(const fs::path& file) {
 
   y.check_keys(root,
                {"name", "description", "states", "angles", "inputs", "columns", "sampling", "measurement", "transition",
-                "initial", "mode_probability_floor", "likelihood_weight", "innovation_gate", "plugin_paths", "shared",
+                "initial", "mode_probability_floor", "likelihood_weight", "likelihood_dof", "innovation_gate", "plugin_paths", "shared",
                 "modes", "classes", "decision"},
                "");
   BankConfig bank;
@@ -492,6 +492,14 @@ BankConfig load_bank_config(const fs::path& file) {
     bank.likelihood_weight = y.number(weight, "likelihood_weight");
     if (!(bank.likelihood_weight > 0.0 && bank.likelihood_weight <= 1.0)) {
       y.fail(weight, "likelihood_weight", "must be in (0, 1]: the weight of each step's evidence (1: the plain IMM)");
+    }
+  }
+  if (const YAML::Node dof = root["likelihood_dof"]) {
+    bank.likelihood_dof = y.number(dof, "likelihood_dof");
+    if (!(bank.likelihood_dof > 0.0 && std::isfinite(bank.likelihood_dof))) {
+      y.fail(dof, "likelihood_dof",
+             "must be a finite number > 0: the degrees of freedom of the Student-t likelihood (omit it for the "
+             "Gaussian one)");
     }
   }
   if (const YAML::Node gate = root["innovation_gate"]) {

@@ -19,6 +19,7 @@
 
 #include "filter_health.h"
 #include "probability_floor.h"
+#include "student_t_likelihood.h"
 #include "skidimm/bank.h"
 #include "skidimm/covariance.h"
 #include "skidimm/ekf.h"
@@ -252,6 +253,7 @@ class Kernel final : public ImmKernel {
         modes_(bank.config.num_modes()),
         floor_(bank.config.mode_probability_floor),
         likelihood_weight_(bank.config.likelihood_weight),
+        student_t_(bank.config.likelihood_dof, static_cast<int>(bank.config.measurement.h.rows())),
         initial_state_(bank.config.initial_state),
         initial_covariance_(bank.config.initial_covariance) {
     is_angle_.reset(new bool[static_cast<std::size_t>(n_)]);
@@ -316,6 +318,7 @@ class Kernel final : public ImmKernel {
       }
     }
     const int measured = filters_.update(z, outputs_measured ? &outputs_ : nullptr, gates_.data(), e, &rejected);
+    if (!student_t_.gaussian()) rescore_student_t(measured, e);
     // A filter that ran but holds absurd numbers has diverged (filter_health.h).
     for (int j = 0; j < modes_; ++j) {
       if (e->log_likelihoods[j] == kMinusInfinity) continue;
@@ -375,6 +378,18 @@ class Kernel final : public ImmKernel {
       }
     }
     return gated;
+  }
+
+  // The Student-t log density of each updated mode's innovation from its
+  // Gaussian one (student_t_likelihood.h); a gated mode was scored at its
+  // gate, and is scored there again.
+  void rescore_student_t(int measured, ImmEstimate* e) const {
+    for (int j = 0; j < modes_; ++j) {
+      if (e->log_likelihoods[j] == kMinusInfinity || std::isnan(e->log_likelihoods[j])) continue;
+      const bool gated = e->mode_failures[static_cast<std::size_t>(j)] == ModeFailure::kGated;
+      const double d2 = gated ? gates_[static_cast<std::size_t>(measured)] : e->nis[j];
+      e->log_likelihoods[j] = student_t_(e->log_likelihoods[j], d2, measured);
+    }
   }
 
   // Why mode j's prediction failed. A model that returns false leaves the
@@ -516,6 +531,7 @@ class Kernel final : public ImmKernel {
   int modes_;
   double floor_;
   double likelihood_weight_;   // w of Lambda_j^w (bank.h)
+  StudentTLikelihood student_t_;  // the bank's likelihood_dof
   std::vector<double> gates_;  // by number of measured components; +inf: no gate
   Eigen::VectorXd initial_state_;
   Eigen::MatrixXd initial_covariance_;

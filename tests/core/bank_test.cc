@@ -341,6 +341,15 @@ TEST(BankConfig, MatrixEntriesAbove1e15AreRefusedNamingModeFieldAndEntry) {
       test_directory() / "ok.yaml", replace(kValidBank, "Q: [[0.02, 0], [0, 0.02]]", "Q: [[1e15, 0], [0, 1e15]]"))));
 }
 
+TEST(BankConfig, LikelihoodDofIsAPositiveNumberOrAbsent) {
+  EXPECT_EQ(load_bank_config(write_file(test_directory() / "dof.yaml", "likelihood_dof: 4\n" + kValidBank)).likelihood_dof,
+            4.0);
+  EXPECT_EQ(load_bank_config(write_file(test_directory() / "gauss.yaml", kValidBank)).likelihood_dof, 0.0);
+  expect_config_error("likelihood_dof: 0\n" + kValidBank, {"bank.yaml:1: likelihood_dof", "finite number > 0"});
+  expect_config_error("likelihood_dof: -2\n" + kValidBank, {"likelihood_dof", "Gaussian"});
+  expect_config_error("likelihood_dof: .inf\n" + kValidBank, {"likelihood_dof"});
+}
+
 TEST(BankConfig, LikelihoodWeightIsInZeroToOne) {
   const auto ok = write_file(test_directory() / "ok.yaml", "likelihood_weight: 0.25\n" + kValidBank);
   EXPECT_EQ(load_bank_config(ok).likelihood_weight, 0.25);

@@ -117,6 +117,12 @@ struct BankConfig {
   // weight"). 1 is the IMM as derived; below 1 tempers likelihoods that count
   // the same evidence more than once (correlated features, correlated steps).
   double likelihood_weight = 1.0;
+  // The degrees of freedom of a Student-t density scoring each mode's
+  // innovation in the mode probabilities (docs/engine.md, "Heavy-tailed
+  // likelihood"); 0: the Gaussian density of the IMM as derived. A mode far
+  // off then loses by log, not by the square, of its miss, so one step that
+  // no mode explains cannot make the filter sure of the least wrong one.
+  double likelihood_dof = 0.0;
   // Chi-square innovation gate (docs/engine.md): the probability a consistent
   // measurement passes, in (0, 1); 0: no gate.
   double innovation_gate = 0.0;

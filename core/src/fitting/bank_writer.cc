@@ -318,5 +318,10 @@ std::string format_likelihood_weight_block(const BankConfig& config) {
   return "likelihood_weight: " + number(config.likelihood_weight) + "\n";
 }
 
+std::string format_likelihood_dof_block(const BankConfig& config) {
+  if (config.likelihood_dof <= 0.0) return "";
+  return "likelihood_dof: " + number(config.likelihood_dof) + "\n";
+}
+
 }  // namespace fitting
 }  // namespace skidimm

@@ -114,17 +114,19 @@ const char* to_string(Knob knob) {
       return "floor";
     case Knob::kLikelihoodWeight:
       return "likelihood-weight";
+    case Knob::kLikelihoodDof:
+      return "likelihood-dof";
   }
   return "?";
 }
 
 Knob knob_from_string(const std::string& name) {
   for (Knob k : {Knob::kRScale, Knob::kRComponents, Knob::kQScale, Knob::kQModes, Knob::kDwell, Knob::kFloor,
-                 Knob::kLikelihoodWeight}) {
+                 Knob::kLikelihoodWeight, Knob::kLikelihoodDof}) {
     if (name == to_string(k)) return k;
   }
   throw Error("unknown setting '" + name +
-              "' (expected r-scale, r-components, q-scale, q-modes, dwell, floor, likelihood-weight)");
+              "' (expected r-scale, r-components, q-scale, q-modes, dwell, floor, likelihood-weight, likelihood-dof)");
 }
 
 std::string TunedSettings::describe(const BankConfig& config) const {
@@ -140,6 +142,8 @@ std::string TunedSettings::describe(const BankConfig& config) const {
   if (probability_floor >= 0.0) out += ", floor " + number(probability_floor);
   // Only when not 1, the plain IMM: the description of a bank tuned without it stays as it was.
   if (likelihood_weight > 0.0 && likelihood_weight != 1.0) out += ", likelihood weight " + number(likelihood_weight);
+  // Only when Student-t, for the same reason.
+  if (likelihood_dof > 0.0) out += ", likelihood dof " + number(likelihood_dof);
   return out;
 }
 
@@ -180,6 +184,7 @@ void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
   }
   if (s.probability_floor >= 0.0) config.mode_probability_floor = s.probability_floor;
   if (s.likelihood_weight > 0.0) config.likelihood_weight = s.likelihood_weight;
+  if (s.likelihood_dof >= 0.0) config.likelihood_dof = s.likelihood_dof;
 }
 
 namespace {
@@ -248,6 +253,7 @@ class Tuner {
     }
     base_floor_ = config.mode_probability_floor;
     base_weight_ = config.likelihood_weight;
+    base_dof_ = config.likelihood_dof;
     // Each log's class, for stratified folds and summaries: from a first scoring at the starting values.
     classes_.resize(logs.size());
     std::vector<const TuningLog*> all;
@@ -479,6 +485,7 @@ class Tuner {
     bank->config.transition = base_transition_;
     bank->config.mode_probability_floor = base_floor_;
     bank->config.likelihood_weight = base_weight_;
+    bank->config.likelihood_dof = base_dof_;
     apply(base_, TunedSettings{}, bank);
   }
 
@@ -522,6 +529,7 @@ class Tuner {
     current.dwell_seconds = base_dwell_;
     current.probability_floor = base_floor_;
     current.likelihood_weight = base_weight_;
+    current.likelihood_dof = base_dof_;
     auto score_of = [&](const TunedSettings& s, std::vector<LogScore>* scores) {
       *scores = evaluate(s, folds, within);
       return summarize(*scores).mean_log_probability;
@@ -550,6 +558,34 @@ class Tuner {
         }
         *value = chosen;
         if (!quiet) progress("  " + objective + ": " + name + " " + number(chosen) + " -> mean log p(truth) " + number(best));
+      };
+      // The Student-t degrees of freedom, the Gaussian (0) among the candidates:
+      // a coarse ladder first, then the neighbours of the best.
+      auto dof_line = [&](bool coarse) {
+        const double start = current.likelihood_dof;
+        std::vector<double> candidates;
+        if (coarse) {
+          candidates = {0.0, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0};
+        } else if (start > 0.0) {
+          candidates = {start / std::sqrt(2.0), start * std::sqrt(2.0)};
+        }
+        double chosen = start;
+        for (double candidate : candidates) {
+          if (candidate == start) continue;
+          current.likelihood_dof = candidate;
+          std::vector<LogScore> scores;
+          const double score = score_of(current, &scores);
+          if (score > best + 1e-9) {
+            best = score;
+            chosen = candidate;
+            *best_scores = scores;
+          }
+        }
+        current.likelihood_dof = chosen;
+        if (!quiet) {
+          progress("  " + objective + ": likelihood dof " + (chosen > 0.0 ? number(chosen) : std::string("Gaussian")) +
+                   " -> mean log p(truth) " + number(best));
+        }
       };
       for (Knob knob : options_.knobs) {
         switch (knob) {
@@ -583,6 +619,9 @@ class Tuner {
           case Knob::kLikelihoodWeight:
             line("likelihood weight", &current.likelihood_weight, 1e-4, 1.0);
             break;
+          case Knob::kLikelihoodDof:
+            dof_line(sweep == 0);
+            break;
         }
       }
     }
@@ -599,6 +638,7 @@ class Tuner {
   double base_dwell_ = 0.0;
   double base_floor_ = 1e-9;
   double base_weight_ = 1.0;
+  double base_dof_ = 0.0;
   std::vector<std::string> classes_;
   std::vector<RecordedLog> recorded_;
   std::map<FitKey, FittedValues> fits_;

@@ -60,6 +60,8 @@ std::string format_transition_block(const BankConfig& config);   // "transition:
 std::string format_floor_block(const BankConfig& config);        // "mode_probability_floor: ..."
 // "likelihood_weight: ...", or nothing when it is 1 (the default: no key).
 std::string format_likelihood_weight_block(const BankConfig& config);
+// "likelihood_dof: ...", or nothing for the Gaussian likelihood (no key).
+std::string format_likelihood_dof_block(const BankConfig& config);
 
 }  // namespace fitting
 }  // namespace skidimm

@@ -68,6 +68,7 @@ struct TunedSettings {
   double dwell_seconds = 0.0;        // > 0: transition.mean_dwell_time for every mode
   double probability_floor = -1.0;   // >= 0: mode_probability_floor
   double likelihood_weight = -1.0;   // > 0: likelihood_weight
+  double likelihood_dof = -1.0;      // >= 0: likelihood_dof (0: Gaussian)
   std::string describe(const BankConfig& config) const;
 };
 
@@ -77,7 +78,7 @@ void apply(const FittedValues& fitted, const TunedSettings& settings, Bank* bank
 // Reads a bank's current values.
 FittedValues values_of(const Bank& bank);
 
-enum class Knob { kRScale, kRComponents, kQScale, kQModes, kDwell, kFloor, kLikelihoodWeight };
+enum class Knob { kRScale, kRComponents, kQScale, kQModes, kDwell, kFloor, kLikelihoodWeight, kLikelihoodDof };
 const char* to_string(Knob knob);
 Knob knob_from_string(const std::string& name);  // throws Error listing the names
 
