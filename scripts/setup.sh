@@ -17,7 +17,14 @@ packages=(
   python3-dask python3-distributed  # ... fleet-scale eval and fit (skidimm.dask)
   python3-matplotlib             # ... the figure of docs/python.md
   clang libclang-rt-14-dev llvm-14  # the sanitizer stage (scripts/check.sh): ASan, UBSan, TSan, libFuzzer, llvm-symbolizer
+  libzstd-dev liblz4-dev libsqlite3-dev  # ROS 2 bags (docs/ros2.md): MCAP chunks, .db3 storage
 )
+# Node and npm run the ROS 2 tests' independent MCAP, CDR and Foxglove
+# implementations (tests only). A machine that has Node already (from
+# another source than Debian) keeps it.
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+  packages+=(nodejs npm)
+fi
 
 missing=()
 for p in "${packages[@]}"; do
@@ -26,15 +33,17 @@ for p in "${packages[@]}"; do
   fi
 done
 
-if [ ${#missing[@]} -eq 0 ]; then
-  exit 0
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "skidimm setup: installing ${missing[*]}" >&2
+  sudo_cmd=()
+  if [ "$(id -u)" -ne 0 ]; then
+    sudo_cmd=(sudo)
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  "${sudo_cmd[@]}" apt-get update -qq
+  "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
 
-echo "skidimm setup: installing ${missing[*]}" >&2
-sudo_cmd=()
-if [ "$(id -u)" -ne 0 ]; then
-  sudo_cmd=(sudo)
-fi
-export DEBIAN_FRONTEND=noninteractive
-"${sudo_cmd[@]}" apt-get update -qq
-"${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+# The npm packages of the ROS 2 tests, from tests/ros/package-lock.json, into
+# a cache outside the source tree (a no-op once installed).
+"$(dirname "$0")/node_packages.sh" --install >/dev/null

@@ -1,0 +1,176 @@
+// A bag as the tables of a log (bag_log.h): the topics a bank's columns
+// name, their fields by path, the time by header stamp or log time, and the
+// errors a user meets, on bags written by the npm packages.
+#include "skidimm/ros/bag_log.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <functional>
+
+#include "core/temp_files.h"
+#include "ros/ros_fixtures.h"
+#include "skidimm/errors.h"
+#include "skidimm/ros/bag_reader.h"
+#include "skidimm/ros/crc32.h"
+
+namespace skidimm {
+namespace ros {
+namespace {
+
+using skidimm_test::read_expected;
+using skidimm_test::ros_fixture;
+using skidimm_test::same_double;
+using skidimm_test::test_directory;
+using skidimm_test::write_file;
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const LogError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(BagLog, ATableOfTheTopicABankNamesReadsItsFieldsAndTime) {
+  const auto expected = read_expected(ros_fixture("all_types.expected"));
+  auto tables = open_bag_tables(ros_fixture("all_types.mcap"), {"mean(/all_types.f64)", "/all_types.velocity[left]"});
+  ASSERT_EQ(tables.size(), 1u);
+  LogTable& t = *tables[0];
+  EXPECT_EQ(t.name(), "all_types.mcap:/all_types");
+  EXPECT_EQ(t.column("/other.x"), -1);
+  EXPECT_EQ(t.column("time"), -1);
+  const int log_time = t.column("log_time");
+  const int stamp = t.column("header.stamp");  // the type has no header: its log time
+  const int f64 = t.column("/all_types.f64");
+  const int left = t.column("/all_types.velocity[left]");
+  const int label = t.column("/all_types.inner[1].label");
+  long n = 0;
+  while (t.next_row()) {
+    ++n;
+    double value = 0.0;
+    ASSERT_EQ(t.number(log_time, &value), LogTable::Cell::kNumber);
+    // The nearest double to 1700000000 + n/100 s, as a CSV's decimal text would read.
+    char decimal[40];
+    std::snprintf(decimal, sizeof(decimal), "%ld.%02ld", 1700000000L + n / 100, n % 100);
+    EXPECT_EQ(value, std::strtod(decimal, nullptr)) << decimal;
+    double same = 0.0;
+    t.number(stamp, &same);
+    EXPECT_EQ(same, value);
+    const auto& want = expected.at(n);
+    const LogTable::Cell cell = t.number(f64, &value);
+    EXPECT_TRUE(same_double(value, want.at("f64").number));
+    EXPECT_EQ(cell, LogTable::Cell::kNumber);
+    const LogTable::Cell named = t.number(left, &value);
+    EXPECT_TRUE(same_double(value, want.at("velocity[left]").number));
+    EXPECT_EQ(named, std::isnan(want.at("velocity[left]").number) ? LogTable::Cell::kMissing : LogTable::Cell::kNumber);
+    EXPECT_EQ(t.text(label), want.at("inner[1].label").text);
+  }
+  EXPECT_EQ(n, 120);
+}
+
+TEST(BagLog, TheTimeOfATypeWithAHeaderIsItsStamp) {
+  // The Imu's stamps differ from its log times (2 s + 10 ms steps).
+  auto mcap_tables = open_bag_tables(ros_fixture("mixed.mcap"), {"/imu/data.angular_velocity.z"});
+  ASSERT_EQ(mcap_tables.size(), 1u);
+  const int z = mcap_tables[0]->column("/imu/data.angular_velocity.z");
+  const int t = mcap_tables[0]->column("header.stamp");
+  const auto expected = read_expected(ros_fixture("mixed_imu.expected"));
+  long n = 0;
+  while (mcap_tables[0]->next_row()) {
+    ++n;
+    double value = 0.0;
+    mcap_tables[0]->number(z, &value);
+    EXPECT_TRUE(same_double(value, expected.at(n).at("angular_velocity.z").number));
+    mcap_tables[0]->number(t, &value);
+    EXPECT_TRUE(same_double(value, expected.at(n).at("header.stamp").number)) << value;
+  }
+  EXPECT_EQ(n, 4);
+}
+
+TEST(BagLog, ErrorsNameTheBagTheTopicAndWhatExists) {
+  const auto dir = test_directory();
+  // A topic the bag does not have.
+  std::string message = error_of([] { open_bag_tables(ros_fixture("mixed.mcap"), {"/imu/dta.angular_velocity.z"}); });
+  EXPECT_NE(message.find("mixed.mcap: the bank's column \"/imu/dta.angular_velocity.z\" names topic /imu/dta, which "
+                         "this bag does not have; its topics: /imu/data (sensor_msgs/msg/Imu)"),
+            std::string::npos)
+      << message;
+  // No topic at all (a CSV bank on a bag).
+  message = error_of([] { open_bag_tables(ros_fixture("mixed.mcap"), {"velL", "mean(wz)"}); });
+  EXPECT_NE(message.find("no column of the bank names a topic of this bag"), std::string::npos) << message;
+  // A field the type lacks: the paths it has.
+  message = error_of([] {
+    auto tables = open_bag_tables(ros_fixture("mixed.mcap"), {"/imu/data.angular_velocity.w"});
+    tables[0]->column("/imu/data.angular_velocity.w");
+  });
+  EXPECT_NE(message.find("mixed.mcap: topic /imu/data: no column '/imu/data.angular_velocity.w'"), std::string::npos)
+      << message;
+  EXPECT_NE(message.find("Its columns: /imu/data.header.stamp, /imu/data.header.frame_id"), std::string::npos)
+      << message;
+  // Messages not in CDR.
+  message = error_of([] { open_bag_tables(ros_fixture("mixed.mcap"), {"/json.data"}); });
+  EXPECT_NE(message.find("topic /json (std_msgs/msg/String): messages encoded as 'json'; skidimm reads ROS 2 "
+                         "messages in CDR"),
+            std::string::npos)
+      << message;
+  // A definition stored in a form skidimm does not read, for a type it does not bundle.
+  message = error_of([] { open_bag_tables(ros_fixture("idl.mcap"), {"/custom.data"}); });
+  EXPECT_NE(message.find("topic /custom (my_msgs/msg/Custom): the bag stores its definition as 'ros2idl', which "
+                         "skidimm does not read"),
+            std::string::npos)
+      << message;
+  // ... while a bundled type is read with the bundled definition.
+  EXPECT_EQ(open_bag_tables(ros_fixture("idl.mcap"), {"/imu/data.angular_velocity.z"}).size(), 1u);
+  // A .db3 without its metadata.yaml.
+  const auto lone = dir / "lone";
+  std::filesystem::create_directories(lone);
+  write_file(lone / "drive_0.db3", "");
+  message = error_of([&] { BagReader::open(lone / "drive_0.db3"); });
+  EXPECT_NE(message.find("drive_0.db3: no metadata.yaml beside this .db3 file"), std::string::npos) << message;
+  EXPECT_NE(message.find("ros2 bag reindex"), std::string::npos) << message;
+}
+
+TEST(BagLog, AMessageThatDoesNotDecodeEndsItsTopicAfterTheRowsBeforeIt) {
+  const auto dir = test_directory();
+  std::string bytes = skidimm_test::read_file(ros_fixture("mixed.mcap"));
+  // The third marker's string length: make it run past its message.
+  const auto at = bytes.find("SKIDIMM_MARKER_2");
+  ASSERT_NE(at, std::string::npos);
+  bytes[at - 2] = '\x7f';
+  // Its chunk (uncompressed) records a CRC of its records: recompute it, so
+  // that the message itself is what is wrong.
+  std::size_t chunk = 0;
+  for (const auto& [opcode, offset] : skidimm_test::records_of(bytes)) {
+    if (opcode == 6 && offset < at) chunk = offset;
+  }
+  ASSERT_GT(chunk, 0u);
+  std::uint64_t records_size = 0;
+  std::memcpy(&records_size, &bytes[chunk + 9 + 28 + 4], 8);  // after the fixed fields and an empty compression
+  const std::uint32_t crc = crc32(0, &bytes[chunk + 9 + 28 + 4 + 8], records_size);
+  std::memcpy(&bytes[chunk + 9 + 24], &crc, 4);
+  write_file(dir / "bad_message.mcap", bytes);
+  long rows = 0;
+  const std::string message = error_of([&] {
+    auto tables = open_bag_tables(dir / "bad_message.mcap", {"/marker.data"});
+    tables[0]->column("log_time");
+    const int data = tables[0]->column("/marker.data");
+    while (tables[0]->next_row()) {
+      EXPECT_EQ(tables[0]->text(data), "SKIDIMM_MARKER_" + std::to_string(rows));
+      ++rows;
+    }
+  });
+  EXPECT_EQ(rows, 2) << "the rows before the bad message";
+  EXPECT_NE(message.find("bad_message.mcap: topic /marker, message 3 (log time 2.020000001 s, std_msgs/msg/String): "
+                         "cannot decode its CDR: the message ends at byte"),
+            std::string::npos)
+      << message;
+}
+
+}  // namespace
+}  // namespace ros
+}  // namespace skidimm
