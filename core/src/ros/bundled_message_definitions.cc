@@ -1,5 +1,6 @@
 #include "skidimm/ros/bundled_message_definitions.h"
 
+#include <algorithm>
 #include <map>
 
 namespace skidimm {
@@ -77,6 +78,27 @@ std::vector<std::string> bundled_message_types() {
 
 void add_bundled_definitions(MessageDefinitions* definitions) {
   for (const auto& [name, text] : bundled()) definitions->add(name, text);
+}
+
+std::string bundled_complete_definition(const std::string& type_name) {
+  MessageDefinitions definitions;
+  add_bundled_definitions(&definitions);
+  const std::string root = MessageDefinitions::full_type_name(type_name);
+  std::string out = bundled().at(root);
+  std::vector<std::string> done = {root}, todo = {root};
+  while (!todo.empty()) {
+    const std::string name = todo.back();
+    todo.pop_back();
+    for (const MessageField& f : definitions.get(name).fields) {
+      if (f.primitive != Primitive::kNone || std::find(done.begin(), done.end(), f.type_name) != done.end()) continue;
+      done.push_back(f.type_name);
+      todo.push_back(f.type_name);
+      std::string short_name = f.type_name;
+      short_name.replace(short_name.find("/msg/"), 5, "/");
+      out += std::string(80, '=') + "\nMSG: " + short_name + "\n" + bundled().at(f.type_name);
+    }
+  }
+  return out;
 }
 
 bool is_bundled_message_type(const std::string& type_name) {

@@ -24,6 +24,10 @@ std::vector<std::string> bundled_message_types();
 void add_bundled_definitions(MessageDefinitions* definitions);
 // Whether `type_name` ("pkg/msg/Type" or "pkg/Type") is bundled.
 bool is_bundled_message_type(const std::string& type_name);
+// The complete ros2msg definition of a bundled type, as rosbag2 stores one
+// (its dependencies after '=' lines and "MSG: package/Type"), for copying a
+// bag's messages into an MCAP file that describes them.
+std::string bundled_complete_definition(const std::string& type_name);
 
 }  // namespace ros
 }  // namespace skidimm
