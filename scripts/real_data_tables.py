@@ -84,7 +84,7 @@ def borealtc(work):
             sys.exit(f"{c}: tune's {a:.3f} differs from eval's {per_class[c]['accuracy']:.3f}")
 
     with open(os.path.join(work, "borealtc", "scores.csv")) as f:
-        scores = [r for r in csv.DictReader(f) if r["kind"] == "assessment"]
+        scores = [r for r in csv.DictReader(f) if r["kind"] == "logs"]
     by_terrain = {t: [float(r["accuracy"]) for r in scores if r["truth"] == t] for t in TERRAINS}
 
     lines = ["| terrain | runs | accuracy (mean over its runs) | worst run | runs below 50% | mean log p(truth) |",
@@ -130,7 +130,7 @@ def driving(data, terrain, number):
 
 def per_run(work, data):
     with open(os.path.join(work, "borealtc", "scores.csv")) as f:
-        scores = [r for r in csv.DictReader(f) if r["kind"] == "assessment"]
+        scores = [r for r in csv.DictReader(f) if r["kind"] == "logs"]
     lines = ["| terrain | run | driven | mean speed (m/s) | mean turn (m/s) | held-out accuracy |", "|---|---|---|---|---|---|"]
     counts = {}
     for r in scores:

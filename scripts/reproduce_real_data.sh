@@ -56,8 +56,8 @@ tune=(--objective window --hold-unexcited --full-q --tune likelihood-weight,q-sc
   --table "$work/borealtc/scores.csv" --estimates "$work/borealtc/held_out" --output-bank "$work/borealtc/terrains.yaml" \
   >"$work/borealtc/tune.txt"
 sed "s|$bt/||g; s|$data/||g" "$work/borealtc/terrains.yaml" >"$bank_out"
-"$skidimm" eval --estimates "$work/borealtc/held_out" --bank "$bank_out" --json >"$work/borealtc/eval.json"
-"$skidimm" eval --estimates "$work/borealtc/held_out" --bank "$bank_out" >"$work/borealtc/eval.txt"
+"$skidimm" eval --estimates "$work/borealtc/held_out/logs" --bank "$bank_out" --json >"$work/borealtc/eval.json"
+"$skidimm" eval --estimates "$work/borealtc/held_out/logs" --bank "$bank_out" >"$work/borealtc/eval.txt"
 
 echo "== C: spliced runs" >&2
 held=()

@@ -109,6 +109,9 @@ struct TuneCommandOptions {
   int folds = 0;                          // 0: leave one log out
   int inner_folds = 4;
   bool no_assess = false;
+  std::string protocols = "logs";    // comma-separated protocols of the nested assessment (fitting/tuning.h)
+  std::filesystem::path sessions;    // which logs were recorded together (fitting/sessions.h)
+  std::vector<std::string> lockbox;  // logs kept aside, scored once by the tuned bank; as `logs`
   int threads = 0;
   double window = 0.0;  // the window objective's window (s)
   bool fit_r = false;
@@ -116,7 +119,7 @@ struct TuneCommandOptions {
   bool hold_unexcited = false;
   std::filesystem::path output_bank;
   std::filesystem::path table;      // per-log scores as CSV
-  std::filesystem::path estimates;  // the nested assessment's per-step outputs, one file per log
+  std::filesystem::path estimates;  // the nested assessment's per-step outputs: a folder per protocol, a file per log
   std::vector<std::filesystem::path> plugin_paths;
   bool quiet = false;
   std::string command_line;

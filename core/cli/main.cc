@@ -199,6 +199,15 @@ int main(int argc, char** argv) {
                    "Groups of the nested assessment's inner cross-validation; 0 = leave one log out (default 4)")
       ->check(CLI::Range(0, 1000) & !CLI::IsMember({1}));
   tune->add_flag("--no-assess", tune_options.no_assess, "Skip the nested assessment (its scores are the honest ones)");
+  tune->add_option("--assess", tune_options.protocols,
+                   "How the nested assessment holds logs out, comma-separated, each reported: logs (leave one log "
+                   "out, or --folds groups), sessions (leave one session out, --sessions), extrapolation:INPUT[:F] "
+                   "(per class, the share F, default 0.25, of its logs with the largest mean |INPUT|); default logs");
+  tune->add_option("--sessions", tune_options.sessions,
+                   "File of 'GLOB SESSION' lines: which logs were recorded together (for --assess sessions)")
+      ->check(CLI::ExistingFile);
+  tune->add_option("--lockbox", tune_options.lockbox,
+                   "Logs kept aside (as --log): neither fitted nor tuned on, scored once by the tuned bank; repeatable");
   tune->add_option("--threads", tune_options.threads, "Worker threads (default: every core)")->check(CLI::NonNegativeNumber);
   tune->add_option("--window", tune_options.window, "The window objective's window in seconds (0: one-step)")
       ->check(CLI::NonNegativeNumber);
@@ -207,10 +216,12 @@ int main(int argc, char** argv) {
                  "Q with off-diagonal terms (likelihood: fitted; window: the correlations of the one-step errors)");
   tune->add_flag("--hold-unexcited", tune_options.hold_unexcited,
                  "Hold parameters the logs do not excite at their starting values instead of failing the fit");
-  tune->add_option("--output-bank", tune_options.output_bank, "Write the tuned bank (fitted on every log) here");
+  tune->add_option("--output-bank", tune_options.output_bank,
+                   "Write the tuned bank (fitted on every log but the lockbox) here");
   tune->add_option("--table", tune_options.table, "Write every log's held-out scores to this CSV");
   tune->add_option("--estimates", tune_options.estimates,
-                   "Write each log's nested-assessment steps to this directory, as `run` does, for `eval --estimates`");
+                   "Write each log's nested-assessment steps under this directory, a folder per protocol (and "
+                   "'lockbox'), as `run` does, for `eval --estimates`");
   tune->add_flag("--quiet,-q", tune_options.quiet, "No progress on stderr");
   add_plugin_path(tune);
 

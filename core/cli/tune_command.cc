@@ -11,6 +11,7 @@
 #include "skidimm/errors.h"
 #include "skidimm/fitting/bank_fit.h"
 #include "skidimm/fitting/bank_writer.h"
+#include "skidimm/fitting/sessions.h"
 #include "skidimm/fitting/solver_messages.h"
 #include "skidimm/fitting/tuning.h"
 #include "skidimm/output_file.h"
@@ -58,16 +59,34 @@ void print_scores(std::ostream& out, const std::string& title, const std::vector
       << number(summary.mean_log_probability) << "\n";
 }
 
-void write_table(const fs::path& file, const std::vector<LogScore>& selection, const std::vector<LogScore>& assessment) {
+// One row per scored log: `kind` is the protocol of a nested assessment
+// (logs, sessions, extrapolation-INPUT), lockbox, or selection.
+void write_table(const fs::path& file, const fitting::TuneResult& result) {
   std::ostringstream out;
   out << "kind,log,truth,accuracy,mean_log_probability,seconds\n";
-  for (const auto& [kind, scores] : {std::make_pair("assessment", &assessment), std::make_pair("selection", &selection)}) {
-    for (const LogScore& s : *scores) {
+  auto rows = [&](const std::string& kind, const std::vector<LogScore>& scores) {
+    for (const LogScore& s : scores) {
       out << kind << "," << s.log << "," << s.truth << "," << number(s.accuracy, "%.6f") << ","
           << number(s.mean_log_probability, "%.6f") << "," << number(s.seconds, "%.3f") << "\n";
     }
-  }
+  };
+  for (const fitting::Assessment& a : result.assessments) rows(a.protocol.slug(), a.scores);
+  rows("lockbox", result.lockbox.scores);
+  rows("selection", result.selection_scores);
   write_file_atomically(file, out.str());  // output_file.h: checked, renamed when whole
+}
+
+// What each protocol asks, for the printed titles.
+std::string question_of(const fitting::Protocol& p) {
+  switch (p.kind) {
+    case fitting::Protocol::Kind::kLogs:
+      return "each log held out";
+    case fitting::Protocol::Kind::kSessions:
+      return "each session held out";
+    case fitting::Protocol::Kind::kExtrapolation:
+      return "per class, the logs with the largest mean |" + p.input + "| held out together";
+  }
+  return "";
 }
 
 }  // namespace
@@ -80,17 +99,37 @@ int tune(const TuneCommandOptions& options) {
     const SamplingConfig sampling = sampling_of(config, options.rate);
 
     std::vector<fitting::TuningLog> logs;
-    for (const std::string& argument : options.logs) {
-      for (LogSpec& spec : expand_log_argument(argument)) {
-        require_rereadable(spec, "tune reads each log more than once");
-        fitting::TuningLog log;
-        log.fit_data = mode_segments(config, spec, options.mode, sampling);
-        if (spec.label.empty() && !options.mode.empty()) spec.label = options.mode;
-        log.spec = spec;
-        logs.push_back(std::move(log));
+    auto add_logs = [&](const std::vector<std::string>& arguments, bool lockbox) {
+      for (const std::string& argument : arguments) {
+        for (LogSpec& spec : expand_log_argument(argument)) {
+          require_rereadable(spec, "tune reads each log more than once");
+          fitting::TuningLog log;
+          log.fit_data = mode_segments(config, spec, options.mode, sampling);
+          if (spec.label.empty() && !options.mode.empty()) spec.label = options.mode;
+          log.spec = spec;
+          log.lockbox = lockbox;
+          logs.push_back(std::move(log));
+        }
       }
+    };
+    add_logs(options.logs, false);
+    const std::size_t development = logs.size();
+    add_logs(options.lockbox, true);
+    if (development < 2) throw Error("tune needs at least two logs to cross-validate (--log)");
+
+    std::vector<fitting::Protocol> protocols;
+    for (const std::string& p : split_list(options.protocols)) protocols.push_back(fitting::protocol_from_string(p));
+    if (protocols.empty()) throw Error("--assess: expected at least one protocol");
+    bool by_session = false;
+    for (const fitting::Protocol& p : protocols) by_session = by_session || p.kind == fitting::Protocol::Kind::kSessions;
+    if (by_session && options.sessions.empty()) throw Error("--assess sessions needs --sessions FILE");
+    if (!options.sessions.empty()) {
+      std::vector<std::string> first_files;
+      for (const fitting::TuningLog& l : logs) first_files.push_back(l.spec.files.front().path.string());
+      const std::vector<std::string> sessions =
+          fitting::sessions_of(first_files, fitting::read_sessions_file(options.sessions), options.sessions);
+      for (std::size_t i = 0; i < logs.size(); ++i) logs[i].session = sessions[i];
     }
-    if (logs.size() < 2) throw Error("tune needs at least two logs to cross-validate (--log)");
 
     fitting::TuneOptions tune_options;
     tune_options.objectives = split_list(options.objectives);
@@ -101,6 +140,7 @@ int tune(const TuneCommandOptions& options) {
     tune_options.folds = options.folds;
     tune_options.inner_folds = options.inner_folds;
     tune_options.assess = !options.no_assess;
+    tune_options.protocols = protocols;
     tune_options.threads = options.threads;
     tune_options.sampling = sampling;
     tune_options.assessment_estimates = options.estimates;
@@ -130,7 +170,11 @@ int tune(const TuneCommandOptions& options) {
         fitting::fit_bank(bank, data, fit_options);
       };
     }
-    tune_options.progress(std::to_string(logs.size()) + " logs, " +
+    tune_options.progress(std::to_string(development) + " logs" +
+                          (logs.size() > development ? " (and " + std::to_string(logs.size() - development) +
+                                                           " kept aside in the lockbox)"
+                                                     : std::string()) +
+                          ", " +
                           (options.folds > 0 ? std::to_string(options.folds) + "-fold" : "leave-one-log-out") +
                           " cross-validation" +
                           (tune_options.assess ? (options.inner_folds > 0
@@ -146,13 +190,18 @@ int tune(const TuneCommandOptions& options) {
     print_scores(out,
                  "cross-validation with the chosen settings (optimistic: the settings were chosen on these scores)",
                  result.selection_scores, result.selection, false);
-    if (tune_options.assess) {
+    for (const fitting::Assessment& a : result.assessments) {
       print_scores(out,
-                   "nested assessment (each log scored by models fitted and settings tuned without it)",
-                   result.assessment_scores, result.assessment, true);
+                   "nested assessment, protocol " + a.protocol.name() + " (" + question_of(a.protocol) +
+                       "; each scored by models fitted and settings tuned without it)",
+                   a.scores, a.summary, true);
+    }
+    if (!result.lockbox.scores.empty()) {
+      print_scores(out, "lockbox (kept aside, scored once by the bank tuned on the other logs)", result.lockbox.scores,
+                   result.lockbox.summary, false);
     }
     for (const std::string& w : result.warnings) std::cerr << "skidimm tune: warning: " << w << "\n";
-    if (!options.table.empty()) write_table(options.table, result.selection_scores, result.assessment_scores);
+    if (!options.table.empty()) write_table(options.table, result);
 
     if (!options.output_bank.empty()) {
       Bank tuned = Bank::load(options.bank, options.plugin_paths);
@@ -182,10 +231,15 @@ int tune(const TuneCommandOptions& options) {
       blocks.emplace_back("modes", modes_block);
       std::vector<std::string> header{"Written by skidimm tune; reproduce with:", "  " + options.command_line,
                                       "Chosen: " + result.settings.describe(config)};
-      if (tune_options.assess) {
-        header.push_back("Nested cross-validated accuracy " + number(result.assessment.accuracy) +
-                         ", mean log p(truth) " + number(result.assessment.mean_log_probability) +
-                         " (mean over classes of the mean over their logs)");
+      for (const fitting::Assessment& a : result.assessments) {
+        const bool logs = a.protocol.kind == fitting::Protocol::Kind::kLogs;
+        header.push_back("Nested cross-validated accuracy " + (logs ? "" : "(" + a.protocol.name() + ") ") +
+                         number(a.summary.accuracy) + ", mean log p(truth) " +
+                         number(a.summary.mean_log_probability) + " (mean over classes of the mean over their logs)");
+      }
+      if (!result.lockbox.scores.empty()) {
+        header.push_back("Lockbox accuracy " + number(result.lockbox.summary.accuracy) + ", mean log p(truth) " +
+                         number(result.lockbox.summary.mean_log_probability));
       }
       fitting::write_bank_from_template(options.bank, options.output_bank, header, blocks);
       std::cerr << "skidimm tune: wrote " << options.output_bank.string() << "\n";

@@ -7,6 +7,7 @@
 #include <set>
 
 #include "core/temp_files.h"
+#include "skidimm/fitting/sessions.h"
 
 namespace skidimm {
 namespace fitting {
@@ -39,6 +40,54 @@ TEST(GroupedFolds, LeaveOneOutAndStratifiedGroupsPartitionTheLogs) {
     for (int i : fold) EXPECT_NE(std::find(subset.begin(), subset.end(), i), subset.end());
   }
   EXPECT_EQ(grouped_folds(subset, classes, 10).size(), subset.size()) << "more folds than logs: one log each";
+}
+
+TEST(Protocols, ParseTheirNamesAndRefuseOthers) {
+  EXPECT_EQ(protocol_from_string("logs").kind, Protocol::Kind::kLogs);
+  EXPECT_EQ(protocol_from_string("sessions").kind, Protocol::Kind::kSessions);
+  const Protocol speed = protocol_from_string("extrapolation:speed");
+  EXPECT_EQ(speed.kind, Protocol::Kind::kExtrapolation);
+  EXPECT_EQ(speed.input, "speed");
+  EXPECT_EQ(speed.fraction, 0.25);
+  EXPECT_EQ(speed.name(), "extrapolation in speed");
+  EXPECT_EQ(speed.slug(), "extrapolation-speed");
+  EXPECT_EQ(protocol_from_string("extrapolation:turn:0.4").fraction, 0.4);
+  for (const char* bad : {"runs", "extrapolation:", "extrapolation:turn:1.5", "extrapolation:turn:x", ""}) {
+    try {
+      protocol_from_string(bad);
+      ADD_FAILURE() << "accepted '" << bad << "'";
+    } catch (const Error& e) {
+      EXPECT_THAT(e.what(), ::testing::HasSubstr("protocol '" + std::string(bad) + "'"));
+    }
+  }
+}
+
+// Extrapolation holds out, per class, the logs driven hardest in the input
+// (largest ranking), round(fraction x logs) of them, at least one and never
+// all; sessions hold out every log of a session together.
+TEST(Protocols, ExtrapolationHoldsOutTheHardestDrivenLogsOfEachClassAndSessionsHoldOutWholeSessions) {
+  const std::vector<std::string> classes{"ice", "ice", "ice", "ice", "snow", "snow", "sand", "rock", "rock"};
+  const std::vector<double> speed{0.2, 0.8, 0.3, 0.5, 0.1, 0.4, 9.0, 0.3, 0.3};
+  const std::vector<int> all{0, 1, 2, 3, 4, 5, 6, 7, 8};
+  Protocol extrapolation = protocol_from_string("extrapolation:speed");
+  auto folds = protocol_folds(extrapolation, all, classes, {}, speed, 0);
+  ASSERT_EQ(folds.size(), 1u);
+  // ice: round(0.25 x 4) = 1, the fastest (1); snow: 1 of 2, the faster (5);
+  // sand: its only log stays; rock: a tie, the first listed (7).
+  EXPECT_EQ(folds[0], (std::vector<int>{1, 5, 7}));
+  extrapolation.fraction = 0.6;  // ice: round(2.4) = 2; snow: 1 (never all)
+  EXPECT_EQ(protocol_folds(extrapolation, all, classes, {}, speed, 0)[0], (std::vector<int>{1, 3, 5, 7}));
+  // Only the members count: without log 1, ice's fastest is 3.
+  EXPECT_EQ(protocol_folds(protocol_from_string("extrapolation:speed"), {0, 2, 3, 4, 5}, classes, {}, speed, 0)[0],
+            (std::vector<int>{3, 5}));
+  EXPECT_THROW(protocol_folds(extrapolation, {6, 4}, classes, {}, speed, 0), Error);
+
+  const std::vector<std::string> sessions{"mon", "mon", "tue", "", "tue", "mon", "", "wed", "wed"};
+  folds = protocol_folds(protocol_from_string("sessions"), all, classes, sessions, {}, 0);
+  std::set<std::vector<int>> got(folds.begin(), folds.end());
+  EXPECT_EQ(got, (std::set<std::vector<int>>{{0, 1, 5}, {2, 4}, {7, 8}, {3}, {6}}));
+  EXPECT_THROW(protocol_folds(protocol_from_string("sessions"), {0, 1}, classes, sessions, {}, 0), Error);
+  EXPECT_EQ(protocol_folds(Protocol{}, all, classes, sessions, {}, 0), grouped_folds(all, classes, 0));
 }
 
 TEST(TuningSummary, AveragesLogsWithinAClassThenClasses) {
@@ -99,6 +148,94 @@ TEST(TunedSettings, ApplyScalesFittedValuesAndSetsTheTransitionAndFloor) {
   EXPECT_THROW(knob_from_string("r_scale"), Error);
   EXPECT_EQ(knob_from_string("q-modes"), Knob::kQModes);
   EXPECT_EQ(knob_from_string("likelihood-weight"), Knob::kLikelihoodWeight);
+  EXPECT_EQ(knob_from_string("likelihood-dof"), Knob::kLikelihoodDof);
+  s.likelihood_dof = 4.0;
+  apply(fitted, s, &bank);
+  EXPECT_EQ(bank.config.likelihood_dof, 4.0);
+  EXPECT_THAT(s.describe(bank.config), ::testing::EndsWith("likelihood weight 0.25, likelihood dof 4"));
+}
+
+TEST(Sessions, APatternMatchesAPathOrItsEndAndEveryLogNeedsOne) {
+  const auto file = write_file(test_directory() / "sessions.txt",
+                               "# glob            session\n"
+                               "SNOW/pro_0[0-2].csv  snow-a   # the first three runs\n"
+                               "\n"
+                               "SNOW/pro_*.csv  snow-b\n"
+                               "/abs/ice/*.csv  ice\n");
+  const auto patterns = read_sessions_file(file);
+  ASSERT_EQ(patterns.size(), 3u);
+  EXPECT_EQ(patterns[1].line, 4);
+  EXPECT_EQ(sessions_of({"../data/SNOW/pro_01.csv", "SNOW/pro_05.csv", "/abs/ice/pro_00.csv"}, patterns, file),
+            (std::vector<std::string>{"snow-a", "snow-b", "ice"}));
+  try {
+    sessions_of({"SNOW/pro_01.csv", "ice/pro_00.csv", "x/SNOW/sub/pro_01.csv"}, patterns, file);
+    ADD_FAILURE() << "accepted logs of no session";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("sessions.txt: no line gives the session of 2 log(s)"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("\n  ice/pro_00.csv\n  x/SNOW/sub/pro_01.csv"));
+  }
+  const auto bad = write_file(test_directory() / "bad.txt", "SNOW/*.csv snow extra\n");
+  EXPECT_THROW(
+      {
+        try {
+          read_sessions_file(bad);
+        } catch (const Error& e) {
+          EXPECT_THAT(e.what(), ::testing::HasSubstr("bad.txt:1: expected 'GLOB SESSION'"));
+          throw;
+        }
+      },
+      Error);
+}
+
+// Logs kept aside are neither fitted nor tuned on: tuning with them in the
+// lockbox chooses what tuning without them does, and scores them once with
+// the bank it ends with. On real BorealTC runs, the bundled bank's models
+// kept (objective none), the likelihood weight tuned.
+TEST(Tune, LockboxLogsAreScoredOnceAndChangeNothingElse) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!std::filesystem::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  auto log = [&](const std::string& terrain, const std::string& run) {
+    TuningLog l;
+    l.spec = parse_log_spec(terrain + "=" + boreal + "/" + terrain + "/pro_" + run + ".csv+" + boreal + "/" + terrain +
+                            "/imu_" + run + ".csv");
+    return l;
+  };
+  const std::filesystem::path bank_file = std::string(SKIDIMM_SOURCE_DIR) + "/configs/borealtc/terrains.yaml";
+  const auto make_bank = [&] { return Bank::load(bank_file, {SKIDIMM_PLUGIN_DIR}); };
+  std::vector<TuningLog> development{log("ICE", "04"), log("ICE", "11"), log("FLOORING", "01"), log("FLOORING", "08")};
+  std::vector<TuningLog> with_lockbox = development;
+  with_lockbox.push_back(log("ICE", "07"));
+  with_lockbox.back().lockbox = true;
+  const std::map<std::string, BankFitter> fitters{{"none", [](Bank*, const std::vector<ModeLogs>&) {}}};
+  TuneOptions options;
+  options.objectives = {"none"};
+  options.separable = {"none"};
+  options.knobs = {Knob::kLikelihoodWeight};
+  options.sweeps = 1;
+  options.inner_folds = 0;
+  options.threads = 2;
+  options.sampling = make_bank().config.sampling;
+  const TuneResult without = tune(make_bank, development, fitters, options);
+  const TuneResult with = tune(make_bank, with_lockbox, fitters, options);
+  EXPECT_EQ(with.settings.likelihood_weight, without.settings.likelihood_weight);
+  ASSERT_EQ(with.assessments.size(), 1u);
+  ASSERT_EQ(with.assessments[0].scores.size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) {
+    EXPECT_EQ(with.assessments[0].scores[i].log, without.assessments[0].scores[i].log);
+    EXPECT_EQ(with.assessments[0].scores[i].mean_log_probability,
+              without.assessments[0].scores[i].mean_log_probability);
+  }
+  EXPECT_TRUE(without.lockbox.scores.empty());
+  ASSERT_EQ(with.lockbox.scores.size(), 1u);
+  EXPECT_EQ(with.lockbox.scores[0].log, "pro_07.csv+imu_07.csv");
+  EXPECT_EQ(with.lockbox.scores[0].truth, "ICE");
+  // Scored by the bank the tune ends with.
+  Bank tuned = make_bank();
+  apply(with.fitted, with.settings, &tuned);
+  const TuningLog held = log("ICE", "07");
+  const LogScore direct = score_logs(tuned, {&held}, options.sampling).front();
+  EXPECT_EQ(with.lockbox.scores[0].mean_log_probability, direct.mean_log_probability);
+  EXPECT_EQ(with.lockbox.scores[0].accuracy, direct.accuracy);
 }
 
 }  // namespace

@@ -85,6 +85,88 @@ std::vector<std::vector<int>> grouped_folds(const std::vector<int>& members, con
   return out;
 }
 
+std::string Protocol::name() const {
+  switch (kind) {
+    case Kind::kLogs:
+      return "logs";
+    case Kind::kSessions:
+      return "sessions";
+    case Kind::kExtrapolation:
+      return "extrapolation in " + input;
+  }
+  return "?";
+}
+
+std::string Protocol::slug() const { return kind == Kind::kExtrapolation ? "extrapolation-" + input : name(); }
+
+Protocol protocol_from_string(const std::string& text) {
+  Protocol p;
+  if (text == "logs") return p;
+  if (text == "sessions") {
+    p.kind = Protocol::Kind::kSessions;
+    return p;
+  }
+  const std::string prefix = "extrapolation:";
+  if (text.compare(0, prefix.size(), prefix) == 0 && text.size() > prefix.size()) {
+    p.kind = Protocol::Kind::kExtrapolation;
+    std::string rest = text.substr(prefix.size());
+    const std::size_t colon = rest.find(':');
+    p.input = rest.substr(0, colon);
+    if (colon != std::string::npos) {
+      const std::string fraction = rest.substr(colon + 1);
+      char* end = nullptr;
+      p.fraction = std::strtod(fraction.c_str(), &end);
+      if (fraction.empty() || end != fraction.c_str() + fraction.size() || !(p.fraction > 0.0 && p.fraction < 1.0)) {
+        throw Error("protocol '" + text + "': expected a fraction in (0, 1) after the input, got '" + fraction + "'");
+      }
+    }
+    if (!p.input.empty()) return p;
+  }
+  throw Error("unknown protocol '" + text + "' (expected logs, sessions, extrapolation:INPUT or "
+              "extrapolation:INPUT:FRACTION)");
+}
+
+std::vector<std::vector<int>> protocol_folds(const Protocol& protocol, const std::vector<int>& members,
+                                             const std::vector<std::string>& classes,
+                                             const std::vector<std::string>& sessions,
+                                             const std::vector<double>& ranking, int folds) {
+  switch (protocol.kind) {
+    case Protocol::Kind::kLogs:
+      return grouped_folds(members, classes, folds);
+    case Protocol::Kind::kSessions: {
+      std::map<std::string, std::vector<int>> by_session;
+      for (int i : members) {
+        const std::string& session = sessions[static_cast<std::size_t>(i)];
+        // A log of no session is a session of its own (the \x01 keeps it apart from every name).
+        by_session[session.empty() ? "\x01" + std::to_string(i) : session].push_back(i);
+      }
+      if (by_session.size() < 2) throw Error("protocol 'sessions' needs logs from at least two sessions");
+      std::vector<std::vector<int>> out;
+      for (auto& [session, held] : by_session) out.push_back(std::move(held));
+      return out;
+    }
+    case Protocol::Kind::kExtrapolation: {
+      std::map<std::string, std::vector<int>> by_class;
+      for (int i : members) by_class[classes[static_cast<std::size_t>(i)]].push_back(i);
+      std::vector<int> held;
+      for (auto& [name, logs] : by_class) {
+        if (logs.size() < 2) continue;  // a class's only log stays in training
+        std::stable_sort(logs.begin(), logs.end(), [&](int a, int b) {
+          return ranking[static_cast<std::size_t>(a)] > ranking[static_cast<std::size_t>(b)];
+        });
+        const std::size_t count =
+            std::min(logs.size() - 1,
+                     std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(protocol.fraction * logs.size()))));
+        held.insert(held.end(), logs.begin(), logs.begin() + static_cast<std::ptrdiff_t>(count));
+      }
+      if (held.empty()) throw Error("protocol '" + protocol.name() + "' needs a class with at least two logs");
+      std::sort(held.begin(), held.end());
+      return {held};
+    }
+  }
+  return {};
+}
+
 namespace {
 
 // The members of `within` not in `excluded`.
@@ -273,16 +355,24 @@ class Tuner {
   }
 
   TuneResult run() {
-    std::vector<int> everything(logs_.size());
-    for (std::size_t i = 0; i < logs_.size(); ++i) everything[i] = static_cast<int>(i);
-    const auto outer = grouped_folds(everything, classes_, options_.folds);
+    std::vector<int> development;
+    std::vector<int> lockbox;
+    for (std::size_t i = 0; i < logs_.size(); ++i) (logs_[i].lockbox ? lockbox : development).push_back(static_cast<int>(i));
+    development_ = development;
+    if (development.size() < 2) throw Error("tuning by cross-validation needs at least two logs besides the lockbox");
+    const auto outer = grouped_folds(development, classes_, options_.folds);
+    std::vector<std::vector<std::vector<int>>> protocol_folds;
+    if (options_.assess) {
+      for (const Protocol& p : options_.protocols) protocol_folds.push_back(folds_of(p, development, outer));
+    }
     // Every fit the run needs, computed once, in parallel.
     std::vector<std::pair<std::string, std::vector<int>>> fits;
     for (const std::string& objective : options_.objectives) {
-      for (const auto& held : outer) fits.emplace_back(objective, complement(held, everything));
-      if (options_.assess) {
-        for (const auto& held : outer) {
-          const std::vector<int> inner_logs = complement(held, everything);
+      for (const auto& held : outer) fits.emplace_back(objective, complement(held, development));
+      for (const auto& folds : protocol_folds) {
+        for (const auto& held : folds) {
+          const std::vector<int> inner_logs = complement(held, development);
+          fits.emplace_back(objective, inner_logs);
           for (const auto& inner_held : grouped_folds(inner_logs, classes_, options_.inner_folds)) {
             fits.emplace_back(objective, complement(inner_held, inner_logs));
           }
@@ -295,7 +385,7 @@ class Tuner {
     // Selection: the settings that score best over the outer folds.
     double best = -std::numeric_limits<double>::infinity();
     for (const std::string& objective : options_.objectives) {
-      TunedSettings s = search(objective, outer, everything, &result.selection_scores);
+      TunedSettings s = search(objective, outer, development, &result.selection_scores);
       const double score = summarize(result.selection_scores).mean_log_probability;
       progress("objective " + objective + ": cross-validated mean log p(truth) " + number(score));
       if (score > best) {
@@ -303,40 +393,35 @@ class Tuner {
         result.settings = s;
       }
     }
-    result.selection_scores = evaluate(result.settings, outer, everything);
+    result.selection_scores = evaluate(result.settings, outer, development);
     result.selection = summarize(result.selection_scores);
 
-    // Assessment: each outer fold's settings tuned on the other logs alone.
-    if (options_.assess) {
-      if (!options_.assessment_estimates.empty()) std::filesystem::create_directories(options_.assessment_estimates);
-      int done = 0;
-      for (const auto& held : outer) {
-        const std::vector<int> inner_logs = complement(held, everything);
-        const auto inner = grouped_folds(inner_logs, classes_, options_.inner_folds);
-        TunedSettings fold_best;
-        double fold_score = -std::numeric_limits<double>::infinity();
-        for (const std::string& objective : options_.objectives) {
-          std::vector<LogScore> scores;
-          TunedSettings s = search(objective, inner, inner_logs, &scores, /*quiet=*/true);
-          const double score = summarize(scores).mean_log_probability;
-          if (score > fold_score) {
-            fold_score = score;
-            fold_best = s;
-          }
-        }
-        for (LogScore& score : evaluate(fold_best, {held}, everything, /*write_estimates=*/true)) {
-          score.settings = fold_best.describe(banks_[0].config);
-          result.assessment_scores.push_back(score);
-        }
-        progress("assessment: " + std::to_string(++done) + "/" + std::to_string(outer.size()) + " folds");
-      }
-      result.assessment = summarize(result.assessment_scores);
+    // Assessment, per protocol: each held-out set scored with settings tuned
+    // on the other logs alone.
+    for (std::size_t p = 0; p < protocol_folds.size(); ++p) {
+      result.assessments.push_back(assess(options_.protocols[p], protocol_folds[p], development));
     }
 
-    // The final bank: the chosen objective fitted on every log.
-    compute_fits({{result.settings.objective, everything}});
-    result.fitted = fit_of(result.settings.objective, everything);
-    result.warnings = warnings_;
+    // The final bank: the chosen objective fitted on every log but the lockbox.
+    compute_fits({{result.settings.objective, development}});
+    result.fitted = fit_of(result.settings.objective, development);
+    result.lockbox.protocol.kind = Protocol::Kind::kLogs;
+    if (!lockbox.empty()) {
+      std::vector<int> all = development;
+      all.insert(all.end(), lockbox.begin(), lockbox.end());
+      result.lockbox.scores = evaluate(result.settings, {lockbox}, all, "lockbox");
+      for (LogScore& score : result.lockbox.scores) score.settings = result.settings.describe(banks_[0].config);
+      result.lockbox.summary = summarize(result.lockbox.scores);
+      progress("lockbox: " + std::to_string(lockbox.size()) + " logs scored once by the tuned bank");
+    }
+    // One line per distinct warning: folds repeat them.
+    std::map<std::string, int> seen;
+    for (const std::string& w : warnings_) {
+      if (seen[w]++ == 0) result.warnings.push_back(w);
+    }
+    for (std::string& w : result.warnings) {
+      if (seen[w] > 1) w += " (" + std::to_string(seen[w]) + " folds)";
+    }
     return result;
   }
 
@@ -345,6 +430,77 @@ class Tuner {
 
   void progress(const std::string& line) const {
     if (options_.progress) options_.progress(line);
+  }
+
+  // The held-out sets of a protocol over the development logs.
+  std::vector<std::vector<int>> folds_of(const Protocol& protocol, const std::vector<int>& development,
+                                         const std::vector<std::vector<int>>& outer) const {
+    if (protocol.kind == Protocol::Kind::kLogs) return outer;
+    std::vector<std::string> sessions;
+    for (const TuningLog& l : logs_) sessions.push_back(l.session);
+    std::vector<double> ranking(logs_.size(), 0.0);
+    if (protocol.kind == Protocol::Kind::kExtrapolation) {
+      const int input = input_index(protocol.input);
+      for (int i : development) ranking[static_cast<std::size_t>(i)] = mean_absolute_input(i, input);
+    }
+    return protocol_folds(protocol, development, classes_, sessions, ranking, options_.folds);
+  }
+
+  int input_index(const std::string& name) const {
+    const std::vector<std::string>& inputs = banks_[0].config.input_names;
+    const auto found = std::find(inputs.begin(), inputs.end(), name);
+    if (found == inputs.end()) {
+      std::string known;
+      for (const std::string& n : inputs) known += (known.empty() ? "" : ", ") + n;
+      throw Error("extrapolation: '" + name + "' is not an input of bank '" + banks_[0].config.name + "' (inputs: " +
+                  known + ")");
+    }
+    return static_cast<int>(found - inputs.begin());
+  }
+
+  // Mean |u[input]| over a log's steps: how hard it was driven in that input.
+  double mean_absolute_input(int log, int input) const {
+    double sum = 0.0;
+    long count = 0;
+    for (const LogSample& s : recorded_[static_cast<std::size_t>(log)].samples()) {
+      if (input < s.u.size() && std::isfinite(s.u[input])) {
+        sum += std::abs(s.u[input]);
+        ++count;
+      }
+    }
+    return count > 0 ? sum / static_cast<double>(count) : 0.0;
+  }
+
+  // A protocol's nested assessment: each held-out set scored by models fitted
+  // and settings tuned (by the inner cross-validation) on the others alone.
+  Assessment assess(const Protocol& protocol, const std::vector<std::vector<int>>& folds,
+                    const std::vector<int>& development) {
+    Assessment out;
+    out.protocol = protocol;
+    int done = 0;
+    for (const auto& held : folds) {
+      const std::vector<int> inner_logs = complement(held, development);
+      const auto inner = grouped_folds(inner_logs, classes_, options_.inner_folds);
+      TunedSettings fold_best;
+      double fold_score = -std::numeric_limits<double>::infinity();
+      for (const std::string& objective : options_.objectives) {
+        std::vector<LogScore> scores;
+        TunedSettings s = search(objective, inner, inner_logs, &scores, /*quiet=*/true);
+        const double score = summarize(scores).mean_log_probability;
+        if (score > fold_score) {
+          fold_score = score;
+          fold_best = s;
+        }
+      }
+      for (LogScore& score : evaluate(fold_best, {held}, development, protocol.slug())) {
+        score.settings = fold_best.describe(banks_[0].config);
+        out.scores.push_back(score);
+      }
+      progress("assessment (" + protocol.name() + "): " + std::to_string(++done) + "/" + std::to_string(folds.size()) +
+               " folds");
+    }
+    out.summary = summarize(out.scores);
+    return out;
   }
 
   void compute_fits(const std::vector<FitKey>& keys) {
@@ -386,6 +542,7 @@ class Tuner {
       }
     }
     std::vector<std::pair<Eigen::VectorXd, Eigen::MatrixXd>> values(todo.size());
+    std::vector<std::string> failures(todo.size());
     std::atomic<int> finished{0};
     std::mutex progress_mutex;
     parallel_for(static_cast<int>(todo.size()), workers_, [&](int i, int w) {
@@ -396,7 +553,15 @@ class Tuner {
       for (ModeLogs& d : training_data(logs_, members)) {
         if (d.mode == j) data.push_back(std::move(d));
       }
-      fitters_.at(objective)(&bank, data);
+      // A fold may leave a mode too little data to fit (a protocol that holds
+      // out every straight run of a terrain): the fold keeps the mode's
+      // starting values, and says so; the final fit on every log may not.
+      try {
+        fitters_.at(objective)(&bank, data);
+      } catch (const FitError& e) {
+        failures[static_cast<std::size_t>(i)] = e.what();
+        return;
+      }
       const FittedValues fitted = values_of(bank);
       values[static_cast<std::size_t>(i)] = {fitted.parameters[static_cast<std::size_t>(j)],
                                              fitted.q[static_cast<std::size_t>(j)]};
@@ -406,13 +571,27 @@ class Tuner {
         progress("fitted " + std::to_string(n) + "/" + std::to_string(todo.size()) + " modes");
       }
     });
-    for (std::size_t i = 0; i < todo.size(); ++i) mode_fits_[todo[i]] = values[i];
+    for (std::size_t i = 0; i < todo.size(); ++i) {
+      if (failures[i].empty()) {
+        mode_fits_[todo[i]] = values[i];
+      } else {
+        mode_fit_failures_[todo[i]] = failures[i];
+      }
+    }
     for (const FitKey& k : keys) {
       if (fits_.count(k)) continue;
       FittedValues v = base_;
       std::string missing;
       for (int j = 0; j < modes; ++j) {
-        const auto found = mode_fits_.find(ModeKey{k.first, j, members_of_mode(k.second, j)});
+        const ModeKey key{k.first, j, members_of_mode(k.second, j)};
+        const auto failed = mode_fit_failures_.find(key);
+        if (failed != mode_fit_failures_.end()) {
+          if (k.second == development_) throw FitError(failed->second);
+          warnings_.push_back("a fold could not fit mode '" + banks_[0].config.modes[static_cast<std::size_t>(j)].name +
+                              "' and kept its starting values: " + failed->second);
+          continue;
+        }
+        const auto found = mode_fits_.find(key);
         if (found == mode_fits_.end()) {
           missing += " '" + banks_[0].config.modes[static_cast<std::size_t>(j)].name + "'";
           continue;
@@ -470,13 +649,13 @@ class Tuner {
     return fits_.at(FitKey{objective, members});
   }
 
-  // NNN_<label>_<first file's stem>.csv: unique even when runs of two
+  // <folder>/NNN_<label>_<first file's stem>.csv: unique even when runs of two
   // terrains share file names.
-  std::filesystem::path estimates_path(int i) const {
+  std::filesystem::path estimates_path(const std::string& folder, int i) const {
     const LogSpec& spec = logs_[static_cast<std::size_t>(i)].spec;
     char index[16];
     std::snprintf(index, sizeof(index), "%03d_", i);
-    return options_.assessment_estimates /
+    return options_.assessment_estimates / folder /
            (index + (spec.label.empty() ? "" : spec.label + "_") + spec.files.front().path.stem().string() + ".csv");
   }
 
@@ -490,8 +669,12 @@ class Tuner {
   }
 
   // Scores each fold's held-out logs with the fold's fit and `settings`.
+  // With `estimates_folder`, each held-out log's steps are written under
+  // assessment_estimates/estimates_folder (when set).
   std::vector<LogScore> evaluate(const TunedSettings& settings, const std::vector<std::vector<int>>& folds,
-                                 const std::vector<int>& within, bool write_estimates = false) {
+                                 const std::vector<int>& within, const std::string& estimates_folder = "") {
+    const bool write_estimates = !estimates_folder.empty() && !options_.assessment_estimates.empty();
+    if (write_estimates) std::filesystem::create_directories(options_.assessment_estimates / estimates_folder);
     std::vector<std::vector<LogScore>> per_fold(folds.size());
     parallel_for(static_cast<int>(folds.size()), workers_, [&](int f, int w) {
       Bank& bank = banks_[static_cast<std::size_t>(w)];
@@ -505,7 +688,7 @@ class Tuner {
       apply(fit_of(settings.objective, training), settings, &bank);
       for (int i : held_out) {
         const std::filesystem::path estimates =
-            write_estimates && !options_.assessment_estimates.empty() ? estimates_path(i) : std::filesystem::path();
+            write_estimates ? estimates_path(estimates_folder, i) : std::filesystem::path();
         per_fold[static_cast<std::size_t>(f)].push_back(score_recorded(bank, i, estimates));
       }
     });
@@ -643,6 +826,8 @@ class Tuner {
   std::vector<RecordedLog> recorded_;
   std::map<FitKey, FittedValues> fits_;
   std::map<std::tuple<std::string, int, std::vector<int>>, std::pair<Eigen::VectorXd, Eigen::MatrixXd>> mode_fits_;
+  std::map<std::tuple<std::string, int, std::vector<int>>, std::string> mode_fit_failures_;  // why a fold's fit failed
+  std::vector<int> development_;  // every log but the lockbox: the final fit's
   std::vector<std::string> warnings_;
 };
 

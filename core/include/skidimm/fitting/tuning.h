@@ -44,7 +44,34 @@ namespace fitting {
 struct TuningLog {
   LogSpec spec;
   std::vector<ModeLogs> fit_data;
+  // Which session the log was recorded in (Protocol::kSessions): logs of one
+  // session (one day, one place, one robot set-up) share what changes
+  // between sessions, and are held out together. Empty: its own.
+  std::string session;
+  // Kept aside: neither fitted nor tuned on; scored once, by the bank fitted
+  // and tuned on the other logs (TuneResult::lockbox).
+  bool lockbox = false;
 };
+
+// How the nested assessment holds logs out (docs/tuning.md, "Protocols").
+// Each asks a different question about the next run; the most pessimistic
+// answer is the one to expect of a run unlike the training runs.
+struct Protocol {
+  enum class Kind {
+    kLogs,           // another run like these: leave one log out (or TuneOptions::folds groups)
+    kSessions,       // a run from a session none of these came from: leave one session out
+    kExtrapolation,  // a run driven beyond these: per class, the logs with the largest mean |input|, held out together
+  };
+  Kind kind = Kind::kLogs;
+  std::string input;       // kExtrapolation: the bank input whose mean absolute value ranks a class's logs
+  double fraction = 0.25;  // kExtrapolation: the share of each class's logs held out (at least one, never all)
+  // "logs", "sessions", "extrapolation in speed"; slug(): "logs", "sessions", "extrapolation-speed".
+  std::string name() const;
+  std::string slug() const;
+};
+// "logs", "sessions", "extrapolation:INPUT" or "extrapolation:INPUT:FRACTION".
+// Throws Error naming what was expected.
+Protocol protocol_from_string(const std::string& text);
 
 // What a fit produced, apart from the bank it was fitted in.
 struct FittedValues {
@@ -92,12 +119,14 @@ struct TuneOptions {
   int folds = 0;        // 0: leave one log out; K >= 2: K groups of logs
   int inner_folds = 4;  // the nested assessment's inner cross-validation
   bool assess = true;   // run the nested assessment
+  std::vector<Protocol> protocols{Protocol{}};  // how the nested assessment holds logs out, each reported
   int sweeps = 2;       // coordinate-search passes over the knobs
   int threads = 0;      // 0: the machine's cores
   SamplingConfig sampling;
   std::function<void(const std::string&)> progress;  // one line at a time; may be empty
-  // When set, the nested assessment writes each held-out log's steps there,
-  // as `skidimm run` would (NNN_<label>_<first file>.csv), for `eval --estimates`.
+  // When set, the nested assessment writes each held-out log's steps under
+  // it, as `skidimm run` would, one folder per protocol and one for the
+  // lockbox (<slug>/NNN_<label>_<first file>.csv), for `eval --estimates`.
   std::filesystem::path assessment_estimates;
 };
 
@@ -120,13 +149,23 @@ struct Summary {
 };
 Summary summarize(const std::vector<LogScore>& scores);
 
+// What one protocol's nested assessment found: honest, as no log was scored
+// by models fitted or settings tuned on it.
+struct Assessment {
+  Protocol protocol;
+  Summary summary;
+  std::vector<LogScore> scores;
+};
+
 struct TuneResult {
-  TunedSettings settings;            // chosen on all logs
+  TunedSettings settings;            // chosen on all logs but the lockbox
   Summary selection;                 // the folds' scores with the chosen settings: optimistic
   std::vector<LogScore> selection_scores;
-  Summary assessment;                // nested: honest
-  std::vector<LogScore> assessment_scores;
-  FittedValues fitted;               // the final fit on every log
+  std::vector<Assessment> assessments;  // one per protocol, in TuneOptions::protocols' order
+  // The lockbox logs scored once by the final bank (protocol name "lockbox");
+  // empty scores when no log was kept aside.
+  Assessment lockbox;
+  FittedValues fitted;               // the final fit on every log but the lockbox
   std::vector<std::string> warnings;
 };
 
@@ -140,6 +179,17 @@ TuneResult tune(const std::function<Bank()>& make_bank, const std::vector<Tuning
 // out class by class, so each group holds every class it can.
 std::vector<std::vector<int>> grouped_folds(const std::vector<int>& members, const std::vector<std::string>& classes,
                                             int folds);
+
+// The held-out sets of `protocol` over `members` (indices into the other
+// vectors): kLogs, grouped_folds(members, classes, folds); kSessions, one set
+// per session (a log of no session is its own); kExtrapolation, one set: per
+// class of at least two logs, the round(fraction x its logs) of largest
+// `ranking` (at least one, never all). Throws Error when a protocol cannot
+// hold anything out.
+std::vector<std::vector<int>> protocol_folds(const Protocol& protocol, const std::vector<int>& members,
+                                             const std::vector<std::string>& classes,
+                                             const std::vector<std::string>& sessions,
+                                             const std::vector<double>& ranking, int folds);
 
 // Scores logs with a bank as it is (no fitting): the evaluator tune uses.
 // With `estimates`, one file per log is written there (estimates[i]).
