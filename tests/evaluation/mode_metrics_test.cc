@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "skidimm/evaluation/consistency.h"
+#include "skidimm/evaluation/log_evaluation.h"
 
 namespace skidimm {
 namespace evaluation {
@@ -25,6 +26,66 @@ TEST(ModeMetrics, AccuracyConfusionAndProbabilityByTime) {
   EXPECT_DOUBLE_EQ(m.confusion.at("a").at("b"), 2.0);
   EXPECT_DOUBLE_EQ(m.confusion.at("b").at("b"), 2.0);
   EXPECT_DOUBLE_EQ(m.mean_truth_probability(), (0.9 * 1 + 0.4 * 2 + 0.8 * 1 + 0.6 * 1) / 5.0);
+}
+
+// Calibration by hand: rows at t = 0, 1, 3, 4, 5 (weights 1, 2, 1, 1, 1 s),
+// estimate probabilities 0.95 (right), 0.92 (wrong), 0.55 (right), 0.58
+// (wrong), and an "unknown" row, which is in no bin.
+TEST(ModeMetrics, CalibrationBinsExpectedErrorAndBrierScore) {
+  std::vector<LabelledStep> s = steps({{0, "a", "a", 0.95}, {1, "a", "b", 0.05}, {3, "b", "b", 0.55},
+                                       {4, "b", "a", 0.42}, {5, "b", "unknown", 0.5}});
+  const double p[] = {0.95, 0.92, 0.55, 0.58, 0.5};
+  const double brier[] = {0.005, 1.7, 0.4, 0.5, 0.5};
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    s[k].estimate_probability = s[k].estimate == "unknown" ? 0.0 : p[k];
+    s[k].brier = brier[k];
+  }
+  const ModeMetrics m = compute_mode_metrics(s, {"a", "b"});
+  const CalibrationBin& top = m.calibration[9];
+  EXPECT_DOUBLE_EQ(top.seconds, 3.0);
+  EXPECT_DOUBLE_EQ(top.correct, 1.0);
+  EXPECT_DOUBLE_EQ(top.confidence, 0.95 + 2 * 0.92);
+  const CalibrationBin& middle = m.calibration[5];
+  EXPECT_DOUBLE_EQ(middle.seconds, 2.0);
+  EXPECT_DOUBLE_EQ(middle.correct, 1.0);
+  EXPECT_DOUBLE_EQ(middle.mean_confidence(), (0.55 + 0.58) / 2);
+  for (int b : {0, 1, 2, 3, 4, 6, 7, 8}) EXPECT_EQ(m.calibration[static_cast<std::size_t>(b)].seconds, 0.0);
+  // ECE over the 5 binned seconds: 3 |1/3 - 0.93| + 2 |1/2 - 0.565|.
+  EXPECT_NEAR(m.expected_calibration_error(), (std::abs(1.0 - 2.79) + std::abs(1.0 - 1.13)) / 5.0, 1e-12);
+  EXPECT_DOUBLE_EQ(m.confident_fraction(), 3.0 / 5.0);
+  EXPECT_DOUBLE_EQ(m.confident_accuracy(), 1.0 / 3.0);
+  EXPECT_NEAR(m.mean_brier(), (0.005 + 2 * 1.7 + 0.4 + 0.5 + 0.5) / 6.0, 1e-12);
+  ModeMetrics twice = m;
+  twice.merge(m);
+  EXPECT_DOUBLE_EQ(twice.calibration[9].correct, 2.0);
+  EXPECT_DOUBLE_EQ(twice.expected_calibration_error(), m.expected_calibration_error());
+  EXPECT_TRUE(std::isnan(compute_mode_metrics(steps({{0, "a", "a", 0.5}, {1, "a", "a", 0.5}}), {"a"})
+                             .confident_accuracy()));
+}
+
+// Modes a1 and a2 make class A, b its own: probabilities 0.5, 0.2, 0.3 are
+// A 0.7, b 0.3. Brier for truth A: (0.7 - 1)^2 + 0.3^2; for a truth the bank
+// cannot answer: 0.7^2 + 0.3^2 + 1.
+TEST(ClassScorer, GivesTheEstimatesProbabilityAndTheBrierScoreOfAStep) {
+  BankConfig config;
+  for (const char* name : {"a1", "a2", "b"}) {
+    ModeConfig mode;
+    mode.name = name;
+    config.modes.push_back(mode);
+  }
+  config.classes.push_back(ClassConfig{"A", {0, 1}});
+  const ClassScorer scorer(config);
+  Eigen::VectorXd mu(3);
+  mu << 0.5, 0.2, 0.3;
+  const LabelledStep step = scorer.score(1.0, "A", mu);
+  EXPECT_EQ(step.estimate, "A");
+  EXPECT_DOUBLE_EQ(step.estimate_probability, 0.7);
+  EXPECT_NEAR(step.brier, 0.09 + 0.09, 1e-15);
+  EXPECT_NEAR(scorer.score(1.0, "a2", mu).brier, 0.18, 1e-15) << "a mode's label scores its class";
+  EXPECT_NEAR(scorer.score(1.0, "gravel", mu).brier, 0.49 + 0.09 + 1.0, 1e-15);
+  EXPECT_DOUBLE_EQ(scorer.decided(step, "b").estimate_probability, 0.3);
+  EXPECT_EQ(scorer.decided(step, "unknown").estimate_probability, 0.0);
+  EXPECT_EQ(scorer.decided(step, "unknown").truth_probability, 0.7);
 }
 
 TEST(ModeMetrics, SwitchLatencyFirstAndSettled) {

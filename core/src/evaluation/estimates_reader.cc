@@ -99,9 +99,8 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank, const
     }
     steps.push_back(scorer.score(time, f[static_cast<std::size_t>(truth)], mu));
     if (decision >= 0 || decider) {
-      decisions.push_back(steps.back());
-      decisions.back().estimate =
-          decider ? decider->name(decider->update(time, mu)) : f[static_cast<std::size_t>(decision)];
+      decisions.push_back(scorer.decided(
+          steps.back(), decider ? decider->name(decider->update(time, mu)) : f[static_cast<std::size_t>(decision)]));
     }
   }
   if (steps.empty()) {

@@ -1,5 +1,6 @@
 #include "skidimm/evaluation/log_evaluation.h"
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 
@@ -30,12 +31,23 @@ LabelledStep ClassScorer::score(double t, const std::string& label, const Eigen:
   LabelledStep step;
   step.t = t;
   step.estimate = names_[static_cast<std::size_t>(best)];
+  step.estimate_probability = class_probabilities_[best];
   if (!label.empty()) {
     const int c = class_of_label(label);
     step.truth = c >= 0 ? names_[static_cast<std::size_t>(c)] : printable(label);  // a CSV cell: make it safe
     step.truth_probability = c >= 0 ? class_probabilities_[c] : 0.0;
+    // A truth the bank cannot answer is a class of probability 0.
+    step.brier = class_probabilities_.squaredNorm() + 1.0 - (c >= 0 ? 2.0 * class_probabilities_[c] : 0.0);
   }
   return step;
+}
+
+LabelledStep ClassScorer::decided(const LabelledStep& step, const std::string& decision) const {
+  LabelledStep out = step;
+  out.estimate = decision;
+  const auto found = std::find(names_.begin(), names_.end(), decision);
+  out.estimate_probability = found == names_.end() ? 0.0 : class_probabilities_[found - names_.begin()];
+  return out;
 }
 
 LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfig& sampling,
@@ -74,8 +86,7 @@ LogResult evaluate_log(const Bank& bank, SampleSource* source, const std::string
     const std::string& decided = decision.name(decision.update(sample.t, e.mode_probabilities));
     if (writer) writer->write(sample.t, e, decided, label);
     steps.push_back(scorer.score(sample.t, label, e.mode_probabilities));
-    decisions.push_back(steps.back());
-    decisions.back().estimate = decided;
+    decisions.push_back(scorer.decided(steps.back(), decided));
     const int truth_mode = config.mode_index(label);
     if (truth_mode >= 0 && e.status == StepStatus::kUpdated && std::isfinite(e.nis[truth_mode])) {
       result.nis[label].add(e.nis[truth_mode], e.num_measured);

@@ -22,6 +22,12 @@ void ModeMetrics::merge(const ModeMetrics& other) {
   estimate_changes += other.estimate_changes;
   truth_changes += other.truth_changes;
   unknown_seconds += other.unknown_seconds;
+  brier += other.brier;
+  for (std::size_t b = 0; b < calibration.size(); ++b) {
+    calibration[b].seconds += other.calibration[b].seconds;
+    calibration[b].correct += other.calibration[b].correct;
+    calibration[b].confidence += other.calibration[b].confidence;
+  }
 }
 
 std::string main_truth(const ModeMetrics& m) {
@@ -36,6 +42,26 @@ std::string main_truth(const ModeMetrics& m) {
     }
   }
   return best;
+}
+
+double ModeMetrics::expected_calibration_error() const {
+  double binned = 0.0, error = 0.0;
+  for (const CalibrationBin& b : calibration) {
+    binned += b.seconds;
+    error += std::abs(b.correct - b.confidence);  // seconds x |accuracy - confidence|
+  }
+  return binned > 0.0 ? error / binned : 0.0;
+}
+
+double ModeMetrics::confident_fraction() const {
+  double binned = 0.0;
+  for (const CalibrationBin& b : calibration) binned += b.seconds;
+  return binned > 0.0 ? calibration.back().seconds / binned : 0.0;
+}
+
+double ModeMetrics::confident_accuracy() const {
+  const CalibrationBin& b = calibration.back();
+  return b.seconds > 0.0 ? b.correct / b.seconds : std::numeric_limits<double>::quiet_NaN();
 }
 
 ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps,
@@ -60,6 +86,15 @@ ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps,
     m.confusion[s.truth][s.estimate] += w;
     if (s.estimate == s.truth) m.correct += w;
     m.truth_probability += w * s.truth_probability;
+    m.brier += w * s.brier;
+    if (s.estimate != "unknown") {
+      const int bin = std::min(kCalibrationBins - 1,
+                               std::max(0, static_cast<int>(std::floor(s.estimate_probability * kCalibrationBins))));
+      CalibrationBin& b = m.calibration[static_cast<std::size_t>(bin)];
+      b.seconds += w;
+      b.confidence += w * s.estimate_probability;
+      if (s.estimate == s.truth) b.correct += w;
+    }
     m.truth_log_probability += w * std::log(std::max(s.truth_probability, kMinScoredProbability));
     if (std::find(bank_modes.begin(), bank_modes.end(), s.truth) == bank_modes.end()) m.truth_absent[s.truth] += w;
     if (s.estimate == "unknown") m.unknown_seconds += w;

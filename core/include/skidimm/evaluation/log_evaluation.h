@@ -34,6 +34,9 @@ class ClassScorer {
   int class_of_label(const std::string& label) const;
   // The step for truth `label` ("" for unlabelled) given the modes' probabilities.
   LabelledStep score(double t, const std::string& label, const Eigen::VectorXd& mode_probabilities) const;
+  // The same step with a decision for its estimate (a class name or
+  // "unknown"), and that class's probability, from the last score().
+  LabelledStep decided(const LabelledStep& step, const std::string& decision) const;
 
  private:
   const BankConfig* bank_;

@@ -5,6 +5,7 @@
 #ifndef SKIDIMM_EVALUATION_MODE_METRICS_H_
 #define SKIDIMM_EVALUATION_MODE_METRICS_H_
 
+#include <array>
 #include <map>
 #include <string>
 #include <vector>
@@ -17,6 +18,23 @@ struct LabelledStep {
   std::string truth;               // true mode (or class); empty rows are ignored
   std::string estimate;            // most likely mode (or class)
   double truth_probability = 0.0;  // probability the estimator gave the truth (0 if not in the bank)
+  double estimate_probability = 0.0;  // probability the estimator gave its estimate (0 for "unknown")
+  // The step's Brier score, sum over the classes of (p_c - [c is the truth])^2,
+  // in [0, 2]: 0 for certainty in the truth, 2 for certainty in a wrong class.
+  double brier = 0.0;
+};
+
+// How often the estimate is right at each level of the probability the
+// estimator gave it (a reliability diagram): bin b holds the time whose
+// estimate had a probability in [b/10, (b+1)/10), the last bin [0.9, 1].
+// A calibrated estimator is right, in each bin, about as often as it says.
+inline constexpr int kCalibrationBins = 10;
+struct CalibrationBin {
+  double seconds = 0.0;     // time in the bin
+  double correct = 0.0;     // ... of which the estimate was right
+  double confidence = 0.0;  // integral of the estimate's probability over it (s)
+  double accuracy() const { return seconds > 0.0 ? correct / seconds : 0.0; }
+  double mean_confidence() const { return seconds > 0.0 ? confidence / seconds : 0.0; }
 };
 
 // The floor under log(truth_probability): a truth the bank cannot answer, or
@@ -58,6 +76,10 @@ struct ModeMetrics {
                                 // decision, out of a leading "unknown", is not a change)
   long truth_changes = 0;       // ... and the truth
   double unknown_seconds = 0.0; // time the estimate was "unknown" (a decision not yet, or no longer, taken)
+  // Calibration of the estimate's probability; time "unknown" is in no bin
+  // (a decision withheld claims nothing).
+  std::array<CalibrationBin, kCalibrationBins> calibration{};
+  double brier = 0.0;           // integral of the steps' Brier scores (s)
 
   double accuracy() const { return duration > 0.0 ? correct / duration : 0.0; }
   double estimate_changes_per_minute() const { return duration > 0.0 ? 60.0 * estimate_changes / duration : 0.0; }
@@ -67,6 +89,15 @@ struct ModeMetrics {
   // rewards confidence in the right answer and punishes confidence in a wrong
   // one, where accuracy only counts the argmax.
   double mean_truth_log_probability() const { return duration > 0.0 ? truth_log_probability / duration : 0.0; }
+  double mean_brier() const { return duration > 0.0 ? brier / duration : 0.0; }
+  // Expected calibration error: the time-weighted mean over bins of
+  // |accuracy - mean probability|, over the time that is in a bin.
+  double expected_calibration_error() const;
+  // Of the time the estimate had probability >= 0.9 (the last bin): the
+  // share of all binned time it makes up, and how often it was right (NaN
+  // when there is none).
+  double confident_fraction() const;
+  double confident_accuracy() const;
 
   // Adds another run's metrics (several logs, seeds or scenarios).
   void merge(const ModeMetrics& other);
