@@ -202,7 +202,8 @@ int main(int argc, char** argv) {
   tune->add_option("--assess", tune_options.protocols,
                    "How the nested assessment holds logs out, comma-separated, each reported: logs (leave one log "
                    "out, or --folds groups), sessions (leave one session out, --sessions), extrapolation:INPUT[:F] "
-                   "(per class, the share F, default 0.25, of its logs with the largest mean |INPUT|); default logs");
+                   "(per class, the share F, default 0.25, of its logs with the largest mean |INPUT|) or "
+                   "extrapolation:NAME=EXPR[:F] (ranked by an expression of the log's columns); default logs");
   tune->add_option("--sessions", tune_options.sessions,
                    "File of 'GLOB SESSION' lines: which logs were recorded together (for --assess sessions)")
       ->check(CLI::ExistingFile);

@@ -52,7 +52,14 @@ TEST(Protocols, ParseTheirNamesAndRefuseOthers) {
   EXPECT_EQ(speed.name(), "extrapolation in speed");
   EXPECT_EQ(speed.slug(), "extrapolation-speed");
   EXPECT_EQ(protocol_from_string("extrapolation:turn:0.4").fraction, 0.4);
-  for (const char* bad : {"runs", "extrapolation:", "extrapolation:turn:1.5", "extrapolation:turn:x", ""}) {
+  const Protocol named = protocol_from_string("extrapolation:speed=abs(velL + velR) / 2:0.3");
+  EXPECT_EQ(named.input, "speed");
+  EXPECT_EQ(named.expression, "abs(velL + velR) / 2");
+  EXPECT_EQ(named.fraction, 0.3);
+  EXPECT_EQ(named.slug(), "extrapolation-speed");
+  EXPECT_EQ(protocol_from_string("extrapolation:s=max(velL, velR)").expression, "max(velL, velR)");
+  for (const char* bad : {"runs", "extrapolation:", "extrapolation:turn:1.5", "extrapolation:turn:x", "",
+                          "extrapolation:speed=", "extrapolation:a b=velL", "extrapolation:=velL"}) {
     try {
       protocol_from_string(bad);
       ADD_FAILURE() << "accepted '" << bad << "'";

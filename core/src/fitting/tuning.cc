@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -110,20 +111,27 @@ Protocol protocol_from_string(const std::string& text) {
   if (text.compare(0, prefix.size(), prefix) == 0 && text.size() > prefix.size()) {
     p.kind = Protocol::Kind::kExtrapolation;
     std::string rest = text.substr(prefix.size());
-    const std::size_t colon = rest.find(':');
-    p.input = rest.substr(0, colon);
+    // A fraction after the last ':' (an expression has no ':').
+    const std::size_t colon = rest.rfind(':');
     if (colon != std::string::npos) {
       const std::string fraction = rest.substr(colon + 1);
       char* end = nullptr;
       p.fraction = std::strtod(fraction.c_str(), &end);
       if (fraction.empty() || end != fraction.c_str() + fraction.size() || !(p.fraction > 0.0 && p.fraction < 1.0)) {
-        throw Error("protocol '" + text + "': expected a fraction in (0, 1) after the input, got '" + fraction + "'");
+        throw Error("protocol '" + text + "': expected a fraction in (0, 1) after the last ':', got '" + fraction + "'");
       }
+      rest.resize(colon);
     }
-    if (!p.input.empty()) return p;
+    const std::size_t equals = rest.find('=');
+    p.input = rest.substr(0, equals);
+    if (equals != std::string::npos) p.expression = rest.substr(equals + 1);
+    const bool name_ok = !p.input.empty() && std::all_of(p.input.begin(), p.input.end(), [](char c) {
+      return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+    });
+    if (name_ok && (equals == std::string::npos || !p.expression.empty())) return p;
   }
-  throw Error("unknown protocol '" + text + "' (expected logs, sessions, extrapolation:INPUT or "
-              "extrapolation:INPUT:FRACTION)");
+  throw Error("unknown protocol '" + text + "' (expected logs, sessions, extrapolation:INPUT[:FRACTION] or "
+              "extrapolation:NAME=EXPRESSION[:FRACTION], NAME of letters, digits and _)");
 }
 
 std::vector<std::vector<int>> protocol_folds(const Protocol& protocol, const std::vector<int>& members,
@@ -439,11 +447,35 @@ class Tuner {
     std::vector<std::string> sessions;
     for (const TuningLog& l : logs_) sessions.push_back(l.session);
     std::vector<double> ranking(logs_.size(), 0.0);
-    if (protocol.kind == Protocol::Kind::kExtrapolation) {
-      const int input = input_index(protocol.input);
-      for (int i : development) ranking[static_cast<std::size_t>(i)] = mean_absolute_input(i, input);
-    }
+    if (protocol.kind == Protocol::Kind::kExtrapolation) ranking = extrapolation_ranking(protocol, development);
     return protocol_folds(protocol, development, classes_, sessions, ranking, options_.folds);
+  }
+
+  // Mean |value| over each development log's steps of what ranks logs for
+  // an extrapolation protocol: the log read again with `expression` (or the
+  // bank input's) as its only input.
+  std::vector<double> extrapolation_ranking(const Protocol& protocol, const std::vector<int>& development) const {
+    BankConfig config = banks_[0].config;
+    const std::string expression =
+        protocol.expression.empty() ? config.columns.inputs[static_cast<std::size_t>(input_index(protocol.input))]
+                                    : protocol.expression;
+    config.input_names = {protocol.input};
+    config.columns.inputs = {expression};
+    std::vector<double> ranking(logs_.size(), 0.0);
+    for (int i : development) {
+      LogReader reader(config, logs_[static_cast<std::size_t>(i)].spec.files, options_.sampling);
+      LogSample sample;
+      double sum = 0.0;
+      long count = 0;
+      while (reader.next(&sample)) {
+        if (std::isfinite(sample.u[0])) {
+          sum += std::abs(sample.u[0]);
+          ++count;
+        }
+      }
+      ranking[static_cast<std::size_t>(i)] = count > 0 ? sum / static_cast<double>(count) : 0.0;
+    }
+    return ranking;
   }
 
   int input_index(const std::string& name) const {
@@ -453,22 +485,9 @@ class Tuner {
       std::string known;
       for (const std::string& n : inputs) known += (known.empty() ? "" : ", ") + n;
       throw Error("extrapolation: '" + name + "' is not an input of bank '" + banks_[0].config.name + "' (inputs: " +
-                  known + ")");
+                  known + "); give an expression of the log's columns: extrapolation:" + name + "=EXPRESSION");
     }
     return static_cast<int>(found - inputs.begin());
-  }
-
-  // Mean |u[input]| over a log's steps: how hard it was driven in that input.
-  double mean_absolute_input(int log, int input) const {
-    double sum = 0.0;
-    long count = 0;
-    for (const LogSample& s : recorded_[static_cast<std::size_t>(log)].samples()) {
-      if (input < s.u.size() && std::isfinite(s.u[input])) {
-        sum += std::abs(s.u[input]);
-        ++count;
-      }
-    }
-    return count > 0 ? sum / static_cast<double>(count) : 0.0;
   }
 
   // A protocol's nested assessment: each held-out set scored by models fitted

@@ -63,14 +63,20 @@ struct Protocol {
     kExtrapolation,  // a run driven beyond these: per class, the logs with the largest mean |input|, held out together
   };
   Kind kind = Kind::kLogs;
-  std::string input;       // kExtrapolation: the bank input whose mean absolute value ranks a class's logs
+  // kExtrapolation: what ranks a class's logs, the mean absolute value over
+  // a log's steps of `expression`, an expression of the log's columns as a
+  // bank's (docs/bank-format.md), named `input`; empty expression: that of
+  // the bank input named `input`. An expression of the columns ranks logs
+  // the same way whatever the bank, so that banks compare on the same runs.
+  std::string input;
+  std::string expression;
   double fraction = 0.25;  // kExtrapolation: the share of each class's logs held out (at least one, never all)
   // "logs", "sessions", "extrapolation in speed"; slug(): "logs", "sessions", "extrapolation-speed".
   std::string name() const;
   std::string slug() const;
 };
-// "logs", "sessions", "extrapolation:INPUT" or "extrapolation:INPUT:FRACTION".
-// Throws Error naming what was expected.
+// "logs", "sessions", "extrapolation:INPUT[:FRACTION]" or
+// "extrapolation:NAME=EXPRESSION[:FRACTION]". Throws Error naming what was expected.
 Protocol protocol_from_string(const std::string& text);
 
 // What a fit produced, apart from the bank it was fitted in.
