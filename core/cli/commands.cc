@@ -1,5 +1,4 @@
 #include "commands.h"
-#include "log_arguments.h"
 
 #include <unistd.h>
 
@@ -13,6 +12,7 @@
 #include "skidimm/errors.h"
 #include "skidimm/estimates_writer.h"
 #include "skidimm/imm.h"
+#include "skidimm/log_arguments.h"
 #include "skidimm/log_io.h"
 #include "skidimm/log_run.h"
 #include "skidimm/mode_timeline.h"
@@ -58,8 +58,7 @@ class ProgressLine {
 // "plugin ltc_linear 1.0.0 (/path/skidimm_ltc_linear.so)" for mode j.
 std::string plugin_of(const Bank& bank, std::size_t j) {
   if (j >= bank.model_sources.size()) return "model " + bank.config.modes[j].model;
-  const ModelSource& source = bank.model_sources[j];
-  return "plugin " + source.plugin + " " + source.version + " (" + source.file.string() + ")";
+  return bank.model_sources[j].describe();
 }
 
 // Per mode whose filter was rejected: how often, why, and where first; and
@@ -88,42 +87,19 @@ void print_rejections(const Bank& bank, const RunSummary& summary) {
 
 }  // namespace
 
-LogSpec join_inputs(const std::vector<std::string>& inputs) {
-  LogSpec log;
-  for (const std::string& input : inputs) {
-    const LogSpec part = parse_log_spec(input);
-    if (!part.label.empty()) {
-      if (!log.label.empty() && log.label != part.label) {
-        throw Error("--input: two labels for one log ('" + log.label + "' and '" + part.label + "')");
-      }
-      log.label = part.label;
-    }
-    log.files.insert(log.files.end(), part.files.begin(), part.files.end());
-    log.text += (log.text.empty() ? "" : "+") + input;
-  }
-  if (log.files.empty()) throw Error("no input log given (--input)");
-  return log;
-}
-
 int run(const RunOptions& options) {
   std::optional<EstimatesWriter> writer;
   RunSummary summary;
   const int code = report_errors("skidimm run", [&] {
     Bank bank = Bank::load(options.bank, options.plugin_paths);
-    if (options.innovation_gate >= 0.0) {
-      if (!(options.innovation_gate < 1.0)) {
-        throw Error("--innovation-gate: expected a probability in (0, 1), or 0 for none");
-      }
-      bank.config.innovation_gate = options.innovation_gate;
-    }
-    // In (0, 1]: main.cc's validator refuses anything else as a usage error.
-    if (options.likelihood_weight > 0.0) bank.config.likelihood_weight = options.likelihood_weight;
+    apply_overrides(options.overrides, &bank.config);
+    const EstimatorOptions estimator = estimator_options(options.smooth, options.lag);
     const BankConfig& config = bank.config;
-    const LogSpec log = join_inputs(options.inputs);
+    const LogSpec log = join_log_arguments(options.inputs);
     if (!log.label.empty() && config.class_index(log.label) < 0) {
       throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'");
     }
-    LogReader reader(config, log.files, sampling_of(config, options.rate));
+    LogReader reader(config, log.files, sampling_of(config, options.overrides.rate));
     const bool with_truth = reader.has_truth() || !log.label.empty();
     // A path ending in .npy gets a NumPy array (estimates_writer.h), anything else CSV.
     writer.emplace(options.output, config, with_truth);
@@ -132,17 +108,8 @@ int run(const RunOptions& options) {
     std::vector<std::string> mode_names;
     for (const ModeConfig& mode : config.modes) mode_names.push_back(mode.name);
     const int num_modes = config.num_modes();
-    const DecisionConfig decision_settings =
-        decision_settings_of(config.decision, options.decision_enter, options.decision_leave, options.decision_hold);
+    const DecisionConfig& decision_settings = config.decision;
     ProgressLine progress(options.progress && !options.quiet);
-
-    EstimatorOptions estimator;
-    if (options.smooth) estimator.kind = EstimatorOptions::Kind::kFixedInterval;
-    if (options.lag >= 0.0) {
-      if (options.smooth) throw Error("give --smooth or --lag, not both");
-      estimator.kind = EstimatorOptions::Kind::kFixedLag;
-      estimator.lag = options.lag;
-    }
     // The loop (log_run.h) allocates nothing per row.
     write_estimates(
         bank, &reader, estimator, decision_settings, log.label, with_truth, &*writer, &summary,
@@ -159,7 +126,7 @@ int run(const RunOptions& options) {
       std::cerr << "skidimm run: bank '" << config.name << "' (" << num_modes << " modes), " << rows << " rows -> "
                 << options.output.string()
                 << (options.smooth ? " (smoothed over the whole log)"
-                    : options.lag >= 0.0 ? " (smoothed with a lag of " + CsvWriter::format(options.lag) + " s)"
+                    : options.lag ? " (smoothed with a lag of " + CsvWriter::format(*options.lag) + " s)"
                                          : "")
                 << "\n";
       for (std::size_t j = 0; j < bank.model_sources.size(); ++j) {

@@ -9,9 +9,11 @@
 #include <string>
 #include <vector>
 
+#include <optional>
+
 #include "skidimm/errors.h"
 #include "skidimm/printable.h"
-#include "skidimm/log_reader.h"
+#include "skidimm/run_overrides.h"
 
 namespace skidimm {
 namespace cli {
@@ -39,26 +41,19 @@ int report_errors(const char* command, Body&& body) {
 struct RunOptions {
   std::filesystem::path bank;
   std::vector<std::string> inputs;  // the files of one log: [LABEL=]FILE[@OFFSET][+FILE...], repeatable
-  double rate = 0.0;                // Hz; > 0 overrides the bank's sampling.rate
-  // >= 0: override the bank's decision: settings.
-  double decision_enter = -1.0;
-  double decision_leave = -1.0;
-  double decision_hold = -1.0;
-  bool smooth = false;  // fixed-interval smoothing over the whole log
-  double lag = -1.0;    // >= 0: fixed-lag smoothing with this lag (s)
+  // --rate, --decision-*, --innovation-gate, --likelihood-weight: over the bank's.
+  RunOverrides overrides;
+  bool smooth = false;         // fixed-interval smoothing over the whole log
+  std::optional<double> lag;   // fixed-lag smoothing with this lag (s)
   std::filesystem::path output;
   std::vector<std::filesystem::path> plugin_paths;
   bool quiet = false;
   bool progress = true;  // shown only when stderr is a terminal
-  double innovation_gate = -1.0;  // >= 0: overrides the bank's innovation_gate (0: none)
-  double likelihood_weight = -1.0;  // > 0: overrides the bank's likelihood_weight (checked in main.cc)
   bool strict = false;            // the first rejected mode filter is an error
   bool flush = false;             // every row handed to the output as it is computed
 };
 
 int run(const RunOptions& options);
-// The --input arguments of one log joined into one: their files in order.
-LogSpec join_inputs(const std::vector<std::string>& inputs);
 
 struct SimulateOptions {
   std::filesystem::path scenario;
@@ -128,17 +123,14 @@ int tune(const TuneCommandOptions& options);
 
 struct EvalOptions {
   std::filesystem::path bank;
-  // >= 0: override the bank's decision: settings (with --estimates: the
-  // decision is made again from the file's probabilities).
-  double decision_enter = -1.0;
-  double decision_leave = -1.0;
-  double decision_hold = -1.0;
+  // --rate and --decision-* over the bank's (with --estimates, decision
+  // settings make the decision again from the files' probabilities).
+  RunOverrides overrides;
   std::vector<std::string> inputs;     // logs: FILE[+FILE...] or directories; each argument is a group
   std::vector<std::string> estimates;  // `skidimm run` outputs (files or directories) instead of running
   std::vector<std::filesystem::path> plugin_paths;
-  double rate = 0.0;  // Hz; > 0 overrides the bank's sampling.rate
   bool smooth = false;
-  double lag = -1.0;
+  std::optional<double> lag;
   bool json = false;
 };
 int eval(const EvalOptions& options);

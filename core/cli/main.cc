@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "skidimm/log_arguments.h"
 #include "skidimm/log_io.h"
 #include "skidimm/output_file.h"
 
@@ -39,25 +40,25 @@ int main(int argc, char** argv) {
   const CLI::Validator existing_file_or_stdin(
       [](std::string& path) { return path == "-" ? std::string() : CLI::ExistingFile(path); }, "FILE or -");
 
-  auto add_rate = [](CLI::App* command, double* rate) {
+  auto add_rate = [](CLI::App* command, auto* rate) {
     command
         ->add_option("--rate", *rate,
                      "Filter steps per second on a fixed grid (overrides the bank's sampling.rate); "
                      "default: a step at every time stamp of the log")
         ->check(CLI::PositiveNumber);
   };
-  auto add_decision_options = [](CLI::App* command, double* enter, double* leave, double* hold) {
+  auto add_decision_options = [](CLI::App* command, skidimm::RunOverrides* overrides) {
     command
-        ->add_option("--decision-enter", *enter,
+        ->add_option("--decision-enter", overrides->decision_enter,
                      "Probability at which a mode (class) is decided (overrides the bank's decision.enter)")
         ->check(CLI::Range(0.0, 1.0));
     command
-        ->add_option("--decision-leave", *leave,
+        ->add_option("--decision-leave", overrides->decision_leave,
                      "Probability below which, for the hold, the decided mode is given up for unknown "
                      "(decision.leave; 0: never)")
         ->check(CLI::Range(0.0, 1.0));
     command
-        ->add_option("--decision-hold", *hold,
+        ->add_option("--decision-hold", overrides->decision_hold,
                      "Seconds a decision is kept at least, and below decision.leave before it is given up "
                      "(decision.min_hold)")
         ->check(CLI::NonNegativeNumber);
@@ -71,24 +72,24 @@ int main(int argc, char** argv) {
                   "[MODE=]FILE[@OFFSET][+FILE...]: the log's files; repeat for more files of the same log "
                   "(merged by time, or row by row with the bank's sampling.join: rows)")
       ->required();
-  add_rate(run, &run_options.rate);
+  add_rate(run, &run_options.overrides.rate);
   run->add_flag("--smooth", run_options.smooth,
                 "Write probabilities and states smoothed over the whole log (offline labelling; docs/engine.md)");
   run->add_option("--lag", run_options.lag,
                   "Write each step smoothed with this many seconds of later data (online, delayed)")
       ->check(CLI::NonNegativeNumber);
-  add_decision_options(run, &run_options.decision_enter, &run_options.decision_leave, &run_options.decision_hold);
+  add_decision_options(run, &run_options.overrides);
   run->add_option("--output,-o", output,
                   "Output CSV (written as <output>.partial, renamed when complete); '-' for standard output")
       ->required();
   run->add_flag("--flush", run_options.flush,
                 "Write each row as soon as it is computed (run behind another program, through a pipe)");
   run->add_flag("--quiet,-q", run_options.quiet, "No summary or progress on stderr");
-  run->add_option("--innovation-gate", run_options.innovation_gate,
+  run->add_option("--innovation-gate", run_options.overrides.innovation_gate,
                   "Chi-square innovation gate: probability a consistent measurement passes, in (0, 1); 0: none "
                   "(overrides the bank's innovation_gate; docs/engine.md)")
       ->check(CLI::Range(0.0, 1.0));
-  run->add_option("--likelihood-weight", run_options.likelihood_weight,
+  run->add_option("--likelihood-weight", run_options.overrides.likelihood_weight,
                   "Weight of each step's evidence in the mode probabilities, in (0, 1]; 1: the plain IMM "
                   "(overrides the bank's likelihood_weight; docs/engine.md)")
       ->check(CLI::Validator(
@@ -233,13 +234,13 @@ int main(int argc, char** argv) {
   eval->add_option("--input,-i", eval_options.inputs,
                    "[MODE=]FILE[@OFFSET][+FILE...], a directory or a '*' pattern of logs; each argument is one group "
                    "(e.g. a scenario or a terrain)");
-  add_rate(eval, &eval_options.rate);
+  add_rate(eval, &eval_options.overrides.rate);
   eval->add_flag("--smooth", eval_options.smooth, "Score the probabilities smoothed over each whole log");
   eval->add_option("--lag", eval_options.lag, "Score the probabilities smoothed with this lag (s)")
       ->check(CLI::NonNegativeNumber);
   eval->add_option("--estimates,-e", eval_options.estimates,
                    "Evaluate `skidimm run` outputs (files or directories) instead of running a bank");
-  add_decision_options(eval, &eval_options.decision_enter, &eval_options.decision_leave, &eval_options.decision_hold);
+  add_decision_options(eval, &eval_options.overrides);
   eval->add_flag("--json", eval_options.json, "Print JSON instead of tables");
   add_plugin_path(eval);
 
@@ -307,9 +308,9 @@ int main(int argc, char** argv) {
     figure.output = run_plot;
     figure.bank = bank;
     figure.plugin_paths = paths;
-    figure.rate = run_options.rate;
+    figure.rate = run_options.overrides.rate.value_or(0.0);
     figure.log = run_options.inputs;
-    figure.title = fs::path(bank).stem().string() + " on " + join_inputs(run_options.inputs).name();
+    figure.title = fs::path(bank).stem().string() + " on " + skidimm::join_log_arguments(run_options.inputs).name();
     return skidimm::cli::plot(figure);
   }
   if (*validate) return skidimm::cli::validate(validate_bank, paths);

@@ -15,7 +15,8 @@
 #include <sstream>
 
 #include "commands.h"
-#include "log_arguments.h"
+#include "skidimm/log_arguments.h"
+#include "skidimm/run_overrides.h"
 #include "skidimm/errors.h"
 #include "skidimm/bank.h"
 #include "skidimm/log_io.h"
@@ -212,7 +213,7 @@ int plot(const PlotOptions& options) {
     if (!options.log.empty()) {
       if (!options.bank.empty()) {
         const BankConfig config = load_bank_config(options.bank);
-        const LogSpec log = join_inputs(options.log);
+        const LogSpec log = join_log_arguments(options.log);
         LogReader reader(config, log.files, sampling_of(config, options.rate));
         std::vector<std::string> header{"t"};
         for (const std::string& m : config.measurement.names) header.push_back(m);

@@ -3,7 +3,8 @@
 
 #include "commands.h"
 #include "skidimm/errors.h"
-#include "log_arguments.h"
+#include "skidimm/log_arguments.h"
+#include "skidimm/run_overrides.h"
 #include "skidimm/bank.h"
 #include "skidimm/simulation/model_simulation.h"
 #include "skidimm/simulation/scenario.h"
@@ -17,7 +18,7 @@ int simulate(const SimulateOptions& options) {
       if (options.inputs_from.empty()) throw Error("--bank needs --inputs-from LOG (its inputs and modes drive the models)");
       if (!options.scenario.empty()) throw Error("give either --scenario or --bank, not both");
       const Bank bank = Bank::load(options.bank, options.plugin_paths);
-      const LogSpec source = join_inputs({options.inputs_from});
+      const LogSpec source = join_log_arguments({options.inputs_from});
       const std::uint64_t seed = options.has_seed ? options.seed : 1;
       const simulation::ModelSimulationSummary summary = simulation::simulate_models(
           bank, source, sampling_of(bank.config, options.rate), seed, options.output);

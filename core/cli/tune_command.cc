@@ -7,13 +7,14 @@
 #include <sstream>
 
 #include "commands.h"
-#include "log_arguments.h"
 #include "skidimm/errors.h"
 #include "skidimm/fitting/bank_fit.h"
 #include "skidimm/fitting/bank_writer.h"
+#include "skidimm/fitting/fit_logs.h"
 #include "skidimm/fitting/sessions.h"
 #include "skidimm/fitting/solver_messages.h"
 #include "skidimm/fitting/tuning.h"
+#include "skidimm/log_arguments.h"
 #include "skidimm/output_file.h"
 
 namespace skidimm {
@@ -104,7 +105,7 @@ int tune(const TuneCommandOptions& options) {
         for (LogSpec& spec : expand_log_argument(argument)) {
           require_rereadable(spec, "tune reads each log more than once");
           fitting::TuningLog log;
-          log.fit_data = mode_segments(config, spec, options.mode, sampling);
+          log.fit_data = fitting::mode_segments(config, spec, options.mode, sampling);
           if (spec.label.empty() && !options.mode.empty()) spec.label = options.mode;
           log.spec = spec;
           log.lockbox = lockbox;

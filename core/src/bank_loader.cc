@@ -533,7 +533,12 @@ BankConfig load_bank_config(const fs::path& file) {
   return bank;
 }
 
-Bank Bank::instantiate(BankConfig config, PluginRegistry& registry) {
+std::string ModelSource::describe() const {
+  return origin + " " + plugin + (version.empty() ? "" : " " + version) +
+         (file.empty() ? "" : " (" + file.string() + ")");
+}
+
+Bank Bank::instantiate(BankConfig config, PluginRegistry& registry, const ModelProvider* provider) {
   const std::string file = config.file.string();
   Bank bank;
   std::set<std::string> shared_keys_used;
@@ -541,21 +546,26 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry) {
     const ModeConfig& mode = config.modes[i];
     const std::string field = "modes[" + std::to_string(i) + "]";
     const std::string who = "mode '" + mode.name + "' (model " + mode.model + ")";
+    const bool provided = provider != nullptr && provider->provides(mode.model);
 
     const PluginDescriptor* descriptor = nullptr;
-    try {
-      descriptor = &registry.find(mode.model);
-    } catch (const PluginError& e) {
-      throw ConfigError(file, mode.line, field + ".model", e.what());
+    if (!provided) {
+      try {
+        descriptor = &registry.find(mode.model);
+      } catch (const PluginError& e) {
+        throw ConfigError(file, mode.line, field + ".model",
+                          std::string(e.what()) + (provider != nullptr ? " (" + provider->describe() + ")" : ""));
+      }
     }
-    // The bank's shared parameters this plugin documents, overridden by the mode's own.
+    // The bank's shared parameters the model takes, overridden by the mode's own.
     sdk::ParameterSet params;
     params.set_bank_names(config.state_names, config.angle_mask, config.input_names);
     auto copy = [&params](const sdk::ParameterSet& from, const std::string& key) {
       if (const Eigen::MatrixXd* value = from.find(key)) params.set(key, *value);
       if (const std::vector<std::string>* text = from.find_text(key)) params.set_text(key, *text);
     };
-    for (const std::string& key : descriptor->parameter_keys) {
+    for (const std::string& key :
+         provided ? provider->shared_parameter_keys(mode.model) : descriptor->parameter_keys) {
       if (config.shared.contains(key)) {
         copy(config.shared, key);
         shared_keys_used.insert(key);
@@ -565,9 +575,12 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry) {
 
     ModelHandle model;
     try {
-      model = registry.create(mode.model, params);
+      model = provided ? provider->create(mode.model, params) : registry.create(mode.model, params);
     } catch (const PluginError& e) {
       throw ConfigError(file, mode.line, field + ".params", who + ": " + e.what());
+    } catch (const Error& e) {
+      if (!provided) throw;
+      throw ConfigError(file, mode.line, field + ".model", who + ": " + e.what());
     }
     for (const sdk::ParameterInfo& info : model->parameter_info()) {
       if (info.scope == sdk::ParameterScope::kBank && mode.params.contains(info.key)) {
@@ -604,7 +617,8 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry) {
       }
     }
     bank.models.push_back(std::move(model));
-    bank.model_sources.push_back({descriptor->path, descriptor->name, descriptor->version});
+    bank.model_sources.push_back(provided ? provider->source(mode.model)
+                                          : ModelSource{descriptor->path, descriptor->name, descriptor->version});
   }
   for (const std::string& key : config.shared.keys()) {
     if (shared_keys_used.count(key) == 0) {
@@ -619,7 +633,7 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry) {
 Bank Bank::load(const fs::path& file, const std::vector<fs::path>& plugin_paths) {
   BankConfig config = load_bank_config(file);
   PluginRegistry registry(PluginRegistry::standard_search_path(plugin_paths, config.plugin_paths));
-  return instantiate(std::move(config), registry);
+  return instantiate(std::move(config), registry, nullptr);
 }
 
 }  // namespace skidimm

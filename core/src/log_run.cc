@@ -55,10 +55,7 @@ std::string describe_first_rejection(const Bank& bank, const ImmEstimate& e, lon
     const ModeFailure failure = e.mode_failures[j];
     if (!is_rejection(failure)) continue;
     std::string plugin = "model " + bank.config.modes[j].model;
-    if (j < bank.model_sources.size()) {
-      const ModelSource& source = bank.model_sources[j];
-      plugin = "plugin " + source.plugin + " " + source.version + " (" + source.file.string() + ")";
-    }
+    if (j < bank.model_sources.size()) plugin = bank.model_sources[j].describe();
     std::string text = "row " + std::to_string(row) + " (t = " + CsvWriter::format(e.t) + "): mode '" +
                        bank.config.modes[j].name + "' (" + plugin + ") was rejected: " + to_string(failure);
     if (failure == ModeFailure::kModel && !e.failure_reasons[j].empty()) text += ": " + e.failure_reasons[j];

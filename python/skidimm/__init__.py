@@ -79,7 +79,9 @@ class Bank(_native.Bank):
 
     Read-only: ``name``, ``file``, ``states``, ``angles``, ``inputs``,
     ``measurements``, ``modes``, ``models`` (each mode's model name),
-    ``classes``, ``columns``, ``sampling_rate``, ``decision``;
+    ``model_sources`` (where each mode's model came from: plugin file and
+    version, or Python model), ``classes``, ``columns``, ``sampling_rate``,
+    ``decision``;
     ``parameters(mode)`` gives a mode's model parameters.
     """
 
@@ -258,8 +260,8 @@ def eval(bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", plug
 
     Returns what ``skidimm eval --json`` prints, parsed (``output="dict"``),
     or its text (``"json"``), or the table (``"table"``). The metrics and
-    their reduction are the CLI's own code. For many logs on many machines,
-    see :mod:`skidimm.dask`.
+    their reduction are the evaluation library's, which the CLI uses too.
+    For many logs on many machines, see :mod:`skidimm.dask`.
     """
     if isinstance(inputs, (str, _os.PathLike)):
         inputs = [inputs]

@@ -6,8 +6,8 @@ segments of each mode (``fit``). What travels back is small: a log's
 :class:`skidimm.LogResult` (its metrics, a few kilobytes), or a mode's
 fitted parameters. The reduction happens on the client, in the order
 ``skidimm eval`` and ``skidimm fit`` use (arguments in order, each
-directory's logs sorted by name), with the CLI's own code, so the figures
-are those the CLI prints, to the last digit.
+directory's logs sorted by name), by the evaluation library the CLI uses,
+so the figures are those the CLI prints, to the last digit.
 
 Workers load the bank once per process (and its plugins, found as
 everywhere: ``plugin_paths``, the bank's, ``$SKIDIMM_PLUGIN_PATH``, the

@@ -13,29 +13,36 @@
 #include <pybind11/stl/filesystem.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <memory>
 #include <optional>
+#include <sstream>
 
 #include "array_run.h"
-#include "bank_loading.h"
+#include "csv_columns.h"
 #include "errors.h"
-#include "eval_reduction.h"
-#include "fit_and_simulate.h"
-#include "log_arguments.h"
 #include "log_result_codec.h"
 #include "plugin_location.h"
 #include "python_model.h"
+#include "python_model_provider.h"
 #include "skidimm/decision.h"
 #include "skidimm/errors.h"
+#include "skidimm/evaluation/evaluation_report.h"
 #include "skidimm/expression.h"
-#include "skidimm/fitting/tuning.h"
+#include "skidimm/fitting/bank_fit.h"
+#include "skidimm/fitting/fit_logs.h"
+#include "skidimm/fitting/fit_output.h"
 #include "skidimm/imm.h"
+#include "skidimm/log_arguments.h"
 #include "skidimm/log_reader.h"
 #include "skidimm/log_run.h"
 #include "skidimm/plugin_registry.h"
+#include "skidimm/run_overrides.h"
 #include "skidimm/simulation/model_simulation.h"
+#include "skidimm/simulation/scenario.h"
 
 namespace py = pybind11;
 namespace fs = std::filesystem;
@@ -147,39 +154,26 @@ py::dict columns_to_dict(RunColumns&& c, const BankConfig& config) {
   return out;
 }
 
-EstimatorOptions estimator_of(bool smooth, std::optional<double> lag) {
-  EstimatorOptions e;
-  if (smooth && lag) throw Error("give smooth=True or lag=..., not both");
-  if (smooth) e.kind = EstimatorOptions::Kind::kFixedInterval;
-  if (lag) {
-    if (!(*lag >= 0.0)) throw Error("lag must be >= 0 seconds");
-    e.kind = EstimatorOptions::Kind::kFixedLag;
-    e.lag = *lag;
-  }
-  return e;
-}
-
-DecisionConfig decision_of(const BankConfig& config, const py::object& overrides) {
-  DecisionConfig d = config.decision;
-  if (overrides.is_none()) return d;
-  const py::dict given = overrides.cast<py::dict>();
-  for (const auto& [key, value] : given) {
-    const std::string k = key.cast<std::string>();
-    if (k == "enter") {
-      d.enter = value.cast<double>();
-    } else if (k == "leave") {
-      d.leave = value.cast<double>();
-    } else if (k == "min_hold") {
-      d.min_hold = value.cast<double>();
-    } else {
-      throw py::key_error("decision: unknown key '" + k + "' (expected enter, leave, min_hold)");
+// The bank's decision settings with those of a `decision=` dict ({"enter":
+// 0.9, "leave": 0.05, "min_hold": 1.0}, any of them), checked.
+DecisionConfig decision_of(const BankConfig& config, const py::object& given) {
+  RunOverrides overrides;
+  if (!given.is_none()) {
+    for (const auto& [key, value] : given.cast<py::dict>()) {
+      const std::string k = key.cast<std::string>();
+      if (k == "enter") {
+        overrides.decision_enter = value.cast<double>();
+      } else if (k == "leave") {
+        overrides.decision_leave = value.cast<double>();
+      } else if (k == "min_hold") {
+        overrides.decision_hold = value.cast<double>();
+      } else {
+        throw py::key_error("decision: unknown key '" + k + "' (expected enter, leave, min_hold)");
+      }
     }
   }
-  cli::check_decision_settings(d);
-  return d;
+  return decision_settings_of(config.decision, overrides);
 }
-
-SamplingConfig sampling_of(const BankConfig& config, double rate) { return cli::sampling_of(config, rate); }
 
 py::dict log_spec_to_dict(const LogSpec& spec) {
   py::dict d;
@@ -337,7 +331,7 @@ py::dict run(PyImm& self, const py::object& t, const py::object& u, const py::ob
   const long n = static_cast<long>(tt.shape(0));
   const DoubleArray uu = rows_of(u, n, self.input_dim(), "u");
   const DoubleArray zz = rows_of(z, n, self.measurement_dim(), "z");
-  const EstimatorOptions estimator = estimator_of(smooth, lag);
+  const EstimatorOptions estimator = estimator_options(smooth, lag);
   std::vector<std::string> truth_labels;
   if (!truth.is_none()) {
     for (const py::handle item : truth) truth_labels.push_back(py::str(item));
@@ -558,6 +552,14 @@ PYBIND11_MODULE(_skidimm, m) {
                                return out;
                              })
       .def_property_readonly("classes", [](const PyBank& b) { return b.config().class_names(); })
+      .def_property_readonly("model_sources",
+                             [](const PyBank& b) {
+                               std::vector<std::string> out;
+                               for (const ModelSource& source : b.bank->model_sources) {
+                                 out.push_back(source.describe());
+                               }
+                               return out;
+                             })
       .def_property_readonly("columns",
                              [](const PyBank& b) {
                                py::dict d;
@@ -652,28 +654,21 @@ PYBIND11_MODULE(_skidimm, m) {
       "expand_log_argument",
       [](const std::string& argument) {
         py::list out;
-        for (const LogSpec& spec : cli::expand_log_argument(argument)) out.append(log_spec_to_dict(spec));
+        for (const LogSpec& spec : expand_log_argument(argument)) out.append(log_spec_to_dict(spec));
         return out;
       },
       "The logs one argument stands for, as the CLI expands it (directories, '*' patterns).");
-  m.def("group_name", &eval_group_name, "A log argument's group name in `skidimm eval`.");
+  m.def("group_name", &log_group_name, "A log argument's group name in `skidimm eval`.");
   m.def(
       "run_log",
       [](const PyBank& bank, const std::vector<std::string>& inputs, double rate, bool smooth,
          std::optional<double> lag, const py::object& decision) {
-        LogSpec log;
-        for (const std::string& input : inputs) {
-          const LogSpec part = parse_log_spec(input);
-          if (!part.label.empty()) log.label = part.label;
-          log.files.insert(log.files.end(), part.files.begin(), part.files.end());
-          log.text += (log.text.empty() ? "" : "+") + input;
-        }
-        if (log.files.empty()) throw Error("no input log given");
+        const LogSpec log = join_log_arguments(inputs);
         const BankConfig& config = bank.config();
         if (!log.label.empty() && config.class_index(log.label) < 0) {
           throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'");
         }
-        const EstimatorOptions estimator = estimator_of(smooth, lag);
+        const EstimatorOptions estimator = estimator_options(smooth, lag);
         const DecisionConfig settings = decision_of(config, decision);
         RunColumns columns;
         clear_python_model_error();
@@ -754,7 +749,7 @@ PYBIND11_MODULE(_skidimm, m) {
       "evaluate_log",
       [](const PyBank& bank, const py::object& log, double rate, bool smooth, std::optional<double> lag) {
         const LogSpec spec = log_spec_of(log);
-        const EstimatorOptions estimator = estimator_of(smooth, lag);
+        const EstimatorOptions estimator = estimator_options(smooth, lag);
         evaluation::LogResult result;
         clear_python_model_error();
         {
@@ -770,11 +765,11 @@ PYBIND11_MODULE(_skidimm, m) {
       "eval_report",
       [](const std::vector<std::pair<std::string, std::vector<evaluation::LogResult>>>& groups,
          const std::vector<std::string>& states, const std::vector<std::string>& classes, const PyBank& bank) {
-        std::vector<EvalGroup> g;
-        for (const auto& [name, logs] : groups) g.push_back(EvalGroup{name, logs});
-        const DecisionConfig decision = bank.config().decision;
+        std::vector<evaluation::LogGroup> g;
+        for (const auto& [name, logs] : groups) g.push_back(evaluation::LogGroup{name, logs});
+        const std::string decision = evaluation::decision_settings_text(bank.config().decision);
         py::gil_scoped_release release;
-        return std::make_pair(eval_json(g, states), eval_table(g, classes, states, decision));
+        return std::make_pair(evaluation::report_json(g, states), evaluation::report_tables(g, classes, states, decision));
       },
       py::arg("groups"), py::arg("states"), py::arg("classes"), py::arg("bank"),
       "`skidimm eval`'s JSON and table for groups of per-log results, reduced in the order given.");
@@ -784,7 +779,9 @@ PYBIND11_MODULE(_skidimm, m) {
       "simulate_scenario",
       [](const fs::path& scenario, const fs::path& output, std::optional<unsigned long long> seed, double duration) {
         py::gil_scoped_release release;
-        simulate_scenario(scenario, seed.has_value(), seed.value_or(0), duration, output);
+        simulation::Scenario loaded = simulation::load_scenario(scenario);
+        if (duration > 0.0) loaded.duration = duration;
+        simulation::simulate(loaded, seed.value_or(loaded.seed), output);
       },
       py::arg("scenario"), py::arg("output"), py::arg("seed") = py::none(), py::arg("duration") = 0.0);
   m.def(
@@ -829,7 +826,7 @@ PYBIND11_MODULE(_skidimm, m) {
         std::vector<fitting::ModeLogs> data;
         {
           py::gil_scoped_release release;
-          data = load_fit_logs(bank.config(), logs, mode, sampling_of(bank.config(), rate));
+          data = fitting::load_mode_logs(bank.config(), logs, mode, sampling_of(bank.config(), rate));
         }
         return mode_logs_to_list(data);
       },
@@ -842,7 +839,7 @@ PYBIND11_MODULE(_skidimm, m) {
         std::vector<fitting::ModeLogs> data;
         {
           py::gil_scoped_release release;
-          data = cli::mode_segments(bank.config(), spec, mode, sampling_of(bank.config(), rate));
+          data = fitting::mode_segments(bank.config(), spec, mode, sampling_of(bank.config(), rate));
         }
         return mode_logs_to_list(data);
       },
@@ -872,20 +869,24 @@ PYBIND11_MODULE(_skidimm, m) {
       "fit_texts",
       [options_from](const PyBank& bank, const py::dict& fitted, const py::dict& options, const std::string& mode,
                      const std::string& name, const std::vector<std::string>& header, const fs::path& output) {
-        std::vector<FittedMode> modes;
+        std::vector<fitting::FittedMode> modes;
         for (const auto& [index, entry] : fitted) {
           const py::dict e = py::reinterpret_borrow<py::dict>(entry);
-          modes.push_back(
-              FittedMode{index.cast<int>(), e["logs"].cast<int>(), report_from_dict(e["report"].cast<py::dict>())});
+          modes.push_back(fitting::FittedMode{index.cast<int>(), e["logs"].cast<int>(),
+                                              report_from_dict(e["report"].cast<py::dict>())});
         }
-        std::sort(modes.begin(), modes.end(), [](const FittedMode& a, const FittedMode& b) { return a.mode < b.mode; });
-        FitRequest request;
+        std::sort(modes.begin(), modes.end(),
+                  [](const fitting::FittedMode& a, const fitting::FittedMode& b) { return a.mode < b.mode; });
+        fitting::FitRequest request;
         request.mode = mode;
         request.name = name;
-        request.header = header;
         request.options = options_from(options);
-        const FitTexts texts = fit_texts(*bank.bank, modes, request, output);
-        return py::make_tuple(texts.entries, texts.bank_yaml);
+        const std::string entries = fitting::format_fitted_entries(*bank.bank, modes, request);
+        fitting::write_fitted_bank(*bank.bank, modes, request, bank.config().file, output, header);
+        std::ifstream written(output, std::ios::binary);
+        std::ostringstream text;
+        text << written.rdbuf();
+        return py::make_tuple(entries, text.str());
       },
       py::arg("bank"), py::arg("fitted"), py::arg("options"), py::arg("mode"), py::arg("name"), py::arg("header"),
       py::arg("output"), "The mode entries and the whole bank `skidimm fit` writes for a fitted bank.");

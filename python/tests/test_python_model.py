@@ -1,5 +1,7 @@
 """Motion models written in Python, next to compiled plugins."""
 
+import inspect
+
 import numpy as np
 import pytest
 
@@ -117,3 +119,19 @@ def test_python_models_can_be_fitted(tmp_path, configs, singular_logs):
     assert a.keys() == b.keys()
     for name in a:
         assert b[name][0] == pytest.approx(a[name][0], rel=1e-4, abs=1e-6), name
+
+
+def test_python_models_are_built_and_checked_by_the_library_bank_builder(tmp_path, configs):
+    """One bank builder for plugins and Python models: the same checks, the same record of sources."""
+    path = python_bank(tmp_path, configs, modes=("grass",))
+    bank = skidimm.Bank(path, models={"py_ltc": PythonLtc})
+    sources = bank.model_sources
+    assert sources[0].startswith("plugin ltc_linear ") and sources[0].endswith("skidimm_ltc_linear.so)")
+    assert sources[1] == f"Python model py_ltc ({inspect.getfile(PythonLtc)})"
+    # A measured output the model does not give is refused, as for a plugin's model.
+    text = path.read_text().replace("  observe: [V, omega]", "  observe: [V, omega]\n  outputs: [slip]", 1)
+    text = text.replace("R: {std: [0.05, 0.02]}", "R: {std: [0.05, 0.02, 0.1]}", 1)
+    path.write_text(text.replace("model: ltc_linear", "model: py_ltc"))
+    with pytest.raises(skidimm.ConfigError, match=r"mode 'asphalt' \(model py_ltc\) has no output 'slip'") as caught:
+        skidimm.Bank(path, models={"py_ltc": PythonLtc})
+    assert caught.value.field == "modes[0].model"

@@ -160,25 +160,56 @@ struct BankConfig {
 // Parses and validates a bank file. Throws ConfigError.
 BankConfig load_bank_config(const std::filesystem::path& file);
 
-// Which plugin file (and version) a mode's model was created from.
+// Where a mode's model was created from: a plugin file (and its version),
+// or another source (ModelProvider), for messages.
 struct ModelSource {
   std::filesystem::path file;
-  std::string plugin;  // its name, the mode's `model:`
+  std::string plugin;  // the model's name, the mode's `model:`
   std::string version;
+  std::string origin = "plugin";  // what made it: "plugin", "Python model"
+  // "plugin ltc_linear 1.0.0 (/path/skidimm_ltc_linear.so)", or
+  // "Python model py_ltc (/path/models.py)".
+  std::string describe() const;
+};
+
+// A source of models other than plugins (Python classes: python/src), which
+// Bank::instantiate asks first for each mode's `model:`. The bank builder
+// does everything else as for a plugin's model: it hands the model the
+// bank's `shared:` parameters it takes and the mode's own `params:`, and
+// checks its states, angles, inputs, outputs and parameter scopes against
+// the bank. Called from the thread that builds the bank.
+class ModelProvider {
+ public:
+  virtual ~ModelProvider() = default;
+
+  // Whether this provider makes the model a mode's `model:` names.
+  virtual bool provides(const std::string& model) const = 0;
+  // The bank-level (`shared:`) parameter keys `model` takes.
+  virtual std::vector<std::string> shared_parameter_keys(const std::string& model) const = 0;
+  // Creates `model` with `params` (the bank's names set, set_bank_names).
+  // Throws PluginError when it refuses the parameters (reported at the mode's
+  // `params`), Error for anything else (reported at its `model`).
+  virtual ModelHandle create(const std::string& model, const sdk::ParameterSet& params) const = 0;
+  // Where `model` comes from.
+  virtual ModelSource source(const std::string& model) const = 0;
+  // What it provides, added to the message when a mode's model is neither
+  // its nor a plugin's: "nor a Python model: registered are [a, b]".
+  virtual std::string describe() const = 0;
 };
 
 struct Bank {
   BankConfig config;
   std::vector<ModelHandle> models;  // one per mode, same order
-  // One per mode when the models came from plugins (load, instantiate);
-  // empty for a Bank assembled from models made in process.
+  // One per mode when the models came from plugins or a ModelProvider (load,
+  // instantiate); empty for a Bank assembled from models made in process.
   std::vector<ModelSource> model_sources;
 
   // Loads the file and its plugins. The search path is `plugin_paths`
   // (e.g. --plugin-path), then the bank's, then the standard locations.
   static Bank load(const std::filesystem::path& file, const std::vector<std::filesystem::path>& plugin_paths = {});
-  // Creates the models of an already parsed config with `registry`.
-  static Bank instantiate(BankConfig config, PluginRegistry& registry);
+  // Creates the models of an already parsed config: those `provider` (may be
+  // null) provides from it, every other from a plugin of `registry`.
+  static Bank instantiate(BankConfig config, PluginRegistry& registry, const ModelProvider* provider = nullptr);
 };
 
 }  // namespace skidimm

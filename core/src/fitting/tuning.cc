@@ -277,51 +277,15 @@ void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
   if (s.likelihood_dof >= 0.0) config.likelihood_dof = s.likelihood_dof;
 }
 
-namespace {
-
-LogScore score_of(const evaluation::LogResult& r) {
-  LogScore s;
-  s.log = r.name;
-  s.truth = evaluation::main_truth(r.metrics);
-  s.accuracy = r.metrics.accuracy();
-  s.mean_log_probability = r.metrics.mean_truth_log_probability();
-  s.seconds = r.metrics.duration;
-  return s;
-}
-
-}  // namespace
-
 std::vector<LogScore> score_logs(const Bank& bank, const std::vector<const TuningLog*>& logs,
                                  const SamplingConfig& sampling, const std::vector<std::filesystem::path>& estimates) {
   std::vector<LogScore> out;
   for (std::size_t i = 0; i < logs.size(); ++i) {
     const TuningLog* log = logs[i];
-    out.push_back(score_of(
+    out.push_back(evaluation::score_of(
         evaluation::evaluate_log(bank, log->spec, sampling, i < estimates.size() ? estimates[i] : std::filesystem::path())));
   }
   return out;
-}
-
-Summary summarize(const std::vector<LogScore>& scores) {
-  Summary s;
-  std::map<std::string, std::pair<double, double>> sums;  // accuracy, log p
-  std::map<std::string, int> counts;
-  for (const LogScore& l : scores) {
-    sums[l.truth].first += l.accuracy;
-    sums[l.truth].second += l.mean_log_probability;
-    ++counts[l.truth];
-  }
-  for (const auto& [c, sum] : sums) {
-    s.class_accuracy[c] = sum.first / counts[c];
-    s.class_log_probability[c] = sum.second / counts[c];
-    s.accuracy += s.class_accuracy[c];
-    s.mean_log_probability += s.class_log_probability[c];
-  }
-  if (!sums.empty()) {
-    s.accuracy /= static_cast<double>(sums.size());
-    s.mean_log_probability /= static_cast<double>(sums.size());
-  }
-  return s;
 }
 
 namespace {
@@ -719,7 +683,7 @@ class Tuner {
   LogScore score_recorded(const Bank& bank, int i, const std::filesystem::path& estimates) const {
     const LogSpec& spec = logs_[static_cast<std::size_t>(i)].spec;
     RecordedLog::Replay replay = recorded_[static_cast<std::size_t>(i)].replay();
-    return score_of(evaluation::evaluate_log(bank, &replay, spec.name(), spec.label, estimates));
+    return evaluation::score_of(evaluation::evaluate_log(bank, &replay, spec.name(), spec.label, estimates));
   }
 
   // Coordinate search over the knobs on log-spaced grids, coarse then fine.

@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "skidimm/bank.h"
+#include "skidimm/evaluation/log_scores.h"
 #include "skidimm/fitting/model_fitter.h"
 #include "skidimm/log_reader.h"
 
@@ -136,24 +137,10 @@ struct TuneOptions {
   std::filesystem::path assessment_estimates;
 };
 
-// A held-out log's score.
-struct LogScore {
-  std::string log;
-  std::string truth;  // the class with the most time in it
-  double accuracy = 0.0;
-  double mean_log_probability = 0.0;
-  double seconds = 0.0;
-  std::string settings;  // the settings that scored it (nested: this fold's own)
-};
-
-// Over logs: mean over classes of the mean over each class's logs.
-struct Summary {
-  double accuracy = 0.0;
-  double mean_log_probability = 0.0;
-  std::map<std::string, double> class_accuracy;
-  std::map<std::string, double> class_log_probability;
-};
-Summary summarize(const std::vector<LogScore>& scores);
+// A held-out log's score, and their mean over classes (evaluation/log_scores.h).
+using LogScore = evaluation::LogScore;
+using Summary = evaluation::ScoreSummary;
+using evaluation::summarize;
 
 // What one protocol's nested assessment found: honest, as no log was scored
 // by models fitted or settings tuned on it.

@@ -1,0 +1,37 @@
+// What `skidimm eval` prints, for every front end (the CLI; Python's
+// skidimm.eval and skidimm.eval_report; skidimm.dask.eval): a table per
+// group when there are several, then one over all logs; or the same as JSON.
+// Groups are reduced in the order given (evaluation_summary.h).
+#ifndef SKIDIMM_EVALUATION_EVALUATION_REPORT_H_
+#define SKIDIMM_EVALUATION_EVALUATION_REPORT_H_
+
+#include <string>
+#include <vector>
+
+#include "skidimm/bank.h"
+#include "skidimm/evaluation/log_groups.h"
+
+namespace skidimm {
+namespace evaluation {
+
+// Decision settings as the report names them: "enter 0.9, leave 0.05, hold 1 s".
+std::string decision_settings_text(const DecisionConfig& settings);
+
+// {"overall": ..., "groups": {name: ...}, "logs": {name: ...}}, one line.
+// `states`: the bank's state names (state RMSE), empty when unknown.
+std::string report_json(const std::vector<LogGroup>& groups, const std::vector<std::string>& states);
+
+// The tables. `classes`: the confusion's columns, in order; `decision_made`:
+// how the scored decision was made (decision_settings_text, or where it
+// came from).
+std::string report_tables(const std::vector<LogGroup>& groups, const std::vector<std::string>& classes,
+                          const std::vector<std::string>& states, const std::string& decision_made);
+
+// The estimates the logs' confusions hold, in the order first met: the
+// columns when no bank names the classes.
+std::vector<std::string> estimates_seen(const std::vector<LogGroup>& groups);
+
+}  // namespace evaluation
+}  // namespace skidimm
+
+#endif  // SKIDIMM_EVALUATION_EVALUATION_REPORT_H_

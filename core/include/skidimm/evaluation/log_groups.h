@@ -1,0 +1,39 @@
+// Evaluating the logs of several log arguments (log_arguments.h), each
+// argument a group: what `skidimm eval` scores, by running a bank over logs
+// or by reading `skidimm run` outputs.
+#ifndef SKIDIMM_EVALUATION_LOG_GROUPS_H_
+#define SKIDIMM_EVALUATION_LOG_GROUPS_H_
+
+#include <string>
+#include <vector>
+
+#include "skidimm/bank.h"
+#include "skidimm/evaluation/log_evaluation.h"
+#include "skidimm/log_run.h"
+
+namespace skidimm {
+namespace evaluation {
+
+// The logs of one argument (a scenario, a terrain), in the order it expands to.
+struct LogGroup {
+  std::string name;  // log_group_name(argument)
+  std::vector<LogResult> logs;
+};
+
+// Runs `bank` over every log of `arguments` and scores it (evaluate_log).
+// Every log on its own thread (parallel.h), each with its own filter over the
+// shared, read-only bank: the results, and any error, are those of one
+// thread (SKIDIMM_THREADS=1). Throws Error, LogError.
+std::vector<LogGroup> evaluate_log_groups(const Bank& bank, const std::vector<std::string>& arguments,
+                                          const SamplingConfig& sampling, const EstimatorOptions& estimator);
+
+// Scores the `skidimm run` outputs of `arguments` (files, directories,
+// patterns) as evaluate_estimates does with `bank` and `decide` (each may be
+// null), every file on its own thread, with the results of one.
+std::vector<LogGroup> evaluate_estimate_groups(const std::vector<std::string>& arguments, const BankConfig* bank,
+                                               const DecisionConfig* decide);
+
+}  // namespace evaluation
+}  // namespace skidimm
+
+#endif  // SKIDIMM_EVALUATION_LOG_GROUPS_H_

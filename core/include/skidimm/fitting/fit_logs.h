@@ -1,0 +1,38 @@
+// The logs a fit trains each mode on, read the same way by every front end
+// (`skidimm fit` and `tune`, Python's skidimm.fit, skidimm.dask).
+//
+// Which mode a log shows: its MODE= label, else the default mode (`fit
+// --mode`), else the bank's truth column, whose runs of one label become
+// segments of their own. A label may name a class: its steps go to the
+// class's modes by their fit_when (the first whose condition holds, else the
+// one without).
+#ifndef SKIDIMM_FITTING_FIT_LOGS_H_
+#define SKIDIMM_FITTING_FIT_LOGS_H_
+
+#include <string>
+#include <vector>
+
+#include "skidimm/bank.h"
+#include "skidimm/fitting/model_fitter.h"
+#include "skidimm/log_reader.h"
+
+namespace skidimm {
+namespace fitting {
+
+// The segments one log gives each mode, by mode index. Throws Error; its
+// messages name the log as `option` gave it ("--log", "--held-out").
+std::vector<ModeLogs> mode_segments(const BankConfig& config, const LogSpec& log, const std::string& default_mode,
+                                    const SamplingConfig& sampling, const std::string& option = "--log");
+
+// The segments of every log that `arguments` stand for (log_arguments.h:
+// files, directories, patterns), merged by mode in argument order. Each log
+// is read on its own thread (parallel.h): the same segments, in the same
+// order, and the same first error as one thread gives.
+std::vector<ModeLogs> load_mode_logs(const BankConfig& config, const std::vector<std::string>& arguments,
+                                     const std::string& default_mode, const SamplingConfig& sampling,
+                                     const std::string& option = "--log");
+
+}  // namespace fitting
+}  // namespace skidimm
+
+#endif  // SKIDIMM_FITTING_FIT_LOGS_H_

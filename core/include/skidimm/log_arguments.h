@@ -1,0 +1,39 @@
+// Log arguments, read the same way by every front end (the CLI's run, fit,
+// tune, eval and plot; Python; Dask): "[LABEL=]FILE[@OFFSET][+FILE[@OFFSET]...]"
+// (parse_log_spec, log_reader.h), where
+//  * a directory stands for each of its *.csv files, one log each;
+//  * a '*' in the first file's name matches several runs, and the other
+//    files' '*' take the same text: 'ice=data/ICE/pro_*.csv+data/ICE/imu_*.csv'
+//    pairs pro_02.csv with imu_02.csv. (Quote it so the shell leaves it.)
+#ifndef SKIDIMM_LOG_ARGUMENTS_H_
+#define SKIDIMM_LOG_ARGUMENTS_H_
+
+#include <string>
+#include <vector>
+
+#include "skidimm/log_reader.h"
+
+namespace skidimm {
+
+// The logs one argument stands for, sorted by name. Throws Error when a
+// pattern or directory matches nothing, or a paired file is missing.
+std::vector<LogSpec> expand_log_argument(const std::string& argument);
+
+// The name of the group of logs one argument stands for (a table of its own
+// in `skidimm eval`): its label, else the directory's name or the (first)
+// file's stem.
+std::string log_group_name(const std::string& argument);
+
+// The parts of one log given as several arguments (`run --input` repeated)
+// joined into one: their files in order, one label. Throws Error when none
+// is given or two labels differ.
+LogSpec join_log_arguments(const std::vector<std::string>& arguments);
+
+// Throws Error unless every file of `log` can be read again (a regular file,
+// not standard input, a pipe or a FIFO: log_io.h, is_rereadable); `who` says
+// which command and why, e.g. "tune reads each log more than once".
+void require_rereadable(const LogSpec& log, const std::string& who);
+
+}  // namespace skidimm
+
+#endif  // SKIDIMM_LOG_ARGUMENTS_H_

@@ -1,0 +1,286 @@
+#include "skidimm/evaluation/evaluation_report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include "skidimm/evaluation/evaluation_summary.h"
+#include "skidimm/log_io.h"
+#include "skidimm/printable.h"
+
+namespace skidimm {
+namespace evaluation {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::vector<const LogResult*> pointers(const LogGroup& group) {
+  std::vector<const LogResult*> out;
+  for (const LogResult& l : group.logs) out.push_back(&l);
+  return out;
+}
+
+std::vector<const LogResult*> pointers(const std::vector<LogGroup>& groups) {
+  std::vector<const LogResult*> out;
+  for (const LogGroup& g : groups) {
+    for (const LogResult& l : g.logs) out.push_back(&l);
+  }
+  return out;
+}
+
+std::string fmt(double v, const char* format = "%.3f") {
+  if (!std::isfinite(v)) return "-";
+  char b[64];
+  std::snprintf(b, sizeof(b), format, v);
+  return b;
+}
+
+std::string json_number(double v) { return std::isfinite(v) ? fmt(v, "%.6g") : "null"; }
+std::string json_string(const std::string& s) {
+  std::string out = "\"";
+  for (char c : printable(s)) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (static_cast<unsigned char>(c) < 0x20) {  // tab and newline: JSON escapes
+      out += c == '\t' ? "\\t" : "\\n";
+      continue;
+    }
+    out += c;
+  }
+  return out + "\"";
+}
+
+// `decision_made`: how the scored decision was made, e.g. "enter 0.9, leave
+// 0.05, hold 1 s".
+void print_table(std::ostream& out, const std::string& title, const EvaluationSummary& s, const std::vector<std::string>& modes,
+                 const std::vector<std::string>& states, bool list_switches, const std::string& decision_made) {
+  const ModeMetrics& m = s.metrics;
+  out << "\n" << title << ": " << s.accuracies.size() << " log(s), " << fmt(m.duration, "%.1f") << " s labelled\n";
+  out << "  accuracy (time fraction)        " << fmt(m.accuracy());
+  if (s.accuracies.size() > 1) {
+    out << "   per log: mean " << fmt(s.accuracy_per_log.mean) << " +- " << fmt(s.accuracy_per_log.standard_deviation)
+        << ", min " << fmt(s.accuracy_per_log.min);
+  }
+  if (s.accuracies.size() > 1) {
+    const ScoreSummary& c = s.by_log_class;
+    if (c.class_accuracy.size() > 1) {
+      out << "\n  per class, mean over its logs:  ";
+      for (const auto& [name, accuracy] : c.class_accuracy) out << " " << name << " " << fmt(accuracy);
+      out << "; mean over classes " << fmt(c.accuracy);
+    }
+  }
+  out << "\n  mean probability of the true mode " << fmt(m.mean_truth_probability()) << "\n";
+  out << "  mean log probability of the truth " << fmt(m.mean_truth_log_probability()) << "\n";
+  for (const auto& [mode, seconds] : m.truth_absent) {
+    out << "  truth mode '" << mode << "' is not in the bank (" << fmt(seconds, "%.1f") << " s, always wrong)\n";
+  }
+  // Confusion: rows truth, columns estimate, fraction of the truth's time.
+  std::size_t label = 8;
+  for (const auto& [truth, row] : m.confusion) label = std::max(label, truth.size());
+  auto cell = [](const std::string& text, std::size_t width) {
+    return std::string(width > text.size() ? width - text.size() : 0, ' ') + text;
+  };
+  out << "  confusion (rows: truth, columns: estimate, fraction of the truth's time)\n  " << std::string(label, ' ');
+  for (const auto& name : modes) out << " " << cell(name, std::max<std::size_t>(name.size(), 5));
+  out << "\n";
+  for (const auto& [truth, row] : m.confusion) {
+    double total = 0.0;
+    for (const auto& [estimate, seconds] : row) total += seconds;
+    out << "  " << truth << std::string(label - truth.size(), ' ');
+    for (const auto& name : modes) {
+      const auto it = row.find(name);
+      const double fraction = it == row.end() || total <= 0 ? 0.0 : it->second / total;
+      out << " " << cell(fmt(fraction, "%.2f"), std::max<std::size_t>(name.size(), 5));
+    }
+    out << "\n";
+  }
+  const LatencyStats l = latency_stats(m);
+  const LatencyStats f = latency_stats(m, true);
+  if (l.switches > 0) {
+    out << "  switches " << l.switches << "; new mode first most likely after: median " << fmt(f.median, "%.2f")
+        << " s, max " << fmt(f.max, "%.2f") << " s, never " << (f.switches - f.detected) << "\n";
+    out << "    ... and most likely from then on until the next switch: median " << fmt(l.median, "%.2f") << " s, max "
+        << fmt(l.max, "%.2f") << " s, never " << (l.switches - l.detected) << "\n";
+    if (list_switches) {
+      for (const auto& d : m.switches) {
+        out << "    " << fmt(d.time, "%8.2f") << " s  " << d.from << " -> " << d.to << ": first "
+            << (d.first_latency == d.first_latency ? fmt(d.first_latency, "%.2f") + " s" : std::string("never"))
+            << ", settled " << (d.detected() ? fmt(d.latency, "%.2f") + " s" : std::string("never")) << "\n";
+      }
+    }
+  }
+  if (s.decisions.duration > 0.0) {
+    const ModeMetrics& d = s.decisions;
+    const LatencyStats dl = latency_stats(d);
+    const LatencyStats df = latency_stats(d, true);
+    out << "  decision (" << decision_made << "): accuracy " << fmt(d.accuracy()) << ", unknown "
+        << fmt(d.duration > 0 ? d.unknown_seconds / d.duration : 0.0) << " of the time\n";
+    out << "    changes per minute: decision " << fmt(d.estimate_changes_per_minute(), "%.2f") << ", most likely "
+        << fmt(m.estimate_changes_per_minute(), "%.2f") << ", truth " << fmt(m.truth_changes_per_minute(), "%.2f")
+        << "\n";
+    if (dl.switches > 0) {
+      out << "    switches " << dl.switches << ": first decided after median " << fmt(df.median, "%.2f") << " s, never "
+          << (df.switches - df.detected) << "; settled after median " << fmt(dl.median, "%.2f") << " s, max "
+          << fmt(dl.max, "%.2f") << " s, never " << (dl.switches - dl.detected) << "; changes per switch: median "
+          << fmt(dl.median_changes, "%.1f") << " (most likely " << fmt(latency_stats(m).median_changes, "%.1f")
+          << "); lost against the most likely " << s.decision_lost << "\n";
+    }
+  }
+  bool any_rmse = false;
+  for (double r : s.state_rmse) any_rmse = any_rmse || std::isfinite(r);
+  if (any_rmse) {
+    out << "  state RMSE vs true_<state>:";
+    for (std::size_t i = 0; i < states.size(); ++i) out << " " << states[i] << " " << fmt(s.state_rmse[i], "%.4f");
+    out << "\n";
+  }
+  if (!s.nis.empty()) {
+    out << "  consistency of the true mode's filter (mean NIS per measured component, 95% bounds):\n";
+    for (const auto& [mode, acc] : s.nis) {
+      out << "    " << mode << std::string(label + 2 - std::min(label + 2, mode.size()), ' ')
+          << fmt(acc.mean_per_dof(), "%.2f") << " [" << fmt(acc.lower_bound(), "%.2f") << ", "
+          << fmt(acc.upper_bound(), "%.2f") << "] " << acc.verdict() << "\n";
+    }
+  }
+}
+
+std::string json_summary(const EvaluationSummary& s, const std::vector<std::string>& states) {
+  const ModeMetrics& m = s.metrics;
+  const ScoreSummary& by_class = s.by_log_class;
+  std::ostringstream o;
+  o << "{\"logs\": " << s.accuracies.size() << ", \"duration\": " << json_number(m.duration)
+    << ", \"accuracy\": " << json_number(m.accuracy())
+    << ", \"accuracy_per_log\": {\"mean\": " << json_number(s.accuracy_per_log.mean)
+    << ", \"std\": " << json_number(s.accuracy_per_log.standard_deviation)
+    << ", \"min\": " << json_number(s.accuracy_per_log.min) << "}, \"mean_over_classes\": {\"accuracy\": " << json_number(by_class.accuracy)
+    << ", \"mean_truth_log_probability\": " << json_number(by_class.mean_log_probability) << ", \"per_class\": {";
+  bool listed = false;
+  for (const auto& [name, accuracy] : by_class.class_accuracy) {
+    o << (listed ? ", " : "") << json_string(name) << ": {\"accuracy\": " << json_number(accuracy)
+      << ", \"mean_truth_log_probability\": " << json_number(by_class.class_log_probability.at(name)) << "}";
+    listed = true;
+  }
+  o << "}}, \"mean_truth_probability\": " << json_number(m.mean_truth_probability())
+    << ", \"mean_truth_log_probability\": " << json_number(m.mean_truth_log_probability()) << ", \"confusion_seconds\": {";
+  bool first = true;
+  for (const auto& [truth, row] : m.confusion) {
+    o << (first ? "" : ", ") << json_string(truth) << ": {";
+    bool inner = true;
+    for (const auto& [estimate, seconds] : row) {
+      o << (inner ? "" : ", ") << json_string(estimate) << ": " << json_number(seconds);
+      inner = false;
+    }
+    o << "}";
+    first = false;
+  }
+  o << "}, \"truth_absent_seconds\": {";
+  first = true;
+  for (const auto& [mode, seconds] : m.truth_absent) {
+    o << (first ? "" : ", ") << json_string(mode) << ": " << json_number(seconds);
+    first = false;
+  }
+  const LatencyStats l = latency_stats(m);
+  o << "}, \"switches\": [";
+  first = true;
+  for (const auto& d : m.switches) {
+    o << (first ? "" : ", ") << "{\"time\": " << json_number(d.time) << ", \"from\": " << json_string(d.from)
+      << ", \"to\": " << json_string(d.to) << ", \"latency\": " << json_number(d.latency)
+      << ", \"first_latency\": " << json_number(d.first_latency) << "}";
+    first = false;
+  }
+  const LatencyStats f = latency_stats(m, true);
+  o << "], \"latency\": {\"switches\": " << l.switches << ", \"followed\": " << l.detected
+    << ", \"median_changes_per_switch\": " << json_number(l.median_changes)
+    << ", \"median\": " << json_number(l.median) << ", \"mean\": " << json_number(l.mean)
+    << ", \"max\": " << json_number(l.max) << "}, \"first_latency\": {\"detected\": " << f.detected
+    << ", \"median\": " << json_number(f.median) << ", \"mean\": " << json_number(f.mean)
+    << ", \"max\": " << json_number(f.max) << "}, \"state_rmse\": {";
+  for (std::size_t i = 0; i < states.size() && i < s.state_rmse.size(); ++i) {
+    o << (i ? ", " : "") << json_string(states[i]) << ": " << json_number(s.state_rmse[i]);
+  }
+  const ModeMetrics& d = s.decisions;
+  const LatencyStats dl = latency_stats(d);
+  const LatencyStats df = latency_stats(d, true);
+  o << "}, \"changes_per_minute\": {\"most_likely\": " << json_number(m.estimate_changes_per_minute())
+    << ", \"decision\": " << json_number(d.estimate_changes_per_minute())
+    << ", \"truth\": " << json_number(m.truth_changes_per_minute())
+    << "}, \"decision\": {\"accuracy\": " << json_number(d.duration > 0 ? d.accuracy() : kNaN)
+    << ", \"accuracy_per_log\": {\"mean\": " << json_number(s.decision_accuracy_per_log.mean)
+    << ", \"std\": " << json_number(s.decision_accuracy_per_log.standard_deviation)
+    << ", \"min\": " << json_number(s.decision_accuracy_per_log.min) << "}, \"unknown_fraction\": " << json_number(d.duration > 0 ? d.unknown_seconds / d.duration : kNaN)
+    << ", \"switches\": " << dl.switches << ", \"first_detected\": " << df.detected
+    << ", \"first_median\": " << json_number(df.median) << ", \"settled\": " << dl.detected
+    << ", \"settled_median\": " << json_number(dl.median) << ", \"settled_max\": " << json_number(dl.max)
+    << ", \"median_changes_per_switch\": " << json_number(dl.median_changes) << ", \"lost\": " << s.decision_lost;
+  o << "}, \"nis\": {";
+  first = true;
+  for (const auto& [mode, acc] : s.nis) {
+    o << (first ? "" : ", ") << json_string(mode) << ": {\"mean_per_dof\": " << json_number(acc.mean_per_dof())
+      << ", \"lower\": " << json_number(acc.lower_bound()) << ", \"upper\": " << json_number(acc.upper_bound())
+      << ", \"verdict\": " << json_string(acc.verdict()) << "}";
+    first = false;
+  }
+  o << "}}";
+  return o.str();
+}
+
+}  // namespace
+
+std::string decision_settings_text(const DecisionConfig& d) {
+  return "enter " + CsvWriter::format(d.enter) + ", leave " + CsvWriter::format(d.leave) + ", hold " +
+         CsvWriter::format(d.min_hold) + " s";
+}
+
+std::string report_json(const std::vector<LogGroup>& groups, const std::vector<std::string>& states) {
+  const std::vector<const LogResult*> all = pointers(groups);
+  std::ostringstream out;
+  out << "{\"overall\": " << json_summary(summarize(all, states.size()), states) << ", \"groups\": {";
+  for (std::size_t i = 0; i < groups.size(); ++i) {
+    out << (i ? ", " : "") << json_string(groups[i].name) << ": "
+        << json_summary(summarize(pointers(groups[i]), states.size()), states);
+  }
+  out << "}, \"logs\": {";
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    out << (i ? ", " : "") << json_string(all[i]->name) << ": " << json_summary(summarize({all[i]}, states.size()), states);
+  }
+  out << "}}\n";
+  return out.str();
+}
+
+std::string report_tables(const std::vector<LogGroup>& groups, const std::vector<std::string>& classes,
+                          const std::vector<std::string>& states, const std::string& decision_made) {
+  std::ostringstream out;
+  if (groups.size() > 1) {
+    for (const LogGroup& g : groups) {
+      const std::vector<const LogResult*> logs = pointers(g);
+      print_table(out, g.name, summarize(logs, states.size()), classes, states, logs.size() == 1, decision_made);
+    }
+  }
+  if (!groups.empty()) {
+    const std::vector<const LogResult*> all = pointers(groups);
+    print_table(out, groups.size() > 1 ? "all" : groups[0].name, summarize(all, states.size()), classes, states,
+                all.size() <= 3, decision_made);
+  }
+  return out.str();
+}
+
+std::vector<std::string> estimates_seen(const std::vector<LogGroup>& groups) {
+  std::vector<std::string> names;
+  std::map<std::string, bool> seen;
+  for (const LogGroup& g : groups) {
+    for (const LogResult& l : g.logs) {
+      for (const auto& [truth, row] : l.metrics.confusion) {
+        for (const auto& [estimate, seconds] : row) {
+          if (!seen[estimate]) names.push_back(estimate);
+          seen[estimate] = true;
+        }
+      }
+    }
+  }
+  return names;
+}
+
+}  // namespace evaluation
+}  // namespace skidimm

@@ -1,0 +1,152 @@
+#include "skidimm/fitting/fit_logs.h"
+
+#include <algorithm>
+#include <exception>
+#include <map>
+#include <memory>
+
+#include "skidimm/errors.h"
+#include "skidimm/expression.h"
+#include "skidimm/fitting/trajectory.h"
+#include "skidimm/log_arguments.h"
+#include "skidimm/parallel.h"
+
+namespace skidimm {
+namespace fitting {
+
+namespace {
+
+// Splits a segment labelled with a class of several modes among them: each
+// step goes to the first mode whose fit_when holds for its inputs, else to
+// the mode without one; steps no mode takes are left out.
+void split_class(const BankConfig& config, const ClassConfig& c, const Trajectory& t,
+                 std::map<int, ModeLogs>* by_mode) {
+  struct Condition {
+    int mode;
+    std::unique_ptr<Expression> expression;
+    std::vector<int> inputs;
+    std::vector<double> values;
+  };
+  std::vector<Condition> conditions;
+  int fallback = -1;
+  for (int j : c.modes) {
+    const ModeConfig& m = config.modes[static_cast<std::size_t>(j)];
+    if (m.fit_when.empty()) {
+      if (fallback < 0) fallback = j;
+      continue;
+    }
+    Condition k{j, std::make_unique<Expression>(m.fit_when), {}, {}};
+    for (const std::string& v : k.expression->variables()) {
+      k.inputs.push_back(static_cast<int>(std::find(config.input_names.begin(), config.input_names.end(), v) -
+                                          config.input_names.begin()));
+    }
+    k.values.resize(k.inputs.size());
+    conditions.push_back(std::move(k));
+  }
+  std::vector<int> owner(static_cast<std::size_t>(t.size()), fallback);
+  for (int k = 0; k < t.size(); ++k) {
+    for (Condition& cond : conditions) {
+      for (std::size_t i = 0; i < cond.inputs.size(); ++i) cond.values[i] = t.u(cond.inputs[i], k);
+      if (cond.expression->evaluate(cond.values.data()) != 0.0) {
+        owner[static_cast<std::size_t>(k)] = cond.mode;
+        break;
+      }
+    }
+  }
+  Trajectory labelled = t;
+  for (int k = 0; k < t.size(); ++k) {
+    const int j = owner[static_cast<std::size_t>(k)];
+    labelled.truth[static_cast<std::size_t>(k)] = j < 0 ? "" : config.modes[static_cast<std::size_t>(j)].name;
+  }
+  for (auto& [name, part] : split_by_truth(labelled)) {
+    const int j = config.mode_index(name);
+    (*by_mode)[j].mode = j;
+    (*by_mode)[j].logs.push_back(std::move(part));
+  }
+}
+
+}  // namespace
+
+std::vector<ModeLogs> mode_segments(const BankConfig& config, const LogSpec& log, const std::string& default_mode,
+                                    const SamplingConfig& sampling, const std::string& option) {
+  // A label names a mode, or a class (whose modes share its steps by fit_when).
+  auto check_label = [&config](const std::string& label, const std::string& where) {
+    if (config.mode_index(label) < 0 && config.class_index(label) < 0) {
+      throw Error(where + ": the bank has no mode or class '" + label + "'");
+    }
+  };
+  std::map<int, ModeLogs> by_mode;
+  auto add = [&](const std::string& label, Trajectory part) {
+    const int j = config.mode_index(label);
+    if (j >= 0) {
+      by_mode[j].mode = j;
+      by_mode[j].logs.push_back(std::move(part));
+      return;
+    }
+    for (const ClassConfig& c : config.classes) {
+      if (c.name == label) split_class(config, c, part, &by_mode);
+    }
+  };
+  const std::string label = !log.label.empty() ? log.label : default_mode;
+  if (!label.empty()) check_label(label, option + " '" + log.text + "'");
+  if (label.empty() && config.columns.truth_mode.empty()) {
+    throw Error(option + " '" + log.text +
+                "': say which mode it shows (MODE=FILE) or give --mode (or give the bank a truth column, "
+                "columns.truth_mode)");
+  }
+  Trajectory trajectory = load_trajectory(config, log.files, sampling);
+  if (trajectory.size() == 0) throw Error(option + " '" + log.text + "': the log gives no step");
+  if (!label.empty()) {
+    add(label, std::move(trajectory));
+  } else {
+    const auto parts = split_by_truth(trajectory);
+    if (parts.empty()) {
+      throw Error(option + " '" + log.text + "': say which mode it shows (MODE=FILE) or give --mode; its truth column '" +
+                  config.columns.truth_mode + "' is absent or empty");
+    }
+    for (const auto& [part_label, part] : parts) {
+      check_label(part_label, option + " '" + log.text + "', truth column '" + config.columns.truth_mode + "'");
+      add(part_label, part);
+    }
+  }
+  std::vector<ModeLogs> out;
+  for (auto& [j, d] : by_mode) out.push_back(std::move(d));
+  return out;
+}
+
+std::vector<ModeLogs> load_mode_logs(const BankConfig& config, const std::vector<std::string>& arguments,
+                                     const std::string& default_mode, const SamplingConfig& sampling,
+                                     const std::string& option) {
+  struct Job {
+    LogSpec log;
+    std::exception_ptr error;  // expanding its argument failed
+  };
+  std::vector<Job> jobs;
+  for (const std::string& argument : arguments) {
+    try {
+      for (const LogSpec& log : expand_log_argument(argument)) jobs.push_back(Job{log, nullptr});
+    } catch (...) {
+      jobs.push_back(Job{LogSpec{}, std::current_exception()});
+      break;
+    }
+  }
+  std::vector<std::vector<ModeLogs>> segments(jobs.size());
+  parallel_for(static_cast<int>(jobs.size()), worker_count(), [&](int i, int) {
+    const Job& job = jobs[static_cast<std::size_t>(i)];
+    if (job.error) std::rethrow_exception(job.error);
+    segments[static_cast<std::size_t>(i)] = mode_segments(config, job.log, default_mode, sampling, option);
+  });
+  std::map<int, ModeLogs> by_mode;
+  for (std::vector<ModeLogs>& log : segments) {
+    for (ModeLogs& d : log) {
+      by_mode[d.mode].mode = d.mode;
+      for (auto& t : d.logs) by_mode[d.mode].logs.push_back(std::move(t));
+    }
+  }
+  std::vector<ModeLogs> out;
+  for (auto& [j, logs] : by_mode) out.push_back(std::move(logs));
+  return out;
+}
+
+}  // namespace fitting
+}  // namespace skidimm

@@ -1,0 +1,114 @@
+#include "skidimm/fitting/fit_output.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include "skidimm/fitting/bank_writer.h"
+
+namespace skidimm {
+namespace fitting {
+
+namespace {
+
+std::string significant(double v, int digits = 4) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), "%.*g", digits, v);
+  return buffer;
+}
+
+bool likelihood(const FitRequest& request) { return request.options.objective == Objective::kLikelihood; }
+
+const FittedMode* find_fitted(const std::vector<FittedMode>& fitted, int j) {
+  for (const FittedMode& f : fitted) {
+    if (f.mode == j) return &f;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+std::string output_mode_name(const BankConfig& config, const FitRequest& request, int j) {
+  const std::string& original = config.modes[static_cast<std::size_t>(j)].name;
+  return !request.name.empty() && original == request.mode ? request.name : original;
+}
+
+std::string measurement_values_text(const BankConfig& config, const Eigen::VectorXd& values, int digits) {
+  std::string out;
+  for (Eigen::Index c = 0; c < values.size(); ++c) {
+    out += (c ? ", " : "") + config.measurement.names[static_cast<std::size_t>(c)] + " " +
+           significant(values[c], digits);
+  }
+  return out;
+}
+
+Eigen::VectorXd persistence_rmse(const ModeLogs& data) {
+  const Eigen::Index m = data.logs.empty() ? 0 : data.logs[0].z.rows();
+  Eigen::VectorXd squared = Eigen::VectorXd::Zero(m), counts = Eigen::VectorXd::Zero(m);
+  for (const Trajectory& t : data.logs) {
+    std::vector<int> last(static_cast<std::size_t>(m), -1);
+    for (int k = 0; k < t.size(); ++k) {
+      for (Eigen::Index c = 0; c < m; ++c) {
+        if (!std::isfinite(t.z(c, k))) continue;
+        if (last[static_cast<std::size_t>(c)] >= 0) {
+          const double e = t.z(c, k) - t.z(c, last[static_cast<std::size_t>(c)]);
+          squared[c] += e * e;
+          counts[c] += 1.0;
+        }
+        last[static_cast<std::size_t>(c)] = k;
+      }
+    }
+  }
+  return (squared.array() / counts.array().max(1.0)).sqrt();
+}
+
+std::string format_fitted_entries(const Bank& bank, const std::vector<FittedMode>& fitted, const FitRequest& request) {
+  const BankConfig& config = bank.config;
+  const FitOptions& window = request.options.window;
+  std::string entries;
+  for (const FittedMode& f : fitted) {
+    const std::string comment =
+        (likelihood(request) ? std::string("fitted by skidimm fit (likelihood) from ")
+                             : "fitted by skidimm fit (window " + significant(window.window) + " s, " + window.loss +
+                                   ") from ") +
+        std::to_string(f.logs) + " log(s); " + (likelihood(request) ? "innovation RMSE " : "one-step RMSE ") +
+        measurement_values_text(config, f.report.rmse);
+    const ModeConfig& mode = config.modes[static_cast<std::size_t>(f.mode)];
+    entries += format_mode_entry(output_mode_name(config, request, f.mode), mode.model,
+                                 *bank.models[static_cast<std::size_t>(f.mode)], f.report.q_intensity, {comment},
+                                 mode.params, mode.fit_when, mode.r);
+  }
+  return entries;
+}
+
+void write_fitted_bank(const Bank& bank, const std::vector<FittedMode>& fitted, const FitRequest& request,
+                       const std::filesystem::path& template_file, const std::filesystem::path& output,
+                       const std::vector<std::string>& header) {
+  const BankConfig& config = bank.config;
+  std::string modes_block = "modes:\n";
+  for (int j = 0; j < config.num_modes(); ++j) {
+    const ModeConfig& mode = config.modes[static_cast<std::size_t>(j)];
+    const sdk::MotionModel& model = *bank.models[static_cast<std::size_t>(j)];
+    const std::string name = output_mode_name(config, request, j);
+    if (const FittedMode* f = find_fitted(fitted, j)) {
+      const std::string comment = std::string(likelihood(request) ? "innovation RMSE " : "one-step RMSE ") +
+                                  measurement_values_text(config, f->report.rmse) + " on " + std::to_string(f->logs) +
+                                  " log(s)";
+      modes_block +=
+          format_mode_entry(name, mode.model, model, f->report.q_intensity, {comment}, mode.params, mode.fit_when, mode.r);
+    } else {
+      modes_block += format_mode_entry(name, mode.model, model, mode.q_intensity,
+                                       {"not fitted: no log given for this mode"}, mode.params, mode.fit_when, mode.r);
+    }
+  }
+  std::vector<std::pair<std::string, std::string>> blocks;
+  if (request.options.shared) {
+    blocks.emplace_back(
+        "shared", "shared: " + format_parameters(*bank.models[0], sdk::ParameterScope::kBank, config.shared) + "\n");
+  }
+  if (request.options.fit_measurement_noise) blocks.emplace_back("measurement", format_measurement_block(config));
+  blocks.emplace_back("modes", modes_block);
+  write_bank_from_template(template_file, output, header, blocks);
+}
+
+}  // namespace fitting
+}  // namespace skidimm

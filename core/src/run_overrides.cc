@@ -1,0 +1,63 @@
+#include "skidimm/run_overrides.h"
+
+#include <cmath>
+
+#include "skidimm/errors.h"
+#include "skidimm/log_io.h"
+
+namespace skidimm {
+
+SamplingConfig sampling_of(const BankConfig& bank, std::optional<double> rate) {
+  SamplingConfig sampling = bank.sampling;
+  if (rate && *rate > 0.0) sampling.rate = *rate;
+  return sampling;
+}
+
+void check_decision_settings(const DecisionConfig& d) {
+  if (!(d.enter > 0.0 && d.enter <= 1.0 && d.leave >= 0.0 && d.leave < d.enter)) {
+    throw Error("decision thresholds: need 0 <= leave < enter <= 1, got enter " + CsvWriter::format(d.enter) +
+                ", leave " + CsvWriter::format(d.leave));
+  }
+  if (!(d.min_hold >= 0.0)) throw Error("decision hold: need min_hold >= 0 s, got " + CsvWriter::format(d.min_hold));
+}
+
+DecisionConfig decision_settings_of(const DecisionConfig& bank, const RunOverrides& overrides) {
+  DecisionConfig d = bank;
+  if (overrides.decision_enter) d.enter = *overrides.decision_enter;
+  if (overrides.decision_leave) d.leave = *overrides.decision_leave;
+  if (overrides.decision_hold) d.min_hold = *overrides.decision_hold;
+  check_decision_settings(d);
+  return d;
+}
+
+void apply_overrides(const RunOverrides& overrides, BankConfig* config) {
+  // Every value is checked before any is set.
+  const DecisionConfig decision = decision_settings_of(config->decision, overrides);
+  if (overrides.innovation_gate && !(*overrides.innovation_gate >= 0.0 && *overrides.innovation_gate < 1.0)) {
+    throw Error("innovation gate: expected a probability in (0, 1), or 0 for none, got " +
+                CsvWriter::format(*overrides.innovation_gate));
+  }
+  if (overrides.likelihood_weight && !(*overrides.likelihood_weight > 0.0 && *overrides.likelihood_weight <= 1.0)) {
+    throw Error("likelihood weight: expected a weight in (0, 1], got " +
+                CsvWriter::format(*overrides.likelihood_weight));
+  }
+  config->decision = decision;
+  if (overrides.innovation_gate) config->innovation_gate = *overrides.innovation_gate;
+  if (overrides.likelihood_weight) config->likelihood_weight = *overrides.likelihood_weight;
+}
+
+EstimatorOptions estimator_options(bool smooth, std::optional<double> lag) {
+  EstimatorOptions estimator;
+  if (smooth && lag) {
+    throw Error("smooth (over the whole log) and lag (smoothing with a fixed lag) exclude each other: give one, not both");
+  }
+  if (smooth) estimator.kind = EstimatorOptions::Kind::kFixedInterval;
+  if (lag) {
+    if (!(*lag >= 0.0)) throw Error("lag: expected seconds >= 0, got " + CsvWriter::format(*lag));
+    estimator.kind = EstimatorOptions::Kind::kFixedLag;
+    estimator.lag = *lag;
+  }
+  return estimator;
+}
+
+}  // namespace skidimm
