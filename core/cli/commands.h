@@ -107,6 +107,7 @@ struct TuneCommandOptions {
   std::string protocols = "logs";    // comma-separated protocols of the nested assessment (fitting/tuning.h)
   std::filesystem::path sessions;    // which logs were recorded together (fitting/sessions.h)
   std::vector<std::string> lockbox;  // logs kept aside, scored once by the tuned bank; as `logs`
+  bool splice = false;               // score the logs a fold holds out as one spliced run
   int threads = 0;
   double window = 0.0;  // the window objective's window (s)
   bool fit_r = false;

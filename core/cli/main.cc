@@ -208,6 +208,9 @@ int main(int argc, char** argv) {
   tune->add_option("--sessions", tune_options.sessions,
                    "File of 'GLOB SESSION' lines: which logs were recorded together (for --assess sessions)")
       ->check(CLI::ExistingFile);
+  tune->add_flag("--splice", tune_options.splice,
+                 "Score the logs a fold holds out as one run spliced end to end (classes taking turns), so that the "
+                 "scores include following each change; with --folds/--inner-folds K the search sees changes too");
   tune->add_option("--lockbox", tune_options.lockbox,
                    "Logs kept aside (as --log): neither fitted nor tuned on, scored once by the tuned bank; repeatable");
   tune->add_option("--threads", tune_options.threads, "Worker threads (default: every core)")->check(CLI::NonNegativeNumber);

@@ -1,6 +1,9 @@
 // skidimm tune: choose what decides identification by cross-validation
 // grouped by log file (fitting/tuning.h), and write the tuned bank.
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <fstream>
 #include <iostream>
 #include <mutex>
@@ -77,11 +80,35 @@ void write_table(const fs::path& file, const fitting::TuneResult& result) {
   write_file_atomically(file, out.str());  // output_file.h: checked, renamed when whole
 }
 
+// How fast the spliced runs' changes of class were followed (tune --splice).
+void print_switches(std::ostream& out, const fitting::Assessment& a) {
+  const auto line = [&](const char* what, const evaluation::ModeMetrics& m) {
+    std::vector<double> first;
+    long never = 0;
+    for (const evaluation::SwitchDetection& d : m.switches) {
+      if (std::isfinite(d.first_latency)) {
+        first.push_back(d.first_latency);
+      } else {
+        ++never;
+      }
+    }
+    std::sort(first.begin(), first.end());
+    const double median = first.empty() ? std::numeric_limits<double>::quiet_NaN()
+                          : first.size() % 2 == 1 ? first[first.size() / 2]
+                                                  : 0.5 * (first[first.size() / 2 - 1] + first[first.size() / 2]);
+    out << "  " << what << ": " << m.switches.size() << " changes of class, followed after a median "
+        << number(median, "%.1f") << " s, never " << never << "\n";
+  };
+  if (a.spliced.switches.empty()) return;
+  line("most likely class", a.spliced);
+  line("decision", a.spliced_decision);
+}
+
 // What each protocol asks, for the printed titles.
-std::string question_of(const fitting::Protocol& p) {
+std::string question_of(const fitting::Protocol& p, int folds) {
   switch (p.kind) {
     case fitting::Protocol::Kind::kLogs:
-      return "each log held out";
+      return folds > 0 ? std::to_string(folds) + " groups of logs held out in turn" : "each log held out";
     case fitting::Protocol::Kind::kSessions:
       return "each session held out";
     case fitting::Protocol::Kind::kExtrapolation:
@@ -142,6 +169,7 @@ int tune(const TuneCommandOptions& options) {
     tune_options.inner_folds = options.inner_folds;
     tune_options.assess = !options.no_assess;
     tune_options.protocols = protocols;
+    tune_options.splice = options.splice;
     tune_options.threads = options.threads;
     tune_options.sampling = sampling;
     tune_options.assessment_estimates = options.estimates;
@@ -193,13 +221,15 @@ int tune(const TuneCommandOptions& options) {
                  result.selection_scores, result.selection, false);
     for (const fitting::Assessment& a : result.assessments) {
       print_scores(out,
-                   "nested assessment, protocol " + a.protocol.name() + " (" + question_of(a.protocol) +
+                   "nested assessment, protocol " + a.protocol.name() + " (" + question_of(a.protocol, options.folds) +
                        "; each scored by models fitted and settings tuned without it)",
                    a.scores, a.summary, true);
+      print_switches(out, a);
     }
     if (!result.lockbox.scores.empty()) {
       print_scores(out, "lockbox (kept aside, scored once by the bank tuned on the other logs)", result.lockbox.scores,
                    result.lockbox.summary, false);
+      print_switches(out, result.lockbox);
     }
     for (const std::string& w : result.warnings) std::cerr << "skidimm tune: warning: " << w << "\n";
     if (!options.table.empty()) write_table(options.table, result);

@@ -243,6 +243,20 @@ TEST(Tune, LockboxLogsAreScoredOnceAndChangeNothingElse) {
   const LogScore direct = score_logs(tuned, {&held}, options.sampling).front();
   EXPECT_EQ(with.lockbox.scores[0].mean_log_probability, direct.mean_log_probability);
   EXPECT_EQ(with.lockbox.scores[0].accuracy, direct.accuracy);
+
+  // Spliced: two folds of one ICE and one FLOORING run each, each fold one
+  // run with a change of class; every log still scored once.
+  options.splice = true;
+  options.folds = 2;
+  options.inner_folds = 2;
+  const TuneResult spliced = tune(make_bank, development, fitters, options);
+  ASSERT_EQ(spliced.assessments[0].scores.size(), 4u);
+  EXPECT_EQ(spliced.assessments[0].spliced.switches.size(), 2u);
+  EXPECT_EQ(spliced.assessments[0].spliced_decision.switches.size(), 2u);
+  for (const evaluation::SwitchDetection& d : spliced.assessments[0].spliced.switches) {
+    EXPECT_EQ(d.from, "FLOORING") << "classes take turns, in name order";
+    EXPECT_EQ(d.to, "ICE");
+  }
 }
 
 }  // namespace

@@ -69,24 +69,33 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
   return evaluate_log(bank, &reader, log.name(), log.label, estimates, estimator);
 }
 
-LogResult evaluate_log(const Bank& bank, SampleSource* source, const std::string& name, const std::string& label_given,
-                       const std::filesystem::path& estimates, const EstimatorOptions& estimator) {
+namespace {
+
+// One IMM over `source`: the result, and every step scored for the most
+// likely class and for the decision.
+struct ScoredRun {
+  LogResult result;
+  std::vector<LabelledStep> steps, decisions;
+};
+
+ScoredRun score_run(const Bank& bank, SampleSource* source, const std::string& name, const std::string& label_given,
+                    const std::filesystem::path& estimates, const EstimatorOptions& estimator) {
   const BankConfig& config = bank.config;
   const ClassScorer scorer(config);
-  LogResult result;
+  ScoredRun run;
+  LogResult& result = run.result;
   result.name = name;
   result.squared_state_error.assign(config.state_names.size(), 0.0);
   result.state_error_count.assign(config.state_names.size(), 0);
   std::optional<EstimatesWriter> writer;
   if (!estimates.empty()) writer.emplace(estimates, config, /*with_truth=*/true);
-  std::vector<LabelledStep> steps, decisions;
   ModeDecision decision(config);
   run_log(bank, source, estimator, [&](const LogSample& sample, const ImmEstimate& e) {
     const std::string& label = label_given.empty() ? sample.truth_mode : label_given;
     const std::string& decided = decision.name(decision.update(sample.t, e.mode_probabilities));
     if (writer) writer->write(sample.t, e, decided, label);
-    steps.push_back(scorer.score(sample.t, label, e.mode_probabilities));
-    decisions.push_back(scorer.decided(steps.back(), decided));
+    run.steps.push_back(scorer.score(sample.t, label, e.mode_probabilities));
+    run.decisions.push_back(scorer.decided(run.steps.back(), decided));
     const int truth_mode = config.mode_index(label);
     if (truth_mode >= 0 && e.status == StepStatus::kUpdated && std::isfinite(e.nis[truth_mode])) {
       result.nis[label].add(e.nis[truth_mode], e.num_measured);
@@ -100,10 +109,42 @@ LogResult evaluate_log(const Bank& bank, SampleSource* source, const std::string
     }
     ++result.steps;
   });
-  result.metrics = compute_mode_metrics(steps, scorer.class_names());
-  result.decision_metrics = compute_mode_metrics(decisions, scorer.class_names());
+  result.metrics = compute_mode_metrics(run.steps, scorer.class_names());
+  result.decision_metrics = compute_mode_metrics(run.decisions, scorer.class_names());
   if (writer) writer->commit();
-  return result;
+  return run;
+}
+
+}  // namespace
+
+LogResult evaluate_log(const Bank& bank, SampleSource* source, const std::string& name, const std::string& label_given,
+                       const std::filesystem::path& estimates, const EstimatorOptions& estimator) {
+  return score_run(bank, source, name, label_given, estimates, estimator).result;
+}
+
+std::vector<LogResult> evaluate_spliced(const Bank& bank, SampleSource* source, const std::vector<std::string>& names,
+                                        const std::vector<long>& steps_per_log, LogResult* whole,
+                                        const std::filesystem::path& estimates) {
+  ScoredRun run = score_run(bank, source, "", "", estimates, EstimatorOptions{});
+  const std::vector<std::string> classes = bank.config.class_names();
+  std::vector<LogResult> out;
+  std::size_t first = 0;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const std::size_t end = std::min(run.steps.size(), first + static_cast<std::size_t>(steps_per_log[i]));
+    const auto slice = [&](const std::vector<LabelledStep>& steps) {
+      return std::vector<LabelledStep>(steps.begin() + static_cast<std::ptrdiff_t>(first),
+                                       steps.begin() + static_cast<std::ptrdiff_t>(end));
+    };
+    LogResult r;
+    r.name = names[i];
+    r.metrics = compute_mode_metrics(slice(run.steps), classes);
+    r.decision_metrics = compute_mode_metrics(slice(run.decisions), classes);
+    r.steps = static_cast<long>(end - first);
+    out.push_back(std::move(r));
+    first = end;
+  }
+  if (whole != nullptr) *whole = std::move(run.result);
+  return out;
 }
 
 }  // namespace evaluation

@@ -68,6 +68,49 @@ std::vector<ModeLogs> training_data(const std::vector<TuningLog>& logs, const st
   return out;
 }
 
+// Recorded logs end to end, as one log: each log's steps in turn, its times
+// shifted to follow the previous log's last step by `gap` seconds (or by the
+// previous log's last step interval when gap is 0), its truth its label where
+// one is given.
+class SplicedReplay : public SampleSource {
+ public:
+  SplicedReplay(std::vector<const RecordedLog*> logs, std::vector<std::string> labels, double gap)
+      : logs_(std::move(logs)), labels_(std::move(labels)), gap_(gap) {}
+
+  bool next(LogSample* sample) override {
+    while (log_ < logs_.size()) {
+      const std::vector<LogSample>& samples = logs_[log_]->samples();
+      if (index_ >= samples.size()) {
+        ++log_;
+        index_ = 0;
+        continue;
+      }
+      if (index_ == 0) {
+        const double gap = gap_ > 0.0 ? gap_ : last_interval_;
+        shift_ = log_ == 0 ? 0.0 : last_t_ + gap - samples.front().t;
+      }
+      *sample = samples[index_];
+      sample->t += shift_;
+      if (!labels_[log_].empty()) sample->truth_mode = labels_[log_];
+      sample->row = ++row_;
+      if (index_ > 0) last_interval_ = sample->t - last_t_;
+      last_t_ = sample->t;
+      ++index_;
+      return true;
+    }
+    return false;
+  }
+  bool has_truth() const override { return true; }
+
+ private:
+  std::vector<const RecordedLog*> logs_;
+  std::vector<std::string> labels_;
+  double gap_;
+  std::size_t log_ = 0, index_ = 0;
+  double shift_ = 0.0, last_t_ = 0.0, last_interval_ = 1.0;
+  long row_ = 0;
+};
+
 }  // namespace
 
 std::vector<std::vector<int>> grouped_folds(const std::vector<int>& members, const std::vector<std::string>& classes,
@@ -381,7 +424,7 @@ class Tuner {
     if (!lockbox.empty()) {
       std::vector<int> all = development;
       all.insert(all.end(), lockbox.begin(), lockbox.end());
-      result.lockbox.scores = evaluate(result.settings, {lockbox}, all, "lockbox");
+      result.lockbox.scores = evaluate(result.settings, {lockbox}, all, "lockbox", &result.lockbox);
       for (LogScore& score : result.lockbox.scores) score.settings = result.settings.describe(banks_[0].config);
       result.lockbox.summary = summarize(result.lockbox.scores);
       progress("lockbox: " + std::to_string(lockbox.size()) + " logs scored once by the tuned bank");
@@ -475,7 +518,7 @@ class Tuner {
           fold_best = s;
         }
       }
-      for (LogScore& score : evaluate(fold_best, {held}, development, protocol.slug())) {
+      for (LogScore& score : evaluate(fold_best, {held}, development, protocol.slug(), &out)) {
         score.settings = fold_best.describe(banks_[0].config);
         out.scores.push_back(score);
       }
@@ -654,11 +697,14 @@ class Tuner {
   // Scores each fold's held-out logs with the fold's fit and `settings`.
   // With `estimates_folder`, each held-out log's steps are written under
   // assessment_estimates/estimates_folder (when set).
+  // With `spliced`, the spliced runs' metrics are merged there (splice).
   std::vector<LogScore> evaluate(const TunedSettings& settings, const std::vector<std::vector<int>>& folds,
-                                 const std::vector<int>& within, const std::string& estimates_folder = "") {
+                                 const std::vector<int>& within, const std::string& estimates_folder = "",
+                                 Assessment* spliced = nullptr) {
     const bool write_estimates = !estimates_folder.empty() && !options_.assessment_estimates.empty();
     if (write_estimates) std::filesystem::create_directories(options_.assessment_estimates / estimates_folder);
     std::vector<std::vector<LogScore>> per_fold(folds.size());
+    std::vector<evaluation::LogResult> wholes(folds.size());
     parallel_for(static_cast<int>(folds.size()), workers_, [&](int f, int w) {
       Bank& bank = banks_[static_cast<std::size_t>(w)];
       reset(&bank);
@@ -669,6 +715,16 @@ class Tuner {
                       "a held-out log is in its fold's training set");
       }
       apply(fit_of(settings.objective, training), settings, &bank);
+      if (options_.splice && held_out.size() > 1) {
+        // Named by the fold's first log, as a log's own file would be.
+        char name[32];
+        std::snprintf(name, sizeof(name), "spliced_%03d.csv", held_out.front());
+        const std::filesystem::path estimates =
+            write_estimates ? options_.assessment_estimates / estimates_folder / name : std::filesystem::path();
+        per_fold[static_cast<std::size_t>(f)] =
+            score_spliced(bank, held_out, &wholes[static_cast<std::size_t>(f)], estimates);
+        return;
+      }
       for (int i : held_out) {
         const std::filesystem::path estimates =
             write_estimates ? estimates_path(estimates_folder, i) : std::filesystem::path();
@@ -677,7 +733,47 @@ class Tuner {
     });
     std::vector<LogScore> out;
     for (auto& scores : per_fold) out.insert(out.end(), scores.begin(), scores.end());
+    if (spliced != nullptr) {
+      for (const evaluation::LogResult& whole : wholes) {
+        spliced->spliced.merge(whole.metrics);
+        spliced->spliced_decision.merge(whole.decision_metrics);
+      }
+    }
     return out;
+  }
+
+  // The logs of `held_out` as one run, classes taking turns (splice): the
+  // scores of each log's own steps, in `held_out`'s order.
+  std::vector<LogScore> score_spliced(const Bank& bank, const std::vector<int>& held_out, evaluation::LogResult* whole,
+                                      const std::filesystem::path& estimates) const {
+    std::map<std::string, std::vector<int>> by_class;
+    for (int i : held_out) by_class[classes_[static_cast<std::size_t>(i)]].push_back(i);
+    std::vector<int> order;
+    for (std::size_t round = 0; order.size() < held_out.size(); ++round) {
+      for (const auto& [name, logs] : by_class) {
+        if (round < logs.size()) order.push_back(logs[round]);
+      }
+    }
+    std::vector<const RecordedLog*> recorded;
+    std::vector<std::string> labels, names;
+    std::vector<long> steps;
+    for (int i : order) {
+      const TuningLog& log = logs_[static_cast<std::size_t>(i)];
+      recorded.push_back(&recorded_[static_cast<std::size_t>(i)]);
+      labels.push_back(log.spec.label);
+      names.push_back(log.spec.name());
+      steps.push_back(static_cast<long>(recorded_[static_cast<std::size_t>(i)].samples().size()));
+    }
+    SplicedReplay source(recorded, labels, options_.sampling.rate > 0.0 ? 1.0 / options_.sampling.rate : 0.0);
+    const std::vector<evaluation::LogResult> results =
+        evaluation::evaluate_spliced(bank, &source, names, steps, whole, estimates);
+    std::vector<LogScore> by_log(held_out.size());
+    for (std::size_t k = 0; k < order.size(); ++k) {
+      const std::size_t at = static_cast<std::size_t>(std::find(held_out.begin(), held_out.end(), order[k]) -
+                                                      held_out.begin());
+      by_log[at] = score_of(results[k]);
+    }
+    return by_log;
   }
 
   LogScore score_recorded(const Bank& bank, int i, const std::filesystem::path& estimates) const {

@@ -70,6 +70,18 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
 LogResult evaluate_log(const Bank& bank, SampleSource* source, const std::string& name, const std::string& label,
                        const std::filesystem::path& estimates = {}, const EstimatorOptions& estimator = {});
 
+// Several logs spliced end to end into one run (`source` gives their steps
+// in turn, `steps_per_log[i]` of log i, each with its truth in the sample's
+// truth_mode): one IMM over all of them, as a robot that drives from one
+// terrain onto the next. Returns one result per log, over its own steps,
+// named names[i]; `whole` (optional) gets the whole run's, whose switches
+// are the changes from one log's truth to the next. The first step of each
+// log scores how the run so far left the filter, as a real change would.
+// With `estimates`, the whole run's steps are written there, as `skidimm run` does.
+std::vector<LogResult> evaluate_spliced(const Bank& bank, SampleSource* source, const std::vector<std::string>& names,
+                                        const std::vector<long>& steps_per_log, LogResult* whole = nullptr,
+                                        const std::filesystem::path& estimates = {});
+
 }  // namespace evaluation
 }  // namespace skidimm
 

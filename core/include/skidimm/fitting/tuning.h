@@ -34,6 +34,7 @@
 
 #include "skidimm/bank.h"
 #include "skidimm/evaluation/log_scores.h"
+#include "skidimm/evaluation/mode_metrics.h"
 #include "skidimm/fitting/model_fitter.h"
 #include "skidimm/log_reader.h"
 
@@ -127,6 +128,14 @@ struct TuneOptions {
   int inner_folds = 4;  // the nested assessment's inner cross-validation
   bool assess = true;   // run the nested assessment
   std::vector<Protocol> protocols{Protocol{}};  // how the nested assessment holds logs out, each reported
+  // Score the logs a fold holds out as one run, spliced end to end (classes
+  // taking turns), instead of one run each: a robot driving from one
+  // terrain onto the next. The scores then include how fast a change is
+  // followed and how sure the filter was before it, so the settings that
+  // trade reaction for steadiness (dwell, likelihood weight and dof, floor)
+  // are chosen on changes too; the inner search sees them with
+  // inner_folds >= 2, the assessment with multi-log folds.
+  bool splice = false;
   int sweeps = 2;       // coordinate-search passes over the knobs
   int threads = 0;      // 0: the machine's cores
   SamplingConfig sampling;
@@ -148,6 +157,10 @@ struct Assessment {
   Protocol protocol;
   Summary summary;
   std::vector<LogScore> scores;
+  // TuneOptions::splice: the spliced runs' metrics, merged (their switches:
+  // how fast the most likely class, and the decision, followed each change).
+  evaluation::ModeMetrics spliced;
+  evaluation::ModeMetrics spliced_decision;
 };
 
 struct TuneResult {

@@ -1,0 +1,94 @@
+#include "skidimm/evaluation/log_evaluation.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+#include "core/test_banks.h"
+#include "skidimm/sample_source.h"
+
+namespace skidimm {
+namespace evaluation {
+namespace {
+
+using skidimm_test::BankBuilder;
+using skidimm_test::ScalarLinearModel;
+using skidimm_test::vec;
+
+// Steps from a list, with their truth in truth_mode.
+class ListSource : public SampleSource {
+ public:
+  explicit ListSource(std::vector<LogSample> samples) : samples_(std::move(samples)) {}
+  bool next(LogSample* sample) override {
+    if (next_ >= samples_.size()) return false;
+    *sample = samples_[next_++];
+    return true;
+  }
+  bool has_truth() const override { return true; }
+
+ private:
+  std::vector<LogSample> samples_;
+  std::size_t next_ = 0;
+};
+
+// Two modes that hold x near 1 (mode0: x' = -x + u) and near 0.25 (mode1:
+// x' = -2x + 0.5u) under u = 1. Log "a": 30 steps measuring 1 (mode0),
+// log "b": 30 steps measuring 0.25 (mode1), 0.1 s apart.
+std::vector<LogSample> log_of(const std::string& truth, double z, double t0) {
+  std::vector<LogSample> out;
+  for (int k = 0; k < 30; ++k) {
+    LogSample s;
+    s.t = t0 + 0.1 * k;
+    s.u = vec({1.0});
+    s.z = vec({z});
+    s.truth_mode = truth;
+    s.row = k + 1;
+    out.push_back(s);
+  }
+  return out;
+}
+
+Bank two_modes() {
+  BankBuilder b;
+  b.models = {std::make_shared<ScalarLinearModel>(-1.0, 1.0), std::make_shared<ScalarLinearModel>(-2.0, 0.5)};
+  b.q = {Eigen::MatrixXd::Constant(1, 1, 0.01)};
+  b.r = Eigen::MatrixXd::Constant(1, 1, 0.25);  // noisy enough that a change takes a few steps to show
+  b.x0 = vec({1.0});
+  return b.build();
+}
+
+// One IMM over both logs: each log's result covers its own steps, the whole
+// run has the one switch, and log b's first steps are scored as the run left
+// the filter (sure of mode0), not from the prior as b alone is.
+TEST(EvaluateSpliced, ScoresEachLogsStepsOfOneRunOverAll) {
+  const Bank bank = two_modes();
+  std::vector<LogSample> both = log_of("mode0", 1.0, 0.0);
+  const std::vector<LogSample> b = log_of("mode1", 0.25, 3.0);
+  both.insert(both.end(), b.begin(), b.end());
+  ListSource spliced(both);
+  LogResult whole;
+  const std::vector<LogResult> logs = evaluate_spliced(bank, &spliced, {"a", "b"}, {30, 30}, &whole);
+  ASSERT_EQ(logs.size(), 2u);
+  EXPECT_EQ(logs[0].name, "a");
+  EXPECT_EQ(logs[0].steps, 30);
+  EXPECT_NEAR(logs[0].metrics.duration + logs[1].metrics.duration, whole.metrics.duration, 1e-12);
+  EXPECT_NEAR(logs[0].metrics.correct + logs[1].metrics.correct, whole.metrics.correct, 1e-12);
+  ASSERT_EQ(whole.metrics.switches.size(), 1u);
+  EXPECT_EQ(whole.metrics.switches[0].to, "mode1");
+  EXPECT_NEAR(whole.metrics.switches[0].time, 3.0, 1e-12);
+  EXPECT_TRUE(logs[1].metrics.switches.empty()) << "a log's own steps hold one truth";
+
+  EXPECT_GT(logs[0].metrics.accuracy(), 0.9);
+  // Log b's first step still answers mode0: the filter carried on from log a.
+  EXPECT_GT(whole.metrics.switches[0].first_latency, 0.0);
+  EXPECT_GT(logs[1].metrics.confusion.at("mode1").at("mode0"), 0.0);
+  ListSource alone(b);
+  const LogResult fresh = evaluate_log(bank, &alone, "b", "");
+  EXPECT_NEAR(fresh.metrics.duration, logs[1].metrics.duration, 1e-12);
+  EXPECT_NE(fresh.metrics.truth_probability, logs[1].metrics.truth_probability);
+}
+
+}  // namespace
+}  // namespace evaluation
+}  // namespace skidimm
