@@ -225,11 +225,14 @@ int tune(const TuneCommandOptions& options) {
                        "; each scored by models fitted and settings tuned without it)",
                    a.scores, a.summary, true);
       print_switches(out, a);
+      out << "  " << evaluation::separability(a.scores, static_cast<int>(config.class_names().size())).describe() << "\n";
     }
     if (!result.lockbox.scores.empty()) {
       print_scores(out, "lockbox (kept aside, scored once by the bank tuned on the other logs)", result.lockbox.scores,
                    result.lockbox.summary, false);
       print_switches(out, result.lockbox);
+      out << "  " << evaluation::separability(result.lockbox.scores, static_cast<int>(config.class_names().size())).describe()
+          << "\n";
     }
     for (const std::string& w : result.warnings) std::cerr << "skidimm tune: warning: " << w << "\n";
     if (!options.table.empty()) write_table(options.table, result);

@@ -35,6 +35,10 @@ py::dict metrics_to_dict(const ModeMetrics& m) {
   d["estimate_changes"] = m.estimate_changes;
   d["truth_changes"] = m.truth_changes;
   d["unknown_seconds"] = m.unknown_seconds;
+  d["brier"] = m.brier;
+  py::list calibration;
+  for (const evaluation::CalibrationBin& b : m.calibration) calibration.append(py::make_tuple(b.seconds, b.correct, b.confidence));
+  d["calibration"] = calibration;
   return d;
 }
 
@@ -60,6 +64,12 @@ ModeMetrics metrics_from_dict(const py::dict& d) {
   m.estimate_changes = d["estimate_changes"].cast<long>();
   m.truth_changes = d["truth_changes"].cast<long>();
   m.unknown_seconds = d["unknown_seconds"].cast<double>();
+  m.brier = d["brier"].cast<double>();
+  const py::list calibration = d["calibration"].cast<py::list>();
+  for (std::size_t b = 0; b < m.calibration.size() && b < calibration.size(); ++b) {
+    const auto [seconds, correct, confidence] = calibration[b].cast<std::tuple<double, double, double>>();
+    m.calibration[b] = {seconds, correct, confidence};
+  }
   return m;
 }
 

@@ -97,6 +97,32 @@ TEST(Protocols, ExtrapolationHoldsOutTheHardestDrivenLogsOfEachClassAndSessionsH
   EXPECT_EQ(protocol_folds(Protocol{}, all, classes, sessions, {}, 0), grouped_folds(all, classes, 0));
 }
 
+// Four classes: a uniform guess scores log(1/4) = -1.386 at every step.
+TEST(Separability, SaysWhetherHeldOutScoresBeatAUniformGuess) {
+  auto scores = [](std::initializer_list<std::pair<const char*, double>> logs) {
+    std::vector<LogScore> out;
+    for (const auto& [truth, log_p] : logs) out.push_back({"log", truth, 0.25, log_p, 10, ""});
+    return out;
+  };
+  const evaluation::Separability none =
+      evaluation::separability(scores({{"a", -1.5}, {"b", -1.39}, {"c", -1.3}, {"d", -1.40}}), 4);
+  EXPECT_NEAR(none.uniform, -std::log(4.0), 1e-15);
+  EXPECT_EQ(none.verdict, evaluation::Separability::Verdict::kNotSeparated);
+  EXPECT_THAT(none.describe(), ::testing::StartsWith("these modes cannot be told apart from these logs"));
+  EXPECT_THAT(none.describe(), ::testing::HasSubstr("-1.386 for a uniform guess over 4 classes"));
+
+  const evaluation::Separability clear =
+      evaluation::separability(scores({{"a", -0.2}, {"b", -0.3}, {"c", -1.6}, {"d", -0.25}}), 4);
+  EXPECT_EQ(clear.verdict, evaluation::Separability::Verdict::kSeparated);  // mean -0.5875 +- 0.34
+  EXPECT_EQ(clear.not_separated, std::vector<std::string>{"c"});
+  EXPECT_THAT(clear.describe(), ::testing::EndsWith("no better than the guess: c"));
+
+  const evaluation::Separability unclear =
+      evaluation::separability(scores({{"a", -0.2}, {"b", -2.5}, {"c", -1.3}, {"d", -1.0}}), 4);
+  EXPECT_EQ(unclear.verdict, evaluation::Separability::Verdict::kUnclear);  // mean -1.25, SE 0.47
+  EXPECT_NEAR(unclear.standard_error, std::sqrt((1.1025 + 1.5625 + 0.0025 + 0.0625) / 3.0 / 4.0), 1e-12);
+}
+
 TEST(TuningSummary, AveragesLogsWithinAClassThenClasses) {
   std::vector<LogScore> scores(4);
   scores[0] = {"a", "ice", 1.0, -0.1, 10, ""};

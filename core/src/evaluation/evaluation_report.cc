@@ -53,10 +53,55 @@ std::string json_string(const std::string& s) {
   return out + "\"";
 }
 
+// How well an estimate's probability says how often it is right: the time
+// it was at least 0.9 and how often right there, the expected calibration
+// error, and the tenths of probability that held any time ("0.6-0.7: 12%
+// of the time, right 58%").
+void print_calibration(std::ostream& out, const std::string& indent, const ModeMetrics& m) {
+  double binned = 0.0;
+  for (const CalibrationBin& b : m.calibration) binned += b.seconds;
+  if (binned <= 0.0) return;
+  out << indent << "at probability >= 0.9 (" << fmt(100.0 * m.confident_fraction(), "%.0f")
+      << "% of the time): right " << fmt(100.0 * m.confident_accuracy(), "%.1f") << "%; expected calibration error "
+      << fmt(m.expected_calibration_error()) << "\n";
+  out << indent << "  by probability (share of the time, right):";
+  for (int b = 0; b < kCalibrationBins; ++b) {
+    const CalibrationBin& bin = m.calibration[static_cast<std::size_t>(b)];
+    if (bin.seconds <= 0.0) continue;
+    out << " " << fmt(0.1 * b, "%.1f") << "-" << fmt(0.1 * (b + 1), "%.1f") << " " << fmt(100.0 * bin.seconds / binned, "%.0f")
+        << "%, " << fmt(100.0 * bin.accuracy(), "%.0f") << "%;";
+  }
+  out << "\n";
+}
+
+std::string json_calibration(const ModeMetrics& m) {
+  std::ostringstream o;
+  o << "{\"expected_calibration_error\": " << json_number(m.expected_calibration_error())
+    << ", \"confident_fraction\": " << json_number(m.confident_fraction())
+    << ", \"confident_accuracy\": " << json_number(m.confident_accuracy()) << ", \"bins\": [";
+  for (int b = 0; b < kCalibrationBins; ++b) {
+    const CalibrationBin& bin = m.calibration[static_cast<std::size_t>(b)];
+    o << (b ? ", " : "") << "{\"lower\": " << json_number(0.1 * b) << ", \"upper\": " << json_number(0.1 * (b + 1))
+      << ", \"seconds\": " << json_number(bin.seconds) << ", \"accuracy\": "
+      << json_number(bin.seconds > 0.0 ? bin.accuracy() : kNaN) << ", \"mean_probability\": "
+      << json_number(bin.seconds > 0.0 ? bin.mean_confidence() : kNaN) << "}";
+  }
+  o << "]}";
+  return o.str();
+}
+
 // `decision_made`: how the scored decision was made, e.g. "enter 0.9, leave
 // 0.05, hold 1 s".
+// Whether the logs' scores tell `classes` classes apart at all (log_scores.h).
+Separability separability_of(const std::vector<const LogResult*>& logs, std::size_t classes) {
+  std::vector<LogScore> scores;
+  for (const LogResult* l : logs) scores.push_back(score_of(*l));
+  return separability(scores, static_cast<int>(classes));
+}
+
 void print_table(std::ostream& out, const std::string& title, const EvaluationSummary& s, const std::vector<std::string>& modes,
-                 const std::vector<std::string>& states, bool list_switches, const std::string& decision_made) {
+                 const std::vector<std::string>& states, bool list_switches, const std::string& decision_made,
+                 const Separability& separated) {
   const ModeMetrics& m = s.metrics;
   out << "\n" << title << ": " << s.accuracies.size() << " log(s), " << fmt(m.duration, "%.1f") << " s labelled\n";
   out << "  accuracy (time fraction)        " << fmt(m.accuracy());
@@ -74,6 +119,10 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
   }
   out << "\n  mean probability of the true mode " << fmt(m.mean_truth_probability()) << "\n";
   out << "  mean log probability of the truth " << fmt(m.mean_truth_log_probability()) << "\n";
+  out << "  Brier score " << fmt(m.mean_brier()) << " (0: sure and right; 2: sure and wrong)\n";
+  if (modes.size() >= 2) out << "  " << separated.describe() << "\n";
+  out << "  calibration of the most likely mode's probability:\n";
+  print_calibration(out, "    ", m);
   for (const auto& [mode, seconds] : m.truth_absent) {
     out << "  truth mode '" << mode << "' is not in the bank (" << fmt(seconds, "%.1f") << " s, always wrong)\n";
   }
@@ -118,6 +167,8 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
     const LatencyStats df = latency_stats(d, true);
     out << "  decision (" << decision_made << "): accuracy " << fmt(d.accuracy()) << ", unknown "
         << fmt(d.duration > 0 ? d.unknown_seconds / d.duration : 0.0) << " of the time\n";
+    out << "    calibration of the decided class's probability (time decided):\n";
+    print_calibration(out, "      ", d);
     out << "    changes per minute: decision " << fmt(d.estimate_changes_per_minute(), "%.2f") << ", most likely "
         << fmt(m.estimate_changes_per_minute(), "%.2f") << ", truth " << fmt(m.truth_changes_per_minute(), "%.2f")
         << "\n";
@@ -163,7 +214,9 @@ std::string json_summary(const EvaluationSummary& s, const std::vector<std::stri
     listed = true;
   }
   o << "}}, \"mean_truth_probability\": " << json_number(m.mean_truth_probability())
-    << ", \"mean_truth_log_probability\": " << json_number(m.mean_truth_log_probability()) << ", \"confusion_seconds\": {";
+    << ", \"mean_truth_log_probability\": " << json_number(m.mean_truth_log_probability())
+    << ", \"brier\": " << json_number(m.mean_brier()) << ", \"calibration\": " << json_calibration(m)
+    << ", \"confusion_seconds\": {";
   bool first = true;
   for (const auto& [truth, row] : m.confusion) {
     o << (first ? "" : ", ") << json_string(truth) << ": {";
@@ -213,7 +266,8 @@ std::string json_summary(const EvaluationSummary& s, const std::vector<std::stri
     << ", \"switches\": " << dl.switches << ", \"first_detected\": " << df.detected
     << ", \"first_median\": " << json_number(df.median) << ", \"settled\": " << dl.detected
     << ", \"settled_median\": " << json_number(dl.median) << ", \"settled_max\": " << json_number(dl.max)
-    << ", \"median_changes_per_switch\": " << json_number(dl.median_changes) << ", \"lost\": " << s.decision_lost;
+    << ", \"median_changes_per_switch\": " << json_number(dl.median_changes) << ", \"lost\": " << s.decision_lost
+    << ", \"calibration\": " << json_calibration(d);
   o << "}, \"nis\": {";
   first = true;
   for (const auto& [mode, acc] : s.nis) {
@@ -255,13 +309,14 @@ std::string report_tables(const std::vector<LogGroup>& groups, const std::vector
   if (groups.size() > 1) {
     for (const LogGroup& g : groups) {
       const std::vector<const LogResult*> logs = pointers(g);
-      print_table(out, g.name, summarize(logs, states.size()), classes, states, logs.size() == 1, decision_made);
+      print_table(out, g.name, summarize(logs, states.size()), classes, states, logs.size() == 1, decision_made,
+                  separability_of(logs, classes.size()));
     }
   }
   if (!groups.empty()) {
     const std::vector<const LogResult*> all = pointers(groups);
     print_table(out, groups.size() > 1 ? "all" : groups[0].name, summarize(all, states.size()), classes, states,
-                all.size() <= 3, decision_made);
+                all.size() <= 3, decision_made, separability_of(all, classes.size()));
   }
   return out.str();
 }

@@ -1,5 +1,8 @@
 #include "skidimm/evaluation/log_scores.h"
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <utility>
 
 namespace skidimm {
@@ -35,6 +38,60 @@ ScoreSummary summarize(const std::vector<LogScore>& scores) {
     s.mean_log_probability /= static_cast<double>(sums.size());
   }
   return s;
+}
+
+Separability separability(const std::vector<LogScore>& scores, int classes) {
+  Separability s;
+  s.classes = classes;
+  s.uniform = -std::log(static_cast<double>(std::max(classes, 1)));
+  const double n = static_cast<double>(scores.size());
+  if (scores.empty()) return s;
+  for (const LogScore& l : scores) s.mean += l.mean_log_probability / n;
+  if (scores.size() > 1) {
+    double squares = 0.0;
+    for (const LogScore& l : scores) squares += (l.mean_log_probability - s.mean) * (l.mean_log_probability - s.mean);
+    s.standard_error = std::sqrt(squares / (n - 1.0) / n);
+  }
+  s.verdict = s.mean <= s.uniform                            ? Separability::Verdict::kNotSeparated
+              : s.mean - 2.0 * s.standard_error > s.uniform ? Separability::Verdict::kSeparated
+                                                             : Separability::Verdict::kUnclear;
+  for (const auto& [name, log_p] : summarize(scores).class_log_probability) {
+    if (log_p <= s.uniform) s.not_separated.push_back(name);
+  }
+  return s;
+}
+
+std::string Separability::describe() const {
+  auto number = [](double v) {
+    char b[32];
+    std::snprintf(b, sizeof(b), "%.3f", v);
+    return std::string(b);
+  };
+  const std::string figures = "mean log p(truth) " + number(mean) + " +- " + number(standard_error) +
+                              " over logs, against " + number(uniform) + " for a uniform guess over " +
+                              std::to_string(classes) + " classes";
+  std::string out;
+  switch (verdict) {
+    case Verdict::kSeparated:
+      out = "the classes are told apart (" + figures + ")";
+      break;
+    case Verdict::kUnclear:
+      out = "the classes are told apart no more clearly than by chance (" + figures +
+            ": within two standard errors); more logs, or logs that excite what differs between the modes, would "
+            "tell";
+      break;
+    case Verdict::kNotSeparated:
+      out = "these modes cannot be told apart from these logs (" + figures +
+            "): the accuracy is what guessing gives; fit on logs that excite what differs between the modes, or "
+            "measure what does differ";
+      break;
+  }
+  if (!not_separated.empty() && verdict != Verdict::kNotSeparated) {
+    std::string names;
+    for (const std::string& c : not_separated) names += (names.empty() ? "" : ", ") + c;
+    out += "; no better than the guess: " + names;
+  }
+  return out;
 }
 
 }  // namespace evaluation

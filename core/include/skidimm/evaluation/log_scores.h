@@ -40,6 +40,31 @@ LogScore score_of(const LogResult& result);
 
 ScoreSummary summarize(const std::vector<LogScore>& scores);
 
+// Whether scored logs tell their classes apart at all: a guess that gives
+// each of K classes probability 1/K scores log p(truth) = -log K at every
+// step, so a bank whose held-out mean log p(truth) is no higher has learnt
+// nothing these logs can show, however its accuracy reads (K = 4: 25%, by
+// chance). Over logs: the mean of each log's mean log p(truth) and its
+// standard error; the classes whose own mean is no better than the guess.
+struct Separability {
+  enum class Verdict {
+    kSeparated,     // the mean is above the guess by more than two standard errors
+    kUnclear,       // above it, by less
+    kNotSeparated,  // at or below it
+  };
+  int classes = 0;
+  double uniform = 0.0;  // log(1/K)
+  double mean = 0.0;
+  double standard_error = 0.0;  // 0 over fewer than two logs
+  Verdict verdict = Verdict::kNotSeparated;
+  std::vector<std::string> not_separated;  // classes at or below the guess
+  // One or two sentences for a user: what the logs show, and what to do
+  // about it when they show nothing.
+  std::string describe() const;
+};
+// `classes`: K, the number of classes the bank answers with (>= 2).
+Separability separability(const std::vector<LogScore>& scores, int classes);
+
 }  // namespace evaluation
 }  // namespace skidimm
 
