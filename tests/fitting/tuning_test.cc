@@ -121,6 +121,10 @@ TEST(Separability, SaysWhetherHeldOutScoresBeatAUniformGuess) {
       evaluation::separability(scores({{"a", -0.2}, {"b", -2.5}, {"c", -1.3}, {"d", -1.0}}), 4);
   EXPECT_EQ(unclear.verdict, evaluation::Separability::Verdict::kUnclear);  // mean -1.25, SE 0.47
   EXPECT_NEAR(unclear.standard_error, std::sqrt((1.1025 + 1.5625 + 0.0025 + 0.0625) / 3.0 / 4.0), 1e-12);
+
+  const evaluation::Separability worse = evaluation::separability(scores({{"a", -4.0}, {"b", -3.9}}), 4);
+  EXPECT_EQ(worse.verdict, evaluation::Separability::Verdict::kWorse);
+  EXPECT_THAT(worse.describe(), ::testing::StartsWith("worse than a uniform guess"));
 }
 
 TEST(TuningSummary, AveragesLogsWithinAClassThenClasses) {

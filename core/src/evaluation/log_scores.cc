@@ -52,9 +52,10 @@ Separability separability(const std::vector<LogScore>& scores, int classes) {
     for (const LogScore& l : scores) squares += (l.mean_log_probability - s.mean) * (l.mean_log_probability - s.mean);
     s.standard_error = std::sqrt(squares / (n - 1.0) / n);
   }
-  s.verdict = s.mean <= s.uniform                            ? Separability::Verdict::kNotSeparated
-              : s.mean - 2.0 * s.standard_error > s.uniform ? Separability::Verdict::kSeparated
-                                                             : Separability::Verdict::kUnclear;
+  s.verdict = s.mean - 2.0 * s.standard_error > s.uniform ? Separability::Verdict::kSeparated
+              : s.mean > s.uniform                          ? Separability::Verdict::kUnclear
+              : s.mean + 2.0 * s.standard_error >= s.uniform ? Separability::Verdict::kNotSeparated
+                                                              : Separability::Verdict::kWorse;
   for (const auto& [name, log_p] : summarize(scores).class_log_probability) {
     if (log_p <= s.uniform) s.not_separated.push_back(name);
   }
@@ -85,8 +86,13 @@ std::string Separability::describe() const {
             "): the accuracy is what guessing gives; fit on logs that excite what differs between the modes, or "
             "measure what does differ";
       break;
+    case Verdict::kWorse:
+      out = "worse than a uniform guess (" + figures +
+            "): the bank is sure of wrong classes on these logs; they differ from the logs it was fitted and tuned "
+            "on, or are labelled wrong";
+      break;
   }
-  if (!not_separated.empty() && verdict != Verdict::kNotSeparated) {
+  if (!not_separated.empty() && (verdict == Verdict::kSeparated || verdict == Verdict::kUnclear)) {
     std::string names;
     for (const std::string& c : not_separated) names += (names.empty() ? "" : ", ") + c;
     out += "; no better than the guess: " + names;

@@ -50,7 +50,8 @@ struct Separability {
   enum class Verdict {
     kSeparated,     // the mean is above the guess by more than two standard errors
     kUnclear,       // above it, by less
-    kNotSeparated,  // at or below it
+    kNotSeparated,  // at or below it, by at most two standard errors
+    kWorse,         // below it by more: surer of wrong classes than the guess
   };
   int classes = 0;
   double uniform = 0.0;  // log(1/K)
