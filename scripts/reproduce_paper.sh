@@ -24,9 +24,9 @@ python=$(command -v /usr/bin/python3 || command -v python3)
 [ -x "$skidimm" ] || { echo "$0: build skidimm first (scripts/build.sh)" >&2; exit 1; }
 source scripts/seeds.sh
 eval_seeds=$(paper_eval_seeds "$seeds")
-check_disjoint "$eval_seeds" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(decision_default_seeds)" "$(model_selection_seeds)"
+check_disjoint "$eval_seeds" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(decision_default_seeds)" "$(model_selection_seeds)" "$(window_protocol_seeds)"
 # The decision's settings are weighed on seeds of their own: none may be a fitting one either.
-check_disjoint "$(decision_default_seeds)" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(model_selection_seeds)"
+check_disjoint "$(decision_default_seeds)" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(model_selection_seeds)" "$(window_protocol_seeds)"
 first_seed=$(echo "$eval_seeds" | head -n 1)
 rm -rf "$work/logs" "$work/eval" "$work/banks" "$work/kinematics" "$work/decision_defaults"  # a rerun must not score last run's logs
 mkdir -p "$work/logs" "$work/eval" "$work/banks" "$work/kinematics" "$figures/realistic"

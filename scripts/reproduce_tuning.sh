@@ -35,7 +35,7 @@ all_fit_seeds=($(tuning_fit_seeds))  # no `| head`: with pipefail, seq's SIGPIPE
 fit_seeds=("${all_fit_seeds[@]:0:3}")
 tune_seeds="${all_fit_seeds[*]:3}"
 eval_seeds=$(tuning_eval_seeds "$seeds")
-check_disjoint "$eval_seeds" "$(tuning_fit_seeds)" "$(bundled_fit_seeds)" "$(decision_default_seeds)" "$(model_selection_seeds)"
+check_disjoint "$eval_seeds" "$(tuning_fit_seeds)" "$(bundled_fit_seeds)" "$(decision_default_seeds)" "$(model_selection_seeds)" "$(window_protocol_seeds)"
 
 echo "== A: a known linear switching system" >&2
 # One 20 s sinusoidal drive per terrain drives each mode's fitting segment.

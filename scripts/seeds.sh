@@ -24,6 +24,11 @@ decision_default_seeds() { seq 8101 8120; }
 # per side, and how far the gyro's noise may be trusted. No bank or setting is
 # fitted or tuned on them, and none is scored on them.
 model_selection_seeds() { seq 8301 8305; }
+# Tarp spirals (the four slip configurations' scenarios, two runs each, and
+# as many again held out) on which the window protocol was compared between
+# the first release and today (docs/fitting.md, the window length). Nothing
+# published is fitted, tuned or scored on them.
+window_protocol_seeds() { seq 8501 8516; }
 # Scored logs.
 paper_eval_seeds() { seq 5001 $((5000 + ${1:-20})); }
 tuning_eval_seeds() { seq 8001 $((8000 + ${1:-20})); }
