@@ -67,7 +67,8 @@ if [ "$asan" -eq 1 ]; then
   # (uninstrumented) program against it, which needs the sanitizer runtime
   # it does not have; they test packaging, which the Release suite covers.
   (cd "$dir" && ctest --output-on-failure -j "$jobs" -E 'Reproduced|reproduce|OutOfTree')
-  for fuzzer in bank_loader_fuzzer log_reader_fuzzer scenario_loader_fuzzer estimates_reader_fuzzer; do
+  for fuzzer in bank_loader_fuzzer log_reader_fuzzer scenario_loader_fuzzer estimates_reader_fuzzer mcap_reader_fuzzer \
+    cdr_reader_fuzzer; do
     stamp "fuzzing $fuzzer for ${fuzz_seconds} s"
     work=$dir/fuzz/$fuzzer
     rm -rf "$work" && mkdir -p "$work/corpus" "$work/seeds" "$work/findings"

@@ -56,6 +56,8 @@ tune=(--objective window --hold-unexcited --full-q --tune likelihood-weight,q-sc
   --table "$work/borealtc/scores.csv" --estimates "$work/borealtc/held_out" --output-bank "$work/borealtc/terrains.yaml" \
   >"$work/borealtc/tune.txt"
 sed "s|$bt/||g; s|$data/||g" "$work/borealtc/terrains.yaml" >"$bank_out"
+# The same bank reading ROS 2 bags follows it (scripts/derive_ros2_config.py).
+if [ "$bank_out" = configs/borealtc/terrains.yaml ]; then python3 scripts/derive_ros2_config.py; fi
 "$skidimm" eval --estimates "$work/borealtc/held_out/logs" --bank "$bank_out" --json >"$work/borealtc/eval.json"
 "$skidimm" eval --estimates "$work/borealtc/held_out/logs" --bank "$bank_out" >"$work/borealtc/eval.txt"
 

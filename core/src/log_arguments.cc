@@ -6,6 +6,7 @@
 
 #include "skidimm/errors.h"
 #include "skidimm/log_io.h"
+#include "skidimm/ros/bag_reader.h"
 
 namespace skidimm {
 
@@ -14,13 +15,17 @@ namespace fs = std::filesystem;
 std::vector<LogSpec> expand_log_argument(const std::string& argument) {
   const LogSpec spec = parse_log_spec(argument);
   std::error_code ec;
-  if (spec.files.size() == 1 && fs::is_directory(spec.files[0].path, ec)) {
+  // A ROS 2 bag's directory is one log.
+  if (spec.files.size() == 1 && fs::is_directory(spec.files[0].path, ec) && !ros::BagReader::is_bag(spec.files[0].path)) {
     std::vector<fs::path> files;
     for (const auto& entry : fs::directory_iterator(spec.files[0].path)) {
-      if (entry.path().extension() == ".csv") files.push_back(entry.path());
+      const fs::path& p = entry.path();
+      if (p.extension() == ".csv" || p.extension() == ".mcap" || (entry.is_directory() && ros::BagReader::is_bag(p))) {
+        files.push_back(p);
+      }
     }
     std::sort(files.begin(), files.end());
-    if (files.empty()) throw Error(argument + ": no .csv logs in this directory");
+    if (files.empty()) throw Error(argument + ": no logs in this directory (.csv or .mcap files, bag directories)");
     std::vector<LogSpec> logs;
     for (const fs::path& f : files) {
       LogSpec one = spec;

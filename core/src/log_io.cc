@@ -52,7 +52,8 @@ bool is_standard_input(const fs::path& path) { return path.string() == "-"; }
 bool is_rereadable(const fs::path& path) {
   if (is_standard_input(path)) return false;
   std::error_code ec;
-  return fs::is_regular_file(path, ec);
+  // A directory given as a log is a ROS 2 bag (ros/bag_reader.h): its files are regular.
+  return fs::is_regular_file(path, ec) || fs::is_directory(path, ec);
 }
 
 CsvReader::CsvReader(const fs::path& path) : path_(path) {

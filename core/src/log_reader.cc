@@ -12,6 +12,9 @@
 #include "skidimm/errors.h"
 #include "skidimm/expression.h"
 #include "skidimm/log_io.h"
+#include "skidimm/log_table.h"
+#include "skidimm/ros/bag_log.h"
+#include "skidimm/ros/bag_reader.h"
 
 namespace skidimm {
 
@@ -105,10 +108,39 @@ bool parse_number(std::string_view cell, double* value, bool* missing) {
 }
 
 // What a cell that parse_number refused was expected to be, for the message.
-std::string bad_number(const CsvReader& reader, int index, std::string_view cell, const char* expected) {
+std::string bad_number(const CsvReader& reader, int index, std::string_view cell, const std::string& expected) {
   return "column " + std::to_string(index + 1) + " ('" + reader.header()[static_cast<std::size_t>(index)] +
          "'): expected " + expected + ", got '" + std::string(cell.substr(0, 80)) + (cell.size() > 80 ? "...'" : "'");
 }
+
+// A CSV file as a table of the log (log_table.h): cells parsed as parse_number does.
+class CsvTable : public LogTable {
+ public:
+  explicit CsvTable(const fs::path& path) : reader_(path) {}
+  const fs::path& path() const override { return reader_.path(); }
+  std::string name() const override { return reader_.path().filename().string(); }
+  std::vector<std::string> columns_present() const override { return reader_.header(); }
+  int column(const std::string& name) override { return reader_.column(name); }
+  bool next_row() override { return reader_.next_row(); }
+  Cell number(int column, double* value) const override {
+    bool missing = false;
+    if (!parse_number(reader_.field(column), value, &missing)) return Cell::kNotANumber;
+    return missing ? Cell::kMissing : Cell::kNumber;
+  }
+  std::string text(int column) const override { return std::string(reader_.field(column)); }
+  LogError cell_error(int column, const std::string& expected) const override {
+    return error_at_row(bad_number(reader_, column, reader_.field(column), expected));
+  }
+  LogError error_at_row(const std::string& message) const override {
+    return LogError(reader_.path().string(), reader_.line(), message);
+  }
+  LogError error(const std::string& message) const override { return LogError(reader_.path().string(), 1, message); }
+  std::uintmax_t bytes_read() const override { return reader_.bytes_read(); }
+  std::uintmax_t size() const override { return reader_.file_size(); }
+
+ private:
+  CsvReader reader_;
+};
 
 // A header made printable and short: a binary file given by mistake must not
 // flood the terminal.
@@ -215,7 +247,7 @@ struct MeasurementBinding {
 // One time-ordered source of rows: a file (join: time) or all files read
 // side by side (join: rows).
 struct Stream {
-  std::vector<std::unique_ptr<CsvReader>> files;  // each holds its current row (CsvReader::field)
+  std::vector<std::unique_ptr<LogTable>> files;  // each holds its current row (a CSV file, a bag's topic)
   double offset = 0.0;
   int time_file = -1;
   int time_index = -1;
@@ -277,6 +309,13 @@ SplitAggregates split_aggregates(const std::string& text, const std::string& fie
   return out;
 }
 
+// The bank's column texts that may name a bag's topics (ros/bag_log.h).
+std::vector<std::string> bag_column_texts(const BankConfig& bank) {
+  std::vector<std::string> texts = bank.columns.inputs;
+  texts.insert(texts.end(), bank.columns.measurements.begin(), bank.columns.measurements.end());
+  return texts;
+}
+
 }  // namespace
 
 class LogReader::Impl {
@@ -335,8 +374,25 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
       streams_.emplace_back();
       streams_.back().offset = file.time_offset;
     }
+    if (!is_standard_input(file.path) && ros::BagReader::is_bag(file.path)) {
+      // A ROS 2 bag: each topic the bank names is a file of its own (ros/bag_log.h).
+      if (by_rows) {
+        throw Error(bank.file.string() + ": sampling.join: rows is for CSV files that match row for row; " +
+                    file.path.string() + " is a ROS 2 bag, whose topics are merged by time");
+      }
+      streams_.pop_back();
+      for (auto& table : ros::open_bag_tables(file.path, bag_column_texts(bank), {bank.columns.truth_mode})) {
+        streams_.emplace_back();
+        streams_.back().offset = file.time_offset;
+        streams_.back().stat_index.push_back(stats_.files.size());
+        stats_.files.push_back(table->name());
+        stats_.rows.push_back(0);
+        streams_.back().files.push_back(std::move(table));
+      }
+      continue;
+    }
     Stream& s = streams_.back();
-    s.files.push_back(std::make_unique<CsvReader>(file.path));
+    s.files.push_back(std::make_unique<CsvTable>(file.path));
     s.stat_index.push_back(stats_.files.size());
     stats_.files.push_back(file.path.string());
     stats_.rows.push_back(0);
@@ -354,15 +410,15 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
     }
     if (s.time_file < 0) {
       int listed = 0;
-      const CsvReader& reader = *s.files.front();
+      const LogTable& reader = *s.files.front();
       std::string message = "no time column '" + bank.columns.time + "' (the bank's columns.time); columns present: " +
-                            printable_header(reader.header(), &listed, 400);
+                            printable_header(reader.columns_present(), &listed, 400);
       if (!by_rows) {
         message +=
             ". Every file of a log is merged on its own time column (sampling.join: time); files that match row "
             "for row and share one time column need sampling.join: rows";
       }
-      throw LogError(reader.path().string(), 1, message);
+      throw reader.error(message);
     }
   }
 
@@ -404,12 +460,12 @@ void LogReader::Impl::missing_column(const std::string& column, const std::strin
   int listed = 0;
   for (const Stream& s : streams_) {
     for (const auto& reader : s.files) {
-      const std::string h = printable_header(reader->header(), &listed, 400);
+      const std::string h = printable_header(reader->columns_present(), &listed, 400);
       if (!h.empty()) present += (present.empty() ? "" : ", ") + h;
     }
   }
-  throw LogError(streams_.front().files.front()->path().string(), 1,
-                 "no column '" + column + "' (the bank's " + field + "); columns present: " + present);
+  throw streams_.front().files.front()->error("no column '" + column + "' (the bank's " + field +
+                                              "); columns present: " + present);
 }
 
 int LogReader::Impl::column_id(const std::string& name, const std::string& field, bool required) {
@@ -424,10 +480,9 @@ int LogReader::Impl::column_id(const std::string& name, const std::string& field
       if (index < 0) continue;
       if (found.stream >= 0) {
         const Stream& first = streams_[static_cast<std::size_t>(found.stream)];
-        throw LogError(streams_[k].files[f]->path().string(), 1,
-                       "column '" + name + "' (the bank's " + field + ") is also in " +
-                           first.files[static_cast<std::size_t>(found.file)]->path().string() +
-                           ": a column the bank uses must be in one file of the log");
+        throw streams_[k].files[f]->error("column '" + name + "' (the bank's " + field + ") is also in " +
+                                          first.files[static_cast<std::size_t>(found.file)]->path().string() +
+                                          ": a column the bank uses must be in one file of the log");
       }
       found.stream = static_cast<int>(k);
       found.file = static_cast<int>(f);
@@ -485,9 +540,7 @@ void LogReader::Impl::bind_measurement(MeasurementBinding* m, const std::string&
       for (int c : v.columns) {
         const Column& col = columns_[static_cast<std::size_t>(c)];
         names += (names.empty() ? "" : ", ") + col.name + " (" +
-                 streams_[static_cast<std::size_t>(col.stream)].files[static_cast<std::size_t>(col.file)]->path()
-                     .filename()
-                     .string() +
+                 streams_[static_cast<std::size_t>(col.stream)].files[static_cast<std::size_t>(col.file)]->name() +
                  ")";
       }
       throw Error(bank_.file.string() + ": " + m->field + ": " + what +
@@ -571,23 +624,18 @@ bool LogReader::Impl::read_row_or_throw(Stream& s) {
     return false;
   }
   if (ended != 0) {
-    throw LogError(s.files[a_longer]->path().string(), s.files[a_longer]->line(),
-                   "files read side by side (sampling.join: rows) must match row for row, but " +
-                       s.files[an_ended]->path().string() + " has ended");
+    throw s.files[a_longer]->error_at_row("files read side by side (sampling.join: rows) must match row for row, but " +
+                                         s.files[an_ended]->path().string() + " has ended");
   }
-  const CsvReader& reader = *s.files[static_cast<std::size_t>(s.time_file)];
-  const std::string_view cell = reader.field(s.time_index);
+  const LogTable& reader = *s.files[static_cast<std::size_t>(s.time_file)];
   double t = 0.0;
-  bool missing = false;
-  if (!parse_number(cell, &t, &missing) || missing || !std::isfinite(t)) {
-    throw LogError(reader.path().string(), reader.line(),
-                   bad_number(reader, s.time_index, cell, "a finite time in seconds"));
+  if (reader.number(s.time_index, &t) != LogTable::Cell::kNumber || !std::isfinite(t)) {
+    throw reader.cell_error(s.time_index, "a finite time in seconds");
   }
   t += s.offset;
   if (t <= s.last_t) {
-    throw LogError(reader.path().string(), reader.line(),
-                   "column '" + bank_.columns.time + "': time must increase strictly, but " + CsvWriter::format(t) +
-                       " follows " + CsvWriter::format(s.last_t));
+    throw reader.error_at_row("column '" + bank_.columns.time + "': time must increase strictly, but " +
+                              CsvWriter::format(t) + " follows " + CsvWriter::format(s.last_t));
   }
   s.row_t = t;
   s.has_row = true;
@@ -600,17 +648,12 @@ void LogReader::Impl::apply_row(int k) {
   Stream& s = streams_[static_cast<std::size_t>(k)];
   for (int c : s.columns) {
     const Column& col = columns_[static_cast<std::size_t>(c)];
-    const CsvReader& reader = *s.files[static_cast<std::size_t>(col.file)];
-    const std::string_view cell = reader.field(col.index);
+    const LogTable& reader = *s.files[static_cast<std::size_t>(col.file)];
     double value = kNaN;
-    bool missing = false;
-    if (!parse_number(cell, &value, &missing)) {
-      throw LogError(reader.path().string(), reader.line(),
-                     bad_number(reader, col.index, cell, "a finite number (or an empty cell, nan or NA for none)"));
-    }
-    if (!missing && !std::isfinite(value)) {
-      throw LogError(reader.path().string(), reader.line(),
-                     bad_number(reader, col.index, cell, "a finite number (or an empty cell, nan or NA for none)"));
+    const LogTable::Cell cell = reader.number(col.index, &value);
+    const bool missing = cell == LogTable::Cell::kMissing;
+    if (cell == LogTable::Cell::kNotANumber || (!missing && !std::isfinite(value))) {
+      throw reader.cell_error(col.index, "a finite number (or an empty cell, nan or NA for none)");
     }
     row_values_[static_cast<std::size_t>(c)] = value;
     if (!missing) held_values_[static_cast<std::size_t>(c)] = value;
@@ -638,7 +681,7 @@ void LogReader::Impl::apply_row(int k) {
     }
   }
   if (truth_stream_ == k) {
-    const std::string_view label = trim(s.files[static_cast<std::size_t>(truth_file_)]->field(truth_index_));
+    const std::string label = trim(s.files[static_cast<std::size_t>(truth_file_)]->text(truth_index_));
     if (!label.empty()) held_truth_.assign(label);
   }
   s.last_t = s.row_t;
@@ -828,7 +871,7 @@ double LogReader::progress() const {
   for (const Stream& s : impl_->streams_) {
     for (const auto& reader : s.files) {
       done += reader->bytes_read();
-      total += reader->file_size();
+      total += reader->size();
     }
   }
   return total == 0 ? 1.0 : std::min(1.0, static_cast<double>(done) / static_cast<double>(total));

@@ -12,6 +12,7 @@
 // correct reader of the CSV).
 //
 //   node write_borealtc_bag.cjs PRO IMU OUT.mcap [--compression zstd|lz4|none] [--no-summary] [--no-schemas]
+// (--no-schemas: schemas with the type's name and no definition)
 //   node write_borealtc_bag.cjs PRO IMU OUT.jsonl   (messages for write_db3.py)
 "use strict";
 const fs = require("fs");
@@ -91,7 +92,9 @@ async function main() {
     serializeWith: (type) => tools.completeDefinition(type),
   });
   for (const [topic, type] of Object.entries(types)) {
-    await bag.addTopic(topic, type, withSchemas ? tools.completeDefinition(type) : null);
+    // Without: schemas naming the type with no definition, as rosbag2 writes
+    // a type whose definition it cannot find.
+    await bag.addTopic(topic, type, withSchemas ? tools.completeDefinition(type) : "");
   }
   for (const m of messages) await bag.add(m.topic, m.logTime, m.message);
   await bag.close();

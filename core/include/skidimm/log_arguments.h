@@ -1,7 +1,9 @@
 // Log arguments, read the same way by every front end (the CLI's run, fit,
 // tune, eval and plot; Python; Dask): "[LABEL=]FILE[@OFFSET][+FILE[@OFFSET]...]"
 // (parse_log_spec, log_reader.h), where
-//  * a directory stands for each of its *.csv files, one log each;
+//  * a directory stands for each of its *.csv and *.mcap files and ROS 2 bag
+//    directories, one log each; a bag's own directory (with metadata.yaml)
+//    is one log;
 //  * a '*' in the first file's name matches several runs, and the other
 //    files' '*' take the same text: 'ice=data/ICE/pro_*.csv+data/ICE/imu_*.csv'
 //    pairs pro_02.csv with imu_02.csv. (Quote it so the shell leaves it.)

@@ -23,7 +23,7 @@ class LogTable {
 
   // The file the table is read from.
   virtual const std::filesystem::path& path() const = 0;
-  // How messages and summaries name the table: "imu_03.csv", "drive.mcap:/imu/data".
+  // How messages name the table briefly: "imu_03.csv", "drive.mcap:/imu/data".
   virtual std::string name() const = 0;
   // The columns, for the "columns present" of a message (a bag topic: the
   // paths a bank can use, arrays with their index range).
@@ -45,6 +45,9 @@ class LogTable {
   // A cell as text (truth labels, messages).
   virtual std::string text(int column) const = 0;
 
+  // An error about a cell of the current row that is not what `expected`
+  // says: "<file>:<line>: column 3 ('velL'): expected ..., got 'abc'".
+  virtual LogError cell_error(int column, const std::string& expected) const = 0;
   // An error about the current row: "<file>:<line>: message" for a CSV,
   // "<bag>: topic /imu/data, message 17 (log time ... s): message" for a bag.
   virtual LogError error_at_row(const std::string& message) const = 0;

@@ -27,6 +27,29 @@ std::string topic_list(const BagReader& bag) {
   return out.empty() ? "none" : out;
 }
 
+// Whether `rest` (what follows a topic in a column name) is a field path:
+// ".name" and "[...]" segments only. Anything else (an expression that
+// starts with a topic path) is not a column of the topic.
+bool is_field_path(const std::string& rest) {
+  std::size_t i = 0;
+  if (rest.empty()) return false;
+  while (i < rest.size()) {
+    if (rest[i] == '.') {
+      std::size_t end = i + 1;
+      while (end < rest.size() && (std::isalnum(static_cast<unsigned char>(rest[end])) || rest[end] == '_')) ++end;
+      if (end == i + 1) return false;
+      i = end;
+    } else if (rest[i] == '[') {
+      const auto close = rest.find(']', i);
+      if (close == std::string::npos) return false;
+      i = close + 1;
+    } else {
+      return false;
+    }
+  }
+  return true;
+}
+
 bool is_topic_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '/'; }
 
 std::string seconds_text(std::uint64_t ns) {
@@ -75,7 +98,7 @@ class BagTopicTable : public LogTable {
     } else if (name == kHeaderStampColumn) {
       c.slot = reader_->add("header.stamp");
     } else if (name.size() > topic.size() && name.compare(0, topic.size(), topic) == 0 &&
-               (name[topic.size()] == '.' || name[topic.size()] == '[')) {
+               is_field_path(name.substr(topic.size()))) {
       const std::string path = name.substr(topic.size() + (name[topic.size()] == '.' ? 1 : 0));
       try {
         c.slot = reader_->add(path);
@@ -140,6 +163,13 @@ class BagTopicTable : public LogTable {
     if (c.text) return texts_row_[static_cast<std::size_t>(c.text_index)];
     const double v = row_[static_cast<std::size_t>(column)];
     return std::isnan(v) ? std::string() : std::to_string(v);
+  }
+
+  LogError cell_error(int column, const std::string& expected) const override {
+    const Column& c = columns_[static_cast<std::size_t>(column)];
+    std::string got = c.text ? "the text '" + texts_row_[static_cast<std::size_t>(c.text_index)].substr(0, 80) + "'"
+                             : "the number " + std::to_string(row_[static_cast<std::size_t>(column)]);
+    return error_at_row("'" + c.name + "': expected " + expected + ", got " + got);
   }
 
   LogError error_at_row(const std::string& message) const override {
@@ -276,7 +306,9 @@ std::unique_ptr<CdrFieldReader> make_topic_reader(const BagReader& bag, int topi
                  where + ": " + stored + ", and it is not one of the bundled types (" + bundled + ")");
 }
 
-std::vector<int> topics_named(const BagReader& bag, const std::vector<std::string>& column_texts) {
+namespace {
+
+std::vector<int> find_topics(const BagReader& bag, const std::vector<std::string>& column_texts, bool required) {
   std::vector<int> out;
   for (const std::string& text : column_texts) {
     for (std::size_t i = 0; i < text.size(); ++i) {
@@ -295,6 +327,7 @@ std::vector<int> topics_named(const BagReader& bag, const std::vector<std::strin
       if (end == i + 1 || !std::isalpha(static_cast<unsigned char>(text[i + 1]))) continue;
       const std::string topic = text.substr(i, end - i);
       const int index = bag.topic_index(topic);
+      if (index < 0 && !required) continue;
       if (index < 0) {
         throw LogError(bag.path().string(), 0,
                        "the bank's column \"" + text + "\" names topic " + topic +
@@ -308,8 +341,19 @@ std::vector<int> topics_named(const BagReader& bag, const std::vector<std::strin
   return out;
 }
 
+}  // namespace
+
+std::vector<int> topics_named(const BagReader& bag, const std::vector<std::string>& column_texts) {
+  return find_topics(bag, column_texts, true);
+}
+
+std::vector<int> topics_named_if_present(const BagReader& bag, const std::vector<std::string>& texts) {
+  return find_topics(bag, texts, false);
+}
+
 std::vector<std::unique_ptr<LogTable>> open_bag_tables(const fs::path& path,
-                                                       const std::vector<std::string>& column_texts) {
+                                                       const std::vector<std::string>& column_texts,
+                                                       const std::vector<std::string>& optional_texts) {
   auto cursor = std::make_shared<BagCursor>();
   cursor->bag = BagReader::open(path);
   std::error_code ec;
@@ -317,7 +361,11 @@ std::vector<std::unique_ptr<LogTable>> open_bag_tables(const fs::path& path,
     const auto n = fs::file_size(f, ec);
     if (!ec) cursor->size += n;
   }
-  const std::vector<int> used = topics_named(*cursor->bag, column_texts);
+  std::vector<int> used = topics_named(*cursor->bag, column_texts);
+  for (int topic : topics_named_if_present(*cursor->bag, optional_texts)) {
+    if (std::find(used.begin(), used.end(), topic) == used.end()) used.push_back(topic);
+  }
+  std::sort(used.begin(), used.end());
   if (used.empty()) {
     throw LogError(path.string(), 0,
                    "no column of the bank names a topic of this bag. A bag's columns are written "

@@ -47,11 +47,17 @@ std::unique_ptr<CdrFieldReader> make_topic_reader(const BagReader& bag, int topi
 // has).
 std::vector<int> topics_named(const BagReader& bag, const std::vector<std::string>& column_texts);
 
+// The topics of `bag` that `texts` name, without an error for those it does
+// not have (a truth topic a bag may lack).
+std::vector<int> topics_named_if_present(const BagReader& bag, const std::vector<std::string>& texts);
+
 // Opens `path` (bag_reader.h) and makes a table of every topic that
 // `column_texts` name. Throws LogError; when no text names a topic, the
 // message says how bag columns are written and lists the topics.
+// `optional_texts` (the truth column) add their topics when the bag has them.
 std::vector<std::unique_ptr<LogTable>> open_bag_tables(const std::filesystem::path& path,
-                                                       const std::vector<std::string>& column_texts);
+                                                       const std::vector<std::string>& column_texts,
+                                                       const std::vector<std::string>& optional_texts = {});
 
 }  // namespace ros
 }  // namespace skidimm
