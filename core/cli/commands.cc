@@ -17,6 +17,8 @@
 #include "skidimm/log_run.h"
 #include "skidimm/mode_timeline.h"
 #include "skidimm/plugin_registry.h"
+#include "skidimm/ros/bag_reader.h"
+#include "skidimm/ros/live_estimates.h"
 
 namespace skidimm {
 namespace cli {
@@ -88,6 +90,7 @@ void print_rejections(const Bank& bank, const RunSummary& summary) {
 }  // namespace
 
 int run(const RunOptions& options) {
+  std::optional<ros::LiveEstimates> live;
   std::optional<EstimatesWriter> writer;
   RunSummary summary;
   const int code = report_errors("skidimm run", [&] {
@@ -99,11 +102,27 @@ int run(const RunOptions& options) {
     if (!log.label.empty() && config.class_index(log.label) < 0) {
       throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'");
     }
+    // Listening first: a log through a pipe may wait for its first line.
+    if (!options.serve.empty()) {
+      std::string host;
+      std::uint16_t port = 0;
+      ros::LiveEstimates::parse_address(options.serve, &host, &port);
+      live.emplace(host, port, config.name);
+      std::cerr << "skidimm run: serving Foxglove WebSocket on ws://" << host << ":" << live->port() << std::endl;
+    }
     LogReader reader(config, log.files, sampling_of(config, options.overrides.rate));
     const bool with_truth = reader.has_truth() || !log.label.empty();
-    // A path ending in .npy gets a NumPy array (estimates_writer.h), anything else CSV.
+    // A path ending in .npy gets a NumPy array, .mcap an MCAP file (estimates_writer.h), anything else CSV.
     writer.emplace(options.output, config, with_truth);
     if (options.flush) writer->flush_each_row();
+    if (live) {
+      // Paced to the log's clock when replaying files; a pipe is live already.
+      bool replay = true;
+      for (const LogFile& f : log.files) replay = replay && is_rereadable(f.path);
+      live->advertise(config, with_truth, replay ? options.serve_speed : 0.0);
+      writer->set_observer([&live](double t, const ImmEstimate& e, const std::string& decision,
+                                   const std::string& truth) { live->publish(t, e, decision, truth); });
+    }
 
     std::vector<std::string> mode_names;
     for (const ModeConfig& mode : config.modes) mode_names.push_back(mode.name);
@@ -119,7 +138,21 @@ int run(const RunOptions& options) {
     if (rows == 0) {
       throw LogError(log.text, 0, "the log gives no step: no data rows, or no row where every input has a value");
     }
+    if (options.copy_topics) {
+      std::vector<std::string> texts = config.columns.inputs;
+      texts.insert(texts.end(), config.columns.measurements.begin(), config.columns.measurements.end());
+      for (const LogFile& f : log.files) {
+        if (ros::BagReader::is_bag(f.path)) writer->copy_topics(f.path, texts);
+      }
+    }
     writer->commit();
+    if (live) {
+      live->close();
+      if (live->dropped() > 0) {
+        std::cerr << "skidimm run: --serve: " << live->dropped()
+                  << " message(s) not sent to a viewer that fell more than 1024 steps behind\n";
+      }
+    }
 
     if (!options.quiet) {
       const ModeTimeline& timeline = summary.timeline;

@@ -51,9 +51,16 @@ struct RunOptions {
   bool progress = true;  // shown only when stderr is a terminal
   bool strict = false;            // the first rejected mode filter is an error
   bool flush = false;             // every row handed to the output as it is computed
+  std::string serve;              // "[HOST:]PORT": publish each step live (Foxglove WebSocket protocol)
+  double serve_speed = 1.0;       // replaying a file with --serve: times real time; 0 unpaced
+  bool copy_topics = false;       // an .mcap output also holds the bag topics the bank read
 };
 
 int run(const RunOptions& options);
+
+// `skidimm bag FILE`: a ROS 2 bag's topics, counts, rates, time span and the
+// column paths a bank can name (ros/bag_info.h).
+int bag_info(const std::filesystem::path& bag);
 
 struct SimulateOptions {
   std::filesystem::path scenario;

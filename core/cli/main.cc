@@ -104,6 +104,14 @@ int main(int argc, char** argv) {
                 "The first row where a mode's filter is rejected ends the run with an error (rows so far are kept)");
   std::string run_plot;
   run->add_option("--plot", run_plot, "Also draw the mode probabilities to this .png or .svg (needs gnuplot)");
+  run->add_option("--serve", run_options.serve,
+                  "[HOST:]PORT: publish each step live to Foxglove (its WebSocket protocol; docs/foxglove.md); "
+                  "HOST 127.0.0.1 unless given, PORT 0 for any free port");
+  run->add_option("--serve-speed", run_options.serve_speed,
+                  "With --serve, replaying a file: times real time (default 1); 0 as fast as the filter runs")
+      ->check(CLI::NonNegativeNumber);
+  run->add_flag("--copy-topics", run_options.copy_topics,
+                "With an .mcap output and a bag input: copy the bag topics the bank reads into the output");
   add_plugin_path(run);
 
   std::string validate_bank;
@@ -272,6 +280,11 @@ int main(int argc, char** argv) {
   new_plugin_command->add_option("name", new_plugin_name, "The plugin's name (lowercase, digits, '_')")->required();
   new_plugin_command->add_option("--dir", new_plugin_dir, "Where to create the project's directory NAME (default: .)");
 
+  std::string bag_file;
+  CLI::App* bag = app.add_subcommand(
+      "bag", "Show a ROS 2 bag: topics, types, message counts, rates, time span and the columns a bank can name");
+  bag->add_option("bag", bag_file, "A .mcap or .db3 file, or a bag directory (docs/ros2.md)")->required();
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -280,11 +293,17 @@ int main(int argc, char** argv) {
   }
 
   std::vector<fs::path> paths(plugin_paths.begin(), plugin_paths.end());
+  if (*bag) return skidimm::cli::bag_info(bag_file);
   if (*run) {
     run_options.bank = bank;
     run_options.output = output;
     run_options.plugin_paths = paths;
     if (!run_plot.empty()) {
+      if (fs::path(output).extension() == ".mcap") {
+        std::cerr << "skidimm run: --plot draws a CSV or .npy output; an .mcap output is for Foxglove "
+                     "(docs/foxglove.md)\n";
+        return kExitUsage;
+      }
       // The figure reads the estimates and the log again after the run.
       std::string once;
       if (skidimm::OutputFile::writes_directly(output)) once = "--output " + output;

@@ -10,6 +10,7 @@
 #include "skidimm/check.h"
 #include "skidimm/errors.h"
 #include "skidimm/output_file.h"
+#include "skidimm/ros/estimates_mcap_writer.h"
 
 namespace skidimm {
 
@@ -204,6 +205,10 @@ EstimatesWriter::EstimatesWriter(const fs::path& path, const BankConfig& config,
     : with_truth_(with_truth) {
   for (const ModeConfig& mode : config.modes) mode_names_.push_back(mode.name);
   const std::vector<std::string> names = header(config, with_truth);
+  if (ros::EstimatesMcapWriter::is_mcap(path)) {
+    mcap_ = std::make_unique<ros::EstimatesMcapWriter>(path, config, with_truth);
+    return;
+  }
   if (!is_npy(path)) {
     csv_ = std::make_unique<CsvWriter>(path, names);
     return;
@@ -220,15 +225,25 @@ EstimatesWriter::EstimatesWriter(const fs::path& path, const BankConfig& config,
 
 EstimatesWriter::~EstimatesWriter() = default;
 
-const fs::path& EstimatesWriter::partial_path() const { return csv_ ? csv_->partial_path() : npy_->partial_path(); }
+const fs::path& EstimatesWriter::partial_path() const {
+  if (mcap_) return mcap_->partial_path();
+  return csv_ ? csv_->partial_path() : npy_->partial_path();
+}
+
+void EstimatesWriter::copy_topics(const fs::path& bag, const std::vector<std::string>& column_texts) {
+  if (!mcap_) throw Error("--copy-topics copies a bag's topics into an MCAP output (--output ending in .mcap)");
+  mcap_->copy_topics(bag, column_texts);
+}
 
 void EstimatesWriter::flush_each_row() {
-  if (!csv_) throw Error("--flush writes CSV rows as they are computed; a .npy file is complete only at the end");
+  if (!csv_) throw Error("--flush writes CSV rows as they are computed; a .npy or .mcap file is complete only at the end");
   csv_->set_flush_each_row(true);
 }
 
 void EstimatesWriter::commit() {
-  if (csv_) {
+  if (mcap_) {
+    mcap_->commit();
+  } else if (csv_) {
     csv_->commit();
   } else {
     npy_->commit();
@@ -236,6 +251,11 @@ void EstimatesWriter::commit() {
 }
 
 void EstimatesWriter::write(double t, const ImmEstimate& e, const std::string& decision, const std::string& truth) {
+  if (observer_) observer_(t, e, decision, truth);
+  if (mcap_) {
+    mcap_->write(t, e, decision, truth);
+    return;
+  }
   const std::string& mode = mode_names_[static_cast<std::size_t>(e.most_likely_mode)];
   const Eigen::Index n = e.state.size();
   if (csv_) {

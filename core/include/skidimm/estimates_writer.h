@@ -20,13 +20,18 @@
 // it as it is. A truth label longer than its column is an error (CSV has no
 // such limit). Millions of rows load in a fraction of a second.
 //
-// write() allocates nothing per row in either format (once the labels it has
-// seen have been quoted).
+// A path ending in ".mcap" is written as an MCAP file that Foxglove plots
+// (ros/estimates_mcap_writer.h): one JSON message per step on
+// /skidimm/estimate; copy_topics() adds the topics of the bag the bank read.
+//
+// write() allocates nothing per row in the CSV and .npy formats (once the
+// labels it has seen have been quoted).
 #ifndef SKIDIMM_ESTIMATES_WRITER_H_
 #define SKIDIMM_ESTIMATES_WRITER_H_
 
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -36,6 +41,10 @@
 #include "skidimm/log_io.h"
 
 namespace skidimm {
+
+namespace ros {
+class EstimatesMcapWriter;
+}
 
 // The reason column's text for one step, into *out (cleared; its capacity is
 // reused, so a run allocates only while the longest reason so far grows): for
@@ -53,6 +62,13 @@ class EstimatesWriter {
 
   // One row; `truth` is written only when the writer has a truth column.
   void write(double t, const ImmEstimate& estimate, const std::string& decision, const std::string& truth);
+  // Called with every row as it is written (run --serve publishes it live).
+  using Observer = std::function<void(double t, const ImmEstimate&, const std::string& decision,
+                                      const std::string& truth)>;
+  void set_observer(Observer observer) { observer_ = std::move(observer); }
+  // MCAP output only: copies the topics of `bag` that `column_texts` name
+  // (ros/bag_log.h), definitions included. Throws Error for other outputs.
+  void copy_topics(const std::filesystem::path& bag, const std::vector<std::string>& column_texts);
   void commit();
   // Every row handed to the file as it is written (CSV only; run --flush).
   // Throws Error for .npy, whose header is completed at the end.
@@ -68,6 +84,8 @@ class EstimatesWriter {
 
   std::unique_ptr<CsvWriter> csv_;
   std::unique_ptr<Npy> npy_;
+  std::unique_ptr<ros::EstimatesMcapWriter> mcap_;
+  Observer observer_;
   std::vector<std::string> mode_names_;
   std::string reason_;  // the row's reason column, reused
   bool with_truth_;

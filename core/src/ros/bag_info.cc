@@ -150,8 +150,10 @@ std::string format_bag_info(const BagInfo& info) {
   for (const BagTopicInfo& t : info.topics) {
     char rate[32];
     std::snprintf(rate, sizeof(rate), "%9.2f Hz", t.rate);
+    const std::string count = std::to_string(t.messages);
     out += "  " + t.name + std::string(name_width - t.name.size() + 2, ' ') + t.type +
-           std::string(type_width - t.type.size() + 2, ' ') + std::to_string(t.messages) + " msgs" + rate +
+           std::string(type_width - t.type.size() + 2, ' ') + std::string(count.size() < 8 ? 8 - count.size() : 0, ' ') +
+           count + " msgs" + rate +
            "  " + (t.serialization_format == "cdr" ? "" : t.serialization_format + ", ") + "time " +
            (t.has_header ? "header.stamp" : "log_time") + ", definition " + t.definition + "\n";
   }

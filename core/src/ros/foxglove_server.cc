@@ -105,6 +105,7 @@ class FoxgloveServer::Impl : public std::enable_shared_from_this<FoxgloveServer:
   std::vector<std::weak_ptr<Session>> sessions_;  // the io thread's
   std::atomic<int> clients_{0};
   std::atomic<int> subscriptions_{0};
+  std::atomic<long> dropped_{0};
   std::atomic<bool> stopping_{false};
   std::uint64_t session_count_ = 0;
 };
@@ -221,6 +222,7 @@ class FoxgloveServer::Impl::Session : public std::enable_shared_from_this<Sessio
       for (auto it = queue_.begin() + (writing_ ? 1 : 0); it != queue_.end(); ++it) {
         if (it->second) {
           queue_.erase(it);
+          ++server_->dropped_;
           break;
         }
       }
@@ -354,6 +356,7 @@ FoxgloveServer::~FoxgloveServer() { close(0.5); }
 std::uint16_t FoxgloveServer::port() const { return impl_->port_; }
 int FoxgloveServer::clients() const { return impl_->clients_; }
 int FoxgloveServer::subscriptions() const { return impl_->subscriptions_; }
+long FoxgloveServer::dropped() const { return impl_->dropped_; }
 
 std::uint32_t FoxgloveServer::add_channel(const std::string& topic, const std::string& encoding,
                                           const std::string& schema_name, const std::string& schema,

@@ -46,6 +46,8 @@ class FoxgloveServer {
   int clients() const;
   // Subscriptions of all clients now (a test waits for one before sending).
   int subscriptions() const;
+  // Messages dropped so far for clients that fell behind.
+  long dropped() const;
   // Closes every connection gracefully (WebSocket close), waiting at most
   // `seconds` for the messages still queued to be sent.
   void close(double seconds = 2.0);

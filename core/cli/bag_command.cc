@@ -1,0 +1,23 @@
+// `skidimm bag FILE`: parses nothing more than the path; the report is the
+// library's (ros/bag_info.h).
+#include <iostream>
+
+#include "commands.h"
+#include "skidimm/errors.h"
+#include "skidimm/ros/bag_info.h"
+
+namespace skidimm {
+namespace cli {
+
+int bag_info(const std::filesystem::path& bag) {
+  return report_errors("skidimm bag", [&] {
+    const ros::BagInfo info = ros::describe_bag(bag);
+    std::cout << ros::format_bag_info(info);
+    // A bag cut short is described as far as it reads, and reported.
+    if (!info.problem.empty()) throw Error(info.problem + " (the report above stops there)");
+    return kExitOk;
+  });
+}
+
+}  // namespace cli
+}  // namespace skidimm
