@@ -49,6 +49,27 @@ TEST(Crc32, MatchesTheCheckValueOfTheStandard) {
   EXPECT_EQ(crc32(crc32(0, long_text.data(), 333), long_text.data() + 333, 667), crc32(0, long_text.data(), 1000));
 }
 
+// The bit-by-bit definition, against the folding and table paths crc32 takes
+// for long and short inputs, at every length up to 3000 and four alignments.
+TEST(Crc32, EqualsTheBitwiseDefinitionAtEveryLengthAndAlignment) {
+  std::vector<unsigned char> bytes(4000);
+  std::uint32_t state = 1;
+  for (auto& b : bytes) b = static_cast<unsigned char>((state = state * 1103515245u + 12345u) >> 16);
+  const auto bitwise = [](const unsigned char* p, std::size_t n) {
+    std::uint32_t c = ~0u;
+    for (std::size_t i = 0; i < n; ++i) {
+      c ^= p[i];
+      for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+    }
+    return ~c;
+  };
+  for (std::size_t n = 0; n <= 3000; ++n) {
+    for (std::size_t offset : {0, 1, 7, 13}) {
+      ASSERT_EQ(crc32(0, bytes.data() + offset, n), bitwise(bytes.data() + offset, n)) << n << " at " << offset;
+    }
+  }
+}
+
 TEST(McapReader, ReadsEveryLayoutOfTheSameMessagesAlike) {
   McapReader reference(ros_fixture("all_types.mcap"));
   EXPECT_TRUE(reference.indexed());
