@@ -2,6 +2,9 @@
 //
 // A log is one recording: one CSV file, or several that share a clock (wheel
 // speeds and currents at 6.5 Hz in one file, the IMU at 100 Hz in another).
+// Each file is read as a table (log_table.h); a ROS 2 bag (.mcap, .db3, a
+// bag directory) is one table per topic the bank's columns name
+// (ros/bag_log.h), merged by time like the files of a multi-rate log.
 // The bank says how its files combine (`sampling.join`, bank.h):
 //
 //  * join: time (default). Every file has the bank's time column; rows of all
