@@ -127,7 +127,7 @@ class CsvTable : public LogTable {
     if (!parse_number(reader_.field(column), value, &missing)) return Cell::kNotANumber;
     return missing ? Cell::kMissing : Cell::kNumber;
   }
-  std::string text(int column) const override { return std::string(reader_.field(column)); }
+  std::string_view text(int column) const override { return reader_.field(column); }
   LogError cell_error(int column, const std::string& expected) const override {
     return error_at_row(bad_number(reader_, column, reader_.field(column), expected));
   }
@@ -681,7 +681,7 @@ void LogReader::Impl::apply_row(int k) {
     }
   }
   if (truth_stream_ == k) {
-    const std::string label = trim(s.files[static_cast<std::size_t>(truth_file_)]->text(truth_index_));
+    const std::string_view label = trim(s.files[static_cast<std::size_t>(truth_file_)]->text(truth_index_));
     if (!label.empty()) held_truth_.assign(label);
   }
   s.last_t = s.row_t;

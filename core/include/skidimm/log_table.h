@@ -42,8 +42,8 @@ class LogTable {
   // (an empty CSV cell, a name a JointState message lacks) with NaN, or
   // kNotANumber (text that is no number; error_at_row(describe_cell) says so).
   virtual Cell number(int column, double* value) const = 0;
-  // A cell as text (truth labels, messages).
-  virtual std::string text(int column) const = 0;
+  // A cell as text (truth labels), valid until the next row is read.
+  virtual std::string_view text(int column) const = 0;
 
   // An error about a cell of the current row that is not what `expected`
   // says: "<file>:<line>: column 3 ('velL'): expected ..., got 'abc'".

@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "skidimm/errors.h"
+#include "skidimm/log_io.h"
 #include "skidimm/ros/bundled_message_definitions.h"
 #include "skidimm/ros/ros_time.h"
 
@@ -158,11 +159,17 @@ class BagTopicTable : public LogTable {
     return std::isnan(*value) ? Cell::kMissing : Cell::kNumber;
   }
 
-  std::string text(int column) const override {
+  std::string_view text(int column) const override {
     const Column& c = columns_[static_cast<std::size_t>(column)];
     if (c.text) return texts_row_[static_cast<std::size_t>(c.text_index)];
+    // A number used as a label: its shortest text.
     const double v = row_[static_cast<std::size_t>(column)];
-    return std::isnan(v) ? std::string() : std::to_string(v);
+    number_text_.clear();
+    if (!std::isnan(v)) {
+      char buffer[32];
+      number_text_.assign(buffer, static_cast<std::size_t>(CsvWriter::format(v, buffer, buffer + sizeof(buffer)) - buffer));
+    }
+    return number_text_;
   }
 
   LogError cell_error(int column, const std::string& expected) const override {
@@ -251,6 +258,7 @@ class BagTopicTable : public LogTable {
   // The current row.
   std::vector<double> row_;
   std::vector<std::string> texts_row_;
+  mutable std::string number_text_;
   std::uint64_t row_log_time_ = 0;
   long row_number_ = 0;
 };
