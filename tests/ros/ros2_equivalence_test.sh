@@ -10,8 +10,8 @@
 # and `skidimm run` on the bag must write the same file as on the CSV pair
 # (same steps, same probabilities, states and variances to the last bit).
 # Then `eval` over directories of bags labelled by terrain equals `eval` of
-# the CSV pairs, `fit` on bags writes the same bank as on the CSV pairs, and
-# the Python package (run_log, and skidimm.dask.eval on a local cluster)
+# the CSV pairs, `fit` and `tune` on bags write the same bank as on the CSV
+# pairs, `plot --log` of a bag draws the same figure, and the Python package (run_log, and skidimm.dask.eval on a local cluster)
 # reads bags as the CLI does (python_bag_check.py).
 #   ros2_equivalence_test.sh SOURCE_DIR SKIDIMM WORK_DIR DATA_DIR NODE NODE_MODULES PYTHON PYTHONPATH
 set -euo pipefail
@@ -94,6 +94,33 @@ if ! diff <(grep -v '^#' "$work/fit_csv.yaml" | sed -n '/^sampling:/,$p') \
 fi
 grep -q "SNOW_turning" "$work/fit_bag.yaml"
 echo "fit on SNOW bags writes the same bank as on their CSV pairs"
+
+# tune: the same choice and the same bank, from bags as from the CSV pairs.
+tune=(--objective none --tune floor,dwell --no-assess --folds 2 --threads 2 -q)
+"$skidimm" tune --bank "$csv_bank" "${tune[@]}" --output-bank "$work/tune_csv.yaml" \
+  --log "ICE=$data/ICE/pro_*.csv+$data/ICE/imu_*.csv" --log "SNOW=$data/SNOW/pro_*.csv+$data/SNOW/imu_*.csv" \
+  >"$work/tune_csv.txt" 2>&1
+"$skidimm" tune --bank "$bag_bank" "${tune[@]}" --output-bank "$work/tune_bag.yaml" \
+  --log "ICE=$work/bags/ICE" --log "SNOW=$work/bags/SNOW" >"$work/tune_bag.txt" 2>&1
+if ! diff <(grep -v '^#' "$work/tune_csv.yaml" | sed -n '/^sampling:/,$p') \
+          <(grep -v '^#' "$work/tune_bag.yaml" | sed -n '/^sampling:/,$p') >"$work/tune.diff"; then
+  echo "FAIL: tune on bags chooses another bank than on the CSV pairs:" >&2
+  head -n 10 "$work/tune.diff" >&2
+  exit 1
+fi
+echo "tune on ICE and SNOW bags writes the same bank as on their CSV pairs"
+
+# plot: the measurements drawn from a bag are the CSV pair's, pixel for pixel.
+if command -v gnuplot >/dev/null; then
+  first=ASPHALT_00.mcap  # pro_00 and imu_00, written first: MCAP with zstd chunks
+  "$skidimm" run -q --bank "$bag_bank" --input "$work/bags/ASPHALT/$first" --output "$work/plot_estimates.csv"
+  "$skidimm" plot --estimates "$work/plot_estimates.csv" --bank "$csv_bank" --states --output "$work/plot_csv.png" \
+    --log "$data/ASPHALT/pro_00.csv+$data/ASPHALT/imu_00.csv"
+  "$skidimm" plot --estimates "$work/plot_estimates.csv" --bank "$bag_bank" --states --output "$work/plot_bag.png" \
+    --log "$work/bags/ASPHALT/$first"
+  cmp -s "$work/plot_csv.png" "$work/plot_bag.png" || { echo "FAIL: plot --log of a bag draws another figure" >&2; exit 1; }
+  echo "plot --log of a bag draws the CSV pair's figure, byte for byte"
+fi
 
 if [ -n "$python_path" ]; then
   PYTHONPATH=$python_path "$python" "$source_dir/tests/ros/python_bag_check.py" "$source_dir" "$data" "$work/bags"
