@@ -92,6 +92,13 @@ expect_error() {
 write_bag "$work/no_summary.mcap" --no-summary
 head -c "$(($(stat -c %s "$work/no_summary.mcap") * 2 / 3))" "$work/no_summary.mcap" >"$work/cut.mcap"
 expect_error cut "cut.mcap: byte [0-9]*: .*cut short" yes -- run --bank "$bank" --input "$work/cut.mcap" --output "$work/cut.csv"
+# ... into an MCAP output: the .partial file is a complete MCAP of the steps before the cut.
+expect_error cut_mcap "cut short" no -- run --bank "$bank" --input "$work/cut.mcap" --output "$work/cut_out.mcap"
+"$node" "$source_dir/tests/ros/read_mcap.cjs" "$work/cut_out.mcap.partial" >"$work/cut_out.json"
+rows=$(grep -o "the [0-9]* rows computed before the error" "$work/cut_mcap.err" | grep -o "[0-9]*")
+"$python" -c 'import json,sys; n=len(json.load(open(sys.argv[1]))["messages"]); assert n == int(sys.argv[2]) > 10, n' \
+  "$work/cut_out.json" "$rows" || fail "cut_mcap: the .partial MCAP should hold the $rows steps before the error"
+echo "4. cut_mcap: @mcap/core reads the $rows steps before the cut in cut_out.mcap.partial"
 # A byte changed in a message of an uncompressed chunk: only the chunk's CRC can tell.
 write_bag "$work/plain.mcap" --compression none
 "$python" - "$work/plain.mcap" "$work/crc.mcap" <<'PY'
