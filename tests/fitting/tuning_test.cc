@@ -70,29 +70,35 @@ TEST(Protocols, ParseTheirNamesAndRefuseOthers) {
 }
 
 // Extrapolation holds out, per class, the logs driven hardest in the input
-// (largest ranking), round(fraction x logs) of them, at least one and never
-// all; sessions hold out every log of a session together.
+// (largest ranking), round(fraction x logs) of those driven in it at all (a
+// tenth of the class's largest or more), at least one and never all of them;
+// sessions hold out every log of a session together.
 TEST(Protocols, ExtrapolationHoldsOutTheHardestDrivenLogsOfEachClassAndSessionsHoldOutWholeSessions) {
-  const std::vector<std::string> classes{"ice", "ice", "ice", "ice", "snow", "snow", "sand", "rock", "rock"};
-  const std::vector<double> speed{0.2, 0.8, 0.3, 0.5, 0.1, 0.4, 9.0, 0.3, 0.3};
-  const std::vector<int> all{0, 1, 2, 3, 4, 5, 6, 7, 8};
+  const std::vector<std::string> classes{"ice", "ice", "ice", "ice", "snow", "snow", "sand", "rock", "rock", "ice", "ice"};
+  // ice 9 and 10 are runs on the spot (a speed under a tenth of ice's fastest):
+  // not slower straight runs, they stay in training.
+  const std::vector<double> speed{0.2, 0.8, 0.3, 0.5, 0.1, 0.4, 9.0, 0.3, 0.3, 0.0, 0.05};
+  const std::vector<int> all{0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10};
   Protocol extrapolation = protocol_from_string("extrapolation:speed");
   auto folds = protocol_folds(extrapolation, all, classes, {}, speed, 0);
   ASSERT_EQ(folds.size(), 1u);
-  // ice: round(0.25 x 4) = 1, the fastest (1); snow: 1 of 2, the faster (5);
-  // sand: its only log stays; rock: a tie, the first listed (7).
+  // ice: round(0.25 x 4 driven) = 1, the fastest (1); snow: 1 of 2, the faster
+  // (5); sand: its only log stays; rock: a tie, the first listed (7).
   EXPECT_EQ(folds[0], (std::vector<int>{1, 5, 7}));
   extrapolation.fraction = 0.6;  // ice: round(2.4) = 2; snow: 1 (never all)
   EXPECT_EQ(protocol_folds(extrapolation, all, classes, {}, speed, 0)[0], (std::vector<int>{1, 3, 5, 7}));
+  extrapolation.fraction = 0.99;  // never every driven log: ice keeps its slowest driven run (0)
+  EXPECT_EQ(protocol_folds(extrapolation, all, classes, {}, speed, 0)[0], (std::vector<int>{1, 2, 3, 5, 7}));
   // Only the members count: without log 1, ice's fastest is 3.
   EXPECT_EQ(protocol_folds(protocol_from_string("extrapolation:speed"), {0, 2, 3, 4, 5}, classes, {}, speed, 0)[0],
             (std::vector<int>{3, 5}));
-  EXPECT_THROW(protocol_folds(extrapolation, {6, 4}, classes, {}, speed, 0), Error);
+  // One driven ice run and runs on the spot: nothing of ice to hold out.
+  EXPECT_THROW(protocol_folds(extrapolation, {6, 4, 1, 9, 10}, classes, {}, speed, 0), Error);
 
-  const std::vector<std::string> sessions{"mon", "mon", "tue", "", "tue", "mon", "", "wed", "wed"};
+  const std::vector<std::string> sessions{"mon", "mon", "tue", "", "tue", "mon", "", "wed", "wed", "wed", "tue"};
   folds = protocol_folds(protocol_from_string("sessions"), all, classes, sessions, {}, 0);
   std::set<std::vector<int>> got(folds.begin(), folds.end());
-  EXPECT_EQ(got, (std::set<std::vector<int>>{{0, 1, 5}, {2, 4}, {7, 8}, {3}, {6}}));
+  EXPECT_EQ(got, (std::set<std::vector<int>>{{0, 1, 5}, {2, 4, 10}, {7, 8, 9}, {3}, {6}}));
   EXPECT_THROW(protocol_folds(protocol_from_string("sessions"), {0, 1}, classes, sessions, {}, 0), Error);
   EXPECT_EQ(protocol_folds(Protocol{}, all, classes, sessions, {}, 0), grouped_folds(all, classes, 0));
 }

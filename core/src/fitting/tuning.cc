@@ -177,6 +177,10 @@ Protocol protocol_from_string(const std::string& text) {
               "extrapolation:NAME=EXPRESSION[:FRACTION], NAME of letters, digits and _)");
 }
 
+// The share of a class's largest ranking above which a log counts as driven
+// in an extrapolation protocol's input.
+constexpr double kDrivenShare = 0.1;
+
 std::vector<std::vector<int>> protocol_folds(const Protocol& protocol, const std::vector<int>& members,
                                              const std::vector<std::string>& classes,
                                              const std::vector<std::string>& sessions,
@@ -201,16 +205,28 @@ std::vector<std::vector<int>> protocol_folds(const Protocol& protocol, const std
       for (int i : members) by_class[classes[static_cast<std::size_t>(i)]].push_back(i);
       std::vector<int> held;
       for (auto& [name, logs] : by_class) {
-        if (logs.size() < 2) continue;  // a class's only log stays in training
-        std::stable_sort(logs.begin(), logs.end(), [&](int a, int b) {
+        // Only the logs driven in this way at all compete: a class's runs on
+        // the spot are not "slower" runs of its straight driving, and holding
+        // them out with it would leave the class no straight run to learn
+        // from, a test of another question.
+        double largest = 0.0;
+        for (int i : logs) largest = std::max(largest, ranking[static_cast<std::size_t>(i)]);
+        std::vector<int> driven;
+        for (int i : logs) {
+          if (largest > 0.0 && ranking[static_cast<std::size_t>(i)] >= kDrivenShare * largest) driven.push_back(i);
+        }
+        if (driven.size() < 2) continue;  // one such log stays in training
+        std::stable_sort(driven.begin(), driven.end(), [&](int a, int b) {
           return ranking[static_cast<std::size_t>(a)] > ranking[static_cast<std::size_t>(b)];
         });
         const std::size_t count =
-            std::min(logs.size() - 1,
-                     std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(protocol.fraction * logs.size()))));
-        held.insert(held.end(), logs.begin(), logs.begin() + static_cast<std::ptrdiff_t>(count));
+            std::min(driven.size() - 1,
+                     std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(protocol.fraction * driven.size()))));
+        held.insert(held.end(), driven.begin(), driven.begin() + static_cast<std::ptrdiff_t>(count));
       }
-      if (held.empty()) throw Error("protocol '" + protocol.name() + "' needs a class with at least two logs");
+      if (held.empty()) {
+        throw Error("protocol '" + protocol.name() + "' needs a class with at least two logs driven in " + protocol.input);
+      }
       std::sort(held.begin(), held.end());
       return {held};
     }

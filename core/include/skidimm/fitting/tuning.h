@@ -62,7 +62,7 @@ struct Protocol {
   enum class Kind {
     kLogs,           // another run like these: leave one log out (or TuneOptions::folds groups)
     kSessions,       // a run from a session none of these came from: leave one session out
-    kExtrapolation,  // a run driven beyond these: per class, the logs with the largest mean |input|, held out together
+    kExtrapolation,  // a run driven beyond these: per class, the logs driven hardest in an input, held out together
   };
   Kind kind = Kind::kLogs;
   // kExtrapolation: what ranks a class's logs, the mean absolute value over
@@ -189,9 +189,10 @@ std::vector<std::vector<int>> grouped_folds(const std::vector<int>& members, con
 // The held-out sets of `protocol` over `members` (indices into the other
 // vectors): kLogs, grouped_folds(members, classes, folds); kSessions, one set
 // per session (a log of no session is its own); kExtrapolation, one set: per
-// class of at least two logs, the round(fraction x its logs) of largest
-// `ranking` (at least one, never all). Throws Error when a protocol cannot
-// hold anything out.
+// class, among its logs driven in the input at all (ranking at least a tenth
+// of the class's largest), the round(fraction x them) of largest `ranking`,
+// at least one and never all of them (a class with fewer than two such logs
+// holds none out). Throws Error when a protocol cannot hold anything out.
 std::vector<std::vector<int>> protocol_folds(const Protocol& protocol, const std::vector<int>& members,
                                              const std::vector<std::string>& classes,
                                              const std::vector<std::string>& sessions,
