@@ -64,7 +64,7 @@ class FoxgloveServer::Impl : public std::enable_shared_from_this<FoxgloveServer:
   class Session;
 
   Impl(const std::string& host, std::uint16_t port, std::string name)
-      : name_(std::move(name)), acceptor_(io_) {
+      : name_(std::move(name)), work_(io_.get_executor()), acceptor_(io_) {
     beast::error_code ec;
     const auto address = asio::ip::make_address(host, ec);
     if (ec) throw Error("--serve: '" + host + "' is not an IP address (" + ec.message() + ")");
@@ -96,6 +96,10 @@ class FoxgloveServer::Impl : public std::enable_shared_from_this<FoxgloveServer:
 
   std::string name_;
   asio::io_context io_;
+  // Keeps run() going until stop() has queued its last handler: a handler
+  // posted after run() returned would never run, and its hold on this
+  // object would keep the object alive forever.
+  asio::executor_work_guard<asio::io_context::executor_type> work_;
   tcp::acceptor acceptor_;
   std::thread thread_;
   std::future<void> finished_;  // ready when the thread's run() has returned
@@ -342,6 +346,7 @@ void FoxgloveServer::Impl::stop(double seconds) {
     }
     self->sessions_.clear();
   });
+  work_.reset();
   if (finished_.wait_for(std::chrono::seconds(2)) != std::future_status::ready) io_.stop();
   if (thread_.joinable()) thread_.join();
 }
