@@ -5,7 +5,6 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <algorithm>
-#include <boost/math/tools/toms748_solve.hpp>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -13,8 +12,9 @@
 #include <memory>
 #include <sstream>
 
+#include "measurement_layout.h"
+#include "process_noise_search.h"
 #include "skidimm/covariance.h"
-#include "skidimm/ekf.h"
 #include "skidimm/measured_outputs.h"
 #include "skidimm/measurement_model.h"
 #include "skidimm/sdk/angles.h"
@@ -24,21 +24,10 @@ namespace fitting {
 
 namespace {
 
-// Where each state is measured: state i is row state_row[i] of z (a row of H
-// that picks that state alone). Fitting starts predictions from measured
-// states, so every state must be measured directly.
-struct MeasurementLayout {
-  std::vector<int> state_row;
-  Eigen::MatrixXd h;
-  Eigen::VectorXd sigma;  // sqrt(R_ii)
-  std::vector<bool> row_is_angle;
-  std::vector<bool> state_is_angle;
-  Eigen::MatrixXd r_state;  // R in state order
-  // The model outputs measured (measurement.outputs): rows first_output_row
-  // on, where H is zero and the prediction is the model's outputs().
-  std::vector<std::string> outputs;
-  int first_output_row = 0;
-};
+using internal::for_each_error;
+using internal::fully_measured;
+using internal::MeasurementLayout;
+using internal::measured_state;
 
 // `mode`'s layout: its residuals are weighed by its own R where it has one
 // (R: in its entry), the noise its filter assumes; else by the bank's.
@@ -97,20 +86,7 @@ bool expected_outputs(const sdk::MotionModel& model, const MeasurementLayout& m,
   return expected->allFinite();
 }
 
-bool fully_measured(const MeasurementLayout& m, const Trajectory& t, int k) {
-  for (int row : m.state_row) {
-    if (!std::isfinite(t.z(row, k))) return false;
-  }
-  return true;
-}
-
 bool any_measured(const Trajectory& t, int k) { return t.z.col(k).array().isFinite().any(); }
-
-Eigen::VectorXd measured_state(const MeasurementLayout& m, const Trajectory& t, int k) {
-  Eigen::VectorXd x(static_cast<Eigen::Index>(m.state_row.size()));
-  for (std::size_t s = 0; s < m.state_row.size(); ++s) x[static_cast<Eigen::Index>(s)] = t.z(m.state_row[s], k);
-  return x;
-}
 
 // Propagates x from row `from` to row `to` with the logged inputs.
 bool propagate(const sdk::MotionModel& model, const Trajectory& t, int from, int to, Eigen::VectorXd* x,
@@ -185,21 +161,6 @@ struct ParameterMapping {
   std::vector<int> model_index;
   std::vector<int> block_index;
 };
-
-// Calls f(component, error) for each measured component of row `target`,
-// with error = z - H x - expected (wrapped for angles); expected holds the
-// model's outputs on the output rows (expected_outputs()).
-template <typename F>
-void for_each_error(const MeasurementLayout& m, const Trajectory& t, int target, const Eigen::VectorXd& x,
-                    const Eigen::VectorXd& expected, F&& f) {
-  const Eigen::VectorXd predicted = m.h * x + expected;
-  for (Eigen::Index c = 0; c < t.z.rows(); ++c) {
-    if (!std::isfinite(t.z(c, target))) continue;
-    double e = t.z(c, target) - predicted[c];
-    if (m.row_is_angle[c]) e = sdk::wrap_angle(e);
-    f(c, e);
-  }
-}
 
 // The residuals of one window, each error divided by its measurement
 // standard deviation. With `jacobians`, also their exact derivatives: the
@@ -333,49 +294,6 @@ std::string describe_unexcited(const Eigen::MatrixXd& v, const Eigen::VectorXd& 
   return out;
 }
 
-// Mean normalized innovation squared of the measurement of state s (the row
-// of H that picks it alone: layout_of) of the mode's EKF with process-noise
-// intensity `q`, over the logs. That row picks s, so its innovation variance
-// is P(s, s) + R(c, c), read off without forming H P H'.
-double mean_state_nis(const Bank& bank, const sdk::MotionModel& model, const MeasurementLayout& m,
-                      const ModeLogs& data, const Eigen::MatrixXd& q, int s) {
-  const BankConfig& config = bank.config;
-  // The mode's own R where it has one: the noise its filter will assume.
-  const Eigen::MatrixXd& r = config.measurement_noise(data.mode);
-  const MeasurementModel measurement(config.measurement.h, r, config.measurement.is_angle);
-  SelectedMeasurement selected = measurement.make_selection();
-  const Eigen::Index rows = measurement.measurement_dim();
-  const int c = m.state_row[static_cast<std::size_t>(s)];
-  const double r_c = r(c, c);
-  // Outputs depend on no state: the state's filter leaves them out.
-  Eigen::VectorXd z(rows);
-  const Eigen::VectorXd no_outputs = Eigen::VectorXd::Zero(rows);
-  double sum = 0.0, count = 0.0;
-  for (const Trajectory& t : data.logs) {
-    ExtendedKalmanFilter filter(model, q, static_cast<int>(rows));
-    int k = 0;
-    while (k < t.size() && !fully_measured(m, t, k)) ++k;
-    if (k >= t.size()) continue;
-    filter.state() = measured_state(m, t, k);
-    filter.covariance() = m.r_state;
-    for (++k; k < t.size(); ++k) {
-      if (!filter.predict(t.u.col(k - 1), t.t[k] - t.t[k - 1])) break;
-      z = t.z.col(k);
-      z.tail(static_cast<Eigen::Index>(m.outputs.size())).setConstant(std::numeric_limits<double>::quiet_NaN());
-      measurement.select(z, &selected);
-      if (selected.size == 0) continue;
-      // The component's innovation and its variance before the update.
-      for_each_error(m, t, k, filter.state(), no_outputs, [&](Eigen::Index component, double e) {
-        if (component != c) return;
-        sum += e * e / (filter.covariance()(s, s) + r_c);
-        count += 1.0;
-      });
-      if (!filter.update(selected).ok) break;
-    }
-  }
-  return sum / std::max(count, 1.0);
-}
-
 }  // namespace
 
 FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
@@ -432,42 +350,10 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
   report.rmse = (squared.array() / counts.array().max(1.0)).sqrt();
 
   // Process noise: the diagonal intensity that makes the mode's own filter
-  // consistent on its logs, i.e. the mean normalized innovation squared of
-  // each state's measurement is 1. NIS falls as q grows, so each entry is the
-  // root of log NIS(log q) on [1e-10, 1e3], found by TOMS 748 (Alefeld, Potra
-  // & Shi 1995: bracketing like bisection, converging like inverse cubic
-  // interpolation; about 8 filter passes where bisection took 30), in two
-  // rounds over the states, each solved with the others' latest values.
-  constexpr double kLowest = 1e-10, kHighest = 1e3;
-  Eigen::MatrixXd q = Eigen::MatrixXd::Identity(n, n) * 1e-3;
-  std::vector<bool> at_floor(static_cast<std::size_t>(n), false);
-  for (int round = 0; round < 2; ++round) {
-    for (int s = 0; s < n; ++s) {
-      const auto log_nis = [&](double log_q) {
-        q(s, s) = std::exp(log_q);
-        const double nis = mean_state_nis(bank, model, m, data, q, s);
-        // A filter that failed at its first step scores 0: below any target.
-        return std::log(std::isfinite(nis) ? std::max(nis, 1e-300) : 1e-300);
-      };
-      const double low = std::log(kLowest), high = std::log(kHighest);
-      const double at_low = log_nis(low);
-      at_floor[static_cast<std::size_t>(s)] = at_low <= 0.0;
-      if (at_floor[static_cast<std::size_t>(s)]) {
-        q(s, s) = kLowest;
-        continue;
-      }
-      const double at_high = log_nis(high);
-      if (at_high >= 0.0) {
-        q(s, s) = kHighest;  // inconsistent even at the ceiling; the warning below does not apply
-        continue;
-      }
-      // To within 2e-8 in log q, as fine as the 30 halvings of the bracket it replaces.
-      const auto close_enough = [](double a, double b) { return std::abs(a - b) <= 2e-8; };
-      std::uintmax_t iterations = 60;
-      const auto root = boost::math::tools::toms748_solve(log_nis, low, high, at_low, at_high, close_enough, iterations);
-      q(s, s) = std::exp(0.5 * (root.first + root.second));
-    }
-  }
+  // consistent on its logs (process_noise_search.h).
+  const internal::ConsistentProcessNoise noise = internal::consistent_process_noise(bank, data, m);
+  Eigen::MatrixXd q = noise.intensity.asDiagonal();
+  const std::vector<bool>& at_floor = noise.at_floor;
   for (int s = 0; s < n; ++s) {
     if (at_floor[static_cast<std::size_t>(s)]) {
       report.warnings.push_back("the measurement noise R alone explains the innovations of '" +

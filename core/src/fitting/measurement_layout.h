@@ -1,0 +1,69 @@
+// Where a bank measures each state of a mode, as the window fit and the
+// process-noise search read logs (model_fitter.cc, process_noise_search.cc).
+// Private to the fitting library.
+#ifndef SKIDIMM_CORE_SRC_FITTING_MEASUREMENT_LAYOUT_H_
+#define SKIDIMM_CORE_SRC_FITTING_MEASUREMENT_LAYOUT_H_
+
+#include <Eigen/Core>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "skidimm/fitting/trajectory.h"
+#include "skidimm/sdk/angles.h"
+
+namespace skidimm {
+namespace fitting {
+namespace internal {
+
+// Where each state is measured: state i is row state_row[i] of z (a row of H
+// that picks that state alone). Fitting starts predictions from measured
+// states, so every state must be measured directly.
+struct MeasurementLayout {
+  std::vector<int> state_row;
+  Eigen::MatrixXd h;
+  Eigen::VectorXd sigma;  // sqrt(R_ii)
+  std::vector<bool> row_is_angle;
+  std::vector<bool> state_is_angle;
+  Eigen::MatrixXd r_state;  // R in state order
+  // The model outputs measured (measurement.outputs): rows first_output_row
+  // on, where H is zero and the prediction is the model's outputs().
+  std::vector<std::string> outputs;
+  int first_output_row = 0;
+};
+
+// Every state is measured at row k of t.
+inline bool fully_measured(const MeasurementLayout& m, const Trajectory& t, int k) {
+  for (int row : m.state_row) {
+    if (!std::isfinite(t.z(row, k))) return false;
+  }
+  return true;
+}
+
+// The state as measured at row k of t.
+inline Eigen::VectorXd measured_state(const MeasurementLayout& m, const Trajectory& t, int k) {
+  Eigen::VectorXd x(static_cast<Eigen::Index>(m.state_row.size()));
+  for (std::size_t s = 0; s < m.state_row.size(); ++s) x[static_cast<Eigen::Index>(s)] = t.z(m.state_row[s], k);
+  return x;
+}
+
+// Calls f(component, error) for each measured component of row `target`,
+// with error = z - H x - expected (wrapped for angles); expected holds the
+// model's outputs on the output rows (model_fitter.cc, expected_outputs()).
+template <typename F>
+void for_each_error(const MeasurementLayout& m, const Trajectory& t, int target, const Eigen::VectorXd& x,
+                    const Eigen::VectorXd& expected, F&& f) {
+  const Eigen::VectorXd predicted = m.h * x + expected;
+  for (Eigen::Index c = 0; c < t.z.rows(); ++c) {
+    if (!std::isfinite(t.z(c, target))) continue;
+    double e = t.z(c, target) - predicted[c];
+    if (m.row_is_angle[c]) e = sdk::wrap_angle(e);
+    f(c, e);
+  }
+}
+
+}  // namespace internal
+}  // namespace fitting
+}  // namespace skidimm
+
+#endif  // SKIDIMM_CORE_SRC_FITTING_MEASUREMENT_LAYOUT_H_
