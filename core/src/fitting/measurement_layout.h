@@ -30,6 +30,10 @@ struct MeasurementLayout {
   // on, where H is zero and the prediction is the model's outputs().
   std::vector<std::string> outputs;
   int first_output_row = 0;
+  // Per row of z, the state it picks alone (a 1 there, 0 elsewhere in H),
+  // or -1; every_row_picks: no output rows, and no row measuring a sum.
+  std::vector<int> row_picks;
+  bool every_row_picks = false;
 };
 
 // Every state is measured at row k of t.

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <memory>
@@ -42,9 +43,12 @@ MeasurementLayout layout_of(const BankConfig& bank, int mode) {
   const int n = bank.state_dim();
   m.state_row.assign(n, -1);
   const MeasurementModel measurement(mc.h, mc.r, mc.is_angle);
+  m.every_row_picks = true;
   for (int row = 0; row < measurement.measurement_dim(); ++row) {
     const int s = measurement.picked_state(row);
     if (s >= 0 && m.state_row[static_cast<std::size_t>(s)] < 0) m.state_row[static_cast<std::size_t>(s)] = row;
+    m.row_picks.push_back(s);
+    m.every_row_picks = m.every_row_picks && s >= 0;
   }
   std::string missing;
   for (int s = 0; s < n; ++s) {
@@ -162,6 +166,20 @@ struct ParameterMapping {
   std::vector<int> block_index;
 };
 
+// What the windows of one model evaluate in: every window of a problem runs
+// on the same model instance, one after the other (the solver runs one
+// thread), so they share their buffers, and the parameters last given to the
+// model: Ceres evaluates every window at the same point, and setting a
+// model's parameters is not free (bounds checks, and for some models a
+// matrix exponential).
+struct WindowWorkspace {
+  Eigen::VectorXd full;  // the model's flat parameters
+  Eigen::VectorXd set;   // as last given to the model (empty: none yet)
+  Eigen::VectorXd x, next, all_outputs, expected, predicted;
+  Eigen::MatrixXd sensitivity, updated, f, g, output_g;
+  Eigen::RowVectorXd d;
+};
+
 // The residuals of one window, each error divided by its measurement
 // standard deviation. With `jacobians`, also their exact derivatives: the
 // sensitivity S = dx/dtheta of the propagated state is carried through the
@@ -171,79 +189,139 @@ struct ParameterMapping {
 class WindowCost : public ceres::CostFunction {
  public:
   WindowCost(sdk::MotionModel* model, Eigen::VectorXd base, ParameterMapping mapping, const MeasurementLayout* m,
-             Window window, int block_size)
+             Window window, int block_size, std::shared_ptr<WindowWorkspace> workspace)
       : model_(model),
         base_(std::move(base)),
         mapping_(std::move(mapping)),
         m_(m),
         window_(std::move(window)),
-        positions_(output_positions(*model, *m)) {
+        positions_(output_positions(*model, *m)),
+        w_(std::move(workspace)) {
     mutable_parameter_block_sizes()->push_back(block_size);
     set_num_residuals(window_.residuals);
+    const int n = model_->state_dim();
+    const Eigen::Index parameters = base_.size();
+    w_->x.resize(n);
+    w_->next.resize(n);
+    w_->expected = Eigen::VectorXd::Zero(m_->h.rows());
+    w_->predicted.resize(m_->h.rows());
+    w_->f.resize(n, n);
+    w_->g.resize(n, parameters);
+    w_->output_g.resize(static_cast<Eigen::Index>(model_->output_names().size()), parameters);
+    w_->d.resize(block_size);
   }
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    Eigen::VectorXd full = base_;
+    WindowWorkspace& w = *w_;
+    w.full = base_;
     for (std::size_t i = 0; i < mapping_.model_index.size(); ++i) {
-      full[mapping_.model_index[i]] = parameters[0][mapping_.block_index[i]];
+      w.full[mapping_.model_index[i]] = parameters[0][mapping_.block_index[i]];
     }
-    if (!model_->set_parameters(full, nullptr)) return false;
+    // The same parameters, bit for bit, leave the model as it is.
+    if (w.set.size() != w.full.size() ||
+        std::memcmp(w.set.data(), w.full.data(), sizeof(double) * static_cast<std::size_t>(w.full.size())) != 0) {
+      if (!model_->set_parameters(w.full, nullptr)) return false;
+      w.set = w.full;
+    }
     const bool derivatives = jacobians != nullptr && jacobians[0] != nullptr;
     const Trajectory& t = *window_.trajectory;
     const int n = model_->state_dim();
     const int block = parameter_block_sizes()[0];
-    Eigen::VectorXd x = measured_state(*m_, t, window_.start), next(n);
-    Eigen::MatrixXd sensitivity = Eigen::MatrixXd::Zero(n, block);
-    Eigen::MatrixXd f(n, n), g(n, full.size());
-    // The outputs' own derivatives: they depend on the input, not the state.
-    Eigen::MatrixXd output_g(static_cast<Eigen::Index>(model_->output_names().size()), full.size());
-    Eigen::VectorXd all_outputs, expected = Eigen::VectorXd::Zero(m_->h.rows());
+    for (int s = 0; s < n; ++s) w.x[s] = t.z(m_->state_row[static_cast<std::size_t>(s)], window_.start);
+    // S is +0 at the start; it is written at the first step.
+    bool sensitivity_zero = true;
     int row = window_.start;
     int r = 0;
     for (int target : window_.targets) {
       for (int k = row; k < target; ++k) {
         const double dt = t.t[k + 1] - t.t[k];
         if (derivatives) {
-          if (!model_->jacobian(x, t.u.col(k), dt, f) || !model_->parameter_jacobian(x, t.u.col(k), dt, g)) return false;
-          Eigen::MatrixXd updated = f * sensitivity;
-          for (std::size_t i = 0; i < mapping_.model_index.size(); ++i) {
-            updated.col(mapping_.block_index[i]) += g.col(mapping_.model_index[i]);
+          if (!model_->jacobian(w.x, t.u.col(k), dt, w.f) || !model_->parameter_jacobian(w.x, t.u.col(k), dt, w.g)) {
+            return false;
           }
-          sensitivity = updated;
+          if (sensitivity_zero && all_finite(w.f)) {
+            // F S with S = +0 is +0: only the parameters' own terms remain.
+            w.sensitivity.setZero(n, block);
+            for (std::size_t i = 0; i < mapping_.model_index.size(); ++i) {
+              w.sensitivity.col(mapping_.block_index[i]) += w.g.col(mapping_.model_index[i]);
+            }
+          } else {
+            if (sensitivity_zero) w.sensitivity.setZero(n, block);
+            w.updated.noalias() = w.f * w.sensitivity;
+            for (std::size_t i = 0; i < mapping_.model_index.size(); ++i) {
+              w.updated.col(mapping_.block_index[i]) += w.g.col(mapping_.model_index[i]);
+            }
+            w.sensitivity.swap(w.updated);
+          }
+          sensitivity_zero = false;
         }
-        if (!model_->predict(x, t.u.col(k), dt, next)) return false;
-        x = next;
+        if (!model_->predict(w.x, t.u.col(k), dt, w.next)) return false;
+        w.x = w.next;
       }
       row = target;
-      if (!expected_outputs(*model_, *m_, positions_, t.u.col(target), &all_outputs, &expected)) return false;
-      if (derivatives && !m_->outputs.empty() && !model_->output_parameter_jacobian(t.u.col(target), output_g)) {
+      if (!expected_outputs(*model_, *m_, positions_, t.u.col(target), &w.all_outputs, &w.expected)) return false;
+      if (derivatives && !m_->outputs.empty() && !model_->output_parameter_jacobian(t.u.col(target), w.output_g)) {
         return false;
       }
-      for_each_error(*m_, t, target, x, expected, [&](Eigen::Index c, double e) {
+      // H x + expected; a row of H that picks one state gives it directly
+      // (+0 where the product's sum of zeros would), other rows the product.
+      if (!m_->every_row_picks) {
+        w.predicted.noalias() = m_->h * w.x;
+        w.predicted += w.expected;
+      }
+      // A non-finite entry would spread through the products' zeros: then
+      // take the products.
+      const bool direct = all_finite(w.x) && (!derivatives || all_finite(w.sensitivity));
+      if (!direct && m_->every_row_picks) {
+        w.predicted.noalias() = m_->h * w.x;
+        w.predicted += w.expected;
+      }
+      for (Eigen::Index c = 0; c < t.z.rows(); ++c) {
+        if (!std::isfinite(t.z(c, target))) continue;
+        const int picked = direct ? m_->row_picks[static_cast<std::size_t>(c)] : -1;
+        const double predicted = picked >= 0 ? (w.x[picked] + 0.0) + w.expected[c] : w.predicted[c];
+        double e = t.z(c, target) - predicted;
+        if (m_->row_is_angle[static_cast<std::size_t>(c)]) e = sdk::wrap_angle(e);
         residuals[r] = e / m_->sigma[c];
         if (derivatives) {
-          Eigen::RowVectorXd d = -(m_->h.row(c) * sensitivity) / m_->sigma[c];
-          if (c >= m_->first_output_row) {
-            const int output = positions_[static_cast<std::size_t>(c - m_->first_output_row)];
-            for (std::size_t i = 0; i < mapping_.model_index.size(); ++i) {
-              d[mapping_.block_index[i]] -= output_g(output, mapping_.model_index[i]) / m_->sigma[c];
+          double* jacobian_row = jacobians[0] + static_cast<std::ptrdiff_t>(r) * block;
+          if (picked >= 0) {
+            for (int p = 0; p < block; ++p) jacobian_row[p] = -(w.sensitivity(picked, p) + 0.0) / m_->sigma[c];
+          } else {
+            w.d.noalias() = m_->h.row(c) * w.sensitivity;
+            w.d = -w.d / m_->sigma[c];
+            if (c >= m_->first_output_row) {
+              const int output = positions_[static_cast<std::size_t>(c - m_->first_output_row)];
+              for (std::size_t i = 0; i < mapping_.model_index.size(); ++i) {
+                w.d[mapping_.block_index[i]] -= w.output_g(output, mapping_.model_index[i]) / m_->sigma[c];
+              }
             }
+            for (int p = 0; p < block; ++p) jacobian_row[p] = w.d[p];
           }
-          for (int p = 0; p < block; ++p) jacobians[0][r * block + p] = d[p];
         }
         ++r;
-      });
+      }
     }
-    return x.allFinite();
+    return all_finite(w.x);
   }
 
  private:
+  // Eigen's allFinite() takes x - x over a temporary; this is one pass.
+  static bool all_finite(const Eigen::Ref<const Eigen::MatrixXd>& m) {
+    const double* v = m.data();
+    for (Eigen::Index i = 0; i < m.size(); ++i) {
+      if (!std::isfinite(v[i])) return false;
+    }
+    return true;
+  }
+
   sdk::MotionModel* model_;
   Eigen::VectorXd base_;
   ParameterMapping mapping_;
   const MeasurementLayout* m_;
   Window window_;
   std::vector<int> positions_;  // output_positions()
+  std::shared_ptr<WindowWorkspace> w_;
 };
 
 // The same residuals for Ceres' numeric differentiation, for models without
@@ -446,6 +524,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
                      " parameters to fit");
     }
 
+    std::map<const sdk::MotionModel*, std::shared_ptr<WindowWorkspace>> workspaces;  // per model, its windows'
     ceres::Problem::Options problem_options;
     problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
     ceres::Problem problem(problem_options);
@@ -473,8 +552,10 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
         const bool analytic = !options.numeric_derivatives && has_parameter_jacobian(*model, m, t);
         all_analytic = all_analytic && analytic;
         for (const Window& w : windows) {
+          std::shared_ptr<WindowWorkspace>& workspace = workspaces[model];
+          if (!workspace) workspace = std::make_shared<WindowWorkspace>();
           auto window_cost = std::make_unique<WindowCost>(model, per_mode[d->mode].first, per_mode[d->mode].second,
-                                                          &m, w, static_cast<int>(block.size()));
+                                                          &m, w, static_cast<int>(block.size()), workspace);
           // A window whose prediction is not finite at the starting values
           // (an input of 1e200, say) would make the cost infinite and the fit
           // meaningless: name the row instead. Finite but absurd windows
