@@ -73,29 +73,61 @@ std::unique_ptr<internal::ImmKernel> fixed_kernel_for_measurement(const Bank& ba
   return nullptr;
 }
 
-// The kernel for the bank's shape: fixed sizes up to 4 x 4, else dynamic.
+template <int N>
+std::unique_ptr<internal::ImmKernel> fixed_state_kernel(const Bank& bank) {
+  return std::make_unique<internal::Kernel<internal::FixedStateFilters<N>>>(bank);
+}
+
+// The kernel for the bank's shape: fixed sizes up to 4 x 4; fixed states up
+// to kMaxFixedStates with any measurement; else dynamic.
 std::unique_ptr<internal::ImmKernel> make_kernel(const Bank& bank, ImmKernelChoice choice) {
   const int n = bank.config.state_dim();
   const int m = static_cast<int>(bank.config.measurement.h.rows());
-  std::unique_ptr<internal::ImmKernel> kernel;
-  switch (choice == ImmKernelChoice::kFastest ? n : 0) {
-    case 1:
-      kernel = fixed_kernel_for_measurement<1>(bank, m);
-      break;
-    case 2:
-      kernel = fixed_kernel_for_measurement<2>(bank, m);
-      break;
-    case 3:
-      kernel = fixed_kernel_for_measurement<3>(bank, m);
-      break;
-    case 4:
-      kernel = fixed_kernel_for_measurement<4>(bank, m);
-      break;
-    default:
-      break;
+  if (choice != ImmKernelChoice::kFastest || m < 1) {
+    return std::make_unique<internal::Kernel<internal::DynamicFilters>>(bank);
   }
-  if (!kernel) kernel = std::make_unique<internal::Kernel<internal::DynamicFilters>>(bank);
-  return kernel;
+  if (m <= 4) {
+    switch (n) {
+      case 1:
+        return fixed_kernel_for_measurement<1>(bank, m);
+      case 2:
+        return fixed_kernel_for_measurement<2>(bank, m);
+      case 3:
+        return fixed_kernel_for_measurement<3>(bank, m);
+      case 4:
+        return fixed_kernel_for_measurement<4>(bank, m);
+      default:
+        break;
+    }
+  }
+  switch (n) {
+    case 1:
+      return fixed_state_kernel<1>(bank);
+    case 2:
+      return fixed_state_kernel<2>(bank);
+    case 3:
+      return fixed_state_kernel<3>(bank);
+    case 4:
+      return fixed_state_kernel<4>(bank);
+    case 5:
+      return fixed_state_kernel<5>(bank);
+    case 6:
+      return fixed_state_kernel<6>(bank);
+    case 7:
+      return fixed_state_kernel<7>(bank);
+    case 8:
+      return fixed_state_kernel<8>(bank);
+    case 9:
+      return fixed_state_kernel<9>(bank);
+    case 10:
+      return fixed_state_kernel<10>(bank);
+    case 11:
+      return fixed_state_kernel<11>(bank);
+    case 12:
+      return fixed_state_kernel<12>(bank);
+    default:
+      return std::make_unique<internal::Kernel<internal::DynamicFilters>>(bank);
+  }
 }
 
 }  // namespace
@@ -116,7 +148,7 @@ Imm::Imm(Bank bank, ImmKernelChoice choice) : bank_(std::move(bank)) {
                   "a mode's own R must cover every measurement row");
   }
   kernel_ = make_kernel(bank_, choice);
-  fixed_size_ = choice == ImmKernelChoice::kFastest && n <= 4 && m >= 1 && m <= 4;
+  fixed_size_ = choice == ImmKernelChoice::kFastest && n <= kMaxFixedStates && m >= 1;
   held_input_ = Eigen::VectorXd::Zero(config.input_dim());
   reset();  // sizes the estimate; step() then only writes into it
 }

@@ -1,6 +1,7 @@
 // The body of Imm::step, for one shape of bank, chosen once when the Imm is
 // built (imm.cc, make_kernel): fixed-size Eigen types for states and
-// measurements of up to 4 components (FixedFilters<N, M>), dynamic ones with
+// measurements of up to 4 components (FixedFilters<N, M>), fixed states of up
+// to 12 with any measurement (FixedStateFilters<N>), dynamic ones with
 // ExtendedKalmanFilter for everything else (DynamicFilters). The mixing,
 // probabilities and combination around them are the same code for both.
 // Private to imm.cc.
@@ -169,6 +170,83 @@ class FixedFilters {
   std::vector<Eigen::Matrix<double, M, M>, Eigen::aligned_allocator<Eigen::Matrix<double, M, M>>> r_;  // per mode
   AngleMask state_angles_ = 0;
   AngleMask z_angles_ = 0;
+  std::vector<State, Eigen::aligned_allocator<State>> x_;
+  std::vector<Covariance, Eigen::aligned_allocator<Covariance>> p_;
+};
+
+// The mode-matched filters for N states known at compile time and any number
+// of measurement rows: banks past FixedFilters' 4 x 4 (BorealTC's 9 features
+// measured directly, stc_traction's 3 states with 3 outputs measured).
+// update_selected() (ekf.h) on the rows MeasurementModel::select() keeps.
+template <int N>
+class FixedStateFilters {
+ public:
+  static constexpr int kStates = N;
+  using State = Eigen::Matrix<double, N, 1>;
+  using Covariance = Eigen::Matrix<double, N, N>;
+
+  explicit FixedStateFilters(const Bank& bank)
+      : measurement_model_(bank.config.measurement.h, bank.config.measurement.r, bank.config.measurement.is_angle),
+        workspace_(static_cast<int>(bank.config.measurement.h.rows())) {
+    const BankConfig& c = bank.config;
+    for (int j = 0; j < c.num_modes(); ++j) {
+      models_.push_back(bank.models[static_cast<std::size_t>(j)].get());
+      q_.push_back(c.modes[static_cast<std::size_t>(j)].q_intensity);
+    }
+    for (int i = 0; i < N; ++i) {
+      if (c.angle_mask[static_cast<std::size_t>(i)]) state_angles_ |= 1u << i;
+    }
+    selection_ = measurement_model_.make_selection();
+    measured_ = selection_.z;
+    if (c.any_mode_measurement_noise()) {
+      for (int j = 0; j < c.num_modes(); ++j) mode_r_.push_back(c.measurement_noise(j));
+    }
+    x_.assign(models_.size(), State::Zero());
+    p_.assign(models_.size(), Covariance::Identity());
+  }
+
+  State& state(int j) { return x_[static_cast<std::size_t>(j)]; }
+  Covariance& covariance(int j) { return p_[static_cast<std::size_t>(j)]; }
+  const sdk::MotionModel& model(int j) const { return *models_[static_cast<std::size_t>(j)]; }
+
+  bool predict(int j, const Eigen::Ref<const Eigen::VectorXd>& u, double dt) {
+    return predict_fixed<N>(*models_[static_cast<std::size_t>(j)], q_[static_cast<std::size_t>(j)], state_angles_, u,
+                            dt, &x_[static_cast<std::size_t>(j)], &p_[static_cast<std::size_t>(j)]);
+  }
+
+  // As FixedFilters::update.
+  int update(const Eigen::Ref<const Eigen::VectorXd>& z, const MeasuredOutputs* outputs, const double* gates,
+             ImmEstimate* e, int* rejected) {
+    measurement_model_.select(z, &selection_);
+    if (selection_.size == 0) return 0;
+    if (outputs != nullptr) measured_ = selection_.z;
+    const int modes = static_cast<int>(models_.size());
+    for (int j = 0; j < modes; ++j) {
+      if (e->log_likelihoods[j] == kMinusInfinity) continue;  // failed in predict
+      if (outputs != nullptr) {
+        for (int a = 0; a < selection_.size; ++a) {
+          selection_.z[a] = measured_[a] - outputs->expected(j)[selection_.rows[static_cast<std::size_t>(a)]];
+        }
+      }
+      // The selected block of this mode's R (select() filled the bank's).
+      if (!mode_r_.empty()) MeasurementModel::select_noise(mode_r_[static_cast<std::size_t>(j)], &selection_);
+      const UpdateResult result =
+          update_selected<N>(selection_, state_angles_, &x_[static_cast<std::size_t>(j)],
+                             &p_[static_cast<std::size_t>(j)], &workspace_, gates[selection_.size]);
+      record_update(j, result, e, rejected);
+    }
+    return selection_.size;
+  }
+
+ private:
+  std::vector<const sdk::MotionModel*> models_;
+  std::vector<Covariance, Eigen::aligned_allocator<Covariance>> q_;
+  MeasurementModel measurement_model_;
+  SelectedMeasurement selection_;
+  Eigen::VectorXd measured_;             // selection_.z as measured, when modes subtract their outputs
+  std::vector<Eigen::MatrixXd> mode_r_;  // as DynamicFilters'
+  SelectedUpdateWorkspace<N> workspace_;
+  AngleMask state_angles_ = 0;
   std::vector<State, Eigen::aligned_allocator<State>> x_;
   std::vector<Covariance, Eigen::aligned_allocator<Covariance>> p_;
 };

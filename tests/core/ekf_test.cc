@@ -241,5 +241,133 @@ TEST(MeasurementModel, SelectsTheFiniteRowsWithTheirBlockOfR) {
   EXPECT_EQ(s.h(1, 2), 1.0);
 }
 
+// x' = A x + B u over dt (forward Euler), any n states: a diagonal A or a
+// coupled one; the last state is a heading.
+class LinearStates : public sdk::MotionModel {
+ public:
+  LinearStates(int n, bool coupled) : a_(Eigen::MatrixXd::Zero(n, n)), names_(static_cast<std::size_t>(n), "x") {
+    for (int i = 0; i < n; ++i) a_(i, i) = -1.0 - 0.3 * i;
+    for (int i = 0; coupled && i + 1 < n; ++i) a_(i, i + 1) = 0.2;
+  }
+  int state_dim() const noexcept override { return static_cast<int>(a_.rows()); }
+  int input_dim() const noexcept override { return 1; }
+  const std::vector<std::string>& state_names() const noexcept override { return names_; }
+  const std::vector<std::string>& input_names() const noexcept override { return inputs_; }
+  bool is_angle(int i) const noexcept override { return i == a_.rows() - 1; }
+  const std::vector<sdk::ParameterInfo>& parameter_info() const noexcept override { return info_; }
+  void get_parameters(Eigen::Ref<Eigen::VectorXd>) const noexcept override {}
+  bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>&, std::string*) noexcept override { return true; }
+  bool predict(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+               Eigen::Ref<Eigen::VectorXd> next) const noexcept override {
+    next = x + (a_ * x + Eigen::VectorXd::LinSpaced(x.size(), 0.5, 1.5) * u[0]) * dt;
+    next[next.size() - 1] = sdk::wrap_angle(next[next.size() - 1]);
+    return true;
+  }
+  bool jacobian(const Eigen::Ref<const Eigen::VectorXd>&, const Eigen::Ref<const Eigen::VectorXd>&, double dt,
+                Eigen::Ref<Eigen::MatrixXd> f) const noexcept override {
+    f = Eigen::MatrixXd::Identity(a_.rows(), a_.rows()) + a_ * dt;
+    return true;
+  }
+  bool has_analytic_jacobian() const noexcept override { return true; }
+
+ private:
+  Eigen::MatrixXd a_;
+  std::vector<std::string> names_, inputs_{"u"};
+  std::vector<sdk::ParameterInfo> info_;
+};
+
+// The filter for N states and any measurement rows (the IMM's kernels from 5
+// states, or past 4 rows) agrees with ExtendedKalmanFilter to round-off:
+// rows that pick states and rows that measure sums, correlated R, a heading
+// across the seam, rows missing.
+template <int N>
+void expect_fixed_states_agree_with_the_dynamic_filter(bool coupled, bool sums) {
+  SCOPED_TRACE("states " + std::to_string(N) + (coupled ? ", coupled" : ", diagonal") + (sums ? ", sums" : ""));
+  const LinearStates model(N, coupled);
+  const int m = sums ? N + 2 : N;
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(m, N);
+  for (int a = 0; a < m; ++a) h(a, a % N) = 1.0;
+  for (int a = N; a < m; ++a) h(a, (a + 1) % N) += 0.5;
+  Eigen::MatrixXd r = Eigen::MatrixXd::Identity(m, m) * 0.01;
+  r(0, 1) = r(1, 0) = 0.002;
+  std::vector<bool> row_is_angle(static_cast<std::size_t>(m), false);
+  row_is_angle[N - 1] = true;
+  const MeasurementModel measurement(h, r, row_is_angle);
+  SelectedMeasurement selected = measurement.make_selection();
+  SelectedUpdateWorkspace<N> workspace(m);
+  const Eigen::Matrix<double, N, N> q = Eigen::Matrix<double, N, 1>::LinSpaced(1e-3, 4e-3).asDiagonal();
+  ExtendedKalmanFilter dynamic(model, q, m);
+  Eigen::Matrix<double, N, 1> x = Eigen::Matrix<double, N, 1>::Constant(3.0);
+  Eigen::Matrix<double, N, N> p = Eigen::Matrix<double, N, N>::Identity() * 0.5;
+  p(0, N - 1) = p(N - 1, 0) = 0.1;
+  dynamic.state() = x;
+  dynamic.covariance() = p;
+  const AngleMask state_angles = 1u << (N - 1);
+  for (int k = 0; k < 60; ++k) {
+    const Eigen::VectorXd u = Eigen::VectorXd::Constant(1, std::sin(0.2 * k));
+    ASSERT_TRUE(dynamic.predict(u, 0.05));
+    ASSERT_TRUE(predict_fixed<N>(model, q, state_angles, u, 0.05, &x, &p));
+    ASSERT_LT((dynamic.state() - x).cwiseAbs().maxCoeff(), 1e-13) << "step " << k;
+    ASSERT_LT((dynamic.covariance() - p).cwiseAbs().maxCoeff(), 1e-14) << "step " << k;
+    Eigen::VectorXd z(m);
+    for (int a = 0; a < m; ++a) z[a] = 3.0 + 0.5 * std::sin(0.1 * k + a);
+    z[N - 1] = sdk::wrap_angle(3.0 + 0.4 * k);
+    for (int a = 0; a < m; ++a) {
+      if ((k + a) % 5 == 0) z[a] = std::numeric_limits<double>::quiet_NaN();  // rows missing, different ones each step
+    }
+    measurement.select(z, &selected);
+    const UpdateResult expected = dynamic.update(selected);
+    const UpdateResult actual = update_selected<N>(selected, state_angles, &x, &p, &workspace);
+    ASSERT_EQ(actual.ok, expected.ok) << "step " << k;
+    ASSERT_NEAR(actual.log_likelihood, expected.log_likelihood,
+                1e-11 * std::max(1.0, std::abs(expected.log_likelihood)))
+        << "step " << k;
+    ASSERT_NEAR(actual.nis, expected.nis, 1e-11 * std::max(1.0, expected.nis)) << "step " << k;
+    ASSERT_LT((dynamic.state() - x).cwiseAbs().maxCoeff(), 1e-13) << "step " << k;
+    ASSERT_LT((dynamic.covariance() - p).cwiseAbs().maxCoeff(), 1e-14) << "step " << k;
+    for (int i = 0; i < N; ++i) {
+      for (int j = 0; j < i; ++j) ASSERT_EQ(p(i, j), p(j, i)) << "P symmetric, step " << k;
+    }
+  }
+}
+
+TEST(FixedStateFilter, AgreesWithTheDynamicFilterForAnyMeasurementRows) {
+  for (const bool coupled : {false, true}) {
+    for (const bool sums : {false, true}) {
+      expect_fixed_states_agree_with_the_dynamic_filter<3>(coupled, sums);
+      expect_fixed_states_agree_with_the_dynamic_filter<5>(coupled, sums);
+      expect_fixed_states_agree_with_the_dynamic_filter<9>(coupled, sums);
+      expect_fixed_states_agree_with_the_dynamic_filter<12>(coupled, sums);
+    }
+  }
+}
+
+// A diagonal F scales P's rows and columns; the products give the same
+// numbers to the bit (what predict_fixed() relies on from 5 states).
+TEST(FixedStateFilter, ADiagonalJacobianPredictsAsTheProductsToTheBit) {
+  constexpr int N = 9;
+  const LinearStates model(N, false);
+  const Eigen::Matrix<double, N, N> q = Eigen::Matrix<double, N, 1>::LinSpaced(1e-3, 4e-3).asDiagonal();
+  Eigen::Matrix<double, N, N> a = Eigen::Matrix<double, N, N>::Random();
+  Eigen::Matrix<double, N, N> p = a * a.transpose();
+  Eigen::Matrix<double, N, 1> x = Eigen::Matrix<double, N, 1>::Random();
+  ExtendedKalmanFilter dynamic(model, q, N);  // its own diagonal path
+  dynamic.state() = x;
+  dynamic.covariance() = p;
+  Eigen::Matrix<double, N, N> f;
+  ASSERT_TRUE(model.jacobian(x, Eigen::VectorXd::Ones(1), 0.05, f));
+  Eigen::Matrix<double, N, N> by_products = f.lazyProduct(p);
+  by_products = by_products.lazyProduct(f.transpose()).eval() + q * 0.05;
+  symmetrize_fixed<N>(&by_products);
+  ASSERT_TRUE(predict_fixed<N>(model, q, 1u << (N - 1), Eigen::VectorXd::Ones(1), 0.05, &x, &p));
+  ASSERT_TRUE(dynamic.predict(Eigen::VectorXd::Ones(1), 0.05));
+  for (int j = 0; j < N; ++j) {
+    for (int i = 0; i < N; ++i) {
+      EXPECT_EQ(p(i, j), by_products(i, j));
+      EXPECT_EQ(p(i, j), dynamic.covariance()(i, j));
+    }
+  }
+}
+
 }  // namespace
 }  // namespace skidimm

@@ -781,14 +781,16 @@ TEST(Imm, ThreeStatesWithAnAngleMatchAHandWrittenFixedSizeImmForEveryTransitionF
   }
 }
 
-// Every fixed size the kernels cover (states and measurements 1 to 4, the
-// rest dynamic, more measurements than states included): the fixed-size
-// kernel and the dynamic one agree to 1e-10, as the references above.
+// Every fixed size the kernels cover (states and measurements 1 to 4; up to
+// 12 states with any measurement, more rows than states included; 13 states
+// is dynamic either way): the fixed-size kernel and the dynamic one agree, as
+// the references above.
 // Runs a bank of n states and m measurement rows on the fixed-size and the
-// dynamic kernel for `steps` steps and checks they agree within `tolerance`.
+// dynamic kernel for `steps` steps and checks they agree within `tolerance`
+// (scaled as below).
 void ExpectKernelsAgree(double likelihood_dof, int steps, double tolerance) {
-  for (int n = 1; n <= 5; ++n) {
-    for (int m = 1; m <= std::min(n + 1, 5); ++m) {
+  for (int n : {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13}) {
+    for (int m = 1; m <= n + 2; m += (n <= 5 || m >= n - 1 ? 1 : n - 2)) {
       SCOPED_TRACE("states " + std::to_string(n) + ", measurements " + std::to_string(m));
       BankBuilder b;
       b.states.clear();
@@ -845,9 +847,10 @@ void ExpectKernelsAgree(double likelihood_dof, int steps, double tolerance) {
       bank.config.transition.kind = TransitionConfig::Kind::kDwellTimes;
       bank.config.transition.dwell_seconds = vec({1.0, 2.0, 4.0});
       Imm fixed(bank, ImmKernelChoice::kFastest), dynamic(bank, ImmKernelChoice::kDynamic);
-      EXPECT_EQ(fixed.uses_fixed_size_kernel(), n <= 4 && m <= 4);
+      EXPECT_EQ(fixed.uses_fixed_size_kernel(), n <= kMaxFixedStates);
       std::mt19937 rng(1);
       std::normal_distribution<double> noise(0.0, 1.0);
+      double largest_log_likelihood = 0.0;
       for (int k = 0; k < steps; ++k) {
         const double t = 0.05 * k + 0.01 * std::sin(k);
         Eigen::VectorXd z(m);
@@ -858,16 +861,33 @@ void ExpectKernelsAgree(double likelihood_dof, int steps, double tolerance) {
         const ImmEstimate& a = fixed.step(t, u, z);
         const ImmEstimate& d = dynamic.step(t, u, z);
         ASSERT_EQ(a.status, d.status) << "step " << k;
-        ASSERT_LT((a.mode_probabilities - d.mode_probabilities).cwiseAbs().maxCoeff(), tolerance) << "step " << k;
+        // The probabilities carry the likelihoods' round-off, relative to their
+        // size (thousands when many rows miss the model by far), and the
+        // mixed states and covariances carry the probabilities'. Rows that
+        // measure sums of states, one with noise correlated to a state's row,
+        // make S ill-conditioned (a condition number near 1e5 at 12 states):
+        // the two kernels' round-off then differs by that times eps.
         for (int j = 0; j < 3; ++j) {
-          ASSERT_LT((a.mode_states[j] - d.mode_states[j]).cwiseAbs().maxCoeff(), tolerance) << "step " << k;
-          ASSERT_LT((a.mode_covariances[j] - d.mode_covariances[j]).cwiseAbs().maxCoeff(), tolerance) << "step " << k;
+          if (std::isfinite(d.log_likelihoods[j])) {
+            largest_log_likelihood = std::max(largest_log_likelihood, std::abs(d.log_likelihoods[j]));
+          }
+        }
+        const double conditioning = m > n ? 100.0 : 1.0;
+        const double bound = conditioning * tolerance * (1.0 + 0.01 * largest_log_likelihood);
+        ASSERT_LT((a.mode_probabilities - d.mode_probabilities).cwiseAbs().maxCoeff(), bound) << "step " << k;
+        for (int j = 0; j < 3; ++j) {
+          const double scale = std::max(1.0, d.mode_states[j].cwiseAbs().maxCoeff());
+          ASSERT_LT((a.mode_states[j] - d.mode_states[j]).cwiseAbs().maxCoeff(), bound * scale) << "step " << k;
+          ASSERT_LT((a.mode_covariances[j] - d.mode_covariances[j]).cwiseAbs().maxCoeff(), bound * scale * scale)
+              << "step " << k;
           if (a.status == StepStatus::kUpdated) {
-            ASSERT_NEAR(a.log_likelihoods[j], d.log_likelihoods[j], tolerance * std::max(1.0, std::abs(d.log_likelihoods[j])))
+            ASSERT_NEAR(a.log_likelihoods[j], d.log_likelihoods[j],
+                        conditioning * tolerance * std::max(1.0, std::abs(d.log_likelihoods[j])))
                 << "step " << k;
           }
         }
-        ASSERT_LT((a.covariance - d.covariance).cwiseAbs().maxCoeff(), tolerance) << "step " << k;
+        const double scale = std::max(1.0, d.state.cwiseAbs().maxCoeff());
+        ASSERT_LT((a.covariance - d.covariance).cwiseAbs().maxCoeff(), bound * scale * scale) << "step " << k;
       }
     }
   }

@@ -156,8 +156,27 @@ bool predict_fixed(const sdk::MotionModel& model, const Eigen::Matrix<double, N,
   }
   *x = next;
   wrap_angles_fixed<N>(angles, x);
-  const Eigen::Matrix<double, N, N> fp = f * *p;
-  p->noalias() = fp * f.transpose();
+  // A diagonal F (decoupled states: linear_features with a diagonal A) scales
+  // P's rows and columns: the same two roundings per entry as the products,
+  // so the same result to the bit, in n^2 instead of 2 n^3. Worth its check
+  // from 5 states on.
+  bool diagonal = N >= 5;
+  for (int j = 0; j < N && diagonal; ++j) {
+    for (int i = 0; i < N; ++i) diagonal = diagonal && (i == j || f(i, j) == 0.0);
+  }
+  if (diagonal) {
+    for (int j = 0; j < N; ++j) {
+      for (int i = 0; i < N; ++i) (*p)(i, j) = (f(i, i) * (*p)(i, j)) * f(j, j);
+    }
+  } else if constexpr (N <= 4) {
+    const Eigen::Matrix<double, N, N> fp = f * *p;
+    p->noalias() = fp * f.transpose();
+  } else {
+    // Coefficient by coefficient: from 8 Eigen would take these for large
+    // products and pack them for its blocked kernel.
+    const Eigen::Matrix<double, N, N> fp = f.lazyProduct(*p);
+    p->noalias() = fp.lazyProduct(f.transpose());
+  }
   *p += q;
   symmetrize_fixed<N>(p);
   return all_finite(*x) && all_finite(*p);
@@ -265,6 +284,158 @@ UpdateResult update_fixed(const Eigen::Matrix<double, K, 1>& z, const Eigen::Mat
   p->noalias() = ikh_p * i_kh.transpose();
   const Eigen::Matrix<double, N, K> kr = gain * r;
   p->noalias() += kr * gain.transpose();
+  symmetrize_fixed<N>(p);
+  result.ok = std::isfinite(result.log_likelihood) && all_finite(*x) && all_finite(*p);
+  return result;
+}
+
+// ------------------------------------------- fixed states, any measurement rows
+
+// Workspace of update_selected() for N states and measurements of up to m
+// rows: sized once, so updates allocate nothing.
+template <int N>
+struct SelectedUpdateWorkspace {
+  using Columns = Eigen::Matrix<double, N, Eigen::Dynamic>;
+  explicit SelectedUpdateWorkspace(int m) : gain(N, m), kr(N, m), s(m, m), nu(m), whitened(m), inverse_diagonal(m) {}
+  Columns gain;       // P- H', then K = P- H' S^-1 (N x k)
+  Columns kr;         // K R (N x k)
+  Eigen::MatrixXd s;  // S, then its Cholesky factor (k x k)
+  Eigen::VectorXd nu, whitened, inverse_diagonal;
+  Eigen::Matrix<double, N, N> i_kh;   // I - K H
+  Eigen::Matrix<double, N, N> ikh_p;  // (I - K H) P-
+};
+
+// The update of update_fixed() for N states known at compile time and the k
+// rows of `m` (MeasurementModel::select()), any k: what the IMM runs for
+// banks of more than 4 states or measurement rows (BorealTC's 9 features,
+// stc_traction's 3 states and 6 rows). Everything of size N is a column of
+// fixed size (the compiler unrolls and vectorizes it), the gain solved as
+// K L L' = P- H' column by column; each sum runs in index order. Agrees with
+// ExtendedKalmanFilter to round-off (tests/core/ekf_test.cc).
+template <int N>
+UpdateResult update_selected(const SelectedMeasurement& m, AngleMask state_angles, Eigen::Matrix<double, N, 1>* x,
+                             Eigen::Matrix<double, N, N>* p, SelectedUpdateWorkspace<N>* w,
+                             double gate = std::numeric_limits<double>::infinity()) {
+  constexpr double kLog2Pi = 1.8378770664093454835606594728112;
+  UpdateResult result;
+  const int k = m.size;
+  if (k == 0) {
+    result.ok = true;
+    return result;
+  }
+  const bool picks = m.picks_states;
+  auto& gain = w->gain;
+  auto& s = w->s;
+  // nu = z - H x;  P- H' (into gain);  S = H P- H' + R.
+  for (int a = 0; a < k; ++a) {
+    double predicted = 0.0;
+    if (picks) {
+      const int picked = m.picked_state[static_cast<std::size_t>(a)];
+      predicted = (*x)[picked];
+      gain.col(a) = p->col(picked);
+    } else {
+      for (int i = 0; i < N; ++i) predicted += m.h(a, i) * (*x)[i];
+      gain.col(a).setZero();
+      for (int i = 0; i < N; ++i) gain.col(a) += p->col(i) * m.h(a, i);
+    }
+    const double v = m.z[a] - predicted;
+    w->nu[a] = m.is_angle[static_cast<std::size_t>(a)] ? wrap_angle_fast(v) : v;
+  }
+  for (int b = 0; b < k; ++b) {
+    for (int a = b; a < k; ++a) {
+      double hph = 0.0;
+      if (picks) {
+        hph = gain(m.picked_state[static_cast<std::size_t>(a)], b);
+      } else {
+        for (int i = 0; i < N; ++i) hph += m.h(a, i) * gain(i, b);
+      }
+      s(a, b) = hph + 0.5 * (m.r(a, b) + m.r(b, a));
+    }
+  }
+  // In-place Cholesky of the lower triangle, S = L L', with L's reciprocal diagonal.
+  auto& inverse_diagonal = w->inverse_diagonal;
+  for (int j = 0; j < k; ++j) {
+    double pivot = s(j, j);
+    for (int c = 0; c < j; ++c) pivot -= s(j, c) * s(j, c);
+    if (!(pivot > 0.0)) return result;
+    pivot = std::sqrt(pivot);
+    s(j, j) = pivot;
+    const double inverse = 1.0 / pivot;
+    inverse_diagonal[j] = inverse;
+    for (int i = j + 1; i < k; ++i) {
+      double v = s(i, j);
+      for (int c = 0; c < j; ++c) v -= s(i, c) * s(j, c);
+      s(i, j) = v * inverse;
+    }
+  }
+  // NIS = |L^-1 nu|^2, log det S = 2 sum log L_aa (one log of the product
+  // while it is inside double's range, as update_fixed()).
+  auto& whitened = w->whitened;
+  result.nis = 0.0;
+  for (int a = 0; a < k; ++a) {
+    double v = w->nu[a];
+    for (int c = 0; c < a; ++c) v -= s(a, c) * whitened[c];
+    whitened[a] = v * inverse_diagonal[a];
+    result.nis += whitened[a] * whitened[a];
+  }
+  double product = 1.0;
+  for (int a = 0; a < k; ++a) product *= s(a, a);
+  double log_det = 0.0;
+  if (product > 1e-280 && product < 1e280) {
+    log_det = std::log(product);
+  } else {
+    for (int a = 0; a < k; ++a) log_det += std::log(s(a, a));
+  }
+  if (result.nis > gate) {
+    result.gated = true;
+    result.log_likelihood = -0.5 * (gate + 2.0 * log_det + k * kLog2Pi);
+    result.ok = std::isfinite(result.log_likelihood);
+    return result;
+  }
+  result.log_likelihood = -0.5 * (result.nis + 2.0 * log_det + k * kLog2Pi);
+  // K = P- H' S^-1: solve Z L' = P- H', then K L = Z, a column at a time.
+  for (int a = 0; a < k; ++a) {
+    for (int c = 0; c < a; ++c) gain.col(a) -= gain.col(c) * s(a, c);
+    gain.col(a) *= inverse_diagonal[a];
+  }
+  for (int c = k - 1; c >= 0; --c) {
+    for (int a = c + 1; a < k; ++a) gain.col(c) -= gain.col(a) * s(a, c);
+    gain.col(c) *= inverse_diagonal[c];
+  }
+  // x+ = x- + K nu.
+  for (int a = 0; a < k; ++a) *x += gain.col(a) * w->nu[a];
+  wrap_angles_fixed<N>(state_angles, x);
+  // P+ = (I - K H) P- (I - K H)' + K R K' (Joseph form).
+  auto& i_kh = w->i_kh;
+  i_kh.setIdentity();
+  for (int a = 0; a < k; ++a) {
+    if (picks) {
+      i_kh.col(m.picked_state[static_cast<std::size_t>(a)]) -= gain.col(a);
+    } else {
+      for (int j = 0; j < N; ++j) i_kh.col(j) -= gain.col(a) * m.h(a, j);
+    }
+  }
+  auto& kr = w->kr;
+  for (int b = 0; b < k; ++b) {
+    kr.col(b) = gain.col(b) * m.r(b, b);
+    for (int a = 0; a < k; ++a) {
+      const double r_ab = m.r(a, b);
+      if (a != b && r_ab != 0.0) kr.col(b) += gain.col(a) * r_ab;  // none for a diagonal R, the common case
+    }
+  }
+  // Column by column, each held in registers while its sum runs.
+  auto& ikh_p = w->ikh_p;
+  for (int j = 0; j < N; ++j) {
+    Eigen::Matrix<double, N, 1> column = i_kh.col(0) * (*p)(0, j);
+    for (int c = 1; c < N; ++c) column += i_kh.col(c) * (*p)(c, j);
+    ikh_p.col(j) = column;
+  }
+  for (int j = 0; j < N; ++j) {
+    Eigen::Matrix<double, N, 1> column = ikh_p.col(0) * i_kh(j, 0);
+    for (int c = 1; c < N; ++c) column += ikh_p.col(c) * i_kh(j, c);
+    for (int a = 0; a < k; ++a) column += kr.col(a) * gain(j, a);
+    p->col(j) = column;
+  }
   symmetrize_fixed<N>(p);
   result.ok = std::isfinite(result.log_likelihood) && all_finite(*x) && all_finite(*p);
   return result;

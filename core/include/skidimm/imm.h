@@ -60,10 +60,12 @@ namespace internal {
 class ImmKernel;  // imm_kernel.h, private
 }  // namespace internal
 
-// Which kernel runs the step: the fastest for the bank's shape (fixed sizes
-// when both dimensions are at most 4), or always the dynamic one (tests and
-// benchmarks compare the two).
+// Which kernel runs the step: the fastest for the bank's shape (fixed sizes:
+// for states and measurements of at most 4 components each, and for up to
+// kMaxFixedStates states with a measurement of any size), or always the
+// dynamic one (tests and benchmarks compare the two).
 enum class ImmKernelChoice { kFastest, kDynamic };
+inline constexpr int kMaxFixedStates = 12;
 
 class Imm {
  public:
@@ -89,7 +91,8 @@ class Imm {
   // Back to the prior; the next step is a first step again.
   void reset();
 
-  // Whether the bank runs on a fixed-size kernel (both dimensions <= 4).
+  // Whether the bank runs on a fixed-size kernel (at most kMaxFixedStates
+  // states, with the fastest kernel chosen).
   bool uses_fixed_size_kernel() const { return fixed_size_; }
 
  private:
