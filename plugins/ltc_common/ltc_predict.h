@@ -7,7 +7,8 @@
 //
 // V: body longitudinal velocity (m/s); omega: body yaw rate (rad/s);
 // phi_dot_L/R: left/right wheel angular speeds (rad/s).
-// A and B are row-major 2x2 arrays. Templated so Ceres can differentiate it.
+// A and B are row-major 2x2 arrays. T is the state's scalar and P the
+// parameters' (function_model.h), so Ceres can differentiate it.
 #ifndef SKIDIMM_PLUGINS_LTC_COMMON_LTC_PREDICT_H_
 #define SKIDIMM_PLUGINS_LTC_COMMON_LTC_PREDICT_H_
 
@@ -17,8 +18,8 @@ namespace plugins {
 enum LtcState { kV = 0, kOmega = 1 };
 enum LtcInput { kPhiDotLeft = 0, kPhiDotRight = 1 };
 
-template <typename T>
-void ltc_predict(const T* x, const T* u, const T* a, const T* b, const T& dt, T* x_next) {
+template <typename T, typename P>
+void ltc_predict(const T* x, const double* u, const P* a, const P* b, double dt, T* x_next) {
   const T v_dot = a[0] * x[kV] + a[1] * x[kOmega] + b[0] * u[kPhiDotLeft] + b[1] * u[kPhiDotRight];
   const T omega_dot = a[2] * x[kV] + a[3] * x[kOmega] + b[2] * u[kPhiDotLeft] + b[3] * u[kPhiDotRight];
   x_next[kV] = x[kV] + v_dot * dt;

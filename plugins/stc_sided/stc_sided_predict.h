@@ -42,6 +42,10 @@
 // tread speed whichever ICRs apply, so the motion is continuous across the
 // switch of roles.
 //
+// T is the state's scalar and P the parameters' (function_model.h): in the
+// state Jacobian only the pose step is differentiated, and the body velocity
+// is the same plain double arithmetic as in the step.
+//
 // With eta_l = eta_r = 1, every alpha = 1 and x_icr = 0 this is the ideal
 // differential drive. With eta_l = eta_r = k, every alpha = k / m and
 // x_icr = 0 it is eq. 3 with (k, m): the model contains eq. 3. What eq. 3
@@ -59,7 +63,7 @@ namespace stc_sided {
 
 enum State { kX = 0, kY = 1, kTheta = 2, kNumStates = 3 };
 enum Input { kPhiDotLeft = 0, kPhiDotRight = 1, kNumInputs = 2 };
-// The order of the flat parameter vector (MotionModel::get_parameters).
+// The order of the flat parameter vector (the plugin's parameter table).
 enum Parameter {
   kEtaLeft = 0,
   kEtaRight = 1,
@@ -75,21 +79,21 @@ enum Parameter {
 
 // The tread ICRs' lateral positions (body y, m) for the turn u makes: each
 // tread's alpha for its role in that turn.
-template <typename T>
-void tread_icrs(const T* u, const T* p, T* y_left, T* y_right) {
+template <typename P>
+void tread_icrs(const double* u, const P* p, P* y_left, P* y_right) {
   const bool turning_left = u[kPhiDotRight] > u[kPhiDotLeft];
-  const T& alpha_left = turning_left ? p[kAlphaLeftInner] : p[kAlphaLeftOuter];
-  const T& alpha_right = turning_left ? p[kAlphaRightOuter] : p[kAlphaRightInner];
-  *y_left = alpha_left * p[kTrack] / T(2.0);
-  *y_right = -alpha_right * p[kTrack] / T(2.0);
+  const P& alpha_left = turning_left ? p[kAlphaLeftInner] : p[kAlphaLeftOuter];
+  const P& alpha_right = turning_left ? p[kAlphaRightOuter] : p[kAlphaRightInner];
+  *y_left = alpha_left * p[kTrack] / P(2.0);
+  *y_right = -alpha_right * p[kTrack] / P(2.0);
 }
 
 // Body velocity (v_x, v_y, omega) from the tread ICRs y_left > 0 > y_right.
-template <typename T>
-void icr_body_velocity(const T* u, const T* p, const T& y_left, const T& y_right, T* v_x, T* v_y, T* omega) {
-  const T v_left = p[kEtaLeft] * p[kRadius] * u[kPhiDotLeft];
-  const T v_right = p[kEtaRight] * p[kRadius] * u[kPhiDotRight];
-  const T spread = y_left - y_right;
+template <typename P>
+void icr_body_velocity(const double* u, const P* p, const P& y_left, const P& y_right, P* v_x, P* v_y, P* omega) {
+  const P v_left = p[kEtaLeft] * p[kRadius] * u[kPhiDotLeft];
+  const P v_right = p[kEtaRight] * p[kRadius] * u[kPhiDotRight];
+  const P spread = y_left - y_right;
   *omega = (v_right - v_left) / spread;
   *v_x = (v_right * y_left - v_left * y_right) / spread;
   *v_y = -p[kXIcr] * *omega;
@@ -97,15 +101,16 @@ void icr_body_velocity(const T* u, const T* p, const T& y_left, const T& y_right
 
 // Body velocity (v_x, v_y, omega) from the wheel speeds u and parameters p
 // (in Parameter order).
-template <typename T>
-void body_velocity(const T* u, const T* p, T* v_x, T* v_y, T* omega) {
-  T y_left, y_right;
+template <typename P>
+void body_velocity(const double* u, const P* p, P* v_x, P* v_y, P* omega) {
+  P y_left, y_right;
   tread_icrs(u, p, &y_left, &y_right);
   icr_body_velocity(u, p, y_left, y_right, v_x, v_y, omega);
 }
 
-template <typename T>
-void pose_step(const T* x, const T& v_x, const T& v_y, const T& omega, const T& dt, T* x_next) {
+// The pose after dt at body velocity (v_x, v_y, omega).
+template <typename T, typename P>
+void pose_step(const T* x, const P& v_x, const P& v_y, const P& omega, double dt, T* x_next) {
   using std::cos;
   using std::sin;
   const T c = cos(x[kTheta]);
@@ -115,28 +120,11 @@ void pose_step(const T* x, const T& v_x, const T& v_y, const T& omega, const T& 
   x_next[kTheta] = x[kTheta] + omega * dt;
 }
 
-// Row-major 3x3 Jacobian d x_next / d x of pose_step(): the identity plus
-// the heading column.
-inline void pose_jacobian(const double* x, double v_x, double v_y, double dt, double* jacobian) {
-  const double c = std::cos(x[kTheta]);
-  const double s = std::sin(x[kTheta]);
-  const double rows[9] = {1.0, 0.0, (-v_x * s - v_y * c) * dt,  //
-                          0.0, 1.0, (v_x * c - v_y * s) * dt,   //
-                          0.0, 0.0, 1.0};
-  for (int i = 0; i < 9; ++i) jacobian[i] = rows[i];
-}
-
-template <typename T>
-void predict(const T* x, const T* u, const T* p, const T& dt, T* x_next) {
-  T v_x, v_y, omega;
+template <typename T, typename P>
+void predict(const T* x, const double* u, const P* p, double dt, T* x_next) {
+  P v_x, v_y, omega;
   body_velocity(u, p, &v_x, &v_y, &omega);
   pose_step(x, v_x, v_y, omega, dt, x_next);
-}
-
-inline void state_jacobian(const double* x, const double* u, const double* p, double dt, double* jacobian) {
-  double v_x, v_y, omega;
-  body_velocity(u, p, &v_x, &v_y, &omega);
-  pose_jacobian(x, v_x, v_y, dt, jacobian);
 }
 
 }  // namespace stc_sided

@@ -19,7 +19,7 @@
 #include "skidimm/log_reader.h"
 #include "skidimm/log_run.h"
 #include "stc_kinematic/stc_kinematic_model.h"
-#include "stc_sided/stc_sided_model.h"
+#include "stc_traction/stc_traction_model.h"
 
 namespace skidimm {
 namespace {

@@ -1,5 +1,5 @@
 // stc_traction: stc_sided's kinematics plus each side's motor current
-// (plugins/stc_sided/stc_traction_equations.h), and the yaw-rate outputs of the
+// (plugins/stc_traction/stc_traction_equations.h), and the yaw-rate outputs of the
 // kinematic plugins.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -6,12 +6,15 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <fstream>
 #include <string>
 
+#include "core/temp_files.h"
 #include "skidimm/errors.h"
 #include "skidimm/plugin_registry.h"
 #include "skidimm/sdk/testing/conformance.h"
+#include "skidimm/sdk/testing/load_plugin_model.h"
 
 namespace skidimm {
 namespace {
@@ -20,6 +23,7 @@ using ::testing::HasSubstr;
 namespace fs = std::filesystem;
 
 const fs::path kSlipRatioDir = fs::path(SKIDIMM_TEST_PLUGIN_ROOT) / "slip_ratio";
+const fs::path kNanAboveDir = fs::path(SKIDIMM_TEST_PLUGIN_ROOT) / "nan_above";
 
 sdk::ParameterSet husky() {
   sdk::ParameterSet p;
@@ -162,6 +166,79 @@ TEST(FunctionModel, WrapsAngleStatesAndUsesAHandWrittenJacobianIfGiven) {
   EXPECT_DOUBLE_EQ(j(0, 1), 0.1);
   EXPECT_DOUBLE_EQ(j(1, 1), 0.9);
   EXPECT_MOTION_MODEL_CONFORMS(*model, Eigen::Vector2d(3.1, 1.0), Eigen::VectorXd::Constant(1, 0.5), 0.05);
+}
+
+sdk::ParameterSet nan_above(double speed) {
+  sdk::ParameterSet p;
+  p.set_scalar("above", speed);
+  return p;
+}
+
+// The nan_above fixture's yaw rate is sqrt(above - V): NaN, with its
+// derivative, for V > above. The reason names the entry and the point.
+TEST(FunctionModel, AStateOrJacobianThatIsNotFiniteIsNamedByEntry) {
+  PluginRegistry registry({kNanAboveDir});
+  ModelHandle model = registry.create("nan_above", nan_above(0.5));
+  const Eigen::Vector2d x(1.0, 0.2), u(3.0, 4.0);
+  Eigen::MatrixXd jacobian(2, 2);
+  EXPECT_FALSE(model->jacobian(x, u, 0.02, jacobian));
+  EXPECT_THAT(std::string(model->failure_reason()),
+              HasSubstr("jacobian() is not finite: entry (row 1 'omega', column 0 'V') = "));
+  Eigen::VectorXd next(2);
+  EXPECT_FALSE(model->predict(x, u, 0.02, next));
+  const std::string reason = model->failure_reason();
+  EXPECT_THAT(reason, HasSubstr("predict() gave a state that is not finite: omega = "));
+  EXPECT_THAT(reason, HasSubstr("(x_next[1]) at x = [1, 0.2], u = [3, 4], dt = 0.02"));
+  // Below the speed, all is finite.
+  EXPECT_TRUE(model->jacobian(Eigen::Vector2d(0.1, 0.2), u, 0.02, jacobian));
+  EXPECT_TRUE(model->predict(Eigen::Vector2d(0.1, 0.2), u, 0.02, next));
+}
+
+TEST(FunctionModel, TheConformanceKitNamesTheEntryThatIsNotFinite) {
+  auto model = sdk::testing::load_plugin_model((kNanAboveDir / "nan_above_plugin.so").string(), nan_above(0.5));
+  const auto result =
+      sdk::testing::MotionModelConforms(*model, Eigen::Vector2d(1.0, 0.2), Eigen::Vector2d(3.0, 4.0), 0.02);
+  EXPECT_FALSE(result);
+  EXPECT_THAT(result.message(), HasSubstr("jacobian(x, u, 0) failed: jacobian() is not finite: entry (row 1 "
+                                          "'omega', column 0 'V')"));
+  EXPECT_THAT(result.message(), HasSubstr("predict(x, u, dt) failed: predict() gave a state that is not finite: "
+                                          "omega"));
+}
+
+TEST(FunctionModel, RunNamesTheEntryThatIsNotFiniteInItsSummary) {
+  const fs::path dir = skidimm_test::test_directory();
+  const fs::path bank = skidimm_test::write_file(dir / "bank.yaml", R"(
+name: nan
+states: [V, omega]
+inputs: [phi_dot_L, phi_dot_R]
+measurement:
+  observe: [V, omega]
+  R: {std: [0.05, 0.02]}
+transition: {mean_dwell_time: 10.0}
+initial:
+  covariance: {std: [0.5, 0.5]}
+modes:
+  - name: good
+    model: ltc_linear
+    params: {A: [[-5, 0], [0, -4]], B: [[0.39, 0.39], [-0.83, 0.83]]}
+    Q: {diagonal: [0.01, 0.01]}
+  - name: broken
+    model: nan_above
+    params: {above: 0.5}
+    Q: {diagonal: [0.01, 0.01]}
+)");
+  std::string log = "t,phi_dot_L,phi_dot_R,V,omega\n";
+  for (int k = 0; k < 5; ++k) log += std::to_string(0.1 * k) + ",6,6,1.0,0.0\n";
+  skidimm_test::write_file(dir / "log.csv", log);
+  const std::string command = std::string(SKIDIMM_EXECUTABLE) + " run --bank " + bank.string() + " --plugin-path " +
+                              kNanAboveDir.string() + " --input " + (dir / "log.csv").string() + " --output " +
+                              (dir / "out.csv").string() + " > " + (dir / "stdout").string() + " 2> " +
+                              (dir / "stderr").string();
+  ASSERT_EQ(std::system(command.c_str()), 0) << skidimm_test::read_file(dir / "stderr");
+  const std::string summary = skidimm_test::read_file(dir / "stderr");
+  EXPECT_THAT(summary, HasSubstr("mode 'broken' (plugin nan_above 0.0.1"));
+  EXPECT_THAT(summary, HasSubstr("jacobian() is not finite: entry (row 1 'omega', column 0 'V')"));
+  EXPECT_THAT(summary, ::testing::Not(HasSubstr("without a reason")));
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <cstdio>
 #include <cstring>
 
 namespace skidimm {
@@ -45,6 +46,47 @@ inline void report_failure(const char* prefix, const char* detail = nullptr) noe
   }
   out[used] = '\0';
 }
+
+// A reason with numbers in it, built without allocating (a failing step
+// must not allocate either), then reported:
+//
+//   FailureText why;
+//   why << "slip ratio " << s << " outside [0, 1] at V = " << x[kV];
+//   why.report();
+//
+// Numbers are written with 6 significant digits; text past 511 bytes is cut.
+class FailureText {
+ public:
+  FailureText& operator<<(const char* text) noexcept {
+    for (; text != nullptr && *text != '\0' && used_ + 1 < internal::FailureBuffer::kCapacity; ++text) {
+      text_[used_++] = *text;
+    }
+    text_[used_] = '\0';
+    return *this;
+  }
+  FailureText& operator<<(double value) noexcept {
+    char number[32];
+    std::snprintf(number, sizeof(number), "%.6g", value);
+    return *this << number;
+  }
+  FailureText& operator<<(int value) noexcept {
+    char number[16];
+    std::snprintf(number, sizeof(number), "%d", value);
+    return *this << number;
+  }
+  // "[a, b, c]".
+  FailureText& list(const double* values, int count) noexcept {
+    *this << "[";
+    for (int i = 0; i < count; ++i) *this << (i > 0 ? ", " : "") << values[i];
+    return *this << "]";
+  }
+  const char* text() const noexcept { return text_; }
+  void report() const noexcept { report_failure(text_); }
+
+ private:
+  char text_[internal::FailureBuffer::kCapacity] = {};
+  std::size_t used_ = 0;
+};
 
 // The reason last reported on this thread ("" if none), which is then cleared.
 // The pointer stays valid until the next report_failure() on this thread.

@@ -1,4 +1,5 @@
-// A motion model written as one templated function and a parameter table.
+// A motion model written as a parameter table and one templated function:
+// the way to write a skidimm model.
 //
 // The author writes a plain struct (the "spec"):
 //
@@ -8,79 +9,210 @@
 //     static constexpr const char* kDescription = "[V, omega, s] with a slip-ratio state";
 //     static constexpr skidimm::sdk::VariableDoc kStates[] = {{"V", "forward speed (m/s)", false}, ...};
 //     static constexpr skidimm::sdk::VariableDoc kInputs[] = {{"phi_dot_L", "left wheel speed (rad/s)", false}, ...};
-//     static constexpr skidimm::sdk::ParameterSpec kParameters[] = {
+//     static constexpr skidimm::sdk::ParameterSpec kParameters[] = {   // parameter_spec.h
 //         {"tau", "time constant (s)", 1e-3, 10.0},                                    // per mode
 //         {"r", "wheel radius (m)", 1e-3, 1.0, skidimm::sdk::ParameterScope::kBank},  // under shared:
+//         {"A", "coupling (1/s)", skidimm::sdk::Shape{2, 2}},                         // a 2x2 matrix
 //     };
-//     // x: states, u: inputs, p: parameters in kParameters' order; x_next: the state after dt.
-//     template <typename T>
-//     static void predict(const T* x, const double* u, const T* p, double dt, T* x_next) { ... }
+//     // x: states, u: inputs, p: parameters (kParameters' order, matrices row-major); x_next: after dt.
+//     template <typename T, typename P>
+//     static void predict(const T* x, const double* u, const P* p, double dt, T* x_next) { ... }
 //   };
 //   SKIDIMM_EXPORT_FUNCTION_MODEL(SlipRatio)
 //
-// and the SDK generates the rest: the SizedMotionModel class, Create() (every
-// parameter read from the bank as a scalar, unknown and missing keys and
-// values out of bounds refused with the key named), get/set of the flat
-// parameter vector, the PluginInfo `skidimm plugins` prints (states, inputs,
-// each parameter with its bounds and scope), the state Jacobian and the
+// and the SDK generates the rest: the model class, Create() (every parameter
+// read from the bank in its shape, unknown and missing keys, wrong shapes and
+// values out of bounds refused with the key named, a missing bank-level one
+// said to belong under `shared:`), get/set of the flat parameter vector, the
+// PluginInfo `skidimm plugins` prints (states, inputs, outputs, each
+// parameter with its shape, bounds and scope), the state Jacobian and the
 // parameter Jacobian (for `skidimm fit`), both exact, by automatic
-// differentiation with Ceres jets (header only: nothing to link). An
-// exception thrown by predict becomes a rejected step with its text, as for
-// any SizedMotionModel.
+// differentiation with Ceres jets (header only: nothing to link).
+//
+// The two scalar types. In the filter's step T and P are double. For the
+// state Jacobian T is a jet and P stays double, so arithmetic on parameters
+// and inputs alone is done once, in plain doubles, and gives the same bits as
+// in the step; for the parameter Jacobian both are the same jet. A P value
+// becomes a T with T(value). A spec may instead write one type,
+// `template <typename T> predict(const T* x, const double* u, const T* p, ...)`;
+// its parameters are then turned into T for the state Jacobian.
+//
+// Optional parts of the spec, each detected by its presence:
+//  * outputs, quantities the model predicts from its input alone besides
+//    its state (a yaw rate for a gyro, a motor current; MotionModel::outputs()):
+//
+//      static constexpr skidimm::sdk::VariableDoc kOutputs[] = {{"omega", "yaw rate (rad/s)", false}};
+//      template <typename P>
+//      static void outputs(const double* u, const P* p, P* y);
+//
+//    and their parameter Jacobian, by jets, is generated too;
+//  * hand-written derivatives, for a model whose automatic ones are too
+//    slow (a matrix exponential, say), used instead of jets:
+//
+//      static void jacobian(const double* x, const double* u, const double* p, double dt,
+//                           double* jacobian);            // row-major, state x state
+//      static void parameter_jacobian(const double* x, const double* u, const double* p, double dt,
+//                                     double* jacobian);  // row-major, state x flat parameters
+//      static void output_parameter_jacobian(const double* u, const double* p,
+//                                            double* jacobian);  // row-major, output x flat parameters
+//
+//    The conformance kit checks each against the automatic one
+//    (testing/conformance.h, when given the FunctionModel in-process) and
+//    against central differences (always);
+//  * the process noise over a step, instead of intensity * dt:
+//
+//      static void process_noise(const double* intensity, const double* x, const double* u, const double* p,
+//                                double dt, double* noise);  // n x n, row-major
 //
 // Angle states (VariableDoc::is_angle) are wrapped to [-pi, pi) after
-// predict. A spec may add its own state Jacobian, used instead of jets:
+// predict. Failures never cross the plugin boundary: an exception thrown by
+// the spec becomes a rejected step with its text, and a value that is not
+// finite (a state, a Jacobian entry, an output, a noise entry) a rejected
+// step whose reason names the entry and the operating point, e.g.
+// "jacobian() is not finite: entry (row 1 'omega', column 0 'V') = nan at x = [...], u = [...], dt = 0.02".
 //
-//     static void jacobian(const double* x, const double* u, const double* p, double dt,
-//                          double* jacobian);  // row-major, state x state
-//
-// (the conformance kit checks it against differences like any other).
-//
-// Every parameter is a scalar. A model with matrix parameters derives from
-// SizedMotionModel instead (sized_motion_model.h); FunctionModel is one such
-// class.
+// FunctionModel is a SizedMotionModel (sized_motion_model.h): the class form
+// is the low-level ABI this generated code implements, not a second way to
+// write a model.
 #ifndef SKIDIMM_SDK_FUNCTION_MODEL_H_
 #define SKIDIMM_SDK_FUNCTION_MODEL_H_
 
 #include <ceres/jet.h>
 
 #include <Eigen/Core>
+#include <array>
 #include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <exception>
 #include <iterator>
 #include <memory>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "skidimm/sdk/angles.h"
 #include "skidimm/sdk/export.h"
+#include "skidimm/sdk/failure.h"
+#include "skidimm/sdk/parameter_spec.h"
 #include "skidimm/sdk/parameters.h"
 #include "skidimm/sdk/plugin_info.h"
 #include "skidimm/sdk/sized_motion_model.h"
 
 namespace skidimm {
 namespace sdk {
-
-// One scalar parameter of a function model.
-struct ParameterSpec {
-  const char* key;          // its key under params: (or shared:), and its name
-  const char* description;  // one line, with units
-  double lower_bound;
-  double upper_bound;
-  ParameterScope scope = ParameterScope::kMode;
-};
-
 namespace internal {
 
-// Whether Spec has `static void jacobian(const double* x, const double* u,
-// const double* p, double dt, double* jacobian)` (row-major, state x state).
+// --- What a spec has ---
+
+template <typename Spec, typename = void>
+struct HasParameterTable : std::false_type {};
+template <typename Spec>
+struct HasParameterTable<Spec, std::void_t<decltype(Spec::kParameters)>> : std::true_type {};
+
+template <typename Spec, typename = void>
+struct HasOutputTable : std::false_type {};
+template <typename Spec>
+struct HasOutputTable<Spec, std::void_t<decltype(Spec::kOutputs)>> : std::true_type {};
+
+// predict(const T* x, const double* u, const P* p, double dt, T* x_next) callable.
+template <typename Spec, typename T, typename P, typename = void>
+struct PredictTakes : std::false_type {};
+template <typename Spec, typename T, typename P>
+struct PredictTakes<Spec, T, P,
+                    std::void_t<decltype(Spec::predict(std::declval<const T*>(), std::declval<const double*>(),
+                                                       std::declval<const P*>(), 0.0, std::declval<T*>()))>>
+    : std::true_type {};
+
 template <typename Spec, typename = void>
 struct HasHandWrittenJacobian : std::false_type {};
 template <typename Spec>
-struct HasHandWrittenJacobian<Spec, std::void_t<decltype(Spec::jacobian(
-                                        static_cast<const double*>(nullptr), static_cast<const double*>(nullptr),
-                                        static_cast<const double*>(nullptr), 0.0, static_cast<double*>(nullptr)))>>
+struct HasHandWrittenJacobian<
+    Spec, std::void_t<decltype(Spec::jacobian(std::declval<const double*>(), std::declval<const double*>(),
+                                              std::declval<const double*>(), 0.0, std::declval<double*>()))>>
     : std::true_type {};
+
+template <typename Spec, typename = void>
+struct HasHandWrittenParameterJacobian : std::false_type {};
+template <typename Spec>
+struct HasHandWrittenParameterJacobian<
+    Spec, std::void_t<decltype(Spec::parameter_jacobian(std::declval<const double*>(), std::declval<const double*>(),
+                                                        std::declval<const double*>(), 0.0, std::declval<double*>()))>>
+    : std::true_type {};
+
+template <typename Spec, typename = void>
+struct HasHandWrittenOutputParameterJacobian : std::false_type {};
+template <typename Spec>
+struct HasHandWrittenOutputParameterJacobian<
+    Spec, std::void_t<decltype(Spec::output_parameter_jacobian(
+              std::declval<const double*>(), std::declval<const double*>(), std::declval<double*>()))>>
+    : std::true_type {};
+
+template <typename Spec, typename = void>
+struct HasProcessNoise : std::false_type {};
+template <typename Spec>
+struct HasProcessNoise<Spec,
+                       std::void_t<decltype(Spec::process_noise(
+                           std::declval<const double*>(), std::declval<const double*>(), std::declval<const double*>(),
+                           std::declval<const double*>(), 0.0, std::declval<double*>()))>> : std::true_type {};
+
+// A row-major rows x cols matrix, as the spec's hand-written parts fill it
+// (a single column is stored the same either way; Eigen wants it ColMajor).
+template <int kRows, int kCols>
+using RowMajorMatrix = Eigen::Matrix<double, kRows, kCols, (kCols == 1 ? Eigen::ColMajor : Eigen::RowMajor)>;
+
+inline constexpr std::array<ParameterSpec, 0> kNoParameters{};
+inline constexpr std::array<VariableDoc, 0> kNoOutputs{};
+
+template <typename Spec>
+constexpr const auto& parameter_table() {
+  if constexpr (HasParameterTable<Spec>::value) {
+    return Spec::kParameters;
+  } else {
+    return kNoParameters;
+  }
+}
+
+template <typename Spec>
+constexpr const auto& output_table() {
+  if constexpr (HasOutputTable<Spec>::value) {
+    return Spec::kOutputs;
+  } else {
+    return kNoOutputs;
+  }
+}
+
+// "A[r,c]" for a matrix entry, "w[i]" for a vector entry, "k" for a number.
+inline std::string flat_name(const ParameterSpec& p, int r, int c) {
+  if (p.is_scalar()) return p.key;
+  if (p.is_vector()) return std::string(p.key) + "[" + std::to_string(r) + "]";
+  return std::string(p.key) + "[" + std::to_string(r) + "," + std::to_string(c) + "]";
+}
+
+// "scalar", "3-vector", "2x2".
+inline std::string shape_text(const ParameterSpec& p) {
+  if (p.is_scalar()) return "scalar";
+  if (p.is_vector()) return std::to_string(p.shape.rows) + "-vector";
+  return std::to_string(p.shape.rows) + "x" + std::to_string(p.shape.cols);
+}
+
+inline std::string bound_text(double v) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g", v);
+  return text;
+}
+
+// What `skidimm plugins` says of a parameter: its description, bounds (if
+// any) and scope.
+inline std::string parameter_doc_text(const ParameterSpec& p) {
+  std::string text = p.description;
+  if (!std::isinf(p.lower_bound) || !std::isinf(p.upper_bound)) {
+    text += std::string(p.is_scalar() ? ", in [" : ", each in [") + bound_text(p.lower_bound) + ", " +
+            bound_text(p.upper_bound) + "]";
+  }
+  return text + (p.scope == ParameterScope::kBank ? ", bank-level (shared:)" : ", per mode");
+}
 
 }  // namespace internal
 
@@ -90,28 +222,64 @@ class FunctionModel final
  public:
   static constexpr int kStates = static_cast<int>(std::size(Spec::kStates));
   static constexpr int kInputs = static_cast<int>(std::size(Spec::kInputs));
-  static constexpr int kNumParameters = static_cast<int>(std::size(Spec::kParameters));
+  static constexpr int kOutputs = static_cast<int>(std::size(internal::output_table<Spec>()));
+  static constexpr int kNumParameters = flat_parameter_count(internal::parameter_table<Spec>());
   using Base = SizedMotionModel<kStates, kInputs>;
+  using typename Base::Covariance;
   using typename Base::Input;
   using typename Base::Jacobian;
   using typename Base::State;
-  using Parameters = Eigen::Matrix<double, kNumParameters, 1>;
+  using Parameters = std::array<double, (kNumParameters > 0 ? kNumParameters : 1)>;
+  // Which derivatives the spec writes by hand (the conformance kit compares
+  // each with the automatic one).
+  static constexpr bool kHandWrittenJacobian = internal::HasHandWrittenJacobian<Spec>::value;
+  static constexpr bool kHandWrittenParameterJacobian = internal::HasHandWrittenParameterJacobian<Spec>::value;
+  static constexpr bool kHandWrittenOutputParameterJacobian =
+      internal::HasHandWrittenOutputParameterJacobian<Spec>::value;
+  // Row-major forms the spec's hand-written parts fill.
+  using RowMajorJacobian = internal::RowMajorMatrix<kStates, kStates>;
+
+  static_assert(internal::PredictTakes<Spec, double, double>::value,
+                "the spec needs `template <typename T, typename P> static void predict(const T* x, const double* u, "
+                "const P* p, double dt, T* x_next)` (or the same with one type T)");
+  static_assert(!internal::HasOutputTable<Spec>::value || kOutputs > 0, "kOutputs, when given, cannot be empty");
 
   static std::unique_ptr<FunctionModel> Create(const ParameterSet& params, std::string* error) {
-    auto model = std::make_unique<FunctionModel>();
+    auto fail = [error](const std::string& message) {
+      if (error != nullptr) *error = message;
+      return std::unique_ptr<FunctionModel>();
+    };
     for (const std::string& key : params.keys()) {
       bool known = false;
-      for (const ParameterSpec& p : Spec::kParameters) known = known || key == p.key;
+      for (const ParameterSpec& p : table()) known = known || key == p.key;
       if (!known) {
         std::string list;
-        for (const ParameterSpec& p : Spec::kParameters) list += (list.empty() ? "" : ", ") + std::string(p.key);
-        if (error != nullptr) *error = "unknown parameter '" + key + "' (this model takes: " + list + ")";
-        return nullptr;
+        for (const ParameterSpec& p : table()) list += (list.empty() ? "" : ", ") + std::string(p.key);
+        return fail("unknown parameter '" + key + "' (this model takes: " + (list.empty() ? "none" : list) + ")");
       }
     }
+    auto model = std::make_unique<FunctionModel>();
     Eigen::VectorXd values(kNumParameters);
-    for (int i = 0; i < kNumParameters; ++i) {
-      if (!params.get_scalar(Spec::kParameters[i].key, &values[i], error)) return nullptr;
+    Eigen::Index at = 0;
+    for (const ParameterSpec& p : table()) {
+      std::string why;
+      Eigen::MatrixXd value(1, 1);
+      const bool read = p.is_scalar() ? params.get_scalar(p.key, &value(0, 0), &why)
+                                      : params.get_matrix(p.key, p.shape.rows, p.shape.cols, &value, &why);
+      if (!read) {
+        if (params.find_text(p.key) != nullptr) {
+          why = "parameter '" + std::string(p.key) + "' must be " +
+                (p.is_scalar() ? std::string("a number") : "a " + internal::shape_text(p) + " of numbers") +
+                ", not text";
+        } else if (!params.contains(p.key) && p.scope == ParameterScope::kBank) {
+          why += ": model " + std::string(Spec::kName) + " takes it from the bank's 'shared:' block, " +
+                 "one value for every mode";
+        }
+        return fail(why);
+      }
+      for (int r = 0; r < p.shape.rows; ++r) {
+        for (int c = 0; c < p.shape.cols; ++c) values[at++] = value(r, c);
+      }
     }
     if (!model->set_parameters(values, error)) return nullptr;
     return model;
@@ -120,27 +288,51 @@ class FunctionModel final
   FunctionModel() {
     for (const VariableDoc& v : Spec::kStates) states_.emplace_back(v.name);
     for (const VariableDoc& v : Spec::kInputs) inputs_.emplace_back(v.name);
-    for (const ParameterSpec& p : Spec::kParameters) {
-      info_.push_back(scalar_parameter_info(p.key, p.description, p.lower_bound, p.upper_bound, p.scope));
+    for (const VariableDoc& v : internal::output_table<Spec>()) outputs_.emplace_back(v.name);
+    for (const ParameterSpec& p : table()) {
+      for (int r = 0; r < p.shape.rows; ++r) {
+        for (int c = 0; c < p.shape.cols; ++c) {
+          ParameterInfo info;
+          info.name = internal::flat_name(p, r, c);
+          info.key = p.key;
+          info.description = p.description;
+          info.lower_bound = p.lower_bound;
+          info.upper_bound = p.upper_bound;
+          info.scope = p.scope;
+          info_.push_back(std::move(info));
+        }
+      }
     }
+    p_.fill(0.0);
   }
 
+  // --- Names and parameters ---
   const std::vector<std::string>& state_names() const noexcept override { return states_; }
   const std::vector<std::string>& input_names() const noexcept override { return inputs_; }
+  const std::vector<std::string>& output_names() const noexcept override { return outputs_; }
   bool is_angle(int i) const noexcept override { return i >= 0 && i < kStates && Spec::kStates[i].is_angle; }
   const std::vector<ParameterInfo>& parameter_info() const noexcept override { return info_; }
-  void get_parameters(Eigen::Ref<Eigen::VectorXd> values) const noexcept override { values = p_; }
+  void get_parameters(Eigen::Ref<Eigen::VectorXd> values) const noexcept override {
+    for (int i = 0; i < kNumParameters; ++i) values[i] = p_[static_cast<std::size_t>(i)];
+  }
   bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>& values, std::string* error) noexcept override {
     if (!check_parameter_values(info_, values, error)) return false;
-    p_ = values;
+    for (int i = 0; i < kNumParameters; ++i) p_[static_cast<std::size_t>(i)] = values[i];
     return true;
   }
+  // The flat parameters, in table order, as the spec's functions see them.
+  const double* parameters() const noexcept { return p_.data(); }
 
-  // Angle states (is_angle in kStates) are wrapped to [-pi, pi) after the
-  // function, so the function itself need not wrap.
+  // --- Dynamics ---
   bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const override {
     Spec::predict(x.data(), input_data(u), p_.data(), dt, x_next->data());
     for (int i = 0; i < kStates; ++i) {
+      if (!std::isfinite((*x_next)[i])) {
+        FailureText why;
+        why << "predict() gave a state that is not finite: " << Spec::kStates[i].name << " = " << (*x_next)[i]
+            << " (x_next[" << i << "])";
+        return report_at(why, x.data(), input_data(u), dt);
+      }
       if (Spec::kStates[i].is_angle) (*x_next)[i] = wrap_angle((*x_next)[i]);
     }
     return true;
@@ -149,46 +341,171 @@ class FunctionModel final
   // d predict / d x: the spec's own `jacobian` if it has one, else exact by
   // one pass of jets seeded on the states.
   bool jacobian_fixed(const State& x, const Input& u, double dt, Jacobian* jacobian) const override {
-    if constexpr (internal::HasHandWrittenJacobian<Spec>::value) {
-      Eigen::Matrix<double, kStates, kStates, Eigen::RowMajor> row_major;
+    if constexpr (kHandWrittenJacobian) {
+      RowMajorJacobian row_major;
       Spec::jacobian(x.data(), input_data(u), p_.data(), dt, row_major.data());
       *jacobian = row_major;
-      return jacobian->allFinite();
+    } else {
+      automatic_jacobian(x, u, dt, jacobian);
     }
-    using Jet = ceres::Jet<double, kStates>;
-    Jet x_jet[kStates], p_jet[kNumParameters > 0 ? kNumParameters : 1], out[kStates];
-    for (int i = 0; i < kStates; ++i) x_jet[i] = Jet(x[i], i);
-    for (int i = 0; i < kNumParameters; ++i) p_jet[i] = Jet(p_[i]);
-    Spec::predict(x_jet, input_data(u), static_cast<const Jet*>(p_jet), dt, out);
-    for (int r = 0; r < kStates; ++r) (*jacobian).row(r) = out[r].v.transpose();
-    return jacobian->allFinite();
+    return finite_jacobian(*jacobian, x.data(), input_data(u), dt);
   }
   bool has_analytic_jacobian() const noexcept override { return true; }
 
-  // d predict / d parameters, exact, for fitting.
+  // The Jacobian by jets, whether or not the spec writes its own (the
+  // conformance kit compares the two).
+  void automatic_jacobian(const State& x, const Input& u, double dt, Jacobian* jacobian) const {
+    using Jet = ceres::Jet<double, kStates>;
+    Jet x_jet[kStates], out[kStates];
+    for (int i = 0; i < kStates; ++i) x_jet[i] = Jet(x[i], i);
+    predict_with_double_parameters(x_jet, input_data(u), out, dt);
+    for (int r = 0; r < kStates; ++r) jacobian->row(r) = out[r].v.transpose();
+  }
+
+  bool process_noise_fixed(const Covariance& intensity, const State& x, const Input& u, double dt,
+                           Covariance* noise) const override {
+    if constexpr (internal::HasProcessNoise<Spec>::value) {
+      RowMajorJacobian intensity_row_major = intensity, noise_row_major;
+      Spec::process_noise(intensity_row_major.data(), x.data(), input_data(u), p_.data(), dt, noise_row_major.data());
+      *noise = noise_row_major;
+      for (int r = 0; r < kStates; ++r) {
+        for (int c = 0; c < kStates; ++c) {
+          if (std::isfinite((*noise)(r, c))) continue;
+          FailureText why;
+          why << "process_noise() is not finite: entry (row " << r << " '" << Spec::kStates[r].name << "', column " << c
+              << " '" << Spec::kStates[c].name << "') = " << (*noise)(r, c);
+          return report_at(why, x.data(), input_data(u), dt);
+        }
+      }
+      return true;
+    } else {
+      return Base::process_noise_fixed(intensity, x, u, dt, noise);
+    }
+  }
+
+  // d predict / d parameters: the spec's own if it has one, else exact by jets.
   bool parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                           double dt, Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept override {
     if constexpr (kNumParameters == 0) {
       return true;
     } else {
+      const State x_fixed = x;
+      const Input u_fixed = input_of(u);
+      internal::RowMajorMatrix<kStates, kNumParameters> fixed;
       try {
-        using Jet = ceres::Jet<double, kNumParameters>;
-        Jet x_jet[kStates], p_jet[kNumParameters], out[kStates];
-        for (int i = 0; i < kStates; ++i) x_jet[i] = Jet(x[i]);
-        for (int i = 0; i < kNumParameters; ++i) p_jet[i] = Jet(p_[i], i);
-        const Input u_fixed = input_of(u);
-        Spec::predict(static_cast<const Jet*>(x_jet), input_data(u_fixed), static_cast<const Jet*>(p_jet), dt, out);
-        for (int r = 0; r < kStates; ++r) {
-          for (int c = 0; c < kNumParameters; ++c) jacobian(r, c) = out[r].v[c];
+        if constexpr (kHandWrittenParameterJacobian) {
+          Spec::parameter_jacobian(x_fixed.data(), input_data(u_fixed), p_.data(), dt, fixed.data());
+        } else {
+          automatic_parameter_jacobian(x_fixed, u_fixed, dt, &fixed);
         }
       } catch (const std::exception& e) {
-        report_failure("predict threw: ", e.what());
-        return false;
+        return caught("the parameter Jacobian threw: ", e.what());
       } catch (...) {
-        report_failure("predict threw an exception that is not a std::exception");
-        return false;
+        return caught("the parameter Jacobian threw an exception that is not a std::exception", nullptr);
       }
-      return jacobian.allFinite();
+      for (int r = 0; r < kStates; ++r) {
+        for (int c = 0; c < kNumParameters; ++c) {
+          if (!std::isfinite(fixed(r, c))) {
+            FailureText why;
+            why << "parameter_jacobian() is not finite: entry (row " << r << " '" << Spec::kStates[r].name
+                << "', column " << c << " '" << info_[static_cast<std::size_t>(c)].name.c_str()
+                << "') = " << fixed(r, c);
+            return report_at(why, x_fixed.data(), input_data(u_fixed), dt);
+          }
+          jacobian(r, c) = fixed(r, c);
+        }
+      }
+      return true;
+    }
+  }
+
+  template <typename Matrix>
+  void automatic_parameter_jacobian(const State& x, const Input& u, double dt, Matrix* jacobian) const {
+    if constexpr (kNumParameters > 0) {
+      using Jet = ceres::Jet<double, kNumParameters>;
+      Jet x_jet[kStates], p_jet[kNumParameters], out[kStates];
+      for (int i = 0; i < kStates; ++i) x_jet[i] = Jet(x[i]);
+      for (int i = 0; i < kNumParameters; ++i) p_jet[i] = Jet(p_[static_cast<std::size_t>(i)], i);
+      Spec::predict(static_cast<const Jet*>(x_jet), input_data(u), static_cast<const Jet*>(p_jet), dt, out);
+      for (int r = 0; r < kStates; ++r) {
+        for (int c = 0; c < kNumParameters; ++c) (*jacobian)(r, c) = out[r].v[c];
+      }
+    }
+  }
+
+  // --- Outputs ---
+  bool outputs(const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::VectorXd> y) const noexcept override {
+    if constexpr (kOutputs == 0) {
+      return false;
+    } else {
+      const Input u_fixed = input_of(u);
+      double values[kOutputs];
+      try {
+        Spec::outputs(input_data(u_fixed), p_.data(), values);
+      } catch (const std::exception& e) {
+        return caught("outputs() threw: ", e.what());
+      } catch (...) {
+        return caught("outputs() threw an exception that is not a std::exception", nullptr);
+      }
+      for (int k = 0; k < kOutputs; ++k) {
+        if (!std::isfinite(values[k])) {
+          FailureText why;
+          why << "outputs() gave a value that is not finite: " << output_table()[k].name << " = " << values[k] << " (y["
+              << k << "])";
+          return report_at(why, nullptr, input_data(u_fixed), 0.0);
+        }
+        y[k] = values[k];
+      }
+      return true;
+    }
+  }
+
+  bool output_parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& u,
+                                 Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept override {
+    if constexpr (kOutputs == 0) {
+      return false;
+    } else if constexpr (kNumParameters == 0) {
+      return true;
+    } else {
+      const Input u_fixed = input_of(u);
+      internal::RowMajorMatrix<kOutputs, kNumParameters> fixed;
+      try {
+        if constexpr (kHandWrittenOutputParameterJacobian) {
+          Spec::output_parameter_jacobian(input_data(u_fixed), p_.data(), fixed.data());
+        } else {
+          automatic_output_parameter_jacobian(u_fixed, &fixed);
+        }
+      } catch (const std::exception& e) {
+        return caught("the output parameter Jacobian threw: ", e.what());
+      } catch (...) {
+        return caught("the output parameter Jacobian threw an exception that is not a std::exception", nullptr);
+      }
+      for (int r = 0; r < kOutputs; ++r) {
+        for (int c = 0; c < kNumParameters; ++c) {
+          if (!std::isfinite(fixed(r, c))) {
+            FailureText why;
+            why << "output_parameter_jacobian() is not finite: entry (row " << r << " '" << output_table()[r].name
+                << "', column " << c << " '" << info_[static_cast<std::size_t>(c)].name.c_str()
+                << "') = " << fixed(r, c);
+            return report_at(why, nullptr, input_data(u_fixed), 0.0);
+          }
+          jacobian(r, c) = fixed(r, c);
+        }
+      }
+      return true;
+    }
+  }
+
+  template <typename Matrix>
+  void automatic_output_parameter_jacobian(const Input& u, Matrix* jacobian) const {
+    if constexpr (kOutputs > 0 && kNumParameters > 0) {
+      using Jet = ceres::Jet<double, kNumParameters>;
+      Jet p_jet[kNumParameters], out[kOutputs];
+      for (int i = 0; i < kNumParameters; ++i) p_jet[i] = Jet(p_[static_cast<std::size_t>(i)], i);
+      Spec::outputs(input_data(u), static_cast<const Jet*>(p_jet), out);
+      for (int r = 0; r < kOutputs; ++r) {
+        for (int c = 0; c < kNumParameters; ++c) (*jacobian)(r, c) = out[r].v[c];
+      }
     }
   }
 
@@ -198,39 +515,81 @@ class FunctionModel final
     return docs.info;
   }
 
+  static constexpr const auto& table() { return internal::parameter_table<Spec>(); }
+  static constexpr const auto& output_table() { return internal::output_table<Spec>(); }
+
  private:
   struct Docs {
     Docs() {
-      for (const ParameterSpec& p : Spec::kParameters) {
-        std::string text = std::string(p.description) + ", in [" + number(p.lower_bound) + ", " +
-                           number(p.upper_bound) + "], " +
-                           (p.scope == ParameterScope::kBank ? "bank-level (shared:)" : "per mode");
-        descriptions.push_back(std::move(text));
+      for (const ParameterSpec& p : table()) {
+        shapes.push_back(internal::shape_text(p));
+        descriptions.push_back(internal::parameter_doc_text(p));
       }
-      for (int i = 0; i < kNumParameters; ++i) {
-        parameters.push_back({Spec::kParameters[i].key, "scalar", descriptions[static_cast<std::size_t>(i)].c_str()});
+      for (std::size_t i = 0; i < shapes.size(); ++i) {
+        parameters.push_back({table()[i].key, shapes[i].c_str(), descriptions[i].c_str()});
       }
-      info = {Spec::kName,
-              Spec::kVersion,
-              Spec::kDescription,
-              parameters.data(),
-              kNumParameters,
-              Spec::kStates,
-              kStates,
-              kInputs > 0 ? Spec::kInputs : nullptr,
-              kInputs};
+      info.name = Spec::kName;
+      info.version = Spec::kVersion;
+      info.description = Spec::kDescription;
+      info.parameters = parameters.empty() ? nullptr : parameters.data();
+      info.num_parameters = static_cast<int>(parameters.size());
+      info.states = Spec::kStates;
+      info.num_states = kStates;
+      info.inputs = kInputs > 0 ? Spec::kInputs : nullptr;
+      info.num_inputs = kInputs;
+      info.outputs = kOutputs > 0 ? std::data(output_table()) : nullptr;
+      info.num_outputs = kOutputs;
     }
-    static std::string number(double v) {
-      if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-      std::string text = std::to_string(v);
-      while (text.size() > 1 && text.back() == '0') text.pop_back();
-      if (!text.empty() && text.back() == '.') text.pop_back();
-      return text;
-    }
-    std::vector<std::string> descriptions;
+    std::vector<std::string> shapes, descriptions;
     std::vector<ParameterDoc> parameters;
     PluginInfo info{};
   };
+
+  // The spec's predict with T (double or a jet) states and double
+  // parameters; a one-type spec gets its parameters as T.
+  template <typename T>
+  void predict_with_double_parameters(const T* x, const double* u, T* out, double dt) const {
+    if constexpr (internal::PredictTakes<Spec, T, double>::value) {
+      Spec::predict(x, u, p_.data(), dt, out);
+    } else {
+      T p[kNumParameters > 0 ? kNumParameters : 1];
+      for (int i = 0; i < kNumParameters; ++i) p[i] = T(p_[static_cast<std::size_t>(i)]);
+      Spec::predict(x, u, static_cast<const T*>(p), dt, out);
+    }
+  }
+
+  bool finite_jacobian(const Jacobian& jacobian, const double* x, const double* u, double dt) const {
+    for (int r = 0; r < kStates; ++r) {
+      for (int c = 0; c < kStates; ++c) {
+        if (std::isfinite(jacobian(r, c))) continue;
+        FailureText why;
+        why << "jacobian() is not finite: entry (row " << r << " '" << Spec::kStates[r].name << "', column " << c
+            << " '" << Spec::kStates[c].name << "') = " << jacobian(r, c);
+        return report_at(why, x, u, dt);
+      }
+    }
+    return true;
+  }
+
+  // Reports `why` with the operating point (x is null for outputs); false.
+  static bool report_at(FailureText& why, const double* x, const double* u, double dt) noexcept {
+    if (x != nullptr) {
+      why << " at x = ";
+      why.list(x, kStates);
+      why << ", u = ";
+    } else {
+      why << " at u = ";
+    }
+    why.list(u, kInputs);
+    if (x != nullptr) why << ", dt = " << dt;
+    why.report();
+    return false;
+  }
+
+  static bool caught(const char* what, const char* detail) noexcept {
+    report_failure(what, detail);
+    return false;
+  }
 
   static Input input_of(const Eigen::Ref<const Eigen::VectorXd>& u) {
     Input fixed;
@@ -245,8 +604,8 @@ class FunctionModel final
     }
   }
 
-  Parameters p_ = Parameters::Zero();
-  std::vector<std::string> states_, inputs_;
+  Parameters p_;
+  std::vector<std::string> states_, inputs_, outputs_;
   std::vector<ParameterInfo> info_;
 };
 

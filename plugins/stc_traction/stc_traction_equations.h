@@ -1,4 +1,4 @@
-// The `stc_traction` model: stc_sided's tread kinematics (stc_sided_predict.h)
+// The `stc_traction` model: stc_sided's tread kinematics (stc_sided/stc_sided_predict.h)
 // with tread ICRs that move out as the turn tightens, and each side's motor
 // current as outputs.
 //
@@ -54,8 +54,11 @@
 // wheels transmit less torque, so a side on tarp draws less in turns, and a
 // robot on tarp on every wheel draws less on both sides, though it turns
 // like one with none.
-#ifndef SKIDIMM_PLUGINS_STC_SIDED_STC_TRACTION_EQUATIONS_H_
-#define SKIDIMM_PLUGINS_STC_SIDED_STC_TRACTION_EQUATIONS_H_
+//
+// The turn ratio is computed in the parameters' scalar P (function_model.h),
+// like every quantity of the inputs and parameters alone.
+#ifndef SKIDIMM_PLUGINS_STC_TRACTION_STC_TRACTION_EQUATIONS_H_
+#define SKIDIMM_PLUGINS_STC_TRACTION_STC_TRACTION_EQUATIONS_H_
 
 #include <cmath>
 
@@ -63,11 +66,14 @@
 
 namespace skidimm {
 namespace plugins {
-namespace stc_sided {
+namespace stc_traction {
+
+using stc_sided::kPhiDotLeft;
+using stc_sided::kPhiDotRight;
 
 // stc_traction's own parameters follow stc_sided's in the flat vector.
-enum TractionParameter {
-  kSkidGrowthLeft = kNumParameters,
+enum Parameter {
+  kSkidGrowthLeft = stc_sided::kNumParameters,
   kSkidGrowthRight,
   kCurrentStraight,
   kCurrentLeftOuter,
@@ -75,69 +81,64 @@ enum TractionParameter {
   kCurrentRightOuter,
   kCurrentRightInner,
   kTurnPeak,
-  kNumTractionParameters
+  kNumParameters
 };
 
-enum Output { kOmegaOutput = 0, kCurrentLeftOutput = 1, kCurrentRightOutput = 2, kNumTractionOutputs = 3 };
+enum Output { kOmegaOutput = 0, kCurrentLeftOutput = 1, kCurrentRightOutput = 2, kNumOutputs = 3 };
 
 // rad/s added to the turn ratio's denominator (see above).
 constexpr double kWheelSpeedFloor = 0.5;
 
-template <typename T>
-T turn_ratio(const T* u) {
+template <typename P>
+P turn_ratio(const double* u) {
   using std::abs;
-  return (u[kPhiDotRight] - u[kPhiDotLeft]) / (abs(u[kPhiDotLeft]) + abs(u[kPhiDotRight]) + T(kWheelSpeedFloor));
+  return (P(u[kPhiDotRight]) - P(u[kPhiDotLeft])) /
+         (P(abs(u[kPhiDotLeft])) + P(abs(u[kPhiDotRight])) + P(kWheelSpeedFloor));
 }
 
 // Body velocity (v_x, v_y, omega) with each tread ICR moved out by its side's
 // 1 + k_skid s^2.
-template <typename T>
-void traction_body_velocity(const T* u, const T* p, T* v_x, T* v_y, T* omega) {
-  T y_left, y_right;
-  tread_icrs(u, p, &y_left, &y_right);
-  const T s = turn_ratio(u);
-  y_left *= T(1.0) + p[kSkidGrowthLeft] * s * s;
-  y_right *= T(1.0) + p[kSkidGrowthRight] * s * s;
-  icr_body_velocity(u, p, y_left, y_right, v_x, v_y, omega);
+template <typename P>
+void body_velocity(const double* u, const P* p, P* v_x, P* v_y, P* omega) {
+  P y_left, y_right;
+  stc_sided::tread_icrs(u, p, &y_left, &y_right);
+  const P s = turn_ratio<P>(u);
+  y_left *= P(1.0) + p[kSkidGrowthLeft] * s * s;
+  y_right *= P(1.0) + p[kSkidGrowthRight] * s * s;
+  stc_sided::icr_body_velocity(u, p, y_left, y_right, v_x, v_y, omega);
 }
 
-template <typename T>
-void traction_predict(const T* x, const T* u, const T* p, const T& dt, T* x_next) {
-  T v_x, v_y, omega;
-  traction_body_velocity(u, p, &v_x, &v_y, &omega);
-  pose_step(x, v_x, v_y, omega, dt, x_next);
-}
-
-inline void traction_state_jacobian(const double* x, const double* u, const double* p, double dt, double* jacobian) {
-  double v_x, v_y, omega;
-  traction_body_velocity(u, p, &v_x, &v_y, &omega);
-  pose_jacobian(x, v_x, v_y, dt, jacobian);
+template <typename T, typename P>
+void predict(const T* x, const double* u, const P* p, double dt, T* x_next) {
+  P v_x, v_y, omega;
+  body_velocity(u, p, &v_x, &v_y, &omega);
+  stc_sided::pose_step(x, v_x, v_y, omega, dt, x_next);
 }
 
 // i_L, i_R (A) from the wheel speeds u and parameters p.
-template <typename T>
-void motor_currents(const T* u, const T* p, T* current_left, T* current_right) {
+template <typename P>
+void motor_currents(const double* u, const P* p, P* current_left, P* current_right) {
   using std::abs;
-  const T relative = abs(turn_ratio(u)) / p[kTurnPeak];
-  const T shape = T(2.0) * relative / (T(1.0) + relative * relative);
+  const P relative = abs(turn_ratio<P>(u)) / p[kTurnPeak];
+  const P shape = P(2.0) * relative / (P(1.0) + relative * relative);
   const bool turning_left = u[kPhiDotRight] > u[kPhiDotLeft];
-  const T& left_gain = turning_left ? p[kCurrentLeftInner] : p[kCurrentLeftOuter];
-  const T& right_gain = turning_left ? p[kCurrentRightOuter] : p[kCurrentRightInner];
+  const P& left_gain = turning_left ? p[kCurrentLeftInner] : p[kCurrentLeftOuter];
+  const P& right_gain = turning_left ? p[kCurrentRightOuter] : p[kCurrentRightInner];
   *current_left = p[kCurrentStraight] + left_gain * shape;
   *current_right = p[kCurrentStraight] + right_gain * shape;
 }
 
 // The outputs of stc_traction: omega (the yaw rate it predicts, for a gyro),
 // i_L, i_R.
-template <typename T>
-void traction_outputs(const T* u, const T* p, T* y) {
-  T v_x, v_y;
-  traction_body_velocity(u, p, &v_x, &v_y, &y[kOmegaOutput]);
+template <typename P>
+void outputs(const double* u, const P* p, P* y) {
+  P v_x, v_y;
+  body_velocity(u, p, &v_x, &v_y, &y[kOmegaOutput]);
   motor_currents(u, p, &y[kCurrentLeftOutput], &y[kCurrentRightOutput]);
 }
 
-}  // namespace stc_sided
+}  // namespace stc_traction
 }  // namespace plugins
 }  // namespace skidimm
 
-#endif  // SKIDIMM_PLUGINS_STC_SIDED_STC_TRACTION_EQUATIONS_H_
+#endif  // SKIDIMM_PLUGINS_STC_TRACTION_STC_TRACTION_EQUATIONS_H_

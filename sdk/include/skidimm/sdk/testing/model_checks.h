@@ -1,0 +1,412 @@
+// The checks of the conformance kit, without GoogleTest: what conformance.h
+// asserts in a plugin author's tests, and what `skidimm validate --check LOG`
+// runs on each mode of a bank at operating points taken from a log.
+//
+// motion_model_failures(model, x, u, dt) lists every way the model breaks the
+// contract of motion_model.h at one operating point (empty: none):
+//  * dimensions and names agree and names are unique and non-empty;
+//  * predict(x, u, 0) == x and jacobian(x, u, 0) == I;
+//  * predict(x, u, dt) is finite, with angle components in [-pi, pi);
+//  * the parameters round-trip through get/set, with unique names, valid
+//    bounds and current values inside them;
+//  * process_noise(I, x, u, dt) is finite, symmetric positive semidefinite;
+//  * the Jacobian is finite and matches central differences of predict(),
+//    and so does the parameter Jacobian if the model provides one;
+//  * outputs, if the model has any, are uniquely named and finite, and their
+//    parameter Jacobian, if provided, matches central differences.
+// A call that fails is reported with the reason the model gave
+// (failure_reason(), failure.h); a non-finite or wrong entry is named by row
+// and column. The model is left with the parameters it had.
+#ifndef SKIDIMM_SDK_TESTING_MODEL_CHECKS_H_
+#define SKIDIMM_SDK_TESTING_MODEL_CHECKS_H_
+
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "skidimm/sdk/angles.h"
+#include "skidimm/sdk/motion_model.h"
+#include "skidimm/sdk/numeric_jacobian.h"
+
+namespace skidimm {
+namespace sdk {
+namespace testing {
+
+struct ConformanceOptions {
+  double identity_tolerance = 1e-12;  // predict(x, u, 0) vs x, relative to max(1, |x|)
+  double jacobian_tolerance = 1e-6;   // analytic vs numeric, relative to max(1, |J|)
+};
+
+namespace internal {
+
+inline std::string vector_text(const Eigen::VectorXd& v) {
+  std::ostringstream out;
+  out.precision(6);
+  out << "[";
+  for (Eigen::Index i = 0; i < v.size(); ++i) out << (i ? ", " : "") << v[i];
+  out << "]";
+  return out.str();
+}
+
+inline std::string point_text(const Eigen::VectorXd& x, const Eigen::VectorXd& u, double dt) {
+  std::ostringstream out;
+  out << "x = " << vector_text(x) << ", u = " << vector_text(u) << ", dt = " << dt;
+  return out.str();
+}
+
+// `what` failed, with the reason the model gave, if any.
+inline std::string failed(const MotionModel& model, const std::string& what) {
+  const char* reason = model.failure_reason();
+  return what + " failed" + (reason != nullptr && reason[0] != '\0' ? ": " + std::string(reason) : std::string());
+}
+
+inline std::string name_of(const std::vector<std::string>& names, Eigen::Index i) {
+  return i < static_cast<Eigen::Index>(names.size()) ? names[static_cast<std::size_t>(i)] : "?";
+}
+
+// The first entry of m that is not finite, named by row and column; "" if none.
+inline std::string first_non_finite(const Eigen::MatrixXd& m, const std::vector<std::string>& row_names,
+                                    const std::vector<std::string>& column_names) {
+  for (Eigen::Index r = 0; r < m.rows(); ++r) {
+    for (Eigen::Index c = 0; c < m.cols(); ++c) {
+      if (std::isfinite(m(r, c))) continue;
+      std::ostringstream out;
+      out << "entry (row " << r << " '" << name_of(row_names, r) << "', column " << c << " '"
+          << name_of(column_names, c) << "') = " << m(r, c);
+      return out.str();
+    }
+  }
+  return "";
+}
+
+// Central differences over set_parameters() of evaluate(out), a function of
+// `rows` values (predict() or outputs()), into *numeric (rows x parameters);
+// rows where is_angle(i) are differenced modulo 2 pi. The model gets
+// `values` back. False if a perturbed evaluation fails.
+template <typename Evaluate, typename IsAngle>
+bool numeric_parameter_jacobian(MotionModel& model, const Eigen::VectorXd& values, Eigen::Index rows,
+                                const Evaluate& evaluate, const IsAngle& is_angle, Eigen::MatrixXd* numeric) {
+  Eigen::VectorXd plus(rows), minus(rows), perturbed = values;
+  bool evaluated = true;
+  for (Eigen::Index j = 0; j < values.size() && evaluated; ++j) {
+    const double h = std::cbrt(std::numeric_limits<double>::epsilon()) * std::max(1.0, std::abs(values[j]));
+    perturbed[j] = values[j] + h;
+    evaluated = model.set_parameters(perturbed, nullptr) && evaluate(plus);
+    perturbed[j] = values[j] - h;
+    evaluated = evaluated && model.set_parameters(perturbed, nullptr) && evaluate(minus);
+    perturbed[j] = values[j];
+    for (Eigen::Index i = 0; i < rows; ++i) {
+      double difference = plus[i] - minus[i];
+      if (is_angle(i)) difference = wrap_angle(difference);
+      (*numeric)(i, j) = difference / (2.0 * h);
+    }
+  }
+  model.set_parameters(values, nullptr);
+  return evaluated;
+}
+
+// The entries of `analytic` that differ from `numeric` by more than
+// `tolerance`, worst first (at most five), each named by row and column.
+inline std::string differing_entries(const Eigen::MatrixXd& analytic, const Eigen::MatrixXd& numeric, double tolerance,
+                                     const std::vector<std::string>& row_names,
+                                     const std::vector<std::string>& column_names) {
+  std::vector<std::pair<double, std::pair<int, int>>> entries;
+  for (int r = 0; r < analytic.rows(); ++r) {
+    for (int c = 0; c < analytic.cols(); ++c) {
+      const double difference = std::abs(analytic(r, c) - numeric(r, c));
+      if (!(difference <= tolerance)) entries.push_back({std::isnan(difference) ? HUGE_VAL : difference, {r, c}});
+    }
+  }
+  std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::ostringstream out;
+  out.precision(10);
+  for (std::size_t k = 0; k < entries.size() && k < 5; ++k) {
+    const int r = entries[k].second.first, c = entries[k].second.second;
+    out << "\n    entry (row " << r << " '" << name_of(row_names, r) << "', column " << c << " '"
+        << name_of(column_names, c) << "'): analytic " << analytic(r, c) << ", numeric " << numeric(r, c);
+  }
+  if (entries.size() > 5) out << "\n    and " << entries.size() - 5 << " more entries";
+  return out.str();
+}
+
+// "what differs from central differences by E at <point><entries>", or ""
+// when `reported` is within tolerance of `numeric`.
+inline std::string compare_with_differences(const std::string& what, const Eigen::MatrixXd& reported,
+                                            const Eigen::MatrixXd& numeric, double tolerance, const std::string& point,
+                                            const std::vector<std::string>& row_names,
+                                            const std::vector<std::string>& column_names) {
+  const double scale = std::max(1.0, numeric.cwiseAbs().maxCoeff());
+  const double error_norm = (reported - numeric).cwiseAbs().maxCoeff();
+  if (error_norm <= tolerance * scale) return "";
+  std::ostringstream out;
+  out << what << " differs from central differences by " << error_norm << " at " << point
+      << differing_entries(reported, numeric, tolerance * scale, row_names, column_names) << "\n    reported:\n"
+      << reported << "\n    numeric:\n"
+      << numeric;
+  return out.str();
+}
+
+}  // namespace internal
+
+inline std::vector<std::string> motion_model_failures(MotionModel& model, const Eigen::VectorXd& x,
+                                                      const Eigen::VectorXd& u, double dt,
+                                                      const ConformanceOptions& options = {}) {
+  std::vector<std::string> failures;
+  const int n = model.state_dim();
+  const int p = model.input_dim();
+  auto fail = [&failures](const std::string& what) { failures.push_back(what); };
+  const std::vector<std::string>& states = model.state_names();
+  const std::string point = internal::point_text(x, u, dt);
+
+  if (n <= 0) fail("state_dim() must be positive");
+  if (p < 0) fail("input_dim() cannot be negative");
+  if (static_cast<int>(states.size()) != n) fail("state_names().size() differs from state_dim()");
+  if (static_cast<int>(model.input_names().size()) != p) fail("input_names().size() differs from input_dim()");
+  std::set<std::string> names;
+  for (const auto& name : states) {
+    if (name.empty() || !names.insert(name).second) fail("state name '" + name + "' is empty or repeated");
+  }
+  names.clear();
+  for (const auto& name : model.input_names()) {
+    if (name.empty() || !names.insert(name).second) fail("input name '" + name + "' is empty or repeated");
+  }
+  if (x.size() != n || u.size() != p) {
+    fail("the test's x or u has the wrong size for this model");
+    return failures;
+  }
+
+  Eigen::VectorXd next(n);
+  if (!model.predict(x, u, 0.0, next)) {
+    fail(internal::failed(model, "predict(x, u, 0)"));
+  } else {
+    for (int i = 0; i < n; ++i) {
+      double difference = next[i] - x[i];
+      if (model.is_angle(i)) difference = wrap_angle(difference);
+      if (!(std::abs(difference) <= options.identity_tolerance * std::max(1.0, std::abs(x[i])))) {
+        std::ostringstream out;
+        out << "predict(x, u, 0) changed component " << i << " '" << internal::name_of(states, i) << "' from " << x[i]
+            << " to " << next[i];
+        fail(out.str());
+      }
+    }
+  }
+  Eigen::MatrixXd jacobian(n, n);
+  if (!model.jacobian(x, u, 0.0, jacobian)) {
+    fail(internal::failed(model, "jacobian(x, u, 0)"));
+  } else if (!jacobian.isApprox(Eigen::MatrixXd::Identity(n, n), 1e-9) &&
+             !((jacobian - Eigen::MatrixXd::Identity(n, n)).norm() <= 1e-9)) {
+    fail("jacobian(x, u, 0) is not the identity");
+  }
+
+  if (!model.predict(x, u, dt, next)) {
+    fail(internal::failed(model, "predict(x, u, dt)") + " at " + point);
+  } else if (!next.allFinite()) {
+    fail("predict(x, u, dt) is not finite: " + internal::first_non_finite(next, states, {"x_next"}) + " at " + point);
+  } else {
+    for (int i = 0; i < n; ++i) {
+      if (model.is_angle(i) && !(next[i] >= -kPi && next[i] < kPi)) {
+        fail("predict() left the angle '" + internal::name_of(states, i) + "' outside [-pi, pi)");
+      }
+    }
+  }
+
+  // Parameters.
+  const auto& info = model.parameter_info();
+  const Eigen::Index num_parameters = static_cast<Eigen::Index>(info.size());
+  std::vector<std::string> parameter_names;
+  for (const auto& entry : info) parameter_names.push_back(entry.name);
+  names.clear();
+  for (const auto& entry : info) {
+    if (entry.name.empty() || !names.insert(entry.name).second)
+      fail("parameter name '" + entry.name + "' is empty or repeated");
+    if (!(entry.lower_bound <= entry.upper_bound)) fail("parameter '" + entry.name + "' has lower bound > upper bound");
+  }
+  Eigen::VectorXd values(num_parameters);
+  model.get_parameters(values);
+  for (Eigen::Index i = 0; i < num_parameters; ++i) {
+    if (!(values[i] >= info[i].lower_bound && values[i] <= info[i].upper_bound)) {
+      fail("parameter '" + info[i].name + "' is outside its own bounds");
+    }
+  }
+  std::string error;
+  if (!model.set_parameters(values, &error)) {
+    fail("set_parameters(get_parameters()) was rejected: " + error);
+  } else {
+    Eigen::VectorXd again(num_parameters);
+    model.get_parameters(again);
+    if (again != values) fail("parameters do not round-trip through set/get");
+  }
+  if (num_parameters > 0) {
+    Eigen::VectorXd wrong_size(num_parameters + 1);
+    wrong_size.setZero();
+    if (model.set_parameters(wrong_size, &error)) fail("set_parameters() accepted a vector of the wrong size");
+    Eigen::VectorXd restored(num_parameters);
+    model.get_parameters(restored);
+    if (restored != values) fail("a rejected set_parameters() changed the model");
+    model.set_parameters(values, &error);
+  }
+
+  // Process noise.
+  Eigen::MatrixXd noise(n, n);
+  if (!model.process_noise(Eigen::MatrixXd::Identity(n, n), x, u, dt, noise)) {
+    fail(internal::failed(model, "process_noise()") + " at " + point);
+  } else if (!noise.allFinite()) {
+    fail("process_noise() is not finite: " + internal::first_non_finite(noise, states, states) + " at " + point);
+  } else if (!noise.isApprox(noise.transpose(), 1e-12)) {
+    fail("process_noise() is not symmetric");
+  } else if (Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(noise).eigenvalues().minCoeff() <
+             -1e-12 * std::max(1.0, noise.norm())) {
+    fail("process_noise() is not positive semidefinite");
+  }
+
+  // Jacobian against central differences of predict().
+  if (!model.jacobian(x, u, dt, jacobian)) {
+    fail(internal::failed(model, "jacobian(x, u, dt)") + " at " + point);
+  } else if (!jacobian.allFinite()) {
+    fail("jacobian() is not finite: " + internal::first_non_finite(jacobian, states, states) + " at " + point);
+  } else {
+    Eigen::MatrixXd numeric(n, n);
+    auto step = [&](const Eigen::VectorXd& xp, Eigen::VectorXd& out) { return model.predict(xp, u, dt, out); };
+    auto angle = [&model](int i) { return model.is_angle(i); };
+    if (!numeric_state_jacobian(step, angle, x, numeric)) {
+      fail(internal::failed(model, "numeric differentiation of predict()") + " at " + point);
+    } else {
+      const std::string differs = internal::compare_with_differences("jacobian()", jacobian, numeric,
+                                                                     options.jacobian_tolerance, point, states, states);
+      if (!differs.empty()) fail(differs);
+    }
+  }
+
+  // Parameter Jacobian, if provided, against differences over set_parameters().
+  Eigen::MatrixXd parameter_jacobian(n, num_parameters);
+  if (num_parameters > 0 && model.parameter_jacobian(x, u, dt, parameter_jacobian)) {
+    Eigen::MatrixXd numeric(n, num_parameters);
+    const bool evaluated = internal::numeric_parameter_jacobian(
+        model, values, n, [&](Eigen::VectorXd& out) { return model.predict(x, u, dt, out); },
+        [&](Eigen::Index i) { return model.is_angle(static_cast<int>(i)); }, &numeric);
+    if (!parameter_jacobian.allFinite()) {
+      fail("parameter_jacobian() is not finite: " +
+           internal::first_non_finite(parameter_jacobian, states, parameter_names) + " at " + point);
+    } else if (!evaluated) {
+      fail("could not perturb the parameters to check parameter_jacobian() (a parameter on its bound?)");
+    } else {
+      const std::string differs =
+          internal::compare_with_differences("parameter_jacobian()", parameter_jacobian, numeric,
+                                             options.jacobian_tolerance, point, states, parameter_names);
+      if (!differs.empty()) fail(differs);
+    }
+  } else if (num_parameters > 0) {
+    // false means "not provided" (the fitter then differences), unless the
+    // model said why it failed.
+    const char* reason = model.failure_reason();
+    if (reason != nullptr && reason[0] != '\0') fail("parameter_jacobian() failed: " + std::string(reason));
+  }
+
+  // Outputs, if any: unique names, finite values, and their parameter
+  // Jacobian, if provided, against differences over set_parameters().
+  const std::vector<std::string>& outputs = model.output_names();
+  const Eigen::Index num_outputs = static_cast<Eigen::Index>(outputs.size());
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    if (outputs[i].empty()) fail("output_names()[" + std::to_string(i) + "] is empty");
+    for (std::size_t j = 0; j < i; ++j) {
+      if (outputs[i] == outputs[j]) fail("output name '" + outputs[i] + "' appears twice");
+    }
+  }
+  Eigen::VectorXd y(num_outputs);
+  if (num_outputs > 0) {
+    if (!model.outputs(u, y)) {
+      fail(internal::failed(model, "outputs(u)") + " at u = " + internal::vector_text(u));
+    } else if (!y.allFinite()) {
+      fail("outputs(u) is not finite: " + internal::first_non_finite(y, outputs, {"y"}) +
+           " at u = " + internal::vector_text(u));
+    }
+  }
+  Eigen::MatrixXd output_jacobian(num_outputs, num_parameters);
+  const bool has_output_jacobian =
+      num_outputs > 0 && num_parameters > 0 && model.output_parameter_jacobian(u, output_jacobian);
+  if (num_outputs > 0 && num_parameters > 0 && !has_output_jacobian) {
+    const char* reason = model.failure_reason();
+    if (reason != nullptr && reason[0] != '\0') fail("output_parameter_jacobian() failed: " + std::string(reason));
+  }
+  if (has_output_jacobian) {
+    Eigen::MatrixXd numeric(num_outputs, num_parameters);
+    const bool evaluated = internal::numeric_parameter_jacobian(
+        model, values, num_outputs, [&](Eigen::VectorXd& out) { return model.outputs(u, out); },
+        [](Eigen::Index) { return false; }, &numeric);
+    if (!evaluated) {
+      fail("could not perturb the parameters to check output_parameter_jacobian() (a parameter on its bound?)");
+    } else {
+      const std::string differs = internal::compare_with_differences(
+          "output_parameter_jacobian()", output_jacobian, numeric, options.jacobian_tolerance,
+          "u = " + internal::vector_text(u), outputs, parameter_names);
+      if (!differs.empty()) fail(differs);
+    }
+  }
+  return failures;
+}
+
+// Where a model is used: each state and input between its bounds, dt between
+// its bounds. A single operating point misses what only happens elsewhere (a
+// NaN or a throw above some speed, a Jacobian entry wrong only when a state
+// is negative); the kit checks the region at many points.
+struct OperatingRegion {
+  Eigen::VectorXd x_min, x_max;
+  Eigen::VectorXd u_min, u_max;
+  double dt_min = 0.01;
+  double dt_max = 0.1;
+  int samples = 64;         // points drawn uniformly, besides the centre and the two extreme corners
+  std::uint64_t seed = 13;  // the same points on every run and platform
+};
+
+// One operating point.
+struct OperatingPoint {
+  Eigen::VectorXd x, u;
+  double dt = 0.0;
+};
+
+// The region's centre, its all-minimum and all-maximum corners and
+// `samples` uniformly drawn points (splitmix64: the same on every platform).
+inline std::vector<OperatingPoint> operating_points(const OperatingRegion& region) {
+  std::uint64_t state = region.seed;
+  auto uniform = [&state](double lo, double hi) {
+    state += 0x9E3779B97F4A7C15ull;
+    std::uint64_t z = state;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return lo + (hi - lo) * (static_cast<double>(z >> 11) * 0x1.0p-53);
+  };
+  std::vector<OperatingPoint> points;
+  const int count = 3 + std::max(0, region.samples);
+  for (int k = 0; k < count; ++k) {
+    OperatingPoint point;
+    if (k < 3) {
+      const double w = k == 0 ? 0.5 : (k == 1 ? 0.0 : 1.0);  // centre, then the two extreme corners
+      point.x = region.x_min + w * (region.x_max - region.x_min);
+      point.u = region.u_min + w * (region.u_max - region.u_min);
+      point.dt = region.dt_min + w * (region.dt_max - region.dt_min);
+    } else {
+      point.x.resize(region.x_min.size());
+      point.u.resize(region.u_min.size());
+      for (Eigen::Index i = 0; i < point.x.size(); ++i) point.x[i] = uniform(region.x_min[i], region.x_max[i]);
+      for (Eigen::Index i = 0; i < point.u.size(); ++i) point.u[i] = uniform(region.u_min[i], region.u_max[i]);
+      point.dt = uniform(region.dt_min, region.dt_max);
+    }
+    points.push_back(std::move(point));
+  }
+  return points;
+}
+
+}  // namespace testing
+}  // namespace sdk
+}  // namespace skidimm
+
+#endif  // SKIDIMM_SDK_TESTING_MODEL_CHECKS_H_
