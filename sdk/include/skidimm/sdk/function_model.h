@@ -64,11 +64,12 @@
 //      static void process_noise(const double* intensity, const double* x, const double* u, const double* p,
 //                                double dt, double* noise);  // n x n, row-major
 //
-// Angle states (VariableDoc::is_angle) are wrapped to [-pi, pi) after
-// predict. Failures never cross the plugin boundary: an exception thrown by
-// the spec becomes a rejected step with its text, and a value that is not
-// finite (a state, a Jacobian entry, an output, a noise entry) a rejected
-// step whose reason names the entry and the operating point, e.g.
+// The filter asks for the state Jacobian and then the prediction at the same
+// state; the jets that give the one give the other, so predict() right after
+// jacobian() costs a comparison (LastEvaluation below). Angle states
+// (VariableDoc::is_angle) are wrapped to [-pi, pi) after predict. Failures never cross the plugin boundary: an
+// exception thrown by the spec becomes a rejected step with its text, and a value that is not finite (a state, a
+// Jacobian entry, an output, a noise entry) a rejected step whose reason names the entry and the operating point, e.g.
 // "jacobian() is not finite: entry (row 1 'omega', column 0 'V') = nan at x = [...], u = [...], dt = 0.02".
 //
 // FunctionModel is a SizedMotionModel (sized_motion_model.h): the class form
@@ -81,9 +82,12 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <iterator>
 #include <memory>
@@ -156,6 +160,15 @@ struct HasProcessNoise<Spec,
                        std::void_t<decltype(Spec::process_noise(
                            std::declval<const double*>(), std::declval<const double*>(), std::declval<const double*>(),
                            std::declval<const double*>(), 0.0, std::declval<double*>()))>> : std::true_type {};
+
+// Whether all `count` values are finite, without a branch per value: a
+// non-finite one makes its product with 0 NaN, and NaN the sum.
+template <int kCount>
+bool all_finite(const double* values) {
+  double sum = 0.0;
+  for (int i = 0; i < kCount; ++i) sum += values[i] * 0.0;
+  return sum == sum;
+}
 
 // A row-major rows x cols matrix, as the spec's hand-written parts fill it
 // (a single column is stored the same either way; Eigen wants it ColMajor).
@@ -304,6 +317,7 @@ class FunctionModel final
       }
     }
     p_.fill(0.0);
+    evaluation_id_ = next_evaluation_id();
   }
 
   // --- Names and parameters ---
@@ -318,21 +332,32 @@ class FunctionModel final
   bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>& values, std::string* error) noexcept override {
     if (!check_parameter_values(info_, values, error)) return false;
     for (int i = 0; i < kNumParameters; ++i) p_[static_cast<std::size_t>(i)] = values[i];
+    evaluation_id_ = next_evaluation_id();
     return true;
   }
   // The flat parameters, in table order, as the spec's functions see them.
   const double* parameters() const noexcept { return p_.data(); }
 
   // --- Dynamics ---
+  // After jacobian() at the same point, the prediction its jets computed
+  // along (see LastEvaluation); else the spec's predict in doubles.
   bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const override {
-    Spec::predict(x.data(), input_data(u), p_.data(), dt, x_next->data());
-    for (int i = 0; i < kStates; ++i) {
-      if (!std::isfinite((*x_next)[i])) {
+    const LastEvaluation& last = last_evaluation();
+    if (last.matches(evaluation_id_, x, u, dt)) {
+      *x_next = Eigen::Map<const State>(last.next);
+    } else {
+      Spec::predict(x.data(), input_data(u), p_.data(), dt, x_next->data());
+    }
+    if (!internal::all_finite<kStates>(x_next->data())) {
+      for (int i = 0; i < kStates; ++i) {
+        if (std::isfinite((*x_next)[i])) continue;
         FailureText why;
         why << "predict() gave a state that is not finite: " << Spec::kStates[i].name << " = " << (*x_next)[i]
             << " (x_next[" << i << "])";
         return report_at(why, x.data(), input_data(u), dt);
       }
+    }
+    for (int i = 0; i < kStates; ++i) {
       if (Spec::kStates[i].is_angle) (*x_next)[i] = wrap_angle((*x_next)[i]);
     }
     return true;
@@ -357,9 +382,32 @@ class FunctionModel final
   void automatic_jacobian(const State& x, const Input& u, double dt, Jacobian* jacobian) const {
     using Jet = ceres::Jet<double, kStates>;
     Jet x_jet[kStates], out[kStates];
-    for (int i = 0; i < kStates; ++i) x_jet[i] = Jet(x[i], i);
+    for (int i = 0; i < kStates; ++i) {
+      x_jet[i].a = x[i];
+      x_jet[i].v = Eigen::Matrix<double, kStates, 1>::Unit(i);
+    }
     predict_with_double_parameters(x_jet, input_data(u), out, dt);
-    for (int r = 0; r < kStates; ++r) jacobian->row(r) = out[r].v.transpose();
+    LastEvaluation& last = last_evaluation();
+    for (int r = 0; r < kStates; ++r) {
+      last.next[r] = out[r].a;
+      for (int c = 0; c < kStates; ++c) (*jacobian)(r, c) = out[r].v[c];
+    }
+    last.remember(evaluation_id_, x, u, dt);
+  }
+
+  // Without the spec's own, intensity * dt (MotionModel's default), written
+  // straight into the caller's matrix: no copies to fixed size and back.
+  bool process_noise(const Eigen::Ref<const Eigen::MatrixXd>& intensity, const Eigen::Ref<const Eigen::VectorXd>& x,
+                     const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                     Eigen::Ref<Eigen::MatrixXd> noise) const noexcept override {
+    if constexpr (internal::HasProcessNoise<Spec>::value) {
+      return Base::process_noise(intensity, x, u, dt, noise);
+    } else {
+      for (int c = 0; c < kStates; ++c) {
+        for (int r = 0; r < kStates; ++r) noise(r, c) = intensity(r, c) * dt;
+      }
+      return true;
+    }
   }
 
   bool process_noise_fixed(const Covariance& intensity, const State& x, const Input& u, double dt,
@@ -545,6 +593,44 @@ class FunctionModel final
     PluginInfo info{};
   };
 
+  // The prediction the last automatic Jacobian computed along, on this
+  // thread. The filter asks for the Jacobian and then the prediction at the
+  // same state, input and step (ekf.h); the jets' values are that
+  // prediction, so predict() takes them instead of evaluating the spec
+  // again, as Ceres' AutoDiffCostFunction returns the residuals of its jet
+  // evaluation. They are the same bits as the spec's predict in doubles,
+  // except where it divides a value that depends on the state: a jet
+  // divides by multiplying with the reciprocal, which can differ in the last
+  // bit. Keyed by an id no other model or parameter vector ever had (a new
+  // one per set_parameters()), so a stale entry can never match; per
+  // thread, so models stay shareable between threads.
+  struct LastEvaluation {
+    // Plain arrays: a thread_local without a constructor is a plain TLS
+    // access, with no guard to test on every call.
+    std::uint64_t id;  // 0: none
+    double x[kStates], next[kStates], u[kInputs > 0 ? kInputs : 1], dt;
+
+    bool matches(std::uint64_t model_id, const State& x_now, const Input& u_now, double dt_now) const {
+      return id == model_id && std::memcmp(&dt, &dt_now, sizeof(double)) == 0 &&
+             std::memcmp(x, x_now.data(), sizeof(x)) == 0 &&
+             (kInputs == 0 || std::memcmp(u, input_data(u_now), sizeof(double) * kInputs) == 0);
+    }
+    void remember(std::uint64_t model_id, const State& x_now, const Input& u_now, double dt_now) {
+      id = model_id;
+      std::memcpy(x, x_now.data(), sizeof(x));
+      if (kInputs > 0) std::memcpy(u, input_data(u_now), sizeof(double) * kInputs);
+      dt = dt_now;
+    }
+  };
+  static LastEvaluation& last_evaluation() {
+    static thread_local LastEvaluation last;
+    return last;
+  }
+  static std::uint64_t next_evaluation_id() {
+    static std::atomic<std::uint64_t> next{1};
+    return next.fetch_add(1, std::memory_order_relaxed);
+  }
+
   // The spec's predict with T (double or a jet) states and double
   // parameters; a one-type spec gets its parameters as T.
   template <typename T>
@@ -558,7 +644,12 @@ class FunctionModel final
     }
   }
 
-  bool finite_jacobian(const Jacobian& jacobian, const double* x, const double* u, double dt) const {
+  // True if every entry is finite; else reports the first that is not.
+  // (One pass without branches; the search runs only on failure.)
+  static bool finite_jacobian(const Jacobian& jacobian, const double* x, const double* u, double dt) {
+    return internal::all_finite<kStates * kStates>(jacobian.data()) || report_not_finite_jacobian(jacobian, x, u, dt);
+  }
+  static bool report_not_finite_jacobian(const Jacobian& jacobian, const double* x, const double* u, double dt) {
     for (int r = 0; r < kStates; ++r) {
       for (int c = 0; c < kStates; ++c) {
         if (std::isfinite(jacobian(r, c))) continue;
@@ -568,7 +659,7 @@ class FunctionModel final
         return report_at(why, x, u, dt);
       }
     }
-    return true;
+    return false;
   }
 
   // Reports `why` with the operating point (x is null for outputs); false.
@@ -605,6 +696,7 @@ class FunctionModel final
   }
 
   Parameters p_;
+  std::uint64_t evaluation_id_ = 0;  // this model with these parameters (LastEvaluation)
   std::vector<std::string> states_, inputs_, outputs_;
   std::vector<ParameterInfo> info_;
 };

@@ -10,6 +10,7 @@
 //  * the parameters round-trip through get/set, with unique names, valid
 //    bounds and current values inside them;
 //  * process_noise(I, x, u, dt) is finite, symmetric positive semidefinite;
+//  * predict() right after jacobian() at the same point gives the same state;
 //  * the Jacobian is finite and matches central differences of predict(),
 //    and so does the parameter Jacobian if the model provides one;
 //  * outputs, if the model has any, are uniquely named and finite, and their
@@ -265,6 +266,30 @@ inline std::vector<std::string> motion_model_failures(MotionModel& model, const 
   } else if (Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(noise).eigenvalues().minCoeff() <
              -1e-12 * std::max(1.0, noise.norm())) {
     fail("process_noise() is not positive semidefinite");
+  }
+
+  // predict() is a function of its arguments: after jacobian() at the same
+  // point it gives the same state (to the last bits a model that computes
+  // both in one evaluation may round differently, function_model.h).
+  if (model.jacobian(x, u, dt, jacobian)) {
+    Eigen::VectorXd again(n);
+    if (model.predict(x, u, dt, again) && next.allFinite() && again.allFinite()) {
+      for (int i = 0; i < n; ++i) {
+        double difference = again[i] - next[i];
+        if (model.is_angle(i)) difference = wrap_angle(difference);
+        if (!(std::abs(difference) <= 1e-12 * std::max(1.0, std::abs(next[i])))) {
+          std::ostringstream out;
+          out.precision(17);
+          out << "predict(x, u, dt) gave " << internal::name_of(states, i) << " = " << next[i] << " alone but "
+              << again[i] << " right after jacobian(x, u, dt) at " << point
+              << ": a prediction must depend on its arguments only";
+          fail(out.str());
+          break;
+        }
+      }
+    }
+  } else {
+    model.failure_reason();  // reported below
   }
 
   // Jacobian against central differences of predict().
