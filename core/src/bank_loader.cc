@@ -630,8 +630,61 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry, const ModelP
   return bank;
 }
 
+namespace {
+
+// When a bank file does not parse, a mismatch of its `states` with a mode's
+// model is the likelier cause of what did not (a Q or R of the bank's size
+// but not the model's, an `observe` of a state the model lacks), and the
+// one to fix first: throws it, naming the mode, if the plugin declares its
+// states. Reads the file leniently and only what it needs; any trouble here
+// leaves the first error to be reported.
+void check_states_against_models(const fs::path& file, const std::vector<fs::path>& plugin_paths) {
+  std::vector<std::string> states;
+  std::vector<std::pair<std::string, int>> models;  // model name, line
+  std::vector<fs::path> bank_paths;
+  try {
+    const YAML::Node root = YAML::LoadFile(file.string());
+    if (!root.IsMap() || !root["states"] || !root["modes"] || !root["modes"].IsSequence()) return;
+    states = root["states"].as<std::vector<std::string>>();
+    for (const YAML::Node& mode : root["modes"]) {
+      if (mode.IsMap() && mode["model"]) {
+        models.emplace_back(mode["model"].as<std::string>(), YamlFields::line_of(mode["model"]));
+      }
+    }
+    if (const YAML::Node paths = root["plugin_paths"]) {
+      for (const std::string& p : paths.as<std::vector<std::string>>()) {
+        const fs::path path(p);
+        bank_paths.push_back(path.is_absolute() ? path : (fs::absolute(file).parent_path() / path).lexically_normal());
+      }
+    }
+  } catch (const std::exception&) {
+    return;
+  }
+  PluginRegistry registry(PluginRegistry::standard_search_path(plugin_paths, bank_paths));
+  for (std::size_t i = 0; i < models.size(); ++i) {
+    std::vector<std::string> declared;
+    try {
+      for (const PluginVariable& v : registry.find(models[i].first).states) declared.push_back(v.name);
+    } catch (const std::exception&) {
+      continue;  // not a plugin (a Python model, a typo): reported in its turn
+    }
+    if (declared.empty() || declared == states) continue;
+    throw ConfigError(file.string(), models[i].second, "modes[" + std::to_string(i) + "].model",
+                      "model " + models[i].first + " has states [" + join(declared) + "] but the bank declares [" +
+                          join(states) + "]; the bank's states, and so its matrices, must be the model's");
+  }
+}
+
+}  // namespace
+
 Bank Bank::load(const fs::path& file, const std::vector<fs::path>& plugin_paths) {
-  BankConfig config = load_bank_config(file);
+  BankConfig config;
+  try {
+    config = load_bank_config(file);
+  } catch (const ConfigError&) {
+    check_states_against_models(file, plugin_paths);
+    throw;
+  }
   PluginRegistry registry(PluginRegistry::standard_search_path(plugin_paths, config.plugin_paths));
   return instantiate(std::move(config), registry, nullptr);
 }

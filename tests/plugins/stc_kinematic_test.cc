@@ -3,6 +3,9 @@
 
 #include <cmath>
 
+#include "core/temp_files.h"
+#include "skidimm/bank.h"
+#include "skidimm/errors.h"
 #include "skidimm/plugin_registry.h"
 #include "skidimm/sdk/angles.h"
 #include "skidimm/sdk/testing/conformance.h"
@@ -82,6 +85,84 @@ TEST_F(StcKinematic, OutOfBoundsParametersAreRejected) {
   std::string error;
   EXPECT_FALSE(model->set_parameters(Eigen::Vector4d(0.9, 0.6, 0.165, 0.0), &error));
   EXPECT_THAT(error, ::testing::HasSubstr("'b'"));
+}
+
+// The error Bank::load reports for `text`, written as a bank file.
+std::string bank_error(const std::string& text) {
+  const std::filesystem::path file = skidimm_test::write_file(skidimm_test::test_directory() / "bank.yaml", text);
+  try {
+    Bank::load(file, {SKIDIMM_PLUGIN_DIR});
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+// A bank declaring [V, omega] but naming a pose model, whose Q is written
+// for the model: the Q has the wrong size for the bank, but the cause is the
+// states, and that is reported first.
+TEST(StcKinematicBank, StatesThatAreNotTheModelsAreReportedBeforeMatrixShapes) {
+  const std::string error = bank_error(R"(
+name: wrong_states
+states: [V, omega]
+inputs: [phi_dot_L, phi_dot_R]
+measurement:
+  observe: [V, omega]
+  R: {std: [0.05, 0.02]}
+transition: {mean_dwell_time: 10.0}
+initial:
+  covariance: {std: [0.5, 0.5]}
+shared: {r: 0.165, b: 0.555}
+modes:
+  - name: grip
+    model: stc_kinematic
+    params: {k: 0.9, m: 0.8}
+    Q: {diagonal: [0.01, 0.01, 0.001]}
+)");
+  EXPECT_THAT(error, ::testing::HasSubstr("bank.yaml:14: modes[0].model: model stc_kinematic has states [X, Y, "
+                                          "theta] but the bank declares [V, omega]"));
+  EXPECT_THAT(error, ::testing::Not(::testing::HasSubstr(".Q")));
+}
+
+const char* const kTwoModes = R"(
+name: slips
+states: [X, Y, theta]
+angles: [theta]
+inputs: [phi_dot_L, phi_dot_R]
+measurement:
+  observe: [X, Y, theta]
+  R: {std: [0.05, 0.05, 0.02]}
+transition: {mean_dwell_time: 10.0}
+initial:
+  covariance: {std: [0.5, 0.5, 0.1]}
+)";
+
+// r and b are one value for the whole bank: missing from `shared:`, or given
+// under a mode's params, the message says where they belong.
+TEST(StcKinematicBank, ABankLevelParameterMissingOrGivenPerModeIsSaidToBelongUnderShared) {
+  const std::string missing = bank_error(std::string(kTwoModes) + R"(shared: {r: 0.165}
+modes:
+  - name: grip
+    model: stc_kinematic
+    params: {k: 0.9, m: 0.8}
+    Q: {diagonal: [0.01, 0.01, 0.001]}
+)");
+  EXPECT_THAT(missing, ::testing::HasSubstr("modes[0].params: mode 'grip' (model stc_kinematic)"));
+  EXPECT_THAT(missing, ::testing::HasSubstr("missing parameter 'b' (a number): model stc_kinematic takes it from "
+                                            "the bank's 'shared:' block"));
+  const std::string per_mode = bank_error(std::string(kTwoModes) + R"(shared: {r: 0.165}
+modes:
+  - name: grip
+    model: stc_kinematic
+    params: {k: 0.9, m: 0.8, b: 0.555}
+    Q: {diagonal: [0.01, 0.01, 0.001]}
+  - name: slip
+    model: stc_kinematic
+    params: {k: 0.7, m: 0.5}
+    Q: {diagonal: [0.01, 0.01, 0.001]}
+)");
+  EXPECT_THAT(per_mode, ::testing::HasSubstr("modes[0].params.b: 'b' is one value for the whole bank in model "
+                                             "stc_kinematic: give it once under 'shared:', not per mode"));
 }
 
 }  // namespace
