@@ -22,9 +22,8 @@
 # Each mode is driven through four 20 s maneuvers with a fixed seed: skidpads
 # turning left and right (asymmetric slip turns differently each way), a
 # clothoid sweeping curvature from -1.2 to +1.2 1/m, and sinusoidal steering.
-# Seeds (scripts/seeds.sh, bundled_fit_seeds): ideal fits LTC 100-102, STC
-# 200-215; realistic fits LTC 110-112, STC 220-235; realistic tuning LTC
-# 120-122, STC 240-255; each times 10 plus the maneuver's index.
+# Seeds: scripts/seeds.sh (bundled_fit_first_seed), one per mode from each
+# set's first, times 10 plus the maneuver's index.
 # Logs go to ${SKIDIMM_FIT_LOGS:-build/fit_logs}.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -33,6 +32,7 @@ out=${1:-configs}
 logs=${SKIDIMM_FIT_LOGS:-build/fit_logs}
 skidimm=${SKIDIMM:-build/bin/skidimm}
 [ -x "$skidimm" ] || { echo "$0: build skidimm first (scripts/build.sh)" >&2; exit 1; }
+source scripts/seeds.sh
 mkdir -p "$out" "$out/realistic" "$logs" "$logs/realistic" "$logs/realistic_tune"
 
 maneuvers=(
@@ -116,11 +116,11 @@ fit() {  # fit STARTING_BANK OUTPUT REPORT ARGS...
 ideal() {
   echo "== ideal sensors: LTC terrains" >&2
   local ltc stc stc4
-  read -r -a ltc <<<"$(ltc_logs "$logs" 100 "$ideal_sensors")"
+  read -r -a ltc <<<"$(ltc_logs "$logs" "$(bundled_fit_first_seed ideal ltc)" "$ideal_sensors")"
   fit configs/physical/ltc_terrains.yaml "$out/ltc_terrains.yaml" "$logs/ltc_terrains.report" --window 0.5 "${ltc[@]}"
   fit configs/physical/ltc_shared.yaml "$out/ltc_shared.yaml" "$logs/ltc_shared.report" --window 0.5 --shared "${ltc[@]}"
   echo "== ideal sensors: STC slip modes" >&2
-  read -r -a stc <<<"$(stc_logs "$logs" 200 "$ideal_sensors")"
+  read -r -a stc <<<"$(stc_logs "$logs" "$(bundled_fit_first_seed ideal stc)" "$ideal_sensors")"
   read -r -a stc4 <<<"$(four_of "${stc[@]}")"
   for model in slip sided; do
     fit "configs/physical/stc_${model}16.yaml" "$out/stc_${model}16.yaml" "$logs/stc_${model}16.report" --window 1 "${stc[@]}"
@@ -131,11 +131,13 @@ ideal &
 ideal_job=$!
 
 echo "== realistic sensors: simulating fitting and tuning logs" >&2
-read -r -a ltc_fit <<<"$(ltc_logs "$logs/realistic" 110 "$realistic_sensors")"
-read -r -a stc_fit <<<"$(stc_logs "$logs/realistic" 220 "$realistic_sensors")"
+read -r -a ltc_fit <<<"$(ltc_logs "$logs/realistic" "$(bundled_fit_first_seed realistic ltc)" "$realistic_sensors")"
+read -r -a stc_fit <<<"$(stc_logs "$logs/realistic" "$(bundled_fit_first_seed realistic stc)" "$realistic_sensors")"
 read -r -a stc4_fit <<<"$(four_of "${stc_fit[@]}")"
-read -r -a ltc_tune <<<"$(ltc_logs "$logs/realistic_tune" 120 "$realistic_sensors")"
-read -r -a stc_tune <<<"$(stc_logs "$logs/realistic_tune" 240 "$realistic_sensors")"
+read -r -a ltc_tune <<<"$(ltc_logs "$logs/realistic_tune" "$(bundled_fit_first_seed realistic_tune ltc)" \
+  "$realistic_sensors")"
+read -r -a stc_tune <<<"$(stc_logs "$logs/realistic_tune" "$(bundled_fit_first_seed realistic_tune stc)" \
+  "$realistic_sensors")"
 read -r -a stc4_tune <<<"$(four_of "${stc_tune[@]}")"
 fitted="$logs/realistic/fitted"
 mkdir -p "$fitted"

@@ -28,7 +28,7 @@ check_disjoint "$eval_seeds" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(dec
 # The decision's settings are weighed on seeds of their own: none may be a fitting one either.
 check_disjoint "$(decision_default_seeds)" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(model_selection_seeds)" "$(window_protocol_seeds)"
 first_seed=$(echo "$eval_seeds" | head -n 1)
-rm -rf "$work/logs" "$work/eval" "$work/banks" "$work/kinematics" "$work/decision_defaults"  # a rerun must not score last run's logs
+rm -rf "$work/logs" "$work/eval" "$work/banks" "$work/kinematics" "$work/decision_defaults" "$work/model_selection"  # a rerun must not score last run's logs
 mkdir -p "$work/logs" "$work/eval" "$work/banks" "$work/kinematics" "$figures/realistic"
 
 scenarios=(ltc_singular_crushed_concrete ltc_singular_grass ltc_singular_asphalt ltc_switching
@@ -143,6 +143,33 @@ choose_all() {  # choose_all SENSORS
 }
 run_both choose_all
 
+# The traction banks on the spirals kept for choices about their model
+# (model_selection_seeds), next to the scored seeds: the model was reworked
+# while its scores on the scored seeds were read (results.md, "How the
+# traction model was chosen").
+echo "== the traction banks on the model-selection seeds" >&2
+selection="$work/model_selection"
+rm -rf "$selection"
+mkdir -p "$selection/eval"
+selection_scenarios=(stc_singular_no_slip stc_singular_slip_FL_FR stc_singular_slip_FR_RR stc_singular_slip_FL_FR_RL_RR)
+for scenario in "${selection_scenarios[@]}"; do
+  mkdir -p "$selection/logs/$scenario"
+  for seed in $(model_selection_seeds); do
+    "$skidimm" simulate -q --scenario "$(scenario_file realistic "$scenario")" \
+      --output "$selection/logs/$scenario/seed_$seed.csv" --seed "$seed"
+  done
+done
+select_bank() {  # select_bank BANK
+  local inputs=() scenario
+  for scenario in "${selection_scenarios[@]}"; do inputs+=(--input "$selection/logs/$scenario"); done
+  "$skidimm" eval --bank "$(bank_file realistic "$1")" "${inputs[@]}" --json \
+    >"$selection/eval/stc_singular__realistic__$1.json"
+}
+select_bank stc_traction4 &
+selection_job=$!
+select_bank stc_traction16
+wait "$selection_job"
+
 # What the evaluation maneuver lets a filter see: every wheel configuration
 # driven through the spiral (noise-free truth columns; the seed only moves
 # the sample times).
@@ -184,5 +211,6 @@ for s in stc_singular_no_slip stc_singular_slip_FL_FR stc_singular_slip_FR_RR st
 done
 
 "$python" scripts/results_tables.py "$work/eval" "$results" "$seeds" "$work/kinematics" \
-  --decision-defaults "$choice/eval" --compiled-defaults "$compiled_defaults"
+  --decision-defaults "$choice/eval" --compiled-defaults "$compiled_defaults" \
+  --model-selection "$selection/eval" --model-selection-seeds "$(model_selection_seeds | tr '\n' ' ')"
 echo "updated $results and $figures/" >&2

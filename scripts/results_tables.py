@@ -4,6 +4,7 @@ from `skidimm eval --json` outputs and simulated logs. Standard library only.
 
     results_tables.py <eval dir> <results.md> <seeds> [<kinematics dir>]
         [--decision-defaults DIR] [--compiled-defaults ENTER,LEAVE,HOLD]
+        [--model-selection DIR --model-selection-seeds "SEEDS"]
 
 Eval outputs are named EXPERIMENT__SENSORS__BANK.json (and
 ...__smoothed.json), SENSORS being "ideal" or "realistic". The kinematics
@@ -411,6 +412,28 @@ def kinematics_table(directory, window=5.0, duration=30.0):
         "one run per configuration; the spiral's radius grows from 0.6 m to 4.2 m).\n")
 
 
+def model_selection_table(directory, selection_seeds, all_evals, seeds):
+    """The traction banks on the spirals kept for choices about their model
+    (model_selection_seeds), next to the same banks on the scored seeds."""
+    scored = {bank: data for sensors, bank, data, _ in all_evals.get("stc_singular", []) if sensors == "realistic"}
+    rows = [f"| bank | scenario | accuracy on the model-selection seeds {selection_seeds[0]}-{selection_seeds[-1]} "
+            f"(mean ± sd) | accuracy on the scored seeds (mean ± sd) | difference |", "|---|---|---|---|---|"]
+    for path in sorted(glob.glob(os.path.join(directory, "*.json")), key=lambda p: BANK_ORDER.index(
+            os.path.basename(p)[:-5].split("__")[2])):
+        bank = os.path.basename(path)[:-5].split("__")[2]
+        with open(path) as f:
+            data = json.load(f)
+        for group, g in data["groups"].items():
+            if bank not in scored or group not in scored[bank]["groups"]:
+                sys.exit(f"{path}: no scored result of {bank} on {group} to compare with")
+            a, b = g["accuracy_per_log"], scored[bank]["groups"][group]["accuracy_per_log"]
+            rows.append(f"| {bank} | {group} | {fmt(a['mean'], 3)} ± {fmt(a['std'], 3)} | "
+                        f"{fmt(b['mean'], 3)} ± {fmt(b['std'], 3)} | {a['mean'] - b['mean']:+.3f} |")
+    return "\n".join(rows) + (
+        f"\n\nMost likely mode, a Husky's sensors; {len(selection_seeds)} model-selection seeds and {seeds} scored "
+        "seeds per scenario (the same scenarios, `configs/scenarios/realistic/`).\n")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("eval_dir")
@@ -420,6 +443,9 @@ def main():
     parser.add_argument("--decision-defaults", metavar="DIR")
     parser.add_argument("--compiled-defaults", metavar="ENTER,LEAVE,HOLD", default="0.9,0.05,1",
                         help="skidimm's decision defaults (DecisionConfig), as a run's summary names them")
+    parser.add_argument("--model-selection", metavar="DIR",
+                        help="eval outputs of the traction banks on the model-selection seeds")
+    parser.add_argument("--model-selection-seeds", metavar="SEEDS", help="those seeds, space-separated")
     args = parser.parse_args()
     defaults = tuple(float(x) for x in args.compiled_defaults.split(","))
     if len(defaults) != 3:
@@ -433,6 +459,9 @@ def main():
         blocks["decision_targets"] = decision_targets_table(evals, seeds, defaults)
     if args.decision_defaults:
         blocks["decision_defaults"] = decision_defaults_table(args.decision_defaults, defaults)
+    if args.model_selection:
+        blocks["model_selection"] = model_selection_table(
+            args.model_selection, [int(x) for x in args.model_selection_seeds.split()], evals, seeds)
     if args.kinematics_dir:
         table = kinematics_table(args.kinematics_dir)
         if table:

@@ -2,7 +2,7 @@
 # The test command: installs dependencies, builds everything, runs every test,
 # then the sanitizer stage (scripts/check.sh: a clang build with ASan+UBSan,
 # the suite under it without the reproduction tests, and each fuzz target for
-# SKIDIMM_FUZZ_SECONDS, 30 here). CI runs this script.
+# SKIDIMM_FUZZ_SECONDS, set below). CI runs this script.
 #   ./scripts/test.sh
 # SKIDIMM_CHECK=0 skips the sanitizer stage; SKIDIMM_CHECK_ARGS is passed to
 # check.sh (e.g. --tsan for the ThreadSanitizer build as well).
