@@ -63,10 +63,11 @@ if [ "$asan" -eq 1 ]; then
   cmake --build "$dir" -j "$jobs"
   stamp "ASan+UBSan test suite (without the reproduction tests)"
   export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:strict_string_checks=1:detect_stack_use_after_return=1}
-  # Not the OutOfTree tests either: they install this build and link a plain
-  # (uninstrumented) program against it, which needs the sanitizer runtime
-  # it does not have; they test packaging, which the Release suite covers.
-  (cd "$dir" && ctest --output-on-failure -j "$jobs" -E 'Reproduced|reproduce|OutOfTree')
+  # Not the OutOfTree and Install tests either: they install this build (and
+  # OutOfTree links a plain, uninstrumented program against it, which needs
+  # the sanitizer runtime it does not have); they test packaging, which the
+  # Release suite covers.
+  (cd "$dir" && ctest --output-on-failure -j "$jobs" -E 'Reproduced|reproduce|OutOfTree|Install\.')
   for fuzzer in bank_loader_fuzzer log_reader_fuzzer scenario_loader_fuzzer estimates_reader_fuzzer mcap_reader_fuzzer \
     cdr_reader_fuzzer; do
     stamp "fuzzing $fuzzer for ${fuzz_seconds} s"

@@ -10,9 +10,18 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 build=${SKIDIMM_BUILD_DIR:-$root/build}
 out="$build/demo"
 
+echo "== skidimm demo: about 10 minutes the first time on a fresh two-core machine (Debian packages, then the" >&2
+echo "   build, whose progress shows below); later runs rebuild only what changed and take seconds." >&2
 "$root/scripts/setup.sh"
-echo "== building skidimm" >&2
-"$root/scripts/build.sh" --target skidimm skidimm_ltc_linear skidimm_ltc_shared skidimm_stc_kinematic >/dev/null
+echo "== building skidimm (the tool and the plugins the demo uses; full log: $build/demo_build.log)" >&2
+mkdir -p "$build"
+# Only make's progress lines on the terminal; on a failure, the end of the log.
+if ! "$root/scripts/build.sh" --target skidimm skidimm_ltc_linear skidimm_ltc_shared skidimm_stc_kinematic 2>&1 |
+  tee "$build/demo_build.log" | { grep --line-buffered -E '^\[ *[0-9]+%\]' || true; } >&2; then
+  tail -n 40 "$build/demo_build.log" >&2
+  echo "demo: the build failed (full log: $build/demo_build.log)" >&2
+  exit 1
+fi
 mkdir -p "$out"
 skidimm="$build/bin/skidimm"
 bank="$root/configs/ltc_terrains.yaml"
@@ -31,3 +40,4 @@ echo "== evaluation against the simulator's truth" >&2
 echo >&2
 echo "== figure: $out/ltc_switching.png" >&2
 echo "   per-row estimates: $out/ltc_switching_estimates.csv" >&2
+echo "   to install (the demo built only what it runs): ./scripts/build.sh && cmake --install $build --prefix ~/.local" >&2

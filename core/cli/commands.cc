@@ -89,6 +89,15 @@ void print_rejections(const Bank& bank, const RunSummary& summary) {
 
 }  // namespace
 
+LogArgumentOptions unpaired_runs(const char* command, bool skip) {
+  LogArgumentOptions options;
+  options.skip_unpaired = skip;
+  options.skipped = [command](const std::string& message) {
+    std::cerr << command << ": " << printable(message) << "\n";
+  };
+  return options;
+}
+
 int run(const RunOptions& options) {
   std::optional<ros::LiveEstimates> live;
   std::optional<EstimatesWriter> writer;

@@ -12,6 +12,7 @@
 #include <optional>
 
 #include "skidimm/errors.h"
+#include "skidimm/log_arguments.h"
 #include "skidimm/printable.h"
 #include "skidimm/run_overrides.h"
 
@@ -37,6 +38,10 @@ int report_errors(const char* command, Body&& body) {
   }
   return kExitFailure;
 }
+
+// How `command`'s log patterns treat runs some of their files lack: with
+// --skip-unpaired (`skip`) each is left out with a note on stderr.
+LogArgumentOptions unpaired_runs(const char* command, bool skip);
 
 struct RunOptions {
   std::filesystem::path bank;
@@ -83,6 +88,7 @@ struct FitCommandOptions {
   std::vector<std::string> held_out;  // same form, evaluated after the fit
   std::string mode;                   // the mode unlabelled logs belong to
   std::string name;                   // output name of that mode (a new terrain)
+  bool skip_unpaired = false;         // leave out a pattern's runs that some of its files lack
   bool shared = false;                // fit the bank-level parameters jointly
   double rate = 0.0;                  // Hz; > 0 overrides the bank's sampling.rate
   std::string objective = "likelihood";  // likelihood or window
@@ -105,6 +111,7 @@ struct TuneCommandOptions {
   std::filesystem::path bank;
   std::vector<std::string> logs;  // [MODE=]FILE[@OFFSET][+FILE...], directories and patterns
   std::string mode;               // the mode logs without MODE= (and without a truth column) show
+  bool skip_unpaired = false;     // leave out a pattern's runs that some of its files lack
   double rate = 0.0;
   std::string objectives = "likelihood";  // comma-separated fit objectives to compare
   std::string knobs;                      // comma-separated settings to tune; empty: the default set
@@ -137,6 +144,7 @@ struct EvalOptions {
   std::vector<std::string> inputs;     // logs: FILE[+FILE...] or directories; each argument is a group
   std::vector<std::string> estimates;  // `skidimm run` outputs (files or directories) instead of running
   std::vector<std::filesystem::path> plugin_paths;
+  bool skip_unpaired = false;  // leave out a pattern's runs that some of its files lack
   bool smooth = false;
   std::optional<double> lag;
   bool json = false;

@@ -28,8 +28,9 @@ int eval(const EvalOptions& options) {
       decision_made = decide ? "made again: " + evaluation::decision_settings_text(*decide)
                              : std::string("the files' decision column");
       groups = evaluation::evaluate_estimate_groups(options.estimates, bank ? &*bank : nullptr,
-                                                    decide ? &*decide : nullptr);
-      classes = evaluation::estimates_seen(groups);
+                                                    decide ? &*decide : nullptr,
+                                                    unpaired_runs("skidimm eval", options.skip_unpaired));
+      classes = evaluation::classes_of(groups);
     } else {
       if (options.bank.empty()) throw Error("give --bank with --input, or --estimates");
       Bank bank = Bank::load(options.bank, options.plugin_paths);
@@ -38,10 +39,11 @@ int eval(const EvalOptions& options) {
       classes = bank.config.class_names();
       states = bank.config.state_names;
       groups = evaluation::evaluate_log_groups(bank, options.inputs, sampling_of(bank.config, options.overrides.rate),
-                                               estimator_options(options.smooth, options.lag));
+                                               estimator_options(options.smooth, options.lag),
+                                               unpaired_runs("skidimm eval", options.skip_unpaired));
     }
     if (groups.empty()) throw Error("nothing to evaluate: give --input (with --bank) or --estimates");
-    std::cout << (options.json ? evaluation::report_json(groups, states)
+    std::cout << (options.json ? evaluation::report_json(groups, classes, states)
                                : evaluation::report_tables(groups, classes, states, decision_made));
     return kExitOk;
   });

@@ -34,7 +34,11 @@ std::string fixed(double v, int digits = 4) {
 }
 
 void print_report(const BankConfig& config, const std::string& name, const ModeLogs& data, const FitReport& r) {
-  std::cerr << "mode '" << name << "': " << data.logs.size() << " log(s), " << r.residuals << " residuals, "
+  const int logs = fitting::log_count(data);
+  const int segments = static_cast<int>(data.logs.size());
+  std::cerr << "mode '" << name << "': " << logs << " log(s)"
+            << (segments != logs ? " (" + std::to_string(segments) + " segments)" : std::string()) << ", "
+            << r.residuals << " residuals, "
             << r.derivatives << " derivatives, " << r.iterations << " iterations, cost " << fixed(r.initial_cost)
             << " -> " << fixed(r.final_cost) << ", condition number " << fixed(r.condition_number, 3) << "\n";
   // A standard deviation is NaN when Ceres could not compute the covariance
@@ -68,7 +72,9 @@ int fit(const FitCommandOptions& options) {
     Bank bank = Bank::load(options.bank, options.plugin_paths);
     const BankConfig& config = bank.config;
     const SamplingConfig sampling = sampling_of(config, options.rate);
-    const std::vector<ModeLogs> data = fitting::load_mode_logs(config, options.logs, options.mode, sampling, "--log");
+    const LogArgumentOptions expansion = unpaired_runs("skidimm fit", options.skip_unpaired);
+    const std::vector<ModeLogs> data =
+        fitting::load_mode_logs(config, options.logs, options.mode, sampling, "--log", expansion);
     if (data.empty()) throw Error("no logs given (--log)");
     if (options.fit_r && !options.append_to.empty()) {
       throw Error("--fit-r fits the bank's R, which --append-to cannot change: use --output-bank");
@@ -92,14 +98,15 @@ int fit(const FitCommandOptions& options) {
     if (options.fit_r) std::cerr << "fitted bank R = " << fitting::format_matrix(bank.config.measurement.r) << "\n";
     std::vector<fitting::FittedMode> fitted;
     for (const ModeLogs& d : data) {
-      fitted.push_back(fitting::FittedMode{d.mode, static_cast<int>(d.logs.size()), reports[d.mode]});
+      fitted.push_back(fitting::FittedMode{d.mode, fitting::log_count(d), reports[d.mode]});
       print_report(config, fitting::output_mode_name(config, request, d.mode), d, fitted.back().report);
     }
     const std::string entries = fitting::format_fitted_entries(bank, fitted, request);
 
     for (const std::string& text : options.held_out) {
       // The argument's logs are read on their own threads.
-      for (const ModeLogs& held : fitting::load_mode_logs(config, {text}, options.mode, sampling, "--held-out")) {
+      for (const ModeLogs& held :
+           fitting::load_mode_logs(config, {text}, options.mode, sampling, "--held-out", expansion)) {
         FitReport r;
         try {
           r = fitting::evaluate(bank, held);

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "documentation.h"
 #include "skidimm/log_arguments.h"
 #include "skidimm/log_io.h"
 #include "skidimm/output_file.h"
@@ -23,10 +24,32 @@
 namespace fs = std::filesystem;
 using namespace skidimm::cli;
 
+namespace {
+
+const char* const kSkipUnpaired =
+    "A pattern pairs its files by run key ('pro_*.csv+imu_*.csv': pro_02 with imu_02); leave out, with a note, "
+    "the runs some of its files lack, instead of an error listing them";
+
+// A subcommand's --help ends with runnable examples (on the bundled banks and
+// logs, bundled_path) and the page that says more.
+std::string examples(const std::vector<std::string>& commands, const std::string& section) {
+  std::string text = "Examples:\n";
+  for (const std::string& command : commands) text += "  " + command + "\n";
+  return text + "More: " + documentation_path("docs/cli.md") + section;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
-  CLI::App app{"skidimm " SKIDIMM_VERSION ": Interacting Multiple Model identification of skid-steer traction modes"};
+  CLI::App app{"skidimm " SKIDIMM_VERSION ": Interacting Multiple Model identification of skid-steer traction modes",
+               "skidimm"};
   app.require_subcommand(1);
   app.set_version_flag("--version", SKIDIMM_VERSION);
+  app.footer("Each command's --help ends with examples. Documentation: " + documentation_path("README.md") +
+             " (start here), " + documentation_path("docs/cli.md") + " (every command and option)");
+  // Bundled files the examples use, and one log the examples write and read.
+  const std::string terrains = bundled_path("configs/ltc_terrains.yaml");
+  const std::string switching = bundled_path("configs/examples/ltc_switching.csv");
 
   std::vector<std::string> plugin_paths;
   auto add_plugin_path = [&plugin_paths](CLI::App* command) {
@@ -67,14 +90,18 @@ int main(int argc, char** argv) {
   RunOptions run_options;
   std::string bank, output;
   CLI::App* run = app.add_subcommand("run", "Run a bank of modes over a log and write per-step estimates");
-  run->add_option("--bank,-b", bank, "Bank file (YAML), see docs/bank-format.md")->required()->check(CLI::ExistingFile);
+  run->footer(examples({"skidimm run --bank " + terrains + " --input " + switching + " --output estimates.csv",
+                        "skidimm run --bank " + terrains + " --input log.csv --smooth --output smoothed.csv"},
+                       "#skidimm-run"));
+  run->add_option("--bank,-b", bank, "Bank file (YAML), see " + documentation_path("docs/bank-format.md"))->required()->check(CLI::ExistingFile);
   run->add_option("--input,-i", run_options.inputs,
                   "[MODE=]FILE[@OFFSET][+FILE...]: the log's files; repeat for more files of the same log "
                   "(merged by time, or row by row with the bank's sampling.join: rows)")
       ->required();
   add_rate(run, &run_options.overrides.rate);
   run->add_flag("--smooth", run_options.smooth,
-                "Write probabilities and states smoothed over the whole log (offline labelling; docs/engine.md)");
+                "Write probabilities and states smoothed over the whole log (offline labelling; " +
+                    documentation_path("docs/engine.md") + ")");
   run->add_option("--lag", run_options.lag,
                   "Write each step smoothed with this many seconds of later data (online, delayed)")
       ->check(CLI::NonNegativeNumber);
@@ -87,11 +114,11 @@ int main(int argc, char** argv) {
   run->add_flag("--quiet,-q", run_options.quiet, "No summary or progress on stderr");
   run->add_option("--innovation-gate", run_options.overrides.innovation_gate,
                   "Chi-square innovation gate: probability a consistent measurement passes, in (0, 1); 0: none "
-                  "(overrides the bank's innovation_gate; docs/engine.md)")
+                  "(overrides the bank's innovation_gate; " + documentation_path("docs/engine.md") + ")")
       ->check(CLI::Range(0.0, 1.0));
   run->add_option("--likelihood-weight", run_options.overrides.likelihood_weight,
                   "Weight of each step's evidence in the mode probabilities, in (0, 1]; 1: the plain IMM "
-                  "(overrides the bank's likelihood_weight; docs/engine.md)")
+                  "(overrides the bank's likelihood_weight; " + documentation_path("docs/engine.md") + ")")
       ->check(CLI::Validator(
           [](std::string& text) {
             double weight = 0.0;
@@ -105,8 +132,8 @@ int main(int argc, char** argv) {
   std::string run_plot;
   run->add_option("--plot", run_plot, "Also draw the mode probabilities to this .png or .svg (needs gnuplot)");
   run->add_option("--serve", run_options.serve,
-                  "[HOST:]PORT: publish each step live to Foxglove (its WebSocket protocol; docs/foxglove.md); "
-                  "HOST 127.0.0.1 unless given, PORT 0 for any free port");
+                  "[HOST:]PORT: publish each step live to Foxglove (its WebSocket protocol; " +
+                      documentation_path("docs/foxglove.md") + "); HOST 127.0.0.1 unless given, PORT 0 for any free port");
   run->add_option("--serve-speed", run_options.serve_speed,
                   "With --serve, replaying a file: times real time (default 1); 0 as fast as the filter runs")
       ->check(CLI::NonNegativeNumber);
@@ -116,6 +143,7 @@ int main(int argc, char** argv) {
 
   std::string validate_bank;
   CLI::App* validate = app.add_subcommand("validate", "Check a bank file and its plugins without running it");
+  validate->footer(examples({"skidimm validate " + terrains}, "#skidimm-validate"));
   validate->add_option("bank", validate_bank, "Bank file (YAML)")->required();
   add_plugin_path(validate);
 
@@ -123,7 +151,12 @@ int main(int argc, char** argv) {
   std::string scenario, simulate_output;
   CLI::App* simulate =
       app.add_subcommand("simulate", "Simulate a skid-steer robot driving a scenario and write its sensor log");
-  simulate->add_option("--scenario,-s", scenario, "Scenario file (YAML), see docs/simulation.md")
+  simulate->footer(
+      examples({"skidimm simulate --scenario " + bundled_path("configs/scenarios/ltc_switching.yaml") +
+                    " --output log.csv --seed 7",
+                "skidimm simulate --bank " + terrains + " --inputs-from " + switching + " --output model_log.csv"},
+               "#skidimm-simulate"));
+  simulate->add_option("--scenario,-s", scenario, "Scenario file (YAML), see " + documentation_path("docs/simulation.md"))
       ->check(CLI::ExistingFile);
   std::string simulate_bank;
   simulate->add_option("--bank,-b", simulate_bank,
@@ -142,6 +175,10 @@ int main(int argc, char** argv) {
   FitCommandOptions fit_options;
   std::string fit_bank, entry_output, append_to, bank_output;
   CLI::App* fit = app.add_subcommand("fit", "Fit the parameters and process noise of a bank's modes to logs");
+  fit->footer(examples({"skidimm fit --bank " + terrains + " --log " + switching + " --output-bank fitted.yaml",
+                        "skidimm fit --bank " + terrains + " --log log.csv --objective window --window 0.5 "
+                        "--output-entry entries.yaml"},
+                       "#skidimm-fit"));
   fit->add_option("--bank,-b", fit_bank, "Bank file giving the models, columns and measurement noise")
       ->required()
       ->check(CLI::ExistingFile);
@@ -151,11 +188,12 @@ int main(int argc, char** argv) {
       ->required();
   fit->add_option("--mode,-m", fit_options.mode, "The mode that logs without MODE= show; its values start the fit");
   fit->add_option("--name", fit_options.name, "Name of the fitted --mode in the output (e.g. a new terrain)");
+  fit->add_flag("--skip-unpaired", fit_options.skip_unpaired, kSkipUnpaired);
   fit->add_flag("--shared", fit_options.shared,
                 "Also fit the bank-level (shared:) parameters jointly over every mode's logs, then each mode's own");
   fit->add_option("--objective", fit_options.objective,
                   "likelihood (default): each mode's own filter innovation likelihood; window: prediction error "
-                  "over windows started from measured states (see docs/fitting.md)")
+                  "over windows started from measured states (see " + documentation_path("docs/fitting.md") + ")")
       ->check(CLI::IsMember({"likelihood", "window"}));
   fit->add_flag("--fit-r", fit_options.fit_r,
                 "Likelihood objective: also fit one measurement noise R (diagonal) for the whole bank");
@@ -187,6 +225,9 @@ int main(int argc, char** argv) {
   CLI::App* tune = app.add_subcommand("tune",
                                       "Choose noise scales, dwell time, floor, likelihood weight and fit objective by "
                                       "cross-validation over labelled logs");
+  tune->footer(examples({"skidimm tune --bank " + terrains + " --log " + switching +
+                             " --log log.csv --objective none --tune dwell --no-assess --output-bank tuned.yaml"},
+                        "#skidimm-tune"));
   tune->add_option("--bank,-b", tune_bank, "Bank giving the models, columns and starting values")
       ->required()
       ->check(CLI::ExistingFile);
@@ -195,6 +236,7 @@ int main(int argc, char** argv) {
                    "cross-validation group; repeatable")
       ->required();
   tune->add_option("--mode,-m", tune_options.mode, "The mode logs without MODE= show");
+  tune->add_flag("--skip-unpaired", tune_options.skip_unpaired, kSkipUnpaired);
   add_rate(tune, &tune_options.rate);
   tune->add_option("--objective", tune_options.objectives,
                    "Fit objectives to compare, comma-separated: likelihood, window, none (the bank's models as they "
@@ -241,6 +283,9 @@ int main(int argc, char** argv) {
   EvalOptions eval_options;
   std::string eval_bank;
   CLI::App* eval = app.add_subcommand("eval", "Measure how well a bank identifies the true modes of logs");
+  eval->footer(examples({"skidimm eval --bank " + terrains + " --input " + switching + " --input log.csv",
+                         "skidimm eval --estimates estimates.csv --decision-enter 0.8 --json"},
+                        "#skidimm-eval"));
   eval->add_option("--bank,-b", eval_bank, "Bank to run over the logs")->check(CLI::ExistingFile);
   eval->add_option("--input,-i", eval_options.inputs,
                    "[MODE=]FILE[@OFFSET][+FILE...], a directory or a '*' pattern of logs; each argument is one group "
@@ -252,12 +297,17 @@ int main(int argc, char** argv) {
   eval->add_option("--estimates,-e", eval_options.estimates,
                    "Evaluate `skidimm run` outputs (files or directories) instead of running a bank");
   add_decision_options(eval, &eval_options.overrides);
+  eval->add_flag("--skip-unpaired", eval_options.skip_unpaired, kSkipUnpaired);
   eval->add_flag("--json", eval_options.json, "Print JSON instead of tables");
   add_plugin_path(eval);
 
   PlotOptions plot_options;
   std::string plot_estimates, plot_output;
   CLI::App* plot = app.add_subcommand("plot", "Draw mode probabilities over time (PNG or SVG, needs gnuplot)");
+  plot->footer(examples({"skidimm plot --estimates estimates.csv --output probabilities.png",
+                         "skidimm plot --estimates estimates.csv --bank " + terrains + " --log " + switching +
+                             " --states --output states.svg"},
+                        "#skidimm-plot"));
   plot->add_option("--estimates,-e", plot_estimates, "A `skidimm run` output ('-': standard input)")
       ->required()
       ->check(existing_file_or_stdin);
@@ -272,19 +322,28 @@ int main(int argc, char** argv) {
   plot->add_flag("--states", plot_options.states, "Add a panel per state: estimate, measurement, truth");
 
   CLI::App* plugins = app.add_subcommand("plugins", "List the motion-model plugins found on the search path");
+  plugins->footer(examples({"skidimm plugins", "skidimm plugins --plugin-path ."}, "#skidimm-plugins"));
   add_plugin_path(plugins);
 
   std::string new_plugin_name, new_plugin_dir = ".";
   CLI::App* new_plugin_command = app.add_subcommand(
       "new-plugin", "Write a buildable out-of-tree plugin project: model, CMakeLists, conformance test, example bank");
+  new_plugin_command->footer(examples({"skidimm new-plugin my_model --dir plugins_src"}, "#skidimm-new-plugin"));
   new_plugin_command->add_option("name", new_plugin_name, "The plugin's name (lowercase, digits, '_')")->required();
   new_plugin_command->add_option("--dir", new_plugin_dir, "Where to create the project's directory NAME (default: .)");
 
   std::string bag_file;
   CLI::App* bag = app.add_subcommand(
       "bag", "Show a ROS 2 bag: topics, types, message counts, rates, time span and the columns a bank can name");
-  bag->add_option("bag", bag_file, "A .mcap or .db3 file, or a bag directory (docs/ros2.md)")->required();
+  bag->add_option("bag", bag_file,
+                  "A .mcap or .db3 file, or a bag directory (" + documentation_path("docs/ros2.md") + ")")
+      ->required();
+  bag->footer(examples({"skidimm bag recording.mcap", "skidimm bag rosbag2_2024_06_01-10_00_00/"}, "#skidimm-bag"));
 
+  if (argc == 1) {  // a newcomer typing `skidimm` wants the usage, not an error
+    std::cout << app.help();
+    return kExitOk;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -300,8 +359,8 @@ int main(int argc, char** argv) {
     run_options.plugin_paths = paths;
     if (!run_plot.empty()) {
       if (fs::path(output).extension() == ".mcap") {
-        std::cerr << "skidimm run: --plot draws a CSV or .npy output; an .mcap output is for Foxglove "
-                     "(docs/foxglove.md)\n";
+        std::cerr << "skidimm run: --plot draws a CSV or .npy output; an .mcap output is for Foxglove ("
+                  << documentation_path("docs/foxglove.md") << ")\n";
         return kExitUsage;
       }
       // The figure reads the estimates and the log again after the run.
@@ -361,7 +420,7 @@ int main(int argc, char** argv) {
       for (const char* name : {"--window", "--loss", "--loss-scale"}) {
         if (fit->get_option(name)->count() > 0) {
           std::cerr << "skidimm fit: " << name << " is an option of the window objective; add --objective window "
-                    << "(the default objective is likelihood: docs/fitting.md)\n";
+                    << "(the default objective is likelihood: " << documentation_path("docs/fitting.md") << ")\n";
           return 2;
         }
       }

@@ -129,7 +129,7 @@ int tune(const TuneCommandOptions& options) {
     std::vector<fitting::TuningLog> logs;
     auto add_logs = [&](const std::vector<std::string>& arguments, bool lockbox) {
       for (const std::string& argument : arguments) {
-        for (LogSpec& spec : expand_log_argument(argument)) {
+        for (LogSpec& spec : expand_log_argument(argument, unpaired_runs("skidimm tune", options.skip_unpaired))) {
           require_rereadable(spec, "tune reads each log more than once");
           fitting::TuningLog log;
           log.fit_data = fitting::mode_segments(config, spec, options.mode, sampling);
@@ -245,7 +245,8 @@ int tune(const TuneCommandOptions& options) {
       for (int j = 0; j < c.num_modes(); ++j) {
         const ModeConfig& mode = c.modes[static_cast<std::size_t>(j)];
         modes_block += fitting::format_mode_entry(mode.name, mode.model, *tuned.models[static_cast<std::size_t>(j)],
-                                                  mode.q_intensity, {}, mode.params, mode.fit_when, mode.r);
+                                                  mode.q_intensity, {}, mode.params, mode.fit_when, mode.r,
+                                                  tuned.model_sources[static_cast<std::size_t>(j)].parameter_keys);
       }
       std::vector<std::pair<std::string, std::string>> blocks{
           {"measurement", fitting::format_measurement_block(c)},
@@ -259,7 +260,9 @@ int tune(const TuneCommandOptions& options) {
       }
       if (bank_parameters) {
         blocks.emplace_back(
-            "shared", "shared: " + fitting::format_parameters(*tuned.models[0], sdk::ParameterScope::kBank, c.shared) +
+            "shared", "shared: " +
+                          fitting::format_parameters(*tuned.models[0], sdk::ParameterScope::kBank, c.shared,
+                                                     tuned.model_sources[0].parameter_keys) +
                           "\n");
       }
       blocks.emplace_back("modes", modes_block);

@@ -475,12 +475,21 @@ BankConfig load_bank_config(const fs::path& file) {
   }
 
   const YAML::Node columns = root["columns"];
-  if (columns) y.check_keys(columns, {"time", "inputs", "measurements", "truth_mode"}, "columns");
+  if (columns) y.check_keys(columns, {"time", "inputs", "measurements", "truth_mode", "truth_blank"}, "columns");
   bank.columns.time = columns && columns["time"] ? y.string(columns["time"], "columns.time") : "t";
   bank.columns.inputs = column_map(y, columns ? columns["inputs"] : YAML::Node(), bank.input_names, "columns.inputs");
   bank.columns.measurements =
       column_map(y, columns ? columns["measurements"] : YAML::Node(), bank.measurement.names, "columns.measurements");
   if (columns && columns["truth_mode"]) bank.columns.truth_mode = y.string(columns["truth_mode"], "columns.truth_mode");
+  if (columns && columns["truth_blank"]) {
+    const std::string blank = y.string(columns["truth_blank"], "columns.truth_blank");
+    if (blank != "unlabelled" && blank != "carry") {
+      y.fail(columns["truth_blank"], "columns.truth_blank",
+             "expected 'unlabelled' (a blank truth cell is not scored) or 'carry' (it repeats the last label), got '" +
+                 blank + "'");
+    }
+    bank.columns.carry_truth = blank == "carry";
+  }
 
   if (const YAML::Node floor = root["mode_probability_floor"]) {
     bank.mode_probability_floor = y.number(floor, "mode_probability_floor");
@@ -617,8 +626,13 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry, const ModelP
       }
     }
     bank.models.push_back(std::move(model));
-    bank.model_sources.push_back(provided ? provider->source(mode.model)
-                                          : ModelSource{descriptor->path, descriptor->name, descriptor->version});
+    if (provided) {
+      bank.model_sources.push_back(provider->source(mode.model));
+    } else {
+      ModelSource source{descriptor->path, descriptor->name, descriptor->version};
+      source.parameter_keys = descriptor->parameter_keys;
+      bank.model_sources.push_back(std::move(source));
+    }
   }
   for (const std::string& key : config.shared.keys()) {
     if (shared_keys_used.count(key) == 0) {

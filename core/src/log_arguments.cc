@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <set>
 #include <system_error>
 
 #include "skidimm/errors.h"
@@ -12,7 +13,57 @@ namespace skidimm {
 
 namespace fs = std::filesystem;
 
-std::vector<LogSpec> expand_log_argument(const std::string& argument) {
+namespace {
+
+// One file of a pattern argument, as given: its path around the '*' of its
+// name (no '*': the same file for every run).
+struct FilePattern {
+  std::string before, after;  // the path as given, before and after the '*'
+  bool has_star = false;
+  std::set<std::string> keys;  // what the '*' stands for in the files that exist
+};
+
+FilePattern file_pattern(const std::string& argument, const fs::path& path) {
+  FilePattern p;
+  const std::string text = path.string();
+  const std::string name = path.filename().string();
+  const auto star = name.find('*');
+  if (star == std::string::npos) {
+    if (text.find('*') != std::string::npos) throw Error(argument + ": a '*' may stand only in a file's name");
+    p.before = text;
+    return p;
+  }
+  if (name.find('*', star + 1) != std::string::npos) throw Error(argument + ": at most one '*' per file name");
+  const auto at = text.size() - name.size() + star;
+  if (text.find('*') != at) throw Error(argument + ": a '*' may stand only in a file's name");
+  p.has_star = true;
+  p.before = text.substr(0, at);
+  p.after = text.substr(at + 1);
+  fs::path directory = path.parent_path();
+  if (directory.empty()) directory = ".";
+  std::error_code ec;
+  if (!fs::is_directory(directory, ec)) throw Error(argument + ": no directory " + directory.string());
+  const std::string prefix = name.substr(0, star), suffix = name.substr(star + 1);
+  for (const auto& entry : fs::directory_iterator(directory)) {
+    const std::string found = entry.path().filename().string();
+    if (found.size() >= prefix.size() + suffix.size() && found.compare(0, prefix.size(), prefix) == 0 &&
+        found.compare(found.size() - suffix.size(), suffix.size(), suffix) == 0) {
+      p.keys.insert(found.substr(prefix.size(), found.size() - prefix.size() - suffix.size()));
+    }
+  }
+  return p;
+}
+
+std::string path_of(const FilePattern& p, const std::string& key) {
+  return p.has_star ? p.before + key + p.after : p.before;
+}
+
+// At most this many unpaired runs are named in an error, the rest counted.
+constexpr std::size_t kUnpairedNamed = 10;
+
+}  // namespace
+
+std::vector<LogSpec> expand_log_argument(const std::string& argument, const LogArgumentOptions& options) {
   const LogSpec spec = parse_log_spec(argument);
   std::error_code ec;
   // A ROS 2 bag's directory is one log.
@@ -35,38 +86,52 @@ std::vector<LogSpec> expand_log_argument(const std::string& argument) {
     }
     return logs;
   }
-  const std::string first = spec.files[0].path.filename().string();
-  const auto star = first.find('*');
-  if (star == std::string::npos) return {spec};
-  if (first.find('*', star + 1) != std::string::npos) throw Error(argument + ": at most one '*' per file name");
-  const std::string prefix = first.substr(0, star), suffix = first.substr(star + 1);
-  fs::path directory = spec.files[0].path.parent_path();
-  if (directory.empty()) directory = ".";
-  if (!fs::is_directory(directory, ec)) throw Error(argument + ": no directory " + directory.string());
-  std::vector<std::string> matches;
-  for (const auto& entry : fs::directory_iterator(directory)) {
-    const std::string name = entry.path().filename().string();
-    if (name.size() >= prefix.size() + suffix.size() && name.compare(0, prefix.size(), prefix) == 0 &&
-        name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0) {
-      matches.push_back(name.substr(prefix.size(), name.size() - prefix.size() - suffix.size()));
+  if (spec.files[0].path.filename().string().find('*') == std::string::npos) return {spec};
+
+  // Every file's pattern lists its runs; a log is a run every pattern has.
+  std::vector<FilePattern> patterns;
+  for (const LogFile& file : spec.files) patterns.push_back(file_pattern(argument, file.path));
+  for (const FilePattern& p : patterns) {
+    if (!p.has_star && !fs::exists(p.before, ec)) throw Error(argument + ": " + p.before + " does not exist");
+  }
+  std::set<std::string> runs;
+  for (const FilePattern& p : patterns) runs.insert(p.keys.begin(), p.keys.end());
+  if (runs.empty()) throw Error(argument + ": no file matches " + spec.files[0].path.string());
+  std::vector<std::string> paired, unpaired;
+  for (const std::string& run : runs) {
+    std::string found, missing;
+    for (const FilePattern& p : patterns) {
+      if (!p.has_star) continue;
+      std::string& list = p.keys.count(run) ? found : missing;
+      list += (list.empty() ? "" : ", ") + path_of(p, run);
+    }
+    if (missing.empty()) {
+      paired.push_back(run);
+    } else {
+      unpaired.push_back(found + " has no partner " + missing);
     }
   }
-  std::sort(matches.begin(), matches.end());
-  if (matches.empty()) throw Error(argument + ": no file matches " + spec.files[0].path.string());
+  if (!unpaired.empty() && !options.skip_unpaired) {
+    std::string list;
+    for (std::size_t i = 0; i < unpaired.size() && i < kUnpairedNamed; ++i) list += "\n  " + unpaired[i];
+    if (unpaired.size() > kUnpairedNamed) {
+      list += "\n  and " + std::to_string(unpaired.size() - kUnpairedNamed) + " more";
+    }
+    throw Error(argument + ": " + std::to_string(unpaired.size()) + " of " + std::to_string(runs.size()) +
+                " run(s) are not in every file of the pattern:" + list +
+                "\nLeave them out with --skip-unpaired (Python: skip_unpaired=True), or add the missing files");
+  }
+  for (const std::string& message : unpaired) {
+    if (options.skipped) options.skipped(argument + ": left out: " + message);
+  }
+  if (paired.empty()) throw Error(argument + ": no run is in every file of the pattern");
   std::vector<LogSpec> logs;
-  for (const std::string& match : matches) {
+  for (const std::string& run : paired) {
     LogSpec one = spec;
     one.text = spec.label.empty() ? "" : spec.label + "=";
     for (std::size_t i = 0; i < one.files.size(); ++i) {
-      std::string path = one.files[i].path.string();
-      const auto at = path.find('*');
-      if (at != std::string::npos) path.replace(at, 1, match);
-      if (!fs::exists(path, ec)) {
-        throw Error(argument + ": " + path + " (paired with " + (directory / (prefix + match + suffix)).string() +
-                    ") does not exist");
-      }
-      one.files[i].path = path;
-      one.text += (i ? "+" : "") + path;
+      one.files[i].path = path_of(patterns[i], run);
+      one.text += (i ? "+" : "") + one.files[i].path.string();
     }
     logs.push_back(one);
   }

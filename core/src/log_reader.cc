@@ -682,7 +682,8 @@ void LogReader::Impl::apply_row(int k) {
   }
   if (truth_stream_ == k) {
     const std::string_view label = trim(s.files[static_cast<std::size_t>(truth_file_)]->text(truth_index_));
-    if (!label.empty()) held_truth_.assign(label);
+    // A blank cell is unlabelled, unless the bank says its logs write a label only when it changes.
+    if (!label.empty() || !bank_.columns.carry_truth) held_truth_.assign(label);
   }
   s.last_t = s.row_t;
   for (std::size_t i : s.stat_index) ++stats_.rows[i];

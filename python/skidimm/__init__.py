@@ -255,9 +255,12 @@ def eval_report(bank, groups, output="dict"):
     raise ValueError("output must be 'dict', 'json' or 'table'")
 
 
-def eval(bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", plugin_paths=(), models=None):  # noqa: A001
+def eval(bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", skip_unpaired=False,  # noqa: A001
+         plugin_paths=(), models=None):
     """``skidimm eval --bank B --input ...``: each argument a group of logs (files, directories, patterns).
 
+    ``skip_unpaired=True`` is ``--skip-unpaired``: a pattern's runs that some
+    of its files lack are left out with a warning instead of an error.
     Returns what ``skidimm eval --json`` prints, parsed (``output="dict"``),
     or its text (``"json"``), or the table (``"table"``). The metrics and
     their reduction are the evaluation library's, which the CLI uses too.
@@ -269,7 +272,7 @@ def eval(bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", plug
     groups = []
     for argument in inputs:
         argument = _os.fspath(argument)
-        specs = expand_log_argument(argument)
+        specs = expand_log_argument(argument, skip_unpaired)
         groups.append((group_name(argument),
                        [_native.evaluate_log(loaded, spec, _rate(rate), smooth, lag) for spec in specs]))
     return eval_report(loaded, groups, output)
@@ -277,7 +280,7 @@ def eval(bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", plug
 
 def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", window=0.0, loss="huber",
         loss_scale=3.0, hold_unexcited=False, shared=False, fit_r=False, full_q=False, output_noise=False,
-        output_bank=None, plugin_paths=(), models=None):
+        output_bank=None, skip_unpaired=False, plugin_paths=(), models=None):
     """``skidimm fit``: fits the bank's modes to ``logs`` (``--log`` arguments).
 
     Returns a dict: ``bank_yaml`` (the whole fitted bank, as
@@ -297,7 +300,7 @@ def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", wind
     if isinstance(bank, _native.Bank):
         plugin_paths, models = bank.plugin_paths, bank.python_models
     fresh = Bank(bank_file, plugin_paths, models)  # fitted in place
-    data = _native.load_fit_logs(fresh, logs, mode, _rate(rate))
+    data = _native.load_fit_logs(fresh, logs, mode, _rate(rate), skip_unpaired)
     fitted = _native.fit_in_place(fresh, data, options)
     return _fit_result(fresh, fitted, options, mode, name, output_bank, plugin_paths, models,
                        "skidimm.fit(" + ", ".join(repr(log) for log in logs) + ")")

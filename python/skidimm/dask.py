@@ -56,7 +56,8 @@ def _bank_arguments(bank, plugin_paths, models):
     return os.path.abspath(os.fspath(bank)), [os.path.abspath(os.fspath(p)) for p in (plugin_paths or [])], models
 
 
-def evaluate_logs(client, bank, inputs, *, rate=None, smooth=False, lag=None, plugin_paths=(), models=None):
+def evaluate_logs(client, bank, inputs, *, rate=None, smooth=False, lag=None, skip_unpaired=False, plugin_paths=(),
+                  models=None):
     """Scores every log of ``inputs`` on the cluster: [(group name, [LogResult, ...])] in the CLI's order."""
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
@@ -64,7 +65,7 @@ def evaluate_logs(client, bank, inputs, *, rate=None, smooth=False, lag=None, pl
     groups, specs = [], []
     for argument in inputs:
         argument = os.fspath(argument)
-        expanded = skidimm.expand_log_argument(argument)  # lists directories here, on the client
+        expanded = skidimm.expand_log_argument(argument, skip_unpaired)  # lists directories here, on the client
         groups.append((skidimm.group_name(argument), len(expanded)))
         specs.extend(expanded)
     futures = client.map(_evaluate, specs, bank_file=bank_file, plugin_paths=plugin_paths, models=models, rate=rate,
@@ -77,16 +78,16 @@ def evaluate_logs(client, bank, inputs, *, rate=None, smooth=False, lag=None, pl
     return out
 
 
-def eval(client, bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", plugin_paths=(),  # noqa: A001
-         models=None):
+def eval(client, bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", skip_unpaired=False,  # noqa: A001
+         plugin_paths=(), models=None):
     """``skidimm eval --bank B --input ...`` with each log scored on the cluster.
 
     Same arguments and result as :func:`skidimm.eval`; ``client`` is a
     ``distributed.Client``. Only the reduction (merging per-log metrics,
     formatting) runs here, on the client.
     """
-    groups = evaluate_logs(client, bank, inputs, rate=rate, smooth=smooth, lag=lag, plugin_paths=plugin_paths,
-                           models=models)
+    groups = evaluate_logs(client, bank, inputs, rate=rate, smooth=smooth, lag=lag, skip_unpaired=skip_unpaired,
+                           plugin_paths=plugin_paths, models=models)
     bank_file, plugin_paths, models = _bank_arguments(bank, plugin_paths, models)
     return skidimm.eval_report(skidimm.Bank(bank_file, plugin_paths, models), groups, output)
 
@@ -114,7 +115,7 @@ def _fit(bank_file, plugin_paths, models, options, modes, *segments):
 
 def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihood", window=0.0, loss="huber",
         loss_scale=3.0, hold_unexcited=False, shared=False, fit_r=False, full_q=False, output_noise=False,
-        output_bank=None, plugin_paths=(), models=None):
+        output_bank=None, skip_unpaired=False, plugin_paths=(), models=None):
     """``skidimm fit`` with the logs read on the cluster and each mode fitted on its own worker.
 
     Same arguments and result as :func:`skidimm.fit`. Reading and splitting
@@ -132,7 +133,7 @@ def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihoo
     rate = 0.0 if rate is None else float(rate)
     specs = []
     for argument in logs:
-        specs.extend(skidimm.expand_log_argument(os.fspath(argument)))
+        specs.extend(skidimm.expand_log_argument(os.fspath(argument), skip_unpaired))
     segments = client.map(_segments, specs, bank_file=bank_file, plugin_paths=plugin_paths, models=models, mode=mode,
                           rate=rate, pure=False)
     modes_per_log = client.gather(client.map(_modes_in, segments, pure=False))

@@ -15,10 +15,12 @@ namespace {
 py::dict metrics_to_dict(const ModeMetrics& m) {
   py::dict d;
   d["duration"] = m.duration;
+  d["unlabelled"] = m.unlabelled;
   d["correct"] = m.correct;
   d["truth_probability"] = m.truth_probability;
   d["truth_log_probability"] = m.truth_log_probability;
   d["confusion"] = m.confusion;
+  d["log_probability_by_truth"] = m.log_probability_by_truth;
   py::list switches;
   for (const SwitchDetection& s : m.switches) {
     py::dict w;
@@ -45,10 +47,12 @@ py::dict metrics_to_dict(const ModeMetrics& m) {
 ModeMetrics metrics_from_dict(const py::dict& d) {
   ModeMetrics m;
   m.duration = d["duration"].cast<double>();
+  m.unlabelled = d["unlabelled"].cast<double>();
   m.correct = d["correct"].cast<double>();
   m.truth_probability = d["truth_probability"].cast<double>();
   m.truth_log_probability = d["truth_log_probability"].cast<double>();
   m.confusion = d["confusion"].cast<std::map<std::string, std::map<std::string, double>>>();
+  m.log_probability_by_truth = d["log_probability_by_truth"].cast<std::map<std::string, double>>();
   for (const py::handle item : d["switches"]) {
     const py::dict w = py::reinterpret_borrow<py::dict>(item);
     SwitchDetection s;
@@ -78,6 +82,8 @@ ModeMetrics metrics_from_dict(const py::dict& d) {
 py::dict to_dict(const evaluation::LogResult& result) {
   py::dict d;
   d["name"] = result.name;
+  d["source"] = result.source;
+  d["classes"] = result.classes;
   d["metrics"] = metrics_to_dict(result.metrics);
   d["decision_metrics"] = metrics_to_dict(result.decision_metrics);
   py::dict nis;
@@ -98,6 +104,8 @@ py::dict to_dict(const evaluation::LogResult& result) {
 evaluation::LogResult log_result_from_dict(const py::dict& d) {
   evaluation::LogResult r;
   r.name = d["name"].cast<std::string>();
+  r.source = d["source"].cast<std::string>();
+  r.classes = d["classes"].cast<std::vector<std::string>>();
   r.metrics = metrics_from_dict(d["metrics"].cast<py::dict>());
   r.decision_metrics = metrics_from_dict(d["decision_metrics"].cast<py::dict>());
   for (const auto& [mode, value] : d["nis"].cast<py::dict>()) {

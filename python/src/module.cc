@@ -186,6 +186,20 @@ py::dict log_spec_to_dict(const LogSpec& spec) {
   return d;
 }
 
+// Log arguments' patterns skip runs some of their files lack when `skip`,
+// noting each in *skipped (from whichever thread expands them; no GIL needed).
+LogArgumentOptions unpaired_runs(bool skip, std::vector<std::string>* skipped) {
+  LogArgumentOptions options;
+  options.skip_unpaired = skip;
+  options.skipped = [skipped](const std::string& message) { skipped->push_back(message); };
+  return options;
+}
+
+// The runs a pattern left out, as Python warnings (GIL held).
+void warn_skipped(const std::vector<std::string>& skipped) {
+  for (const std::string& message : skipped) py::module_::import("warnings").attr("warn")(message);
+}
+
 // A log given as text ("[LABEL=]FILE[@OFFSET][+...]") or as a dict from expand_log_argument.
 LogSpec log_spec_of(const py::object& log) {
   if (py::isinstance<py::str>(log) || py::isinstance(log, py::module_::import("os").attr("PathLike"))) {
@@ -412,6 +426,7 @@ fitting::FitReport report_from_dict(const py::dict& d) {
 py::dict trajectory_to_dict(const fitting::Trajectory& t) {
   py::dict d;
   d["source"] = t.source;
+  d["log"] = t.log;
   d["t"] = py::array_t<double>(static_cast<py::ssize_t>(t.t.size()), t.t.data());
   d["u"] = matrix_array(t.u);
   d["z"] = matrix_array(t.z);
@@ -422,6 +437,7 @@ py::dict trajectory_to_dict(const fitting::Trajectory& t) {
 fitting::Trajectory trajectory_from_dict(const py::dict& d) {
   fitting::Trajectory t;
   t.source = d["source"].cast<std::string>();
+  t.log = d["log"].cast<std::string>();
   t.t = d["t"].cast<std::vector<double>>();
   t.u = d["u"].cast<Eigen::MatrixXd>();
   t.z = d["z"].cast<Eigen::MatrixXd>();
@@ -474,7 +490,7 @@ py::dict fit_in_place(PyBank& bank, const std::vector<fitting::ModeLogs>& data,
     entry["q"] = matrix_array(bank.config().modes[static_cast<std::size_t>(d.mode)].q_intensity);
     const Eigen::MatrixXd& own_r = bank.config().modes[static_cast<std::size_t>(d.mode)].r;
     entry["r"] = own_r.size() > 0 ? py::object(matrix_array(own_r)) : py::object(py::none());  // the mode's own, if any
-    entry["logs"] = static_cast<int>(d.logs.size());
+    entry["logs"] = fitting::log_count(d);
     out[py::int_(d.mode)] = entry;
   }
   return out;
@@ -652,12 +668,17 @@ PYBIND11_MODULE(_skidimm, m) {
   m.def("parse_log_spec", [](const std::string& text) { return log_spec_to_dict(parse_log_spec(text)); });
   m.def(
       "expand_log_argument",
-      [](const std::string& argument) {
+      [](const std::string& argument, bool skip_unpaired) {
+        std::vector<std::string> skipped;
+        const std::vector<LogSpec> specs = expand_log_argument(argument, unpaired_runs(skip_unpaired, &skipped));
+        warn_skipped(skipped);
         py::list out;
-        for (const LogSpec& spec : expand_log_argument(argument)) out.append(log_spec_to_dict(spec));
+        for (const LogSpec& spec : specs) out.append(log_spec_to_dict(spec));
         return out;
       },
-      "The logs one argument stands for, as the CLI expands it (directories, '*' patterns).");
+      py::arg("argument"), py::arg("skip_unpaired") = false,
+      "The logs one argument stands for, as the CLI expands it (directories, '*' patterns paired by run key; "
+      "skip_unpaired: leave out, with a warning, runs some of the pattern's files lack, instead of an error).");
   m.def("group_name", &log_group_name, "A log argument's group name in `skidimm eval`.");
   m.def(
       "run_log",
@@ -769,7 +790,8 @@ PYBIND11_MODULE(_skidimm, m) {
         for (const auto& [name, logs] : groups) g.push_back(evaluation::LogGroup{name, logs});
         const std::string decision = evaluation::decision_settings_text(bank.config().decision);
         py::gil_scoped_release release;
-        return std::make_pair(evaluation::report_json(g, states), evaluation::report_tables(g, classes, states, decision));
+        return std::make_pair(evaluation::report_json(g, classes, states),
+                              evaluation::report_tables(g, classes, states, decision));
       },
       py::arg("groups"), py::arg("states"), py::arg("classes"), py::arg("bank"),
       "`skidimm eval`'s JSON and table for groups of per-log results, reduced in the order given.");
@@ -822,15 +844,19 @@ PYBIND11_MODULE(_skidimm, m) {
   };
   m.def(
       "load_fit_logs",
-      [](const PyBank& bank, const std::vector<std::string>& logs, const std::string& mode, double rate) {
+      [](const PyBank& bank, const std::vector<std::string>& logs, const std::string& mode, double rate,
+         bool skip_unpaired) {
         std::vector<fitting::ModeLogs> data;
+        std::vector<std::string> skipped;
         {
           py::gil_scoped_release release;
-          data = fitting::load_mode_logs(bank.config(), logs, mode, sampling_of(bank.config(), rate));
+          data = fitting::load_mode_logs(bank.config(), logs, mode, sampling_of(bank.config(), rate), "--log",
+                                         unpaired_runs(skip_unpaired, &skipped));
         }
+        warn_skipped(skipped);
         return mode_logs_to_list(data);
       },
-      py::arg("bank"), py::arg("logs"), py::arg("mode") = "", py::arg("rate") = 0.0,
+      py::arg("bank"), py::arg("logs"), py::arg("mode") = "", py::arg("rate") = 0.0, py::arg("skip_unpaired") = false,
       "The logs of `skidimm fit --log` arguments by mode: [(mode index, [trajectory dict])].");
   m.def(
       "mode_segments",

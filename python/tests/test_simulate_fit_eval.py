@@ -112,3 +112,34 @@ def test_fit_with_each_modes_own_output_noise_equals_the_cli(tmp_path, configs, 
 
     assert "R:" in entry(own) and "R:" in entry(kept)
     assert entry(own) != entry(kept)
+
+
+def test_eval_keys_logs_by_path_and_pairs_patterns_by_run_key(tmp_path, configs, switching_logs):
+    import csv
+    import shutil
+
+    bank = configs / "ltc_terrains.yaml"
+    for directory in ("a", "b"):
+        (tmp_path / directory).mkdir()
+        shutil.copy(switching_logs / "run_00.csv", tmp_path / directory / "run.csv")
+    report = skidimm.eval(bank, [tmp_path / "a", tmp_path / "b"])
+    assert set(report["logs"]) == {str(tmp_path / "a" / "run.csv"), str(tmp_path / "b" / "run.csv")}
+
+    # One run split into a wheel file and a sensor file, and a wheel file without its partner.
+    with open(switching_logs / "run_00.csv") as f:
+        rows = list(csv.DictReader(f))
+    split = tmp_path / "split"
+    split.mkdir()
+    for name, columns in (("pro_01", ["t", "phi_dot_L", "phi_dot_R", "mode"]), ("imu_01", ["t", "V", "omega"]),
+                          ("pro_02", ["t", "phi_dot_L", "phi_dot_R", "mode"])):
+        with open(split / f"{name}.csv", "w", newline="") as f:
+            writer = csv.DictWriter(f, columns, extrasaction="ignore")
+            writer.writeheader()
+            writer.writerows(rows)
+    pattern = f"{split / 'pro_*.csv'}+{split / 'imu_*.csv'}"
+    with pytest.raises(skidimm.Error, match=r"pro_02\.csv has no partner .*imu_02\.csv"):
+        skidimm.eval(bank, [pattern])
+    with pytest.warns(UserWarning, match=r"left out: .*pro_02\.csv"):
+        report = skidimm.eval(bank, [pattern], skip_unpaired=True)
+    assert report["overall"]["logs"] == 1
+    assert list(report["logs"]) == [f"{split / 'pro_01.csv'}+{split / 'imu_01.csv'}"]

@@ -9,13 +9,18 @@
 #include <fstream>
 #include <sstream>
 
+#include "cli/run_skidimm.h"
 #include "core/temp_files.h"
 #include "skidimm/bank.h"
 #include "skidimm/log_io.h"
 
 namespace {
 
+using skidimm_test::column;
+using skidimm_test::read_csv;
 using skidimm_test::read_file;
+using skidimm_test::Result;
+using skidimm_test::run_skidimm;
 using skidimm_test::test_directory;
 using skidimm_test::write_file;
 using ::testing::HasSubstr;
@@ -23,40 +28,6 @@ namespace fs = std::filesystem;
 
 const std::string kSource = SKIDIMM_SOURCE_DIR;
 const std::string kPlugins = SKIDIMM_PLUGIN_DIR;
-
-struct Result {
-  int exit_code;
-  std::string out;
-  std::string err;
-};
-
-Result run_skidimm(const std::string& arguments) {
-  // One capture directory per test process: ctest runs the tests of this file in parallel.
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir = fs::path(::testing::TempDir()) /
-                       ("skidimm_cli_capture_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  const std::string command = std::string(SKIDIMM_EXECUTABLE) + " " + arguments + " > " + (dir / "out").string() +
-                              " 2> " + (dir / "err").string() + " < /dev/null";
-  const int status = std::system(command.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_file(dir / "out"), read_file(dir / "err")};
-}
-
-std::vector<std::vector<std::string>> read_csv(const fs::path& path) {
-  skidimm::CsvReader reader(path);
-  std::vector<std::vector<std::string>> rows{reader.header()};
-  std::vector<std::string> fields;
-  while (reader.next(&fields)) rows.push_back(fields);
-  return rows;
-}
-
-int column(const std::vector<std::string>& header, const std::string& name) {
-  for (std::size_t i = 0; i < header.size(); ++i) {
-    if (header[i] == name) return static_cast<int>(i);
-  }
-  ADD_FAILURE() << "no column " << name;
-  return 0;
-}
 
 TEST(Cli, RunIdentifiesTheTerrainsOfTheBundledSwitchingExample) {
   const fs::path out = test_directory() / "out.csv";
@@ -301,7 +272,12 @@ TEST(Cli, NewPluginWritesAProjectAndRefusesBadNames) {
 }
 
 TEST(Cli, UsageErrorsExitWithTwoAndHelpWithZero) {
-  EXPECT_EQ(run_skidimm("").exit_code, 2);
+  // `skidimm` alone is a newcomer asking what it does: the usage, not an error.
+  const Result alone = run_skidimm("");
+  EXPECT_EQ(alone.exit_code, 0);
+  EXPECT_THAT(alone.out, HasSubstr("Usage: skidimm [OPTIONS] SUBCOMMAND"));
+  EXPECT_THAT(alone.out, HasSubstr("Subcommands:"));
+  EXPECT_EQ(run_skidimm("--frobnicate").exit_code, 2) << "an option, but no command";
   EXPECT_EQ(run_skidimm("run --bank").exit_code, 2);
   EXPECT_EQ(run_skidimm("frobnicate").exit_code, 2);
   const Result missing_path = run_skidimm("plugins --plugin-path /no/such/dir");
@@ -310,6 +286,17 @@ TEST(Cli, UsageErrorsExitWithTwoAndHelpWithZero) {
   const Result help = run_skidimm("run --help");
   EXPECT_EQ(help.exit_code, 0);
   EXPECT_THAT(help.out, HasSubstr("--plugin-path"));
+  // Every command's help ends with examples and where to read more.
+  for (const char* command :
+       {"run", "bag", "validate", "simulate", "fit", "tune", "eval", "plot", "plugins", "new-plugin"}) {
+    const Result h = run_skidimm(std::string(command) + " --help");
+    EXPECT_EQ(h.exit_code, 0) << command;
+    EXPECT_THAT(h.out, ::testing::ContainsRegex("\nExamples:\n  skidimm " + std::string(command) + "[ \n]"))
+        << command;
+    EXPECT_THAT(h.out.substr(h.out.rfind("\n", h.out.size() - 2) + 1),
+                ::testing::StartsWith("More: docs/cli.md#skidimm-" + std::string(command)))
+        << command;
+  }
 }
 
 // The loop the paper describes, with no compilation: drive a new terrain,
@@ -682,8 +669,8 @@ TEST(Cli, AClassLabelTrainsItsModesByTheirFitWhen) {
                                  "crushed_concrete=" + (dir / "concrete.csv").string() + " --plugin-path " + kPlugins);
   EXPECT_EQ(fit.exit_code, 0) << fit.err;
   // Each mode gets the steps of its turning direction (several segments each: dv changes sign in both halves).
-  EXPECT_THAT(fit.err, HasSubstr("mode 'concrete_left': 3 log(s), 1054 residuals"));
-  EXPECT_THAT(fit.err, HasSubstr("mode 'concrete_right': 3 log(s), 934 residuals"));
+  EXPECT_THAT(fit.err, HasSubstr("mode 'concrete_left': 1 log(s) (3 segments), 1054 residuals"));
+  EXPECT_THAT(fit.err, HasSubstr("mode 'concrete_right': 1 log(s) (3 segments), 934 residuals"));
   EXPECT_THAT(fit.err, HasSubstr("B[1,1] = 0.79"));
   EXPECT_THAT(fit.out, HasSubstr("- name: concrete_left\n    model: ltc_linear"));
 }

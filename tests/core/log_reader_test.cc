@@ -237,19 +237,37 @@ TEST(LogReader, RowsAfterTheInputsEndAreNotUsed) {
   EXPECT_EQ(reader.stats().dropped_after_end, 2);
 }
 
-TEST(LogReader, TruthAndTrueStatesAreHeld) {
+TEST(LogReader, TruthAndTrueStatesAreHeldBetweenTheirFilesRows) {
+  // The truth comes with the wheel file's rows; the sensor file's rows between them keep it.
   BankConfig bank = simple_bank();
   bank.columns.truth_mode = "mode";
-  const auto file =
-      write_file(test_directory() / "log.csv", "t,left,right,v,w,mode,true_V\n0,1,2,,,ice,0.5\n0.1,1,2,,,,\n");
-  LogReader reader(bank, {file});
+  const auto dir = test_directory();
+  const auto wheels = write_file(dir / "wheels.csv", "t,left,right,mode,true_V\n0,1,2,ice,0.5\n0.2,1,2,snow,\n");
+  const auto sensors = write_file(dir / "sensors.csv", "t,v,w\n0.1,3,4\n0.15,3,4\n0.2,3,4\n");
+  LogReader reader(bank, {wheels, sensors});
   ASSERT_TRUE(reader.has_truth());
   ASSERT_TRUE(reader.has_true_states());
   const auto s = read_all(reader);
-  ASSERT_EQ(s.size(), 2u);
+  ASSERT_EQ(s.size(), 4u);
   EXPECT_EQ(s[1].truth_mode, "ice");
-  EXPECT_EQ(s[1].true_state[0], 0.5);
+  EXPECT_EQ(s[2].truth_mode, "ice");
+  EXPECT_EQ(s[3].truth_mode, "snow");
+  EXPECT_EQ(s[3].true_state[0], 0.5) << "an empty true_<state> cell keeps the last value";
   EXPECT_TRUE(std::isnan(s[1].true_state[1]));
+}
+
+TEST(LogReader, ABlankTruthCellIsUnlabelledUnlessTheBankCarriesIt) {
+  BankConfig bank = simple_bank();
+  bank.columns.truth_mode = "mode";
+  const auto file = write_file(test_directory() / "log.csv", "t,left,right,v,w,mode\n0,1,2,,,ice\n0.1,1,2,,,\n");
+  LogReader unlabelled(bank, {file});
+  const auto s = read_all(unlabelled);
+  ASSERT_EQ(s.size(), 2u);
+  EXPECT_EQ(s[0].truth_mode, "ice");
+  EXPECT_EQ(s[1].truth_mode, "") << "a blank truth cell is no label, not the last one";
+  bank.columns.carry_truth = true;  // columns.truth_blank: carry
+  LogReader carried(bank, {file});
+  EXPECT_EQ(read_all(carried)[1].truth_mode, "ice");
 }
 
 TEST(LogReader, SideBySideFilesMustMatchRowForRow) {

@@ -45,8 +45,9 @@ TEST(BankWriter, KeepsWhatTheBankGaveThatWasNotFitted) {
   original.set_text("features", {"abs(v)", "say \"hi\""});
   original.set("offset", Eigen::Vector2d(1.5, -2));
   EXPECT_EQ(format_parameters(*bank.models[0], sdk::ParameterScope::kMode, original),
-            "{features: [\"abs(v)\", \"say \\\"hi\\\"\"], offset: [1.5, -2], A: [[-5, 0], [0, -4]], "
-            "B: [[0.4, 0.4], [-0.8, 0.8]]}");
+            "{A: [[-5, 0], [0, -4]], B: [[0.4, 0.4], [-0.8, 0.8]], features: [\"abs(v)\", \"say \\\"hi\\\"\"], "
+            "offset: [1.5, -2]}")
+      << "the model's parameters in its table's order, then the rest by name";
 }
 
 TEST(BankWriter, NamesThatYamlWouldReadOtherwiseAreQuoted) {

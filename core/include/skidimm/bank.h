@@ -69,6 +69,10 @@ struct ColumnConfig {
   std::vector<std::string> inputs;        // one per input, in input order
   std::vector<std::string> measurements;  // one per measurement row
   std::string truth_mode;                 // empty: none
+  // A blank truth cell: unlabelled (not scored, not fitted), or with
+  // `truth_blank: carry` the last label again, for logs that write a label
+  // only when it changes.
+  bool carry_truth = false;
 };
 
 // How the files of one log become filter steps (docs/bank-format.md, `sampling`).
@@ -167,6 +171,10 @@ struct ModelSource {
   std::string plugin;  // the model's name, the mode's `model:`
   std::string version;
   std::string origin = "plugin";  // what made it: "plugin", "Python model"
+  // The parameter keys its plugin documents, in the order of its table
+  // (`skidimm plugins`); empty when undocumented. Fitted banks are written
+  // in this order.
+  std::vector<std::string> parameter_keys;
   // "plugin ltc_linear 1.0.0 (/path/skidimm_ltc_linear.so)", or
   // "Python model py_ltc (/path/models.py)".
   std::string describe() const;

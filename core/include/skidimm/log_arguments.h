@@ -6,10 +6,13 @@
 //    is one log;
 //  * a '*' in the first file's name matches several runs, and the other
 //    files' '*' take the same text: 'ice=data/ICE/pro_*.csv+data/ICE/imu_*.csv'
-//    pairs pro_02.csv with imu_02.csv. (Quote it so the shell leaves it.)
+//    pairs pro_02.csv with imu_02.csv by their run key, "02". (Quote it so
+//    the shell leaves it.) A run that some of the files lack is an error
+//    that lists every such run, unless the caller skips them.
 #ifndef SKIDIMM_LOG_ARGUMENTS_H_
 #define SKIDIMM_LOG_ARGUMENTS_H_
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -17,9 +20,19 @@
 
 namespace skidimm {
 
-// The logs one argument stands for, sorted by name. Throws Error when a
-// pattern or directory matches nothing, or a paired file is missing.
-std::vector<LogSpec> expand_log_argument(const std::string& argument);
+// What to do with a run that a pattern's files do not all have
+// ('pro_*.csv+imu_*.csv' finds pro_03.csv but no imu_03.csv).
+struct LogArgumentOptions {
+  // Leave such runs out (`skip-unpaired`), telling `skipped` of each,
+  // instead of an error that lists them.
+  bool skip_unpaired = false;
+  std::function<void(const std::string& message)> skipped;  // may be empty
+};
+
+// The logs one argument stands for, sorted by name (a pattern's by run key).
+// Throws Error when a pattern or directory matches nothing, or (unless
+// `options` skips them) when some runs lack a file.
+std::vector<LogSpec> expand_log_argument(const std::string& argument, const LogArgumentOptions& options = {});
 
 // The name of the group of logs one argument stands for (a table of its own
 // in `skidimm eval`): its label, else the directory's name or the (first)

@@ -31,7 +31,10 @@
 //    the step, e.g. `mean(wz)` or `log(std(az))`. A step without it has it
 //    missing (NaN). A measurement whose value is not finite (log(0)) is
 //    missing too, and counted.
-//  * the truth columns (`columns.truth_mode`, `true_<state>`) are held.
+//  * the truth columns (`columns.truth_mode`, `true_<state>`) are held
+//    between their file's rows; a blank truth cell makes the steps after it
+//    unlabelled (an empty truth_mode), unless the bank's
+//    `columns.truth_blank: carry` repeats the last label.
 //
 // Rows before every input has a value, and after the last row of a file that
 // feeds an input, are not used (counted in stats()). Errors are LogErrors

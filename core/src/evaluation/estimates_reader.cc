@@ -108,6 +108,8 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank, const
   }
   LogResult result;
   result.name = file.filename().string();
+  result.source = file.string();
+  result.classes = scorer.class_names();
   result.metrics = compute_mode_metrics(steps, scorer.class_names());
   if (!decisions.empty()) result.decision_metrics = compute_mode_metrics(decisions, scorer.class_names());
   return result;

@@ -32,6 +32,22 @@ std::vector<const LogResult*> pointers(const std::vector<LogGroup>& groups) {
   return out;
 }
 
+// The entries of `by_name` in `order`, then any other by name: a confusion
+// row's cells, the consistency of each true mode, in the bank's order.
+template <typename Value>
+std::vector<std::pair<std::string, Value>> in_order(const std::map<std::string, Value>& by_name,
+                                                    const std::vector<std::string>& order) {
+  std::vector<std::pair<std::string, Value>> out;
+  for (const std::string& name : order) {
+    const auto it = by_name.find(name);
+    if (it != by_name.end()) out.emplace_back(*it);
+  }
+  for (const auto& entry : by_name) {
+    if (std::find(order.begin(), order.end(), entry.first) == order.end()) out.emplace_back(entry);
+  }
+  return out;
+}
+
 std::string fmt(double v, const char* format = "%.3f") {
   if (!std::isfinite(v)) return "-";
   char b[64];
@@ -103,19 +119,19 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
                  const std::vector<std::string>& states, bool list_switches, const std::string& decision_made,
                  const Separability& separated) {
   const ModeMetrics& m = s.metrics;
-  out << "\n" << title << ": " << s.accuracies.size() << " log(s), " << fmt(m.duration, "%.1f") << " s labelled\n";
+  out << "\n" << title << ": " << s.accuracies.size() << " log(s), " << fmt(m.duration, "%.1f") << " s labelled";
+  if (m.unlabelled > 0.0) out << ", " << fmt(m.unlabelled, "%.1f") << " s unlabelled (blank truth: not scored)";
+  out << "\n";
   out << "  accuracy (time fraction)        " << fmt(m.accuracy());
   if (s.accuracies.size() > 1) {
     out << "   per log: mean " << fmt(s.accuracy_per_log.mean) << " +- " << fmt(s.accuracy_per_log.standard_deviation)
         << ", min " << fmt(s.accuracy_per_log.min);
   }
-  if (s.accuracies.size() > 1) {
-    const ScoreSummary& c = s.by_log_class;
-    if (c.class_accuracy.size() > 1) {
-      out << "\n  per class, mean over its logs:  ";
-      for (const auto& [name, accuracy] : c.class_accuracy) out << " " << name << " " << fmt(accuracy);
-      out << "; mean over classes " << fmt(c.accuracy);
-    }
+  const std::vector<std::string> truths = truths_in_order(m, modes);
+  if (truths.size() > 1) {
+    out << "\n  per class, over its own true time: ";
+    for (const std::string& truth : truths) out << " " << truth << " " << fmt(m.truth_accuracy(truth));
+    out << "; mean over classes " << fmt(s.mean_class_accuracy);
   }
   out << "\n  mean probability of the true mode " << fmt(m.mean_truth_probability()) << "\n";
   out << "  mean log probability of the truth " << fmt(m.mean_truth_log_probability()) << "\n";
@@ -126,18 +142,19 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
   for (const auto& [mode, seconds] : m.truth_absent) {
     out << "  truth mode '" << mode << "' is not in the bank (" << fmt(seconds, "%.1f") << " s, always wrong)\n";
   }
-  // Confusion: rows truth, columns estimate, fraction of the truth's time.
+  // Confusion: rows truth, columns estimate, fraction of the truth's time;
+  // rows in the columns' order (the bank's), then truths the bank lacks.
   std::size_t label = 8;
-  for (const auto& [truth, row] : m.confusion) label = std::max(label, truth.size());
+  for (const std::string& truth : truths) label = std::max(label, truth.size());
   auto cell = [](const std::string& text, std::size_t width) {
     return std::string(width > text.size() ? width - text.size() : 0, ' ') + text;
   };
   out << "  confusion (rows: truth, columns: estimate, fraction of the truth's time)\n  " << std::string(label, ' ');
   for (const auto& name : modes) out << " " << cell(name, std::max<std::size_t>(name.size(), 5));
   out << "\n";
-  for (const auto& [truth, row] : m.confusion) {
-    double total = 0.0;
-    for (const auto& [estimate, seconds] : row) total += seconds;
+  for (const std::string& truth : truths) {
+    const std::map<std::string, double>& row = m.confusion.at(truth);
+    const double total = m.truth_seconds(truth);
     out << "  " << truth << std::string(label - truth.size(), ' ');
     for (const auto& name : modes) {
       const auto it = row.find(name);
@@ -189,7 +206,7 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
   }
   if (!s.nis.empty()) {
     out << "  consistency of the true mode's filter (mean NIS per measured component, 95% bounds):\n";
-    for (const auto& [mode, acc] : s.nis) {
+    for (const auto& [mode, acc] : in_order(s.nis, modes)) {
       out << "    " << mode << std::string(label + 2 - std::min(label + 2, mode.size()), ' ')
           << fmt(acc.mean_per_dof(), "%.2f") << " [" << fmt(acc.lower_bound(), "%.2f") << ", "
           << fmt(acc.upper_bound(), "%.2f") << "] " << acc.verdict() << "\n";
@@ -197,12 +214,14 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
   }
 }
 
-std::string json_summary(const EvaluationSummary& s, const std::vector<std::string>& states) {
+std::string json_summary(const EvaluationSummary& s, const std::vector<std::string>& classes,
+                         const std::vector<std::string>& states) {
   const ModeMetrics& m = s.metrics;
   const ScoreSummary& by_class = s.by_log_class;
+  const std::vector<std::string> truths = truths_in_order(m, classes);
   std::ostringstream o;
   o << "{\"logs\": " << s.accuracies.size() << ", \"duration\": " << json_number(m.duration)
-    << ", \"accuracy\": " << json_number(m.accuracy())
+    << ", \"unlabelled_seconds\": " << json_number(m.unlabelled) << ", \"accuracy\": " << json_number(m.accuracy())
     << ", \"accuracy_per_log\": {\"mean\": " << json_number(s.accuracy_per_log.mean)
     << ", \"std\": " << json_number(s.accuracy_per_log.standard_deviation)
     << ", \"min\": " << json_number(s.accuracy_per_log.min) << "}, \"mean_over_classes\": {\"accuracy\": " << json_number(by_class.accuracy)
@@ -213,15 +232,24 @@ std::string json_summary(const EvaluationSummary& s, const std::vector<std::stri
       << ", \"mean_truth_log_probability\": " << json_number(by_class.class_log_probability.at(name)) << "}";
     listed = true;
   }
-  o << "}}, \"mean_truth_probability\": " << json_number(m.mean_truth_probability())
+  o << "}}, \"per_class\": {";
+  for (std::size_t i = 0; i < truths.size(); ++i) {
+    o << (i ? ", " : "") << json_string(truths[i]) << ": {\"seconds\": " << json_number(m.truth_seconds(truths[i]))
+      << ", \"accuracy\": " << json_number(m.truth_accuracy(truths[i]))
+      << ", \"mean_truth_log_probability\": " << json_number(m.truth_mean_log_probability(truths[i])) << "}";
+  }
+  o << "}, \"mean_over_classes_by_time\": {\"accuracy\": " << json_number(s.mean_class_accuracy)
+    << ", \"mean_truth_log_probability\": " << json_number(s.mean_class_log_probability)
+    << "}, \"mean_truth_probability\": " << json_number(m.mean_truth_probability())
     << ", \"mean_truth_log_probability\": " << json_number(m.mean_truth_log_probability())
     << ", \"brier\": " << json_number(m.mean_brier()) << ", \"calibration\": " << json_calibration(m)
     << ", \"confusion_seconds\": {";
   bool first = true;
-  for (const auto& [truth, row] : m.confusion) {
+  for (const std::string& truth : truths) {
+    const std::map<std::string, double>& row = m.confusion.at(truth);
     o << (first ? "" : ", ") << json_string(truth) << ": {";
     bool inner = true;
-    for (const auto& [estimate, seconds] : row) {
+    for (const auto& [estimate, seconds] : in_order(row, classes)) {
       o << (inner ? "" : ", ") << json_string(estimate) << ": " << json_number(seconds);
       inner = false;
     }
@@ -270,7 +298,7 @@ std::string json_summary(const EvaluationSummary& s, const std::vector<std::stri
     << ", \"calibration\": " << json_calibration(d);
   o << "}, \"nis\": {";
   first = true;
-  for (const auto& [mode, acc] : s.nis) {
+  for (const auto& [mode, acc] : in_order(s.nis, classes)) {
     o << (first ? "" : ", ") << json_string(mode) << ": {\"mean_per_dof\": " << json_number(acc.mean_per_dof())
       << ", \"lower\": " << json_number(acc.lower_bound()) << ", \"upper\": " << json_number(acc.upper_bound())
       << ", \"verdict\": " << json_string(acc.verdict()) << "}";
@@ -287,17 +315,24 @@ std::string decision_settings_text(const DecisionConfig& d) {
          CsvWriter::format(d.min_hold) + " s";
 }
 
-std::string report_json(const std::vector<LogGroup>& groups, const std::vector<std::string>& states) {
+std::string report_json(const std::vector<LogGroup>& groups, const std::vector<std::string>& classes,
+                        const std::vector<std::string>& states) {
   const std::vector<const LogResult*> all = pointers(groups);
   std::ostringstream out;
-  out << "{\"overall\": " << json_summary(summarize(all, states.size()), states) << ", \"groups\": {";
+  out << "{\"overall\": " << json_summary(summarize(all, states.size()), classes, states) << ", \"groups\": {";
   for (std::size_t i = 0; i < groups.size(); ++i) {
     out << (i ? ", " : "") << json_string(groups[i].name) << ": "
-        << json_summary(summarize(pointers(groups[i]), states.size()), states);
+        << json_summary(summarize(pointers(groups[i]), states.size()), classes, states);
   }
+  // Each log under the path it was given by (its files' joined by '+'), made
+  // unique by a count when one is given twice: logs of several directories
+  // often share their files' names.
   out << "}, \"logs\": {";
+  std::map<std::string, int> uses;
   for (std::size_t i = 0; i < all.size(); ++i) {
-    out << (i ? ", " : "") << json_string(all[i]->name) << ": " << json_summary(summarize({all[i]}, states.size()), states);
+    const int use = ++uses[all[i]->source];
+    const std::string key = use == 1 ? all[i]->source : all[i]->source + " (" + std::to_string(use) + ")";
+    out << (i ? ", " : "") << json_string(key) << ": " << json_summary(summarize({all[i]}, states.size()), classes, states);
   }
   out << "}}\n";
   return out.str();
@@ -321,16 +356,12 @@ std::string report_tables(const std::vector<LogGroup>& groups, const std::vector
   return out.str();
 }
 
-std::vector<std::string> estimates_seen(const std::vector<LogGroup>& groups) {
+std::vector<std::string> classes_of(const std::vector<LogGroup>& groups) {
   std::vector<std::string> names;
-  std::map<std::string, bool> seen;
   for (const LogGroup& g : groups) {
     for (const LogResult& l : g.logs) {
-      for (const auto& [truth, row] : l.metrics.confusion) {
-        for (const auto& [estimate, seconds] : row) {
-          if (!seen[estimate]) names.push_back(estimate);
-          seen[estimate] = true;
-        }
+      for (const std::string& c : l.classes) {
+        if (std::find(names.begin(), names.end(), c) == names.end()) names.push_back(c);
       }
     }
   }

@@ -58,10 +58,30 @@ EvaluationSummary summarize(const std::vector<const LogResult*>& logs, std::size
   for (std::size_t i = 0; i < states; ++i) {
     s.state_rmse.push_back(counts[i] > 0 ? std::sqrt(squared[i] / counts[i]) : kNaN);
   }
+  double accuracy = 0.0, log_probability = 0.0, classes = 0.0;
+  for (const auto& [truth, row] : s.metrics.confusion) {
+    if (!(s.metrics.truth_seconds(truth) > 0.0)) continue;
+    accuracy += s.metrics.truth_accuracy(truth);
+    log_probability += s.metrics.truth_mean_log_probability(truth);
+    classes += 1.0;
+  }
+  s.mean_class_accuracy = classes > 0 ? accuracy / classes : kNaN;
+  s.mean_class_log_probability = classes > 0 ? log_probability / classes : kNaN;
   s.accuracy_per_log = spread(s.accuracies);
   s.decision_accuracy_per_log = spread(s.decision_accuracies);
   s.by_log_class = summarize(scores);
   return s;
+}
+
+std::vector<std::string> truths_in_order(const ModeMetrics& m, const std::vector<std::string>& classes) {
+  std::vector<std::string> out;
+  for (const std::string& c : classes) {
+    if (m.confusion.count(c) != 0) out.push_back(c);
+  }
+  for (const auto& [truth, row] : m.confusion) {
+    if (std::find(classes.begin(), classes.end(), truth) == classes.end()) out.push_back(truth);
+  }
+  return out;
 }
 
 LatencyStats latency_stats(const ModeMetrics& m, bool first) {

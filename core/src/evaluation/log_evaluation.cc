@@ -66,7 +66,10 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
                 ") or give the bank a truth column (columns.truth_mode)" +
                 (config.columns.truth_mode.empty() ? "" : "; the log has no column '" + config.columns.truth_mode + "'"));
   }
-  return evaluate_log(bank, &reader, log.name(), log.label, estimates, estimator);
+  LogResult result = evaluate_log(bank, &reader, log.name(), log.label, estimates, estimator);
+  result.source.clear();
+  for (const LogFile& f : log.files) result.source += (result.source.empty() ? "" : "+") + f.path.string();
+  return result;
 }
 
 namespace {
@@ -85,6 +88,8 @@ ScoredRun score_run(const Bank& bank, SampleSource* source, const std::string& n
   ScoredRun run;
   LogResult& result = run.result;
   result.name = name;
+  result.source = name;
+  result.classes = scorer.class_names();
   result.squared_state_error.assign(config.state_names.size(), 0.0);
   result.state_error_count.assign(config.state_names.size(), 0);
   std::optional<EstimatesWriter> writer;

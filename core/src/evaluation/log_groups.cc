@@ -21,12 +21,13 @@ struct LogJob {
   std::exception_ptr error;
 };
 
-std::vector<LogJob> log_jobs(const std::vector<std::string>& arguments, std::vector<LogGroup>* groups) {
+std::vector<LogJob> log_jobs(const std::vector<std::string>& arguments, const LogArgumentOptions& expansion,
+                             std::vector<LogGroup>* groups) {
   std::vector<LogJob> jobs;
   for (const std::string& argument : arguments) {
     try {
       LogGroup g{log_group_name(argument), {}};
-      const std::vector<LogSpec> logs = expand_log_argument(argument);
+      const std::vector<LogSpec> logs = expand_log_argument(argument, expansion);
       groups->push_back(std::move(g));
       for (const LogSpec& log : logs) jobs.push_back(LogJob{groups->size() - 1, log, nullptr});
     } catch (...) {
@@ -37,10 +38,10 @@ std::vector<LogJob> log_jobs(const std::vector<std::string>& arguments, std::vec
   return jobs;
 }
 
-std::vector<LogGroup> evaluate_groups(const std::vector<std::string>& arguments,
+std::vector<LogGroup> evaluate_groups(const std::vector<std::string>& arguments, const LogArgumentOptions& expansion,
                                       const std::function<LogResult(const LogSpec&)>& evaluate) {
   std::vector<LogGroup> groups;
-  const std::vector<LogJob> jobs = log_jobs(arguments, &groups);
+  const std::vector<LogJob> jobs = log_jobs(arguments, expansion, &groups);
   std::vector<LogResult> results(jobs.size());
   parallel_for(static_cast<int>(jobs.size()), worker_count(), [&](int i, int) {
     const LogJob& job = jobs[static_cast<std::size_t>(i)];
@@ -54,14 +55,15 @@ std::vector<LogGroup> evaluate_groups(const std::vector<std::string>& arguments,
 }  // namespace
 
 std::vector<LogGroup> evaluate_log_groups(const Bank& bank, const std::vector<std::string>& arguments,
-                                          const SamplingConfig& sampling, const EstimatorOptions& estimator) {
-  return evaluate_groups(arguments,
+                                          const SamplingConfig& sampling, const EstimatorOptions& estimator,
+                                          const LogArgumentOptions& expansion) {
+  return evaluate_groups(arguments, expansion,
                          [&](const LogSpec& log) { return evaluate_log(bank, log, sampling, {}, estimator); });
 }
 
 std::vector<LogGroup> evaluate_estimate_groups(const std::vector<std::string>& arguments, const BankConfig* bank,
-                                               const DecisionConfig* decide) {
-  return evaluate_groups(arguments, [&](const LogSpec& log) {
+                                               const DecisionConfig* decide, const LogArgumentOptions& expansion) {
+  return evaluate_groups(arguments, expansion, [&](const LogSpec& log) {
     return evaluate_estimates(log.files.front().path, bank, decide);
   });
 }

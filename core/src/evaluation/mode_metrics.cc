@@ -11,12 +11,14 @@ namespace evaluation {
 
 void ModeMetrics::merge(const ModeMetrics& other) {
   duration += other.duration;
+  unlabelled += other.unlabelled;
   correct += other.correct;
   truth_probability += other.truth_probability;
   truth_log_probability += other.truth_log_probability;
   for (const auto& [truth, row] : other.confusion) {
     for (const auto& [estimate, seconds] : row) confusion[truth][estimate] += seconds;
   }
+  for (const auto& [truth, integral] : other.log_probability_by_truth) log_probability_by_truth[truth] += integral;
   switches.insert(switches.end(), other.switches.begin(), other.switches.end());
   for (const auto& [mode, seconds] : other.truth_absent) truth_absent[mode] += seconds;
   estimate_changes += other.estimate_changes;
@@ -28,6 +30,28 @@ void ModeMetrics::merge(const ModeMetrics& other) {
     calibration[b].correct += other.calibration[b].correct;
     calibration[b].confidence += other.calibration[b].confidence;
   }
+}
+
+double ModeMetrics::truth_seconds(const std::string& truth) const {
+  const auto row = confusion.find(truth);
+  if (row == confusion.end()) return 0.0;
+  double seconds = 0.0;
+  for (const auto& [estimate, s] : row->second) seconds += s;
+  return seconds;
+}
+
+double ModeMetrics::truth_accuracy(const std::string& truth) const {
+  const double seconds = truth_seconds(truth);
+  if (seconds <= 0.0) return 0.0;
+  const auto& row = confusion.at(truth);
+  const auto right = row.find(truth);
+  return right == row.end() ? 0.0 : right->second / seconds;
+}
+
+double ModeMetrics::truth_mean_log_probability(const std::string& truth) const {
+  const double seconds = truth_seconds(truth);
+  const auto integral = log_probability_by_truth.find(truth);
+  return seconds > 0.0 && integral != log_probability_by_truth.end() ? integral->second / seconds : 0.0;
 }
 
 std::string main_truth(const ModeMetrics& m) {
@@ -66,17 +90,26 @@ double ModeMetrics::confident_accuracy() const {
 
 ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps,
                                  const std::vector<std::string>& bank_modes) {
-  std::vector<LabelledStep> steps;
-  for (const LabelledStep& s : all_steps) {
-    if (!s.truth.empty()) steps.push_back(s);
-  }
   ModeMetrics m;
+  // Each step's interval, over every step of the log: a labelled step before
+  // an unlabelled stretch stands for its own interval, not for the stretch.
+  const std::size_t all = all_steps.size();
+  std::vector<LabelledStep> steps;
+  std::vector<double> weights;
+  for (std::size_t k = 0; k < all; ++k) {
+    const double w = all == 1 ? 0.0
+                     : k + 1 < all ? all_steps[k + 1].t - all_steps[k].t
+                                   : all_steps[k].t - all_steps[k - 1].t;
+    if (all_steps[k].truth.empty()) {
+      m.unlabelled += w;
+      continue;
+    }
+    steps.push_back(all_steps[k]);
+    weights.push_back(w);
+  }
   const std::size_t n = steps.size();
   if (n == 0) return m;
-  auto weight = [&](std::size_t k) {
-    if (n == 1) return 0.0;
-    return k + 1 < n ? steps[k + 1].t - steps[k].t : steps[k].t - steps[k - 1].t;
-  };
+  auto weight = [&](std::size_t k) { return weights[k]; };
   // While the log's leading run of "unknown" lasts, no decision has been taken yet.
   bool undecided = steps[0].estimate == "unknown";
   for (std::size_t k = 0; k < n; ++k) {
@@ -95,7 +128,9 @@ ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps,
       b.confidence += w * s.estimate_probability;
       if (s.estimate == s.truth) b.correct += w;
     }
-    m.truth_log_probability += w * std::log(std::max(s.truth_probability, kMinScoredProbability));
+    const double log_probability = w * std::log(std::max(s.truth_probability, kMinScoredProbability));
+    m.truth_log_probability += log_probability;
+    m.log_probability_by_truth[s.truth] += log_probability;
     if (std::find(bank_modes.begin(), bank_modes.end(), s.truth) == bank_modes.end()) m.truth_absent[s.truth] += w;
     if (s.estimate == "unknown") m.unknown_seconds += w;
     if (k > 0) {

@@ -126,20 +126,30 @@ std::string format_text(const std::vector<std::string>& values) {
 }
 
 std::string format_parameters(const sdk::MotionModel& model, sdk::ParameterScope scope,
-                              const sdk::ParameterSet& original) {
+                              const sdk::ParameterSet& original, const std::vector<std::string>& table) {
   const auto& info = model.parameter_info();
   Eigen::VectorXd values(static_cast<Eigen::Index>(info.size()));
   model.get_parameters(values);
   // Group the flat entries by key; "A[r,c]" entries form a matrix, "a[i]" a column.
   static const std::regex element(R"(^.*\[(\d+),(\d+)\]$)");
   static const std::regex vector_element(R"(^.*\[(\d+)\]$)");
-  std::vector<std::string> keys = original.keys();
+  // The plugin's documented table first (a parameter it holds fixed keeps its
+  // place there), then the model's other parameters in their order, then what
+  // else the bank gave (text), by name.
+  std::vector<std::string> keys;
+  auto is_scoped = [&](const std::string& key) {
+    for (const sdk::ParameterInfo& p : info) {
+      if (p.key == key) return p.scope == scope;
+    }
+    return original.contains(key);  // held fixed by the model, or not one of its parameters
+  };
+  for (const std::string& key : table) {
+    if (std::find(keys.begin(), keys.end(), key) == keys.end() && is_scoped(key)) keys.push_back(key);
+  }
   std::map<std::string, std::vector<std::tuple<int, int, double>>> entries;
   for (std::size_t i = 0; i < info.size(); ++i) {
     if (info[i].scope != scope) continue;
-    if (!entries.count(info[i].key) && std::find(keys.begin(), keys.end(), info[i].key) == keys.end()) {
-      keys.push_back(info[i].key);
-    }
+    if (std::find(keys.begin(), keys.end(), info[i].key) == keys.end()) keys.push_back(info[i].key);
     std::smatch match;
     int r = 0, c = 0;
     if (std::regex_match(info[i].name, match, element)) {
@@ -149,6 +159,9 @@ std::string format_parameters(const sdk::MotionModel& model, sdk::ParameterScope
       r = std::stoi(match[1]);
     }
     entries[info[i].key].emplace_back(r, c, values[static_cast<Eigen::Index>(i)]);
+  }
+  for (const std::string& key : original.keys()) {
+    if (std::find(keys.begin(), keys.end(), key) == keys.end()) keys.push_back(key);
   }
   std::string out;
   for (const std::string& key : keys) {
@@ -200,13 +213,13 @@ std::string yaml_scalar(const std::string& text) {
 std::string format_mode_entry(const std::string& name, const std::string& model_name, const sdk::MotionModel& model,
                               const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments,
                               const sdk::ParameterSet& original, const std::string& fit_when,
-                              const Eigen::MatrixXd& measurement_noise) {
+                              const Eigen::MatrixXd& measurement_noise, const std::vector<std::string>& table) {
   std::string out;
   for (const std::string& c : comments) out += "  # " + c + "\n";
   out += "  - name: " + yaml_scalar(name) + "\n";
   out += "    model: " + yaml_scalar(model_name) + "\n";
   if (!fit_when.empty()) out += "    fit_when: " + yaml_scalar(fit_when) + "\n";
-  const std::string params = format_parameters(model, sdk::ParameterScope::kMode, original);
+  const std::string params = format_parameters(model, sdk::ParameterScope::kMode, original, table);
   if (params != "{}") out += "    params: " + params + "\n";
   out += "    Q: " + format_matrix(q_intensity) + "\n";
   if (measurement_noise.size() > 0) out += "    R: " + format_covariance(measurement_noise) + "\n";

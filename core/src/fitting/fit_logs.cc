@@ -4,6 +4,7 @@
 #include <exception>
 #include <map>
 #include <memory>
+#include <set>
 
 #include "skidimm/errors.h"
 #include "skidimm/expression.h"
@@ -116,7 +117,7 @@ std::vector<ModeLogs> mode_segments(const BankConfig& config, const LogSpec& log
 
 std::vector<ModeLogs> load_mode_logs(const BankConfig& config, const std::vector<std::string>& arguments,
                                      const std::string& default_mode, const SamplingConfig& sampling,
-                                     const std::string& option) {
+                                     const std::string& option, const LogArgumentOptions& expansion) {
   struct Job {
     LogSpec log;
     std::exception_ptr error;  // expanding its argument failed
@@ -124,7 +125,7 @@ std::vector<ModeLogs> load_mode_logs(const BankConfig& config, const std::vector
   std::vector<Job> jobs;
   for (const std::string& argument : arguments) {
     try {
-      for (const LogSpec& log : expand_log_argument(argument)) jobs.push_back(Job{log, nullptr});
+      for (const LogSpec& log : expand_log_argument(argument, expansion)) jobs.push_back(Job{log, nullptr});
     } catch (...) {
       jobs.push_back(Job{LogSpec{}, std::current_exception()});
       break;
@@ -146,6 +147,12 @@ std::vector<ModeLogs> load_mode_logs(const BankConfig& config, const std::vector
   std::vector<ModeLogs> out;
   for (auto& [j, logs] : by_mode) out.push_back(std::move(logs));
   return out;
+}
+
+int log_count(const ModeLogs& data) {
+  std::set<std::string> logs;
+  for (const Trajectory& t : data.logs) logs.insert(t.log);
+  return static_cast<int>(logs.size());
 }
 
 }  // namespace fitting

@@ -18,6 +18,14 @@ std::string significant(double v, int digits = 4) {
 
 bool likelihood(const FitRequest& request) { return request.options.objective == Objective::kLikelihood; }
 
+// The order mode j's parameters are written in (bank_writer.h).
+const std::vector<std::string>& parameter_table(const Bank& bank, int j) {
+  static const std::vector<std::string> none;
+  return static_cast<std::size_t>(j) < bank.model_sources.size()
+             ? bank.model_sources[static_cast<std::size_t>(j)].parameter_keys
+             : none;
+}
+
 const FittedMode* find_fitted(const std::vector<FittedMode>& fitted, int j) {
   for (const FittedMode& f : fitted) {
     if (f.mode == j) return &f;
@@ -75,7 +83,7 @@ std::string format_fitted_entries(const Bank& bank, const std::vector<FittedMode
     const ModeConfig& mode = config.modes[static_cast<std::size_t>(f.mode)];
     entries += format_mode_entry(output_mode_name(config, request, f.mode), mode.model,
                                  *bank.models[static_cast<std::size_t>(f.mode)], f.report.q_intensity, {comment},
-                                 mode.params, mode.fit_when, mode.r);
+                                 mode.params, mode.fit_when, mode.r, parameter_table(bank, f.mode));
   }
   return entries;
 }
@@ -93,17 +101,21 @@ void write_fitted_bank(const Bank& bank, const std::vector<FittedMode>& fitted, 
       const std::string comment = std::string(likelihood(request) ? "innovation RMSE " : "one-step RMSE ") +
                                   measurement_values_text(config, f->report.rmse) + " on " + std::to_string(f->logs) +
                                   " log(s)";
-      modes_block +=
-          format_mode_entry(name, mode.model, model, f->report.q_intensity, {comment}, mode.params, mode.fit_when, mode.r);
+      modes_block += format_mode_entry(name, mode.model, model, f->report.q_intensity, {comment}, mode.params,
+                                       mode.fit_when, mode.r, parameter_table(bank, j));
     } else {
       modes_block += format_mode_entry(name, mode.model, model, mode.q_intensity,
-                                       {"not fitted: no log given for this mode"}, mode.params, mode.fit_when, mode.r);
+                                       {"not fitted: no log given for this mode"}, mode.params, mode.fit_when, mode.r,
+                                       parameter_table(bank, j));
     }
   }
   std::vector<std::pair<std::string, std::string>> blocks;
   if (request.options.shared) {
     blocks.emplace_back(
-        "shared", "shared: " + format_parameters(*bank.models[0], sdk::ParameterScope::kBank, config.shared) + "\n");
+        "shared", "shared: " +
+                      format_parameters(*bank.models[0], sdk::ParameterScope::kBank, config.shared,
+                                        parameter_table(bank, 0)) +
+                      "\n");
   }
   if (request.options.fit_measurement_noise) blocks.emplace_back("measurement", format_measurement_block(config));
   blocks.emplace_back("modes", modes_block);

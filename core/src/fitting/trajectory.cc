@@ -9,6 +9,7 @@ Trajectory load_trajectory(const BankConfig& bank, const std::vector<LogFile>& f
   LogReader reader(bank, files, sampling);
   Trajectory trajectory;
   for (const LogFile& f : files) trajectory.source += (trajectory.source.empty() ? "" : "+") + f.path.string();
+  trajectory.log = trajectory.source;
   std::vector<Eigen::VectorXd> inputs, measurements;
   LogSample sample;
   while (reader.next(&sample)) {
@@ -46,6 +47,7 @@ std::vector<std::pair<std::string, Trajectory>> split_by_truth(const Trajectory&
       std::snprintf(span, sizeof(span), "[%.6g-%.6g s]", trajectory.t[static_cast<std::size_t>(begin)],
                     trajectory.t[static_cast<std::size_t>(end - 1)]);
       part.source = trajectory.source + span;
+      part.log = trajectory.log;
       part.t.assign(trajectory.t.begin() + begin, trajectory.t.begin() + end);
       part.u = trajectory.u.middleCols(begin, end - begin);
       part.z = trajectory.z.middleCols(begin, end - begin);

@@ -17,19 +17,22 @@ namespace evaluation {
 // Decision settings as the report names them: "enter 0.9, leave 0.05, hold 1 s".
 std::string decision_settings_text(const DecisionConfig& settings);
 
-// {"overall": ..., "groups": {name: ...}, "logs": {name: ...}}, one line.
-// `states`: the bank's state names (state RMSE), empty when unknown.
-std::string report_json(const std::vector<LogGroup>& groups, const std::vector<std::string>& states);
+// {"overall": ..., "groups": {name: ...}, "logs": {path: ...}}, one line;
+// each log under the path it was given by (LogResult::source), unique.
+// `classes`: the order of the confusions and per-class figures; `states`:
+// the bank's state names (state RMSE), empty when unknown.
+std::string report_json(const std::vector<LogGroup>& groups, const std::vector<std::string>& classes,
+                        const std::vector<std::string>& states);
 
-// The tables. `classes`: the confusion's columns, in order; `decision_made`:
-// how the scored decision was made (decision_settings_text, or where it
-// came from).
+// The tables. `classes`: the order of the confusion's columns and rows
+// (truths the bank lacks come last); `decision_made`: how the scored
+// decision was made (decision_settings_text, or where it came from).
 std::string report_tables(const std::vector<LogGroup>& groups, const std::vector<std::string>& classes,
                           const std::vector<std::string>& states, const std::string& decision_made);
 
-// The estimates the logs' confusions hold, in the order first met: the
-// columns when no bank names the classes.
-std::vector<std::string> estimates_seen(const std::vector<LogGroup>& groups);
+// The classes the logs were scored over (LogResult::classes: the bank's, or
+// an estimates file's modes), in their order, as first met.
+std::vector<std::string> classes_of(const std::vector<LogGroup>& groups);
 
 }  // namespace evaluation
 }  // namespace skidimm

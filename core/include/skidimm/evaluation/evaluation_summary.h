@@ -36,8 +36,20 @@ struct EvaluationSummary {
   PerLogSpread accuracy_per_log;              // of `accuracies`
   PerLogSpread decision_accuracy_per_log;     // of `decision_accuracies`
   long decision_lost = 0;  // switches the most likely mode detected and the decision never did
-  ScoreSummary by_log_class;  // log_scores.h: per class the mean over the logs it is the main truth of
+  // Over classes, each scored over its own true time (ModeMetrics::truth_accuracy):
+  // the mean of their accuracies and of their mean log p(truth). A class that
+  // is the truth for a moment of a switching log counts as much as one that
+  // is the truth of whole logs. NaN without labelled time.
+  double mean_class_accuracy = 0.0;
+  double mean_class_log_probability = 0.0;
+  // tune's figure (log_scores.h): each log counted for its main truth only,
+  // per class the mean over its logs, then the mean over classes.
+  ScoreSummary by_log_class;
 };
+
+// The truths of `m` in `classes`' order, then any other (a truth the bank
+// does not have) by name: the order of a confusion's rows and columns.
+std::vector<std::string> truths_in_order(const ModeMetrics& m, const std::vector<std::string>& classes);
 
 // `states`: how many states the bank has (state RMSE), 0 when unknown.
 EvaluationSummary summarize(const std::vector<const LogResult*>& logs, std::size_t states);

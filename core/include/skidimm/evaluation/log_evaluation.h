@@ -47,7 +47,9 @@ class ClassScorer {
 
 // One log's results.
 struct LogResult {
-  std::string name;
+  std::string name;    // the files' names joined by '+', for tables
+  std::string source;  // the log as given: its files' paths joined by '+' (eval --json keys logs by it)
+  std::vector<std::string> classes;  // what the estimator answers with, in the bank's order
   ModeMetrics metrics;           // of the most likely mode (class)
   ModeMetrics decision_metrics;  // of the decision (decision.h), "unknown" counted wrong
   std::map<std::string, NisAccumulator> nis;  // per true mode, while it is the truth

@@ -9,6 +9,7 @@
 
 #include "skidimm/bank.h"
 #include "skidimm/evaluation/log_evaluation.h"
+#include "skidimm/log_arguments.h"
 #include "skidimm/log_run.h"
 
 namespace skidimm {
@@ -25,13 +26,14 @@ struct LogGroup {
 // shared, read-only bank: the results, and any error, are those of one
 // thread (SKIDIMM_THREADS=1). Throws Error, LogError.
 std::vector<LogGroup> evaluate_log_groups(const Bank& bank, const std::vector<std::string>& arguments,
-                                          const SamplingConfig& sampling, const EstimatorOptions& estimator);
+                                          const SamplingConfig& sampling, const EstimatorOptions& estimator,
+                                          const LogArgumentOptions& expansion = {});
 
 // Scores the `skidimm run` outputs of `arguments` (files, directories,
 // patterns) as evaluate_estimates does with `bank` and `decide` (each may be
 // null), every file on its own thread, with the results of one.
 std::vector<LogGroup> evaluate_estimate_groups(const std::vector<std::string>& arguments, const BankConfig* bank,
-                                               const DecisionConfig* decide);
+                                               const DecisionConfig* decide, const LogArgumentOptions& expansion = {});
 
 }  // namespace evaluation
 }  // namespace skidimm

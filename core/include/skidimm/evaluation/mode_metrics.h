@@ -15,7 +15,7 @@ namespace evaluation {
 
 struct LabelledStep {
   double t = 0.0;
-  std::string truth;               // true mode (or class); empty rows are ignored
+  std::string truth;               // true mode (or class); empty: unlabelled, not scored
   std::string estimate;            // most likely mode (or class)
   double truth_probability = 0.0;  // probability the estimator gave the truth (0 if not in the bank)
   double estimate_probability = 0.0;  // probability the estimator gave its estimate (0 for "unknown")
@@ -64,11 +64,14 @@ struct SwitchDetection {
 
 struct ModeMetrics {
   double duration = 0.0;           // s with a truth label
+  double unlabelled = 0.0;         // s without one (not scored)
   double correct = 0.0;            // s where estimate == truth
   double truth_probability = 0.0;  // integral of the true mode's probability (s)
   double truth_log_probability = 0.0;  // integral of its log, floored at kMinScoredProbability (s)
   // confusion[truth][estimate] = seconds.
   std::map<std::string, std::map<std::string, double>> confusion;
+  // Per truth: the integral of log p(truth) over its own time (s).
+  std::map<std::string, double> log_probability_by_truth;
   std::vector<SwitchDetection> switches;
   // True modes that are not in the bank, with their duration (s).
   std::map<std::string, double> truth_absent;
@@ -99,6 +102,13 @@ struct ModeMetrics {
   double confident_fraction() const;
   double confident_accuracy() const;
 
+  // Seconds a truth was in effect (its confusion row); 0 if never.
+  double truth_seconds(const std::string& truth) const;
+  // The fraction of a truth's own time the estimate was it; 0 if never in effect.
+  double truth_accuracy(const std::string& truth) const;
+  // The time average of log p(truth) over that truth's own time; 0 if never in effect.
+  double truth_mean_log_probability(const std::string& truth) const;
+
   // Adds another run's metrics (several logs, seeds or scenarios).
   void merge(const ModeMetrics& other);
 };
@@ -106,7 +116,9 @@ struct ModeMetrics {
 // The truth with the most time in `m` (a log's class); empty if none.
 std::string main_truth(const ModeMetrics& m);
 
-// `bank_modes`: the names the estimator can answer with.
+// `bank_modes`: the names the estimator can answer with. A step stands for
+// the interval to the next step of the log, labelled or not (the last for
+// the one before it); the intervals of unlabelled steps add to `unlabelled`.
 ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& steps, const std::vector<std::string>& bank_modes);
 
 // Of the true switches `reference` (the most likely mode) ever detected, how

@@ -23,8 +23,11 @@ namespace fitting {
 // `shared:`): its keys that are not the model's parameters of this scope
 // (text such as expressions, or entries the model holds fixed) are written
 // back unchanged, so a fitted entry keeps everything that was not fitted.
+// Keys are written in the order of `table`, the keys the model's plugin
+// documents (ModelSource::parameter_keys), then the model's other
+// parameters in their order (parameter_info), then the rest by name.
 std::string format_parameters(const sdk::MotionModel& model, sdk::ParameterScope scope,
-                              const sdk::ParameterSet& original = {});
+                              const sdk::ParameterSet& original = {}, const std::vector<std::string>& table = {});
 
 // A list of text as YAML flow text, each entry double-quoted: ["abs(v)", "x"].
 std::string format_text(const std::vector<std::string>& values);
@@ -34,11 +37,13 @@ std::string format_matrix(const Eigen::MatrixXd& m);
 
 // One `modes:` list item (two-space indented), with comment lines above it.
 // `original`: the mode's `params:` as the bank gave them (see format_parameters);
-// `fit_when`: the mode's condition on the steps it is fitted on (kept).
+// `fit_when`: the mode's condition on the steps it is fitted on (kept);
+// `table`: the order of its parameters (see format_parameters).
 std::string format_mode_entry(const std::string& name, const std::string& model_name, const sdk::MotionModel& model,
                               const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments,
                               const sdk::ParameterSet& original = {}, const std::string& fit_when = "",
-                              const Eigen::MatrixXd& measurement_noise = Eigen::MatrixXd());
+                              const Eigen::MatrixXd& measurement_noise = Eigen::MatrixXd(),
+                              const std::vector<std::string>& table = {});
 
 // Appends a mode entry at the end of the bank file's `modes:` list. Throws
 // ConfigError if the result is not a valid bank (e.g. a mode of that name

@@ -14,6 +14,7 @@
 
 #include "skidimm/bank.h"
 #include "skidimm/fitting/model_fitter.h"
+#include "skidimm/log_arguments.h"
 #include "skidimm/log_reader.h"
 
 namespace skidimm {
@@ -30,7 +31,10 @@ std::vector<ModeLogs> mode_segments(const BankConfig& config, const LogSpec& log
 // order, and the same first error as one thread gives.
 std::vector<ModeLogs> load_mode_logs(const BankConfig& config, const std::vector<std::string>& arguments,
                                      const std::string& default_mode, const SamplingConfig& sampling,
-                                     const std::string& option = "--log");
+                                     const std::string& option = "--log", const LogArgumentOptions& expansion = {});
+
+// How many logs `data`'s segments were read from (Trajectory::log).
+int log_count(const ModeLogs& data);
 
 }  // namespace fitting
 }  // namespace skidimm

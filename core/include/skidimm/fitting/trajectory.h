@@ -16,7 +16,8 @@ namespace skidimm {
 namespace fitting {
 
 struct Trajectory {
-  std::string source;              // file names, for messages
+  std::string source;              // file names, for messages (a segment's with its time span)
+  std::string log;                 // the log it was read from: its files' paths joined by '+'
   std::vector<double> t;           // s, strictly increasing
   Eigen::MatrixXd u;               // input_dim x N
   Eigen::MatrixXd z;               // measurement_dim x N, NaN = missing

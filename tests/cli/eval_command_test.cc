@@ -1,0 +1,200 @@
+// `skidimm eval` says what it means: per-class accuracy over each class's
+// own time, logs keyed by their paths, blank truth cells unlabelled,
+// patterns paired by run key, and one order for a confusion's rows and
+// columns. End to end, on the bundled switching example and logs made from it.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "cli/run_skidimm.h"
+#include "core/temp_files.h"
+
+namespace {
+
+using skidimm_test::column;
+using skidimm_test::csv_text;
+using skidimm_test::read_csv;
+using skidimm_test::Result;
+using skidimm_test::run_skidimm;
+using skidimm_test::test_directory;
+using skidimm_test::write_file;
+using ::testing::HasSubstr;
+using ::testing::Not;
+namespace fs = std::filesystem;
+
+const std::string kSource = SKIDIMM_SOURCE_DIR;
+const std::string kPlugins = SKIDIMM_PLUGIN_DIR;
+const std::string kTerrains = kSource + "/configs/ltc_terrains.yaml";
+const std::string kSwitching = kSource + "/configs/examples/ltc_switching.csv";
+
+std::string eval(const std::string& arguments) { return "eval --bank " + kTerrains + " --plugin-path " + kPlugins + " " + arguments; }
+
+// eval --json's output as a YAML node (JSON is YAML).
+YAML::Node json_of(const Result& r) {
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  return YAML::Load(r.out);
+}
+
+// Seconds each row of a log stands for: until the next row, the last one
+// for the interval before it (mode_metrics.h).
+std::vector<double> row_seconds(const std::vector<std::vector<std::string>>& rows) {
+  const int t = column(rows[0], "t");
+  std::vector<double> out;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const std::size_t next = i + 1 < rows.size() ? i + 1 : i;
+    const std::size_t prev = i + 1 < rows.size() ? i : i - 1;
+    out.push_back(std::stod(rows[next][static_cast<std::size_t>(t)]) - std::stod(rows[prev][static_cast<std::size_t>(t)]));
+  }
+  return out;
+}
+
+TEST(EvalCommand, PerClassAccuracyIsOverEachClassesOwnTimeInSwitchingLogs) {
+  // Two copies of one switching log: each log's main truth is the same class,
+  // so counting each log for its main truth leaves the other two out.
+  const Result r = run_skidimm(eval("--input " + kSwitching + " --input " + kSwitching + " --json"));
+  const YAML::Node all = json_of(r)["overall"];
+  const YAML::Node confusion = all["confusion_seconds"];
+  ASSERT_EQ(confusion.size(), 3u);
+  double sum = 0.0;
+  for (const char* terrain : {"asphalt", "grass", "crushed_concrete"}) {
+    double row = 0.0;
+    for (const auto& cell : confusion[terrain]) row += cell.second.as<double>();
+    const double expected = confusion[terrain][terrain].as<double>() / row;
+    const YAML::Node per_class = all["per_class"][terrain];
+    EXPECT_NEAR(per_class["seconds"].as<double>(), row, 1e-3) << terrain;
+    EXPECT_NEAR(per_class["accuracy"].as<double>(), expected, 1e-5) << terrain;
+    sum += expected;
+  }
+  EXPECT_NEAR(all["mean_over_classes_by_time"]["accuracy"].as<double>(), sum / 3, 1e-5);
+  EXPECT_EQ(all["mean_over_classes"]["per_class"].size(), 1u) << "tune's figure: each log counted for its main truth";
+  const Result table = run_skidimm(eval("--input " + kSwitching + " --input " + kSwitching));
+  ASSERT_EQ(table.exit_code, 0) << table.err;
+  const std::string all_table = table.out.substr(table.out.find("\nall:"));
+  EXPECT_THAT(all_table, HasSubstr("per class, over its own true time:  asphalt "));
+  EXPECT_THAT(all_table, HasSubstr(" grass "));
+  EXPECT_THAT(all_table, HasSubstr(" crushed_concrete "));
+}
+
+TEST(EvalCommand, JsonKeysLogsByTheirPathsSoSameNamedFilesStayApart) {
+  const fs::path dir = test_directory();
+  fs::create_directories(dir / "a");
+  fs::create_directories(dir / "b");
+  fs::copy_file(kSwitching, dir / "a" / "run.csv");
+  fs::copy_file(kSwitching, dir / "b" / "run.csv");
+  const Result r = run_skidimm(eval("--input " + (dir / "a").string() + " --input " + (dir / "b").string() +
+                                    " --input " + (dir / "a" / "run.csv").string() + " --json"));
+  const YAML::Node logs = json_of(r)["logs"];
+  ASSERT_EQ(logs.size(), 3u) << r.out;
+  EXPECT_TRUE(logs[(dir / "a" / "run.csv").string()]);
+  EXPECT_TRUE(logs[(dir / "b" / "run.csv").string()]);
+  EXPECT_TRUE(logs[(dir / "a" / "run.csv").string() + " (2)"]) << "the same file given twice";
+}
+
+TEST(EvalCommand, BlankTruthCellsAreUnlabelledAndNotScoredUnlessTheBankCarriesThem) {
+  // The last 7 s of the switching log (asphalt from 20 s) lose their label.
+  auto rows = read_csv(kSwitching);
+  const int t = column(rows[0], "t"), mode = column(rows[0], "mode");
+  const std::vector<double> seconds = row_seconds(rows);
+  double blank = 0.0, asphalt = 0.0, labelled = 0.0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    if (std::stod(rows[i][static_cast<std::size_t>(t)]) >= 23.0) {
+      rows[i][static_cast<std::size_t>(mode)] = "";
+      blank += seconds[i - 1];
+    } else {
+      labelled += seconds[i - 1];
+      if (rows[i][static_cast<std::size_t>(mode)] == "asphalt") asphalt += seconds[i - 1];
+    }
+  }
+  const fs::path dir = test_directory();
+  const fs::path log = write_file(dir / "tail_unlabelled.csv", csv_text(rows));
+  const YAML::Node all = json_of(run_skidimm(eval("--input " + log.string() + " --json")))["overall"];
+  EXPECT_NEAR(all["duration"].as<double>(), labelled, 1e-4);
+  EXPECT_NEAR(all["unlabelled_seconds"].as<double>(), blank, 1e-4);
+  EXPECT_NEAR(all["per_class"]["asphalt"]["seconds"].as<double>(), asphalt, 1e-4) << "the blank tail is not asphalt";
+  const Result table = run_skidimm(eval("--input " + log.string()));
+  EXPECT_THAT(table.out, HasSubstr(" s unlabelled (blank truth: not scored)"));
+
+  // A bank whose logs write a label only when it changes carries it.
+  std::string bank = skidimm_test::read_file(kTerrains);
+  bank.replace(bank.find("truth_mode: mode"), 16, "truth_mode: mode\n  truth_blank: carry");
+  const fs::path carrying = write_file(dir / "carrying.yaml", bank);
+  const Result carried = run_skidimm("eval --bank " + carrying.string() + " --plugin-path " + kPlugins + " --input " +
+                                     log.string() + " --json");
+  const YAML::Node c = json_of(carried)["overall"];
+  EXPECT_NEAR(c["duration"].as<double>(), labelled + blank, 1e-4);
+  EXPECT_NEAR(c["unlabelled_seconds"].as<double>(), 0.0, 1e-12);
+}
+
+TEST(EvalCommand, PatternsPairFilesByRunKeyAndListOrSkipTheUnpaired) {
+  // The switching log split into a wheel file and a sensor file per run, as
+  // the BorealTC data comes (pro_NN.csv + imu_NN.csv).
+  const auto rows = read_csv(kSwitching);
+  std::vector<std::vector<std::string>> pro, imu;
+  for (const auto& row : rows) {
+    pro.push_back({row[column(rows[0], "t")], row[column(rows[0], "phi_dot_L")], row[column(rows[0], "phi_dot_R")],
+                   row[column(rows[0], "mode")]});
+    imu.push_back({row[column(rows[0], "t")], row[column(rows[0], "V")], row[column(rows[0], "omega")]});
+  }
+  const fs::path dir = test_directory();
+  for (const char* run : {"01", "02", "04"}) write_file(dir / ("pro_" + std::string(run) + ".csv"), csv_text(pro));
+  for (const char* run : {"01", "02", "03"}) write_file(dir / ("imu_" + std::string(run) + ".csv"), csv_text(imu));
+  const std::string pattern = "'" + (dir / "pro_*.csv").string() + "+" + (dir / "imu_*.csv").string() + "'";
+
+  const Result refused = run_skidimm(eval("--input " + pattern + " --json"));
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_THAT(refused.err, HasSubstr("2 of 4 run(s) are not in every file of the pattern"));
+  EXPECT_THAT(refused.err, HasSubstr((dir / "imu_03.csv").string() + " has no partner " + (dir / "pro_03.csv").string()));
+  EXPECT_THAT(refused.err, HasSubstr((dir / "pro_04.csv").string() + " has no partner " + (dir / "imu_04.csv").string()));
+  EXPECT_THAT(refused.err, HasSubstr("--skip-unpaired"));
+
+  const Result skipped = run_skidimm(eval("--input " + pattern + " --skip-unpaired --json"));
+  const YAML::Node json = json_of(skipped);
+  EXPECT_EQ(json["overall"]["logs"].as<int>(), 2);
+  EXPECT_TRUE(json["logs"][(dir / "pro_01.csv").string() + "+" + (dir / "imu_01.csv").string()]);
+  EXPECT_TRUE(json["logs"][(dir / "pro_02.csv").string() + "+" + (dir / "imu_02.csv").string()]);
+  EXPECT_THAT(skipped.err, HasSubstr("left out: " + (dir / "imu_03.csv").string()));
+  EXPECT_THAT(skipped.err, HasSubstr("left out: " + (dir / "pro_04.csv").string()));
+}
+
+// The confusion table of an eval table: its header line and `rows` rows.
+std::vector<std::string> confusion_lines(const std::string& out, int rows) {
+  std::vector<std::string> lines;
+  std::size_t at = out.find("confusion (rows: truth");
+  if (at == std::string::npos) return lines;
+  at = out.find('\n', at) + 1;
+  for (int i = 0; i <= rows; ++i) {
+    const std::size_t end = out.find('\n', at);
+    lines.push_back(out.substr(at, end - at));
+    at = end + 1;
+  }
+  return lines;
+}
+
+TEST(EvalCommand, ConfusionRowsAndColumnsAreInTheBanksOrder) {
+  // The bank lists asphalt, grass, crushed_concrete: not alphabetical.
+  const Result r = run_skidimm(eval("--input " + kSwitching));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::vector<std::string> lines = confusion_lines(r.out, 3);
+  ASSERT_EQ(lines.size(), 4u) << r.out;
+  EXPECT_LT(lines[0].find("asphalt"), lines[0].find("grass"));
+  EXPECT_LT(lines[0].find("grass"), lines[0].find("crushed_concrete"));
+  EXPECT_THAT(lines[1], ::testing::StartsWith("  asphalt "));
+  EXPECT_THAT(lines[2], ::testing::StartsWith("  grass "));
+  EXPECT_THAT(lines[3], ::testing::StartsWith("  crushed_concrete "));
+  // The same with --estimates and no bank: the file's modes, in its order.
+  const fs::path estimates = test_directory() / "estimates.csv";
+  ASSERT_EQ(run_skidimm("run -q --bank " + kTerrains + " --plugin-path " + kPlugins + " --input " + kSwitching +
+                        " --output " + estimates.string())
+                .exit_code,
+            0);
+  const Result from_file = run_skidimm("eval --estimates " + estimates.string());
+  ASSERT_EQ(from_file.exit_code, 0) << from_file.err;
+  EXPECT_EQ(confusion_lines(from_file.out, 3), lines);
+}
+
+}  // namespace
