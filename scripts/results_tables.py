@@ -261,7 +261,7 @@ TARGET_SMOOTHING_BELOW = 0.99
 
 
 def decision_target(group):
-    """Issue 9's decision target on one experiment's eval group: (met,
+    """The decision target on one experiment's eval group: (met,
     changes per switch, switches lost, settled median, most likely's first
     median)."""
     d = group["decision"]
@@ -283,7 +283,7 @@ def settings_text(settings):
 def decision_defaults_table(directory, defaults):
     """The decision's settings tried on switching logs of their own seeds:
     every candidate setting scored on every switching experiment (sensor set
-    and bank) by issue 9's decision target, the decision's accuracy and how
+    and bank) by the decision target, the decision's accuracy and how
     often it changes per true switch (mean over logs: the target's median
     hides the seeds where it flickers). Marks the defaults and names the
     setting that meets the target most often."""
@@ -330,7 +330,7 @@ def decision_defaults_table(directory, defaults):
         rows.append(f"| {e:g} | " + " | ".join(cells) + " |")
     return "\n".join(rows) + (
         f"\n\nEach cell, with leave {defaults[1]:g}: the switching experiments (of {counts.pop()}: sensor set and "
-        "bank) on which the decision meets issue 9's target / its accuracy averaged over them / its changes per true "
+        "bank) on which the decision meets its target / its accuracy averaged over them / its changes per true "
         f"switch, averaged over every log. Leave {', '.join(f'{x:g}' for x in leaves)} were tried with every enter "
         f"and hold: {'they differ' if leave_matters else 'it changes no score'}. In bold, the defaults "
         f"({settings_text(defaults)}): {cell(defaults)}. Meeting the target most often: {settings_text(most)}: "
@@ -338,7 +338,7 @@ def decision_defaults_table(directory, defaults):
 
 
 def decision_targets_table(all_evals, seeds, defaults):
-    """Issue 9's targets on the switching experiments, per sensor set and
+    """The decision targets on the switching experiments, per sensor set and
     bank: the decision with its default settings changes at most once per
     true switch (median), loses no switch the most likely mode detected, and
     settles within 1 s of the most likely mode's first detection (medians);

@@ -59,7 +59,7 @@ void check_unique(const YamlFields& y, const YAML::Node& node, const std::vector
 // millions of seconds, far from double's 1.8e308, and a variance of 1e15
 // next to one of 1e-15 is already at the end of double's 16 digits: larger
 // values are not a tighter or looser model but a mistake (1e300 gave negative
-// variances in the output, issue 12).
+// variances in the output).
 constexpr double kMaxBankEntry = 1e15;
 
 void check_magnitude(const YamlFields& y, const YAML::Node& node, const Eigen::MatrixXd& m, const std::string& field) {

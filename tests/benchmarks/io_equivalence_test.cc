@@ -1,4 +1,4 @@
-// The fast paths of issue 11 against what they replaced: the CSV reader
+// The fast paths against what they replaced: the CSV reader
 // against the original line-by-line reader, the writer's bytes against the
 // original string-per-cell writer, the number text against std::to_chars and
 // std::from_chars, and the .npy output read back. (Performance-related
@@ -109,7 +109,7 @@ TEST(NumberText, PlainDecimalsParseToFromCharsValueBitForBit) {
 
 // ---------------------------------------------------------------- reader
 
-// The reader before issue 11, line by line with std::getline (log_io.cc at
+// The reader before the fast paths, line by line with std::getline (log_io.cc at
 // caad34e), as a reference.
 class OriginalReader {
  public:
@@ -276,7 +276,7 @@ TEST(CsvReader, FieldViewsAreTheFieldsAndErrorsNameTheirLine) {
 
 // ---------------------------------------------------------------- writer
 
-// What EstimatesWriter wrote before issue 11: a string per cell, quoted when
+// What EstimatesWriter wrote before the fast paths: a string per cell, quoted when
 // needed, through CsvWriter::write_row.
 std::string original_cell(double v) {
   if (std::isnan(v)) return "nan";

@@ -185,7 +185,8 @@ modes:
 )");
 }
 
-// Issue 13: an .at() out of range in predict ended in `terminate called`.
+// A plugin's bug must not take skidimm down: an .at() out of range in
+// predict ended in `terminate called`.
 TEST(Cli, RunSurvivesAPluginThatThrowsAndNamesTheModePluginAndReason) {
   const fs::path dir = test_directory();
   const fs::path out = dir / "out.csv";
@@ -718,7 +719,7 @@ modes:
 
 }  // namespace plugin_files
 
-// ---------------------------------------------------------------- issue 12: pipes, writes, bad cells, fitter errors
+// ------------------------------------------------------------- reliability: pipes, writes, bad cells, fitter errors
 namespace io_reliability {
 
 const std::string kTerrains = kSource + "/configs/ltc_terrains.yaml";
@@ -1243,7 +1244,7 @@ void expect_sound_rows(const std::vector<std::vector<std::string>>& rows, const 
 
 }  // namespace
 
-// Issue 12, row 1: one measurement cell of 1e150 left every later row
+// One measurement cell of 1e150 left every later row
 // all_modes_rejected with a negative var_V, exit 0.
 TEST(Cli, RunRecoversFromA1e150MeasurementWithinAFewRows) {
   const fs::path dir = test_directory();

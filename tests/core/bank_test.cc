@@ -324,7 +324,7 @@ TEST(BankConfig, MissingPluginPathIsNamed) {
 
 TEST(Bank, MissingFileIsAConfigError) { EXPECT_THROW(load_bank_config("/nonexistent/bank.yaml"), ConfigError); }
 
-// Issue 12, row 2: entries a filter step cannot carry are refused.
+// Entries a filter step cannot carry are refused.
 TEST(BankConfig, MatrixEntriesAbove1e15AreRefusedNamingModeFieldAndEntry) {
   expect_config_error(
       replace(kValidBank, "Q: [[0.02, 0], [0, 0.02]]", "Q: [[1e300, 0], [0, 1e300]]"),

@@ -1,4 +1,4 @@
-// The IMM under outliers and divergence (issue 12): the innovation gate, the
+// The IMM under outliers and divergence: the innovation gate, the
 // reset of a diverged mode filter, the exact probability floor, and the
 // guarantee that no output state is non-finite and no variance negative.
 #include <gtest/gtest.h>

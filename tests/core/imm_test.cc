@@ -931,7 +931,7 @@ TEST(Imm, PredictedProbabilitiesAreTheDenseProductBitForBit) {
       t += k == 0 ? 0.0 : dt;
       const ImmEstimate& e = imm.step(t, Eigen::Vector2d(1.0, 2.0), Eigen::Vector2d(kNaN, kNaN));
       if (k == 0) continue;
-      // What the IMM did before issue 11, written out.
+      // What the IMM did before its fixed-size kernels, written out.
       const Eigen::VectorXd c = chain.matrix(dt).transpose() * mu;
       Eigen::VectorXd expected(16);
       const double largest = c.array().log().maxCoeff();

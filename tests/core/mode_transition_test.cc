@@ -10,7 +10,7 @@
 namespace skidimm {
 namespace {
 
-// The implementation this one replaced (before issue 11), kept to pin the
+// The implementation this one replaced, kept to pin the
 // new one to it: uniformisation with scaling and squaring, O(N^3) for every
 // new dt.
 Eigen::MatrixXd original_uniformisation(const Eigen::MatrixXd& generator, double dt) {

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Replays every fuzz regression input (tests/fuzz/regressions/, one per row
-# of issue 12's table and per finding) through the skidimm command a user
+# of the robustness findings' table and per finding) through the skidimm command a user
 # would run on it, in the ordinary build: the fuzzers themselves need a clang
 # sanitizer build (scripts/check.sh), this needs none. Each must end without
 # a signal or a hang, an error must name its file and carry no raw control

@@ -103,7 +103,7 @@ struct CanArrow : std::false_type {};
 template <typename T>
 struct CanArrow<T, std::void_t<decltype(std::declval<T>().operator->())>> : std::true_type {};
 
-// Issue 12, row 12: `for (auto& x : registry.create(...)->parameter_info())`
+// `for (auto& x : registry.create(...)->parameter_info())`
 // read a destroyed model. A temporary handle cannot be dereferenced; a named
 // one can.
 TEST(ModelHandleLifetime, ATemporaryHandleCannotBeDereferencedANamedOneCan) {

@@ -1,5 +1,5 @@
 // A model written as one templated function (sdk/function_model.h): the
-// fixture slip_ratio plugin, issue 13's 3-state model, loaded as skidimm
+// fixture slip_ratio plugin, a 3-state model, loaded as skidimm
 // loads any plugin.
 #include "skidimm/sdk/function_model.h"
 

@@ -1,4 +1,4 @@
-// What simulate() refuses to integrate (issue 12, row 7): a step that does
+// What simulate() refuses to integrate: a step that does
 // not resolve the robot's fastest response, runs of unbounded length, sensor
 // rates the integration cannot deliver, and a state that stops being finite.
 #include <gmock/gmock.h>

@@ -46,7 +46,7 @@ namespace skidimm {
 // shared_ptr that cannot be dereferenced while it is a temporary. In
 //   for (const auto& info : registry.create(...)->parameter_info())
 // the model would be destroyed before the loop reads the vector it returned
-// a reference to (issue 12, row 12); that line does not compile. Name the
+// a reference to (a use after free); that line does not compile. Name the
 // handle first: `ModelHandle model = registry.create(...);`.
 class ModelHandle : public std::shared_ptr<sdk::MotionModel> {
  public:
