@@ -586,6 +586,20 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry, const ModelP
     try {
       model = provided ? provider->create(mode.model, params) : registry.create(mode.model, params);
     } catch (const PluginError& e) {
+      // A bank-level parameter written nowhere is the likelier cause, and a
+      // model's own "missing parameter" cannot say where it belongs.
+      std::vector<std::string> unset;
+      for (const std::string& key :
+           provided ? provider->shared_parameter_keys(mode.model) : descriptor->shared_parameter_keys) {
+        if (!config.shared.contains(key) && !mode.params.contains(key)) unset.push_back("'" + key + "'");
+      }
+      if (!unset.empty()) {
+        throw ConfigError(file, mode.line, field + ".params",
+                          who + ": the bank gives no " + join(unset) + ", which model " + mode.model +
+                              " declares bank-level (one value for every mode): give " +
+                              (unset.size() == 1 ? "it" : "them") + " once under 'shared:' (the model said: " +
+                              e.what() + ")");
+      }
       throw ConfigError(file, mode.line, field + ".params", who + ": " + e.what());
     } catch (const Error& e) {
       if (!provided) throw;

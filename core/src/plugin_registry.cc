@@ -26,6 +26,14 @@ namespace fs = std::filesystem;
 
 namespace {
 
+bool documents_bank_level(const sdk::ParameterDoc& doc) {
+  if (doc.description == nullptr) return false;
+  const std::string description = doc.description;
+  const std::string suffix = sdk::kBankLevelDoc;
+  return description.size() >= suffix.size() &&
+         description.compare(description.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
 std::vector<fs::path> split_path_list(const char* list) {
   std::vector<fs::path> out;
   if (list == nullptr) return out;
@@ -97,6 +105,7 @@ std::shared_ptr<boost::dll::shared_library> inspect(const fs::path& path, Plugin
   for (int i = 0; i < info->num_parameters; ++i) {
     const sdk::ParameterDoc& doc = info->parameters[i];
     descriptor->parameter_keys.emplace_back(doc.key);
+    if (documents_bank_level(doc)) descriptor->shared_parameter_keys.emplace_back(doc.key);
     descriptor->parameter_docs.push_back(std::string(doc.key) + " (" + doc.shape + "): " + doc.description);
   }
   auto variables = [](const sdk::VariableDoc* docs, int count, std::vector<PluginVariable>* out) {

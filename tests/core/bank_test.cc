@@ -301,6 +301,39 @@ TEST(Bank, BankScopedParametersMustBeShared) {
   expect_config_error(yaml, {"modes[0].params.A", "give it once under 'shared:'"}, true);
 }
 
+// The converse: a bank-level parameter the bank gives nowhere is said to
+// belong under `shared:`, for a class-form plugin (whose own "missing
+// parameter" cannot say where it belongs) as for a function model.
+TEST(Bank, BankScopedParameterGivenNowhereIsSaidToBelongUnderShared) {
+  std::string yaml = replace(kValidBank, "modes:\n", "shared: {r: 0.165}\nmodes:\n");
+  yaml = replace(yaml, "model: ltc_linear\n    params: {A: [[-5, 0], [0, -4]], B: [[0.4, 0.4], [-0.8, 0.8]]}",
+                 "model: wrong_jacobian\n    params: {k: 5, c: 0.1}");
+  yaml = replace(yaml, "model: ltc_linear\n    params: {A: [[-2, 0], [0, -1]], B: [[0.1, 0.1], [-0.2, 0.2]]}",
+                 "model: wrong_jacobian\n    params: {k: 2, c: 0.3}");
+  const std::vector<std::filesystem::path> paths{kPluginDir, std::string(SKIDIMM_TEST_PLUGIN_ROOT) + "/wrong_jacobian"};
+  const auto file = write_file(test_directory() / "no_b.yaml", yaml);
+  try {
+    Bank::load(file, paths);
+    ADD_FAILURE() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_THAT(e.what(), HasSubstr(file.string() + ":16: modes[0].params: mode 'grip' (model wrong_jacobian): "
+                                    "the bank gives no 'b', which model wrong_jacobian declares bank-level "
+                                    "(one value for every mode): give it once under 'shared:'"));
+    EXPECT_THAT(e.what(), HasSubstr("missing parameter 'b'"));  // the model's own words follow
+  }
+  const Bank bank = Bank::load(write_file(test_directory() / "with_b.yaml",
+                                          replace(yaml, "shared: {r: 0.165}", "shared: {r: 0.165, b: 0.555}")),
+                               paths);
+  EXPECT_EQ(bank.models.size(), 2u);
+
+  const std::string sided =
+      skidimm_test::read_file(std::filesystem::path(kSourceDir) / "configs/stc_sided4.yaml");
+  expect_config_error(replace(sided, "  r: 0.165", "  r_typo: 0.165"),
+                      {"modes[0].params: mode 'no_slip' (model stc_sided): the bank gives no 'r', which model "
+                       "stc_sided declares bank-level (one value for every mode): give it once under 'shared:'"},
+                      true);
+}
+
 TEST(Bank, SharedParametersReachEveryModeAndUnusedOnesAreErrors) {
   std::string yaml = kValidBank;
   yaml = replace(yaml, "modes:\n", "shared:\n  A: [[-3, 0], [0, -3]]\n  B: [[0.2, 0.2], [-0.4, 0.4]]\nmodes:\n");

@@ -48,6 +48,8 @@ TEST(PluginRegistry, FindsTheBundledPluginsWithTheirMetadata) {
   const PluginDescriptor& stc = registry.find("stc_kinematic");
   EXPECT_EQ(stc.version, "1.0.0");
   EXPECT_EQ(stc.parameter_keys, (std::vector<std::string>{"k", "m", "r", "b"}));
+  EXPECT_EQ(stc.shared_parameter_keys, (std::vector<std::string>{"r", "b"})) << "documented bank-level (shared:)";
+  EXPECT_TRUE(registry.find("ltc_linear").shared_parameter_keys.empty());
   EXPECT_THAT(stc.description, HasSubstr("eq. 3"));
   ASSERT_EQ(stc.outputs.size(), 1u);
   EXPECT_EQ(stc.outputs[0].name, "omega");

@@ -76,6 +76,10 @@ struct PluginDescriptor {
   std::string description;
   std::vector<std::string> parameter_docs;  // "key (shape): description"
   std::vector<std::string> parameter_keys;
+  // The keys the plugin documents as bank-level: their ParameterDoc
+  // description ends with "bank-level (shared:)", as function models write it
+  // (function_model.h) and class-form plugins are asked to.
+  std::vector<std::string> shared_parameter_keys;
   // Empty when the plugin's models take the bank's own states (inputs).
   std::vector<PluginVariable> states;
   std::vector<PluginVariable> inputs;

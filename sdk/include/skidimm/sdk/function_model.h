@@ -224,7 +224,7 @@ inline std::string parameter_doc_text(const ParameterSpec& p) {
     text += std::string(p.is_scalar() ? ", in [" : ", each in [") + bound_text(p.lower_bound) + ", " +
             bound_text(p.upper_bound) + "]";
   }
-  return text + (p.scope == ParameterScope::kBank ? ", bank-level (shared:)" : ", per mode");
+  return text + (p.scope == ParameterScope::kBank ? std::string(", ") + kBankLevelDoc : ", per mode");
 }
 
 }  // namespace internal

@@ -12,8 +12,14 @@ namespace sdk {
 struct ParameterDoc {
   const char* key;          // "A"
   const char* shape;        // "2x2", "scalar"
-  const char* description;  // one line, with units
+  const char* description;  // one line, with units; ends with kBankLevelDoc for a `shared:` parameter
 };
+
+// How a ParameterDoc's description ends when the parameter is one value for
+// the whole bank (ParameterScope::kBank): the bank loader reads it to tell a
+// user who wrote the parameter nowhere that it belongs under `shared:`, before
+// any model exists to ask. Function models write it themselves.
+constexpr const char* kBankLevelDoc = "bank-level (shared:)";
 
 // Documents one state or input component of the model.
 struct VariableDoc {
