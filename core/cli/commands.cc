@@ -2,11 +2,13 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <exception>
 #include <iostream>
 #include <optional>
+#include <string_view>
 
 #include "skidimm/bank.h"
 #include "skidimm/errors.h"
@@ -16,6 +18,7 @@
 #include "skidimm/log_io.h"
 #include "skidimm/log_run.h"
 #include "skidimm/mode_timeline.h"
+#include "skidimm/model_conformance.h"
 #include "skidimm/plugin_registry.h"
 #include "skidimm/ros/bag_reader.h"
 #include "skidimm/ros/live_estimates.h"
@@ -208,7 +211,8 @@ int run(const RunOptions& options) {
   return code;
 }
 
-int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_paths) {
+int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_paths,
+             const std::vector<std::string>& checks) {
   return report_errors("skidimm validate", [&] {
     const Bank bank = Bank::load(bank_file, plugin_paths);
     const BankConfig& c = bank.config;
@@ -234,7 +238,44 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
     for (std::size_t j = 0; j < bank.model_sources.size(); ++j) {
       std::cout << "    " << c.modes[j].name << ": " << plugin_of(bank, j) << "\n";
     }
-    return kExitOk;
+    if (checks.empty()) return kExitOk;
+
+    std::vector<LogOperatingPoint> points;
+    std::size_t logs = 0;
+    for (const std::string& argument : checks) {
+      for (const LogSpec& log : expand_log_argument(argument, unpaired_runs("skidimm validate", false))) {
+        const std::vector<LogOperatingPoint> found = operating_points_from_log(c, log);
+        points.insert(points.end(), found.begin(), found.end());
+        ++logs;
+      }
+    }
+    std::cout << "  model checks (the conformance kit's) at " << points.size() << " operating points of " << logs
+              << " log(s):\n";
+    bool all_ok = true;
+    for (const ModeConformance& mode : check_models(bank, points)) {
+      if (mode.ok()) {
+        std::cout << "    " << mode.mode << ": ok\n";
+        continue;
+      }
+      all_ok = false;
+      std::cout << "    " << mode.mode << ": FAILED at " << mode.failed_points << " of " << mode.points
+                << " points; first at " << mode.first_failure_at << ":\n";
+      // The kit's messages span lines (the differing entries, both matrices);
+      // a plugin's reason inside them is text from outside, made printable.
+      for (const std::string& failure : mode.failures) {
+        std::size_t begin = 0;
+        while (begin <= failure.size()) {
+          const std::size_t end = std::min(failure.find('\n', begin), failure.size());
+          std::cout << "      " << printable(std::string_view(failure).substr(begin, end - begin)) << "\n";
+          begin = end + 1;
+        }
+      }
+    }
+    if (!all_ok) {
+      std::cerr << "skidimm validate: a mode's model fails the checks at operating points of the log(s): its "
+                   "filter runs, but on a wrong model (see " << bank_file.string() << " and the plugin named above)\n";
+    }
+    return all_ok ? kExitOk : kExitFailure;
   });
 }
 

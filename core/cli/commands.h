@@ -165,7 +165,11 @@ struct PlotOptions {
   bool states = false;  // add a panel per state
 };
 int plot(const PlotOptions& options);
-int validate(const std::filesystem::path& bank, const std::vector<std::filesystem::path>& plugin_paths);
+// With `checks` (log arguments, as `fit --log` takes them), also runs the
+// conformance kit's checks on each mode at operating points of those logs
+// (model_conformance.h); kExitFailure when a mode fails them.
+int validate(const std::filesystem::path& bank, const std::vector<std::filesystem::path>& plugin_paths,
+             const std::vector<std::string>& checks = {});
 // Writes the project of a new plugin NAME into parent/NAME (which must not exist).
 int new_plugin(const std::string& name, const std::filesystem::path& parent);
 int plugins(const std::vector<std::filesystem::path>& plugin_paths);

@@ -1,7 +1,7 @@
 // skidimm: identify the traction mode of a skid-steer robot from its logs.
 //
 //   skidimm run --bank B.yaml --input log.csv --output out.csv
-//   skidimm validate B.yaml
+//   skidimm validate B.yaml [--check log.csv]
 //   skidimm simulate --scenario S.yaml --output log.csv
 //   skidimm fit --bank B.yaml --log MODE=log.csv [--append-to B.yaml]
 //   skidimm tune --bank B.yaml --log MODE=log.csv ... --output-bank tuned.yaml
@@ -143,8 +143,14 @@ int main(int argc, char** argv) {
 
   std::string validate_bank;
   CLI::App* validate = app.add_subcommand("validate", "Check a bank file and its plugins without running it");
-  validate->footer(examples({"skidimm validate " + terrains}, "#skidimm-validate"));
+  validate->footer(examples({"skidimm validate " + terrains, "skidimm validate " + terrains + " --check " + switching},
+                            "#skidimm-validate"));
   validate->add_option("bank", validate_bank, "Bank file (YAML)")->required();
+  std::vector<std::string> validate_checks;
+  validate->add_option("--check", validate_checks,
+                       "[MODE=]FILE[@OFFSET][+FILE...]: also check each mode's model at 20 operating points of this "
+                       "log (a directory or a '*' pattern for several): its Jacobian against finite differences, "
+                       "finite values, dt = 0 the identity; repeatable");
   add_plugin_path(validate);
 
   SimulateOptions simulate_options;
@@ -394,7 +400,7 @@ int main(int argc, char** argv) {
     figure.title = fs::path(bank).stem().string() + " on " + skidimm::join_log_arguments(run_options.inputs).name();
     return skidimm::cli::plot(figure);
   }
-  if (*validate) return skidimm::cli::validate(validate_bank, paths);
+  if (*validate) return skidimm::cli::validate(validate_bank, paths, validate_checks);
   if (*eval) {
     eval_options.bank = eval_bank;
     eval_options.plugin_paths = paths;
