@@ -1,24 +1,31 @@
 #!/usr/bin/env bash
 # The real-data results of docs/real-data.md, regenerated between its
-# <!-- real:NAME --> markers, and the bank configs/borealtc/terrains.yaml.
+# <!-- real:NAME --> markers, and the banks configs/borealtc/terrains.yaml
+# and configs/borealtc/wheels.yaml.
 #
 #  A. Husky on ice (shared/data/husky_ice, one terrain): the ltc_linear model
 #     fitted by the window and by the likelihood objective on runs 01-09;
 #     runs 10 and 11 (driven faster) held out.
-#  B. BorealTC (shared/data/borealtc: five terrains, 47 runs, multi-rate):
-#     `skidimm tune` from configs/borealtc/terrains_start.yaml with nested
-#     leave-one-run-out cross-validation: every run is scored by a bank whose
-#     models were fitted, and whose likelihood weight, Q and R scales and
-#     probability floor were tuned, on the other 46 runs only (the dwell time
-#     is the start bank's: single-terrain runs cannot tell how often terrain
-#     changes). `skidimm eval --estimates`
-#     recomputes every metric from the held-out outputs tune wrote; the
-#     script checks that both agree. The bank fitted and tuned on every run
-#     is configs/borealtc/terrains.yaml.
-#  C. Switches: the last run of each terrain is held out, a bank is tuned on
-#     the other 42 runs, and the five held-out runs are spliced end to end
-#     in five rotations (scripts/splice_runs.py): 20 changes of terrain the
-#     bank never saw, scored as switches.
+#  B. BorealTC (shared/data/borealtc: five terrains, 47 runs, multi-rate).
+#     A lockbox of 10 runs (scripts/borealtc_lockbox.py: a quarter of each
+#     terrain, seeded) was drawn before the design was chosen; the design
+#     (configs/borealtc/terrains_start.yaml against physics_start.yaml, the
+#     Student-t likelihood, which settings tune searches) was chosen on the
+#     other 37, the development runs, and frozen, then scored once on the
+#     lockbox here.
+#     B1. The design: `skidimm tune` on the development runs with every
+#         protocol of nested assessment (each log held out; each session
+#         held out; per terrain, the fastest and the most-turning runs held
+#         out), and the lockbox scored by the bank tuned on the development
+#         runs. `skidimm eval --estimates` recomputes each protocol's
+#         metrics, with calibration, from the held-out outputs tune wrote.
+#     B2. The physics-shaped alternative, on the same runs and protocols.
+#     B3. The bundled bank: the design fitted and tuned on all 47 runs.
+#     B4. Without an IMU: the wheel-only bank, each development log held out
+#         and the lockbox, then fitted and tuned on all 47 runs.
+#  C. Changes of terrain: the lockbox runs spliced end to end in five
+#     rotations of the terrains (scripts/borealtc_splices.py), scored by the
+#     bank tuned on the development runs only.
 #
 #   scripts/reproduce_real_data.sh [shared data dir, default ../shared/data]
 set -euo pipefail
@@ -29,6 +36,7 @@ skidimm=${SKIDIMM:-build/bin/skidimm}
 work=${SKIDIMM_REAL_DATA_DIR:-build/real_data}
 doc=${SKIDIMM_REAL_DATA_MD:-docs/real-data.md}
 bank_out=${SKIDIMM_REAL_DATA_BANK:-configs/borealtc/terrains.yaml}
+wheels_out=${SKIDIMM_REAL_DATA_WHEELS:-configs/borealtc/wheels.yaml}
 figure=${SKIDIMM_REAL_DATA_FIGURE:-docs/images/real_data_splice.png}
 python=$(command -v /usr/bin/python3 || command -v python3)
 [ -x "$skidimm" ] || { echo "$0: build skidimm first (scripts/build.sh)" >&2; exit 1; }
@@ -47,45 +55,73 @@ for objective in window likelihood; do
     --output-bank "$work/husky/ice_$objective.yaml" 2>&1 | sed "s|$ice/||g" >"$work/husky/$objective.report"
 done
 
-echo "== B: BorealTC, nested leave-one-run-out" >&2
+echo "== B: BorealTC" >&2
 bt=$data/borealtc
-logs=()
-for terrain in "${terrains[@]}"; do logs+=(--log "$terrain=$bt/$terrain/pro_*.csv+$bt/$terrain/imu_*.csv"); done
-tune=(--objective window --hold-unexcited --full-q --tune likelihood-weight,q-scale,r-scale,floor --inner-folds 0)
-"$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${logs[@]}" "${tune[@]}" \
-  --table "$work/borealtc/scores.csv" --estimates "$work/borealtc/held_out" --output-bank "$work/borealtc/terrains.yaml" \
-  >"$work/borealtc/tune.txt"
-sed "s|$bt/||g; s|$data/||g" "$work/borealtc/terrains.yaml" >"$bank_out"
-# The same bank reading ROS 2 bags follows it (scripts/derive_ros2_config.py).
-if [ "$bank_out" = configs/borealtc/terrains.yaml ]; then python3 scripts/derive_ros2_config.py; fi
-"$skidimm" eval --estimates "$work/borealtc/held_out/logs" --bank "$bank_out" --json >"$work/borealtc/eval.json"
-"$skidimm" eval --estimates "$work/borealtc/held_out/logs" --bank "$bank_out" >"$work/borealtc/eval.txt"
-
-echo "== C: spliced runs" >&2
-held=()
-training=()
+# The lockbox: a quarter of each terrain's runs, drawn with a fixed seed and
+# kept aside from every design choice.
+mapfile -t lockbox < <("$python" scripts/borealtc_lockbox.py "$bt")
+develop=()   # --log arguments: the development runs
+aside=()     # --lockbox arguments
 for terrain in "${terrains[@]}"; do
-  runs=($(ls "$bt/$terrain" | sed -n 's/^pro_\([0-9]*\)\.csv$/\1/p' | sort))
-  last=${runs[${#runs[@]} - 1]}
-  held+=("$terrain/$last")
-  for run in "${runs[@]}"; do
-    [ "$run" = "$last" ] || training+=(--log "$terrain=$bt/$terrain/pro_$run.csv+$bt/$terrain/imu_$run.csv")
+  for file in "$bt/$terrain"/pro_*.csv; do
+    run=$(basename "$file" .csv); run=${run#pro_}
+    log="$terrain=$bt/$terrain/pro_$run.csv+$bt/$terrain/imu_$run.csv"
+    if printf '%s\n' "${lockbox[@]}" | grep -qx "$terrain/$run"; then aside+=(--lockbox "$log"); else develop+=(--log "$log"); fi
   done
 done
-"$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${training[@]}" "${tune[@]}" --no-assess \
-  --output-bank "$work/splices/bank.yaml" >"$work/splices/tune.txt"
-for k in 0 1 2 3 4; do
-  order=("${held[@]:$k}" "${held[@]:0:$k}")
-  "$python" scripts/splice_runs.py "$work/splices/logs" "rotation_$k" "$bt" "${order[@]}"
+all=("${develop[@]}")
+for ((i = 1; i < ${#aside[@]}; i += 2)); do all+=(--log "${aside[$i]}"); done
+# Both extrapolation protocols rank runs by the same expressions of the wheel
+# speeds, whatever the bank's inputs, so both forms hold out the same runs.
+speed='speed=abs(velL + velR) / 2'
+turn='turn=abs(velR - velL)'
+protocols="logs,sessions,extrapolation:$speed,extrapolation:$turn"
+fit=(--objective window --hold-unexcited --full-q --inner-folds 0 --sessions configs/borealtc/sessions.txt)
+knobs=likelihood-weight,likelihood-dof,q-scale,r-scale,floor
+
+# B1. The design, scored.
+"$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${aside[@]}" "${fit[@]}" \
+  --tune "$knobs" --assess "$protocols" --table "$work/borealtc/scores.csv" --estimates "$work/borealtc/held_out" \
+  --output-bank "$work/borealtc/development.yaml" >"$work/borealtc/tune.txt"
+for folder in "$work/borealtc/held_out"/*/; do
+  name=$(basename "$folder")
+  "$skidimm" eval --estimates "$folder" --bank "$work/borealtc/development.yaml" --json >"$work/borealtc/eval_$name.json"
 done
-splices=()
-for k in 0 1 2 3 4; do splices+=("$work/splices/logs/pro_rotation_$k.csv+$work/splices/logs/imu_rotation_$k.csv"); done
-"$skidimm" eval --bank "$work/splices/bank.yaml" --input "${splices[@]}" --json >"$work/splices/eval.json"
-"$skidimm" eval --bank "$work/splices/bank.yaml" --input "${splices[@]}" >"$work/splices/eval.txt"
-"$skidimm" run -q --bank "$work/splices/bank.yaml" --input "${splices[0]}" --output "$work/splices/rotation_0.csv"
+
+# B2. The physics-shaped form, on the same runs and protocols (no lockbox:
+# it was not chosen).
+"$skidimm" tune -q --bank configs/borealtc/physics_start.yaml "${develop[@]}" "${fit[@]}" --tune "$knobs" \
+  --assess "$protocols" --table "$work/borealtc/physics_scores.csv" >"$work/borealtc/physics_tune.txt"
+
+# B3. The bundled bank.
+"$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${all[@]}" "${fit[@]}" --tune "$knobs" --no-assess \
+  --output-bank "$work/borealtc/terrains.yaml" >"$work/borealtc/final_tune.txt"
+sed "s|$bt/||g; s|$data/||g" "$work/borealtc/terrains.yaml" >"$bank_out"
+# The same bank reading ROS 2 bags follows it (scripts/derive_ros2_config.py).
+if [ "$bank_out" = configs/borealtc/terrains.yaml ]; then "$python" scripts/derive_ros2_config.py; fi
+
+# B4. Without an IMU: the wheel file of each run alone.
+wheel_develop=(); wheel_aside=(); wheel_all=()
+for ((i = 1; i < ${#develop[@]}; i += 2)); do wheel_develop+=(--log "${develop[$i]%%+*}"); done
+for ((i = 1; i < ${#aside[@]}; i += 2)); do wheel_aside+=(--lockbox "${aside[$i]%%+*}"); done
+for ((i = 1; i < ${#all[@]}; i += 2)); do wheel_all+=(--log "${all[$i]%%+*}"); done
+"$skidimm" tune -q --bank configs/borealtc/wheels_start.yaml "${wheel_develop[@]}" "${wheel_aside[@]}" "${fit[@]}" \
+  --tune "$knobs" --assess logs --table "$work/borealtc/wheels_scores.csv" --estimates "$work/borealtc/wheels_held_out" \
+  --output-bank "$work/borealtc/wheels_development.yaml" >"$work/borealtc/wheels_tune.txt"
+"$skidimm" eval --estimates "$work/borealtc/wheels_held_out/lockbox" --bank "$work/borealtc/wheels_development.yaml" \
+  --json >"$work/borealtc/wheels_eval_lockbox.json"
+"$skidimm" tune -q --bank configs/borealtc/wheels_start.yaml "${wheel_all[@]}" "${fit[@]}" --tune "$knobs" --no-assess \
+  --output-bank "$work/borealtc/wheels.yaml" >"$work/borealtc/wheels_final_tune.txt"
+sed "s|$bt/||g; s|$data/||g" "$work/borealtc/wheels.yaml" >"$wheels_out"
+
+echo "== C: the lockbox spliced" >&2
+"$python" scripts/borealtc_splices.py "$work/splices/logs" "$bt" "${lockbox[@]}" >"$work/splices/inputs.txt"
+mapfile -t splices <"$work/splices/inputs.txt"
+"$skidimm" eval --bank "$work/borealtc/development.yaml" --input "${splices[@]}" --json >"$work/splices/eval.json"
+"$skidimm" run -q --bank "$work/borealtc/development.yaml" --input "${splices[0]}" --output "$work/splices/rotation_0.csv"
 mkdir -p "$(dirname "$figure")"
 "$skidimm" plot --estimates "$work/splices/rotation_0.csv" --output "$figure" \
-  --title "BorealTC runs spliced end to end, scored by a bank tuned without them"
+  --title "BorealTC lockbox runs spliced end to end, scored by a bank tuned without them"
 
 "$python" scripts/real_data_tables.py "$work" "$doc" "$bt"
-echo "updated $doc and $bank_out" >&2
+echo "updated $doc, $bank_out and $wheels_out" >&2

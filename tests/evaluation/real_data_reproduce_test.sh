@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Reruns scripts/reproduce_real_data.sh into temporary copies of
-# docs/real-data.md and configs/borealtc/terrains.yaml and checks that the
-# published tables and the bundled bank are what the code produces now, on
+# docs/real-data.md, configs/borealtc/terrains.yaml and wheels.yaml and
+# checks that the published tables and the bundled banks are what the code
+# produces now, on
 # the shared real data. Skips (ctest code 77) when the data is absent.
 #   real_data_reproduce_test.sh <source dir> <skidimm> <work dir> <shared data dir>
 set -euo pipefail
@@ -17,7 +18,7 @@ rm -rf "$work"
 mkdir -p "$work"
 cp "$source/docs/real-data.md" "$work/real-data.md"
 SKIDIMM="$skidimm" SKIDIMM_REAL_DATA_DIR="$work/run" SKIDIMM_REAL_DATA_MD="$work/real-data.md" \
-  SKIDIMM_REAL_DATA_BANK="$work/terrains.yaml" SKIDIMM_REAL_DATA_FIGURE="$work/splice.png" \
+  SKIDIMM_REAL_DATA_BANK="$work/terrains.yaml" SKIDIMM_REAL_DATA_WHEELS="$work/wheels.yaml" SKIDIMM_REAL_DATA_FIGURE="$work/splice.png" \
   "$source/scripts/reproduce_real_data.sh" "$data" 2>"$work/log.txt"
 status=0
 if ! diff "$source/docs/real-data.md" "$work/real-data.md" >"$work/real-data.diff"; then
@@ -25,13 +26,15 @@ if ! diff "$source/docs/real-data.md" "$work/real-data.md" >"$work/real-data.dif
   head -n 30 "$work/real-data.diff" >&2
   status=1
 fi
-# The bank's header holds the command with this run's paths: compare the rest.
-if ! diff <(grep -v '^#' "$source/configs/borealtc/terrains.yaml") <(grep -v '^#' "$work/terrains.yaml") \
-  >"$work/terrains.diff"; then
-  echo "FAIL: configs/borealtc/terrains.yaml is not what the script produces now:" >&2
-  head -n 20 "$work/terrains.diff" >&2
-  status=1
-fi
+# A bank's header holds the command with this run's paths: compare the rest.
+for bank in terrains wheels; do
+  if ! diff <(grep -v '^#' "$source/configs/borealtc/$bank.yaml") <(grep -v '^#' "$work/$bank.yaml") \
+    >"$work/$bank.diff"; then
+    echo "FAIL: configs/borealtc/$bank.yaml is not what the script produces now:" >&2
+    head -n 20 "$work/$bank.diff" >&2
+    status=1
+  fi
+done
 [ -s "$work/splice.png" ] || { echo "FAIL: no figure" >&2; status=1; }
-[ "$status" = 0 ] && echo "docs/real-data.md and configs/borealtc/terrains.yaml reproduced"
+[ "$status" = 0 ] && echo "docs/real-data.md and configs/borealtc/{terrains,wheels}.yaml reproduced"
 exit "$status"
