@@ -1,9 +1,6 @@
 #include "commands.h"
 
-#include <unistd.h>
-
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <exception>
 #include <iostream>
@@ -20,6 +17,7 @@
 #include "skidimm/mode_timeline.h"
 #include "skidimm/model_conformance.h"
 #include "skidimm/plugin_registry.h"
+#include "skidimm/progress.h"
 #include "skidimm/ros/bag_reader.h"
 #include "skidimm/ros/live_estimates.h"
 
@@ -35,30 +33,6 @@ std::string join(const std::vector<std::string>& items, const char* separator = 
   for (const std::string& s : items) out += (out.empty() ? "" : separator) + s;
   return out;
 }
-
-class ProgressLine {
- public:
-  explicit ProgressLine(bool enabled) : enabled_(enabled && isatty(STDERR_FILENO)) {}
-  ~ProgressLine() { clear(); }
-  void update(double fraction, long rows) {
-    if (!enabled_) return;
-    const auto now = std::chrono::steady_clock::now();
-    if (now - last_ < std::chrono::milliseconds(200)) return;
-    last_ = now;
-    std::fprintf(stderr, "\rskidimm run: %5.1f%%  %ld rows", 100.0 * fraction, rows);
-    std::fflush(stderr);
-    shown_ = true;
-  }
-  void clear() {
-    if (shown_) std::fprintf(stderr, "\r\033[K");
-    shown_ = false;
-  }
-
- private:
-  bool enabled_;
-  bool shown_ = false;
-  std::chrono::steady_clock::time_point last_{};
-};
 
 // "plugin ltc_linear 1.0.0 (/path/skidimm_ltc_linear.so)" for mode j.
 std::string plugin_of(const Bank& bank, std::size_t j) {
@@ -140,11 +114,12 @@ int run(const RunOptions& options) {
     for (const ModeConfig& mode : config.modes) mode_names.push_back(mode.name);
     const int num_modes = config.num_modes();
     const DecisionConfig& decision_settings = config.decision;
-    ProgressLine progress(options.progress && !options.quiet);
+    // Percent of the log read, rows, rows per second and time left; only on a terminal.
+    ProgressLine progress("skidimm run", "rows", options.progress && !options.quiet);
     // The loop (log_run.h) allocates nothing per row.
     write_estimates(
         bank, &reader, estimator, decision_settings, log.label, with_truth, &*writer, &summary,
-        [&] { progress.update(reader.progress(), summary.rows); }, options.strict);
+        [&] { progress.update(summary.rows, 0, reader.progress()); }, options.strict);
     progress.clear();
     const long rows = summary.rows;
     if (rows == 0) {

@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <exception>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <map>
 #include <sstream>
@@ -17,6 +18,7 @@
 #include "skidimm/fitting/model_fitter.h"
 #include "skidimm/fitting/solver_messages.h"
 #include "skidimm/output_file.h"
+#include "skidimm/progress.h"
 
 namespace skidimm {
 namespace cli {
@@ -93,7 +95,11 @@ int fit(const FitCommandOptions& options) {
     fit_options.output_noise = options.output_noise;
     request.mode = options.mode;
     request.name = options.name;
+    // Each solve's iterations, rate and time so far; only on a terminal.
+    StagedProgress progress("skidimm fit", "iterations", true);
+    if (progress.enabled()) fit_options.progress = std::ref(progress);
     std::map<int, FitReport> reports = fitting::fit_bank(&bank, data, fit_options);
+    progress.clear();
 
     if (options.fit_r) std::cerr << "fitted bank R = " << fitting::format_matrix(bank.config.measurement.r) << "\n";
     std::vector<fitting::FittedMode> fitted;

@@ -19,6 +19,7 @@
 #include "skidimm/fitting/tuning.h"
 #include "skidimm/log_arguments.h"
 #include "skidimm/output_file.h"
+#include "skidimm/progress.h"
 
 namespace skidimm {
 namespace cli {
@@ -174,6 +175,7 @@ int tune(const TuneCommandOptions& options) {
     tune_options.sampling = sampling;
     tune_options.assessment_estimates = options.estimates;
     std::mutex print;
+    tune_options.progress_rates = !options.quiet && stderr_is_terminal();
     tune_options.progress = [&](const std::string& line) {
       if (options.quiet) return;
       std::lock_guard<std::mutex> lock(print);

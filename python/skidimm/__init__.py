@@ -289,7 +289,9 @@ def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", wind
     values and standard deviations, one-step RMSE, Q, warnings...) and
     ``bank`` (the fitted :class:`Bank`, ready to run). With ``output_bank``
     the bank is also written there. Raises :class:`FitError` when the logs
-    cannot determine the parameters.
+    cannot determine the parameters. When stderr (file descriptor 2) is a
+    terminal, a line there shows the mode being fitted, the solver's
+    iterations, their rate and the time so far.
     """
     if isinstance(logs, (str, _os.PathLike)):
         logs = [logs]

@@ -40,6 +40,7 @@
 #include "skidimm/log_reader.h"
 #include "skidimm/log_run.h"
 #include "skidimm/plugin_registry.h"
+#include "skidimm/progress.h"
 #include "skidimm/run_overrides.h"
 #include "skidimm/simulation/model_simulation.h"
 #include "skidimm/simulation/scenario.h"
@@ -475,7 +476,12 @@ py::dict fit_in_place(PyBank& bank, const std::vector<fitting::ModeLogs>& data,
   clear_python_model_error();
   {
     py::gil_scoped_release release;
-    reports = fitting::fit_bank(bank.bank.get(), data, options);
+    // Each solve's iterations, rate and time so far on stderr, only when it
+    // is a terminal (a fit with a Python model can take minutes).
+    StagedProgress progress("skidimm.fit", "iterations", true);
+    fitting::BankFitOptions with_progress = options;
+    if (progress.enabled()) with_progress.progress = std::ref(progress);
+    reports = fitting::fit_bank(bank.bank.get(), data, with_progress);
   }
   throw_if_python_model_raised();
   py::dict out;

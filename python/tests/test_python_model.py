@@ -1,6 +1,10 @@
 """Motion models written in Python, next to compiled plugins."""
 
 import inspect
+import os
+import pathlib
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -119,6 +123,38 @@ def test_python_models_can_be_fitted(tmp_path, configs, singular_logs):
     assert a.keys() == b.keys()
     for name in a:
         assert b[name][0] == pytest.approx(a[name][0], rel=1e-4, abs=1e-6), name
+
+
+def test_fit_shows_its_progress_on_a_terminal_only(tmp_path, configs, singular_logs):
+    """A fit of a Python model can take minutes: on a terminal stderr shows the mode and the
+    solver's iterations as they go; through a pipe (a script's log) nothing of it."""
+    bank = python_bank(tmp_path, configs)
+    logs = [f"asphalt={p}" for p in singular_logs["asphalt"]]
+    script = (f"import sys; sys.path.insert(0, {str(pathlib.Path(__file__).parent)!r})\n"
+              "import skidimm\nfrom ltc_python import PythonLtc\n"
+              f"skidimm.fit({str(bank)!r}, {logs!r}, objective='window', window=0.5, models={{'py_ltc': PythonLtc}})\n")
+    piped = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+    assert "skidimm.fit:" not in piped.stderr and "\r" not in piped.stderr, piped.stderr
+
+    controller, terminal = os.openpty()
+    with subprocess.Popen([sys.executable, "-c", script], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                          stderr=terminal) as child:
+        os.close(terminal)
+        seen = b""
+        while True:
+            try:
+                chunk = os.read(controller, 4096)
+            except OSError:  # EIO: every end of the terminal closed
+                break
+            if not chunk:
+                break
+            seen += chunk
+        assert child.wait() == 0, seen
+    os.close(controller)
+    text = seen.decode(errors="replace")
+    # The first iteration at once; its rate only after a second (format_rate_and_time_left).
+    assert "\rskidimm.fit: mode 'asphalt' (window objective)  1 iterations" in text, text
+    assert text.endswith("\r\x1b[K"), "the line is cleared when the fit ends"
 
 
 def test_python_models_are_built_and_checked_by_the_library_bank_builder(tmp_path, configs):

@@ -70,6 +70,40 @@ TEST(Cli, RunIdentifiesTheTerrainsOfTheBundledSwitchingExample) {
   EXPECT_FALSE(fs::exists(out.string() + ".partial"));
 }
 
+// Progress (rate, time left) is for a person at a terminal: a stderr
+// captured to a file gets none of it, so what a script logs is the same from
+// run to run; on a terminal (a pseudo-terminal from script(1)) run shows how
+// far it is, in rows.
+TEST(Cli, RunAndFitShowProgressOnlyOnATerminal) {
+  const fs::path dir = test_directory();
+  const std::string bank = kSource + "/configs/ltc_terrains.yaml";
+  const std::string log = kSource + "/configs/examples/ltc_switching.csv";  // 1487 rows: one update, at row 1024
+  const std::string run = "run --bank " + bank + " --input " + log + " --output " + (dir / "out.csv").string() +
+                          " --plugin-path " + kPlugins;
+  const Result captured = run_skidimm(run);
+  ASSERT_EQ(captured.exit_code, 0) << captured.err;
+  EXPECT_THAT(captured.err, HasSubstr("skidimm run: bank 'ltc_terrains'"));  // the summary stays
+  EXPECT_EQ(captured.err.find('\r'), std::string::npos);
+  EXPECT_THAT(captured.err, ::testing::Not(HasSubstr("rows/s")));
+  const Result fit = run_skidimm("fit --bank " + bank + " --log " + log + " --output-bank " +
+                                 (dir / "fitted.yaml").string() + " --plugin-path " + kPlugins);
+  ASSERT_EQ(fit.exit_code, 0) << fit.err;
+  EXPECT_EQ(fit.err.find('\r'), std::string::npos);
+  EXPECT_THAT(fit.err, ::testing::Not(HasSubstr("iterations/s")));
+
+  if (std::system("script --version > /dev/null 2>&1") != 0) GTEST_SKIP() << "no script(1) for a pseudo-terminal";
+  const fs::path transcript = dir / "terminal.txt";
+  const std::string command = "script -qec '" + std::string(SKIDIMM_EXECUTABLE) + " " + run + "' /dev/null > " +
+                              transcript.string() + " 2>&1 < /dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0) << read_file(transcript);
+  const std::string terminal = read_file(transcript);
+  EXPECT_THAT(terminal, HasSubstr("\rskidimm run: "));
+  // The rate and time left join after a second (format_rate_and_time_left,
+  // tested on its own): this run is faster, so the line ends at the rows.
+  EXPECT_THAT(terminal, HasSubstr("%  1024 rows\x1b[K"));
+  EXPECT_THAT(terminal, HasSubstr("\r\x1b[Kskidimm run: bank 'ltc_terrains'")) << "the line is cleared before the summary";
+}
+
 TEST(Cli, RunHandlesGpsRowsMissingFromAFasterLog) {
   const fs::path out = test_directory() / "out.csv";
   const Result r =

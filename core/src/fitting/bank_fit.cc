@@ -39,6 +39,7 @@ bool has_parameters(const sdk::MotionModel& model, sdk::ParameterScope scope) {
 std::map<int, FitReport> fit_window(Bank* bank, const std::vector<ModeLogs>& data, const BankFitOptions& options) {
   std::map<int, FitReport> reports;
   FitOptions fit_options = options.window;
+  fit_options.progress = options.progress;
   fit_options.correlated_process_noise = fit_options.correlated_process_noise || options.full_process_noise;
   if (options.shared) {
     fit_options.scope = sdk::ParameterScope::kBank;
@@ -103,6 +104,7 @@ std::map<int, FitReport> fit_by_likelihood(Bank* bank, const std::vector<ModeLog
   likelihood.process_noise = options.full_process_noise ? LikelihoodFitOptions::ProcessNoise::kFull
                                                         : LikelihoodFitOptions::ProcessNoise::kDiagonal;
   likelihood.fit_measurement_noise = options.fit_measurement_noise;
+  likelihood.progress = options.progress;
   const std::vector<FitReport> fitted = fit_likelihood(bank, data, likelihood);
   std::map<int, FitReport> reports;
   for (std::size_t i = 0; i < data.size(); ++i) reports[data[i].mode] = fitted[i];

@@ -17,6 +17,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "solver_progress.h"
 #include "skidimm/covariance.h"
 #include "skidimm/measurement_model.h"
 #include "skidimm/sdk/angles.h"
@@ -1553,6 +1554,9 @@ std::map<int, FitReport> fit_group(Bank* bank, const std::vector<std::pair<int, 
     if (budget <= 0) break;
     const bool full = structure_rounds >= 2;
     solver_options.max_num_iterations = run == 0 ? std::min(kFirstRunIterations, budget) : budget;
+    SolverProgress solver_progress(options.progress, who + " (likelihood objective)", iterations);
+    solver_options.callbacks.clear();
+    if (options.progress) solver_options.callbacks.push_back(&solver_progress);
     auto* objective =
         new ScaledObjective(&problem, phi, whitening(final_result.information_phi), full ? nullptr : &structure);
     ceres::GradientProblem gradient_problem(objective);  // takes ownership

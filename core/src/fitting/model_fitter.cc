@@ -15,6 +15,7 @@
 
 #include "measurement_layout.h"
 #include "process_noise_search.h"
+#include "solver_progress.h"
 #include "skidimm/covariance.h"
 #include "skidimm/measured_outputs.h"
 #include "skidimm/measurement_model.h"
@@ -644,6 +645,8 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
     solver_options.parameter_tolerance = 1e-12;
     solver_options.num_threads = 1;  // residual blocks share the model instance
     solver_options.logging_type = ceres::SILENT;
+    SolverProgress solver_progress(options.progress, who + " (window objective)");
+    if (options.progress) solver_options.callbacks.push_back(&solver_progress);
     ceres::Solver::Summary summary;
     // Solve; with hold_unexcited, parameters the logs do not excite are held
     // at their starting values and the rest solved again.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cctype>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -15,6 +16,7 @@
 #include "skidimm/check.h"
 #include "skidimm/errors.h"
 #include "skidimm/evaluation/log_evaluation.h"
+#include "skidimm/progress.h"
 
 namespace skidimm {
 namespace fitting {
@@ -463,6 +465,19 @@ class Tuner {
     if (options_.progress) options_.progress(line);
   }
 
+  // "<what> 20/60 <unit>", and with options_.progress_rates the rate and
+  // the time left since `start`.
+  void progress(const std::string& what, long done, long total, const std::string& unit,
+                std::chrono::steady_clock::time_point start) const {
+    std::string line = what + " " + std::to_string(done) + "/" + std::to_string(total) + " " + unit;
+    if (options_.progress_rates) {
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const std::string rate = format_rate_and_time_left(done, total, elapsed, unit);
+      if (!rate.empty()) line += ", " + rate;
+    }
+    progress(line);
+  }
+
   // The held-out sets of a protocol over the development logs.
   std::vector<std::vector<int>> folds_of(const Protocol& protocol, const std::vector<int>& development,
                                          const std::vector<std::vector<int>>& outer) const {
@@ -520,6 +535,7 @@ class Tuner {
     Assessment out;
     out.protocol = protocol;
     int done = 0;
+    const auto start = std::chrono::steady_clock::now();
     for (const auto& held : folds) {
       const std::vector<int> inner_logs = complement(held, development);
       const auto inner = grouped_folds(inner_logs, classes_, options_.inner_folds);
@@ -538,8 +554,7 @@ class Tuner {
         score.settings = fold_best.describe(banks_[0].config);
         out.scores.push_back(score);
       }
-      progress("assessment (" + protocol.name() + "): " + std::to_string(++done) + "/" + std::to_string(folds.size()) +
-               " folds");
+      progress("assessment (" + protocol.name() + "):", ++done, static_cast<long>(folds.size()), "folds", start);
     }
     out.summary = summarize(out.scores);
     return out;
@@ -587,6 +602,7 @@ class Tuner {
     std::vector<std::string> failures(todo.size());
     std::atomic<int> finished{0};
     std::mutex progress_mutex;
+    const auto start = std::chrono::steady_clock::now();
     parallel_for(static_cast<int>(todo.size()), workers_, [&](int i, int w) {
       Bank& bank = banks_[static_cast<std::size_t>(w)];
       reset(&bank);
@@ -610,7 +626,7 @@ class Tuner {
       const int n = ++finished;
       std::lock_guard<std::mutex> lock(progress_mutex);
       if (n == static_cast<int>(todo.size()) || n % 20 == 0) {
-        progress("fitted " + std::to_string(n) + "/" + std::to_string(todo.size()) + " modes");
+        progress("fitted", n, static_cast<long>(todo.size()), "modes", start);
       }
     });
     for (std::size_t i = 0; i < todo.size(); ++i) {
@@ -660,6 +676,7 @@ class Tuner {
     std::vector<std::string> notes(todo.size());
     std::atomic<int> finished{0};
     std::mutex progress_mutex;
+    const auto start = std::chrono::steady_clock::now();
     parallel_for(static_cast<int>(todo.size()), workers_, [&](int i, int w) {
       Bank& bank = banks_[static_cast<std::size_t>(w)];
       reset(&bank);
@@ -675,7 +692,7 @@ class Tuner {
       const int n = ++finished;
       std::lock_guard<std::mutex> lock(progress_mutex);
       if (n == static_cast<int>(todo.size()) || n % 10 == 0) {
-        progress("fitted " + std::to_string(n) + "/" + std::to_string(todo.size()) + " folds");
+        progress("fitted", n, static_cast<long>(todo.size()), "folds", start);
       }
     });
     for (std::size_t i = 0; i < todo.size(); ++i) {

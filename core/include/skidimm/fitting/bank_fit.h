@@ -38,6 +38,9 @@ struct BankFitOptions {
   // residuals on its logs: the noise its filter should expect of them, its
   // model's error included. The state rows keep the bank's R.
   bool output_noise = false;
+  // After each solver iteration of either objective, what is fitted and the
+  // iterations so far (model_fitter.h); `window.progress` is ignored.
+  FitProgress progress;
 };
 
 // The R output_noise gives a mode: `r` (the bank's) with each output row's

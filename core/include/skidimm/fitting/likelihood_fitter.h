@@ -119,6 +119,7 @@ struct LikelihoodFitOptions {
   bool fit_measurement_noise = false;
   // LBFGS iterations (each costs about one evaluation of NLL and gradient).
   int max_iterations = 300;
+  FitProgress progress;  // after each LBFGS iteration (model_fitter.h)
   // Central differences of predict() for d f / d theta even where the plugin
   // gives parameter_jacobian() (the report says which was used).
   bool numeric_derivatives = false;

@@ -35,6 +35,7 @@
 #define SKIDIMM_FITTING_MODEL_FITTER_H_
 
 #include <Eigen/Core>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -52,6 +53,11 @@ class FitError : public Error {
  public:
   using Error::Error;
 };
+
+// Called after each iteration of a fit's solver with what is being fitted
+// ("mode 'ice'") and the iterations so far of that fit; from the thread that
+// fits. May be empty.
+using FitProgress = std::function<void(const std::string& what, int iteration)>;
 
 struct FitOptions {
   double window = 0.0;         // seconds per prediction window; 0 = one-step
@@ -78,6 +84,7 @@ struct FitOptions {
   // (vibration on every IMU axis) are then not counted as independent
   // evidence, which makes a bank overconfident.
   bool correlated_process_noise = false;
+  FitProgress progress;
 };
 
 struct ParameterEstimate {

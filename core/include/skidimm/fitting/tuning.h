@@ -140,6 +140,10 @@ struct TuneOptions {
   int threads = 0;      // 0: the machine's cores
   SamplingConfig sampling;
   std::function<void(const std::string&)> progress;  // one line at a time; may be empty
+  // Counted progress lines ("fitted 20/60 modes") also give the rate and the
+  // time left (progress.h). The CLI asks for it only when stderr is a
+  // terminal: in a captured log, times would differ from run to run.
+  bool progress_rates = false;
   // When set, the nested assessment writes each held-out log's steps under
   // it, as `skidimm run` would, one folder per protocol and one for the
   // lockbox (<slug>/NNN_<label>_<first file>.csv), for `eval --estimates`.
