@@ -597,8 +597,8 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry, const ModelP
         throw ConfigError(file, mode.line, field + ".params",
                           who + ": the bank gives no " + join(unset) + ", which model " + mode.model +
                               " declares bank-level (one value for every mode): give " +
-                              (unset.size() == 1 ? "it" : "them") + " once under 'shared:' (the model said: " +
-                              e.what() + ")");
+                              (unset.size() == 1 ? "it" : "them") +
+                              " once under 'shared:' (the model said: " + e.what() + ")");
       }
       throw ConfigError(file, mode.line, field + ".params", who + ": " + e.what());
     } catch (const Error& e) {

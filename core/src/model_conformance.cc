@@ -55,9 +55,11 @@ std::vector<LogOperatingPoint> operating_points_from_log(const BankConfig& bank,
   std::vector<LogOperatingPoint> points;
   for (int k = 0; k < count; ++k) {
     // The first and the last kept step, and evenly between.
-    const std::size_t i = count == 1 ? 0 : static_cast<std::size_t>(std::llround(
-                                               static_cast<double>(k) * static_cast<double>(kept.size() - 1) /
-                                               static_cast<double>(count - 1)));
+    const std::size_t i =
+        count == 1
+            ? 0
+            : static_cast<std::size_t>(std::llround(static_cast<double>(k) * static_cast<double>(kept.size() - 1) /
+                                                    static_cast<double>(count - 1)));
     points.push_back(kept[i]);
   }
   return points;
@@ -71,8 +73,7 @@ std::vector<ModeConformance> check_models(const Bank& bank, const std::vector<Lo
     sdk::MotionModel& model = *bank.models[j];
     for (const LogOperatingPoint& p : points) {
       ++result.points;
-      std::vector<std::string> failures =
-          sdk::testing::motion_model_failures(model, p.point.x, p.point.u, p.point.dt);
+      std::vector<std::string> failures = sdk::testing::motion_model_failures(model, p.point.x, p.point.u, p.point.dt);
       if (failures.empty()) continue;
       if (result.failed_points++ == 0) {
         result.first_failure_at = p.log + " step " + std::to_string(p.row) + " (t = " + std::to_string(p.t) + ")";

@@ -101,7 +101,8 @@ TEST(Cli, RunAndFitShowProgressOnlyOnATerminal) {
   // The rate and time left join after a second (format_rate_and_time_left,
   // tested on its own): this run is faster, so the line ends at the rows.
   EXPECT_THAT(terminal, HasSubstr("%  1024 rows\x1b[K"));
-  EXPECT_THAT(terminal, HasSubstr("\r\x1b[Kskidimm run: bank 'ltc_terrains'")) << "the line is cleared before the summary";
+  EXPECT_THAT(terminal, HasSubstr("\r\x1b[Kskidimm run: bank 'ltc_terrains'"))
+      << "the line is cleared before the summary";
 }
 
 TEST(Cli, RunHandlesGpsRowsMissingFromAFasterLog) {

@@ -316,18 +316,18 @@ TEST(Bank, BankScopedParameterGivenNowhereIsSaidToBelongUnderShared) {
     Bank::load(file, paths);
     ADD_FAILURE() << "expected a ConfigError";
   } catch (const ConfigError& e) {
-    EXPECT_THAT(e.what(), HasSubstr(file.string() + ":16: modes[0].params: mode 'grip' (model wrong_jacobian): "
-                                    "the bank gives no 'b', which model wrong_jacobian declares bank-level "
-                                    "(one value for every mode): give it once under 'shared:'"));
+    EXPECT_THAT(e.what(),
+                HasSubstr(file.string() + ":16: modes[0].params: mode 'grip' (model wrong_jacobian): "
+                                          "the bank gives no 'b', which model wrong_jacobian declares bank-level "
+                                          "(one value for every mode): give it once under 'shared:'"));
     EXPECT_THAT(e.what(), HasSubstr("missing parameter 'b'"));  // the model's own words follow
   }
-  const Bank bank = Bank::load(write_file(test_directory() / "with_b.yaml",
-                                          replace(yaml, "shared: {r: 0.165}", "shared: {r: 0.165, b: 0.555}")),
-                               paths);
+  const Bank bank = Bank::load(
+      write_file(test_directory() / "with_b.yaml", replace(yaml, "shared: {r: 0.165}", "shared: {r: 0.165, b: 0.555}")),
+      paths);
   EXPECT_EQ(bank.models.size(), 2u);
 
-  const std::string sided =
-      skidimm_test::read_file(std::filesystem::path(kSourceDir) / "configs/stc_sided4.yaml");
+  const std::string sided = skidimm_test::read_file(std::filesystem::path(kSourceDir) / "configs/stc_sided4.yaml");
   expect_config_error(replace(sided, "  r: 0.165", "  r_typo: 0.165"),
                       {"modes[0].params: mode 'no_slip' (model stc_sided): the bank gives no 'r', which model "
                        "stc_sided declares bank-level (one value for every mode): give it once under 'shared:'"},

@@ -17,10 +17,10 @@
 #include <unordered_map>
 #include <utility>
 
-#include "solver_progress.h"
 #include "skidimm/covariance.h"
 #include "skidimm/measurement_model.h"
 #include "skidimm/sdk/angles.h"
+#include "solver_progress.h"
 
 namespace skidimm {
 namespace fitting {

@@ -15,11 +15,11 @@
 
 #include "measurement_layout.h"
 #include "process_noise_search.h"
-#include "solver_progress.h"
 #include "skidimm/covariance.h"
 #include "skidimm/measured_outputs.h"
 #include "skidimm/measurement_model.h"
 #include "skidimm/sdk/angles.h"
+#include "solver_progress.h"
 
 namespace skidimm {
 namespace fitting {
