@@ -70,6 +70,7 @@ class FigureReporter : public benchmark::ConsoleReporter {
     ConsoleReporter::Finalize();
     print_ratios();
     print_jacobians();
+    print_likelihood();
     print_scaling();
     print_runs();
   }
@@ -78,6 +79,11 @@ class FigureReporter : public benchmark::ConsoleReporter {
   const Figure* find(const std::string& name) const {
     const auto it = figures_.find(name);
     return it == figures_.end() ? nullptr : &it->second;
+  }
+
+  const Figure* find_prefix(const std::string& prefix) const {
+    const auto it = figures_.lower_bound(prefix);
+    return it == figures_.end() || it->first.rfind(prefix, 0) != 0 ? nullptr : &it->second;
   }
 
   void print_ratios() const {
@@ -120,6 +126,35 @@ class FigureReporter : public benchmark::ConsoleReporter {
                     std::string(what) == "Jacobian" ? "jacobian()" : "jacobian + process_noise + predict",
                     generated->seconds * 1e9, analytic->seconds * 1e9, generated->seconds / analytic->seconds);
       }
+    }
+  }
+
+  // The likelihood's gradient and a whole fit in NLL evaluations of the same
+  // run (likelihood_benchmark.cc).
+  void print_likelihood() const {
+    bool header = false;
+    for (const char* model : {"ltc_linear", "six_diagonal_a", "six_full_a"}) {
+      const std::string prefix = std::string("Likelihood/") + model + "/";
+      const Figure* nll = find(prefix + "nll");
+      const Figure* gradient = find(prefix + "gradient");
+      const Figure* fit = find_prefix(prefix + "fit");  // "fit/iterations:1[/repeats:1]"
+      if (nll == nullptr || gradient == nullptr) continue;
+      if (!header) {
+        std::printf(
+            "\nFitting by likelihood over 10^4 rows: the gradient and a whole fit (from 20%% off) in NLLs of "
+            "the same run:\n");
+        std::printf("  %-16s %10s %12s %8s %12s %8s %10s\n", "model", "NLL (ms)", "+grad (ms)", "ratio", "fit (ms)",
+                    "ratio", "iterations");
+        header = true;
+      }
+      std::printf("  %-16s %10.2f %12.2f %7.2fx", model, nll->seconds * 1e3, gradient->seconds * 1e3,
+                  gradient->seconds / nll->seconds);
+      if (fit != nullptr) {
+        const auto iterations = fit->counters.find("lbfgs_iterations");
+        std::printf(" %12.1f %7.1fx %10.0f", fit->seconds * 1e3, fit->seconds / nll->seconds,
+                    iterations == fit->counters.end() ? 0.0 : iterations->second);
+      }
+      std::printf("\n");
     }
   }
 

@@ -16,11 +16,4 @@
 #define SKIDIMM_SANITIZED 0
 #endif
 
-// In a GoogleTest body that measures cost (times printed for the docs or a
-// reader, nothing asserted on them): skips it under a sanitizer, where the
-// times mean nothing and the run is many times slower.
-#define SKIDIMM_SKIP_COST_MEASUREMENT_WHEN_SANITIZED()                                           \
-  if (SKIDIMM_SANITIZED) GTEST_SKIP() << "a cost measurement: under a sanitizer its times mean " \
-                                         "nothing (the Release suite runs it)"
-
 #endif  // SKIDIMM_TESTS_CORE_SANITIZER_H_

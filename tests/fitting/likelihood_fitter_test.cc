@@ -4,18 +4,17 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
-#include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <functional>
 #include <iostream>
 #include <memory>
-#include <random>
 #include <string>
 #include <vector>
 
-#include "core/sanitizer.h"
 #include "core/temp_files.h"
 #include "core/test_banks.h"
+#include "fitting/simulated_logs.h"
 #include "skidimm/ekf.h"
 #include "skidimm/imm.h"
 #include "skidimm/measurement_model.h"
@@ -28,6 +27,8 @@ namespace {
 
 using ::testing::HasSubstr;
 using Options = LikelihoodFitOptions;
+using skidimm_test::rich_wheel_speeds;
+using skidimm_test::simulate;
 
 // x+ = x + (A x + B u) dt (the forward-Euler step of eq. 1), whose free
 // entries of A and B (row-major, A first) are the model's parameters and the
@@ -114,49 +115,6 @@ class MaskedLinearModel : public sdk::MotionModel {
   std::vector<std::string> states_, inputs_;
   std::vector<sdk::ParameterInfo> info_;
 };
-
-// A log generated from `model` itself: x_{k+1} = predict(x_k, u_k, dt) + w,
-// w ~ N(0, Q dt) (the default process_noise()), z_k = H x_k + v, v ~ N(0, R),
-// with component c of row k kept only where measured(k, c). Angles wrapped.
-Trajectory simulate(const sdk::MotionModel& model, const Eigen::MatrixXd& q, const Eigen::MatrixXd& h,
-                    const Eigen::MatrixXd& r, int rows, double dt, const std::function<Eigen::VectorXd(double)>& input,
-                    unsigned seed, const std::function<bool(int, int)>& measured = {}) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  const int n = model.state_dim();
-  const Eigen::Index m = h.rows();
-  const Eigen::MatrixXd process = Eigen::LLT<Eigen::MatrixXd>(q * dt).matrixL();
-  const Eigen::MatrixXd sensor = Eigen::LLT<Eigen::MatrixXd>(r).matrixL();
-  Trajectory t;
-  t.source = "simulated";
-  t.u.resize(model.input_dim(), rows);
-  t.z.resize(m, rows);
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(n), next(n), w(n), v(m);
-  for (int k = 0; k < rows; ++k) {
-    const double time = k * dt;
-    t.t.push_back(time);
-    t.u.col(k) = input(time);
-    for (Eigen::Index c = 0; c < m; ++c) v[c] = normal(rng);
-    t.z.col(k) = h * x + sensor * v;
-    for (Eigen::Index c = 0; c < m; ++c) {
-      bool angle = false;
-      for (int i = 0; i < n; ++i) angle = angle || (h(c, i) != 0.0 && model.is_angle(i));
-      if (angle) t.z(c, k) = sdk::wrap_angle(t.z(c, k));
-      if (measured && !measured(k, static_cast<int>(c))) t.z(c, k) = std::nan("");
-    }
-    model.predict(x, t.u.col(k), dt, next);
-    for (int i = 0; i < n; ++i) w[i] = normal(rng);
-    x = next + process * w;
-    for (int i = 0; i < n; ++i) {
-      if (model.is_angle(i)) x[i] = sdk::wrap_angle(x[i]);
-    }
-  }
-  return t;
-}
-
-Eigen::VectorXd rich_wheel_speeds(double t) {
-  return Eigen::Vector2d(4.0 + 3.0 * std::sin(0.9 * t) + std::sin(3.1 * t), 4.0 + 3.0 * std::cos(0.6 * t));
-}
 
 // A bank of one or more modes around in-process models, with diagonal Q and R.
 Bank make_bank(std::vector<std::shared_ptr<sdk::MotionModel>> models, const std::vector<Eigen::MatrixXd>& q,
@@ -787,99 +745,32 @@ TEST(LikelihoodFitter, ProcessNoiseNotLinearInQIsAnErrorUnlessQIsKept) {
   EXPECT_NEAR(report.parameters[0].value, -1.5, 4.0 * report.parameters[0].standard_deviation);
 }
 
-// The cost that matters for fitting, over 10^4 rows: one NLL, one NLL +
-// gradient and (with `whole_fit`) a fit from a start away from the truth
-// (every parameter 20% off, Q at the bank's), whose evaluations skip the
-// derivatives the model does not have and reuse those of equal steps.
-// Printed; the assertion is only that both evaluations agree on the NLL.
-double milliseconds(const std::function<void()>& f) {
-  const auto start = std::chrono::steady_clock::now();
-  f();
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-}
-
-void measure_cost(const std::string& what, Bank* bank, const Trajectory& log, bool whole_fit) {
+// The NLL with the gradient (evaluate_likelihood_derivatives) is the NLL
+// alone (evaluate_likelihood), for a 2-state model with a parameter Jacobian
+// and 6-state ones with 42 parameters. What these evaluations cost is
+// measured in tests/benchmarks/likelihood_benchmark.cc.
+void expect_same_negative_log_likelihood(Bank* bank, const Trajectory& log) {
   const ModeLogs data{0, {log}};
-  LikelihoodEvaluation value, derivatives;
-  const double value_ms = milliseconds([&] { value = evaluate_likelihood(*bank, data); });
-  const double gradient_ms = milliseconds([&] { derivatives = evaluate_likelihood_derivatives(bank, data); });
+  const LikelihoodEvaluation value = evaluate_likelihood(*bank, data);
+  const LikelihoodEvaluation derivatives = evaluate_likelihood_derivatives(bank, data);
   ASSERT_TRUE(value.failure.empty()) << value.failure;
+  ASSERT_TRUE(derivatives.failure.empty()) << derivatives.failure;
   EXPECT_NEAR(value.negative_log_likelihood, derivatives.negative_log_likelihood,
               1e-12 * std::abs(value.negative_log_likelihood));
-  std::cout << what << ", " << log.size() << " rows, " << derivatives.gradient.size() << " parameters with Q: NLL "
-            << value_ms << " ms, NLL + gradient " << gradient_ms << " ms";
-  if (whole_fit) {
-    Eigen::VectorXd start(static_cast<Eigen::Index>(bank->models[0]->parameter_info().size()));
-    bank->models[0]->get_parameters(start);
-    ASSERT_TRUE(bank->models[0]->set_parameters(start * 0.8, nullptr));
-    FitReport report;
-    const double fit_ms = milliseconds([&] { report = fit_likelihood(bank, {data}).front(); });
-    std::cout << "; fit " << fit_ms << " ms for " << report.iterations << " LBFGS iterations";
-  }
-  std::cout << "\n";
 }
 
-Bank six_state_bank(const std::string& a, const std::string& b, int inputs) {
-  std::string input_names;
-  for (int j = 0; j < inputs; ++j) input_names += (j ? ", u" : "u") + std::to_string(j);
-  const std::string yaml = "name: six\nstates: [s0, s1, s2, s3, s4, s5]\ninputs: [" + input_names +
-                           "]\nmeasurement: {observe: [s0, s1, s2, s3, s4, s5], R: {std: [0.02, 0.02, 0.02, 0.02, "
-                           "0.02, 0.02]}}\ntransition: {stay: 0.99}\ninitial: {covariance: {std: [1, 1, 1, 1, 1, "
-                           "1]}}\nmodes:\n  - name: six\n    model: linear_features\n    params: {A: " +
-                           a + ", B: " + b + (inputs > 1 ? ", c: [0.1, 0, -0.1, 0.2, 0, 0]" : "") +
-                           "}\n    Q: {diagonal: [0.01, 0.01, 0.01, 0.01, 0.01, 0.01]}\n";
-  return Bank::load(skidimm_test::write_file(skidimm_test::test_directory() / "six.yaml", yaml), {SKIDIMM_PLUGIN_DIR});
-}
-
-// 42 parameters: A diagonal (6), B 6 x 5 (30), c (6).
-Bank six_states_diagonal_a() {
-  std::string b = "[";
-  for (int i = 0; i < 6; ++i)
-    b += std::string(i ? ", " : "") + "[0.5, -0.2, 0.3, 0.1, " + std::to_string(0.1 * i) + "]";
-  return six_state_bank("[-1, -2, -3, -1.5, -0.5, -4]", b + "]", 5);
-}
-
-// 42 parameters: A full (36), B 6 x 1 (6).
-Bank six_states_full_a() {
-  return six_state_bank(
-      "[[-1, 0.1, 0, 0, 0, 0], [0, -2, 0.2, 0, 0, 0], [0, 0, -3, 0.1, 0, 0], [0, 0, 0, -1.5, 0.3, 0], "
-      "[0, 0, 0, 0, -0.5, 0.1], [0.1, 0, 0, 0, 0, -4]]",
-      "[[0.5], [-0.2], [0.3], [0.1], [0.2], [0.4]]", 1);
-}
-
-Trajectory six_state_log(const sdk::MotionModel& model, unsigned seed) {
-  auto inputs = [&model](double t) {
-    Eigen::VectorXd u(model.input_dim());
-    for (int j = 0; j < model.input_dim(); ++j)
-      u[j] = std::sin((0.3 + 0.4 * j) * t) + 0.5 * std::cos((1.1 + 0.7 * j) * t);
-    return u;
-  };
-  return simulate(model, Eigen::MatrixXd::Identity(6, 6) * 0.01, Eigen::MatrixXd::Identity(6, 6),
-                  Eigen::MatrixXd::Identity(6, 6) * 4e-4, 10000, 0.02, inputs, seed);
-}
-
-TEST(LikelihoodFitter, CostOfOneEvaluationOverTenThousandRows) {
-  SKIDIMM_SKIP_COST_MEASUREMENT_WHEN_SANITIZED();
+TEST(LikelihoodFitter, TheNllWithTheGradientIsTheNllAlone) {
   const LtcTruth truth = ltc_truth();
   const Eigen::MatrixXd r = diagonal({1e-4, 1e-4});
   Bank ltc = ltc_start_bank(r);
-  measure_cost("ltc_linear (2 states)", &ltc,
-               simulate(*skidimm_test::make_ltc(truth.a, truth.b), truth.q, Eigen::MatrixXd::Identity(2, 2), r, 10000,
-                        0.02, rich_wheel_speeds, 101),
-               true);
-  Bank diagonal_a = six_states_diagonal_a();
-  measure_cost("linear_features, diagonal A (6 states)", &diagonal_a, six_state_log(*diagonal_a.models[0], 102), false);
-  Bank full_a = six_states_full_a();
-  measure_cost("linear_features, full A (6 states)", &full_a, six_state_log(*full_a.models[0], 103), false);
-}
-
-// The whole fits of the 6-state models (about 15 s): run with
-// --gtest_also_run_disabled_tests.
-TEST(LikelihoodFitter, DISABLED_CostOfWholeFitsOfSixStateModels) {
-  Bank diagonal_a = six_states_diagonal_a();
-  measure_cost("linear_features, diagonal A (6 states)", &diagonal_a, six_state_log(*diagonal_a.models[0], 102), true);
-  Bank full_a = six_states_full_a();
-  measure_cost("linear_features, full A (6 states)", &full_a, six_state_log(*full_a.models[0], 103), true);
+  expect_same_negative_log_likelihood(
+      &ltc, simulate(*skidimm_test::make_ltc(truth.a, truth.b), truth.q, Eigen::MatrixXd::Identity(2, 2), r, 2000, 0.02,
+                     rich_wheel_speeds, 101));
+  const std::filesystem::path directory = skidimm_test::test_directory();
+  Bank diagonal_a = skidimm_test::six_states_diagonal_a(directory);
+  expect_same_negative_log_likelihood(&diagonal_a, skidimm_test::six_state_log(*diagonal_a.models[0], 102, 2000));
+  Bank full_a = skidimm_test::six_states_full_a(directory);
+  expect_same_negative_log_likelihood(&full_a, skidimm_test::six_state_log(*full_a.models[0], 103, 2000));
 }
 
 }  // namespace
