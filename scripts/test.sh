@@ -3,16 +3,32 @@
 # then the sanitizer stage (scripts/check.sh: a clang build with ASan+UBSan,
 # the suite under it without the reproduction tests, and each fuzz target for
 # SKIDIMM_FUZZ_SECONDS, set below). CI runs this script.
-#   ./scripts/test.sh
+#   ./scripts/test.sh            the full gate
+#   ./scripts/test.sh --quick    the loop while editing: an incremental build and
+#                                every test but those labelled `slow` (the
+#                                reproductions, the install, demo and
+#                                out-of-tree packaging tests); no sanitizer stage
 # SKIDIMM_CHECK=0 skips the sanitizer stage; SKIDIMM_CHECK_ARGS is passed to
 # check.sh (e.g. --tsan for the ThreadSanitizer build as well).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${SKIDIMM_BUILD_DIR:-$root/build}
+jobs=${SKIDIMM_JOBS:-$(nproc 2>/dev/null || echo 2)}
+quick=0
+for arg in "$@"; do
+  case "$arg" in
+    --quick) quick=1 ;;
+    -h|--help) sed -n '2,12p' "$0"; exit 0 ;;
+    *) echo "test.sh: unknown argument '$arg' (see --help)" >&2; exit 2 ;;
+  esac
+done
 "$root/scripts/setup.sh"
 "$root/scripts/build.sh"
 cd "$build"
-ctest --output-on-failure -j "${SKIDIMM_JOBS:-$(nproc 2>/dev/null || echo 2)}"
+if [ "$quick" -eq 1 ]; then
+  exec ctest --output-on-failure -j "$jobs" -LE slow
+fi
+ctest --output-on-failure -j "$jobs"
 if [ "${SKIDIMM_CHECK:-1}" != 0 ]; then
   # 20 s per fuzz target keeps the whole script within CI's budget on two
   # cores (README); longer runs are for check.sh by hand (tests/fuzz/README.md).
