@@ -68,12 +68,13 @@ if [ "$asan" -eq 1 ]; then
   # the sanitizer runtime it does not have); they test packaging, which the
   # Release suite covers.
   (cd "$dir" && ctest --output-on-failure -j "$jobs" -E 'Reproduced|reproduce|OutOfTree|Install\.')
-  for fuzzer in bank_loader_fuzzer log_reader_fuzzer scenario_loader_fuzzer estimates_reader_fuzzer mcap_reader_fuzzer \
-    cdr_reader_fuzzer; do
+  # One fuzz target: one libFuzzer process, on one core.
+  fuzz() {
+    local fuzzer=$1 work f
     stamp "fuzzing $fuzzer for ${fuzz_seconds} s"
     work=$dir/fuzz/$fuzzer
     rm -rf "$work" && mkdir -p "$work/corpus" "$work/seeds" "$work/findings"
-    seeds=()
+    local seeds=()
     case "$fuzzer" in
       bank_loader_fuzzer) seeds=("$root"/configs/*.yaml "$root"/configs/{physical,realistic,borealtc,husky}/*.yaml
                                  "$root"/tests/fixtures/banks/*.yaml) ;;
@@ -92,8 +93,27 @@ if [ "$asan" -eq 1 ]; then
       echo "check.sh: $fuzzer found a problem; the input is in $work/findings/" >&2
       exit 1
     }
-    grep -E '^stat::number_of_executed_units|^#[0-9]+.*DONE' "$work/log" | tail -n 2 >&2 || true
+    grep -E '^stat::number_of_executed_units|^#[0-9]+.*DONE' "$work/log" | tail -n 2 | sed "s/^/$fuzzer: /" >&2 || true
+  }
+  # $jobs targets at a time (two on CI's two cores). A finding fails the
+  # stage once the targets still running have ended (each is bounded by
+  # -max_total_time), so no fuzzer outlives the script.
+  running=()
+  finish_one() {
+    local pid=${running[0]}
+    running=("${running[@]:1}")
+    wait "$pid" || {
+      wait || true
+      exit 1
+    }
+  }
+  for fuzzer in bank_loader_fuzzer log_reader_fuzzer scenario_loader_fuzzer estimates_reader_fuzzer mcap_reader_fuzzer \
+    cdr_reader_fuzzer; do
+    fuzz "$fuzzer" &
+    running+=("$!")
+    if [ "${#running[@]}" -ge "$jobs" ]; then finish_one; fi
   done
+  while [ "${#running[@]}" -gt 0 ]; do finish_one; done
   stamp "ASan+UBSan stage passed"
 fi
 
