@@ -764,13 +764,13 @@ TEST(LikelihoodFitter, TheNllWithTheGradientIsTheNllAlone) {
   const Eigen::MatrixXd r = diagonal({1e-4, 1e-4});
   Bank ltc = ltc_start_bank(r);
   expect_same_negative_log_likelihood(
-      &ltc, simulate(*skidimm_test::make_ltc(truth.a, truth.b), truth.q, Eigen::MatrixXd::Identity(2, 2), r, 2000, 0.02,
+      &ltc, simulate(*skidimm_test::make_ltc(truth.a, truth.b), truth.q, Eigen::MatrixXd::Identity(2, 2), r, 500, 0.02,
                      rich_wheel_speeds, 101));
   const std::filesystem::path directory = skidimm_test::test_directory();
   Bank diagonal_a = skidimm_test::six_states_diagonal_a(directory);
-  expect_same_negative_log_likelihood(&diagonal_a, skidimm_test::six_state_log(*diagonal_a.models[0], 102, 2000));
+  expect_same_negative_log_likelihood(&diagonal_a, skidimm_test::six_state_log(*diagonal_a.models[0], 102, 500));
   Bank full_a = skidimm_test::six_states_full_a(directory);
-  expect_same_negative_log_likelihood(&full_a, skidimm_test::six_state_log(*full_a.models[0], 103, 2000));
+  expect_same_negative_log_likelihood(&full_a, skidimm_test::six_state_log(*full_a.models[0], 103, 500));
 }
 
 }  // namespace
