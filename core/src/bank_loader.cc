@@ -356,7 +356,7 @@ namespace {
 void parse_sampling(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {
   const YAML::Node node = root["sampling"];
   if (!node) return;
-  y.check_keys(node, {"join", "rate"}, "sampling");
+  y.check_keys(node, {"join", "rate", "max_gap", "skip_gaps"}, "sampling");
   if (const YAML::Node join = node["join"]) {
     const std::string value = y.string(join, "sampling.join");
     if (value == "time") {
@@ -374,6 +374,19 @@ void parse_sampling(const YamlFields& y, const YAML::Node& root, BankConfig* ban
     if (!(bank->sampling.rate > 0.0 && bank->sampling.rate <= 1e6)) {
       y.fail(rate, "sampling.rate", "must be a rate in Hz, > 0 and at most 1e6");
     }
+  }
+  if (const YAML::Node gap = node["max_gap"]) {
+    bank->sampling.max_gap = y.number(gap, "sampling.max_gap");
+    if (!(bank->sampling.max_gap > 0.0 && bank->sampling.max_gap <= 1e9)) {
+      y.fail(gap, "sampling.max_gap", "must be a time in seconds, > 0 and at most 1e9");
+    }
+  }
+  if (const YAML::Node skip = node["skip_gaps"]) {
+    const std::string value = y.string(skip, "sampling.skip_gaps");
+    if (value != "true" && value != "false") {
+      y.fail(skip, "sampling.skip_gaps", "expected true or false, got '" + value + "'");
+    }
+    bank->sampling.skip_gaps = value == "true";
   }
 }
 

@@ -109,8 +109,9 @@ bool parse_number(std::string_view cell, double* value, bool* missing) {
 
 // What a cell that parse_number refused was expected to be, for the message.
 std::string bad_number(const CsvReader& reader, int index, std::string_view cell, const std::string& expected) {
-  return "column " + std::to_string(index + 1) + " ('" + reader.header()[static_cast<std::size_t>(index)] +
-         "'): expected " + expected + ", got '" + std::string(cell.substr(0, 80)) + (cell.size() > 80 ? "...'" : "'");
+  return "column " + std::to_string(index + 1) + " ('" +
+         Expression::excerpt(reader.header()[static_cast<std::size_t>(index)]) + "'): expected " + expected +
+         ", got '" + std::string(cell.substr(0, 80)) + (cell.size() > 80 ? "...'" : "'");
 }
 
 // A CSV file as a table of the log (log_table.h): cells parsed as parse_number does.
@@ -159,18 +160,6 @@ std::string printable_header(const std::vector<std::string>& header, int* listed
 }
 
 enum class Aggregation { kMean, kStd, kRms };
-
-const char* aggregation_name(Aggregation a) {
-  switch (a) {
-    case Aggregation::kMean:
-      return "mean";
-    case Aggregation::kStd:
-      return "std";
-    case Aggregation::kRms:
-      return "rms";
-  }
-  return "?";
-}
 
 // Running moments of the values of one step (Welford: no cancellation).
 struct Accumulator {
@@ -260,53 +249,28 @@ struct Stream {
   bool read_pending = false;
   bool ended = false;
   double row_t = 0.0;
-  double last_t = -std::numeric_limits<double>::infinity();
+  double last_t = -std::numeric_limits<double>::infinity();  // of the last row applied
+  long rows_read = 0;
+  double first_t = 0.0;  // of its first row
   bool feeds_inputs = false;
+  // Its values are held into later steps (inputs, truth, true states), so
+  // a row before the first step still counts.
+  bool holds_values = false;
   // A bad row, found when it was read ahead: thrown when the steps before it
   // have been delivered, so a caller keeps everything computed up to it.
   std::exception_ptr error;
 };
 
-// Splits "log(std(az)) + mean(x)" into the outer text with placeholders
-// "log(_skidimm_step0) + _skidimm_step1" and the aggregates' inner texts.
-struct SplitAggregates {
-  std::string outer;
-  std::vector<std::pair<Aggregation, std::string>> terms;
-};
+// The aggregates a measurement may take of its rows in a step.
+const std::vector<std::string>& aggregate_names() {
+  static const std::vector<std::string> names{"mean", "std", "rms"};
+  return names;
+}
 
-bool is_name_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
-
-SplitAggregates split_aggregates(const std::string& text, const std::string& field) {
-  static const std::pair<const char*, Aggregation> kNames[] = {
-      {"mean", Aggregation::kMean}, {"std", Aggregation::kStd}, {"rms", Aggregation::kRms}};
-  SplitAggregates out;
-  std::size_t i = 0;
-  while (i < text.size()) {
-    bool matched = false;
-    if (i == 0 || !is_name_char(text[i - 1])) {
-      for (const auto& [name, kind] : kNames) {
-        const std::size_t n = std::char_traits<char>::length(name);
-        std::size_t j = i + n;
-        if (text.compare(i, n, name) != 0) continue;
-        while (j < text.size() && text[j] == ' ') ++j;
-        if (j >= text.size() || text[j] != '(' || (i + n < text.size() && is_name_char(text[i + n]))) continue;
-        int depth = 0;
-        std::size_t close = j;
-        for (; close < text.size(); ++close) {
-          if (text[close] == '(') ++depth;
-          if (text[close] == ')' && --depth == 0) break;
-        }
-        if (close >= text.size()) throw Error(field + ": \"" + text + "\": unbalanced parentheses after " + name);
-        out.outer += "_skidimm_step" + std::to_string(out.terms.size());
-        out.terms.emplace_back(kind, text.substr(j + 1, close - j - 1));
-        i = close + 1;
-        matched = true;
-        break;
-      }
-    }
-    if (!matched) out.outer += text[i++];
-  }
-  return out;
+Aggregation aggregation_of(const std::string& name) {
+  if (name == "std") return Aggregation::kStd;
+  if (name == "rms") return Aggregation::kRms;
+  return Aggregation::kMean;
 }
 
 // The bank's column texts that may name a bag's topics (ros/bag_log.h).
@@ -342,11 +306,17 @@ class LogReader::Impl {
   long steps_ = 0;
   long grid_index_ = 0;
   double grid_origin_ = 0.0;
+  double last_step_t_ = -std::numeric_limits<double>::infinity();
+  long rows_applied_ = 0;  // rows (of a stream) applied, over all streams
+  double first_row_t_ = 0.0;
+  double first_step_t_ = 0.0;
+  double last_row_t_ = -std::numeric_limits<double>::infinity();
   LogStats stats_;
 
  private:
   int column_id(const std::string& name, const std::string& field, bool required);
   RowValue bind_row_value(const std::string& text, const std::string& field);
+  bool is_column(const std::string& name) const;
   void bind_measurement(MeasurementBinding* m, const std::string& text);
   [[noreturn]] void missing_column(const std::string& column, const std::string& field) const;
   bool read_row(Stream& s);
@@ -358,12 +328,25 @@ class LogReader::Impl {
   bool inputs_known() const;
   void discard_measurements();
   bool past_end(double t) const;
+  double next_grid_time();
+  void check_no_file_is_empty() const;
+  void check_every_file_was_used() const;
+  const Stream* stream_at(double t) const;
   void emit(double t, LogSample* sample);
 };
 
 LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling)
     : bank_(bank), sampling_(sampling) {
   if (files.empty()) throw LogError("", 0, "no input log given");
+  if (!(sampling.rate == 0.0 || (sampling.rate > 0.0 && sampling.rate <= 1e6))) {
+    throw Error(
+        "the filter's rate (sampling.rate or --rate) must be in Hz, > 0 and at most 1e6, or 0 for a step at "
+        "every time stamp; got " +
+        CsvWriter::format(sampling.rate));
+  }
+  if (!(sampling.max_gap > 0.0)) {
+    throw Error("sampling.max_gap must be a time in seconds, > 0; got " + CsvWriter::format(sampling.max_gap));
+  }
   int standard_inputs = 0;
   for (const LogFile& file : files) standard_inputs += is_standard_input(file.path) ? 1 : 0;
   if (standard_inputs > 1) throw LogError("-", 0, "standard input ('-') can be one file of a log, not several");
@@ -448,10 +431,16 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
     true_state_columns_.push_back(column_id("true_" + state, "", /*required=*/false));
     has_true_states_ = has_true_states_ || true_state_columns_.back() >= 0;
   }
+  for (Stream& s : streams_) s.holds_values = s.feeds_inputs;
+  if (truth_stream_ >= 0) streams_[static_cast<std::size_t>(truth_stream_)].holds_values = true;
+  for (int c : true_state_columns_) {
+    if (c >= 0) streams_[static_cast<std::size_t>(columns_[static_cast<std::size_t>(c)].stream)].holds_values = true;
+  }
   row_values_.assign(columns_.size(), kNaN);
   held_values_.assign(columns_.size(), kNaN);
   stats_.superseded.assign(measurements_.size(), 0);
   stats_.not_finite.assign(measurements_.size(), 0);
+  stats_.measured.assign(measurements_.size(), 0);
   for (Stream& s : streams_) s.read_pending = true;
 }
 
@@ -464,7 +453,7 @@ void LogReader::Impl::missing_column(const std::string& column, const std::strin
       if (!h.empty()) present += (present.empty() ? "" : ", ") + h;
     }
   }
-  throw streams_.front().files.front()->error("no column '" + column + "' (the bank's " + field +
+  throw streams_.front().files.front()->error("no column '" + Expression::excerpt(column) + "' (the bank's " + field +
                                               "); columns present: " + present);
 }
 
@@ -502,11 +491,7 @@ RowValue LogReader::Impl::bind_row_value(const std::string& text, const std::str
   RowValue v;
   v.text = text;
   // A column's exact name is that column, whatever characters it has.
-  bool plain = false;
-  for (const Stream& s : streams_) {
-    for (const auto& reader : s.files) plain = plain || reader->column(text) >= 0;
-  }
-  if (plain) {
+  if (is_column(text)) {
     v.columns.push_back(column_id(text, field, true));
   } else {
     try {
@@ -516,7 +501,8 @@ RowValue LogReader::Impl::bind_row_value(const std::string& text, const std::str
       throw Error(bank_.file.string() + ": " + field + ": " + e.what());
     }
     if (v.expression->variables().empty()) {
-      throw Error(bank_.file.string() + ": " + field + ": \"" + text + "\" uses no column of the log");
+      throw Error(bank_.file.string() + ": " + field + ": \"" + Expression::excerpt(text) +
+                  "\" uses no column of the log");
     }
     for (const std::string& name : v.expression->variables()) v.columns.push_back(column_id(name, field, true));
   }
@@ -528,12 +514,17 @@ RowValue LogReader::Impl::bind_row_value(const std::string& text, const std::str
   return v;
 }
 
-void LogReader::Impl::bind_measurement(MeasurementBinding* m, const std::string& text) {
-  bool plain = false;
+bool LogReader::Impl::is_column(const std::string& name) const {
   for (const Stream& s : streams_) {
-    for (const auto& reader : s.files) plain = plain || reader->column(text) >= 0;
+    for (const auto& reader : s.files) {
+      if (reader->column(name) >= 0) return true;
+    }
   }
-  const SplitAggregates split = plain ? SplitAggregates{text, {}} : split_aggregates(text, m->field);
+  return false;
+}
+
+void LogReader::Impl::bind_measurement(MeasurementBinding* m, const std::string& text) {
+  const std::string quoted = "\"" + Expression::excerpt(text) + "\"";
   auto one_stream = [&](const RowValue& v, const std::string& what) {
     if (v.streams.size() > 1) {
       std::string names;
@@ -549,41 +540,41 @@ void LogReader::Impl::bind_measurement(MeasurementBinding* m, const std::string&
     }
     return v.streams.front();
   };
-  if (split.terms.empty()) {
+  Expression::WithCalls cut;
+  if (!is_column(text)) {
+    try {
+      cut = Expression::cut_calls(text, aggregate_names());
+    } catch (const ExpressionError& e) {
+      if (Expression::is_identifier(trim(text))) missing_column(trim(text), m->field);
+      throw Error(bank_.file.string() + ": " + m->field + ": " + e.what());
+    }
+  }
+  if (cut.calls.empty()) {
     m->row = bind_row_value(text, m->field);
-    m->stream = one_stream(m->row, "\"" + text + "\"");
+    m->stream = one_stream(m->row, quoted);
     return;
   }
-  try {
-    m->outer = std::make_unique<Expression>(split.outer);
-  } catch (const ExpressionError& e) {
-    throw Error(bank_.file.string() + ": " + m->field + ": cannot parse \"" + text + "\"");
+  if (!cut.names_outside.empty()) {
+    throw Error(bank_.file.string() + ": " + m->field + ": " + quoted + " uses column '" +
+                Expression::excerpt(cut.names_outside.front()) +
+                "' outside mean(), std() or rms(); in an aggregated measurement every column is inside one");
   }
-  for (const std::string& name : m->outer->variables()) {
-    if (name.rfind("_skidimm_step", 0) != 0) {
-      throw Error(bank_.file.string() + ": " + m->field + ": \"" + text + "\" uses column '" + name +
-                  "' outside mean(), std() or rms(); in an aggregated measurement every column is inside one");
-    }
-    const std::size_t term = std::stoul(name.substr(13));
+  m->outer = std::move(cut.outer);
+  for (const Expression::Call& call : cut.calls) {
     AggregateTerm t;
-    t.kind = split.terms[term].first;
-    const std::string inner = split.terms[term].second;
-    if (split_aggregates(inner, m->field).terms.size() > 0) {
-      throw Error(bank_.file.string() + ": " + m->field + ": \"" + text + "\": " + aggregation_name(t.kind) +
-                  "() of another aggregate is not supported");
-    }
-    t.inner = bind_row_value(inner, m->field);
-    const int s = one_stream(t.inner, std::string(aggregation_name(t.kind)) + "(" + inner + ")");
+    t.kind = aggregation_of(call.function);
+    t.inner = bind_row_value(call.argument, m->field);
+    const int s = one_stream(t.inner, call.function + "(" + Expression::excerpt(call.argument) + ")");
     if (m->stream >= 0 && s != m->stream) {
-      throw Error(bank_.file.string() + ": " + m->field + ": \"" + text +
-                  "\" aggregates columns of different files; a measurement arrives with the rows of one file");
+      throw Error(bank_.file.string() + ": " + m->field + ": " + quoted +
+                  " aggregates columns of different files; a measurement arrives with the rows of one file");
     }
     m->stream = s;
     m->aggregates.push_back(std::move(t));
   }
   m->outer_scratch.resize(m->aggregates.size());
   if (sampling_.rate <= 0.0) {
-    throw Error(bank_.file.string() + ": " + m->field + ": \"" + text + "\" aggregates the rows of a filter step, " +
+    throw Error(bank_.file.string() + ": " + m->field + ": " + quoted + " aggregates the rows of a filter step, " +
                 "which needs a fixed step: set sampling.rate (Hz) in the bank or --rate");
   }
 }
@@ -633,12 +624,17 @@ bool LogReader::Impl::read_row_or_throw(Stream& s) {
     throw reader.cell_error(s.time_index, "a finite time in seconds");
   }
   t += s.offset;
+  if (!std::isfinite(t)) {
+    throw reader.cell_error(
+        s.time_index, "a time that stays finite with the file's offset (" + CsvWriter::format(s.offset) + " s) added");
+  }
   if (t <= s.last_t) {
     throw reader.error_at_row("column '" + bank_.columns.time + "': time must increase strictly, but " +
                               CsvWriter::format(t) + " follows " + CsvWriter::format(s.last_t));
   }
   s.row_t = t;
   s.has_row = true;
+  if (s.rows_read++ == 0) s.first_t = t;
   return true;
 }
 
@@ -686,6 +682,8 @@ void LogReader::Impl::apply_row(int k) {
     if (!label.empty() || !bank_.columns.carry_truth) held_truth_.assign(label);
   }
   s.last_t = s.row_t;
+  if (rows_applied_++ == 0) first_row_t_ = s.row_t;
+  last_row_t_ = std::max(last_row_t_, s.row_t);
   for (std::size_t i : s.stat_index) ++stats_.rows[i];
   s.has_row = false;
   s.read_pending = true;
@@ -756,12 +754,11 @@ void LogReader::Impl::emit(double t, LogSample* sample) {
                   CsvWriter::format(held_values_[static_cast<std::size_t>(c)]);
       }
       const Column& first = columns_[static_cast<std::size_t>(inputs_[i].columns.front())];
-      throw LogError(streams_[static_cast<std::size_t>(first.stream)].files[static_cast<std::size_t>(first.file)]
-                         ->path()
-                         .string(),
-                     0,
-                     "input '" + bank_.input_names[i] + "' = \"" + inputs_[i].text + "\" is not finite at t = " +
-                         CsvWriter::format(t) + " (latest values: " + values + ")");
+      throw LogError(
+          streams_[static_cast<std::size_t>(first.stream)].files[static_cast<std::size_t>(first.file)]->path().string(),
+          0,
+          "input '" + bank_.input_names[i] + "' = \"" + Expression::excerpt(inputs_[i].text) +
+              "\" is not finite at t = " + CsvWriter::format(t) + " (latest values: " + values + ")");
     }
     sample->u[static_cast<Eigen::Index>(i)] = value;
   }
@@ -784,6 +781,7 @@ void LogReader::Impl::emit(double t, LogSample* sample) {
       }
     }
     sample->z[static_cast<Eigen::Index>(i)] = value;
+    if (!std::isnan(value)) ++stats_.measured[i];
     m.pending = kNaN;
   }
   sample->t = t;
@@ -795,6 +793,49 @@ void LogReader::Impl::emit(double t, LogSample* sample) {
   }
   sample->row = ++steps_;
   stats_.steps = steps_;
+  last_step_t_ = t;
+}
+
+// A file with a header and no row gives none of its columns: said before
+// any step, rather than a log running without them.
+void LogReader::Impl::check_no_file_is_empty() const {
+  for (const Stream& s : streams_) {
+    if (!s.ended || s.rows_read > 0 || s.error) continue;
+    std::string used;
+    for (const Column& c : columns_) {
+      if (&streams_[static_cast<std::size_t>(c.stream)] == &s) used += (used.empty() ? "" : ", ") + c.name;
+    }
+    throw LogError(s.files.front()->path().string(), 1,
+                   "the file has a header but no data rows" +
+                       (used.empty() ? std::string()
+                                     : ": its columns " + Expression::excerpt(used) +
+                                           ", which the bank uses, would never have a value") +
+                       ". Leave it out of the log if that is meant");
+  }
+}
+
+// Every file of the log has a row the steps used: a file whose rows all lie
+// before the first step or after the last (an offset that misses, a file of
+// another run) is an error, not a log silently run without it.
+void LogReader::Impl::check_every_file_was_used() const {
+  if (!started_) return;
+  for (const Stream& s : streams_) {
+    const bool applied = s.last_t > -std::numeric_limits<double>::infinity();
+    if (s.rows_read == 0 || s.last_t >= first_step_t_ || (applied && s.holds_values)) continue;
+    const LogTable& reader = *s.files[static_cast<std::size_t>(s.time_file)];
+    const std::string offset =
+        s.offset != 0.0 ? " (with its offset of " + CsvWriter::format(s.offset) + " s)" : std::string();
+    const std::string where = s.first_t > last_step_t_
+                                  ? "its rows start at t = " + CsvWriter::format(s.first_t) + " s" + offset +
+                                        ", after the log's last step at t = " + CsvWriter::format(last_step_t_) +
+                                        " s, where a file that feeds an input ends"
+                                  : "its rows end at t = " + CsvWriter::format(s.last_t) + " s" + offset +
+                                        ", before the log's first step at t = " + CsvWriter::format(first_step_t_) +
+                                        " s, the first time every input has a value";
+    throw LogError(reader.path().string(), 0,
+                   "none of its " + std::to_string(s.rows_read) + " row(s) was used: " + where +
+                       ". Is the time offset (FILE@OFFSET) right, and are the files of the same run?");
+  }
 }
 
 bool LogReader::Impl::next(LogSample* sample) {
@@ -802,6 +843,7 @@ bool LogReader::Impl::next(LogSample* sample) {
   // Until every input has a value: apply rows one time stamp at a time.
   while (!started_) {
     const double t = next_row_time();
+    check_no_file_is_empty();
     if (!std::isfinite(t)) {
       throw_pending_error();
       return false;
@@ -814,14 +856,14 @@ bool LogReader::Impl::next(LogSample* sample) {
       started_ = true;
       grid_origin_ = t;
       grid_index_ = 0;
+      first_step_t_ = t;
       emit(t, sample);
       return true;
     }
   }
   double step_t = 0.0;
   if (sampling_.rate > 0.0) {
-    // Multiplying, not accumulating, keeps the grid free of drift.
-    step_t = grid_origin_ + static_cast<double>(++grid_index_) / sampling_.rate;
+    step_t = next_grid_time();
     while (next_row_time() <= step_t) {
       const double t = next_row_time();
       for (std::size_t k = 0; k < streams_.size(); ++k) {
@@ -832,6 +874,7 @@ bool LogReader::Impl::next(LogSample* sample) {
     step_t = next_row_time();
     if (!std::isfinite(step_t)) {
       throw_pending_error();
+      check_every_file_was_used();
       return false;
     }
     if (!past_end(step_t)) {
@@ -850,10 +893,80 @@ bool LogReader::Impl::next(LogSample* sample) {
         read_row(s);
       }
     }
+    check_every_file_was_used();
     return false;
   }
   emit(step_t, sample);
   return true;
+}
+
+// The next step of the fixed-rate grid, t0 + k / rate (multiplying, not
+// accumulating, keeps the grid free of drift), with the work it may do
+// bounded: it never steps through a gap longer than sampling.max_gap, nor
+// takes more than kMaxStepsPerRow steps per row of the log.
+double LogReader::Impl::next_grid_time() {
+  const double next_row = next_row_time();
+  const double step_t = grid_origin_ + static_cast<double>(grid_index_ + 1) / sampling_.rate;
+  if (past_end(step_t)) return step_t;  // the log ends before this step
+  if (std::isfinite(next_row) && next_row > step_t && next_row - last_row_t_ > sampling_.max_gap) {
+    const Stream* s = stream_at(next_row);
+    const LogTable& reader = *s->files[static_cast<std::size_t>(s->time_file)];
+    const double gap = next_row - last_row_t_;
+    if (!sampling_.skip_gaps) {
+      const double steps = gap * sampling_.rate;
+      throw reader.error_at_row("column '" + bank_.columns.time + "': the log has no row from t = " +
+                                CsvWriter::format(last_row_t_) + " to " + CsvWriter::format(next_row) +
+                                " s, a gap of " + CsvWriter::format(gap) + " s, longer than sampling.max_gap (" +
+                                CsvWriter::format(sampling_.max_gap) + " s): at " + CsvWriter::format(sampling_.rate) +
+                                " Hz the filter's grid would step " + CsvWriter::format(std::floor(steps)) +
+                                " times through it. If a time stamp is wrong, fix it; if the recording paused, set "
+                                "sampling.skip_gaps: true in the bank to restart the grid after such gaps, or raise "
+                                "sampling.max_gap");
+    }
+    // Restart the grid at the row after the gap: no step inside it.
+    ++stats_.gaps_skipped;
+    stats_.seconds_skipped += gap;
+    grid_origin_ = next_row;
+    grid_index_ = 0;
+    last_step_t_ = next_row;
+    return next_row;
+  }
+  if (!(step_t > last_step_t_)) {
+    // Time stamps so large that t0 + k / rate no longer moves (1e300 s).
+    throw LogError(stats_.files.front(), 0,
+                   "the filter's grid at " + CsvWriter::format(sampling_.rate) +
+                       " Hz cannot step on from t = " + CsvWriter::format(last_step_t_) +
+                       " s: at times this large a step of " + CsvWriter::format(1.0 / sampling_.rate) +
+                       " s is lost in the rounding of a double. Are the "
+                       "time stamps in seconds?");
+  }
+  // The rows read: those applied and the one read ahead.
+  const long rows_read = rows_applied_ + (std::isfinite(next_row) ? 1 : 0);
+  if (steps_ >= kMaxStepsPerRow * std::max(rows_read, 1L)) {
+    // The rows so far, up to the one read ahead, give the log's own rate.
+    const double span = next_row - first_row_t_;
+    const std::string row_rate =
+        std::isfinite(span) && span > 0.0
+            ? " (its rows so far come at about " +
+                  CsvWriter::format(std::round(static_cast<double>(rows_applied_) / span * 10.0) / 10.0) + " Hz)"
+            : "";
+    throw LogError(stats_.files.front(), 0,
+                   "the filter's rate, " + CsvWriter::format(sampling_.rate) + " Hz (sampling.rate or --rate), has " +
+                       "taken " + std::to_string(steps_) + " steps for the first " + std::to_string(rows_read) +
+                       " row(s) of the log" + row_rate + ": a grid may take at most " +
+                       std::to_string(kMaxStepsPerRow) + " steps per row. Choose a rate near the fastest sensor's");
+  }
+  ++grid_index_;
+  last_step_t_ = step_t;
+  return step_t;
+}
+
+// The stream whose pending row is at time t.
+const Stream* LogReader::Impl::stream_at(double t) const {
+  for (const Stream& s : streams_) {
+    if (s.has_row && s.row_t == t) return &s;
+  }
+  return &streams_.front();
 }
 
 LogReader::LogReader(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling)
@@ -888,6 +1001,18 @@ std::string LogReader::describe_stats(const BankConfig& bank) const {
   if (s.dropped_after_end > 0) {
     out += "  " + std::to_string(s.dropped_after_end) +
            " row(s) after the last row of a file that feeds an input were not used\n";
+  }
+  if (s.gaps_skipped > 0) {
+    out += "  " + std::to_string(s.gaps_skipped) + " gap(s) without rows longer than sampling.max_gap (" +
+           CsvWriter::format(impl_->sampling_.max_gap) + " s) were skipped, " + CsvWriter::format(s.seconds_skipped) +
+           " s in all: the grid restarted at the row after each (sampling.skip_gaps)\n";
+  }
+  for (std::size_t i = 0; i < s.measured.size(); ++i) {
+    if (s.steps > 0 && s.measured[i] == 0) {
+      out += "  measurement '" + bank.measurement.names[i] + "' (\"" +
+             Expression::excerpt(bank.columns.measurements[i]) +
+             "\") had no value at any step: its filters were never corrected by it\n";
+    }
   }
   for (std::size_t i = 0; i < s.superseded.size(); ++i) {
     if (s.superseded[i] > 0) {

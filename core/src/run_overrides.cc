@@ -8,6 +8,10 @@
 namespace skidimm {
 
 SamplingConfig sampling_of(const BankConfig& bank, std::optional<double> rate) {
+  if (rate && !(*rate >= 0.0 && *rate <= 1e6)) {
+    throw Error("rate: expected a rate in Hz, > 0 and at most 1e6 (or 0 for the bank's), got " +
+                CsvWriter::format(*rate));
+  }
   SamplingConfig sampling = bank.sampling;
   if (rate && *rate > 0.0) sampling.rate = *rate;
   return sampling;

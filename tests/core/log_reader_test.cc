@@ -237,6 +237,145 @@ TEST(LogReader, RowsAfterTheInputsEndAreNotUsed) {
   EXPECT_EQ(reader.stats().dropped_after_end, 2);
 }
 
+// A fixed rate steps through gaps in the log: a wrong time stamp (1e9, or
+// 1e300) or a long pause must not make it write steps until the disk is full.
+TEST(LogReader, AFixedRateRefusesAGapLongerThanMaxGapNamingTheRowAndTheLimit) {
+  for (const std::string& jump : {std::string("1e9"), std::string("1e300")}) {
+    const auto dir = test_directory();
+    const auto file =
+        write_file(dir / "log.csv", "t,left,right,v,w\n0,1,2,3,4\n0.1,1,2,3,4\n0.2,1,2,3,4\n" + jump + ",1,2,3,4\n");
+    BankConfig bank = simple_bank();
+    bank.sampling.rate = 100.0;
+    LogReader reader(bank, {file}, bank.sampling);
+    LogSample s;
+    int steps = 0;
+    const std::string message = expect_error(
+        [&] {
+          while (reader.next(&s)) ++steps;
+        },
+        {"log.csv:5: column 't': the log has no row from t = 0.2 to ", "longer than sampling.max_gap (10 s)",
+         "sampling.skip_gaps: true"});
+    EXPECT_EQ(steps, 21) << "every step up to the gap is delivered: 0 .. 0.2 s at 100 Hz";
+    EXPECT_LT(message.size(), 600u);
+  }
+}
+
+TEST(LogReader, SkipGapsRestartsTheGridAfterAGapAndSaysSo) {
+  const auto file = write_file(test_directory() / "log.csv",
+                               "t,left,right,v,w\n0,1,2,3,4\n0.5,1,2,3,4\n10000000,5,6,7,8\n10000000.5,5,6,7,8\n");
+  BankConfig bank = simple_bank();
+  bank.sampling.rate = 2.0;
+  bank.sampling.skip_gaps = true;
+  LogReader reader(bank, {file}, bank.sampling);
+  const auto s = read_all(reader);
+  ASSERT_EQ(s.size(), 4u);
+  EXPECT_EQ(s[1].t, 0.5);
+  EXPECT_EQ(s[2].t, 1e7) << "the grid restarts at the row after the gap";
+  EXPECT_EQ(s[2].u, Eigen::Vector2d(5, 6));
+  EXPECT_EQ(s[3].t, 1e7 + 0.5);
+  EXPECT_EQ(reader.stats().gaps_skipped, 1);
+  EXPECT_THAT(reader.describe_stats(bank),
+              HasSubstr("1 gap(s) without rows longer than sampling.max_gap (10 s) were skipped, 9999999.5 s in all"));
+  // Rows 0.5 s apart on a 2 Hz grid leave no step inside a gap of 0.4 s.
+  bank.sampling.skip_gaps = false;
+  bank.sampling.max_gap = 0.4;
+  LogReader strict(bank, {file}, bank.sampling);
+  expect_error([&] { read_all(strict); }, {"log.csv:4:", "sampling.max_gap (0.4 s)"});
+}
+
+TEST(LogReader, AGridFarFasterThanTheLogsRowsIsRefused) {
+  // 8 s at 100 Hz, filtered at 1e6 Hz: 8 million steps for 800 rows.
+  std::string text = "t,left,right,v,w\n";
+  for (int k = 0; k < 800; ++k) text += std::to_string(0.01 * k) + ",1,2,3,4\n";
+  const auto file = write_file(test_directory() / "log.csv", text);
+  BankConfig bank = simple_bank();
+  bank.sampling.rate = 1e6;
+  LogReader reader(bank, {file}, bank.sampling);
+  LogSample s;
+  long steps = 0;
+  expect_error(
+      [&] {
+        while (reader.next(&s)) ++steps;
+      },
+      {"log.csv: the filter's rate, 1e+06 Hz (sampling.rate or --rate)", "at most 1000 steps per row", "about 100 Hz"});
+  EXPECT_LE(steps, 1000 * 3) << "refused within the first rows, not after 8 million steps";
+  // 1e4 Hz on the same rows is 100 steps per row: allowed.
+  bank.sampling.rate = 1e4;
+  LogReader fine(bank, {file}, bank.sampling);
+  EXPECT_EQ(read_all(fine).size(), 79901u);
+  // Exactly 1000 steps per row, ending with the log: allowed.
+  bank.sampling.rate = 1000;
+  LogReader exact(bank,
+                  {write_file(file.parent_path() / "two_rows.csv", "t,left,right,v,w\n0,1,2,3,4\n1.999,1,2,3,4\n")},
+                  bank.sampling);
+  EXPECT_EQ(read_all(exact).size(), 2000u);
+}
+
+TEST(LogReader, TheRateIsChecked) {
+  const auto file = write_file(test_directory() / "log.csv", "t,left,right,v,w\n0,1,2,3,4\n");
+  for (double rate : {-1.0, std::nan(""), 1e300, 2e6}) {
+    SamplingConfig sampling;
+    sampling.rate = rate;
+    expect_error([&] { LogReader(simple_bank(), {file}, sampling); }, {"must be in Hz, > 0 and at most 1e6"});
+  }
+  SamplingConfig sampling;
+  sampling.max_gap = 0.0;
+  expect_error([&] { LogReader(simple_bank(), {file}, sampling); }, {"sampling.max_gap must be a time in seconds"});
+}
+
+// Silent data loss: a file that gives nothing is an error naming it.
+TEST(LogReader, AHeaderOnlyFileIsAnErrorNamingItAndItsColumns) {
+  const TwoRateLog log = two_rate_log();
+  const auto empty_gyro = write_file(log.gyro.parent_path() / "empty_gyro.csv", "time,wz\n");
+  LogReader reader(two_rate_bank(), {log.wheels, empty_gyro});
+  LogSample s;
+  expect_error([&] { reader.next(&s); },
+               {"empty_gyro.csv:1: the file has a header but no data rows", "its columns wz, which the bank uses"});
+  const auto empty = write_file(log.gyro.parent_path() / "empty.csv", "t,left,right,v,w\r\n");
+  LogReader alone(simple_bank(), {empty});
+  expect_error([&] { alone.next(&s); }, {"empty.csv:1: the file has a header but no data rows"});
+}
+
+TEST(LogReader, AFileNoneOfWhoseRowsIsUsedIsAnErrorNamingItAndWhere) {
+  const TwoRateLog log = two_rate_log();
+  // An offset of 1e6 s: the gyro's rows all come after the wheels end.
+  LogReader late(two_rate_bank(), {LogFile(log.wheels), LogFile(log.gyro, 1e6)});
+  LogSample s;
+  int steps = 0;
+  expect_error(
+      [&] {
+        while (late.next(&s)) ++steps;
+      },
+      {"gyro.csv: none of its", "row(s) was used: its rows start at t = 1e+06 s (with its offset of 1e+06 s)",
+       "after the log's last step at t = 0.6 s", "FILE@OFFSET"});
+  EXPECT_EQ(steps, 5) << "the steps of the wheels are delivered first";
+  // An offset of -1e6 s: all before the first step.
+  LogReader early(two_rate_bank(), {LogFile(log.wheels), LogFile(log.gyro, -1e6)});
+  expect_error([&] { read_all(early); }, {"gyro.csv: none of its 61 row(s) was used: its rows end at t = -999999.4 s",
+                                          "before the log's first step at t = 0 s"});
+  // The same with a fixed rate.
+  SamplingConfig sampling;
+  sampling.rate = 10;
+  LogReader gridded(two_rate_bank(), {LogFile(log.wheels), LogFile(log.gyro, 1e6)}, sampling);
+  expect_error([&] { read_all(gridded); }, {"gyro.csv: none of its 61 row(s) was used"});
+  // A file whose values are held (here the truth) is used by a row before the first step.
+  BankConfig with_truth = two_rate_bank();
+  with_truth.columns.truth_mode = "mode";
+  const auto truth = write_file(log.wheels.parent_path() / "truth.csv", "time,mode\n-5,ice\n");
+  LogReader held(with_truth, {log.wheels, log.gyro, truth});
+  const auto held_steps = read_all(held);
+  ASSERT_EQ(held_steps.size(), 61u);
+  EXPECT_EQ(held_steps.back().truth_mode, "ice");
+}
+
+TEST(LogReader, AMeasurementNeverPresentIsSaid) {
+  const auto file = write_file(test_directory() / "log.csv", "t,left,right,v,w\n0,1,2,,4\n0.1,1,2,,5\n");
+  LogReader reader(simple_bank(), {file});
+  EXPECT_EQ(read_all(reader).size(), 2u);
+  EXPECT_EQ(reader.stats().measured, (std::vector<long>{0, 2}));
+  EXPECT_THAT(reader.describe_stats(simple_bank()), HasSubstr("measurement 'V' (\"v\") had no value at any step"));
+}
+
 TEST(LogReader, TruthAndTrueStatesAreHeldBetweenTheirFilesRows) {
   // The truth comes with the wheel file's rows; the sensor file's rows between them keep it.
   BankConfig bank = simple_bank();
@@ -314,11 +453,75 @@ TEST(LogReader, ColumnProblemsAreNamedBeforeAnyRowIsRead) {
   expect_error([&] { LogReader(bank, {log.wheels, log.gyro}, bank.sampling); },
                {"uses column 'cur' outside mean(), std() or rms()"});
   bank.columns.measurements[0] = "mean(std(wz))";
-  expect_error([&] { LogReader(bank, {log.wheels, log.gyro}, bank.sampling); }, {"of another aggregate"});
+  expect_error(
+      [&] {
+        LogReader(bank, {log.wheels, log.gyro}, bank.sampling);
+      },
+      {"bank.yaml: columns.measurements.omega", "std() inside mean()"});
   // The same column in two files is ambiguous.
   const auto other = write_file(log.wheels.parent_path() / "other.csv", "time,wz\n0,1\n");
   expect_error([&] { LogReader(two_rate_bank(), {log.wheels, log.gyro, other}); },
                {"column 'wz'", "is also in", "must be in one file of the log"});
+}
+
+// Expressions are a closed language (expression.h): what muparser would
+// otherwise accept (an assignment, a list, a NUL ending the text early) or
+// the reader's own names for its aggregates are refused, naming the bank
+// file and the field, quoting at most a short excerpt.
+TEST(LogReader, ExpressionsOutsideTheLanguageAreRefusedNamingFileAndField) {
+  const TwoRateLog log = two_rate_log();
+  const struct {
+    bool measurement;
+    std::string text;
+    std::string says;
+  } cases[] = {
+      {false, "velL = 3", "assignment ('=')"},
+      {false, "velL, velR", "a ',' outside the arguments of min() or max()"},
+      {false, std::string("velL\0+1", 7), "a control character (byte 0)"},
+      {false, "velL * _pi", "names starting with '_' are reserved"},
+      {true, "mean(wz) + _skidimm_step99", "'_skidimm_step99': names starting with '_' are reserved"},
+      {true, "mean(wz) + _call0", "names starting with '_' are reserved"},
+      {true, "mean((wz)", "unbalanced parentheses"},
+      {true, "sum(wz, wz)", "unknown function 'sum'"},
+  };
+  for (const auto& c : cases) {
+    BankConfig bank = two_rate_bank();
+    bank.sampling.rate = 10;
+    (c.measurement ? bank.columns.measurements[0] : bank.columns.inputs[0]) = c.text;
+    const std::string field = c.measurement ? "columns.measurements.omega" : "columns.inputs.dv";
+    expect_error([&] { LogReader(bank, {log.wheels, log.gyro}, bank.sampling); }, {"bank.yaml: " + field, c.says});
+  }
+  // A name alone is a column, with '_' or not: a missing one is said so.
+  BankConfig internal = two_rate_bank();
+  internal.columns.measurements[0] = "_skidimm_stepX";
+  expect_error(
+      [&] {
+        LogReader(internal, {log.wheels, log.gyro});
+      },
+      {"no column '_skidimm_stepX' (the bank's columns.measurements.omega)"});
+  // A 10 MB expression: refused by its length, quoted by a short excerpt.
+  BankConfig bank = two_rate_bank();
+  bank.columns.inputs[0] = "velL" + std::string(10'000'000, '+');
+  const std::string message = expect_error(
+      [&] {
+        LogReader(bank, {log.wheels, log.gyro});
+      },
+      {"bank.yaml: columns.inputs.dv", "more than an expression may have"});
+  EXPECT_LT(message.size(), 300u);
+}
+
+TEST(LogReader, AnAggregateMayTakeAColumnWhoseNameIsNoIdentifier) {
+  const auto dir = test_directory();
+  const auto wheels = write_file(dir / "w.csv", "time,velL,velR,cur\n0,0,0,1\n0.1,0,0,1\n0.2,0,0,1\n");
+  const auto imu = write_file(dir / "i.csv", "time,imu.wz\n0.05,1\n0.1,3\n0.15,5\n0.2,7\n");
+  BankConfig bank = two_rate_bank();
+  bank.columns.measurements[0] = "2 * mean(imu.wz)";
+  bank.sampling.rate = 10;
+  LogReader reader(bank, {wheels, imu}, bank.sampling);
+  const auto s = read_all(reader);
+  ASSERT_EQ(s.size(), 3u);
+  EXPECT_EQ(s[1].z[0], 4.0);
+  EXPECT_EQ(s[2].z[0], 12.0);
 }
 
 TEST(LogReader, ANonFiniteInputNamesItsExpressionAndValues) {

@@ -83,6 +83,12 @@ struct SamplingConfig {
   };
   Join join = Join::kTime;
   double rate = 0.0;  // Hz of the filter's steps on a fixed grid; 0: a step at every time stamp
+  // With a rate: the longest stretch of the log without rows (s) the grid
+  // steps through. A longer one (a wrong time stamp, a paused recording) is
+  // an error naming it, or, with skip_gaps, the grid restarts at the row
+  // after it (log_reader.h).
+  double max_gap = 10.0;
+  bool skip_gaps = false;
 };
 
 // How a decision a controller can act on is made from the probabilities

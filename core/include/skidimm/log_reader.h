@@ -17,7 +17,12 @@
 //
 //  * no rate: a step at every distinct time stamp of the log;
 //  * rate R Hz: steps on the grid t0 + k/R, where t0 is the first time every
-//    input has a value.
+//    input has a value. The grid's work is bounded by the log's rows: it
+//    never steps through a stretch without rows longer than
+//    sampling.max_gap (a LogError naming the row after it and the limit,
+//    or, with sampling.skip_gaps, a new grid from that row, counted in
+//    stats()), nor takes more than kMaxStepsPerRow steps per row read (a
+//    rate far above every sensor's is a LogError).
 //
 // What a step sees:
 //  * inputs are held: each is evaluated from the latest value of its columns
@@ -37,9 +42,13 @@
 //    `columns.truth_blank: carry` repeats the last label.
 //
 // Rows before every input has a value, and after the last row of a file that
-// feeds an input, are not used (counted in stats()). Errors are LogErrors
-// naming the file, line and column; expressions are checked against the
-// files' headers before any row is read. Numbers: see parse_finite_number
+// feeds an input, are not used (counted in stats()). Nothing is lost
+// silently: a file with a header and no rows is a LogError before the first
+// step, and a file none of whose rows the steps used (all before the first
+// step or after the last: an offset that misses) one after the last step.
+// Errors are LogErrors naming the file, line and column; expressions
+// (expression.h) are checked against the files' headers before any row is
+// read, and errors about them name the bank file and the field. Numbers: see parse_finite_number
 // (log_io.h); a subnormal cell (1e-320) is read as the nearest double.
 //
 // A file may be "-" (standard input, once per log), a pipe or a FIFO: it is
@@ -97,10 +106,17 @@ struct LogStats {
   long dropped_after_end = 0;       // rows after the end of a file feeding an input (rows join: none)
   std::vector<long> superseded;     // per measurement: values replaced by a later one in the same step
   std::vector<long> not_finite;     // per measurement: expression values that were not finite
+  std::vector<long> measured;       // per measurement: steps that had a value for it
+  long gaps_skipped = 0;            // gaps longer than sampling.max_gap the grid restarted after (skip_gaps)
+  double seconds_skipped = 0.0;     // ... and the time they spanned
 };
 
 class LogReader : public SampleSource {
  public:
+  // A fixed-rate grid takes at most this many steps per row of the log (a
+  // rate far above every sensor's is refused, not stepped through).
+  static constexpr long kMaxStepsPerRow = 1000;
+
   // Opens the files, resolves every column and expression the bank names and
   // checks them against the headers. `sampling` overrides the bank's (e.g. the
   // command line's --rate). The reader keeps its own copy of what it needs of

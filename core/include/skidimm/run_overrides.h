@@ -26,7 +26,8 @@ struct RunOverrides {
   bool changes_decision() const { return decision_enter || decision_leave || decision_hold; }
 };
 
-// The bank's sampling with `rate` (Hz) when it is given and > 0.
+// The bank's sampling with `rate` (Hz) when it is given and > 0. Throws
+// Error for a rate that is negative, not a number or above 1e6 Hz.
 SamplingConfig sampling_of(const BankConfig& bank, std::optional<double> rate);
 
 // Throws Error naming the values unless 0 <= leave < enter <= 1 and
