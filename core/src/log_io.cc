@@ -1,14 +1,15 @@
 #include "skidimm/log_io.h"
 
+#include <unistd.h>
+
 #include <algorithm>
-#include <charconv>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <system_error>
-
-#include <unistd.h>
+#include <unordered_set>
 
 #include "number_text.h"
 #include "skidimm/check.h"
@@ -23,6 +24,10 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr std::size_t kReadBlock = 1 << 16;
+// No log has lines this long; a binary file, or a stream without line
+// breaks, has: refused before it fills memory (a 300 MB line on standard
+// input took minutes and gigabytes).
+constexpr std::size_t kMaxLineBytes = std::size_t{1} << 20;
 
 // Bytes of w that are zero get their high bit set (and possibly bytes above
 // a zero byte: the lowest flagged byte is always a zero).
@@ -64,6 +69,9 @@ CsvReader::CsvReader(const fs::path& path) : path_(path) {
     owns_file_ = false;
   } else {
     const fs::file_status status = fs::status(path, ec);
+    if (ec && ec != std::errc::no_such_file_or_directory) {
+      throw LogError(path.string(), 0, "cannot read: " + ec.message());  // a symlink loop, a denied directory
+    }
     if (!fs::exists(status)) throw LogError(path.string(), 0, "no such log file");
     if (fs::is_directory(status)) throw LogError(path.string(), 0, "is a directory, not a log file");
     // Regular files, and pipes, FIFOs, /dev/stdin and <(...): read front to back.
@@ -85,11 +93,12 @@ CsvReader::CsvReader(const fs::path& path) : path_(path) {
     if (!header_.empty() && header_[0].size() >= 3 && header_[0].compare(0, 3, "\xEF\xBB\xBF") == 0) {
       header_[0].erase(0, 3);  // UTF-8 byte-order mark from spreadsheet exports
     }
-    for (std::size_t i = 0; i < header_.size(); ++i) {
-      for (std::size_t j = 0; j < i; ++j) {
-        if (header_[i] == header_[j] && !header_[i].empty()) {
-          throw LogError(path_.string(), 1, "column '" + header_[i] + "' appears twice in the header");
-        }
+    std::unordered_set<std::string_view> names;
+    for (const std::string& name : header_) {
+      if (!name.empty() && !names.insert(name).second) {
+        throw LogError(
+            path_.string(), 1,
+            "column '" + name.substr(0, 80) + (name.size() > 80 ? "..." : "") + "' appears twice in the header");
       }
     }
   } catch (...) {
@@ -115,17 +124,25 @@ int CsvReader::column(const std::string& name) const {
 // The next physical line, without its '\n', as std::getline splits them
 // (a last line without one counts; none after a final '\n'). The view lives
 // until the next call.
+void CsvReader::refuse_long_line(long line) const {
+  throw LogError(path_.string(), line,
+                 "a line longer than " + std::to_string(kMaxLineBytes) +
+                     " bytes: not a CSV log (a binary file, or text without line breaks?)");
+}
+
 bool CsvReader::read_line(std::string_view* line) {
   while (true) {
     const char* data = buffer_.data();
     const void* newline = std::memchr(data + begin_, '\n', end_ - begin_);
     if (newline != nullptr) {
       const std::size_t stop = static_cast<std::size_t>(static_cast<const char*>(newline) - data);
+      if (stop - begin_ > kMaxLineBytes) refuse_long_line(next_line_);
       *line = std::string_view(data + begin_, stop - begin_);
       begin_ = stop + 1;
       bytes_read_ += line->size() + 1;
       return true;
     }
+    if (end_ - begin_ > kMaxLineBytes) refuse_long_line(next_line_);
     if (end_of_file_) {
       if (begin_ == end_) return false;
       *line = std::string_view(data + begin_, end_ - begin_);
@@ -203,6 +220,7 @@ bool CsvReader::read_record() {
     }
     if (p != stop && *p == '"') quoted = true;
     if (quoted) break;  // the general reader below, from the start of this line
+    if (static_cast<std::size_t>(p - line_begin) > kMaxLineBytes) refuse_long_line(next_line_);
     if (p == stop && !end_of_file_) {
       fill();  // no whole line in the buffer yet
       continue;
@@ -239,6 +257,7 @@ bool CsvReader::read_record() {
       ++next_line_;
       if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
       record_ += '\n';
+      if (record_.size() > kMaxLineBytes) refuse_long_line(line_);
       i = 0;
       continue;
     }

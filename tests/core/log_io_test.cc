@@ -29,6 +29,19 @@ void expect_log_error(F&& f, std::initializer_list<std::string> parts) {
   }
 }
 
+void expect_long_line(const std::filesystem::path& file, long line) {
+  try {
+    CsvReader reader(file);
+    std::vector<std::string> fields;
+    while (reader.next(&fields)) {
+    }
+    ADD_FAILURE() << file << ": no error";
+  } catch (const LogError& e) {
+    EXPECT_THAT(e.what(), HasSubstr(file.filename().string() + ":" + std::to_string(line) +
+                                    ": a line longer than 1048576 bytes: not a CSV log"));
+  }
+}
+
 TEST(CsvReader, HandlesQuotesEscapesCrlfAndBlankLines) {
   const auto file = write_file(test_directory() / "q.csv",
                                "a,name,b\r\n1,\"['x', 'y']\",2\r\n\r\n3,\"say \"\"hi\"\"\",4\n5,\"two\nlines\",6\n");
@@ -59,6 +72,39 @@ TEST(CsvReader, ARefusedHeaderLeavesNoFileOpen) {
     const auto before = open_descriptors();
     for (int i = 0; i < 50; ++i) EXPECT_THROW(CsvReader reader(file), LogError) << headers[h];
     EXPECT_EQ(open_descriptors(), before) << "header " << h << " leaked descriptors";
+  }
+}
+
+TEST(CsvReader, ALineLongerThanTheCapIsRefusedNamingIt) {
+  const auto dir = test_directory();
+  const std::string megabyte_and_more((1 << 20) + 10, 'x');
+  expect_long_line(write_file(dir / "header.csv", megabyte_and_more + "\n"), 1);
+  expect_long_line(write_file(dir / "row.csv", "a,b\n1,2\n" + megabyte_and_more + ",1\n3,4\n"), 3);
+  expect_long_line(write_file(dir / "last.csv", "a,b\n1,2\n" + megabyte_and_more), 3);
+  expect_long_line(write_file(dir / "nul.csv", "a,b\n" + std::string((1 << 20) + 10, '\0')), 2);
+  // A quoted field spanning lines counts as one record.
+  std::string lines = "a,b\n1,\"";
+  for (int i = 0; i < 20000; ++i) lines += "a quoted line of about sixty characters, on and on and on\n";
+  expect_long_line(write_file(dir / "quoted.csv", lines + "\"\n"), 2);
+  // Just under the cap is a line like any other.
+  CsvReader reader(write_file(dir / "under.csv", "a,b\n1," + std::string((1 << 20) - 10, '7') + "\n"));
+  std::vector<std::string> fields;
+  ASSERT_TRUE(reader.next(&fields));
+  EXPECT_EQ(fields[1].size(), (1u << 20) - 10);
+}
+
+TEST(CsvReader, AHeaderOfManyColumnsIsCheckedForDuplicatesInLinearTime) {
+  std::string header;
+  for (int c = 0; c < 100000; ++c) header += (c ? ",c" : "c") + std::to_string(c);
+  const auto dir = test_directory();
+  CsvReader wide(write_file(dir / "wide.csv", header + "\n"));
+  EXPECT_EQ(wide.header().size(), 100000u);
+  EXPECT_EQ(wide.column("c99999"), 99999);
+  try {
+    CsvReader twice(write_file(dir / "twice.csv", header + ",c5\n"));
+    ADD_FAILURE() << "a duplicate column was accepted";
+  } catch (const LogError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("twice.csv:1: column 'c5' appears twice in the header"));
   }
 }
 

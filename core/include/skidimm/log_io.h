@@ -64,7 +64,8 @@ class CsvReader {
 
   // Reads the next data row into *fields (one per header column). Returns
   // false at end of file. Blank lines are skipped. Throws LogError on a row
-  // with the wrong number of fields or an unterminated quote.
+  // with the wrong number of fields, an unterminated quote, or a line (or a
+  // quoted record) longer than 1 MiB, which no log has.
   bool next(std::vector<std::string>* fields);
   // The same without copying: the row's fields are read in place, as views
   // valid until the next call to next_row() or next(). Allocates nothing
@@ -78,6 +79,7 @@ class CsvReader {
 
  private:
   bool read_line(std::string_view* line);
+  [[noreturn]] void refuse_long_line(long line) const;
   bool read_record();
   void fill();
   void close();
