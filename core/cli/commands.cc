@@ -88,6 +88,14 @@ int run(const RunOptions& options) {
     if (!log.label.empty() && config.class_index(log.label) < 0) {
       throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'");
     }
+    // Renaming the output over a log being read would replace the log.
+    for (const LogFile& file : log.files) {
+      std::error_code ec;
+      if (fs::is_regular_file(file.path, ec) && fs::equivalent(file.path, options.output, ec)) {
+        throw Error("--output " + options.output.string() + " is the log file " + file.path.string() +
+                    " itself: writing it would replace the log; give another output file");
+      }
+    }
     // Listening first: a log through a pipe may wait for its first line.
     if (!options.serve.empty()) {
       std::string host;

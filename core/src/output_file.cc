@@ -53,12 +53,41 @@ OutputFile::OutputFile(const fs::path& path, const std::string& suffix) : path_(
     out_ = stdout;
     return;
   }
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    throw Error(path.string() + ": is a directory; give the name of a file to write");
+  }
   direct_ = writes_to_device(path);
-  written_ = direct_ ? path : fs::path(path.string() + suffix);
-  errno = 0;
-  out_ = std::fopen(written_.c_str(), "wb");
+  if (direct_) {
+    written_ = path;
+    errno = 0;
+    out_ = std::fopen(written_.c_str(), "wb");
+    if (out_ == nullptr) throw Error(written_.string() + ": cannot open for writing: " + reason(errno));
+    std::setvbuf(out_, nullptr, _IONBF, 0);
+    return;
+  }
+  // Created exclusively (O_EXCL), so no two writers ever share a temporary
+  // file: "<path><suffix>", or, when that exists (another run writing the
+  // same output, or one killed before it finished), "<path><suffix>.<pid>-<n>".
+  // Each writer renames only the file it created.
+  int fd = -1;
+  for (int attempt = 0; fd < 0; ++attempt) {
+    written_ =
+        attempt == 0
+            ? fs::path(path.string() + suffix)
+            : fs::path(path.string() + suffix + "." + std::to_string(::getpid()) + "-" + std::to_string(attempt));
+    errno = 0;
+    fd = ::open(written_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0 && (errno != EEXIST || attempt >= 1000)) {
+      throw Error(written_.string() + ": cannot open for writing: " + reason(errno));
+    }
+  }
+  out_ = ::fdopen(fd, "wb");
   if (out_ == nullptr) {
-    throw Error(written_.string() + ": cannot open for writing: " + reason(errno));
+    const int error = errno;
+    ::close(fd);
+    fs::remove(written_, ec);
+    throw Error(written_.string() + ": cannot open for writing: " + reason(error));
   }
   std::setvbuf(out_, nullptr, _IONBF, 0);  // callers hand whole blocks
 }

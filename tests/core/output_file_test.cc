@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <csignal>
 
@@ -74,6 +75,47 @@ TEST(OutputFile, ARegularFileAppearsWholeOnCommitOnly) {
     kept.keep_partial();
   }
   EXPECT_EQ(read_file(dir / "c.txt.partial"), "rows so far");
+}
+
+// Two writers of one output (two runs with the same --output) never share a
+// temporary file: each creates its own exclusively and renames only it.
+TEST(OutputFile, WritersOfOneOutputEachHaveTheirOwnTemporaryFile) {
+  const fs::path dir = test_directory();
+  {
+    OutputFile first(dir / "out.csv");
+    OutputFile second(dir / "out.csv");
+    EXPECT_EQ(first.written_path(), dir / "out.csv.partial");
+    EXPECT_NE(second.written_path(), first.written_path());
+    EXPECT_THAT(second.written_path().string(), HasSubstr("out.csv.partial." + std::to_string(::getpid()) + "-"));
+    first.write("first, whole\n");
+    second.write("second, whole\n");
+    first.write("first, end\n");
+    second.commit();
+    EXPECT_EQ(read_file(dir / "out.csv"), "second, whole\n");
+    first.commit();
+  }
+  EXPECT_EQ(read_file(dir / "out.csv"), "first, whole\nfirst, end\n") << "the last commit wins, never a mix";
+  // A temporary file left by a killed run is neither truncated nor renamed.
+  write_file(dir / "left.csv.partial", "a killed run's rows");
+  {
+    OutputFile out(dir / "left.csv");
+    EXPECT_NE(out.written_path(), dir / "left.csv.partial");
+    out.write("new");
+    out.commit();
+  }
+  EXPECT_EQ(read_file(dir / "left.csv"), "new");
+  EXPECT_EQ(read_file(dir / "left.csv.partial"), "a killed run's rows");
+  // A symlink at the temporary name is not followed.
+  fs::create_symlink(dir / "elsewhere.txt", dir / "link.csv.partial");
+  {
+    OutputFile out(dir / "link.csv");
+    out.write("x");
+    out.commit();
+  }
+  EXPECT_FALSE(fs::exists(dir / "elsewhere.txt"));
+  EXPECT_EQ(read_file(dir / "link.csv"), "x");
+  // A directory is not a file to write.
+  EXPECT_THAT(error_of([&] { OutputFile out(dir); }), HasSubstr(dir.string() + ": is a directory"));
 }
 
 TEST(OutputFile, AFailedWriteNamesTheReasonAndLeavesNoFile) {

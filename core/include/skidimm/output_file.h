@@ -6,7 +6,12 @@
 //    commit() once every byte is written, synced to the disk (fsync) and the
 //    file closed without error; the directory is then synced too. A file
 //    under the final name is therefore always complete: never empty, never
-//    cut short by a full disk, a kill or a power cut.
+//    cut short by a full disk, a kill or a power cut. The temporary file is
+//    created exclusively (O_EXCL): when "<path><suffix>" exists (another
+//    process writing the same output, or one killed before it finished),
+//    "<path><suffix>.<pid>-<n>" is used instead. No two writers share a
+//    file, and each renames only its own.
+//  * a directory: an Error at once.
 //  * "-": standard output, written directly (`run --output -`).
 //  * an existing file that is not a regular file (a device such as /dev/null
 //    or /dev/full, a FIFO, /dev/stdout): written directly. Renaming a
