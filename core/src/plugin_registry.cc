@@ -5,8 +5,10 @@
 #include <boost/dll/shared_library.hpp>
 #include <cstdlib>
 #include <exception>
+#include <new>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 
 #include "skidimm/errors.h"
 #include "skidimm/sdk/abi.h"
@@ -47,10 +49,41 @@ std::vector<fs::path> split_path_list(const char* list) {
 
 bool is_shared_library(const fs::path& path) { return path.extension() == boost::dll::shared_library::suffix(); }
 
+// No plugin is this large; a larger file on the search path is not read
+// into memory to find out.
+constexpr std::uintmax_t kMaxPluginBytes = std::uintmax_t{1} << 30;
+
+// Why `path` cannot be a plugin file before anything opens it, or "": only
+// regular files are read (opening a FIFO waits for a writer forever; a
+// device is no library).
+std::string not_a_plugin_file(const fs::path& path) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (ec) return "cannot read: " + ec.message();
+  if (fs::is_regular_file(status)) {
+    const std::uintmax_t size = fs::file_size(path, ec);
+    if (ec) return "cannot read: " + ec.message();
+    if (size > kMaxPluginBytes) {
+      return "the file is " + std::to_string(size) + " bytes long, larger than a plugin can be (" +
+             std::to_string(kMaxPluginBytes) + " bytes)";
+    }
+    return "";
+  }
+  const char* kind = fs::is_fifo(status)             ? "a FIFO"
+                     : fs::is_character_file(status) ? "a character device"
+                     : fs::is_block_file(status)     ? "a block device"
+                     : fs::is_socket(status)         ? "a socket"
+                     : fs::is_directory(status)      ? "a directory"
+                                                     : "not a regular file";
+  return std::string("not a plugin file: ") + kind + " (a plugin is a shared library, a regular file)";
+}
+
 // Reads one library. Fills `descriptor`; returns the loaded library when it is
 // a usable plugin, nullptr otherwise (descriptor.error says why).
-std::shared_ptr<boost::dll::shared_library> inspect(const fs::path& path, PluginDescriptor* descriptor) {
+std::shared_ptr<boost::dll::shared_library> inspect_or_throw(const fs::path& path, PluginDescriptor* descriptor) {
   descriptor->path = path;
+  descriptor->error = not_a_plugin_file(path);
+  if (!descriptor->error.empty()) return nullptr;
   // From a private copy: rewriting or truncating the file later cannot
   // reach the loaded code, and a truncated file is refused, not mapped.
   std::string load_error;
@@ -120,6 +153,19 @@ std::shared_ptr<boost::dll::shared_library> inspect(const fs::path& path, Plugin
   return library;
 }
 
+// The same, with running out of memory while reading or loading the file a
+// rejected plugin with its reason, not the end of the program.
+std::shared_ptr<boost::dll::shared_library> inspect(const fs::path& path, PluginDescriptor* descriptor) {
+  try {
+    return inspect_or_throw(path, descriptor);
+  } catch (const std::bad_alloc&) {
+    descriptor->error = "cannot load: out of memory while reading or loading it";
+  } catch (const std::length_error&) {
+    descriptor->error = "cannot load: out of memory while reading or loading it";
+  }
+  return nullptr;
+}
+
 }  // namespace
 
 PluginRegistry::PluginRegistry(std::vector<fs::path> search_path) : search_path_(std::move(search_path)) {}
@@ -161,7 +207,9 @@ void PluginRegistry::scan() {
     std::vector<fs::path> files;
     if (fs::is_directory(location, ec)) {
       for (const fs::directory_entry& item : fs::directory_iterator(location, ec)) {
-        if (item.is_regular_file(ec) && is_shared_library(item.path())) files.push_back(item.path());
+        // Not only regular files: a FIFO or a device named like a library is
+        // listed as rejected, with what it is (inspect never opens it).
+        if (is_shared_library(item.path()) && !item.is_directory(ec)) files.push_back(item.path());
       }
       std::sort(files.begin(), files.end());
     } else if (fs::exists(location, ec)) {

@@ -2,8 +2,11 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cstdlib>
+#include <fstream>
+#include <map>
 
 #include "core/temp_files.h"
 #include "skidimm/errors.h"
@@ -93,6 +96,24 @@ TEST(PluginRegistry, CorruptLibraryIsListedAsUnusableNotFatal) {
   EXPECT_EQ(registry.plugins()[0].path.filename(), "garbage.so");
   EXPECT_THAT(registry.plugins()[0].error, HasSubstr("cannot load: "));
   EXPECT_THAT(registry.plugins()[0].error, HasSubstr("garbage.so"));
+  EXPECT_NO_THROW(registry.find("ltc_linear"));  // the other plugins still load
+}
+
+TEST(PluginRegistry, OnlyRegularFilesAreOpenedAndHugeOnesAreNotRead) {
+  const fs::path dir = skidimm_test::test_directory();
+  // A FIFO would block open() until a writer came; it is never opened.
+  ASSERT_EQ(::mkfifo((dir / "fifo.so").c_str(), 0600), 0);
+  fs::create_symlink(dir / "loop.so", dir / "loop.so");
+  fs::create_symlink("/dev/zero", dir / "zero.so");
+  std::ofstream(dir / "huge.so").close();
+  fs::resize_file(dir / "huge.so", std::uintmax_t{4} << 30);  // sparse: no disk used
+  PluginRegistry registry({dir, dir / "fifo.so", kPluginDir});
+  std::map<std::string, std::string> errors;
+  for (const PluginDescriptor& d : registry.plugins()) errors[d.path.filename().string()] = d.error;
+  EXPECT_THAT(errors["fifo.so"], HasSubstr("not a plugin file: a FIFO"));
+  EXPECT_THAT(errors["loop.so"], HasSubstr("cannot read: Too many levels of symbolic links"));
+  EXPECT_THAT(errors["zero.so"], HasSubstr("not a plugin file: a character device"));
+  EXPECT_THAT(errors["huge.so"], HasSubstr("4294967296 bytes long, larger than a plugin can be (1073741824 bytes)"));
   EXPECT_NO_THROW(registry.find("ltc_linear"));  // the other plugins still load
 }
 

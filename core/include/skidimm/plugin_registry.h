@@ -8,7 +8,11 @@
 //   4. the installed plugin directory (<prefix>/lib/skidimm/plugins, found
 //      next to the running executable and at the configured install prefix).
 // A search-path entry may be a directory (every shared library in it is
-// examined) or a single plugin file.
+// examined) or a single plugin file. Only regular files are opened: a FIFO,
+// a device or a socket (given, or named like a library in a directory) is a
+// rejected plugin saying what it is, never opened (a FIFO would block the
+// open forever); so is a file over 1 GiB, and one whose reading or loading
+// runs out of memory.
 //
 // Lifetime: a model created here owns a reference to its library, so the
 // library stays loaded while the model lives, even after the registry is gone

@@ -115,7 +115,9 @@ inline bool check_elf_file(const std::vector<unsigned char>& bytes, std::string*
 
 // The whole file by read(): a file truncated meanwhile gives a short read, never SIGBUS.
 inline bool read_whole_file(const std::filesystem::path& path, std::vector<unsigned char>* bytes, std::string* error) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // O_NONBLOCK: opening a FIFO would otherwise wait for a writer forever; it
+  // is then refused by the check below, like any file that is not regular.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
   if (fd < 0) {
     *error = std::string("cannot open: ") + std::strerror(errno);
     return false;
