@@ -250,11 +250,21 @@ int main(int argc, char** argv) {
   tune->add_option("--tune", tune_options.knobs,
                    "Settings to choose, comma-separated: r-scale, r-components, q-scale, q-modes, dwell, floor, "
                    "likelihood-weight, likelihood-dof (default r-scale,q-scale,dwell,floor)");
-  tune->add_option("--folds", tune_options.folds, "Groups of logs for cross-validation; 0 = leave one log out (default)")
-      ->check(CLI::NonNegativeNumber);
+  // One group would leave every fold nothing to train on.
+  const CLI::Validator folds_count(
+      [](std::string& text) {
+        int folds = -1;
+        return CLI::detail::lexical_cast(text, folds) && folds >= 0 && folds != 1 && folds <= 1000
+                   ? std::string()
+                   : "expected 0 (leave one log out) or a number of groups from 2 to 1000, got '" + text + "'";
+      },
+      "0 or 2..1000");
+  tune->add_option("--folds", tune_options.folds,
+                   "Groups of logs for cross-validation; 0 = leave one log out (default)")
+      ->check(folds_count);
   tune->add_option("--inner-folds", tune_options.inner_folds,
                    "Groups of the nested assessment's inner cross-validation; 0 = leave one log out (default 4)")
-      ->check(CLI::Range(0, 1000) & !CLI::IsMember({1}));
+      ->check(folds_count);
   tune->add_flag("--no-assess", tune_options.no_assess, "Skip the nested assessment (its scores are the honest ones)");
   tune->add_option("--assess", tune_options.protocols,
                    "How the nested assessment holds logs out, comma-separated, each reported: logs (leave one log "
@@ -269,7 +279,8 @@ int main(int argc, char** argv) {
                  "scores include following each change; with --folds/--inner-folds K the search sees changes too");
   tune->add_option("--lockbox", tune_options.lockbox,
                    "Logs kept aside (as --log): neither fitted nor tuned on, scored once by the tuned bank; repeatable");
-  tune->add_option("--threads", tune_options.threads, "Worker threads (default: every core)")->check(CLI::NonNegativeNumber);
+  tune->add_option("--threads", tune_options.threads, "Worker threads (default, and at most: every core)")
+      ->check(CLI::NonNegativeNumber);
   tune->add_option("--window", tune_options.window, "The window objective's window in seconds (0: one-step)")
       ->check(CLI::NonNegativeNumber);
   tune->add_flag("--fit-r", tune_options.fit_r, "Likelihood objective: also fit one R for the bank");

@@ -13,7 +13,7 @@
 // core/src/fitting/tuning.cc, rethrew whichever came first.)
 //
 // worker_count() is how many threads the commands use: SKIDIMM_THREADS if set
-// (1 runs everything on the calling thread), else the machine's cores.
+// (1 runs everything on the calling thread), at most the machine's cores.
 #ifndef SKIDIMM_PARALLEL_H_
 #define SKIDIMM_PARALLEL_H_
 
@@ -29,11 +29,12 @@
 namespace skidimm {
 
 inline int worker_count() {
+  const int cores = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   if (const char* given = std::getenv("SKIDIMM_THREADS")) {
     const int n = std::atoi(given);
-    if (n >= 1) return n;
+    if (n >= 1) return std::min(n, cores);  // more threads than cores only wait
   }
-  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  return cores;
 }
 
 inline void parallel_for(int count, int workers, const std::function<void(int, int)>& task) {

@@ -357,7 +357,10 @@ class Tuner {
   Tuner(const std::function<Bank()>& make_bank, const std::vector<TuningLog>& logs,
         const std::map<std::string, BankFitter>& fitters, const TuneOptions& options)
       : logs_(logs), fitters_(fitters), options_(options) {
-    workers_ = options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+    // At most one thread per core: each worker holds a whole bank, and more
+    // threads than cores only wait (a million of them never finished loading).
+    const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    workers_ = options.threads > 0 ? std::min(options.threads, cores) : cores;
     for (int w = 0; w < workers_; ++w) banks_.push_back(make_bank());
     base_ = values_of(banks_[0]);
     const BankConfig& config = banks_[0].config;
@@ -949,6 +952,15 @@ TuneResult tune(const std::function<Bank()>& make_bank, const std::vector<Tuning
                 const std::map<std::string, BankFitter>& fitters, const TuneOptions& options) {
   if (logs.size() < 2) throw Error("tuning by cross-validation needs at least two logs");
   if (options.objectives.empty()) throw Error("no fit objective to tune");
+  // One group of logs leaves nothing to train each fold on.
+  if (options.folds == 1 || options.folds < 0) {
+    throw Error("folds: " + std::to_string(options.folds) +
+                " cannot cross-validate; give 0 (leave one log out) or at least 2");
+  }
+  if (options.assess && (options.inner_folds == 1 || options.inner_folds < 0)) {
+    throw Error("inner folds: " + std::to_string(options.inner_folds) +
+                " cannot cross-validate; give 0 (leave one log out) or at least 2");
+  }
   for (const std::string& o : options.objectives) {
     if (fitters.count(o) == 0) throw Error("unknown fit objective '" + o + "'");
   }

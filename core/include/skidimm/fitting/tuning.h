@@ -124,7 +124,7 @@ struct TuneOptions {
   // set of its training logs, and the folds share those fits.
   std::set<std::string> separable;
   std::vector<Knob> knobs = {Knob::kRScale, Knob::kQScale, Knob::kDwell, Knob::kFloor};
-  int folds = 0;        // 0: leave one log out; K >= 2: K groups of logs
+  int folds = 0;        // 0: leave one log out; K >= 2: K groups of logs (1 is an error)
   int inner_folds = 4;  // the nested assessment's inner cross-validation
   bool assess = true;   // run the nested assessment
   std::vector<Protocol> protocols{Protocol{}};  // how the nested assessment holds logs out, each reported
@@ -137,7 +137,7 @@ struct TuneOptions {
   // inner_folds >= 2, the assessment with multi-log folds.
   bool splice = false;
   int sweeps = 2;       // coordinate-search passes over the knobs
-  int threads = 0;      // 0: the machine's cores
+  int threads = 0;      // 0: the machine's cores; more than its cores: its cores
   SamplingConfig sampling;
   std::function<void(const std::string&)> progress;  // one line at a time; may be empty
   // Counted progress lines ("fitted 20/60 modes") also give the rate and the
