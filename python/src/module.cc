@@ -14,12 +14,16 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
+#include <thread>
 
 #include "array_run.h"
 #include "csv_columns.h"
@@ -261,6 +265,11 @@ struct PyImm {
   std::unique_ptr<Imm> imm;
   std::unique_ptr<ModeDecision> decision;
   int last_decision = ModeDecision::kUnknown;
+  // The engine's Imm is used by one thread at a time (imm.h): step, run and
+  // reset hold this, so calls from several Python threads take turns
+  // (ImmInUse) instead of mixing one filter's state into NaN.
+  std::mutex in_use;
+  std::atomic<std::thread::id> user{};
 
   PyImm(PyBank b, const std::string& kernel, const py::object& decision_settings) : bank(std::move(b)) {
     if (kernel != "fastest" && kernel != "dynamic") throw py::value_error("kernel must be 'fastest' or 'dynamic'");
@@ -271,6 +280,35 @@ struct PyImm {
   const BankConfig& config() const { return imm->config(); }
   int input_dim() const { return config().input_dim(); }
   int measurement_dim() const { return static_cast<int>(config().measurement.h.rows()); }
+};
+
+// Holds an Imm for one call. Another thread's call waits for it, with the
+// GIL released (the running call's Python models need it). A call from the
+// thread already using it (a Python model of this Imm stepping it) would
+// wait for itself: it is a RuntimeError instead.
+class ImmInUse {
+ public:
+  explicit ImmInUse(PyImm& imm) : imm_(imm) {
+    if (imm.user.load() == std::this_thread::get_id()) {
+      throw std::runtime_error(
+          "this Imm is already running a step on this thread (a model of the Imm called it back): an Imm runs one "
+          "step at a time; make another Imm for a nested run");
+    }
+    if (!imm.in_use.try_lock()) {
+      py::gil_scoped_release release;
+      imm.in_use.lock();
+    }
+    imm.user.store(std::this_thread::get_id());
+  }
+  ~ImmInUse() {
+    imm_.user.store(std::thread::id());
+    imm_.in_use.unlock();
+  }
+  ImmInUse(const ImmInUse&) = delete;
+  ImmInUse& operator=(const ImmInUse&) = delete;
+
+ private:
+  PyImm& imm_;
 };
 
 // `a` as n rows of `width` (a 1-D array is one column when width is 1, or
@@ -326,6 +364,7 @@ Estimate make_estimate(const PyImm& self, const ImmEstimate& e, int decided) {
 Estimate step(PyImm& self, double t, const py::object& u, const py::object& z) {
   const DoubleArray uu = rows_of(u, 1, self.input_dim(), "u");
   const DoubleArray zz = rows_of(z, 1, self.measurement_dim(), "z");
+  const ImmInUse hold(self);
   clear_python_model_error();
   int decided = ModeDecision::kUnknown;
   const ImmEstimate* e = nullptr;
@@ -352,6 +391,7 @@ py::dict run(PyImm& self, const py::object& t, const py::object& u, const py::ob
     for (const py::handle item : truth) truth_labels.push_back(py::str(item));
     if (static_cast<long>(truth_labels.size()) != n) throw py::value_error("truth: expected one label per row");
   }
+  const ImmInUse hold(self);
   if (reset) {
     self.imm->reset();
     self.decision->reset();
@@ -652,6 +692,7 @@ PYBIND11_MODULE(_skidimm, m) {
            py::arg("lag") = py::none(), py::arg("truth") = py::none(), py::arg("reset") = true)
       .def("reset",
            [](PyImm& self) {
+             const ImmInUse hold(self);
              self.imm->reset();
              self.decision->reset();
            })
@@ -661,9 +702,11 @@ PYBIND11_MODULE(_skidimm, m) {
           "_step_loop",
           [](PyImm& self, const py::object& t, const py::object& u, const py::object& z) {
             const DoubleArray tt = DoubleArray::ensure(t);
+            if (!tt || tt.ndim() != 1) throw py::value_error("t: expected a 1-D array of times (s)");
             const long n = static_cast<long>(tt.shape(0));
             const DoubleArray uu = rows_of(u, n, self.input_dim(), "u");
             const DoubleArray zz = rows_of(z, n, self.measurement_dim(), "z");
+            const ImmInUse hold(self);
             self.imm->reset();
             py::gil_scoped_release release;
             return step_loop(self.imm.get(), ArrayLog{n, tt.data(), uu.data(), zz.data()});
@@ -720,13 +763,15 @@ PYBIND11_MODULE(_skidimm, m) {
         std::vector<DoubleArray> values;
         py::ssize_t n = -1;
         for (const std::string& v : expression.variables()) {
-          if (!columns.contains(v)) throw py::key_error("expression '" + text + "': no column '" + v + "'");
+          if (!columns.contains(v)) {
+            throw py::key_error("expression '" + Expression::excerpt(text) + "': no column '" + v + "'");
+          }
           values.push_back(DoubleArray::ensure(columns[py::str(v)]));
           if (!values.back() || values.back().ndim() != 1) throw py::value_error("column '" + v + "': expected 1-D");
           if (n >= 0 && values.back().shape(0) != n) throw py::value_error("columns of different lengths");
           n = values.back().shape(0);
         }
-        if (n < 0) throw py::value_error("expression '" + text + "' names no column");
+        if (n < 0) throw py::value_error("expression '" + Expression::excerpt(text) + "' names no column");
         py::array_t<double> out(n);
         double* o = out.mutable_data();
         std::vector<double> row(values.size());
