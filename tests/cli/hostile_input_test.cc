@@ -1,0 +1,350 @@
+// End-to-end: what an attacker or a careless user can give `skidimm` ends
+// in a clear error, a bounded amount of work and output, and nothing
+// already computed lost: corrupt time stamps under a fixed rate, column
+// expressions outside the language, files that give nothing, endless lines,
+// two runs writing one output, FIFOs and huge files on the plugin path, and
+// impossible tune settings.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "core/sanitizer.h"
+#include "core/temp_files.h"
+#include "skidimm/log_io.h"
+
+namespace {
+
+using skidimm_test::read_file;
+using skidimm_test::test_directory;
+using skidimm_test::write_file;
+using ::testing::HasSubstr;
+using ::testing::Not;
+namespace fs = std::filesystem;
+
+const std::string kSource = SKIDIMM_SOURCE_DIR;
+const std::string kPlugins = SKIDIMM_PLUGIN_DIR;
+const std::string kSkidimm = SKIDIMM_EXECUTABLE;
+const std::string kTerrains = kSource + "/configs/ltc_terrains.yaml";
+const std::string kSwitching = kSource + "/configs/examples/ltc_switching.csv";
+
+struct Result {
+  int exit_code;
+  std::string out;
+  std::string err;
+};
+
+// Runs a shell script (bash) with its output captured; a hang is ended by
+// `timeout` and shows as exit code 124.
+Result run_shell(const std::string& script) {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const fs::path dir = fs::path(::testing::TempDir()) /
+                       ("skidimm_hostile_capture_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  write_file(dir / "script.sh", script);
+  const std::string command = "timeout 300 bash " + (dir / "script.sh").string() + " > " + (dir / "out").string() +
+                              " 2> " + (dir / "err").string() + " < /dev/null";
+  const int status = std::system(command.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_file(dir / "out"), read_file(dir / "err")};
+}
+
+std::string run_command(const std::string& bank, const std::string& input, const std::string& output) {
+  return kSkidimm + " run -q --bank " + bank + " --plugin-path " + kPlugins + " --input " + input + " --output " +
+         output;
+}
+
+long data_rows(const fs::path& csv) {
+  skidimm::CsvReader reader(csv);
+  std::vector<std::string> fields;
+  long rows = 0;
+  while (reader.next(&fields)) ++rows;
+  return rows;
+}
+
+// The bundled terrain bank with its columns' section replaced.
+fs::path bank_with(const fs::path& dir, const std::string& name, const std::string& columns_and_sampling) {
+  std::string bank = read_file(kTerrains);
+  const std::string from = "columns:\n  time: t\n  truth_mode: mode";
+  const auto at = bank.find(from);
+  EXPECT_NE(at, std::string::npos);
+  bank.replace(at, from.size(), columns_and_sampling);
+  return write_file(dir / name, bank);
+}
+
+TEST(HostileInput, AFixedRateStopsAtACorruptTimeStampAndKeepsTheRowsBefore) {
+  const fs::path dir = test_directory();
+  for (const std::string& stamp : {std::string("1e9"), std::string("1e300")}) {
+    std::string log = read_file(kSwitching);
+    // The 201st data row's time.
+    std::size_t at = 0;
+    for (int line = 0; line < 201; ++line) at = log.find('\n', at) + 1;
+    log.replace(at, log.find(',', at) - at, stamp);
+    const fs::path input = write_file(dir / "corrupt.csv", log);
+    const fs::path out = dir / "out.csv";
+    fs::remove(out.string() + ".partial");
+    const Result r = run_shell(kSkidimm + " run --rate 100 --bank " + kTerrains + " --plugin-path " + kPlugins +
+                               " --input " + input.string() + " --output " + out.string());
+    EXPECT_EQ(r.exit_code, 1) << stamp << ": " << r.err;
+    EXPECT_THAT(r.err, HasSubstr("corrupt.csv:202: column 't': the log has no row from t = "));
+    EXPECT_THAT(r.err, HasSubstr("longer than sampling.max_gap (10 s)"));
+    EXPECT_FALSE(fs::exists(out));
+    ASSERT_TRUE(fs::exists(out.string() + ".partial")) << r.err;
+    EXPECT_LT(fs::file_size(out.string() + ".partial"), 1u << 20) << "the grid stopped at the gap";
+    EXPECT_GT(data_rows(out.string() + ".partial"), 300) << "the steps before the gap are kept";
+  }
+  // Told to, the grid skips the gap and the run succeeds, saying so.
+  const fs::path skipping = bank_with(dir, "skipping.yaml",
+                                      "columns:\n  time: t\n  truth_mode: mode\nsampling:\n  rate: 100\n  "
+                                      "skip_gaps: true");
+  std::string log = read_file(kSwitching);
+  std::size_t at = 0;
+  for (int line = 0; line < 1487; ++line) at = log.find('\n', at) + 1;
+  log.replace(at, log.find(',', at) - at, "1e7");
+  const fs::path paused = write_file(dir / "paused.csv", log);
+  const Result r = run_shell(kSkidimm + " run --bank " + skipping.string() + " --plugin-path " + kPlugins +
+                             " --input " + paused.string() + " --output " + (dir / "skipped.csv").string());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("1 gap(s) without rows longer than sampling.max_gap (10 s) were skipped"));
+}
+
+TEST(HostileInput, ARateFarAboveTheLogsIsRefusedByFitAndRun) {
+  const fs::path dir = test_directory();
+  std::string log = "t,phi_dot_L,phi_dot_R,V,omega,mode\n";
+  for (int k = 0; k < 800; ++k) log += std::to_string(0.01 * k) + ",1,1.1,0.3,0.02,asphalt\n";
+  const fs::path input = write_file(dir / "eight_seconds.csv", log);
+  const Result fit = run_shell(kSkidimm + " fit --rate 1e6 --bank " + kTerrains + " --plugin-path " + kPlugins +
+                               " --log asphalt=" + input.string());
+  EXPECT_EQ(fit.exit_code, 1) << fit.err;
+  EXPECT_THAT(fit.err, HasSubstr("eight_seconds.csv: the filter's rate"));
+  EXPECT_THAT(fit.err, HasSubstr("a grid may take at most 1000 steps per row"));
+  const Result run = run_shell(run_command(kTerrains, input.string(), (dir / "out.csv").string()) + " --rate 1e6");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_THAT(run.err, HasSubstr("at most 1000 steps per row"));
+  const Result huge = run_shell(kSkidimm + " eval --rate 1e300 --bank " + kTerrains + " --plugin-path " + kPlugins +
+                                " --input " + input.string());
+  EXPECT_NE(huge.exit_code, 0);
+  EXPECT_THAT(huge.err, HasSubstr("at most 1e6"));
+}
+
+TEST(HostileInput, ExpressionsOutsideTheLanguageAreRefusedNamingTheBankAndField) {
+  const fs::path dir = test_directory();
+  const struct {
+    std::string expression, says;
+  } cases[] = {
+      {"phi_dot_L = 3", "assignment ('=') is not part of the language"},
+      {"phi_dot_L, phi_dot_R", "a ',' outside the arguments of min() or max()"},
+      {"mean(V) + _skidimm_step99", "names starting with '_' are reserved"},
+      {"mean((V)", "unbalanced parentheses"},
+  };
+  for (const auto& c : cases) {
+    const fs::path bank = bank_with(dir, "bank.yaml",
+                                    "columns:\n  time: t\n  truth_mode: mode\n  measurements:\n    V: \"" +
+                                        c.expression + "\"\nsampling:\n  rate: 50");
+    const Result r = run_shell(run_command(bank.string(), kSwitching, (dir / "out.csv").string()));
+    EXPECT_EQ(r.exit_code, 1) << c.expression;
+    EXPECT_THAT(r.err, HasSubstr(bank.string() + ": columns.measurements.V")) << c.expression;
+    EXPECT_THAT(r.err, HasSubstr(c.says)) << c.expression;
+    EXPECT_FALSE(fs::exists(dir / "out.csv"));
+  }
+  // A NUL in the expression (YAML "\0") ends nothing early.
+  const fs::path nul = bank_with(
+      dir, "nul.yaml", "columns:\n  time: t\n  truth_mode: mode\n  inputs:\n    phi_dot_L: \"phi_dot_L\\0+1\"");
+  const Result r = run_shell(run_command(nul.string(), kSwitching, (dir / "out.csv").string()));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("columns.inputs.phi_dot_L"));
+  EXPECT_THAT(r.err, HasSubstr("a control character (byte 0)"));
+  // A 1 MB expression: refused, and the message quotes a short excerpt.
+  const fs::path huge = bank_with(dir, "huge.yaml",
+                                  "columns:\n  time: t\n  truth_mode: mode\n  inputs:\n    phi_dot_L: \"phi_dot_L" +
+                                      std::string(1 << 20, '+') + "1\"");
+  const Result long_one = run_shell(run_command(huge.string(), kSwitching, (dir / "out.csv").string()));
+  EXPECT_EQ(long_one.exit_code, 1);
+  EXPECT_THAT(long_one.err, HasSubstr("more than an expression may have (1024)"));
+  EXPECT_LT(long_one.err.size(), 1000u);
+}
+
+TEST(HostileInput, AFileThatGivesNothingIsAnErrorNamingIt) {
+  const fs::path dir = test_directory();
+  // The switching log split into wheels (inputs) and a sensor file (V, omega).
+  std::ifstream in(kSwitching);
+  std::string line, wheels, sensors;
+  bool header = true;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::size_t begin = 0;
+    for (int c = 0; c < 5; ++c) {
+      const std::size_t end = line.find(',', begin);
+      cells.push_back(line.substr(begin, end - begin));
+      begin = end + 1;
+    }
+    wheels += cells[0] + "," + cells[1] + "," + cells[2] + "\n";
+    sensors += cells[0] + "," + cells[3] + "," + cells[4] + "\n";
+    header = false;
+  }
+  (void)header;
+  const fs::path pro = write_file(dir / "pro.csv", wheels), imu = write_file(dir / "imu.csv", sensors);
+  const fs::path bank = bank_with(dir, "bank.yaml", "columns:\n  time: t");
+  const fs::path out = dir / "out.csv";
+  ASSERT_EQ(run_shell(run_command(bank.string(), pro.string() + "+" + imu.string(), out.string())).exit_code, 0);
+  // An offset that moves every sensor row past the wheels' end.
+  const Result late = run_shell(run_command(bank.string(), pro.string() + "+" + imu.string() + "@1e6", out.string()));
+  EXPECT_EQ(late.exit_code, 1);
+  EXPECT_THAT(late.err, HasSubstr("imu.csv: none of its 1487 row(s) was used"));
+  EXPECT_THAT(late.err, HasSubstr("with its offset of 1e+06 s"));
+  // A sensor file with its header only.
+  const fs::path empty = write_file(dir / "empty_imu.csv", "t,V,omega\n");
+  const Result none = run_shell(run_command(bank.string(), pro.string() + "+" + empty.string(), out.string()));
+  EXPECT_EQ(none.exit_code, 1);
+  EXPECT_THAT(none.err, HasSubstr("empty_imu.csv:1: the file has a header but no data rows: its columns V, omega"));
+  // A symlink loop and a directory where a log file is expected.
+  fs::create_symlink(dir / "loop.csv", dir / "loop.csv");
+  const Result loop =
+      run_shell(run_command(bank.string(), pro.string() + "+" + (dir / "loop.csv").string(), out.string()));
+  EXPECT_EQ(loop.exit_code, 1);
+  EXPECT_THAT(loop.err, HasSubstr("loop.csv: cannot read: Too many levels of symbolic links"));
+  const Result directory = run_shell(run_command(bank.string(), dir.string(), out.string()));
+  EXPECT_EQ(directory.exit_code, 1);
+  EXPECT_THAT(directory.err, HasSubstr("is a directory, not a log file"));
+  // And a column that is empty in every row is said in the summary.
+  std::string no_omega;
+  std::ifstream again(imu);
+  while (std::getline(again, line))
+    no_omega += line.substr(0, line.rfind(',')) + (no_omega.empty() ? ",omega\n" : ",\n");
+  const fs::path blank = write_file(dir / "blank_imu.csv", no_omega);
+  const Result blank_run = run_shell(kSkidimm + " run --bank " + bank.string() + " --plugin-path " + kPlugins +
+                                     " --input " + pro.string() + "+" + blank.string() + " --output " + out.string());
+  EXPECT_EQ(blank_run.exit_code, 0) << blank_run.err;
+  EXPECT_THAT(blank_run.err, HasSubstr("measurement 'omega' (\"omega\") had no value at any step"));
+}
+
+TEST(HostileInput, AnEndlessLineOnStandardInputIsRefusedAtTheCap) {
+  const fs::path dir = test_directory();
+  // 64 MB of NUL bytes, then 64 MB of one header line.
+  const Result nul = run_shell("head -c 67108864 /dev/zero | " + run_command(kTerrains, "-", (dir / "a.csv").string()));
+  EXPECT_EQ(nul.exit_code, 1) << nul.err;
+  EXPECT_THAT(nul.err, HasSubstr("standard input:1: a line longer than 1048576 bytes: not a CSV log"));
+  const Result header = run_shell("{ printf t; head -c 67108864 /dev/zero | tr '\\0' 'x'; } | " +
+                                  run_command(kTerrains, "-", (dir / "b.csv").string()));
+  EXPECT_EQ(header.exit_code, 1) << header.err;
+  EXPECT_THAT(header.err, HasSubstr("a line longer than 1048576 bytes"));
+  // A data line too, with the rows before it kept.
+  const Result row = run_shell("{ head -n 100 " + kSwitching + "; head -c 4194304 /dev/zero | tr '\\0' 1; } | " +
+                               run_command(kTerrains, "-", (dir / "c.csv").string()));
+  EXPECT_EQ(row.exit_code, 1) << row.err;
+  EXPECT_THAT(row.err, HasSubstr("standard input:101: a line longer than 1048576 bytes"));
+  // A header of 100,000 columns is read in linear time (the check for
+  // duplicate names compared every pair).
+  std::string wide = "t";
+  for (int c = 0; c < 100000; ++c) wide += ",c" + std::to_string(c);
+  const Result many = run_shell("printf '" + wide + "\\n' | " + run_command(kTerrains, "-", (dir / "d.csv").string()));
+  EXPECT_EQ(many.exit_code, 1);
+  EXPECT_THAT(many.err, HasSubstr("no column 'phi_dot_L'"));
+  EXPECT_LT(many.err.size(), 2000u);
+}
+
+TEST(HostileInput, TwoRunsWritingOneOutputNeverMix) {
+  const fs::path dir = test_directory();
+  const fs::path out = dir / "out.csv";
+  // Two different logs: each run's output is whole and one run's own.
+  const fs::path reference_a = dir / "a.csv", reference_b = dir / "b.csv";
+  const std::string stc = kSource + "/configs/examples/stc_switching.csv";
+  const std::string stc_bank = kSource + "/configs/stc_slip4.yaml";
+  ASSERT_EQ(run_shell(run_command(kTerrains, kSwitching, reference_a.string())).exit_code, 0);
+  ASSERT_EQ(run_shell(run_command(stc_bank, stc, reference_b.string())).exit_code, 0);
+  const std::string a = read_file(reference_a), b = read_file(reference_b);
+  for (int attempt = 0; attempt < 5; ++attempt) {
+    fs::remove(out);
+    const Result r = run_shell(
+        run_command(kTerrains, kSwitching, out.string()) + " & a=$!; " + run_command(stc_bank, stc, out.string()) +
+        " & b=$!; " + run_command(kTerrains, kSwitching, out.string()) + " & c=$!; wait $a && wait $b && wait $c");
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    const std::string written = read_file(out);
+    EXPECT_TRUE(written == a || written == b) << "attempt " << attempt << ": " << written.size() << " bytes";
+    EXPECT_EQ(written.find('\0'), std::string::npos);
+  }
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    EXPECT_EQ(entry.path().string().find(".partial"), std::string::npos) << "left behind: " << entry.path();
+  }
+  // A directory as the output: refused before anything is computed.
+  const Result directory = run_shell(run_command(kTerrains, kSwitching, dir.string()));
+  EXPECT_EQ(directory.exit_code, 1);
+  EXPECT_THAT(directory.err, HasSubstr(dir.string() + ": is a directory"));
+  // The log itself as the output (another path to it): refused, the log kept.
+  const fs::path log = write_file(dir / "log.csv", read_file(kSwitching));
+  const Result itself = run_shell(run_command(kTerrains, log.string(), (dir / "." / "log.csv").string()));
+  EXPECT_EQ(itself.exit_code, 1);
+  EXPECT_THAT(itself.err, HasSubstr("is the log file " + log.string() + " itself"));
+  EXPECT_EQ(read_file(log), read_file(kSwitching));
+}
+
+TEST(HostileInput, PluginPathsOpenOnlyRegularFilesAndSurviveHugeOnes) {
+  const fs::path dir = test_directory();
+  const fs::path fifo = dir / "fifo.so";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  for (const std::string& path : {fifo.string(), dir.string()}) {
+    const Result r = run_shell(kSkidimm + " plugins --plugin-path " + path);
+    EXPECT_EQ(r.exit_code, 0) << path << ": " << r.err;
+    EXPECT_THAT(r.out + r.err, HasSubstr("not a plugin file: a FIFO")) << path;
+  }
+  const fs::path bank = bank_with(dir, "bank.yaml", "columns:\n  time: t\n  truth_mode: mode");
+  const Result run =
+      run_shell(kSkidimm + " run -q --bank " + bank.string() + " --plugin-path " + fifo.string() + " --plugin-path " +
+                kPlugins + " --input " + kSwitching + " --output " + (dir / "out.csv").string());
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  // An 8 GB sparse file: refused by its size, never read.
+  fs::create_directories(dir / "huge");
+  std::ofstream(dir / "huge/eight_gb.so").close();
+  fs::resize_file(dir / "huge/eight_gb.so", std::uintmax_t{8} << 30);
+  const Result huge = run_shell(kSkidimm + " plugins --plugin-path " + (dir / "huge").string());
+  EXPECT_EQ(huge.exit_code, 0) << huge.err;
+  EXPECT_THAT(huge.out + huge.err, HasSubstr("eight_gb.so"));
+  EXPECT_THAT(huge.out + huge.err, HasSubstr("larger than a plugin can be (1073741824 bytes)"));
+  // 900 MB under an address-space limit of 800 MB: running out of memory
+  // while reading it is a rejected plugin, not an abort. (A sanitizer's
+  // runtime cannot start under such a limit.)
+  if (SKIDIMM_SANITIZED) return;
+  fs::remove(dir / "huge/eight_gb.so");
+  std::ofstream(dir / "huge/nine_hundred_mb.so").close();
+  fs::resize_file(dir / "huge/nine_hundred_mb.so", std::uintmax_t{900} << 20);
+  const Result limited =
+      run_shell("ulimit -v 800000; " + kSkidimm + " plugins --plugin-path " + (dir / "huge").string());
+  EXPECT_EQ(limited.exit_code, 0) << limited.err;
+  EXPECT_THAT(limited.out + limited.err, HasSubstr("nine_hundred_mb.so"));
+  EXPECT_THAT(limited.out + limited.err, HasSubstr("out of memory while reading or loading it"));
+}
+
+// Two logs from the switching example, for tune.
+std::string two_logs(const fs::path& dir) {
+  std::ifstream in(kSwitching);
+  std::string header, line, first, second;
+  std::getline(in, header);
+  for (int k = 0; std::getline(in, line); ++k) (k < 740 ? first : second) += line + "\n";
+  return " --log " + write_file(dir / "first.csv", header + "\n" + first).string() + " --log " +
+         write_file(dir / "second.csv", header + "\n" + second).string();
+}
+
+TEST(HostileInput, TuneRefusesOneFoldAndClampsItsThreadsToTheCores) {
+  const fs::path dir = test_directory();
+  const std::string tune = kSkidimm + " tune -q --bank " + kTerrains + " --plugin-path " + kPlugins + two_logs(dir) +
+                           " --objective none --no-assess";
+  for (const std::string& option : {std::string("--folds 1"), std::string("--inner-folds 1")}) {
+    const Result r = run_shell(tune + " " + option);
+    EXPECT_EQ(r.exit_code, 2) << option << ": " << r.err;
+    EXPECT_THAT(r.err, HasSubstr("expected 0 (leave one log out) or a number of groups from 2 to 1000, got '1'"))
+        << option;
+  }
+  const Result many = run_shell(tune + " --threads 1000000 --table " + (dir / "many.csv").string());
+  const Result two = run_shell(tune + " --threads 2 --table " + (dir / "two.csv").string());
+  ASSERT_EQ(many.exit_code, 0) << many.err;
+  ASSERT_EQ(two.exit_code, 0) << two.err;
+  EXPECT_EQ(many.out, two.out) << "the same choice, as fast as with the cores";
+}
+
+}  // namespace
