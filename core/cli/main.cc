@@ -10,6 +10,7 @@
 //   skidimm plugins
 //   skidimm new-plugin NAME [--dir DIR]
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <filesystem>
 #include <string>
 #include <system_error>
@@ -25,6 +26,19 @@ namespace fs = std::filesystem;
 using namespace skidimm::cli;
 
 namespace {
+
+// NaN passes CLI11's range checks (every comparison with it is false), and
+// inf its sign checks: a number option is finite first.
+CLI::Validator finite_number() {
+  return CLI::Validator(
+      [](std::string& text) {
+        double value = 0.0;
+        return CLI::detail::lexical_cast(text, value) && std::isfinite(value)
+                   ? std::string()
+                   : "expected a finite number, got '" + text + "'";
+      },
+      "");
+}
 
 const char* const kSkipUnpaired =
     "A pattern pairs its files by run key ('pro_*.csv+imu_*.csv': pro_02 with imu_02); leave out, with a note, "
@@ -68,23 +82,23 @@ int main(int argc, char** argv) {
         ->add_option("--rate", *rate,
                      "Filter steps per second on a fixed grid (overrides the bank's sampling.rate); "
                      "default: a step at every time stamp of the log")
-        ->check(CLI::PositiveNumber);
+        ->check(finite_number())->check(CLI::PositiveNumber);
   };
   auto add_decision_options = [](CLI::App* command, skidimm::RunOverrides* overrides) {
     command
         ->add_option("--decision-enter", overrides->decision_enter,
                      "Probability at which a mode (class) is decided (overrides the bank's decision.enter)")
-        ->check(CLI::Range(0.0, 1.0));
+        ->check(finite_number())->check(CLI::Range(0.0, 1.0));
     command
         ->add_option("--decision-leave", overrides->decision_leave,
                      "Probability below which, for the hold, the decided mode is given up for unknown "
                      "(decision.leave; 0: never)")
-        ->check(CLI::Range(0.0, 1.0));
+        ->check(finite_number())->check(CLI::Range(0.0, 1.0));
     command
         ->add_option("--decision-hold", overrides->decision_hold,
                      "Seconds a decision is kept at least, and below decision.leave before it is given up "
                      "(decision.min_hold)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(finite_number())->check(CLI::NonNegativeNumber);
   };
 
   RunOptions run_options;
@@ -104,7 +118,7 @@ int main(int argc, char** argv) {
                     documentation_path("docs/engine.md") + ")");
   run->add_option("--lag", run_options.lag,
                   "Write each step smoothed with this many seconds of later data (online, delayed)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(finite_number())->check(CLI::NonNegativeNumber);
   add_decision_options(run, &run_options.overrides);
   run->add_option("--output,-o", output,
                   "Output CSV (written as <output>.partial, renamed when complete); '-' for standard output")
@@ -115,7 +129,7 @@ int main(int argc, char** argv) {
   run->add_option("--innovation-gate", run_options.overrides.innovation_gate,
                   "Chi-square innovation gate: probability a consistent measurement passes, in (0, 1); 0: none "
                   "(overrides the bank's innovation_gate; " + documentation_path("docs/engine.md") + ")")
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(finite_number())->check(CLI::Range(0.0, 1.0));
   run->add_option("--likelihood-weight", run_options.overrides.likelihood_weight,
                   "Weight of each step's evidence in the mode probabilities, in (0, 1]; 1: the plain IMM "
                   "(overrides the bank's likelihood_weight; " + documentation_path("docs/engine.md") + ")")
@@ -175,7 +189,7 @@ int main(int argc, char** argv) {
   simulate->add_option("--output,-o", simulate_output, "Log CSV to write")->required();
   simulate->add_option("--seed", simulate_options.seed, "Random seed (default: the scenario's)");
   simulate->add_option("--duration", simulate_options.duration, "Seconds to simulate (default: the scenario's)")
-      ->check(CLI::PositiveNumber);
+      ->check(finite_number())->check(CLI::PositiveNumber);
   simulate->add_flag("--quiet,-q", simulate_options.quiet, "No summary on stderr");
 
   FitCommandOptions fit_options;
@@ -213,12 +227,12 @@ int main(int argc, char** argv) {
                 "Hold parameters the logs do not excite at their starting values instead of failing (each is named)");
   fit->add_option("--window", fit_options.window,
                   "Window objective: seconds each prediction runs from a measured start; 0 = one-step (default)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(finite_number())->check(CLI::NonNegativeNumber);
   add_rate(fit, &fit_options.rate);
   fit->add_option("--loss", fit_options.loss, "Robust loss: huber (default), cauchy, none")
       ->check(CLI::IsMember({"huber", "cauchy", "none"}));
   fit->add_option("--loss-scale", fit_options.loss_scale, "Loss scale in measurement standard deviations (3)")
-      ->check(CLI::PositiveNumber);
+      ->check(finite_number())->check(CLI::PositiveNumber);
   fit->add_option("--held-out", fit_options.held_out, "[MODE=]FILE[+FILE...] to evaluate after fitting; repeatable");
   fit->add_option("--output-entry", entry_output, "Write the fitted mode entries (YAML) to this file");
   fit->add_option("--append-to", append_to, "Append the fitted mode to this bank file (comments kept)")
@@ -280,9 +294,9 @@ int main(int argc, char** argv) {
   tune->add_option("--lockbox", tune_options.lockbox,
                    "Logs kept aside (as --log): neither fitted nor tuned on, scored once by the tuned bank; repeatable");
   tune->add_option("--threads", tune_options.threads, "Worker threads (default, and at most: every core)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(finite_number())->check(CLI::NonNegativeNumber);
   tune->add_option("--window", tune_options.window, "The window objective's window in seconds (0: one-step)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(finite_number())->check(CLI::NonNegativeNumber);
   tune->add_flag("--fit-r", tune_options.fit_r, "Likelihood objective: also fit one R for the bank");
   tune->add_flag("--full-q", tune_options.full_q,
                  "Q with off-diagonal terms (likelihood: fitted; window: the correlations of the one-step errors)");
@@ -310,7 +324,7 @@ int main(int argc, char** argv) {
   add_rate(eval, &eval_options.overrides.rate);
   eval->add_flag("--smooth", eval_options.smooth, "Score the probabilities smoothed over each whole log");
   eval->add_option("--lag", eval_options.lag, "Score the probabilities smoothed with this lag (s)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(finite_number())->check(CLI::NonNegativeNumber);
   eval->add_option("--estimates,-e", eval_options.estimates,
                    "Evaluate `skidimm run` outputs (files or directories) instead of running a bank");
   add_decision_options(eval, &eval_options.overrides);

@@ -320,6 +320,24 @@ TEST(HostileInput, PluginPathsOpenOnlyRegularFilesAndSurviveHugeOnes) {
   EXPECT_THAT(limited.out + limited.err, HasSubstr("out of memory while reading or loading it"));
 }
 
+TEST(HostileInput, NumberOptionsMustBeFinite) {
+  const fs::path dir = test_directory();
+  const std::string run = kSkidimm + " run -q --bank " + kTerrains + " --plugin-path " + kPlugins + " --input " +
+                          kSwitching + " --output " + (dir / "out.csv").string();
+  for (const std::string& option : {std::string("--rate nan"), std::string("--rate inf"), std::string("--lag nan"),
+                                    std::string("--decision-enter nan"), std::string("--decision-hold inf"),
+                                    std::string("--innovation-gate nan")}) {
+    const Result r = run_shell(run + " " + option);
+    EXPECT_EQ(r.exit_code, 2) << option << ": " << r.err;
+    EXPECT_THAT(r.err, HasSubstr("expected a finite number")) << option;
+  }
+  const Result fit = run_shell(kSkidimm + " fit --objective window --window nan --bank " + kTerrains + " --log asphalt=" +
+                               kSwitching);
+  EXPECT_EQ(fit.exit_code, 2) << fit.err;
+  EXPECT_THAT(fit.err, HasSubstr("expected a finite number, got 'nan'"));
+  EXPECT_FALSE(fs::exists(dir / "out.csv"));
+}
+
 // Two logs from the switching example, for tune.
 std::string two_logs(const fs::path& dir) {
   std::ifstream in(kSwitching);
