@@ -150,7 +150,7 @@ int main(int argc, char** argv) {
                       documentation_path("docs/foxglove.md") + "); HOST 127.0.0.1 unless given, PORT 0 for any free port");
   run->add_option("--serve-speed", run_options.serve_speed,
                   "With --serve, replaying a file: times real time (default 1); 0 as fast as the filter runs")
-      ->check(CLI::NonNegativeNumber);
+      ->check(finite_number())->check(CLI::NonNegativeNumber);
   run->add_flag("--copy-topics", run_options.copy_topics,
                 "With an .mcap output and a bag input: copy the bag topics the bank reads into the output");
   add_plugin_path(run);
