@@ -108,7 +108,7 @@ if [ "$asan" -eq 1 ]; then
     }
   }
   for fuzzer in bank_loader_fuzzer log_reader_fuzzer scenario_loader_fuzzer estimates_reader_fuzzer mcap_reader_fuzzer \
-    cdr_reader_fuzzer; do
+    cdr_reader_fuzzer expression_fuzzer multirate_merge_fuzzer; do
     fuzz "$fuzzer" &
     running+=("$!")
     if [ "${#running[@]}" -ge "$jobs" ]; then finish_one; fi

@@ -353,11 +353,22 @@ bool Expression::is_identifier(const std::string& name) {
   return std::all_of(name.begin(), name.end(), is_name_char);
 }
 
+namespace {
+
+// printable() keeps line breaks; a quoted excerpt stays on its line.
+std::string one_line(std::string_view text) {
+  std::string out;
+  for (char c : printable(text)) out += c == '\n' ? std::string("\\n") : std::string(1, c);
+  return out;
+}
+
+}  // namespace
+
 std::string Expression::excerpt(std::string_view text, std::size_t at) {
   constexpr std::size_t kShown = 60;
-  if (text.size() <= kShown) return printable(text);
+  if (text.size() <= kShown) return one_line(text);
   const std::size_t begin = at > kShown / 2 ? std::min(at - kShown / 2, text.size() - kShown) : 0;
-  return (begin > 0 ? "..." : "") + printable(text.substr(begin, kShown)) + (begin + kShown < text.size() ? "..." : "");
+  return (begin > 0 ? "..." : "") + one_line(text.substr(begin, kShown)) + (begin + kShown < text.size() ? "..." : "");
 }
 
 Expression::WithCalls Expression::cut_calls(const std::string& text, const std::vector<std::string>& functions) {

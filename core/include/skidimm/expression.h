@@ -72,7 +72,8 @@ class Expression {
   static bool is_identifier(const std::string& name);
 
   // At most about 60 characters of `text` around byte `at`, printable
-  // (printable.h), with "..." where it was cut: what a message quotes.
+  // (printable.h) and on one line (a line break as \n), with "..." where it
+  // was cut: what a message quotes.
   static std::string excerpt(std::string_view text, std::size_t at = 0);
 
   // An expression in which calls of some functions of one argument are
