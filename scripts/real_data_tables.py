@@ -9,6 +9,7 @@ It also checks that the nested scores `skidimm tune` printed and those
 page's numbers are the same whichever tool is asked.
 """
 import csv
+import functools
 import json
 import os
 import re
@@ -295,8 +296,9 @@ def wheels(work):
         f"the development runs: {blocks['chosen']}.\n")
 
 
+@functools.lru_cache(maxsize=None)
 def driving(data, terrain, number):
-    """How a run was driven: mean |speed| and mean |velR - velL| (m/s) from its wheel file."""
+    """How a run was driven (each wheel file read once): mean |speed| and mean |velR - velL| (m/s) from its wheel file."""
     with open(os.path.join(data, terrain, "pro_%s.csv" % number), newline="") as f:
         rows = list(csv.DictReader(f))
     speed = sum(abs(float(r["velL"]) + float(r["velR"])) / 2 for r in rows) / len(rows)
