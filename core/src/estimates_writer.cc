@@ -4,8 +4,10 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <string_view>
 #include <system_error>
+#include <unordered_map>
 
 #include "skidimm/check.h"
 #include "skidimm/errors.h"
@@ -65,31 +67,162 @@ void describe_step(const ImmEstimate& e, const std::vector<std::string>& mode_na
 
 namespace {
 
-// Width of the reason column in .npy files; longer reasons are cut there.
-constexpr std::size_t kNpyReasonWidth = 256;
+// `text` as a JSON string literal. Valid UTF-8 is kept as it is; a byte that
+// is not part of valid UTF-8 (a plugin's message may hold any bytes) becomes
+// the code point of the same value, so the file stays JSON.
+void append_json_string(std::string_view text, std::string* out) {
+  static const char kHex[] = "0123456789abcdef";
+  out->push_back('"');
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c == '"' || c == '\\') {
+      out->push_back('\\');
+      out->push_back(static_cast<char>(c));
+      ++i;
+      continue;
+    }
+    if (c < 0x20 || c == 0x7f) {
+      out->append("\\u00");
+      out->push_back(kHex[c >> 4]);
+      out->push_back(kHex[c & 15]);
+      ++i;
+      continue;
+    }
+    if (c < 0x80) {
+      out->push_back(static_cast<char>(c));
+      ++i;
+      continue;
+    }
+    // A UTF-8 sequence: its lead byte says how long, every other byte 10xxxxxx,
+    // no overlong forms, no surrogates, nothing above U+10FFFF.
+    std::size_t length = c >= 0xc2 && c <= 0xdf ? 2 : c >= 0xe0 && c <= 0xef ? 3 : c >= 0xf0 && c <= 0xf4 ? 4 : 0;
+    if (length != 0 && i + length <= text.size()) {
+      const auto second = static_cast<unsigned char>(text[i + 1]);
+      bool valid = (second & 0xc0) == 0x80;
+      if (c == 0xe0) valid = valid && second >= 0xa0;
+      if (c == 0xed) valid = valid && second < 0xa0;
+      if (c == 0xf0) valid = valid && second >= 0x90;
+      if (c == 0xf4) valid = valid && second < 0x90;
+      for (std::size_t k = 2; k < length; ++k) valid = valid && (static_cast<unsigned char>(text[i + k]) & 0xc0) == 0x80;
+      if (valid) {
+        out->append(text.substr(i, length));
+        i += length;
+        continue;
+      }
+    }
+    out->append("\\u00");
+    out->push_back(kHex[c >> 4]);
+    out->push_back(kHex[c & 15]);
+    ++i;
+  }
+  out->push_back('"');
+}
 
 }  // namespace
+
+fs::path EstimatesWriter::reasons_path(const fs::path& npy) {
+  fs::path reasons = npy;
+  return reasons.replace_extension(".reasons.json");
+}
 
 bool EstimatesWriter::is_npy(const fs::path& path) { return path.extension() == ".npy"; }
 
 // ---------------------------------------------------------------- .npy
+
+// The texts of a .npy file's reason column (the "table" beside its codes): a
+// JSON array written to <name>.reasons.json as new texts come, text k at
+// index k, "" at 0. A text seen before gets its code again, for the first
+// kRemembered distinct texts; past them (a log gated on every row, each with
+// its own NIS) every new text is appended without being remembered, so the
+// memory stays bounded and every code still maps to its text.
+namespace {
+
+class ReasonTable {
+ public:
+  explicit ReasonTable(const fs::path& path) : out_(path) {
+    buffer_.reserve(1 << 16);
+    buffer_ = "[\n\"\"";
+  }
+
+  ~ReasonTable() {
+    if (out_.committed()) return;
+    try {
+      finish();
+    } catch (const Error&) {
+    }
+  }
+
+  std::uint32_t code(const std::string& text) {
+    if (text.empty()) return 0;
+    const auto known = codes_.find(text);
+    if (known != codes_.end()) return known->second;
+    if (next_ == std::numeric_limits<std::uint32_t>::max()) {
+      throw Error(out_.written_path().string() + ": more than 2^32 - 1 distinct reasons; write CSV instead");
+    }
+    const std::uint32_t code = next_++;
+    if (codes_.size() < kRemembered) codes_.emplace(text, code);
+    buffer_.append(",\n");
+    append_json_string(text, &buffer_);
+    if (buffer_.size() >= (1 << 16)) write_buffer();
+    return code;
+  }
+
+  void keep_partial() { out_.keep_partial(); }
+
+  void commit() {
+    finish();
+    out_.commit();
+  }
+
+ private:
+  static constexpr std::size_t kRemembered = 1 << 16;
+
+  void write_buffer() {
+    out_.write(buffer_);
+    buffer_.clear();
+  }
+
+  void finish() {
+    if (finished_) return;
+    finished_ = true;
+    buffer_.append("\n]\n");
+    write_buffer();
+  }
+
+  OutputFile out_;
+  std::string buffer_;
+  std::unordered_map<std::string, std::uint32_t> codes_;
+  std::uint32_t next_ = 1;
+  bool finished_ = false;
+};
+
+}  // namespace
 
 // A NumPy .npy file of records (numpy/lib/format.py): magic, version, a
 // Python-literal header padded to 64 bytes, then the records back to back.
 // The row count is written as the header's shape when the file is closed.
 class EstimatesWriter::Npy {
  public:
+  // Columns: `numbers` doubles, then a text column of each of `text_widths`
+  // bytes, then one unsigned 32-bit code.
   Npy(const fs::path& path, const std::vector<std::string>& names, std::size_t numbers,
       const std::vector<std::size_t>& text_widths)
       : text_widths_(text_widths) {
     std::uint16_t probe = 1;
     unsigned char first = 0;
     std::memcpy(&first, &probe, 1);
-    const char* order = first == 1 ? "<" : ">";
+    const std::string order = first == 1 ? "<" : ">";
     std::string descr = "[";
     for (std::size_t i = 0; i < names.size(); ++i) {
       descr += (i ? ", (" : "(") + python_string(names[i]) + ", ";
-      descr += i < numbers ? std::string("'") + order + "f8'" : "'S" + std::to_string(text_widths[i - numbers]) + "'";
+      if (i < numbers) {
+        descr += "'" + order + "f8'";
+      } else if (i < numbers + text_widths.size()) {
+        descr += "'S" + std::to_string(text_widths[i - numbers]) + "'";
+      } else {
+        descr += "'" + order + "u4'";
+      }
       descr += ")";
     }
     descr += "]";
@@ -109,6 +242,7 @@ class EstimatesWriter::Npy {
     shape_offset_ += head.size();
     head += dict;
     out_ = std::make_unique<OutputFile>(path);  // output_file.h
+    reasons_ = std::make_unique<ReasonTable>(EstimatesWriter::reasons_path(path));
     buffer_.reserve(1 << 16);
     buffer_ = head;
     write_buffer();
@@ -118,8 +252,11 @@ class EstimatesWriter::Npy {
 
   ~Npy() {
     if (out_->committed()) return;
-    // Keep what was computed in the .partial file, loadable.
-    if (rows_ > 0) out_->keep_partial();
+    // Keep what was computed in the .partial files, loadable.
+    if (rows_ > 0) {
+      out_->keep_partial();
+      reasons_->keep_partial();
+    }
     try {
       finish();
     } catch (const Error&) {
@@ -130,6 +267,12 @@ class EstimatesWriter::Npy {
     char bytes[8];
     std::memcpy(bytes, &value, 8);
     buffer_.append(bytes, 8);
+  }
+
+  void add_code(std::uint32_t code) {
+    char bytes[4];
+    std::memcpy(bytes, &code, 4);
+    buffer_.append(bytes, 4);
   }
 
   void add_text(std::string_view text, std::size_t column, const char* what) {
@@ -147,7 +290,11 @@ class EstimatesWriter::Npy {
     if (++rows_ % 1000 == 0) write_buffer();
   }
 
+  void add_reason(const std::string& text) { add_code(reasons_->code(text)); }
+
+  // The table first: a .npy under its final name always has its table.
   void commit() {
+    reasons_->commit();
     finish();
     out_->commit();
   }
@@ -193,6 +340,7 @@ class EstimatesWriter::Npy {
   }
 
   std::unique_ptr<OutputFile> out_;
+  std::unique_ptr<ReasonTable> reasons_;
   std::string buffer_;
   std::vector<std::size_t> text_widths_;
   std::size_t shape_offset_ = 0;
@@ -204,7 +352,7 @@ class EstimatesWriter::Npy {
 EstimatesWriter::EstimatesWriter(const fs::path& path, const BankConfig& config, bool with_truth)
     : with_truth_(with_truth) {
   for (const ModeConfig& mode : config.modes) mode_names_.push_back(mode.name);
-  const std::vector<std::string> names = header(config, with_truth);
+  std::vector<std::string> names = header(config, with_truth);
   if (ros::EstimatesMcapWriter::is_mcap(path)) {
     mcap_ = std::make_unique<ros::EstimatesMcapWriter>(path, config, with_truth);
     return;
@@ -219,8 +367,8 @@ EstimatesWriter::EstimatesWriter(const fs::path& path, const BankConfig& config,
   std::vector<std::size_t> widths{longest_mode, longest_class};
   if (with_truth) widths.push_back(std::max<std::size_t>(64, std::max(longest_mode, longest_class)));
   widths.push_back(18);  // "all_modes_rejected"
-  widths.push_back(kNpyReasonWidth);
-  npy_ = std::make_unique<Npy>(path, names, names.size() - widths.size(), widths);
+  names.back() = "reason_code";  // into the table of reasons_path()
+  npy_ = std::make_unique<Npy>(path, names, names.size() - widths.size() - 1, widths);
 }
 
 EstimatesWriter::~EstimatesWriter() = default;
@@ -282,10 +430,9 @@ void EstimatesWriter::write(double t, const ImmEstimate& e, const std::string& d
   w.add_text(mode, column++, "mode");
   w.add_text(decision, column++, "decision");
   if (with_truth_) w.add_text(truth, column++, "truth label");
-  w.add_text(to_string(e.status), column++, "status");
+  w.add_text(to_string(e.status), column, "status");
   describe_step(e, mode_names_, &reason_);
-  if (reason_.size() > kNpyReasonWidth) reason_.replace(kNpyReasonWidth - 3, std::string::npos, "...");
-  w.add_text(reason_, column, "reason");
+  w.add_reason(reason_);
   w.end_row();
 }
 

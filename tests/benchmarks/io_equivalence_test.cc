@@ -4,9 +4,12 @@
 // std::from_chars, and the .npy output read back. (Performance-related
 // correctness; the timings are in the benchmarks next to this file.)
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -378,7 +381,7 @@ Npy read_npy(const std::filesystem::path& path) {
   return npy;
 }
 
-TEST(EstimatesWriter, NpyHoldsTheExactValuesAndTheTextColumns) {
+TEST(EstimatesWriter, NpyHoldsTheExactValuesTheTextColumnsAndReasonCodes) {
   const auto dir = test_directory();
   const BankConfig config = two_mode_config();
   ImmEstimate e;
@@ -387,25 +390,28 @@ TEST(EstimatesWriter, NpyHoldsTheExactValuesAndTheTextColumns) {
   e.covariance = Eigen::Matrix2d::Identity() * 0.1;
   e.most_likely_mode = 1;
   e.status = StepStatus::kAllModesRejected;
-  e.mode_failures = {ModeFailure::kNone, ModeFailure::kGated};
   e.failure_reasons = {"", ""};
-  e.nis = Eigen::Vector2d(1.0, 25.5);
   {
     EstimatesWriter writer(dir / "out.npy", config, true);
-    for (int k = 0; k < 2500; ++k) writer.write(0.01 * k, e, k % 2 ? "grass, wet" : "unknown", "asphalt");
+    for (int k = 0; k < 2500; ++k) {
+      // Rows 0, 3, 6, ...: no reason; the others gated with NIS 25.5 or 26.5.
+      e.mode_failures = {ModeFailure::kNone, k % 3 == 0 ? ModeFailure::kNone : ModeFailure::kGated};
+      e.nis = Eigen::Vector2d(1.0, 24.5 + k % 3);
+      writer.write(0.01 * k, e, k % 2 ? "grass, wet" : "unknown", "asphalt");
+    }
     writer.commit();
   }
   const Npy npy = read_npy(dir / "out.npy");
   EXPECT_NE(npy.header.find("{'descr': [('t', '<f8'), ('mu_asphalt', '<f8'), ('mu_grass, wet', '<f8'), ('V', '<f8'), "
                             "('omega', '<f8'), ('var_V', '<f8'), ('var_omega', '<f8'), ('mode', 'S10'), "
-                            "('decision', 'S10'), ('truth_mode', 'S64'), ('status', 'S18'), ('reason', 'S256')], "
+                            "('decision', 'S10'), ('truth_mode', 'S64'), ('status', 'S18'), ('reason_code', '<u4')], "
                             "'fortran_order': False"),
             std::string::npos)
       << npy.header;
   EXPECT_EQ(npy.rows, 2500);
-  const std::size_t record = 7 * 8 + 10 + 10 + 64 + 18 + 256;
+  const std::size_t record = 7 * 8 + 10 + 10 + 64 + 18 + 4;
   ASSERT_EQ(npy.data.size(), record * 2500);
-  for (int k : {0, 1, 2499}) {
+  for (int k : {0, 1, 2, 3, 2499}) {
     const char* r = npy.data.data() + record * static_cast<std::size_t>(k);
     double values[7];
     std::memcpy(values, r, sizeof(values));
@@ -418,28 +424,98 @@ TEST(EstimatesWriter, NpyHoldsTheExactValuesAndTheTextColumns) {
     EXPECT_EQ(std::string(r + 66, 10), k % 2 ? std::string("grass, wet") : std::string("unknown\0\0\0", 10));
     EXPECT_EQ(std::string(r + 76, 7), "asphalt");
     EXPECT_EQ(std::string(r + 140, 18), "all_modes_rejected");
-    const std::string reason = "grass, wet: gated (NIS 25.5)";
-    EXPECT_EQ(std::string(r + 158, 256), reason + std::string(256 - reason.size(), '\0'));
+    std::uint32_t code = 0;
+    std::memcpy(&code, r + 158, 4);
+    EXPECT_EQ(code, static_cast<std::uint32_t>(k % 3)) << "row " << k;  // in the order first seen
   }
+  EXPECT_EQ(EstimatesWriter::reasons_path(dir / "out.npy"), dir / "out.reasons.json");
+  EXPECT_EQ(read_file(dir / "out.reasons.json"),
+            "[\n\"\",\n\"grass, wet: gated (NIS 25.5)\",\n\"grass, wet: gated (NIS 26.5)\"\n]\n");
 }
 
-TEST(EstimatesWriter, AnInterruptedNpyIsLoadableWithTheRowsSoFar) {
+// The table read by a JSON parser nobody here wrote (yaml-cpp reads JSON):
+// quotes, backslashes, control characters, UTF-8 and bytes that are not UTF-8.
+TEST(EstimatesWriter, NpyReasonTableIsJsonForAnyBytesAPluginThrows) {
+  const auto dir = test_directory();
+  const std::string message = std::string("predict \"x\" \\ failed\n\ttab \x01 caf\xc3\xa9 \xff\xc3 end");
+  ImmEstimate e;
+  e.mode_probabilities = Eigen::Vector2d(0.5, 0.5);
+  e.state = Eigen::Vector2d(1.0, 2.0);
+  e.covariance = Eigen::Matrix2d::Identity();
+  e.mode_failures = {ModeFailure::kModel, ModeFailure::kNone};
+  e.failure_reasons = {message, ""};
+  e.nis = Eigen::Vector2d(0.0, 0.0);
+  {
+    EstimatesWriter writer(dir / "odd.npy", two_mode_config(), false);
+    writer.write(0.0, e, "unknown", "");
+    writer.commit();
+  }
+  const YAML::Node table = YAML::LoadFile((dir / "odd.reasons.json").string());
+  ASSERT_TRUE(table.IsSequence());
+  ASSERT_EQ(table.size(), 2u);
+  EXPECT_EQ(table[0].as<std::string>(), "");
+  // Valid UTF-8 kept; 0xff and the cut sequence 0xc3 as the code points of the same value.
+  EXPECT_EQ(table[1].as<std::string>(), "asphalt: model failed, reset: predict \"x\" \\ failed\n\ttab \x01 caf\xc3\xa9 "
+                                        "\xc3\xbf\xc3\x83 end");
+}
+
+TEST(EstimatesWriter, AnInterruptedNpyIsLoadableWithTheRowsSoFarAndTheirReasons) {
   const auto dir = test_directory();
   const BankConfig config = two_mode_config();
   ImmEstimate e;
   e.mode_probabilities = Eigen::Vector2d(0.5, 0.5);
   e.state = Eigen::Vector2d(1.0, 2.0);
   e.covariance = Eigen::Matrix2d::Identity();
+  e.mode_failures = {ModeFailure::kDiverged, ModeFailure::kNone};
+  e.failure_reasons = {"", ""};
   {
     EstimatesWriter writer(dir / "cut.npy", config, false);
     for (int k = 0; k < 1234; ++k) writer.write(k, e, "unknown", "");
     // destroyed without commit(), as when a later row fails
   }
   EXPECT_FALSE(std::filesystem::exists(dir / "cut.npy"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "cut.reasons.json"));
   const Npy npy = read_npy(dir / "cut.npy.partial");
   EXPECT_EQ(npy.rows, 1234);
-  EXPECT_EQ(npy.data.size(), static_cast<std::size_t>(1234) * (7 * 8 + 10 + 10 + 18 + 256));
+  EXPECT_EQ(npy.data.size(), static_cast<std::size_t>(1234) * (7 * 8 + 10 + 10 + 18 + 4));
   EXPECT_EQ(npy.header.find("truth_mode"), std::string::npos);
+  EXPECT_EQ(read_file(dir / "cut.reasons.json.partial"), "[\n\"\",\n\"asphalt: diverged, reset\"\n]\n");
+}
+
+// Past the first 65536 distinct texts, new ones are appended without being
+// remembered: a repeat then gets a new code, which still maps to its text.
+TEST(EstimatesWriter, NpyReasonCodesStayCorrectPastTheRememberedTexts) {
+  const auto dir = test_directory();
+  ImmEstimate e;
+  e.mode_probabilities = Eigen::Vector2d(0.5, 0.5);
+  e.state = Eigen::Vector2d(1.0, 2.0);
+  e.covariance = Eigen::Matrix2d::Identity();
+  e.mode_failures = {ModeFailure::kModel, ModeFailure::kNone};
+  e.failure_reasons = {"", ""};
+  e.nis = Eigen::Vector2d(0.0, 0.0);
+  const int distinct = 70000;
+  {
+    EstimatesWriter writer(dir / "many.npy", two_mode_config(), false);
+    for (int k = 0; k < 2 * distinct; ++k) {
+      e.failure_reasons[0] = "case " + std::to_string(k % distinct);
+      writer.write(k, e, "unknown", "");
+    }
+    writer.commit();
+  }
+  const Npy npy = read_npy(dir / "many.npy");
+  const YAML::Node table = YAML::LoadFile((dir / "many.reasons.json").string());
+  const std::size_t record = 7 * 8 + 10 + 10 + 18 + 4;
+  ASSERT_EQ(npy.data.size(), record * 2 * distinct);
+  std::uint32_t largest = 0;
+  for (int k = 0; k < 2 * distinct; k += 997) {
+    std::uint32_t code = 0;
+    std::memcpy(&code, npy.data.data() + record * static_cast<std::size_t>(k) + record - 4, 4);
+    ASSERT_LT(code, table.size());
+    EXPECT_EQ(table[code].as<std::string>(), "asphalt: model failed, reset: case " + std::to_string(k % distinct))
+        << "row " << k;
+    largest = std::max(largest, code);
+  }
+  EXPECT_GT(largest, static_cast<std::uint32_t>(distinct));  // repeats past the remembered ones got new codes
 }
 
 TEST(EstimatesWriter, ATruthLabelTooLongForItsNpyColumnIsAnError) {

@@ -12,13 +12,17 @@
 //
 // A path ending in ".npy" is written as a NumPy array instead (format 1.0,
 // or 2.0 for very wide headers): one record per step with the same columns,
-// numbers as little-endian doubles ('<f8', exactly the filter's values, no
-// text round trip) and the text columns as fixed-width byte strings ('S<n>':
-// mode and decision as wide as the longest name, truth_mode 64 bytes or the
-// longest name, status 18, reason 256, longer reasons cut to 253 bytes and
-// "..."). numpy.load() reads it, pandas.DataFrame() takes
-// it as it is. A truth label longer than its column is an error (CSV has no
-// such limit). Millions of rows load in a fraction of a second.
+// numbers as the machine's doubles ('<f8' on every machine we build for,
+// exactly the filter's values, no text round trip), the text columns as
+// fixed-width byte strings ('S<n>': mode and decision as wide as the longest
+// name, truth_mode 64 bytes or the longest name, status 18), and instead of
+// reason a column reason_code ('<u4'): the index of the row's reason in a
+// JSON array of texts written beside it (reasons_path(): out.npy ->
+// out.reasons.json), 0 for "" (no reason). The reason is rarely set, and as
+// a fixed-width column it was most of the file. numpy.load() reads the array,
+// pandas.DataFrame() takes it as it is. A truth label longer than its column
+// is an error (CSV has no such limit). Millions of rows load in a fraction of
+// a second.
 //
 // A path ending in ".mcap" is written as an MCAP file that Foxglove plots
 // (ros/estimates_mcap_writer.h): one JSON message per step on
@@ -78,6 +82,10 @@ class EstimatesWriter {
   static std::vector<std::string> header(const BankConfig& config, bool with_truth);
   // True for paths written as NumPy arrays (".npy").
   static bool is_npy(const std::filesystem::path& path);
+  // The table of a .npy output's reason codes: `npy` with the extension
+  // ".reasons.json". Written as <that>.partial and renamed with the array;
+  // when a run fails, both .partial files are kept.
+  static std::filesystem::path reasons_path(const std::filesystem::path& npy);
 
  private:
   class Npy;

@@ -1,0 +1,74 @@
+"""`skidimm run --output out.npy` read by NumPy, against the CSV output of
+the same run: every number the same double, every text the same, and each
+reason_code mapping through out.reasons.json to the CSV's reason.
+
+Usage: npy_output_test.py SOURCE_DIR SKIDIMM WORK_DIR
+"""
+import csv
+import json
+import pathlib
+import shutil
+import subprocess
+import sys
+
+import numpy
+
+
+def run(skidimm, source, output, *extra):
+    subprocess.run([skidimm, "run", "-q", "--bank", str(source / "configs" / "ltc_terrains.yaml"),
+                    "--input", str(source / "configs" / "examples" / "ltc_switching.csv"),
+                    "--output", str(output), *extra], check=True)
+
+
+def main():
+    source, skidimm, work = pathlib.Path(sys.argv[1]), sys.argv[2], pathlib.Path(sys.argv[3])
+    shutil.rmtree(work, ignore_errors=True)
+    work.mkdir(parents=True)
+    # A tight gate: most rows have a reason, many of them distinct (their NIS).
+    gate = ["--innovation-gate", "0.9"]
+    run(skidimm, source, work / "out.csv", *gate)
+    run(skidimm, source, work / "out.npy", *gate)
+
+    estimates = numpy.load(work / "out.npy")
+    with open(work / "out.reasons.json", encoding="utf-8") as f:
+        texts = json.load(f)
+    with open(work / "out.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    failures = []
+    if len(estimates) != len(rows):
+        failures.append(f"{len(estimates)} records in the .npy, {len(rows)} rows in the CSV")
+    names = list(estimates.dtype.names)
+    if names[:-1] + ["reason"] != list(rows[0].keys()):
+        failures.append(f"columns {names} against the CSV's {list(rows[0].keys())}")
+    if texts[0] != "":
+        failures.append(f"code 0 is {texts[0]!r}, not the empty reason")
+    reasons = numpy.array(texts, dtype=object)[estimates["reason_code"]]
+    with_reason = 0
+    for k, (record, row) in enumerate(zip(estimates, rows)):
+        for name in names[:-1]:
+            value = record[name]
+            if estimates.dtype[name].kind == "f":
+                same = float(row[name]) == value or (numpy.isnan(value) and row[name] == "nan")
+            else:
+                same = value.decode() == row[name]
+            if not same:
+                failures.append(f"row {k}, {name}: {value!r} in the .npy, {row[name]!r} in the CSV")
+        if reasons[k] != row["reason"]:
+            failures.append(f"row {k}: reason {reasons[k]!r} in the .npy, {row['reason']!r} in the CSV")
+        with_reason += row["reason"] != ""
+        if len(failures) > 10:
+            break
+    if with_reason < 100 or len(texts) < 10:
+        failures.append(f"only {with_reason} rows with a reason and {len(texts)} texts: the gate did not bite")
+    # The compact file: a 4-byte code instead of a 256-byte text column.
+    size_npy = (work / "out.npy").stat().st_size + (work / "out.reasons.json").stat().st_size
+    if size_npy > (work / "out.csv").stat().st_size:
+        failures.append(f".npy and its table ({size_npy} bytes) larger than the CSV")
+    for failure in failures:
+        print("FAIL:", failure)
+    print(f"{len(estimates)} records, {with_reason} with a reason, {len(texts)} distinct reason texts")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
