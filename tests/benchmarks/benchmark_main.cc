@@ -56,9 +56,10 @@ class FigureReporter : public benchmark::ConsoleReporter {
       const bool single = run.run_type == Run::RT_Iteration;
       Figure& f = figures_[name];
       if (!(median || (single && !f.from_median))) continue;
-      // Run/ times the child process with manual time (its CPU time); the rest
-      // are this process's CPU time.
-      const double time = name.rfind("Run/", 0) == 0 ? run.GetAdjustedRealTime() : run.GetAdjustedCPUTime();
+      // Run/ and RunFloor/ are timed with manual time (the child's CPU time, the
+      // thread's); the rest are this process's CPU time.
+      const bool manual = name.rfind("Run/", 0) == 0 || name.rfind("RunFloor/", 0) == 0;
+      const double time = manual ? run.GetAdjustedRealTime() : run.GetAdjustedCPUTime();
       f.seconds = to_seconds(time, run.time_unit);
       for (const auto& [key, counter] : run.counters) f.counters[key] = counter.value;
       f.from_median = median;
@@ -191,7 +192,7 @@ class FigureReporter : public benchmark::ConsoleReporter {
   void print_runs() const {
     bool header = false;
     for (const auto& [name, f] : figures_) {
-      if (name.rfind("Run/", 0) != 0 && name.rfind("RunLoop/", 0) != 0) continue;
+      if (name.rfind("Run/", 0) != 0 && name.rfind("RunLoop/", 0) != 0 && name.rfind("RunFloor/", 0) != 0) continue;
       if (!header) {
         std::printf("\nskidimm run over a log (Run/: the executable end to end, CPU time of the child; RunLoop/: "
                     "the same loop in process):\n");
@@ -207,6 +208,12 @@ class FigureReporter : public benchmark::ConsoleReporter {
       }
       std::printf("  %-24s %10.0f rows/s", shown.c_str(), rows_per_second);
       if (allocations != f.counters.end()) std::printf("   %.2g heap allocations per row", allocations->second);
+      // Run/<bank>[/npy] over its floor (reading and writing alone) in the same run.
+      if (name.rfind("Run/", 0) == 0) {
+        std::string floor_name = "RunFloor/" + name.substr(4);
+        const Figure* floor = find(floor_name);
+        if (floor != nullptr && floor->seconds > 0.0) std::printf("   %.2fx its I/O floor", f.seconds / floor->seconds);
+      }
       std::printf("\n");
     }
   }

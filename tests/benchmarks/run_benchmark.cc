@@ -7,6 +7,13 @@
 //     process's CPU time (user + system), so rows/s is per core. /npy writes
 //     a NumPy array instead of CSV. SKIDIMM_BENCHMARK_EXECUTABLE runs another
 //     build's skidimm (an older one, for comparison).
+//   RunFloor/<bank>[/npy]: the I/O floor of Run/<bank>[/npy], timed in the
+//     same way (CPU time, user + system): the same log read by the same
+//     reader (LogReader: every column the bank reads, parsed), and the same
+//     rows written by the same writer, byte for byte what `skidimm run`
+//     writes, from estimates computed beforehand (untimed). Nothing else:
+//     no filter, no decision, no summary. Run/ over RunFloor/ is what the
+//     estimator costs on top of reading and writing.
 //   RunLoop/<bank>: the same loop in this process (log_run.h,
 //     write_estimates), counting heap allocations per row from the 1024th row
 //     on (before it the Imm and its workspaces are built).
@@ -14,6 +21,7 @@
 #include <benchmark/benchmark.h>
 #include <spawn.h>
 #include <sys/resource.h>
+#include <sys/time.h>
 #include <sys/wait.h>
 
 #include <chrono>
@@ -25,6 +33,7 @@
 
 #include "benchmark_data.h"
 #include "benchmark_support.h"
+#include "skidimm/decision.h"
 #include "skidimm/estimates_writer.h"
 #include "skidimm/log_io.h"
 #include "skidimm/log_run.h"
@@ -78,6 +87,16 @@ std::filesystem::path long_log(const std::string& example, long rows) {
   return path;
 }
 
+// The size of an output, with the reason table of a .npy.
+double output_bytes(const std::filesystem::path& output) {
+  std::error_code missing;
+  double bytes = static_cast<double>(std::filesystem::file_size(output, missing));
+  if (skidimm::EstimatesWriter::is_npy(output)) {
+    bytes += static_cast<double>(std::filesystem::file_size(skidimm::EstimatesWriter::reasons_path(output), missing));
+  }
+  return missing ? 0.0 : bytes;
+}
+
 const char* example_of(const std::string& bank) {
   return bank.rfind("ltc", 0) == 0 ? "ltc_switching" : "stc_switching";
 }
@@ -114,8 +133,89 @@ void run_executable(benchmark::State& state, const std::string& bank, const std:
     state.SetIterationTime(cpu);
   }
   state.counters["rows"] = static_cast<double>(rows);
+  state.counters["output_bytes"] = output_bytes(output);
   state.counters["wall_rows_per_second"] =
       benchmark::Counter(static_cast<double>(rows) * static_cast<double>(state.iterations()) / wall);
+}
+
+double thread_cpu_seconds() {
+  rusage usage{};
+  getrusage(RUSAGE_THREAD, &usage);
+  return static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+}
+
+// What `skidimm run` writes for each row of a log, held in memory: the
+// numbers, the most likely mode, the decision and the status.
+struct RecordedEstimates {
+  std::vector<double> numbers;  // per row: mu (modes), state (n), variances (n)
+  std::vector<int> modes;
+  std::vector<int> decisions;
+  std::vector<skidimm::StepStatus> statuses;
+};
+
+RecordedEstimates record_estimates(const skidimm::Bank& bank, const std::filesystem::path& log, bool* with_reasons) {
+  RecordedEstimates r;
+  skidimm::LogReader reader(bank.config, {log});
+  skidimm::ModeDecision decision(bank.config, bank.config.decision);
+  skidimm::run_log(bank, &reader, {}, [&](const skidimm::LogSample& sample, const skidimm::ImmEstimate& e) {
+    for (Eigen::Index j = 0; j < e.mode_probabilities.size(); ++j) r.numbers.push_back(e.mode_probabilities[j]);
+    for (Eigen::Index i = 0; i < e.state.size(); ++i) r.numbers.push_back(e.state[i]);
+    for (Eigen::Index i = 0; i < e.state.size(); ++i) r.numbers.push_back(e.covariance(i, i));
+    r.modes.push_back(e.most_likely_mode);
+    r.decisions.push_back(decision.update(sample.t, e.mode_probabilities));
+    r.statuses.push_back(e.status);
+    *with_reasons = *with_reasons || e.num_rejected_modes > 0 || e.num_gated_modes > 0;
+  });
+  return r;
+}
+
+void run_floor(benchmark::State& state, const std::string& bank_name, const std::string& extension) {
+  const long rows = benchmark_rows();
+  const std::filesystem::path log = long_log(example_of(bank_name), rows);
+  const skidimm::Bank bank = bundled_bank(bank_name);
+  const std::filesystem::path output = work_directory() / ("floor_" + bank_name + extension);
+  bool with_reasons = false;
+  const RecordedEstimates recorded = record_estimates(bank, log, &with_reasons);
+  if (with_reasons) {
+    // The floor writes no reasons; a log with some would make it too low.
+    state.SkipWithError("the example log has rows with a reason; the floor writes none");
+    return;
+  }
+  const skidimm::ModeDecision names(bank.config, bank.config.decision);
+  const Eigen::Index modes = bank.config.num_modes();
+  const Eigen::Index n = static_cast<Eigen::Index>(bank.config.state_names.size());
+  skidimm::ImmEstimate e;
+  e.mode_probabilities.resize(modes);
+  e.state.resize(n);
+  e.covariance = Eigen::MatrixXd::Zero(n, n);
+  e.mode_failures.assign(static_cast<std::size_t>(modes), skidimm::ModeFailure::kNone);
+  for (auto _ : state) {
+    const double start = thread_cpu_seconds();
+    skidimm::LogReader reader(bank.config, {log});
+    skidimm::EstimatesWriter writer(output, bank.config, reader.has_truth());
+    skidimm::LogSample sample;
+    std::size_t k = 0;
+    const double* numbers = recorded.numbers.data();
+    while (reader.next(&sample)) {
+      if (k == recorded.modes.size()) break;
+      for (Eigen::Index j = 0; j < modes; ++j) e.mode_probabilities[j] = *numbers++;
+      for (Eigen::Index i = 0; i < n; ++i) e.state[i] = *numbers++;
+      for (Eigen::Index i = 0; i < n; ++i) e.covariance(i, i) = *numbers++;
+      e.most_likely_mode = recorded.modes[k];
+      e.status = recorded.statuses[k];
+      writer.write(sample.t, e, names.name(recorded.decisions[k]), sample.truth_mode);
+      ++k;
+    }
+    writer.commit();
+    state.SetIterationTime(thread_cpu_seconds() - start);
+    if (k != recorded.modes.size()) {
+      state.SkipWithError("the log read again has another number of rows");
+      return;
+    }
+  }
+  state.counters["rows"] = static_cast<double>(rows);
+  state.counters["output_bytes"] = output_bytes(output);
 }
 
 void run_loop(benchmark::State& state, const std::string& bank_name) {
@@ -150,6 +250,10 @@ void register_benchmarks() {
       const std::string name = std::string("Run/") + bank + (std::string(extension) == ".npy" ? "/npy" : "");
       benchmark::RegisterBenchmark(name.c_str(), [bank, extension](benchmark::State& s) {
         run_executable(s, bank, extension);
+      })->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
+      const std::string floor = std::string("RunFloor/") + bank + (std::string(extension) == ".npy" ? "/npy" : "");
+      benchmark::RegisterBenchmark(floor.c_str(), [bank, extension](benchmark::State& s) {
+        run_floor(s, bank, extension);
       })->UseManualTime()->Iterations(1)->Unit(benchmark::kMillisecond);
     }
     benchmark::RegisterBenchmark((std::string("RunLoop/") + bank).c_str(), [bank](benchmark::State& s) {
