@@ -1,6 +1,6 @@
 // Doubles to text and back, the way std::to_chars / std::from_chars do it,
 // faster for the numbers logs are made of. Private to core (log_io.cc,
-// log_reader.cc); tests/benchmarks/number_text_test.cc compares both with the
+// csv_table.cc); tests/benchmarks/number_text_test.cc compares both with the
 // standard functions on tens of millions of values.
 //
 //  * shortest_to_chars: what std::to_chars(first, last, value) writes (the

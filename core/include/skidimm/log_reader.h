@@ -66,33 +66,10 @@
 #include <vector>
 
 #include "skidimm/bank.h"
+#include "skidimm/log_spec.h"
 #include "skidimm/sample_source.h"
 
 namespace skidimm {
-
-// One file of a log and the offset added to its times (s).
-struct LogFile {
-  LogFile() = default;
-  LogFile(std::filesystem::path file, double offset = 0.0) : path(std::move(file)), time_offset(offset) {}  // NOLINT
-  LogFile(const std::string& file) : path(file) {}                                                          // NOLINT
-  LogFile(const char* file) : path(file) {}                                                                 // NOLINT
-
-  std::filesystem::path path;
-  double time_offset = 0.0;
-};
-
-// A log as given on the command line: "[LABEL=]FILE[@OFFSET][+FILE[@OFFSET]...]".
-// LABEL names the mode (or class) the whole log shows; OFFSET is in seconds.
-struct LogSpec {
-  std::string label;
-  std::vector<LogFile> files;
-  std::string text;  // as given, for messages
-  std::string name() const;  // the files' names joined with '+', for tables
-};
-
-// Parses one log argument. A '=' or '@' that is part of an existing file's
-// name is kept in the name. Throws Error on an empty file list or a bad offset.
-LogSpec parse_log_spec(const std::string& text);
 
 // One filter step of a log, in bank order.
 // LogSample: sample_source.h.
@@ -101,14 +78,14 @@ LogSpec parse_log_spec(const std::string& text);
 struct LogStats {
   long steps = 0;
   std::vector<std::string> files;
-  std::vector<long> rows;           // data rows read, per file
-  long dropped_before_start = 0;    // measurement values before every input had a value
-  long dropped_after_end = 0;       // rows after the end of a file feeding an input (rows join: none)
-  std::vector<long> superseded;     // per measurement: values replaced by a later one in the same step
-  std::vector<long> not_finite;     // per measurement: expression values that were not finite
-  std::vector<long> measured;       // per measurement: steps that had a value for it
-  long gaps_skipped = 0;            // gaps longer than sampling.max_gap the grid restarted after (skip_gaps)
-  double seconds_skipped = 0.0;     // ... and the time they spanned
+  std::vector<long> rows;         // data rows read, per file
+  long dropped_before_start = 0;  // measurement values before every input had a value
+  long dropped_after_end = 0;     // rows after the end of a file feeding an input (rows join: none)
+  std::vector<long> superseded;   // per measurement: values replaced by a later one in the same step
+  std::vector<long> not_finite;   // per measurement: expression values that were not finite
+  std::vector<long> measured;     // per measurement: steps that had a value for it
+  long gaps_skipped = 0;          // gaps longer than sampling.max_gap the grid restarted after (skip_gaps)
+  double seconds_skipped = 0.0;   // ... and the time they spanned
 };
 
 class LogReader : public SampleSource {

@@ -1,0 +1,275 @@
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "csv_table.h"
+#include "log_reader_impl.h"
+#include "skidimm/errors.h"
+#include "skidimm/ros/bag_log.h"
+#include "skidimm/ros/bag_reader.h"
+
+namespace skidimm {
+
+using internal::aggregate_names;
+using internal::AggregateTerm;
+using internal::aggregation_of;
+using internal::CsvTable;
+using internal::printable_header;
+using internal::trim;
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// The bank's column texts that may name a bag's topics (ros/bag_log.h).
+std::vector<std::string> bag_column_texts(const BankConfig& bank) {
+  std::vector<std::string> texts = bank.columns.inputs;
+  texts.insert(texts.end(), bank.columns.measurements.begin(), bank.columns.measurements.end());
+  return texts;
+}
+
+}  // namespace
+
+LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling)
+    : bank_(bank), sampling_(sampling) {
+  if (files.empty()) throw LogError("", 0, "no input log given");
+  if (!(sampling.rate == 0.0 || (sampling.rate > 0.0 && sampling.rate <= 1e6))) {
+    throw Error(
+        "the filter's rate (sampling.rate or --rate) must be in Hz, > 0 and at most 1e6, or 0 for a step at "
+        "every time stamp; got " +
+        CsvWriter::format(sampling.rate));
+  }
+  if (!(sampling.max_gap > 0.0)) {
+    throw Error("sampling.max_gap must be a time in seconds, > 0; got " + CsvWriter::format(sampling.max_gap));
+  }
+  int standard_inputs = 0;
+  for (const LogFile& file : files) standard_inputs += is_standard_input(file.path) ? 1 : 0;
+  if (standard_inputs > 1) throw LogError("-", 0, "standard input ('-') can be one file of a log, not several");
+  const bool by_rows = sampling.join == SamplingConfig::Join::kRows;
+  if (by_rows) streams_.emplace_back();
+  for (const LogFile& file : files) {
+    if (!by_rows) {
+      streams_.emplace_back();
+      streams_.back().offset = file.time_offset;
+    }
+    if (!is_standard_input(file.path) && ros::BagReader::is_bag(file.path)) {
+      // A ROS 2 bag: each topic the bank names is a file of its own (ros/bag_log.h).
+      if (by_rows) {
+        throw Error(bank.file.string() + ": sampling.join: rows is for CSV files that match row for row; " +
+                    file.path.string() + " is a ROS 2 bag, whose topics are merged by time");
+      }
+      streams_.pop_back();
+      for (auto& table : ros::open_bag_tables(file.path, bag_column_texts(bank), {bank.columns.truth_mode})) {
+        streams_.emplace_back();
+        streams_.back().offset = file.time_offset;
+        streams_.back().stat_index.push_back(stats_.files.size());
+        stats_.files.push_back(table->name());
+        stats_.rows.push_back(0);
+        streams_.back().files.push_back(std::move(table));
+      }
+      continue;
+    }
+    Stream& s = streams_.back();
+    s.files.push_back(std::make_unique<CsvTable>(file.path));
+    s.stat_index.push_back(stats_.files.size());
+    stats_.files.push_back(file.path.string());
+    stats_.rows.push_back(0);
+  }
+  // The time column: in every file (join: time) or in the first file that has it (join: rows).
+  for (std::size_t k = 0; k < streams_.size(); ++k) {
+    Stream& s = streams_[k];
+    for (std::size_t f = 0; f < s.files.size() && s.time_file < 0; ++f) {
+      const int index = s.files[f]->column(bank.columns.time);
+      if (index >= 0) {
+        s.time_file = static_cast<int>(f);
+        s.time_index = index;
+        if (by_rows) s.offset = files[f].time_offset;
+      }
+    }
+    if (s.time_file < 0) {
+      int listed = 0;
+      const LogTable& reader = *s.files.front();
+      std::string message = "no time column '" + bank.columns.time + "' (the bank's columns.time); columns present: " +
+                            printable_header(reader.columns_present(), &listed, 400);
+      if (!by_rows) {
+        message +=
+            ". Every file of a log is merged on its own time column (sampling.join: time); files that match row "
+            "for row and share one time column need sampling.join: rows";
+      }
+      throw reader.error(message);
+    }
+  }
+
+  for (std::size_t i = 0; i < bank.columns.inputs.size(); ++i) {
+    const std::string field = "columns.inputs." + bank.input_names[i];
+    inputs_.push_back(bind_row_value(bank.columns.inputs[i], field));
+    for (int s : inputs_.back().streams) streams_[static_cast<std::size_t>(s)].feeds_inputs = true;
+  }
+  measurements_.resize(bank.columns.measurements.size());
+  for (std::size_t i = 0; i < measurements_.size(); ++i) {
+    measurements_[i].field = "columns.measurements." + bank.measurement.names[i];
+    bind_measurement(&measurements_[i], bank.columns.measurements[i]);
+  }
+  if (!bank.columns.truth_mode.empty()) {
+    for (std::size_t k = 0; k < streams_.size() && truth_stream_ < 0; ++k) {
+      for (std::size_t f = 0; f < streams_[k].files.size() && truth_stream_ < 0; ++f) {
+        const int index = streams_[k].files[f]->column(bank.columns.truth_mode);
+        if (index >= 0) {
+          truth_stream_ = static_cast<int>(k);
+          truth_file_ = static_cast<int>(f);
+          truth_index_ = index;
+        }
+      }
+    }
+  }
+  for (const std::string& state : bank.state_names) {
+    true_state_columns_.push_back(column_id("true_" + state, "", /*required=*/false));
+    has_true_states_ = has_true_states_ || true_state_columns_.back() >= 0;
+  }
+  for (Stream& s : streams_) s.holds_values = s.feeds_inputs;
+  if (truth_stream_ >= 0) streams_[static_cast<std::size_t>(truth_stream_)].holds_values = true;
+  for (int c : true_state_columns_) {
+    if (c >= 0) streams_[static_cast<std::size_t>(columns_[static_cast<std::size_t>(c)].stream)].holds_values = true;
+  }
+  row_values_.assign(columns_.size(), kNaN);
+  held_values_.assign(columns_.size(), kNaN);
+  stats_.superseded.assign(measurements_.size(), 0);
+  stats_.not_finite.assign(measurements_.size(), 0);
+  stats_.measured.assign(measurements_.size(), 0);
+  for (Stream& s : streams_) s.read_pending = true;
+}
+
+void LogReader::Impl::missing_column(const std::string& column, const std::string& field) const {
+  std::string present;
+  int listed = 0;
+  for (const Stream& s : streams_) {
+    for (const auto& reader : s.files) {
+      const std::string h = printable_header(reader->columns_present(), &listed, 400);
+      if (!h.empty()) present += (present.empty() ? "" : ", ") + h;
+    }
+  }
+  throw streams_.front().files.front()->error("no column '" + Expression::excerpt(column) + "' (the bank's " + field +
+                                              "); columns present: " + present);
+}
+
+int LogReader::Impl::column_id(const std::string& name, const std::string& field, bool required) {
+  for (std::size_t c = 0; c < columns_.size(); ++c) {
+    if (columns_[c].name == name) return static_cast<int>(c);
+  }
+  Column found;
+  found.name = name;
+  for (std::size_t k = 0; k < streams_.size(); ++k) {
+    for (std::size_t f = 0; f < streams_[k].files.size(); ++f) {
+      const int index = streams_[k].files[f]->column(name);
+      if (index < 0) continue;
+      if (found.stream >= 0) {
+        const Stream& first = streams_[static_cast<std::size_t>(found.stream)];
+        throw streams_[k].files[f]->error("column '" + name + "' (the bank's " + field + ") is also in " +
+                                          first.files[static_cast<std::size_t>(found.file)]->path().string() +
+                                          ": a column the bank uses must be in one file of the log");
+      }
+      found.stream = static_cast<int>(k);
+      found.file = static_cast<int>(f);
+      found.index = index;
+    }
+  }
+  if (found.stream < 0) {
+    if (required) missing_column(name, field);
+    return -1;
+  }
+  streams_[static_cast<std::size_t>(found.stream)].columns.push_back(static_cast<int>(columns_.size()));
+  columns_.push_back(found);
+  return static_cast<int>(columns_.size()) - 1;
+}
+
+LogReader::Impl::RowValue LogReader::Impl::bind_row_value(const std::string& text, const std::string& field) {
+  RowValue v;
+  v.text = text;
+  // A column's exact name is that column, whatever characters it has.
+  if (is_column(text)) {
+    v.columns.push_back(column_id(text, field, true));
+  } else {
+    try {
+      v.expression = std::make_unique<Expression>(text);
+    } catch (const ExpressionError& e) {
+      if (Expression::is_identifier(std::string(trim(text)))) missing_column(std::string(trim(text)), field);
+      throw Error(bank_.file.string() + ": " + field + ": " + e.what());
+    }
+    if (v.expression->variables().empty()) {
+      throw Error(bank_.file.string() + ": " + field + ": \"" + Expression::excerpt(text) +
+                  "\" uses no column of the log");
+    }
+    for (const std::string& name : v.expression->variables()) v.columns.push_back(column_id(name, field, true));
+  }
+  v.scratch.resize(v.columns.size());
+  for (int c : v.columns) {
+    const int s = columns_[static_cast<std::size_t>(c)].stream;
+    if (std::find(v.streams.begin(), v.streams.end(), s) == v.streams.end()) v.streams.push_back(s);
+  }
+  return v;
+}
+
+bool LogReader::Impl::is_column(const std::string& name) const {
+  for (const Stream& s : streams_) {
+    for (const auto& reader : s.files) {
+      if (reader->column(name) >= 0) return true;
+    }
+  }
+  return false;
+}
+
+void LogReader::Impl::bind_measurement(MeasurementBinding* m, const std::string& text) {
+  const std::string quoted = "\"" + Expression::excerpt(text) + "\"";
+  auto one_stream = [&](const RowValue& v, const std::string& what) {
+    if (v.streams.size() > 1) {
+      std::string names;
+      for (int c : v.columns) {
+        const Column& col = columns_[static_cast<std::size_t>(c)];
+        names += (names.empty() ? "" : ", ") + col.name + " (" +
+                 streams_[static_cast<std::size_t>(col.stream)].files[static_cast<std::size_t>(col.file)]->name() + ")";
+      }
+      throw Error(bank_.file.string() + ": " + m->field + ": " + what + " uses columns of different files [" + names +
+                  "]; a measurement arrives with a row of one file (inputs may mix files)");
+    }
+    return v.streams.front();
+  };
+  Expression::WithCalls cut;
+  if (!is_column(text)) {
+    try {
+      cut = Expression::cut_calls(text, aggregate_names());
+    } catch (const ExpressionError& e) {
+      if (Expression::is_identifier(std::string(trim(text)))) missing_column(std::string(trim(text)), m->field);
+      throw Error(bank_.file.string() + ": " + m->field + ": " + e.what());
+    }
+  }
+  if (cut.calls.empty()) {
+    m->row = bind_row_value(text, m->field);
+    m->stream = one_stream(m->row, quoted);
+    return;
+  }
+  if (!cut.names_outside.empty()) {
+    throw Error(bank_.file.string() + ": " + m->field + ": " + quoted + " uses column '" +
+                Expression::excerpt(cut.names_outside.front()) +
+                "' outside mean(), std() or rms(); in an aggregated measurement every column is inside one");
+  }
+  m->outer = std::move(cut.outer);
+  for (const Expression::Call& call : cut.calls) {
+    AggregateTerm t;
+    t.kind = aggregation_of(call.function);
+    t.inner = bind_row_value(call.argument, m->field);
+    const int s = one_stream(t.inner, call.function + "(" + Expression::excerpt(call.argument) + ")");
+    if (m->stream >= 0 && s != m->stream) {
+      throw Error(bank_.file.string() + ": " + m->field + ": " + quoted +
+                  " aggregates columns of different files; a measurement arrives with the rows of one file");
+    }
+    m->stream = s;
+    m->aggregates.push_back(std::move(t));
+  }
+  m->outer_scratch.resize(m->aggregates.size());
+  if (sampling_.rate <= 0.0) {
+    throw Error(bank_.file.string() + ": " + m->field + ": " + quoted + " aggregates the rows of a filter step, " +
+                "which needs a fixed step: set sampling.rate (Hz) in the bank or --rate");
+  }
+}
+
+}  // namespace skidimm

@@ -1,0 +1,18 @@
+#include "measurement_aggregates.h"
+
+namespace skidimm {
+namespace internal {
+
+const std::vector<std::string>& aggregate_names() {
+  static const std::vector<std::string> names{"mean", "std", "rms"};
+  return names;
+}
+
+Aggregation aggregation_of(const std::string& name) {
+  if (name == "std") return Aggregation::kStd;
+  if (name == "rms") return Aggregation::kRms;
+  return Aggregation::kMean;
+}
+
+}  // namespace internal
+}  // namespace skidimm
