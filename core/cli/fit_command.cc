@@ -95,6 +95,8 @@ int fit(const FitCommandOptions& options) {
     fit_options.output_noise = options.output_noise;
     request.mode = options.mode;
     request.name = options.name;
+    // The work up front: a fit on a long log is long, and should say so before it starts.
+    std::cerr << "skidimm fit: " << fitting::fit_work(bank, data, fit_options).describe() << "\n";
     // Each solve's iterations, rate and time so far; only on a terminal.
     StagedProgress progress("skidimm fit", "iterations", true);
     if (progress.enabled()) fit_options.progress = std::ref(progress);

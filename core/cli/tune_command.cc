@@ -183,6 +183,11 @@ int tune(const TuneCommandOptions& options) {
     };
 
     std::map<std::string, fitting::BankFitter> fitters;
+    std::string fit_work;  // what one fit on every development log faces, for the first line
+    std::vector<const fitting::ModeLogs*> development_data;
+    for (std::size_t i = 0; i < development; ++i) {
+      for (const fitting::ModeLogs& d : logs[i].fit_data) development_data.push_back(&d);
+    }
     for (const std::string& name : tune_options.objectives) {
       if (name == "none") {  // the bank's models as they are: tune the settings only
         fitters[name] = [](Bank*, const std::vector<fitting::ModeLogs>&) {};
@@ -197,6 +202,9 @@ int tune(const TuneCommandOptions& options) {
       fit_options.full_process_noise = options.full_q;
       // Without a joint R each mode's fit depends on its own logs alone.
       if (!options.fit_r) tune_options.separable.insert(name);
+      const fitting::FitWork work = fitting::fit_work(start, development_data, fit_options);
+      fit_work += "; a fit on every log (" + name + "): " + std::to_string(work.modes) + " modes, " +
+                  std::to_string(work.rows) + " rows, " + std::to_string(work.parameters) + " parameters";
       fitters[name] = [fit_options](Bank* bank, const std::vector<fitting::ModeLogs>& data) {
         fitting::fit_bank(bank, data, fit_options);
       };
@@ -212,7 +220,8 @@ int tune(const TuneCommandOptions& options) {
                                                                    ? ", nested " + std::to_string(options.inner_folds) +
                                                                          "-fold assessment"
                                                                    : ", nested leave-one-log-out assessment")
-                                               : ""));
+                                               : "") +
+                          fit_work);
     const fitting::TuneResult result = fitting::tune(
         [&] { return Bank::load(options.bank, options.plugin_paths); }, logs, fitters, tune_options);
 

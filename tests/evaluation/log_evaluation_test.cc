@@ -89,6 +89,36 @@ TEST(EvaluateSpliced, ScoresEachLogsStepsOfOneRunOverAll) {
   EXPECT_NE(fresh.metrics.truth_probability, logs[1].metrics.truth_probability);
 }
 
+// The observer sees every step, in order, as scored: its weighted log
+// p(truth) (each step's interval to the next, the last's to the one before)
+// over the seconds of the truth is the log's score, and each term is at most
+// 0, which is what lets tune stop a losing candidate's scoring early.
+TEST(EvaluateLog, ObserverSeesEachStepAsScored) {
+  const Bank bank = two_modes();
+  std::vector<LogSample> steps = log_of("mode0", 1.0, 0.0);
+  const std::vector<LogSample> b = log_of("mode1", 0.25, 3.0);
+  for (std::size_t k = 0; k < 10; ++k) steps.push_back(b[k]);  // the score of the main truth leaves these out
+  std::vector<double> times;
+  double weighted = 0.0, seconds = 0.0;
+  ListSource source(steps);
+  const LogResult result =
+      evaluate_log(bank, &source, "a", "", {}, EstimatorOptions{}, [&](const LogSample& sample, const LabelledStep& s) {
+        EXPECT_EQ(s.t, sample.t);
+        EXPECT_LE(s.truth_probability, 1.0);
+        times.push_back(s.t);
+        if (s.truth != "mode0") return;
+        const std::size_t k = times.size() - 1;
+        const double w = k + 1 < steps.size() ? steps[k + 1].t - steps[k].t : steps[k].t - steps[k - 1].t;
+        weighted += w * std::log(std::max(s.truth_probability, kMinScoredProbability));
+        seconds += w;
+      });
+  ASSERT_EQ(times.size(), steps.size());
+  for (std::size_t k = 0; k < steps.size(); ++k) EXPECT_EQ(times[k], steps[k].t);
+  EXPECT_EQ(result.steps, static_cast<long>(steps.size()));
+  EXPECT_LT(weighted, 0.0);
+  EXPECT_NEAR(weighted / seconds, result.metrics.truth_mean_log_probability("mode0"), 1e-12);
+}
+
 }  // namespace
 }  // namespace evaluation
 }  // namespace skidimm

@@ -75,6 +75,33 @@ TEST(BankFit, SharedParametersNeedTheWindowObjective) {
   }
 }
 
+// What fit and tune state before they start: ltc_linear's 8 parameters of
+// its own per mode (A and B, 2 x 2 each), and 2 entries of a diagonal Q or 3
+// of a full one.
+TEST(BankFit, StatesTheWorkItFaces) {
+  const Bank bank = Bank::load(std::string(SKIDIMM_SOURCE_DIR) + "/configs/ltc_terrains.yaml", {SKIDIMM_PLUGIN_DIR});
+  const auto rows = [](int n) {
+    Trajectory t;
+    t.t.resize(static_cast<std::size_t>(n));
+    return t;
+  };
+  // Mode 0 twice (its logs pooled), mode 2 once.
+  const std::vector<ModeLogs> data{{0, {rows(100), rows(50)}}, {2, {rows(7)}}, {0, {rows(3)}}};
+  BankFitOptions options;
+  FitWork work = fit_work(bank, data, options);
+  EXPECT_EQ(work.modes, 2);
+  EXPECT_EQ(work.logs, 4);
+  EXPECT_EQ(work.rows, 160);
+  EXPECT_EQ(work.parameters, 2 * (8 + 2));
+  EXPECT_EQ(work.describe(), "2 modes, 4 logs, 160 rows, 20 parameters (likelihood objective)");
+  options.full_process_noise = true;
+  options.fit_measurement_noise = true;
+  options.objective = Objective::kWindow;
+  work = fit_work(bank, data, options);
+  EXPECT_EQ(work.parameters, 2 * (8 + 3) + 2);
+  EXPECT_EQ(work.describe(), "2 modes, 4 logs, 160 rows, 24 parameters (window objective)");
+}
+
 }  // namespace
 }  // namespace fitting
 }  // namespace skidimm

@@ -82,7 +82,8 @@ struct ScoredRun {
 };
 
 ScoredRun score_run(const Bank& bank, SampleSource* source, const std::string& name, const std::string& label_given,
-                    const std::filesystem::path& estimates, const EstimatorOptions& estimator) {
+                    const std::filesystem::path& estimates, const EstimatorOptions& estimator,
+                    const StepObserver& observer = {}) {
   const BankConfig& config = bank.config;
   const ClassScorer scorer(config);
   ScoredRun run;
@@ -101,6 +102,7 @@ ScoredRun score_run(const Bank& bank, SampleSource* source, const std::string& n
     if (writer) writer->write(sample.t, e, decided, label);
     run.steps.push_back(scorer.score(sample.t, label, e.mode_probabilities));
     run.decisions.push_back(scorer.decided(run.steps.back(), decided));
+    if (observer) observer(sample, run.steps.back());
     const int truth_mode = config.mode_index(label);
     if (truth_mode >= 0 && e.status == StepStatus::kUpdated && std::isfinite(e.nis[truth_mode])) {
       result.nis[label].add(e.nis[truth_mode], e.num_measured);
@@ -123,8 +125,9 @@ ScoredRun score_run(const Bank& bank, SampleSource* source, const std::string& n
 }  // namespace
 
 LogResult evaluate_log(const Bank& bank, SampleSource* source, const std::string& name, const std::string& label_given,
-                       const std::filesystem::path& estimates, const EstimatorOptions& estimator) {
-  return score_run(bank, source, name, label_given, estimates, estimator).result;
+                       const std::filesystem::path& estimates, const EstimatorOptions& estimator,
+                       const StepObserver& observer) {
+  return score_run(bank, source, name, label_given, estimates, estimator, observer).result;
 }
 
 std::vector<LogResult> evaluate_spliced(const Bank& bank, SampleSource* source, const std::vector<std::string>& names,

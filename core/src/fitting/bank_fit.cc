@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 #include <vector>
 
 #include "skidimm/errors.h"
@@ -112,6 +113,42 @@ std::map<int, FitReport> fit_by_likelihood(Bank* bank, const std::vector<ModeLog
 }
 
 }  // namespace
+
+std::string FitWork::describe() const {
+  return std::to_string(modes) + (modes == 1 ? " mode, " : " modes, ") + std::to_string(logs) +
+         (logs == 1 ? " log, " : " logs, ") + std::to_string(rows) + " rows, " + std::to_string(parameters) +
+         " parameters (" + to_string(objective) + " objective)";
+}
+
+FitWork fit_work(const Bank& bank, const std::vector<ModeLogs>& data, const BankFitOptions& options) {
+  std::vector<const ModeLogs*> pointers;
+  for (const ModeLogs& d : data) pointers.push_back(&d);
+  return fit_work(bank, pointers, options);
+}
+
+FitWork fit_work(const Bank& bank, const std::vector<const ModeLogs*>& data, const BankFitOptions& options) {
+  FitWork work;
+  work.objective = options.objective;
+  const int n = bank.config.state_dim();
+  const bool full_q = options.full_process_noise || options.window.correlated_process_noise;
+  std::set<int> modes;
+  bool shared_counted = false;
+  for (const ModeLogs* logs : data) {
+    const ModeLogs& d = *logs;
+    work.logs += static_cast<long>(d.logs.size());
+    for (const Trajectory& t : d.logs) work.rows += t.size();
+    if (!modes.insert(d.mode).second) continue;
+    for (const auto& info : bank.models[static_cast<std::size_t>(d.mode)]->parameter_info()) {
+      const bool shared = info.scope == sdk::ParameterScope::kBank;
+      if (!shared || (options.shared && !shared_counted)) ++work.parameters;
+    }
+    shared_counted = shared_counted || options.shared;
+    work.parameters += full_q ? n * (n + 1) / 2 : n;
+  }
+  if (options.fit_measurement_noise) work.parameters += static_cast<int>(bank.config.measurement.h.rows());
+  work.modes = static_cast<int>(modes.size());
+  return work;
+}
 
 std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data, const BankFitOptions& options) {
   if (data.empty()) throw FitError("no logs to fit");

@@ -113,6 +113,38 @@ class SplicedReplay : public SampleSource {
   long row_ = 0;
 };
 
+// A candidate's score while it is computed. The score (summarize()) is a
+// weighted sum, with positive weights, of each step's log p(truth), which is
+// at most 0: the sum over the steps scored so far can only fall. Once it is
+// below what the candidate must beat, the candidate has lost, and the
+// scoring stops (every source it reads ends): a search then chooses exactly
+// what it would have chosen had every log been scored to its end.
+struct ScoreBound {
+  explicit ScoreBound(double must_beat) : threshold(must_beat) {}
+  const double threshold;
+  std::atomic<double> so_far{0.0};
+  std::atomic<bool> lost{false};
+
+  void add(double term) {
+    double seen = so_far.load(std::memory_order_relaxed);
+    while (!so_far.compare_exchange_weak(seen, seen + term, std::memory_order_relaxed)) {
+    }
+    if (seen + term < threshold) lost = true;  // NaN: never
+  }
+};
+
+// A source that ends early, when its bound says the scoring has lost.
+class BoundedSource : public SampleSource {
+ public:
+  BoundedSource(SampleSource* source, const ScoreBound* bound) : source_(source), bound_(bound) {}
+  bool next(LogSample* sample) override { return !bound_->lost && source_->next(sample); }
+  bool has_truth() const override { return source_->has_truth(); }
+
+ private:
+  SampleSource* source_;
+  const ScoreBound* bound_;
+};
+
 }  // namespace
 
 std::vector<std::vector<int>> grouped_folds(const std::vector<int>& members, const std::vector<std::string>& classes,
@@ -388,6 +420,9 @@ class Tuner {
                        options_.sampling);
       recorded_[static_cast<std::size_t>(i)] = RecordedLog::record(&reader);
     });
+    step_weights_.resize(logs.size());
+    truth_seconds_.assign(logs.size(), 0.0);
+    for (std::size_t i = 0; i < logs.size(); ++i) weigh_steps(i);
   }
 
   TuneResult run() {
@@ -415,6 +450,7 @@ class Tuner {
         }
       }
     }
+    progress(work_statement(fits, outer, protocol_folds, development, lockbox));
     compute_fits(fits);
 
     TuneResult result;
@@ -479,6 +515,92 @@ class Tuner {
       if (!rate.empty()) line += ", " + rate;
     }
     progress(line);
+  }
+
+  // Each step's weight in log i's score, as compute_mode_metrics() weighs it
+  // (the time to the next step, the last step's to the one before), and the
+  // seconds of its truth: what ScoreBound needs. Left empty (no bound from
+  // the log) unless every labelled step has the same truth and the times
+  // increase, so that the log's score is its steps' weighted log p(truth)
+  // over truth_seconds_.
+  void weigh_steps(std::size_t i) {
+    const std::vector<LogSample>& samples = recorded_[i].samples();
+    const std::string& label = logs_[i].spec.label;
+    const std::size_t all = samples.size();
+    std::vector<double> weights(all, 0.0);
+    std::string truth;
+    double seconds = 0.0;
+    for (std::size_t k = 0; k < all; ++k) {
+      const double w = all == 1 ? 0.0
+                       : k + 1 < all ? samples[k + 1].t - samples[k].t
+                                     : samples[k].t - samples[k - 1].t;
+      if (!(w >= 0.0) || !std::isfinite(w)) return;
+      weights[k] = w;
+      const std::string& step_truth = label.empty() ? samples[k].truth_mode : label;
+      if (step_truth.empty()) continue;
+      if (truth.empty()) truth = step_truth;
+      if (step_truth != truth) return;
+      seconds += w;
+    }
+    if (!(seconds > 0.0)) return;
+    step_weights_[i] = std::move(weights);
+    truth_seconds_[i] = seconds;
+  }
+
+  // At most how many settings one coordinate search scores: the start, then
+  // each knob's candidates in each sweep (search()).
+  int settings_per_search() const {
+    const BankConfig& config = banks_[0].config;
+    int count = 1;
+    for (int sweep = 0; sweep < options_.sweeps; ++sweep) {
+      const int line = sweep == 0 ? 6 : 4;
+      for (Knob knob : options_.knobs) {
+        switch (knob) {
+          case Knob::kRComponents:
+            count += line * static_cast<int>(config.measurement.r.rows());
+            break;
+          case Knob::kQModes:
+            count += line * config.num_modes();
+            break;
+          case Knob::kLikelihoodDof:
+            count += sweep == 0 ? 7 : 2;
+            break;
+          default:
+            count += line;
+        }
+      }
+    }
+    return count;
+  }
+
+  // What the run faces, before it starts: the rows, the fits and the filter
+  // runs of the searches (each scores every log of its folds once per setting).
+  std::string work_statement(const std::vector<FitKey>& fits, const std::vector<std::vector<int>>& outer,
+                             const std::vector<std::vector<std::vector<int>>>& protocol_folds,
+                             const std::vector<int>& development, const std::vector<int>& lockbox) const {
+    long rows = 0;
+    for (const RecordedLog& r : recorded_) rows += static_cast<long>(r.samples().size());
+    const auto logs_in = [](const std::vector<std::vector<int>>& folds) {
+      long n = 0;
+      for (const auto& f : folds) n += static_cast<long>(f.size());
+      return n;
+    };
+    const long objectives = static_cast<long>(options_.objectives.size());
+    long searches = objectives;
+    long scored = objectives * logs_in(outer);
+    for (const auto& folds : protocol_folds) {
+      for (const auto& held : folds) {
+        const std::vector<int> inner_logs = complement(held, development);
+        searches += objectives;
+        scored += objectives * logs_in(grouped_folds(inner_logs, classes_, options_.inner_folds));
+      }
+    }
+    const long settings = settings_per_search();
+    return "work: " + std::to_string(recorded_.size()) + " logs of " + std::to_string(rows) + " rows in all (" +
+           std::to_string(lockbox.size()) + " in the lockbox), " + std::to_string(banks_[0].config.num_modes()) +
+           " modes; " + std::to_string(fits.size() + 1) + " fits, " + std::to_string(searches) +
+           " searches of at most " + std::to_string(settings) + " settings, at most " +
+           std::to_string(scored * settings) + " filter runs over a log";
   }
 
   // The held-out sets of a protocol over the development logs.
@@ -734,14 +856,36 @@ class Tuner {
   // With `estimates_folder`, each held-out log's steps are written under
   // assessment_estimates/estimates_folder (when set).
   // With `spliced`, the spliced runs' metrics are merged there (splice).
+  // With `bound`, the scoring stops once the bound has lost (ScoreBound);
+  // the scores are then incomplete, and only bound->lost counts.
   std::vector<LogScore> evaluate(const TunedSettings& settings, const std::vector<std::vector<int>>& folds,
                                  const std::vector<int>& within, const std::string& estimates_folder = "",
-                                 Assessment* spliced = nullptr) {
+                                 Assessment* spliced = nullptr, ScoreBound* bound = nullptr) {
     const bool write_estimates = !estimates_folder.empty() && !options_.assessment_estimates.empty();
+    // Each log's weight in summarize()'s mean over classes of its logs' means.
+    std::vector<double> weight(logs_.size(), 0.0);
+    if (bound != nullptr) {
+      std::map<std::string, int> per_class;
+      for (const auto& held_out : folds) {
+        for (int i : held_out) {
+          ++per_class[classes_[static_cast<std::size_t>(i)]];
+          if (step_weights_[static_cast<std::size_t>(i)].empty()) bound = nullptr;  // no bound from it
+        }
+      }
+      if (options_.splice || spliced != nullptr) bound = nullptr;
+      for (const auto& held_out : bound != nullptr ? folds : std::vector<std::vector<int>>{}) {
+        for (int i : held_out) {
+          weight[static_cast<std::size_t>(i)] = 1.0 / (static_cast<double>(per_class.size()) *
+                                                       per_class[classes_[static_cast<std::size_t>(i)]] *
+                                                       truth_seconds_[static_cast<std::size_t>(i)]);
+        }
+      }
+    }
     if (write_estimates) std::filesystem::create_directories(options_.assessment_estimates / estimates_folder);
     std::vector<std::vector<LogScore>> per_fold(folds.size());
     std::vector<evaluation::LogResult> wholes(folds.size());
     parallel_for(static_cast<int>(folds.size()), workers_, [&](int f, int w) {
+      if (bound != nullptr && bound->lost) return;
       Bank& bank = banks_[static_cast<std::size_t>(w)];
       reset(&bank);
       const std::vector<int>& held_out = folds[static_cast<std::size_t>(f)];
@@ -764,7 +908,8 @@ class Tuner {
       for (int i : held_out) {
         const std::filesystem::path estimates =
             write_estimates ? estimates_path(estimates_folder, i) : std::filesystem::path();
-        per_fold[static_cast<std::size_t>(f)].push_back(score_recorded(bank, i, estimates));
+        per_fold[static_cast<std::size_t>(f)].push_back(
+            score_recorded(bank, i, estimates, bound, weight[static_cast<std::size_t>(i)]));
       }
     });
     std::vector<LogScore> out;
@@ -812,10 +957,25 @@ class Tuner {
     return by_log;
   }
 
-  LogScore score_recorded(const Bank& bank, int i, const std::filesystem::path& estimates) const {
+  // Log i scored by `bank`; with `bound`, each step's weighted log p(truth)
+  // times `weight` (the log's in the score) is added to it as it comes.
+  LogScore score_recorded(const Bank& bank, int i, const std::filesystem::path& estimates,
+                          ScoreBound* bound = nullptr, double weight = 0.0) const {
     const LogSpec& spec = logs_[static_cast<std::size_t>(i)].spec;
     RecordedLog::Replay replay = recorded_[static_cast<std::size_t>(i)].replay();
-    return evaluation::score_of(evaluation::evaluate_log(bank, &replay, spec.name(), spec.label, estimates));
+    if (bound == nullptr) {
+      return evaluation::score_of(evaluation::evaluate_log(bank, &replay, spec.name(), spec.label, estimates));
+    }
+    BoundedSource source(&replay, bound);
+    const std::vector<double>& step_weight = step_weights_[static_cast<std::size_t>(i)];
+    std::size_t k = 0;
+    const auto observe = [&](const LogSample&, const evaluation::LabelledStep& step) {
+      const double w = step_weight[k++];
+      if (step.truth.empty()) return;
+      bound->add(weight * w * std::log(std::max(step.truth_probability, evaluation::kMinScoredProbability)));
+    };
+    return evaluation::score_of(
+        evaluation::evaluate_log(bank, &source, spec.name(), spec.label, estimates, EstimatorOptions{}, observe));
   }
 
   // Coordinate search over the knobs on log-spaced grids, coarse then fine.
@@ -828,11 +988,17 @@ class Tuner {
     current.probability_floor = base_floor_;
     current.likelihood_weight = base_weight_;
     current.likelihood_dof = base_dof_;
-    auto score_of = [&](const TunedSettings& s, std::vector<LogScore>* scores) {
-      *scores = evaluate(s, folds, within);
+    // A candidate is taken when it beats the best by more than 1e-9; its
+    // scoring stops once it cannot (ScoreBound). The bound sits below that by
+    // far more than the round-off between its sums and summarize()'s.
+    auto score_of = [&](const TunedSettings& s, std::vector<LogScore>* scores, double best_so_far) {
+      const double must_beat = best_so_far + 1e-9 - 1e-6 * (1.0 + std::abs(best_so_far));
+      ScoreBound bound(std::isfinite(must_beat) ? must_beat : -std::numeric_limits<double>::infinity());
+      *scores = evaluate(s, folds, within, "", nullptr, &bound);
+      if (bound.lost) return -std::numeric_limits<double>::infinity();
       return summarize(*scores).mean_log_probability;
     };
-    double best = score_of(current, best_scores);
+    double best = score_of(current, best_scores, -std::numeric_limits<double>::infinity());
     const double floor_limit = 0.5 / config.num_modes();
     for (int sweep = 0; sweep < options_.sweeps; ++sweep) {
       const double factor = sweep == 0 ? 4.0 : 1.5;
@@ -847,7 +1013,7 @@ class Tuner {
           if (candidate < lowest || candidate > highest) continue;
           *value = candidate;
           std::vector<LogScore> scores;
-          const double score = score_of(current, &scores);
+          const double score = score_of(current, &scores, best);
           if (score > best + 1e-9) {
             best = score;
             chosen = candidate;
@@ -872,7 +1038,7 @@ class Tuner {
           if (candidate == start) continue;
           current.likelihood_dof = candidate;
           std::vector<LogScore> scores;
-          const double score = score_of(current, &scores);
+          const double score = score_of(current, &scores, best);
           if (score > best + 1e-9) {
             best = score;
             chosen = candidate;
@@ -939,6 +1105,8 @@ class Tuner {
   double base_dof_ = 0.0;
   std::vector<std::string> classes_;
   std::vector<RecordedLog> recorded_;
+  std::vector<std::vector<double>> step_weights_;  // weigh_steps()
+  std::vector<double> truth_seconds_;
   std::map<FitKey, FittedValues> fits_;
   std::map<std::tuple<std::string, int, std::vector<int>>, std::pair<Eigen::VectorXd, Eigen::MatrixXd>> mode_fits_;
   std::map<std::tuple<std::string, int, std::vector<int>>, std::string> mode_fit_failures_;  // why a fold's fit failed

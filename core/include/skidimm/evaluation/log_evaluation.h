@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -66,11 +67,17 @@ struct LogResult {
 LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfig& sampling,
                        const std::filesystem::path& estimates = {}, const EstimatorOptions& estimator = {});
 
+// Called with each step as it is scored, in order: what a caller needs to
+// follow a scoring as it goes (tune stops a candidate's scoring, by ending its
+// source, once the steps so far show it cannot win).
+using StepObserver = std::function<void(const LogSample&, const LabelledStep&)>;
+
 // The same over steps from any source (e.g. a RecordedLog's replay), named
 // `name` in the result; `label` (may be empty: the source's truth column) is
 // the truth for every step. The caller has checked that there is a truth.
 LogResult evaluate_log(const Bank& bank, SampleSource* source, const std::string& name, const std::string& label,
-                       const std::filesystem::path& estimates = {}, const EstimatorOptions& estimator = {});
+                       const std::filesystem::path& estimates = {}, const EstimatorOptions& estimator = {},
+                       const StepObserver& observer = {});
 
 // Several logs spliced end to end into one run (`source` gives their steps
 // in turn, `steps_per_log[i]` of log i, each with its truth in the sample's

@@ -48,6 +48,22 @@ struct BankFitOptions {
 // bank's, and that row's correlations dropped.
 Eigen::MatrixXd output_noise_from_fit(const BankConfig& config, const Eigen::VectorXd& rmse);
 
+// What a fit of `data` faces, stated before it starts: the logs, their rows,
+// the modes and the values fitted (each mode's own model parameters, and the
+// bank-level ones with `shared`; the entries of each mode's Q; R's with
+// fit_measurement_noise). The work grows with rows x parameters.
+struct FitWork {
+  int modes = 0;
+  long logs = 0;
+  long rows = 0;
+  int parameters = 0;  // model parameters and noise entries, over every mode
+  Objective objective = Objective::kLikelihood;
+  // "3 modes, 12 logs, 45678 rows, 54 parameters (likelihood objective)"
+  std::string describe() const;
+};
+FitWork fit_work(const Bank& bank, const std::vector<ModeLogs>& data, const BankFitOptions& options);
+FitWork fit_work(const Bank& bank, const std::vector<const ModeLogs*>& data, const BankFitOptions& options);
+
 // Fits the modes in `data` in place. Returns their reports by mode index.
 // Throws FitError.
 std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data, const BankFitOptions& options);
