@@ -109,38 +109,46 @@ inline int decimal_length(std::uint64_t v) {
   return 1;
 }
 
-// The `length` digits of v, two at a time, into out[0, length).
+// The 8 digits of x < 10^8, leading zeros included, into out[0, 8): all
+// eight at once in one 64-bit word (SWAR), the two halves of x, then the two
+// pairs of each half, then the two digits of each pair, each split by a
+// multiplication that cannot carry between lanes. The lanes' order in the
+// word is the digits' order on a little-endian machine.
+inline void write_eight_digits(std::uint32_t x, char* out) {
+  if (__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__) {
+    // [x / 10^4, x % 10^4] in 32-bit lanes.
+    std::uint64_t lanes = (x / 10000u) | static_cast<std::uint64_t>(x % 10000u) << 32;
+    // Each y < 10^4 to [y / 100, y % 100] in 16-bit lanes: y * 10486 >> 20 = y / 100.
+    std::uint64_t high = ((lanes * 10486u) >> 20) & 0x0000007f0000007full;
+    lanes = high | (lanes - 100u * high) << 16;
+    // Each z < 100 to [z / 10, z % 10] in bytes: z * 103 >> 10 = z / 10.
+    high = ((lanes * 103u) >> 10) & 0x000f000f000f000full;
+    lanes = high | (lanes - 10u * high) << 8;
+    lanes |= 0x3030303030303030ull;
+    std::memcpy(out, &lanes, 8);
+    return;
+  }
+  for (int k = 7; k >= 0; --k) {
+    out[k] = static_cast<char>('0' + x % 10u);
+    x /= 10u;
+  }
+}
+
+// The `length` digits of v (length = decimal_length(v) <= 17) into
+// out[0, length): eight at a time from the end, the leading ones from the
+// last eight-digit block's end.
 inline void write_digits(std::uint64_t v, int length, char* out) {
-  static constexpr char kPairs[] =
-      "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
-      "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
-      "8081828384858687888990919293949596979899";
   char* p = out + length;
-  // Above 8 digits, peel 8 at a time in 32-bit arithmetic.
-  while (v >= 100000000u) {
+  while (length > 8) {
     const std::uint64_t upper = v / 100000000u;
-    std::uint32_t lower = static_cast<std::uint32_t>(v - upper * 100000000u);
-    for (int pair = 0; pair < 4; ++pair) {
-      const std::uint32_t two = lower % 100u;
-      lower /= 100u;
-      p -= 2;
-      std::memcpy(p, kPairs + 2 * two, 2);
-    }
+    p -= 8;
+    write_eight_digits(static_cast<std::uint32_t>(v - upper * 100000000u), p);
     v = upper;
+    length -= 8;
   }
-  std::uint32_t rest = static_cast<std::uint32_t>(v);
-  while (rest >= 100u) {
-    const std::uint32_t two = rest % 100u;
-    rest /= 100u;
-    p -= 2;
-    std::memcpy(p, kPairs + 2 * two, 2);
-  }
-  if (rest >= 10u) {
-    p -= 2;
-    std::memcpy(p, kPairs + 2 * rest, 2);
-  } else {
-    *--p = static_cast<char>('0' + rest);
-  }
+  char block[8];
+  write_eight_digits(static_cast<std::uint32_t>(v), block);
+  std::memcpy(out, block + 8 - length, static_cast<std::size_t>(length));
 }
 
 }  // namespace internal
