@@ -1,6 +1,7 @@
 #include "array_run.h"
 
 #include <Eigen/Core>
+#include <algorithm>
 
 #include "skidimm/decision.h"
 #include "skidimm/estimates_writer.h"
@@ -15,61 +16,95 @@ using ConstVectorMap = Eigen::Map<const Eigen::VectorXd>;
 
 bool accepted(StepStatus status) { return status != StepStatus::kRejectedTime && status != StepStatus::kRejectedInput; }
 
-// Appends one row; the decision is left for the caller.
-void append(double t, const ImmEstimate& e, RunColumns* out) {
-  out->t.push_back(t);
-  for (std::size_t j = 0; j < out->mu.size(); ++j)
-    out->mu[j].push_back(e.mode_probabilities[static_cast<Eigen::Index>(j)]);
+// Writes row k; the decision is left for the caller. `reason` is scratch
+// whose capacity is reused (describe_step).
+void write_row(long k, double t, const ImmEstimate& e, const std::vector<std::string>& mode_names,
+               std::string* reason, RunColumns* out) {
+  out->t[k] = t;
+  for (std::size_t j = 0; j < out->mu.size(); ++j) out->mu[j][k] = e.mode_probabilities[static_cast<Eigen::Index>(j)];
   for (std::size_t i = 0; i < out->state.size(); ++i) {
     const auto s = static_cast<Eigen::Index>(i);
-    out->state[i].push_back(e.state[s]);
-    out->var[i].push_back(e.covariance(s, s));
+    out->state[i][k] = e.state[s];
+    out->var[i][k] = e.covariance(s, s);
   }
-  out->mode.push_back(e.most_likely_mode);
-  out->status.push_back(static_cast<std::int8_t>(e.status));
-  out->reason.emplace_back();
-  describe_step(e, out->mode_names, &out->reason.back());
+  out->mode[k] = e.most_likely_mode;
+  out->status[k] = static_cast<std::int8_t>(e.status);
+  describe_step(e, mode_names, reason);
+  if (!reason->empty()) out->reasons.emplace_back(k, *reason);
 }
 
 // Overwrites row k with a smoothed step (the filter's status stays).
 void overwrite(long k, const SmoothedStep& s, RunColumns* out) {
-  const auto row = static_cast<std::size_t>(k);
-  for (std::size_t j = 0; j < out->mu.size(); ++j) out->mu[j][row] = s.mode_probabilities[static_cast<Eigen::Index>(j)];
+  for (std::size_t j = 0; j < out->mu.size(); ++j) out->mu[j][k] = s.mode_probabilities[static_cast<Eigen::Index>(j)];
   for (std::size_t i = 0; i < out->state.size(); ++i) {
     const auto d = static_cast<Eigen::Index>(i);
-    out->state[i][row] = s.state[d];
-    out->var[i][row] = s.covariance(d, d);
+    out->state[i][k] = s.state[d];
+    out->var[i][k] = s.covariance(d, d);
   }
-  out->mode[row] = s.most_likely_mode;
+  out->mode[k] = s.most_likely_mode;
 }
 
-// Decisions over the rows from `first` on, in order, from the columns' probabilities.
-void decide(ModeDecision* decision, long first, RunColumns* out) {
+// Decisions over the first `rows` rows, in order, from the columns' probabilities.
+void decide(ModeDecision* decision, long rows, RunColumns* out) {
   Eigen::VectorXd mu(static_cast<Eigen::Index>(out->mu.size()));
-  out->decision.resize(out->t.size());
-  for (long k = first; k < out->rows(); ++k) {
-    const auto row = static_cast<std::size_t>(k);
-    for (std::size_t j = 0; j < out->mu.size(); ++j) mu[static_cast<Eigen::Index>(j)] = out->mu[j][row];
-    out->decision[row] = decision->update(out->t[row], mu);
+  for (long k = 0; k < rows; ++k) {
+    for (std::size_t j = 0; j < out->mu.size(); ++j) mu[static_cast<Eigen::Index>(j)] = out->mu[j][k];
+    out->decision[k] = decision->update(out->t[k], mu);
   }
+}
+
+std::vector<std::string> mode_names_of(const BankConfig& config) {
+  std::vector<std::string> names;
+  for (const ModeConfig& m : config.modes) names.push_back(m.name);
+  return names;
 }
 
 }  // namespace
 
-void RunColumns::reserve(const BankConfig& config, std::size_t rows) {
-  mu.assign(static_cast<std::size_t>(config.num_modes()), {});
-  state.assign(static_cast<std::size_t>(config.state_dim()), {});
-  var.assign(static_cast<std::size_t>(config.state_dim()), {});
-  t.reserve(rows);
-  for (auto& c : mu) c.reserve(rows);
-  for (auto& c : state) c.reserve(rows);
-  for (auto& c : var) c.reserve(rows);
-  mode.reserve(rows);
-  decision.reserve(rows);
-  status.reserve(rows);
-  reason.reserve(rows);
-  mode_names.clear();
-  for (const ModeConfig& m : config.modes) mode_names.push_back(m.name);
+GrowingRunColumns::GrowingRunColumns(const BankConfig& config)
+    : mu(static_cast<std::size_t>(config.num_modes())),
+      state(static_cast<std::size_t>(config.state_dim())),
+      var(static_cast<std::size_t>(config.state_dim())) {
+  point();
+}
+
+void GrowingRunColumns::reserve(long rows) {
+  const auto n = static_cast<std::size_t>(rows);
+  if (n <= t.size()) return;
+  const std::size_t size = std::max({n, 2 * t.size(), std::size_t{1024}});
+  t.resize(size);
+  for (auto& c : mu) c.resize(size);
+  for (auto& c : state) c.resize(size);
+  for (auto& c : var) c.resize(size);
+  mode.resize(size);
+  decision.resize(size);
+  status.resize(size);
+  point();
+}
+
+void GrowingRunColumns::shrink(long rows) {
+  const auto n = static_cast<std::size_t>(rows);
+  t.resize(n);
+  for (auto& c : mu) c.resize(n);
+  for (auto& c : state) c.resize(n);
+  for (auto& c : var) c.resize(n);
+  mode.resize(n);
+  decision.resize(n);
+  status.resize(n);
+  point();
+}
+
+void GrowingRunColumns::point() {
+  columns_.t = t.data();
+  columns_.mu.clear();
+  for (auto& c : mu) columns_.mu.push_back(c.data());
+  columns_.state.clear();
+  for (auto& c : state) columns_.state.push_back(c.data());
+  columns_.var.clear();
+  for (auto& c : var) columns_.var.push_back(c.data());
+  columns_.mode = mode.data();
+  columns_.decision = decision.data();
+  columns_.status = status.data();
 }
 
 void run_arrays(Imm* imm, const ArrayLog& log, const EstimatorOptions& estimator, ModeDecision* decision,
@@ -77,15 +112,16 @@ void run_arrays(Imm* imm, const ArrayLog& log, const EstimatorOptions& estimator
   const BankConfig& config = imm->config();
   const int m_u = config.input_dim();
   const auto m_z = static_cast<int>(config.measurement.h.rows());
-  out->reserve(config, static_cast<std::size_t>(log.rows));
+  const std::vector<std::string> mode_names = mode_names_of(config);
+  std::string reason;
   auto u_of = [&](long k) { return ConstVectorMap(log.u + k * m_u, m_u); };
   auto z_of = [&](long k) { return ConstVectorMap(log.z + k * m_z, m_z); };
 
   if (estimator.kind == EstimatorOptions::Kind::kFilter) {
     for (long k = 0; k < log.rows; ++k) {
       const ImmEstimate& e = imm->step(log.t[k], u_of(k), z_of(k));
-      append(log.t[k], e, out);
-      out->decision.push_back(decision->update(log.t[k], e.mode_probabilities));
+      write_row(k, log.t[k], e, mode_names, &reason, out);
+      out->decision[k] = decision->update(log.t[k], e.mode_probabilities);
     }
     return;
   }
@@ -105,7 +141,7 @@ void run_arrays(Imm* imm, const ArrayLog& log, const EstimatorOptions& estimator
     std::vector<ForwardStep> forward;
     for (long k = 0; k < log.rows; ++k) {
       const ImmEstimate& e = imm->step(log.t[k], u_of(k), z_of(k));
-      append(log.t[k], e, out);
+      write_row(k, log.t[k], e, mode_names, &reason, out);
       if (!accepted(e.status)) continue;
       accepted_rows.push_back(k);
       forward.push_back(record_step(log.t[k], u_of(k), e));
@@ -116,7 +152,7 @@ void run_arrays(Imm* imm, const ArrayLog& log, const EstimatorOptions& estimator
     FixedLagSmoother smoother(imm->bank(), estimator.lag);
     for (long k = 0; k < log.rows; ++k) {
       const ImmEstimate& e = imm->step(log.t[k], u_of(k), z_of(k));
-      append(log.t[k], e, out);
+      write_row(k, log.t[k], e, mode_names, &reason, out);
       if (!accepted(e.status)) continue;
       accepted_rows.push_back(k);
       ready.clear();
@@ -127,7 +163,7 @@ void run_arrays(Imm* imm, const ArrayLog& log, const EstimatorOptions& estimator
     smoother.finish(&ready);
     release(ready);
   }
-  decide(decision, 0, out);
+  decide(decision, log.rows, out);
 }
 
 double step_loop(Imm* imm, const ArrayLog& log) {
@@ -141,17 +177,23 @@ double step_loop(Imm* imm, const ArrayLog& log) {
   return sum;
 }
 
-void run_log_file(const Bank& bank, LogReader* reader, const EstimatorOptions& estimator,
-                  const DecisionConfig& settings, const std::string& label, bool with_truth, RunColumns* out) {
+long run_log_file(const Bank& bank, LogReader* reader, const EstimatorOptions& estimator,
+                  const DecisionConfig& settings, const std::string& label, bool with_truth, GrowingRunColumns* out,
+                  std::vector<std::string>* truth) {
   const BankConfig& config = bank.config;
-  out->reserve(config, 0);
-  out->with_truth = with_truth;
+  const std::vector<std::string> mode_names = mode_names_of(config);
+  std::string reason;
   ModeDecision decision(config, settings);
+  long rows = 0;
   run_log(bank, reader, estimator, [&](const LogSample& sample, const ImmEstimate& e) {
-    append(sample.t, e, out);
-    out->decision.push_back(decision.update(sample.t, e.mode_probabilities));
-    if (with_truth) out->truth.push_back(label.empty() ? sample.truth_mode : label);
+    out->reserve(rows + 1);
+    write_row(rows, sample.t, e, mode_names, &reason, &out->columns());
+    out->columns().decision[rows] = decision.update(sample.t, e.mode_probabilities);
+    if (with_truth) truth->push_back(label.empty() ? sample.truth_mode : label);
+    ++rows;
   });
+  out->shrink(rows);
+  return rows;
 }
 
 }  // namespace python

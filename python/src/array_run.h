@@ -1,12 +1,13 @@
 // Running a bank over whole arrays (or over a log file, as `skidimm run`
 // reads it) in C++, with no Python per step, into the columns `skidimm run`
 // writes (estimates_writer.h): t, mu_<mode>, the combined state, var_<state>,
-// mode, decision, truth_mode (when there is a truth), status.
+// mode, decision, truth_mode (when there is a truth), status, reason.
 #ifndef SKIDIMM_PYTHON_ARRAY_RUN_H_
 #define SKIDIMM_PYTHON_ARRAY_RUN_H_
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "skidimm/bank.h"
@@ -18,24 +19,43 @@
 namespace skidimm {
 namespace python {
 
-// One column per output, row-major in time. Text columns are codes: mode
-// indexes the bank's modes, decision the decision's names (-1 unknown),
-// status the StepStatus.
+// Where a run writes its rows: one array per column, each with room for
+// every row, owned by the caller (numpy arrays made once for Imm.run, whose
+// number of rows is known; growing vectors for a log file). Writing a row is
+// stores only: no allocation, no Python. Text columns are codes: mode
+// indexes the bank's modes, decision the decision's names (ModeDecision::
+// kUnknown = -1), status the StepStatus. The reason column is empty on almost
+// every row, so only the rows that have one are kept.
 struct RunColumns {
-  std::vector<double> t;
-  std::vector<std::vector<double>> mu;     // per mode
-  std::vector<std::vector<double>> state;  // per state
-  std::vector<std::vector<double>> var;    // per state
-  std::vector<std::int32_t> mode;
-  std::vector<std::int32_t> decision;
-  std::vector<std::int8_t> status;
-  std::vector<std::string> reason;  // the CLI's reason column (estimates_writer.h)
-  std::vector<std::string> truth;   // when with_truth
-  std::vector<std::string> mode_names;
-  bool with_truth = false;
+  double* t = nullptr;
+  std::vector<double*> mu;     // per mode
+  std::vector<double*> state;  // per state
+  std::vector<double*> var;    // per state
+  std::int32_t* mode = nullptr;
+  std::int32_t* decision = nullptr;
+  std::int8_t* status = nullptr;
+  std::vector<std::pair<long, std::string>> reasons;  // (row, the CLI's reason text), rows in order
+};
 
-  void reserve(const BankConfig& config, std::size_t rows);
-  long rows() const { return static_cast<long>(t.size()); }
+// Storage for RunColumns that grows, for runs whose rows are counted only
+// as they come (a log file).
+class GrowingRunColumns {
+ public:
+  explicit GrowingRunColumns(const BankConfig& config);
+  // Room for at least `rows` rows (amortised doubling); columns() changes.
+  void reserve(long rows);
+  // Keeps the first `rows` rows.
+  void shrink(long rows);
+  RunColumns& columns() { return columns_; }
+
+  std::vector<double> t;
+  std::vector<std::vector<double>> mu, state, var;
+  std::vector<std::int32_t> mode, decision;
+  std::vector<std::int8_t> status;
+
+ private:
+  void point();
+  RunColumns columns_;
 };
 
 // The rows of arrays: t (n), u (n x input_dim) and z (n x measurement_dim),
@@ -47,10 +67,11 @@ struct ArrayLog {
   const double* z = nullptr;
 };
 
-// Runs `imm` over the rows. The filter continues from the imm's current
-// state and `decision`'s (a fresh or reset Imm starts from the prior, as
-// `skidimm run` does); the smoothers reset both first. Does not touch Python
-// (call it with the GIL released; Python models take it themselves).
+// Runs `imm` over the rows into `out` (room for log.rows rows). The filter
+// continues from the imm's current state and `decision`'s (a fresh or reset
+// Imm starts from the prior, as `skidimm run` does); the smoothers reset both
+// first. Does not touch Python (call it with the GIL released; Python models
+// take it themselves).
 void run_arrays(Imm* imm, const ArrayLog& log, const EstimatorOptions& estimator, ModeDecision* decision,
                 RunColumns* out);
 
@@ -60,9 +81,11 @@ void run_arrays(Imm* imm, const ArrayLog& log, const EstimatorOptions& estimator
 double step_loop(Imm* imm, const ArrayLog& log);
 
 // `skidimm run`'s loop over a log (log_run.h's run_log, the library's own),
-// into columns; `label` overrides the log's truth column.
-void run_log_file(const Bank& bank, LogReader* reader, const EstimatorOptions& estimator,
-                  const DecisionConfig& decision, const std::string& label, bool with_truth, RunColumns* out);
+// into growing columns; with_truth: *truth gets each row's label (`label`,
+// or else the log's truth column). Returns the number of rows.
+long run_log_file(const Bank& bank, LogReader* reader, const EstimatorOptions& estimator,
+                  const DecisionConfig& decision, const std::string& label, bool with_truth, GrowingRunColumns* out,
+                  std::vector<std::string>* truth);
 
 }  // namespace python
 }  // namespace skidimm

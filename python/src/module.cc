@@ -84,35 +84,57 @@ py::array_t<double> matrix_array(const Eigen::MatrixXd& m) {
   return a;
 }
 
-// A numpy object array of n entries (None until set).
-py::array object_array(std::size_t n) {
-  return py::module_::import("numpy").attr("full")(static_cast<py::ssize_t>(n), py::none(), "O");
-}
+// A numpy object array of n entries, every one NULL (numpy zero-fills the
+// memory of object arrays it allocates) until the caller sets it.
+py::array object_array(py::ssize_t n) { return py::array(py::dtype("O"), std::vector<py::ssize_t>{n}); }
 
 // A numpy object array of str.
 py::array text_array(const std::vector<std::string>& values) {
-  py::array out = object_array(values.size());
+  py::array out = object_array(static_cast<py::ssize_t>(values.size()));
   PyObject** data = static_cast<PyObject**>(out.mutable_data());
-  for (std::size_t k = 0; k < values.size(); ++k) {
-    py::str item(values[k]);
-    Py_XDECREF(data[k]);
-    data[k] = item.release().ptr();
-  }
+  for (std::size_t k = 0; k < values.size(); ++k) data[k] = py::str(values[k]).release().ptr();
   return out;
 }
 
-// names[codes], as a numpy object array of str (one str object per name).
-py::array text_column(const std::vector<std::int32_t>& codes, const std::vector<std::string>& names, int offset = 0) {
-  py::list objects;
-  for (const std::string& n : names) objects.append(py::str(n));
-  py::array out = object_array(codes.size());
+// Takes `count` references to `object` at once, for the array entries that
+// were pointed at it (the increments fold into one addition).
+void add_references(PyObject* object, py::ssize_t count) {
+  for (py::ssize_t r = 0; r < count; ++r) Py_INCREF(object);
+}
+
+// names[codes[k] + offset] for the n rows, as a numpy object array of str:
+// one str object per name, its references taken once per name, not per row.
+template <typename Code>
+py::array text_column(const Code* codes, py::ssize_t n, const std::vector<std::string>& names, int offset = 0) {
+  std::vector<py::str> objects(names.begin(), names.end());
+  std::vector<py::ssize_t> uses(names.size(), 0);
+  py::array out = object_array(n);
   PyObject** data = static_cast<PyObject**>(out.mutable_data());
-  for (std::size_t k = 0; k < codes.size(); ++k) {
-    PyObject* item = objects[static_cast<std::size_t>(codes[k] + offset)].ptr();
-    Py_INCREF(item);
-    Py_XDECREF(data[k]);
-    data[k] = item;
+  for (py::ssize_t k = 0; k < n; ++k) {
+    const auto name = static_cast<std::size_t>(codes[k] + offset);
+    data[k] = objects[name].ptr();
+    ++uses[name];
   }
+  for (std::size_t j = 0; j < objects.size(); ++j) add_references(objects[j].ptr(), uses[j]);
+  return out;
+}
+
+// The reason column: "" on every row but those in `reasons` (row, text; rows in order).
+py::array reason_column(py::ssize_t n, const std::vector<std::pair<long, std::string>>& reasons) {
+  const py::str empty("");
+  py::ssize_t uses = 0;
+  py::array out = object_array(n);
+  PyObject** data = static_cast<PyObject**>(out.mutable_data());
+  auto next = reasons.begin();
+  for (py::ssize_t k = 0; k < n; ++k) {
+    if (next != reasons.end() && next->first == k) {
+      data[k] = py::str((next++)->second).release().ptr();
+    } else {
+      data[k] = empty.ptr();
+      ++uses;
+    }
+  }
+  add_references(empty.ptr(), uses);
   return out;
 }
 
@@ -122,40 +144,74 @@ std::vector<std::string> mode_names(const BankConfig& config) {
   return names;
 }
 
-// The columns `skidimm run` writes, in its order.
-py::dict columns_to_dict(RunColumns&& c, const BankConfig& config) {
+// A run's columns as numpy arrays, and where the run writes them
+// (`columns`: into these arrays). Made for a known number of rows before the
+// run (Imm.run), or from a log run's grown vectors without a copy.
+struct RunArrays {
+  py::array_t<double> t;
+  std::vector<py::array_t<double>> mu, state, var;
+  py::array_t<std::int32_t> mode, decision;
+  py::array_t<std::int8_t> status;
+  RunColumns columns;
+
+  RunArrays(const BankConfig& config, long rows) : t(rows), mode(rows), decision(rows), status(rows) {
+    for (int j = 0; j < config.num_modes(); ++j) mu.emplace_back(rows);
+    for (int i = 0; i < config.state_dim(); ++i) {
+      state.emplace_back(rows);
+      var.emplace_back(rows);
+    }
+    columns.t = t.mutable_data();
+    for (auto& c : mu) columns.mu.push_back(c.mutable_data());
+    for (auto& c : state) columns.state.push_back(c.mutable_data());
+    for (auto& c : var) columns.var.push_back(c.mutable_data());
+    columns.mode = mode.mutable_data();
+    columns.decision = decision.mutable_data();
+    columns.status = status.mutable_data();
+  }
+
+  explicit RunArrays(GrowingRunColumns&& grown)
+      : t(adopt(std::move(grown.t))),
+        mode(adopt(std::move(grown.mode))),
+        decision(adopt(std::move(grown.decision))),
+        status(adopt(std::move(grown.status))) {
+    for (auto& c : grown.mu) mu.push_back(adopt(std::move(c)));
+    for (auto& c : grown.state) state.push_back(adopt(std::move(c)));
+    for (auto& c : grown.var) var.push_back(adopt(std::move(c)));
+    columns.reasons = std::move(grown.columns().reasons);
+  }
+
+  py::ssize_t rows() const { return t.shape(0); }
+};
+
+// The columns `skidimm run` writes, in its order; `truth` (an object array
+// of str, or None) is the truth_mode column.
+py::dict columns_to_dict(RunArrays&& c, const BankConfig& config, const py::object& truth) {
   py::dict out;
-  const std::vector<std::int32_t> modes = c.mode;
-  out["t"] = adopt(std::move(c.t));
+  const py::ssize_t n = c.rows();
+  out["t"] = c.t;
   for (int j = 0; j < config.num_modes(); ++j) {
-    out[py::str("mu_" + config.modes[static_cast<std::size_t>(j)].name)] =
-        adopt(std::move(c.mu[static_cast<std::size_t>(j)]));
+    out[py::str("mu_" + config.modes[static_cast<std::size_t>(j)].name)] = c.mu[static_cast<std::size_t>(j)];
   }
   for (int i = 0; i < config.state_dim(); ++i) {
-    out[py::str(config.state_names[static_cast<std::size_t>(i)])] =
-        adopt(std::move(c.state[static_cast<std::size_t>(i)]));
+    out[py::str(config.state_names[static_cast<std::size_t>(i)])] = c.state[static_cast<std::size_t>(i)];
   }
   for (int i = 0; i < config.state_dim(); ++i) {
-    out[py::str("var_" + config.state_names[static_cast<std::size_t>(i)])] =
-        adopt(std::move(c.var[static_cast<std::size_t>(i)]));
+    out[py::str("var_" + config.state_names[static_cast<std::size_t>(i)])] = c.var[static_cast<std::size_t>(i)];
   }
-  out["mode"] = text_column(modes, mode_names(config));
+  out["mode"] = text_column(c.mode.data(), n, mode_names(config));
   std::vector<std::string> decisions{"unknown"};  // ModeDecision::kUnknown = -1
   const ModeDecision decider(config);
-  for (const std::string& n : decider.names()) decisions.push_back(n);
-  out["decision"] = text_column(c.decision, decisions, 1);
-  if (c.with_truth) {
-    out["truth_mode"] = text_array(c.truth);
-  }
+  for (const std::string& name : decider.names()) decisions.push_back(name);
+  out["decision"] = text_column(c.decision.data(), n, decisions, 1);
+  if (!truth.is_none()) out["truth_mode"] = truth;
   std::vector<std::string> statuses;
   for (StepStatus s :
        {StepStatus::kUpdated, StepStatus::kPredictOnly, StepStatus::kAllModesRejected, StepStatus::kRejectedTime,
         StepStatus::kRejectedInput, StepStatus::kGated, StepStatus::kModeGated, StepStatus::kModeReset}) {
     statuses.emplace_back(to_string(s));
   }
-  std::vector<std::int32_t> status_codes(c.status.begin(), c.status.end());
-  out["status"] = text_column(status_codes, statuses);
-  out["reason"] = text_array(c.reason);
+  out["status"] = text_column(c.status.data(), n, statuses);
+  out["reason"] = reason_column(n, c.columns.reasons);
   return out;
 }
 
@@ -386,29 +442,27 @@ py::dict run(PyImm& self, const py::object& t, const py::object& u, const py::ob
   const DoubleArray uu = rows_of(u, n, self.input_dim(), "u");
   const DoubleArray zz = rows_of(z, n, self.measurement_dim(), "z");
   const EstimatorOptions estimator = estimator_options(smooth, lag);
-  std::vector<std::string> truth_labels;
+  py::object truth_column = py::none();
   if (!truth.is_none()) {
-    for (const py::handle item : truth) truth_labels.push_back(py::str(item));
-    if (static_cast<long>(truth_labels.size()) != n) throw py::value_error("truth: expected one label per row");
+    std::vector<std::string> labels;
+    for (const py::handle item : truth) labels.push_back(py::str(item));
+    if (static_cast<long>(labels.size()) != n) throw py::value_error("truth: expected one label per row");
+    truth_column = text_array(labels);
   }
   const ImmInUse hold(self);
   if (reset) {
     self.imm->reset();
     self.decision->reset();
   }
-  RunColumns columns;
+  RunArrays columns(self.config(), n);
   ArrayLog log{n, tt.data(), uu.data(), zz.data()};
   clear_python_model_error();
   {
     py::gil_scoped_release release;
-    run_arrays(self.imm.get(), log, estimator, self.decision.get(), &columns);
+    run_arrays(self.imm.get(), log, estimator, self.decision.get(), &columns.columns);
   }
   throw_if_python_model_raised();
-  if (!truth.is_none()) {
-    columns.with_truth = true;
-    columns.truth = std::move(truth_labels);
-  }
-  return columns_to_dict(std::move(columns), self.config());
+  return columns_to_dict(std::move(columns), self.config(), truth_column);
 }
 
 // ------------------------------------------------------------------ fit
@@ -740,19 +794,23 @@ PYBIND11_MODULE(_skidimm, m) {
         }
         const EstimatorOptions estimator = estimator_options(smooth, lag);
         const DecisionConfig settings = decision_of(config, decision);
-        RunColumns columns;
+        GrowingRunColumns columns(config);
+        std::vector<std::string> truth;
+        bool with_truth = false;
+        long rows = 0;
         clear_python_model_error();
         {
           py::gil_scoped_release release;
           LogReader reader(config, log.files, sampling_of(config, rate));
-          run_log_file(*bank.bank, &reader, estimator, settings, log.label, reader.has_truth() || !log.label.empty(),
-                       &columns);
+          with_truth = reader.has_truth() || !log.label.empty();
+          rows = run_log_file(*bank.bank, &reader, estimator, settings, log.label, with_truth, &columns, &truth);
         }
         throw_if_python_model_raised();
-        if (columns.rows() == 0) {
+        if (rows == 0) {
           throw LogError(log.text, 0, "the log gives no step: no data rows, or no row where every input has a value");
         }
-        return columns_to_dict(std::move(columns), config);
+        return columns_to_dict(RunArrays(std::move(columns)), config,
+                               with_truth ? py::object(text_array(truth)) : py::object(py::none()));
       },
       py::arg("bank"), py::arg("inputs"), py::arg("rate") = 0.0, py::arg("smooth") = false, py::arg("lag") = py::none(),
       py::arg("decision") = py::none());

@@ -29,13 +29,35 @@ def test_run_over_arrays_equals_the_cli_exactly(tmp_path, configs, cli):
     bank = skidimm.Bank(configs / "ltc_terrains.yaml")
     log, t, u, z = arrays(configs, bank)
     out = skidimm.Imm(bank).run(t, u, z, truth=log["mode"])
-    expected = cli_run(cli, tmp_path, configs)
+    assert_columns_equal(out, cli_run(cli, tmp_path, configs))
+
+
+def assert_columns_equal(out, expected):
     assert list(out) == list(expected)  # every column, in the CLI's order
     for name, column in expected.items():
         if column.dtype == object:
             assert list(out[name]) == list(column), name
         else:
             np.testing.assert_array_equal(out[name], column, err_msg=name)  # shortest round-trip text: exact
+
+
+@pytest.mark.parametrize("smoothing", [[], ["--lag", "1.5"]])
+def test_rows_with_a_reason_equal_the_cli(tmp_path, configs, cli, smoothing):
+    # A tight innovation gate turns measurements away from some modes on some
+    # rows: those rows, and only those, say why in the reason column.
+    bank_file = tmp_path / "gated.yaml"
+    bank_file.write_text((configs / "ltc_terrains.yaml").read_text() + "\ninnovation_gate: 0.9\n")
+    bank = skidimm.Bank(bank_file)
+    log, t, u, z = arrays(configs, bank)
+    lag = {"lag": float(smoothing[1])} if smoothing else {}
+    out = skidimm.Imm(bank).run(t, u, z, truth=log["mode"], **lag)
+    expected = tmp_path / "cli.csv"
+    cli("run", "--bank", bank_file, "--input", configs / EXAMPLE, "--output", expected, "--quiet", *smoothing)
+    expected = skidimm.read_csv(expected)
+    reasons = [r for r in expected["reason"] if r]
+    assert 0 < len(reasons) < len(expected["reason"]) and all("gated (NIS" in r for r in reasons)
+    assert_columns_equal(out, expected)
+    assert_columns_equal(skidimm.run_log(bank, configs / EXAMPLE, **lag), expected)
 
 
 @pytest.mark.parametrize("smoothing", [{"smooth": True}, {"lag": 1.5}])
