@@ -18,7 +18,7 @@ bool accepted(StepStatus status) { return status != StepStatus::kRejectedTime &&
 
 // Writes row k; the decision is left for the caller. `reason` is scratch
 // whose capacity is reused (describe_step).
-void write_row(long k, double t, const ImmEstimate& e, const std::vector<std::string>& mode_names,
+void write_row(long k, double t, const ImmEstimate& e, const std::vector<std::string>& names,
                std::string* reason, RunColumns* out) {
   out->t[k] = t;
   for (std::size_t j = 0; j < out->mu.size(); ++j) out->mu[j][k] = e.mode_probabilities[static_cast<Eigen::Index>(j)];
@@ -29,7 +29,7 @@ void write_row(long k, double t, const ImmEstimate& e, const std::vector<std::st
   }
   out->mode[k] = e.most_likely_mode;
   out->status[k] = static_cast<std::int8_t>(e.status);
-  describe_step(e, mode_names, reason);
+  describe_step(e, names, reason);
   if (!reason->empty()) out->reasons.emplace_back(k, *reason);
 }
 
@@ -53,13 +53,13 @@ void decide(ModeDecision* decision, long rows, RunColumns* out) {
   }
 }
 
-std::vector<std::string> mode_names_of(const BankConfig& config) {
+}  // namespace
+
+std::vector<std::string> mode_names(const BankConfig& config) {
   std::vector<std::string> names;
   for (const ModeConfig& m : config.modes) names.push_back(m.name);
   return names;
 }
-
-}  // namespace
 
 GrowingRunColumns::GrowingRunColumns(const BankConfig& config)
     : mu(static_cast<std::size_t>(config.num_modes())),
@@ -70,27 +70,19 @@ GrowingRunColumns::GrowingRunColumns(const BankConfig& config)
 
 void GrowingRunColumns::reserve(long rows) {
   const auto n = static_cast<std::size_t>(rows);
-  if (n <= t.size()) return;
-  const std::size_t size = std::max({n, 2 * t.size(), std::size_t{1024}});
-  t.resize(size);
-  for (auto& c : mu) c.resize(size);
-  for (auto& c : state) c.resize(size);
-  for (auto& c : var) c.resize(size);
-  mode.resize(size);
-  decision.resize(size);
-  status.resize(size);
-  point();
+  if (n > t.size()) resize(std::max({n, 2 * t.size(), std::size_t{1024}}));
 }
 
-void GrowingRunColumns::shrink(long rows) {
-  const auto n = static_cast<std::size_t>(rows);
-  t.resize(n);
-  for (auto& c : mu) c.resize(n);
-  for (auto& c : state) c.resize(n);
-  for (auto& c : var) c.resize(n);
-  mode.resize(n);
-  decision.resize(n);
-  status.resize(n);
+void GrowingRunColumns::shrink(long rows) { resize(static_cast<std::size_t>(rows)); }
+
+void GrowingRunColumns::resize(std::size_t rows) {
+  t.resize(rows);
+  for (auto& c : mu) c.resize(rows);
+  for (auto& c : state) c.resize(rows);
+  for (auto& c : var) c.resize(rows);
+  mode.resize(rows);
+  decision.resize(rows);
+  status.resize(rows);
   point();
 }
 
@@ -112,7 +104,7 @@ void run_arrays(Imm* imm, const ArrayLog& log, const EstimatorOptions& estimator
   const BankConfig& config = imm->config();
   const int m_u = config.input_dim();
   const auto m_z = static_cast<int>(config.measurement.h.rows());
-  const std::vector<std::string> mode_names = mode_names_of(config);
+  const std::vector<std::string> names = mode_names(config);
   std::string reason;
   auto u_of = [&](long k) { return ConstVectorMap(log.u + k * m_u, m_u); };
   auto z_of = [&](long k) { return ConstVectorMap(log.z + k * m_z, m_z); };
@@ -120,7 +112,7 @@ void run_arrays(Imm* imm, const ArrayLog& log, const EstimatorOptions& estimator
   if (estimator.kind == EstimatorOptions::Kind::kFilter) {
     for (long k = 0; k < log.rows; ++k) {
       const ImmEstimate& e = imm->step(log.t[k], u_of(k), z_of(k));
-      write_row(k, log.t[k], e, mode_names, &reason, out);
+      write_row(k, log.t[k], e, names, &reason, out);
       out->decision[k] = decision->update(log.t[k], e.mode_probabilities);
     }
     return;
@@ -141,7 +133,7 @@ void run_arrays(Imm* imm, const ArrayLog& log, const EstimatorOptions& estimator
     std::vector<ForwardStep> forward;
     for (long k = 0; k < log.rows; ++k) {
       const ImmEstimate& e = imm->step(log.t[k], u_of(k), z_of(k));
-      write_row(k, log.t[k], e, mode_names, &reason, out);
+      write_row(k, log.t[k], e, names, &reason, out);
       if (!accepted(e.status)) continue;
       accepted_rows.push_back(k);
       forward.push_back(record_step(log.t[k], u_of(k), e));
@@ -152,7 +144,7 @@ void run_arrays(Imm* imm, const ArrayLog& log, const EstimatorOptions& estimator
     FixedLagSmoother smoother(imm->bank(), estimator.lag);
     for (long k = 0; k < log.rows; ++k) {
       const ImmEstimate& e = imm->step(log.t[k], u_of(k), z_of(k));
-      write_row(k, log.t[k], e, mode_names, &reason, out);
+      write_row(k, log.t[k], e, names, &reason, out);
       if (!accepted(e.status)) continue;
       accepted_rows.push_back(k);
       ready.clear();
@@ -181,13 +173,13 @@ long run_log_file(const Bank& bank, LogReader* reader, const EstimatorOptions& e
                   const DecisionConfig& settings, const std::string& label, bool with_truth, GrowingRunColumns* out,
                   std::vector<std::string>* truth) {
   const BankConfig& config = bank.config;
-  const std::vector<std::string> mode_names = mode_names_of(config);
+  const std::vector<std::string> names = mode_names(config);
   std::string reason;
   ModeDecision decision(config, settings);
   long rows = 0;
   run_log(bank, reader, estimator, [&](const LogSample& sample, const ImmEstimate& e) {
     out->reserve(rows + 1);
-    write_row(rows, sample.t, e, mode_names, &reason, &out->columns());
+    write_row(rows, sample.t, e, names, &reason, &out->columns());
     out->columns().decision[rows] = decision.update(sample.t, e.mode_probabilities);
     if (with_truth) truth->push_back(label.empty() ? sample.truth_mode : label);
     ++rows;

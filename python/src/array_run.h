@@ -19,6 +19,9 @@
 namespace skidimm {
 namespace python {
 
+// The bank's mode names, in order: the values of the mode column.
+std::vector<std::string> mode_names(const BankConfig& config);
+
 // Where a run writes its rows: one array per column, each with room for
 // every row, owned by the caller (numpy arrays made once for Imm.run, whose
 // number of rows is known; growing vectors for a log file). Writing a row is
@@ -54,7 +57,8 @@ class GrowingRunColumns {
   std::vector<std::int8_t> status;
 
  private:
-  void point();
+  void resize(std::size_t rows);
+  void point();  // columns_ at the vectors' data
   RunColumns columns_;
 };
 

@@ -1,0 +1,72 @@
+// Evaluation: LogResult (one log's scores, picklable for Dask), evaluate_log
+// and eval_report (`skidimm eval`'s JSON and tables from per-log results).
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "bindings.h"
+#include "log_result_codec.h"
+#include "py_bank.h"
+#include "python_arguments.h"
+#include "python_model.h"
+#include "skidimm/evaluation/evaluation_report.h"
+#include "skidimm/evaluation/log_evaluation.h"
+#include "skidimm/run_overrides.h"
+
+namespace skidimm {
+namespace python {
+
+namespace py = pybind11;
+
+void bind_evaluation(py::module_& m) {
+  py::class_<evaluation::LogResult>(m, "LogResult", "One log's evaluation (log_evaluation.h); picklable.")
+      .def_readonly("name", &evaluation::LogResult::name)
+      .def_readonly("steps", &evaluation::LogResult::steps)
+      .def_property_readonly("accuracy", [](const evaluation::LogResult& r) { return r.metrics.accuracy(); })
+      .def_property_readonly("duration", [](const evaluation::LogResult& r) { return r.metrics.duration; })
+      .def_property_readonly("main_truth",
+                             [](const evaluation::LogResult& r) { return evaluation::main_truth(r.metrics); })
+      .def("to_dict", &to_dict)
+      .def_static("from_dict", &log_result_from_dict)
+      .def(py::pickle([](const evaluation::LogResult& r) { return to_dict(r); },
+                      [](const py::dict& d) { return log_result_from_dict(d); }))
+      .def("__repr__", [](const evaluation::LogResult& r) {
+        return "<skidimm.LogResult '" + r.name + "': " + std::to_string(r.steps) + " steps>";
+      });
+  m.def(
+      "evaluate_log",
+      [](const PyBank& bank, const py::object& log, double rate, bool smooth, std::optional<double> lag) {
+        const LogSpec spec = log_spec_of(log);
+        const EstimatorOptions estimator = estimator_options(smooth, lag);
+        evaluation::LogResult result;
+        clear_python_model_error();
+        {
+          py::gil_scoped_release release;
+          result = evaluation::evaluate_log(*bank.bank, spec, sampling_of(bank.config(), rate), {}, estimator);
+        }
+        throw_if_python_model_raised();
+        return result;
+      },
+      py::arg("bank"), py::arg("log"), py::arg("rate") = 0.0, py::arg("smooth") = false, py::arg("lag") = py::none(),
+      "Runs a fresh IMM over one log and scores it, as `skidimm eval` does per log.");
+  m.def(
+      "eval_report",
+      [](const std::vector<std::pair<std::string, std::vector<evaluation::LogResult>>>& groups,
+         const std::vector<std::string>& states, const std::vector<std::string>& classes, const PyBank& bank) {
+        std::vector<evaluation::LogGroup> g;
+        for (const auto& [name, logs] : groups) g.push_back(evaluation::LogGroup{name, logs});
+        const std::string decision = evaluation::decision_settings_text(bank.config().decision);
+        py::gil_scoped_release release;
+        return std::make_pair(evaluation::report_json(g, classes, states),
+                              evaluation::report_tables(g, classes, states, decision));
+      },
+      py::arg("groups"), py::arg("states"), py::arg("classes"), py::arg("bank"),
+      "`skidimm eval`'s JSON and table for groups of per-log results, reduced in the order given.");
+}
+
+}  // namespace python
+}  // namespace skidimm
