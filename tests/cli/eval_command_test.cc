@@ -1,7 +1,10 @@
-// `skidimm eval` says what it means: per-class accuracy over each class's
-// own time, logs keyed by their paths, blank truth cells unlabelled,
-// patterns paired by run key, and one order for a confusion's rows and
-// columns. End to end, on the bundled switching example and logs made from it.
+// `skidimm eval` end to end, on the bundled switching example and logs made
+// from it: accuracy, latency and consistency as text and JSON, decision
+// settings and a run's decision remade from its probabilities, classes
+// scoring several modes as one. It says what it means: per-class accuracy
+// over each class's own time, logs keyed by their paths, blank truth cells
+// unlabelled, patterns paired by run key, and one order for a confusion's
+// rows and columns.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
@@ -11,26 +14,14 @@
 #include <string>
 #include <vector>
 
-#include "cli/run_skidimm.h"
-#include "core/temp_files.h"
+#include "cli/cli_test_support.h"
 
+namespace skidimm_test {
 namespace {
 
-using skidimm_test::column;
-using skidimm_test::csv_text;
-using skidimm_test::read_csv;
-using skidimm_test::Result;
-using skidimm_test::run_skidimm;
-using skidimm_test::test_directory;
-using skidimm_test::write_file;
 using ::testing::HasSubstr;
 using ::testing::Not;
 namespace fs = std::filesystem;
-
-const std::string kSource = SKIDIMM_SOURCE_DIR;
-const std::string kPlugins = SKIDIMM_PLUGIN_DIR;
-const std::string kTerrains = kSource + "/configs/ltc_terrains.yaml";
-const std::string kSwitching = kSource + "/configs/examples/ltc_switching.csv";
 
 std::string eval(const std::string& arguments) { return "eval --bank " + kTerrains + " --plugin-path " + kPlugins + " " + arguments; }
 
@@ -197,4 +188,91 @@ TEST(EvalCommand, ConfusionRowsAndColumnsAreInTheBanksOrder) {
   EXPECT_EQ(confusion_lines(from_file.out, 3), lines);
 }
 
+TEST(Cli, EvalReportsAccuracyLatencyAndConsistencyAsTextAndJson) {
+  const std::string args = "eval --bank " + kSource + "/configs/ltc_terrains.yaml --input " + kSource +
+                           "/configs/examples/ltc_switching.csv --plugin-path " + kPlugins;
+  const Result text = run_skidimm(args);
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_THAT(text.out, HasSubstr("accuracy (time fraction)"));
+  EXPECT_THAT(text.out, HasSubstr("10.01 s  crushed_concrete -> grass: first"));
+  EXPECT_THAT(text.out, HasSubstr("state RMSE vs true_<state>: V"));
+  EXPECT_THAT(text.out, HasSubstr("consistency of the true mode's filter"));
+  const Result json = run_skidimm(args + " --json");
+  ASSERT_EQ(json.exit_code, 0) << json.err;
+  EXPECT_EQ(json.out.rfind("{\"overall\": {\"logs\": 1,", 0), 0u) << json.out.substr(0, 80);
+  EXPECT_THAT(json.out, HasSubstr("\"switches\": [{\"time\": 10.0055, \"from\": \"crushed_concrete\""));
+  // The same metrics from the `run` output alone (no NIS, no state truth).
+  const fs::path out = test_directory() / "out.csv";
+  ASSERT_EQ(run_skidimm("run -q --bank " + kSource + "/configs/ltc_terrains.yaml --input " + kSource +
+                        "/configs/examples/ltc_switching.csv --output " + out.string() + " --plugin-path " + kPlugins)
+                .exit_code,
+            0);
+  const Result from_output = run_skidimm("eval --estimates " + out.string());
+  ASSERT_EQ(from_output.exit_code, 0) << from_output.err;
+  const auto accuracy_line = [](const std::string& s) { return s.substr(s.find("accuracy"), 40); };
+  EXPECT_EQ(accuracy_line(from_output.out), accuracy_line(text.out));
+  const Result no_truth = run_skidimm("eval --bank " + kSource + "/configs/husky/ice_ltc.yaml --input x.csv");
+  EXPECT_EQ(no_truth.exit_code, 1);
+  EXPECT_THAT(no_truth.err, HasSubstr("names no columns.truth_mode"));
+}
+
+TEST(Cli, EvalTakesDecisionSettingsAndRemakesARunsDecisionFromItsProbabilities) {
+  const fs::path dir = test_directory();
+  const std::string bank = kSource + "/configs/ltc_terrains.yaml",
+                    log = kSource + "/configs/examples/ltc_switching.csv";
+  const std::string settings = " --decision-enter 0.6 --decision-hold 0.2";
+  ASSERT_EQ(run_skidimm("run -q --bank " + bank + " --input " + log + " --output " + (dir / "given.csv").string() +
+                        settings + " --plugin-path " + kPlugins)
+                .exit_code,
+            0);
+  ASSERT_EQ(run_skidimm("run -q --bank " + bank + " --input " + log + " --output " + (dir / "default.csv").string() +
+                        " --plugin-path " + kPlugins)
+                .exit_code,
+            0);
+  // The decision's JSON scores, from "accuracy" to "lost".
+  const auto decision_of = [](const Result& r) {
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    const std::size_t begin = r.out.find("\"decision\": {\"accuracy\"");
+    const std::size_t end = r.out.find("\"lost\"", begin);
+    return begin == std::string::npos || end == std::string::npos ? std::string() : r.out.substr(begin, end - begin);
+  };
+  const std::string written = decision_of(run_skidimm("eval --json --estimates " + (dir / "given.csv").string()));
+  ASSERT_FALSE(written.empty());
+  EXPECT_EQ(decision_of(run_skidimm("eval --json --bank " + bank + " --input " + log + settings + " --plugin-path " +
+                                    kPlugins)),
+            written)
+      << "eval runs the bank with the settings run was given";
+  EXPECT_EQ(decision_of(run_skidimm("eval --json --estimates " + (dir / "default.csv").string() + settings)), written)
+      << "the decision made again from the probabilities of a run with the bank's own settings";
+  EXPECT_NE(decision_of(run_skidimm("eval --json --estimates " + (dir / "default.csv").string())), written)
+      << "the settings change the decision on this log";
+  // The table says how the decision it scores was made.
+  EXPECT_THAT(run_skidimm("eval --bank " + bank + " --input " + log + settings + " --plugin-path " + kPlugins).out,
+              HasSubstr("decision (enter 0.6, leave 0.05, hold 0.2 s): accuracy"));
+  EXPECT_THAT(run_skidimm("eval --estimates " + (dir / "default.csv").string() + settings).out,
+              HasSubstr("decision (made again: enter 0.6, leave 0.05, hold 0.2 s): accuracy"));
+  EXPECT_THAT(run_skidimm("eval --estimates " + (dir / "default.csv").string()).out,
+              HasSubstr("decision (the files' decision column): accuracy"));
+  const Result bad =
+      run_skidimm("eval --estimates " + (dir / "default.csv").string() + " --decision-enter 0.05 --decision-leave 0.1");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_THAT(bad.err, HasSubstr("need 0 <= leave < enter <= 1, got enter 0.05, leave 0.1"));
+}
+
+TEST(Cli, ClassesScoreSeveralModesAsOne) {
+  const fs::path dir = test_directory();
+  std::string bank = read_file(kSource + "/configs/ltc_terrains.yaml");
+  bank += "classes:\n  soft: [grass, crushed_concrete]\n";
+  write_file(dir / "classes.yaml", bank);
+  const Result eval = run_skidimm("eval --bank " + (dir / "classes.yaml").string() + " --input " + kSource +
+                                  "/configs/examples/ltc_switching.csv --plugin-path " + kPlugins);
+  ASSERT_EQ(eval.exit_code, 0) << eval.err;
+  EXPECT_THAT(eval.out, HasSubstr("soft asphalt"));  // the confusion's columns: classes
+  // Grass taken for crushed concrete is now right: the class accuracy is at least the mode accuracy.
+  const std::string key = "accuracy (time fraction)";
+  ASSERT_NE(eval.out.find(key), std::string::npos);
+  EXPECT_GE(std::stod(eval.out.substr(eval.out.find(key) + key.size())), 0.976);
+}
+
 }  // namespace
+}  // namespace skidimm_test

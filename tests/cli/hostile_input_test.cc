@@ -16,49 +16,16 @@
 #include <string>
 #include <vector>
 
+#include "cli/cli_test_support.h"
 #include "core/sanitizer.h"
-#include "core/temp_files.h"
 #include "skidimm/log_io.h"
 
+namespace skidimm_test {
 namespace {
 
-using skidimm_test::read_file;
-using skidimm_test::test_directory;
-using skidimm_test::write_file;
 using ::testing::HasSubstr;
 using ::testing::Not;
 namespace fs = std::filesystem;
-
-const std::string kSource = SKIDIMM_SOURCE_DIR;
-const std::string kPlugins = SKIDIMM_PLUGIN_DIR;
-const std::string kSkidimm = SKIDIMM_EXECUTABLE;
-const std::string kTerrains = kSource + "/configs/ltc_terrains.yaml";
-const std::string kSwitching = kSource + "/configs/examples/ltc_switching.csv";
-
-struct Result {
-  int exit_code;
-  std::string out;
-  std::string err;
-};
-
-// Runs a shell script (bash) with its output captured; a hang is ended by
-// `timeout` and shows as exit code 124.
-Result run_shell(const std::string& script) {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir = fs::path(::testing::TempDir()) /
-                       ("skidimm_hostile_capture_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  write_file(dir / "script.sh", script);
-  const std::string command = "timeout 300 bash " + (dir / "script.sh").string() + " > " + (dir / "out").string() +
-                              " 2> " + (dir / "err").string() + " < /dev/null";
-  const int status = std::system(command.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_file(dir / "out"), read_file(dir / "err")};
-}
-
-std::string run_command(const std::string& bank, const std::string& input, const std::string& output) {
-  return kSkidimm + " run -q --bank " + bank + " --plugin-path " + kPlugins + " --input " + input + " --output " +
-         output;
-}
 
 long data_rows(const fs::path& csv) {
   skidimm::CsvReader reader(csv);
@@ -366,3 +333,4 @@ TEST(HostileInput, TuneRefusesOneFoldAndClampsItsThreadsToTheCores) {
 }
 
 }  // namespace
+}  // namespace skidimm_test

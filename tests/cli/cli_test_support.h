@@ -1,0 +1,131 @@
+// What the end-to-end tests of the `skidimm` executable share: running it,
+// or a shell script around it, with its output captured; the bundled files
+// they run it on; reading back what it wrote.
+#ifndef SKIDIMM_TESTS_CLI_CLI_TEST_SUPPORT_H_
+#define SKIDIMM_TESTS_CLI_CLI_TEST_SUPPORT_H_
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/temp_files.h"
+#include "skidimm/log_io.h"
+
+namespace skidimm_test {
+
+inline const std::string kSource = SKIDIMM_SOURCE_DIR;
+inline const std::string kPlugins = SKIDIMM_PLUGIN_DIR;                // the bundled plugins
+inline const std::string kFixturePlugins = SKIDIMM_TEST_PLUGIN_ROOT;  // the tests' own, broken on purpose
+inline const std::string kSkidimm = SKIDIMM_EXECUTABLE;
+inline const std::string kTerrains = kSource + "/configs/ltc_terrains.yaml";
+inline const std::string kSwitching = kSource + "/configs/examples/ltc_switching.csv";
+
+struct Result {
+  int exit_code;
+  std::string out;
+  std::string err;
+};
+
+// Where one test process captures a command's output: named after the test
+// (ctest runs the tests of a file in parallel) and beside its
+// test_directory(), which would empty it.
+inline std::filesystem::path capture_directory(const std::string& kind) {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const std::filesystem::path dir =
+      std::filesystem::path(::testing::TempDir()) /
+      ("skidimm_" + kind + "_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+// Runs a shell command line with standard input from /dev/null, its stdout
+// and stderr captured.
+inline Result run_captured(const std::string& command, const std::filesystem::path& dir) {
+  const int status = std::system((command + " > " + (dir / "out").string() + " 2> " + (dir / "err").string() +
+                                  " < /dev/null")
+                                     .c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_file(dir / "out"), read_file(dir / "err")};
+}
+
+// `skidimm <arguments>` through the shell.
+inline Result run_skidimm(const std::string& arguments) {
+  return run_captured(kSkidimm + " " + arguments, capture_directory("cli_capture"));
+}
+
+// A bash script; a hang is ended by `timeout` and shows as exit code 124.
+inline Result run_shell(const std::string& script) {
+  const std::filesystem::path dir = capture_directory("cli_shell");
+  write_file(dir / "script.sh", script + "\n");
+  return run_captured("timeout 300 bash " + (dir / "script.sh").string(), dir);
+}
+
+// A bash script whose pipelines fail when any of their commands does (pipefail).
+inline Result run_pipeline(const std::string& script) { return run_shell("set -o pipefail\n" + script); }
+
+// The command line of `skidimm run`, quiet, over one input.
+inline std::string run_command(const std::string& bank, const std::string& input, const std::string& output) {
+  return kSkidimm + " run -q --bank " + bank + " --plugin-path " + kPlugins + " --input " + input + " --output " +
+         output;
+}
+
+// A CSV file's rows, the header first.
+inline std::vector<std::vector<std::string>> read_csv(const std::filesystem::path& path) {
+  skidimm::CsvReader reader(path);
+  std::vector<std::vector<std::string>> rows{reader.header()};
+  std::vector<std::string> fields;
+  while (reader.next(&fields)) rows.push_back(fields);
+  return rows;
+}
+
+// The index of column `name` in `header` (a test failure if absent).
+inline int column(const std::vector<std::string>& header, const std::string& name) {
+  for (std::size_t i = 0; i < header.size(); ++i) {
+    if (header[i] == name) return static_cast<int>(i);
+  }
+  ADD_FAILURE() << "no column " << name;
+  return 0;
+}
+
+// Rows as CSV text.
+inline std::string csv_text(const std::vector<std::vector<std::string>>& rows) {
+  std::string text;
+  for (const auto& row : rows) {
+    for (std::size_t i = 0; i < row.size(); ++i) text += (i ? "," : "") + row[i];
+    text += "\n";
+  }
+  return text;
+}
+
+// The bundled switching example as a log in two files at two rates, written
+// into `dir`: inputs and V at 10 Hz (slow.csv), omega at 50 Hz (fast.csv).
+struct SplitLog {
+  std::filesystem::path slow, fast;
+  long fast_rows = 0;
+};
+inline SplitLog split_example(const std::filesystem::path& dir) {
+  const auto rows = read_csv(kSwitching);
+  const auto& h = rows[0];
+  std::string slow = "t,phi_dot_L,phi_dot_R,V,mode\n", fast = "t,omega\n";
+  SplitLog log;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const auto& r = rows[i];
+    fast += r[column(h, "t")] + "," + r[column(h, "omega")] + "\n";
+    ++log.fast_rows;
+    if (i % 5 == 1) {
+      slow += r[column(h, "t")] + "," + r[column(h, "phi_dot_L")] + "," + r[column(h, "phi_dot_R")] + "," +
+              r[column(h, "V")] + "," + r[column(h, "mode")] + "\n";
+    }
+  }
+  log.slow = write_file(dir / "slow.csv", slow);
+  log.fast = write_file(dir / "fast.csv", fast);
+  return log;
+}
+
+}  // namespace skidimm_test
+
+#endif  // SKIDIMM_TESTS_CLI_CLI_TEST_SUPPORT_H_

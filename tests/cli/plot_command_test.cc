@@ -1,0 +1,129 @@
+// `skidimm plot`: PNG and SVG figures through gnuplot, a line of its own for
+// each of many modes, estimates from a pipe, and no raw text from the files
+// handed to gnuplot.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <string>
+
+#include "cli/cli_test_support.h"
+
+namespace skidimm_test {
+namespace {
+
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+TEST(Cli, PlotDrawsPngAndSvgAndSaysWhenGnuplotIsMissing) {
+  const fs::path dir = test_directory();
+  const std::string log = kSource + "/configs/examples/stc_switching.csv";
+  ASSERT_EQ(
+      run_skidimm("run -q --bank " + kSource + "/configs/stc_slip4.yaml --input " + log + " --output " +
+                  (dir / "out.csv").string() + " --plugin-path " + kPlugins + " --plot " + (dir / "run.png").string())
+          .exit_code,
+      0);
+  const Result svg = run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --log " + log +
+                                 " --states --output " + (dir / "states.svg").string());
+  ASSERT_EQ(svg.exit_code, 0) << svg.err;
+  const std::string png = read_file(dir / "run.png");
+  ASSERT_GT(png.size(), 10000u);
+  EXPECT_EQ(png.substr(1, 3), "PNG");
+  const std::string drawing = read_file(dir / "states.svg");
+  EXPECT_THAT(drawing, HasSubstr("<svg"));
+  EXPECT_THAT(drawing, HasSubstr("slip_FR_RR"));
+  EXPECT_THAT(drawing, HasSubstr("theta"));
+  // The decision track: a row per mode and one for `unknown`, under the probabilities.
+  EXPECT_THAT(drawing, HasSubstr(">decision<"));
+  EXPECT_THAT(drawing, HasSubstr(">unknown<"));
+  EXPECT_FALSE(fs::exists(dir / "states.svg.gnuplot")) << "the script is removed after a successful plot";
+  // Without gnuplot on PATH: a clear error, not a crash.
+  const std::string command = "env PATH=/nonexistent " + std::string(SKIDIMM_EXECUTABLE) + " plot --estimates " +
+                              (dir / "out.csv").string() + " --output " + (dir / "x.png").string() + " 2>" +
+                              (dir / "err").string();
+  const int status = std::system(command.c_str());
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  EXPECT_THAT(read_file(dir / "err"), HasSubstr("gnuplot is not installed or not on PATH"));
+  EXPECT_EQ(run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --output x.pdf").exit_code, 1);
+}
+
+// gnuplot's line colours repeat after 8: in a bank of more modes, each mode
+// still gets a colour (or, past 20, a dash pattern) of its own.
+TEST(CliIo, PlotGivesEachOfManyModesItsOwnLine) {
+  const fs::path dir = test_directory();
+  std::string text = "t";
+  for (int j = 0; j < 22; ++j) text += ",mu_m" + std::to_string(j);
+  text += "\n";
+  for (int k = 0; k < 5; ++k) {
+    text += std::to_string(0.5 * k);
+    for (int j = 0; j < 22; ++j) text += "," + std::to_string((j + k) % 22 == 0 ? 0.79 : 0.01);
+    text += "\n";
+  }
+  const fs::path estimates = write_file(dir / "many.csv", text);
+  const fs::path figure = dir / "many.svg";
+  const Result plot = run_skidimm("plot --estimates " + estimates.string() + " --output " + figure.string());
+  ASSERT_EQ(plot.exit_code, 0) << plot.err;
+  const std::string svg = read_file(figure);
+  // Modes 9 and 10 in the 12 colours after gnuplot's 8 (#8c564b, #e377c2),
+  // not in the 1st and 2nd modes' dark violet and green again.
+  EXPECT_THAT(svg, HasSubstr("rgb(140,  86,  75)"));
+  EXPECT_THAT(svg, HasSubstr("rgb(227, 119, 194)"));
+  EXPECT_THAT(svg, HasSubstr("rgb(158, 218, 229)"));  // the 20th, #9edae5
+  // The 21st mode: the 1st mode's colour, dashed (the 1st is solid).
+  EXPECT_THAT(svg, HasSubstr("stroke='rgb(148,   0, 211)' stroke-dasharray"));
+}
+
+// plot reads the estimates twice (here, then gnuplot): from a pipe they are
+// copied first. Text from the file reaches gnuplot printable, and names
+// reach it without a shell.
+TEST(CliIo, PlotReadsAPipeAndGivesGnuplotNoRawTextFromTheFiles) {
+  const fs::path dir = test_directory();
+  const fs::path piped = dir / "piped.png";
+  const Result pipe = run_pipeline(run_command(kTerrains, kSwitching, "-") + " | " + kSkidimm + " plot --estimates - --output " +
+                                piped.string());
+  ASSERT_EQ(pipe.exit_code, 0) << pipe.err;
+  EXPECT_EQ(read_file(piped).substr(1, 3), "PNG");
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    EXPECT_EQ(entry.path(), piped) << "left behind: " << entry.path();
+  }
+
+  const fs::path estimates = dir / "estimates.csv";
+  ASSERT_EQ(run_pipeline(run_command(kTerrains, kSwitching, estimates.string())).exit_code, 0);
+  auto rows = read_csv(estimates);
+  // A mode name with a line break (a quoted CSV header cell) used to end
+  // gnuplot's string mid-script; an apostrophe in the figure's name broke the
+  // shell command line.
+  rows[0][1] = "mu_asphalt\nset output 'elsewhere.png'";
+  std::string text;
+  for (const auto& row : rows) {
+    for (std::size_t c = 0; c < row.size(); ++c) {
+      const bool quote = row[c].find_first_of(",\n'") != std::string::npos;
+      text += (c ? "," : "") + (quote ? "\"" + row[c] + "\"" : row[c]);
+    }
+    text += "\n";
+  }
+  const fs::path odd = write_file(dir / "odd.csv", text);
+  const fs::path figure = dir / "it's a figure.png";
+  const Result plot = run_skidimm("plot --estimates " + odd.string() + " --output \"" + figure.string() + "\"");
+  EXPECT_EQ(plot.exit_code, 0) << plot.err;
+  EXPECT_EQ(read_file(figure).substr(1, 3), "PNG");
+  EXPECT_FALSE(fs::exists(dir / "elsewhere.png"));
+
+  // A time cell that is not a number: the file, line, column and the cell.
+  rows = read_csv(estimates);
+  rows[3][0] = "2.5s";
+  text.clear();
+  for (const auto& row : rows) {
+    for (std::size_t c = 0; c < row.size(); ++c) text += (c ? "," : "") + row[c];
+    text += "\n";
+  }
+  const fs::path bad = write_file(dir / "bad.csv", text);
+  const Result located = run_skidimm("plot --estimates " + bad.string() + " --output " + (dir / "bad.png").string());
+  EXPECT_EQ(located.exit_code, 1);
+  EXPECT_THAT(located.err, HasSubstr(bad.string() + ":4: column 1 ('t'): expected the time, a finite number, got '2.5s'"));
+  EXPECT_FALSE(fs::exists(dir / "bad.png"));
+  EXPECT_FALSE(fs::exists(dir / "bad.png.gnuplot"));
+}
+
+}  // namespace
+}  // namespace skidimm_test

@@ -1,0 +1,119 @@
+// `skidimm plugins` and `skidimm new-plugin`: the bundled plugins with their
+// metadata, duplicates flagged, plugins built against another standard
+// library or cut short refused without a crash, and a new plugin's project.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "cli/cli_test_support.h"
+
+namespace skidimm_test {
+namespace {
+
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+TEST(Cli, PluginsListsTheBundledPluginsWithMetadata) {
+  const Result r = run_skidimm("plugins");  // found next to the executable, no --plugin-path
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("ltc_linear 1.0.0"));
+  EXPECT_THAT(r.out, HasSubstr("ltc_shared 1.0.0"));
+  EXPECT_THAT(r.out, HasSubstr("stc_kinematic 1.0.0"));
+  EXPECT_THAT(r.out, HasSubstr("k (scalar): longitudinal efficiency"));
+}
+
+TEST(Cli, PluginsShowsStatesInputsAnglesAndFlagsDuplicates) {
+  const Result r = run_skidimm("plugins --plugin-path " + kFixturePlugins + "/duplicates");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("duplicate_a.so\n    DUPLICATE: " + kFixturePlugins +
+                               "/duplicates/duplicate_b.so in the same directory is also named 'duplicate_model'"));
+  EXPECT_THAT(r.out, HasSubstr("DUPLICATE: " + kFixturePlugins + "/duplicates/duplicate_a.so"));
+  EXPECT_THAT(r.out, HasSubstr("    states:\n      X: position in the world frame (m)\n"));
+  EXPECT_THAT(r.out, HasSubstr("      theta (angle, wrapped to [-pi, pi)): heading (rad)\n"));
+  EXPECT_THAT(r.out, HasSubstr("    inputs:\n      phi_dot_L: left wheel speed (rad/s)\n"));
+  EXPECT_THAT(r.out, HasSubstr("    states: the bank's own (not declared by the plugin)"));  // linear_features
+}
+
+TEST(Cli, PluginsAndValidateRefuseAPluginOfAnotherStandardLibraryWithoutCrashing) {
+  const std::string dir = kFixturePlugins + "/old_string_abi";
+  const Result listed = run_skidimm("plugins --plugin-path " + dir);
+  ASSERT_EQ(listed.exit_code, 0) << listed.err;
+  EXPECT_THAT(listed.out, HasSubstr("duplicate_model  UNUSABLE  " + dir +
+                                    "/old_string_abi_plugin.so\n"
+                                    "    built with another C++ standard library configuration"));
+  const fs::path bank = write_file(test_directory() / "bank.yaml", R"(
+name: stale
+states: [x]
+inputs: []
+measurement: {observe: [x], R: {std: [1]}}
+transition: {mean_dwell_time: 1.0}
+initial: {covariance: {std: [1]}}
+modes:
+  - {name: only, model: duplicate_model, Q: {diagonal: [1]}}
+)");
+  const Result validated =
+      run_skidimm("validate " + bank.string() + " --plugin-path " + kFixturePlugins + "/debug_stdlib");
+  EXPECT_EQ(validated.exit_code, 1) << validated.out;
+  EXPECT_THAT(validated.err, HasSubstr("_GLIBCXX_DEBUG=1"));
+  EXPECT_THAT(validated.err, HasSubstr("debug_stdlib_plugin.so is unusable"));
+}
+
+// A plugin file cut short (a copy in progress, a full disk): today's loader
+// mapped it and died of SIGBUS (exit 135) even when only listing plugins.
+TEST(Cli, PluginsAndValidateRefuseATruncatedPluginFileWithoutCrashing) {
+  const fs::path dir = test_directory();
+  const std::string whole = read_file(kPlugins + "/skidimm_ltc_linear.so");
+  write_file(dir / "ltc_linear.so", whole.substr(0, whole.size() / 2));
+  const Result listed = run_skidimm("plugins --plugin-path " + dir.string());
+  ASSERT_EQ(listed.exit_code, 0) << listed.err;
+  EXPECT_THAT(listed.out, HasSubstr("?  UNUSABLE  " + (dir / "ltc_linear.so").string() + "\n    cannot load: " +
+                                    (dir / "ltc_linear.so").string() + ": truncated: its ELF segment"));
+  EXPECT_THAT(listed.out, HasSubstr("replace plugin files with mv or install, not cp"));
+
+  // A bank whose plugin's only file is truncated: refused, the file named.
+  const std::string slip = read_file(kFixturePlugins + "/slip_ratio/slip_ratio_plugin.so");
+  fs::create_directories(dir / "slip");
+  // The first 16 KiB: the ELF and program headers, not the segments. (Two
+  // thirds of the file cut only debug information in a sanitizer build.)
+  ASSERT_GT(slip.size(), 65536u);
+  write_file(dir / "slip" / "slip_ratio.so", slip.substr(0, 16384));
+  const fs::path bank = write_file(dir / "bank.yaml", R"(
+name: truncated
+states: [V, omega, s]
+inputs: [phi_dot_L, phi_dot_R]
+measurement: {observe: [V, omega], R: {std: [0.1, 0.1]}}
+transition: {mean_dwell_time: 1.0}
+initial: {covariance: {std: [1, 1, 1]}}
+shared: {r: 0.165, b: 0.555}
+modes:
+  - {name: only, model: slip_ratio, params: {s_ss: 0.1, m: 0.8, tau: 0.05, tau_s: 0.5}, Q: {diagonal: [1, 1, 1]}}
+)");
+  const Result validated = run_skidimm("validate " + bank.string() + " --plugin-path " + (dir / "slip").string());
+  EXPECT_EQ(validated.exit_code, 1) << validated.out << validated.err;
+  EXPECT_THAT(validated.err, HasSubstr("no plugin named 'slip_ratio'"));
+  EXPECT_THAT(validated.err, HasSubstr("skipped " + (dir / "slip" / "slip_ratio.so").string() + ": cannot load: "));
+  EXPECT_THAT(validated.err, HasSubstr("truncated: its ELF segment"));
+}
+
+TEST(Cli, NewPluginWritesAProjectAndRefusesBadNames) {
+  const fs::path dir = test_directory();
+  const Result bad = run_skidimm("new-plugin 9Lives --dir " + dir.string());
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_THAT(bad.err, HasSubstr("'9Lives' is not a plugin name: use lowercase letters, digits and '_'"));
+  EXPECT_TRUE(fs::is_empty(dir));
+  const Result ok = run_skidimm("new-plugin wet_grass --dir " + dir.string());
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_THAT(read_file(dir / "wet_grass" / "wet_grass_plugin.cc"),
+              HasSubstr("SKIDIMM_EXPORT_FUNCTION_MODEL(WetGrass)"));
+  EXPECT_THAT(read_file(dir / "wet_grass" / "wet_grass_test.cc"),
+              HasSubstr("TEST(WetGrass, ConformsOverItsOperatingRegion"));
+  const std::string cmake = read_file(dir / "wet_grass" / "CMakeLists.txt");
+  EXPECT_THAT(cmake, HasSubstr("find_package(skidimm 0.1 REQUIRED COMPONENTS sdk)"));
+  EXPECT_THAT(cmake, HasSubstr("skidimm_add_motion_model(wet_grass wet_grass_plugin.cc INSTALL)"));
+  EXPECT_THAT(read_file(dir / "wet_grass" / "wet_grass_bank.yaml"), HasSubstr("model: wet_grass"));
+  EXPECT_EQ(run_skidimm("new-plugin wet_grass --dir " + dir.string()).exit_code, 1);  // exists
+}
+
+}  // namespace
+}  // namespace skidimm_test

@@ -1,0 +1,442 @@
+// `skidimm run` end to end on real files: the bundled examples' terrains and
+// slips, logs in several files at several rates, pipes and FIFOs, rows
+// flushed one by one, a plugin that throws, bad banks and rows, outliers from
+// 1e6 to 1e300, and --strict.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "cli/cli_test_support.h"
+
+namespace skidimm_test {
+namespace {
+
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+TEST(Cli, RunIdentifiesTheTerrainsOfTheBundledSwitchingExample) {
+  const fs::path out = test_directory() / "out.csv";
+  const std::string input = kSource + "/configs/examples/ltc_switching.csv";
+  const Result r = run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml --input " + input + " --output " +
+                               out.string() + " --plugin-path " + kPlugins);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto rows = read_csv(out);
+  EXPECT_EQ(rows[0],
+            (std::vector<std::string>{"t", "mu_asphalt", "mu_grass", "mu_crushed_concrete", "V", "omega", "var_V",
+                                      "var_omega", "mode", "decision", "truth_mode", "status", "reason"}));
+  EXPECT_EQ(rows.size(), read_csv(input).size()) << "one output row per input row";
+  // The decision: unknown until confident, then one change per true switch (the argmax changes 20 times here).
+  long decision_changes = 0, decision_right = 0;
+  const int decision = column(rows[0], "decision"), truth = column(rows[0], "truth_mode");
+  EXPECT_EQ(rows[1][static_cast<std::size_t>(decision)], "unknown");
+  for (std::size_t i = 2; i < rows.size(); ++i) {
+    decision_changes += rows[i][static_cast<std::size_t>(decision)] != rows[i - 1][static_cast<std::size_t>(decision)];
+    decision_right += rows[i][static_cast<std::size_t>(decision)] == rows[i][static_cast<std::size_t>(truth)];
+  }
+  EXPECT_EQ(decision_changes, 3) << "unknown -> crushed concrete -> grass -> asphalt";
+  EXPECT_GT(static_cast<double>(decision_right) / static_cast<double>(rows.size() - 2), 0.95);
+  EXPECT_THAT(r.err, HasSubstr("the decision (enter 0.9, leave 0.05, hold 1 s) changed 3 time(s), the most likely mode 20"));
+  long correct = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const double sum = std::stod(rows[i][1]) + std::stod(rows[i][2]) + std::stod(rows[i][3]);
+    ASSERT_NEAR(sum, 1.0, 1e-9) << "row " << i;
+    correct += rows[i][column(rows[0], "mode")] == rows[i][column(rows[0], "truth_mode")];
+  }
+  const double accuracy = static_cast<double>(correct) / static_cast<double>(rows.size() - 1);
+  EXPECT_GT(accuracy, 0.85);
+  // The timeline on stderr shows the three terrains in the order driven.
+  const auto concrete = r.err.find("crushed_concrete");
+  const auto grass = r.err.find("grass", concrete);
+  const auto asphalt = r.err.find("asphalt", grass);
+  EXPECT_NE(concrete, std::string::npos) << r.err;
+  EXPECT_NE(grass, std::string::npos) << r.err;
+  EXPECT_NE(asphalt, std::string::npos) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("most likely mode equals column 'mode' on"));
+  EXPECT_FALSE(fs::exists(out.string() + ".partial"));
+}
+
+TEST(Cli, RunHandlesGpsRowsMissingFromAFasterLog) {
+  const fs::path out = test_directory() / "out.csv";
+  const Result r =
+      run_skidimm("run -q --bank " + kSource + "/configs/stc_slip4.yaml --input " + kSource +
+                  "/configs/examples/stc_switching.csv --output " + out.string() + " --plugin-path " + kPlugins);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "") << "--quiet prints nothing";
+  const auto rows = read_csv(out);
+  const int status = column(rows[0], "status");
+  const int theta = column(rows[0], "theta");
+  long predict_only = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    predict_only += rows[i][status] == "predict_only";
+    const double heading = std::stod(rows[i][theta]);
+    ASSERT_TRUE(heading >= -M_PI && heading < M_PI) << "row " << i;
+  }
+  EXPECT_GT(predict_only, static_cast<long>(rows.size()) / 2) << "GPS is at 10 Hz in a 50 Hz log";
+  // Before the switch at 10 s the right-two-wheels mode dominates.
+  long right_two = 0, before_switch = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const double t = std::stod(rows[i][0]);
+    if (t < 2.0 || t >= 10.0) continue;
+    ++before_switch;
+    right_two += rows[i][column(rows[0], "mode")] == "slip_FR_RR";
+  }
+  EXPECT_GT(right_two, before_switch * 9 / 10);
+}
+
+TEST(Cli, BadBankIsReportedWithFileAndLineAndExitsNonZero) {
+  const fs::path dir = test_directory();
+  std::string bank = read_file(kSource + "/configs/physical/ltc_terrains.yaml");
+  bank.replace(bank.find("Q: {diagonal: [0.02, 0.02]}"), 27, "Q: {diagonal: [0.02]}");
+  const fs::path bank_file = write_file(dir / "broken.yaml", bank);
+  const Result r = run_skidimm("run --bank " + bank_file.string() + " --input " + kSource +
+                               "/configs/examples/ltc_switching.csv --output " + (dir / "out.csv").string() +
+                               " --plugin-path " + kPlugins);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("broken.yaml:"));
+  EXPECT_THAT(r.err, HasSubstr("modes[1].Q.diagonal: expected 2 values, got 1"));
+  EXPECT_FALSE(fs::exists(dir / "out.csv"));
+}
+
+TEST(Cli, BadRowMidLogKeepsTheRowsAlreadyComputed) {
+  const fs::path dir = test_directory();
+  std::string log = read_file(kSource + "/configs/examples/ltc_switching.csv");
+  // Corrupt the 101st data row's wheel speed.
+  std::size_t at = 0;
+  for (int line = 0; line < 102; ++line) at = log.find('\n', at) + 1;
+  log.replace(log.find(',', at) + 1, 1, "x");
+  const fs::path input = write_file(dir / "corrupt.csv", log);
+  const Result r = run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml --input " + input.string() +
+                               " --output " + (dir / "out.csv").string() + " --plugin-path " + kPlugins);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("corrupt.csv:103: column 2 ('phi_dot_L'): expected a finite number"));
+  EXPECT_THAT(r.err, HasSubstr("the 101 rows computed before the error are in"));
+  EXPECT_FALSE(fs::exists(dir / "out.csv")) << "an incomplete file must not carry the final name";
+  EXPECT_EQ(read_csv(dir / "out.csv.partial").size(), 102u);
+}
+
+TEST(Cli, MissingColumnNamesTheBankField) {
+  const fs::path dir = test_directory();
+  const fs::path input = write_file(dir / "log.csv", "t,phi_dot_L,phi_dot_R,V\n0,1,1,0\n");
+  const Result r = run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml --input " + input.string() +
+                               " --output " + (dir / "out.csv").string() + " --plugin-path " + kPlugins);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("no column 'omega' (the bank's columns.measurements.omega)"));
+}
+
+// ltc_terrains' asphalt and a mode whose plugin fails as `failure` says above 0.5 m/s.
+fs::path faulty_bank(const fs::path& dir, const std::string& failure) {
+  return write_file(dir / "faulty.yaml", R"(
+name: faulty
+states: [V, omega]
+inputs: [phi_dot_L, phi_dot_R]
+columns: {time: t, truth_mode: mode}
+measurement:
+  observe: [V, omega]
+  R: {std: [0.05, 0.02]}
+transition: {mean_dwell_time: 10.0}
+initial:
+  covariance: {std: [0.5, 0.5]}
+modes:
+  - name: asphalt
+    model: ltc_linear
+    params: {A: [[-36.28555, 0.935196], [0.5454627, -29.78963]], B: [[3.164964, 2.846713], [-4.866783, 4.78034]]}
+    Q: [[0.00556329, 0], [0, 0.003817253]]
+  - name: slippery
+    model: faulty_model
+    params: {failure: )" + failure + R"(, above: 0.5}
+    Q: {diagonal: [0.01, 0.01]}
+)");
+}
+
+// A plugin's bug must not take skidimm down: an .at() out of range in
+// predict ended in `terminate called`.
+TEST(Cli, RunSurvivesAPluginThatThrowsAndNamesTheModePluginAndReason) {
+  const fs::path dir = test_directory();
+  const fs::path out = dir / "out.csv";
+  const std::string input = kSource + "/configs/examples/ltc_switching.csv";
+  const std::string faulty = kFixturePlugins + "/faulty";
+  const Result r = run_skidimm("run --bank " + faulty_bank(dir, "predict_throws").string() + " --input " + input +
+                               " --output " + out.string() + " --plugin-path " + kPlugins + " --plugin-path " + faulty);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(read_csv(out).size(), read_csv(input).size());
+  EXPECT_THAT(r.err, HasSubstr("mode 'slippery' (plugin faulty_model 0.0.2 (" + faulty +
+                               "/faulty_plugin.so)) was rejected on "));
+  EXPECT_THAT(r.err, HasSubstr("because the model failed"));
+  EXPECT_THAT(r.err, HasSubstr("): the model failed: predict_fixed() threw: vector::_M_range_check"));
+  EXPECT_THAT(r.err, ::testing::Not(HasSubstr("mode 'asphalt' (plugin")));
+  // Which file and version each mode's plugin came from.
+  EXPECT_THAT(r.err, HasSubstr("mode 'asphalt': plugin ltc_linear 1.0.0 (" + kPlugins + "/skidimm_ltc_linear.so)"));
+
+  const Result nan = run_skidimm("run --bank " + faulty_bank(dir, "nan").string() + " --input " + input + " --output " +
+                                 out.string() + " --plugin-path " + kPlugins + " --plugin-path " + faulty);
+  ASSERT_EQ(nan.exit_code, 0) << nan.err;
+  EXPECT_THAT(nan.err, HasSubstr("because the model returned a non-finite state, Jacobian or process noise"));
+}
+
+TEST(Cli, RunMergesFilesByTimeAndSteadiesAtAFixedRate) {
+  const fs::path dir = test_directory();
+  const SplitLog log = split_example(dir);
+  const std::string bank = kSource + "/configs/ltc_terrains.yaml";
+  const Result events = run_skidimm("run -q --bank " + bank + " --input " + log.slow.string() + " --input " +
+                                    log.fast.string() + " --output " + (dir / "events.csv").string());
+  ASSERT_EQ(events.exit_code, 0) << events.err;
+  const auto rows = read_csv(dir / "events.csv");
+  // A step per time stamp until the slow file (the inputs) ends.
+  EXPECT_GT(rows.size(), static_cast<std::size_t>(log.fast_rows - 10));
+  long right = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) right += rows[i][column(rows[0], "mode")] == rows[i][column(rows[0], "truth_mode")];
+  EXPECT_GT(static_cast<double>(right) / static_cast<double>(rows.size() - 1), 0.85);
+
+  const Result fixed = run_skidimm("run --bank " + bank + " --input " + log.slow.string() + "+" + log.fast.string() +
+                                   " --rate 10 --output " + (dir / "fixed.csv").string());
+  ASSERT_EQ(fixed.exit_code, 0) << fixed.err;
+  const auto steps = read_csv(dir / "fixed.csv");
+  EXPECT_NEAR(static_cast<double>(steps.size() - 1), 300.0, 2.0) << "30 s at 10 Hz";
+  EXPECT_THAT(fixed.err, HasSubstr("measurement 'omega': "));
+  EXPECT_THAT(fixed.err, HasSubstr("replaced by a later one in the same step"));
+}
+
+TEST(CliIo, RunReadsLogsFromStandardInputPipesAndFifos) {
+  const fs::path dir = test_directory();
+  const fs::path reference = dir / "reference.csv";
+  ASSERT_EQ(run_pipeline(run_command(kTerrains, kSwitching, reference.string())).exit_code, 0);
+  const std::string expected = read_file(reference);
+  ASSERT_GT(expected.size(), 1000u);
+  struct Case {
+    std::string name, script;
+  };
+  const fs::path out = dir / "out.csv";
+  const std::vector<Case> cases = {
+      {"--input -", "cat " + kSwitching + " | " + run_command(kTerrains, "-", out.string())},
+      {"/dev/stdin", "cat " + kSwitching + " | " + run_command(kTerrains, "/dev/stdin", out.string())},
+      {"<(...)", run_command(kTerrains, "<(cat " + kSwitching + ")", out.string())},
+      {"FIFO", "mkfifo " + (dir / "fifo").string() + " && { cat " + kSwitching + " > " + (dir / "fifo").string() +
+                   " & } && " + run_command(kTerrains, (dir / "fifo").string(), out.string())},
+      {"--output -", "cat " + kSwitching + " | " + run_command(kTerrains, "-", "-") + " > " + out.string()},
+  };
+  for (const Case& c : cases) {
+    fs::remove(out);
+    const Result r = run_pipeline(c.script);
+    EXPECT_EQ(r.exit_code, 0) << c.name << ": " << r.err;
+    EXPECT_EQ(read_file(out), expected) << c.name;
+    EXPECT_FALSE(fs::exists(out.string() + ".partial")) << c.name;
+  }
+  // Standard input twice in one log cannot be.
+  const Result twice = run_pipeline("cat " + kSwitching + " | " + run_command(kTerrains, "- --input -", out.string()));
+  EXPECT_EQ(twice.exit_code, 1);
+  EXPECT_THAT(twice.err, HasSubstr("standard input ('-') can be one file of a log, not several"));
+}
+
+// The coprocess: writes one row, waits for its output row, then writes the next.
+TEST(CliIo, RunFlushWritesEachRowBeforeTheNextIsRead) {
+  int to_child[2], from_child[2];
+  ASSERT_EQ(::pipe(to_child), 0);
+  ASSERT_EQ(::pipe(from_child), 0);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    ::dup2(to_child[0], 0);
+    ::dup2(from_child[1], 1);
+    ::close(to_child[1]);
+    ::close(from_child[0]);
+    ::execl(kSkidimm.c_str(), kSkidimm.c_str(), "run", "-q", "--flush", "--bank", kTerrains.c_str(), "--plugin-path",
+            kPlugins.c_str(), "--input", "-", "--output", "-", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  ::close(to_child[0]);
+  ::close(from_child[1]);
+  std::FILE* in = ::fdopen(to_child[1], "w");
+  std::FILE* out = ::fdopen(from_child[0], "r");
+  ASSERT_NE(in, nullptr);
+  ASSERT_NE(out, nullptr);
+  std::ifstream log(kSwitching);
+  std::string line;
+  std::getline(log, line);
+  std::fprintf(in, "%s\n", line.c_str());
+  std::fflush(in);
+  auto read_line = [&] {
+    char buffer[4096];
+    if (std::fgets(buffer, sizeof(buffer), out) == nullptr) return std::string("<end>");
+    return std::string(buffer);
+  };
+  EXPECT_THAT(read_line(), HasSubstr("t,mu_asphalt,mu_grass,mu_crushed_concrete"));
+  for (int row = 0; row < 5 && std::getline(log, line); ++row) {
+    std::fprintf(in, "%s\n", line.c_str());
+    std::fflush(in);
+    // Blocks until the row for this input row is written: the input is still open.
+    const std::string output = read_line();
+    EXPECT_EQ(output.substr(0, output.find(',')), line.substr(0, line.find(','))) << "row " << row;
+  }
+  std::fclose(in);
+  EXPECT_EQ(read_line(), "<end>");
+  std::fclose(out);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+}
+
+// --likelihood-weight overrides the bank's: 1 is the plain IMM to the byte,
+// below 1 the probabilities are less sure of every mode; out of (0, 1] it
+// is a usage error.
+TEST(CliIo, RunLikelihoodWeightOverridesTheBanksAndIsChecked) {
+  const fs::path dir = test_directory();
+  const auto mean_largest_probability = [](const fs::path& file) {
+    const auto rows = read_csv(file);
+    double sum = 0.0;
+    for (std::size_t i = 1; i < rows.size(); ++i) {
+      sum += std::max({std::stod(rows[i][1]), std::stod(rows[i][2]), std::stod(rows[i][3])});
+    }
+    return sum / static_cast<double>(rows.size() - 1);
+  };
+  ASSERT_EQ(run_pipeline(run_command(kTerrains, kSwitching, (dir / "plain.csv").string())).exit_code, 0);
+  ASSERT_EQ(run_pipeline(run_command(kTerrains, kSwitching, (dir / "one.csv").string()) + " --likelihood-weight 1").exit_code, 0);
+  EXPECT_EQ(read_file(dir / "one.csv"), read_file(dir / "plain.csv"));
+  const Result tempered =
+      run_pipeline(run_command(kTerrains, kSwitching, (dir / "tempered.csv").string()) + " --likelihood-weight 0.05");
+  ASSERT_EQ(tempered.exit_code, 0) << tempered.err;
+  EXPECT_LT(mean_largest_probability(dir / "tempered.csv"), mean_largest_probability(dir / "plain.csv") - 0.05);
+  for (const std::string bad : {"0", "1.5", "-0.2", "nan", "abc"}) {
+    const Result refused =
+        run_pipeline(run_command(kTerrains, kSwitching, (dir / "bad.csv").string()) + " --likelihood-weight " + bad);
+    EXPECT_EQ(refused.exit_code, 2) << bad;
+    EXPECT_THAT(refused.err, HasSubstr("--likelihood-weight")) << bad;
+    EXPECT_FALSE(fs::exists(dir / "bad.csv")) << bad;
+  }
+}
+
+// The bundled switching log with one measurement cell replaced: data row
+// `row` (1-based, file line row + 1), column V.
+fs::path log_with_outlier(const fs::path& dir, int row, const std::string& value) {
+  std::string log = read_file(kSource + "/configs/examples/ltc_switching.csv");
+  std::size_t at = 0;
+  for (int line = 0; line < row; ++line) at = log.find('\n', at) + 1;
+  std::size_t cell = at;
+  for (int c = 0; c < 3; ++c) cell = log.find(',', cell) + 1;  // t, phi_dot_L, phi_dot_R, V
+  log.replace(cell, log.find(',', cell) - cell, value);
+  return write_file(dir / ("outlier_" + value + ".csv"), log);
+}
+
+// Every state finite and every variance >= 0 on every row.
+void expect_sound_rows(const std::vector<std::vector<std::string>>& rows, const std::string& where) {
+  const auto& header = rows[0];
+  for (const char* name : {"V", "omega", "var_V", "var_omega"}) {
+    const int c = column(header, name);
+    for (std::size_t r = 1; r < rows.size(); ++r) {
+      const double value = std::stod(rows[r][static_cast<std::size_t>(c)]);
+      ASSERT_TRUE(std::isfinite(value)) << where << ", row " << r << ", " << name;
+      if (name[0] == 'v') {
+        ASSERT_GE(value, 0.0) << where << ", row " << r << ", " << name;
+      }
+    }
+  }
+}
+
+// One measurement cell of 1e150 left every later row
+// all_modes_rejected with a negative var_V, exit 0.
+TEST(Cli, RunRecoversFromA1e150MeasurementWithinAFewRows) {
+  const fs::path dir = test_directory();
+  const fs::path input = log_with_outlier(dir, 187, "1e150");
+  const fs::path out = dir / "out.csv";
+  const std::string run = "run --bank " + kSource + "/configs/ltc_terrains.yaml --output " + out.string() +
+                          " --plugin-path " + kPlugins + " --input ";
+  const Result r = run_skidimm(run + input.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto rows = read_csv(out);
+  expect_sound_rows(rows, "1e150");
+  const int status = column(rows[0], "status"), reason = column(rows[0], "reason");
+  EXPECT_EQ(rows[187][status], "all_modes_rejected");
+  EXPECT_EQ(rows[187][reason], "asphalt: diverged, reset; grass: diverged, reset; crushed_concrete: diverged, reset");
+  for (std::size_t k = 190; k < rows.size(); ++k) ASSERT_EQ(rows[k][status], "updated") << "row " << k;
+  EXPECT_EQ(rows[186][reason], "");
+  EXPECT_THAT(r.err, HasSubstr("1 rows had at least one mode's filter rejected and reset"));
+  EXPECT_THAT(r.err, HasSubstr("because the filter diverged"));
+  // The estimates a few rows later are the clean log's.
+  const fs::path clean_out = dir / "clean.csv";
+  ASSERT_EQ(run_skidimm("run -q --bank " + kSource + "/configs/ltc_terrains.yaml --output " + clean_out.string() +
+                        " --plugin-path " + kPlugins + " --input " + kSource + "/configs/examples/ltc_switching.csv")
+                .exit_code,
+            0);
+  const auto clean = read_csv(clean_out);
+  const int v = column(rows[0], "V"), mode = column(rows[0], "mode");
+  for (std::size_t k = 195; k < rows.size(); ++k) {
+    ASSERT_NEAR(std::stod(rows[k][static_cast<std::size_t>(v)]), std::stod(clean[k][static_cast<std::size_t>(v)]), 0.02)
+        << "row " << k;
+  }
+  EXPECT_EQ(rows.back()[mode], clean.back()[mode]);
+
+  // With the smoother too: nothing non-finite, no negative variance.
+  const Result smoothed = run_skidimm(run + input.string() + " --smooth");
+  ASSERT_EQ(smoothed.exit_code, 0) << smoothed.err;
+  expect_sound_rows(read_csv(out), "1e150, smoothed");
+  const Result lagged = run_skidimm(run + input.string() + " --lag 0.5 --innovation-gate 0.9999");
+  ASSERT_EQ(lagged.exit_code, 0) << lagged.err;
+  const auto lagged_rows = read_csv(out);
+  expect_sound_rows(lagged_rows, "1e150, gated, lag 0.5");
+  EXPECT_EQ(lagged_rows[187][status], "gated");
+}
+
+TEST(Cli, RunStaysSoundForOutliersFrom1e6To1e300AndTheGateRemovesThem) {
+  const fs::path dir = test_directory();
+  const fs::path out = dir / "out.csv";
+  const std::string run =
+      "run --bank " + kSource + "/configs/ltc_terrains.yaml --output " + out.string() + " --plugin-path " + kPlugins;
+  for (int exponent = 6; exponent <= 300; exponent += exponent < 140 || exponent >= 160 ? 20 : 2) {
+    const std::string value = "1e" + std::to_string(exponent);
+    const fs::path input = log_with_outlier(dir, 187, value);
+    const Result plain = run_skidimm(run + " -q --input " + input.string());
+    ASSERT_EQ(plain.exit_code, 0) << value << ": " << plain.err;
+    expect_sound_rows(read_csv(out), value);
+
+    const Result gated = run_skidimm(run + " --innovation-gate 0.9999 --input " + input.string());
+    ASSERT_EQ(gated.exit_code, 0) << value << ": " << gated.err;
+    const auto rows = read_csv(out);
+    expect_sound_rows(rows, value + ", gated");
+    const int status = column(rows[0], "status"), reason = column(rows[0], "reason");
+    EXPECT_EQ(rows[187][status], "gated") << value;
+    EXPECT_THAT(rows[187][reason], HasSubstr("asphalt: gated (NIS ")) << value;
+    EXPECT_EQ(rows[188][status], "updated") << value;
+    EXPECT_THAT(gated.err, HasSubstr("innovation gate 0.9999: ")) << value;
+  }
+}
+
+TEST(Cli, StrictStopsAtTheFirstRejectionNamingRowModePluginAndReasonAndKeepsTheRows) {
+  const fs::path dir = test_directory();
+  const fs::path out = dir / "out.csv";
+  const std::string input = kSource + "/configs/examples/ltc_switching.csv";
+  const std::string faulty = kFixturePlugins + "/faulty";
+  const Result r =
+      run_skidimm("run --strict --bank " + faulty_bank(dir, "predict_throws").string() + " --input " + input +
+                  " --output " + out.string() + " --plugin-path " + kPlugins + " --plugin-path " + faulty);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("mode 'slippery' (plugin faulty_model 0.0.2 (" + faulty +
+                               "/faulty_plugin.so)) was rejected: the model failed: predict_fixed() threw"));
+  EXPECT_THAT(r.err, HasSubstr("--strict stops at the first rejection"));
+  EXPECT_FALSE(fs::exists(out));
+  const auto rows = read_csv(dir / "out.csv.partial");
+  ASSERT_GE(rows.size(), 3u);
+  // The error names the last row written, which carries the reason.
+  const std::size_t last = rows.size() - 1;
+  EXPECT_THAT(r.err, HasSubstr("row " + std::to_string(last) + " (t = " + rows[last][0] + "): mode 'slippery'"));
+  EXPECT_EQ(rows[last][column(rows[0], "status")], "mode_reset");
+  EXPECT_THAT(rows[last][column(rows[0], "reason")], HasSubstr("slippery: model failed, reset: predict_fixed() threw"));
+  EXPECT_THAT(r.err, HasSubstr("the " + std::to_string(last) + " rows computed before the error are in"));
+
+  // The same run without --strict goes to the end; a diverged filter stops a strict run too.
+  const Result outlier = run_skidimm("run --strict --bank " + kSource + "/configs/ltc_terrains.yaml --input " +
+                                     log_with_outlier(dir, 187, "1e150").string() + " --output " + out.string() +
+                                     " --plugin-path " + kPlugins);
+  EXPECT_EQ(outlier.exit_code, 1);
+  EXPECT_THAT(outlier.err, HasSubstr("row 187 (t = 3.714): mode 'asphalt' (plugin ltc_linear 1.0.0 ("));
+  EXPECT_THAT(outlier.err, HasSubstr("was rejected: the filter diverged"));
+}
+
+}  // namespace
+}  // namespace skidimm_test

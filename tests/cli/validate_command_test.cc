@@ -1,0 +1,101 @@
+// `skidimm validate`: a bank's modes, their plugins and versions, the
+// conformance checks at a real log's operating points (--check), and noise
+// matrices out of range.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <sstream>
+#include <string>
+
+#include "cli/cli_test_support.h"
+
+namespace skidimm_test {
+namespace {
+
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+TEST(Cli, ValidateReportsTheBankAndItsModes) {
+  const Result ok = run_skidimm("validate " + kSource + "/configs/stc_slip4.yaml --plugin-path " + kPlugins);
+  EXPECT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_THAT(ok.out, HasSubstr("stc_slip4.yaml: OK"));
+  EXPECT_THAT(ok.out, HasSubstr("angles [theta]"));
+  EXPECT_THAT(ok.out, HasSubstr("slip_FR_RR"));
+  const Result missing = run_skidimm("validate /nonexistent.yaml");
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_THAT(missing.err, HasSubstr("/nonexistent.yaml: no such bank file"));
+}
+
+TEST(Cli, ValidateNamesEachModesPluginFileAndVersion) {
+  const Result r = run_skidimm("validate " + kSource + "/configs/stc_slip4.yaml --plugin-path " + kPlugins);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("  plugins:\n    no_slip: plugin stc_kinematic 1.0.0 (" + kPlugins +
+                               "/skidimm_stc_kinematic.so)"));
+}
+
+// A wrong analytic Jacobian does not stop a run, it only makes it worse:
+// `validate --check` finds it at operating points of a real log (the Husky
+// ice log), naming the entry, the point and both values, and passes the
+// bundled bank fitted to that log.
+TEST(Cli, ValidateCheckFindsAWrongJacobianAtOperatingPointsOfARealLog) {
+  const std::string ice = std::string(SKIDIMM_SHARED_DATA_DIR) + "/husky_ice";
+  if (!fs::exists(ice)) GTEST_SKIP() << "no shared data at " << ice;
+  const std::string log = ice + "/TSyn_01.csv+" + ice + "/joint_states_01.csv";
+  const std::string bundled = kSource + "/configs/husky/ice_ltc.yaml";
+  const Result ok = run_skidimm("validate " + bundled + " --plugin-path " + kPlugins + " --check " + log);
+  ASSERT_EQ(ok.exit_code, 0) << ok.err << ok.out;
+  EXPECT_THAT(ok.out, HasSubstr("  model checks (the conformance kit's) at 20 operating points of 1 log(s):\n"
+                                "    ice: ok\n"));
+
+  // The bundled bank with its model replaced by one whose d V' / d omega has the wrong sign.
+  std::string yaml = read_file(bundled);
+  const std::size_t model = yaml.find("    model: ltc_linear\n");
+  ASSERT_NE(model, std::string::npos);
+  const std::size_t params_end = yaml.find('\n', yaml.find("    params:", model));
+  yaml.replace(model, params_end - model, "    model: wrong_jacobian\n    params: {k: 8, c: 0.5}");
+  yaml.replace(yaml.find("modes:\n"), 7, "shared: {r: 0.165, b: 0.555}\nmodes:\n");
+  const fs::path dir = test_directory();
+  const fs::path bank = write_file(dir / "wrong_jacobian.yaml", yaml);
+  const std::string plugins = " --plugin-path " + kPlugins + " --plugin-path " + kFixturePlugins + "/wrong_jacobian";
+  const Result wrong = run_skidimm("validate " + bank.string() + plugins + " --check " + log);
+  EXPECT_EQ(wrong.exit_code, 1) << wrong.out;
+  EXPECT_THAT(wrong.out, HasSubstr("    ice: FAILED at "));
+  EXPECT_THAT(wrong.out, HasSubstr(" of 20 points; first at " + log + " step "));
+  EXPECT_THAT(wrong.out, HasSubstr("jacobian() differs from central differences by "));
+  EXPECT_THAT(wrong.out, HasSubstr(" at x = ["));
+  EXPECT_THAT(wrong.err, HasSubstr("a mode's model fails the checks"));
+  // The named entry is the wrong one, and its analytic value is the numeric one negated.
+  const std::string entry = "entry (row 0 'V', column 1 'omega'): analytic ";
+  const std::size_t at = wrong.out.find(entry);
+  ASSERT_NE(at, std::string::npos) << wrong.out;
+  std::istringstream values(wrong.out.substr(at + entry.size()));
+  double analytic = 0.0, numeric = 0.0;
+  std::string comma, word;
+  values >> analytic >> comma >> word >> numeric;
+  EXPECT_EQ(comma + " " + word, ", numeric");
+  EXPECT_NE(analytic, 0.0);
+  EXPECT_NEAR(analytic, -numeric, 1e-6 * std::abs(numeric));
+
+  // The same model runs: the check is what finds it.
+  const Result ran = run_skidimm("run -q --bank " + bank.string() + plugins + " --input " + log + " --output " +
+                                 (dir / "out.csv").string());
+  EXPECT_EQ(ran.exit_code, 0) << ran.err;
+}
+
+TEST(Cli, ValidateRefusesAQOf1e300) {
+  const fs::path dir = test_directory();
+  std::string bank = read_file(kSource + "/configs/ltc_terrains.yaml");
+  const std::size_t q = bank.find("Q:");
+  ASSERT_NE(q, std::string::npos);
+  bank.replace(q, bank.find('\n', q) - q, "Q: [[1e300, 0], [0, 1e300]]");
+  const fs::path file = write_file(dir / "huge_q.yaml", bank);
+  const Result r = run_skidimm("validate " + file.string() + " --plugin-path " + kPlugins);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("huge_q.yaml:"));
+  EXPECT_THAT(r.err, HasSubstr(".Q (mode '"));
+  EXPECT_THAT(r.err, HasSubstr("entry (0, 0) = 1e+300 is larger in magnitude than 1e+15"));
+}
+
+}  // namespace
+}  // namespace skidimm_test
