@@ -18,6 +18,7 @@
 
 #include "commands.h"
 #include "documentation.h"
+#include "skidimm/estimates_writer.h"
 #include "skidimm/log_arguments.h"
 #include "skidimm/log_io.h"
 #include "skidimm/output_file.h"
@@ -390,8 +391,13 @@ int main(int argc, char** argv) {
     run_options.plugin_paths = paths;
     if (!run_plot.empty()) {
       if (fs::path(output).extension() == ".mcap") {
-        std::cerr << "skidimm run: --plot draws a CSV or .npy output; an .mcap output is for Foxglove ("
+        std::cerr << "skidimm run: --plot draws a CSV output; an .mcap output is for Foxglove ("
                   << documentation_path("docs/foxglove.md") << ")\n";
+        return kExitUsage;
+      }
+      if (skidimm::EstimatesWriter::is_npy(output)) {
+        std::cerr << "skidimm run: --plot draws a CSV output; a .npy output is for NumPy (numpy.load): write "
+                     "--output X.csv to plot it\n";
         return kExitUsage;
       }
       // The figure reads the estimates and the log again after the run.

@@ -89,6 +89,13 @@ CsvReader::CsvReader(const fs::path& path) : path_(path) {
   try {
     buffer_.resize(kReadBlock);
     if (!read_record()) throw LogError(path_.string(), 1, "empty file: expected a header row of column names");
+    // A NumPy array (`skidimm run --output X.npy`) would otherwise be read as
+    // a header of binary junk and refused for a confusing reason.
+    if (field_count_ > 0 && fields_[0].compare(0, 6, "\x93NUMPY") == 0) {
+      throw LogError(path_.string(), 1,
+                     "a NumPy array (.npy), not CSV: this command reads CSV (for a `skidimm run` output, run it "
+                     "again with --output X.csv; numpy.load reads the .npy)");
+    }
     header_.assign(fields_.begin(), fields_.begin() + static_cast<std::ptrdiff_t>(field_count_));
     if (!header_.empty() && header_[0].size() >= 3 && header_[0].compare(0, 3, "\xEF\xBB\xBF") == 0) {
       header_[0].erase(0, 3);  // UTF-8 byte-order mark from spreadsheet exports

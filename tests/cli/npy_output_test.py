@@ -1,6 +1,8 @@
 """`skidimm run --output out.npy` read by NumPy, against the CSV output of
 the same run: every number the same double, every text the same, and each
-reason_code mapping through out.reasons.json to the CSV's reason.
+reason_code mapping through out.reasons.json to the CSV's reason. The
+commands that read a run's output as CSV (plot, eval --estimates, run
+--plot) refuse a .npy, saying so.
 
 Usage: npy_output_test.py SOURCE_DIR SKIDIMM WORK_DIR
 """
@@ -64,6 +66,19 @@ def main():
     size_npy = (work / "out.npy").stat().st_size + (work / "out.reasons.json").stat().st_size
     if size_npy > (work / "out.csv").stat().st_size:
         failures.append(f".npy and its table ({size_npy} bytes) larger than the CSV")
+    # What reads CSV says it was given a NumPy array, and run --plot refuses
+    # before computing anything.
+    for command in (["plot", "--estimates", str(work / "out.npy"), "--output", str(work / "fig.png")],
+                    ["eval", "--estimates", str(work / "out.npy")]):
+        done = subprocess.run([skidimm, *command], capture_output=True, text=True)
+        if done.returncode != 1 or "a NumPy array (.npy), not CSV" not in done.stderr:
+            failures.append(f"skidimm {command[0]} on a .npy: exit {done.returncode}, {done.stderr.strip()!r}")
+    done = subprocess.run([skidimm, "run", "-q", "--bank", str(source / "configs" / "ltc_terrains.yaml"),
+                           "--input", str(source / "configs" / "examples" / "ltc_switching.csv"),
+                           "--output", str(work / "plotted.npy"), "--plot", str(work / "fig.png")],
+                          capture_output=True, text=True)
+    if done.returncode != 2 or "--plot draws a CSV output" not in done.stderr or (work / "plotted.npy").exists():
+        failures.append(f"run --output .npy --plot: exit {done.returncode}, {done.stderr.strip()!r}")
     for failure in failures:
         print("FAIL:", failure)
     print(f"{len(estimates)} records, {with_reason} with a reason, {len(texts)} distinct reason texts")
