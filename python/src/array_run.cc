@@ -18,8 +18,8 @@ bool accepted(StepStatus status) { return status != StepStatus::kRejectedTime &&
 
 // Writes row k; the decision is left for the caller. `reason` is scratch
 // whose capacity is reused (describe_step).
-void write_row(long k, double t, const ImmEstimate& e, const std::vector<std::string>& names,
-               std::string* reason, RunColumns* out) {
+void write_row(long k, double t, const ImmEstimate& e, const std::vector<std::string>& names, std::string* reason,
+               RunColumns* out) {
   out->t[k] = t;
   for (std::size_t j = 0; j < out->mu.size(); ++j) out->mu[j][k] = e.mode_probabilities[static_cast<Eigen::Index>(j)];
   for (std::size_t i = 0; i < out->state.size(); ++i) {

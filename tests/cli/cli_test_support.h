@@ -19,7 +19,7 @@
 namespace skidimm_test {
 
 inline const std::string kSource = SKIDIMM_SOURCE_DIR;
-inline const std::string kPlugins = SKIDIMM_PLUGIN_DIR;                // the bundled plugins
+inline const std::string kPlugins = SKIDIMM_PLUGIN_DIR;               // the bundled plugins
 inline const std::string kFixturePlugins = SKIDIMM_TEST_PLUGIN_ROOT;  // the tests' own, broken on purpose
 inline const std::string kSkidimm = SKIDIMM_EXECUTABLE;
 inline const std::string kTerrains = kSource + "/configs/ltc_terrains.yaml";
@@ -46,9 +46,8 @@ inline std::filesystem::path capture_directory(const std::string& kind) {
 // Runs a shell command line with standard input from /dev/null, its stdout
 // and stderr captured.
 inline Result run_captured(const std::string& command, const std::filesystem::path& dir) {
-  const int status = std::system((command + " > " + (dir / "out").string() + " 2> " + (dir / "err").string() +
-                                  " < /dev/null")
-                                     .c_str());
+  const int status = std::system(
+      (command + " > " + (dir / "out").string() + " 2> " + (dir / "err").string() + " < /dev/null").c_str());
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_file(dir / "out"), read_file(dir / "err")};
 }
 
