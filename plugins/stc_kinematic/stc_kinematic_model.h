@@ -5,6 +5,7 @@
 #define SKIDIMM_PLUGINS_STC_KINEMATIC_STC_KINEMATIC_MODEL_H_
 
 #include "skidimm/sdk/function_model.h"
+#include "stc_common/stc_pose_spec.h"
 #include "stc_kinematic/stc_kinematic_predict.h"
 
 namespace skidimm {
@@ -15,24 +16,16 @@ struct StcKinematic {
   static constexpr const char* kVersion = "1.0.0";
   static constexpr const char* kDescription =
       "Kinematic pose model [X, Y, theta] with per-mode slip constants k_i, m_i (paper eq. 3)";
-  static constexpr sdk::VariableDoc kStates[] = {
-      {"X", "position in the world frame (m)", false},
-      {"Y", "position in the world frame (m)", false},
-      {"theta", "heading (rad)", true},
-  };
-  static constexpr sdk::VariableDoc kInputs[] = {
-      {"phi_dot_L", "left wheel speed (rad/s)", false},
-      {"phi_dot_R", "right wheel speed (rad/s)", false},
-  };
+  static constexpr const auto& kStates = StcPoseSpec::kStates;
+  static constexpr const auto& kInputs = StcPoseSpec::kInputs;
   static constexpr sdk::VariableDoc kOutputs[] = {
       {"omega", "yaw rate m r (phi_dot_R - phi_dot_L) / b (rad/s), for a gyro", false},
   };
-  // Geometry is the robot's, not the terrain's: one value for the whole bank.
   static constexpr sdk::ParameterSpec kParameters[] = {
       {"k", "longitudinal efficiency: actual / requested forward speed (-)", 0.0, 2.0},
       {"m", "yaw efficiency: actual / requested yaw rate (-)", 0.0, 2.0},
-      {"r", "wheel radius (m)", 1e-6, sdk::kInfinity, sdk::ParameterScope::kBank},
-      {"b", "track width (m)", 1e-6, sdk::kInfinity, sdk::ParameterScope::kBank},
+      StcPoseSpec::kWheelRadius,
+      StcPoseSpec::kTrackWidth,
   };
   enum { kK, kM, kR, kB };
 

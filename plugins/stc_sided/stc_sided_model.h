@@ -6,6 +6,7 @@
 #define SKIDIMM_PLUGINS_STC_SIDED_STC_SIDED_MODEL_H_
 
 #include "skidimm/sdk/function_model.h"
+#include "stc_common/stc_pose_spec.h"
 #include "stc_sided/stc_sided_predict.h"
 
 namespace skidimm {
@@ -17,20 +18,12 @@ struct StcSided {
   static constexpr const char* kDescription =
       "Kinematic pose model [X, Y, theta] with per-side tread efficiencies and tread ICRs per mode (Mandow et al. "
       "2007)";
-  static constexpr sdk::VariableDoc kStates[] = {
-      {"X", "position in the world frame (m)", false},
-      {"Y", "position in the world frame (m)", false},
-      {"theta", "heading (rad)", true},
-  };
-  static constexpr sdk::VariableDoc kInputs[] = {
-      {"phi_dot_L", "left wheel speed (rad/s)", false},
-      {"phi_dot_R", "right wheel speed (rad/s)", false},
-  };
+  static constexpr const auto& kStates = StcPoseSpec::kStates;
+  static constexpr const auto& kInputs = StcPoseSpec::kInputs;
   static constexpr sdk::VariableDoc kOutputs[] = {
       {"omega", "yaw rate of the tread ICR kinematics (rad/s), for a gyro", false},
   };
-  // In stc_sided::Parameter order. Geometry is the robot's, not the ground's:
-  // one value for the whole bank.
+  // In stc_sided::Parameter order.
   static constexpr sdk::ParameterSpec kParameters[] = {
       {"eta_l", "left tread efficiency: ground speed / (r phi_dot_L) (-)", 0.0, 2.0},
       {"eta_r", "right tread efficiency: ground speed / (r phi_dot_R) (-)", 0.0, 2.0},
@@ -43,8 +36,8 @@ struct StcSided {
       {"alpha_r_inner",
        "right tread ICR at -alpha b / 2 when it is the inner tread, turning right (-; 1 = on the wheels)", 0.1, 100.0},
       {"x_icr", "longitudinal position of the vehicle's ICR (m)", -2.0, 2.0},
-      {"r", "wheel radius (m)", 1e-6, sdk::kInfinity, sdk::ParameterScope::kBank},
-      {"b", "track width (m)", 1e-6, sdk::kInfinity, sdk::ParameterScope::kBank},
+      StcPoseSpec::kWheelRadius,
+      StcPoseSpec::kTrackWidth,
   };
   static_assert(sdk::flat_parameter_count(kParameters) == stc_sided::kNumParameters, "one row per parameter");
   static_assert(sdk::parameter_offset(kParameters, "b") == stc_sided::kTrack, "the table in Parameter order");
