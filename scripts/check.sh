@@ -5,6 +5,11 @@
 #   ./scripts/check.sh           ASan+UBSan build, the test suite under it, each fuzz target for a bounded time
 #   ./scripts/check.sh --tsan    also the ThreadSanitizer build and its thread-safety tests
 #   ./scripts/check.sh --only-tsan
+#   ./scripts/check.sh --build-only   only configure and build the ASan+UBSan tree
+#   ./scripts/check.sh --skip-build   the suite and the fuzzers on the tree built before
+#
+# (test.sh builds the sanitizer tree beside the Release build and suite with
+# --build-only, then runs the rest with --skip-build.)
 #
 # ASan+UBSan: one clang build at -O1 (SKIDIMM_SANITIZE=address), undefined
 # behaviour fatal (-fno-sanitize-recover), of the core, the plugins, the CLI,
@@ -31,11 +36,15 @@ jobs=${SKIDIMM_JOBS:-$(nproc 2>/dev/null || echo 2)}
 fuzz_seconds=${SKIDIMM_FUZZ_SECONDS:-60}
 asan=1
 tsan=0
+build_asan=1
+test_asan=1
 for arg in "$@"; do
   case "$arg" in
     --tsan) tsan=1 ;;
     --only-tsan) asan=0; tsan=1 ;;
-    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
+    --build-only) test_asan=0 ;;
+    --skip-build) build_asan=0 ;;
+    -h|--help) sed -n '2,31p' "$0"; exit 0 ;;
     *) echo "check.sh: unknown argument '$arg' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -58,9 +67,15 @@ export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 
 if [ "$asan" -eq 1 ]; then
   dir=$build/sanitize-address
-  stamp "ASan+UBSan build in $dir"
-  configure "$dir" -DSKIDIMM_SANITIZE=address -DSKIDIMM_BUILD_FUZZERS=ON
-  cmake --build "$dir" -j "$jobs"
+  if [ "$build_asan" -eq 1 ]; then
+    stamp "ASan+UBSan build in $dir"
+    configure "$dir" -DSKIDIMM_SANITIZE=address -DSKIDIMM_BUILD_FUZZERS=ON
+    cmake --build "$dir" -j "$jobs"
+  fi
+  if [ "$test_asan" -eq 0 ]; then
+    stamp "ASan+UBSan build done"
+    exit 0
+  fi
   stamp "ASan+UBSan test suite (without the reproduction tests)"
   export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:strict_string_checks=1:detect_stack_use_after_return=1}
   # Not the OutOfTree and Install tests either: they install this build (and
