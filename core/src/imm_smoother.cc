@@ -30,6 +30,19 @@ ImmSmoother::ImmSmoother(const Bank& bank)
   pair_means_.resize(n, modes);
   deviations_.resize(n, modes);
   means_.resize(n, modes);
+  c_.resize(modes);
+  joint_.resize(modes, modes);
+  weights_.resize(modes);
+  predicted_.resize(n);
+  difference_.resize(n);
+  f_.resize(n, n);
+  q_.resize(n, n);
+  f_px_.resize(n, n);
+  predicted_covariance_.resize(n, n);
+  gain_.resize(n, n);
+  gain_transposed_.resize(n, n);
+  pair_covariances_.assign(static_cast<std::size_t>(modes), Eigen::MatrixXd(n, n));
+  ldlt_ = Eigen::LDLT<Eigen::MatrixXd>(n);
 }
 
 void ImmSmoother::combine(SmoothedStep* s) const {
@@ -54,10 +67,11 @@ void ImmSmoother::backward(const ForwardStep& k, double t_next, const SmoothedSt
   const double dt = t_next - k.t;
   const Eigen::MatrixXd& p = transition_.matrix(dt);  // row j (from, at k), column i (to, at k+1)
   const Eigen::VectorXd& mu = k.mode_probabilities;
-  const Eigen::VectorXd c = p.transpose() * mu;  // predicted probabilities of k+1
+  c_.noalias() = p.transpose() * mu;  // predicted probabilities of k+1
+  const Eigen::VectorXd& c = c_;
 
   // Smoothed joint probabilities of (m_k = j, m_{k+1} = i), Kim's approximation.
-  Eigen::MatrixXd joint(modes, modes);
+  Eigen::MatrixXd& joint = joint_;
   for (int j = 0; j < modes; ++j) {
     for (int i = 0; i < modes; ++i) {
       joint(j, i) = c[i] > 0.0 ? next.mode_probabilities[i] * p(j, i) * mu[j] / c[i] : 0.0;
@@ -71,10 +85,10 @@ void ImmSmoother::backward(const ForwardStep& k, double t_next, const SmoothedSt
   out->mode_states.resize(static_cast<std::size_t>(modes));
   out->mode_covariances.resize(static_cast<std::size_t>(modes));
 
-  Eigen::VectorXd predicted(n), difference(n);
-  Eigen::MatrixXd f(n, n), q(n, n), predicted_covariance(n, n), gain(n, n);
-  std::vector<Eigen::MatrixXd> pair_covariances(static_cast<std::size_t>(modes), Eigen::MatrixXd(n, n));
-  Eigen::VectorXd weights(modes);
+  // The workspace is the smoother's: a pair of modes allocates nothing but
+  // the temporaries of the RTS covariance update.
+  Eigen::VectorXd &predicted = predicted_, &difference = difference_, &weights = weights_;
+  Eigen::MatrixXd &f = f_, &q = q_, &predicted_covariance = predicted_covariance_, &gain = gain_;
   for (int j = 0; j < modes; ++j) {
     const Eigen::VectorXd& x = k.mode_states[static_cast<std::size_t>(j)];
     const Eigen::MatrixXd& px = k.mode_covariances[static_cast<std::size_t>(j)];
@@ -90,18 +104,24 @@ void ImmSmoother::backward(const ForwardStep& k, double t_next, const SmoothedSt
         for (int d = 0; d < n; ++d) {
           if (angle_mask_[static_cast<std::size_t>(d)]) predicted[d] = sdk::wrap_angle(predicted[d]);
         }
-        predicted_covariance.noalias() = f * px * f.transpose();
+        // F P, once: it is the left factor of F P F' and the right-hand side of the gain's solve.
+        f_px_.noalias() = f * px;
+        predicted_covariance.noalias() = f_px_ * f.transpose();
         predicted_covariance += q;
         symmetrize(predicted_covariance);
         // J = P F' (P^ji)^-1, solved: J' = (P^ji)^-1 F P.
-        Eigen::LDLT<Eigen::MatrixXd> ldlt(predicted_covariance);
-        ok = ldlt.info() == Eigen::Success && ldlt.isPositive() && (ldlt.vectorD().array() > 0.0).all();
-        if (ok) gain = ldlt.solve(f * px).transpose();
+        ldlt_.compute(predicted_covariance);
+        ok = ldlt_.info() == Eigen::Success && ldlt_.isPositive() && (ldlt_.vectorD().array() > 0.0).all();
+        if (ok) {
+          gain_transposed_ = ldlt_.solve(f_px_);
+          gain = gain_transposed_.transpose();
+        }
         ok = ok && gain.allFinite();
       }
+      Eigen::MatrixXd& pc = pair_covariances_[static_cast<std::size_t>(i)];
       if (!ok) {  // this pair cannot be smoothed: keep the filtered estimate for it
         pair_means_.col(i) = x;
-        pair_covariances[static_cast<std::size_t>(i)] = px;
+        pc = px;
         continue;
       }
       difference = next.mode_states[static_cast<std::size_t>(i)] - predicted;
@@ -112,7 +132,6 @@ void ImmSmoother::backward(const ForwardStep& k, double t_next, const SmoothedSt
       for (int d = 0; d < n; ++d) {
         if (angle_mask_[static_cast<std::size_t>(d)]) pair_means_(d, i) = sdk::wrap_angle(pair_means_(d, i));
       }
-      Eigen::MatrixXd& pc = pair_covariances[static_cast<std::size_t>(i)];
       pc = px + gain * (next.mode_covariances[static_cast<std::size_t>(i)] - predicted_covariance) * gain.transpose();
       symmetrize(pc);
       // Across a step where the filter reset a mode (or a near-singular
@@ -123,17 +142,17 @@ void ImmSmoother::backward(const ForwardStep& k, double t_next, const SmoothedSt
         pc = px;
       }
     }
-    Eigen::VectorXd mean(n);
+    Eigen::VectorXd& mean = out->mode_states[static_cast<std::size_t>(j)];
+    mean.resize(n);
     weighted_mean(angle_mask_, weights, pair_means_, mean, deviations_);
-    Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(n, n);
+    Eigen::MatrixXd& covariance = out->mode_covariances[static_cast<std::size_t>(j)];
+    covariance.setZero(n, n);
     for (int i = 0; i < modes; ++i) {
       if (weights[i] == 0.0) continue;
-      covariance.noalias() += weights[i] * pair_covariances[static_cast<std::size_t>(i)];
+      covariance.noalias() += weights[i] * pair_covariances_[static_cast<std::size_t>(i)];
       covariance.noalias() += weights[i] * deviations_.col(i) * deviations_.col(i).transpose();
     }
     symmetrize(covariance);
-    out->mode_states[static_cast<std::size_t>(j)] = mean;
-    out->mode_covariances[static_cast<std::size_t>(j)] = covariance;
   }
   combine(out);
 }

@@ -33,6 +33,7 @@
 #ifndef SKIDIMM_IMM_SMOOTHER_H_
 #define SKIDIMM_IMM_SMOOTHER_H_
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <deque>
 #include <vector>
@@ -93,6 +94,13 @@ class ImmSmoother {
   Eigen::MatrixXd pair_means_;  // n x N: x_{k|N}^{ji} for one j, over i
   Eigen::MatrixXd deviations_;
   Eigen::MatrixXd means_;
+  Eigen::VectorXd c_;       // N: predicted mode probabilities of k+1
+  Eigen::MatrixXd joint_;   // N x N
+  Eigen::VectorXd weights_;  // N: of the pairs (j, i) over i
+  Eigen::VectorXd predicted_, difference_;
+  Eigen::MatrixXd f_, q_, f_px_, predicted_covariance_, gain_, gain_transposed_;
+  std::vector<Eigen::MatrixXd> pair_covariances_;  // N, n x n each
+  Eigen::LDLT<Eigen::MatrixXd> ldlt_;
 };
 
 // Fixed-lag smoothing for online use that can wait: each step's smoothed
