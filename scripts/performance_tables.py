@@ -135,6 +135,11 @@ def measure(args):
     end_load = list(os.getloadavg())
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
                             text=True).stdout.strip()
+    # Changes not committed, outside what this script writes: the figures are not that commit's.
+    changed = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
+                             capture_output=True, text=True).stdout.splitlines()
+    if any(not line[3:].startswith(("docs/performance", "README.md")) for line in changed):
+        commit += " with uncommitted changes"
     results = {
         "generated_by": "scripts/performance_tables.py",
         "date": started.strftime("%Y-%m-%d"),
