@@ -588,6 +588,10 @@ bytes and the number text against what they replaced
 `EstimatesWriter.CsvIsByteForByteTheOriginalFormat`, `NumberText.*`), and the
 `.npy` output read by NumPy against the CSV (`NpyOutput.NumpyReadsWhatTheCsvHolds`).
 
+The Python package's routes (a model written in Python, `Imm.run` over
+NumPy arrays) against the C++ loop are measured by `scripts/python_benchmark.py`,
+which stores its own run and writes [python.md](python.md#speed)'s table.
+
 FilterPy's `IMMEstimator` is not measured here: FilterPy is not packaged for
 Debian, so it is not among the project's dependencies.
 """
