@@ -133,8 +133,12 @@ def measure(args):
     started = datetime.datetime.now(datetime.timezone.utc)
     report = run_benchmarks(binary, args.repetitions, args.filter)
     end_load = list(os.getloadavg())
-    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
-                            text=True).stdout.strip()
+    # The last commit that changed anything but what this script writes (and
+    # the script itself): the code measured. A commit of this page alone,
+    # rebased before it lands, would otherwise name a commit main never had.
+    own = ["docs/performance.md", "docs/performance", "README.md", "scripts/performance_tables.py"]
+    commit = subprocess.run(["git", "-C", str(ROOT), "log", "-1", "--format=%h", "--", "."] +
+                            [f":(exclude){path}" for path in own], capture_output=True, text=True).stdout.strip()
     # Changes not committed, outside what this script writes: the figures are not that commit's.
     changed = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
                              capture_output=True, text=True).stdout.splitlines()
