@@ -104,7 +104,9 @@ void append_json_string(std::string_view text, std::string* out) {
       if (c == 0xed) valid = valid && second < 0xa0;
       if (c == 0xf0) valid = valid && second >= 0x90;
       if (c == 0xf4) valid = valid && second < 0x90;
-      for (std::size_t k = 2; k < length; ++k) valid = valid && (static_cast<unsigned char>(text[i + k]) & 0xc0) == 0x80;
+      for (std::size_t k = 2; k < length; ++k) {
+        valid = valid && (static_cast<unsigned char>(text[i + k]) & 0xc0) == 0x80;
+      }
       if (valid) {
         out->append(text.substr(i, length));
         i += length;
@@ -366,7 +368,7 @@ EstimatesWriter::EstimatesWriter(const fs::path& path, const BankConfig& config,
   for (const std::string& c : config.class_names()) longest_class = std::max(longest_class, c.size());
   std::vector<std::size_t> widths{longest_mode, longest_class};
   if (with_truth) widths.push_back(std::max<std::size_t>(64, std::max(longest_mode, longest_class)));
-  widths.push_back(18);  // "all_modes_rejected"
+  widths.push_back(18);          // "all_modes_rejected"
   names.back() = "reason_code";  // into the table of reasons_path()
   npy_ = std::make_unique<Npy>(path, names, names.size() - widths.size() - 1, widths);
 }

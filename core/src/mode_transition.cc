@@ -17,12 +17,56 @@ constexpr double kMaxUniformisedRate = 50.0;
 // series then reaches 1e-17 in at most 12 terms.
 constexpr double kMaxCorrection = 0.1;
 
+using Packet = Eigen::internal::packet_traits<double>::type;
+constexpr Eigen::Index kLanes = Eigen::internal::packet_traits<double>::size;
+
+// a . b_w for W columns b_w of length n >= 2 kLanes at once, each summed
+// exactly as Eigen sums one dot product of dynamic size (Redux.h, the
+// linear vectorized traversal: two packets of running sums, their sum, one
+// more packet if it fits, the packet's lanes, then the last elements one by
+// one), so that the result is a.dot(b_w) bit for bit. What differs is that
+// each packet of a is loaded once for the W columns.
+template <int W>
+void dot_products(const double* a, const double* const* b, Eigen::Index n, double* out) {
+  using Eigen::internal::padd;
+  using Eigen::internal::ploadu;
+  using Eigen::internal::pmul;
+  const Eigen::Index end2 = n / (2 * kLanes) * (2 * kLanes);
+  const Eigen::Index end1 = n / kLanes * kLanes;
+  Packet sum0[W], sum1[W];
+  Packet a0 = ploadu<Packet>(a), a1 = ploadu<Packet>(a + kLanes);
+  for (int w = 0; w < W; ++w) {
+    sum0[w] = pmul(a0, ploadu<Packet>(b[w]));
+    sum1[w] = pmul(a1, ploadu<Packet>(b[w] + kLanes));
+  }
+  for (Eigen::Index i = 2 * kLanes; i < end2; i += 2 * kLanes) {
+    a0 = ploadu<Packet>(a + i);
+    a1 = ploadu<Packet>(a + i + kLanes);
+    for (int w = 0; w < W; ++w) {
+      sum0[w] = padd(sum0[w], pmul(a0, ploadu<Packet>(b[w] + i)));
+      sum1[w] = padd(sum1[w], pmul(a1, ploadu<Packet>(b[w] + i + kLanes)));
+    }
+  }
+  for (int w = 0; w < W; ++w) sum0[w] = padd(sum0[w], sum1[w]);
+  if (end1 > end2) {
+    a0 = ploadu<Packet>(a + end2);
+    for (int w = 0; w < W; ++w) sum0[w] = padd(sum0[w], pmul(a0, ploadu<Packet>(b[w] + end2)));
+  }
+  for (int w = 0; w < W; ++w) {
+    double result = Eigen::internal::predux(sum0[w]);
+    for (Eigen::Index i = end1; i < n; ++i) result = result + a[i] * b[w][i];
+    out[w] = result;
+  }
+}
+
 // out = a' b for column-major a (N x N) and b (N x C), without Eigen's GEMM
-// (which may take its blocking space from the heap for large N).
+// (which may take its blocking space from the heap for large N). From 16
+// modes on, each entry is a.col(j).dot(b.col(c)) bit for bit, four columns
+// of b at a time (dot_products).
 void transpose_times(const Eigen::MatrixXd& a, const Eigen::Ref<const Eigen::MatrixXd>& b,
                      Eigen::Ref<Eigen::MatrixXd> out) {
   const Eigen::Index n = a.rows(), columns = b.cols();
-  if (n < 16) {
+  if (n < 16 || n < 2 * kLanes) {
     for (Eigen::Index c = 0; c < columns; ++c) {
       for (Eigen::Index j = 0; j < n; ++j) {
         double sum = 0.0;
@@ -33,7 +77,18 @@ void transpose_times(const Eigen::MatrixXd& a, const Eigen::Ref<const Eigen::Mat
     return;
   }
   for (Eigen::Index j = 0; j < n; ++j) {
-    for (Eigen::Index c = 0; c < columns; ++c) out(j, c) = a.col(j).dot(b.col(c));
+    const double* column = a.col(j).data();
+    Eigen::Index c = 0;
+    for (; c + 4 <= columns; c += 4) {
+      const double* bs[4] = {b.col(c).data(), b.col(c + 1).data(), b.col(c + 2).data(), b.col(c + 3).data()};
+      double dots[4];
+      dot_products<4>(column, bs, n, dots);
+      for (int w = 0; w < 4; ++w) out(j, c + w) = dots[w];
+    }
+    for (; c < columns; ++c) {
+      const double* bs[1] = {b.col(c).data()};
+      dot_products<1>(column, bs, n, &out(j, c));
+    }
   }
 }
 

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <unsupported/Eigen/MatrixFunctions>
 #include <vector>
@@ -165,6 +166,39 @@ TEST(ModeTransition, PropagateIsTheTransposedMatrixTimesItsInputForEveryForm) {
       t.propagate(dt, in, out);
       const Eigen::MatrixXd expected = t.matrix(dt).transpose() * in;
       EXPECT_LT((out - expected).cwiseAbs().maxCoeff(), 1e-14) << "dt = " << dt;
+    }
+  }
+}
+
+// From 16 modes on, a per-step matrix's product (and every anchor's of the
+// per-mode dwell times) takes several columns at a time; each entry must
+// still be Eigen's dot product of a column of P with a column of the input,
+// bit for bit, as before, so published results stay exactly reproduced.
+TEST(ModeTransition, ManyModesPropagateIsEigensDotProductBitForBit) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  for (int n : {16, 17, 19, 31, 64, 101}) {
+    Eigen::MatrixXd p(n, n);
+    for (Eigen::Index k = 0; k < p.size(); ++k) {
+      p.data()[k] = uniform(rng) * std::pow(10.0, -static_cast<int>(rng() % 6));
+    }
+    p.array().colwise() /= p.rowwise().sum().array();  // rows sum to 1
+    for (int columns : {1, 4, 6, 7, 10}) {
+      ModeTransition t = ModeTransition::per_step(p);
+      t.reserve_columns(columns);
+      // A block of a larger matrix, as the IMM passes its moments.
+      Eigen::MatrixXd whole = Eigen::MatrixXd::Random(n + 2, columns + 1);
+      whole.col(1).setZero();
+      const Eigen::Ref<const Eigen::MatrixXd> in = whole.block(1, 1, n, columns);
+      Eigen::MatrixXd out(n, columns);
+      t.propagate(0.01, in, out);
+      for (Eigen::Index j = 0; j < n; ++j) {
+        for (Eigen::Index c = 0; c < columns; ++c) {
+          const double expected = p.col(j).dot(in.col(c));
+          ASSERT_EQ(std::memcmp(&out(j, c), &expected, sizeof(double)), 0)
+              << n << " modes, column " << c << ": " << out(j, c) << " against " << expected;
+        }
+      }
     }
   }
 }
