@@ -532,7 +532,10 @@ diagonal plus rank one (`Pi_c = a r 1' - D`), so a product with it costs
 O(N C). `P(dt_a)` is computed once per anchor by uniformisation (each term a
 structured product, O(N^2)), and every later step reuses it:
 `P(dt) = P(dt_a) expm(Pi_c (dt - dt_a))`, the second factor a short Taylor
-series. A few anchors serve logs that alternate between rates; gaps much
+series. From 16 modes on, the dense product loads each column of `P` once
+for four columns of the moments, each entry summed exactly as Eigen's dot
+product sums it (`ModeTransition.ManyModesPropagateIsEigensDotProductBitForBit`).
+A few anchors serve logs that alternate between rates; gaps much
 longer than the fastest mode's dwell time use the eigenvectors of the
 symmetric matrix similar to `Pi_c`, computed once at construction, with the
 stationary direction set exactly.
