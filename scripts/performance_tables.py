@@ -139,10 +139,10 @@ def measure(args):
     own = ["docs/performance.md", "docs/performance", "README.md", "scripts/performance_tables.py"]
     commit = subprocess.run(["git", "-C", str(ROOT), "log", "-1", "--format=%h", "--", "."] +
                             [f":(exclude){path}" for path in own], capture_output=True, text=True).stdout.strip()
-    # Changes not committed, outside what this script writes: the figures are not that commit's.
+    # Changes not committed, outside `own`: the figures are not that commit's.
     changed = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
                              capture_output=True, text=True).stdout.splitlines()
-    if any(not line[3:].startswith(("docs/performance", "README.md")) for line in changed):
+    if any(not line[3:].startswith(tuple(own)) for line in changed):
         commit += " with uncommitted changes"
     results = {
         "generated_by": "scripts/performance_tables.py",
