@@ -5,6 +5,7 @@
 
 #include <Eigen/Cholesky>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "core/temp_files.h"
@@ -377,6 +378,57 @@ TEST(ModelFitter, DrivingStraightDoesNotExciteTheYawParameters) {
     // either row: both combinations are named.
     EXPECT_THAT(e.what(), HasSubstr("[B[1,0], B[1,1]]"));
     EXPECT_THAT(e.what(), HasSubstr("[B[0,0], B[0,1]]"));
+  }
+}
+
+// A long log's windows condensed into one residual block (memory that does
+// not grow with the log) give the solver the same cost, gradient and
+// Gauss-Newton matrix as one block per window: the same fit, to round-off,
+// with each loss (the robust ones active: a few outliers), one-step and
+// multi-step, and the same parameters held when the logs do not excite them.
+TEST(ModelFitter, CondensedWindowsReachTheWindowsOwnFit) {
+  Bank truth = load_bank(kLtcBank, "truth.yaml");
+  Eigen::VectorXd true_parameters(8);
+  true_parameters << -4.0, 0.3, 0.2, -3.0, 0.35, 0.3, -0.7, 0.75;
+  ASSERT_TRUE(truth.models[0]->set_parameters(true_parameters, nullptr));
+  Trajectory data = simulate_model(*truth.models[0], 2000, 0.02, rich_wheel_speeds, Eigen::Vector2d(1e-4, 1e-4),
+                                   Eigen::Vector2d(0.01, 0.01), 7);
+  for (int k = 100; k < 2000; k += 150) data.z(k % 2, k) += 0.3;  // 30 sigma
+  auto straight = [](double t) { return Eigen::Vector2d(4.0 + std::sin(t), 4.0 + std::sin(t)); };
+  const Trajectory straight_data =
+      simulate_model(*truth.models[0], 1000, 0.02, straight, Eigen::Vector2d(0, 0), Eigen::Vector2d(0.02, 0.02), 1);
+  struct Case {
+    std::string loss;
+    double window;
+    const Trajectory* data;
+  };
+  for (const Case& c : {Case{"huber", 0.0, &data}, Case{"cauchy", 0.0, &data}, Case{"none", 0.0, &data},
+                        Case{"huber", 0.2, &data}, Case{"huber", 0.0, &straight_data}}) {
+    SCOPED_TRACE(c.loss + ", window " + std::to_string(c.window) + (c.data == &data ? "" : ", driving straight"));
+    FitOptions options;
+    options.loss = c.loss;
+    options.loss_scale = 1.0;
+    options.window = c.window;
+    options.hold_unexcited = true;
+    Bank windows_bank = load_bank(kLtcBank);
+    options.condense_above = std::numeric_limits<long>::max();
+    const FitReport windows = fit(&windows_bank, {ModeLogs{0, {*c.data}}}, options).front();
+    Bank condensed_bank = load_bank(kLtcBank);
+    options.condense_above = 0;
+    const FitReport condensed = fit(&condensed_bank, {ModeLogs{0, {*c.data}}}, options).front();
+    ASSERT_EQ(condensed.parameters.size(), windows.parameters.size());
+    for (std::size_t i = 0; i < windows.parameters.size(); ++i) {
+      const ParameterEstimate& a = windows.parameters[i];
+      const ParameterEstimate& b = condensed.parameters[i];
+      EXPECT_NEAR(b.value, a.value, 1e-6 * std::max(1.0, std::abs(a.value))) << a.name;
+      EXPECT_EQ(std::isnan(b.standard_deviation), std::isnan(a.standard_deviation)) << a.name << " held in one only";
+      if (!std::isnan(a.standard_deviation)) EXPECT_NEAR(b.standard_deviation, a.standard_deviation, 1e-5 * a.standard_deviation) << a.name;
+    }
+    EXPECT_EQ(condensed.residuals, windows.residuals);
+    EXPECT_NEAR(condensed.initial_cost, windows.initial_cost, 1e-9 * windows.initial_cost);
+    EXPECT_NEAR(condensed.final_cost, windows.final_cost, 1e-8 * windows.final_cost);
+    EXPECT_NEAR(condensed.condition_number, windows.condition_number, 1e-5 * windows.condition_number);
+    EXPECT_EQ(condensed.warnings, windows.warnings);
   }
 }
 

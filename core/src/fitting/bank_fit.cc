@@ -55,7 +55,7 @@ std::map<int, FitReport> fit_window(Bank* bank, const std::vector<ModeLogs>& dat
       if (!after_shared) reports[d.mode] = evaluate(*bank, d, fit_options.correlated_process_noise);
       continue;
     }
-    FitReport report = fit(bank, {d}, fit_options).front();
+    FitReport report = fit(bank, std::vector<const ModeLogs*>{&d}, fit_options).front();
     if (after_shared) {  // keep the shared estimates in the report too
       report.parameters.insert(report.parameters.begin(), reports[d.mode].parameters.begin(),
                                reports[d.mode].parameters.end());

@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -17,6 +18,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "bounded_median.h"
 #include "skidimm/covariance.h"
 #include "skidimm/measurement_model.h"
 #include "skidimm/sdk/angles.h"
@@ -494,6 +496,10 @@ struct Accumulator {
   bool want_information = false;
   bool keep_rows = false;
   std::vector<Eigen::VectorXd> row_terms;
+  // Instead of keeping them, each row's term as it comes (log: the index of
+  // the log in the evaluation), NaN for rows that add none.
+  std::function<void(std::size_t log, int row, double term)> row_sink;
+  std::size_t log = 0;
   bool used_numeric = false;
 
   Accumulator(int measurement_dim, int num_parameters, bool information, bool rows)
@@ -602,6 +608,7 @@ class SensitivityFilter {
         double term = 0.0;
         if (!update(&x, &p, acc, &term, &why)) return fail(t, k, why, failure, acc, &terms);
         if (acc->keep_rows) terms[k] = term;
+        if (acc->row_sink) acc->row_sink(acc->log, k, term);
       }
       held_input = t.u.col(k);
       last_t = time;
@@ -621,6 +628,7 @@ class SensitivityFilter {
       (*terms)[k] = kInfinity;
       acc->row_terms.push_back(*terms);
     }
+    if (acc->row_sink) acc->row_sink(acc->log, k, kInfinity);
     return false;
   }
 
@@ -887,12 +895,15 @@ ModeEvaluation evaluate_mode(const BankConfig& config, sdk::MotionModel* model,
                              const std::vector<const Trajectory*>& logs, const Parameterization& par,
                              const Eigen::MatrixXd& q, const Eigen::MatrixXd& r, bool derivatives,
                              bool numeric_derivatives, bool information, bool rows, const StepStructure* use = nullptr,
-                             StepStructure* observe = nullptr) {
+                             StepStructure* observe = nullptr,
+                             std::function<void(std::size_t, int, double)> row_sink = {}) {
   const int m = static_cast<int>(config.measurement.h.rows());
   ModeEvaluation out{Accumulator(m, derivatives ? par.size() : 0, derivatives && information, rows), {}};
+  out.acc.row_sink = std::move(row_sink);
   SensitivityFilter filter(config, model, par, q, r, derivatives, numeric_derivatives, use, observe);
-  for (const Trajectory* t : logs) {
-    if (!filter.run(*t, &out.acc, &out.failure)) {
+  for (std::size_t l = 0; l < logs.size(); ++l) {
+    out.acc.log = l;
+    if (!filter.run(*logs[l], &out.acc, &out.failure)) {
       out.acc.nll = kInfinity;
       break;
     }
@@ -1183,26 +1194,29 @@ class Problem {
     for (const ModeBlock& b : blocks_) {
       const NaturalValues v = natural(b, phi);
       if (!b.model->set_parameters(v.parameters, nullptr)) continue;  // evaluate() reports this
-      const ModeEvaluation e = evaluate_mode(config_, b.model, b.logs, b.par, v.q, r_matrix, false, numeric_, false,
-                                             /*rows=*/true);
-      std::vector<double> terms;
-      for (const Eigen::VectorXd& log_terms : e.acc.row_terms) {
-        for (const double term : log_terms) {
-          if (std::isfinite(term)) terms.push_back(term);
-        }
-      }
-      if (terms.empty()) continue;
-      std::nth_element(terms.begin(), terms.begin() + static_cast<std::ptrdiff_t>(terms.size() / 2), terms.end());
-      const double median = terms[terms.size() / 2];
-      for (std::size_t l = 0; l < e.acc.row_terms.size() && l < b.logs.size(); ++l) {
-        const Eigen::VectorXd& log_terms = e.acc.row_terms[l];
-        for (Eigen::Index k = 0; k < log_terms.size(); ++k) {
-          if (!(log_terms[k] - median > worst_excess)) continue;
-          worst_excess = log_terms[k] - median;
-          const Trajectory& t = *b.logs[l];
-          worst = t.source + ": row " + std::to_string(k + 1) + " (t = " + number(t.t[static_cast<std::size_t>(k)]) +
-                  " s) has a term of " + number(log_terms[k]) + " against a median row's " + number(median);
-        }
+      // The rows' terms stream by: the median of the finite ones, and the
+      // first largest (an infinite one, where the filter failed, included).
+      internal::BoundedMedian finite;
+      double largest = -kInfinity;
+      std::size_t largest_log = 0;
+      int largest_row = 0;
+      evaluate_mode(config_, b.model, b.logs, b.par, v.q, r_matrix, false, numeric_, false, /*rows=*/false, nullptr,
+                    nullptr, [&](std::size_t log, int row, double term) {
+                      if (std::isfinite(term)) finite.add(term);
+                      if (term > largest) {
+                        largest = term;
+                        largest_log = log;
+                        largest_row = row;
+                      }
+                    });
+      if (finite.empty()) continue;
+      const double median = finite.median();
+      if (largest - median > worst_excess) {
+        worst_excess = largest - median;
+        const Trajectory& t = *b.logs[largest_log];
+        worst = t.source + ": row " + std::to_string(largest_row + 1) + " (t = " +
+                number(t.t[static_cast<std::size_t>(largest_row)]) + " s) has a term of " + number(largest) +
+                " against a median row's " + number(median);
       }
     }
     return worst;

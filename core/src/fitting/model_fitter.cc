@@ -13,6 +13,7 @@
 #include <memory>
 #include <sstream>
 
+#include "bounded_median.h"
 #include "measurement_layout.h"
 #include "process_noise_search.h"
 #include "skidimm/covariance.h"
@@ -118,15 +119,20 @@ struct Window {
   int residuals;
 };
 
-std::vector<Window> make_windows(const MeasurementLayout& m, const Trajectory& t, double window) {
+// Calls visit(w) with each window of the log in turn, one Window reused: a
+// long log's windows are never all held at once.
+template <typename Visit>
+void for_each_window(const MeasurementLayout& m, const Trajectory& t, double window, Visit&& visit) {
   // Times within this of a window's end belong to it: a 0.5 s window at 50 Hz
   // holds 25 rows whatever the rounding of the logged times.
   constexpr double kTimeTolerance = 1e-9;
-  std::vector<Window> out;
   double next_start = -std::numeric_limits<double>::infinity();
+  Window w{&t, 0, {}, 0};
   for (int start = 0; start < t.size(); ++start) {
     if (!fully_measured(m, t, start) || t.t[start] < next_start - kTimeTolerance) continue;
-    Window w{&t, start, {}, 0};
+    w.start = start;
+    w.targets.clear();
+    w.residuals = 0;
     const double end = t.t[start] + window + kTimeTolerance;
     for (int k = start + 1; k < t.size(); ++k) {
       if (!any_measured(t, k)) continue;
@@ -137,9 +143,8 @@ std::vector<Window> make_windows(const MeasurementLayout& m, const Trajectory& t
     }
     // Multi-step windows do not overlap (multiple shooting); one-step ones start at every fully measured row.
     next_start = window > 0.0 ? t.t[start] + window : -std::numeric_limits<double>::infinity();
-    if (!w.targets.empty()) out.push_back(w);
+    if (!w.targets.empty()) visit(static_cast<const Window&>(w));
   }
-  return out;
 }
 
 // "<log>: the prediction from step k (t = ...) to t = ... s", for messages.
@@ -213,6 +218,12 @@ class WindowCost : public ceres::CostFunction {
   }
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    return EvaluateWindow(window_, parameters, residuals, jacobians);
+  }
+
+  // Evaluate() for any window of the mode's logs (CondensedWindows).
+  bool EvaluateWindow(const Window& window, double const* const* parameters, double* residuals,
+                      double** jacobians) const {
     WindowWorkspace& w = *w_;
     w.full = base_;
     for (std::size_t i = 0; i < mapping_.model_index.size(); ++i) {
@@ -225,15 +236,15 @@ class WindowCost : public ceres::CostFunction {
       w.set = w.full;
     }
     const bool derivatives = jacobians != nullptr && jacobians[0] != nullptr;
-    const Trajectory& t = *window_.trajectory;
+    const Trajectory& t = *window.trajectory;
     const int n = model_->state_dim();
     const int block = parameter_block_sizes()[0];
-    for (int s = 0; s < n; ++s) w.x[s] = t.z(m_->state_row[static_cast<std::size_t>(s)], window_.start);
+    for (int s = 0; s < n; ++s) w.x[s] = t.z(m_->state_row[static_cast<std::size_t>(s)], window.start);
     // S is +0 at the start; it is written at the first step.
     bool sensitivity_zero = true;
-    int row = window_.start;
+    int row = window.start;
     int r = 0;
-    for (int target : window_.targets) {
+    for (int target : window.targets) {
       for (int k = row; k < target; ++k) {
         const double dt = t.t[k + 1] - t.t[k];
         if (derivatives) {
@@ -332,6 +343,114 @@ struct NumericWindowResidual {
   bool operator()(double const* const* parameters, double* residuals) const {
     return cost->Evaluate(parameters, residuals, nullptr);
   }
+};
+
+// Every window of a problem as one residual block of p + 1 residuals (p
+// parameters) that Ceres' Levenberg-Marquardt solver cannot tell from the
+// windows' own: the same cost, gradient and Gauss-Newton matrix. Each
+// evaluation runs through the windows once, accumulating
+//   C = 1/2 sum_w rho(|r_w|^2),  g = sum_w J_w' r_w,  H = sum_w J_w' J_w
+// (r_w, J_w corrected for the robust loss as Ceres corrects them: Triggs et
+// al., "Bundle adjustment: a modern synthesis", 2000), and returns
+//   r = [L^-1 g; sqrt(2C - |L^-1 g|^2)],  J = [L'; 0],  H = L L'
+// (L from H's eigenvalues, so a direction the logs do not excite is a zero
+// singular value of J, as in the windows' own Jacobian). Its memory is the
+// p x p sums, whatever the rows; the windows' Jacobians are never stored.
+class CondensedWindows : public ceres::CostFunction {
+ public:
+  struct Log {
+    const WindowCost* windows;  // evaluates any window of the log's mode
+    const Trajectory* trajectory;
+    const MeasurementLayout* layout;
+  };
+  CondensedWindows(std::vector<Log> logs, double window, int block_size, int most_residuals,
+                   std::unique_ptr<ceres::LossFunction> loss)
+      : logs_(std::move(logs)), window_(window), loss_(std::move(loss)), p_(block_size) {
+    mutable_parameter_block_sizes()->push_back(block_size);
+    set_num_residuals(block_size + 1);
+    r_.resize(most_residuals);
+    j_.resize(most_residuals, block_size);
+    h_.resize(block_size, block_size);
+    g_.resize(block_size);
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const bool derivatives = jacobians != nullptr && jacobians[0] != nullptr;
+    double cost = 0.0;
+    h_.setZero();
+    g_.setZero();
+    bool ok = true;
+    for (const Log& log : logs_) {
+      for_each_window(*log.layout, *log.trajectory, window_, [&](const Window& w) {
+        if (!ok) return;
+        double* jacobian = j_.data();
+        ok = log.windows->EvaluateWindow(w, parameters, r_.data(), derivatives ? &jacobian : nullptr);
+        if (!ok) return;
+        auto r = r_.head(w.residuals);
+        auto j = j_.topRows(w.residuals);
+        const double squared = r.squaredNorm();
+        if (!loss_) {
+          cost += 0.5 * squared;
+          if (derivatives) accumulate(j, r);
+          return;
+        }
+        double rho[3];
+        loss_->Evaluate(squared, rho);
+        cost += 0.5 * rho[0];
+        if (!derivatives) return;
+        // Ceres' Corrector: J <- sqrt(rho') (I - alpha r r' / |r|^2) J, r <- sqrt(rho') / (1 - alpha) r.
+        const double sqrt_rho1 = std::sqrt(rho[1]);
+        double alpha = 0.0;
+        if (squared > 0.0 && rho[2] > 0.0) alpha = 1.0 - std::sqrt(std::max(0.0, 1.0 + 2.0 * squared * rho[2] / rho[1]));
+        if (alpha != 0.0) {
+          const Eigen::RowVectorXd rj = r.transpose() * j;
+          j -= (alpha / squared) * r * rj;
+        }
+        j *= sqrt_rho1;
+        r *= sqrt_rho1 / (1.0 - alpha);
+        accumulate(j, r);
+      });
+    }
+    if (!ok || !std::isfinite(cost)) return false;
+    Eigen::Map<Eigen::VectorXd> out(residuals, p_ + 1);
+    if (!derivatives) {
+      out.setZero();
+      out[0] = std::sqrt(2.0 * cost);
+      return true;
+    }
+    const Eigen::MatrixXd h = h_.selfadjointView<Eigen::Lower>();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(h);
+    if (eigen.info() != Eigen::Success) return false;
+    const Eigen::VectorXd& lambda = eigen.eigenvalues();
+    const double tiny = 1e-300 + std::numeric_limits<double>::epsilon() * std::max(0.0, lambda.maxCoeff()) * p_;
+    Eigen::VectorXd root(p_), whitened = eigen.eigenvectors().transpose() * g_;
+    for (int i = 0; i < p_; ++i) {
+      root[i] = lambda[i] > tiny ? std::sqrt(lambda[i]) : 0.0;
+      whitened[i] = lambda[i] > tiny ? whitened[i] / root[i] : 0.0;
+    }
+    out.head(p_) = whitened;
+    out[p_] = std::sqrt(std::max(0.0, 2.0 * cost - whitened.squaredNorm()));
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jacobian(jacobians[0], p_ + 1, p_);
+    jacobian.topRows(p_) = root.asDiagonal() * eigen.eigenvectors().transpose();
+    jacobian.row(p_).setZero();
+    return true;
+  }
+
+ private:
+  template <typename J, typename R>
+  void accumulate(const J& j, const R& r) const {
+    h_.selfadjointView<Eigen::Lower>().rankUpdate(j.transpose());
+    g_.noalias() += j.transpose() * r;
+  }
+
+  std::vector<Log> logs_;
+  double window_;
+  std::unique_ptr<ceres::LossFunction> loss_;
+  int p_;
+  mutable Eigen::VectorXd r_;
+  mutable Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> j_;  // as Ceres lays a Jacobian out
+  mutable Eigen::MatrixXd h_;
+  mutable Eigen::VectorXd g_;
 };
 
 // True if the model gives exact parameter derivatives at the log's first
@@ -470,22 +589,28 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
 }
 
 std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const FitOptions& options) {
+  std::vector<const ModeLogs*> pointers;
+  for (const ModeLogs& d : data) pointers.push_back(&d);
+  return fit(bank, pointers, options);
+}
+
+std::vector<FitReport> fit(Bank* bank, const std::vector<const ModeLogs*>& data, const FitOptions& options) {
   if (!(options.window >= 0.0) || !std::isfinite(options.window)) {
     throw FitError("the window must be 0 (one-step) or a number of seconds");
   }
   std::map<int, MeasurementLayout> layouts;  // per mode fitted
-  for (const ModeLogs& d : data) {
-    if (layouts.count(d.mode) == 0) layouts.emplace(d.mode, layout_of(bank->config, d.mode));
+  for (const ModeLogs* d : data) {
+    if (layouts.count(d->mode) == 0) layouts.emplace(d->mode, layout_of(bank->config, d->mode));
   }
 
   // The parameter block: for kMode one problem per mode (its own parameters);
   // for kBank one problem over every mode, on the union of bank-level names.
   std::vector<std::vector<const ModeLogs*>> problems;
   if (options.scope == sdk::ParameterScope::kMode) {
-    for (const ModeLogs& d : data) problems.push_back({&d});
+    for (const ModeLogs* d : data) problems.push_back({d});
   } else {
     problems.emplace_back();
-    for (const ModeLogs& d : data) problems.back().push_back(&d);
+    for (const ModeLogs* d : data) problems.back().push_back(d);
   }
 
   std::map<int, FitReport> reports;
@@ -534,54 +659,89 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
     std::vector<std::string> empty_sources;
     // Each window's largest residual (in units of R) at the starting values,
     // and the worst window, for the absurd-cell check below.
-    std::vector<double> start_residuals;
+    internal::BoundedMedian start_residuals;
     double worst_residual = -1.0;
     const Trajectory* worst_log = nullptr;
     Window worst_window{};  // a copy: each log's windows go when its loop ends
+    // A window whose prediction is not finite at the starting values (an
+    // input of 1e200, say) would make the cost infinite and the fit
+    // meaningless: name the row instead. Finite but absurd windows (an input
+    // of 1e100) are compared with the others below.
+    const auto check_start = [&](const WindowCost& cost, const Trajectory& t, const Window& w,
+                                 std::vector<double>* r) {
+      r->resize(static_cast<std::size_t>(w.residuals));
+      const double* p[] = {block.data()};
+      const bool ok = cost.EvaluateWindow(w, p, r->data(), nullptr);
+      bool finite = ok;
+      double largest_residual = 0.0;
+      for (double v : *r) {
+        finite = finite && std::isfinite(v) && std::abs(v) < 1e150;
+        largest_residual = std::max(largest_residual, std::abs(v));
+      }
+      if (!finite) {
+        throw FitError(window_text(t, w) + " is not finite (or absurd) with the starting values of " + who +
+                       "; check the log's inputs and measurements there");
+      }
+      start_residuals.add(largest_residual);
+      if (largest_residual > worst_residual) {
+        worst_residual = largest_residual;
+        worst_log = &t;
+        worst_window = w;
+      }
+    };
+    // How many residuals, and whether every log has exact derivatives: a
+    // large problem so differentiated is condensed (CondensedWindows).
+    long total_residuals = 0;
+    int most_residuals = 0;
+    bool condense = !options.numeric_derivatives;
+    for (const ModeLogs* d : group) {
+      const MeasurementLayout& m = layouts.at(d->mode);
+      for (const Trajectory& t : d->logs) {
+        condense = condense && has_parameter_jacobian(*bank->models[static_cast<std::size_t>(d->mode)], m, t);
+        for_each_window(m, t, options.window, [&](const Window& w) {
+          total_residuals += w.residuals;
+          most_residuals = std::max(most_residuals, w.residuals);
+        });
+      }
+    }
+    condense = condense && total_residuals > options.condense_above;
+    std::vector<std::unique_ptr<WindowCost>> log_windows;  // the condensed problem's, per log
+    std::vector<CondensedWindows::Log> condensed_logs;
+    std::vector<double> start_r;
     for (const ModeLogs* d : group) {
       if (d->logs.empty()) throw FitError(who + ": no logs given");
       const MeasurementLayout& m = layouts.at(d->mode);
       for (const Trajectory& t : d->logs) {
-        const std::vector<Window> windows = make_windows(m, t, options.window);
+        sdk::MotionModel* model = bank->models[static_cast<std::size_t>(d->mode)].get();
+        std::shared_ptr<WindowWorkspace>& workspace = workspaces[model];
+        if (!workspace) workspace = std::make_shared<WindowWorkspace>();
+        if (condense) {
+          log_windows.push_back(std::make_unique<WindowCost>(model, per_mode[d->mode].first, per_mode[d->mode].second,
+                                                             &m, Window{&t, 0, {}, 0}, static_cast<int>(block.size()),
+                                                             workspace));
+          const int before = residuals;
+          for_each_window(m, t, options.window, [&](const Window& w) {
+            check_start(*log_windows.back(), t, w, &start_r);
+            residuals += w.residuals;
+          });
+          if (residuals == before) empty_sources.push_back(t.source);
+          condensed_logs.push_back({log_windows.back().get(), &t, &m});
+          continue;
+        }
+        std::vector<Window> windows;
+        for_each_window(m, t, options.window, [&](const Window& w) { windows.push_back(w); });
         if (windows.empty()) {
           // A short segment (a class's log split by fit_when) may hold no
           // window; only a mode with no window at all is an error (below).
           empty_sources.push_back(t.source);
           continue;
         }
-        sdk::MotionModel* model = bank->models[static_cast<std::size_t>(d->mode)].get();
         const bool analytic = !options.numeric_derivatives && has_parameter_jacobian(*model, m, t);
         all_analytic = all_analytic && analytic;
         for (const Window& w : windows) {
-          std::shared_ptr<WindowWorkspace>& workspace = workspaces[model];
-          if (!workspace) workspace = std::make_shared<WindowWorkspace>();
           auto window_cost = std::make_unique<WindowCost>(model, per_mode[d->mode].first, per_mode[d->mode].second,
                                                           &m, w, static_cast<int>(block.size()), workspace);
-          // A window whose prediction is not finite at the starting values
-          // (an input of 1e200, say) would make the cost infinite and the fit
-          // meaningless: name the row instead. Finite but absurd windows
-          // (an input of 1e100) are compared with the others below.
-          {
-            std::vector<double> r(static_cast<std::size_t>(w.residuals));
-            const double* p[] = {block.data()};
-            const bool ok = window_cost->Evaluate(p, r.data(), nullptr);
-            bool finite = ok;
-            double largest_residual = 0.0;
-            for (double v : r) {
-              finite = finite && std::isfinite(v) && std::abs(v) < 1e150;
-              largest_residual = std::max(largest_residual, std::abs(v));
-            }
-            if (!finite) {
-              throw FitError(window_text(t, w) + " is not finite (or absurd) with the starting values of " + who +
-                             "; check the log's inputs and measurements there");
-            }
-            start_residuals.push_back(largest_residual);
-            if (largest_residual > worst_residual) {
-              worst_residual = largest_residual;
-              worst_log = &t;
-              worst_window = w;
-            }
-          }
+          check_start(*window_cost, t, w, &start_r);
           ceres::CostFunction* cost = nullptr;
           if (analytic) {
             cost = window_cost.release();
@@ -597,17 +757,22 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
         }
       }
     }
+    if (condense && residuals > 0) {
+      problem.AddResidualBlock(new CondensedWindows(std::move(condensed_logs), options.window,
+                                                    static_cast<int>(block.size()), most_residuals,
+                                                    std::unique_ptr<ceres::LossFunction>(make_loss(options))),
+                               nullptr, block.data());
+    }
     // One window a million times further from its measurements than the
     // typical one (residuals are in units of the measurement noise, R) is not
     // a poor starting value but a corrupt cell: it would dominate the fit,
     // which would then end "converged" with an RMSE of 1e80. Name it.
     if (!start_residuals.empty()) {
-      const auto middle = start_residuals.begin() + static_cast<std::ptrdiff_t>(start_residuals.size() / 2);
-      std::nth_element(start_residuals.begin(), middle, start_residuals.end());
-      if (worst_residual > kAbsurdWindowRatio * std::max(1.0, *middle)) {
+      const double median = start_residuals.median();
+      if (worst_residual > kAbsurdWindowRatio * std::max(1.0, median)) {
         throw FitError(window_text(*worst_log, worst_window) + " misses its measurements by " +
                        format_number(worst_residual) + " times their noise (R) with the starting values of " + who +
-                       ", against " + format_number(*middle) +
+                       ", against " + format_number(median) +
                        " for the median window: an absurd input or measurement there (a corrupt cell?); "
                        "fix or remove it");
       }
@@ -781,7 +946,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const 
     }
   }
   std::vector<FitReport> out;
-  for (const ModeLogs& d : data) out.push_back(reports[d.mode]);
+  for (const ModeLogs* d : data) out.push_back(reports[d->mode]);
   return out;
 }
 

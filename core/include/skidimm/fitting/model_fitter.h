@@ -84,6 +84,12 @@ struct FitOptions {
   // (vibration on every IMU axis) are then not counted as independent
   // evidence, which makes a bank overconfident.
   bool correlated_process_noise = false;
+  // Above this many residuals, with exact derivatives, the windows are
+  // condensed into one residual block of the parameters' size that gives
+  // the solver the same cost, gradient and Gauss-Newton matrix: memory then
+  // stays that of the logs, whatever their length (docs/fitting.md, "Long
+  // logs"). Below it, one residual block per window.
+  long condense_above = 100000;
   FitProgress progress;
 };
 
@@ -130,6 +136,8 @@ struct ModeLogs {
 // `data` (for kBank, the parameters are common and every report lists them).
 // Throws FitError.
 std::vector<FitReport> fit(Bank* bank, const std::vector<ModeLogs>& data, const FitOptions& options);
+// The same over logs held elsewhere (no copy of them).
+std::vector<FitReport> fit(Bank* bank, const std::vector<const ModeLogs*>& data, const FitOptions& options);
 
 // One-step RMSE and the process-noise estimate of mode `data.mode` at the
 // model's current parameters (part of every FitReport; exposed for held-out
