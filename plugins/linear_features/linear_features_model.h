@@ -246,7 +246,7 @@ class LinearFeaturesModel final : public sdk::MotionModel {
     Vector next(n_);
     if (form_ == StateMatrixForm::kDiagonal) {
       for (int i = 0; i < n_; ++i) {
-        next[i] = std::exp(a_diagonal_[i] * dt) * x[i] + exp_integral(a_diagonal_[i], dt) * w[i];
+        next[i] = diagonal_zoh_step(x[i], a_diagonal_[i], w[i], dt);
       }
     } else if (!zoh_step(a_, Vector(x), w, dt, &next)) {
       return false;

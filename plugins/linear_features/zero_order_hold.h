@@ -43,10 +43,26 @@ using ZohVanLoanMatrix = BoundedMatrix<2 * kMaxZohStates>;    // [[-A, Q], [0, A
 // --- Scalar (diagonal A) closed forms ---
 
 // int_0^dt e^{a s} ds = (e^{a dt} - 1) / a, by expm1 so that it tends to dt
-// without cancellation as a dt -> 0.
-inline double exp_integral(double a, double dt) noexcept {
-  const double z = a * dt;
-  return z == 0.0 ? dt : std::expm1(z) / a;
+// without cancellation as a dt -> 0. T is double or a Ceres jet (the tests
+// and benchmarks differentiate the step by jets to compare with the
+// hand-written derivatives; at a = 0 a jet's derivative in a is lost, one
+// reason those are hand-written).
+template <typename T>
+T exp_integral(const T& a, double dt) noexcept {
+  using std::expm1;
+  const T z = a * dt;
+  return z == 0.0 ? T(dt) : T(expm1(z) / a);
+}
+
+// One state of a diagonal A over the step:
+//   x+ = e^{a dt} x + (int_0^dt e^{a s} ds) w.
+// Each of T (the state), R (the rate a) and W (the drive w) is double or a
+// Ceres jet, as a function model's predict sees them
+// (skidimm/sdk/function_model.h): a rate held fixed stays a double.
+template <typename T, typename R, typename W>
+T diagonal_zoh_step(const T& x, const R& a, const W& w, double dt) noexcept {
+  using std::exp;
+  return exp(a * dt) * x + exp_integral(a, dt) * w;
 }
 
 // d/da int_0^dt e^{a s} ds = int_0^dt s e^{a s} ds = dt^2 g(a dt) with

@@ -10,6 +10,15 @@
 // The table at the end gives generated / analytic for each
 // (benchmark_main.cc). Both give the same bits
 // (tests/plugins/generated_jacobians_test.cc).
+//
+// linear_features keeps its hand-written derivatives; jets through its step
+// in the bundled banks' form (BorealTC: nine states, three inputs, A
+// diagonal and fixed; tests/plugins/linear_features_jets.h) are timed
+// against them, the plugin's through the MotionModel interface:
+//   Jacobian/linear_features/{generated,analytic}: F;
+//   Jacobian/linear_features_parameters/{generated,analytic}: d x+ / d (B, c),
+//     what `skidimm fit` asks for.
+// (The jets fill their matrices row-major; only the time is used here.)
 #include <benchmark/benchmark.h>
 
 #include <memory>
@@ -17,7 +26,9 @@
 #include <string>
 #include <vector>
 
+#include "linear_features/linear_features_model.h"
 #include "plugins/analytic_jacobians.h"
+#include "plugins/linear_features_jets.h"
 
 namespace skidimm_bench {
 namespace {
@@ -99,12 +110,68 @@ void register_model(const std::string& plugin) {
   benchmark::RegisterBenchmark(("Prediction/" + plugin + "/analytic").c_str(), prediction_benchmark<Analytic>, plugin);
 }
 
+// Operating points of the BorealTC features: states at their scale, wheel
+// speed features of a Husky, the bank's 2 Hz step jittered.
+Points feature_points() {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> state(-20.0, 20.0), input(-3.0, 3.0), jitter(0.45, 0.55);
+  Points p;
+  for (int k = 0; k < 256; ++k) {
+    Eigen::VectorXd x(skidimm_test::kFeatureStates), u(skidimm_test::kFeatureInputs);
+    for (int i = 0; i < x.size(); ++i) x[i] = state(rng);
+    for (int j = 0; j < u.size(); ++j) u[j] = input(rng);
+    p.x.push_back(x);
+    p.u.push_back(u);
+    p.dt.push_back(jitter(rng));
+  }
+  return p;
+}
+
+std::unique_ptr<skidimm::sdk::MotionModel> feature_model() {
+  std::string error;
+  auto model = skidimm::plugins::LinearFeaturesModel::Create(skidimm_test::feature_mode_parameters(true), &error);
+  if (!model) std::abort();
+  return model;
+}
+
+// F (`parameters` false) or d x+ / d (B, c), by jets (`generated`) or by
+// the plugin.
+void feature_derivative(benchmark::State& state, bool parameters, bool generated) {
+  using GeneratedParameterJacobian = skidimm_test::GeneratedFeatureParameterJacobian<true>;
+  const std::unique_ptr<skidimm::sdk::MotionModel> model = feature_model();
+  const skidimm_test::FeatureModeValues values(skidimm_test::feature_mode_parameters(true));
+  const Points points = feature_points();
+  constexpr int n = skidimm_test::kFeatureStates;
+  Eigen::MatrixXd derivative(n, parameters ? GeneratedParameterJacobian::kParameters : n);
+  std::size_t k = 0;
+  for (auto _ : state) {
+    const double *x = points.x[k].data(), *u = points.u[k].data(), dt = points.dt[k];
+    if (generated && parameters) {
+      GeneratedParameterJacobian::evaluate(values, x, u, dt, derivative.data());
+    } else if (generated) {
+      skidimm_test::generated_feature_jacobian(values, x, u, dt, derivative.data());
+    } else if (parameters) {
+      model->parameter_jacobian(points.x[k], points.u[k], dt, derivative);
+    } else {
+      model->jacobian(points.x[k], points.u[k], dt, derivative);
+    }
+    benchmark::DoNotOptimize(derivative.data());
+    k = (k + 1) % points.x.size();
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+
 const bool kRegistered = [] {
   using namespace skidimm::plugins;  // NOLINT: the specs
   register_model<LtcLinear, skidimm_test::AnalyticLtcLinear>("ltc_linear");
   register_model<StcKinematic, skidimm_test::AnalyticStcKinematic>("stc_kinematic");
   register_model<StcSided, skidimm_test::AnalyticStcSided>("stc_sided");
   register_model<StcTraction, skidimm_test::AnalyticStcTraction>("stc_traction");
+  for (const bool parameters : {false, true}) {
+    const std::string prefix = parameters ? "Jacobian/linear_features_parameters/" : "Jacobian/linear_features/";
+    benchmark::RegisterBenchmark((prefix + "generated").c_str(), feature_derivative, parameters, true);
+    benchmark::RegisterBenchmark((prefix + "analytic").c_str(), feature_derivative, parameters, false);
+  }
   return true;
 }();
 
