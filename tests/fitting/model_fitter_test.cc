@@ -422,7 +422,9 @@ TEST(ModelFitter, CondensedWindowsReachTheWindowsOwnFit) {
       const ParameterEstimate& b = condensed.parameters[i];
       EXPECT_NEAR(b.value, a.value, 1e-6 * std::max(1.0, std::abs(a.value))) << a.name;
       EXPECT_EQ(std::isnan(b.standard_deviation), std::isnan(a.standard_deviation)) << a.name << " held in one only";
-      if (!std::isnan(a.standard_deviation)) EXPECT_NEAR(b.standard_deviation, a.standard_deviation, 1e-5 * a.standard_deviation) << a.name;
+      if (!std::isnan(a.standard_deviation)) {
+        EXPECT_NEAR(b.standard_deviation, a.standard_deviation, 1e-5 * a.standard_deviation) << a.name;
+      }
     }
     EXPECT_EQ(condensed.residuals, windows.residuals);
     EXPECT_NEAR(condensed.initial_cost, windows.initial_cost, 1e-9 * windows.initial_cost);
