@@ -1003,32 +1003,22 @@ class Tuner {
     for (int sweep = 0; sweep < options_.sweeps; ++sweep) {
       const double factor = sweep == 0 ? 4.0 : 1.5;
       const int steps = sweep == 0 ? 3 : 2;
-      // Tries value * factor^k for k in [-steps, steps] on one scalar of the
-      // settings, outward from the start: down while each step improves,
-      // then, unless a step down improved, up the same way. Where the score
-      // along the knob has one peak (it has on every bank and log set we
-      // have tuned: docs/tuning.md), nothing past a step that does not
-      // improve, or on the far side of one that does, would win: the choice
-      // is the grid's best, for about half the scorings. With two peaks it
-      // is the nearer one's.
+      // Tries value * factor^k for k in [-steps, steps] on one scalar of the settings.
       auto line = [&](const std::string& name, double* value, double lowest, double highest) {
         const double start = *value;
         double chosen = start;
-        for (int direction : {-1, 1}) {
-          bool improved = false;
-          for (int k = 1; k <= steps; ++k) {
-            const double candidate = start * std::pow(factor, direction * k);
-            if (candidate < lowest || candidate > highest) break;
-            *value = candidate;
-            std::vector<LogScore> scores;
-            const double score = score_of(current, &scores, best);
-            if (!(score > best + 1e-9)) break;
+        for (int k = -steps; k <= steps; ++k) {
+          if (k == 0) continue;
+          const double candidate = start * std::pow(factor, k);
+          if (candidate < lowest || candidate > highest) continue;
+          *value = candidate;
+          std::vector<LogScore> scores;
+          const double score = score_of(current, &scores, best);
+          if (score > best + 1e-9) {
             best = score;
             chosen = candidate;
             *best_scores = scores;
-            improved = true;
           }
-          if (improved) break;
         }
         *value = chosen;
         if (!quiet) progress("  " + objective + ": " + name + " " + number(chosen) + " -> mean log p(truth) " + number(best));
