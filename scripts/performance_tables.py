@@ -567,7 +567,7 @@ the modes, a second only when the floor bites) and checks the combined
 estimate (docs/engine.md). None allocates.
 
 **Threads.** `eval` and `fit` read and score their logs on every core
-(`skidimm/parallel.h`); `SKIDIMM_THREADS=1` runs them on one, with identical
+(`core/src/parallel.h`); `SKIDIMM_THREADS=1` runs them on one, with identical
 results (`Threads.*` in `skidimm_performance_tests`). `fit`'s optimisation
 itself (`fitting::fit_bank`) is one thread.
 

@@ -4,7 +4,7 @@
 
 #include "commands.h"
 #include "skidimm/errors.h"
-#include "skidimm/ros/bag_info.h"
+#include "skidimm/io/ros/bag_info.h"
 
 namespace skidimm {
 namespace cli {

@@ -7,19 +7,19 @@
 #include <optional>
 #include <string_view>
 
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/imm.h"
+#include "skidimm/engine/log_run.h"
+#include "skidimm/engine/mode_timeline.h"
+#include "skidimm/engine/model_conformance.h"
+#include "skidimm/engine/plugin_registry.h"
 #include "skidimm/errors.h"
-#include "skidimm/estimates_writer.h"
-#include "skidimm/imm.h"
-#include "skidimm/log_arguments.h"
-#include "skidimm/log_io.h"
-#include "skidimm/log_run.h"
-#include "skidimm/mode_timeline.h"
-#include "skidimm/model_conformance.h"
-#include "skidimm/plugin_registry.h"
+#include "skidimm/io/csv.h"
+#include "skidimm/io/estimates_writer.h"
+#include "skidimm/io/log_arguments.h"
+#include "skidimm/io/ros/bag_reader.h"
+#include "skidimm/io/ros/live_estimates.h"
 #include "skidimm/progress.h"
-#include "skidimm/ros/bag_reader.h"
-#include "skidimm/ros/live_estimates.h"
 
 namespace skidimm {
 namespace cli {

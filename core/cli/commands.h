@@ -6,15 +6,14 @@
 #include <exception>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
-#include <optional>
-
+#include "skidimm/config/run_overrides.h"
 #include "skidimm/errors.h"
-#include "skidimm/log_arguments.h"
+#include "skidimm/io/log_arguments.h"
 #include "skidimm/printable.h"
-#include "skidimm/run_overrides.h"
 
 namespace skidimm {
 namespace cli {

@@ -3,10 +3,10 @@
 #include <optional>
 
 #include "commands.h"
+#include "skidimm/config/run_overrides.h"
 #include "skidimm/errors.h"
 #include "skidimm/evaluation/evaluation_report.h"
 #include "skidimm/evaluation/log_groups.h"
-#include "skidimm/run_overrides.h"
 
 namespace skidimm {
 namespace cli {

@@ -8,7 +8,7 @@
 #include <sstream>
 
 #include "commands.h"
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 #include "skidimm/errors.h"
 #include "skidimm/fitting/bank_fit.h"
 #include "skidimm/fitting/bank_writer.h"
@@ -17,7 +17,7 @@
 #include "skidimm/fitting/likelihood_fitter.h"
 #include "skidimm/fitting/model_fitter.h"
 #include "skidimm/fitting/solver_messages.h"
-#include "skidimm/output_file.h"
+#include "skidimm/io/output_file.h"
 #include "skidimm/progress.h"
 
 namespace skidimm {

@@ -18,10 +18,10 @@
 
 #include "commands.h"
 #include "documentation.h"
-#include "skidimm/estimates_writer.h"
-#include "skidimm/log_arguments.h"
-#include "skidimm/log_io.h"
-#include "skidimm/output_file.h"
+#include "skidimm/io/csv.h"
+#include "skidimm/io/estimates_writer.h"
+#include "skidimm/io/log_arguments.h"
+#include "skidimm/io/output_file.h"
 
 namespace fs = std::filesystem;
 using namespace skidimm::cli;

@@ -4,9 +4,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
-#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
@@ -15,12 +15,12 @@
 #include <sstream>
 
 #include "commands.h"
-#include "skidimm/log_arguments.h"
-#include "skidimm/run_overrides.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/config/run_overrides.h"
 #include "skidimm/errors.h"
-#include "skidimm/bank.h"
-#include "skidimm/log_io.h"
-#include "skidimm/output_file.h"
+#include "skidimm/io/csv.h"
+#include "skidimm/io/log_arguments.h"
+#include "skidimm/io/output_file.h"
 #include "skidimm/printable.h"
 
 namespace skidimm {

@@ -2,10 +2,10 @@
 #include <iostream>
 
 #include "commands.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/config/run_overrides.h"
 #include "skidimm/errors.h"
-#include "skidimm/log_arguments.h"
-#include "skidimm/run_overrides.h"
-#include "skidimm/bank.h"
+#include "skidimm/io/log_arguments.h"
 #include "skidimm/simulation/model_simulation.h"
 #include "skidimm/simulation/scenario.h"
 

@@ -17,8 +17,8 @@
 #include "skidimm/fitting/sessions.h"
 #include "skidimm/fitting/solver_messages.h"
 #include "skidimm/fitting/tuning.h"
-#include "skidimm/log_arguments.h"
-#include "skidimm/output_file.h"
+#include "skidimm/io/log_arguments.h"
+#include "skidimm/io/output_file.h"
 #include "skidimm/progress.h"
 
 namespace skidimm {

@@ -6,10 +6,10 @@
 #include <set>
 #include <sstream>
 
-#include "skidimm/bank.h"
-#include "skidimm/covariance.h"
+#include "covariance.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/config/expression.h"
 #include "skidimm/errors.h"
-#include "skidimm/expression.h"
 #include "skidimm/printable.h"
 #include "yaml_fields.h"
 

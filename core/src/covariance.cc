@@ -1,4 +1,4 @@
-#include "skidimm/covariance.h"
+#include "covariance.h"
 
 #include <Eigen/Eigenvalues>
 #include <cmath>

@@ -3,7 +3,7 @@
 #include <limits>
 
 #include "number_text.h"
-#include "skidimm/expression.h"
+#include "skidimm/config/expression.h"
 
 namespace skidimm {
 namespace internal {

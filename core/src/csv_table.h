@@ -8,8 +8,8 @@
 #include <string_view>
 #include <vector>
 
-#include "skidimm/log_io.h"
-#include "skidimm/log_table.h"
+#include "log_table.h"
+#include "skidimm/io/csv.h"
 
 namespace skidimm {
 namespace internal {

@@ -1,6 +1,6 @@
-#include "skidimm/decision.h"
+#include "skidimm/engine/decision.h"
 
-#include "skidimm/check.h"
+#include "check.h"
 
 namespace skidimm {
 

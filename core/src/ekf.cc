@@ -1,10 +1,10 @@
-#include "skidimm/ekf.h"
+#include "skidimm/engine/ekf.h"
 
 #include <Eigen/Cholesky>
 #include <cmath>
 #include <utility>
 
-#include "skidimm/covariance.h"
+#include "covariance.h"
 #include "skidimm/sdk/angles.h"
 
 namespace skidimm {

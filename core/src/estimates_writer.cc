@@ -1,4 +1,4 @@
-#include "skidimm/estimates_writer.h"
+#include "skidimm/io/estimates_writer.h"
 
 #include <algorithm>
 #include <cstdint>
@@ -9,10 +9,10 @@
 #include <system_error>
 #include <unordered_map>
 
-#include "skidimm/check.h"
+#include "check.h"
+#include "ros/estimates_mcap_writer.h"
 #include "skidimm/errors.h"
-#include "skidimm/output_file.h"
-#include "skidimm/ros/estimates_mcap_writer.h"
+#include "skidimm/io/output_file.h"
 
 namespace skidimm {
 

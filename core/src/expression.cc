@@ -1,4 +1,4 @@
-#include "skidimm/expression.h"
+#include "skidimm/config/expression.h"
 
 #include <muParser.h>
 

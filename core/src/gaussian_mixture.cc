@@ -1,4 +1,4 @@
-#include "skidimm/gaussian_mixture.h"
+#include "gaussian_mixture.h"
 
 #include "skidimm/sdk/angles.h"
 

@@ -1,12 +1,12 @@
-#include "skidimm/imm.h"
+#include "skidimm/engine/imm.h"
 
 #include <boost/math/special_functions/gamma.hpp>
 #include <cmath>
 #include <limits>
 #include <utility>
 
+#include "check.h"
 #include "imm_kernel.h"
-#include "skidimm/check.h"
 
 namespace skidimm {
 

@@ -18,17 +18,17 @@
 #include <string>
 #include <vector>
 
+#include "covariance.h"
 #include "filter_health.h"
+#include "fixed_size_ekf.h"
+#include "gaussian_mixture.h"
+#include "measured_outputs.h"
 #include "probability_floor.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/imm_estimate.h"
+#include "skidimm/engine/measurement_model.h"
+#include "skidimm/engine/mode_transition.h"
 #include "student_t_likelihood.h"
-#include "skidimm/bank.h"
-#include "skidimm/covariance.h"
-#include "skidimm/ekf.h"
-#include "skidimm/gaussian_mixture.h"
-#include "skidimm/imm_estimate.h"
-#include "skidimm/measured_outputs.h"
-#include "skidimm/measurement_model.h"
-#include "skidimm/mode_transition.h"
 
 namespace skidimm {
 namespace internal {
@@ -177,7 +177,7 @@ class FixedFilters {
 // The mode-matched filters for N states known at compile time and any number
 // of measurement rows: banks past FixedFilters' 4 x 4 (BorealTC's 9 features
 // measured directly, stc_traction's 3 states with 3 outputs measured).
-// update_selected() (ekf.h) on the rows MeasurementModel::select() keeps.
+// update_selected() (fixed_size_ekf.h) on the rows MeasurementModel::select() keeps.
 template <int N>
 class FixedStateFilters {
  public:

@@ -1,13 +1,13 @@
-#include "skidimm/imm_smoother.h"
+#include "skidimm/engine/imm_smoother.h"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 
+#include "covariance.h"
 #include "filter_health.h"
+#include "gaussian_mixture.h"
 #include "probability_floor.h"
-#include "skidimm/covariance.h"
-#include "skidimm/gaussian_mixture.h"
 #include "skidimm/sdk/angles.h"
 
 namespace skidimm {

@@ -1,4 +1,4 @@
-#include "skidimm/log_arguments.h"
+#include "skidimm/io/log_arguments.h"
 
 #include <algorithm>
 #include <filesystem>
@@ -6,8 +6,8 @@
 #include <system_error>
 
 #include "skidimm/errors.h"
-#include "skidimm/log_io.h"
-#include "skidimm/ros/bag_reader.h"
+#include "skidimm/io/csv.h"
+#include "skidimm/io/ros/bag_reader.h"
 
 namespace skidimm {
 

@@ -1,4 +1,4 @@
-#include "skidimm/log_reader.h"
+#include "skidimm/io/log_reader.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,9 +8,9 @@
 
 #include "csv_table.h"
 #include "log_reader_impl.h"
+#include "skidimm/config/expression.h"
 #include "skidimm/errors.h"
-#include "skidimm/expression.h"
-#include "skidimm/log_io.h"
+#include "skidimm/io/csv.h"
 
 namespace skidimm {
 

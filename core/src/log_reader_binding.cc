@@ -4,9 +4,9 @@
 
 #include "csv_table.h"
 #include "log_reader_impl.h"
+#include "ros/bag_log.h"
 #include "skidimm/errors.h"
-#include "skidimm/ros/bag_log.h"
-#include "skidimm/ros/bag_reader.h"
+#include "skidimm/io/ros/bag_reader.h"
 
 namespace skidimm {
 

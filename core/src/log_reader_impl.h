@@ -12,10 +12,10 @@
 #include <string>
 #include <vector>
 
+#include "log_table.h"
 #include "measurement_aggregates.h"
-#include "skidimm/expression.h"
-#include "skidimm/log_reader.h"
-#include "skidimm/log_table.h"
+#include "skidimm/config/expression.h"
+#include "skidimm/io/log_reader.h"
 
 namespace skidimm {
 namespace internal {

@@ -1,14 +1,14 @@
-#include "skidimm/log_run.h"
+#include "skidimm/engine/log_run.h"
 
 #include <deque>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include "skidimm/decision.h"
+#include "skidimm/engine/decision.h"
+#include "skidimm/engine/imm.h"
+#include "skidimm/engine/imm_smoother.h"
 #include "skidimm/errors.h"
-#include "skidimm/imm.h"
-#include "skidimm/imm_smoother.h"
 
 namespace skidimm {
 

@@ -1,4 +1,4 @@
-#include "skidimm/log_spec.h"
+#include "skidimm/io/log_spec.h"
 
 #include <charconv>
 #include <cmath>

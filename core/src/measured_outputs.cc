@@ -1,4 +1,4 @@
-#include "skidimm/measured_outputs.h"
+#include "measured_outputs.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,9 +1,9 @@
-#include "skidimm/measurement_model.h"
+#include "skidimm/engine/measurement_model.h"
 
 #include <cmath>
 #include <utility>
 
-#include "skidimm/check.h"
+#include "check.h"
 
 namespace skidimm {
 

@@ -1,4 +1,4 @@
-#include "skidimm/mode_timeline.h"
+#include "skidimm/engine/mode_timeline.h"
 
 #include <algorithm>
 #include <cstdio>

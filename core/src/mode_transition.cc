@@ -1,10 +1,10 @@
-#include "skidimm/mode_transition.h"
+#include "skidimm/engine/mode_transition.h"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 
-#include "skidimm/check.h"
+#include "check.h"
 
 namespace skidimm {
 

@@ -1,11 +1,11 @@
-#include "skidimm/model_conformance.h"
+#include "skidimm/engine/model_conformance.h"
 
 #include <algorithm>
 #include <cmath>
 #include <utility>
 
+#include "skidimm/engine/measurement_model.h"
 #include "skidimm/errors.h"
-#include "skidimm/measurement_model.h"
 #include "skidimm/sdk/angles.h"
 
 namespace skidimm {

@@ -1,5 +1,5 @@
 // Doubles to text and back, the way std::to_chars / std::from_chars do it,
-// faster for the numbers logs are made of. Private to core (log_io.cc,
+// faster for the numbers logs are made of. Private to core (csv.cc,
 // csv_table.cc); tests/benchmarks/number_text_test.cc compares both with the
 // standard functions on tens of millions of values.
 //

@@ -1,4 +1,4 @@
-#include "skidimm/output_file.h"
+#include "skidimm/io/output_file.h"
 
 #include <fcntl.h>
 #include <unistd.h>

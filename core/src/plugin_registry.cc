@@ -1,4 +1,4 @@
-#include "skidimm/plugin_registry.h"
+#include "skidimm/engine/plugin_registry.h"
 
 #include <algorithm>
 #include <boost/dll/runtime_symbol_info.hpp>

@@ -1,9 +1,9 @@
-#include "skidimm/run_overrides.h"
+#include "skidimm/config/run_overrides.h"
 
 #include <cmath>
 
 #include "skidimm/errors.h"
-#include "skidimm/log_io.h"
+#include "skidimm/io/csv.h"
 
 namespace skidimm {
 

@@ -1,4 +1,4 @@
-#include "skidimm/sample_source.h"
+#include "skidimm/io/sample_source.h"
 
 namespace skidimm {
 

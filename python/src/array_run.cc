@@ -3,9 +3,9 @@
 #include <Eigen/Core>
 #include <algorithm>
 
-#include "skidimm/decision.h"
-#include "skidimm/estimates_writer.h"
-#include "skidimm/imm_smoother.h"
+#include "skidimm/engine/decision.h"
+#include "skidimm/engine/imm_smoother.h"
+#include "skidimm/io/estimates_writer.h"
 
 namespace skidimm {
 namespace python {

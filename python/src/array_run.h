@@ -10,11 +10,11 @@
 #include <utility>
 #include <vector>
 
-#include "skidimm/bank.h"
-#include "skidimm/decision.h"
-#include "skidimm/imm.h"
-#include "skidimm/log_reader.h"
-#include "skidimm/log_run.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/decision.h"
+#include "skidimm/engine/imm.h"
+#include "skidimm/engine/log_run.h"
+#include "skidimm/io/log_reader.h"
 
 namespace skidimm {
 namespace python {

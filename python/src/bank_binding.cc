@@ -15,8 +15,8 @@
 #include "plugin_location.h"
 #include "py_bank.h"
 #include "python_model_provider.h"
-#include "skidimm/bank.h"
-#include "skidimm/plugin_registry.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/plugin_registry.h"
 
 namespace skidimm {
 namespace python {

@@ -4,7 +4,7 @@
 #include <limits>
 #include <system_error>
 
-#include "skidimm/log_io.h"
+#include "skidimm/io/csv.h"
 
 namespace skidimm {
 namespace python {

@@ -4,8 +4,8 @@
 #include <string>
 
 #include "python_model.h"
+#include "skidimm/config/expression.h"
 #include "skidimm/errors.h"
-#include "skidimm/expression.h"
 #include "skidimm/fitting/model_fitter.h"
 
 namespace skidimm {

@@ -13,9 +13,9 @@
 #include "py_bank.h"
 #include "python_arguments.h"
 #include "python_model.h"
+#include "skidimm/config/run_overrides.h"
 #include "skidimm/evaluation/evaluation_report.h"
 #include "skidimm/evaluation/log_evaluation.h"
-#include "skidimm/run_overrides.h"
 
 namespace skidimm {
 namespace python {

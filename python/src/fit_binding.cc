@@ -22,12 +22,12 @@
 #include "py_bank.h"
 #include "python_arguments.h"
 #include "python_model.h"
+#include "skidimm/config/run_overrides.h"
 #include "skidimm/errors.h"
 #include "skidimm/fitting/bank_fit.h"
 #include "skidimm/fitting/fit_logs.h"
 #include "skidimm/fitting/fit_output.h"
 #include "skidimm/progress.h"
-#include "skidimm/run_overrides.h"
 
 namespace skidimm {
 namespace python {

@@ -23,9 +23,9 @@
 #include "python_arguments.h"
 #include "python_model.h"
 #include "run_columns.h"
-#include "skidimm/decision.h"
-#include "skidimm/imm.h"
-#include "skidimm/run_overrides.h"
+#include "skidimm/config/run_overrides.h"
+#include "skidimm/engine/decision.h"
+#include "skidimm/engine/imm.h"
 
 namespace skidimm {
 namespace python {

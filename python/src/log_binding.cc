@@ -19,11 +19,11 @@
 #include "python_arguments.h"
 #include "python_model.h"
 #include "run_columns.h"
+#include "skidimm/config/expression.h"
+#include "skidimm/config/run_overrides.h"
 #include "skidimm/errors.h"
-#include "skidimm/expression.h"
-#include "skidimm/log_arguments.h"
-#include "skidimm/log_reader.h"
-#include "skidimm/run_overrides.h"
+#include "skidimm/io/log_arguments.h"
+#include "skidimm/io/log_reader.h"
 
 namespace skidimm {
 namespace python {

@@ -6,7 +6,7 @@
 #include <sstream>
 #include <string>
 
-#include "skidimm/plugin_registry.h"
+#include "skidimm/engine/plugin_registry.h"
 
 #ifndef SKIDIMM_PYTHON_PLUGIN_DIR_RELATIVE
 #define SKIDIMM_PYTHON_PLUGIN_DIR_RELATIVE "../../../skidimm/plugins"

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "python_model_provider.h"
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 
 namespace skidimm {
 namespace python {

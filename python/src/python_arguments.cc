@@ -4,7 +4,7 @@
 
 #include <filesystem>
 
-#include "skidimm/run_overrides.h"
+#include "skidimm/config/run_overrides.h"
 
 namespace skidimm {
 namespace python {

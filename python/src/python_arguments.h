@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "skidimm/bank.h"
-#include "skidimm/decision.h"
-#include "skidimm/log_arguments.h"
-#include "skidimm/log_reader.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/decision.h"
+#include "skidimm/io/log_arguments.h"
+#include "skidimm/io/log_reader.h"
 
 namespace skidimm {
 namespace python {

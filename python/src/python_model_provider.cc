@@ -6,8 +6,8 @@
 
 #include "plugin_location.h"
 #include "python_model.h"
+#include "skidimm/engine/plugin_registry.h"
 #include "skidimm/errors.h"
-#include "skidimm/plugin_registry.h"
 
 namespace skidimm {
 namespace python {

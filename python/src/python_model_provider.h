@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 
 namespace skidimm {
 namespace python {

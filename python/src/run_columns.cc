@@ -4,7 +4,7 @@
 #include <utility>
 
 #include "numpy_values.h"
-#include "skidimm/decision.h"
+#include "skidimm/engine/decision.h"
 
 namespace skidimm {
 namespace python {

@@ -11,8 +11,8 @@
 #include "bindings.h"
 #include "py_bank.h"
 #include "python_model.h"
-#include "skidimm/log_reader.h"
-#include "skidimm/run_overrides.h"
+#include "skidimm/config/run_overrides.h"
+#include "skidimm/io/log_reader.h"
 #include "skidimm/simulation/model_simulation.h"
 #include "skidimm/simulation/scenario.h"
 

@@ -12,19 +12,19 @@
 // their correctness against the npm packages is the tests' job.
 #include <benchmark/benchmark.h>
 
-#include <ctime>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "benchmark_data.h"
-#include "skidimm/bank.h"
-#include "skidimm/log_io.h"
-#include "skidimm/log_reader.h"
-#include "skidimm/ros/mcap_writer.h"
+#include "ros/mcap_writer.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/io/csv.h"
+#include "skidimm/io/log_reader.h"
 
 namespace skidimm_bench {
 namespace {

@@ -16,8 +16,8 @@
 
 #include "core/reference_imm.h"
 #include "core/test_banks.h"
-#include "skidimm/bank.h"
-#include "skidimm/mode_transition.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/mode_transition.h"
 #include "skidimm/sdk/angles.h"
 #include "stc_kinematic/stc_kinematic_model.h"
 

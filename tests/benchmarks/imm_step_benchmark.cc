@@ -19,7 +19,7 @@
 
 #include "benchmark_data.h"
 #include "benchmark_support.h"
-#include "skidimm/imm.h"
+#include "skidimm/engine/imm.h"
 
 namespace skidimm_bench {
 namespace {

@@ -20,11 +20,11 @@
 #include <string>
 #include <vector>
 
-#include "../../core/src/number_text.h"
 #include "core/temp_files.h"
+#include "number_text.h"
 #include "skidimm/errors.h"
-#include "skidimm/estimates_writer.h"
-#include "skidimm/log_io.h"
+#include "skidimm/io/csv.h"
+#include "skidimm/io/estimates_writer.h"
 
 namespace skidimm {
 namespace {

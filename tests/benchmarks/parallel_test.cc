@@ -1,6 +1,6 @@
 // eval and fit over many logs spread them over the cores (parallel.h); the
 // results, their order and their errors must be those of one thread.
-#include "skidimm/parallel.h"
+#include "parallel.h"
 
 #include <fcntl.h>
 #include <gtest/gtest.h>

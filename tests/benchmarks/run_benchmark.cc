@@ -33,10 +33,10 @@
 
 #include "benchmark_data.h"
 #include "benchmark_support.h"
-#include "skidimm/decision.h"
-#include "skidimm/estimates_writer.h"
-#include "skidimm/log_io.h"
-#include "skidimm/log_run.h"
+#include "skidimm/engine/decision.h"
+#include "skidimm/engine/log_run.h"
+#include "skidimm/io/csv.h"
+#include "skidimm/io/estimates_writer.h"
 
 extern char** environ;
 

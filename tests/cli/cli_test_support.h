@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "core/temp_files.h"
-#include "skidimm/log_io.h"
+#include "skidimm/io/csv.h"
 
 namespace skidimm_test {
 

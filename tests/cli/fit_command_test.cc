@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "cli/cli_test_support.h"
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 
 namespace skidimm_test {
 namespace {

@@ -18,7 +18,7 @@
 
 #include "cli/cli_test_support.h"
 #include "core/sanitizer.h"
-#include "skidimm/log_io.h"
+#include "skidimm/io/csv.h"
 
 namespace skidimm_test {
 namespace {

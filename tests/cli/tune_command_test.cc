@@ -4,9 +4,8 @@
 
 #include <string>
 
-
 #include "cli/cli_test_support.h"
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 
 namespace skidimm_test {
 namespace {

@@ -1,4 +1,4 @@
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-#include "skidimm/decision.h"
+#include "skidimm/engine/decision.h"
 
 #include <gtest/gtest.h>
 

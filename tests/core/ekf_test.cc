@@ -1,4 +1,4 @@
-#include "skidimm/ekf.h"
+#include "skidimm/engine/ekf.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,8 @@
 #include <limits>
 
 #include "core/test_banks.h"
-#include "skidimm/measurement_model.h"
+#include "fixed_size_ekf.h"
+#include "skidimm/engine/measurement_model.h"
 #include "stc_kinematic/stc_kinematic_model.h"
 
 namespace skidimm {

@@ -1,4 +1,4 @@
-#include "skidimm/expression.h"
+#include "skidimm/config/expression.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

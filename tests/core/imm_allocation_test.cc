@@ -13,11 +13,11 @@
 
 #include "core/malloc_counter.h"
 #include "core/test_banks.h"
-#include "skidimm/decision.h"
-#include "skidimm/estimates_writer.h"
-#include "skidimm/imm.h"
-#include "skidimm/log_reader.h"
-#include "skidimm/log_run.h"
+#include "skidimm/engine/decision.h"
+#include "skidimm/engine/imm.h"
+#include "skidimm/engine/log_run.h"
+#include "skidimm/io/estimates_writer.h"
+#include "skidimm/io/log_reader.h"
 #include "stc_kinematic/stc_kinematic_model.h"
 #include "stc_traction/stc_traction_model.h"
 

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "sanitizer.h"
-#include "skidimm/imm.h"
+#include "skidimm/engine/imm.h"
 #include "test_banks.h"
 
 namespace {

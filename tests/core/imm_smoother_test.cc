@@ -1,4 +1,4 @@
-#include "skidimm/imm_smoother.h"
+#include "skidimm/engine/imm_smoother.h"
 
 #include <gtest/gtest.h>
 
@@ -6,7 +6,7 @@
 #include <random>
 
 #include "core/test_banks.h"
-#include "skidimm/imm.h"
+#include "skidimm/engine/imm.h"
 
 namespace skidimm {
 namespace {

@@ -1,4 +1,4 @@
-#include "skidimm/imm.h"
+#include "skidimm/engine/imm.h"
 
 #include <gtest/gtest.h>
 

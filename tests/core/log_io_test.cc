@@ -1,5 +1,3 @@
-#include "skidimm/log_io.h"
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -10,6 +8,7 @@
 
 #include "core/temp_files.h"
 #include "skidimm/errors.h"
+#include "skidimm/io/csv.h"
 
 namespace skidimm {
 namespace {

@@ -1,4 +1,4 @@
-#include "skidimm/log_reader.h"
+#include "skidimm/io/log_reader.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -10,9 +10,9 @@
 #include <iterator>
 
 #include "core/temp_files.h"
+#include "skidimm/engine/imm.h"
 #include "skidimm/errors.h"
-#include "skidimm/imm.h"
-#include "skidimm/log_io.h"
+#include "skidimm/io/csv.h"
 
 namespace skidimm {
 namespace {

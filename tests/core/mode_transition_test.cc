@@ -1,4 +1,4 @@
-#include "skidimm/mode_transition.h"
+#include "skidimm/engine/mode_transition.h"
 
 #include <gtest/gtest.h>
 

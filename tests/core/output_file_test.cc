@@ -1,4 +1,4 @@
-#include "skidimm/output_file.h"
+#include "skidimm/io/output_file.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "core/temp_files.h"
-#include "skidimm/imm.h"
+#include "skidimm/engine/imm.h"
 
 namespace skidimm {
 namespace {

@@ -1,4 +1,4 @@
-#include "skidimm/plugin_registry.h"
+#include "skidimm/engine/plugin_registry.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

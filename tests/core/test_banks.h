@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "ltc_common/ltc_model.h"
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 #include "skidimm/sdk/angles.h"
 #include "skidimm/sdk/sized_motion_model.h"
 

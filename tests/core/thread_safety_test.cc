@@ -14,10 +14,10 @@
 #include <thread>
 #include <vector>
 
-#include "skidimm/bank.h"
-#include "skidimm/imm.h"
-#include "skidimm/log_reader.h"
-#include "skidimm/plugin_registry.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/imm.h"
+#include "skidimm/engine/plugin_registry.h"
+#include "skidimm/io/log_reader.h"
 
 namespace skidimm {
 namespace {

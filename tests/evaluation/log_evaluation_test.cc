@@ -6,7 +6,7 @@
 #include <memory>
 
 #include "core/test_banks.h"
-#include "skidimm/sample_source.h"
+#include "skidimm/io/sample_source.h"
 
 namespace skidimm {
 namespace evaluation {

@@ -15,9 +15,9 @@
 #include "core/temp_files.h"
 #include "core/test_banks.h"
 #include "fitting/simulated_logs.h"
-#include "skidimm/ekf.h"
-#include "skidimm/imm.h"
-#include "skidimm/measurement_model.h"
+#include "skidimm/engine/ekf.h"
+#include "skidimm/engine/imm.h"
+#include "skidimm/engine/measurement_model.h"
 #include "skidimm/sdk/angles.h"
 #include "stc_kinematic/stc_kinematic_model.h"
 

@@ -15,9 +15,9 @@
 #include <random>
 
 #include "core/test_banks.h"
-#include "skidimm/ekf.h"
+#include "skidimm/engine/ekf.h"
+#include "skidimm/engine/measurement_model.h"
 #include "skidimm/fitting/model_fitter.h"
-#include "skidimm/measurement_model.h"
 #include "skidimm/sdk/angles.h"
 
 namespace skidimm {

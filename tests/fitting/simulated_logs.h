@@ -14,7 +14,7 @@
 #include <random>
 #include <string>
 
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 #include "skidimm/fitting/trajectory.h"
 #include "skidimm/sdk/angles.h"
 #include "skidimm/sdk/motion_model.h"

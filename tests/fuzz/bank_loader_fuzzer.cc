@@ -12,10 +12,10 @@
 #include <memory>
 
 #include "fuzz_input_file.h"
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/imm.h"
+#include "skidimm/engine/plugin_registry.h"
 #include "skidimm/errors.h"
-#include "skidimm/imm.h"
-#include "skidimm/plugin_registry.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const std::filesystem::path file = skidimm_fuzz::input_file(".yaml");

@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "skidimm/ros/bundled_message_definitions.h"
-#include "skidimm/ros/cdr_field_reader.h"
+#include "ros/bundled_message_definitions.h"
+#include "ros/cdr_field_reader.h"
 
 namespace {
 

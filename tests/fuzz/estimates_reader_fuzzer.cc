@@ -5,10 +5,10 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "evaluation/estimates_reader.h"
 #include "fuzz_input_file.h"
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 #include "skidimm/errors.h"
-#include "skidimm/evaluation/estimates_reader.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const std::filesystem::path file = skidimm_fuzz::input_file(".csv");

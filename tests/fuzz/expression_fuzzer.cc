@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "skidimm/expression.h"
+#include "skidimm/config/expression.h"
 
 namespace {
 

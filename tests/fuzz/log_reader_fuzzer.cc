@@ -15,11 +15,11 @@
 #include <optional>
 
 #include "fuzz_input_file.h"
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/imm.h"
+#include "skidimm/engine/plugin_registry.h"
 #include "skidimm/errors.h"
-#include "skidimm/imm.h"
-#include "skidimm/log_reader.h"
-#include "skidimm/plugin_registry.h"
+#include "skidimm/io/log_reader.h"
 
 namespace {
 

@@ -10,9 +10,9 @@
 #include <memory>
 
 #include "fuzz_input_file.h"
+#include "ros/cdr_field_reader.h"
+#include "ros/mcap_reader.h"
 #include "skidimm/errors.h"
-#include "skidimm/ros/cdr_field_reader.h"
-#include "skidimm/ros/mcap_reader.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const std::filesystem::path file = skidimm_fuzz::input_file(".mcap");

@@ -26,9 +26,9 @@
 #include <vector>
 
 #include "fuzz_input_file.h"
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 #include "skidimm/errors.h"
-#include "skidimm/log_reader.h"
+#include "skidimm/io/log_reader.h"
 
 namespace {
 

@@ -14,9 +14,9 @@
 
 #include "core/temp_files.h"
 #include "linear_features/zero_order_hold.h"
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/plugin_registry.h"
 #include "skidimm/errors.h"
-#include "skidimm/plugin_registry.h"
 #include "skidimm/sdk/angles.h"
 #include "skidimm/sdk/testing/conformance.h"
 #include "skidimm/sdk/testing/plugin_lifecycle.h"

@@ -5,7 +5,7 @@
 #include <type_traits>
 #include <utility>
 
-#include "skidimm/plugin_registry.h"
+#include "skidimm/engine/plugin_registry.h"
 #include "skidimm/sdk/testing/conformance.h"
 #include "skidimm/sdk/testing/plugin_lifecycle.h"
 

@@ -4,9 +4,9 @@
 #include <cmath>
 
 #include "core/temp_files.h"
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/plugin_registry.h"
 #include "skidimm/errors.h"
-#include "skidimm/plugin_registry.h"
 #include "skidimm/sdk/angles.h"
 #include "skidimm/sdk/testing/conformance.h"
 #include "skidimm/sdk/testing/plugin_lifecycle.h"

@@ -6,8 +6,8 @@
 
 #include <cmath>
 
+#include "skidimm/engine/plugin_registry.h"
 #include "skidimm/errors.h"
-#include "skidimm/plugin_registry.h"
 #include "skidimm/sdk/testing/conformance.h"
 
 namespace skidimm {

@@ -1,7 +1,7 @@
 // A bag as the tables of a log (bag_log.h): the topics a bank's columns
 // name, their fields by path, the time by header stamp or log time, and the
 // errors a user meets, on bags written by the npm packages.
-#include "skidimm/ros/bag_log.h"
+#include "ros/bag_log.h"
 
 #include <gtest/gtest.h>
 
@@ -12,10 +12,10 @@
 #include <functional>
 
 #include "core/temp_files.h"
+#include "ros/crc32.h"
 #include "ros/ros_fixtures.h"
 #include "skidimm/errors.h"
-#include "skidimm/ros/bag_reader.h"
-#include "skidimm/ros/crc32.h"
+#include "skidimm/io/ros/bag_reader.h"
 
 namespace skidimm {
 namespace ros {

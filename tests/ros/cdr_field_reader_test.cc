@@ -2,13 +2,13 @@
 // (and, big-endian, by @foxglove/cdr): every primitive type, strings, fixed
 // arrays, sequences, sequences of messages, elements by index and by name,
 // checked bit for bit against the values the writer was given.
-#include "skidimm/ros/cdr_field_reader.h"
+#include "ros/cdr_field_reader.h"
 
 #include <gtest/gtest.h>
 
+#include "ros/bundled_message_definitions.h"
+#include "ros/mcap_reader.h"
 #include "ros/ros_fixtures.h"
-#include "skidimm/ros/bundled_message_definitions.h"
-#include "skidimm/ros/mcap_reader.h"
 
 namespace skidimm {
 namespace ros {

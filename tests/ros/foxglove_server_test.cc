@@ -2,7 +2,7 @@
 // the handshake with the protocol's subprotocol, serverInfo and advertise,
 // the client's subscribe, and every published message delivered in order
 // with its timestamp and payload.
-#include "skidimm/ros/foxglove_server.h"
+#include "skidimm/io/ros/foxglove_server.h"
 
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>

@@ -1,7 +1,7 @@
 // McapReader on files written by @mcap/core: every layout the writer has
 // (zstd, lz4 and uncompressed chunks, no chunks, no summary), and the bad
 // files of a user: cut short, a wrong CRC, a corrupt chunk.
-#include "skidimm/ros/mcap_reader.h"
+#include "ros/mcap_reader.h"
 
 #include <gtest/gtest.h>
 
@@ -9,9 +9,9 @@
 #include <fstream>
 
 #include "core/temp_files.h"
+#include "ros/crc32.h"
 #include "ros/ros_fixtures.h"
 #include "skidimm/errors.h"
-#include "skidimm/ros/crc32.h"
 
 namespace skidimm {
 namespace ros {

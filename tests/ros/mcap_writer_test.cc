@@ -2,7 +2,7 @@
 // reader (summary, chunk and message indexes, every CRC) and stream reader
 // must both read back exactly the messages written, for every chunk
 // compression; and skidimm's own reader agrees.
-#include "skidimm/ros/mcap_writer.h"
+#include "ros/mcap_writer.h"
 
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
@@ -12,8 +12,8 @@
 #include <random>
 
 #include "core/temp_files.h"
+#include "ros/mcap_reader.h"
 #include "skidimm/errors.h"
-#include "skidimm/ros/mcap_reader.h"
 
 namespace skidimm {
 namespace ros {

@@ -11,8 +11,8 @@
 #include <string>
 
 #include "core/temp_files.h"
+#include "skidimm/engine/plugin_registry.h"
 #include "skidimm/errors.h"
-#include "skidimm/plugin_registry.h"
 #include "skidimm/sdk/testing/conformance.h"
 #include "skidimm/sdk/testing/load_plugin_model.h"
 

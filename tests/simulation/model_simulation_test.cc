@@ -9,7 +9,7 @@
 
 #include "core/temp_files.h"
 #include "skidimm/errors.h"
-#include "skidimm/log_io.h"
+#include "skidimm/io/csv.h"
 
 namespace skidimm {
 namespace simulation {

@@ -7,9 +7,9 @@
 #include <map>
 
 #include "core/temp_files.h"
+#include "skidimm/engine/imm.h"
 #include "skidimm/errors.h"
-#include "skidimm/imm.h"
-#include "skidimm/log_io.h"
+#include "skidimm/io/csv.h"
 #include "skidimm/sdk/angles.h"
 
 namespace skidimm {

@@ -1,5 +1,5 @@
 // skidimm eval --estimates: a `skidimm run` output read back and scored.
-#include "skidimm/evaluation/estimates_reader.h"
+#include "estimates_reader.h"
 
 #include <cmath>
 #include <limits>
@@ -7,10 +7,10 @@
 #include <string>
 #include <vector>
 
-#include "skidimm/decision.h"
+#include "skidimm/engine/decision.h"
 #include "skidimm/errors.h"
 #include "skidimm/evaluation/mode_metrics.h"
-#include "skidimm/log_io.h"
+#include "skidimm/io/csv.h"
 
 namespace skidimm {
 namespace evaluation {
@@ -22,7 +22,7 @@ namespace {
 double parse_cell(const CsvReader& reader, const std::vector<std::string>& fields, int column, const char* expected) {
   const std::string& cell = fields[static_cast<std::size_t>(column)];
   double value = 0.0;
-  if (!parse_finite_number(cell, &value)) {  // log_io.h: the log reader's rule, subnormals included
+  if (!parse_finite_number(cell, &value)) {  // csv.h: the log reader's rule, subnormals included
     throw LogError(reader.path().string(), reader.line(),
                    "column " + std::to_string(column + 1) + " ('" +
                        reader.header()[static_cast<std::size_t>(column)] + "'): expected " + expected + ", got '" +

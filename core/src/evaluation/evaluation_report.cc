@@ -7,8 +7,8 @@
 #include <map>
 #include <sstream>
 
-#include "skidimm/evaluation/evaluation_summary.h"
-#include "skidimm/log_io.h"
+#include "evaluation_summary.h"
+#include "skidimm/io/csv.h"
 #include "skidimm/printable.h"
 
 namespace skidimm {

@@ -1,4 +1,4 @@
-#include "skidimm/evaluation/evaluation_summary.h"
+#include "evaluation_summary.h"
 
 #include <algorithm>
 #include <cmath>

@@ -4,10 +4,10 @@
 #include <cmath>
 #include <optional>
 
-#include "skidimm/decision.h"
+#include "skidimm/engine/decision.h"
+#include "skidimm/engine/imm.h"
 #include "skidimm/errors.h"
-#include "skidimm/estimates_writer.h"
-#include "skidimm/imm.h"
+#include "skidimm/io/estimates_writer.h"
 #include "skidimm/printable.h"
 #include "skidimm/sdk/angles.h"
 

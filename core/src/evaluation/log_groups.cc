@@ -3,9 +3,9 @@
 #include <exception>
 #include <functional>
 
-#include "skidimm/evaluation/estimates_reader.h"
-#include "skidimm/log_arguments.h"
-#include "skidimm/parallel.h"
+#include "estimates_reader.h"
+#include "parallel.h"
+#include "skidimm/io/log_arguments.h"
 
 namespace skidimm {
 namespace evaluation {

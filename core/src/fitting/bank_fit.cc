@@ -5,9 +5,9 @@
 #include <set>
 #include <vector>
 
+#include "skidimm/engine/measurement_model.h"
 #include "skidimm/errors.h"
 #include "skidimm/fitting/likelihood_fitter.h"
-#include "skidimm/measurement_model.h"
 
 namespace skidimm {
 namespace fitting {

@@ -2,15 +2,15 @@
 
 #include <algorithm>
 #include <cerrno>
-#include <cstring>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <regex>
 #include <sstream>
 
 #include "skidimm/errors.h"
-#include "skidimm/output_file.h"
+#include "skidimm/io/output_file.h"
 
 namespace skidimm {
 namespace fitting {

@@ -6,11 +6,11 @@
 #include <memory>
 #include <set>
 
+#include "parallel.h"
+#include "skidimm/config/expression.h"
 #include "skidimm/errors.h"
-#include "skidimm/expression.h"
 #include "skidimm/fitting/trajectory.h"
-#include "skidimm/log_arguments.h"
-#include "skidimm/parallel.h"
+#include "skidimm/io/log_arguments.h"
 
 namespace skidimm {
 namespace fitting {

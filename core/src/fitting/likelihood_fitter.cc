@@ -19,9 +19,9 @@
 #include <utility>
 
 #include "bounded_median.h"
+#include "covariance.h"
 #include "likelihood_problem.h"
-#include "skidimm/covariance.h"
-#include "skidimm/measurement_model.h"
+#include "skidimm/engine/measurement_model.h"
 #include "skidimm/sdk/angles.h"
 #include "solver_progress.h"
 

@@ -19,8 +19,8 @@
 #include <vector>
 
 #include "bounded_median.h"
+#include "covariance.h"
 #include "sensitivity_filter.h"
-#include "skidimm/covariance.h"
 
 namespace skidimm {
 namespace fitting {

@@ -14,11 +14,11 @@
 #include <sstream>
 
 #include "bounded_median.h"
+#include "covariance.h"
+#include "measured_outputs.h"
 #include "measurement_layout.h"
 #include "process_noise_search.h"
-#include "skidimm/covariance.h"
-#include "skidimm/measured_outputs.h"
-#include "skidimm/measurement_model.h"
+#include "skidimm/engine/measurement_model.h"
 #include "skidimm/sdk/angles.h"
 #include "solver_progress.h"
 

@@ -7,8 +7,8 @@
 #include <limits>
 #include <map>
 
-#include "skidimm/ekf.h"
-#include "skidimm/measurement_model.h"
+#include "skidimm/engine/ekf.h"
+#include "skidimm/engine/measurement_model.h"
 #include "skidimm/sdk/angles.h"
 
 namespace skidimm {

@@ -29,7 +29,7 @@
 #include <vector>
 
 #include "measurement_layout.h"
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 #include "skidimm/fitting/model_fitter.h"
 
 namespace skidimm {

@@ -16,9 +16,9 @@
 #include <utility>
 #include <vector>
 
-#include "skidimm/bank.h"
-#include "skidimm/covariance.h"
-#include "skidimm/measurement_model.h"
+#include "covariance.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/measurement_model.h"
 #include "skidimm/fitting/trajectory.h"
 #include "step_derivatives.h"
 

@@ -13,7 +13,7 @@
 #include <thread>
 #include <tuple>
 
-#include "skidimm/check.h"
+#include "check.h"
 #include "skidimm/errors.h"
 #include "skidimm/evaluation/log_evaluation.h"
 #include "skidimm/progress.h"

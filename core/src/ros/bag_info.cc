@@ -1,13 +1,13 @@
-#include "skidimm/ros/bag_info.h"
+#include "skidimm/io/ros/bag_info.h"
 
 #include <algorithm>
 #include <cstdio>
 #include <map>
 #include <memory>
 
+#include "bag_log.h"
 #include "skidimm/errors.h"
-#include "skidimm/ros/bag_log.h"
-#include "skidimm/ros/bag_reader.h"
+#include "skidimm/io/ros/bag_reader.h"
 
 namespace skidimm {
 namespace ros {

@@ -1,4 +1,4 @@
-#include "skidimm/ros/bag_log.h"
+#include "bag_log.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,10 +6,10 @@
 #include <exception>
 #include <limits>
 
+#include "bundled_message_definitions.h"
+#include "ros_time.h"
 #include "skidimm/errors.h"
-#include "skidimm/log_io.h"
-#include "skidimm/ros/bundled_message_definitions.h"
-#include "skidimm/ros/ros_time.h"
+#include "skidimm/io/csv.h"
 
 namespace skidimm {
 namespace ros {

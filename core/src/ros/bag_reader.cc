@@ -1,4 +1,4 @@
-#include "skidimm/ros/bag_reader.h"
+#include "skidimm/io/ros/bag_reader.h"
 
 #include <yaml-cpp/yaml.h>
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "skidimm/ros/bag_reader.h"
+#include "skidimm/io/ros/bag_reader.h"
 
 namespace skidimm {
 namespace ros {

@@ -1,4 +1,4 @@
-#include "skidimm/ros/bundled_message_definitions.h"
+#include "bundled_message_definitions.h"
 
 #include <algorithm>
 #include <map>

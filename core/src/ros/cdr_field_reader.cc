@@ -1,11 +1,11 @@
-#include "skidimm/ros/cdr_field_reader.h"
+#include "cdr_field_reader.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
 
-#include "skidimm/ros/ros_time.h"
+#include "ros_time.h"
 
 namespace skidimm {
 namespace ros {

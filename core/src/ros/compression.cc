@@ -1,4 +1,4 @@
-#include "skidimm/ros/compression.h"
+#include "compression.h"
 
 #include <lz4frame.h>
 #include <zstd.h>

@@ -1,4 +1,4 @@
-#include "skidimm/ros/crc32.h"
+#include "crc32.h"
 
 #include <array>
 #include <cstring>

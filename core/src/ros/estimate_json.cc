@@ -1,9 +1,9 @@
-#include "skidimm/ros/estimate_json.h"
+#include "skidimm/io/ros/estimate_json.h"
 
 #include <cmath>
 
-#include "skidimm/estimates_writer.h"
-#include "skidimm/log_io.h"
+#include "skidimm/io/csv.h"
+#include "skidimm/io/estimates_writer.h"
 
 namespace skidimm {
 namespace ros {

@@ -1,10 +1,10 @@
-#include "skidimm/ros/estimates_mcap_writer.h"
+#include "estimates_mcap_writer.h"
 
 #include <cmath>
 
-#include "skidimm/ros/bag_log.h"
-#include "skidimm/ros/bag_reader.h"
-#include "skidimm/ros/bundled_message_definitions.h"
+#include "bag_log.h"
+#include "bundled_message_definitions.h"
+#include "skidimm/io/ros/bag_reader.h"
 
 namespace skidimm {
 namespace ros {

@@ -1,7 +1,8 @@
-#include "skidimm/ros/foxglove_server.h"
+#include "skidimm/io/ros/foxglove_server.h"
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <atomic>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/post.hpp>
@@ -11,7 +12,6 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstring>
-#include <algorithm>
 #include <deque>
 #include <future>
 #include <map>
@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "skidimm/errors.h"
-#include "skidimm/ros/estimate_json.h"
+#include "skidimm/io/ros/estimate_json.h"
 
 namespace skidimm {
 namespace ros {

@@ -1,10 +1,10 @@
-#include "skidimm/ros/live_estimates.h"
+#include "skidimm/io/ros/live_estimates.h"
 
 #include <charconv>
 #include <thread>
 
+#include "estimates_mcap_writer.h"
 #include "skidimm/errors.h"
-#include "skidimm/ros/estimates_mcap_writer.h"
 
 namespace skidimm {
 namespace ros {

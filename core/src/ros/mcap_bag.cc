@@ -4,8 +4,8 @@
 #include <map>
 
 #include "bag_storage.h"
+#include "mcap_reader.h"
 #include "skidimm/errors.h"
-#include "skidimm/ros/mcap_reader.h"
 
 namespace skidimm {
 namespace ros {

@@ -1,14 +1,14 @@
-#include "skidimm/ros/mcap_reader.h"
+#include "mcap_reader.h"
 
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
 
 #include "byte_cursor.h"
+#include "compression.h"
+#include "crc32.h"
 #include "mcap_format.h"
 #include "skidimm/errors.h"
-#include "skidimm/ros/compression.h"
-#include "skidimm/ros/crc32.h"
 
 namespace skidimm {
 namespace ros {

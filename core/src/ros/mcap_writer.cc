@@ -1,11 +1,11 @@
-#include "skidimm/ros/mcap_writer.h"
+#include "mcap_writer.h"
 
 #include <cstring>
 
+#include "compression.h"
+#include "crc32.h"
 #include "mcap_format.h"
 #include "skidimm/errors.h"
-#include "skidimm/ros/compression.h"
-#include "skidimm/ros/crc32.h"
 
 namespace skidimm {
 namespace ros {

@@ -1,4 +1,4 @@
-#include "skidimm/ros/message_definition.h"
+#include "message_definition.h"
 
 #include <cctype>
 #include <set>

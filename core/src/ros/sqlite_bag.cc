@@ -10,8 +10,8 @@
 #include <map>
 
 #include "bag_storage.h"
+#include "compression.h"
 #include "skidimm/errors.h"
-#include "skidimm/ros/compression.h"
 
 namespace skidimm {
 namespace ros {

@@ -3,12 +3,12 @@
 #include <Eigen/Cholesky>
 #include <cmath>
 
+#include "measured_outputs.h"
+#include "random.h"
+#include "skidimm/config/expression.h"
 #include "skidimm/errors.h"
-#include "skidimm/expression.h"
-#include "skidimm/log_io.h"
-#include "skidimm/measured_outputs.h"
+#include "skidimm/io/csv.h"
 #include "skidimm/sdk/angles.h"
-#include "skidimm/simulation/random.h"
 
 namespace skidimm {
 namespace simulation {

@@ -12,10 +12,10 @@
 #include <set>
 
 #include "../yaml_fields.h"
+#include "random.h"
 #include "skidimm/errors.h"
-#include "skidimm/log_io.h"
+#include "skidimm/io/csv.h"
 #include "skidimm/sdk/angles.h"
-#include "skidimm/simulation/random.h"
 
 namespace skidimm {
 namespace simulation {

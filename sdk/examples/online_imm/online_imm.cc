@@ -6,8 +6,8 @@
 #include <cstdio>
 #include <exception>
 
-#include "skidimm/imm.h"
-#include "skidimm/log_io.h"
+#include "skidimm/engine/imm.h"
+#include "skidimm/io/csv.h"
 
 int main(int argc, char** argv) {
   if (argc != 3) {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 #include "skidimm/evaluation/log_groups.h"
 
 namespace skidimm {

@@ -16,11 +16,11 @@
 #include <string>
 #include <vector>
 
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/log_run.h"
 #include "skidimm/evaluation/consistency.h"
 #include "skidimm/evaluation/mode_metrics.h"
-#include "skidimm/log_reader.h"
-#include "skidimm/log_run.h"
+#include "skidimm/io/log_reader.h"
 
 namespace skidimm {
 namespace evaluation {

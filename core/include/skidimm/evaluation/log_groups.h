@@ -7,10 +7,10 @@
 #include <string>
 #include <vector>
 
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/log_run.h"
 #include "skidimm/evaluation/log_evaluation.h"
-#include "skidimm/log_arguments.h"
-#include "skidimm/log_run.h"
+#include "skidimm/io/log_arguments.h"
 
 namespace skidimm {
 namespace evaluation {

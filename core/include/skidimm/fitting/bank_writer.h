@@ -12,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 
 namespace skidimm {
 namespace fitting {

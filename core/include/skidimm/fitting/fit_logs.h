@@ -12,10 +12,10 @@
 #include <string>
 #include <vector>
 
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 #include "skidimm/fitting/model_fitter.h"
-#include "skidimm/log_arguments.h"
-#include "skidimm/log_reader.h"
+#include "skidimm/io/log_arguments.h"
+#include "skidimm/io/log_reader.h"
 
 namespace skidimm {
 namespace fitting {

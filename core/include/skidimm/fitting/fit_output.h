@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 #include "skidimm/fitting/bank_fit.h"
 #include "skidimm/fitting/model_fitter.h"
 

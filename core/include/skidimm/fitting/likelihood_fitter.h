@@ -93,7 +93,7 @@
 #include <string>
 #include <vector>
 
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 #include "skidimm/fitting/model_fitter.h"
 #include "skidimm/fitting/trajectory.h"
 

@@ -40,7 +40,7 @@
 #include <string>
 #include <vector>
 
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 #include "skidimm/errors.h"
 #include "skidimm/fitting/trajectory.h"
 

@@ -9,8 +9,8 @@
 #include <utility>
 #include <vector>
 
-#include "skidimm/bank.h"
-#include "skidimm/log_reader.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/io/log_reader.h"
 
 namespace skidimm {
 namespace fitting {

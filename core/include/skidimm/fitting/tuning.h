@@ -32,11 +32,11 @@
 #include <string>
 #include <vector>
 
-#include "skidimm/bank.h"
+#include "skidimm/config/bank.h"
 #include "skidimm/evaluation/log_scores.h"
 #include "skidimm/evaluation/mode_metrics.h"
 #include "skidimm/fitting/model_fitter.h"
-#include "skidimm/log_reader.h"
+#include "skidimm/io/log_reader.h"
 
 namespace skidimm {
 namespace fitting {

@@ -20,8 +20,8 @@
 #include <cstdint>
 #include <filesystem>
 
-#include "skidimm/bank.h"
-#include "skidimm/log_reader.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/io/log_reader.h"
 
 namespace skidimm {
 namespace simulation {

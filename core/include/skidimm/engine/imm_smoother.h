@@ -1,0 +1,130 @@
+// ImmSmoother: mode probabilities and states given the whole log, not only
+// its past (fixed-interval), or given a few seconds of its future
+// (fixed-lag), from the IMM's forward pass.
+//
+// The algorithm is Kim's smoother for Markov-switching state-space models
+// (C.-J. Kim, "Dynamic linear models with Markov-switching", J. Econometrics
+// 60, 1994; Kim & Nelson, "State-Space Models with Regime Switching", MIT
+// Press 1999, section 5.2), run backwards over the IMM filter's mode-matched
+// estimates. With mu_k^j, x_k^j, P_k^j the filtered probability, state and
+// covariance of mode j at step k, p_ji the transition from j (at k) to i (at
+// k+1) for that step's dt, and c^i = sum_j p_ji mu_k^j:
+//
+//   mode pairs:  mu_{k,k+1|N}^{ji} = mu_{k+1|N}^i p_ji mu_k^j / c^i,   mu_{k|N}^j = sum_i mu_{k,k+1|N}^{ji}
+//   per pair, a Rauch-Tung-Striebel step through mode i's model:
+//     x^ji = f_i(x_k^j, u_k, dt),  F = df_i/dx,  P^ji = F P_k^j F' + Qd_i,  J = P_k^j F' (P^ji)^-1
+//     x_{k|N}^{ji} = x_k^j + J (x_{k+1|N}^i - x^ji),  P_{k|N}^{ji} = P_k^j + J (P_{k+1|N}^i - P^ji) J'
+//   collapsed over i with weights mu_{k,k+1|N}^{ji} / mu_{k|N}^j (moment matching,
+//   angles on the circle), then over j with mu_{k|N}^j, as the filter combines.
+//
+// Approximations, stated plainly: (1) P(m_k = j | m_{k+1} = i, all data) is
+// taken as P(m_k = j | m_{k+1} = i, data up to k), which is exact when the
+// measurements after k depend on m_k only through m_{k+1} (as in a hidden
+// Markov model, where this smoother is the exact forward-backward), and not
+// for switching dynamics, where future data also carry information about the
+// state x_k; (2) the mixtures are collapsed to one Gaussian per mode, as the
+// IMM does; (3) for nonlinear models, F is the Jacobian at the filtered state,
+// as in an extended RTS smoother. Steps without a measurement are smoothed
+// like any other (their filtered probabilities are the predicted ones).
+//
+// Cost: O(N^2 n^3) per step backwards (a prediction per mode pair), the same
+// order as the filter's mixing. Memory: the fixed-interval smoother keeps
+// every forward step; the fixed-lag one only its window.
+#ifndef SKIDIMM_ENGINE_IMM_SMOOTHER_H_
+#define SKIDIMM_ENGINE_IMM_SMOOTHER_H_
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <deque>
+#include <vector>
+
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/imm_estimate.h"
+#include "skidimm/engine/mode_transition.h"
+
+namespace skidimm {
+
+// What the smoother needs of one forward step.
+struct ForwardStep {
+  double t = 0.0;
+  Eigen::VectorXd u;  // the input given at t: it drives the prediction to the next step
+  Eigen::VectorXd mode_probabilities;
+  std::vector<Eigen::VectorXd> mode_states;
+  std::vector<Eigen::MatrixXd> mode_covariances;
+};
+
+// Records a step the IMM accepted (not rejected_time or rejected_input).
+ForwardStep record_step(double t, const Eigen::Ref<const Eigen::VectorXd>& u, const ImmEstimate& estimate);
+
+// A smoothed step, in the shape of the filter's estimate.
+struct SmoothedStep {
+  double t = 0.0;
+  Eigen::VectorXd mode_probabilities;
+  std::vector<Eigen::VectorXd> mode_states;
+  std::vector<Eigen::MatrixXd> mode_covariances;
+  Eigen::VectorXd state;
+  Eigen::MatrixXd covariance;
+  int most_likely_mode = 0;
+};
+
+class ImmSmoother {
+ public:
+  // `bank` (its models, transition, floor) must outlive the smoother.
+  explicit ImmSmoother(const Bank& bank);
+  // A temporary bank would be gone before the first smooth(): refused at compile time.
+  explicit ImmSmoother(Bank&& bank) = delete;
+
+  // Fixed-interval smoothing of a whole forward pass: out[k] for forward[k].
+  void smooth(const std::vector<ForwardStep>& forward, std::vector<SmoothedStep>* out);
+  // The same over forward[begin, end), the last step's smoothed estimate being
+  // its filtered one. Used by the fixed-lag smoother on its window.
+  void smooth(const std::deque<ForwardStep>& forward, std::vector<SmoothedStep>* out);
+
+ private:
+  template <typename Steps>
+  void smooth_range(const Steps& forward, std::vector<SmoothedStep>* out);
+  // From the smoothed step k+1 and the filtered k (and k+1's time) to the smoothed k.
+  void backward(const ForwardStep& k, double t_next, const SmoothedStep& next, SmoothedStep* out);
+  void combine(SmoothedStep* s) const;
+
+  const Bank& bank_;
+  ModeTransition transition_;
+  std::vector<bool> angle_mask_;
+  // Workspace.
+  Eigen::MatrixXd pair_means_;  // n x N: x_{k|N}^{ji} for one j, over i
+  Eigen::MatrixXd deviations_;
+  Eigen::MatrixXd means_;
+  Eigen::VectorXd c_;       // N: predicted mode probabilities of k+1
+  Eigen::MatrixXd joint_;   // N x N
+  Eigen::VectorXd weights_;  // N: of the pairs (j, i) over i
+  Eigen::VectorXd predicted_, difference_;
+  Eigen::MatrixXd f_, q_, f_px_, predicted_covariance_, gain_, gain_transposed_;
+  std::vector<Eigen::MatrixXd> pair_covariances_;  // N, n x n each
+  Eigen::LDLT<Eigen::MatrixXd> ldlt_;
+};
+
+// Fixed-lag smoothing for online use that can wait: each step's smoothed
+// estimate is released once `lag` seconds of later steps have been seen,
+// smoothed over that window (a fixed-interval smoother on the window: the
+// same algorithm, with the window's last step as its end).
+class FixedLagSmoother {
+ public:
+  FixedLagSmoother(const Bank& bank, double lag_seconds);
+  FixedLagSmoother(Bank&& bank, double lag_seconds) = delete;  // as ImmSmoother's
+
+  // Adds the newest forward step; appends the steps now `lag` behind it,
+  // oldest first, to *ready.
+  void add(ForwardStep step, std::vector<SmoothedStep>* ready);
+  // At the end of the log: releases the rest, smoothed over what remains.
+  void finish(std::vector<SmoothedStep>* ready);
+
+ private:
+  ImmSmoother smoother_;
+  double lag_;
+  std::deque<ForwardStep> window_;
+  std::vector<SmoothedStep> smoothed_;
+};
+
+}  // namespace skidimm
+
+#endif  // SKIDIMM_ENGINE_IMM_SMOOTHER_H_

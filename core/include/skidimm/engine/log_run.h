@@ -1,0 +1,87 @@
+// Running a bank over a log, step by step: the filter's estimates, or the
+// smoother's (imm_smoother.h), fixed-interval over the whole log or with a
+// fixed lag. What `skidimm run` writes and `skidimm eval` scores.
+#ifndef SKIDIMM_ENGINE_LOG_RUN_H_
+#define SKIDIMM_ENGINE_LOG_RUN_H_
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "skidimm/config/bank.h"
+#include "skidimm/engine/imm_estimate.h"
+#include "skidimm/engine/mode_timeline.h"
+#include "skidimm/io/estimates_writer.h"
+#include "skidimm/io/log_reader.h"
+
+namespace skidimm {
+
+struct EstimatorOptions {
+  enum class Kind {
+    kFilter,         // causal: each step given the log up to it
+    kFixedInterval,  // each step given the whole log (the log is held in memory)
+    kFixedLag,       // each step given the log up to `lag` seconds after it
+  };
+  Kind kind = Kind::kFilter;
+  double lag = 0.0;  // s, kFixedLag
+};
+
+// Calls sink(sample, estimate) for every step of the log in time order. For
+// the smoothers, `estimate` holds the smoothed probabilities, mode states
+// and combined state (the filter's status, likelihoods and NIS). Steps the
+// filter rejected (rejected_time, rejected_input) are passed through with the
+// filter's estimate. Returns the number of steps.
+long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
+             const std::function<void(const LogSample&, const ImmEstimate&)>& sink);
+
+// How often one mode's filter was rejected (and reset) over a run, and the
+// first time why; and how often it gated the measurement.
+struct ModeRejections {
+  long rows = 0;                           // rows where this mode's filter was rejected (is_rejection)
+  long by_failure[kNumModeFailures] = {};  // rows by ModeFailure, kGated included
+  long first_row = 0;                 // the first such row (1-based, as in the output)
+  double first_t = 0.0;
+  ModeFailure first_failure = ModeFailure::kNone;
+  std::string first_reason;  // the model's own words (ModeFailure::kModel)
+};
+
+// What `skidimm run` reports about a log besides its rows.
+struct RunSummary {
+  long rows = 0;
+  long truth_rows = 0;        // rows with a truth label
+  long truth_matches = 0;     // ... whose most likely mode's class is the truth's
+  long predict_only = 0;      // rows without a measurement
+  long rejected = 0;          // rows where at least one mode's filter failed or diverged (and was reset)
+  long gated = 0;             // rows whose measurement every mode gated (status gated)
+  long mode_gated = 0;        // rows whose measurement some modes gated (status mode_gated or mode_reset)
+  long decision_changes = 0;  // changes of the decision after the first row
+  ModeTimeline timeline;      // the most likely mode over time
+  // One per mode once a mode's filter was rejected or gated (empty until then).
+  std::vector<ModeRejections> rejections;
+};
+
+// What `skidimm run --strict` throws at the first row where a mode's filter
+// was rejected: an Error naming the row, the mode, its plugin file and the
+// reason. The row itself has been written.
+std::string describe_first_rejection(const Bank& bank, const ImmEstimate& e, long row);
+
+// `skidimm run`'s loop: runs the log (run_log), decides each step
+// (decision.h, with `decision` settings), writes it (`writer`, whose truth
+// column, if any, gets `label` or else the log's truth column) and counts into
+// *summary as it goes, so that a caller catching an error knows how many rows
+// were written. `progress` (may be empty) is called every 1024 rows.
+//
+// With the filter (not a smoother), nothing here allocates per row: the log
+// is read in place, the step allocates nothing, numbers are formatted into
+// the writer's buffer. (The timeline grows by an interval when the most likely
+// mode changes, amortised; a longer truth label than any before is copied.)
+// `strict`: the first row with a rejected mode filter is written, then an
+// Error (describe_first_rejection) ends the run; a gated measurement is not a
+// rejection.
+void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
+                     const DecisionConfig& decision, const std::string& label, bool with_truth, EstimatesWriter* writer,
+                     RunSummary* summary, const std::function<void()>& progress = {}, bool strict = false);
+
+}  // namespace skidimm
+
+#endif  // SKIDIMM_ENGINE_LOG_RUN_H_

@@ -1,0 +1,379 @@
+// The filter of ExtendedKalmanFilter (skidimm/engine/ekf.h) for a state of N
+// and a measurement of K components known at compile time, on Eigen
+// fixed-size types the caller owns: what the IMM's fixed-size kernels run
+// (imm_kernel.h). predict_fixed() and update_fixed() call the model through
+// the same three virtuals (jacobian, process_noise, predict, in that order,
+// at the prior state) and agree with ExtendedKalmanFilter to round-off
+// (tests/core/ekf_test.cc).
+#ifndef SKIDIMM_CORE_SRC_FIXED_SIZE_EKF_H_
+#define SKIDIMM_CORE_SRC_FIXED_SIZE_EKF_H_
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+#include "skidimm/engine/ekf.h"
+#include "skidimm/engine/measurement_model.h"
+#include "skidimm/sdk/angles.h"
+#include "skidimm/sdk/motion_model.h"
+
+namespace skidimm {
+
+// Bit i set: component i is an angle (wraps at +-pi).
+using AngleMask = std::uint32_t;
+
+// sdk::wrap_angle, returning angles already in [-pi, pi) unchanged without a
+// division: the same result, except within an ulp of the seam.
+inline double wrap_angle_fast(double angle) {
+  return angle >= -sdk::kPi && angle < sdk::kPi ? angle : sdk::wrap_angle(angle);
+}
+
+template <int N>
+void wrap_angles_fixed(AngleMask angles, Eigen::Matrix<double, N, 1>* x) {
+  if (angles == 0) return;
+  for (int i = 0; i < N; ++i) {
+    if (angles >> i & 1u) (*x)[i] = wrap_angle_fast((*x)[i]);
+  }
+}
+
+// m = (m + m') / 2 for a fixed-size square matrix: symmetrize()'s values,
+// unrolled.
+template <int N>
+inline void symmetrize_fixed(Eigen::Matrix<double, N, N>* m) {
+  for (int j = 1; j < N; ++j) {
+    for (int i = 0; i < j; ++i) {
+      const double mean = 0.5 * ((*m)(i, j) + (*m)(j, i));
+      (*m)(i, j) = mean;
+      (*m)(j, i) = mean;
+    }
+  }
+}
+
+template <int R, int C>
+bool all_finite(const Eigen::Matrix<double, R, C>& m) {
+  bool finite = true;
+  for (int i = 0; i < R * C; ++i) finite = finite && std::isfinite(m.data()[i]);
+  return finite;
+}
+
+// Propagates x, P by dt with input u through `model`; q_intensity is the
+// mode's continuous-time Q. Returns false if the model fails or the result is
+// not finite (x, P are then unspecified).
+template <int N>
+bool predict_fixed(const sdk::MotionModel& model, const Eigen::Matrix<double, N, N>& q_intensity, AngleMask angles,
+                   const Eigen::Ref<const Eigen::VectorXd>& u, double dt, Eigen::Matrix<double, N, 1>* x,
+                   Eigen::Matrix<double, N, N>* p) {
+  // Outputs of the model in storage of at least two doubles: GCC 12 sees the
+  // plugin's packet stores into a 1 x 1 matrix as out of bounds.
+  constexpr int kStorage = N * N < 2 ? 2 : N * N;
+  alignas(16) double f_storage[kStorage];
+  alignas(16) double q_storage[kStorage];
+  alignas(16) double next_storage[N < 2 ? 2 : N];
+  Eigen::Map<Eigen::Matrix<double, N, N>> f(f_storage);
+  Eigen::Map<Eigen::Matrix<double, N, N>> q(q_storage);
+  Eigen::Map<Eigen::Matrix<double, N, 1>> next(next_storage);
+  // F and Q are evaluated at the prior state, before x is overwritten.
+  {
+    Eigen::Ref<Eigen::MatrixXd> f_out(f);
+    if (!model.jacobian(*x, u, dt, f_out)) return false;
+  }
+  {
+    Eigen::Ref<Eigen::MatrixXd> q_out(q);
+    if (!model.process_noise(q_intensity, *x, u, dt, q_out)) return false;
+  }
+  {
+    Eigen::Ref<Eigen::VectorXd> next_out(next);
+    if (!model.predict(*x, u, dt, next_out)) return false;
+  }
+  *x = next;
+  wrap_angles_fixed<N>(angles, x);
+  // A diagonal F (decoupled states: linear_features with a diagonal A) scales
+  // P's rows and columns: the same two roundings per entry as the products,
+  // so the same result to the bit, in n^2 instead of 2 n^3. Worth its check
+  // from 5 states on.
+  bool diagonal = N >= 5;
+  for (int j = 0; j < N && diagonal; ++j) {
+    for (int i = 0; i < N; ++i) diagonal = diagonal && (i == j || f(i, j) == 0.0);
+  }
+  if (diagonal) {
+    for (int j = 0; j < N; ++j) {
+      for (int i = 0; i < N; ++i) (*p)(i, j) = (f(i, i) * (*p)(i, j)) * f(j, j);
+    }
+  } else if constexpr (N <= 4) {
+    const Eigen::Matrix<double, N, N> fp = f * *p;
+    p->noalias() = fp * f.transpose();
+  } else {
+    // Coefficient by coefficient: from 8 Eigen would take these for large
+    // products and pack them for its blocked kernel.
+    const Eigen::Matrix<double, N, N> fp = f.lazyProduct(*p);
+    p->noalias() = fp.lazyProduct(f.transpose());
+  }
+  *p += q;
+  symmetrize_fixed<N>(p);
+  return all_finite(*x) && all_finite(*p);
+}
+
+// S = L L' in place (the lower triangle), for small fixed K, with the
+// reciprocals of L's diagonal in *inverse_diagonal (solves then multiply).
+// False if S is not positive definite (a pivot <= 0 or NaN), as Eigen::LLT
+// reports it.
+template <int K>
+bool cholesky_in_place(Eigen::Matrix<double, K, K>* s, Eigen::Matrix<double, K, 1>* inverse_diagonal) {
+  for (int j = 0; j < K; ++j) {
+    double pivot = (*s)(j, j);
+    for (int k = 0; k < j; ++k) pivot -= (*s)(j, k) * (*s)(j, k);
+    if (!(pivot > 0.0)) return false;
+    pivot = std::sqrt(pivot);
+    (*s)(j, j) = pivot;
+    const double inverse = 1.0 / pivot;
+    (*inverse_diagonal)[j] = inverse;
+    for (int i = j + 1; i < K; ++i) {
+      double v = (*s)(i, j);
+      for (int k = 0; k < j; ++k) v -= (*s)(i, k) * (*s)(j, k);
+      (*s)(i, j) = v * inverse;
+    }
+  }
+  return true;
+}
+
+// b <- L^-1 b for the factor cholesky_in_place() left in l.
+template <int K, int C>
+void forward_substitute(const Eigen::Matrix<double, K, K>& l, const Eigen::Matrix<double, K, 1>& inverse_diagonal,
+                        Eigen::Matrix<double, K, C>* b) {
+  for (int c = 0; c < C; ++c) {
+    for (int i = 0; i < K; ++i) {
+      double v = (*b)(i, c);
+      for (int k = 0; k < i; ++k) v -= l(i, k) * (*b)(k, c);
+      (*b)(i, c) = v * inverse_diagonal[i];
+    }
+  }
+}
+
+// b <- L'^-1 b.
+template <int K, int C>
+void back_substitute(const Eigen::Matrix<double, K, K>& l, const Eigen::Matrix<double, K, 1>& inverse_diagonal,
+                     Eigen::Matrix<double, K, C>* b) {
+  for (int c = 0; c < C; ++c) {
+    for (int i = K - 1; i >= 0; --i) {
+      double v = (*b)(i, c);
+      for (int k = i + 1; k < K; ++k) v -= l(k, i) * (*b)(k, c);
+      (*b)(i, c) = v * inverse_diagonal[i];
+    }
+  }
+}
+
+// Corrects x, P with a measurement z = H x + v, v ~ N(0, R) of K components;
+// bit a of z_angles: row a measures an angle. A measurement whose NIS is
+// above `gate` is not applied (result.gated).
+template <int N, int K>
+UpdateResult update_fixed(const Eigen::Matrix<double, K, 1>& z, const Eigen::Matrix<double, K, N>& h,
+                          const Eigen::Matrix<double, K, K>& r, AngleMask z_angles, AngleMask state_angles,
+                          Eigen::Matrix<double, N, 1>* x, Eigen::Matrix<double, N, N>* p,
+                          double gate = std::numeric_limits<double>::infinity()) {
+  constexpr double kLog2Pi = 1.8378770664093454835606594728112;
+  UpdateResult result;
+  Eigen::Matrix<double, K, 1> nu = z;
+  nu.noalias() -= h * *x;
+  wrap_angles_fixed<K>(z_angles, &nu);
+  Eigen::Matrix<double, K, N> hp;
+  hp.noalias() = h * *p;
+  Eigen::Matrix<double, K, K> s = r;
+  s.noalias() += hp * h.transpose();
+  symmetrize_fixed<K>(&s);
+  // In-place Cholesky: S = L L'.
+  Eigen::Matrix<double, K, 1> inverse_diagonal;
+  if (!cholesky_in_place<K>(&s, &inverse_diagonal)) return result;
+  Eigen::Matrix<double, K, 1> whitened = nu;
+  forward_substitute<K, 1>(s, inverse_diagonal, &whitened);  // L^-1 nu
+  result.nis = whitened.squaredNorm();                       // nu' S^-1 nu
+  // log det S = 2 sum log L_aa: one log of the product while it is safely
+  // inside double's range (always, for real sensors), the sum otherwise.
+  double product = 1.0;
+  for (int a = 0; a < K; ++a) product *= s(a, a);
+  double log_det = 0.0;
+  if (product > 1e-280 && product < 1e280) {
+    log_det = std::log(product);
+  } else {
+    for (int a = 0; a < K; ++a) log_det += std::log(s(a, a));
+  }
+  if (result.nis > gate) {
+    result.gated = true;
+    result.log_likelihood = -0.5 * (gate + 2.0 * log_det + K * kLog2Pi);
+    result.ok = std::isfinite(result.log_likelihood);
+    return result;
+  }
+  result.log_likelihood = -0.5 * (result.nis + 2.0 * log_det + K * kLog2Pi);
+  // K' = S^-1 H P-   (S and P- symmetric), solved in place over H P-.
+  forward_substitute<K, N>(s, inverse_diagonal, &hp);
+  back_substitute<K, N>(s, inverse_diagonal, &hp);
+  const Eigen::Matrix<double, N, K> gain = hp.transpose();
+  x->noalias() += gain * nu;
+  wrap_angles_fixed<N>(state_angles, x);
+  Eigen::Matrix<double, N, N> i_kh = Eigen::Matrix<double, N, N>::Identity();
+  i_kh.noalias() -= gain * h;
+  const Eigen::Matrix<double, N, N> ikh_p = i_kh * *p;
+  p->noalias() = ikh_p * i_kh.transpose();
+  const Eigen::Matrix<double, N, K> kr = gain * r;
+  p->noalias() += kr * gain.transpose();
+  symmetrize_fixed<N>(p);
+  result.ok = std::isfinite(result.log_likelihood) && all_finite(*x) && all_finite(*p);
+  return result;
+}
+
+// ------------------------------------------- fixed states, any measurement rows
+
+// Workspace of update_selected() for N states and measurements of up to m
+// rows: sized once, so updates allocate nothing.
+template <int N>
+struct SelectedUpdateWorkspace {
+  using Columns = Eigen::Matrix<double, N, Eigen::Dynamic>;
+  explicit SelectedUpdateWorkspace(int m) : gain(N, m), kr(N, m), s(m, m), nu(m), whitened(m), inverse_diagonal(m) {}
+  Columns gain;       // P- H', then K = P- H' S^-1 (N x k)
+  Columns kr;         // K R (N x k)
+  Eigen::MatrixXd s;  // S, then its Cholesky factor (k x k)
+  Eigen::VectorXd nu, whitened, inverse_diagonal;
+  Eigen::Matrix<double, N, N> i_kh;   // I - K H
+  Eigen::Matrix<double, N, N> ikh_p;  // (I - K H) P-
+};
+
+// The update of update_fixed() for N states known at compile time and the k
+// rows of `m` (MeasurementModel::select()), any k: what the IMM runs for
+// banks of more than 4 states or measurement rows (BorealTC's 9 features,
+// stc_traction's 3 states and 6 rows). Everything of size N is a column of
+// fixed size (the compiler unrolls and vectorizes it), the gain solved as
+// K L L' = P- H' column by column; each sum runs in index order. Agrees with
+// ExtendedKalmanFilter to round-off (tests/core/ekf_test.cc).
+template <int N>
+UpdateResult update_selected(const SelectedMeasurement& m, AngleMask state_angles, Eigen::Matrix<double, N, 1>* x,
+                             Eigen::Matrix<double, N, N>* p, SelectedUpdateWorkspace<N>* w,
+                             double gate = std::numeric_limits<double>::infinity()) {
+  constexpr double kLog2Pi = 1.8378770664093454835606594728112;
+  UpdateResult result;
+  const int k = m.size;
+  if (k == 0) {
+    result.ok = true;
+    return result;
+  }
+  const bool picks = m.picks_states;
+  auto& gain = w->gain;
+  auto& s = w->s;
+  // nu = z - H x;  P- H' (into gain);  S = H P- H' + R.
+  for (int a = 0; a < k; ++a) {
+    double predicted = 0.0;
+    if (picks) {
+      const int picked = m.picked_state[static_cast<std::size_t>(a)];
+      predicted = (*x)[picked];
+      gain.col(a) = p->col(picked);
+    } else {
+      for (int i = 0; i < N; ++i) predicted += m.h(a, i) * (*x)[i];
+      gain.col(a).setZero();
+      for (int i = 0; i < N; ++i) gain.col(a) += p->col(i) * m.h(a, i);
+    }
+    const double v = m.z[a] - predicted;
+    w->nu[a] = m.is_angle[static_cast<std::size_t>(a)] ? wrap_angle_fast(v) : v;
+  }
+  for (int b = 0; b < k; ++b) {
+    for (int a = b; a < k; ++a) {
+      double hph = 0.0;
+      if (picks) {
+        hph = gain(m.picked_state[static_cast<std::size_t>(a)], b);
+      } else {
+        for (int i = 0; i < N; ++i) hph += m.h(a, i) * gain(i, b);
+      }
+      s(a, b) = hph + 0.5 * (m.r(a, b) + m.r(b, a));
+    }
+  }
+  // In-place Cholesky of the lower triangle, S = L L', with L's reciprocal diagonal.
+  auto& inverse_diagonal = w->inverse_diagonal;
+  for (int j = 0; j < k; ++j) {
+    double pivot = s(j, j);
+    for (int c = 0; c < j; ++c) pivot -= s(j, c) * s(j, c);
+    if (!(pivot > 0.0)) return result;
+    pivot = std::sqrt(pivot);
+    s(j, j) = pivot;
+    const double inverse = 1.0 / pivot;
+    inverse_diagonal[j] = inverse;
+    for (int i = j + 1; i < k; ++i) {
+      double v = s(i, j);
+      for (int c = 0; c < j; ++c) v -= s(i, c) * s(j, c);
+      s(i, j) = v * inverse;
+    }
+  }
+  // NIS = |L^-1 nu|^2, log det S = 2 sum log L_aa (one log of the product
+  // while it is inside double's range, as update_fixed()).
+  auto& whitened = w->whitened;
+  result.nis = 0.0;
+  for (int a = 0; a < k; ++a) {
+    double v = w->nu[a];
+    for (int c = 0; c < a; ++c) v -= s(a, c) * whitened[c];
+    whitened[a] = v * inverse_diagonal[a];
+    result.nis += whitened[a] * whitened[a];
+  }
+  double product = 1.0;
+  for (int a = 0; a < k; ++a) product *= s(a, a);
+  double log_det = 0.0;
+  if (product > 1e-280 && product < 1e280) {
+    log_det = std::log(product);
+  } else {
+    for (int a = 0; a < k; ++a) log_det += std::log(s(a, a));
+  }
+  if (result.nis > gate) {
+    result.gated = true;
+    result.log_likelihood = -0.5 * (gate + 2.0 * log_det + k * kLog2Pi);
+    result.ok = std::isfinite(result.log_likelihood);
+    return result;
+  }
+  result.log_likelihood = -0.5 * (result.nis + 2.0 * log_det + k * kLog2Pi);
+  // K = P- H' S^-1: solve Z L' = P- H', then K L = Z, a column at a time.
+  for (int a = 0; a < k; ++a) {
+    for (int c = 0; c < a; ++c) gain.col(a) -= gain.col(c) * s(a, c);
+    gain.col(a) *= inverse_diagonal[a];
+  }
+  for (int c = k - 1; c >= 0; --c) {
+    for (int a = c + 1; a < k; ++a) gain.col(c) -= gain.col(a) * s(a, c);
+    gain.col(c) *= inverse_diagonal[c];
+  }
+  // x+ = x- + K nu.
+  for (int a = 0; a < k; ++a) *x += gain.col(a) * w->nu[a];
+  wrap_angles_fixed<N>(state_angles, x);
+  // P+ = (I - K H) P- (I - K H)' + K R K' (Joseph form).
+  auto& i_kh = w->i_kh;
+  i_kh.setIdentity();
+  for (int a = 0; a < k; ++a) {
+    if (picks) {
+      i_kh.col(m.picked_state[static_cast<std::size_t>(a)]) -= gain.col(a);
+    } else {
+      for (int j = 0; j < N; ++j) i_kh.col(j) -= gain.col(a) * m.h(a, j);
+    }
+  }
+  auto& kr = w->kr;
+  for (int b = 0; b < k; ++b) {
+    kr.col(b) = gain.col(b) * m.r(b, b);
+    for (int a = 0; a < k; ++a) {
+      const double r_ab = m.r(a, b);
+      if (a != b && r_ab != 0.0) kr.col(b) += gain.col(a) * r_ab;  // none for a diagonal R, the common case
+    }
+  }
+  // Column by column, each held in registers while its sum runs.
+  auto& ikh_p = w->ikh_p;
+  for (int j = 0; j < N; ++j) {
+    Eigen::Matrix<double, N, 1> column = i_kh.col(0) * (*p)(0, j);
+    for (int c = 1; c < N; ++c) column += i_kh.col(c) * (*p)(c, j);
+    ikh_p.col(j) = column;
+  }
+  for (int j = 0; j < N; ++j) {
+    Eigen::Matrix<double, N, 1> column = ikh_p.col(0) * i_kh(j, 0);
+    for (int c = 1; c < N; ++c) column += ikh_p.col(c) * i_kh(j, c);
+    for (int a = 0; a < k; ++a) column += kr.col(a) * gain(j, a);
+    p->col(j) = column;
+  }
+  symmetrize_fixed<N>(p);
+  result.ok = std::isfinite(result.log_likelihood) && all_finite(*x) && all_finite(*p);
+  return result;
+}
+
+}  // namespace skidimm
+
+#endif  // SKIDIMM_CORE_SRC_FIXED_SIZE_EKF_H_
