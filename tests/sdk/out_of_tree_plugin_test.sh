@@ -19,10 +19,15 @@ mkdir -p "$work"
 
 step "install skidimm into $prefix"
 cmake --install "$build" --prefix "$prefix" >"$work/install.log"
-for f in bin/skidimm include/skidimm/imm.h include/skidimm/sdk/export.h include/skidimm/sdk/testing/conformance.h \
+for f in bin/skidimm include/skidimm/engine/imm.h include/skidimm/sdk/export.h include/skidimm/sdk/testing/conformance.h \
          share/skidimm/configs/ltc_terrains.yaml share/skidimm/examples/icr_kinematic/CMakeLists.txt; do
   [ -e "$prefix/$f" ] || fail "not installed: $f"
 done
+# The installed headers are whole: what each includes is installed too (none
+# reaches for a header private to the build, under core/src).
+while IFS=: read -r header included; do
+  [ -e "$prefix/include/$included" ] || fail "${header#"$prefix/include/"} includes \"$included\", which is not installed"
+done < <(grep -r -o '^#include "[^"]*"' "$prefix/include/skidimm" | sed 's/:#include "\(.*\)"$/:\1/')
 config=$(find "$prefix" -name skidimmConfig.cmake | head -n 1)
 [ -n "$config" ] || fail "no skidimmConfig.cmake installed"
 [ -e "$(dirname "$config")/skidimmConfigVersion.cmake" ] || fail "no package version file"
