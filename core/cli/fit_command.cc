@@ -93,6 +93,7 @@ int fit(const FitCommandOptions& options) {
     fit_options.fit_measurement_noise = options.fit_r;
     fit_options.full_process_noise = options.full_q;
     fit_options.output_noise = options.output_noise;
+    fit_options.parameter_uncertainty = options.parameter_uncertainty;
     request.mode = options.mode;
     request.name = options.name;
     // The work up front: a fit on a long log is long, and should say so before it starts.

@@ -222,6 +222,9 @@ int main(int argc, char** argv) {
       "--output-noise", fit_options.output_noise,
       "Window objective: give each fitted mode its own R, whose rows of the measured outputs are its outputs' "
       "residual variance (its model's error included); the state rows keep the bank's R");
+  fit->add_flag("--parameter-uncertainty", fit_options.parameter_uncertainty,
+                "Window objective: write each fitted mode's parameter covariance (parameter_covariance:), so its "
+                "predictions widen for inputs unlike those it was fitted on");
   fit->add_flag("--full-q", fit_options.full_q,
                 "Q with off-diagonal terms (likelihood: fitted; window: the correlations of the one-step errors)");
   fit->add_flag("--hold-unexcited", fit_options.hold_unexcited,
@@ -301,6 +304,9 @@ int main(int argc, char** argv) {
   tune->add_flag("--fit-r", tune_options.fit_r, "Likelihood objective: also fit one R for the bank");
   tune->add_flag("--full-q", tune_options.full_q,
                  "Q with off-diagonal terms (likelihood: fitted; window: the correlations of the one-step errors)");
+  tune->add_flag("--parameter-uncertainty", tune_options.parameter_uncertainty,
+                 "Window objective: each fitted mode's parameter covariance widens its predictions for inputs unlike "
+                 "those it was fitted on (written to --output-bank)");
   tune->add_flag("--hold-unexcited", tune_options.hold_unexcited,
                  "Hold parameters the logs do not excite at their starting values instead of failing the fit");
   tune->add_option("--output-bank", tune_options.output_bank,
@@ -454,7 +460,7 @@ int main(int argc, char** argv) {
     for (int i = 1; i < argc; ++i) fit_options.command_line += std::string(" ") + argv[i];
     if (fit_options.objective == "likelihood") {
       // The window objective's options would be silently ignored.
-      for (const char* name : {"--window", "--loss", "--loss-scale"}) {
+      for (const char* name : {"--window", "--loss", "--loss-scale", "--parameter-uncertainty"}) {
         if (fit->get_option(name)->count() > 0) {
           std::cerr << "skidimm fit: " << name << " is an option of the window objective; add --objective window "
                     << "(the default objective is likelihood: " << documentation_path("docs/fitting.md") << ")\n";

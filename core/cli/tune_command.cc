@@ -200,6 +200,11 @@ int tune(const TuneCommandOptions& options) {
       fit_options.window.hold_unexcited = options.hold_unexcited;
       fit_options.fit_measurement_noise = options.fit_r;
       fit_options.full_process_noise = options.full_q;
+      if (options.parameter_uncertainty && fit_options.objective != fitting::Objective::kWindow) {
+        throw Error("--parameter-uncertainty is estimated by the window objective; '" + name +
+                    "' cannot give it (--objective window)");
+      }
+      fit_options.parameter_uncertainty = options.parameter_uncertainty;
       // Without a joint R each mode's fit depends on its own logs alone.
       if (!options.fit_r) tune_options.separable.insert(name);
       const fitting::FitWork work = fitting::fit_work(start, development_data, fit_options);

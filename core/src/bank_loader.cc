@@ -10,6 +10,7 @@
 #include "skidimm/config/bank.h"
 #include "skidimm/config/expression.h"
 #include "skidimm/errors.h"
+#include "skidimm/engine/parameter_uncertainty.h"
 #include "skidimm/printable.h"
 #include "yaml_fields.h"
 
@@ -264,7 +265,7 @@ void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) 
   for (std::size_t i = 0; i < node.size(); ++i) {
     const YAML::Node m = node[i];
     const std::string field = "modes[" + std::to_string(i) + "]";
-    y.check_keys(m, {"name", "model", "params", "Q", "R", "description", "fit_when"}, field);
+    y.check_keys(m, {"name", "model", "params", "Q", "R", "description", "fit_when", "parameter_covariance"}, field);
     ModeConfig mode;
     mode.line = YamlFields::line_of(m);
     mode.name = y.string(y.required(m, "name", field), field + ".name");
@@ -295,6 +296,24 @@ void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) 
     const YAML::Node q = y.required(m, "Q", field);
     mode.q_intensity = y.covariance(q, bank->state_dim(), field + ".Q");
     check_cov(y, q, mode.q_intensity, /*strict=*/false, field + ".Q (mode '" + mode.name + "')");
+    if (const YAML::Node c = m["parameter_covariance"]) {
+      // Its size is the model's parameter count, checked when the model is created.
+      const std::string c_field = field + ".parameter_covariance";
+      int p = 0;
+      if (c.IsMap()) {
+        const YAML::Node values = c["diagonal"] ? c["diagonal"] : c["std"];
+        if (values && values.IsSequence()) p = static_cast<int>(values.size());
+      } else {
+        p = static_cast<int>(y.matrix(c, c_field).rows());
+      }
+      mode.parameter_covariance = c.IsMap() ? y.covariance(c, p, c_field) : y.matrix(c, p, p, c_field);
+      check_magnitude(y, c, mode.parameter_covariance, c_field);
+      std::string why;
+      if (!check_parameter_covariance(mode.parameter_covariance, &why)) {
+        y.fail(c, c_field, "must be a covariance (mode '" + mode.name + "'): " + why);
+      }
+      mode.parameter_covariance_line = YamlFields::line_of(c);
+    }
     bank->modes.push_back(std::move(mode));
   }
 }
@@ -650,6 +669,15 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry, const ModelP
         throw ConfigError(file, mode.line, field + ".model",
                           who + " has no output '" + output + "' (measurement.outputs); its outputs are [" +
                               join(model->output_names()) + "]");
+      }
+    }
+    if (mode.parameter_covariance.size() > 0) {
+      const double dt = config.sampling.rate > 0.0 ? 1.0 / config.sampling.rate : 0.1;
+      try {
+        model = with_parameter_uncertainty(std::move(model), mode.parameter_covariance, dt);
+      } catch (const Error& e) {
+        throw ConfigError(file, mode.parameter_covariance_line, field + ".parameter_covariance",
+                          who + ": " + e.what());
       }
     }
     bank.models.push_back(std::move(model));

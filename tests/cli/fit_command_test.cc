@@ -185,6 +185,80 @@ TEST(Cli, FitByLikelihoodWritesTheBanksRAndRefusesTheWindowsOptions) {
   ASSERT_EQ(run.exit_code, 0) << run.err;
 }
 
+// --parameter-uncertainty: fit writes each fitted mode's parameter
+// covariance (parameter_covariance:), run reads it back (its probabilities
+// then differ from the same bank's without it), and the likelihood objective
+// refuses the option.
+TEST(Cli, FitWritesTheParameterCovarianceAndRunReadsIt) {
+  const fs::path dir = test_directory();
+  write_file(dir / "features.yaml", R"(name: features
+states: [f]
+inputs: [v]
+columns: {truth_mode: mode}
+measurement: {observe: [f], R: {std: [0.05]}}
+transition: {stay: 0.99}
+initial: {covariance: {std: [1]}}
+modes:
+  - name: slow
+    model: linear_features
+    params: {A: [-5], B: [[1]], c: [0], fixed: [A]}
+    Q: {diagonal: [0.1]}
+  - name: fast
+    model: linear_features
+    params: {A: [-5], B: [[1]], c: [0], fixed: [A]}
+    Q: {diagonal: [0.1]}
+)");
+  // Each mode relaxes f towards its own line in v (slow: 2 v + 1, fast: 4 v),
+  // with deterministic wiggles for noise; v sweeps a narrow range.
+  std::string log = "t,v,f,mode\n";
+  double f = 0.0;
+  for (int k = 0; k < 600; ++k) {
+    const double t = 0.1 * k, v = 1.0 + 0.3 * std::sin(0.37 * t);
+    const bool slow = k < 300;
+    log += std::to_string(t) + "," + std::to_string(v) + "," + std::to_string(f + 0.05 * std::sin(7.1 * t)) + "," +
+           (slow ? "slow" : "fast") + "\n";
+    const double target = slow ? 2.0 * v + 1.0 : 4.0 * v;
+    f = std::exp(-0.5) * f + (1.0 - std::exp(-0.5)) * target + 0.1 * std::cos(3.3 * t);
+  }
+  write_file(dir / "log.csv", log);
+  const fs::path out = dir / "fitted.yaml";
+  const Result fit = run_skidimm("fit --bank " + (dir / "features.yaml").string() + " --objective window " +
+                                 "--parameter-uncertainty --log " + (dir / "log.csv").string() + " --output-bank " +
+                                 out.string() + " --plugin-path " + kPlugins);
+  ASSERT_EQ(fit.exit_code, 0) << fit.err;
+  const std::string text = read_file(out);
+  ASSERT_THAT(text, HasSubstr("    parameter_covariance: [\n        ["));
+  const skidimm::BankConfig fitted = skidimm::load_bank_config(out);
+  for (const skidimm::ModeConfig& mode : fitted.modes) {
+    ASSERT_EQ(mode.parameter_covariance.rows(), 2) << mode.name;  // B[0,0] and c[0]
+    EXPECT_GT(mode.parameter_covariance(0, 0), 0.0) << mode.name;
+    EXPECT_GT(mode.parameter_covariance(1, 1), 0.0) << mode.name;
+  }
+  // The same bank without the key: every parameter_covariance block removed.
+  std::string plain = text;
+  for (std::size_t at; (at = plain.find("    parameter_covariance:")) != std::string::npos;) {
+    const std::size_t end = plain.find("]]\n", at);
+    plain.erase(at, end + 3 - at);
+  }
+  write_file(dir / "plain.yaml", plain);
+  // A drive far outside the fitted speeds.
+  std::string far = "t,v,f,mode\n";
+  for (int k = 0; k < 100; ++k) far += std::to_string(0.1 * k) + ",5," + std::to_string(20.0 + 0.1 * std::sin(k)) + ",fast\n";
+  write_file(dir / "far.csv", far);
+  const Result with = run_skidimm("run -q --bank " + out.string() + " --plugin-path " + kPlugins + " --input " +
+                                  (dir / "far.csv").string() + " --output " + (dir / "with.csv").string());
+  const Result without = run_skidimm("run -q --bank " + (dir / "plain.yaml").string() + " --plugin-path " + kPlugins +
+                                     " --input " + (dir / "far.csv").string() + " --output " +
+                                     (dir / "without.csv").string());
+  ASSERT_EQ(with.exit_code, 0) << with.err;
+  ASSERT_EQ(without.exit_code, 0) << without.err;
+  EXPECT_NE(read_file(dir / "with.csv"), read_file(dir / "without.csv"));
+  const Result likelihood = run_skidimm("fit --bank " + (dir / "features.yaml").string() +
+                                        " --parameter-uncertainty --log " + (dir / "log.csv").string());
+  EXPECT_EQ(likelihood.exit_code, 2);
+  EXPECT_THAT(likelihood.err, HasSubstr("--parameter-uncertainty is an option of the window objective"));
+}
+
 TEST(Cli, FitTakesEachModeFromTheTruthColumnAndEvalTakesLabelsAndPatterns) {
   const fs::path dir = test_directory();
   // One log, three terrains: the truth column splits it into each mode's segments.

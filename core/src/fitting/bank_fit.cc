@@ -8,6 +8,7 @@
 #include "skidimm/engine/measurement_model.h"
 #include "skidimm/errors.h"
 #include "skidimm/fitting/likelihood_fitter.h"
+#include "skidimm/engine/parameter_uncertainty.h"
 
 namespace skidimm {
 namespace fitting {
@@ -42,6 +43,7 @@ std::map<int, FitReport> fit_window(Bank* bank, const std::vector<ModeLogs>& dat
   FitOptions fit_options = options.window;
   fit_options.progress = options.progress;
   fit_options.correlated_process_noise = fit_options.correlated_process_noise || options.full_process_noise;
+  fit_options.parameter_covariance = options.parameter_uncertainty;
   if (options.shared) {
     fit_options.scope = sdk::ParameterScope::kBank;
     const std::vector<FitReport> shared = fit(bank, data, fit_options);
@@ -155,6 +157,9 @@ std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data,
   if (options.output_noise && options.objective != Objective::kWindow) {
     throw FitError("a mode's own output noise is estimated by the window objective (--objective window)");
   }
+  if (options.parameter_uncertainty && options.objective != Objective::kWindow) {
+    throw FitError("the parameter covariance is estimated by the window objective (--objective window)");
+  }
   if (options.output_noise && bank->config.measurement.outputs.empty()) {
     throw FitError("the bank measures no model outputs (measurement.outputs): there is no output noise to estimate");
   }
@@ -171,6 +176,13 @@ std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data,
     ModeConfig& config = bank->config.modes[static_cast<std::size_t>(mode)];
     config.q_intensity = report.q_intensity;
     if (options.output_noise) config.r = output_noise_from_fit(bank->config, report.rmse);
+    if (options.parameter_uncertainty || config.parameter_covariance.size() > 0) {
+      try {
+        set_parameter_covariance(bank, mode, report.parameter_covariance);
+      } catch (const Error& e) {
+        throw FitError("mode '" + config.name + "': " + e.what());
+      }
+    }
   }
   return reports;
 }

@@ -11,6 +11,7 @@
 
 #include "skidimm/errors.h"
 #include "skidimm/io/output_file.h"
+#include "skidimm/engine/parameter_uncertainty.h"
 
 namespace skidimm {
 namespace fitting {
@@ -108,6 +109,30 @@ std::string format_covariance(const Eigen::MatrixXd& m) {
     return "{diagonal: " + format_matrix(d) + "}";
   }
   return format_matrix(m);
+}
+
+// A parameter covariance (parameter_uncertainty.h): one row per line, 10
+// significant digits, so it reads back positive semi-definite to the
+// loader's tolerance (entries spanning many orders of magnitude lose their
+// small eigenvalues at 7).
+std::string format_parameter_covariance(const Eigen::MatrixXd& m) {
+  const Eigen::MatrixXd off = m - Eigen::MatrixXd(m.diagonal().asDiagonal());
+  auto precise = [](double v) {
+    char buffer[32];
+    std::snprintf(buffer, sizeof(buffer), "%.10g", v);
+    return std::string(buffer);
+  };
+  std::string out;
+  if (off.cwiseAbs().maxCoeff() == 0.0) {
+    for (Eigen::Index i = 0; i < m.rows(); ++i) out += (i ? ", " : "") + precise(m(i, i));
+    return "{diagonal: [" + out + "]}";
+  }
+  for (Eigen::Index r = 0; r < m.rows(); ++r) {
+    out += r ? ",\n        [" : "\n        [";
+    for (Eigen::Index c = 0; c < m.cols(); ++c) out += (c ? ", " : "") + precise(m(r, c));
+    out += "]";
+  }
+  return "[" + out + "]";
 }
 
 }  // namespace
@@ -223,6 +248,10 @@ std::string format_mode_entry(const std::string& name, const std::string& model_
   if (params != "{}") out += "    params: " + params + "\n";
   out += "    Q: " + format_matrix(q_intensity) + "\n";
   if (measurement_noise.size() > 0) out += "    R: " + format_covariance(measurement_noise) + "\n";
+  const Eigen::MatrixXd& parameter_covariance = parameter_covariance_of(model);
+  if (parameter_covariance.size() > 0) {
+    out += "    parameter_covariance: " + format_parameter_covariance(parameter_covariance) + "\n";
+  }
   return out;
 }
 

@@ -17,6 +17,7 @@
 #include "covariance.h"
 #include "measured_outputs.h"
 #include "measurement_layout.h"
+#include "parameter_covariance.h"
 #include "process_noise_search.h"
 #include "skidimm/engine/measurement_model.h"
 #include "skidimm/sdk/angles.h"
@@ -902,6 +903,52 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<const ModeLogs*>& data,
       for (int i : held) deviations[static_cast<std::size_t>(i)] = std::nan("");
     }
 
+    // The covariance of a mode's own parameters (parameter_covariance.h), from
+    // every window's residuals and exact derivatives at the solution.
+    Eigen::MatrixXd parameter_covariance;
+    if (options.parameter_covariance && options.scope == sdk::ParameterScope::kMode && group.size() == 1) {
+      const ModeLogs& d = *group.front();
+      sdk::MotionModel* model = bank->models[static_cast<std::size_t>(d.mode)].get();
+      const MeasurementLayout& m = layouts.at(d.mode);
+      const int p = static_cast<int>(block.size());
+      internal::ParameterCovarianceEstimate estimate(p, static_cast<int>(m.h.rows()));
+      std::vector<double> r(static_cast<std::size_t>(std::max(1, most_residuals)));
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> j(std::max(1, most_residuals), p);
+      const double* point[] = {block.data()};
+      for (const Trajectory& t : d.logs) {
+        if (t.size() < 2) continue;  // no window
+        if (!has_parameter_jacobian(*model, m, t)) {
+          throw FitError(who + ": the parameter covariance needs the model's exact derivatives (parameter_jacobian())");
+        }
+        WindowCost windows(model, per_mode[d.mode].first, per_mode[d.mode].second, &m, Window{&t, 0, {}, 0}, p,
+                           std::make_shared<WindowWorkspace>());
+        for_each_window(m, t, options.window, [&](const Window& w) {
+          double* jacobian = j.data();
+          if (!windows.EvaluateWindow(w, point, r.data(), &jacobian)) return;
+          int row = 0;
+          for (int target : w.targets) {
+            for (Eigen::Index c = 0; c < t.z.rows(); ++c) {
+              if (!std::isfinite(t.z(c, target))) continue;
+              estimate.add(static_cast<int>(c), j.row(row), r[static_cast<std::size_t>(row)]);
+              ++row;
+            }
+          }
+        });
+      }
+      std::vector<bool> free(block.size(), true);
+      for (int i : held) free[static_cast<std::size_t>(i)] = false;
+      const Eigen::MatrixXd in_block = estimate.covariance(free);
+      const ParameterMapping& mapping = per_mode[d.mode].second;
+      const Eigen::Index size = per_mode[d.mode].first.size();
+      parameter_covariance = Eigen::MatrixXd::Zero(size, size);
+      for (std::size_t a = 0; a < mapping.model_index.size(); ++a) {
+        for (std::size_t b = 0; b < mapping.model_index.size(); ++b) {
+          parameter_covariance(mapping.model_index[a], mapping.model_index[b]) =
+              in_block(mapping.block_index[a], mapping.block_index[b]);
+        }
+      }
+    }
+
     // Leave every model of the group at the solution.
     for (const ModeLogs* d : group) {
       auto& [base, mapping] = per_mode[d->mode];
@@ -932,6 +979,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<const ModeLogs*>& data,
         }
       }
       if (!std::isfinite(deviations[0])) report.warnings.push_back("Ceres could not compute the covariance");
+      report.parameter_covariance = parameter_covariance;
       report.residuals = residuals;
       report.derivatives = all_analytic ? "autodiff" : "numeric";
       report.iterations = static_cast<int>(summary.iterations.size());

@@ -16,6 +16,8 @@
 #include "check.h"
 #include "skidimm/errors.h"
 #include "skidimm/evaluation/log_evaluation.h"
+#include "skidimm/fitting/bank_fit.h"
+#include "skidimm/engine/parameter_uncertainty.h"
 #include "skidimm/progress.h"
 
 namespace skidimm {
@@ -338,6 +340,7 @@ FittedValues values_of(const Bank& bank) {
     v.parameters.push_back(p);
     v.q.push_back(bank.config.modes[j].q_intensity);
     v.mode_r.push_back(bank.config.modes[j].r);
+    v.parameter_covariance.push_back(bank.config.modes[j].parameter_covariance);
   }
   v.r = bank.config.measurement.r;
   return v;
@@ -368,6 +371,14 @@ void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
   if (s.probability_floor >= 0.0) config.mode_probability_floor = s.probability_floor;
   if (s.likelihood_weight > 0.0) config.likelihood_weight = s.likelihood_weight;
   if (s.likelihood_dof >= 0.0) config.likelihood_dof = s.likelihood_dof;
+  for (std::size_t j = 0; j < fitted.parameter_covariance.size() && j < bank->models.size(); ++j) {
+    // An unchanged covariance leaves the model as it is (the hundreds of scorings of one fold).
+    const Eigen::MatrixXd& covariance = fitted.parameter_covariance[j];
+    const Eigen::MatrixXd& now = config.modes[j].parameter_covariance;
+    if (now.size() != covariance.size() || now != covariance) {
+      set_parameter_covariance(bank, static_cast<int>(j), covariance);
+    }
+  }
 }
 
 std::vector<LogScore> score_logs(const Bank& bank, const std::vector<const TuningLog*>& logs,
@@ -723,7 +734,7 @@ class Tuner {
         if (!std::get<2>(key).empty() && mode_fits_.count(key) == 0 && seen.insert(key).second) todo.push_back(key);
       }
     }
-    std::vector<std::pair<Eigen::VectorXd, Eigen::MatrixXd>> values(todo.size());
+    std::vector<ModeFit> values(todo.size());
     std::vector<std::string> failures(todo.size());
     std::atomic<int> finished{0};
     std::mutex progress_mutex;
@@ -747,7 +758,8 @@ class Tuner {
       }
       const FittedValues fitted = values_of(bank);
       values[static_cast<std::size_t>(i)] = {fitted.parameters[static_cast<std::size_t>(j)],
-                                             fitted.q[static_cast<std::size_t>(j)]};
+                                             fitted.q[static_cast<std::size_t>(j)],
+                                             fitted.parameter_covariance[static_cast<std::size_t>(j)]};
       const int n = ++finished;
       std::lock_guard<std::mutex> lock(progress_mutex);
       if (n == static_cast<int>(todo.size()) || n % 20 == 0) {
@@ -779,8 +791,9 @@ class Tuner {
           missing += " '" + banks_[0].config.modes[static_cast<std::size_t>(j)].name + "'";
           continue;
         }
-        v.parameters[static_cast<std::size_t>(j)] = found->second.first;
-        v.q[static_cast<std::size_t>(j)] = found->second.second;
+        v.parameters[static_cast<std::size_t>(j)] = found->second.parameters;
+        v.q[static_cast<std::size_t>(j)] = found->second.q;
+        v.parameter_covariance[static_cast<std::size_t>(j)] = found->second.parameter_covariance;
       }
       fits_[k] = v;
       if (!missing.empty()) {
@@ -1108,7 +1121,13 @@ class Tuner {
   std::vector<std::vector<double>> step_weights_;  // weigh_steps()
   std::vector<double> truth_seconds_;
   std::map<FitKey, FittedValues> fits_;
-  std::map<std::tuple<std::string, int, std::vector<int>>, std::pair<Eigen::VectorXd, Eigen::MatrixXd>> mode_fits_;
+  // One mode's fit.
+  struct ModeFit {
+    Eigen::VectorXd parameters;
+    Eigen::MatrixXd q;
+    Eigen::MatrixXd parameter_covariance;
+  };
+  std::map<std::tuple<std::string, int, std::vector<int>>, ModeFit> mode_fits_;
   std::map<std::tuple<std::string, int, std::vector<int>>, std::string> mode_fit_failures_;  // why a fold's fit failed
   std::vector<int> development_;  // every log but the lockbox: the final fit's
   std::vector<std::string> warnings_;

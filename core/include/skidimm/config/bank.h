@@ -44,6 +44,11 @@ struct ModeConfig {
   // expression of the bank's inputs, true when non-zero ("dv > 0"). Empty:
   // every step not claimed by another mode of the class.
   std::string fit_when;
+  // The covariance of the model's flat parameter vector as its fit left it
+  // (`parameter_covariance:`, parameter_uncertainty.h); empty: none, the
+  // parameters are taken as exact.
+  Eigen::MatrixXd parameter_covariance;
+  int parameter_covariance_line = 0;
   int line = 0;                 // where the mode starts in the file
   std::map<std::string, int> param_lines;
 };

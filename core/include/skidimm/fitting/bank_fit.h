@@ -38,6 +38,11 @@ struct BankFitOptions {
   // residuals on its logs: the noise its filter should expect of them, its
   // model's error included. The state rows keep the bank's R.
   bool output_noise = false;
+  // Window objective: write each fitted mode's parameter covariance into the
+  // bank (ModeConfig::parameter_covariance, parameter_uncertainty.h), so its
+  // predictions widen where the fit saw no data; without it a fitted mode's
+  // old covariance is removed (it belonged to other parameters).
+  bool parameter_uncertainty = false;
   // After each solver iteration of either objective, what is fitted and the
   // iterations so far (model_fitter.h); `window.progress` is ignored.
   FitProgress progress;

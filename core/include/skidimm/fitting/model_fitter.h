@@ -30,7 +30,10 @@
 //     likelihoods, so a mode whose filter is over- or under-confident on its
 //     own data would be misjudged. The fitted parameters' errors are part of
 //     what Q absorbs;
-//   * RMSE of one-step predictions per measured component.
+//   * RMSE of one-step predictions per measured component;
+//   * optionally, the covariance of each mode's fitted parameters, for a bank
+//     whose modes widen where their fit saw no data (parameter_uncertainty.h,
+//     docs/fitting.md "Parameter uncertainty").
 #ifndef SKIDIMM_FITTING_MODEL_FITTER_H_
 #define SKIDIMM_FITTING_MODEL_FITTER_H_
 
@@ -90,6 +93,10 @@ struct FitOptions {
   // stays that of the logs, whatever their length (docs/fitting.md, "Long
   // logs"). Below it, one residual block per window.
   long condense_above = 100000;
+  // Also estimate the covariance of each mode's fitted parameters
+  // (FitReport::parameter_covariance): Gauss-Newton, one residual variance
+  // per measurement channel.
+  bool parameter_covariance = false;
   FitProgress progress;
 };
 
@@ -110,6 +117,11 @@ struct FitReport {
   double initial_cost = 0.0;
   double final_cost = 0.0;
   double condition_number = 0.0;
+  // With FitOptions::parameter_covariance, the window objective's estimate of
+  // the covariance of the model's whole flat parameter vector
+  // (parameter_info() order; zero rows and columns for the parameters not
+  // fitted: held, fixed, or of the other scope). Empty otherwise.
+  Eigen::MatrixXd parameter_covariance;
 
   // Filled by the likelihood objective (likelihood_fitter.h) only.
   // Rows with at least one measured component.

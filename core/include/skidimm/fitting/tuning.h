@@ -87,6 +87,8 @@ struct FittedValues {
   std::vector<Eigen::MatrixXd> q;           // per mode, Q intensity
   Eigen::MatrixXd r;                        // the bank's R
   std::vector<Eigen::MatrixXd> mode_r;      // per mode, its own R (empty: the bank's)
+  // Per mode, its parameters' covariance (ModeConfig::parameter_covariance); empty: none.
+  std::vector<Eigen::MatrixXd> parameter_covariance;
 };
 
 // Fits `bank` in place to `data` (parameters, Q, and R if the objective fits
@@ -108,7 +110,8 @@ struct TunedSettings {
 };
 
 // Writes fitted values and settings into `bank` (its models' parameters and
-// its config's Q, R, transition, floor and likelihood weight).
+// its config's Q, R, transition, floor and likelihood weight, and each mode's
+// parameter covariance).
 void apply(const FittedValues& fitted, const TunedSettings& settings, Bank* bank);
 // Reads a bank's current values.
 FittedValues values_of(const Bank& bank);

@@ -1,0 +1,101 @@
+// The covariance of a least-squares fit's parameters, by Gauss-Newton, with
+// one residual variance per measurement channel.
+//
+// The window objective's residuals are the prediction errors divided by the
+// measurement standard deviations of R, so their scale says how well R
+// matches the model's real errors, and it differs by channel (a motor
+// current missed by 25 sigma of R, a vibration level by 3). The usual
+// sigma^2 (J'J)^-1 with one sigma^2 would give the parameters of the
+// well-predicted channels the variance of the badly predicted ones. Instead
+// each channel c gets its own variance
+//
+//   s_c^2 = SSE_c / n_c * N / (N - p)       (N rows, p free parameters)
+//
+// and the covariance is the inverse of the information
+//
+//   Sigma = (sum_c J_c' J_c / s_c^2)^-1     over the free parameters,
+//
+// zero rows and columns for the others. For a model whose channels each
+// depend on their own parameters (linear_features with a diagonal A) this
+// is, channel by channel, the textbook s^2 (X'X)^-1 of a linear regression.
+//
+// Assumes the residual rows independent: correlated errors over a run make
+// it smaller than the parameters' real uncertainty (docs/fitting.md,
+// "Parameter uncertainty").
+#ifndef SKIDIMM_CORE_SRC_FITTING_PARAMETER_COVARIANCE_H_
+#define SKIDIMM_CORE_SRC_FITTING_PARAMETER_COVARIANCE_H_
+
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <limits>
+#include <vector>
+
+namespace skidimm {
+namespace fitting {
+namespace internal {
+
+class ParameterCovarianceEstimate {
+ public:
+  ParameterCovarianceEstimate(int parameters, int channels)
+      : information_(static_cast<std::size_t>(channels), Eigen::MatrixXd::Zero(parameters, parameters)),
+        squares_(Eigen::VectorXd::Zero(channels)),
+        counts_(Eigen::VectorXd::Zero(channels)) {}
+
+  // One residual row of `channel`: its value and its derivatives in the parameters.
+  void add(int channel, const Eigen::Ref<const Eigen::RowVectorXd>& jacobian_row, double residual) {
+    information_[static_cast<std::size_t>(channel)].selfadjointView<Eigen::Lower>().rankUpdate(
+        jacobian_row.transpose());
+    squares_[channel] += residual * residual;
+    counts_[channel] += 1.0;
+  }
+
+  // Sigma over every parameter, zero where `free` is false. Directions the
+  // information does not determine (singular values below 1e-12 of the
+  // largest) get no variance rather than an infinite one; the fit holds or
+  // reports such parameters itself.
+  Eigen::MatrixXd covariance(const std::vector<bool>& free) const {
+    const Eigen::Index p = static_cast<Eigen::Index>(free.size());
+    std::vector<Eigen::Index> index;
+    for (Eigen::Index i = 0; i < p; ++i) {
+      if (free[static_cast<std::size_t>(i)]) index.push_back(i);
+    }
+    const Eigen::Index q = static_cast<Eigen::Index>(index.size());
+    const double rows = counts_.sum();
+    Eigen::MatrixXd out = Eigen::MatrixXd::Zero(p, p);
+    if (q == 0 || rows <= static_cast<double>(q)) return out;
+    const double dof = rows / (rows - static_cast<double>(q));
+    Eigen::MatrixXd information = Eigen::MatrixXd::Zero(q, q);
+    for (std::size_t c = 0; c < information_.size(); ++c) {
+      if (counts_[static_cast<Eigen::Index>(c)] == 0.0) continue;
+      const double variance = squares_[static_cast<Eigen::Index>(c)] / counts_[static_cast<Eigen::Index>(c)] * dof;
+      if (!(variance > 0.0)) continue;  // a channel predicted exactly says nothing of the scale
+      const Eigen::MatrixXd full = information_[c].selfadjointView<Eigen::Lower>();
+      for (Eigen::Index a = 0; a < q; ++a) {
+        for (Eigen::Index b = 0; b < q; ++b) information(a, b) += full(index[a], index[b]) / variance;
+      }
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(information);
+    if (eigen.info() != Eigen::Success) return out;
+    const Eigen::VectorXd& lambda = eigen.eigenvalues();
+    const double tiny = 1e-12 * std::max(0.0, lambda.maxCoeff()) + std::numeric_limits<double>::min();
+    Eigen::VectorXd inverse(q);
+    for (Eigen::Index i = 0; i < q; ++i) inverse[i] = lambda[i] > tiny ? 1.0 / lambda[i] : 0.0;
+    const Eigen::MatrixXd sigma = eigen.eigenvectors() * inverse.asDiagonal() * eigen.eigenvectors().transpose();
+    for (Eigen::Index a = 0; a < q; ++a) {
+      for (Eigen::Index b = 0; b < q; ++b) out(index[a], index[b]) = 0.5 * (sigma(a, b) + sigma(b, a));
+    }
+    return out;
+  }
+
+ private:
+  std::vector<Eigen::MatrixXd> information_;  // per channel, sum J_c' J_c (lower triangle)
+  Eigen::VectorXd squares_;                   // per channel, the sum of squared residuals
+  Eigen::VectorXd counts_;                    // per channel, its residual rows
+};
+
+}  // namespace internal
+}  // namespace fitting
+}  // namespace skidimm
+
+#endif  // SKIDIMM_CORE_SRC_FITTING_PARAMETER_COVARIANCE_H_

@@ -1,0 +1,262 @@
+// Parameter uncertainty: the window fit's covariance of a mode's parameters
+// against the textbook s^2 (X'X)^-1 of the same regression computed here
+// with Eigen alone; the process noise a covariance adds against
+// phi' Sigma phi written out by hand; the bank keys' errors; tune and fit
+// carry the covariance to the bank.
+#include "skidimm/engine/parameter_uncertainty.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/temp_files.h"
+#include "skidimm/config/bank.h"
+#include "skidimm/errors.h"
+#include "skidimm/fitting/bank_fit.h"
+#include "skidimm/fitting/model_fitter.h"
+#include "skidimm/fitting/tuning.h"
+
+namespace skidimm {
+namespace fitting {
+namespace {
+
+using ::testing::HasSubstr;
+
+// Two features relaxing at fixed rates towards B u + c (the BorealTC bank's
+// form), two inputs; B and c are the 6 fitted parameters, in the order
+// B[0,0], B[0,1], B[1,0], B[1,1], c[0], c[1].
+constexpr double kRate[2] = {-2.0, -3.0};
+constexpr double kDt = 0.1;
+
+std::string bank_text(const std::string& extra = "") {
+  return R"(name: two_features
+states: [a, b]
+inputs: [u1, u2]
+measurement: {observe: [a, b], R: {std: [0.1, 0.2]}}
+transition: {stay: 0.99}
+initial: {covariance: {std: [1, 1]}}
+modes:
+  - name: only
+    model: linear_features
+    params: {A: [-2, -3], B: [[0.5, 0], [0, 0.5]], c: [0, 0], fixed: [A]}
+    Q: {diagonal: [0.01, 0.02]}
+)" + extra;
+}
+
+Bank load(const std::string& text, const std::string& name = "two.yaml") {
+  return Bank::load(skidimm_test::write_file(skidimm_test::test_directory() / name, text), {SKIDIMM_PLUGIN_DIR});
+}
+
+// Gamma of one feature: int_0^dt e^{a s} ds.
+double gamma(int state) { return std::expm1(kRate[state] * kDt) / kRate[state]; }
+
+// A log of the two features with errors of unequal size (0.05, 0.4 per step).
+Trajectory regression_log(int rows, unsigned seed) {
+  std::mt19937 random(seed);
+  std::normal_distribution<double> normal;
+  const Eigen::Matrix<double, 2, 2> b = (Eigen::Matrix<double, 2, 2>() << 1.5, -0.7, 0.4, 2.0).finished();
+  const Eigen::Vector2d c(0.3, -1.0), error(0.05, 0.4);
+  Trajectory t;
+  t.source = "regression";
+  t.u.resize(2, rows);
+  t.z.resize(2, rows);
+  Eigen::Vector2d x(0.0, 0.0);
+  for (int k = 0; k < rows; ++k) {
+    t.t.push_back(kDt * k);
+    t.u.col(k) << 1.0 + std::sin(0.05 * k) + 0.3 * normal(random), 0.5 * std::cos(0.11 * k) + 0.2 * normal(random);
+    t.z.col(k) = x;
+    for (int i = 0; i < 2; ++i) {
+      x[i] = std::exp(kRate[i] * kDt) * x[i] + gamma(i) * (b.row(i).dot(t.u.col(k)) + c[i]) + error[i] * normal(random);
+    }
+  }
+  return t;
+}
+
+TEST(ParameterCovariance, IsEachFeaturesRegressionCovarianceSSquaredTimesTheInverseOfXtX) {
+  Bank bank = load(bank_text());
+  const Trajectory log = regression_log(400, 17);
+  FitOptions options;
+  options.window = 0.0;  // one step: each feature's regression on [u1, u2, 1]
+  options.loss = "none";
+  options.parameter_covariance = true;
+  const FitReport report = fit(&bank, std::vector<ModeLogs>{{0, {log}}}, options).front();
+  ASSERT_EQ(report.parameter_covariance.rows(), 6);
+  ASSERT_EQ(report.parameter_covariance.cols(), 6);
+
+  // The same regression with Eigen alone: y = (z+ - e^{a dt} z) / gamma = [u1 u2 1] beta + e.
+  const int rows = log.size() - 1;
+  Eigen::MatrixXd x(rows, 3);
+  for (int k = 0; k < rows; ++k) x.row(k) << log.u(0, k), log.u(1, k), 1.0;
+  const Eigen::MatrixXd xtx_inverse = (x.transpose() * x).ldlt().solve(Eigen::MatrixXd::Identity(3, 3));
+  const int index[2][3] = {{0, 1, 4}, {2, 3, 5}};  // B[i,0], B[i,1], c[i]
+  Eigen::VectorXd fitted(6);
+  bank.models[0]->get_parameters(fitted);
+  for (int i = 0; i < 2; ++i) {
+    Eigen::VectorXd y(rows);
+    for (int k = 0; k < rows; ++k) y[k] = (log.z(i, k + 1) - std::exp(kRate[i] * kDt) * log.z(i, k)) / gamma(i);
+    const Eigen::Vector3d beta = xtx_inverse * x.transpose() * y;
+    const double s2 = (y - x * beta).squaredNorm() / (rows - 3);
+    const Eigen::Matrix3d expected = s2 * xtx_inverse;
+    for (int p = 0; p < 3; ++p) {
+      EXPECT_NEAR(fitted[index[i][p]], beta[p], 1e-6 * (1.0 + std::abs(beta[p])));
+      for (int q = 0; q < 3; ++q) {
+        EXPECT_NEAR(report.parameter_covariance(index[i][p], index[i][q]), expected(p, q),
+                    1e-6 * std::abs(expected(p, p)))
+            << "feature " << i << " (" << p << ", " << q << ")";
+      }
+    }
+    // No covariance between the features' parameters: each depends on its own errors.
+    for (int p = 0; p < 3; ++p) {
+      for (int q = 0; q < 3; ++q) EXPECT_NEAR(report.parameter_covariance(index[i][p], index[1 - i][q]), 0.0, 1e-12);
+    }
+  }
+  // The prediction variance phi' Sigma phi is least at the inputs' mean and
+  // grows away from it: five standard deviations out it is far larger.
+  Eigen::Vector3d mean = x.colwise().mean().transpose();
+  Eigen::Vector3d far = mean;
+  far.head(2) += 5.0 * ((x.rowwise() - x.colwise().mean()).colwise().norm().transpose().head(2) / std::sqrt(rows));
+  Eigen::Matrix3d first;
+  for (int p = 0; p < 3; ++p) {
+    for (int q = 0; q < 3; ++q) first(p, q) = report.parameter_covariance(index[0][p], index[0][q]);
+  }
+  EXPECT_GT(far.dot(first * far), 10.0 * mean.dot(first * mean));
+  // Unequal errors, unequal variances: one s^2 for both features would blur them.
+  EXPECT_GT(report.parameter_covariance(5, 5), 20.0 * report.parameter_covariance(4, 4));
+}
+
+TEST(ParameterCovariance, IsLeftEmptyUnlessAsked) {
+  Bank bank = load(bank_text());
+  FitOptions options;
+  const FitReport report = fit(&bank, std::vector<ModeLogs>{{0, {regression_log(200, 3)}}}, options).front();
+  EXPECT_EQ(report.parameter_covariance.size(), 0);
+}
+
+// A symmetric positive definite 6x6 matrix with couplings between every pair.
+Eigen::MatrixXd some_covariance() {
+  Eigen::MatrixXd l(6, 6);
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c) l(r, c) = c <= r ? 0.1 * (1 + r) + 0.03 * (r - 2 * c) : 0.0;
+  }
+  return l * l.transpose();
+}
+
+std::string flow(const Eigen::MatrixXd& m) {
+  std::string out = "[";
+  for (Eigen::Index r = 0; r < m.rows(); ++r) {
+    out += r ? ", [" : "[";
+    for (Eigen::Index c = 0; c < m.cols(); ++c) {
+      char number[40];
+      std::snprintf(number, sizeof number, "%.17g", m(r, c));
+      out += (c ? ", " : "") + std::string(number);
+    }
+    out += "]";
+  }
+  return out + "]";
+}
+
+TEST(ParameterUncertainty, AddsPhiSigmaPhiToTheProcessNoise) {
+  const Eigen::MatrixXd sigma = some_covariance();
+  const Bank plain = load(bank_text(), "plain.yaml");
+  const Bank uncertain = load(bank_text("    parameter_covariance: " + flow(sigma) + "\n"), "uncertain.yaml");
+  ASSERT_EQ(uncertain.config.modes[0].parameter_covariance.rows(), 6);
+  const Eigen::MatrixXd q = plain.config.modes[0].q_intensity;
+  const Eigen::Vector2d x(0.3, -0.2), u(2.5, -1.5);
+  const double dt = 0.5;
+  Eigen::MatrixXd without(2, 2), with(2, 2);
+  ASSERT_TRUE(plain.models[0]->process_noise(q, x, u, dt, without));
+  ASSERT_TRUE(uncertain.models[0]->process_noise(q, x, u, dt, with));
+  // By hand: x+_i depends on B[i,:] and c[i] through Gamma_i (B[i,:] u + c_i),
+  // so the added covariance of states i and k is
+  //   Gamma_i Gamma_k sum_{p in i, q in k} phi_p Sigma_pq phi_q,  phi = (u1, u2, 1).
+  const int index[2][3] = {{0, 1, 4}, {2, 3, 5}};
+  const double phi[3] = {u[0], u[1], 1.0};
+  const double g[2] = {std::expm1(-2.0 * dt) / -2.0, std::expm1(-3.0 * dt) / -3.0};
+  for (int i = 0; i < 2; ++i) {
+    for (int k = 0; k < 2; ++k) {
+      double added = 0.0;
+      for (int p = 0; p < 3; ++p) {
+        for (int r = 0; r < 3; ++r) added += phi[p] * sigma(index[i][p], index[k][r]) * phi[r];
+      }
+      added *= g[i] * g[k];
+      EXPECT_NEAR(with(i, k), without(i, k) + added, 1e-12 * (1.0 + std::abs(added))) << i << ", " << k;
+    }
+  }
+  // Everything else is the model's own.
+  Eigen::VectorXd a(2), b(2);
+  ASSERT_TRUE(plain.models[0]->predict(x, u, dt, a));
+  ASSERT_TRUE(uncertain.models[0]->predict(x, u, dt, b));
+  EXPECT_EQ(a, b);
+  EXPECT_TRUE(parameter_covariance_of(*uncertain.models[0]).isApprox(sigma, 1e-12));
+  EXPECT_EQ(parameter_covariance_of(*plain.models[0]).size(), 0);
+}
+
+void expect_bank_error(const std::string& covariance, const std::string& what) {
+  try {
+    load(bank_text("    parameter_covariance: " + covariance + "\n"), "bad.yaml");
+    ADD_FAILURE() << "loaded a bank with parameter_covariance " << covariance;
+  } catch (const ConfigError& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("bad.yaml"));
+    EXPECT_THAT(std::string(e.what()), HasSubstr("modes[0].parameter_covariance"));
+    EXPECT_THAT(std::string(e.what()), HasSubstr(what));
+  }
+}
+
+TEST(ParameterUncertainty, BankErrorsNameTheFileTheFieldAndWhatWasExpected) {
+  Eigen::MatrixXd five = Eigen::MatrixXd::Identity(5, 5);
+  expect_bank_error(flow(five), "must be 6x6 (one row and column per parameter of the model), got 5x5");
+  Eigen::MatrixXd asymmetric = Eigen::MatrixXd::Identity(6, 6);
+  asymmetric(0, 1) = 0.5;
+  expect_bank_error(flow(asymmetric), "not symmetric");
+  Eigen::MatrixXd indefinite = Eigen::MatrixXd::Identity(6, 6);
+  indefinite(0, 0) = -1.0;
+  expect_bank_error(flow(indefinite), "not positive semidefinite");
+  expect_bank_error("[[1, 0], [0, 1, 2]]", "expected a row of 2 numbers");
+  expect_bank_error("[1, 2, 3]", "expected a 3x3 matrix, got 3x1");
+  expect_bank_error("{diagonal: [1, 1, 1, 1, 1, nan]}", "");
+}
+
+TEST(ParameterUncertainty, ADiagonalCovarianceIsAccepted) {
+  const Bank bank = load(bank_text("    parameter_covariance: {diagonal: [1, 2, 3, 4, 5, 6]}\n"));
+  EXPECT_EQ(bank.config.modes[0].parameter_covariance.diagonal(), (Eigen::VectorXd(6) << 1, 2, 3, 4, 5, 6).finished());
+}
+
+TEST(ParameterUncertainty, FitBankAndTuningSetTheCovarianceAndARefitWithoutItRemovesIt) {
+  Bank bank = load(bank_text());
+  BankFitOptions options;
+  options.objective = Objective::kWindow;
+  options.window.loss = "none";
+  options.parameter_uncertainty = true;
+  const std::vector<ModeLogs> data{{0, {regression_log(300, 5)}}};
+  const FitReport report = fit_bank(&bank, data, options).at(0);
+  ASSERT_EQ(report.parameter_covariance.rows(), 6);
+  EXPECT_EQ(bank.config.modes[0].parameter_covariance, report.parameter_covariance);
+  EXPECT_TRUE(parameter_covariance_of(*bank.models[0]).isApprox(report.parameter_covariance, 1e-12));
+  // Tuning carries it from a fold's fit to the bank it scores.
+  const FittedValues values = values_of(bank);
+  Bank other = load(bank_text(), "other.yaml");
+  apply(values, TunedSettings{}, &other);
+  EXPECT_EQ(other.config.modes[0].parameter_covariance, report.parameter_covariance);
+  EXPECT_TRUE(parameter_covariance_of(*other.models[0]).isApprox(report.parameter_covariance, 1e-12));
+  // Refitted without the option, the old covariance (of other parameters) goes.
+  options.parameter_uncertainty = false;
+  fit_bank(&bank, data, options);
+  EXPECT_EQ(bank.config.modes[0].parameter_covariance.size(), 0);
+  EXPECT_EQ(parameter_covariance_of(*bank.models[0]).size(), 0);
+}
+
+TEST(ParameterUncertainty, TheLikelihoodObjectiveRefusesIt) {
+  Bank bank = load(bank_text());
+  BankFitOptions options;
+  options.objective = Objective::kLikelihood;
+  options.parameter_uncertainty = true;
+  EXPECT_THROW(fit_bank(&bank, std::vector<ModeLogs>{{0, {regression_log(100, 9)}}}, options), FitError);
+}
+
+}  // namespace
+}  // namespace fitting
+}  // namespace skidimm
