@@ -1,15 +1,12 @@
 #!/usr/bin/env bash
-# The sanitizer stage (./scripts/test.sh runs it after the Release suite,
-# with 20 s per fuzz target; see README):
+# The sanitizer stage (./scripts/test.sh runs it beside the Release build and
+# suite, at a lower priority, with 10 s per fuzz target; see README):
 #
 #   ./scripts/check.sh           ASan+UBSan build, the test suite under it, each fuzz target for a bounded time
 #   ./scripts/check.sh --tsan    also the ThreadSanitizer build and its thread-safety tests
 #   ./scripts/check.sh --only-tsan
 #   ./scripts/check.sh --build-only   only configure and build the ASan+UBSan tree
 #   ./scripts/check.sh --skip-build   the suite and the fuzzers on the tree built before
-#
-# (test.sh builds the sanitizer tree beside the Release build and suite with
-# --build-only, then runs the rest with --skip-build.)
 #
 # ASan+UBSan: one clang build at -O1 (SKIDIMM_SANITIZE=address), undefined
 # behaviour fatal (-fno-sanitize-recover), of the core, the plugins, the CLI,

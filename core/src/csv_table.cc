@@ -56,7 +56,5 @@ std::string printable_header(const std::vector<std::string>& header, int* listed
   return present;
 }
 
-enum class Aggregation { kMean, kStd, kRms };
-
 }  // namespace internal
 }  // namespace skidimm

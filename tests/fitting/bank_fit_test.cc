@@ -6,6 +6,7 @@
 
 #include <filesystem>
 
+#include "core/sanitizer.h"
 #include "skidimm/fitting/likelihood_fitter.h"
 #include "skidimm/fitting/trajectory.h"
 
@@ -31,6 +32,7 @@ std::vector<Trajectory> husky_runs(const BankConfig& config, const std::vector<s
 // window-fitted bank also leads to, and predicts held-out runs better than
 // the window fit.
 TEST(BankFit, LikelihoodFromAPhysicalGuessOnRealHuskyIceRuns) {
+  SKIDIMM_SKIP_UNDER_SANITIZERS_STATISTICAL();
   if (!std::filesystem::exists(kHuskyDir)) GTEST_SKIP() << "no shared data at " << kHuskyDir;
   const std::string start = std::string(SKIDIMM_SOURCE_DIR) + "/configs/husky/ice_ltc_start.yaml";
   const std::vector<std::string> fit_runs{"01", "02", "03", "04", "05", "06", "07", "08", "09"};

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "core/sanitizer.h"
 #include "core/temp_files.h"
 #include "core/test_banks.h"
 #include "fitting/simulated_logs.h"
@@ -420,6 +421,7 @@ Bank ltc_start_bank(const Eigen::MatrixXd& r, int modes = 1) {
 }
 
 TEST(LikelihoodFitter, RecoversParametersAndQWhenEveryStateIsMeasured) {
+  SKIDIMM_SKIP_UNDER_SANITIZERS_STATISTICAL();
   const LtcTruth truth = ltc_truth();
   const Eigen::MatrixXd r = diagonal({1e-4, 1e-4});  // 1 cm/s, 0.01 rad/s
   const Trajectory log = simulate(*skidimm_test::make_ltc(truth.a, truth.b), truth.q, Eigen::MatrixXd::Identity(2, 2),
@@ -446,6 +448,7 @@ TEST(LikelihoodFitter, RecoversParametersAndQWhenEveryStateIsMeasured) {
 }
 
 TEST(LikelihoodFitter, RecoversALatentStateThatIsNeverMeasured) {
+  SKIDIMM_SKIP_UNDER_SANITIZERS_STATISTICAL();
   // x0' = -a x0 + b u (latent, e.g. a motor's torque), x1' = x0 - d x1
   // (measured). The gain from x0 to x1 is fixed at 1: scaling the latent state
   // would otherwise change nothing measurable.
@@ -476,6 +479,7 @@ TEST(LikelihoodFitter, RecoversALatentStateThatIsNeverMeasured) {
 }
 
 TEST(LikelihoodFitter, FitsOneMeasurementNoiseJointlyOverTwoModes) {
+  SKIDIMM_SKIP_UNDER_SANITIZERS_STATISTICAL();
   LtcTruth smooth = ltc_truth(), rough = ltc_truth();
   rough.a << -6.0, 0.0, 0.5, -2.0;
   rough.b << 0.3, 0.25, -0.5, 0.55;
@@ -516,6 +520,7 @@ TEST(LikelihoodFitter, FitsOneMeasurementNoiseJointlyOverTwoModes) {
 }
 
 TEST(LikelihoodFitter, RecoversParametersFromMultiRateMeasurements) {
+  SKIDIMM_SKIP_UNDER_SANITIZERS_STATISTICAL();
   const LtcTruth truth = ltc_truth();
   const Eigen::MatrixXd r = diagonal({1e-4, 1e-4});
   // Speed at 10 Hz (every fifth row), yaw rate at 50 Hz.
@@ -533,6 +538,7 @@ TEST(LikelihoodFitter, RecoversParametersFromMultiRateMeasurements) {
 }
 
 TEST(LikelihoodFitter, FullProcessNoiseIsRecoveredWithItsCorrelation) {
+  SKIDIMM_SKIP_UNDER_SANITIZERS_STATISTICAL();
   const LtcTruth truth = ltc_truth();
   Eigen::MatrixXd q(2, 2);
   q << 4e-3, 2e-3, 2e-3, 3e-3;  // correlation 0.58

@@ -8,6 +8,7 @@
 #include <limits>
 #include <random>
 
+#include "core/sanitizer.h"
 #include "core/temp_files.h"
 #include "skidimm/errors.h"
 #include "skidimm/fitting/bank_fit.h"
@@ -210,6 +211,7 @@ Trajectory simulate_traction(int rows, int pose_every, unsigned output_seed) {
 // current flattened to nothing instead: start from the order of the
 // currents the robot draws.)
 TEST(ModelFitter, RecoversMotorCurrentParametersFromMeasuredOutputs) {
+  SKIDIMM_SKIP_UNDER_SANITIZERS_STATISTICAL();
   const std::string& bank_yaml = kTractionBank;
   const Eigen::VectorXd truth_parameters = traction_truth();
   const Trajectory data = simulate_traction(6000, 5, 4);
@@ -297,6 +299,7 @@ TEST(ModelFitter, AModesOwnMeasurementNoiseWeighsItsResiduals) {
 }
 
 TEST(ModelFitter, FitsSharedParametersJointlyAndAProcessNoisePerMode) {
+  SKIDIMM_SKIP_UNDER_SANITIZERS_STATISTICAL();
   const std::string bank_yaml = R"(name: shared
 states: [V, omega]
 inputs: [phi_dot_L, phi_dot_R]

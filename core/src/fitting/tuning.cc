@@ -9,6 +9,7 @@
 #include <exception>
 #include <limits>
 #include <mutex>
+#include <numeric>
 #include <set>
 #include <thread>
 #include <tuple>
@@ -121,9 +122,16 @@ class SplicedReplay : public SampleSource {
 // below what the candidate must beat, the candidate has lost, and the
 // scoring stops (every source it reads ends): a search then chooses exactly
 // what it would have chosen had every log been scored to its end.
+//
+// Which candidates lose does not depend on the order the logs are scored in,
+// only how soon they are found to: the logs that cost the last full scoring
+// most (`costs`, each log's weighted sum, most negative first) are scored
+// first, so that a losing candidate crosses the bound after as few steps as
+// the search can foresee.
 struct ScoreBound {
-  explicit ScoreBound(double must_beat) : threshold(must_beat) {}
+  ScoreBound(double must_beat, std::vector<double>* log_costs) : threshold(must_beat), costs(log_costs) {}
   const double threshold;
+  std::vector<double>* const costs;  // per log; written only for logs scored to their end
   std::atomic<double> so_far{0.0};
   std::atomic<bool> lost{false};
 
@@ -897,7 +905,18 @@ class Tuner {
     if (write_estimates) std::filesystem::create_directories(options_.assessment_estimates / estimates_folder);
     std::vector<std::vector<LogScore>> per_fold(folds.size());
     std::vector<evaluation::LogResult> wholes(folds.size());
-    parallel_for(static_cast<int>(folds.size()), workers_, [&](int f, int w) {
+    std::vector<int> order(folds.size());
+    std::iota(order.begin(), order.end(), 0);
+    if (bound != nullptr && bound->costs != nullptr) {
+      const auto cost = [&](int f) {
+        double sum = 0.0;
+        for (int i : folds[static_cast<std::size_t>(f)]) sum += (*bound->costs)[static_cast<std::size_t>(i)];
+        return sum;
+      };
+      std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return cost(a) < cost(b); });
+    }
+    parallel_for(static_cast<int>(folds.size()), workers_, [&](int k, int w) {
+      const int f = order[static_cast<std::size_t>(k)];
       if (bound != nullptr && bound->lost) return;
       Bank& bank = banks_[static_cast<std::size_t>(w)];
       reset(&bank);
@@ -982,13 +1001,19 @@ class Tuner {
     BoundedSource source(&replay, bound);
     const std::vector<double>& step_weight = step_weights_[static_cast<std::size_t>(i)];
     std::size_t k = 0;
+    double cost = 0.0;
     const auto observe = [&](const LogSample&, const evaluation::LabelledStep& step) {
       const double w = step_weight[k++];
       if (step.truth.empty()) return;
-      bound->add(weight * w * std::log(std::max(step.truth_probability, evaluation::kMinScoredProbability)));
+      const double term = weight * w * std::log(std::max(step.truth_probability, evaluation::kMinScoredProbability));
+      cost += term;
+      bound->add(term);
     };
-    return evaluation::score_of(
+    LogScore score = evaluation::score_of(
         evaluation::evaluate_log(bank, &source, spec.name(), spec.label, estimates, EstimatorOptions{}, observe));
+    // Each log is in one fold of an evaluation: no other thread writes its entry.
+    if (bound->costs != nullptr && !bound->lost) (*bound->costs)[static_cast<std::size_t>(i)] = cost;
+    return score;
   }
 
   // Coordinate search over the knobs on log-spaced grids, coarse then fine.
@@ -1001,12 +1026,13 @@ class Tuner {
     current.probability_floor = base_floor_;
     current.likelihood_weight = base_weight_;
     current.likelihood_dof = base_dof_;
+    std::vector<double> log_costs(logs_.size(), 0.0);
     // A candidate is taken when it beats the best by more than 1e-9; its
     // scoring stops once it cannot (ScoreBound). The bound sits below that by
     // far more than the round-off between its sums and summarize()'s.
     auto score_of = [&](const TunedSettings& s, std::vector<LogScore>* scores, double best_so_far) {
       const double must_beat = best_so_far + 1e-9 - 1e-6 * (1.0 + std::abs(best_so_far));
-      ScoreBound bound(std::isfinite(must_beat) ? must_beat : -std::numeric_limits<double>::infinity());
+      ScoreBound bound(std::isfinite(must_beat) ? must_beat : -std::numeric_limits<double>::infinity(), &log_costs);
       *scores = evaluate(s, folds, within, "", nullptr, &bound);
       if (bound.lost) return -std::numeric_limits<double>::infinity();
       return summarize(*scores).mean_log_probability;
