@@ -18,7 +18,7 @@ namespace {
 using ::testing::HasSubstr;
 namespace fs = std::filesystem;
 
-const fs::path kPluginDir = SKIDIMM_PLUGIN_DIR;
+const fs::path kBundledPlugins = SKIDIMM_PLUGIN_DIR;
 const fs::path kFixtures = SKIDIMM_TEST_PLUGIN_ROOT;
 
 template <typename F>
@@ -40,7 +40,7 @@ sdk::ParameterSet ltc_params() {
 }
 
 TEST(PluginRegistry, FindsTheBundledPluginsWithTheirMetadata) {
-  PluginRegistry registry({kPluginDir});
+  PluginRegistry registry({kBundledPlugins});
   std::vector<std::string> names;
   for (const PluginDescriptor& d : registry.plugins()) {
     EXPECT_TRUE(d.error.empty()) << d.path << ": " << d.error;
@@ -65,7 +65,7 @@ TEST(PluginRegistry, FindsTheBundledPluginsWithTheirMetadata) {
 TEST(PluginRegistry, ModelOutlivesTheRegistryThatLoadedIt) {
   ModelHandle model;
   {
-    PluginRegistry registry({kPluginDir});
+    PluginRegistry registry({kBundledPlugins});
     model = registry.create("ltc_linear", ltc_params());
   }
   // Built with -fno-gnu-unique: had the library been unloaded, this would crash.
@@ -76,7 +76,7 @@ TEST(PluginRegistry, ModelOutlivesTheRegistryThatLoadedIt) {
 }
 
 TEST(PluginRegistry, UnknownNameListsSearchPathAndFoundPlugins) {
-  PluginRegistry registry({kPluginDir, "/nonexistent/dir"});
+  PluginRegistry registry({kBundledPlugins, "/nonexistent/dir"});
   const std::string e = plugin_error([&] { registry.find("icr_kinematic"); });
   EXPECT_THAT(e, HasSubstr("no plugin named 'icr_kinematic' on the search path"));
   EXPECT_THAT(e, HasSubstr("/nonexistent/dir (missing)"));
@@ -91,7 +91,7 @@ TEST(PluginRegistry, MissingFileOnTheSearchPathMeansNothingFound) {
 TEST(PluginRegistry, CorruptLibraryIsListedAsUnusableNotFatal) {
   const fs::path dir = skidimm_test::test_directory();
   skidimm_test::write_file(dir / "garbage.so", "this is not an ELF file");
-  PluginRegistry registry({dir, kPluginDir});
+  PluginRegistry registry({dir, kBundledPlugins});
   ASSERT_GE(registry.plugins().size(), 4u);
   EXPECT_EQ(registry.plugins()[0].path.filename(), "garbage.so");
   EXPECT_THAT(registry.plugins()[0].error, HasSubstr("cannot load: "));
@@ -107,7 +107,7 @@ TEST(PluginRegistry, OnlyRegularFilesAreOpenedAndHugeOnesAreNotRead) {
   fs::create_symlink("/dev/zero", dir / "zero.so");
   std::ofstream(dir / "huge.so").close();
   fs::resize_file(dir / "huge.so", std::uintmax_t{4} << 30);  // sparse: no disk used
-  PluginRegistry registry({dir, dir / "fifo.so", kPluginDir});
+  PluginRegistry registry({dir, dir / "fifo.so", kBundledPlugins});
   std::map<std::string, std::string> errors;
   for (const PluginDescriptor& d : registry.plugins()) errors[d.path.filename().string()] = d.error;
   EXPECT_THAT(errors["fifo.so"], HasSubstr("not a plugin file: a FIFO"));
@@ -162,7 +162,7 @@ TEST(PluginRegistry, EarlierDirectoriesShadowLaterOnes) {
 }
 
 TEST(PluginRegistry, RejectedParametersNameThePluginFile) {
-  PluginRegistry registry({kPluginDir});
+  PluginRegistry registry({kBundledPlugins});
   sdk::ParameterSet params = ltc_params();
   params.set_scalar("C", 1.0);
   const std::string e = plugin_error([&] { registry.create("ltc_linear", params); });
@@ -170,7 +170,7 @@ TEST(PluginRegistry, RejectedParametersNameThePluginFile) {
 }
 
 TEST(PluginRegistry, DescriptorsShowDeclaredStatesInputsAndAngles) {
-  PluginRegistry registry({kPluginDir});
+  PluginRegistry registry({kBundledPlugins});
   const PluginDescriptor& stc = registry.find("stc_kinematic");
   ASSERT_EQ(stc.states.size(), 3u);
   EXPECT_EQ(stc.states[0].name, "X");
@@ -189,7 +189,7 @@ TEST(PluginRegistry, DuplicatesInOneDirectoryAreFlaggedInTheListing) {
   ASSERT_EQ(registry.plugins().size(), 2u);
   EXPECT_EQ(registry.plugins()[0].duplicate_of.filename(), "duplicate_b.so");
   EXPECT_EQ(registry.plugins()[1].duplicate_of.filename(), "duplicate_a.so");
-  PluginRegistry single({kFixtures / "duplicates" / "duplicate_a.so", kPluginDir});
+  PluginRegistry single({kFixtures / "duplicates" / "duplicate_a.so", kBundledPlugins});
   for (const PluginDescriptor& d : single.plugins()) EXPECT_TRUE(d.duplicate_of.empty()) << d.path;
 }
 
@@ -281,7 +281,7 @@ TEST(PluginRegistry, StandardSearchPathOrder) {
 // first touch of a missing page; it is refused with the reason instead.
 TEST(PluginRegistry, TruncatedLibraryIsRefusedNotMapped) {
   const fs::path dir = skidimm_test::test_directory();
-  const std::string whole = skidimm_test::read_file(kPluginDir / "skidimm_ltc_linear.so");
+  const std::string whole = skidimm_test::read_file(kBundledPlugins / "skidimm_ltc_linear.so");
   ASSERT_GT(whole.size(), 8192u);
   skidimm_test::write_file(dir / "ltc_linear.so", whole.substr(0, whole.size() / 2));
   PluginRegistry registry({dir});
@@ -307,7 +307,7 @@ TEST(PluginRegistry, EmptyLibraryIsRefused) {
 TEST(PluginRegistry, RewritingTheFileInPlaceDoesNotReachALoadedModel) {
   const fs::path dir = skidimm_test::test_directory();
   const fs::path file = dir / "ltc_linear.so";
-  fs::copy_file(kPluginDir / "skidimm_ltc_linear.so", file);
+  fs::copy_file(kBundledPlugins / "skidimm_ltc_linear.so", file);
   PluginRegistry registry({dir});
   ModelHandle model = registry.create("ltc_linear", ltc_params());
   EXPECT_EQ(registry.plugins()[0].path, file);  // the original is what is reported
@@ -318,7 +318,7 @@ TEST(PluginRegistry, RewritingTheFileInPlaceDoesNotReachALoadedModel) {
   Eigen::VectorXd next(2);
   ASSERT_TRUE(model->predict(Eigen::Vector2d(1.0, 0.0), Eigen::Vector2d(0.0, 0.0), 0.5, next));
   EXPECT_DOUBLE_EQ(next[0], 0.0);  // 1 + (-2 * 1) * 0.5
-  skidimm_test::write_file(file, skidimm_test::read_file(kPluginDir / "skidimm_stc_kinematic.so"));
+  skidimm_test::write_file(file, skidimm_test::read_file(kBundledPlugins / "skidimm_stc_kinematic.so"));
   ASSERT_TRUE(model->predict(Eigen::Vector2d(2.0, 1.0), Eigen::Vector2d(1.0, 0.0), 0.25, next));
   EXPECT_DOUBLE_EQ(next[0], 2.0 + (-2.0 * 2.0 + 1.0) * 0.25);
   EXPECT_DOUBLE_EQ(next[1], 1.0 + (-2.0 * 1.0) * 0.25);
@@ -335,7 +335,7 @@ TEST(PluginRegistry, RewritingTheFileInPlaceDoesNotReachALoadedModel) {
 TEST(PluginRegistry, SuccessiveRegistriesLoadTheFilesTheyAreGiven) {
   for (int i = 0; i < 3; ++i) {
     for (const char* file : {"skidimm_ltc_linear.so", "skidimm_stc_kinematic.so"}) {
-      PluginRegistry registry({kPluginDir / file});
+      PluginRegistry registry({kBundledPlugins / file});
       ASSERT_EQ(registry.plugins().size(), 1u);
       EXPECT_EQ(registry.plugins()[0].name, std::string(file).substr(8, std::string(file).size() - 11));
     }

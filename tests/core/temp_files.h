@@ -30,6 +30,11 @@ inline std::string read_file(const std::filesystem::path& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
+// `text` with its first `from` replaced by `to` (std::out_of_range if there is none).
+inline std::string replace_first(std::string text, const std::string& from, const std::string& to) {
+  return text.replace(text.find(from), from.size(), to);
+}
+
 }  // namespace skidimm_test
 
 #endif  // SKIDIMM_TESTS_CORE_TEMP_FILES_H_

@@ -10,6 +10,7 @@
 
 #include "core/sanitizer.h"
 #include "core/temp_files.h"
+#include "fitting/simulated_logs.h"
 #include "skidimm/errors.h"
 #include "skidimm/fitting/bank_fit.h"
 #include "skidimm/sdk/angles.h"
@@ -18,6 +19,7 @@ namespace skidimm {
 namespace fitting {
 namespace {
 
+using skidimm_test::rich_wheel_speeds;
 using skidimm_test::test_directory;
 using skidimm_test::write_file;
 using ::testing::HasSubstr;
@@ -71,9 +73,6 @@ Trajectory simulate_model(const sdk::MotionModel& model, int rows, double dt,
   return t;
 }
 
-Eigen::VectorXd rich_wheel_speeds(double t) {
-  return Eigen::Vector2d(4.0 + 3.0 * std::sin(0.9 * t) + std::sin(3.1 * t), 4.0 + 3.0 * std::cos(0.6 * t));
-}
 
 TEST(ModelFitter, RecoversLtcLinearParametersFromItsOwnData) {
   Bank truth = load_bank(kLtcBank, "truth.yaml");

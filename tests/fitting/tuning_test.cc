@@ -146,7 +146,7 @@ TEST(TuningSummary, AveragesLogsWithinAClassThenClasses) {
   EXPECT_DOUBLE_EQ(s.mean_log_probability, (-1.2 - 1.0) / 2.0);
 }
 
-const std::string kBank = R"(name: tune_test
+const std::string kTuningBank = R"(name: tune_test
 states: [V, omega]
 inputs: [phi_dot_L, phi_dot_R]
 measurement: {observe: [V, omega], R: {std: [0.02, 0.03]}}
@@ -158,7 +158,7 @@ modes:
 )";
 
 TEST(TunedSettings, ApplyScalesFittedValuesAndSetsTheTransitionAndFloor) {
-  Bank bank = Bank::load(write_file(test_directory() / "b.yaml", kBank), {SKIDIMM_PLUGIN_DIR});
+  Bank bank = Bank::load(write_file(test_directory() / "b.yaml", kTuningBank), {SKIDIMM_PLUGIN_DIR});
   bank.config.modes[1].r = Eigen::Vector2d(0.01, 0.0025).asDiagonal();  // mode b's own R: scaled alike
   FittedValues fitted = values_of(bank);
   fitted.parameters[1][0] = -3.0;

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/temp_files.h"
+#include "plugins/husky_geometry.h"
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/plugin_registry.h"
 #include "skidimm/sdk/angles.h"
@@ -13,8 +14,8 @@
 namespace skidimm {
 namespace {
 
-constexpr double kRadius = 0.165;
-constexpr double kTrack = 0.555;
+using skidimm_test::kHuskyTrack;
+using skidimm_test::kHuskyWheelRadius;
 
 struct Sided {
   double eta_l = 1.0, eta_r = 1.0;
@@ -31,8 +32,8 @@ sdk::ParameterSet sided_params(const Sided& s) {
   p.set_scalar("alpha_r_outer", s.alpha_r_outer);
   p.set_scalar("alpha_r_inner", s.alpha_r_inner);
   p.set_scalar("x_icr", s.x_icr);
-  p.set_scalar("r", kRadius);
-  p.set_scalar("b", kTrack);
+  p.set_scalar("r", kHuskyWheelRadius);
+  p.set_scalar("b", kHuskyTrack);
   return p;
 }
 
@@ -40,8 +41,8 @@ sdk::ParameterSet eq3_params(double k, double m) {
   sdk::ParameterSet p;
   p.set_scalar("k", k);
   p.set_scalar("m", m);
-  p.set_scalar("r", kRadius);
-  p.set_scalar("b", kTrack);
+  p.set_scalar("r", kHuskyWheelRadius);
+  p.set_scalar("b", kHuskyTrack);
   return p;
 }
 
@@ -97,8 +98,8 @@ TEST_F(StcSided, PredictsTheIcrKinematicsByHand) {
     const double phi_l = turn[0], phi_r = turn[1];
     Eigen::VectorXd next(3);
     ASSERT_TRUE(model->predict(Eigen::Vector3d(1.0, 2.0, theta), Eigen::Vector2d(phi_l, phi_r), dt, next));
-    const double v_l = 0.9 * kRadius * phi_l, v_r = 0.6 * kRadius * phi_r;     // tread speeds
-    const double y_l = turn[2] * kTrack / 2.0, y_r = -turn[3] * kTrack / 2.0;  // tread ICRs
+    const double v_l = 0.9 * kHuskyWheelRadius * phi_l, v_r = 0.6 * kHuskyWheelRadius * phi_r;     // tread speeds
+    const double y_l = turn[2] * kHuskyTrack / 2.0, y_r = -turn[3] * kHuskyTrack / 2.0;  // tread ICRs
     const double omega = (v_r - v_l) / (y_l - y_r);
     const double v_x = (v_r * y_l - v_l * y_r) / (y_l - y_r);
     const double v_y = 0.2 * omega;  // -x_icr omega
@@ -113,7 +114,7 @@ TEST_F(StcSided, PredictsTheIcrKinematicsByHand) {
 TEST_F(StcSided, IsContinuousWhereTheTreadsSwapRoles) {
   ModelHandle model = registry_.create("stc_sided", sided_params({1.0, 1.0, 1.2, 1.1, 9.0, 3.0, 0.1}));
   const Eigen::Vector3d straight = body_velocity(*model, 5.0, 5.0);
-  EXPECT_NEAR(straight[0], kRadius * 5.0, 1e-9);
+  EXPECT_NEAR(straight[0], kHuskyWheelRadius * 5.0, 1e-9);
   EXPECT_NEAR(straight[2], 0.0, 1e-12);
   for (double d : {1e-6, -1e-6}) {
     EXPECT_TRUE(body_velocity(*model, 5.0 - d, 5.0 + d).isApprox(straight, 1e-6)) << d;
@@ -123,9 +124,9 @@ TEST_F(StcSided, IsContinuousWhereTheTreadsSwapRoles) {
 TEST_F(StcSided, IdealParametersAreTheDifferentialDrive) {
   ModelHandle model = registry_.create("stc_sided", sided_params({}));
   const Eigen::Vector3d v = body_velocity(*model, 4.0, 6.0);
-  EXPECT_NEAR(v[0], kRadius * 5.0, 1e-12);
+  EXPECT_NEAR(v[0], kHuskyWheelRadius * 5.0, 1e-12);
   EXPECT_NEAR(v[1], 0.0, 1e-12);
-  EXPECT_NEAR(v[2], kRadius * 2.0 / kTrack, 1e-12);
+  EXPECT_NEAR(v[2], kHuskyWheelRadius * 2.0 / kHuskyTrack, 1e-12);
 }
 
 // eq. 3 with (k, m) is the sided model with eta = k on both sides, both ICRs
@@ -155,8 +156,8 @@ TEST_F(StcSided, ASlipperySideMakesLeftAndRightTurnsDiffer) {
   EXPECT_GT(left[2], 0.0);
   EXPECT_LT(right[2], 0.0);
   EXPECT_LT(left[2], -right[2] * 0.75);
-  EXPECT_LT(left[0], 0.9 * kRadius * 5.0);
-  EXPECT_GT(right[0], 1.1 * kRadius * 5.0);
+  EXPECT_LT(left[0], 0.9 * kHuskyWheelRadius * 5.0);
+  EXPECT_GT(right[0], 1.1 * kHuskyWheelRadius * 5.0);
   EXPECT_NEAR(body_velocity(*model, 5.0, 5.0)[2], 0.0, 1e-12);
   // eq. 3 cannot: its left and right turns mirror each other exactly.
   ModelHandle eq3 = registry_.create("stc_kinematic", eq3_params(0.9, 0.4));
@@ -178,7 +179,7 @@ TEST_F(StcSided, HeadingWrapsAcrossPi) {
   ModelHandle model = registry_.create("stc_sided", sided_params({}));
   Eigen::VectorXd next(3);
   ASSERT_TRUE(model->predict(Eigen::Vector3d(0.0, 0.0, 3.1), Eigen::Vector2d(0.0, 10.0), 0.1, next));
-  EXPECT_NEAR(next[2], sdk::wrap_angle(3.1 + kRadius * 10.0 / kTrack * 0.1), 1e-15);
+  EXPECT_NEAR(next[2], sdk::wrap_angle(3.1 + kHuskyWheelRadius * 10.0 / kHuskyTrack * 0.1), 1e-15);
   EXPECT_LT(next[2], 0.0);
 }
 

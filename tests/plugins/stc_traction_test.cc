@@ -7,14 +7,15 @@
 #include <cmath>
 
 #include "skidimm/engine/plugin_registry.h"
+#include "plugins/husky_geometry.h"
 #include "skidimm/errors.h"
 #include "skidimm/sdk/testing/conformance.h"
 
 namespace skidimm {
 namespace {
 
-constexpr double kRadius = 0.165;
-constexpr double kTrack = 0.555;
+using skidimm_test::kHuskyTrack;
+using skidimm_test::kHuskyWheelRadius;
 
 // stc_sided's parameters of PredictsTheIcrKinematicsByHand, plus currents.
 sdk::ParameterSet traction_params(bool with_currents = true) {
@@ -22,8 +23,8 @@ sdk::ParameterSet traction_params(bool with_currents = true) {
   const char* names[] = {"eta_l", "eta_r", "alpha_l_outer", "alpha_l_inner", "alpha_r_outer", "alpha_r_inner", "x_icr"};
   const double values[] = {0.9, 0.6, 1.4, 1.3, 4.5, 2.5, -0.2};
   for (int i = 0; i < 7; ++i) p.set_scalar(names[i], values[i]);
-  p.set_scalar("r", kRadius);
-  p.set_scalar("b", kTrack);
+  p.set_scalar("r", kHuskyWheelRadius);
+  p.set_scalar("b", kHuskyTrack);
   if (with_currents) {
     p.set_scalar("k_skid_l", 30.0);
     p.set_scalar("k_skid_r", 30.0);
@@ -130,13 +131,13 @@ TEST_F(StcTraction, EachSidesIcrMovesOutByItsOwnFactor) {
   // Turning left on (3, 6) rad/s: s = 3 / 9.5, the right ICR 5 times as far
   // out, the left 1.2 times; v_x = (v_r y_l - v_l y_r) / (y_l - y_r).
   const double s = 3.0 / 9.5;
-  const double y_l = 1.3 * kTrack / 2 * (1.0 + 2.0 * s * s), y_r = -4.5 * kTrack / 2 * (1.0 + 40.0 * s * s);
-  const double v_l = 0.9 * kRadius * 3.0, v_r = 0.6 * kRadius * 6.0;
+  const double y_l = 1.3 * kHuskyTrack / 2 * (1.0 + 2.0 * s * s), y_r = -4.5 * kHuskyTrack / 2 * (1.0 + 40.0 * s * s);
+  const double v_l = 0.9 * kHuskyWheelRadius * 3.0, v_r = 0.6 * kHuskyWheelRadius * 6.0;
   ASSERT_TRUE(traction->predict(Eigen::Vector3d::Zero(), Eigen::Vector2d(3.0, 6.0), dt, a));
   EXPECT_NEAR(a[0] / dt, (v_r * y_l - v_l * y_r) / (y_l - y_r), 1e-9);
   EXPECT_NEAR(a[2] / dt, (v_r - v_l) / (y_l - y_r), 1e-9);
   // Closer to the left tread's speed than with both ICRs moved alike.
-  const double y_r_alike = -4.5 * kTrack / 2 * (1.0 + 2.0 * s * s);
+  const double y_r_alike = -4.5 * kHuskyTrack / 2 * (1.0 + 2.0 * s * s);
   EXPECT_LT(std::abs(a[0] / dt - v_l), std::abs((v_r * y_l - v_l * y_r_alike) / (y_l - y_r_alike) - v_l) - 0.01);
 }
 
@@ -144,8 +145,8 @@ TEST_F(StcTraction, TheKinematicPluginsPredictTheGyrosYawRate) {
   sdk::ParameterSet eq3;
   eq3.set_scalar("k", 0.8);
   eq3.set_scalar("m", 0.6);
-  eq3.set_scalar("r", kRadius);
-  eq3.set_scalar("b", kTrack);
+  eq3.set_scalar("r", kHuskyWheelRadius);
+  eq3.set_scalar("b", kHuskyTrack);
   for (const auto& [name, params] :
        {std::make_pair("stc_kinematic", eq3), std::make_pair("stc_sided", traction_params(false)),
         std::make_pair("stc_traction", traction_params())}) {

@@ -17,6 +17,7 @@ namespace simulation {
 namespace {
 
 using skidimm_test::read_file;
+using skidimm_test::replace_first;
 using skidimm_test::test_directory;
 using skidimm_test::write_file;
 using ::testing::HasSubstr;
@@ -34,10 +35,6 @@ schedule:
 maneuver: {type: sinusoidal, speed: 0.6}
 sensors: {rate: 50, jitter: 0.2, gps_rate: 10}
 )";
-
-std::string replace(std::string text, const std::string& from, const std::string& to) {
-  return text.replace(text.find(from), from.size(), to);
-}
 
 TEST(Scenario, IsDeterministicForASeedAndVariesAcrossSeeds) {
   const auto dir = test_directory();
@@ -76,7 +73,7 @@ TEST(Scenario, WritesTheScheduleSensorsAndTruth) {
 TEST(Scenario, DropoutsLeaveCellsEmpty) {
   const auto dir = test_directory();
   const Scenario s = load_scenario(
-      write_file(dir / "s.yaml", replace(kScenario, "gps_rate: 10}", "gps_rate: 10, velocity_dropout: 1.0}")));
+      write_file(dir / "s.yaml", replace_first(kScenario, "gps_rate: 10}", "gps_rate: 10, velocity_dropout: 1.0}")));
   simulate(s, 1, dir / "log.csv");
   CsvReader reader(dir / "log.csv");
   std::vector<std::string> f;
@@ -124,7 +121,7 @@ sensors: {preset: husky}
 TEST(Scenario, IdealPresetIsTheDefault) {
   const auto dir = test_directory();
   simulate(load_scenario(write_file(dir / "a.yaml", kScenario)), 3, dir / "a.csv");
-  simulate(load_scenario(write_file(dir / "b.yaml", replace(kScenario, "sensors: {", "sensors: {preset: ideal, "))), 3,
+  simulate(load_scenario(write_file(dir / "b.yaml", replace_first(kScenario, "sensors: {", "sensors: {preset: ideal, "))), 3,
            dir / "b.csv");
   EXPECT_EQ(read_file(dir / "a.csv"), read_file(dir / "b.csv"));
 }
@@ -204,8 +201,8 @@ sensors: {preset: husky, current_dropout: 0}
 )";
   auto mean_current_after = [&](const std::string& mode, const std::string& tarp, const std::string& maneuver,
                                 double start, double* rate) {
-    std::string text = replace(replace(replace(skidpad, "MODE", mode), "MODE", mode), "TARP", tarp);
-    text = replace(text, "MANEUVER", maneuver);
+    std::string text = replace_first(replace_first(replace_first(skidpad, "MODE", mode), "MODE", mode), "TARP", tarp);
+    text = replace_first(text, "MANEUVER", maneuver);
     simulate(load_scenario(write_file(dir / (mode + ".yaml"), text)), 4, dir / (mode + ".csv"));
     auto c = read_columns(dir / (mode + ".csv"));
     std::vector<double> current;
@@ -233,8 +230,8 @@ sensors: {preset: husky, current_dropout: 0}
 
   // Without the sensor, the same log less the two columns.
   const std::string with = read_file(dir / "none.csv");
-  std::string text = replace(replace(replace(skidpad, "MODE", "none"), "MODE", "none"), "TARP", "");
-  text = replace(replace(text, "MANEUVER", "skidpad"), "current_dropout: 0", "current_rate: 0");
+  std::string text = replace_first(replace_first(replace_first(skidpad, "MODE", "none"), "MODE", "none"), "TARP", "");
+  text = replace_first(replace_first(text, "MANEUVER", "skidpad"), "current_dropout: 0", "current_rate: 0");
   simulate(load_scenario(write_file(dir / "without.yaml", text)), 4, dir / "without.csv");
   CsvReader a(dir / "none.csv"), b(dir / "without.csv");
   ASSERT_EQ(a.header().size(), 21u);
@@ -253,7 +250,7 @@ sensors: {preset: husky, current_dropout: 0}
 TEST(Scenario, GpsCourseIsEmptyWhenStanding) {
   const auto dir = test_directory();
   const Scenario s = load_scenario(write_file(
-      dir / "s.yaml", replace(replace(kHuskyScenario, "duration: 240", "duration: 60"), "speed: 0.8", "speed: 0")));
+      dir / "s.yaml", replace_first(replace_first(kHuskyScenario, "duration: 240", "duration: 60"), "speed: 0.8", "speed: 0")));
   simulate(s, 1, dir / "log.csv");
   auto c = read_columns(dir / "log.csv");
   long fixes = 0, courses = 0;
@@ -276,22 +273,22 @@ TEST(Scenario, ErrorsNameFileLineAndField) {
     return std::string("no error");
   };
   EXPECT_THAT(
-      error(replace(kScenario, "terrain: grass", "terrain: mud")),
+      error(replace_first(kScenario, "terrain: grass", "terrain: mud")),
       HasSubstr("bad.yaml:4: modes.grass: unknown terrain 'mud' (known: asphalt, crushed_concrete, grass, ice)"));
-  EXPECT_THAT(error(replace(kScenario, "{at: 0, mode: grass}", "{at: 1, mode: grass}")),
+  EXPECT_THAT(error(replace_first(kScenario, "{at: 0, mode: grass}", "{at: 1, mode: grass}")),
               HasSubstr("schedule[0].at: the first entry must start at 0"));
-  EXPECT_THAT(error(replace(kScenario, "{at: 2, mode: slip}", "{at: 2, mode: ice}")),
+  EXPECT_THAT(error(replace_first(kScenario, "{at: 2, mode: slip}", "{at: 2, mode: ice}")),
               HasSubstr("schedule[1].mode: no mode 'ice' under modes"));
-  EXPECT_THAT(error(replace(kScenario, "type: sinusoidal", "type: zigzag")),
+  EXPECT_THAT(error(replace_first(kScenario, "type: sinusoidal", "type: zigzag")),
               HasSubstr("maneuver.type: expected straight, skidpad, clothoid, sinusoidal or spiral"));
-  EXPECT_THAT(error(replace(kScenario, "jitter: 0.2", "jitter: 1.5")), HasSubstr("sensors.jitter: must be below 1"));
-  EXPECT_THAT(error(replace(kScenario, "duration: 4", "duration: -4")),
+  EXPECT_THAT(error(replace_first(kScenario, "jitter: 0.2", "jitter: 1.5")), HasSubstr("sensors.jitter: must be below 1"));
+  EXPECT_THAT(error(replace_first(kScenario, "duration: 4", "duration: -4")),
               HasSubstr("duration: must be a finite number > 0"));
-  EXPECT_THAT(error(replace(kScenario, "sensors: {", "sensors: {preset: robot, ")),
+  EXPECT_THAT(error(replace_first(kScenario, "sensors: {", "sensors: {preset: robot, ")),
               HasSubstr("sensors.preset: expected ideal or husky"));
-  EXPECT_THAT(error(replace(kScenario, "sensors: {", "sensors: {heading: compass, ")),
+  EXPECT_THAT(error(replace_first(kScenario, "sensors: {", "sensors: {heading: compass, ")),
               HasSubstr("sensors.heading: expected direct or gps_course"));
-  EXPECT_THAT(error(replace(kScenario, "sensors: {", "sensors: {gps_correlation_time: 0, ")),
+  EXPECT_THAT(error(replace_first(kScenario, "sensors: {", "sensors: {gps_correlation_time: 0, ")),
               HasSubstr("sensors.gps_correlation_time: must be a finite number > 0"));
 }
 

@@ -16,11 +16,12 @@ namespace skidimm {
 namespace simulation {
 namespace {
 
+using skidimm_test::replace_first;
 using skidimm_test::test_directory;
 using skidimm_test::write_file;
 using ::testing::HasSubstr;
 
-const std::string kScenario = R"(name: bounds
+const std::string kBoundsScenario = R"(name: bounds
 duration: 4
 robot: {yaw_inertia: 6.0}
 mode: asphalt
@@ -29,10 +30,6 @@ modes:
 maneuver: {type: sinusoidal, speed: 0.6}
 sensors: {rate: 50, gps_rate: 10}
 )";
-
-std::string replace(std::string text, const std::string& from, const std::string& to) {
-  return text.replace(text.find(from), from.size(), to);
-}
 
 std::string load_error(const std::string& yaml) {
   const auto dir = test_directory();
@@ -62,9 +59,9 @@ TEST(FastestResponse, IsTheYawResponseOfTheHuskyOnAsphalt) {
 
 // 2.5 / 4,782.3 = 0.52276 ms: the default 0.5 ms step is inside, 0.53 ms not.
 TEST(SimulationBounds, TheStepMustResolveTheFastestResponse) {
-  EXPECT_EQ(load_error(kScenario), "no error");
-  EXPECT_EQ(load_error(replace(kScenario, "duration: 4", "duration: 4\nintegration_step: 0.00052")), "no error");
-  const std::string error = load_error(replace(kScenario, "duration: 4", "duration: 4\nintegration_step: 0.00053"));
+  EXPECT_EQ(load_error(kBoundsScenario), "no error");
+  EXPECT_EQ(load_error(replace_first(kBoundsScenario, "duration: 4", "duration: 4\nintegration_step: 0.00052")), "no error");
+  const std::string error = load_error(replace_first(kBoundsScenario, "duration: 4", "duration: 4\nintegration_step: 0.00053"));
   EXPECT_THAT(error, HasSubstr("s.yaml:3: integration_step: integration_step 0.00053 s does not resolve the yaw "
                                "response on mode 'asphalt' (time constant 0.000209 s)"));
   EXPECT_THAT(error, HasSubstr("must be <= 2.5 of them, 0.000523 s"));
@@ -72,28 +69,28 @@ TEST(SimulationBounds, TheStepMustResolveTheFastestResponse) {
 
 TEST(SimulationBounds, AnImplausibleRobotIsNamed) {
   // 1 / 1e-4 s * 0.5 ms = 5 time constants a step.
-  EXPECT_THAT(load_error(replace(kScenario, "{yaw_inertia: 6.0}", "{yaw_inertia: 6.0, motor_time_constant: 0.0001}")),
+  EXPECT_THAT(load_error(replace_first(kBoundsScenario, "{yaw_inertia: 6.0}", "{yaw_inertia: 6.0, motor_time_constant: 0.0001}")),
               HasSubstr("s.yaml:3: robot.motor_time_constant: integration_step 0.0005 s does not resolve the wheel "
                         "speed loop response on mode 'asphalt' (time constant 0.0001 s)"));
-  EXPECT_THAT(load_error(replace(kScenario, "{yaw_inertia: 6.0}", "{yaw_inertia: 1e-12}")),
+  EXPECT_THAT(load_error(replace_first(kBoundsScenario, "{yaw_inertia: 6.0}", "{yaw_inertia: 1e-12}")),
               HasSubstr("s.yaml:3: robot.yaw_inertia: integration_step 0.0005 s does not resolve the yaw response"));
 }
 
 TEST(SimulationBounds, TheNumberOfStepsIsBounded) {
-  EXPECT_THAT(load_error(replace(kScenario, "duration: 4", "duration: 4\nintegration_step: 1e-9")),
+  EXPECT_THAT(load_error(replace_first(kBoundsScenario, "duration: 4", "duration: 4\nintegration_step: 1e-9")),
               HasSubstr("duration: 4 s at integration_step 1e-09 s is 4e+09 integration steps, more than the limit "
                         "of 20000000"));
-  EXPECT_THAT(load_error(replace(kScenario, "duration: 4", "duration: 1e9")),
+  EXPECT_THAT(load_error(replace_first(kBoundsScenario, "duration: 4", "duration: 1e9")),
               HasSubstr("s.yaml:2: duration: 1e+09 s at integration_step 0.0005 s is 2e+12 integration steps"));
   // 20,000,000 steps of 0.5 ms: 10,000 s loads, a step more does not.
-  EXPECT_EQ(load_error(replace(kScenario, "duration: 4", "duration: 10000")), "no error");
-  EXPECT_THAT(load_error(replace(kScenario, "duration: 4", "duration: 10000.001")),
+  EXPECT_EQ(load_error(replace_first(kBoundsScenario, "duration: 4", "duration: 10000")), "no error");
+  EXPECT_THAT(load_error(replace_first(kBoundsScenario, "duration: 4", "duration: 10000.001")),
               HasSubstr("is 2e+07 integration steps, more than the limit of 20000000"));
 }
 
 TEST(SimulationBounds, AChangedDurationIsCheckedBeforeSimulating) {
   const auto dir = test_directory();
-  Scenario s = load_scenario(write_file(dir / "s.yaml", kScenario));
+  Scenario s = load_scenario(write_file(dir / "s.yaml", kBoundsScenario));
   s.duration = 1e9;  // as `skidimm simulate --duration 1e9` does
   EXPECT_THROW(check_simulable(s), ConfigError);
   try {
@@ -107,19 +104,19 @@ TEST(SimulationBounds, AChangedDurationIsCheckedBeforeSimulating) {
 
 TEST(SimulationBounds, SensorRatesTheIntegrationCannotDeliverAreErrors) {
   // One row per step at most: 1 / 0.5 ms = 2000 Hz.
-  EXPECT_EQ(load_error(replace(kScenario, "rate: 50,", "rate: 2000,")), "no error");
-  EXPECT_THAT(load_error(replace(kScenario, "rate: 50,", "rate: 2001,")),
+  EXPECT_EQ(load_error(replace_first(kBoundsScenario, "rate: 50,", "rate: 2000,")), "no error");
+  EXPECT_THAT(load_error(replace_first(kBoundsScenario, "rate: 50,", "rate: 2001,")),
               HasSubstr("s.yaml:8: sensors.rate: a row is written at most once per integration step, so the rate "
                         "must be <= 1 / integration_step = 2000 Hz, got 2001 Hz"));
-  EXPECT_THAT(load_error(replace(kScenario, "gps_rate: 10", "gps_rate: 60")),
+  EXPECT_THAT(load_error(replace_first(kBoundsScenario, "gps_rate: 10", "gps_rate: 60")),
               HasSubstr("sensors.gps_rate: a GPS fix is written on a sensor row, so it must be <= sensors.rate = 50 "
                         "Hz, got 60 Hz"));
-  EXPECT_THAT(load_error(replace(kScenario, "gps_rate: 10", "gps_rate: 10, current_rate: 51")),
+  EXPECT_THAT(load_error(replace_first(kBoundsScenario, "gps_rate: 10", "gps_rate: 10, current_rate: 51")),
               HasSubstr("sensors.current_rate: a current sample is written on a sensor row, so it must be <= "
                         "sensors.rate = 50 Hz, got 51 Hz"));
-  EXPECT_THAT(load_error(replace(kScenario, "gps_rate: 10", "gps_rate: 10, current_std: -1")),
+  EXPECT_THAT(load_error(replace_first(kBoundsScenario, "gps_rate: 10", "gps_rate: 10, current_std: -1")),
               HasSubstr("sensors.current_std"));
-  EXPECT_THAT(load_error(replace(kScenario, "gps_rate: 10", "gps_rate: 10, current_dropout: 2")),
+  EXPECT_THAT(load_error(replace_first(kBoundsScenario, "gps_rate: 10", "gps_rate: 10, current_dropout: 2")),
               HasSubstr("sensors.current_dropout"));
 }
 
@@ -127,7 +124,7 @@ TEST(SimulationBounds, AStateThatStopsBeingFiniteIsAnErrorNamingTheTime) {
   const auto dir = test_directory();
   // Wheel commands of 1e308 / 0.165 m overflow to infinity in the first step.
   const Scenario s =
-      load_scenario(write_file(dir / "s.yaml", replace(kScenario, "speed: 0.6", "speed: 1e308, ramp: 0")));
+      load_scenario(write_file(dir / "s.yaml", replace_first(kBoundsScenario, "speed: 0.6", "speed: 1e308, ramp: 0")));
   try {
     simulate(s, 1, dir / "log.csv");
     ADD_FAILURE() << "simulated an infinite state";
