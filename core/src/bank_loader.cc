@@ -684,7 +684,10 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry, const ModelP
     if (provided) {
       bank.model_sources.push_back(provider->source(mode.model));
     } else {
-      ModelSource source{descriptor->path, descriptor->name, descriptor->version};
+      ModelSource source;
+      source.file = descriptor->path;
+      source.plugin = descriptor->name;
+      source.version = descriptor->version;
       source.parameter_keys = descriptor->parameter_keys;
       bank.model_sources.push_back(std::move(source));
     }

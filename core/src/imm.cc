@@ -7,12 +7,13 @@
 
 #include "check.h"
 #include "imm_kernel.h"
+#include "not_a_number.h"
 
 namespace skidimm {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using ::skidimm::internal::kNaN;
 
 }  // namespace
 

@@ -23,6 +23,7 @@
 #include "fixed_size_ekf.h"
 #include "gaussian_mixture.h"
 #include "measured_outputs.h"
+#include "not_a_number.h"
 #include "probability_floor.h"
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/imm_estimate.h"
@@ -33,7 +34,6 @@
 namespace skidimm {
 namespace internal {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kMinusInfinity = -std::numeric_limits<double>::infinity();
 
 // The NIS below which a consistent measurement of `dof` components falls with

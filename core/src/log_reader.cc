@@ -8,6 +8,7 @@
 
 #include "csv_table.h"
 #include "log_reader_impl.h"
+#include "not_a_number.h"
 #include "skidimm/config/expression.h"
 #include "skidimm/errors.h"
 #include "skidimm/io/csv.h"
@@ -20,7 +21,7 @@ using internal::trim;
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using ::skidimm::internal::kNaN;
 
 }  // namespace
 

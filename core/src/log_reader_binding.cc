@@ -4,6 +4,7 @@
 
 #include "csv_table.h"
 #include "log_reader_impl.h"
+#include "not_a_number.h"
 #include "ros/bag_log.h"
 #include "skidimm/errors.h"
 #include "skidimm/io/ros/bag_reader.h"
@@ -19,7 +20,7 @@ using internal::trim;
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using ::skidimm::internal::kNaN;
 
 // The bank's column texts that may name a bag's topics (ros/bag_log.h).
 std::vector<std::string> bag_column_texts(const BankConfig& bank) {

@@ -86,7 +86,7 @@ void scaling_benchmark(benchmark::State& state, TransitionForm form, int states)
       static_cast<double>(malloc_calls() - allocations_before) / static_cast<double>(state.iterations());
 }
 
-void register_benchmarks() {
+void register_step_benchmarks() {
   for (const char* bank : {"ltc_terrains", "stc_slip4", "stc_slip16", "ltc16"}) {
     for (bool reference : {false, true}) {
       const std::string name = std::string(reference ? "Reference/" : "Imm/") + bank;
@@ -106,7 +106,7 @@ void register_benchmarks() {
   }
 }
 
-const bool registered = (register_benchmarks(), true);
+const bool step_benchmarks_registered = (register_step_benchmarks(), true);
 
 }  // namespace
 }  // namespace skidimm_bench

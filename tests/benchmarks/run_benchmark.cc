@@ -244,7 +244,7 @@ void run_loop(benchmark::State& state, const std::string& bank_name) {
   state.counters["allocs_per_row"] = static_cast<double>(allocations) / static_cast<double>(total_rows);
 }
 
-void register_benchmarks() {
+void register_run_benchmarks() {
   for (const char* bank : {"ltc_terrains", "stc_slip16"}) {
     for (const char* extension : {".csv", ".npy"}) {
       const std::string name = std::string("Run/") + bank + (std::string(extension) == ".npy" ? "/npy" : "");
@@ -262,7 +262,7 @@ void register_benchmarks() {
   }
 }
 
-const bool registered = (register_benchmarks(), true);
+const bool run_benchmarks_registered = (register_run_benchmarks(), true);
 
 }  // namespace
 }  // namespace skidimm_bench

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "evaluation_summary.h"
+#include "not_a_number.h"
 #include "skidimm/io/csv.h"
 #include "skidimm/printable.h"
 
@@ -16,7 +17,7 @@ namespace evaluation {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using ::skidimm::internal::kNaN;
 
 std::vector<const LogResult*> pointers(const LogGroup& group) {
   std::vector<const LogResult*> out;

@@ -4,12 +4,14 @@
 #include <cmath>
 #include <limits>
 
+#include "not_a_number.h"
+
 namespace skidimm {
 namespace evaluation {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using ::skidimm::internal::kNaN;
 
 double mean(const std::vector<double>& v) {
   double sum = 0.0;

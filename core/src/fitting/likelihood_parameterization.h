@@ -18,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "not_a_number.h"
 #include "skidimm/fitting/likelihood_fitter.h"
 #include "skidimm/sdk/motion_model.h"
 
@@ -29,7 +30,7 @@ namespace internal {
 namespace {
 
 constexpr double kLog2Pi = 1.8378770664093454835606594728112;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using ::skidimm::internal::kNaN;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 using ProcessNoise = LikelihoodFitOptions::ProcessNoise;
 

@@ -26,7 +26,7 @@ namespace fitting {
 
 namespace {
 
-std::string number(double v) {
+std::string brief(double v) {
   char b[32];
   std::snprintf(b, sizeof(b), "%.4g", v);
   return b;
@@ -323,20 +323,20 @@ Knob knob_from_string(const std::string& name) {
 }
 
 std::string TunedSettings::describe(const BankConfig& config) const {
-  std::string out = "objective " + objective + ", R x " + number(r_scale);
+  std::string out = "objective " + objective + ", R x " + brief(r_scale);
   for (Eigen::Index i = 0; i < r_component.size(); ++i) {
-    if (r_component[i] != 1.0) out += ", R[" + config.measurement.names[static_cast<std::size_t>(i)] + "] std x " + number(r_component[i]);
+    if (r_component[i] != 1.0) out += ", R[" + config.measurement.names[static_cast<std::size_t>(i)] + "] std x " + brief(r_component[i]);
   }
-  out += ", Q x " + number(q_scale);
+  out += ", Q x " + brief(q_scale);
   for (Eigen::Index j = 0; j < q_mode.size(); ++j) {
-    if (q_mode[j] != 1.0) out += ", Q[" + config.modes[static_cast<std::size_t>(j)].name + "] x " + number(q_mode[j]);
+    if (q_mode[j] != 1.0) out += ", Q[" + config.modes[static_cast<std::size_t>(j)].name + "] x " + brief(q_mode[j]);
   }
-  if (dwell_seconds > 0.0) out += ", dwell " + number(dwell_seconds) + " s";
-  if (probability_floor >= 0.0) out += ", floor " + number(probability_floor);
+  if (dwell_seconds > 0.0) out += ", dwell " + brief(dwell_seconds) + " s";
+  if (probability_floor >= 0.0) out += ", floor " + brief(probability_floor);
   // Only when not 1, the plain IMM: the description of a bank tuned without it stays as it was.
-  if (likelihood_weight > 0.0 && likelihood_weight != 1.0) out += ", likelihood weight " + number(likelihood_weight);
+  if (likelihood_weight > 0.0 && likelihood_weight != 1.0) out += ", likelihood weight " + brief(likelihood_weight);
   // Only when Student-t, for the same reason.
-  if (likelihood_dof > 0.0) out += ", likelihood dof " + number(likelihood_dof);
+  if (likelihood_dof > 0.0) out += ", likelihood dof " + brief(likelihood_dof);
   return out;
 }
 
@@ -478,7 +478,7 @@ class Tuner {
     for (const std::string& objective : options_.objectives) {
       TunedSettings s = search(objective, outer, development, &result.selection_scores);
       const double score = summarize(result.selection_scores).mean_log_probability;
-      progress("objective " + objective + ": cross-validated mean log p(truth) " + number(score));
+      progress("objective " + objective + ": cross-validated mean log p(truth) " + brief(score));
       if (score > best) {
         best = score;
         result.settings = s;
@@ -1060,7 +1060,7 @@ class Tuner {
           }
         }
         *value = chosen;
-        if (!quiet) progress("  " + objective + ": " + name + " " + number(chosen) + " -> mean log p(truth) " + number(best));
+        if (!quiet) progress("  " + objective + ": " + name + " " + brief(chosen) + " -> mean log p(truth) " + brief(best));
       };
       // The Student-t degrees of freedom, the Gaussian (0) among the candidates:
       // a coarse ladder first, then the neighbours of the best.
@@ -1086,8 +1086,8 @@ class Tuner {
         }
         current.likelihood_dof = chosen;
         if (!quiet) {
-          progress("  " + objective + ": likelihood dof " + (chosen > 0.0 ? number(chosen) : std::string("Gaussian")) +
-                   " -> mean log p(truth) " + number(best));
+          progress("  " + objective + ": likelihood dof " + (chosen > 0.0 ? brief(chosen) : std::string("Gaussian")) +
+                   " -> mean log p(truth) " + brief(best));
         }
       };
       for (Knob knob : options_.knobs) {

@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "bundled_message_definitions.h"
+#include "not_a_number.h"
 #include "ros_time.h"
 #include "skidimm/errors.h"
 #include "skidimm/io/csv.h"
@@ -18,7 +19,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using ::skidimm::internal::kNaN;
 
 std::string topic_list(const BagReader& bag) {
   std::string out;

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 
+#include "not_a_number.h"
 #include "ros_time.h"
 
 namespace skidimm {
@@ -12,7 +13,7 @@ namespace ros {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using ::skidimm::internal::kNaN;
 constexpr int kMaxDepth = 64;  // nesting of message types: real ones stay under 10
 
 bool is_time_type(const std::string& name) {

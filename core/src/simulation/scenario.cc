@@ -194,7 +194,7 @@ void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s)
   set_probability("current_dropout", &s->current_dropout);
 }
 
-std::string number(double v) { return CsvWriter::format(std::round(v * 1e6) / 1e6); }
+std::string approx(double v) { return CsvWriter::format(std::round(v * 1e6) / 1e6); }
 
 struct Problem {
   std::string field;
@@ -238,16 +238,16 @@ std::optional<Problem> simulation_problem(const Scenario& s) {
   if (s.sensors.rate * h > 1.0 + 1e-9) {
     return Problem{"sensors.rate", "a row is written at most once per integration step, so the rate must be <= 1 / "
                                    "integration_step = " +
-                                       number(1.0 / h) + " Hz, got " + number(s.sensors.rate) + " Hz"};
+                                       approx(1.0 / h) + " Hz, got " + approx(s.sensors.rate) + " Hz"};
   }
   if (s.sensors.gps_rate > s.sensors.rate * (1.0 + 1e-9)) {
     return Problem{"sensors.gps_rate", "a GPS fix is written on a sensor row, so it must be <= sensors.rate = " +
-                                           number(s.sensors.rate) + " Hz, got " + number(s.sensors.gps_rate) + " Hz"};
+                                           approx(s.sensors.rate) + " Hz, got " + approx(s.sensors.gps_rate) + " Hz"};
   }
   if (s.sensors.current_rate > s.sensors.rate * (1.0 + 1e-9)) {
     return Problem{"sensors.current_rate",
                    "a current sample is written on a sensor row, so it must be <= sensors.rate = " +
-                       number(s.sensors.rate) + " Hz, got " + number(s.sensors.current_rate) + " Hz"};
+                       approx(s.sensors.rate) + " Hz, got " + approx(s.sensors.current_rate) + " Hz"};
   }
   return std::nullopt;
 }
@@ -492,53 +492,53 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
       const double true_right = (state.wheel_speed[kFrontRight] + state.wheel_speed[kRearRight]) / 2.0;
       const double heading = sdk::wrap_angle(state.psi);
       std::fill(row.begin(), row.end(), std::string());
-      row[0] = number(t);
+      row[0] = approx(t);
       const double measured_left = true_left + sensors.wheel_speed_std * random.gaussian();
       const double measured_right = true_right + sensors.wheel_speed_std * random.gaussian();
-      row[1] = number(measured_left);
-      row[2] = number(measured_right);
+      row[1] = approx(measured_left);
+      row[2] = approx(measured_right);
       const double noise_v = sensors.velocity_std * random.gaussian();
       if (random.uniform() >= sensors.velocity_dropout) {
         const double speed =
             sensors.speed == SensorConfig::Speed::kBody
                 ? state.vx + noise_v
                 : (1.0 + sensors.odometry_scale_error) * robot.wheel_radius * (measured_left + measured_right) / 2.0;
-        row[3] = number(speed);
+        row[3] = approx(speed);
       }
       const double noise_w = sensors.yaw_rate_std * random.gaussian();
       const double noise_ax = sensors.accel_std * random.gaussian();
       const double noise_ay = sensors.accel_std * random.gaussian();
       if (random.uniform() >= sensors.imu_dropout) {
-        row[4] = number(state.omega + realistic.yaw_rate_bias() + noise_w);
-        row[5] = number(forces.ax + noise_ax);
-        row[6] = number(forces.ay + noise_ay);
+        row[4] = approx(state.omega + realistic.yaw_rate_bias() + noise_w);
+        row[5] = approx(forces.ax + noise_ax);
+        row[6] = approx(forces.ay + noise_ay);
       }
       if (sensors.gps_rate > 0.0 && t + 1e-12 >= next_gps) {
         const double nx = sensors.gps_std * random.gaussian(), ny = sensors.gps_std * random.gaussian();
         const double nh = sensors.heading_std * random.gaussian();
         const bool received = random.uniform() >= sensors.gps_dropout;
         if (realistic.gps_epoch(t) && received) {
-          row[7] = number(state.x + nx + realistic.gps_error(0));
-          row[8] = number(state.y + ny + realistic.gps_error(1));
+          row[7] = approx(state.x + nx + realistic.gps_error(0));
+          row[8] = approx(state.y + ny + realistic.gps_error(1));
           if (sensors.heading == SensorConfig::Heading::kDirect) {
-            row[9] = number(sdk::wrap_angle(heading + nh));
+            row[9] = approx(sdk::wrap_angle(heading + nh));
           } else {
             const double c = std::cos(state.psi), s = std::sin(state.psi);
             const double course = realistic.course(state.vx * c - state.vy * s, state.vx * s + state.vy * c);
-            if (std::isfinite(course)) row[9] = number(sdk::wrap_angle(course));
+            if (std::isfinite(course)) row[9] = approx(sdk::wrap_angle(course));
           }
         }
         next_gps += 1.0 / sensors.gps_rate;
       }
       row[10] = mode_name;
-      row[11] = number(state.vx);
-      row[12] = number(state.vy);
-      row[13] = number(state.omega);
-      row[14] = number(state.x);
-      row[15] = number(state.y);
-      row[16] = number(heading);
-      row[17] = number(true_left);
-      row[18] = number(true_right);
+      row[11] = approx(state.vx);
+      row[12] = approx(state.vy);
+      row[13] = approx(state.omega);
+      row[14] = approx(state.x);
+      row[15] = approx(state.y);
+      row[16] = approx(heading);
+      row[17] = approx(true_left);
+      row[18] = approx(true_right);
       if (measures_current && t + 1e-12 >= next_current) {
         // The torque each side's motor holds its wheels' speed against.
         const double torque_left = robot.wheel_radius * (forces.traction[kFrontLeft] + forces.traction[kRearLeft]);
@@ -547,9 +547,9 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
         const double noise_right = sensors.current_std * current_random.gaussian();
         if (current_random.uniform() >= sensors.current_dropout) {
           // A magnitude, as the drivers report it: noise cannot make it negative.
-          row[19] = number(
+          row[19] = approx(
               std::abs(sensors.current_no_load + sensors.current_per_torque * std::abs(torque_left) + noise_left));
-          row[20] = number(
+          row[20] = approx(
               std::abs(sensors.current_no_load + sensors.current_per_torque * std::abs(torque_right) + noise_right));
         }
         next_current += 1.0 / sensors.current_rate;
