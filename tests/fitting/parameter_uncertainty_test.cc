@@ -30,8 +30,8 @@ using ::testing::HasSubstr;
 // Two features relaxing at fixed rates towards B u + c (the BorealTC bank's
 // form), two inputs; B and c are the 6 fitted parameters, in the order
 // B[0,0], B[0,1], B[1,0], B[1,1], c[0], c[1].
-constexpr double kRate[2] = {-2.0, -3.0};
-constexpr double kDt = 0.1;
+constexpr double kFeatureRate[2] = {-2.0, -3.0};
+constexpr double kFeatureDt = 0.1;
 
 std::string bank_text(const std::string& extra = "") {
   return R"(name: two_features
@@ -48,12 +48,12 @@ modes:
 )" + extra;
 }
 
-Bank load(const std::string& text, const std::string& name = "two.yaml") {
+Bank load_two_features(const std::string& text, const std::string& name = "two.yaml") {
   return Bank::load(skidimm_test::write_file(skidimm_test::test_directory() / name, text), {SKIDIMM_PLUGIN_DIR});
 }
 
 // Gamma of one feature: int_0^dt e^{a s} ds.
-double gamma(int state) { return std::expm1(kRate[state] * kDt) / kRate[state]; }
+double feature_gamma(int state) { return std::expm1(kFeatureRate[state] * kFeatureDt) / kFeatureRate[state]; }
 
 // A log of the two features with errors of unequal size (0.05, 0.4 per step).
 Trajectory regression_log(int rows, unsigned seed) {
@@ -67,18 +67,19 @@ Trajectory regression_log(int rows, unsigned seed) {
   t.z.resize(2, rows);
   Eigen::Vector2d x(0.0, 0.0);
   for (int k = 0; k < rows; ++k) {
-    t.t.push_back(kDt * k);
+    t.t.push_back(kFeatureDt * k);
     t.u.col(k) << 1.0 + std::sin(0.05 * k) + 0.3 * normal(random), 0.5 * std::cos(0.11 * k) + 0.2 * normal(random);
     t.z.col(k) = x;
     for (int i = 0; i < 2; ++i) {
-      x[i] = std::exp(kRate[i] * kDt) * x[i] + gamma(i) * (b.row(i).dot(t.u.col(k)) + c[i]) + error[i] * normal(random);
+      x[i] = std::exp(kFeatureRate[i] * kFeatureDt) * x[i] + feature_gamma(i) * (b.row(i).dot(t.u.col(k)) + c[i]) +
+             error[i] * normal(random);
     }
   }
   return t;
 }
 
 TEST(ParameterCovariance, IsEachFeaturesRegressionCovarianceSSquaredTimesTheInverseOfXtX) {
-  Bank bank = load(bank_text());
+  Bank bank = load_two_features(bank_text());
   const Trajectory log = regression_log(400, 17);
   FitOptions options;
   options.window = 0.0;  // one step: each feature's regression on [u1, u2, 1]
@@ -98,7 +99,8 @@ TEST(ParameterCovariance, IsEachFeaturesRegressionCovarianceSSquaredTimesTheInve
   bank.models[0]->get_parameters(fitted);
   for (int i = 0; i < 2; ++i) {
     Eigen::VectorXd y(rows);
-    for (int k = 0; k < rows; ++k) y[k] = (log.z(i, k + 1) - std::exp(kRate[i] * kDt) * log.z(i, k)) / gamma(i);
+    for (int k = 0; k < rows; ++k)
+      y[k] = (log.z(i, k + 1) - std::exp(kFeatureRate[i] * kFeatureDt) * log.z(i, k)) / feature_gamma(i);
     const Eigen::Vector3d beta = xtx_inverse * x.transpose() * y;
     const double s2 = (y - x * beta).squaredNorm() / (rows - 3);
     const Eigen::Matrix3d expected = s2 * xtx_inverse;
@@ -130,7 +132,7 @@ TEST(ParameterCovariance, IsEachFeaturesRegressionCovarianceSSquaredTimesTheInve
 }
 
 TEST(ParameterCovariance, IsLeftEmptyUnlessAsked) {
-  Bank bank = load(bank_text());
+  Bank bank = load_two_features(bank_text());
   FitOptions options;
   const FitReport report = fit(&bank, std::vector<ModeLogs>{{0, {regression_log(200, 3)}}}, options).front();
   EXPECT_EQ(report.parameter_covariance.size(), 0);
@@ -145,7 +147,7 @@ Eigen::MatrixXd some_covariance() {
   return l * l.transpose();
 }
 
-std::string flow(const Eigen::MatrixXd& m) {
+std::string flow_matrix(const Eigen::MatrixXd& m) {
   std::string out = "[";
   for (Eigen::Index r = 0; r < m.rows(); ++r) {
     out += r ? ", [" : "[";
@@ -161,8 +163,9 @@ std::string flow(const Eigen::MatrixXd& m) {
 
 TEST(ParameterUncertainty, AddsPhiSigmaPhiToTheProcessNoise) {
   const Eigen::MatrixXd sigma = some_covariance();
-  const Bank plain = load(bank_text(), "plain.yaml");
-  const Bank uncertain = load(bank_text("    parameter_covariance: " + flow(sigma) + "\n"), "uncertain.yaml");
+  const Bank plain = load_two_features(bank_text(), "plain.yaml");
+  const Bank uncertain =
+      load_two_features(bank_text("    parameter_covariance: " + flow_matrix(sigma) + "\n"), "uncertain.yaml");
   ASSERT_EQ(uncertain.config.modes[0].parameter_covariance.rows(), 6);
   const Eigen::MatrixXd q = plain.config.modes[0].q_intensity;
   const Eigen::Vector2d x(0.3, -0.2), u(2.5, -1.5);
@@ -197,7 +200,7 @@ TEST(ParameterUncertainty, AddsPhiSigmaPhiToTheProcessNoise) {
 
 void expect_bank_error(const std::string& covariance, const std::string& what) {
   try {
-    load(bank_text("    parameter_covariance: " + covariance + "\n"), "bad.yaml");
+    load_two_features(bank_text("    parameter_covariance: " + covariance + "\n"), "bad.yaml");
     ADD_FAILURE() << "loaded a bank with parameter_covariance " << covariance;
   } catch (const ConfigError& e) {
     EXPECT_THAT(std::string(e.what()), HasSubstr("bad.yaml"));
@@ -208,25 +211,25 @@ void expect_bank_error(const std::string& covariance, const std::string& what) {
 
 TEST(ParameterUncertainty, BankErrorsNameTheFileTheFieldAndWhatWasExpected) {
   Eigen::MatrixXd five = Eigen::MatrixXd::Identity(5, 5);
-  expect_bank_error(flow(five), "must be 6x6 (one row and column per parameter of the model), got 5x5");
+  expect_bank_error(flow_matrix(five), "must be 6x6 (one row and column per parameter of the model), got 5x5");
   Eigen::MatrixXd asymmetric = Eigen::MatrixXd::Identity(6, 6);
   asymmetric(0, 1) = 0.5;
-  expect_bank_error(flow(asymmetric), "not symmetric");
+  expect_bank_error(flow_matrix(asymmetric), "not symmetric");
   Eigen::MatrixXd indefinite = Eigen::MatrixXd::Identity(6, 6);
   indefinite(0, 0) = -1.0;
-  expect_bank_error(flow(indefinite), "not positive semidefinite");
+  expect_bank_error(flow_matrix(indefinite), "not positive semidefinite");
   expect_bank_error("[[1, 0], [0, 1, 2]]", "expected a row of 2 numbers");
   expect_bank_error("[1, 2, 3]", "expected a 3x3 matrix, got 3x1");
   expect_bank_error("{diagonal: [1, 1, 1, 1, 1, nan]}", "");
 }
 
 TEST(ParameterUncertainty, ADiagonalCovarianceIsAccepted) {
-  const Bank bank = load(bank_text("    parameter_covariance: {diagonal: [1, 2, 3, 4, 5, 6]}\n"));
+  const Bank bank = load_two_features(bank_text("    parameter_covariance: {diagonal: [1, 2, 3, 4, 5, 6]}\n"));
   EXPECT_EQ(bank.config.modes[0].parameter_covariance.diagonal(), (Eigen::VectorXd(6) << 1, 2, 3, 4, 5, 6).finished());
 }
 
 TEST(ParameterUncertainty, FitBankAndTuningSetTheCovarianceAndARefitWithoutItRemovesIt) {
-  Bank bank = load(bank_text());
+  Bank bank = load_two_features(bank_text());
   BankFitOptions options;
   options.objective = Objective::kWindow;
   options.window.loss = "none";
@@ -238,7 +241,7 @@ TEST(ParameterUncertainty, FitBankAndTuningSetTheCovarianceAndARefitWithoutItRem
   EXPECT_TRUE(parameter_covariance_of(*bank.models[0]).isApprox(report.parameter_covariance, 1e-12));
   // Tuning carries it from a fold's fit to the bank it scores.
   const FittedValues values = values_of(bank);
-  Bank other = load(bank_text(), "other.yaml");
+  Bank other = load_two_features(bank_text(), "other.yaml");
   apply(values, TunedSettings{}, &other);
   EXPECT_EQ(other.config.modes[0].parameter_covariance, report.parameter_covariance);
   EXPECT_TRUE(parameter_covariance_of(*other.models[0]).isApprox(report.parameter_covariance, 1e-12));
@@ -250,7 +253,7 @@ TEST(ParameterUncertainty, FitBankAndTuningSetTheCovarianceAndARefitWithoutItRem
 }
 
 TEST(ParameterUncertainty, TheLikelihoodObjectiveRefusesIt) {
-  Bank bank = load(bank_text());
+  Bank bank = load_two_features(bank_text());
   BankFitOptions options;
   options.objective = Objective::kLikelihood;
   options.parameter_uncertainty = true;
