@@ -255,6 +255,44 @@ def physics(work, summary):
         f"{other['chosen']}.\n")
 
 
+def uncertainty(work, summary):
+    """The design with and without each mode's parameter uncertainty, on the extrapolation protocols."""
+    other = tune_blocks(os.path.join(work, "borealtc", "uncertainty_tune.txt"))
+    kinds = scores_by_kind(os.path.join(work, "borealtc", "uncertainty_scores.csv"))
+    lines = ["| held out | parameter uncertainty | mean over terrains | mean log p(truth) | "
+             "time at p >= 0.9: share, right | calibration error | the two worst runs |", "|---|---|---|---|---|---|---|"]
+    better, worse = [], []
+    for slug in ("extrapolation-speed", "extrapolation-turn"):
+        evaluation = json.load(open(os.path.join(work, "borealtc", f"uncertainty_eval_{slug}.json")))["overall"]
+        if f"{other[slug]['mean']:.3f}" != f"{evaluation['mean_over_classes']['accuracy']:.3f}":
+            sys.exit(f"uncertainty, {slug}: tune's mean over classes differs from eval's")
+        forms = {"without (the design)": (summary[slug]["tune"], summary[slug]["eval"], summary[slug]["rows"]),
+                 "with": (other[slug], evaluation, kinds[slug])}
+        for name, (tuned, ev, rows) in forms.items():
+            cal = ev["calibration"]
+            worst = sorted(rows, key=lambda r: float(r["accuracy"]))[:2]
+            worst_text = ", ".join(f"{r['truth']} {run_number(r['log'])} {pct(float(r['accuracy']))}" for r in worst)
+            lines.append(f"| {HELD_OUT[slug]} | {name} | {pct(tuned['mean'])} | {fmt(tuned['log_p'], 2)} | "
+                         f"{pct(cal['confident_fraction'])}, {pct(cal['confident_accuracy'])} | "
+                         f"{fmt(cal['expected_calibration_error'])} | {worst_text} |")
+        without, with_ = forms["without (the design)"], forms["with"]
+        for label, a, b, higher in (
+                ("accuracy", without[0]["mean"], with_[0]["mean"], True),
+                ("mean log p(truth)", without[0]["log_p"], with_[0]["log_p"], True),
+                ("share right at p >= 0.9", without[1]["calibration"]["confident_accuracy"],
+                 with_[1]["calibration"]["confident_accuracy"], True),
+                ("calibration error", without[1]["calibration"]["expected_calibration_error"],
+                 with_[1]["calibration"]["expected_calibration_error"], False)):
+            if round(a, 3) == round(b, 3):
+                continue
+            (better if (b > a) == higher else worse).append(f"{label} ({HELD_OUT[slug].split(', ')[1]})")
+    return "\n".join(lines) + (
+        "\n\nThe same development runs, folds and searched settings; the lockbox does not score this. With parameter "
+        f"uncertainty the scores are better in {len(better)} and worse in {len(worse)} of the {len(better) + len(worse)} "
+        f"that differ: better: {'; '.join(better) if better else 'none'}; worse: {'; '.join(worse) if worse else 'none'}. "
+        f"Chosen with it on every development run: {other['chosen']}.\n")
+
+
 def splices(work):
     data = json.load(open(os.path.join(work, "splices", "eval.json")))["overall"]
     latency, first, decision = data["latency"], data["first_latency"], data["decision"]
@@ -354,7 +392,8 @@ def main():
     work, doc, data = sys.argv[1], sys.argv[2], sys.argv[3]
     summary, headline, terrains = protocols(work)
     blocks = {"husky": husky(work), "headline": headline, "terrains": terrains, "calibration": calibration(summary),
-              "confusion": confusion(summary, work), "physics": physics(work, summary), "splices": splices(work),
+              "confusion": confusion(summary, work), "physics": physics(work, summary),
+              "uncertainty": uncertainty(work, summary), "splices": splices(work),
               "wheels": wheels(work), "runs": per_run(summary, work, data)}
     text = read(doc)
     for name, block in blocks.items():

@@ -19,7 +19,9 @@
 #         out), and the lockbox scored by the bank tuned on the development
 #         runs. `skidimm eval --estimates` recomputes each protocol's
 #         metrics, with calibration, from the held-out outputs tune wrote.
-#     B2. The physics-shaped alternative, on the same runs and protocols.
+#     B2. The physics-shaped alternative, on the same runs and protocols;
+#         B2b. the design with parameter uncertainty, on the extrapolation
+#         protocols.
 #     B3. The bundled bank: the design fitted and tuned on all 47 runs.
 #     B4. Without an IMU: the wheel-only bank, each development log held out
 #         and the lockbox, then fitted and tuned on all 47 runs.
@@ -92,6 +94,19 @@ done
 # it was not chosen).
 "$skidimm" tune -q --bank configs/borealtc/physics_start.yaml "${develop[@]}" "${fit[@]}" --tune "$knobs" \
   --assess "$protocols" --table "$work/borealtc/physics_scores.csv" >"$work/borealtc/physics_tune.txt"
+
+# B2b. The design with each mode's parameter uncertainty (`--parameter-uncertainty`: its
+# predictions widen for inputs unlike those it was fitted on), on the same development runs,
+# the two extrapolation protocols only. A development-only comparison: the lockbox had been
+# spent on the design before, so it does not score this.
+"$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${fit[@]}" --tune "$knobs" \
+  --parameter-uncertainty --assess "extrapolation:$speed,extrapolation:$turn" \
+  --table "$work/borealtc/uncertainty_scores.csv" --estimates "$work/borealtc/uncertainty_held_out" \
+  >"$work/borealtc/uncertainty_tune.txt"
+for slug in extrapolation-speed extrapolation-turn; do
+  "$skidimm" eval --estimates "$work/borealtc/uncertainty_held_out/$slug" --bank configs/borealtc/terrains_start.yaml \
+    --json >"$work/borealtc/uncertainty_eval_$slug.json"
+done
 
 # B3. The bundled bank.
 "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${all[@]}" "${fit[@]}" --tune "$knobs" --no-assess \
