@@ -20,11 +20,12 @@ import datetime
 import json
 import os
 import pathlib
-import platform
 import re
 import subprocess
 import sys
 import tempfile
+
+import machine_info
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "docs" / "performance" / "results.json"
@@ -58,14 +59,7 @@ def family(name):
 # ---------------------------------------------------------------- running
 
 def machine(build):
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
+    cpu = machine_info.cpu_model()
     cache = {}
     for line in (build / "CMakeCache.txt").read_text().splitlines():
         m = re.match(r"([A-Za-z_]+):[A-Z]+=(.*)", line)

@@ -46,6 +46,8 @@ import sys
 import tempfile
 import time
 
+import machine_info
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 STORED = ROOT / "docs" / "python" / "benchmark.json"
 PAGE = ROOT / "docs" / "python.md"
@@ -73,14 +75,7 @@ def paired(reference, measured, repeat):
 def machine():
     import numpy as np
 
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
+    cpu = machine_info.cpu_model()
     return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(), "numpy": np.__version__}
 
 
