@@ -31,14 +31,14 @@ if [ "$check" -eq 1 ]; then
   # bound by the CPU time of all its parts together, so the stage takes the
   # cycles they leave idle (link steps, the one-core stretches of the
   # reproductions) instead of starting only when they have ended. Its own
-  # session, so that a failure here stops it too. 10 s per fuzz target keeps
+  # session, so that a failure here stops it too. 5 s per fuzz target keeps
   # the gate within CI's budget on two cores (README); the corpus and the
   # regression inputs are replayed whole in any case, and longer runs are for
   # check.sh by hand (tests/fuzz/README.md).
   mkdir -p "$build"
   sanitizer_log=$build/sanitizer.log
   # shellcheck disable=SC2086 # word splitting of the arguments is intended
-  SKIDIMM_FUZZ_SECONDS=${SKIDIMM_FUZZ_SECONDS:-10} setsid nice -n 10 "$root/scripts/check.sh" ${SKIDIMM_CHECK_ARGS:-} \
+  SKIDIMM_FUZZ_SECONDS=${SKIDIMM_FUZZ_SECONDS:-5} setsid nice -n 10 "$root/scripts/check.sh" ${SKIDIMM_CHECK_ARGS:-} \
     >"$sanitizer_log" 2>&1 &
   sanitizer_stage=$!
   trap 'kill -- -"$sanitizer_stage" 2>/dev/null || true' EXIT

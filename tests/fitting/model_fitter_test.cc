@@ -404,8 +404,12 @@ TEST(ModelFitter, CondensedWindowsReachTheWindowsOwnFit) {
     double window;
     const Trajectory* data;
   };
-  for (const Case& c : {Case{"huber", 0.0, &data}, Case{"cauchy", 0.0, &data}, Case{"none", 0.0, &data},
-                        Case{"huber", 0.2, &data}, Case{"huber", 0.0, &straight_data}}) {
+  std::vector<Case> cases = {Case{"huber", 0.0, &data}, Case{"cauchy", 0.0, &data}, Case{"none", 0.0, &data},
+                             Case{"huber", 0.2, &data}, Case{"huber", 0.0, &straight_data}};
+  // Under the sanitizers the first case runs the condensed block's code; the
+  // other losses and windows are arithmetic the Release suite checks.
+  if (SKIDIMM_SANITIZED) cases.resize(1);
+  for (const Case& c : cases) {
     SCOPED_TRACE(c.loss + ", window " + std::to_string(c.window) + (c.data == &data ? "" : ", driving straight"));
     FitOptions options;
     options.loss = c.loss;
