@@ -95,6 +95,7 @@ struct FitCommandOptions {
   bool full_q = false;                // likelihood: Q with off-diagonal terms
   bool output_noise = false;          // window: each mode's own R for the outputs it predicts
   bool parameter_uncertainty = false;  // window: write each fitted mode's parameter covariance
+  bool residual_correlation = false;   // window: write each fitted mode's residual correlation
   bool hold_unexcited = false;        // hold parameters the logs do not excite at their starting values
   double window = 0.0;                // s; 0: one-step
   std::string loss = "huber";
@@ -128,6 +129,7 @@ struct TuneCommandOptions {
   bool full_q = false;
   bool hold_unexcited = false;
   bool parameter_uncertainty = false;  // window objective: each fitted mode's parameter covariance
+  bool residual_correlation = false;   // window objective: each fitted mode's residual correlation
   std::filesystem::path output_bank;
   std::filesystem::path table;      // per-log scores as CSV
   std::filesystem::path estimates;  // the nested assessment's per-step outputs: a folder per protocol, a file per log

@@ -94,6 +94,7 @@ int fit(const FitCommandOptions& options) {
     fit_options.full_process_noise = options.full_q;
     fit_options.output_noise = options.output_noise;
     fit_options.parameter_uncertainty = options.parameter_uncertainty;
+    fit_options.residual_correlation = options.residual_correlation;
     request.mode = options.mode;
     request.name = options.name;
     // The work up front: a fit on a long log is long, and should say so before it starts.

@@ -225,6 +225,9 @@ int main(int argc, char** argv) {
   fit->add_flag("--parameter-uncertainty", fit_options.parameter_uncertainty,
                 "Window objective: write each fitted mode's parameter covariance (parameter_covariance:), so its "
                 "predictions widen for inputs unlike those it was fitted on");
+  fit->add_flag("--residual-correlation", fit_options.residual_correlation,
+                "Window objective: write each fitted mode's residual correlation (residual_correlation:), the lag-1 "
+                "correlation of its whitened one-step errors, so its likelihood counts a persistent miss once");
   fit->add_flag("--full-q", fit_options.full_q,
                 "Q with off-diagonal terms (likelihood: fitted; window: the correlations of the one-step errors)");
   fit->add_flag("--hold-unexcited", fit_options.hold_unexcited,
@@ -307,6 +310,9 @@ int main(int argc, char** argv) {
   tune->add_flag("--parameter-uncertainty", tune_options.parameter_uncertainty,
                  "Window objective: each fitted mode's parameter covariance widens its predictions for inputs unlike "
                  "those it was fitted on (written to --output-bank)");
+  tune->add_flag("--residual-correlation", tune_options.residual_correlation,
+                 "Window objective: each fitted mode's residual correlation (residual_correlation:), estimated on "
+                 "each fold's training runs (written to --output-bank)");
   tune->add_flag("--hold-unexcited", tune_options.hold_unexcited,
                  "Hold parameters the logs do not excite at their starting values instead of failing the fit");
   tune->add_option("--output-bank", tune_options.output_bank,
@@ -460,7 +466,8 @@ int main(int argc, char** argv) {
     for (int i = 1; i < argc; ++i) fit_options.command_line += std::string(" ") + argv[i];
     if (fit_options.objective == "likelihood") {
       // The window objective's options would be silently ignored.
-      for (const char* name : {"--window", "--loss", "--loss-scale", "--parameter-uncertainty"}) {
+      for (const char* name :
+           {"--window", "--loss", "--loss-scale", "--parameter-uncertainty", "--residual-correlation"}) {
         if (fit->get_option(name)->count() > 0) {
           std::cerr << "skidimm fit: " << name << " is an option of the window objective; add --objective window "
                     << "(the default objective is likelihood: " << documentation_path("docs/fitting.md") << ")\n";

@@ -205,6 +205,11 @@ int tune(const TuneCommandOptions& options) {
                     "' cannot give it (--objective window)");
       }
       fit_options.parameter_uncertainty = options.parameter_uncertainty;
+      if (options.residual_correlation && fit_options.objective != fitting::Objective::kWindow) {
+        throw Error("--residual-correlation is estimated by the window objective; '" + name +
+                    "' cannot give it (--objective window)");
+      }
+      fit_options.residual_correlation = options.residual_correlation;
       // Without a joint R each mode's fit depends on its own logs alone.
       if (!options.fit_r) tune_options.separable.insert(name);
       const fitting::FitWork work = fitting::fit_work(start, development_data, fit_options);
@@ -262,7 +267,8 @@ int tune(const TuneCommandOptions& options) {
         const ModeConfig& mode = c.modes[static_cast<std::size_t>(j)];
         modes_block += fitting::format_mode_entry(mode.name, mode.model, *tuned.models[static_cast<std::size_t>(j)],
                                                   mode.q_intensity, {}, mode.params, mode.fit_when, mode.r,
-                                                  tuned.model_sources[static_cast<std::size_t>(j)].parameter_keys);
+                                                  tuned.model_sources[static_cast<std::size_t>(j)].parameter_keys,
+                                                  mode.residual_correlation);
       }
       std::vector<std::pair<std::string, std::string>> blocks{
           {"measurement", fitting::format_measurement_block(c)},

@@ -265,7 +265,10 @@ void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) 
   for (std::size_t i = 0; i < node.size(); ++i) {
     const YAML::Node m = node[i];
     const std::string field = "modes[" + std::to_string(i) + "]";
-    y.check_keys(m, {"name", "model", "params", "Q", "R", "description", "fit_when", "parameter_covariance"}, field);
+    y.check_keys(m,
+                 {"name", "model", "params", "Q", "R", "description", "fit_when", "parameter_covariance",
+                  "residual_correlation"},
+                 field);
     ModeConfig mode;
     mode.line = YamlFields::line_of(m);
     mode.name = y.string(y.required(m, "name", field), field + ".name");
@@ -313,6 +316,15 @@ void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) 
         y.fail(c, c_field, "must be a covariance (mode '" + mode.name + "'): " + why);
       }
       mode.parameter_covariance_line = YamlFields::line_of(c);
+    }
+    if (const YAML::Node rho = m["residual_correlation"]) {
+      const std::string rho_field = field + ".residual_correlation";
+      mode.residual_correlation = y.number(rho, rho_field);
+      if (!(mode.residual_correlation > -1.0 && mode.residual_correlation < 1.0)) {
+        y.fail(rho, rho_field,
+               "must be in (-1, 1) (mode '" + mode.name +
+                   "'): the lag-1 correlation of the mode's whitened innovations (0: independent steps)");
+      }
     }
     bank->modes.push_back(std::move(mode));
   }

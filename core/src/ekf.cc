@@ -37,6 +37,7 @@ ExtendedKalmanFilter::ExtendedKalmanFilter(const sdk::MotionModel& model, Eigen:
   fp_.resize(n, n);
   innovation_.resize(m);
   whitened_.resize(m);
+  whitened_innovation_.resize(m);
   hp_.resize(m, n);
   s_.resize(m, m);
   gain_.resize(n, m);
@@ -75,6 +76,14 @@ bool ExtendedKalmanFilter::predict(const Eigen::Ref<const Eigen::VectorXd>& u, d
   return x_.allFinite() && p_.allFinite();
 }
 
+Eigen::Ref<const Eigen::VectorXd> ExtendedKalmanFilter::whitened_innovation() {
+  auto whitened = whitened_innovation_.head(last_size_);
+  whitened = innovation_.head(last_size_);
+  // The in-place LLT of update() left L in the lower triangle of s_.
+  s_.topLeftCorner(last_size_, last_size_).triangularView<Eigen::Lower>().solveInPlace(whitened);
+  return whitened;
+}
+
 UpdateResult ExtendedKalmanFilter::update(const SelectedMeasurement& measurement, double gate) {
   UpdateResult result;
   const int k = measurement.size;
@@ -106,6 +115,7 @@ UpdateResult ExtendedKalmanFilter::update(const SelectedMeasurement& measurement
   // In-place Cholesky on the workspace: S = L L'.
   Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(s);
   if (llt.info() != Eigen::Success) return result;
+  last_size_ = k;
 
   auto whitened = whitened_.head(k);
   whitened = nu;

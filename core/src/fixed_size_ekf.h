@@ -166,12 +166,14 @@ void back_substitute(const Eigen::Matrix<double, K, K>& l, const Eigen::Matrix<d
 
 // Corrects x, P with a measurement z = H x + v, v ~ N(0, R) of K components;
 // bit a of z_angles: row a measures an angle. A measurement whose NIS is
-// above `gate` is not applied (result.gated).
+// above `gate` is not applied (result.gated). `whitened_innovation`, when
+// given, receives L^-1 nu (S = L L').
 template <int N, int K>
 UpdateResult update_fixed(const Eigen::Matrix<double, K, 1>& z, const Eigen::Matrix<double, K, N>& h,
                           const Eigen::Matrix<double, K, K>& r, AngleMask z_angles, AngleMask state_angles,
                           Eigen::Matrix<double, N, 1>* x, Eigen::Matrix<double, N, N>* p,
-                          double gate = std::numeric_limits<double>::infinity()) {
+                          double gate = std::numeric_limits<double>::infinity(),
+                          Eigen::Matrix<double, K, 1>* whitened_innovation = nullptr) {
   constexpr double kLog2Pi = 1.8378770664093454835606594728112;
   UpdateResult result;
   Eigen::Matrix<double, K, 1> nu = z;
@@ -188,6 +190,7 @@ UpdateResult update_fixed(const Eigen::Matrix<double, K, 1>& z, const Eigen::Mat
   Eigen::Matrix<double, K, 1> whitened = nu;
   forward_substitute<K, 1>(s, inverse_diagonal, &whitened);  // L^-1 nu
   result.nis = whitened.squaredNorm();                       // nu' S^-1 nu
+  if (whitened_innovation != nullptr) *whitened_innovation = whitened;
   // log det S = 2 sum log L_aa: one log of the product while it is safely
   // inside double's range (always, for real sensors), the sum otherwise.
   double product = 1.0;

@@ -25,6 +25,7 @@
 #include "measured_outputs.h"
 #include "not_a_number.h"
 #include "probability_floor.h"
+#include "residual_correlation.h"
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/imm_estimate.h"
 #include "skidimm/engine/measurement_model.h"
@@ -102,9 +103,11 @@ class FixedFilters {
   // Updates every mode whose log-likelihood is not already -inf with the
   // finite rows of z, less the mode's expected outputs when `outputs` is
   // given, gating at gates[k] for k rows; writes log-likelihoods, NIS and
-  // kGated. Returns the number of rows used.
+  // kGated; with `correlation`, each applied measurement's log-likelihood is
+  // conditioned on the mode's last innovation (residual_correlation.h).
+  // Returns the number of rows used.
   int update(const Eigen::Ref<const Eigen::VectorXd>& z, const MeasuredOutputs* outputs, const double* gates,
-             ImmEstimate* e, int* rejected) {
+             ResidualCorrelation* correlation, ImmEstimate* e, int* rejected) {
     std::array<int, M> rows{};
     int k = 0;
     for (int a = 0; a < M; ++a) {
@@ -112,16 +115,16 @@ class FixedFilters {
     }
     switch (k) {
       case 1:
-        update_rows<1>(rows, z, outputs, gates[1], e, rejected);
+        update_rows<1>(rows, z, outputs, gates[1], correlation, e, rejected);
         break;
       case 2:
-        update_rows<2>(rows, z, outputs, gates[2], e, rejected);
+        update_rows<2>(rows, z, outputs, gates[2], correlation, e, rejected);
         break;
       case 3:
-        update_rows<3>(rows, z, outputs, gates[3], e, rejected);
+        update_rows<3>(rows, z, outputs, gates[3], correlation, e, rejected);
         break;
       case 4:
-        update_rows<4>(rows, z, outputs, gates[4], e, rejected);
+        update_rows<4>(rows, z, outputs, gates[4], correlation, e, rejected);
         break;
       default:
         break;
@@ -132,7 +135,8 @@ class FixedFilters {
  private:
   template <int K>
   void update_rows(const std::array<int, M>& rows, const Eigen::Ref<const Eigen::VectorXd>& z,
-                   const MeasuredOutputs* outputs, double gate, ImmEstimate* e, int* rejected) {
+                   const MeasuredOutputs* outputs, double gate, ResidualCorrelation* correlation, ImmEstimate* e,
+                   int* rejected) {
     if constexpr (K <= M) {
       Eigen::Matrix<double, K, 1> zk;
       Eigen::Matrix<double, K, N> hk;
@@ -156,9 +160,13 @@ class FixedFilters {
         if (outputs != nullptr) {
           for (int a = 0; a < K; ++a) zj[a] -= outputs->expected(j)[rows[static_cast<std::size_t>(a)]];
         }
-        const UpdateResult result =
+        Eigen::Matrix<double, K, 1> whitened;
+        UpdateResult result =
             update_fixed<N, K>(zj, hk, rk, angles, state_angles_, &x_[static_cast<std::size_t>(j)],
-                               &p_[static_cast<std::size_t>(j)], gate);
+                               &p_[static_cast<std::size_t>(j)], gate, correlation != nullptr ? &whitened : nullptr);
+        if (correlation != nullptr && result.ok && !result.gated) {
+          result.log_likelihood = correlation->condition(j, rows, K, whitened, result.log_likelihood, result.nis);
+        }
         record_update(j, result, e, rejected);
       }
     }
@@ -216,7 +224,7 @@ class FixedStateFilters {
 
   // As FixedFilters::update.
   int update(const Eigen::Ref<const Eigen::VectorXd>& z, const MeasuredOutputs* outputs, const double* gates,
-             ImmEstimate* e, int* rejected) {
+             ResidualCorrelation* correlation, ImmEstimate* e, int* rejected) {
     measurement_model_.select(z, &selection_);
     if (selection_.size == 0) return 0;
     if (outputs != nullptr) measured_ = selection_.z;
@@ -230,9 +238,12 @@ class FixedStateFilters {
       }
       // The selected block of this mode's R (select() filled the bank's).
       if (!mode_r_.empty()) MeasurementModel::select_noise(mode_r_[static_cast<std::size_t>(j)], &selection_);
-      const UpdateResult result =
-          update_selected<N>(selection_, state_angles_, &x_[static_cast<std::size_t>(j)],
-                             &p_[static_cast<std::size_t>(j)], &workspace_, gates[selection_.size]);
+      UpdateResult result = update_selected<N>(selection_, state_angles_, &x_[static_cast<std::size_t>(j)],
+                                               &p_[static_cast<std::size_t>(j)], &workspace_, gates[selection_.size]);
+      if (correlation != nullptr && result.ok && !result.gated) {
+        result.log_likelihood = correlation->condition(j, selection_.rows, selection_.size, workspace_.whitened,
+                                                       result.log_likelihood, result.nis);
+      }
       record_update(j, result, e, rejected);
     }
     return selection_.size;
@@ -283,7 +294,7 @@ class DynamicFilters {
   }
 
   int update(const Eigen::Ref<const Eigen::VectorXd>& z, const MeasuredOutputs* outputs, const double* gates,
-             ImmEstimate* e, int* rejected) {
+             ResidualCorrelation* correlation, ImmEstimate* e, int* rejected) {
     measurement_model_.select(z, &selection_);
     if (selection_.size == 0) return 0;
     if (outputs != nullptr) measured_ = selection_.z;
@@ -297,7 +308,12 @@ class DynamicFilters {
       }
       // The selected block of this mode's R (select() filled the bank's).
       if (!mode_r_.empty()) MeasurementModel::select_noise(mode_r_[static_cast<std::size_t>(j)], &selection_);
-      const UpdateResult result = filters_[static_cast<std::size_t>(j)].update(selection_, gates[selection_.size]);
+      ExtendedKalmanFilter& filter = filters_[static_cast<std::size_t>(j)];
+      UpdateResult result = filter.update(selection_, gates[selection_.size]);
+      if (correlation != nullptr && result.ok && !result.gated) {
+        result.log_likelihood = correlation->condition(j, selection_.rows, selection_.size,
+                                                       filter.whitened_innovation(), result.log_likelihood, result.nis);
+      }
       record_update(j, result, e, rejected);
     }
     return selection_.size;
@@ -332,6 +348,7 @@ class Kernel final : public ImmKernel {
         floor_(bank.config.mode_probability_floor),
         likelihood_weight_(bank.config.likelihood_weight),
         student_t_(bank.config.likelihood_dof, static_cast<int>(bank.config.measurement.h.rows())),
+        correlation_(bank.config),
         initial_state_(bank.config.initial_state),
         initial_covariance_(bank.config.initial_covariance) {
     is_angle_.reset(new bool[static_cast<std::size_t>(n_)]);
@@ -372,7 +389,9 @@ class Kernel final : public ImmKernel {
         filters_.covariance(j) = initial_covariance_;
       }
       predicted_ = e->mode_probabilities;
+      correlation_.forget_all();
     } else {
+      correlation_.advance();
       mix(dt, e->mode_probabilities);
       for (int j = 0; j < modes_; ++j) {
         if (!filters_.predict(j, u, dt)) {
@@ -395,7 +414,9 @@ class Kernel final : public ImmKernel {
         }
       }
     }
-    const int measured = filters_.update(z, outputs_measured ? &outputs_ : nullptr, gates_.data(), e, &rejected);
+    ResidualCorrelation* correlation = correlation_.active() ? &correlation_ : nullptr;
+    const int measured =
+        filters_.update(z, outputs_measured ? &outputs_ : nullptr, gates_.data(), correlation, e, &rejected);
     if (!student_t_.gaussian()) rescore_student_t(measured, e);
     // A filter that ran but holds absurd numbers has diverged (filter_health.h).
     for (int j = 0; j < modes_; ++j) {
@@ -413,6 +434,12 @@ class Kernel final : public ImmKernel {
       if (e->log_likelihoods[j] == kMinusInfinity) {
         filters_.state(j) = e->state;
         filters_.covariance(j) = e->covariance;
+      }
+      // A mode that failed, diverged or gated this step's measurement starts
+      // a new innovation memory: what it remembered is not what followed.
+      if (correlation != nullptr && (e->log_likelihoods[j] == kMinusInfinity ||
+                                     e->mode_failures[static_cast<std::size_t>(j)] == ModeFailure::kGated)) {
+        correlation_.forget(j);
       }
     }
     const int gated = score_gated_modes(e);
@@ -460,12 +487,15 @@ class Kernel final : public ImmKernel {
 
   // The Student-t log density of each updated mode's innovation from its
   // Gaussian one (student_t_likelihood.h); a gated mode was scored at its
-  // gate, and is scored there again.
+  // gate, and is scored there again. With correlated innovations the
+  // Gaussian density is the conditional one, and so is d2.
   void rescore_student_t(int measured, ImmEstimate* e) const {
     for (int j = 0; j < modes_; ++j) {
       if (e->log_likelihoods[j] == kMinusInfinity || std::isnan(e->log_likelihoods[j])) continue;
       const bool gated = e->mode_failures[static_cast<std::size_t>(j)] == ModeFailure::kGated;
-      const double d2 = gated ? gates_[static_cast<std::size_t>(measured)] : e->nis[j];
+      const double d2 = gated                   ? gates_[static_cast<std::size_t>(measured)]
+                        : correlation_.active() ? correlation_.conditional_d2(j)
+                                                : e->nis[j];
       e->log_likelihoods[j] = student_t_(e->log_likelihoods[j], d2, measured);
     }
   }
@@ -580,6 +610,7 @@ class Kernel final : public ImmKernel {
   }
 
   void restart_from_prior(ImmEstimate* e) {
+    correlation_.forget_all();
     for (int j = 0; j < modes_; ++j) {
       filters_.state(j) = initial_state_;
       filters_.covariance(j) = initial_covariance_;
@@ -610,6 +641,7 @@ class Kernel final : public ImmKernel {
   double floor_;
   double likelihood_weight_;   // w of Lambda_j^w (bank.h)
   StudentTLikelihood student_t_;  // the bank's likelihood_dof
+  ResidualCorrelation correlation_;  // the modes' residual_correlation
   std::vector<double> gates_;  // by number of measured components; +inf: no gate
   Eigen::VectorXd initial_state_;
   Eigen::MatrixXd initial_covariance_;

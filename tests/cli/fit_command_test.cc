@@ -259,6 +259,107 @@ modes:
   EXPECT_THAT(likelihood.err, HasSubstr("--parameter-uncertainty is an option of the window objective"));
 }
 
+// --residual-correlation: fit estimates each mode's lag-1 correlation of its
+// whitened one-step errors and writes it; tune does the same on its folds'
+// training logs. Each mode's feature follows its line in v (at the input
+// held over the step) plus an AR(1)
+// miss (rho 0.8 for one mode, 0.2 for the other) from a generator of the
+// test's own; a feature relaxing within a step (A = -60/s, 0.1 s) makes the
+// one-step error that miss. The expected rho is the generated misses' own
+// lag-1 correlation, computed here.
+TEST(Cli, FitAndTuneEstimateEachModesResidualCorrelation) {
+  const fs::path dir = test_directory();
+  write_file(dir / "features.yaml", R"(name: features
+states: [f]
+inputs: [v]
+columns: {truth_mode: mode}
+measurement: {observe: [f], R: {std: [0.001]}}
+transition: {stay: 0.99}
+initial: {covariance: {std: [1]}}
+modes:
+  - name: sticky
+    model: linear_features
+    params: {A: [-60], B: [[1]], c: [0], fixed: [A]}
+    Q: {diagonal: [0.1]}
+  - name: loose
+    model: linear_features
+    params: {A: [-60], B: [[1]], c: [0], fixed: [A]}
+    Q: {diagonal: [0.1]}
+)");
+  std::uint64_t state = 12345;
+  auto uniform = [&state] {  // a 64-bit LCG (Knuth's MMIX constants), in [-0.5, 0.5)
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<double>(state >> 11) / 9007199254740992.0 - 0.5;
+  };
+  double expected[2] = {0.0, 0.0};
+  std::string logs[2][2];
+  for (int mode = 0; mode < 2; ++mode) {
+    const double rho = mode == 0 ? 0.8 : 0.2;
+    double lag = 0.0, power = 0.0;
+    for (int part = 0; part < 2; ++part) {
+      std::string log = "t,v,f,mode\n";
+      double miss = 0.0, last = 0.0, held = 1.0 + 0.5 * std::sin(part);
+      for (int k = 0; k < 400; ++k) {
+        const double t = 0.1 * k, v = 1.0 + 0.5 * std::sin(0.37 * t + part);
+        miss = rho * miss + std::sqrt(1.0 - rho * rho) * 0.3 * uniform();
+        // The line at the input held over the step that led here (the zero-order hold).
+        log += std::to_string(t) + "," + std::to_string(v) + "," + std::to_string(2.0 * held + 1.0 + miss) + "," +
+               (mode == 0 ? "sticky" : "loose") + "\n";
+        held = v;
+        if (k >= 2) {  // one-step errors exist from row 1; pairs from row 2
+          lag += miss * last;
+          power += 0.5 * (miss * miss + last * last);
+        }
+        last = miss;
+      }
+      logs[mode][part] = (dir / ("log" + std::to_string(mode) + std::to_string(part) + ".csv")).string();
+      write_file(logs[mode][part], log);
+    }
+    expected[mode] = lag / power;
+  }
+  ASSERT_GT(expected[0], 0.6);
+  ASSERT_LT(expected[1], 0.4);
+  const std::string all_logs =
+      " --log " + logs[0][0] + " --log " + logs[0][1] + " --log " + logs[1][0] + " --log " + logs[1][1];
+  const fs::path out = dir / "fitted.yaml";
+  const Result fit =
+      run_skidimm("fit --bank " + (dir / "features.yaml").string() + " --objective window --residual-correlation" +
+                  all_logs + " --output-bank " + out.string() + " --plugin-path " + kPlugins);
+  ASSERT_EQ(fit.exit_code, 0) << fit.err;
+  ASSERT_THAT(read_file(out), HasSubstr("    residual_correlation: "));
+  const skidimm::BankConfig fitted = skidimm::load_bank_config(out);
+  // The fitted line differs a little from the generating one, and the
+  // feature relaxes to it within exp(-6) of a step: close, not exact.
+  EXPECT_NEAR(fitted.modes[0].residual_correlation, expected[0], 0.03);
+  EXPECT_NEAR(fitted.modes[1].residual_correlation, expected[1], 0.03);
+  // Without the flag the bank's value (0) stays.
+  const Result plain = run_skidimm("fit --bank " + (dir / "features.yaml").string() + " --objective window" + all_logs +
+                                   " --output-bank " + (dir / "plain.yaml").string() + " --plugin-path " + kPlugins);
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_EQ(skidimm::load_bank_config(dir / "plain.yaml").modes[0].residual_correlation, 0.0);
+
+  // tune: each fold fits it; the written bank carries the development fit's.
+  const Result tune = run_skidimm("tune --bank " + (dir / "features.yaml").string() +
+                                  " --objective window --residual-correlation --tune likelihood-weight --no-assess" +
+                                  " --threads 1 --quiet" + all_logs + " --output-bank " +
+                                  (dir / "tuned.yaml").string() + " --plugin-path " + kPlugins);
+  ASSERT_EQ(tune.exit_code, 0) << tune.err;
+  const skidimm::BankConfig tuned = skidimm::load_bank_config(dir / "tuned.yaml");
+  EXPECT_NEAR(tuned.modes[0].residual_correlation, fitted.modes[0].residual_correlation, 1e-6);
+  EXPECT_NEAR(tuned.modes[1].residual_correlation, fitted.modes[1].residual_correlation, 1e-6);
+
+  // The likelihood objective cannot give it.
+  const Result likelihood =
+      run_skidimm("fit --bank " + (dir / "features.yaml").string() + " --residual-correlation --log " + logs[0][0]);
+  EXPECT_EQ(likelihood.exit_code, 2);
+  EXPECT_THAT(likelihood.err, HasSubstr("--residual-correlation is an option of the window objective"));
+  const Result tune_likelihood = run_skidimm("tune --bank " + (dir / "features.yaml").string() +
+                                             " --objective likelihood --residual-correlation --no-assess" + all_logs +
+                                             " --plugin-path " + kPlugins);
+  EXPECT_NE(tune_likelihood.exit_code, 0);
+  EXPECT_THAT(tune_likelihood.err, HasSubstr("--residual-correlation is estimated by the window objective"));
+}
+
 TEST(Cli, FitTakesEachModeFromTheTruthColumnAndEvalTakesLabelsAndPatterns) {
   const fs::path dir = test_directory();
   // One log, three terrains: the truth column splits it into each mode's segments.

@@ -383,6 +383,22 @@ TEST(BankConfig, LikelihoodDofIsAPositiveNumberOrAbsent) {
   expect_config_error("likelihood_dof: .inf\n" + kValidBank, {"likelihood_dof"});
 }
 
+TEST(BankConfig, ResidualCorrelationIsInMinusOneToOne) {
+  const std::string ice_q = "    Q: [[0.02, 0], [0, 0.02]]\n";
+  const auto ok = write_file(test_directory() / "rho.yaml",
+                             replace(kValidBank, ice_q, ice_q + "    residual_correlation: -0.25\n"));
+  const BankConfig c = load_bank_config(ok);
+  EXPECT_EQ(c.modes[0].residual_correlation, 0.0);
+  EXPECT_EQ(c.modes[1].residual_correlation, -0.25);
+  EXPECT_TRUE(c.any_residual_correlation());
+  EXPECT_FALSE(load_bank_config(write_file(test_directory() / "none.yaml", kValidBank)).any_residual_correlation());
+  for (const std::string bad : {"1", "-1", "1.5", ".nan", "high"}) {
+    expect_config_error(
+        replace(kValidBank, ice_q, ice_q + "    residual_correlation: " + bad + "\n"),
+        {"bank.yaml:23: modes[1].residual_correlation", bad == "high" ? "expected a number" : "(-1, 1)"});
+  }
+}
+
 TEST(BankConfig, LikelihoodWeightIsInZeroToOne) {
   const auto ok = write_file(test_directory() / "ok.yaml", "likelihood_weight: 0.25\n" + kValidBank);
   EXPECT_EQ(load_bank_config(ok).likelihood_weight, 0.25);

@@ -139,7 +139,8 @@ TEST(ImmAllocation, MeasuredOutputsAllocateNothing) {
   }
 }
 
-// Every kernel and every path of the dwell-time transition: the dynamic
+// Every kernel and every path of the dwell-time transition (with correlated
+// innovations, whose memory restarts when a row is missing): the dynamic
 // kernel, 64 modes (products past Eigen's small-size paths), steps jittered
 // in their last digits, alternating rates (several anchors), and gaps long
 // enough for the eigenvector path.
@@ -164,6 +165,8 @@ TEST(ImmAllocation, EveryKernelAndTransitionPathAllocatesNothing) {
       bank.config.transition.dwell_seconds = Eigen::VectorXd::LinSpaced(64, 0.2, 20.0);
       bank.config.transition.matrix = Eigen::MatrixXd::Constant(64, 64, 0.01 / 63);
       bank.config.transition.matrix.diagonal().setConstant(0.99);
+      // Correlated innovations: their memory is sized once too.
+      for (ModeConfig& mode : bank.config.modes) mode.residual_correlation = 0.5;
       Imm imm(std::move(bank), choice);
       double t = 0.0;
       auto run = [&](int steps) {

@@ -4,6 +4,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -59,6 +60,13 @@ struct ReferenceImm {
   // A measured output y = gain_j u (this step's input) with variance
   // output_r[j]: it multiplies mode j's likelihood by N(y - gain_j u; 0, output_r[j]).
   double output_gain[2] = {0.0, 0.0}, output_r[2] = {1.0, 1.0};
+  // Per mode, the lag-1 correlation of the whitened innovations nu / sqrt(s):
+  // the likelihood of z is that of nu given the mode's last innovation, g
+  // steps back, N(nu; sqrt(s) a e_last, s (1 - a^2)) with a = rho^g.
+  double rho[2] = {0.0, 0.0};
+  double last_whitened[2] = {0.0, 0.0};
+  int steps_since[2] = {0, 0};
+  bool remembers[2] = {false, false};
   bool first = true;
   double last_t = 0.0, held_u = 0.0;
 
@@ -88,8 +96,21 @@ struct ReferenceImm {
       likelihood[j] = 1.0;
       x[j] = xm;
       var[j] = pm;
+      if (!first) ++steps_since[j];
       if (!std::isnan(z)) {  // a step without z: prediction only
-        const double s = pm + r[j], nu = z - xm, k = pm / s;
+        double s = pm + r[j], nu = z - xm;
+        const double k = pm / s;
+        if (rho[j] != 0.0) {
+          const double whitened = nu / std::sqrt(s);
+          if (remembers[j]) {
+            const double lag = std::pow(rho[j], steps_since[j]);
+            nu -= std::sqrt(s) * lag * last_whitened[j];
+            s *= 1.0 - lag * lag;
+          }
+          last_whitened[j] = whitened;
+          steps_since[j] = 0;
+          remembers[j] = true;
+        }
         if (likelihood_dof > 0.0) {
           const double v = likelihood_dof;
           likelihood[j] = std::tgamma(0.5 * (v + 1.0)) / (std::tgamma(0.5 * v) * std::sqrt(v * M_PI * s)) *
@@ -97,7 +118,7 @@ struct ReferenceImm {
         } else {
           likelihood[j] = std::exp(-0.5 * nu * nu / s) / std::sqrt(2.0 * M_PI * s);
         }
-        x[j] = xm + k * nu;
+        x[j] = xm + k * (z - xm);
         var[j] = pm - k * pm;  // standard form: equal to Joseph's for the optimal gain
       }
       if (!std::isnan(y)) {
@@ -146,20 +167,28 @@ TEST(Imm, OneStepMatchesHandComputation) {
 
 // 200 irregular steps of the two-mode bank with `likelihood_weight`, against
 // ReferenceImm with the same weight.
-void ExpectMatchesReferenceOverManySteps(double likelihood_weight, unsigned seed, double likelihood_dof = 0.0) {
+// With `rho`, each mode's innovations are correlated (residual_correlation),
+// and every seventh step measures nothing.
+void ExpectMatchesReferenceOverManySteps(double likelihood_weight, unsigned seed, double likelihood_dof = 0.0,
+                                         std::array<double, 2> rho = {0.0, 0.0}) {
   Bank bank = two_mode_scalar_bank().build();
   bank.config.likelihood_weight = likelihood_weight;
   bank.config.likelihood_dof = likelihood_dof;
+  bank.config.modes[0].residual_correlation = rho[0];
+  bank.config.modes[1].residual_correlation = rho[1];
+  const bool gaps = rho[0] != 0.0 || rho[1] != 0.0;
   Imm imm(std::move(bank));
   ReferenceImm reference;
   reference.likelihood_weight = likelihood_weight;
   reference.likelihood_dof = likelihood_dof;
+  reference.rho[0] = rho[0];
+  reference.rho[1] = rho[1];
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, 0.5);
   double t = 0.0;
   for (int k = 0; k < 200; ++k) {
     const double u = std::sin(0.1 * k);
-    const double z = 0.8 * std::sin(0.05 * k) + noise(rng);
+    const double z = gaps && k % 7 == 3 ? kNaN : 0.8 * std::sin(0.05 * k) + noise(rng);
     const ImmEstimate& e = imm.step(t, vec({u}), vec({z}));
     reference.step(t, u, z);
     ASSERT_NEAR(e.mode_probabilities[0], reference.mu[0], 1e-10) << "step " << k;
@@ -218,6 +247,57 @@ TEST(Imm, LikelihoodDofScoresInnovationsWithTheStudentTDensity) {
 // A measurement far from every mode: the Gaussian density makes the mode whose
 // prediction is least wrong almost certain at once; the Student-t one leaves
 // the modes near their prior, as neither explains the step.
+// residual_correlation rho_j: mode j's likelihood is that of its whitened
+// innovation e = nu / sqrt(S) given its last one, N(e; rho e_last, 1 - rho^2)
+// / sqrt(S). By hand (an independent numpy computation of the same two-mode
+// IMM) with rho = 0.6 and 0.3: step 0 has no memory and is the Gaussian
+// density; steps 1 and 2 are conditioned. The filters update as without it.
+TEST(Imm, ResidualCorrelationConditionsEachModesLikelihoodOnItsLastInnovation) {
+  Bank bank = two_mode_scalar_bank().build();
+  bank.config.modes[0].residual_correlation = 0.6;
+  bank.config.modes[1].residual_correlation = 0.3;
+  Imm imm(std::move(bank));
+  const ImmEstimate& e0 = imm.step(0.0, vec({1.0}), vec({0.6}));
+  EXPECT_NEAR(e0.log_likelihoods[0], -1.0345103088617775, 1e-14);
+  const ImmEstimate& e1 = imm.step(0.1, vec({0.0}), vec({0.7}));
+  EXPECT_NEAR(e1.log_likelihoods[0], -0.2678650635855219, 1e-13);
+  EXPECT_NEAR(e1.log_likelihoods[1], -0.4730344479358252, 1e-13);
+  EXPECT_NEAR(e1.mode_probabilities[0], 0.6670155595228378, 1e-13);
+  EXPECT_NEAR(e1.mode_states[0][0], 0.6537914691943127, 1e-14);  // the Kalman update
+  const ImmEstimate& e2 = imm.step(0.2, vec({0.5}), vec({0.9}));
+  EXPECT_NEAR(e2.log_likelihoods[0], -0.3330961657468772, 1e-13);
+  EXPECT_NEAR(e2.log_likelihoods[1], -0.5625450186308533, 1e-13);
+  EXPECT_NEAR(e2.mode_probabilities[0], 0.7157944391422081, 1e-13);
+  EXPECT_NEAR(e2.mode_states[1][0], 0.6051625494287534, 1e-13);
+
+  // Over many irregular steps, some measuring nothing (the memory then is
+  // rho^2 of the innovation two steps back), against the linear-domain
+  // reference; with the weight and the Student-t density too.
+  ExpectMatchesReferenceOverManySteps(1.0, 19, 0.0, {0.6, 0.3});
+  ExpectMatchesReferenceOverManySteps(0.3, 23, 5.0, {0.9, -0.4});
+}
+
+// A mode whose rho is 0 is scored exactly as without the option, bit for bit,
+// next to a mode whose rho is not; and a later reset forgets every memory.
+TEST(Imm, ZeroResidualCorrelationIsTheIndependentLikelihoodBitForBit) {
+  Bank correlated = two_mode_scalar_bank().build();
+  correlated.config.modes[1].residual_correlation = 0.5;
+  Imm plain(two_mode_scalar_bank().build()), with(std::move(correlated));
+  for (int pass = 0; pass < 2; ++pass) {
+    for (const double t : {0.0, 0.1}) {
+      const ImmEstimate& p = plain.step(t, vec({1.0 - t}), vec({0.6 + t}));
+      const ImmEstimate& w = with.step(t, vec({1.0 - t}), vec({0.6 + t}));
+      EXPECT_EQ(p.log_likelihoods[0], w.log_likelihoods[0]);
+      EXPECT_EQ(p.mode_states[0][0], w.mode_states[0][0]);
+      EXPECT_EQ(p.mode_states[1][0], w.mode_states[1][0]);
+      if (t == 0.0) EXPECT_EQ(p.log_likelihoods[1], w.log_likelihoods[1]);  // no memory yet
+      if (t > 0.0) EXPECT_NE(p.log_likelihoods[1], w.log_likelihoods[1]);
+    }
+    plain.reset();
+    with.reset();
+  }
+}
+
 TEST(Imm, AStudentTLikelihoodIsNotSureOfTheLeastWrongModeAfterOneWildStep) {
   for (const double dof : {0.0, 4.0}) {
     Bank bank = two_mode_scalar_bank().build();
@@ -790,7 +870,7 @@ TEST(Imm, ThreeStatesWithAnAngleMatchAHandWrittenFixedSizeImmForEveryTransitionF
 // Runs a bank of n states and m measurement rows on the fixed-size and the
 // dynamic kernel for `steps` steps and checks they agree within `tolerance`
 // (scaled as below).
-void ExpectKernelsAgree(double likelihood_dof, int steps, double tolerance) {
+void ExpectKernelsAgree(double likelihood_dof, int steps, double tolerance, double rho = 0.0) {
   for (int n : {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13}) {
     for (int m = 1; m <= n + 2; m += (n <= 5 || m >= n - 1 ? 1 : n - 2)) {
       SCOPED_TRACE("states " + std::to_string(n) + ", measurements " + std::to_string(m));
@@ -844,6 +924,8 @@ void ExpectKernelsAgree(double likelihood_dof, int steps, double tolerance) {
       b.x0 = Eigen::VectorXd::Constant(n, 3.0);
       Bank bank = b.build();
       bank.config.likelihood_dof = likelihood_dof;
+      for (int j = 0; j < 3; ++j)
+        bank.config.modes[static_cast<std::size_t>(j)].residual_correlation = rho / (1 - 2 * j);
       bank.config.measurement.is_angle.assign(static_cast<std::size_t>(m), false);
       if (n - 1 < m) bank.config.measurement.is_angle[static_cast<std::size_t>(n - 1)] = true;
       bank.config.transition.kind = TransitionConfig::Kind::kDwellTimes;
@@ -907,6 +989,13 @@ TEST(Imm, FixedSizeKernelsAgreeWithTheDynamicOneAtEverySize) {
 // further from step to step: fewer steps, for the same bound.
 TEST(Imm, FixedSizeKernelsAgreeWithTheDynamicOneWithAStudentTLikelihood) { ExpectKernelsAgree(3.0, 30, 1e-8); }
 
+// Correlated innovations (rho 0.7, 0.7 and -0.7): each kernel whitens the same
+// rows in the same order, across steps with a row missing (the memory
+// restarts) and steps with none (the memory ages a step).
+TEST(Imm, FixedSizeKernelsAgreeWithTheDynamicOneWithCorrelatedInnovations) {
+  ExpectKernelsAgree(0.0, SKIDIMM_SANITIZED ? 20 : 60, 1e-8, 0.7);
+}
+
 // Before the first measurement every mode has its prior probability, and the
 // most likely mode is decided by how the chain's round-off falls (docs/results.md
 // counts those changes). For per-step matrices and equal dwell times, the IMM
@@ -957,6 +1046,84 @@ TEST(Imm, PredictedProbabilitiesAreTheDenseProductBitForBit) {
 TEST(ImmDeathTest, WrongInputSizeIsAProgrammerError) {
   Imm imm(two_mode_scalar_bank().build());
   EXPECT_DEATH(imm.step(0.0, vec({1.0, 2.0}), vec({0.6})), "input vector size differs");
+}
+
+// What correlated innovations do to evidence, on the measured output y alone
+// (its innovation y - gain_j u does not depend on the state, so each mode's
+// whitened innovation is exactly (y - gain_j u) / 0.2): u = 1, the modes
+// predict 0.5 and 1, d = 2.5 standard deviations apart, rho = 0.8 for both.
+// Mode 0 is right for ten steps, with a bump of b = 1.5 common to both modes
+// at step 5, then mode 1 is right. Per step, log Lambda_0 - log Lambda_1
+// (docs/engine.md, "Correlated innovations"):
+//   no memory (step 0):         d^2 / 2
+//   a persistent offset:        d^2 / 2 (1 - rho) / (1 + rho), the likelihood weight w = 1/9's share
+//   the bump, over two steps:   -b d (1 - rho) / (1 + rho), also the weight's share of the Gaussian's -b d
+//   the change (step 10):       -d^2 / 2, the whole Gaussian evidence at once
+TEST(Imm, CorrelatedInnovationsCountAnOffsetLikeTheWeightAndAChangeAtOnce) {
+  const double rho = 0.8, d = 2.5, b = 1.5, w = (1.0 - rho) / (1.0 + rho);
+  Bank bank = scalar_bank_with_output();
+  for (ModeConfig& mode : bank.config.modes) mode.residual_correlation = rho;
+  Bank weighted = scalar_bank_with_output();
+  weighted.config.likelihood_weight = w;
+  Imm imm(std::move(bank)), tempered(std::move(weighted));
+  double bump = 0.0, gaussian_before_bump = 0.0, gaussian_bump = 0.0;
+  for (int k = 0; k < 14; ++k) {
+    const double y = (k < 10 ? 0.5 : 1.0) + (k == 5 ? 0.2 * b : 0.0);
+    const ImmEstimate& e = imm.step(0.1 * k, vec({1.0}), vec({kNaN, y}));
+    const ImmEstimate& g = tempered.step(0.1 * k, vec({1.0}), vec({kNaN, y}));
+    const double steady = 0.5 * d * d * w;
+    const double expected = k == 0    ? 0.5 * d * d
+                            : k == 5  ? steady - b * d / (1.0 + rho)
+                            : k == 6  ? steady + rho * b * d / (1.0 + rho)
+                            : k == 10 ? -0.5 * d * d
+                            : k < 10  ? steady
+                                      : -steady;
+    EXPECT_NEAR(e.log_likelihoods[0] - e.log_likelihoods[1], expected, 1e-12) << "step " << k;
+    if (k == 10) {
+      // The tempered IMM moves by w of the Gaussian's evidence; this one by all of it.
+      EXPECT_NEAR(w * (g.log_likelihoods[0] - g.log_likelihoods[1]), -0.5 * d * d * w, 1e-12);
+      EXPECT_GT(e.mode_probabilities[1], 0.5);
+      EXPECT_LT(g.mode_probabilities[1], 0.5);
+    }
+    // The bump's effect: over steps 5 and 6 here, at step 5 in the Gaussian.
+    if (k == 5 || k == 6) bump += e.log_likelihoods[0] - e.log_likelihoods[1] - steady;
+    if (k == 4) gaussian_before_bump = g.log_likelihoods[0] - g.log_likelihoods[1];
+    if (k == 5) gaussian_bump = g.log_likelihoods[0] - g.log_likelihoods[1] - gaussian_before_bump;
+  }
+  EXPECT_NEAR(gaussian_bump, -b * d, 1e-12);
+  EXPECT_NEAR(bump, w * gaussian_bump, 1e-12);  // as the weight tempers it
+}
+
+// Multi-rate steps: the memory holds one set of measured rows. A step that
+// measures another set is scored by the marginal (Gaussian) density and
+// starts a new memory; a step that measures nothing ages it, so the next is
+// conditioned with rho^2. rho = 0.8, u = 1, each mode's y innovation whitened
+// by sqrt(R_y) = 0.2.
+TEST(Imm, CorrelatedInnovationsAcrossStepsMeasuringOtherRowsOrNothing) {
+  const double rho = 0.8, log_2pi_r = std::log(2.0 * M_PI * 0.04);
+  for (const ImmKernelChoice choice : {ImmKernelChoice::kFastest, ImmKernelChoice::kDynamic}) {
+    Bank bank = scalar_bank_with_output();
+    for (ModeConfig& mode : bank.config.modes) mode.residual_correlation = rho;
+    Imm imm(std::move(bank), choice);
+    const double gain[2] = {0.5, 1.0};
+    auto whitened = [&](double y, int j) { return (y - gain[j]) / 0.2; };
+    imm.step(0.0, vec({1.0}), vec({0.6, 0.55}));                          // x and y
+    const ImmEstimate& e1 = imm.step(0.1, vec({1.0}), vec({kNaN, 0.6}));  // y alone: another set
+    for (int j = 0; j < 2; ++j) {
+      EXPECT_NEAR(e1.log_likelihoods[j], -0.5 * (std::pow(whitened(0.6, j), 2) + log_2pi_r), 1e-12) << j;
+    }
+    const ImmEstimate& e2 = imm.step(0.2, vec({1.0}), vec({kNaN, 0.45}));  // conditioned on step 1
+    for (int j = 0; j < 2; ++j) {
+      const double v = whitened(0.45, j) - rho * whitened(0.6, j), spread = 1.0 - rho * rho;
+      EXPECT_NEAR(e2.log_likelihoods[j], -0.5 * (v * v / spread + std::log(spread) + log_2pi_r), 1e-12) << j;
+    }
+    EXPECT_EQ(imm.step(0.3, vec({1.0}), vec({kNaN, kNaN})).status, StepStatus::kPredictOnly);
+    const ImmEstimate& e4 = imm.step(0.4, vec({1.0}), vec({kNaN, 0.7}));  // two steps after step 2
+    for (int j = 0; j < 2; ++j) {
+      const double lag = rho * rho, v = whitened(0.7, j) - lag * whitened(0.45, j), spread = 1.0 - lag * lag;
+      EXPECT_NEAR(e4.log_likelihoods[j], -0.5 * (v * v / spread + std::log(spread) + log_2pi_r), 1e-12) << j;
+    }
+  }
 }
 
 }  // namespace

@@ -160,6 +160,9 @@ std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data,
   if (options.parameter_uncertainty && options.objective != Objective::kWindow) {
     throw FitError("the parameter covariance is estimated by the window objective (--objective window)");
   }
+  if (options.residual_correlation && options.objective != Objective::kWindow) {
+    throw FitError("the residual correlation is estimated by the window objective (--objective window)");
+  }
   if (options.output_noise && bank->config.measurement.outputs.empty()) {
     throw FitError("the bank measures no model outputs (measurement.outputs): there is no output noise to estimate");
   }
@@ -172,9 +175,18 @@ std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data,
       reports = fit_by_likelihood(bank, data, options);
       break;
   }
-  for (const auto& [mode, report] : reports) {
+  for (auto& [mode, report] : reports) {
     ModeConfig& config = bank->config.modes[static_cast<std::size_t>(mode)];
     config.q_intensity = report.q_intensity;
+    if (options.residual_correlation) {
+      if (std::isfinite(report.residual_correlation)) {
+        config.residual_correlation = report.residual_correlation;
+      } else {
+        config.residual_correlation = 0.0;
+        report.warnings.push_back(
+            "too few consecutive rows measuring every state to estimate the residual correlation; it is 0");
+      }
+    }
     if (options.output_noise) config.r = output_noise_from_fit(bank->config, report.rmse);
     if (options.parameter_uncertainty || config.parameter_covariance.size() > 0) {
       try {

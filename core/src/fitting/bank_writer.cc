@@ -238,7 +238,8 @@ std::string yaml_scalar(const std::string& text) {
 std::string format_mode_entry(const std::string& name, const std::string& model_name, const sdk::MotionModel& model,
                               const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments,
                               const sdk::ParameterSet& original, const std::string& fit_when,
-                              const Eigen::MatrixXd& measurement_noise, const std::vector<std::string>& table) {
+                              const Eigen::MatrixXd& measurement_noise, const std::vector<std::string>& table,
+                              double residual_correlation) {
   std::string out;
   for (const std::string& c : comments) out += "  # " + c + "\n";
   out += "  - name: " + yaml_scalar(name) + "\n";
@@ -252,6 +253,7 @@ std::string format_mode_entry(const std::string& name, const std::string& model_
   if (parameter_covariance.size() > 0) {
     out += "    parameter_covariance: " + format_parameter_covariance(parameter_covariance) + "\n";
   }
+  if (residual_correlation != 0.0) out += "    residual_correlation: " + number(residual_correlation) + "\n";
   return out;
 }
 

@@ -81,9 +81,10 @@ std::string format_fitted_entries(const Bank& bank, const std::vector<FittedMode
         std::to_string(f.logs) + " log(s); " + (likelihood(request) ? "innovation RMSE " : "one-step RMSE ") +
         measurement_values_text(config, f.report.rmse);
     const ModeConfig& mode = config.modes[static_cast<std::size_t>(f.mode)];
-    entries += format_mode_entry(output_mode_name(config, request, f.mode), mode.model,
-                                 *bank.models[static_cast<std::size_t>(f.mode)], f.report.q_intensity, {comment},
-                                 mode.params, mode.fit_when, mode.r, parameter_table(bank, f.mode));
+    entries +=
+        format_mode_entry(output_mode_name(config, request, f.mode), mode.model,
+                          *bank.models[static_cast<std::size_t>(f.mode)], f.report.q_intensity, {comment}, mode.params,
+                          mode.fit_when, mode.r, parameter_table(bank, f.mode), mode.residual_correlation);
   }
   return entries;
 }
@@ -102,11 +103,11 @@ void write_fitted_bank(const Bank& bank, const std::vector<FittedMode>& fitted, 
                                   measurement_values_text(config, f->report.rmse) + " on " + std::to_string(f->logs) +
                                   " log(s)";
       modes_block += format_mode_entry(name, mode.model, model, f->report.q_intensity, {comment}, mode.params,
-                                       mode.fit_when, mode.r, parameter_table(bank, j));
+                                       mode.fit_when, mode.r, parameter_table(bank, j), mode.residual_correlation);
     } else {
-      modes_block += format_mode_entry(name, mode.model, model, mode.q_intensity,
-                                       {"not fitted: no log given for this mode"}, mode.params, mode.fit_when, mode.r,
-                                       parameter_table(bank, j));
+      modes_block +=
+          format_mode_entry(name, mode.model, model, mode.q_intensity, {"not fitted: no log given for this mode"},
+                            mode.params, mode.fit_when, mode.r, parameter_table(bank, j), mode.residual_correlation);
     }
   }
   std::vector<std::pair<std::string, std::string>> blocks;

@@ -2,6 +2,7 @@
 
 #include <ceres/ceres.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <algorithm>
@@ -509,6 +510,11 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
   Eigen::VectorXd error_sum = Eigen::VectorXd::Zero(n);
   Eigen::VectorXd state_error(n);
   double complete_rows = 0.0;
+  // Pairs of consecutive complete rows' errors (residual_correlation).
+  Eigen::MatrixXd lag_cross = Eigen::MatrixXd::Zero(n, n);
+  Eigen::MatrixXd lag_power = Eigen::MatrixXd::Zero(n, n);
+  Eigen::VectorXd previous_error(n);
+  double pairs = 0.0;
   const std::vector<int> positions = output_positions(model, m);
   Eigen::VectorXd all_outputs, expected = Eigen::VectorXd::Zero(rows);
   for (const Trajectory& t : data.logs) {
@@ -522,8 +528,13 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
       }
     }
     int previous = -1;
+    bool have_previous_error = false;  // the last complete row's error, just before this one
     for (int k = 0; k < t.size(); ++k) {
-      if (!fully_measured(m, t, k)) continue;
+      if (!fully_measured(m, t, k)) {
+        have_previous_error = false;
+        continue;
+      }
+      bool have_error = false;
       if (previous >= 0) {
         Eigen::VectorXd x = measured_state(m, t, previous);
         if (propagate(model, t, previous, k, &x)) {
@@ -540,9 +551,18 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
             cross += state_error * state_error.transpose();
             error_sum += state_error;
             complete_rows += 1.0;
+            have_error = true;
+            if (have_previous_error) {
+              lag_cross.noalias() += state_error * previous_error.transpose();
+              lag_power.noalias() +=
+                  0.5 * (state_error * state_error.transpose() + previous_error * previous_error.transpose());
+              pairs += 1.0;
+            }
+            previous_error = state_error;
           }
         }
       }
+      have_previous_error = have_error;
       previous = k;
     }
   }
@@ -586,6 +606,15 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
     }
   }
   report.q_intensity = q;
+  // The errors whitened by their own second moment C (so the estimate does
+  // not depend on which square root whitens them): rho = tr(C^-1 G) / n.
+  if (pairs >= 2.0 * n) {
+    const Eigen::LDLT<Eigen::MatrixXd> power(lag_power / pairs);
+    if (power.info() == Eigen::Success && power.isPositive()) {
+      const double rho = power.solve(lag_cross / pairs).trace() / n;
+      if (std::isfinite(rho)) report.residual_correlation = std::clamp(rho, -0.99, 0.99);
+    }
+  }
   return report;
 }
 

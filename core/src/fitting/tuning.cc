@@ -349,6 +349,7 @@ FittedValues values_of(const Bank& bank) {
     v.q.push_back(bank.config.modes[j].q_intensity);
     v.mode_r.push_back(bank.config.modes[j].r);
     v.parameter_covariance.push_back(bank.config.modes[j].parameter_covariance);
+    v.residual_correlation.push_back(bank.config.modes[j].residual_correlation);
   }
   v.r = bank.config.measurement.r;
   return v;
@@ -379,6 +380,9 @@ void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
   if (s.probability_floor >= 0.0) config.mode_probability_floor = s.probability_floor;
   if (s.likelihood_weight > 0.0) config.likelihood_weight = s.likelihood_weight;
   if (s.likelihood_dof >= 0.0) config.likelihood_dof = s.likelihood_dof;
+  for (std::size_t j = 0; j < fitted.residual_correlation.size() && j < config.modes.size(); ++j) {
+    config.modes[j].residual_correlation = fitted.residual_correlation[j];
+  }
   for (std::size_t j = 0; j < fitted.parameter_covariance.size() && j < bank->models.size(); ++j) {
     // An unchanged covariance leaves the model as it is (the hundreds of scorings of one fold).
     const Eigen::MatrixXd& covariance = fitted.parameter_covariance[j];
@@ -767,7 +771,8 @@ class Tuner {
       const FittedValues fitted = values_of(bank);
       values[static_cast<std::size_t>(i)] = {fitted.parameters[static_cast<std::size_t>(j)],
                                              fitted.q[static_cast<std::size_t>(j)],
-                                             fitted.parameter_covariance[static_cast<std::size_t>(j)]};
+                                             fitted.parameter_covariance[static_cast<std::size_t>(j)],
+                                             fitted.residual_correlation[static_cast<std::size_t>(j)]};
       const int n = ++finished;
       std::lock_guard<std::mutex> lock(progress_mutex);
       if (n == static_cast<int>(todo.size()) || n % 20 == 0) {
@@ -802,6 +807,7 @@ class Tuner {
         v.parameters[static_cast<std::size_t>(j)] = found->second.parameters;
         v.q[static_cast<std::size_t>(j)] = found->second.q;
         v.parameter_covariance[static_cast<std::size_t>(j)] = found->second.parameter_covariance;
+        v.residual_correlation[static_cast<std::size_t>(j)] = found->second.residual_correlation;
       }
       fits_[k] = v;
       if (!missing.empty()) {
@@ -1152,6 +1158,7 @@ class Tuner {
     Eigen::VectorXd parameters;
     Eigen::MatrixXd q;
     Eigen::MatrixXd parameter_covariance;
+    double residual_correlation = 0.0;
   };
   std::map<std::tuple<std::string, int, std::vector<int>>, ModeFit> mode_fits_;
   std::map<std::tuple<std::string, int, std::vector<int>>, std::string> mode_fit_failures_;  // why a fold's fit failed

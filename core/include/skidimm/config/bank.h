@@ -49,6 +49,11 @@ struct ModeConfig {
   // parameters are taken as exact.
   Eigen::MatrixXd parameter_covariance;
   int parameter_covariance_line = 0;
+  // The lag-1 correlation rho in (-1, 1) of the mode's whitened innovations
+  // from one filter step to the next (`residual_correlation:`,
+  // residual_correlation.h): the mode's likelihood of a step is conditioned on
+  // its last innovation. 0: independent steps, the IMM as derived.
+  double residual_correlation = 0.0;
   int line = 0;                 // where the mode starts in the file
   std::map<std::string, int> param_lines;
 };
@@ -159,6 +164,14 @@ struct BankConfig {
   bool any_mode_measurement_noise() const {
     for (const ModeConfig& m : modes) {
       if (m.r.size() > 0) return true;
+    }
+    return false;
+  }
+  // Whether some mode's innovations are correlated from step to step
+  // (ModeConfig::residual_correlation).
+  bool any_residual_correlation() const {
+    for (const ModeConfig& m : modes) {
+      if (m.residual_correlation != 0.0) return true;
     }
     return false;
   }

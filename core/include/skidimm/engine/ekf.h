@@ -49,6 +49,11 @@ class ExtendedKalmanFilter {
   // its NIS is above `gate` (then only the result is written, gated).
   UpdateResult update(const SelectedMeasurement& measurement, double gate = std::numeric_limits<double>::infinity());
 
+  // The last update's whitened innovation L^-1 nu (S = L L', its Cholesky
+  // factor), one entry per measured component; valid after an update whose
+  // result is ok (gated or not). Computed on demand from what update() kept.
+  Eigen::Ref<const Eigen::VectorXd> whitened_innovation();
+
   // Wraps the angle components of a state in place.
   void wrap_angles(Eigen::Ref<Eigen::VectorXd> x) const;
   bool is_angle(int i) const { return is_angle_[i]; }
@@ -67,6 +72,8 @@ class ExtendedKalmanFilter {
   Eigen::MatrixXd fp_;
   Eigen::VectorXd innovation_;
   Eigen::VectorXd whitened_;
+  Eigen::VectorXd whitened_innovation_;  // L^-1 nu
+  int last_size_ = 0;                    // components of the last update
   Eigen::MatrixXd hp_;    // H P-          (k x n)
   Eigen::MatrixXd s_;     // S, then its Cholesky factor
   Eigen::MatrixXd gain_;  // K             (n x k)

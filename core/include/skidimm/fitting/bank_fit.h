@@ -43,6 +43,12 @@ struct BankFitOptions {
   // predictions widen where the fit saw no data; without it a fitted mode's
   // old covariance is removed (it belonged to other parameters).
   bool parameter_uncertainty = false;
+  // Window objective: write each fitted mode's residual correlation, the
+  // lag-1 correlation of its whitened one-step errors on its logs
+  // (FitReport::residual_correlation, ModeConfig::residual_correlation), so
+  // its likelihood counts a persistent miss once, not at every step. Without
+  // it a mode keeps the bank's value.
+  bool residual_correlation = false;
   // After each solver iteration of either objective, what is fitted and the
   // iterations so far (model_fitter.h); `window.progress` is ignored.
   FitProgress progress;

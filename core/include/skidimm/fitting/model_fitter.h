@@ -122,6 +122,13 @@ struct FitReport {
   // (parameter_info() order; zero rows and columns for the parameters not
   // fitted: held, fixed, or of the other scope). Empty otherwise.
   Eigen::MatrixXd parameter_covariance;
+  // The lag-1 correlation of the mode's one-step errors from one fully
+  // measured row to the next, whitened by their covariance: tr(C^-1 G) / n
+  // with C the errors' second moment and G their lag-1 cross moment
+  // (ModeConfig::residual_correlation, residual_correlation.h), clamped to
+  // [-0.99, 0.99]; NaN when fewer than 2n pairs of rows follow each other.
+  // Filled by the window objective.
+  double residual_correlation = std::numeric_limits<double>::quiet_NaN();
 
   // Filled by the likelihood objective (likelihood_fitter.h) only.
   // Rows with at least one measured component.

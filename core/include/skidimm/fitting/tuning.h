@@ -89,6 +89,8 @@ struct FittedValues {
   std::vector<Eigen::MatrixXd> mode_r;      // per mode, its own R (empty: the bank's)
   // Per mode, its parameters' covariance (ModeConfig::parameter_covariance); empty: none.
   std::vector<Eigen::MatrixXd> parameter_covariance;
+  // Per mode, its innovations' lag-1 correlation (ModeConfig::residual_correlation).
+  std::vector<double> residual_correlation;
 };
 
 // Fits `bank` in place to `data` (parameters, Q, and R if the objective fits
