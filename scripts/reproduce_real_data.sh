@@ -21,7 +21,8 @@
 #         metrics, with calibration, from the held-out outputs tune wrote.
 #     B2. The physics-shaped alternative, on the same runs and protocols;
 #         B2b. the design with parameter uncertainty, on the extrapolation
-#         protocols.
+#         protocols; B2c. the design with correlated innovations, on the
+#         extrapolation protocols and on development runs spliced end to end.
 #     B3. The bundled bank: the design fitted and tuned on all 47 runs.
 #     B4. Without an IMU: the wheel-only bank, each development log held out
 #         and the lockbox, then fitted and tuned on all 47 runs.
@@ -106,6 +107,33 @@ done
 for slug in extrapolation-speed extrapolation-turn; do
   "$skidimm" eval --estimates "$work/borealtc/uncertainty_held_out/$slug" --bank configs/borealtc/terrains_start.yaml \
     --json >"$work/borealtc/uncertainty_eval_$slug.json"
+done
+
+# B2c. The design with correlated innovations (`--residual-correlation`: each mode's likelihood of a
+# step conditioned on its last innovation, with the lag-1 correlation each fold fits on its training
+# runs), on the same development runs and the two extrapolation protocols; the weight and the rest
+# are tuned inside each fold as for the design. Then changes of terrain: development runs spliced
+# end to end (five rotations, as C splices the lockbox), scored by the design's development bank and
+# by this one. Both banks were fitted on these runs, so the splices measure how fast each follows a
+# change, not how well it generalises. Development only: the lockbox does not score this.
+"$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${fit[@]}" --tune "$knobs" \
+  --residual-correlation --assess "extrapolation:$speed,extrapolation:$turn" \
+  --table "$work/borealtc/correlation_scores.csv" --estimates "$work/borealtc/correlation_held_out" \
+  --output-bank "$work/borealtc/correlation_development.yaml" >"$work/borealtc/correlation_tune.txt"
+for slug in extrapolation-speed extrapolation-turn; do
+  "$skidimm" eval --estimates "$work/borealtc/correlation_held_out/$slug" --bank configs/borealtc/terrains_start.yaml \
+    --json >"$work/borealtc/correlation_eval_$slug.json"
+done
+development_runs=()
+for ((i = 1; i < ${#develop[@]}; i += 2)); do
+  log=${develop[$i]}; terrain=${log%%=*}; run=${log##*/imu_}; development_runs+=("$terrain/${run%.csv}")
+done
+"$python" scripts/borealtc_splices.py "$work/splices/development_logs" "$bt" "${development_runs[@]}" \
+  >"$work/splices/development_inputs.txt"
+mapfile -t development_splices <"$work/splices/development_inputs.txt"
+for bank in development correlation_development; do
+  "$skidimm" eval --bank "$work/borealtc/$bank.yaml" --input "${development_splices[@]}" --json \
+    >"$work/splices/${bank}_eval.json"
 done
 
 # B3. The bundled bank.

@@ -554,8 +554,9 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
             have_error = true;
             if (have_previous_error) {
               lag_cross.noalias() += state_error * previous_error.transpose();
-              lag_power.noalias() +=
-                  0.5 * (state_error * state_error.transpose() + previous_error * previous_error.transpose());
+              // Two outer products into the sum, no temporary matrix per row.
+              lag_power.noalias() += 0.5 * state_error * state_error.transpose();
+              lag_power.noalias() += 0.5 * previous_error * previous_error.transpose();
               pairs += 1.0;
             }
             previous_error = state_error;
