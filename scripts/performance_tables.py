@@ -496,8 +496,13 @@ ENGINE = """## What the engine does
 
 **Fixed-size kernels.** `Imm` picks, once when it is built, a kernel for the
 bank's shape (`core/src/imm_kernel.h`): Eigen fixed-size types for states and
-measurements of 1 to 4 components, the dynamic `ExtendedKalmanFilter` for
-everything else (BorealTC's 9-state banks). Partial rows (GPS at 10 Hz in a
+measurements of 1 to 4 components; fixed-size states with any number of
+rows up to 12 states (BorealTC's 9 features, `stc_traction`'s 3 states and 6
+rows); the dynamic `ExtendedKalmanFilter` for everything else. Each shape is
+a compiled copy of the step: a build configured with
+`-DSKIDIMM_FIXED_SIZE_KERNELS=bundled` compiles only the bundled banks'
+shapes (the sanitizer build does, to compile the engine in a third of the
+time), and runs other banks on the dynamic kernel. Partial rows (GPS at 10 Hz in a
 50 Hz log) dispatch to a fixed size K for the rows present. The EKF update
 uses a hand-written Cholesky for K <= 4 (Eigen's `LLT::solve` goes through its
 general triangular solver and packing), forward substitution alone for the

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "check.h"
+#include "fixed_size_shapes.h"
 #include "imm_kernel.h"
 #include "not_a_number.h"
 
@@ -56,7 +57,11 @@ namespace {
 
 template <int N, int M>
 std::unique_ptr<internal::ImmKernel> fixed_kernel(const Bank& bank) {
-  return std::make_unique<internal::Kernel<internal::FixedFilters<N, M>>>(bank);
+  if constexpr (internal::compiles_fixed_filters(N, M)) {
+    return std::make_unique<internal::Kernel<internal::FixedFilters<N, M>>>(bank);
+  } else {
+    return nullptr;
+  }
 }
 
 template <int N>
@@ -76,30 +81,37 @@ std::unique_ptr<internal::ImmKernel> fixed_kernel_for_measurement(const Bank& ba
 
 template <int N>
 std::unique_ptr<internal::ImmKernel> fixed_state_kernel(const Bank& bank) {
-  return std::make_unique<internal::Kernel<internal::FixedStateFilters<N>>>(bank);
+  if constexpr (internal::compiles_fixed_states(N)) {
+    return std::make_unique<internal::Kernel<internal::FixedStateFilters<N>>>(bank);
+  } else {
+    return nullptr;
+  }
 }
 
-// The kernel for the bank's shape: fixed sizes up to 4 x 4; fixed states up
-// to kMaxFixedStates with any measurement; else dynamic.
-std::unique_ptr<internal::ImmKernel> make_kernel(const Bank& bank, ImmKernelChoice choice) {
-  const int n = bank.config.state_dim();
-  const int m = static_cast<int>(bank.config.measurement.h.rows());
-  if (choice != ImmKernelChoice::kFastest || m < 1) {
-    return std::make_unique<internal::Kernel<internal::DynamicFilters>>(bank);
-  }
+// A fixed-size kernel for n states and m rows: fixed sizes up to 4 x 4;
+// fixed states up to kMaxFixedStates with any measurement; null if the build
+// has none for the shape (fixed_size_shapes.h).
+std::unique_ptr<internal::ImmKernel> fixed_size_kernel(const Bank& bank, int n, int m) {
+  if (m < 1) return nullptr;
   if (m <= 4) {
+    std::unique_ptr<internal::ImmKernel> kernel;
     switch (n) {
       case 1:
-        return fixed_kernel_for_measurement<1>(bank, m);
+        kernel = fixed_kernel_for_measurement<1>(bank, m);
+        break;
       case 2:
-        return fixed_kernel_for_measurement<2>(bank, m);
+        kernel = fixed_kernel_for_measurement<2>(bank, m);
+        break;
       case 3:
-        return fixed_kernel_for_measurement<3>(bank, m);
+        kernel = fixed_kernel_for_measurement<3>(bank, m);
+        break;
       case 4:
-        return fixed_kernel_for_measurement<4>(bank, m);
+        kernel = fixed_kernel_for_measurement<4>(bank, m);
+        break;
       default:
         break;
     }
+    if (kernel) return kernel;
   }
   switch (n) {
     case 1:
@@ -127,7 +139,7 @@ std::unique_ptr<internal::ImmKernel> make_kernel(const Bank& bank, ImmKernelChoi
     case 12:
       return fixed_state_kernel<12>(bank);
     default:
-      return std::make_unique<internal::Kernel<internal::DynamicFilters>>(bank);
+      return nullptr;
   }
 }
 
@@ -148,8 +160,9 @@ Imm::Imm(Bank bank, ImmKernelChoice choice) : bank_(std::move(bank)) {
     SKIDIMM_CHECK(config.measurement_noise(j).rows() == m && config.measurement_noise(j).cols() == m,
                   "a mode's own R must cover every measurement row");
   }
-  kernel_ = make_kernel(bank_, choice);
-  fixed_size_ = choice == ImmKernelChoice::kFastest && n <= kMaxFixedStates && m >= 1;
+  if (choice == ImmKernelChoice::kFastest) kernel_ = fixed_size_kernel(bank_, n, m);
+  fixed_size_ = kernel_ != nullptr;
+  if (!kernel_) kernel_ = std::make_unique<internal::Kernel<internal::DynamicFilters>>(bank_);
   held_input_ = Eigen::VectorXd::Zero(config.input_dim());
   reset();  // sizes the estimate; step() then only writes into it
 }

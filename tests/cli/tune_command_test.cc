@@ -5,6 +5,7 @@
 #include <string>
 
 #include "cli/cli_test_support.h"
+#include "core/sanitizer.h"
 #include "skidimm/config/bank.h"
 
 namespace skidimm_test {
@@ -19,6 +20,7 @@ namespace fs = std::filesystem;
 // unless a smaller one scores the held-out runs better, so a weight below 1
 // in the written bank is that finding, on runs the fit never saw.
 TEST(Cli, TuneTempersTheEvidenceOfABankThatOvercountsItOnRealRuns) {
+  SKIDIMM_SKIP_UNDER_SANITIZERS_STATISTICAL();  // Tune.* and HostileInput.Tune* run the same code under them
   const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
   if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
   const fs::path dir = test_directory();

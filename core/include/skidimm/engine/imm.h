@@ -62,8 +62,9 @@ class ImmKernel;  // imm_kernel.h, private
 
 // Which kernel runs the step: the fastest for the bank's shape (fixed sizes:
 // for states and measurements of at most 4 components each, and for up to
-// kMaxFixedStates states with a measurement of any size), or always the
-// dynamic one (tests and benchmarks compare the two).
+// kMaxFixedStates states with a measurement of any size; a build configured
+// with SKIDIMM_FIXED_SIZE_KERNELS=bundled has only the bundled banks' shapes),
+// or always the dynamic one (tests and benchmarks compare the two).
 enum class ImmKernelChoice { kFastest, kDynamic };
 inline constexpr int kMaxFixedStates = 12;
 
@@ -91,8 +92,8 @@ class Imm {
   // Back to the prior; the next step is a first step again.
   void reset();
 
-  // Whether the bank runs on a fixed-size kernel (at most kMaxFixedStates
-  // states, with the fastest kernel chosen).
+  // Whether the bank runs on a fixed-size kernel (the fastest kernel chosen,
+  // and one compiled for the bank's shape).
   bool uses_fixed_size_kernel() const { return fixed_size_; }
 
  private:
