@@ -611,8 +611,11 @@ class Tuner {
     const long objectives = static_cast<long>(options_.objectives.size());
     long searches = objectives;
     long scored = objectives * logs_in(outer);
+    std::set<std::vector<int>> searched;  // tuned_without() searches a held-out set once
     for (const auto& folds : protocol_folds) {
-      for (const auto& held : folds) {
+      for (std::vector<int> held : folds) {
+        std::sort(held.begin(), held.end());
+        if (!searched.insert(held).second) continue;
         const std::vector<int> inner_logs = complement(held, development);
         searches += objectives;
         scored += objectives * logs_in(grouped_folds(inner_logs, classes_, options_.inner_folds));
@@ -685,19 +688,7 @@ class Tuner {
     int done = 0;
     const auto start = std::chrono::steady_clock::now();
     for (const auto& held : folds) {
-      const std::vector<int> inner_logs = complement(held, development);
-      const auto inner = grouped_folds(inner_logs, classes_, options_.inner_folds);
-      TunedSettings fold_best;
-      double fold_score = -std::numeric_limits<double>::infinity();
-      for (const std::string& objective : options_.objectives) {
-        std::vector<LogScore> scores;
-        TunedSettings s = search(objective, inner, inner_logs, &scores, /*quiet=*/true);
-        const double score = summarize(scores).mean_log_probability;
-        if (score > fold_score) {
-          fold_score = score;
-          fold_best = s;
-        }
-      }
+      const TunedSettings fold_best = tuned_without(held, development);
       for (LogScore& score : evaluate(fold_best, {held}, development, protocol.slug(), &out)) {
         score.settings = fold_best.describe(banks_[0].config);
         out.scores.push_back(score);
@@ -706,6 +697,31 @@ class Tuner {
     }
     out.summary = summarize(out.scores);
     return out;
+  }
+
+  // The settings an inner cross-validation on the development logs but
+  // `held` chooses. Protocols that hold out the same logs share the search (a
+  // session of one log is that log's fold of `logs`): the same logs, folds
+  // and fits give the same choice, so it is made once.
+  TunedSettings tuned_without(const std::vector<int>& held, const std::vector<int>& development) {
+    std::vector<int> key = held;
+    std::sort(key.begin(), key.end());
+    if (const auto known = settings_without_.find(key); known != settings_without_.end()) return known->second;
+    const std::vector<int> inner_logs = complement(held, development);
+    const auto inner = grouped_folds(inner_logs, classes_, options_.inner_folds);
+    TunedSettings best;
+    double best_score = -std::numeric_limits<double>::infinity();
+    for (const std::string& objective : options_.objectives) {
+      std::vector<LogScore> scores;
+      TunedSettings s = search(objective, inner, inner_logs, &scores, /*quiet=*/true);
+      const double score = summarize(scores).mean_log_probability;
+      if (score > best_score) {
+        best_score = score;
+        best = s;
+      }
+    }
+    settings_without_.emplace(std::move(key), best);
+    return best;
   }
 
   void compute_fits(const std::vector<FitKey>& keys) {
@@ -1153,6 +1169,7 @@ class Tuner {
   std::vector<std::vector<double>> step_weights_;  // weigh_steps()
   std::vector<double> truth_seconds_;
   std::map<FitKey, FittedValues> fits_;
+  std::map<std::vector<int>, TunedSettings> settings_without_;  // tuned_without(), by the held-out logs
   // One mode's fit.
   struct ModeFit {
     Eigen::VectorXd parameters;
