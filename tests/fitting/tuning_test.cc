@@ -295,6 +295,57 @@ TEST(Tune, LockboxLogsAreScoredOnceAndChangeNothingElse) {
   }
 }
 
+// A held-out set two protocols share is searched once: a session of one log
+// holds out what that log's fold of `logs` does, and gets the same settings
+// and scores; the work statement counts the searches made.
+TEST(Tune, ProtocolsThatHoldOutTheSameLogsShareTheirSearch) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!std::filesystem::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  auto log = [&](const std::string& terrain, const std::string& run, const std::string& session) {
+    TuningLog l;
+    l.spec = parse_log_spec(terrain + "=" + boreal + "/" + terrain + "/pro_" + run + ".csv+" + boreal + "/" + terrain +
+                            "/imu_" + run + ".csv");
+    l.session = session;
+    return l;
+  };
+  const std::filesystem::path bank_file = std::string(SKIDIMM_SOURCE_DIR) + "/configs/borealtc/terrains.yaml";
+  const auto make_bank = [&] { return Bank::load(bank_file, {SKIDIMM_PLUGIN_DIR}); };
+  // Sessions: ICE 04 alone, ICE 11 alone, the two FLOORING runs together.
+  const std::vector<TuningLog> logs{log("ICE", "04", "ice-a"), log("ICE", "11", "ice-b"),
+                                    log("FLOORING", "01", "floor"), log("FLOORING", "08", "floor")};
+  const std::map<std::string, BankFitter> fitters{{"none", [](Bank*, const std::vector<ModeLogs>&) {}}};
+  TuneOptions options;
+  options.objectives = {"none"};
+  options.separable = {"none"};
+  options.knobs = {Knob::kLikelihoodWeight};
+  options.sweeps = 1;
+  options.inner_folds = 0;
+  options.threads = 2;
+  options.sampling = make_bank().config.sampling;
+  options.protocols = {protocol_from_string("logs"), protocol_from_string("sessions")};
+  std::vector<std::string> lines;
+  options.progress = [&](const std::string& line) { lines.push_back(line); };
+  const TuneResult result = tune(make_bank, logs, fitters, options);
+  // The selection, four folds of `logs`, and the FLOORING session: six
+  // searches, not eight.
+  ASSERT_FALSE(lines.empty());
+  EXPECT_THAT(lines.front(), ::testing::HasSubstr(" 6 searches of at most")) << lines.front();
+  ASSERT_EQ(result.assessments.size(), 2u);
+  const Assessment& by_log = result.assessments[0];
+  const Assessment& by_session = result.assessments[1];
+  ASSERT_EQ(by_log.scores.size(), 4u);
+  ASSERT_EQ(by_session.scores.size(), 4u);
+  for (const LogScore& s : by_session.scores) {
+    const auto same = std::find_if(by_log.scores.begin(), by_log.scores.end(),
+                                   [&](const LogScore& l) { return l.log == s.log; });
+    ASSERT_NE(same, by_log.scores.end()) << s.log;
+    if (s.truth == "ICE") {
+      EXPECT_EQ(s.settings, same->settings) << s.log;
+      EXPECT_EQ(s.mean_log_probability, same->mean_log_probability) << s.log;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace fitting
 }  // namespace skidimm
