@@ -1,3 +1,5 @@
+#include "skidimm/io/csv.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -8,7 +10,6 @@
 
 #include "core/temp_files.h"
 #include "skidimm/errors.h"
-#include "skidimm/io/csv.h"
 
 namespace skidimm {
 namespace {
