@@ -291,8 +291,11 @@ TEST(Imm, ZeroResidualCorrelationIsTheIndependentLikelihoodBitForBit) {
       EXPECT_EQ(p.log_likelihoods[0], w.log_likelihoods[0]);
       EXPECT_EQ(p.mode_states[0][0], w.mode_states[0][0]);
       EXPECT_EQ(p.mode_states[1][0], w.mode_states[1][0]);
-      if (t == 0.0) EXPECT_EQ(p.log_likelihoods[1], w.log_likelihoods[1]);  // no memory yet
-      if (t > 0.0) EXPECT_NE(p.log_likelihoods[1], w.log_likelihoods[1]);
+      if (t == 0.0) {
+        EXPECT_EQ(p.log_likelihoods[1], w.log_likelihoods[1]);  // no memory yet
+      } else {
+        EXPECT_NE(p.log_likelihoods[1], w.log_likelihoods[1]);
+      }
     }
     plain.reset();
     with.reset();
