@@ -91,11 +91,12 @@ Trajectory simulated(const Bank& bank, int rows) {
 
 // The most memory live at once during a fit of `rows` rows, beyond what was
 // live when it started (the bank and the log).
-long peak_beyond_the_log(Objective objective, int rows) {
+long peak_beyond_the_log(Objective objective, int rows, long condense_above) {
   Bank bank = Bank::load(std::string(SKIDIMM_SOURCE_DIR) + "/configs/ltc_terrains.yaml", {SKIDIMM_PLUGIN_DIR});
   const std::vector<ModeLogs> data{{0, {simulated(bank, rows)}}};
   BankFitOptions options;
   options.objective = objective;
+  options.window.condense_above = condense_above;
 #if SKIDIMM_SANITIZED
   // The sanitizer's allocator is not counted (the test is skipped there).
   fit_bank(&bank, data, options);
@@ -110,22 +111,32 @@ long peak_beyond_the_log(Objective objective, int rows) {
 
 TEST(FitMemory, DoesNotGrowWithTheLog) {
   if (SKIDIMM_SANITIZED) GTEST_SKIP() << "built with a sanitizer, which replaces malloc itself";
-  // 60000 rows: 120000 residuals, past the size above which the window
-  // objective condenses its windows (FitOptions::condense_above); the
-  // likelihood objective starts from that fit.
+  // 8000 and 16000 rows: 16000 and 32000 residuals, past the size above
+  // which the window objective condenses its windows, here 10000
+  // (FitOptions::condense_above, 100000 by default: the same path, reached
+  // with a tenth of the rows); the likelihood objective starts from that fit.
+  // Just under a power of two: what grows with the log (its bounded sample)
+  // doubles its capacity, so the measure is of whole doublings.
+  const int rows = 8000;
+  const long condense_above = 10000;
   for (Objective objective : {Objective::kWindow, Objective::kLikelihood}) {
     SCOPED_TRACE(to_string(objective));
-    const long once = peak_beyond_the_log(objective, 60000);
-    const long twice = peak_beyond_the_log(objective, 120000);
-    // A log of 60000 rows holds 60000 x (8 + 2 x 8 + 2 x 8 + 32) bytes (time,
-    // inputs, measurements, truth labels): 4.3 MB. One block per window
-    // holds each window's Jacobian (2 x 8 doubles) and more: over 7.7 MB.
-    // What the fit adds for 60000 more rows must stay below two doubles a
-    // row (0.96 MB): a bounded sample, not a copy of the log or a value per
+    const long once = peak_beyond_the_log(objective, rows, condense_above);
+    const long twice = peak_beyond_the_log(objective, 2 * rows, condense_above);
+    // A log of 8000 rows holds 8000 x (8 + 2 x 8 + 2 x 8 + 32) bytes (time,
+    // inputs, measurements, truth labels): 576 kB. One block per window
+    // holds each window's Jacobian (2 x 8 doubles) and more: over 1 MB.
+    // What the fit adds for 8000 more rows must stay below two doubles a
+    // row (128 kB): a bounded sample, not a copy of the log or a value per
     // residual and parameter.
     EXPECT_GT(once, 0);
-    EXPECT_LT(twice - once, 60000 * 16) << "fit memory " << once << " bytes for 60000 rows, " << twice << " for 120000";
+    EXPECT_LT(twice - once, rows * 16) << "fit memory " << once << " bytes for " << rows << " rows, " << twice
+                                       << " for " << 2 * rows;
   }
+  // Not condensed, the windows' blocks grow with the log: the measure sees it.
+  const long once = peak_beyond_the_log(Objective::kWindow, rows, 1000000);
+  const long twice = peak_beyond_the_log(Objective::kWindow, 2 * rows, 1000000);
+  EXPECT_GT(twice - once, rows * 16) << "uncondensed fit memory " << once << " bytes, " << twice;
 }
 
 }  // namespace
