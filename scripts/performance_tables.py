@@ -539,6 +539,15 @@ longer than the fastest mode's dwell time use the eigenvectors of the
 symmetric matrix similar to `Pi_c`, computed once at construction, with the
 stationary direction set exactly.
 
+**Smoothing on fixed sizes.** Kim's smoother (`eval --smooth`, `run
+--smooth`) runs one Rauch-Tung-Striebel step per pair of modes and step,
+N^2 of them (256 for the 16-mode STC banks), each with a prediction, an
+LDLT solve and products of n x n matrices. For 2 and 3 states (the LTC
+and STC banks) the pair step runs on fixed-size matrices on the stack;
+other sizes on the smoother's dynamic workspace. The smoothed mode
+probabilities are bit for bit those of the dynamic path, the smoothed
+states agree to round-off.
+
 **Ties stay ties.** Before the first measurement every mode has its prior
 probability, and which one is "most likely" is decided by the last bit of
 c = P' mu. For per-step matrices and equal dwell times the engine still

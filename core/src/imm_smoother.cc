@@ -12,6 +12,20 @@
 
 namespace skidimm {
 
+namespace {
+
+// The dynamic workspace member, or the fixed-size local.
+template <bool kDynamic, typename Member, typename Local>
+Local& select(Member& member, Local& local) {
+  if constexpr (kDynamic) {
+    return member;
+  } else {
+    return local;
+  }
+}
+
+}  // namespace
+
 ForwardStep record_step(double t, const Eigen::Ref<const Eigen::VectorXd>& u, const ImmEstimate& e) {
   ForwardStep step;
   step.t = t;
@@ -60,6 +74,68 @@ void ImmSmoother::combine(SmoothedStep* s) const {
   s->mode_probabilities.maxCoeff(&s->most_likely_mode);
 }
 
+// One pair's RTS step: mode j's filtered estimate (x, px) at k through mode
+// i's model to the smoothed estimate of mode i at k+1. N states known at
+// compile time for the bundled banks' shapes (2, 3), whose pairs are most of
+// a smoothing's time (16^2 a step for the 16-mode banks); Eigen::Dynamic
+// otherwise, in the smoother's own workspace. False if the pair cannot be
+// smoothed or its correction is not healthy.
+template <int N>
+bool ImmSmoother::smooth_pair(int i, const Eigen::VectorXd& x, const Eigen::MatrixXd& px, const Eigen::VectorXd& u,
+                              double dt, const SmoothedStep& next, Eigen::Ref<Eigen::VectorXd> mean,
+                              Eigen::MatrixXd* covariance) {
+  using Vector = Eigen::Matrix<double, N, 1>;
+  using Matrix = Eigen::Matrix<double, N, N>;
+  constexpr bool kDynamic = N == Eigen::Dynamic;
+  // Fixed sizes live on the stack; the dynamic ones are the smoother's, sized once.
+  Vector local_predicted, local_difference;
+  Matrix local_f, local_q, local_f_px, local_predicted_covariance, local_gain, local_gain_transposed;
+  Eigen::LDLT<Matrix> local_ldlt;
+  Vector& predicted = select<kDynamic>(predicted_, local_predicted);
+  Vector& difference = select<kDynamic>(difference_, local_difference);
+  Matrix& f = select<kDynamic>(f_, local_f);
+  Matrix& q = select<kDynamic>(q_, local_q);
+  Matrix& f_px = select<kDynamic>(f_px_, local_f_px);
+  Matrix& predicted_covariance = select<kDynamic>(predicted_covariance_, local_predicted_covariance);
+  Matrix& gain = select<kDynamic>(gain_, local_gain);
+  Matrix& gain_transposed = select<kDynamic>(gain_transposed_, local_gain_transposed);
+  Eigen::LDLT<Matrix>& ldlt = select<kDynamic>(ldlt_, local_ldlt);
+  const int n = static_cast<int>(x.size());
+  const sdk::MotionModel& model = *bank_.models[static_cast<std::size_t>(i)];
+  // The prediction of mode j's filtered estimate through mode i's model, as the filter predicts.
+  if (!(model.jacobian(x, u, dt, f) &&
+        model.process_noise(bank_.config.modes[static_cast<std::size_t>(i)].q_intensity, x, u, dt, q) &&
+        model.predict(x, u, dt, predicted) && predicted.allFinite() && f.allFinite())) {
+    return false;
+  }
+  for (int d = 0; d < n; ++d) {
+    if (angle_mask_[static_cast<std::size_t>(d)]) predicted[d] = sdk::wrap_angle(predicted[d]);
+  }
+  // F P, once: it is the left factor of F P F' and the right-hand side of the gain's solve.
+  f_px.noalias() = f * px;
+  predicted_covariance.noalias() = f_px * f.transpose();
+  predicted_covariance += q;
+  symmetrize(predicted_covariance);
+  // J = P F' (P^ji)^-1, solved: J' = (P^ji)^-1 F P.
+  ldlt.compute(predicted_covariance);
+  if (!(ldlt.info() == Eigen::Success && ldlt.isPositive() && (ldlt.vectorD().array() > 0.0).all())) return false;
+  gain_transposed = ldlt.solve(f_px);
+  gain = gain_transposed.transpose();
+  if (!gain.allFinite()) return false;
+  difference = next.mode_states[static_cast<std::size_t>(i)] - predicted;
+  for (int d = 0; d < n; ++d) {
+    if (angle_mask_[static_cast<std::size_t>(d)]) difference[d] = sdk::wrap_angle(difference[d]);
+  }
+  mean = x + gain * difference;
+  for (int d = 0; d < n; ++d) {
+    if (angle_mask_[static_cast<std::size_t>(d)]) mean[d] = sdk::wrap_angle(mean[d]);
+  }
+  Eigen::MatrixXd& pc = *covariance;
+  pc = px + gain * (next.mode_covariances[static_cast<std::size_t>(i)] - predicted_covariance) * gain.transpose();
+  symmetrize(pc);
+  return internal::filter_is_healthy(mean, pc);
+}
+
 void ImmSmoother::backward(const ForwardStep& k, double t_next, const SmoothedStep& next, SmoothedStep* out) {
   const BankConfig& config = bank_.config;
   const int modes = config.num_modes();
@@ -85,60 +161,23 @@ void ImmSmoother::backward(const ForwardStep& k, double t_next, const SmoothedSt
   out->mode_states.resize(static_cast<std::size_t>(modes));
   out->mode_covariances.resize(static_cast<std::size_t>(modes));
 
-  // The workspace is the smoother's: a pair of modes allocates nothing but
-  // the temporaries of the RTS covariance update.
-  Eigen::VectorXd &predicted = predicted_, &difference = difference_, &weights = weights_;
-  Eigen::MatrixXd &f = f_, &q = q_, &predicted_covariance = predicted_covariance_, &gain = gain_;
+  Eigen::VectorXd& weights = weights_;
   for (int j = 0; j < modes; ++j) {
     const Eigen::VectorXd& x = k.mode_states[static_cast<std::size_t>(j)];
     const Eigen::MatrixXd& px = k.mode_covariances[static_cast<std::size_t>(j)];
     const double row = joint.row(j).sum();
     for (int i = 0; i < modes; ++i) {
       weights[i] = row > 0.0 ? joint(j, i) / row : (i == j ? 1.0 : 0.0);
-      const sdk::MotionModel& model = *bank_.models[static_cast<std::size_t>(i)];
-      // The prediction of mode j's filtered estimate through mode i's model, as the filter predicts.
-      bool ok = model.jacobian(x, k.u, dt, f) &&
-                model.process_noise(config.modes[static_cast<std::size_t>(i)].q_intensity, x, k.u, dt, q) &&
-                model.predict(x, k.u, dt, predicted) && predicted.allFinite() && f.allFinite();
-      if (ok) {
-        for (int d = 0; d < n; ++d) {
-          if (angle_mask_[static_cast<std::size_t>(d)]) predicted[d] = sdk::wrap_angle(predicted[d]);
-        }
-        // F P, once: it is the left factor of F P F' and the right-hand side of the gain's solve.
-        f_px_.noalias() = f * px;
-        predicted_covariance.noalias() = f_px_ * f.transpose();
-        predicted_covariance += q;
-        symmetrize(predicted_covariance);
-        // J = P F' (P^ji)^-1, solved: J' = (P^ji)^-1 F P.
-        ldlt_.compute(predicted_covariance);
-        ok = ldlt_.info() == Eigen::Success && ldlt_.isPositive() && (ldlt_.vectorD().array() > 0.0).all();
-        if (ok) {
-          gain_transposed_ = ldlt_.solve(f_px_);
-          gain = gain_transposed_.transpose();
-        }
-        ok = ok && gain.allFinite();
-      }
       Eigen::MatrixXd& pc = pair_covariances_[static_cast<std::size_t>(i)];
-      if (!ok) {  // this pair cannot be smoothed: keep the filtered estimate for it
-        pair_means_.col(i) = x;
-        pc = px;
-        continue;
-      }
-      difference = next.mode_states[static_cast<std::size_t>(i)] - predicted;
-      for (int d = 0; d < n; ++d) {
-        if (angle_mask_[static_cast<std::size_t>(d)]) difference[d] = sdk::wrap_angle(difference[d]);
-      }
-      pair_means_.col(i) = x + gain * difference;
-      for (int d = 0; d < n; ++d) {
-        if (angle_mask_[static_cast<std::size_t>(d)]) pair_means_(d, i) = sdk::wrap_angle(pair_means_(d, i));
-      }
-      pc = px + gain * (next.mode_covariances[static_cast<std::size_t>(i)] - predicted_covariance) * gain.transpose();
-      symmetrize(pc);
-      // Across a step where the filter reset a mode (or a near-singular
-      // P^ji), the RTS correction can be absurd: keep the filtered estimate
-      // for the pair, as for a pair that cannot be smoothed.
-      if (!internal::filter_is_healthy(pair_means_.col(i), pc)) {
-        pair_means_.col(i) = x;
+      auto mean = pair_means_.col(i);
+      const bool ok = n == 2   ? smooth_pair<2>(i, x, px, k.u, dt, next, mean, &pc)
+                      : n == 3 ? smooth_pair<3>(i, x, px, k.u, dt, next, mean, &pc)
+                               : smooth_pair<Eigen::Dynamic>(i, x, px, k.u, dt, next, mean, &pc);
+      // A pair that cannot be smoothed, or whose correction is absurd (across
+      // a step where the filter reset a mode, or a near-singular P^ji), keeps
+      // the filtered estimate.
+      if (!ok) {
+        mean = x;
         pc = px;
       }
     }

@@ -85,6 +85,10 @@ class ImmSmoother {
   void smooth_range(const Steps& forward, std::vector<SmoothedStep>* out);
   // From the smoothed step k+1 and the filtered k (and k+1's time) to the smoothed k.
   void backward(const ForwardStep& k, double t_next, const SmoothedStep& next, SmoothedStep* out);
+  // The RTS step of the pair (mode j at k, mode i at k+1) into mean and *covariance.
+  template <int N>
+  bool smooth_pair(int i, const Eigen::VectorXd& x, const Eigen::MatrixXd& px, const Eigen::VectorXd& u, double dt,
+                   const SmoothedStep& next, Eigen::Ref<Eigen::VectorXd> mean, Eigen::MatrixXd* covariance);
   void combine(SmoothedStep* s) const;
 
   const Bank& bank_;
