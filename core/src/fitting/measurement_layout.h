@@ -1,5 +1,5 @@
 // Where a bank measures each state of a mode, as the window fit and the
-// process-noise search read logs (model_fitter.cc, process_noise_search.cc).
+// process-noise search read logs (window_cost.h, process_noise_search.cc).
 // Private to the fitting library.
 #ifndef SKIDIMM_CORE_SRC_FITTING_MEASUREMENT_LAYOUT_H_
 #define SKIDIMM_CORE_SRC_FITTING_MEASUREMENT_LAYOUT_H_
@@ -9,8 +9,10 @@
 #include <string>
 #include <vector>
 
+#include "skidimm/config/bank.h"
 #include "skidimm/fitting/trajectory.h"
 #include "skidimm/sdk/angles.h"
+#include "skidimm/sdk/motion_model.h"
 
 namespace skidimm {
 namespace fitting {
@@ -36,6 +38,21 @@ struct MeasurementLayout {
   bool every_row_picks = false;
 };
 
+// `mode`'s layout: its residuals are weighed by its own R where it has one
+// (R: in its entry), the noise its filter assumes; else by the bank's.
+// Throws FitError if a state is not measured directly.
+MeasurementLayout layout_of(const BankConfig& bank, int mode);
+
+// Where each output the bank measures is in `model`'s outputs(). Throws
+// FitError if the model lacks one.
+std::vector<int> output_positions(const sdk::MotionModel& model, const MeasurementLayout& m);
+
+// The measurement the model predicts besides H x: zero on the state rows,
+// its outputs at input u on the output rows. False if outputs() fails or is
+// not finite.
+bool expected_outputs(const sdk::MotionModel& model, const MeasurementLayout& m, const std::vector<int>& positions,
+                      const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::VectorXd* all, Eigen::VectorXd* expected);
+
 // Every state is measured at row k of t.
 inline bool fully_measured(const MeasurementLayout& m, const Trajectory& t, int k) {
   for (int row : m.state_row) {
@@ -53,7 +70,7 @@ inline Eigen::VectorXd measured_state(const MeasurementLayout& m, const Trajecto
 
 // Calls f(component, error) for each measured component of row `target`,
 // with error = z - H x - expected (wrapped for angles); expected holds the
-// model's outputs on the output rows (model_fitter.cc, expected_outputs()).
+// model's outputs on the output rows (expected_outputs()).
 template <typename F>
 void for_each_error(const MeasurementLayout& m, const Trajectory& t, int target, const Eigen::VectorXd& x,
                     const Eigen::VectorXd& expected, F&& f) {

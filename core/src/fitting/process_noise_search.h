@@ -43,7 +43,7 @@ struct ConsistentProcessNoise {
 };
 
 // Mode data.mode's consistent diagonal Q at the model's current parameters;
-// m is its layout (model_fitter.cc, layout_of()).
+// m is its layout (measurement_layout.h, layout_of()).
 ConsistentProcessNoise consistent_process_noise(const Bank& bank, const ModeLogs& data, const MeasurementLayout& m);
 
 }  // namespace internal
