@@ -275,7 +275,8 @@ int tune(const TuneCommandOptions& options) {
           {"transition", fitting::format_transition_block(c)},
           {"mode_probability_floor", fitting::format_floor_block(c)},
           {"likelihood_weight", fitting::format_likelihood_weight_block(c)},
-          {"likelihood_dof", fitting::format_likelihood_dof_block(c)}};
+          {"likelihood_dof", fitting::format_likelihood_dof_block(c)},
+          {"unknown", fitting::format_unknown_block(c)}};
       bool bank_parameters = false;
       for (const auto& info : tuned.models[0]->parameter_info()) {
         bank_parameters = bank_parameters || info.scope == sdk::ParameterScope::kBank;

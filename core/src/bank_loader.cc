@@ -472,7 +472,7 @@ BankConfig load_bank_config(const fs::path& file) {
 
   y.check_keys(root,
                {"name", "description", "states", "angles", "inputs", "columns", "sampling", "measurement", "transition",
-                "initial", "mode_probability_floor", "likelihood_weight", "likelihood_dof", "innovation_gate", "plugin_paths", "shared",
+                "initial", "mode_probability_floor", "likelihood_weight", "likelihood_dof", "innovation_gate", "unknown", "plugin_paths", "shared",
                 "modes", "classes", "decision"},
                "");
   BankConfig bank;
@@ -560,6 +560,29 @@ BankConfig load_bank_config(const fs::path& file) {
     if (!(bank.innovation_gate == 0.0 || (bank.innovation_gate > 0.0 && bank.innovation_gate < 1.0))) {
       y.fail(gate, "innovation_gate",
              "must be the probability that a consistent measurement passes, in (0, 1) (e.g. 0.9999), or 0 for no gate");
+    }
+  }
+  if (const YAML::Node unknown = root["unknown"]) {
+    y.check_keys(unknown, {"inflation", "enter", "leave"}, "unknown");
+    UnknownHypothesisConfig& u = bank.unknown;
+    u.inflation = y.number(y.required(unknown, "inflation", "unknown"), "unknown.inflation");
+    if (!(u.inflation > 1.0 && std::isfinite(u.inflation))) {
+      y.fail(unknown["inflation"], "unknown.inflation",
+             "must be a finite number > 1: the factor on the best mode's innovation covariance that gives the "
+             "unknown hypothesis its likelihood");
+    }
+    u.enter = y.number(y.required(unknown, "enter", "unknown"), "unknown.enter");
+    if (!(u.enter >= 0.0 && u.enter < 1.0)) {
+      y.fail(unknown["enter"], "unknown.enter", "must be a probability per step in [0, 1)");
+    }
+    u.leave = y.number(y.required(unknown, "leave", "unknown"), "unknown.leave");
+    if (!(u.leave > 0.0 && u.leave <= 1.0)) {
+      y.fail(unknown["leave"], "unknown.leave", "must be a probability per step in (0, 1]");
+    }
+    if (!(bank.mode_probability_floor * (bank.num_modes() + 1) < 1.0)) {
+      y.fail(unknown, "unknown",
+             "with mode_probability_floor " + std::to_string(bank.mode_probability_floor) +
+                 " the floors of the modes and the unknown hypothesis reach 1: lower the floor below 1/(modes + 1)");
     }
   }
   if (const YAML::Node paths = root["plugin_paths"]) {

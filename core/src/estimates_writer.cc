@@ -21,6 +21,7 @@ namespace fs = std::filesystem;
 std::vector<std::string> EstimatesWriter::header(const BankConfig& config, bool with_truth) {
   std::vector<std::string> header{"t"};
   for (const ModeConfig& mode : config.modes) header.push_back("mu_" + mode.name);
+  if (config.unknown.enabled()) header.push_back("unknown_probability");
   for (const std::string& s : config.state_names) header.push_back(s);
   for (const std::string& s : config.state_names) header.push_back("var_" + s);
   header.push_back("mode");
@@ -352,7 +353,7 @@ class EstimatesWriter::Npy {
 // ---------------------------------------------------------------- writer
 
 EstimatesWriter::EstimatesWriter(const fs::path& path, const BankConfig& config, bool with_truth)
-    : with_truth_(with_truth) {
+    : with_truth_(with_truth), with_unknown_(config.unknown.enabled()) {
   for (const ModeConfig& mode : config.modes) mode_names_.push_back(mode.name);
   std::vector<std::string> names = header(config, with_truth);
   if (ros::EstimatesMcapWriter::is_mcap(path)) {
@@ -363,7 +364,8 @@ EstimatesWriter::EstimatesWriter(const fs::path& path, const BankConfig& config,
     csv_ = std::make_unique<CsvWriter>(path, names);
     return;
   }
-  std::size_t longest_mode = 1, longest_class = 7;  // "unknown"
+  // "unknown": the decision's, and the most likely hypothesis' when the bank has one.
+  std::size_t longest_mode = with_unknown_ ? 7 : 1, longest_class = 7;
   for (const std::string& m : mode_names_) longest_mode = std::max(longest_mode, m.size());
   for (const std::string& c : config.class_names()) longest_class = std::max(longest_class, c.size());
   std::vector<std::size_t> widths{longest_mode, longest_class};
@@ -406,12 +408,15 @@ void EstimatesWriter::write(double t, const ImmEstimate& e, const std::string& d
     mcap_->write(t, e, decision, truth);
     return;
   }
-  const std::string& mode = mode_names_[static_cast<std::size_t>(e.most_likely_mode)];
+  static const std::string kUnknown = "unknown";
+  const std::string& mode =
+      with_unknown_ && e.unknown_is_most_likely() ? kUnknown : mode_names_[static_cast<std::size_t>(e.most_likely_mode)];
   const Eigen::Index n = e.state.size();
   if (csv_) {
     CsvWriter& w = *csv_;
     w.add_number(t);
     for (Eigen::Index j = 0; j < e.mode_probabilities.size(); ++j) w.add_number(e.mode_probabilities[j]);
+    if (with_unknown_) w.add_number(e.unknown_probability);
     for (Eigen::Index i = 0; i < n; ++i) w.add_number(e.state[i]);
     for (Eigen::Index i = 0; i < n; ++i) w.add_number(e.covariance(i, i));
     w.add_text(mode);
@@ -426,6 +431,7 @@ void EstimatesWriter::write(double t, const ImmEstimate& e, const std::string& d
   Npy& w = *npy_;
   w.add_number(t);
   for (Eigen::Index j = 0; j < e.mode_probabilities.size(); ++j) w.add_number(e.mode_probabilities[j]);
+  if (with_unknown_) w.add_number(e.unknown_probability);
   for (Eigen::Index i = 0; i < n; ++i) w.add_number(e.state[i]);
   for (Eigen::Index i = 0; i < n; ++i) w.add_number(e.covariance(i, i));
   std::size_t column = 0;

@@ -347,6 +347,7 @@ class Kernel final : public ImmKernel {
         modes_(bank.config.num_modes()),
         floor_(bank.config.mode_probability_floor),
         likelihood_weight_(bank.config.likelihood_weight),
+        unknown_(bank.config.unknown),
         student_t_(bank.config.likelihood_dof, static_cast<int>(bank.config.measurement.h.rows())),
         correlation_(bank.config),
         initial_state_(bank.config.initial_state),
@@ -361,7 +362,11 @@ class Kernel final : public ImmKernel {
     prior_moments_.resize(columns);
     transition_.reserve_columns(columns);
     predicted_.resize(modes_);
-    log_posterior_.resize(modes_);
+    log_posterior_.resize(unknown_.enabled() ? modes_ + 1 : modes_);
+    if (unknown_.enabled()) {
+      with_unknown_.resize(modes_ + 1);
+      conditional_.resize(modes_);
+    }
     reference_.resize(n_);
     offset_.resize(n_);
     mean_.resize(n_);
@@ -380,6 +385,7 @@ class Kernel final : public ImmKernel {
             const Eigen::Ref<const Eigen::VectorXd>& u_now, const Eigen::Ref<const Eigen::VectorXd>& z,
             ImmEstimate* e) override {
     int rejected = 0;
+    const double previous_unknown = e->unknown_probability;
     e->log_likelihoods.setConstant(kNaN);
     e->nis.setConstant(kNaN);
     std::fill(e->mode_failures.begin(), e->mode_failures.end(), ModeFailure::kNone);
@@ -392,7 +398,9 @@ class Kernel final : public ImmKernel {
       correlation_.forget_all();
     } else {
       correlation_.advance();
-      mix(dt, e->mode_probabilities);
+      // The filters run on as the modes' estimates given that some mode
+      // holds: the unknown hypothesis has no state to mix in.
+      mix(dt, unknown_.enabled() ? condition_on_modes(e->mode_probabilities) : e->mode_probabilities);
       for (int j = 0; j < modes_; ++j) {
         if (!filters_.predict(j, u, dt)) {
           e->log_likelihoods[j] = kMinusInfinity;
@@ -417,6 +425,8 @@ class Kernel final : public ImmKernel {
     ResidualCorrelation* correlation = correlation_.active() ? &correlation_ : nullptr;
     const int measured =
         filters_.update(z, outputs_measured ? &outputs_ : nullptr, gates_.data(), correlation, e, &rejected);
+    // From the Gaussian densities, before a Student-t rescoring.
+    const double unknown_log_likelihood = unknown_.enabled() ? score_unknown(measured, *e) : kNaN;
     if (!student_t_.gaussian()) rescore_student_t(measured, e);
     // A filter that ran but holds absurd numbers has diverged (filter_health.h).
     for (int j = 0; j < modes_; ++j) {
@@ -456,8 +466,13 @@ class Kernel final : public ImmKernel {
     // Likelihoods count only when some mode applied the measurement: a
     // measurement every mode gated (or failed on) says nothing about which
     // mode is right.
-    update_mode_probabilities(accepted > 0, e);
-    combine(e);
+    if (unknown_.enabled()) {
+      update_probabilities_with_unknown(first, accepted > 0, previous_unknown, unknown_log_likelihood, e);
+      combine(condition_on_modes(e->mode_probabilities), e);
+    } else {
+      update_mode_probabilities(accepted > 0, e);
+      combine(e->mode_probabilities, e);
+    }
   }
 
  private:
@@ -552,6 +567,71 @@ class Kernel final : public ImmKernel {
     }
   }
 
+  // The unknown hypothesis' log-likelihood of this step: the best of the
+  // modes that applied the measurement, each mode's innovation scored under
+  // its covariance S times s = inflation,
+  //   log N(nu; 0, s S) = log N(nu; 0, S) + d2 (1 - 1/s) / 2 - m log(s) / 2,
+  // with d2 the NIS (the conditional one with correlated innovations, whose
+  // density the mode's log-likelihood is) and m the rows measured. NaN when
+  // no mode applied it.
+  double score_unknown(int measured, const ImmEstimate& e) const {
+    const double s = unknown_.inflation;
+    double best = kNaN;
+    for (int j = 0; j < modes_; ++j) {
+      const double log_likelihood = e.log_likelihoods[j];
+      if (e.mode_failures[static_cast<std::size_t>(j)] != ModeFailure::kNone || !std::isfinite(log_likelihood)) continue;
+      const double d2 = correlation_.active() ? correlation_.conditional_d2(j) : e.nis[j];
+      const double broad = log_likelihood + 0.5 * d2 * (1.0 - 1.0 / s) - 0.5 * measured * std::log(s);
+      if (!(broad <= best)) best = broad;
+    }
+    return best;
+  }
+
+  // The modes' probabilities given that some mode holds (summing to 1).
+  const Eigen::VectorXd& condition_on_modes(const Eigen::VectorXd& mu) {
+    const double total = mu.sum();
+    if (total > 0.0) {
+      conditional_ = mu / total;
+    } else {
+      conditional_.setConstant(1.0 / modes_);
+    }
+    return conditional_;
+  }
+
+  // As update_mode_probabilities, over the modes and the unknown hypothesis
+  // U. The chain first moves `enter` of the modes' mass into U and `leave` of
+  // U's mass evenly back into the modes:
+  //   c_j = (1 - mu_U) (1 - enter) c'_j + mu_U leave / M,
+  //   c_U = (1 - mu_U) enter + mu_U (1 - leave),
+  // with c'_j the modes' own chain on their conditional probabilities (the
+  // first step: no transition). Then mu ~ c Lambda^w, floored.
+  void update_probabilities_with_unknown(bool first, bool have_likelihoods, double previous_unknown,
+                                         double unknown_log_likelihood, ImmEstimate* e) {
+    const double known = 1.0 - previous_unknown;
+    const double enter = unknown_.enter, leave = unknown_.leave;
+    for (int j = 0; j < modes_; ++j) {
+      const double c = !first ? known * (1.0 - enter) * predicted_[j] + previous_unknown * leave / modes_
+                                     : predicted_[j];
+      log_posterior_[j] = c > 0.0 ? std::log(c) : kMinusInfinity;
+      if (have_likelihoods) log_posterior_[j] += likelihood_weight_ * e->log_likelihoods[j];
+    }
+    const double c_unknown =
+        !first ? known * enter + previous_unknown * (1.0 - leave) : previous_unknown;
+    log_posterior_[modes_] = c_unknown > 0.0 ? std::log(c_unknown) : kMinusInfinity;
+    // Some mode applied the measurement whenever there are likelihoods, so the
+    // unknown hypothesis has one too.
+    if (have_likelihoods && !std::isnan(unknown_log_likelihood)) {
+      log_posterior_[modes_] += likelihood_weight_ * unknown_log_likelihood;
+    }
+    const double largest = log_posterior_.maxCoeff();
+    for (int j = 0; j <= modes_; ++j) with_unknown_[j] = std::exp(log_posterior_[j] - largest);
+    with_unknown_ /= with_unknown_.sum();
+    apply_probability_floor(floor_, with_unknown_);
+    e->mode_probabilities = with_unknown_.head(modes_);
+    e->unknown_probability = with_unknown_[modes_];
+    e->mode_probabilities.maxCoeff(&e->most_likely_mode);
+  }
+
   void update_mode_probabilities(bool have_likelihoods, ImmEstimate* e) {
     for (int j = 0; j < modes_; ++j) {
       const double c = predicted_[j];
@@ -570,8 +650,8 @@ class Kernel final : public ImmKernel {
 
   // Combined estimate (eq. 10-11), angles around the most probable mode's
   // (weighted_mean's rule, gaussian_mixture.h).
-  void combine(ImmEstimate* e) {
-    const Eigen::VectorXd& mu = e->mode_probabilities;
+  // mu: the modes' weights, summing to 1.
+  void combine(const Eigen::VectorXd& mu, ImmEstimate* e) {
     Eigen::Index heaviest = 0;
     mu.maxCoeff(&heaviest);
     const State& reference = filters_.state(static_cast<int>(heaviest));
@@ -640,6 +720,7 @@ class Kernel final : public ImmKernel {
   int modes_;
   double floor_;
   double likelihood_weight_;   // w of Lambda_j^w (bank.h)
+  UnknownHypothesisConfig unknown_;  // the bank's "none of these" hypothesis
   StudentTLikelihood student_t_;  // the bank's likelihood_dof
   ResidualCorrelation correlation_;  // the modes' residual_correlation
   std::vector<double> gates_;  // by number of measured components; +inf: no gate
@@ -651,7 +732,9 @@ class Kernel final : public ImmKernel {
   Eigen::MatrixXd flowed_;   // P(dt)' moments
   Eigen::VectorXd prior_moments_;
   Eigen::VectorXd predicted_;  // c_j
-  Eigen::VectorXd log_posterior_;
+  Eigen::VectorXd log_posterior_;  // the modes', then the unknown hypothesis' when on
+  Eigen::VectorXd with_unknown_;   // the probabilities of the modes and the unknown hypothesis
+  Eigen::VectorXd conditional_;    // the modes' probabilities given that some mode holds
   State reference_;
   State offset_;
   State mean_;

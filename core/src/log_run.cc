@@ -163,7 +163,8 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
         }
       }
       ++s.truth_rows;
-      s.truth_matches += last->second == class_of_mode[static_cast<std::size_t>(e.most_likely_mode)];
+      s.truth_matches +=
+          !e.unknown_is_most_likely() && last->second == class_of_mode[static_cast<std::size_t>(e.most_likely_mode)];
     }
     s.predict_only += e.status == StepStatus::kPredictOnly;
     s.rejected += e.num_rejected_modes > 0;

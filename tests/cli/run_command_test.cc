@@ -324,6 +324,50 @@ fs::path log_with_outlier(const fs::path& dir, int row, const std::string& value
   return write_file(dir / ("outlier_" + value + ".csv"), log);
 }
 
+// A bank with an unknown hypothesis writes its probability after the modes'
+// and names it as the most likely when a measurement misses every mode by far
+// (V = 5 m/s at row 300, where the robot drives at about 1). `eval` scores
+// such a step as wrong, from the run's output as when it runs the IMM itself.
+TEST(Cli, RunWritesTheUnknownHypothesisProbabilityAndEvalCountsItWrong) {
+  const fs::path dir = test_directory();
+  const fs::path bank =
+      write_file(dir / "unknown.yaml", "unknown: {inflation: 100, enter: 0.001, leave: 0.5}\n" + read_file(kTerrains));
+  const fs::path log = log_with_outlier(dir, 300, "5");
+  const fs::path out = dir / "out.csv";
+  const Result r = run_pipeline(run_command(bank.string(), log.string(), out.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto rows = read_csv(out);
+  EXPECT_EQ(std::vector<std::string>(rows[0].begin(), rows[0].begin() + 5),
+            (std::vector<std::string>{"t", "mu_asphalt", "mu_grass", "mu_crushed_concrete", "unknown_probability"}));
+  const int mode = column(rows[0], "mode");
+  long unknown_rows = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    double sum = 0.0;
+    for (int c = 1; c <= 4; ++c) sum += std::stod(rows[i][static_cast<std::size_t>(c)]);
+    ASSERT_NEAR(sum, 1.0, 1e-9) << "row " << i;
+    unknown_rows += rows[i][static_cast<std::size_t>(mode)] == "unknown";
+  }
+  EXPECT_GT(std::stod(rows[300][4]), 0.5);
+  EXPECT_EQ(rows[300][static_cast<std::size_t>(mode)], "unknown");
+  EXPECT_GE(unknown_rows, 1);
+  EXPECT_LT(unknown_rows, 10) << "the modes fit the rest of the log";
+  // The plain bank writes no such column.
+  ASSERT_EQ(run_pipeline(run_command(kTerrains, log.string(), (dir / "plain.csv").string())).exit_code, 0);
+  EXPECT_EQ(column(read_csv(dir / "plain.csv")[0], "unknown_probability"), -1);
+  // eval from the file and eval running the bank agree, "unknown" counted wrong.
+  const Result from_file = run_skidimm("eval --json --estimates " + out.string());
+  ASSERT_EQ(from_file.exit_code, 0) << from_file.err;
+  const Result live = run_skidimm("eval --json --bank " + bank.string() + " --input " + log.string() +
+                                  " --plugin-path " + kPlugins);
+  ASSERT_EQ(live.exit_code, 0) << live.err;
+  const auto accuracy = [](const std::string& s) {
+    const auto at = s.find("\"accuracy\": ");
+    return at == std::string::npos ? std::string() : s.substr(at, 30);
+  };
+  EXPECT_NE(accuracy(live.out), "");
+  EXPECT_EQ(accuracy(from_file.out), accuracy(live.out));
+}
+
 // Every state finite and every variance >= 0 on every row.
 void expect_sound_rows(const std::vector<std::vector<std::string>>& rows, const std::string& where) {
   const auto& header = rows[0];

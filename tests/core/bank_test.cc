@@ -383,6 +383,26 @@ TEST(BankConfig, LikelihoodDofIsAPositiveNumberOrAbsent) {
   expect_config_error("likelihood_dof: .inf\n" + kValidBank, {"likelihood_dof"});
 }
 
+TEST(BankConfig, UnknownHypothesisIsOptInAndChecked) {
+  EXPECT_FALSE(load_bank_config(write_file(test_directory() / "plain.yaml", kValidBank)).unknown.enabled());
+  const BankConfig c = load_bank_config(write_file(
+      test_directory() / "unknown.yaml", "unknown: {inflation: 50, enter: 0.01, leave: 0.3}\n" + kValidBank));
+  EXPECT_TRUE(c.unknown.enabled());
+  EXPECT_EQ(c.unknown.inflation, 50.0);
+  EXPECT_EQ(c.unknown.enter, 0.01);
+  EXPECT_EQ(c.unknown.leave, 0.3);
+  expect_config_error("unknown:\n  inflation: 1\n  enter: 0.01\n  leave: 0.3\n" + kValidBank,
+                      {"bank.yaml:2: unknown.inflation", "> 1"});
+  expect_config_error("unknown:\n  inflation: 10\n  enter: 1\n  leave: 0.3\n" + kValidBank,
+                      {"bank.yaml:3: unknown.enter", "[0, 1)"});
+  expect_config_error("unknown:\n  inflation: 10\n  enter: 0\n  leave: 0\n" + kValidBank,
+                      {"bank.yaml:4: unknown.leave", "(0, 1]"});
+  expect_config_error("unknown:\n  inflation: 10\n  enter: 0.1\n" + kValidBank, {"unknown.leave", "missing"});
+  expect_config_error("unknown:\n  inflation: 10\n  enter: 0.1\n  leave: 0.1\n  leav: 2\n" + kValidBank,
+                      {"bank.yaml:5: unknown.leav", "unknown key"});
+  expect_config_error("unknown: 3\n" + kValidBank, {"bank.yaml:1: unknown", "mapping"});
+}
+
 TEST(BankConfig, ResidualCorrelationIsInMinusOneToOne) {
   const std::string ice_q = "    Q: [[0.02, 0], [0, 0.02]]\n";
   const auto ok = write_file(test_directory() / "rho.yaml",

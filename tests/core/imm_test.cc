@@ -318,6 +318,85 @@ TEST(Imm, AStudentTLikelihoodIsNotSureOfTheLeastWrongModeAfterOneWildStep) {
   }
 }
 
+// The unknown hypothesis by hand on two_mode_scalar_bank (inflation 100, enter
+// 0.05, leave 0.2). Step 0 has no transition and mu_U starts at 0, so it
+// stays 0. Step 1 measures z = 3, far from both modes: with the modes'
+// predictions of OneStepMatchesHandComputation (c' = [0.62, 0.38];
+// x- = 0.622, 0.514; S = 0.422, 0.418), the chain gives
+// c = [0.95 * 0.62, 0.95 * 0.38, 0.05]; log N(nu; 0, S) = -7.18766, -7.87538;
+// the unknown's, log N(nu_0; 0, 100 S_0) = -2.85715 (mode 0 fits better);
+// mu = c Lambda / sum = [0.128894, 0.0397148, 0.831391]. The combined state
+// weighs the modes' updated states 1.59123 and 1.51316 by their conditional
+// probabilities: 1.57284. Both kernels.
+TEST(Imm, UnknownHypothesisTakesTheMassWhenEveryModeMissesByFar) {
+  for (const ImmKernelChoice choice : {ImmKernelChoice::kFastest, ImmKernelChoice::kDynamic}) {
+    Bank bank = two_mode_scalar_bank().build();
+    bank.config.unknown.inflation = 100.0;
+    bank.config.unknown.enter = 0.05;
+    bank.config.unknown.leave = 0.2;
+    Imm imm(std::move(bank), choice);
+    const ImmEstimate& e0 = imm.step(0.0, vec({1.0}), vec({0.6}));
+    EXPECT_EQ(e0.unknown_probability, 0.0);
+    EXPECT_NEAR(e0.mode_probabilities[0], 0.6, 1e-15);
+    const ImmEstimate& e1 = imm.step(0.1, vec({0.0}), vec({3.0}));
+    EXPECT_NEAR(e1.log_likelihoods[0], -7.187663076797962, 1e-12);
+    EXPECT_NEAR(e1.log_likelihoods[1], -7.875380557344402, 1e-12);
+    EXPECT_NEAR(e1.mode_probabilities[0], 0.12889397707459344, 1e-13);
+    EXPECT_NEAR(e1.mode_probabilities[1], 0.03971482236861092, 1e-13);
+    EXPECT_NEAR(e1.unknown_probability, 0.8313912005567956, 1e-13);
+    EXPECT_NEAR(e1.mode_probabilities.sum() + e1.unknown_probability, 1.0, 1e-15);
+    EXPECT_EQ(e1.most_likely_mode, 0);
+    EXPECT_TRUE(e1.unknown_is_most_likely());
+    EXPECT_NEAR(e1.state[0], 1.5728422723552906, 1e-12);
+    // Step 2, back near the modes: the chain gives back leave = 0.2 of U's
+    // mass and takes enter = 0.05 of the modes'; the unknown's likelihood is
+    // the better mode's innovation under 100 S, from the NIS and the
+    // Gaussian log-likelihood.
+    const double mu_u = e1.unknown_probability;
+    const Eigen::Vector2d conditional = e1.mode_probabilities / e1.mode_probabilities.sum();
+    const Eigen::Vector2d chain = Eigen::Matrix2d((Eigen::Matrix2d() << 0.9, 0.1, 0.2, 0.8).finished()).transpose() *
+                                  conditional;
+    const ImmEstimate& e2 = imm.step(0.2, vec({0.0}), vec({1.4}));
+    double unknown_log_likelihood = -std::numeric_limits<double>::infinity();
+    for (int j = 0; j < 2; ++j) {
+      unknown_log_likelihood = std::max(unknown_log_likelihood, e2.log_likelihoods[j] + 0.5 * e2.nis[j] * (1 - 0.01) -
+                                                                    0.5 * std::log(100.0));
+    }
+    Eigen::Vector3d w;
+    for (int j = 0; j < 2; ++j) {
+      w[j] = ((1 - mu_u) * 0.95 * chain[j] + mu_u * 0.2 / 2) * std::exp(e2.log_likelihoods[j]);
+    }
+    w[2] = ((1 - mu_u) * 0.05 + mu_u * 0.8) * std::exp(unknown_log_likelihood);
+    w /= w.sum();
+    EXPECT_NEAR(e2.mode_probabilities[0], w[0], 1e-13);
+    EXPECT_NEAR(e2.mode_probabilities[1], w[1], 1e-13);
+    EXPECT_NEAR(e2.unknown_probability, w[2], 1e-13);
+    EXPECT_LT(e2.unknown_probability, 0.5 * mu_u);
+    EXPECT_FALSE(e2.unknown_is_most_likely());
+  }
+}
+
+// Without a miss the unknown hypothesis only costs its share of the chain:
+// along a run the modes explain, it stays near enter / (enter + leave) times
+// the evidence ratio, far from being the most likely.
+TEST(Imm, UnknownHypothesisStaysSmallWhileAModeFits) {
+  Bank bank = two_mode_scalar_bank().build();
+  bank.config.unknown.inflation = 100.0;
+  bank.config.unknown.enter = 0.05;
+  bank.config.unknown.leave = 0.2;
+  Imm imm(std::move(bank));
+  double largest = 0.0;
+  double x = 0.5;
+  for (int k = 0; k < 50; ++k) {
+    x += (-x + 1.0) * 0.1;  // mode 0 with u = 1
+    const ImmEstimate& e = imm.step(0.1 * k, vec({1.0}), vec({x}));
+    largest = std::max(largest, e.unknown_probability);
+    ASSERT_NEAR(e.mode_probabilities.sum() + e.unknown_probability, 1.0, 1e-12) << "step " << k;
+  }
+  EXPECT_GT(largest, 0.0);
+  EXPECT_LT(largest, 0.05);
+}
+
 // ScalarLinearModel that also predicts outputs from the input: "y" = gain u
 // (listed second, so the bank must find it by name), and fails on u > 100.
 class ScalarModelWithOutput : public ScalarLinearModel {
@@ -874,7 +953,9 @@ TEST(Imm, ThreeStatesWithAnAngleMatchAHandWrittenFixedSizeImmForEveryTransitionF
 // Runs a bank of n states and m measurement rows on the fixed-size and the
 // dynamic kernel for `steps` steps and checks they agree within `tolerance`
 // (scaled as below).
-void ExpectKernelsAgree(double likelihood_dof, int steps, double tolerance, double rho = 0.0) {
+// unknown_inflation > 0: with an unknown hypothesis (enter 0.05, leave 0.2).
+void ExpectKernelsAgree(double likelihood_dof, int steps, double tolerance, double rho = 0.0,
+                        double unknown_inflation = 0.0) {
   for (int n : {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13}) {
     for (int m = 1; m <= n + 2; m += (n <= 5 || m >= n - 1 ? 1 : n - 2)) {
       // A build with the bundled shapes only has nothing to compare for the
@@ -932,6 +1013,7 @@ void ExpectKernelsAgree(double likelihood_dof, int steps, double tolerance, doub
       b.x0 = Eigen::VectorXd::Constant(n, 3.0);
       Bank bank = b.build();
       bank.config.likelihood_dof = likelihood_dof;
+      bank.config.unknown = UnknownHypothesisConfig{unknown_inflation, unknown_inflation > 0.0 ? 0.05 : 0.0, 0.2};
       for (int j = 0; j < 3; ++j)
         bank.config.modes[static_cast<std::size_t>(j)].residual_correlation = rho / (1 - 2 * j);
       bank.config.measurement.is_angle.assign(static_cast<std::size_t>(m), false);
@@ -967,6 +1049,7 @@ void ExpectKernelsAgree(double likelihood_dof, int steps, double tolerance, doub
         const double conditioning = m > n ? 100.0 : 1.0;
         const double bound = conditioning * tolerance * (1.0 + 0.01 * largest_log_likelihood);
         ASSERT_LT((a.mode_probabilities - d.mode_probabilities).cwiseAbs().maxCoeff(), bound) << "step " << k;
+        ASSERT_NEAR(a.unknown_probability, d.unknown_probability, bound) << "step " << k;
         for (int j = 0; j < 3; ++j) {
           const double scale = std::max(1.0, d.mode_states[j].cwiseAbs().maxCoeff());
           ASSERT_LT((a.mode_states[j] - d.mode_states[j]).cwiseAbs().maxCoeff(), bound * scale) << "step " << k;
@@ -1002,6 +1085,12 @@ TEST(Imm, FixedSizeKernelsAgreeWithTheDynamicOneWithAStudentTLikelihood) { Expec
 // restarts) and steps with none (the memory ages a step).
 TEST(Imm, FixedSizeKernelsAgreeWithTheDynamicOneWithCorrelatedInnovations) {
   ExpectKernelsAgree(0.0, SKIDIMM_SANITIZED ? 20 : 60, 1e-8, 0.7);
+}
+
+// The unknown hypothesis scores each mode's innovation under an inflated
+// covariance: the same in every kernel.
+TEST(Imm, FixedSizeKernelsAgreeWithTheDynamicOneWithAnUnknownHypothesis) {
+  ExpectKernelsAgree(0.0, SKIDIMM_SANITIZED ? 20 : 60, 1e-8, 0.0, 4.0);
 }
 
 // Before the first measurement every mode has its prior probability, and the

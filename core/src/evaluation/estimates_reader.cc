@@ -62,6 +62,8 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank, const
       }
     }
   }
+  // The probability of the bank's unknown hypothesis, when it has one.
+  const int unknown = reader.column("unknown_probability");
   const BankConfig& classes = bank != nullptr ? *bank : modes_only;
   const ClassScorer scorer(classes);
   const int decision = decide != nullptr ? -1 : reader.column("decision");
@@ -92,12 +94,23 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank, const
       mu[static_cast<Eigen::Index>(j)] = p;
       sum += p;
     }
+    double unknown_probability = 0.0;
+    if (unknown >= 0) {
+      unknown_probability = parse_cell(reader, f, unknown, "a probability in [0, 1]");
+      if (unknown_probability < -kProbabilityTolerance || unknown_probability > 1.0 + kProbabilityTolerance) {
+        throw LogError(reader.path().string(), reader.line(),
+                       "column " + std::to_string(unknown + 1) +
+                           " ('unknown_probability'): expected a probability in [0, 1], got " +
+                           f[static_cast<std::size_t>(unknown)]);
+      }
+      sum += unknown_probability;
+    }
     if (std::abs(sum - 1.0) > kProbabilityTolerance) {
       throw LogError(reader.path().string(), reader.line(),
-                     "the mode probabilities (mu_ columns) sum to " + CsvWriter::format(sum) +
-                         "; in a `skidimm run` output they sum to 1");
+                     "the mode probabilities (mu_ columns" + std::string(unknown >= 0 ? " and unknown_probability" : "") +
+                         ") sum to " + CsvWriter::format(sum) + "; in a `skidimm run` output they sum to 1");
     }
-    steps.push_back(scorer.score(time, f[static_cast<std::size_t>(truth)], mu));
+    steps.push_back(scorer.score(time, f[static_cast<std::size_t>(truth)], mu, unknown_probability));
     if (decision >= 0 || decider) {
       decisions.push_back(scorer.decided(
           steps.back(), decider ? decider->name(decider->update(time, mu)) : f[static_cast<std::size_t>(decision)]));

@@ -21,7 +21,8 @@ ClassScorer::ClassScorer(const BankConfig& bank)
 
 int ClassScorer::class_of_label(const std::string& label) const { return bank_->class_index(label); }
 
-LabelledStep ClassScorer::score(double t, const std::string& label, const Eigen::VectorXd& mode_probabilities) const {
+LabelledStep ClassScorer::score(double t, const std::string& label, const Eigen::VectorXd& mode_probabilities,
+                                double unknown_probability) const {
   class_probabilities_.setZero();
   for (Eigen::Index j = 0; j < mode_probabilities.size(); ++j) {
     class_probabilities_[class_of_mode_[static_cast<std::size_t>(j)]] += mode_probabilities[j];
@@ -30,14 +31,20 @@ LabelledStep ClassScorer::score(double t, const std::string& label, const Eigen:
   class_probabilities_.maxCoeff(&best);
   LabelledStep step;
   step.t = t;
-  step.estimate = names_[static_cast<std::size_t>(best)];
-  step.estimate_probability = class_probabilities_[best];
+  if (unknown_probability > 0.0 && unknown_probability > class_probabilities_[best]) {
+    step.estimate = "unknown";
+    step.estimate_probability = 0.0;
+  } else {
+    step.estimate = names_[static_cast<std::size_t>(best)];
+    step.estimate_probability = class_probabilities_[best];
+  }
   if (!label.empty()) {
     const int c = class_of_label(label);
     step.truth = c >= 0 ? names_[static_cast<std::size_t>(c)] : printable(label);  // a CSV cell: make it safe
     step.truth_probability = c >= 0 ? class_probabilities_[c] : 0.0;
     // A truth the bank cannot answer is a class of probability 0.
-    step.brier = class_probabilities_.squaredNorm() + 1.0 - (c >= 0 ? 2.0 * class_probabilities_[c] : 0.0);
+    step.brier = class_probabilities_.squaredNorm() + unknown_probability * unknown_probability + 1.0 -
+                 (c >= 0 ? 2.0 * class_probabilities_[c] : 0.0);
   }
   return step;
 }
@@ -100,7 +107,7 @@ ScoredRun score_run(const Bank& bank, SampleSource* source, const std::string& n
     const std::string& label = label_given.empty() ? sample.truth_mode : label_given;
     const std::string& decided = decision.name(decision.update(sample.t, e.mode_probabilities));
     if (writer) writer->write(sample.t, e, decided, label);
-    run.steps.push_back(scorer.score(sample.t, label, e.mode_probabilities));
+    run.steps.push_back(scorer.score(sample.t, label, e.mode_probabilities, e.unknown_probability));
     run.decisions.push_back(scorer.decided(run.steps.back(), decided));
     if (observer) observer(sample, run.steps.back());
     const int truth_mode = config.mode_index(label);

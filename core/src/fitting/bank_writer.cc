@@ -367,5 +367,11 @@ std::string format_likelihood_dof_block(const BankConfig& config) {
   return "likelihood_dof: " + number(config.likelihood_dof) + "\n";
 }
 
+std::string format_unknown_block(const BankConfig& config) {
+  if (!config.unknown.enabled()) return "";
+  return "unknown: {inflation: " + number(config.unknown.inflation) + ", enter: " + number(config.unknown.enter) +
+         ", leave: " + number(config.unknown.leave) + "}\n";
+}
+
 }  // namespace fitting
 }  // namespace skidimm

@@ -309,17 +309,20 @@ const char* to_string(Knob knob) {
       return "likelihood-weight";
     case Knob::kLikelihoodDof:
       return "likelihood-dof";
+    case Knob::kUnknownInflation:
+      return "unknown-inflation";
   }
   return "?";
 }
 
 Knob knob_from_string(const std::string& name) {
   for (Knob k : {Knob::kRScale, Knob::kRComponents, Knob::kQScale, Knob::kQModes, Knob::kDwell, Knob::kFloor,
-                 Knob::kLikelihoodWeight, Knob::kLikelihoodDof}) {
+                 Knob::kLikelihoodWeight, Knob::kLikelihoodDof, Knob::kUnknownInflation}) {
     if (name == to_string(k)) return k;
   }
   throw Error("unknown setting '" + name +
-              "' (expected r-scale, r-components, q-scale, q-modes, dwell, floor, likelihood-weight, likelihood-dof)");
+              "' (expected r-scale, r-components, q-scale, q-modes, dwell, floor, likelihood-weight, likelihood-dof, "
+              "unknown-inflation)");
 }
 
 std::string TunedSettings::describe(const BankConfig& config) const {
@@ -337,6 +340,7 @@ std::string TunedSettings::describe(const BankConfig& config) const {
   if (likelihood_weight > 0.0 && likelihood_weight != 1.0) out += ", likelihood weight " + brief(likelihood_weight);
   // Only when Student-t, for the same reason.
   if (likelihood_dof > 0.0) out += ", likelihood dof " + brief(likelihood_dof);
+  if (unknown_inflation > 0.0) out += ", unknown inflation " + brief(unknown_inflation);
   return out;
 }
 
@@ -380,6 +384,7 @@ void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
   if (s.probability_floor >= 0.0) config.mode_probability_floor = s.probability_floor;
   if (s.likelihood_weight > 0.0) config.likelihood_weight = s.likelihood_weight;
   if (s.likelihood_dof >= 0.0) config.likelihood_dof = s.likelihood_dof;
+  if (s.unknown_inflation > 0.0) config.unknown.inflation = s.unknown_inflation;
   for (std::size_t j = 0; j < fitted.residual_correlation.size() && j < config.modes.size(); ++j) {
     config.modes[j].residual_correlation = fitted.residual_correlation[j];
   }
@@ -427,6 +432,13 @@ class Tuner {
     base_floor_ = config.mode_probability_floor;
     base_weight_ = config.likelihood_weight;
     base_dof_ = config.likelihood_dof;
+    base_unknown_inflation_ = config.unknown.inflation;
+    if (!config.unknown.enabled() &&
+        std::find(options.knobs.begin(), options.knobs.end(), Knob::kUnknownInflation) != options.knobs.end()) {
+      throw Error(config.file.string() +
+                  ": --tune unknown-inflation needs a bank with an unknown hypothesis (the key `unknown:`, "
+                  "docs/bank-format.md)");
+    }
     // Each log's class, for stratified folds and summaries: from a first scoring at the starting values.
     classes_.resize(logs.size());
     std::vector<const TuningLog*> all;
@@ -892,6 +904,7 @@ class Tuner {
     bank->config.mode_probability_floor = base_floor_;
     bank->config.likelihood_weight = base_weight_;
     bank->config.likelihood_dof = base_dof_;
+    bank->config.unknown.inflation = base_unknown_inflation_;
     apply(base_, TunedSettings{}, bank);
   }
 
@@ -1048,6 +1061,7 @@ class Tuner {
     current.probability_floor = base_floor_;
     current.likelihood_weight = base_weight_;
     current.likelihood_dof = base_dof_;
+    if (config.unknown.enabled()) current.unknown_inflation = base_unknown_inflation_;
     std::vector<double> log_costs(logs_.size(), 0.0);
     // A candidate is taken when it beats the best by more than 1e-9; its
     // scoring stops once it cannot (ScoreBound). The bound sits below that by
@@ -1147,6 +1161,9 @@ class Tuner {
           case Knob::kLikelihoodDof:
             dof_line(sweep == 0);
             break;
+          case Knob::kUnknownInflation:
+            line("unknown inflation", &current.unknown_inflation, 1.0 + 1e-6, 1e12);
+            break;
         }
       }
     }
@@ -1164,6 +1181,7 @@ class Tuner {
   double base_floor_ = 1e-9;
   double base_weight_ = 1.0;
   double base_dof_ = 0.0;
+  double base_unknown_inflation_ = 0.0;  // the bank's unknown.inflation; 0: no unknown hypothesis
   std::vector<std::string> classes_;
   std::vector<RecordedLog> recorded_;
   std::vector<std::vector<double>> step_weights_;  // weigh_steps()

@@ -116,6 +116,19 @@ struct ClassConfig {
   std::vector<int> modes;  // indices into BankConfig::modes
 };
 
+// An explicit "none of these" hypothesis beside the modes. It has no state:
+// its likelihood of a step is the best-fitting mode's innovation under that
+// mode's innovation covariance times `inflation`, so it wins only when every
+// mode misses by far more than its covariance says. Each step it takes
+// `enter` of the modes' probability and gives back `leave` of its own, spread
+// evenly over the modes.
+struct UnknownHypothesisConfig {
+  double inflation = 0.0;  // > 1 when on; 0: no unknown hypothesis
+  double enter = 0.0;      // per step, in [0, 1)
+  double leave = 0.0;      // per step, in (0, 1]
+  bool enabled() const { return inflation > 0.0; }
+};
+
 struct BankConfig {
   std::filesystem::path file;
   std::string name;
@@ -146,6 +159,9 @@ struct BankConfig {
   // Chi-square innovation gate (docs/engine.md): the probability a consistent
   // measurement passes, in (0, 1); 0: no gate.
   double innovation_gate = 0.0;
+  // The "none of these" hypothesis (`unknown:`, docs/engine.md, "Unknown
+  // hypothesis"); off unless the bank asks for it.
+  UnknownHypothesisConfig unknown;
   std::vector<std::filesystem::path> plugin_paths;  // absolute
   sdk::ParameterSet shared;
   std::map<std::string, int> shared_lines;

@@ -49,7 +49,11 @@ struct ImmEstimate {
   int num_rejected_modes = 0;  // modes whose filter failed (or diverged) this step, and were reset
   int num_gated_modes = 0;     // modes that gated the measurement this step (innovation_gate)
 
-  Eigen::VectorXd mode_probabilities;             // mu_k^j, sums to 1 (eq. 9 with c_j)
+  // mu_k^j (eq. 9 with c_j): sums to 1, or to 1 - unknown_probability when
+  // the bank has an unknown hypothesis.
+  Eigen::VectorXd mode_probabilities;
+  // The probability of "none of these" (BankConfig::unknown); 0 without one.
+  double unknown_probability = 0.0;
   // log Lambda_k^j; NaN on predict-only, -inf if rejected; for a gated mode
   // the likelihood it was scored with (docs/engine.md, innovation gate).
   Eigen::VectorXd log_likelihoods;
@@ -60,7 +64,11 @@ struct ImmEstimate {
   std::vector<Eigen::MatrixXd> mode_covariances;  // P_k^{+j}
   Eigen::VectorXd state;                          // combined, eq. 10
   Eigen::MatrixXd covariance;                     // combined, eq. 11
-  int most_likely_mode = 0;
+  int most_likely_mode = 0;  // of the modes, even when unknown_is_most_likely()
+  // Whether "none of these" outweighs every single mode.
+  bool unknown_is_most_likely() const {
+    return unknown_probability > 0.0 && unknown_probability > mode_probabilities[most_likely_mode];
+  }
 };
 
 }  // namespace skidimm

@@ -34,7 +34,13 @@ class ClassScorer {
   // The class index of a mode or class name; -1 if neither.
   int class_of_label(const std::string& label) const;
   // The step for truth `label` ("" for unlabelled) given the modes' probabilities.
-  LabelledStep score(double t, const std::string& label, const Eigen::VectorXd& mode_probabilities) const;
+  // With an unknown hypothesis (BankConfig::unknown) the mode probabilities
+  // sum to 1 - unknown_probability; when "none of these" outweighs every
+  // class, the estimate is "unknown" at probability 0, as the decision's
+  // "unknown" is: never right, never confident. The Brier score counts it as
+  // one more outcome.
+  LabelledStep score(double t, const std::string& label, const Eigen::VectorXd& mode_probabilities,
+                     double unknown_probability = 0.0) const;
   // The same step with a decision for its estimate (a class name or
   // "unknown"), and that class's probability, from the last score().
   LabelledStep decided(const LabelledStep& step, const std::string& decision) const;

@@ -108,6 +108,7 @@ struct TunedSettings {
   double probability_floor = -1.0;   // >= 0: mode_probability_floor
   double likelihood_weight = -1.0;   // > 0: likelihood_weight
   double likelihood_dof = -1.0;      // >= 0: likelihood_dof (0: Gaussian)
+  double unknown_inflation = -1.0;   // > 0: unknown.inflation (a bank with an unknown hypothesis)
   std::string describe(const BankConfig& config) const;
 };
 
@@ -118,7 +119,17 @@ void apply(const FittedValues& fitted, const TunedSettings& settings, Bank* bank
 // Reads a bank's current values.
 FittedValues values_of(const Bank& bank);
 
-enum class Knob { kRScale, kRComponents, kQScale, kQModes, kDwell, kFloor, kLikelihoodWeight, kLikelihoodDof };
+enum class Knob {
+  kRScale,
+  kRComponents,
+  kQScale,
+  kQModes,
+  kDwell,
+  kFloor,
+  kLikelihoodWeight,
+  kLikelihoodDof,
+  kUnknownInflation
+};
 const char* to_string(Knob knob);
 Knob knob_from_string(const std::string& name);  // throws Error listing the names
 

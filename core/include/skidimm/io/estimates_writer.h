@@ -97,6 +97,7 @@ class EstimatesWriter {
   std::vector<std::string> mode_names_;
   std::string reason_;  // the row's reason column, reused
   bool with_truth_;
+  bool with_unknown_;  // the bank has an unknown hypothesis: its probability column
 };
 
 }  // namespace skidimm
