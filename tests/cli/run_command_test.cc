@@ -326,8 +326,11 @@ fs::path log_with_outlier(const fs::path& dir, int row, const std::string& value
 
 // A bank with an unknown hypothesis writes its probability after the modes'
 // and names it as the most likely when a measurement misses every mode by far
-// (V = 5 m/s at row 300, where the robot drives at about 1). `eval` scores
-// such a step as wrong, from the run's output as when it runs the IMM itself.
+// (V = 5 m/s at row 300, where the robot drives at about 1). Past the first
+// 2 s that is the only such row; in them, as the robot sets off and every
+// filter is still settling, the modes miss too and "unknown" leads for about
+// a second. `eval` scores such a step as wrong, from the run's output as when
+// it runs the IMM itself.
 TEST(Cli, RunWritesTheUnknownHypothesisProbabilityAndEvalCountsItWrong) {
   const fs::path dir = test_directory();
   const fs::path bank =
@@ -340,20 +343,23 @@ TEST(Cli, RunWritesTheUnknownHypothesisProbabilityAndEvalCountsItWrong) {
   EXPECT_EQ(std::vector<std::string>(rows[0].begin(), rows[0].begin() + 5),
             (std::vector<std::string>{"t", "mu_asphalt", "mu_grass", "mu_crushed_concrete", "unknown_probability"}));
   const int mode = column(rows[0], "mode");
-  long unknown_rows = 0;
+  long unknown_rows = 0, unknown_rows_later = 0;
   for (std::size_t i = 1; i < rows.size(); ++i) {
     double sum = 0.0;
     for (int c = 1; c <= 4; ++c) sum += std::stod(rows[i][static_cast<std::size_t>(c)]);
     ASSERT_NEAR(sum, 1.0, 1e-9) << "row " << i;
-    unknown_rows += rows[i][static_cast<std::size_t>(mode)] == "unknown";
+    const bool unknown = rows[i][static_cast<std::size_t>(mode)] == "unknown";
+    unknown_rows += unknown;
+    unknown_rows_later += unknown && std::stod(rows[i][0]) > 2.0;
   }
   EXPECT_GT(std::stod(rows[300][4]), 0.5);
   EXPECT_EQ(rows[300][static_cast<std::size_t>(mode)], "unknown");
-  EXPECT_GE(unknown_rows, 1);
-  EXPECT_LT(unknown_rows, 10) << "the modes fit the rest of the log";
+  EXPECT_EQ(unknown_rows_later, 1) << "the modes fit the rest of the log";
+  EXPECT_LT(unknown_rows, 100);
   // The plain bank writes no such column.
   ASSERT_EQ(run_pipeline(run_command(kTerrains, log.string(), (dir / "plain.csv").string())).exit_code, 0);
-  EXPECT_EQ(column(read_csv(dir / "plain.csv")[0], "unknown_probability"), -1);
+  const auto plain_header = read_csv(dir / "plain.csv")[0];
+  EXPECT_EQ(std::count(plain_header.begin(), plain_header.end(), "unknown_probability"), 0);
   // eval from the file and eval running the bank agree, "unknown" counted wrong.
   const Result from_file = run_skidimm("eval --json --estimates " + out.string());
   ASSERT_EQ(from_file.exit_code, 0) << from_file.err;

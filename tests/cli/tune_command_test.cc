@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <vector>
 
 #include "cli/cli_test_support.h"
 #include "core/sanitizer.h"
@@ -41,6 +42,43 @@ TEST(Cli, TuneTempersTheEvidenceOfABankThatOvercountsItOnRealRuns) {
   const skidimm::BankConfig tuned = skidimm::load_bank_config(dir / "tuned.yaml");
   EXPECT_LT(tuned.likelihood_weight, 0.5) << tune.err;
   EXPECT_THAT(read_file(dir / "tuned.yaml"), HasSubstr("likelihood weight"));  // the header's chosen settings
+}
+
+// `--tune unknown-inflation` chooses the unknown hypothesis' covariance
+// factor in each fold and writes it into the bank with its enter and leave
+// as they were; a bank without `unknown:` has nothing to tune and says so.
+// The bundled switching log in four parts, the bank's models as they are.
+TEST(Cli, TuneChoosesTheUnknownInflationOfABankThatHasOne) {
+  const fs::path dir = test_directory();
+  const std::string log = read_file(kSwitching);
+  const std::size_t header_end = log.find('\n') + 1;
+  std::vector<std::string> rows;
+  for (std::size_t at = header_end; at < log.size();) {
+    const std::size_t end = log.find('\n', at);
+    rows.push_back(log.substr(at, end - at + 1));
+    at = end + 1;
+  }
+  std::string logs;
+  for (std::size_t part = 0; part < 4; ++part) {
+    std::string text = log.substr(0, header_end);
+    for (std::size_t r = part * rows.size() / 4; r < (part + 1) * rows.size() / 4; ++r) text += rows[r];
+    logs += " --log " + write_file(dir / ("part" + std::to_string(part) + ".csv"), text).string();
+  }
+  const fs::path bank =
+      write_file(dir / "unknown.yaml", "unknown: {inflation: 100, enter: 0.01, leave: 0.2}\n" + read_file(kTerrains));
+  const std::string args = logs + " --objective none --tune unknown-inflation --no-assess --threads 1 --plugin-path " +
+                           kPlugins + " --output-bank " + (dir / "tuned.yaml").string();
+  const Result tune = run_skidimm("tune --bank " + bank.string() + args);
+  ASSERT_EQ(tune.exit_code, 0) << tune.err;
+  EXPECT_THAT(tune.err, HasSubstr("unknown inflation"));
+  const skidimm::BankConfig tuned = skidimm::load_bank_config(dir / "tuned.yaml");
+  EXPECT_TRUE(tuned.unknown.enabled());
+  EXPECT_EQ(tuned.unknown.enter, 0.01);
+  EXPECT_EQ(tuned.unknown.leave, 0.2);
+  EXPECT_THAT(read_file(dir / "tuned.yaml"), HasSubstr("unknown inflation"));  // the header's chosen settings
+  const Result plain = run_skidimm("tune --bank " + kTerrains + args);
+  EXPECT_NE(plain.exit_code, 0);
+  EXPECT_THAT(plain.err, HasSubstr("--tune unknown-inflation needs a bank with an unknown hypothesis"));
 }
 
 }  // namespace
