@@ -579,7 +579,9 @@ class Kernel final : public ImmKernel {
     double best = kNaN;
     for (int j = 0; j < modes_; ++j) {
       const double log_likelihood = e.log_likelihoods[j];
-      if (e.mode_failures[static_cast<std::size_t>(j)] != ModeFailure::kNone || !std::isfinite(log_likelihood)) continue;
+      if (e.mode_failures[static_cast<std::size_t>(j)] != ModeFailure::kNone || !std::isfinite(log_likelihood)) {
+        continue;
+      }
       const double d2 = correlation_.active() ? correlation_.conditional_d2(j) : e.nis[j];
       const double broad = log_likelihood + 0.5 * d2 * (1.0 - 1.0 / s) - 0.5 * measured * std::log(s);
       if (!(broad <= best)) best = broad;
@@ -610,13 +612,12 @@ class Kernel final : public ImmKernel {
     const double known = 1.0 - previous_unknown;
     const double enter = unknown_.enter, leave = unknown_.leave;
     for (int j = 0; j < modes_; ++j) {
-      const double c = !first ? known * (1.0 - enter) * predicted_[j] + previous_unknown * leave / modes_
-                                     : predicted_[j];
+      const double c =
+          !first ? known * (1.0 - enter) * predicted_[j] + previous_unknown * leave / modes_ : predicted_[j];
       log_posterior_[j] = c > 0.0 ? std::log(c) : kMinusInfinity;
       if (have_likelihoods) log_posterior_[j] += likelihood_weight_ * e->log_likelihoods[j];
     }
-    const double c_unknown =
-        !first ? known * enter + previous_unknown * (1.0 - leave) : previous_unknown;
+    const double c_unknown = !first ? known * enter + previous_unknown * (1.0 - leave) : previous_unknown;
     log_posterior_[modes_] = c_unknown > 0.0 ? std::log(c_unknown) : kMinusInfinity;
     // Some mode applied the measurement whenever there are likelihoods, so the
     // unknown hypothesis has one too.
