@@ -10,6 +10,7 @@ page's numbers are the same whichever tool is asked.
 """
 import csv
 import functools
+import glob
 import json
 import os
 import re
@@ -255,19 +256,20 @@ def physics(work, summary):
         f"{other['chosen']}.\n")
 
 
-def uncertainty(work, summary):
-    """The design with and without each mode's parameter uncertainty, on the extrapolation protocols."""
-    other = tune_blocks(os.path.join(work, "borealtc", "uncertainty_tune.txt"))
-    kinds = scores_by_kind(os.path.join(work, "borealtc", "uncertainty_scores.csv"))
-    lines = ["| held out | parameter uncertainty | mean over terrains | mean log p(truth) | "
+def extrapolation_comparison(work, summary, prefix, column, with_name, intro):
+    """The design against one variant of it (its tune and eval files named by prefix), on the extrapolation
+    protocols: the table's rows and the verdict's lists of what got better and worse."""
+    other = tune_blocks(os.path.join(work, "borealtc", f"{prefix}_tune.txt"))
+    kinds = scores_by_kind(os.path.join(work, "borealtc", f"{prefix}_scores.csv"))
+    lines = [f"| held out | {column} | mean over terrains | mean log p(truth) | "
              "time at p >= 0.9: share, right | calibration error | the two worst runs |", "|---|---|---|---|---|---|---|"]
     better, worse = [], []
     for slug in ("extrapolation-speed", "extrapolation-turn"):
-        evaluation = json.load(open(os.path.join(work, "borealtc", f"uncertainty_eval_{slug}.json")))["overall"]
+        evaluation = json.load(open(os.path.join(work, "borealtc", f"{prefix}_eval_{slug}.json")))["overall"]
         if f"{other[slug]['mean']:.3f}" != f"{evaluation['mean_over_classes']['accuracy']:.3f}":
-            sys.exit(f"uncertainty, {slug}: tune's mean over classes differs from eval's")
+            sys.exit(f"{prefix}, {slug}: tune's mean over classes differs from eval's")
         forms = {"without (the design)": (summary[slug]["tune"], summary[slug]["eval"], summary[slug]["rows"]),
-                 "with": (other[slug], evaluation, kinds[slug])}
+                 with_name: (other[slug], evaluation, kinds[slug])}
         for name, (tuned, ev, rows) in forms.items():
             cal = ev["calibration"]
             worst = sorted(rows, key=lambda r: float(r["accuracy"]))[:2]
@@ -275,7 +277,7 @@ def uncertainty(work, summary):
             lines.append(f"| {HELD_OUT[slug]} | {name} | {pct(tuned['mean'])} | {fmt(tuned['log_p'], 2)} | "
                          f"{pct(cal['confident_fraction'])}, {pct(cal['confident_accuracy'])} | "
                          f"{fmt(cal['expected_calibration_error'])} | {worst_text} |")
-        without, with_ = forms["without (the design)"], forms["with"]
+        without, with_ = forms["without (the design)"], forms[with_name]
         for label, a, b, higher in (
                 ("accuracy", without[0]["mean"], with_[0]["mean"], True),
                 ("mean log p(truth)", without[0]["log_p"], with_[0]["log_p"], True),
@@ -287,10 +289,35 @@ def uncertainty(work, summary):
                 continue
             (better if (b > a) == higher else worse).append(f"{label} ({HELD_OUT[slug].split(', ')[1]})")
     return "\n".join(lines) + (
-        "\n\nThe same development runs, folds and searched settings; the lockbox does not score this. With parameter "
-        f"uncertainty the scores are better in {len(better)} and worse in {len(worse)} of the {len(better) + len(worse)} "
+        f"\n\nThe same development runs, folds and searched settings; the lockbox does not score this. {intro} "
+        f"the scores are better in {len(better)} and worse in {len(worse)} of the {len(better) + len(worse)} "
         f"that differ: better: {'; '.join(better) if better else 'none'}; worse: {'; '.join(worse) if worse else 'none'}. "
-        f"Chosen with it on every development run: {other['chosen']}.\n")
+        f"Chosen with it on every development run: {other['chosen']}.")
+
+
+def uncertainty(work, summary):
+    """The design with and without each mode's parameter uncertainty, on the extrapolation protocols."""
+    return extrapolation_comparison(work, summary, "uncertainty", "parameter uncertainty", "with",
+                                     "With parameter uncertainty") + "\n"
+
+
+def unknown(work, summary):
+    """The design with and without an unknown hypothesis, on the extrapolation protocols, and how much of the
+    held-out time the unknown hypothesis held."""
+    text = extrapolation_comparison(work, summary, "unknown", "unknown hypothesis", "with",
+                                    "With the unknown hypothesis")
+    held = []
+    for slug in ("extrapolation-speed", "extrapolation-turn"):
+        rows = total = most_likely = 0
+        for path in sorted(glob.glob(os.path.join(work, "borealtc", "unknown_held_out", slug, "*.csv"))):
+            with open(path) as f:
+                for r in csv.DictReader(f):
+                    rows += 1
+                    total += float(r["unknown_probability"])
+                    most_likely += r["mode"] == "unknown"
+        held.append(f"{HELD_OUT[slug].split(', ')[1]}: mean probability {fmt(total / rows)}, the most likely "
+                    f"{pct(most_likely / rows)} of the steps")
+    return text + " The unknown hypothesis on the held-out runs: " + "; ".join(held) + ".\n"
 
 
 def correlation(work, summary):
@@ -439,7 +466,7 @@ def main():
     summary, headline, terrains = protocols(work)
     blocks = {"husky": husky(work), "headline": headline, "terrains": terrains, "calibration": calibration(summary),
               "confusion": confusion(summary, work), "physics": physics(work, summary),
-              "uncertainty": uncertainty(work, summary), "correlation": correlation(work, summary),
+              "uncertainty": uncertainty(work, summary), "unknown": unknown(work, summary), "correlation": correlation(work, summary),
               "splices": splices(work),
               "wheels": wheels(work), "runs": per_run(summary, work, data)}
     text = read(doc)

@@ -21,7 +21,8 @@
 #         metrics, with calibration, from the held-out outputs tune wrote.
 #     B2. The physics-shaped alternative, on the same runs and protocols;
 #         B2b. the design with parameter uncertainty, on the extrapolation
-#         protocols; B2c. the design with correlated innovations, on the
+#         protocols; B2d. the design with an unknown hypothesis, on the
+#         extrapolation protocols; B2c. the design with correlated innovations, on the
 #         extrapolation protocols and on development runs spliced end to end.
 #     B3. The bundled bank: the design fitted and tuned on all 47 runs.
 #     B4. Without an IMU: the wheel-only bank, each development log held out
@@ -107,6 +108,21 @@ done
 for slug in extrapolation-speed extrapolation-turn; do
   "$skidimm" eval --estimates "$work/borealtc/uncertainty_held_out/$slug" --bank configs/borealtc/terrains_start.yaml \
     --json >"$work/borealtc/uncertainty_eval_$slug.json"
+done
+
+# B2d. The design with an explicit unknown hypothesis ("none of these": bank key `unknown:`, its
+# covariance factor tuned inside each fold with the other knobs; enter 0.01 and leave 0.1 a step,
+# fixed beforehand), on the same development runs and the two extrapolation protocols. Development
+# only: the lockbox does not score this.
+{ echo "unknown: {inflation: 100, enter: 0.01, leave: 0.1}"; cat configs/borealtc/terrains_start.yaml; } \
+  >"$work/borealtc/unknown_start.yaml"
+"$skidimm" tune -q --bank "$work/borealtc/unknown_start.yaml" "${develop[@]}" "${fit[@]}" --tune "$knobs,unknown-inflation" \
+  --assess "extrapolation:$speed,extrapolation:$turn" \
+  --table "$work/borealtc/unknown_scores.csv" --estimates "$work/borealtc/unknown_held_out" \
+  >"$work/borealtc/unknown_tune.txt"
+for slug in extrapolation-speed extrapolation-turn; do
+  "$skidimm" eval --estimates "$work/borealtc/unknown_held_out/$slug" --bank "$work/borealtc/unknown_start.yaml" \
+    --json >"$work/borealtc/unknown_eval_$slug.json"
 done
 
 # B2c. The design with correlated innovations (`--residual-correlation`: each mode's likelihood of a
