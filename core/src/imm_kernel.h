@@ -66,26 +66,25 @@ class ImmKernel {
                     ImmEstimate* e) = 0;
 };
 
-// The mode-matched filters, fixed size: N states, M measurement components.
-template <int N, int M>
-class FixedFilters {
+// What every fixed-size filter bank of N states holds: each mode's model and
+// Q, the state's angle mask, and the filters' states and covariances; and the
+// prediction, which does not depend on how the bank measures. The banks
+// below add the update for their measurement shape.
+template <int N>
+class FixedStateBank {
  public:
   static constexpr int kStates = N;
   using State = Eigen::Matrix<double, N, 1>;
   using Covariance = Eigen::Matrix<double, N, N>;
 
-  explicit FixedFilters(const Bank& bank) : h_(bank.config.measurement.h) {
+  explicit FixedStateBank(const Bank& bank) {
     const BankConfig& c = bank.config;
     for (int j = 0; j < c.num_modes(); ++j) {
       models_.push_back(bank.models[static_cast<std::size_t>(j)].get());
       q_.push_back(c.modes[static_cast<std::size_t>(j)].q_intensity);
-      r_.push_back(c.measurement_noise(j));
     }
     for (int i = 0; i < N; ++i) {
       if (c.angle_mask[static_cast<std::size_t>(i)]) state_angles_ |= 1u << i;
-    }
-    for (int a = 0; a < M; ++a) {
-      if (c.measurement.is_angle[static_cast<std::size_t>(a)]) z_angles_ |= 1u << a;
     }
     x_.assign(models_.size(), State::Zero());
     p_.assign(models_.size(), Covariance::Identity());
@@ -98,6 +97,28 @@ class FixedFilters {
   bool predict(int j, const Eigen::Ref<const Eigen::VectorXd>& u, double dt) {
     return predict_fixed<N>(*models_[static_cast<std::size_t>(j)], q_[static_cast<std::size_t>(j)], state_angles_, u,
                             dt, &x_[static_cast<std::size_t>(j)], &p_[static_cast<std::size_t>(j)]);
+  }
+
+ protected:
+  int modes() const { return static_cast<int>(models_.size()); }
+
+  std::vector<const sdk::MotionModel*> models_;
+  std::vector<Covariance, Eigen::aligned_allocator<Covariance>> q_;
+  AngleMask state_angles_ = 0;
+  std::vector<State, Eigen::aligned_allocator<State>> x_;
+  std::vector<Covariance, Eigen::aligned_allocator<Covariance>> p_;
+};
+
+// The mode-matched filters, fixed size: N states, M measurement components.
+template <int N, int M>
+class FixedFilters : public FixedStateBank<N> {
+ public:
+  explicit FixedFilters(const Bank& bank) : FixedStateBank<N>(bank), h_(bank.config.measurement.h) {
+    const BankConfig& c = bank.config;
+    for (int j = 0; j < c.num_modes(); ++j) r_.push_back(c.measurement_noise(j));
+    for (int a = 0; a < M; ++a) {
+      if (c.measurement.is_angle[static_cast<std::size_t>(a)]) z_angles_ |= 1u << a;
+    }
   }
 
   // Updates every mode whose log-likelihood is not already -inf with the
@@ -148,7 +169,7 @@ class FixedFilters {
         hk.row(a) = h_.row(row);
         if (z_angles_ >> row & 1u) angles |= 1u << a;
       }
-      const int modes = static_cast<int>(models_.size());
+      const int modes = this->modes();
       for (int j = 0; j < modes; ++j) {
         if (e->log_likelihoods[j] == kMinusInfinity) continue;  // failed in predict
         const Eigen::Matrix<double, M, M>& r = r_[static_cast<std::size_t>(j)];
@@ -161,9 +182,9 @@ class FixedFilters {
           for (int a = 0; a < K; ++a) zj[a] -= outputs->expected(j)[rows[static_cast<std::size_t>(a)]];
         }
         Eigen::Matrix<double, K, 1> whitened;
-        UpdateResult result =
-            update_fixed<N, K>(zj, hk, rk, angles, state_angles_, &x_[static_cast<std::size_t>(j)],
-                               &p_[static_cast<std::size_t>(j)], gate, correlation != nullptr ? &whitened : nullptr);
+        UpdateResult result = update_fixed<N, K>(
+            zj, hk, rk, angles, this->state_angles_, &this->x_[static_cast<std::size_t>(j)],
+            &this->p_[static_cast<std::size_t>(j)], gate, correlation != nullptr ? &whitened : nullptr);
         if (correlation != nullptr && result.ok && !result.gated) {
           result.log_likelihood = correlation->condition(j, rows, K, whitened, result.log_likelihood, result.nis);
         }
@@ -172,14 +193,9 @@ class FixedFilters {
     }
   }
 
-  std::vector<const sdk::MotionModel*> models_;
-  std::vector<Covariance, Eigen::aligned_allocator<Covariance>> q_;
   Eigen::Matrix<double, M, N> h_;
   std::vector<Eigen::Matrix<double, M, M>, Eigen::aligned_allocator<Eigen::Matrix<double, M, M>>> r_;  // per mode
-  AngleMask state_angles_ = 0;
   AngleMask z_angles_ = 0;
-  std::vector<State, Eigen::aligned_allocator<State>> x_;
-  std::vector<Covariance, Eigen::aligned_allocator<Covariance>> p_;
 };
 
 // The mode-matched filters for N states known at compile time and any number
@@ -187,39 +203,18 @@ class FixedFilters {
 // measured directly, stc_traction's 3 states with 3 outputs measured).
 // update_selected() (fixed_size_ekf.h) on the rows MeasurementModel::select() keeps.
 template <int N>
-class FixedStateFilters {
+class FixedStateFilters : public FixedStateBank<N> {
  public:
-  static constexpr int kStates = N;
-  using State = Eigen::Matrix<double, N, 1>;
-  using Covariance = Eigen::Matrix<double, N, N>;
-
   explicit FixedStateFilters(const Bank& bank)
-      : measurement_model_(bank.config.measurement.h, bank.config.measurement.r, bank.config.measurement.is_angle),
+      : FixedStateBank<N>(bank),
+        measurement_model_(bank.config.measurement.h, bank.config.measurement.r, bank.config.measurement.is_angle),
         workspace_(static_cast<int>(bank.config.measurement.h.rows())) {
     const BankConfig& c = bank.config;
-    for (int j = 0; j < c.num_modes(); ++j) {
-      models_.push_back(bank.models[static_cast<std::size_t>(j)].get());
-      q_.push_back(c.modes[static_cast<std::size_t>(j)].q_intensity);
-    }
-    for (int i = 0; i < N; ++i) {
-      if (c.angle_mask[static_cast<std::size_t>(i)]) state_angles_ |= 1u << i;
-    }
     selection_ = measurement_model_.make_selection();
     measured_ = selection_.z;
     if (c.any_mode_measurement_noise()) {
       for (int j = 0; j < c.num_modes(); ++j) mode_r_.push_back(c.measurement_noise(j));
     }
-    x_.assign(models_.size(), State::Zero());
-    p_.assign(models_.size(), Covariance::Identity());
-  }
-
-  State& state(int j) { return x_[static_cast<std::size_t>(j)]; }
-  Covariance& covariance(int j) { return p_[static_cast<std::size_t>(j)]; }
-  const sdk::MotionModel& model(int j) const { return *models_[static_cast<std::size_t>(j)]; }
-
-  bool predict(int j, const Eigen::Ref<const Eigen::VectorXd>& u, double dt) {
-    return predict_fixed<N>(*models_[static_cast<std::size_t>(j)], q_[static_cast<std::size_t>(j)], state_angles_, u,
-                            dt, &x_[static_cast<std::size_t>(j)], &p_[static_cast<std::size_t>(j)]);
   }
 
   // As FixedFilters::update.
@@ -228,7 +223,7 @@ class FixedStateFilters {
     measurement_model_.select(z, &selection_);
     if (selection_.size == 0) return 0;
     if (outputs != nullptr) measured_ = selection_.z;
-    const int modes = static_cast<int>(models_.size());
+    const int modes = this->modes();
     for (int j = 0; j < modes; ++j) {
       if (e->log_likelihoods[j] == kMinusInfinity) continue;  // failed in predict
       if (outputs != nullptr) {
@@ -238,8 +233,9 @@ class FixedStateFilters {
       }
       // The selected block of this mode's R (select() filled the bank's).
       if (!mode_r_.empty()) MeasurementModel::select_noise(mode_r_[static_cast<std::size_t>(j)], &selection_);
-      UpdateResult result = update_selected<N>(selection_, state_angles_, &x_[static_cast<std::size_t>(j)],
-                                               &p_[static_cast<std::size_t>(j)], &workspace_, gates[selection_.size]);
+      UpdateResult result =
+          update_selected<N>(selection_, this->state_angles_, &this->x_[static_cast<std::size_t>(j)],
+                             &this->p_[static_cast<std::size_t>(j)], &workspace_, gates[selection_.size]);
       if (correlation != nullptr && result.ok && !result.gated) {
         result.log_likelihood = correlation->condition(j, selection_.rows, selection_.size, workspace_.whitened,
                                                        result.log_likelihood, result.nis);
@@ -250,16 +246,11 @@ class FixedStateFilters {
   }
 
  private:
-  std::vector<const sdk::MotionModel*> models_;
-  std::vector<Covariance, Eigen::aligned_allocator<Covariance>> q_;
   MeasurementModel measurement_model_;
   SelectedMeasurement selection_;
   Eigen::VectorXd measured_;             // selection_.z as measured, when modes subtract their outputs
   std::vector<Eigen::MatrixXd> mode_r_;  // as DynamicFilters'
   SelectedUpdateWorkspace<N> workspace_;
-  AngleMask state_angles_ = 0;
-  std::vector<State, Eigen::aligned_allocator<State>> x_;
-  std::vector<Covariance, Eigen::aligned_allocator<Covariance>> p_;
 };
 
 // The mode-matched filters for any size: ExtendedKalmanFilter.
