@@ -230,26 +230,24 @@ TEST(Sessions, APatternMatchesAPathOrItsEndAndEveryLogNeedsOne) {
       Error);
 }
 
-// Logs kept aside are neither fitted nor tuned on: tuning with them in the
-// lockbox chooses what tuning without them does, and scores them once with
-// the bank it ends with. On real BorealTC runs, the bundled bank's models
-// kept (objective none), the likelihood weight tuned.
-TEST(Tune, LockboxLogsAreScoredOnceAndChangeNothingElse) {
-  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
-  if (!std::filesystem::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
-  auto log = [&](const std::string& terrain, const std::string& run) {
-    TuningLog l;
-    l.spec = parse_log_spec(terrain + "=" + boreal + "/" + terrain + "/pro_" + run + ".csv+" + boreal + "/" + terrain +
-                            "/imu_" + run + ".csv");
-    return l;
-  };
-  const std::filesystem::path bank_file = std::string(SKIDIMM_SOURCE_DIR) + "/configs/borealtc/terrains.yaml";
-  const auto make_bank = [&] { return Bank::load(bank_file, {SKIDIMM_PLUGIN_DIR}); };
-  std::vector<TuningLog> development{log("ICE", "04"), log("ICE", "11"), log("FLOORING", "01"), log("FLOORING", "08")};
-  std::vector<TuningLog> with_lockbox = development;
-  with_lockbox.push_back(log("ICE", "07"));
-  with_lockbox.back().lockbox = true;
-  const std::map<std::string, BankFitter> fitters{{"none", [](Bank*, const std::vector<ModeLogs>&) {}}};
+const std::string kBorealTc = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+
+// A BorealTC run of the shared data, its IMU file merged.
+TuningLog borealtc_log(const std::string& terrain, const std::string& run, const std::string& session = "") {
+  TuningLog l;
+  l.spec = parse_log_spec(terrain + "=" + kBorealTc + "/" + terrain + "/pro_" + run + ".csv+" + kBorealTc + "/" +
+                          terrain + "/imu_" + run + ".csv");
+  l.session = session;
+  return l;
+}
+
+Bank bundled_borealtc_bank() {
+  return Bank::load(std::string(SKIDIMM_SOURCE_DIR) + "/configs/borealtc/terrains.yaml", {SKIDIMM_PLUGIN_DIR});
+}
+
+// The bundled BorealTC bank's models kept (objective none), its likelihood
+// weight tuned in one sweep, leave-one-log-out inside.
+TuneOptions weight_only_options() {
   TuneOptions options;
   options.objectives = {"none"};
   options.separable = {"none"};
@@ -257,7 +255,26 @@ TEST(Tune, LockboxLogsAreScoredOnceAndChangeNothingElse) {
   options.sweeps = 1;
   options.inner_folds = 0;
   options.threads = 2;
-  options.sampling = make_bank().config.sampling;
+  options.sampling = bundled_borealtc_bank().config.sampling;
+  return options;
+}
+
+const std::map<std::string, BankFitter> kKeepModels{{"none", [](Bank*, const std::vector<ModeLogs>&) {}}};
+
+// Logs kept aside are neither fitted nor tuned on: tuning with them in the
+// lockbox chooses what tuning without them does, and scores them once with
+// the bank it ends with. On real BorealTC runs, the bundled bank's models
+// kept (objective none), the likelihood weight tuned.
+TEST(Tune, LockboxLogsAreScoredOnceAndChangeNothingElse) {
+  if (!std::filesystem::exists(kBorealTc)) GTEST_SKIP() << "no shared data at " << kBorealTc;
+  const auto log = [](const std::string& terrain, const std::string& run) { return borealtc_log(terrain, run); };
+  const auto make_bank = bundled_borealtc_bank;
+  const auto& fitters = kKeepModels;
+  std::vector<TuningLog> development{log("ICE", "04"), log("ICE", "11"), log("FLOORING", "01"), log("FLOORING", "08")};
+  std::vector<TuningLog> with_lockbox = development;
+  with_lockbox.push_back(log("ICE", "07"));
+  with_lockbox.back().lockbox = true;
+  TuneOptions options = weight_only_options();
   const TuneResult without = tune(make_bank, development, fitters, options);
   const TuneResult with = tune(make_bank, with_lockbox, fitters, options);
   EXPECT_EQ(with.settings.likelihood_weight, without.settings.likelihood_weight);
@@ -299,33 +316,15 @@ TEST(Tune, LockboxLogsAreScoredOnceAndChangeNothingElse) {
 // holds out what that log's fold of `logs` does, and gets the same settings
 // and scores; the work statement counts the searches made.
 TEST(Tune, ProtocolsThatHoldOutTheSameLogsShareTheirSearch) {
-  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
-  if (!std::filesystem::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
-  auto log = [&](const std::string& terrain, const std::string& run, const std::string& session) {
-    TuningLog l;
-    l.spec = parse_log_spec(terrain + "=" + boreal + "/" + terrain + "/pro_" + run + ".csv+" + boreal + "/" + terrain +
-                            "/imu_" + run + ".csv");
-    l.session = session;
-    return l;
-  };
-  const std::filesystem::path bank_file = std::string(SKIDIMM_SOURCE_DIR) + "/configs/borealtc/terrains.yaml";
-  const auto make_bank = [&] { return Bank::load(bank_file, {SKIDIMM_PLUGIN_DIR}); };
+  if (!std::filesystem::exists(kBorealTc)) GTEST_SKIP() << "no shared data at " << kBorealTc;
   // Sessions: ICE 04 alone, ICE 11 alone, the two FLOORING runs together.
-  const std::vector<TuningLog> logs{log("ICE", "04", "ice-a"), log("ICE", "11", "ice-b"),
-                                    log("FLOORING", "01", "floor"), log("FLOORING", "08", "floor")};
-  const std::map<std::string, BankFitter> fitters{{"none", [](Bank*, const std::vector<ModeLogs>&) {}}};
-  TuneOptions options;
-  options.objectives = {"none"};
-  options.separable = {"none"};
-  options.knobs = {Knob::kLikelihoodWeight};
-  options.sweeps = 1;
-  options.inner_folds = 0;
-  options.threads = 2;
-  options.sampling = make_bank().config.sampling;
+  const std::vector<TuningLog> logs{borealtc_log("ICE", "04", "ice-a"), borealtc_log("ICE", "11", "ice-b"),
+                                    borealtc_log("FLOORING", "01", "floor"), borealtc_log("FLOORING", "08", "floor")};
+  TuneOptions options = weight_only_options();
   options.protocols = {protocol_from_string("logs"), protocol_from_string("sessions")};
   std::vector<std::string> lines;
   options.progress = [&](const std::string& line) { lines.push_back(line); };
-  const TuneResult result = tune(make_bank, logs, fitters, options);
+  const TuneResult result = tune(bundled_borealtc_bank, logs, kKeepModels, options);
   // The selection, four folds of `logs`, and the FLOORING session: six
   // searches, not eight.
   ASSERT_FALSE(lines.empty());
