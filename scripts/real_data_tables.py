@@ -256,9 +256,9 @@ def physics(work, summary):
         f"{other['chosen']}.\n")
 
 
-def extrapolation_comparison(work, summary, prefix, column, with_name, intro):
+def extrapolation_rows(work, summary, prefix, column, with_name):
     """The design against one variant of it (its tune and eval files named by prefix), on the extrapolation
-    protocols: the table's rows and the verdict's lists of what got better and worse."""
+    protocols: the table's rows, the lists of what got better and worse, and the variant's tune blocks."""
     other = tune_blocks(os.path.join(work, "borealtc", f"{prefix}_tune.txt"))
     kinds = scores_by_kind(os.path.join(work, "borealtc", f"{prefix}_scores.csv"))
     lines = [f"| held out | {column} | mean over terrains | mean log p(truth) | "
@@ -288,6 +288,12 @@ def extrapolation_comparison(work, summary, prefix, column, with_name, intro):
             if round(a, 3) == round(b, 3):
                 continue
             (better if (b > a) == higher else worse).append(f"{label} ({HELD_OUT[slug].split(', ')[1]})")
+    return lines, better, worse, other
+
+
+def extrapolation_comparison(work, summary, prefix, column, with_name, intro):
+    """The design against one variant of it on the extrapolation protocols, and the verdict."""
+    lines, better, worse, other = extrapolation_rows(work, summary, prefix, column, with_name)
     return "\n".join(lines) + (
         f"\n\nThe same development runs, folds and searched settings; the lockbox does not score this. {intro} "
         f"the scores are better in {len(better)} and worse in {len(worse)} of the {len(better) + len(worse)} "
@@ -323,23 +329,7 @@ def unknown(work, summary):
 def correlation(work, summary):
     """The design with and without correlated innovations: the extrapolation protocols, and development runs
     spliced end to end scored by each development bank."""
-    other = tune_blocks(os.path.join(work, "borealtc", "correlation_tune.txt"))
-    kinds = scores_by_kind(os.path.join(work, "borealtc", "correlation_scores.csv"))
-    lines = ["| held out | correlated innovations | mean over terrains | mean log p(truth) | "
-             "time at p >= 0.9: share, right | calibration error | the two worst runs |", "|---|---|---|---|---|---|---|"]
-    for slug in ("extrapolation-speed", "extrapolation-turn"):
-        evaluation = json.load(open(os.path.join(work, "borealtc", f"correlation_eval_{slug}.json")))["overall"]
-        if f"{other[slug]['mean']:.3f}" != f"{evaluation['mean_over_classes']['accuracy']:.3f}":
-            sys.exit(f"correlation, {slug}: tune's mean over classes differs from eval's")
-        forms = {"without (the design)": (summary[slug]["tune"], summary[slug]["eval"], summary[slug]["rows"]),
-                 "with": (other[slug], evaluation, kinds[slug])}
-        for name, (tuned, ev, rows) in forms.items():
-            cal = ev["calibration"]
-            worst = sorted(rows, key=lambda r: float(r["accuracy"]))[:2]
-            worst_text = ", ".join(f"{r['truth']} {run_number(r['log'])} {pct(float(r['accuracy']))}" for r in worst)
-            lines.append(f"| {HELD_OUT[slug]} | {name} | {pct(tuned['mean'])} | {fmt(tuned['log_p'], 2)} | "
-                         f"{pct(cal['confident_fraction'])}, {pct(cal['confident_accuracy'])} | "
-                         f"{fmt(cal['expected_calibration_error'])} | {worst_text} |")
+    lines, _, _, other = extrapolation_rows(work, summary, "correlation", "correlated innovations", "with")
     rhos = [float(x) for x in re.findall(r"^    residual_correlation: (\S+)$",
                                          read(os.path.join(work, "borealtc", "correlation_development.yaml")), re.M)]
     if not rhos:
