@@ -14,7 +14,7 @@ namespace skidimm {
 
 namespace {
 
-// The dynamic workspace member, or the fixed-size local.
+// The smoother's dynamic workspace, or the fixed-size one on the stack.
 template <bool kDynamic, typename Member, typename Local>
 Local& select(Member& member, Local& local) {
   if constexpr (kDynamic) {
@@ -47,16 +47,14 @@ ImmSmoother::ImmSmoother(const Bank& bank)
   c_.resize(modes);
   joint_.resize(modes, modes);
   weights_.resize(modes);
-  predicted_.resize(n);
-  difference_.resize(n);
-  f_.resize(n, n);
-  q_.resize(n, n);
-  f_px_.resize(n, n);
-  predicted_covariance_.resize(n, n);
-  gain_.resize(n, n);
-  gain_transposed_.resize(n, n);
+  workspace_.predicted.resize(n);
+  workspace_.difference.resize(n);
+  for (Eigen::MatrixXd* m : {&workspace_.f, &workspace_.q, &workspace_.f_px, &workspace_.predicted_covariance,
+                             &workspace_.gain, &workspace_.gain_transposed}) {
+    m->resize(n, n);
+  }
   pair_covariances_.assign(static_cast<std::size_t>(modes), Eigen::MatrixXd(n, n));
-  ldlt_ = Eigen::LDLT<Eigen::MatrixXd>(n);
+  workspace_.ldlt = Eigen::LDLT<Eigen::MatrixXd>(n);
 }
 
 void ImmSmoother::combine(SmoothedStep* s) const {
@@ -84,54 +82,40 @@ template <int N>
 bool ImmSmoother::smooth_pair(int i, const Eigen::VectorXd& x, const Eigen::MatrixXd& px, const Eigen::VectorXd& u,
                               double dt, const SmoothedStep& next, Eigen::Ref<Eigen::VectorXd> mean,
                               Eigen::MatrixXd* covariance) {
-  using Vector = Eigen::Matrix<double, N, 1>;
-  using Matrix = Eigen::Matrix<double, N, N>;
-  constexpr bool kDynamic = N == Eigen::Dynamic;
-  // Fixed sizes live on the stack; the dynamic ones are the smoother's, sized once.
-  Vector local_predicted, local_difference;
-  Matrix local_f, local_q, local_f_px, local_predicted_covariance, local_gain, local_gain_transposed;
-  Eigen::LDLT<Matrix> local_ldlt;
-  Vector& predicted = select<kDynamic>(predicted_, local_predicted);
-  Vector& difference = select<kDynamic>(difference_, local_difference);
-  Matrix& f = select<kDynamic>(f_, local_f);
-  Matrix& q = select<kDynamic>(q_, local_q);
-  Matrix& f_px = select<kDynamic>(f_px_, local_f_px);
-  Matrix& predicted_covariance = select<kDynamic>(predicted_covariance_, local_predicted_covariance);
-  Matrix& gain = select<kDynamic>(gain_, local_gain);
-  Matrix& gain_transposed = select<kDynamic>(gain_transposed_, local_gain_transposed);
-  Eigen::LDLT<Matrix>& ldlt = select<kDynamic>(ldlt_, local_ldlt);
+  PairWorkspace<N> local;
+  PairWorkspace<N>& w = select<N == Eigen::Dynamic>(workspace_, local);
   const int n = static_cast<int>(x.size());
   const sdk::MotionModel& model = *bank_.models[static_cast<std::size_t>(i)];
   // The prediction of mode j's filtered estimate through mode i's model, as the filter predicts.
-  if (!(model.jacobian(x, u, dt, f) &&
-        model.process_noise(bank_.config.modes[static_cast<std::size_t>(i)].q_intensity, x, u, dt, q) &&
-        model.predict(x, u, dt, predicted) && predicted.allFinite() && f.allFinite())) {
+  if (!(model.jacobian(x, u, dt, w.f) &&
+        model.process_noise(bank_.config.modes[static_cast<std::size_t>(i)].q_intensity, x, u, dt, w.q) &&
+        model.predict(x, u, dt, w.predicted) && w.predicted.allFinite() && w.f.allFinite())) {
     return false;
   }
   for (int d = 0; d < n; ++d) {
-    if (angle_mask_[static_cast<std::size_t>(d)]) predicted[d] = sdk::wrap_angle(predicted[d]);
+    if (angle_mask_[static_cast<std::size_t>(d)]) w.predicted[d] = sdk::wrap_angle(w.predicted[d]);
   }
   // F P, once: it is the left factor of F P F' and the right-hand side of the gain's solve.
-  f_px.noalias() = f * px;
-  predicted_covariance.noalias() = f_px * f.transpose();
-  predicted_covariance += q;
-  symmetrize(predicted_covariance);
+  w.f_px.noalias() = w.f * px;
+  w.predicted_covariance.noalias() = w.f_px * w.f.transpose();
+  w.predicted_covariance += w.q;
+  symmetrize(w.predicted_covariance);
   // J = P F' (P^ji)^-1, solved: J' = (P^ji)^-1 F P.
-  ldlt.compute(predicted_covariance);
-  if (!(ldlt.info() == Eigen::Success && ldlt.isPositive() && (ldlt.vectorD().array() > 0.0).all())) return false;
-  gain_transposed = ldlt.solve(f_px);
-  gain = gain_transposed.transpose();
-  if (!gain.allFinite()) return false;
-  difference = next.mode_states[static_cast<std::size_t>(i)] - predicted;
+  w.ldlt.compute(w.predicted_covariance);
+  if (!(w.ldlt.info() == Eigen::Success && w.ldlt.isPositive() && (w.ldlt.vectorD().array() > 0.0).all())) return false;
+  w.gain_transposed = w.ldlt.solve(w.f_px);
+  w.gain = w.gain_transposed.transpose();
+  if (!w.gain.allFinite()) return false;
+  w.difference = next.mode_states[static_cast<std::size_t>(i)] - w.predicted;
   for (int d = 0; d < n; ++d) {
-    if (angle_mask_[static_cast<std::size_t>(d)]) difference[d] = sdk::wrap_angle(difference[d]);
+    if (angle_mask_[static_cast<std::size_t>(d)]) w.difference[d] = sdk::wrap_angle(w.difference[d]);
   }
-  mean = x + gain * difference;
+  mean = x + w.gain * w.difference;
   for (int d = 0; d < n; ++d) {
     if (angle_mask_[static_cast<std::size_t>(d)]) mean[d] = sdk::wrap_angle(mean[d]);
   }
   Eigen::MatrixXd& pc = *covariance;
-  pc = px + gain * (next.mode_covariances[static_cast<std::size_t>(i)] - predicted_covariance) * gain.transpose();
+  pc = px + w.gain * (next.mode_covariances[static_cast<std::size_t>(i)] - w.predicted_covariance) * w.gain.transpose();
   symmetrize(pc);
   return internal::filter_is_healthy(mean, pc);
 }

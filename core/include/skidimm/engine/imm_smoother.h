@@ -85,6 +85,14 @@ class ImmSmoother {
   void smooth_range(const Steps& forward, std::vector<SmoothedStep>* out);
   // From the smoothed step k+1 and the filtered k (and k+1's time) to the smoothed k.
   void backward(const ForwardStep& k, double t_next, const SmoothedStep& next, SmoothedStep* out);
+  // What one pair's RTS step works in: N states known at compile time (on
+  // the stack), or Eigen::Dynamic (the smoother's own, sized once).
+  template <int N>
+  struct PairWorkspace {
+    Eigen::Matrix<double, N, 1> predicted, difference;
+    Eigen::Matrix<double, N, N> f, q, f_px, predicted_covariance, gain, gain_transposed;
+    Eigen::LDLT<Eigen::Matrix<double, N, N>> ldlt;
+  };
   // The RTS step of the pair (mode j at k, mode i at k+1) into mean and *covariance.
   template <int N>
   bool smooth_pair(int i, const Eigen::VectorXd& x, const Eigen::MatrixXd& px, const Eigen::VectorXd& u, double dt,
@@ -98,13 +106,11 @@ class ImmSmoother {
   Eigen::MatrixXd pair_means_;  // n x N: x_{k|N}^{ji} for one j, over i
   Eigen::MatrixXd deviations_;
   Eigen::MatrixXd means_;
-  Eigen::VectorXd c_;       // N: predicted mode probabilities of k+1
-  Eigen::MatrixXd joint_;   // N x N
-  Eigen::VectorXd weights_;  // N: of the pairs (j, i) over i
-  Eigen::VectorXd predicted_, difference_;
-  Eigen::MatrixXd f_, q_, f_px_, predicted_covariance_, gain_, gain_transposed_;
+  Eigen::VectorXd c_;                              // N: predicted mode probabilities of k+1
+  Eigen::MatrixXd joint_;                          // N x N
+  Eigen::VectorXd weights_;                        // N: of the pairs (j, i) over i
   std::vector<Eigen::MatrixXd> pair_covariances_;  // N, n x n each
-  Eigen::LDLT<Eigen::MatrixXd> ldlt_;
+  PairWorkspace<Eigen::Dynamic> workspace_;        // smooth_pair() for other than 2 and 3 states
 };
 
 // Fixed-lag smoothing for online use that can wait: each step's smoothed
