@@ -563,8 +563,13 @@ class Kernel final : public ImmKernel {
   // its covariance S times s = inflation,
   //   log N(nu; 0, s S) = log N(nu; 0, S) + d2 (1 - 1/s) / 2 - m log(s) / 2,
   // with d2 the NIS (the conditional one with correlated innovations, whose
-  // density the mode's log-likelihood is) and m the rows measured. NaN when
-  // no mode applied it.
+  // density the mode's log-likelihood is) and m the rows measured. Under a
+  // Student-t likelihood, the same family at scale s S: the Student-t value
+  // from that Gaussian one at d2 / s. Scored by a broad Gaussian against
+  // heavy-tailed modes, the unknown would lose every far miss (the modes'
+  // density falls with log d2, its own with d2), which is when it should win;
+  // in the same family it wins the far tail by dof log(s) / 2. NaN when no
+  // mode applied it.
   double score_unknown(int measured, const ImmEstimate& e) const {
     const double s = unknown_.inflation;
     double best = kNaN;
@@ -574,7 +579,8 @@ class Kernel final : public ImmKernel {
         continue;
       }
       const double d2 = correlation_.active() ? correlation_.conditional_d2(j) : e.nis[j];
-      const double broad = log_likelihood + 0.5 * d2 * (1.0 - 1.0 / s) - 0.5 * measured * std::log(s);
+      double broad = log_likelihood + 0.5 * d2 * (1.0 - 1.0 / s) - 0.5 * measured * std::log(s);
+      if (!student_t_.gaussian()) broad = student_t_(broad, d2 / s, measured);
       if (!(broad <= best)) best = broad;
     }
     return best;

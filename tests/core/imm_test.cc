@@ -376,6 +376,57 @@ TEST(Imm, UnknownHypothesisTakesTheMassWhenEveryModeMissesByFar) {
   }
 }
 
+// Under a Student-t likelihood the unknown hypothesis is scored in the same
+// family: the best mode's innovation under the Student-t density of scale
+// inflation x S, here written out from its definition for one row,
+//   log t(nu; dof, s S) = lgamma((dof + 1)/2) - lgamma(dof/2) - log(dof pi s S)/2
+//                         - (dof + 1)/2 log(1 + nu^2 / (dof s S)),
+// with each mode's S recovered from its own Student-t log-likelihood and NIS.
+TEST(Imm, UnknownHypothesisUnderAStudentTLikelihoodIsAStudentTToo) {
+  const double dof = 4.0, inflation = 100.0;
+  for (const ImmKernelChoice choice : {ImmKernelChoice::kFastest, ImmKernelChoice::kDynamic}) {
+    Bank bank = two_mode_scalar_bank().build();
+    bank.config.likelihood_dof = dof;
+    bank.config.unknown.inflation = inflation;
+    bank.config.unknown.enter = 0.05;
+    bank.config.unknown.leave = 0.2;
+    Imm imm(std::move(bank), choice);
+    const ImmEstimate& e0 = imm.step(0.0, vec({1.0}), vec({0.6}));
+    const Eigen::Vector2d chain =
+        Eigen::Matrix2d((Eigen::Matrix2d() << 0.9, 0.1, 0.2, 0.8).finished()).transpose() * e0.mode_probabilities;
+    const ImmEstimate& e1 = imm.step(0.1, vec({0.0}), vec({3.0}));
+    const double constant = std::lgamma(0.5 * (dof + 1)) - std::lgamma(0.5 * dof) - 0.5 * std::log(dof * M_PI);
+    double unknown_log_likelihood = -std::numeric_limits<double>::infinity();
+    for (int j = 0; j < 2; ++j) {
+      const double d2 = e1.nis[j];
+      const double log_s = 2.0 * (constant - 0.5 * (dof + 1) * std::log1p(d2 / dof) - e1.log_likelihoods[j]);
+      const double broad = constant - 0.5 * (std::log(inflation) + log_s) -
+                           0.5 * (dof + 1) * std::log1p(d2 / (dof * inflation));
+      unknown_log_likelihood = std::max(unknown_log_likelihood, broad);
+    }
+    Eigen::Vector3d w;
+    for (int j = 0; j < 2; ++j) w[j] = 0.95 * chain[j] * std::exp(e1.log_likelihoods[j]);
+    w[2] = 0.05 * std::exp(unknown_log_likelihood);
+    w /= w.sum();
+    EXPECT_NEAR(e1.mode_probabilities[0], w[0], 1e-13);
+    EXPECT_NEAR(e1.mode_probabilities[1], w[1], 1e-13);
+    EXPECT_NEAR(e1.unknown_probability, w[2], 1e-13);
+  }
+  // A miss of a hundred standard deviations: the modes' density falls only
+  // with log d2, and so does the unknown's, which wins the far tail by
+  // dof log(inflation) / 2 = 9.2 nats, against the chain's odds of 1 to 19.
+  // A broad Gaussian would have lost it by about a thousand nats.
+  Bank bank = two_mode_scalar_bank().build();
+  bank.config.likelihood_dof = dof;
+  bank.config.unknown.inflation = inflation;
+  bank.config.unknown.enter = 0.05;
+  bank.config.unknown.leave = 0.2;
+  Imm imm(std::move(bank));
+  imm.step(0.0, vec({1.0}), vec({0.6}));
+  const ImmEstimate& far = imm.step(0.1, vec({0.0}), vec({300.0}));
+  EXPECT_GT(far.unknown_probability, 0.99);
+}
+
 // Without a miss the unknown hypothesis only costs its share of the chain:
 // along a run the modes explain, it stays near enter / (enter + leave) times
 // the evidence ratio, far from being the most likely.

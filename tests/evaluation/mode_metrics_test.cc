@@ -88,6 +88,35 @@ TEST(ClassScorer, GivesTheEstimatesProbabilityAndTheBrierScoreOfAStep) {
   EXPECT_EQ(scorer.decided(step, "unknown").truth_probability, 0.7);
 }
 
+// "None of these" scores the truth as a uniform guess over the classes would:
+// its probability is spread evenly over them (hand-computed below).
+TEST(ClassScorer, UnknownHypothesisScoresAsAUniformGuess) {
+  BankConfig config;
+  for (const char* name : {"a1", "a2", "b"}) {
+    ModeConfig mode;
+    mode.name = name;
+    config.modes.push_back(mode);
+  }
+  config.classes.push_back(ClassConfig{"A", {0, 1}});
+  config.classes.push_back(ClassConfig{"B", {2}});
+  const ClassScorer scorer(config);
+  Eigen::VectorXd mu(3);
+  mu << 0.4, 0.1, 0.2;  // A 0.5, B 0.2, unknown 0.3: each class gets 0.15 more
+  const LabelledStep known = scorer.score(1.0, "A", mu, 0.3);
+  EXPECT_EQ(known.estimate, "A");
+  EXPECT_DOUBLE_EQ(known.estimate_probability, 0.5) << "the estimate's own probability is not widened";
+  EXPECT_NEAR(known.truth_probability, 0.65, 1e-15);
+  EXPECT_NEAR(known.brier, 0.35 * 0.35 + 0.35 * 0.35, 1e-15);  // (0.65 - 1)^2 + 0.35^2
+
+  mu << 0.1, 0.1, 0.1;  // A 0.2, B 0.1, unknown 0.7 outweighs both
+  const LabelledStep unsure = scorer.score(1.0, "B", mu, 0.7);
+  EXPECT_EQ(unsure.estimate, "unknown");
+  EXPECT_EQ(unsure.estimate_probability, 0.0);
+  EXPECT_NEAR(unsure.truth_probability, 0.45, 1e-15);
+  EXPECT_NEAR(unsure.brier, 0.55 * 0.55 + 0.55 * 0.55, 1e-15);  // A 0.55, B 0.45 against B
+  EXPECT_EQ(scorer.score(1.0, "gravel", mu, 0.7).truth_probability, 0.0) << "a truth outside the bank stays at 0";
+}
+
 TEST(ModeMetrics, SwitchLatencyFirstAndSettled) {
   // Switch a -> b at t = 2; the estimate reaches b at 3, flickers back at 4,
   // settles at 5. Switch b -> c at 7 is never followed.

@@ -41,10 +41,18 @@ LabelledStep ClassScorer::score(double t, const std::string& label, const Eigen:
   if (!label.empty()) {
     const int c = class_of_label(label);
     step.truth = c >= 0 ? names_[static_cast<std::size_t>(c)] : printable(label);  // a CSV cell: make it safe
-    step.truth_probability = c >= 0 ? class_probabilities_[c] : 0.0;
+    // The truth is always one of the classes, so "none of these" says nothing
+    // about which: its probability is spread evenly over the classes, as a
+    // uniform guess would. Counting it as wrong instead would make an honest
+    // "I don't know" cost more than a guess, and tuning by these scores
+    // would always silence it.
+    const double spread = unknown_probability / static_cast<double>(class_probabilities_.size());
     // A truth the bank cannot answer is a class of probability 0.
-    step.brier = class_probabilities_.squaredNorm() + unknown_probability * unknown_probability + 1.0 -
-                 (c >= 0 ? 2.0 * class_probabilities_[c] : 0.0);
+    step.truth_probability = c >= 0 ? class_probabilities_[c] + spread : 0.0;
+    const double classes = static_cast<double>(class_probabilities_.size());
+    step.brier = class_probabilities_.squaredNorm() + spread * (2.0 * class_probabilities_.sum() + classes * spread) +
+                 1.0 -
+                 (c >= 0 ? 2.0 * (class_probabilities_[c] + spread) : 0.0);
   }
   return step;
 }

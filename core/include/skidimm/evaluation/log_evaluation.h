@@ -37,8 +37,9 @@ class ClassScorer {
   // With an unknown hypothesis (BankConfig::unknown) the mode probabilities
   // sum to 1 - unknown_probability; when "none of these" outweighs every
   // class, the estimate is "unknown" at probability 0, as the decision's
-  // "unknown" is: never right, never confident. The Brier score counts it as
-  // one more outcome.
+  // "unknown" is: never right, never confident. For the probability of the
+  // truth (log p, Brier) its probability is spread evenly over the classes:
+  // "none of these" scores as a uniform guess, no better, no worse.
   LabelledStep score(double t, const std::string& label, const Eigen::VectorXd& mode_probabilities,
                      double unknown_probability = 0.0) const;
   // The same step with a decision for its estimate (a class name or
