@@ -138,17 +138,20 @@ bool EstimatesWriter::is_npy(const fs::path& path) { return path.extension() == 
 // index k, "" at 0. A text seen before gets its code again, for the first
 // kRemembered distinct texts; past them (a log gated on every row, each with
 // its own NIS) every new text is appended without being remembered, so the
-// memory stays bounded and every code still maps to its text.
-namespace {
+// memory stays bounded and every code still maps to its text. Not in an
+// anonymous namespace: EstimatesWriter::Npy, which has external linkage, holds
+// one, and a member of internal linkage in it is what gcc's
+// -Wsubobject-linkage warns about in a unity build.
+namespace internal {
 
-class ReasonTable {
+class NpyReasonTable {
  public:
-  explicit ReasonTable(const fs::path& path) : out_(path) {
+  explicit NpyReasonTable(const fs::path& path) : out_(path) {
     buffer_.reserve(1 << 16);
     buffer_ = "[\n\"\"";
   }
 
-  ~ReasonTable() {
+  ~NpyReasonTable() {
     if (out_.committed()) return;
     try {
       finish();
@@ -200,7 +203,7 @@ class ReasonTable {
   bool finished_ = false;
 };
 
-}  // namespace
+}  // namespace internal
 
 // A NumPy .npy file of records (numpy/lib/format.py): magic, version, a
 // Python-literal header padded to 64 bytes, then the records back to back.
@@ -245,7 +248,7 @@ class EstimatesWriter::Npy {
     shape_offset_ += head.size();
     head += dict;
     out_ = std::make_unique<OutputFile>(path);  // output_file.h
-    reasons_ = std::make_unique<ReasonTable>(EstimatesWriter::reasons_path(path));
+    reasons_ = std::make_unique<internal::NpyReasonTable>(EstimatesWriter::reasons_path(path));
     buffer_.reserve(1 << 16);
     buffer_ = head;
     write_buffer();
@@ -343,7 +346,7 @@ class EstimatesWriter::Npy {
   }
 
   std::unique_ptr<OutputFile> out_;
-  std::unique_ptr<ReasonTable> reasons_;
+  std::unique_ptr<internal::NpyReasonTable> reasons_;
   std::string buffer_;
   std::vector<std::size_t> text_widths_;
   std::size_t shape_offset_ = 0;

@@ -31,16 +31,25 @@ namespace http = beast::http;
 namespace websocket = beast::websocket;
 using tcp = asio::ip::tcp;
 
+// An advertised channel. Not in the anonymous namespace below: the server's
+// Impl, which has external linkage, holds them, and a member of internal
+// linkage in it is what gcc's -Wsubobject-linkage warns about in a unity build.
+namespace internal {
+
+struct FoxgloveChannel {
+  std::uint32_t id;
+  std::string topic, encoding, schema_name, schema, schema_encoding;
+};
+
+}  // namespace internal
+
 namespace {
 
 constexpr const char* kSubprotocol = "foxglove.websocket.v1";
 constexpr std::size_t kMaxQueued = 1024;
 constexpr std::uint8_t kMessageData = 0x01;
 
-struct Channel {
-  std::uint32_t id;
-  std::string topic, encoding, schema_name, schema, schema_encoding;
-};
+using Channel = internal::FoxgloveChannel;
 
 std::string advertise(const std::vector<Channel>& channels) {
   std::string out = "{\"op\":\"advertise\",\"channels\":[";
