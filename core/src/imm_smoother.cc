@@ -31,6 +31,7 @@ ForwardStep record_step(double t, const Eigen::Ref<const Eigen::VectorXd>& u, co
   step.t = t;
   step.u = u;
   step.mode_probabilities = e.mode_probabilities;
+  step.unknown_probability = e.unknown_probability;
   step.mode_states = e.mode_states;
   step.mode_covariances = e.mode_covariances;
   return step;
@@ -46,6 +47,7 @@ ImmSmoother::ImmSmoother(const Bank& bank)
   means_.resize(n, modes);
   c_.resize(modes);
   joint_.resize(modes, modes);
+  with_unknown_.resize(modes + 1);
   weights_.resize(modes);
   workspace_.predicted.resize(n);
   workspace_.difference.resize(n);
@@ -61,12 +63,21 @@ void ImmSmoother::combine(SmoothedStep* s) const {
   const int modes = bank_.config.num_modes();
   Eigen::MatrixXd means(bank_.config.state_dim(), modes), deviations(bank_.config.state_dim(), modes);
   for (int j = 0; j < modes; ++j) means.col(j) = s->mode_states[static_cast<std::size_t>(j)];
+  // With an unknown hypothesis the combined state is, as the filter's, the
+  // modes' estimate given that some mode holds.
+  Eigen::VectorXd conditional;
+  if (bank_.config.unknown.enabled()) {
+    const double total = s->mode_probabilities.sum();
+    conditional = total > 0.0 ? Eigen::VectorXd(s->mode_probabilities / total)
+                              : Eigen::VectorXd::Constant(modes, 1.0 / modes);
+  }
+  const Eigen::VectorXd& weights = bank_.config.unknown.enabled() ? conditional : s->mode_probabilities;
   s->state.resize(bank_.config.state_dim());
-  weighted_mean(angle_mask_, s->mode_probabilities, means, s->state, deviations);
+  weighted_mean(angle_mask_, weights, means, s->state, deviations);
   s->covariance.setZero(bank_.config.state_dim(), bank_.config.state_dim());
   for (int j = 0; j < modes; ++j) {
-    s->covariance.noalias() += s->mode_probabilities[j] * s->mode_covariances[static_cast<std::size_t>(j)];
-    s->covariance.noalias() += s->mode_probabilities[j] * deviations.col(j) * deviations.col(j).transpose();
+    s->covariance.noalias() += weights[j] * s->mode_covariances[static_cast<std::size_t>(j)];
+    s->covariance.noalias() += weights[j] * deviations.col(j) * deviations.col(j).transpose();
   }
   symmetrize(s->covariance);
   s->mode_probabilities.maxCoeff(&s->most_likely_mode);
@@ -126,22 +137,25 @@ void ImmSmoother::backward(const ForwardStep& k, double t_next, const SmoothedSt
   const int n = config.state_dim();
   const double dt = t_next - k.t;
   const Eigen::MatrixXd& p = transition_.matrix(dt);  // row j (from, at k), column i (to, at k+1)
-  const Eigen::VectorXd& mu = k.mode_probabilities;
-  c_.noalias() = p.transpose() * mu;  // predicted probabilities of k+1
-  const Eigen::VectorXd& c = c_;
-
-  // Smoothed joint probabilities of (m_k = j, m_{k+1} = i), Kim's approximation.
   Eigen::MatrixXd& joint = joint_;
-  for (int j = 0; j < modes; ++j) {
-    for (int i = 0; i < modes; ++i) {
-      joint(j, i) = c[i] > 0.0 ? next.mode_probabilities[i] * p(j, i) * mu[j] / c[i] : 0.0;
-    }
-  }
   out->t = k.t;
-  out->mode_probabilities = joint.rowwise().sum();
-  const double total = out->mode_probabilities.sum();
-  if (total > 0.0) out->mode_probabilities /= total;
-  internal::apply_probability_floor(config.mode_probability_floor, out->mode_probabilities);
+  if (config.unknown.enabled()) {
+    smooth_probabilities_with_unknown(k, p, next, out);
+  } else {
+    const Eigen::VectorXd& mu = k.mode_probabilities;
+    c_.noalias() = p.transpose() * mu;  // predicted probabilities of k+1
+    const Eigen::VectorXd& c = c_;
+    // Smoothed joint probabilities of (m_k = j, m_{k+1} = i), Kim's approximation.
+    for (int j = 0; j < modes; ++j) {
+      for (int i = 0; i < modes; ++i) {
+        joint(j, i) = c[i] > 0.0 ? next.mode_probabilities[i] * p(j, i) * mu[j] / c[i] : 0.0;
+      }
+    }
+    out->mode_probabilities = joint.rowwise().sum();
+    const double total = out->mode_probabilities.sum();
+    if (total > 0.0) out->mode_probabilities /= total;
+    internal::apply_probability_floor(config.mode_probability_floor, out->mode_probabilities);
+  }
   out->mode_states.resize(static_cast<std::size_t>(modes));
   out->mode_covariances.resize(static_cast<std::size_t>(modes));
 
@@ -180,6 +194,44 @@ void ImmSmoother::backward(const ForwardStep& k, double t_next, const SmoothedSt
   combine(out);
 }
 
+// The filter's chain over the modes and the unknown hypothesis U
+// (docs/engine.md, "Unknown hypothesis") is a Markov chain on M + 1
+// hypotheses: from mode j to mode i (1 - enter) p(j, i), to U enter; from U
+// to each mode leave / M, to U 1 - leave. Kim's recursion runs on it as on
+// the modes' own chain. The modes' states are, as in the filter, their
+// estimates given that some mode holds, so a mode's smoothed state weighs its
+// pairs by the joint over the modes at k+1 alone (joint_); a step from j into
+// U carries no later information on j's state.
+void ImmSmoother::smooth_probabilities_with_unknown(const ForwardStep& k, const Eigen::MatrixXd& p,
+                                                    const SmoothedStep& next, SmoothedStep* out) {
+  const BankConfig& config = bank_.config;
+  const int modes = config.num_modes();
+  const double enter = config.unknown.enter, leave = config.unknown.leave;
+  const Eigen::VectorXd& mu = k.mode_probabilities;
+  const double mu_unknown = k.unknown_probability;
+  const double to_each_mode = leave / modes;
+  c_.noalias() = p.transpose() * mu;
+  c_ = (1.0 - enter) * c_ + Eigen::VectorXd::Constant(modes, mu_unknown * to_each_mode);
+  const double c_unknown = enter * mu.sum() + (1.0 - leave) * mu_unknown;
+  const double next_unknown = c_unknown > 0.0 ? next.unknown_probability / c_unknown : 0.0;
+  with_unknown_.setZero();
+  for (int j = 0; j < modes; ++j) {
+    for (int i = 0; i < modes; ++i) {
+      joint_(j, i) = c_[i] > 0.0 ? next.mode_probabilities[i] * (1.0 - enter) * p(j, i) * mu[j] / c_[i] : 0.0;
+    }
+    with_unknown_[j] = joint_.row(j).sum() + next_unknown * enter * mu[j];
+  }
+  for (int i = 0; i < modes; ++i) {
+    if (c_[i] > 0.0) with_unknown_[modes] += next.mode_probabilities[i] * to_each_mode * mu_unknown / c_[i];
+  }
+  with_unknown_[modes] += next_unknown * (1.0 - leave) * mu_unknown;
+  const double total = with_unknown_.sum();
+  if (total > 0.0) with_unknown_ /= total;
+  internal::apply_probability_floor(config.mode_probability_floor, with_unknown_);
+  out->mode_probabilities = with_unknown_.head(modes);
+  out->unknown_probability = with_unknown_[modes];
+}
+
 template <typename Steps>
 void ImmSmoother::smooth_range(const Steps& forward, std::vector<SmoothedStep>* out) {
   const std::size_t count = forward.size();
@@ -188,6 +240,7 @@ void ImmSmoother::smooth_range(const Steps& forward, std::vector<SmoothedStep>* 
   SmoothedStep& last = (*out)[count - 1];
   last.t = forward[count - 1].t;
   last.mode_probabilities = forward[count - 1].mode_probabilities;
+  last.unknown_probability = forward[count - 1].unknown_probability;
   last.mode_states = forward[count - 1].mode_states;
   last.mode_covariances = forward[count - 1].mode_covariances;
   combine(&last);

@@ -37,6 +37,7 @@ void count_rejections(const ImmEstimate& e, double t, RunSummary* s) {
 void fill(const SmoothedStep& s, const ImmEstimate& filtered, ImmEstimate* out) {
   *out = filtered;
   out->mode_probabilities = s.mode_probabilities;
+  out->unknown_probability = s.unknown_probability;
   out->mode_states = s.mode_states;
   out->mode_covariances = s.mode_covariances;
   out->state = s.state;

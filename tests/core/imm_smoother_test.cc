@@ -89,6 +89,83 @@ TEST(ImmSmoother, IsTheExactForwardBackwardWhenModesHaveNoMemory) {
   }
 }
 
+// The same hidden Markov model with an unknown hypothesis U beside the modes
+// (inflation s, enter e, leave l): a chain on four hypotheses, from mode j to
+// mode i (1 - e) p(j, i), to U e; from U to each mode l / 3, to U 1 - l. U's
+// emission is the best mode's density at s times its variance. With modes
+// that have no memory the smoothed probabilities over the four must be the
+// forward-backward algorithm's, and the combined state must weigh the modes
+// by their probabilities given that some mode holds.
+TEST(ImmSmoother, IsTheExactForwardBackwardWithAnUnknownHypothesis) {
+  BankBuilder b;
+  const std::vector<double> level{0.0, 1.0, 2.5};
+  const std::vector<double> q{0.5, 0.2, 1.0};
+  for (int j = 0; j < 3; ++j) {
+    b.models.push_back(std::make_shared<ScalarLinearModel>(-1.0 / kDt, level[static_cast<std::size_t>(j)] / kDt));
+    b.q.push_back(Eigen::MatrixXd::Constant(1, 1, q[static_cast<std::size_t>(j)]));
+  }
+  b.r = Eigen::MatrixXd::Constant(1, 1, 0.09);
+  Eigen::MatrixXd p(3, 3);
+  p << 0.9, 0.06, 0.04, 0.1, 0.85, 0.05, 0.02, 0.08, 0.9;
+  b.transition = p;
+  b.mu0 = Eigen::Vector3d(0.5, 0.3, 0.2);
+  b.floor = 0.0;
+  Bank bank = b.build();
+  const double s = 50.0, enter = 0.05, leave = 0.3;
+  bank.config.unknown.inflation = s;
+  bank.config.unknown.enter = enter;
+  bank.config.unknown.leave = leave;
+  Imm imm(bank);
+  // Two far misses (9 and -6) that none of the levels explains.
+  const std::vector<double> z{0.3, 0.1, 1.2, 9.0, 2.8, 2.2, -6.0, 1.1, 2.6, 0.0};
+  const ForwardRun run = run_forward(imm, z);
+  std::vector<SmoothedStep> smoothed;
+  ImmSmoother(bank).smooth(run.forward, &smoothed);
+
+  Eigen::Matrix4d chain = Eigen::Matrix4d::Zero();
+  chain.topLeftCorner(3, 3) = (1.0 - enter) * p;
+  chain.topRightCorner(3, 1).setConstant(enter);
+  chain.bottomLeftCorner(1, 3).setConstant(leave / 3.0);
+  chain(3, 3) = 1.0 - leave;
+  const std::size_t n = z.size();
+  std::vector<Eigen::Vector4d> alpha(n), beta(n), emission(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    double broad = 0.0;
+    for (int j = 0; j < 3; ++j) {
+      const double variance = q[static_cast<std::size_t>(j)] * kDt + 0.09;
+      emission[k][j] = k == 0 ? 1.0 : gaussian(z[k], level[static_cast<std::size_t>(j)], variance);
+      broad = std::max(broad, gaussian(z[k], level[static_cast<std::size_t>(j)], s * variance));
+    }
+    emission[k][3] = k == 0 ? 1.0 : broad;
+  }
+  alpha[0] << b.mu0, 0.0;  // the first step has no transition, and U starts at 0
+  for (std::size_t k = 1; k < n; ++k) {
+    alpha[k] = (chain.transpose() * alpha[k - 1]).cwiseProduct(emission[k]);
+    alpha[k] /= alpha[k].sum();
+  }
+  beta[n - 1].setOnes();
+  for (std::size_t k = n - 1; k-- > 0;) {
+    beta[k] = chain * emission[k + 1].cwiseProduct(beta[k + 1]);
+    beta[k] /= beta[k].sum();
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    Eigen::Vector4d exact = alpha[k].cwiseProduct(beta[k]);
+    exact /= exact.sum();
+    Eigen::Vector4d filtered, smoothed_k;
+    filtered << run.forward[k].mode_probabilities, run.forward[k].unknown_probability;
+    smoothed_k << smoothed[k].mode_probabilities, smoothed[k].unknown_probability;
+    EXPECT_LT((filtered - alpha[k]).cwiseAbs().maxCoeff(), 1e-10) << "filter, step " << k;
+    EXPECT_LT((smoothed_k - exact).cwiseAbs().maxCoeff(), 1e-10) << "smoother, step " << k;
+    const Eigen::VectorXd given_a_mode = smoothed[k].mode_probabilities / smoothed[k].mode_probabilities.sum();
+    double state = 0.0;
+    for (int j = 0; j < 3; ++j) state += given_a_mode[j] * smoothed[k].mode_states[static_cast<std::size_t>(j)][0];
+    EXPECT_NEAR(smoothed[k].state[0], state, 1e-12) << "step " << k;
+  }
+  EXPECT_GT(smoothed[3].unknown_probability, 0.5) << "the far miss is U's";
+  EXPECT_GT(smoothed[2].unknown_probability, run.forward[2].unknown_probability)
+      << "the step before a far miss is more likely U's once the miss is known";
+}
+
 // Two linear modes with memory (switching dynamics): the exact posterior,
 // by enumerating all 2^K mode sequences with a Kalman filter and RTS smoother
 // for each, against the smoother's approximation.

@@ -49,6 +49,7 @@ struct ForwardStep {
   double t = 0.0;
   Eigen::VectorXd u;  // the input given at t: it drives the prediction to the next step
   Eigen::VectorXd mode_probabilities;
+  double unknown_probability = 0.0;  // the bank's unknown hypothesis (0 without one)
   std::vector<Eigen::VectorXd> mode_states;
   std::vector<Eigen::MatrixXd> mode_covariances;
 };
@@ -59,7 +60,8 @@ ForwardStep record_step(double t, const Eigen::Ref<const Eigen::VectorXd>& u, co
 // A smoothed step, in the shape of the filter's estimate.
 struct SmoothedStep {
   double t = 0.0;
-  Eigen::VectorXd mode_probabilities;
+  Eigen::VectorXd mode_probabilities;  // with an unknown hypothesis, they sum to 1 - unknown_probability
+  double unknown_probability = 0.0;
   std::vector<Eigen::VectorXd> mode_states;
   std::vector<Eigen::MatrixXd> mode_covariances;
   Eigen::VectorXd state;
@@ -98,6 +100,10 @@ class ImmSmoother {
   bool smooth_pair(int i, const Eigen::VectorXd& x, const Eigen::MatrixXd& px, const Eigen::VectorXd& u, double dt,
                    const SmoothedStep& next, Eigen::Ref<Eigen::VectorXd> mean, Eigen::MatrixXd* covariance);
   void combine(SmoothedStep* s) const;
+  // Kim's smoothed probabilities over the modes and the unknown hypothesis
+  // (the bank's `unknown:`) into out, and the modes' joint into joint_.
+  void smooth_probabilities_with_unknown(const ForwardStep& k, const Eigen::MatrixXd& p, const SmoothedStep& next,
+                                         SmoothedStep* out);
 
   const Bank& bank_;
   ModeTransition transition_;
@@ -106,6 +112,7 @@ class ImmSmoother {
   Eigen::MatrixXd pair_means_;  // n x N: x_{k|N}^{ji} for one j, over i
   Eigen::MatrixXd deviations_;
   Eigen::MatrixXd means_;
+  Eigen::VectorXd with_unknown_;                   // N + 1: the modes' probabilities, then the unknown's
   Eigen::VectorXd c_;                              // N: predicted mode probabilities of k+1
   Eigen::MatrixXd joint_;                          // N x N
   Eigen::VectorXd weights_;                        // N: of the pairs (j, i) over i
