@@ -22,12 +22,13 @@ void write_row(long k, double t, const ImmEstimate& e, const std::vector<std::st
                RunColumns* out) {
   out->t[k] = t;
   for (std::size_t j = 0; j < out->mu.size(); ++j) out->mu[j][k] = e.mode_probabilities[static_cast<Eigen::Index>(j)];
+  if (out->unknown != nullptr) out->unknown[k] = e.unknown_probability;
   for (std::size_t i = 0; i < out->state.size(); ++i) {
     const auto s = static_cast<Eigen::Index>(i);
     out->state[i][k] = e.state[s];
     out->var[i][k] = e.covariance(s, s);
   }
-  out->mode[k] = e.most_likely_mode;
+  out->mode[k] = e.unknown_is_most_likely() ? kUnknownMode : e.most_likely_mode;
   out->status[k] = static_cast<std::int8_t>(e.status);
   describe_step(e, names, reason);
   if (!reason->empty()) out->reasons.emplace_back(k, *reason);
@@ -36,12 +37,14 @@ void write_row(long k, double t, const ImmEstimate& e, const std::vector<std::st
 // Overwrites row k with a smoothed step (the filter's status stays).
 void overwrite(long k, const SmoothedStep& s, RunColumns* out) {
   for (std::size_t j = 0; j < out->mu.size(); ++j) out->mu[j][k] = s.mode_probabilities[static_cast<Eigen::Index>(j)];
+  if (out->unknown != nullptr) out->unknown[k] = s.unknown_probability;
   for (std::size_t i = 0; i < out->state.size(); ++i) {
     const auto d = static_cast<Eigen::Index>(i);
     out->state[i][k] = s.state[d];
     out->var[i][k] = s.covariance(d, d);
   }
-  out->mode[k] = s.most_likely_mode;
+  const bool unknown = s.unknown_probability > 0.0 && s.unknown_probability > s.mode_probabilities[s.most_likely_mode];
+  out->mode[k] = unknown ? kUnknownMode : s.most_likely_mode;
 }
 
 // Decisions over the first `rows` rows, in order, from the columns' probabilities.
@@ -63,6 +66,7 @@ std::vector<std::string> mode_names(const BankConfig& config) {
 
 GrowingRunColumns::GrowingRunColumns(const BankConfig& config)
     : mu(static_cast<std::size_t>(config.num_modes())),
+      unknown(config.unknown.enabled() ? 1 : 0),
       state(static_cast<std::size_t>(config.state_dim())),
       var(static_cast<std::size_t>(config.state_dim())) {
   point();
@@ -78,6 +82,7 @@ void GrowingRunColumns::shrink(long rows) { resize(static_cast<std::size_t>(rows
 void GrowingRunColumns::resize(std::size_t rows) {
   t.resize(rows);
   for (auto& c : mu) c.resize(rows);
+  for (auto& c : unknown) c.resize(rows);
   for (auto& c : state) c.resize(rows);
   for (auto& c : var) c.resize(rows);
   mode.resize(rows);
@@ -90,6 +95,7 @@ void GrowingRunColumns::point() {
   columns_.t = t.data();
   columns_.mu.clear();
   for (auto& c : mu) columns_.mu.push_back(c.data());
+  columns_.unknown = unknown.empty() ? nullptr : unknown[0].data();
   columns_.state.clear();
   for (auto& c : state) columns_.state.push_back(c.data());
   columns_.var.clear();

@@ -29,9 +29,13 @@ std::vector<std::string> mode_names(const BankConfig& config);
 // indexes the bank's modes, decision the decision's names (ModeDecision::
 // kUnknown = -1), status the StepStatus. The reason column is empty on almost
 // every row, so only the rows that have one are kept.
+// The `mode` column's code when "none of these" outweighs every mode.
+constexpr std::int32_t kUnknownMode = -1;
+
 struct RunColumns {
   double* t = nullptr;
   std::vector<double*> mu;     // per mode
+  double* unknown = nullptr;   // "none of these" (BankConfig::unknown); null without one
   std::vector<double*> state;  // per state
   std::vector<double*> var;    // per state
   std::int32_t* mode = nullptr;
@@ -53,6 +57,7 @@ class GrowingRunColumns {
 
   std::vector<double> t;
   std::vector<std::vector<double>> mu, state, var;
+  std::vector<std::vector<double>> unknown;  // one column with an unknown hypothesis, none without
   std::vector<std::int32_t> mode, decision;
   std::vector<std::int8_t> status;
 

@@ -59,12 +59,14 @@ py::array reason_column(py::ssize_t n, const std::vector<std::pair<long, std::st
 
 RunArrays::RunArrays(const BankConfig& config, long rows) : t(rows), mode(rows), decision(rows), status(rows) {
   for (int j = 0; j < config.num_modes(); ++j) mu.emplace_back(rows);
+  if (config.unknown.enabled()) unknown.emplace_back(rows);
   for (int i = 0; i < config.state_dim(); ++i) {
     state.emplace_back(rows);
     var.emplace_back(rows);
   }
   columns.t = t.mutable_data();
   for (auto& c : mu) columns.mu.push_back(c.mutable_data());
+  if (!unknown.empty()) columns.unknown = unknown[0].mutable_data();
   for (auto& c : state) columns.state.push_back(c.mutable_data());
   for (auto& c : var) columns.var.push_back(c.mutable_data());
   columns.mode = mode.mutable_data();
@@ -78,6 +80,7 @@ RunArrays::RunArrays(GrowingRunColumns&& grown)
       decision(adopt(std::move(grown.decision))),
       status(adopt(std::move(grown.status))) {
   for (auto& c : grown.mu) mu.push_back(adopt(std::move(c)));
+  for (auto& c : grown.unknown) unknown.push_back(adopt(std::move(c)));
   for (auto& c : grown.state) state.push_back(adopt(std::move(c)));
   for (auto& c : grown.var) var.push_back(adopt(std::move(c)));
   columns.reasons = std::move(grown.columns().reasons);
@@ -90,13 +93,16 @@ py::dict columns_to_dict(RunArrays&& c, const BankConfig& config, const py::obje
   for (int j = 0; j < config.num_modes(); ++j) {
     out[py::str("mu_" + config.modes[static_cast<std::size_t>(j)].name)] = c.mu[static_cast<std::size_t>(j)];
   }
+  if (!c.unknown.empty()) out["unknown_probability"] = c.unknown[0];
   for (int i = 0; i < config.state_dim(); ++i) {
     out[py::str(config.state_names[static_cast<std::size_t>(i)])] = c.state[static_cast<std::size_t>(i)];
   }
   for (int i = 0; i < config.state_dim(); ++i) {
     out[py::str("var_" + config.state_names[static_cast<std::size_t>(i)])] = c.var[static_cast<std::size_t>(i)];
   }
-  out["mode"] = text_column(c.mode.data(), n, mode_names(config));
+  std::vector<std::string> modes{"unknown"};  // kUnknownMode = -1
+  for (const std::string& name : mode_names(config)) modes.push_back(name);
+  out["mode"] = text_column(c.mode.data(), n, modes, 1);
   std::vector<std::string> decisions{"unknown"};  // ModeDecision::kUnknown = -1
   const ModeDecision decider(config);
   for (const std::string& name : decider.names()) decisions.push_back(name);

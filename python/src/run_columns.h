@@ -22,6 +22,7 @@ namespace python {
 struct RunArrays {
   pybind11::array_t<double> t;
   std::vector<pybind11::array_t<double>> mu, state, var;
+  std::vector<pybind11::array_t<double>> unknown;  // one column with an unknown hypothesis, none without
   pybind11::array_t<std::int32_t> mode, decision;
   pybind11::array_t<std::int8_t> status;
   RunColumns columns;

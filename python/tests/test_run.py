@@ -72,6 +72,38 @@ def test_smoothed_runs_equal_the_cli(tmp_path, configs, cli, smoothing):
     assert list(out["decision"]) == list(expected["decision"])
 
 
+@pytest.mark.parametrize("smoothing", [[], ["--smooth"], ["--lag", "1.5"]])
+def test_an_unknown_hypothesis_is_carried_as_the_cli_carries_it(tmp_path, configs, cli, smoothing):
+    # Rows 300-309 measured far from every mode: "none of these" takes them,
+    # its probability is a column after the modes', and `mode` says unknown.
+    bank_file = tmp_path / "unknown.yaml"
+    bank_file.write_text((configs / "ltc_terrains.yaml").read_text() +
+                         "\nunknown: {inflation: 100, enter: 0.01, leave: 0.2}\n")
+    lines = (configs / EXAMPLE).read_text().splitlines()
+    header = lines[0].split(",")
+    v = header.index("V")
+    for row in range(301, 311):
+        cells = lines[row].split(",")
+        cells[v] = "40"
+        lines[row] = ",".join(cells)
+    log_file = tmp_path / "far.csv"
+    log_file.write_text("\n".join(lines) + "\n")
+    bank = skidimm.Bank(bank_file)
+    log = skidimm.read_csv(log_file)
+    t = log["t"]
+    u = np.column_stack([log[c] for c in bank.inputs])
+    z = np.column_stack([log[c] for c in bank.measurements])
+    options = {"smooth": True} if smoothing == ["--smooth"] else {"lag": 1.5} if smoothing else {}
+    out = skidimm.Imm(bank).run(t, u, z, truth=log["mode"], **options)
+    expected = tmp_path / "cli.csv"
+    cli("run", "--bank", bank_file, "--input", log_file, "--output", expected, "--quiet", *smoothing)
+    expected = skidimm.read_csv(expected)
+    assert "unknown" in list(expected["mode"])
+    total = sum(expected[c] for c in expected if c.startswith("mu_")) + expected["unknown_probability"]
+    np.testing.assert_allclose(total, 1.0, atol=1e-12)
+    assert_columns_equal(out, expected)
+
+
 def test_run_log_reads_logs_as_the_cli_does(tmp_path, configs, cli):
     out = skidimm.run_log(configs / "ltc_terrains.yaml", configs / EXAMPLE)
     expected = cli_run(cli, tmp_path, configs)

@@ -58,6 +58,28 @@ print(f"1. estimates.mcap: @mcap/core reads {len(estimates)} estimates, each equ
       f"and the bag's {imu_rows} + {pro_rows} messages copied alongside")
 PY
 
+# 1b. A bank with an unknown hypothesis: its probability is a field of the
+# message, equal to the CSV's column, and `mode` says unknown as the CSV does.
+{ cat "$bank"; echo "unknown: {inflation: 100, enter: 0.01, leave: 0.1}"; } >"$work/unknown_bank.yaml"
+"$skidimm" run -q --bank "$work/unknown_bank.yaml" --input "$work/drive.mcap" --output "$work/unknown.csv"
+"$skidimm" run -q --bank "$work/unknown_bank.yaml" --input "$work/drive.mcap" --output "$work/unknown.mcap"
+"$node" "$source_dir/tests/ros/read_mcap.cjs" "$work/unknown.mcap" >"$work/unknown.json"
+"$python" - "$work/unknown.csv" "$work/unknown.json" <<'PY'
+import csv, json, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+read = json.load(open(sys.argv[2]))
+channel = [c for c in read["channels"] if c["topic"] == "/skidimm/estimate"][0]
+assert "unknown_probability" in json.loads(channel["schema"])["properties"], channel["schema"]
+estimates = [m["json"] for m in read["messages"] if m["topic"] == "/skidimm/estimate"]
+assert len(estimates) == len(rows), (len(estimates), len(rows))
+for row, e in zip(rows, estimates):
+    assert float(row["unknown_probability"]) == e["unknown_probability"], (row["unknown_probability"], e)
+    assert row["mode"] == e["mode"] and (e["mode_index"] == -1) == (e["mode"] == "unknown"), (row["mode"], e)
+unknown = sum(e["mode"] == "unknown" for e in estimates)
+assert 0 < unknown, "the untuned unknown hypothesis should lead some steps of a real run"
+print(f"1b. with an unknown hypothesis: every message's unknown_probability equals the CSV's; unknown leads {unknown} of {len(estimates)}")
+PY
+
 # 2. skidimm bag.
 "$skidimm" bag "$work/drive.mcap" >"$work/bag.txt"
 imu_rows=$(($(wc -l <"$imu") - 1)) pro_rows=$(($(wc -l <"$pro") - 1))

@@ -63,7 +63,8 @@ std::string object_schema(const std::vector<std::string>& quoted_names, const ch
 
 }  // namespace
 
-EstimateJson::EstimateJson(const BankConfig& config, bool with_truth) : with_truth_(with_truth) {
+EstimateJson::EstimateJson(const BankConfig& config, bool with_truth)
+    : with_truth_(with_truth), with_unknown_(config.unknown.enabled()) {
   for (const ModeConfig& m : config.modes) {
     mode_names_raw_.push_back(m.name);
     mode_names_.push_back(json_string(m.name));
@@ -74,8 +75,13 @@ EstimateJson::EstimateJson(const BankConfig& config, bool with_truth) : with_tru
             "\"description\":\"One step of skidimm's IMM estimator (docs/foxglove.md)\",\"type\":\"object\","
             "\"properties\":{\"t\":{\"type\":\"number\",\"description\":\"s\"},\"probability\":" +
             object_schema(mode_names_, "probability of each mode") +
-            ",\"mode\":{\"type\":\"string\",\"description\":\"the most likely mode\"},\"mode_index\":{\"type\":"
-            "\"integer\"},\"decision\":{\"type\":\"string\",\"description\":\"the decision a controller acts on\"},"
+            (with_unknown_ ? ",\"unknown_probability\":{\"type\":[\"number\",\"null\"],\"description\":\"probability "
+                             "that none of the modes holds (the bank's unknown hypothesis)\"}"
+                           : "") +
+            ",\"mode\":{\"type\":\"string\",\"description\":\"the most likely mode" +
+            (with_unknown_ ? ", or unknown" : "") + "\"},\"mode_index\":{\"type\":\"integer\"" +
+            (with_unknown_ ? ",\"description\":\"-1 for unknown\"" : "") + "},"
+            "\"decision\":{\"type\":\"string\",\"description\":\"the decision a controller acts on\"},"
             "\"decision_index\":{\"type\":\"integer\",\"description\":\"the decision's class, -1 for unknown\"},"
             "\"state\":" + object_schema(state_names_, "the combined state") + ",\"variance\":" +
             object_schema(state_names_, "the combined state's variances") +
@@ -95,10 +101,17 @@ const std::string& EstimateJson::format(double t, const ImmEstimate& e, const st
     out_ += ':';
     add_number(e.mode_probabilities[static_cast<Eigen::Index>(j)], &out_);
   }
-  out_ += "},\"mode\":";
-  out_ += mode_names_[static_cast<std::size_t>(e.most_likely_mode)];
+  out_ += '}';
+  if (with_unknown_) {
+    out_ += ",\"unknown_probability\":";
+    add_number(e.unknown_probability, &out_);
+  }
+  // As the estimates file's `mode` column: unknown when "none of these" outweighs every mode.
+  const bool unknown = e.unknown_is_most_likely();
+  out_ += ",\"mode\":";
+  out_ += unknown ? std::string("\"unknown\"") : mode_names_[static_cast<std::size_t>(e.most_likely_mode)];
   out_ += ",\"mode_index\":";
-  out_ += std::to_string(e.most_likely_mode);
+  out_ += std::to_string(unknown ? -1 : e.most_likely_mode);
   out_ += ",\"decision\":";
   out_ += json_string(decision);
   int decision_index = -1;

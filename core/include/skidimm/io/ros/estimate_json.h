@@ -46,6 +46,7 @@ class EstimateJson {
   std::vector<std::string> state_names_;  // quoted
   std::vector<std::string> class_names_;  // unquoted, to find the decision's index
   bool with_truth_;
+  bool with_unknown_;  // the bank has an unknown hypothesis: its probability is a field
   std::string schema_;
   std::string out_;
   std::string reason_;
