@@ -39,23 +39,41 @@ ForwardRun run_forward(Imm& imm, const std::vector<double>& z, double u = 1.0) {
   return run;
 }
 
+// Three modes whose prediction does not depend on the state (F = 0): x_next
+// = level_j whatever x (a = -1/dt, b = level/dt), with per-step variance
+// q_j dt, measured directly.
+struct MemorylessBank {
+  std::vector<double> level{0.0, 1.0, 2.5};
+  std::vector<double> q{0.5, 0.2, 1.0};
+  double r = 0.09;
+  Eigen::Matrix3d p = (Eigen::Matrix3d() << 0.9, 0.06, 0.04, 0.1, 0.85, 0.05, 0.02, 0.08, 0.9).finished();
+  Eigen::Vector3d mu0{0.5, 0.3, 0.2};
+
+  Bank build() const {
+    BankBuilder b;
+    for (std::size_t j = 0; j < 3; ++j) {
+      b.models.push_back(std::make_shared<ScalarLinearModel>(-1.0 / kDt, level[j] / kDt));
+      b.q.push_back(Eigen::MatrixXd::Constant(1, 1, q[j]));
+    }
+    b.r = Eigen::MatrixXd::Constant(1, 1, r);
+    b.transition = p;
+    b.mu0 = mu0;
+    b.floor = 0.0;
+    return b.build();
+  }
+  // Mode j's density of measuring z, its variance times `inflation`.
+  double emission(double z, int j, double inflation = 1.0) const {
+    const auto i = static_cast<std::size_t>(j);
+    return gaussian(z, level[i], inflation * (q[i] * kDt + r));
+  }
+};
+
 // Modes whose prediction does not depend on the state (F = 0): the IMM is then
 // exactly a hidden Markov model with Gaussian emissions, and the smoothed mode
 // probabilities must equal the forward-backward algorithm's.
 TEST(ImmSmoother, IsTheExactForwardBackwardWhenModesHaveNoMemory) {
-  BankBuilder b;
-  const std::vector<double> level{0.0, 1.0, 2.5};  // x_next = level_j whatever x: a = -1/dt, b = level/dt
-  const std::vector<double> q{0.5, 0.2, 1.0};      // per-step variance q_j dt
-  for (int j = 0; j < 3; ++j) {
-    b.models.push_back(std::make_shared<ScalarLinearModel>(-1.0 / kDt, level[static_cast<std::size_t>(j)] / kDt));
-    b.q.push_back(Eigen::MatrixXd::Constant(1, 1, q[static_cast<std::size_t>(j)]));
-  }
-  b.r = Eigen::MatrixXd::Constant(1, 1, 0.09);
-  Eigen::MatrixXd p(3, 3);
-  p << 0.9, 0.06, 0.04, 0.1, 0.85, 0.05, 0.02, 0.08, 0.9;
-  b.transition = p;
-  b.mu0 = Eigen::Vector3d(0.5, 0.3, 0.2);
-  b.floor = 0.0;
+  const MemorylessBank b;
+  const Eigen::Matrix3d& p = b.p;
   const Bank bank = b.build();
   Imm imm(bank);
   const std::vector<double> z{0.3, 0.1, 1.2, 0.9, 2.8, 2.2, 0.4, 1.1, 2.6, 0.0, -0.2, 1.0};
@@ -68,7 +86,7 @@ TEST(ImmSmoother, IsTheExactForwardBackwardWhenModesHaveNoMemory) {
   std::vector<Eigen::Vector3d> alpha(n), beta(n), emission(n);
   for (std::size_t k = 0; k < n; ++k) {
     for (int j = 0; j < 3; ++j) {
-      emission[k][j] = k == 0 ? 1.0 : gaussian(z[k], level[static_cast<std::size_t>(j)], q[static_cast<std::size_t>(j)] * kDt + 0.09);
+      emission[k][j] = k == 0 ? 1.0 : b.emission(z[k], j);
     }
   }
   alpha[0] = b.mu0;
@@ -97,19 +115,8 @@ TEST(ImmSmoother, IsTheExactForwardBackwardWhenModesHaveNoMemory) {
 // forward-backward algorithm's, and the combined state must weigh the modes
 // by their probabilities given that some mode holds.
 TEST(ImmSmoother, IsTheExactForwardBackwardWithAnUnknownHypothesis) {
-  BankBuilder b;
-  const std::vector<double> level{0.0, 1.0, 2.5};
-  const std::vector<double> q{0.5, 0.2, 1.0};
-  for (int j = 0; j < 3; ++j) {
-    b.models.push_back(std::make_shared<ScalarLinearModel>(-1.0 / kDt, level[static_cast<std::size_t>(j)] / kDt));
-    b.q.push_back(Eigen::MatrixXd::Constant(1, 1, q[static_cast<std::size_t>(j)]));
-  }
-  b.r = Eigen::MatrixXd::Constant(1, 1, 0.09);
-  Eigen::MatrixXd p(3, 3);
-  p << 0.9, 0.06, 0.04, 0.1, 0.85, 0.05, 0.02, 0.08, 0.9;
-  b.transition = p;
-  b.mu0 = Eigen::Vector3d(0.5, 0.3, 0.2);
-  b.floor = 0.0;
+  const MemorylessBank b;
+  const Eigen::Matrix3d& p = b.p;
   Bank bank = b.build();
   const double s = 50.0, enter = 0.05, leave = 0.3;
   bank.config.unknown.inflation = s;
@@ -132,9 +139,8 @@ TEST(ImmSmoother, IsTheExactForwardBackwardWithAnUnknownHypothesis) {
   for (std::size_t k = 0; k < n; ++k) {
     double broad = 0.0;
     for (int j = 0; j < 3; ++j) {
-      const double variance = q[static_cast<std::size_t>(j)] * kDt + 0.09;
-      emission[k][j] = k == 0 ? 1.0 : gaussian(z[k], level[static_cast<std::size_t>(j)], variance);
-      broad = std::max(broad, gaussian(z[k], level[static_cast<std::size_t>(j)], s * variance));
+      emission[k][j] = k == 0 ? 1.0 : b.emission(z[k], j);
+      broad = std::max(broad, b.emission(z[k], j, s));
     }
     emission[k][3] = k == 0 ? 1.0 : broad;
   }

@@ -63,10 +63,8 @@ TEST(ModeMetrics, CalibrationBinsExpectedErrorAndBrierScore) {
                              .confident_accuracy()));
 }
 
-// Modes a1 and a2 make class A, b its own: probabilities 0.5, 0.2, 0.3 are
-// A 0.7, b 0.3. Brier for truth A: (0.7 - 1)^2 + 0.3^2; for a truth the bank
-// cannot answer: 0.7^2 + 0.3^2 + 1.
-TEST(ClassScorer, GivesTheEstimatesProbabilityAndTheBrierScoreOfAStep) {
+// Modes a1, a2 and b, a1 and a2 making class A.
+BankConfig modes_a1_a2_b() {
   BankConfig config;
   for (const char* name : {"a1", "a2", "b"}) {
     ModeConfig mode;
@@ -74,6 +72,14 @@ TEST(ClassScorer, GivesTheEstimatesProbabilityAndTheBrierScoreOfAStep) {
     config.modes.push_back(mode);
   }
   config.classes.push_back(ClassConfig{"A", {0, 1}});
+  return config;
+}
+
+// Modes a1 and a2 make class A, b its own: probabilities 0.5, 0.2, 0.3 are
+// A 0.7, b 0.3. Brier for truth A: (0.7 - 1)^2 + 0.3^2; for a truth the bank
+// cannot answer: 0.7^2 + 0.3^2 + 1.
+TEST(ClassScorer, GivesTheEstimatesProbabilityAndTheBrierScoreOfAStep) {
+  const BankConfig config = modes_a1_a2_b();
   const ClassScorer scorer(config);
   Eigen::VectorXd mu(3);
   mu << 0.5, 0.2, 0.3;
@@ -91,13 +97,7 @@ TEST(ClassScorer, GivesTheEstimatesProbabilityAndTheBrierScoreOfAStep) {
 // "None of these" scores the truth as a uniform guess over the classes would:
 // its probability is spread evenly over them (hand-computed below).
 TEST(ClassScorer, UnknownHypothesisScoresAsAUniformGuess) {
-  BankConfig config;
-  for (const char* name : {"a1", "a2", "b"}) {
-    ModeConfig mode;
-    mode.name = name;
-    config.modes.push_back(mode);
-  }
-  config.classes.push_back(ClassConfig{"A", {0, 1}});
+  BankConfig config = modes_a1_a2_b();
   config.classes.push_back(ClassConfig{"B", {2}});
   const ClassScorer scorer(config);
   Eigen::VectorXd mu(3);
