@@ -13,9 +13,15 @@ namespace {
 // Past this many expected jumps of the fastest mode in one step (max r dt),
 // uniformisation needs too many terms: the eigenvectors take over.
 constexpr double kMaxUniformisedRate = 50.0;
-// An anchor serves steps with ||Pi_c (dt - dt_a)|| up to this; its Taylor
-// series then reaches 1e-17 in at most 12 terms.
-constexpr double kMaxCorrection = 0.1;
+// A Taylor series of expm(Pi_c h) serves steps with ||Pi_c h|| up to this
+// (h = dt from the identity, or dt - dt_a from an anchor): it then reaches
+// 1e-18 in at most 13 terms.
+constexpr double kMaxTaylorNorm = 0.1;
+// Up to this ||Pi_c dt|| (dt = 10 ms against dwell times of 2 s or more),
+// the series starts from the identity, at most 8 terms: no anchor, no N x N
+// product. Past it, the anchor's product and a series in dt - dt_a, which
+// carries less round-off than a long series from the identity.
+constexpr double kMaxDirectTaylorNorm = 0.01;
 
 using Packet = Eigen::internal::packet_traits<double>::type;
 constexpr Eigen::Index kLanes = Eigen::internal::packet_traits<double>::size;
@@ -201,6 +207,18 @@ const Eigen::MatrixXd& ModeTransition::matrix(double dt) {
     matrix_.diagonal().array() += decay;
     return matrix_;
   }
+  if (2.0 * max_rate_ * dt <= kMaxDirectTaylorNorm) {
+    // P(dt) = sum_k (Pi_c dt)^k / k!, each term O(N^2).
+    matrix_.setIdentity();
+    power_.setIdentity();
+    const int terms = taylor_terms(dt);
+    for (int k = 1; k <= terms; ++k) {
+      times_generator(power_, &scratch_);
+      power_ = scratch_ * (dt / k);
+      matrix_ += power_;
+    }
+    return matrix_;
+  }
   const int a = anchor_for(dt);
   if (a < 0) {
     // P = R^1/2 U exp(L dt) U' R^-1/2, formed in O(N^3): only past the
@@ -218,15 +236,49 @@ const Eigen::MatrixXd& ModeTransition::matrix(double dt) {
   matrix_ = anchors_[static_cast<std::size_t>(a)].p;
   if (delta == 0.0) return matrix_;
   power_ = matrix_;
-  const double bound = 2.0 * max_rate_ * std::abs(delta);
-  double size = 1.0;
-  for (int k = 1; k < 30 && size > 1e-18; ++k) {
+  const int terms = taylor_terms(delta);
+  for (int k = 1; k <= terms; ++k) {
     times_generator(power_, &scratch_);
     power_ = scratch_ * (delta / k);
     matrix_ += power_;
-    size *= bound / k;
   }
   return matrix_;
+}
+
+int ModeTransition::taylor_terms(double h) const {
+  // ||Pi_c h||^k / k! bounds the k-th term (the norm: the largest row sum of
+  // |Pi_c|, 2 max r), for both x Pi_c and Pi_c' x.
+  const double bound = 2.0 * max_rate_ * std::abs(h);
+  double size = 1.0;
+  int terms = 0;
+  for (int k = 1; k < 30 && size > 1e-18; ++k) {
+    terms = k;
+    size *= bound / k;
+  }
+  return terms;
+}
+
+void ModeTransition::taylor_propagate(double h, Eigen::Ref<Eigen::MatrixXd> x) {
+  // x <- expm(Pi_c h)' x = sum_k (Pi_c' h)^k x / k!, one column at a time,
+  // each term from the last in O(N): Pi_c' t = a 1 (r' t) - diag(d) t, an
+  // element of the new term needing only the same element of the old, so the
+  // term is updated in place.
+  const Eigen::Index n = x.rows(), columns = x.cols();
+  const int terms = taylor_terms(h);
+  auto term = term_.col(0);
+  for (Eigen::Index c = 0; c < columns; ++c) {
+    term = x.col(c);
+    double* out = &x(0, c);
+    for (int k = 1; k <= terms; ++k) {
+      const double flow = spread_ * rates_.dot(term);
+      const double scale = h / k;
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const double next = (flow - decay_[i] * term[i]) * scale;
+        term[i] = next;
+        out[i] += next;
+      }
+    }
+  }
 }
 
 void ModeTransition::times_generator(const Eigen::MatrixXd& x, Eigen::MatrixXd* out) const {
@@ -237,16 +289,6 @@ void ModeTransition::times_generator(const Eigen::MatrixXd& x, Eigen::MatrixXd* 
     for (Eigen::Index k = 0; k < n; ++k) flow += x(i, k) * rates_[k];
     flow *= spread_;
     for (Eigen::Index j = 0; j < n; ++j) (*out)(i, j) = flow - x(i, j) * decay_[j];
-  }
-}
-
-void ModeTransition::generator_transpose_times(const Eigen::Ref<const Eigen::MatrixXd>& x,
-                                               Eigen::Ref<Eigen::MatrixXd> out) const {
-  // Pi_c' x = a 1 (r' x) - diag(d) x.
-  const Eigen::Index n = x.rows(), columns = x.cols();
-  for (Eigen::Index c = 0; c < columns; ++c) {
-    const double flow = spread_ * rates_.dot(x.col(c));
-    for (Eigen::Index i = 0; i < n; ++i) out(i, c) = flow - decay_[i] * x(i, c);
   }
 }
 
@@ -291,7 +333,7 @@ int ModeTransition::anchor_for(double dt) {
       best_distance = distance;
     }
   }
-  if (best < 0 || 2.0 * max_rate_ * best_distance > kMaxCorrection) {
+  if (best < 0 || 2.0 * max_rate_ * best_distance > kMaxTaylorNorm) {
     best = oldest;
     Anchor& anchor = anchors_[static_cast<std::size_t>(best)];
     uniformise(dt, &anchor.p);
@@ -343,28 +385,24 @@ void ModeTransition::propagate(double dt, const Eigen::Ref<const Eigen::MatrixXd
     out = in;
     return;
   }
+  if (2.0 * max_rate_ * dt <= kMaxDirectTaylorNorm) {
+    // A short step (10 ms against dwell times of seconds: a few terms):
+    // P(dt)' x = expm(Pi_c dt)' x directly, O(N C) per term, no N x N product.
+    out = in;
+    taylor_propagate(dt, out);
+    return;
+  }
   const int a = anchor_for(dt);
   if (a < 0) {
     eigen_propagate(dt, in, out);
     return;
   }
-  // P(dt)' x = expm(Pi_c delta)' P(dt_a)' x: one dense product, then a
-  // Taylor series of O(N C) products with Pi_c'.
+  // P(dt)' x = expm(Pi_c delta)' P(dt_a)' x: one dense product, then the
+  // Taylor series.
   const Anchor& anchor = anchors_[static_cast<std::size_t>(a)];
   const double delta = dt - anchor.dt;
   transpose_times(anchor.p, in, out);
-  if (delta == 0.0) return;
-  auto term = term_.leftCols(columns);
-  auto next = term2_.leftCols(columns);
-  term = out;
-  const double bound = 2.0 * max_rate_ * std::abs(delta);
-  double size = 1.0;
-  for (int k = 1; k < 30 && size > 1e-18; ++k) {
-    generator_transpose_times(term, next);
-    term = next * (delta / k);
-    out += term;
-    size *= bound / k;
-  }
+  if (delta != 0.0) taylor_propagate(delta, out);
 }
 
 }  // namespace skidimm

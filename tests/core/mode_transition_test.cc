@@ -142,6 +142,31 @@ TEST(ModeTransition, PerModeDwellTimesMatchTheOriginalUniformisationOnIrregularS
   EXPECT_LT(worst_matrix, 1e-14);
 }
 
+// Dwell times of seconds and steps of tens of milliseconds (||Pi_c dt|| up to
+// 0.01): the series from the identity, no anchor; longer steps of the same
+// log take the anchors or the eigenvectors in between, and each path must
+// pick up where the others left off.
+TEST(ModeTransition, PerModeDwellTimesOnShortStepsMatchTheOriginalUniformisation) {
+  ModeTransition t = ModeTransition::from_dwell_times(Eigen::VectorXd::LinSpaced(12, 5.0, 20.0));
+  ModeTransition fresh = ModeTransition::from_dwell_times(Eigen::VectorXd::LinSpaced(12, 5.0, 20.0));
+  t.reserve_columns(6);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  Eigen::MatrixXd in(12, 6), out(12, 6);
+  int short_steps = 0;
+  for (double dt : irregular_steps()) {
+    if (2.0 * 0.2 * dt <= 0.01) ++short_steps;
+    const Eigen::MatrixXd expected = original_uniformisation(t.generator(), dt);
+    for (int i = 0; i < in.size(); ++i) in.data()[i] = uniform(rng);
+    t.propagate(dt, in, out);
+    ASSERT_LT((out - expected.transpose() * in).cwiseAbs().maxCoeff(), 1e-14) << "dt = " << dt;
+    const Eigen::MatrixXd& actual = fresh.matrix(dt);
+    ASSERT_LT((actual - expected).cwiseAbs().maxCoeff(), 1e-14) << "dt = " << dt;
+    for (int i = 0; i < 12; ++i) ASSERT_NEAR(actual.row(i).sum(), 1.0, 1e-14) << "dt = " << dt;
+  }
+  EXPECT_GT(short_steps, 300);
+}
+
 TEST(ModeTransition, PerModeDwellTimesMatchEigensExponentialPastTheUniformisationRange) {
   Eigen::VectorXd dwell(5);
   dwell << 0.2, 0.3, 1.0, 4.0, 20.0;  // the fastest mode: 5 jumps/s, so dt > 10 s takes the eigenvectors

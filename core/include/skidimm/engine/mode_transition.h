@@ -17,13 +17,16 @@
 //  * equal dwell times: P = e I + (1 - e)/N 1 1' in closed form, O(N C).
 //  * per-mode dwell times: Pi_c = a r 1' - D (a = 1/(N-1), D = diag(N r/(N-1)))
 //    is diagonal plus rank one, so a product with it costs O(N C), not O(N^2 C).
-//    P(dt) is computed once for a step dt_a (an anchor: uniformisation, every
-//    term a product with the structured J = I + Pi_c / max r, O(N^2) each) and
-//    every later dt reuses it: P(dt) = P(dt_a) expm(Pi_c (dt - dt_a)), the
-//    second factor a short Taylor series of products with Pi_c. A jittered log
-//    therefore costs one N x N by N x C product per step, like a per-step
-//    matrix. A step far from every anchor makes a new one (four are kept); a
-//    step long enough that uniformisation would need many terms (max r dt >
+//    A short step (||Pi_c dt|| = 2 max r dt <= 0.01: 10 ms against dwell times
+//    of 2 s or more) applies the Taylor series of expm(Pi_c dt)' itself, a few
+//    O(N C) products with Pi_c', one column at a time: O(N C) per step like
+//    equal dwell times. A longer step uses an anchor: P(dt_a) computed once
+//    for a step dt_a (uniformisation, every term a product with the
+//    structured J = I + Pi_c / max r, O(N^2) each), reused for every later dt
+//    near it: P(dt) = P(dt_a) expm(Pi_c (dt - dt_a)), the second factor the
+//    same short Taylor series; one N x N by N x C product per step, like a
+//    per-step matrix. A step far from every anchor makes a new one (four are
+//    kept); a step long enough that uniformisation would need many terms (max r dt >
 //    50, a gap of 50 dwell times of the fastest mode) uses the eigenvectors of
 //    the symmetric matrix R^1/2 K R^1/2 similar to Pi_c (computed once, at
 //    construction): P(dt)' x = R^-1/2 U exp(L dt) U' R^1/2 x, two products.
@@ -97,8 +100,10 @@ class ModeTransition {
   void uniformise(double dt, Eigen::MatrixXd* p);
   // out = x Pi_c, in O(N^2): x (N x N) times the diagonal-plus-rank-one generator.
   void times_generator(const Eigen::MatrixXd& x, Eigen::MatrixXd* out) const;
-  // out = Pi_c' x, in O(N C).
-  void generator_transpose_times(const Eigen::Ref<const Eigen::MatrixXd>& x, Eigen::Ref<Eigen::MatrixXd> out) const;
+  // Terms of the Taylor series of expm(Pi_c h) past the identity that reach 1e-18.
+  int taylor_terms(double h) const;
+  // x <- expm(Pi_c h)' x by its Taylor series, O(N C) per term.
+  void taylor_propagate(double h, Eigen::Ref<Eigen::MatrixXd> x);
   void eigen_propagate(double dt, const Eigen::Ref<const Eigen::MatrixXd>& in, Eigen::Ref<Eigen::MatrixXd> out);
 
   Form form_ = Form::kPerStep;
