@@ -72,9 +72,29 @@
 // Jacobian entry, an output, a noise entry) a rejected step whose reason names the entry and the operating point, e.g.
 // "jacobian() is not finite: entry (row 1 'omega', column 0 'V') = nan at x = [...], u = [...], dt = 0.02".
 //
-// FunctionModel is a SizedMotionModel (sized_motion_model.h): the class form
-// is the low-level ABI this generated code implements, not a second way to
-// write a model.
+// Shapes from the bank. A model written in the bank file (linear_features:
+// the bank's own states and inputs, a matrix A full or diagonal as the bank
+// writes it) cannot list its states or shapes here. Its spec gives instead
+// kMaxStates, kMaxInputs and kMaxParameters (bounds for the stack matrices,
+// so nothing allocates per step), table rows shaped by the bank
+// (BankShape, TextList: parameter_spec.h) and
+//
+//   static bool layout(const skidimm::sdk::ParameterSet& params, skidimm::sdk::Layout* layout, std::string* error);
+//
+// which says, from the mode's params, the shape of each row and which are
+// held fixed (bank_layout.h). Its functions take the Layout first and see
+// doubles only: predict(layout, x, u, p, dt, x_next), and optionally
+// jacobian(layout, ...), parameter_jacobian(layout, ...) (state x every
+// numeric entry of p, fixed ones included; their columns may be left
+// alone, they are dropped) and process_noise(layout, intensity, ...). Jets
+// need their sizes at compile time, so without a hand-written derivative
+// the model says it has none and the engine and the fitter difference
+// predict(). The rest is generated as above (bank_shaped_function_model.h);
+// outputs are not offered.
+//
+// FunctionModel is a SizedMotionModel (sized_motion_model.h), or with shapes
+// from the bank a MotionModel: the class form is the low-level ABI this
+// generated code implements, not a second way to write a model.
 #ifndef SKIDIMM_SDK_FUNCTION_MODEL_H_
 #define SKIDIMM_SDK_FUNCTION_MODEL_H_
 
@@ -97,6 +117,7 @@
 #include <vector>
 
 #include "skidimm/sdk/angles.h"
+#include "skidimm/sdk/bank_layout.h"
 #include "skidimm/sdk/export.h"
 #include "skidimm/sdk/failure.h"
 #include "skidimm/sdk/parameter_spec.h"
@@ -203,8 +224,9 @@ inline std::string flat_name(const ParameterSpec& p, int r, int c) {
   return std::string(p.key) + "[" + std::to_string(r) + "," + std::to_string(c) + "]";
 }
 
-// "scalar", "3-vector", "2x2".
+// "scalar", "3-vector", "2x2"; for a row shaped by the bank, its own text.
 inline std::string shape_text(const ParameterSpec& p) {
+  if (p.kind != ParameterKind::kNumbers) return p.shape_text;
   if (p.is_scalar()) return "scalar";
   if (p.is_vector()) return std::to_string(p.shape.rows) + "-vector";
   return std::to_string(p.shape.rows) + "x" + std::to_string(p.shape.cols);
@@ -227,10 +249,19 @@ inline std::string parameter_doc_text(const ParameterSpec& p) {
   return text + (p.scope == ParameterScope::kBank ? std::string(", ") + kBankLevelDoc : ", per mode");
 }
 
+// True if every row of the table has its shape at compile time.
+template <typename Table>
+constexpr bool all_compile_time_shapes(const Table& table) {
+  for (const ParameterSpec& p : table) {
+    if (p.kind != ParameterKind::kNumbers) return false;
+  }
+  return true;
+}
+
 }  // namespace internal
 
 template <typename Spec>
-class FunctionModel final
+class FunctionModel<Spec, internal::CompileTimeShapes> final
     : public SizedMotionModel<static_cast<int>(std::size(Spec::kStates)), static_cast<int>(std::size(Spec::kInputs))> {
  public:
   static constexpr int kStates = static_cast<int>(std::size(Spec::kStates));
@@ -256,6 +287,9 @@ class FunctionModel final
                 "the spec needs `template <typename T, typename P> static void predict(const T* x, const double* u, "
                 "const P* p, double dt, T* x_next)` (or the same with one type T)");
   static_assert(!internal::HasOutputTable<Spec>::value || kOutputs > 0, "kOutputs, when given, cannot be empty");
+  static_assert(internal::all_compile_time_shapes(internal::parameter_table<Spec>()),
+                "BankShape and TextList rows need the shapes from the bank: give the spec a layout() "
+                "(bank_layout.h)");
 
   static std::unique_ptr<FunctionModel> Create(const ParameterSet& params, std::string* error) {
     auto fail = [error](const std::string& message) {
@@ -711,5 +745,8 @@ class FunctionModel final
   const ::skidimm::sdk::PluginInfo& kInfo = ::skidimm::sdk::FunctionModel<Spec>::info(); \
   }                                                                                      \
   SKIDIMM_EXPORT_MOTION_MODEL(::skidimm::sdk::FunctionModel<Spec>, skidimm_function_model_exports::kInfo)
+
+// The same form for a spec whose shapes come from the bank (its layout()).
+#include "skidimm/sdk/bank_shaped_function_model.h"
 
 #endif  // SKIDIMM_SDK_FUNCTION_MODEL_H_

@@ -20,6 +20,14 @@
 // compile time, so a spec can name its offsets instead of counting them.
 // Flat names (what `skidimm fit` reports and a fitted bank regroups): "k"
 // for a number, "A[r,c]" for a matrix entry, "w[i]" for a vector entry.
+//
+// A model whose shapes come from the bank (a spec with layout(),
+// bank_layout.h) marks such rows with the text `skidimm plugins` shows for
+// their shape, and may have rows of text, which its layout() reads and which
+// never enter the flat vector:
+//
+//       {"B", "input matrix", BankShape{"n x m"}},                   // n states x m inputs
+//       {"fixed", "keys held at their values", TextList{"text list, optional"}},
 #ifndef SKIDIMM_SDK_PARAMETER_SPEC_H_
 #define SKIDIMM_SDK_PARAMETER_SPEC_H_
 
@@ -40,6 +48,18 @@ struct Shape {
   int cols = 1;
 };
 
+// The shape of a parameter that the bank decides, as `skidimm plugins` writes it ("n x m").
+struct BankShape {
+  const char* text;
+};
+// A parameter that is a list of text (names), as `skidimm plugins` writes it ("text list, optional").
+struct TextList {
+  const char* text;
+};
+
+// Numbers of the row's compile-time shape, numbers the bank shapes, or text.
+enum class ParameterKind { kNumbers, kBankShaped, kText };
+
 struct ParameterSpec {
   const char* key = "";          // its key under params: (or shared:)
   const char* description = "";  // one line, with units
@@ -47,6 +67,8 @@ struct ParameterSpec {
   double upper_bound = kInfinity;
   ParameterScope scope = ParameterScope::kMode;
   Shape shape{};
+  ParameterKind kind = ParameterKind::kNumbers;
+  const char* shape_text = nullptr;  // for kBankShaped and kText rows
 
   constexpr ParameterSpec() = default;
   // A number in [lower_bound, upper_bound].
@@ -66,6 +88,25 @@ struct ParameterSpec {
         upper_bound(upper_bound),
         scope(scope),
         shape(shape) {}
+  // Numbers whose shape the bank decides (the spec's layout()): no entries
+  // of their own in the compile-time count.
+  constexpr ParameterSpec(const char* key, const char* description, BankShape shape,
+                          ParameterScope scope = ParameterScope::kMode)
+      : key(key),
+        description(description),
+        scope(scope),
+        shape{0, 0},
+        kind(ParameterKind::kBankShaped),
+        shape_text(shape.text) {}
+  // Text, read by the spec's layout(); never a parameter to fit.
+  constexpr ParameterSpec(const char* key, const char* description, TextList list,
+                          ParameterScope scope = ParameterScope::kMode)
+      : key(key),
+        description(description),
+        scope(scope),
+        shape{0, 0},
+        kind(ParameterKind::kText),
+        shape_text(list.text) {}
 
   constexpr int size() const { return shape.rows * shape.cols; }
   constexpr bool is_scalar() const { return shape.rows == 1 && shape.cols == 1; }
