@@ -341,7 +341,7 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
   // What `skidimm plugins` shows: the table, without states or inputs
   // (the bank's); built once, with static storage in the plugin.
   static const PluginInfo& info() {
-    static const Docs docs;
+    static const internal::PluginDocs<Spec> docs;
     return docs.info;
   }
 
@@ -349,26 +349,6 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
 
  private:
   FunctionModel() = default;
-
-  struct Docs {
-    Docs() {
-      for (const ParameterSpec& p : table()) {
-        shapes.push_back(internal::shape_text(p));
-        descriptions.push_back(internal::parameter_doc_text(p));
-      }
-      for (std::size_t i = 0; i < shapes.size(); ++i) {
-        parameters.push_back({table()[i].key, shapes[i].c_str(), descriptions[i].c_str()});
-      }
-      info.name = Spec::kName;
-      info.version = Spec::kVersion;
-      info.description = Spec::kDescription;
-      info.parameters = parameters.empty() ? nullptr : parameters.data();
-      info.num_parameters = static_cast<int>(parameters.size());
-    }
-    std::vector<std::string> shapes, descriptions;
-    std::vector<ParameterDoc> parameters;
-    PluginInfo info{};
-  };
 
   const char* state_name(int i) const noexcept { return layout_.states[static_cast<std::size_t>(i)].c_str(); }
 

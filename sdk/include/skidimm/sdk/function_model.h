@@ -258,6 +258,40 @@ constexpr bool all_compile_time_shapes(const Table& table) {
   return true;
 }
 
+// The PluginInfo `skidimm plugins` shows for a spec: its table, and its
+// states, inputs and outputs unless the bank gives them (layout()). Text
+// with static storage in the plugin, built once.
+template <typename Spec>
+struct PluginDocs {
+  PluginDocs() {
+    for (const ParameterSpec& p : parameter_table<Spec>()) {
+      shapes.push_back(shape_text(p));
+      descriptions.push_back(parameter_doc_text(p));
+    }
+    for (std::size_t i = 0; i < shapes.size(); ++i) {
+      parameters.push_back({parameter_table<Spec>()[i].key, shapes[i].c_str(), descriptions[i].c_str()});
+    }
+    info.name = Spec::kName;
+    info.version = Spec::kVersion;
+    info.description = Spec::kDescription;
+    info.parameters = parameters.empty() ? nullptr : parameters.data();
+    info.num_parameters = static_cast<int>(parameters.size());
+    if constexpr (!HasLayout<Spec>::value) {
+      constexpr int kInputs = static_cast<int>(std::size(Spec::kInputs));
+      constexpr int kOutputs = static_cast<int>(std::size(output_table<Spec>()));
+      info.states = Spec::kStates;
+      info.num_states = static_cast<int>(std::size(Spec::kStates));
+      info.inputs = kInputs > 0 ? Spec::kInputs : nullptr;
+      info.num_inputs = kInputs;
+      info.outputs = kOutputs > 0 ? std::data(output_table<Spec>()) : nullptr;
+      info.num_outputs = kOutputs;
+    }
+  }
+  std::vector<std::string> shapes, descriptions;
+  std::vector<ParameterDoc> parameters;
+  PluginInfo info{};
+};
+
 }  // namespace internal
 
 template <typename Spec>
@@ -593,7 +627,7 @@ class FunctionModel<Spec, internal::CompileTimeShapes> final
 
   // What `skidimm plugins` shows; built once, with static storage in the plugin.
   static const PluginInfo& info() {
-    static const Docs docs;
+    static const internal::PluginDocs<Spec> docs;
     return docs.info;
   }
 
@@ -601,32 +635,6 @@ class FunctionModel<Spec, internal::CompileTimeShapes> final
   static constexpr const auto& output_table() { return internal::output_table<Spec>(); }
 
  private:
-  struct Docs {
-    Docs() {
-      for (const ParameterSpec& p : table()) {
-        shapes.push_back(internal::shape_text(p));
-        descriptions.push_back(internal::parameter_doc_text(p));
-      }
-      for (std::size_t i = 0; i < shapes.size(); ++i) {
-        parameters.push_back({table()[i].key, shapes[i].c_str(), descriptions[i].c_str()});
-      }
-      info.name = Spec::kName;
-      info.version = Spec::kVersion;
-      info.description = Spec::kDescription;
-      info.parameters = parameters.empty() ? nullptr : parameters.data();
-      info.num_parameters = static_cast<int>(parameters.size());
-      info.states = Spec::kStates;
-      info.num_states = kStates;
-      info.inputs = kInputs > 0 ? Spec::kInputs : nullptr;
-      info.num_inputs = kInputs;
-      info.outputs = kOutputs > 0 ? std::data(output_table()) : nullptr;
-      info.num_outputs = kOutputs;
-    }
-    std::vector<std::string> shapes, descriptions;
-    std::vector<ParameterDoc> parameters;
-    PluginInfo info{};
-  };
-
   // The prediction the last automatic Jacobian computed along, on this
   // thread. The filter asks for the Jacobian and then the prediction at the
   // same state, input and step (ekf.h); the jets' values are that
