@@ -508,7 +508,7 @@ uses a hand-written Cholesky for K <= 4 (Eigen's `LLT::solve` goes through its
 general triangular solver and packing), forward substitution alone for the
 NIS, and one logarithm for log det S. The model is still called through the
 plugin interface: three virtual calls per mode and step (Jacobian, process
-noise, prediction); the `SizedMotionModel` trampolines pass arguments through
+noise, prediction, given one view of the state); the `SizedMotionModel` trampolines pass arguments through
 fixed-size maps (a copy of the n + m doubles the fixed-size signature takes by
 value; removing that would change the plugin authoring API). `stc_kinematic`
 computes sin and cos of the heading once for the Jacobian and the prediction
@@ -557,7 +557,14 @@ probability, and which one is "most likely" is decided by the last bit of
 c = P' mu. For per-step matrices and equal dwell times the engine still
 computes c with the same dense product as before, so published results
 (`docs/results.md`) are reproduced exactly, ties included
-(`Imm.PredictedProbabilitiesAreTheDenseProductBitForBit`).
+(`Imm.PredictedProbabilitiesAreTheDenseProductBitForBit`). It sums each
+entry in the order Eigen's matrix-vector kernel does, in a loop of its own
+(`core/src/transposed_product.h`, pinned to Eigen's product bit for bit by
+`TransposedProduct.IsEigensMatrixVectorProductBitForBit`): at 3 or 4 modes
+the product's dispatch cost more than its arithmetic. Likewise the closed
+form for equal dwell times sums each column of the moments as Eigen's
+`sum()` does, alignment included
+(`ModeTransition.EqualDwellTimesPropagateIsTheClosedFormWithEigensSumBitForBit`).
 
 **The run loop.** `CsvReader::next_row()` splits rows in place in a block
 read at once (eight bytes at a time), quoted rows take the original

@@ -74,18 +74,16 @@ bool predict_fixed(const sdk::MotionModel& model, const Eigen::Matrix<double, N,
   Eigen::Map<Eigen::Matrix<double, N, N>> f(f_storage);
   Eigen::Map<Eigen::Matrix<double, N, N>> q(q_storage);
   Eigen::Map<Eigen::Matrix<double, N, 1>> next(next_storage);
-  // F and Q are evaluated at the prior state, before x is overwritten.
+  // F and Q are evaluated at the prior state, before x is overwritten. One
+  // view of x for the three calls (each would otherwise make its own).
   {
+    const Eigen::Ref<const Eigen::VectorXd> prior(*x);
     Eigen::Ref<Eigen::MatrixXd> f_out(f);
-    if (!model.jacobian(*x, u, dt, f_out)) return false;
-  }
-  {
+    if (!model.jacobian(prior, u, dt, f_out)) return false;
     Eigen::Ref<Eigen::MatrixXd> q_out(q);
-    if (!model.process_noise(q_intensity, *x, u, dt, q_out)) return false;
-  }
-  {
+    if (!model.process_noise(q_intensity, prior, u, dt, q_out)) return false;
     Eigen::Ref<Eigen::VectorXd> next_out(next);
-    if (!model.predict(*x, u, dt, next_out)) return false;
+    if (!model.predict(prior, u, dt, next_out)) return false;
   }
   *x = next;
   wrap_angles_fixed<N>(angles, x);

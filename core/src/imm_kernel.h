@@ -31,6 +31,7 @@
 #include "skidimm/engine/measurement_model.h"
 #include "skidimm/engine/mode_transition.h"
 #include "student_t_likelihood.h"
+#include "transposed_product.h"
 
 namespace skidimm {
 namespace internal {
@@ -377,8 +378,10 @@ class Kernel final : public ImmKernel {
             ImmEstimate* e) override {
     int rejected = 0;
     const double previous_unknown = e->unknown_probability;
-    e->log_likelihoods.setConstant(kNaN);
-    e->nis.setConstant(kNaN);
+    for (int j = 0; j < modes_; ++j) {
+      e->log_likelihoods[j] = kNaN;
+      e->nis[j] = kNaN;
+    }
     std::fill(e->mode_failures.begin(), e->mode_failures.end(), ModeFailure::kNone);
     if (first) {
       for (int j = 0; j < modes_; ++j) {
@@ -538,7 +541,7 @@ class Kernel final : public ImmKernel {
     if (transition_.matrix_in_closed_form()) {
       // c = P' mu as the IMM always computed it (mode_transition.h): exact
       // ties between modes stay ties, broken by index as before.
-      predicted_.noalias() = transition_.matrix(dt).transpose() * mu;
+      transposed_times(transition_.matrix(dt), mu, &predicted_);
     } else {
       predicted_ = flowed_.col(0);
     }

@@ -65,6 +65,40 @@ void dot_products(const double* a, const double* const* b, Eigen::Index n, doubl
   }
 }
 
+// The sum of x[0..n) exactly as Eigen's sum() of a dynamic-size column sums
+// it (Redux.h, the linear vectorized traversal: from the first element
+// aligned to a packet, two packets of running sums, their sum, one more
+// packet if it fits, the packet's lanes; then the elements before the
+// aligned start and after the last packet, one by one), without its
+// dispatch, which at 3 or 4 modes costs more than the additions.
+double eigen_sum(const double* x, Eigen::Index n) {
+  using Eigen::internal::padd;
+  using Eigen::internal::ploadu;
+  if (n == 0) return 0.0;
+  const Eigen::Index start = Eigen::internal::first_default_aligned(x, n);
+  const Eigen::Index size2 = (n - start) / (2 * kLanes) * (2 * kLanes);
+  const Eigen::Index size1 = (n - start) / kLanes * kLanes;
+  if (size1 == 0) {
+    double result = x[0];
+    for (Eigen::Index i = 1; i < n; ++i) result = result + x[i];
+    return result;
+  }
+  Packet sum0 = ploadu<Packet>(x + start);
+  if (size1 > kLanes) {
+    Packet sum1 = ploadu<Packet>(x + start + kLanes);
+    for (Eigen::Index i = start + 2 * kLanes; i < start + size2; i += 2 * kLanes) {
+      sum0 = padd(sum0, ploadu<Packet>(x + i));
+      sum1 = padd(sum1, ploadu<Packet>(x + i + kLanes));
+    }
+    sum0 = padd(sum0, sum1);
+    if (size1 > size2) sum0 = padd(sum0, ploadu<Packet>(x + start + size2));
+  }
+  double result = Eigen::internal::predux(sum0);
+  for (Eigen::Index i = 0; i < start; ++i) result = result + x[i];
+  for (Eigen::Index i = start + size1; i < n; ++i) result = result + x[i];
+  return result;
+}
+
 // out = a' b for column-major a (N x N) and b (N x C), without Eigen's GEMM
 // (which may take its blocking space from the heap for large N). From 16
 // modes on, each entry is a.col(j).dot(b.col(c)) bit for bit, four columns
@@ -372,8 +406,10 @@ void ModeTransition::propagate(double dt, const Eigen::Ref<const Eigen::MatrixXd
       const double decay = equal_rates_decay(dt);
       const double spread = (1.0 - decay) / static_cast<double>(n);
       for (Eigen::Index c = 0; c < columns; ++c) {
-        const double total = spread * in.col(c).sum();
-        for (Eigen::Index i = 0; i < n; ++i) out(i, c) = decay * in(i, c) + total;
+        const double* column = in.col(c).data();
+        double* flowed = out.col(c).data();
+        const double total = spread * eigen_sum(column, n);  // in.col(c).sum(), to the bit
+        for (Eigen::Index i = 0; i < n; ++i) flowed[i] = decay * column[i] + total;
       }
       return;
     }

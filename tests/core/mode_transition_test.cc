@@ -228,6 +228,44 @@ TEST(ModeTransition, ManyModesPropagateIsEigensDotProductBitForBit) {
   }
 }
 
+// Equal dwell times: row j of P(dt)' x is e x_j + (1 - e)/N sum_i x_i, each
+// column's sum exactly as Eigen's sum() of the column gives it (its order
+// depends on where the column starts in memory), as the engine always
+// computed it, so published results stay exactly reproduced.
+TEST(ModeTransition, EqualDwellTimesPropagateIsTheClosedFormWithEigensSumBitForBit) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  for (int n = 2; n <= 37; ++n) {
+    const double dwell = 0.5 + 20.0 * uniform(rng);
+    ModeTransition t = ModeTransition::from_dwell_times(Eigen::VectorXd::Constant(n, dwell));
+    for (int columns : {1, 6, 10}) {
+      t.reserve_columns(columns);
+      for (int offset = 0; offset < 4; ++offset) {
+        Eigen::MatrixXd whole(n + 4, columns + 1);
+        for (Eigen::Index k = 0; k < whole.size(); ++k) {
+          whole.data()[k] = uniform(rng) * std::pow(10.0, -static_cast<int>(rng() % 8));
+        }
+        const Eigen::Ref<const Eigen::MatrixXd> in = whole.block(offset, 1, n, columns);
+        Eigen::MatrixXd out(n, columns);
+        const double dt = 0.01 * (1.0 + 0.1 * uniform(rng));
+        t.propagate(dt, in, out);
+        const double nn = static_cast<double>(n);
+        const double decay = std::exp(-(1.0 / dwell) * nn / (nn - 1.0) * dt);
+        const double spread = (1.0 - decay) / nn;
+        for (Eigen::Index c = 0; c < columns; ++c) {
+          const double total = spread * in.col(c).sum();
+          for (Eigen::Index i = 0; i < n; ++i) {
+            const double expected = decay * in(i, c) + total;
+            ASSERT_EQ(std::memcmp(&out(i, c), &expected, sizeof(double)), 0)
+                << n << " modes, offset " << offset << ", column " << c << ": " << out(i, c) << " against "
+                << expected;
+          }
+        }
+      }
+    }
+  }
+}
+
 // Larger banks, where the old implementation's N^3 per new dt hurt: 64
 // modes, every step a slightly different dt.
 TEST(ModeTransition, SixtyFourModesWithJitteredStepsMatchTheOriginal) {
