@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,23 +13,25 @@
 #include <thread>
 #include <tuple>
 
+#include "assessment_protocols.h"
 #include "check.h"
+#include "scoring_sources.h"
 #include "skidimm/errors.h"
 #include "skidimm/evaluation/log_evaluation.h"
 #include "skidimm/fitting/bank_fit.h"
-#include "skidimm/engine/parameter_uncertainty.h"
 #include "skidimm/progress.h"
+#include "tuned_settings.h"
 
 namespace skidimm {
 namespace fitting {
 
 namespace {
 
-std::string brief(double v) {
-  char b[32];
-  std::snprintf(b, sizeof(b), "%.4g", v);
-  return b;
-}
+using internal::BoundedSource;
+using internal::brief;
+using internal::complement;
+using internal::ScoreBound;
+using internal::SplicedReplay;
 
 // Runs task(i, worker) for i in [0, count) on `workers` threads; worker is the
 // thread's index, so each may own a bank. The first exception is rethrown.
@@ -73,330 +74,7 @@ std::vector<ModeLogs> training_data(const std::vector<TuningLog>& logs, const st
   return out;
 }
 
-// Recorded logs end to end, as one log: each log's steps in turn, its times
-// shifted to follow the previous log's last step by `gap` seconds (or by the
-// previous log's last step interval when gap is 0), its truth its label where
-// one is given.
-class SplicedReplay : public SampleSource {
- public:
-  SplicedReplay(std::vector<const RecordedLog*> logs, std::vector<std::string> labels, double gap)
-      : logs_(std::move(logs)), labels_(std::move(labels)), gap_(gap) {}
-
-  bool next(LogSample* sample) override {
-    while (log_ < logs_.size()) {
-      const std::vector<LogSample>& samples = logs_[log_]->samples();
-      if (index_ >= samples.size()) {
-        ++log_;
-        index_ = 0;
-        continue;
-      }
-      if (index_ == 0) {
-        const double gap = gap_ > 0.0 ? gap_ : last_interval_;
-        shift_ = log_ == 0 ? 0.0 : last_t_ + gap - samples.front().t;
-      }
-      *sample = samples[index_];
-      sample->t += shift_;
-      if (!labels_[log_].empty()) sample->truth_mode = labels_[log_];
-      sample->row = ++row_;
-      if (index_ > 0) last_interval_ = sample->t - last_t_;
-      last_t_ = sample->t;
-      ++index_;
-      return true;
-    }
-    return false;
-  }
-  bool has_truth() const override { return true; }
-
- private:
-  std::vector<const RecordedLog*> logs_;
-  std::vector<std::string> labels_;
-  double gap_;
-  std::size_t log_ = 0, index_ = 0;
-  double shift_ = 0.0, last_t_ = 0.0, last_interval_ = 1.0;
-  long row_ = 0;
-};
-
-// A candidate's score while it is computed. The score (summarize()) is a
-// weighted sum, with positive weights, of each step's log p(truth), which is
-// at most 0: the sum over the steps scored so far can only fall. Once it is
-// below what the candidate must beat, the candidate has lost, and the
-// scoring stops (every source it reads ends): a search then chooses exactly
-// what it would have chosen had every log been scored to its end.
-//
-// Which candidates lose does not depend on the order the logs are scored in,
-// only how soon they are found to: the logs that cost the last full scoring
-// most (`costs`, each log's weighted sum, most negative first) are scored
-// first, so that a losing candidate crosses the bound after as few steps as
-// the search can foresee.
-struct ScoreBound {
-  ScoreBound(double must_beat, std::vector<double>* log_costs) : threshold(must_beat), costs(log_costs) {}
-  const double threshold;
-  std::vector<double>* const costs;  // per log; written only for logs scored to their end
-  std::atomic<double> so_far{0.0};
-  std::atomic<bool> lost{false};
-
-  void add(double term) {
-    double seen = so_far.load(std::memory_order_relaxed);
-    while (!so_far.compare_exchange_weak(seen, seen + term, std::memory_order_relaxed)) {
-    }
-    if (seen + term < threshold) lost = true;  // NaN: never
-  }
-};
-
-// A source that ends early, when its bound says the scoring has lost.
-class BoundedSource : public SampleSource {
- public:
-  BoundedSource(SampleSource* source, const ScoreBound* bound) : source_(source), bound_(bound) {}
-  bool next(LogSample* sample) override { return !bound_->lost && source_->next(sample); }
-  bool has_truth() const override { return source_->has_truth(); }
-
- private:
-  SampleSource* source_;
-  const ScoreBound* bound_;
-};
-
 }  // namespace
-
-std::vector<std::vector<int>> grouped_folds(const std::vector<int>& members, const std::vector<std::string>& classes,
-                                         int folds) {
-  std::vector<std::vector<int>> out;
-  if (folds <= 0 || folds >= static_cast<int>(members.size())) {
-    for (int i : members) out.push_back({i});
-    return out;
-  }
-  std::vector<int> order = members;
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    return classes[static_cast<std::size_t>(a)] < classes[static_cast<std::size_t>(b)];
-  });
-  out.resize(static_cast<std::size_t>(folds));
-  for (std::size_t k = 0; k < order.size(); ++k) out[k % static_cast<std::size_t>(folds)].push_back(order[k]);
-  return out;
-}
-
-std::string Protocol::name() const {
-  switch (kind) {
-    case Kind::kLogs:
-      return "logs";
-    case Kind::kSessions:
-      return "sessions";
-    case Kind::kExtrapolation:
-      return "extrapolation in " + input;
-  }
-  return "?";
-}
-
-std::string Protocol::slug() const { return kind == Kind::kExtrapolation ? "extrapolation-" + input : name(); }
-
-Protocol protocol_from_string(const std::string& text) {
-  Protocol p;
-  if (text == "logs") return p;
-  if (text == "sessions") {
-    p.kind = Protocol::Kind::kSessions;
-    return p;
-  }
-  const std::string prefix = "extrapolation:";
-  if (text.compare(0, prefix.size(), prefix) == 0 && text.size() > prefix.size()) {
-    p.kind = Protocol::Kind::kExtrapolation;
-    std::string rest = text.substr(prefix.size());
-    // A fraction after the last ':' (an expression has no ':').
-    const std::size_t colon = rest.rfind(':');
-    if (colon != std::string::npos) {
-      const std::string fraction = rest.substr(colon + 1);
-      char* end = nullptr;
-      p.fraction = std::strtod(fraction.c_str(), &end);
-      if (fraction.empty() || end != fraction.c_str() + fraction.size() || !(p.fraction > 0.0 && p.fraction < 1.0)) {
-        throw Error("protocol '" + text + "': expected a fraction in (0, 1) after the last ':', got '" + fraction + "'");
-      }
-      rest.resize(colon);
-    }
-    const std::size_t equals = rest.find('=');
-    p.input = rest.substr(0, equals);
-    if (equals != std::string::npos) p.expression = rest.substr(equals + 1);
-    const bool name_ok = !p.input.empty() && std::all_of(p.input.begin(), p.input.end(), [](char c) {
-      return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
-    });
-    if (name_ok && (equals == std::string::npos || !p.expression.empty())) return p;
-  }
-  throw Error("unknown protocol '" + text + "' (expected logs, sessions, extrapolation:INPUT[:FRACTION] or "
-              "extrapolation:NAME=EXPRESSION[:FRACTION], NAME of letters, digits and _)");
-}
-
-// The share of a class's largest ranking above which a log counts as driven
-// in an extrapolation protocol's input.
-constexpr double kDrivenShare = 0.1;
-
-std::vector<std::vector<int>> protocol_folds(const Protocol& protocol, const std::vector<int>& members,
-                                             const std::vector<std::string>& classes,
-                                             const std::vector<std::string>& sessions,
-                                             const std::vector<double>& ranking, int folds) {
-  switch (protocol.kind) {
-    case Protocol::Kind::kLogs:
-      return grouped_folds(members, classes, folds);
-    case Protocol::Kind::kSessions: {
-      std::map<std::string, std::vector<int>> by_session;
-      for (int i : members) {
-        const std::string& session = sessions[static_cast<std::size_t>(i)];
-        // A log of no session is a session of its own (the \x01 keeps it apart from every name).
-        by_session[session.empty() ? "\x01" + std::to_string(i) : session].push_back(i);
-      }
-      if (by_session.size() < 2) throw Error("protocol 'sessions' needs logs from at least two sessions");
-      std::vector<std::vector<int>> out;
-      for (auto& [session, held] : by_session) out.push_back(std::move(held));
-      return out;
-    }
-    case Protocol::Kind::kExtrapolation: {
-      std::map<std::string, std::vector<int>> by_class;
-      for (int i : members) by_class[classes[static_cast<std::size_t>(i)]].push_back(i);
-      std::vector<int> held;
-      for (auto& [name, logs] : by_class) {
-        // Only the logs driven in this way at all compete: a class's runs on
-        // the spot are not "slower" runs of its straight driving, and holding
-        // them out with it would leave the class no straight run to learn
-        // from, a test of another question.
-        double largest = 0.0;
-        for (int i : logs) largest = std::max(largest, ranking[static_cast<std::size_t>(i)]);
-        std::vector<int> driven;
-        for (int i : logs) {
-          if (largest > 0.0 && ranking[static_cast<std::size_t>(i)] >= kDrivenShare * largest) driven.push_back(i);
-        }
-        if (driven.size() < 2) continue;  // one such log stays in training
-        std::stable_sort(driven.begin(), driven.end(), [&](int a, int b) {
-          return ranking[static_cast<std::size_t>(a)] > ranking[static_cast<std::size_t>(b)];
-        });
-        const std::size_t count =
-            std::min(driven.size() - 1,
-                     std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(protocol.fraction * driven.size()))));
-        held.insert(held.end(), driven.begin(), driven.begin() + static_cast<std::ptrdiff_t>(count));
-      }
-      if (held.empty()) {
-        throw Error("protocol '" + protocol.name() + "' needs a class with at least two logs driven in " + protocol.input);
-      }
-      std::sort(held.begin(), held.end());
-      return {held};
-    }
-  }
-  return {};
-}
-
-namespace {
-
-// The members of `within` not in `excluded`.
-std::vector<int> complement(const std::vector<int>& excluded, const std::vector<int>& within) {
-  std::vector<int> out;
-  for (int i : within) {
-    if (std::find(excluded.begin(), excluded.end(), i) == excluded.end()) out.push_back(i);
-  }
-  return out;
-}
-
-}  // namespace
-
-const char* to_string(Knob knob) {
-  switch (knob) {
-    case Knob::kRScale:
-      return "r-scale";
-    case Knob::kRComponents:
-      return "r-components";
-    case Knob::kQScale:
-      return "q-scale";
-    case Knob::kQModes:
-      return "q-modes";
-    case Knob::kDwell:
-      return "dwell";
-    case Knob::kFloor:
-      return "floor";
-    case Knob::kLikelihoodWeight:
-      return "likelihood-weight";
-    case Knob::kLikelihoodDof:
-      return "likelihood-dof";
-    case Knob::kUnknownInflation:
-      return "unknown-inflation";
-  }
-  return "?";
-}
-
-Knob knob_from_string(const std::string& name) {
-  for (Knob k : {Knob::kRScale, Knob::kRComponents, Knob::kQScale, Knob::kQModes, Knob::kDwell, Knob::kFloor,
-                 Knob::kLikelihoodWeight, Knob::kLikelihoodDof, Knob::kUnknownInflation}) {
-    if (name == to_string(k)) return k;
-  }
-  throw Error("unknown setting '" + name +
-              "' (expected r-scale, r-components, q-scale, q-modes, dwell, floor, likelihood-weight, likelihood-dof, "
-              "unknown-inflation)");
-}
-
-std::string TunedSettings::describe(const BankConfig& config) const {
-  std::string out = "objective " + objective + ", R x " + brief(r_scale);
-  for (Eigen::Index i = 0; i < r_component.size(); ++i) {
-    if (r_component[i] != 1.0) out += ", R[" + config.measurement.names[static_cast<std::size_t>(i)] + "] std x " + brief(r_component[i]);
-  }
-  out += ", Q x " + brief(q_scale);
-  for (Eigen::Index j = 0; j < q_mode.size(); ++j) {
-    if (q_mode[j] != 1.0) out += ", Q[" + config.modes[static_cast<std::size_t>(j)].name + "] x " + brief(q_mode[j]);
-  }
-  if (dwell_seconds > 0.0) out += ", dwell " + brief(dwell_seconds) + " s";
-  if (probability_floor >= 0.0) out += ", floor " + brief(probability_floor);
-  // Only when not 1, the plain IMM: the description of a bank tuned without it stays as it was.
-  if (likelihood_weight > 0.0 && likelihood_weight != 1.0) out += ", likelihood weight " + brief(likelihood_weight);
-  // Only when Student-t, for the same reason.
-  if (likelihood_dof > 0.0) out += ", likelihood dof " + brief(likelihood_dof);
-  if (unknown_inflation > 0.0) out += ", unknown inflation " + brief(unknown_inflation);
-  return out;
-}
-
-FittedValues values_of(const Bank& bank) {
-  FittedValues v;
-  for (std::size_t j = 0; j < bank.models.size(); ++j) {
-    Eigen::VectorXd p(static_cast<Eigen::Index>(bank.models[j]->parameter_info().size()));
-    bank.models[j]->get_parameters(p);
-    v.parameters.push_back(p);
-    v.q.push_back(bank.config.modes[j].q_intensity);
-    v.mode_r.push_back(bank.config.modes[j].r);
-    v.parameter_covariance.push_back(bank.config.modes[j].parameter_covariance);
-    v.residual_correlation.push_back(bank.config.modes[j].residual_correlation);
-  }
-  v.r = bank.config.measurement.r;
-  return v;
-}
-
-void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
-  BankConfig& config = bank->config;
-  for (std::size_t j = 0; j < bank->models.size(); ++j) {
-    std::string error;
-    if (!bank->models[j]->set_parameters(fitted.parameters[j], &error)) {
-      throw FitError("mode '" + config.modes[j].name + "' rejected its fitted parameters: " + error);
-    }
-    const double mode_scale = s.q_mode.size() > 0 ? s.q_mode[static_cast<Eigen::Index>(j)] : 1.0;
-    config.modes[j].q_intensity = fitted.q[j] * (s.q_scale * mode_scale);
-  }
-  const auto scaled = [&](const Eigen::MatrixXd& r) -> Eigen::MatrixXd {
-    if (s.r_component.size() == 0) return r * s.r_scale;
-    return s.r_component.asDiagonal() * (r * s.r_scale) * s.r_component.asDiagonal();
-  };
-  config.measurement.r = scaled(fitted.r);
-  for (std::size_t j = 0; j < fitted.mode_r.size() && j < config.modes.size(); ++j) {
-    config.modes[j].r = fitted.mode_r[j].size() > 0 ? scaled(fitted.mode_r[j]) : Eigen::MatrixXd();
-  }
-  if (s.dwell_seconds > 0.0) {
-    config.transition.kind = TransitionConfig::Kind::kDwellTimes;
-    config.transition.dwell_seconds = Eigen::VectorXd::Constant(config.num_modes(), s.dwell_seconds);
-  }
-  if (s.probability_floor >= 0.0) config.mode_probability_floor = s.probability_floor;
-  if (s.likelihood_weight > 0.0) config.likelihood_weight = s.likelihood_weight;
-  if (s.likelihood_dof >= 0.0) config.likelihood_dof = s.likelihood_dof;
-  if (s.unknown_inflation > 0.0) config.unknown.inflation = s.unknown_inflation;
-  for (std::size_t j = 0; j < fitted.residual_correlation.size() && j < config.modes.size(); ++j) {
-    config.modes[j].residual_correlation = fitted.residual_correlation[j];
-  }
-  for (std::size_t j = 0; j < fitted.parameter_covariance.size() && j < bank->models.size(); ++j) {
-    // An unchanged covariance leaves the model as it is (the hundreds of scorings of one fold).
-    const Eigen::MatrixXd& covariance = fitted.parameter_covariance[j];
-    const Eigen::MatrixXd& now = config.modes[j].parameter_covariance;
-    if (now.size() != covariance.size() || now != covariance) {
-      set_parameter_covariance(bank, static_cast<int>(j), covariance);
-    }
-  }
-}
 
 std::vector<LogScore> score_logs(const Bank& bank, const std::vector<const TuningLog*>& logs,
                                  const SamplingConfig& sampling, const std::vector<std::filesystem::path>& estimates) {
