@@ -528,8 +528,8 @@ differ by about eps |y|^2 / |P0| relative.
 without forming `P(dt)`: the given matrix for per-step transitions; the
 closed form for equal dwell times; for per-mode dwell times, the generator is
 diagonal plus rank one (`Pi_c = a r 1' - D`), so a product with it costs
-O(N C). A short step (`2 max r dt <= 0.01`: 10 ms against dwell times of
-2 s or more) applies the Taylor series of `expm(Pi_c dt)'` to the moments
+O(N C). From 8 modes on, a short step (`2 max r dt <= 0.01`: 10 ms against
+dwell times of 2 s or more) applies the Taylor series of `expm(Pi_c dt)'` to the moments
 directly, a few O(N C) products one column at a time and no N x N product,
 so it costs about what equal dwell times cost. For longer steps,
 `P(dt_a)` is computed once per anchor by uniformisation (each term a

@@ -22,6 +22,10 @@ constexpr double kMaxTaylorNorm = 0.1;
 // product. Past it, the anchor's product and a series in dt - dt_a, which
 // carries less round-off than a long series from the identity.
 constexpr double kMaxDirectTaylorNorm = 0.01;
+// The series from the identity takes a few more terms than the one from an
+// anchor, each O(N); it saves the anchor's N^2 product only from about this
+// many modes on (at 4 modes it is the slower of the two).
+constexpr Eigen::Index kMinDirectTaylorModes = 8;
 
 using Packet = Eigen::internal::packet_traits<double>::type;
 constexpr Eigen::Index kLanes = Eigen::internal::packet_traits<double>::size;
@@ -241,7 +245,7 @@ const Eigen::MatrixXd& ModeTransition::matrix(double dt) {
     matrix_.diagonal().array() += decay;
     return matrix_;
   }
-  if (2.0 * max_rate_ * dt <= kMaxDirectTaylorNorm) {
+  if (n >= kMinDirectTaylorModes && 2.0 * max_rate_ * dt <= kMaxDirectTaylorNorm) {
     // P(dt) = sum_k (Pi_c dt)^k / k!, each term O(N^2).
     matrix_.setIdentity();
     power_.setIdentity();
@@ -421,7 +425,7 @@ void ModeTransition::propagate(double dt, const Eigen::Ref<const Eigen::MatrixXd
     out = in;
     return;
   }
-  if (2.0 * max_rate_ * dt <= kMaxDirectTaylorNorm) {
+  if (n >= kMinDirectTaylorModes && 2.0 * max_rate_ * dt <= kMaxDirectTaylorNorm) {
     // A short step (10 ms against dwell times of seconds: a few terms):
     // P(dt)' x = expm(Pi_c dt)' x directly, O(N C) per term, no N x N product.
     out = in;

@@ -17,8 +17,8 @@
 //  * equal dwell times: P = e I + (1 - e)/N 1 1' in closed form, O(N C).
 //  * per-mode dwell times: Pi_c = a r 1' - D (a = 1/(N-1), D = diag(N r/(N-1)))
 //    is diagonal plus rank one, so a product with it costs O(N C), not O(N^2 C).
-//    A short step (||Pi_c dt|| = 2 max r dt <= 0.01: 10 ms against dwell times
-//    of 2 s or more) applies the Taylor series of expm(Pi_c dt)' itself, a few
+//    From 8 modes on, a short step (||Pi_c dt|| = 2 max r dt <= 0.01: 10 ms
+//    against dwell times of 2 s or more) applies the Taylor series of expm(Pi_c dt)' itself, a few
 //    O(N C) products with Pi_c', one column at a time: O(N C) per step like
 //    equal dwell times. A longer step uses an anchor: P(dt_a) computed once
 //    for a step dt_a (uniformisation, every term a product with the
