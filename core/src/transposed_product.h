@@ -20,10 +20,13 @@ namespace internal {
 
 // *out = p' x (p square, x and *out of its size; *out is not x). Allocates nothing.
 inline void transposed_times(const Eigen::MatrixXd& p, const Eigen::VectorXd& x, Eigen::VectorXd* out) {
-  using Packet = Eigen::internal::packet_traits<double>::type;
-  using HalfPacket = Eigen::internal::packet_traits<double>::half;
-  constexpr Eigen::Index kLanes = Eigen::internal::unpacket_traits<Packet>::size;
-  constexpr bool kOnePacketSize = Eigen::internal::unpacket_traits<HalfPacket>::size == kLanes;
+  // The sizes from packet_traits, not unpacket_traits<Packet>: a vector type
+  // as a class template's argument loses its attributes (gcc's
+  // -Wignored-attributes).
+  using Traits = Eigen::internal::packet_traits<double>;
+  using Packet = Traits::type;
+  constexpr Eigen::Index kLanes = Traits::size;
+  constexpr bool kOnePacketSize = !Traits::HasHalfPacket;
 #ifdef __FMA__
   constexpr bool kFusedMultiplyAdd = true;
 #else
