@@ -22,6 +22,7 @@
 #include "filter_health.h"
 #include "fixed_size_ekf.h"
 #include "gaussian_mixture.h"
+#include "mode_probabilities_given_a_mode.h"
 #include "measured_outputs.h"
 #include "not_a_number.h"
 #include "probability_floor.h"
@@ -591,12 +592,7 @@ class Kernel final : public ImmKernel {
 
   // The modes' probabilities given that some mode holds (summing to 1).
   const Eigen::VectorXd& condition_on_modes(const Eigen::VectorXd& mu) {
-    const double total = mu.sum();
-    if (total > 0.0) {
-      conditional_ = mu / total;
-    } else {
-      conditional_.setConstant(1.0 / modes_);
-    }
+    given_a_mode(mu, &conditional_);
     return conditional_;
   }
 

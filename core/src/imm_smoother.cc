@@ -7,6 +7,7 @@
 #include "covariance.h"
 #include "filter_health.h"
 #include "gaussian_mixture.h"
+#include "mode_probabilities_given_a_mode.h"
 #include "probability_floor.h"
 #include "skidimm/sdk/angles.h"
 
@@ -66,11 +67,7 @@ void ImmSmoother::combine(SmoothedStep* s) const {
   // With an unknown hypothesis the combined state is, as the filter's, the
   // modes' estimate given that some mode holds.
   Eigen::VectorXd conditional;
-  if (bank_.config.unknown.enabled()) {
-    const double total = s->mode_probabilities.sum();
-    conditional = total > 0.0 ? Eigen::VectorXd(s->mode_probabilities / total)
-                              : Eigen::VectorXd::Constant(modes, 1.0 / modes);
-  }
+  if (bank_.config.unknown.enabled()) internal::given_a_mode(s->mode_probabilities, &conditional);
   const Eigen::VectorXd& weights = bank_.config.unknown.enabled() ? conditional : s->mode_probabilities;
   s->state.resize(bank_.config.state_dim());
   weighted_mean(angle_mask_, weights, means, s->state, deviations);

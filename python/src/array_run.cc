@@ -43,8 +43,7 @@ void overwrite(long k, const SmoothedStep& s, RunColumns* out) {
     out->state[i][k] = s.state[d];
     out->var[i][k] = s.covariance(d, d);
   }
-  const bool unknown = s.unknown_probability > 0.0 && s.unknown_probability > s.mode_probabilities[s.most_likely_mode];
-  out->mode[k] = unknown ? kUnknownMode : s.most_likely_mode;
+  out->mode[k] = s.unknown_is_most_likely() ? kUnknownMode : s.most_likely_mode;
 }
 
 // Decisions over the first `rows` rows, in order, from the columns' probabilities.

@@ -31,7 +31,7 @@ LabelledStep ClassScorer::score(double t, const std::string& label, const Eigen:
   class_probabilities_.maxCoeff(&best);
   LabelledStep step;
   step.t = t;
-  if (unknown_probability > 0.0 && unknown_probability > class_probabilities_[best]) {
+  if (unknown_outweighs(unknown_probability, class_probabilities_[best])) {
     step.estimate = "unknown";
     step.estimate_probability = 0.0;
   } else {

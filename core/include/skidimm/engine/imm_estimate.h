@@ -42,6 +42,12 @@ inline bool is_rejection(ModeFailure failure) {
 
 const char* to_string(ModeFailure failure);
 
+// Whether the unknown hypothesis (BankConfig::unknown), at probability
+// `unknown`, outweighs the most likely alternative (a mode, or a class), at
+// probability `best`: the estimate then reads "unknown". For filtered and
+// smoothed estimates and for their scores alike.
+inline bool unknown_outweighs(double unknown, double best) { return unknown > 0.0 && unknown > best; }
+
 struct ImmEstimate {
   double t = 0.0;
   StepStatus status = StepStatus::kUpdated;
@@ -67,7 +73,7 @@ struct ImmEstimate {
   int most_likely_mode = 0;  // of the modes, even when unknown_is_most_likely()
   // Whether "none of these" outweighs every single mode.
   bool unknown_is_most_likely() const {
-    return unknown_probability > 0.0 && unknown_probability > mode_probabilities[most_likely_mode];
+    return unknown_outweighs(unknown_probability, mode_probabilities[most_likely_mode]);
   }
 };
 

@@ -66,7 +66,11 @@ struct SmoothedStep {
   std::vector<Eigen::MatrixXd> mode_covariances;
   Eigen::VectorXd state;
   Eigen::MatrixXd covariance;
-  int most_likely_mode = 0;
+  int most_likely_mode = 0;  // of the modes, even when unknown_is_most_likely()
+  // As ImmEstimate::unknown_is_most_likely().
+  bool unknown_is_most_likely() const {
+    return unknown_outweighs(unknown_probability, mode_probabilities[most_likely_mode]);
+  }
 };
 
 class ImmSmoother {
