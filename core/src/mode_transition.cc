@@ -246,15 +246,9 @@ const Eigen::MatrixXd& ModeTransition::matrix(double dt) {
     return matrix_;
   }
   if (n >= kMinDirectTaylorModes && 2.0 * max_rate_ * dt <= kMaxDirectTaylorNorm) {
-    // P(dt) = sum_k (Pi_c dt)^k / k!, each term O(N^2).
+    // P(dt) = expm(Pi_c dt), its series from the identity.
     matrix_.setIdentity();
-    power_.setIdentity();
-    const int terms = taylor_terms(dt);
-    for (int k = 1; k <= terms; ++k) {
-      times_generator(power_, &scratch_);
-      power_ = scratch_ * (dt / k);
-      matrix_ += power_;
-    }
+    taylor_multiply(dt);
     return matrix_;
   }
   const int a = anchor_for(dt);
@@ -269,18 +263,23 @@ const Eigen::MatrixXd& ModeTransition::matrix(double dt) {
     }
     return matrix_;
   }
-  // P(dt) = P(dt_a) expm(Pi_c delta) = sum_k P(dt_a) (Pi_c delta)^k / k!.
+  // P(dt) = P(dt_a) expm(Pi_c delta).
   const double delta = dt - anchors_[static_cast<std::size_t>(a)].dt;
   matrix_ = anchors_[static_cast<std::size_t>(a)].p;
-  if (delta == 0.0) return matrix_;
+  if (delta != 0.0) taylor_multiply(delta);
+  return matrix_;
+}
+
+void ModeTransition::taylor_multiply(double h) {
+  // matrix_ expm(Pi_c h) = sum_k matrix_ (Pi_c h)^k / k!, each term from the
+  // last by one structured product with Pi_c, O(N^2).
   power_ = matrix_;
-  const int terms = taylor_terms(delta);
+  const int terms = taylor_terms(h);
   for (int k = 1; k <= terms; ++k) {
     times_generator(power_, &scratch_);
-    power_ = scratch_ * (delta / k);
+    power_ = scratch_ * (h / k);
     matrix_ += power_;
   }
-  return matrix_;
 }
 
 int ModeTransition::taylor_terms(double h) const {

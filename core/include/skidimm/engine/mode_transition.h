@@ -102,6 +102,8 @@ class ModeTransition {
   void times_generator(const Eigen::MatrixXd& x, Eigen::MatrixXd* out) const;
   // Terms of the Taylor series of expm(Pi_c h) past the identity that reach 1e-18.
   int taylor_terms(double h) const;
+  // matrix_ <- matrix_ expm(Pi_c h) by its Taylor series, O(N^2) per term.
+  void taylor_multiply(double h);
   // x <- expm(Pi_c h)' x by its Taylor series, O(N C) per term.
   void taylor_propagate(double h, Eigen::Ref<Eigen::MatrixXd> x);
   void eigen_propagate(double dt, const Eigen::Ref<const Eigen::MatrixXd>& in, Eigen::Ref<Eigen::MatrixXd> out);
