@@ -238,9 +238,9 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
     try {
       Spec::predict(layout_, x.data(), input_data(u), p_.data(), dt, next);
     } catch (const std::exception& e) {
-      return caught("predict() threw: ", e.what());
+      return internal::caught("predict() threw: ", e.what());
     } catch (...) {
-      return caught("predict() threw an exception that is not a std::exception", nullptr);
+      return internal::caught("predict() threw an exception that is not a std::exception", nullptr);
     }
     for (int i = 0; i < n; ++i) {
       if (std::isfinite(next[i])) continue;
@@ -265,9 +265,9 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
       try {
         Spec::jacobian(layout_, x.data(), input_data(u), p_.data(), dt, row_major);
       } catch (const std::exception& e) {
-        return caught("jacobian() threw: ", e.what());
+        return internal::caught("jacobian() threw: ", e.what());
       } catch (...) {
-        return caught("jacobian() threw an exception that is not a std::exception", nullptr);
+        return internal::caught("jacobian() threw an exception that is not a std::exception", nullptr);
       }
       return copy_finite("jacobian()", row_major, n, jacobian, x, u, dt);
     }
@@ -293,9 +293,9 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
       try {
         Spec::process_noise(layout_, intensity_row_major, x.data(), input_data(u), p_.data(), dt, row_major);
       } catch (const std::exception& e) {
-        return caught("process_noise() threw: ", e.what());
+        return internal::caught("process_noise() threw: ", e.what());
       } catch (...) {
-        return caught("process_noise() threw an exception that is not a std::exception", nullptr);
+        return internal::caught("process_noise() threw an exception that is not a std::exception", nullptr);
       }
       return copy_finite("process_noise()", row_major, n, noise, x, u, dt);
     }
@@ -318,9 +318,9 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
       try {
         Spec::parameter_jacobian(layout_, x.data(), input_data(u), p_.data(), dt, every);
       } catch (const std::exception& e) {
-        return caught("the parameter Jacobian threw: ", e.what());
+        return internal::caught("the parameter Jacobian threw: ", e.what());
       } catch (...) {
-        return caught("the parameter Jacobian threw an exception that is not a std::exception", nullptr);
+        return internal::caught("the parameter Jacobian threw an exception that is not a std::exception", nullptr);
       }
       for (int r = 0; r < n; ++r) {
         for (int k = 0; k < columns; ++k) {
@@ -395,18 +395,7 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
   // Reports `why` with the operating point; false.
   bool report_at(FailureText& why, const Eigen::Ref<const Eigen::VectorXd>& x,
                  const Eigen::Ref<const Eigen::VectorXd>& u, double dt) const noexcept {
-    why << " at x = ";
-    why.list(x.data(), state_dim());
-    why << ", u = ";
-    why.list(u.data(), input_dim());
-    why << ", dt = " << dt;
-    why.report();
-    return false;
-  }
-
-  static bool caught(const char* what, const char* detail) noexcept {
-    report_failure(what, detail);
-    return false;
+    return internal::report_at(why, x.data(), state_dim(), u.data(), input_dim(), dt);
   }
 
   const double* input_data(const Eigen::Ref<const Eigen::VectorXd>& u) const noexcept {

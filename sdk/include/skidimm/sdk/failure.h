@@ -47,6 +47,17 @@ inline void report_failure(const char* prefix, const char* detail = nullptr) noe
   out[used] = '\0';
 }
 
+namespace internal {
+
+// report_failure(), then false: how a generated or sized model refuses a
+// step after catching what the author's code threw.
+inline bool caught(const char* what, const char* detail) noexcept {
+  report_failure(what, detail);
+  return false;
+}
+
+}  // namespace internal
+
 // A reason with numbers in it, built without allocating (a failing step
 // must not allocate either), then reported:
 //

@@ -292,6 +292,24 @@ struct PluginDocs {
   PluginInfo info{};
 };
 
+// --- How a generated model refuses a step ---
+
+// Reports `why` with the operating point: x (n states) and u (m inputs) and
+// dt, or only u when x is null (outputs); false.
+inline bool report_at(FailureText& why, const double* x, int n, const double* u, int m, double dt) noexcept {
+  if (x != nullptr) {
+    why << " at x = ";
+    why.list(x, n);
+    why << ", u = ";
+  } else {
+    why << " at u = ";
+  }
+  why.list(u, m);
+  if (x != nullptr) why << ", dt = " << dt;
+  why.report();
+  return false;
+}
+
 }  // namespace internal
 
 template <typename Spec>
@@ -515,9 +533,9 @@ class FunctionModel<Spec, internal::CompileTimeShapes> final
           automatic_parameter_jacobian(x_fixed, u_fixed, dt, &fixed);
         }
       } catch (const std::exception& e) {
-        return caught("the parameter Jacobian threw: ", e.what());
+        return internal::caught("the parameter Jacobian threw: ", e.what());
       } catch (...) {
-        return caught("the parameter Jacobian threw an exception that is not a std::exception", nullptr);
+        return internal::caught("the parameter Jacobian threw an exception that is not a std::exception", nullptr);
       }
       for (int r = 0; r < kStates; ++r) {
         for (int c = 0; c < kNumParameters; ++c) {
@@ -559,9 +577,9 @@ class FunctionModel<Spec, internal::CompileTimeShapes> final
       try {
         Spec::outputs(input_data(u_fixed), p_.data(), values);
       } catch (const std::exception& e) {
-        return caught("outputs() threw: ", e.what());
+        return internal::caught("outputs() threw: ", e.what());
       } catch (...) {
-        return caught("outputs() threw an exception that is not a std::exception", nullptr);
+        return internal::caught("outputs() threw an exception that is not a std::exception", nullptr);
       }
       for (int k = 0; k < kOutputs; ++k) {
         if (!std::isfinite(values[k])) {
@@ -592,9 +610,9 @@ class FunctionModel<Spec, internal::CompileTimeShapes> final
           automatic_output_parameter_jacobian(u_fixed, &fixed);
         }
       } catch (const std::exception& e) {
-        return caught("the output parameter Jacobian threw: ", e.what());
+        return internal::caught("the output parameter Jacobian threw: ", e.what());
       } catch (...) {
-        return caught("the output parameter Jacobian threw an exception that is not a std::exception", nullptr);
+        return internal::caught("the output parameter Jacobian threw an exception that is not a std::exception", nullptr);
       }
       for (int r = 0; r < kOutputs; ++r) {
         for (int c = 0; c < kNumParameters; ++c) {
@@ -706,22 +724,7 @@ class FunctionModel<Spec, internal::CompileTimeShapes> final
 
   // Reports `why` with the operating point (x is null for outputs); false.
   static bool report_at(FailureText& why, const double* x, const double* u, double dt) noexcept {
-    if (x != nullptr) {
-      why << " at x = ";
-      why.list(x, kStates);
-      why << ", u = ";
-    } else {
-      why << " at u = ";
-    }
-    why.list(u, kInputs);
-    if (x != nullptr) why << ", dt = " << dt;
-    why.report();
-    return false;
-  }
-
-  static bool caught(const char* what, const char* detail) noexcept {
-    report_failure(what, detail);
-    return false;
+    return internal::report_at(why, x, kStates, u, kInputs, dt);
   }
 
   static Input input_of(const Eigen::Ref<const Eigen::VectorXd>& u) {

@@ -72,9 +72,9 @@ class SizedMotionModel : public MotionModel {
     try {
       if (!predict_fixed(x_fixed, u_fixed, dt, &next)) return false;
     } catch (const std::exception& e) {
-      return caught("predict_fixed() threw: ", e.what());
+      return internal::caught("predict_fixed() threw: ", e.what());
     } catch (...) {
-      return caught("predict_fixed() threw an exception that is not a std::exception", nullptr);
+      return internal::caught("predict_fixed() threw an exception that is not a std::exception", nullptr);
     }
     Eigen::Map<State>(x_next.data()) = next;
     return true;
@@ -95,9 +95,9 @@ class SizedMotionModel : public MotionModel {
         if (!numeric_state_jacobian_fixed(step, angle, x_fixed, &fixed)) return false;
       }
     } catch (const std::exception& e) {
-      return caught(has_analytic_jacobian() ? "jacobian_fixed() threw: " : "predict_fixed() threw: ", e.what());
+      return internal::caught(has_analytic_jacobian() ? "jacobian_fixed() threw: " : "predict_fixed() threw: ", e.what());
     } catch (...) {
-      return caught("the Jacobian threw an exception that is not a std::exception", nullptr);
+      return internal::caught("the Jacobian threw an exception that is not a std::exception", nullptr);
     }
     copy_square(fixed, jacobian);
     return true;
@@ -115,20 +115,15 @@ class SizedMotionModel : public MotionModel {
     try {
       if (!process_noise_fixed(intensity_fixed, x_fixed, input(u), dt, &fixed)) return false;
     } catch (const std::exception& e) {
-      return caught("process_noise_fixed() threw: ", e.what());
+      return internal::caught("process_noise_fixed() threw: ", e.what());
     } catch (...) {
-      return caught("process_noise_fixed() threw an exception that is not a std::exception", nullptr);
+      return internal::caught("process_noise_fixed() threw an exception that is not a std::exception", nullptr);
     }
     copy_square(fixed, noise);
     return true;
   }
 
  private:
-  static bool caught(const char* what, const char* detail) noexcept {
-    report_failure(what, detail);
-    return false;
-  }
-
   static void copy_square(const Jacobian& fixed, Eigen::Ref<Eigen::MatrixXd>& out) noexcept {
     if (kStateDim > 1 && out.outerStride() == kStateDim) {
       Eigen::Map<Jacobian>(out.data()) = fixed;
