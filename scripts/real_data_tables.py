@@ -380,6 +380,56 @@ def splices(work):
     return "\n".join(lines) + "\n"
 
 
+REACTION_FACTORS = (2, 4, 8)
+
+
+def bank_weight(path):
+    return float(re.search(r"^likelihood_weight: (\S+)$", read(path), re.M).group(1))
+
+
+def reaction(work):
+    """The lockbox splices scored by the development bank at its tuned likelihood weight and at multiples of it,
+    and the weight a splice-scored search chooses on the development runs."""
+    runs = {1: json.load(open(os.path.join(work, "splices", "eval.json")))["overall"]}
+    weights = {1: bank_weight(os.path.join(work, "borealtc", "development.yaml"))}
+    for factor in REACTION_FACTORS:
+        runs[factor] = json.load(open(os.path.join(work, "splices", f"eval_x{factor}.json")))["overall"]
+        weights[factor] = bank_weight(os.path.join(work, "borealtc", f"development_x{factor}.yaml"))
+    order = (1,) + REACTION_FACTORS
+    lines = ["| likelihood weight | " + " | ".join(
+                 f"{fmt(weights[f], 4)} (tuned)" if f == 1 else f"{fmt(weights[f], 4)} (x {f})" for f in order) + " |",
+             "|---" * (len(order) + 1) + "|"]
+
+    def row(label, cell):
+        lines.append(f"| {label} | " + " | ".join(cell(runs[f]) for f in order) + " |")
+
+    row("accuracy: most likely terrain, decision", lambda d: f"{pct(d['accuracy'])}, {pct(d['decision']['accuracy'])}")
+    row("mean log p(truth)", lambda d: fmt(d["mean_truth_log_probability"], 3))
+    row("new terrain first most likely: median, never", lambda d: f"{fmt(d['first_latency']['median'], 1)} s, "
+        f"never {d['latency']['switches'] - d['first_latency']['detected']}")
+    row("decision follows: median, never", lambda d: f"{fmt(d['decision']['first_median'], 1)} s, "
+        f"never {d['decision']['switches'] - d['decision']['first_detected']}")
+    row("decision holds the new terrain until the next change: median, never",
+        lambda d: f"{fmt(d['decision']['settled_median'], 1)} s, never {d['decision']['switches'] - d['decision']['settled']}")
+    row("changes of the decision per minute (truth: "
+        f"{fmt(runs[1]['changes_per_minute']['truth'], 2)})", lambda d: fmt(d["changes_per_minute"]["decision"], 2))
+    row("time at p >= 0.9: share, right", lambda d: f"{pct(d['calibration']['confident_fraction'])}, "
+        f"{pct(d['calibration']['confident_accuracy'])}")
+    row("calibration error", lambda d: fmt(d["calibration"]["expected_calibration_error"], 3))
+    chosen = read(os.path.join(work, "borealtc", "splice_tune.txt")).splitlines()[0][len("chosen: "):]
+    searched = bank_weight(os.path.join(work, "borealtc", "splice_development.yaml"))
+    doubled, tuned = runs[2], runs[1]
+    better = doubled["mean_truth_log_probability"] > tuned["mean_truth_log_probability"]
+    return "\n".join(lines) + (
+        f"\n\nThe {tuned['latency']['switches']} changes of terrain of the lockbox splices above, scored by the "
+        f"development bank with only its likelihood weight changed; nothing was chosen by these scores. On them, twice "
+        f"the tuned weight scores {'better' if better else 'worse'} on mean log p(truth) "
+        f"({fmt(doubled['mean_truth_log_probability'], 3)} against {fmt(tuned['mean_truth_log_probability'], 3)}). "
+        f"A search that scores spliced development runs (`tune --splice --inner-folds 5`, so that each held-out set "
+        f"holds several terrains) chose likelihood weight {fmt(searched, 4)}, {fmt(searched / weights[1], 2)} times "
+        f"the tuned one (all its settings: {chosen}).\n")
+
+
 def wheels(work):
     blocks = tune_blocks(os.path.join(work, "borealtc", "wheels_tune.txt"))
     lockbox = json.load(open(os.path.join(work, "borealtc", "wheels_eval_lockbox.json")))["overall"]
@@ -457,7 +507,7 @@ def main():
     blocks = {"husky": husky(work), "headline": headline, "terrains": terrains, "calibration": calibration(summary),
               "confusion": confusion(summary, work), "physics": physics(work, summary),
               "uncertainty": uncertainty(work, summary), "unknown": unknown(work, summary), "correlation": correlation(work, summary),
-              "splices": splices(work),
+              "splices": splices(work), "reaction": reaction(work),
               "wheels": wheels(work), "runs": per_run(summary, work, data)}
     text = read(doc)
     for name, block in blocks.items():

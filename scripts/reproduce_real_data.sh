@@ -30,6 +30,10 @@
 #  C. Changes of terrain: the lockbox runs spliced end to end in five
 #     rotations of the terrains (scripts/borealtc_splices.py), scored by the
 #     bank tuned on the development runs only.
+#     C2. The price of a quicker reaction: the same splices scored with the
+#         development bank's likelihood weight multiplied by 2, 4 and 8
+#         (nothing chosen by it), and the weight a search scoring spliced
+#         development runs chooses.
 #
 #   scripts/reproduce_real_data.sh [shared data dir, default ../shared/data]
 set -euo pipefail
@@ -181,6 +185,28 @@ mapfile -t splices <"$work/splices/inputs.txt"
 mkdir -p "$(dirname "$figure")"
 "$skidimm" plot --estimates "$work/splices/rotation_0.csv" --output "$figure" \
   --title "BorealTC lockbox runs spliced end to end, scored by a bank tuned without them"
+
+echo "== C2: the price of a quicker reaction" >&2
+# The same lockbox splices, scored by the development bank with its likelihood weight multiplied by
+# 2, 4 and 8: what a user who raises the weight for a quicker reaction gets on runs no fit or choice
+# saw. Nothing is chosen by these scores; the bundled bank keeps its tuned weight. Then what a
+# search that scores spliced development runs (--splice, five inner folds so that each held-out set
+# holds several terrains) chooses, without assessment.
+for factor in 2 4 8; do
+  "$python" - "$work/borealtc/development.yaml" "$factor" >"$work/borealtc/development_x$factor.yaml" <<'EOF'
+import re, sys
+text = open(sys.argv[1]).read()
+weight = float(re.search(r"^likelihood_weight: (\S+)$", text, re.M).group(1))
+print(re.sub(r"^likelihood_weight: \S+$", f"likelihood_weight: {min(1.0, weight * float(sys.argv[2])):.10g}",
+             text, count=1, flags=re.M), end="")
+EOF
+  "$skidimm" eval --bank "$work/borealtc/development_x$factor.yaml" --input "${splices[@]}" --json \
+    >"$work/splices/eval_x$factor.json"
+done
+"$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" \
+  --objective window --hold-unexcited --full-q --inner-folds 5 --sessions configs/borealtc/sessions.txt \
+  --tune "$knobs" --splice --no-assess --output-bank "$work/borealtc/splice_development.yaml" \
+  >"$work/borealtc/splice_tune.txt"
 
 "$python" scripts/real_data_tables.py "$work" "$doc" "$bt"
 echo "updated $doc, $bank_out and $wheels_out" >&2
