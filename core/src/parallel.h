@@ -9,8 +9,8 @@
 //
 // Errors are those of one thread too: if jobs throw, the exception of the
 // lowest index is rethrown once every job below it has run, and no job above
-// it is started after it failed. (The loop this generalises, in
-// core/src/fitting/tuning.cc, rethrew whichever came first.)
+// it is started after it failed: the error a command reports does not depend
+// on how many threads ran it or how they were scheduled.
 //
 // worker_count() is how many threads the commands use: SKIDIMM_THREADS if set
 // (1 runs everything on the calling thread), at most the machine's cores.

@@ -5,7 +5,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <exception>
 #include <limits>
 #include <mutex>
 #include <numeric>
@@ -15,6 +14,7 @@
 
 #include "assessment_protocols.h"
 #include "check.h"
+#include "parallel.h"
 #include "scoring_sources.h"
 #include "skidimm/errors.h"
 #include "skidimm/evaluation/log_evaluation.h"
@@ -32,33 +32,6 @@ using internal::brief;
 using internal::complement;
 using internal::ScoreBound;
 using internal::SplicedReplay;
-
-// Runs task(i, worker) for i in [0, count) on `workers` threads; worker is the
-// thread's index, so each may own a bank. The first exception is rethrown.
-void parallel_for(int count, int workers, const std::function<void(int, int)>& task) {
-  std::atomic<int> next{0};
-  std::exception_ptr failure;
-  std::mutex failure_mutex;
-  auto work = [&](int worker) {
-    while (true) {
-      const int i = next++;
-      if (i >= count) return;
-      try {
-        task(i, worker);
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(failure_mutex);
-        if (!failure) failure = std::current_exception();
-        next = count;
-        return;
-      }
-    }
-  };
-  std::vector<std::thread> threads;
-  for (int w = 1; w < std::min(workers, count); ++w) threads.emplace_back(work, w);
-  work(0);
-  for (std::thread& t : threads) t.join();
-  if (failure) std::rethrow_exception(failure);
-}
 
 // The modes' logs of a set of tuning logs, merged by mode.
 std::vector<ModeLogs> training_data(const std::vector<TuningLog>& logs, const std::vector<int>& members) {
