@@ -17,6 +17,12 @@ int eval(const EvalOptions& options) {
     std::vector<std::string> classes, states;
     std::string decision_made;
     if (!options.estimates.empty()) {
+      // The files hold what a filter already computed; these would change the filter.
+      if (options.overrides.likelihood_weight || options.overrides.innovation_gate) {
+        throw Error(std::string(options.overrides.likelihood_weight ? "--likelihood-weight" : "--innovation-gate") +
+                    " changes how the filter runs, and --estimates scores files a filter already wrote: give the "
+                    "logs with --bank and --input, or run them again with `skidimm run` and this setting");
+      }
       std::optional<BankConfig> bank;
       if (!options.bank.empty()) bank = load_bank_config(options.bank);
       // Given on the command line, the decision is made again from each

@@ -102,6 +102,27 @@ int main(int argc, char** argv) {
         ->check(finite_number())->check(CLI::NonNegativeNumber);
   };
 
+  // Settings of the filter itself, over the bank's (run, and eval when it runs a bank).
+  auto add_filter_overrides = [](CLI::App* command, skidimm::RunOverrides* overrides) {
+    command
+        ->add_option("--innovation-gate", overrides->innovation_gate,
+                     "Chi-square innovation gate: probability a consistent measurement passes, in (0, 1); 0: none "
+                     "(overrides the bank's innovation_gate; " + documentation_path("docs/engine.md") + ")")
+        ->check(finite_number())->check(CLI::Range(0.0, 1.0));
+    command
+        ->add_option("--likelihood-weight", overrides->likelihood_weight,
+                     "Weight of each step's evidence in the mode probabilities, in (0, 1]; 1: the plain IMM "
+                     "(overrides the bank's likelihood_weight; " + documentation_path("docs/engine.md") + ")")
+        ->check(CLI::Validator(
+            [](std::string& text) {
+              double weight = 0.0;
+              const bool number = CLI::detail::lexical_cast(text, weight);
+              return number && weight > 0.0 && weight <= 1.0 ? std::string()
+                                                             : "expected a weight in (0, 1], got '" + text + "'";
+            },
+            "W in (0, 1]"));
+  };
+
   RunOptions run_options;
   std::string bank, output;
   CLI::App* run = app.add_subcommand("run", "Run a bank of modes over a log and write per-step estimates");
@@ -127,21 +148,7 @@ int main(int argc, char** argv) {
   run->add_flag("--flush", run_options.flush,
                 "Write each row as soon as it is computed (run behind another program, through a pipe)");
   run->add_flag("--quiet,-q", run_options.quiet, "No summary or progress on stderr");
-  run->add_option("--innovation-gate", run_options.overrides.innovation_gate,
-                  "Chi-square innovation gate: probability a consistent measurement passes, in (0, 1); 0: none "
-                  "(overrides the bank's innovation_gate; " + documentation_path("docs/engine.md") + ")")
-      ->check(finite_number())->check(CLI::Range(0.0, 1.0));
-  run->add_option("--likelihood-weight", run_options.overrides.likelihood_weight,
-                  "Weight of each step's evidence in the mode probabilities, in (0, 1]; 1: the plain IMM "
-                  "(overrides the bank's likelihood_weight; " + documentation_path("docs/engine.md") + ")")
-      ->check(CLI::Validator(
-          [](std::string& text) {
-            double weight = 0.0;
-            const bool number = CLI::detail::lexical_cast(text, weight);
-            return number && weight > 0.0 && weight <= 1.0 ? std::string()
-                                                           : "expected a weight in (0, 1], got '" + text + "'";
-          },
-          "W in (0, 1]"));
+  add_filter_overrides(run, &run_options.overrides);
   run->add_flag("--strict", run_options.strict,
                 "The first row where a mode's filter is rejected ends the run with an error (rows so far are kept)");
   std::string run_plot;
@@ -341,6 +348,7 @@ int main(int argc, char** argv) {
   eval->add_option("--estimates,-e", eval_options.estimates,
                    "Evaluate `skidimm run` outputs (files or directories) instead of running a bank");
   add_decision_options(eval, &eval_options.overrides);
+  add_filter_overrides(eval, &eval_options.overrides);
   eval->add_flag("--skip-unpaired", eval_options.skip_unpaired, kSkipUnpaired);
   eval->add_flag("--json", eval_options.json, "Print JSON instead of tables");
   add_plugin_path(eval);

@@ -1,7 +1,7 @@
 // `skidimm eval` end to end, on the bundled switching example and logs made
 // from it: accuracy, latency and consistency as text and JSON, decision
-// settings and a run's decision remade from its probabilities, classes
-// scoring several modes as one. It says what it means: per-class accuracy
+// settings and a run's decision remade from its probabilities, the filter's
+// settings over the bank's, classes scoring several modes as one. It says what it means: per-class accuracy
 // over each class's own time, logs keyed by their paths, blank truth cells
 // unlabelled, patterns paired by run key, and one order for a confusion's
 // rows and columns.
@@ -257,6 +257,36 @@ TEST(Cli, EvalTakesDecisionSettingsAndRemakesARunsDecisionFromItsProbabilities) 
       run_skidimm("eval --estimates " + (dir / "default.csv").string() + " --decision-enter 0.05 --decision-leave 0.1");
   EXPECT_EQ(bad.exit_code, 1);
   EXPECT_THAT(bad.err, HasSubstr("need 0 <= leave < enter <= 1, got enter 0.05, leave 0.1"));
+}
+
+// --likelihood-weight and --innovation-gate are the bank's own settings,
+// given on the command line as `run` takes them: eval with the option scores
+// exactly what eval of a bank file holding the same value scores. With
+// --estimates there is no filter for them to change, and eval says so.
+TEST(Cli, EvalTakesTheFiltersSettingsAsTheBankWouldHoldThem) {
+  const fs::path dir = test_directory();
+  const std::string settings = "likelihood_weight: 0.05\ninnovation_gate: 0.999\n";
+  const std::string bank = write_file(dir / "tempered.yaml", read_file(kTerrains) + "\n" + settings).string();
+  const std::string scores = "--json --input " + kSwitching + " --plugin-path " + kPlugins;
+  const Result from_file = run_skidimm("eval --bank " + bank + " " + scores);
+  ASSERT_EQ(from_file.exit_code, 0) << from_file.err;
+  const Result given = run_skidimm(eval(scores + " --likelihood-weight 0.05 --innovation-gate 0.999"));
+  ASSERT_EQ(given.exit_code, 0) << given.err;
+  EXPECT_EQ(given.out, from_file.out);
+  EXPECT_NE(run_skidimm(eval(scores)).out, from_file.out) << "the settings change the scores on this log";
+
+  ASSERT_EQ(run_skidimm("run -q --bank " + kTerrains + " --input " + kSwitching + " --output " +
+                        (dir / "run.csv").string() + " --plugin-path " + kPlugins)
+                .exit_code,
+            0);
+  for (const std::string option : {"--likelihood-weight 0.5", "--innovation-gate 0.99"}) {
+    const Result refused = run_skidimm("eval --estimates " + (dir / "run.csv").string() + " " + option);
+    EXPECT_EQ(refused.exit_code, 1) << option;
+    EXPECT_THAT(refused.err, HasSubstr(option.substr(0, option.find(' ')) + " changes how the filter runs")) << option;
+  }
+  const Result bad = run_skidimm(eval(scores + " --likelihood-weight 1.5"));
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_THAT(bad.err, HasSubstr("--likelihood-weight"));
 }
 
 TEST(Cli, ClassesScoreSeveralModesAsOne) {
