@@ -394,7 +394,7 @@ def reaction(work):
     weights = {1: bank_weight(os.path.join(work, "borealtc", "development.yaml"))}
     for factor in REACTION_FACTORS:
         runs[factor] = json.load(open(os.path.join(work, "splices", f"eval_x{factor}.json")))["overall"]
-        weights[factor] = bank_weight(os.path.join(work, "borealtc", f"development_x{factor}.yaml"))
+        weights[factor] = float(read(os.path.join(work, "borealtc", f"weight_x{factor}.txt")))
     order = (1,) + REACTION_FACTORS
     lines = ["| likelihood weight | " + " | ".join(
                  f"{fmt(weights[f], 4)} (tuned)" if f == 1 else f"{fmt(weights[f], 4)} (x {f})" for f in order) + " |",

@@ -192,16 +192,12 @@ echo "== C2: the price of a quicker reaction" >&2
 # saw. Nothing is chosen by these scores; the bundled bank keeps its tuned weight. Then what a
 # search that scores spliced development runs (--splice, five inner folds so that each held-out set
 # holds several terrains) chooses, without assessment.
+weight=$(sed -n 's/^likelihood_weight: //p' "$work/borealtc/development.yaml")
 for factor in 2 4 8; do
-  "$python" - "$work/borealtc/development.yaml" "$factor" >"$work/borealtc/development_x$factor.yaml" <<'EOF'
-import re, sys
-text = open(sys.argv[1]).read()
-weight = float(re.search(r"^likelihood_weight: (\S+)$", text, re.M).group(1))
-print(re.sub(r"^likelihood_weight: \S+$", f"likelihood_weight: {min(1.0, weight * float(sys.argv[2])):.10g}",
-             text, count=1, flags=re.M), end="")
-EOF
-  "$skidimm" eval --bank "$work/borealtc/development_x$factor.yaml" --input "${splices[@]}" --json \
-    >"$work/splices/eval_x$factor.json"
+  scaled=$("$python" -c "print(f'{min(1.0, $weight * $factor):.10g}')")
+  echo "$scaled" >"$work/borealtc/weight_x$factor.txt"
+  "$skidimm" eval --bank "$work/borealtc/development.yaml" --input "${splices[@]}" --likelihood-weight "$scaled" \
+    --json >"$work/splices/eval_x$factor.json"
 done
 "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" \
   --objective window --hold-unexcited --full-q --inner-folds 5 --sessions configs/borealtc/sessions.txt \
