@@ -198,8 +198,18 @@ struct LinearFeatures {
     }
     const Vector w = drive(layout, u, p);
     if (is_diagonal(layout)) {
+      // As in process_noise(): one e^{a dt} and one integral per run of
+      // equal rates (Phi x + Gamma w as diagonal_zoh_step() computes it).
       const double* a = p + layout[kA].offset;
-      for (int i = 0; i < n; ++i) x_next[i] = diagonal_zoh_step(x[i], a[i], w[i], dt);
+      double last_rate = kNotANumber, phi = 0.0, gamma = 0.0;
+      for (int i = 0; i < n; ++i) {
+        if (!(a[i] == last_rate)) {
+          last_rate = a[i];
+          phi = std::exp(a[i] * dt);
+          gamma = exp_integral(a[i], dt);
+        }
+        x_next[i] = phi * x[i] + gamma * w[i];
+      }
       return;
     }
     Vector next(n);
@@ -217,7 +227,14 @@ struct LinearFeatures {
     } else if (is_diagonal(layout)) {
       const double* a = p + layout[kA].offset;
       f.setZero();
-      for (int i = 0; i < n; ++i) f(i, i) = std::exp(a[i] * dt);
+      double last_rate = kNotANumber, phi = 0.0;
+      for (int i = 0; i < n; ++i) {
+        if (!(a[i] == last_rate)) {
+          last_rate = a[i];
+          phi = std::exp(a[i] * dt);
+        }
+        f(i, i) = phi;
+      }
     } else {
       Matrix phi;
       if (!zoh_transition(full_a(layout, p), dt, &phi)) phi.setConstant(n, n, kNotANumber);
