@@ -37,6 +37,12 @@ struct LtcSpec {
   static void predict(const T* x, const double* u, const P* p, double dt, T* x_next) {
     ltc_predict(x, u, p + kA, p + kB, dt, x_next);
   }
+
+  // F = I + A dt, row-major (ltc_jacobian): what jets of predict give, bit for
+  // bit, without their cost on the IMM's every step.
+  static void jacobian(const double* /*x*/, const double* /*u*/, const double* p, double dt, double* f) {
+    ltc_jacobian(p + kA, dt, f);
+  }
 };
 
 struct LtcLinear : LtcSpec<sdk::ParameterScope::kMode> {

@@ -26,6 +26,14 @@ void ltc_predict(const T* x, const double* u, const P* a, const P* b, double dt,
   x_next[kOmega] = x[kOmega] + omega_dot * dt;
 }
 
+// d x_next / d x = I + A dt, row-major, each entry summed as Ceres' jets
+// differentiate ltc_predict(): the identity's entry plus A's times dt.
+inline void ltc_jacobian(const double* a, double dt, double* f) {
+  for (int r = 0; r < 2; ++r) {
+    for (int c = 0; c < 2; ++c) f[2 * r + c] = (r == c ? 1.0 : 0.0) + a[2 * r + c] * dt;
+  }
+}
+
 }  // namespace plugins
 }  // namespace skidimm
 

@@ -2,9 +2,12 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstring>
+#include <random>
 #include <type_traits>
 #include <utility>
 
+#include "ltc_common/ltc_model.h"
 #include "skidimm/engine/plugin_registry.h"
 #include "skidimm/sdk/testing/conformance.h"
 #include "skidimm/sdk/testing/plugin_lifecycle.h"
@@ -80,6 +83,40 @@ TEST_P(LtcPlugins, SurvivesRepeatedLoadAndUnload) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Bundled, LtcPlugins, ::testing::Values("ltc_linear", "ltc_shared"));
+
+// The hand-written F = I + A dt is what jets of predict gave before it was
+// written, to the bit (banks' outputs did not move), for A with zero and
+// negative entries, steps short and long, and any state and input.
+TEST(LtcJacobian, IsTheJetsJacobianBitForBit) {
+  std::mt19937 random(20261126);
+  std::uniform_real_distribution<double> entry(-8.0, 8.0);
+  for (int trial = 0; trial < 200; ++trial) {
+    Eigen::Matrix2d a, b;
+    a << entry(random), entry(random), entry(random), entry(random);
+    b << entry(random), entry(random), entry(random), entry(random);
+    if (trial % 4 == 1) a(0, 1) = a(1, 0) = 0.0;  // decoupled
+    if (trial % 4 == 2) a.setZero();
+    sdk::ParameterSet params;
+    params.set("A", a);
+    params.set("B", b);
+    std::string error;
+    const auto model = plugins::LtcModel<sdk::ParameterScope::kMode>::Create(params, &error);
+    ASSERT_NE(model, nullptr) << error;
+    const Eigen::Vector2d x(entry(random), entry(random)), u(entry(random), entry(random));
+    for (double dt : {1e-4, 0.02, 0.5, 3.0}) {
+      Eigen::Matrix2d written, jets;
+      ASSERT_TRUE(model->jacobian_fixed(x, u, dt, &written));
+      model->automatic_jacobian(x, u, dt, &jets);
+      for (int r = 0; r < 2; ++r) {
+        for (int c = 0; c < 2; ++c) {
+          EXPECT_EQ(std::memcmp(&written(r, c), &jets(r, c), sizeof(double)), 0)
+              << "entry (" << r << ", " << c << ") at trial " << trial << ", dt " << dt << ": " << written(r, c)
+              << " against " << jets(r, c);
+        }
+      }
+    }
+  }
+}
 
 TEST(LtcScopes, SharedVariantDeclaresBankScope) {
   PluginRegistry registry({SKIDIMM_PLUGIN_DIR});

@@ -425,28 +425,20 @@ class FunctionModel<Spec, internal::CompileTimeShapes> final
   const double* parameters() const noexcept { return p_.data(); }
 
   // --- Dynamics ---
-  // After jacobian() at the same point, the prediction its jets computed
-  // along (see LastEvaluation); else the spec's predict in doubles.
+  // After an automatic jacobian() at the same point, the prediction its jets
+  // computed along (see LastEvaluation); else the spec's predict in doubles.
+  // A spec that writes its own Jacobian leaves no jets to reuse, and skips
+  // the look-up (a thread-local access, slow in a dlopened plugin).
   bool predict_fixed(const State& x, const Input& u, double dt, State* x_next) const override {
-    const LastEvaluation& last = last_evaluation();
-    if (last.matches(evaluation_id_, x, u, dt)) {
-      *x_next = Eigen::Map<const State>(last.next);
-    } else {
-      Spec::predict(x.data(), input_data(u), p_.data(), dt, x_next->data());
-    }
-    if (!internal::all_finite<kStates>(x_next->data())) {
-      for (int i = 0; i < kStates; ++i) {
-        if (std::isfinite((*x_next)[i])) continue;
-        FailureText why;
-        why << "predict() gave a state that is not finite: " << Spec::kStates[i].name << " = " << (*x_next)[i]
-            << " (x_next[" << i << "])";
-        return report_at(why, x.data(), input_data(u), dt);
+    if constexpr (!kHandWrittenJacobian) {
+      const LastEvaluation& last = last_evaluation();
+      if (last.matches(evaluation_id_, x, u, dt)) {
+        *x_next = Eigen::Map<const State>(last.next);
+        return finite_prediction(x, u, dt, x_next);
       }
     }
-    for (int i = 0; i < kStates; ++i) {
-      if (Spec::kStates[i].is_angle) (*x_next)[i] = wrap_angle((*x_next)[i]);
-    }
-    return true;
+    Spec::predict(x.data(), input_data(u), p_.data(), dt, x_next->data());
+    return finite_prediction(x, u, dt, x_next);
   }
 
   // d predict / d x: the spec's own `jacobian` if it has one, else exact by
@@ -653,6 +645,23 @@ class FunctionModel<Spec, internal::CompileTimeShapes> final
   static constexpr const auto& output_table() { return internal::output_table<Spec>(); }
 
  private:
+  // Checks a prediction (naming the first entry that is not finite) and wraps its angles.
+  static bool finite_prediction(const State& x, const Input& u, double dt, State* x_next) {
+    if (!internal::all_finite<kStates>(x_next->data())) {
+      for (int i = 0; i < kStates; ++i) {
+        if (std::isfinite((*x_next)[i])) continue;
+        FailureText why;
+        why << "predict() gave a state that is not finite: " << Spec::kStates[i].name << " = " << (*x_next)[i]
+            << " (x_next[" << i << "])";
+        return report_at(why, x.data(), input_data(u), dt);
+      }
+    }
+    for (int i = 0; i < kStates; ++i) {
+      if (Spec::kStates[i].is_angle) (*x_next)[i] = wrap_angle((*x_next)[i]);
+    }
+    return true;
+  }
+
   // The prediction the last automatic Jacobian computed along, on this
   // thread. The filter asks for the Jacobian and then the prediction at the
   // same state, input and step (ekf.h); the jets' values are that
