@@ -198,17 +198,16 @@ struct LinearFeatures {
     }
     const Vector w = drive(layout, u, p);
     if (is_diagonal(layout)) {
-      // As in process_noise(): one e^{a dt} and one integral per run of
-      // equal rates (Phi x + Gamma w as diagonal_zoh_step() computes it).
+      // As in process_noise(): the step's factors once per run of equal rates.
       const double* a = p + layout[kA].offset;
-      double last_rate = kNotANumber, phi = 0.0, gamma = 0.0;
+      double last_rate = kNotANumber;
+      DiagonalZoh<double> zoh{0.0, 0.0};
       for (int i = 0; i < n; ++i) {
         if (!(a[i] == last_rate)) {
           last_rate = a[i];
-          phi = std::exp(a[i] * dt);
-          gamma = exp_integral(a[i], dt);
+          zoh = diagonal_zoh(a[i], dt);
         }
-        x_next[i] = phi * x[i] + gamma * w[i];
+        x_next[i] = zoh.step<double>(x[i], w[i]);
       }
       return;
     }

@@ -55,14 +55,30 @@ T exp_integral(const T& a, double dt) noexcept {
 }
 
 // One state of a diagonal A over the step:
-//   x+ = e^{a dt} x + (int_0^dt e^{a s} ds) w.
-// Each of T (the state), R (the rate a) and W (the drive w) is double or a
-// Ceres jet, as a function model's predict sees them
+//   x+ = e^{a dt} x + (int_0^dt e^{a s} ds) w = phi x + gamma w.
+// The factors depend on the rate and the step alone, so states that share a
+// rate share them (LinearFeatures::predict computes them once per run of
+// equal rates). Each of T (the state), R (the rate a) and W (the drive w) is
+// double or a Ceres jet, as a function model's predict sees them
 // (skidimm/sdk/function_model.h): a rate held fixed stays a double.
+template <typename R>
+struct DiagonalZoh {
+  R phi, gamma;
+  template <typename T, typename W>
+  T step(const T& x, const W& w) const noexcept {
+    return phi * x + gamma * w;
+  }
+};
+
+template <typename R>
+DiagonalZoh<R> diagonal_zoh(const R& a, double dt) noexcept {
+  using std::exp;
+  return {exp(a * dt), exp_integral(a, dt)};
+}
+
 template <typename T, typename R, typename W>
 T diagonal_zoh_step(const T& x, const R& a, const W& w, double dt) noexcept {
-  using std::exp;
-  return exp(a * dt) * x + exp_integral(a, dt) * w;
+  return diagonal_zoh(a, dt).template step<T>(x, w);
 }
 
 // d/da int_0^dt e^{a s} ds = int_0^dt s e^{a s} ds = dt^2 g(a dt) with
