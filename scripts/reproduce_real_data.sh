@@ -84,7 +84,10 @@ for ((i = 1; i < ${#aside[@]}; i += 2)); do all+=(--log "${aside[$i]}"); done
 speed='speed=abs(velL + velR) / 2'
 turn='turn=abs(velR - velL)'
 protocols="logs,sessions,extrapolation:$speed,extrapolation:$turn"
-fit=(--objective window --hold-unexcited --full-q --inner-folds 0 --sessions configs/borealtc/sessions.txt)
+# How every tune here fits and searches: each inner fold holds out one log (--inner-folds 0), except
+# step C2's splice-scored search, which needs several logs per inner fold.
+inner() { echo --objective window --hold-unexcited --full-q --inner-folds "$1" --sessions configs/borealtc/sessions.txt; }
+read -ra fit <<<"$(inner 0)"
 knobs=likelihood-weight,likelihood-dof,q-scale,r-scale,floor
 
 # B1. The design, scored.
@@ -199,8 +202,8 @@ for factor in 2 4 8; do
   "$skidimm" eval --bank "$work/borealtc/development.yaml" --input "${splices[@]}" --likelihood-weight "$scaled" \
     --json >"$work/splices/eval_x$factor.json"
 done
-"$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" \
-  --objective window --hold-unexcited --full-q --inner-folds 5 --sessions configs/borealtc/sessions.txt \
+read -ra splice_search <<<"$(inner 5)"
+"$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${splice_search[@]}" \
   --tune "$knobs" --splice --no-assess --output-bank "$work/borealtc/splice_development.yaml" \
   >"$work/borealtc/splice_tune.txt"
 
