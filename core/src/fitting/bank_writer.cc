@@ -20,7 +20,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string number(double v) {
+// Seven significant digits: what a bank file holds of a fitted value. A name of
+// its own, so that a unity build, which joins this file's anonymous namespace
+// with the fitters', cannot hand them this format for their messages.
+std::string bank_number(double v) {
   char buffer[32];
   std::snprintf(buffer, sizeof(buffer), "%.7g", v);
   return buffer;
@@ -85,15 +88,15 @@ std::string join_lines(const std::vector<std::string>& lines) {
 }  // namespace
 
 std::string format_matrix(const Eigen::MatrixXd& m) {
-  if (m.size() == 1) return number(m(0, 0));
+  if (m.size() == 1) return bank_number(m(0, 0));
   std::string out = "[";
   if (m.cols() == 1) {  // a vector: a flat list, as banks write them
-    for (Eigen::Index r = 0; r < m.rows(); ++r) out += (r ? ", " : "") + number(m(r, 0));
+    for (Eigen::Index r = 0; r < m.rows(); ++r) out += (r ? ", " : "") + bank_number(m(r, 0));
     return out + "]";
   }
   for (Eigen::Index r = 0; r < m.rows(); ++r) {
     out += (r ? ", [" : "[");
-    for (Eigen::Index c = 0; c < m.cols(); ++c) out += (c ? ", " : "") + number(m(r, c));
+    for (Eigen::Index c = 0; c < m.cols(); ++c) out += (c ? ", " : "") + bank_number(m(r, c));
     out += "]";
   }
   return out + "]";
@@ -253,7 +256,7 @@ std::string format_mode_entry(const std::string& name, const std::string& model_
   if (parameter_covariance.size() > 0) {
     out += "    parameter_covariance: " + format_parameter_covariance(parameter_covariance) + "\n";
   }
-  if (residual_correlation != 0.0) out += "    residual_correlation: " + number(residual_correlation) + "\n";
+  if (residual_correlation != 0.0) out += "    residual_correlation: " + bank_number(residual_correlation) + "\n";
   return out;
 }
 
@@ -329,7 +332,7 @@ std::string format_measurement_block(const BankConfig& config) {
   }
   if (!m.outputs.empty()) out += "  outputs: " + join_names(m.outputs) + "\n";
   Eigen::MatrixXd r = m.r;
-  if (r.size() == 1) return out + "  R: {diagonal: [" + number(r(0, 0)) + "]}\n";
+  if (r.size() == 1) return out + "  R: {diagonal: [" + bank_number(r(0, 0)) + "]}\n";
   return out + "  R: " + format_covariance(r) + "\n";
 }
 
@@ -337,16 +340,16 @@ std::string format_transition_block(const BankConfig& config) {
   const TransitionConfig& t = config.transition;
   switch (t.kind) {
     case TransitionConfig::Kind::kStay:
-      return "transition:\n  stay: " + number(t.stay) + "\n";
+      return "transition:\n  stay: " + bank_number(t.stay) + "\n";
     case TransitionConfig::Kind::kMatrix:
       return "transition:\n  matrix: " + format_matrix(t.matrix) + "\n";
     case TransitionConfig::Kind::kDwellTimes:
       if ((t.dwell_seconds.array() == t.dwell_seconds[0]).all()) {
-        return "transition:\n  mean_dwell_time: " + number(t.dwell_seconds[0]) + "\n";
+        return "transition:\n  mean_dwell_time: " + bank_number(t.dwell_seconds[0]) + "\n";
       }
       std::string out = "transition:\n  mean_dwell_time: {";
       for (int j = 0; j < config.num_modes(); ++j) {
-        out += (j ? ", " : "") + config.modes[static_cast<std::size_t>(j)].name + ": " + number(t.dwell_seconds[j]);
+        out += (j ? ", " : "") + config.modes[static_cast<std::size_t>(j)].name + ": " + bank_number(t.dwell_seconds[j]);
       }
       return out + "}\n";
   }
@@ -354,23 +357,23 @@ std::string format_transition_block(const BankConfig& config) {
 }
 
 std::string format_floor_block(const BankConfig& config) {
-  return "mode_probability_floor: " + number(config.mode_probability_floor) + "\n";
+  return "mode_probability_floor: " + bank_number(config.mode_probability_floor) + "\n";
 }
 
 std::string format_likelihood_weight_block(const BankConfig& config) {
   if (config.likelihood_weight == 1.0) return "";
-  return "likelihood_weight: " + number(config.likelihood_weight) + "\n";
+  return "likelihood_weight: " + bank_number(config.likelihood_weight) + "\n";
 }
 
 std::string format_likelihood_dof_block(const BankConfig& config) {
   if (config.likelihood_dof <= 0.0) return "";
-  return "likelihood_dof: " + number(config.likelihood_dof) + "\n";
+  return "likelihood_dof: " + bank_number(config.likelihood_dof) + "\n";
 }
 
 std::string format_unknown_block(const BankConfig& config) {
   if (!config.unknown.enabled()) return "";
-  return "unknown: {inflation: " + number(config.unknown.inflation) + ", enter: " + number(config.unknown.enter) +
-         ", leave: " + number(config.unknown.leave) + "}\n";
+  return "unknown: {inflation: " + bank_number(config.unknown.inflation) + ", enter: " + bank_number(config.unknown.enter) +
+         ", leave: " + bank_number(config.unknown.leave) + "}\n";
 }
 
 }  // namespace fitting
