@@ -231,21 +231,80 @@ template <int N>
 struct SelectedUpdateWorkspace {
   using Columns = Eigen::Matrix<double, N, Eigen::Dynamic>;
   explicit SelectedUpdateWorkspace(int m) : gain(N, m), kr(N, m), s(m, m), nu(m), whitened(m), inverse_diagonal(m) {}
-  Columns gain;       // P- H', then K = P- H' S^-1 (N x k)
-  Columns kr;         // K R (N x k)
+  Columns gain;       // P- H', then W = P- H' L'^-1 (S = L L'), then K = W L^-1 for the Joseph form (N x k)
+  Columns kr;         // K R (N x k), the Joseph form's
   Eigen::MatrixXd s;  // S, then its Cholesky factor (k x k)
   Eigen::VectorXd nu, whitened, inverse_diagonal;
-  Eigen::Matrix<double, N, N> i_kh;   // I - K H
-  Eigen::Matrix<double, N, N> ikh_p;  // (I - K H) P-
+  Eigen::Matrix<double, N, N> updated;  // P+
+  Eigen::Matrix<double, N, N> i_kh;     // I - K H, the Joseph form's
+  Eigen::Matrix<double, N, N> ikh_p;    // (I - K H) P-, the Joseph form's
 };
+
+// update_selected() keeps P- - W W' where the measurement leaves every
+// variance more than 2^-26 of its prior: the subtraction, whose round-off is
+// about eps P-_ii / P+_ii relative to P+_ii, then keeps at least half of
+// double's 52 bits. A measurement more precise than that against the
+// prediction (a bank's 1e-15 next to 1e15) gets the Joseph form, whose
+// round-off does not grow with the ratio and which stays positive.
+inline constexpr double kLeastRemainingVariance = 1.0 / (1 << 26);
+
+// P+ = (I - K H) P- (I - K H)' + K R K' (Joseph form) for update_selected(),
+// from W = P- H' L'^-1 in w->gain and S's Cholesky factor L in `l` (lower
+// triangle, reciprocal diagonal in `inverse_diagonal`); w->gain ends as K.
+template <int N>
+void joseph_update(const SelectedMeasurement& m, int k, const Eigen::MatrixXd& l,
+                   const Eigen::VectorXd& inverse_diagonal, Eigen::Matrix<double, N, N>* p,
+                   SelectedUpdateWorkspace<N>* w) {
+  auto& gain = w->gain;
+  // K L = W, a column at a time.
+  for (int c = k - 1; c >= 0; --c) {
+    for (int a = c + 1; a < k; ++a) gain.col(c) -= gain.col(a) * l(a, c);
+    gain.col(c) *= inverse_diagonal[c];
+  }
+  auto& i_kh = w->i_kh;
+  i_kh.setIdentity();
+  for (int a = 0; a < k; ++a) {
+    if (m.picks_states) {
+      i_kh.col(m.picked_state[static_cast<std::size_t>(a)]) -= gain.col(a);
+    } else {
+      for (int j = 0; j < N; ++j) i_kh.col(j) -= gain.col(a) * m.h(a, j);
+    }
+  }
+  auto& kr = w->kr;
+  for (int b = 0; b < k; ++b) {
+    kr.col(b) = gain.col(b) * m.r(b, b);
+    for (int a = 0; a < k; ++a) {
+      const double r_ab = m.r(a, b);
+      if (a != b && r_ab != 0.0) kr.col(b) += gain.col(a) * r_ab;  // none for a diagonal R, the common case
+    }
+  }
+  // Column by column, each held in registers while its sum runs.
+  auto& ikh_p = w->ikh_p;
+  for (int j = 0; j < N; ++j) {
+    Eigen::Matrix<double, N, 1> column = i_kh.col(0) * (*p)(0, j);
+    for (int c = 1; c < N; ++c) column += i_kh.col(c) * (*p)(c, j);
+    ikh_p.col(j) = column;
+  }
+  for (int j = 0; j < N; ++j) {
+    Eigen::Matrix<double, N, 1> column = ikh_p.col(0) * i_kh(j, 0);
+    for (int c = 1; c < N; ++c) column += ikh_p.col(c) * i_kh(j, c);
+    for (int a = 0; a < k; ++a) column += kr.col(a) * gain(j, a);
+    p->col(j) = column;
+  }
+  symmetrize_fixed<N>(p);
+}
 
 // The update of update_fixed() for N states known at compile time and the k
 // rows of `m` (MeasurementModel::select()), any k: what the IMM runs for
 // banks of more than 4 states or measurement rows (BorealTC's 9 features,
 // stc_traction's 3 states and 6 rows). Everything of size N is a column of
-// fixed size (the compiler unrolls and vectorizes it), the gain solved as
-// K L L' = P- H' column by column; each sum runs in index order. Agrees with
-// ExtendedKalmanFilter to round-off (tests/core/ekf_test.cc).
+// fixed size (the compiler unrolls and vectorizes it), each sum in index
+// order. The covariance is updated as P- - W W' with W = P- H' L'^-1 (S =
+// L L'), a third of the Joseph form's products at 9 states (the update is
+// where a BorealTC tune spends most of its time); the Joseph form is kept for
+// measurements that explain nearly all of a variance (kLeastRemainingVariance,
+// joseph_update()). Agrees with
+// ExtendedKalmanFilter's Joseph form to round-off (tests/core/ekf_test.cc).
 template <int N>
 UpdateResult update_selected(const SelectedMeasurement& m, AngleMask state_angles, Eigen::Matrix<double, N, 1>* x,
                              Eigen::Matrix<double, N, N>* p, SelectedUpdateWorkspace<N>* w,
@@ -327,50 +386,39 @@ UpdateResult update_selected(const SelectedMeasurement& m, AngleMask state_angle
     return result;
   }
   result.log_likelihood = -0.5 * (result.nis + 2.0 * log_det + k * kLog2Pi);
-  // K = P- H' S^-1: solve Z L' = P- H', then K L = Z, a column at a time.
+  // W = P- H' L'^-1, solved in place a column at a time (W L' = P- H'). The
+  // gain is K = P- H' S^-1 = W L^-1, so K nu = W (L^-1 nu) and K S K' = W W'.
   for (int a = 0; a < k; ++a) {
     for (int c = 0; c < a; ++c) gain.col(a) -= gain.col(c) * s(a, c);
     gain.col(a) *= inverse_diagonal[a];
   }
-  for (int c = k - 1; c >= 0; --c) {
-    for (int a = c + 1; a < k; ++a) gain.col(c) -= gain.col(a) * s(a, c);
-    gain.col(c) *= inverse_diagonal[c];
-  }
-  // x+ = x- + K nu.
-  for (int a = 0; a < k; ++a) *x += gain.col(a) * w->nu[a];
+  const auto& half_gain = gain;  // W
+  // x+ = x- + W L^-1 nu.
+  for (int a = 0; a < k; ++a) *x += half_gain.col(a) * whitened[a];
   wrap_angles_fixed<N>(state_angles, x);
-  // P+ = (I - K H) P- (I - K H)' + K R K' (Joseph form).
-  auto& i_kh = w->i_kh;
-  i_kh.setIdentity();
-  for (int a = 0; a < k; ++a) {
-    if (picks) {
-      i_kh.col(m.picked_state[static_cast<std::size_t>(a)]) -= gain.col(a);
-    } else {
-      for (int j = 0; j < N; ++j) i_kh.col(j) -= gain.col(a) * m.h(a, j);
-    }
-  }
-  auto& kr = w->kr;
-  for (int b = 0; b < k; ++b) {
-    kr.col(b) = gain.col(b) * m.r(b, b);
-    for (int a = 0; a < k; ++a) {
-      const double r_ab = m.r(a, b);
-      if (a != b && r_ab != 0.0) kr.col(b) += gain.col(a) * r_ab;  // none for a diagonal R, the common case
-    }
-  }
-  // Column by column, each held in registers while its sum runs.
-  auto& ikh_p = w->ikh_p;
+  // P+ = P- - W W' (= P- - K S K'), column by column, each held in registers
+  // while its sum runs: N^2 k products where the Joseph form takes 2 N^3.
+  // Entry (i, j) subtracts the same products in the same order as (j, i), so
+  // the result is as symmetric as P-, and the lower triangle is copied up to
+  // make it exactly so.
+  auto& updated = w->updated;
+  bool well_conditioned = true;
   for (int j = 0; j < N; ++j) {
-    Eigen::Matrix<double, N, 1> column = i_kh.col(0) * (*p)(0, j);
-    for (int c = 1; c < N; ++c) column += i_kh.col(c) * (*p)(c, j);
-    ikh_p.col(j) = column;
+    Eigen::Matrix<double, N, 1> column = p->col(j);
+    for (int a = 0; a < k; ++a) column -= half_gain.col(a) * half_gain(j, a);
+    updated.col(j) = column;
+    // The difference cancels the share of each variance the measurement
+    // explains (kLeastRemainingVariance).
+    well_conditioned = well_conditioned && column[j] > kLeastRemainingVariance * (*p)(j, j);
   }
-  for (int j = 0; j < N; ++j) {
-    Eigen::Matrix<double, N, 1> column = ikh_p.col(0) * i_kh(j, 0);
-    for (int c = 1; c < N; ++c) column += ikh_p.col(c) * i_kh(j, c);
-    for (int a = 0; a < k; ++a) column += kr.col(a) * gain(j, a);
-    p->col(j) = column;
+  if (well_conditioned) {
+    for (int j = 1; j < N; ++j) {
+      for (int i = 0; i < j; ++i) updated(i, j) = updated(j, i);
+    }
+    *p = updated;
+  } else {
+    joseph_update(m, k, s, inverse_diagonal, p, w);
   }
-  symmetrize_fixed<N>(p);
   result.ok = std::isfinite(result.log_likelihood) && all_finite(*x) && all_finite(*p);
   return result;
 }

@@ -343,6 +343,48 @@ TEST(FixedStateFilter, AgreesWithTheDynamicFilterForAnyMeasurementRows) {
   }
 }
 
+// A measurement far more precise than the prediction: P- - W W' would cancel
+// nearly all of each variance's digits (what is left, about R, is round-off
+// of P-), so the update takes the Joseph form and agrees with
+// ExtendedKalmanFilter's to the last digits that matter.
+TEST(FixedStateFilter, AMeasurementFarMorePreciseThanThePredictionTakesTheJosephForm) {
+  constexpr int N = 9;
+  const LinearStates model(N, true);
+  Eigen::Matrix<double, N, N> a = Eigen::Matrix<double, N, N>::Random();
+  Eigen::Matrix<double, N, N> p = 1e6 * (a * a.transpose() + Eigen::Matrix<double, N, N>::Identity());
+  const Eigen::Matrix<double, N, 1> x0 = Eigen::Matrix<double, N, 1>::Random();
+  Eigen::Matrix<double, N, 1> x = x0;
+  const MeasurementModel measurement(Eigen::MatrixXd::Identity(N, N), 1e-8 * Eigen::MatrixXd::Identity(N, N),
+                                     std::vector<bool>(N, false));
+  SelectedMeasurement selected = measurement.make_selection();
+  measurement.select(Eigen::VectorXd::LinSpaced(N, -1.0, 1.0), &selected);
+  ExtendedKalmanFilter dynamic(model, Eigen::MatrixXd::Identity(N, N), N);
+  dynamic.state() = x;
+  dynamic.covariance() = p;
+  ASSERT_TRUE(dynamic.update(selected).ok);
+  // What the difference would give: P- - P- (P- + R)^-1 P-, by the same
+  // factors as update_selected().
+  const Eigen::MatrixXd s = p + 1e-8 * Eigen::MatrixXd::Identity(N, N);
+  const Eigen::MatrixXd l = s.llt().matrixL();
+  const Eigen::MatrixXd w = l.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd(p)).transpose();
+  const Eigen::MatrixXd difference = Eigen::MatrixXd(p) - w * w.transpose();
+  SelectedUpdateWorkspace<N> workspace(N);
+  ASSERT_TRUE(update_selected<N>(selected, 0, &x, &p, &workspace).ok);
+  double worst_difference = 0.0;
+  for (int i = 0; i < N; ++i) {
+    const double joseph = dynamic.covariance()(i, i);
+    ASSERT_GT(joseph, 0.0);
+    EXPECT_NEAR(p(i, i), joseph, 1e-6 * joseph) << "variance " << i;
+    worst_difference = std::max(worst_difference, std::abs(difference(i, i) - joseph) / joseph);
+  }
+  EXPECT_GT(worst_difference, 1e-3) << "the difference form would have been accurate here: the test no longer "
+                                        "exercises the fallback";
+  EXPECT_LT((dynamic.state() - x).cwiseAbs().maxCoeff(), 1e-12);
+  for (int i = 0; i < N; ++i) {
+    for (int j = 0; j < i; ++j) ASSERT_EQ(p(i, j), p(j, i));
+  }
+}
+
 // A diagonal F scales P's rows and columns; the products give the same
 // numbers to the bit (what predict_fixed() relies on from 5 states).
 TEST(FixedStateFilter, ADiagonalJacobianPredictsAsTheProductsToTheBit) {

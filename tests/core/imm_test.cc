@@ -1097,7 +1097,12 @@ void ExpectKernelsAgree(double likelihood_dof, int steps, double tolerance, doub
             largest_log_likelihood = std::max(largest_log_likelihood, std::abs(d.log_likelihoods[j]));
           }
         }
-        const double conditioning = m > n ? 100.0 : 1.0;
+        // From 5 states or rows the fixed kernel updates P as P- - W W', the
+        // dynamic one in Joseph form: their round-off differs by more than two
+        // orderings of one form's (about twice as much at 8 states and rows,
+        // where a mode misses by far and the mixing amplifies it most).
+        const bool difference_form = n <= kMaxFixedStates && (n > 4 || m > 4);
+        const double conditioning = (m > n ? 100.0 : 1.0) * (difference_form ? 4.0 : 1.0);
         const double bound = conditioning * tolerance * (1.0 + 0.01 * largest_log_likelihood);
         ASSERT_LT((a.mode_probabilities - d.mode_probabilities).cwiseAbs().maxCoeff(), bound) << "step " << k;
         ASSERT_NEAR(a.unknown_probability, d.unknown_probability, bound) << "step " << k;
