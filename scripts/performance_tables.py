@@ -71,7 +71,8 @@ def machine(build):
     flags = " ".join(f for f in [cache.get("CMAKE_CXX_FLAGS", ""),
                                  cache.get("CMAKE_CXX_FLAGS_" + build_type.upper(), "")] if f)
     return {"cpu": cpu, "cores": os.cpu_count(), "compiler": version[0] if version else compiler,
-            "build_type": build_type, "flags": flags.strip()}
+            "build_type": build_type, "flags": flags.strip(),
+            "unity_build": cache.get("CMAKE_UNITY_BUILD", "OFF").upper() in ("ON", "TRUE", "1", "YES")}
 
 
 def run_benchmarks(binary, repetitions, benchmark_filter):
@@ -193,6 +194,9 @@ class Page:
     def header(self):
         r, m = self.r, self.r["machine"]
         load = r["load"]
+        # Inlining across files differs between the two, and the ratios with it.
+        unity = ("unity batches as `scripts/test.sh` compiles them, not the default build" if m.get("unity_build")
+                 else "a translation unit per source file, as `scripts/build.sh` compiles them by default")
         return f"""# Performance
 
 What one IMM step costs, how it grows with the bank, and how fast
@@ -212,7 +216,7 @@ CSV.
 **This run:** {r["date"]}, commit `{r["commit"]}`; {m["cpu"]}, {m["cores"]} cores
 shared with other work (load average {load["start"][0]:.2f} when the run started,
 {load["end"][0]:.2f} when it ended); {m["compiler"]}, {m["build_type"]} build
-(`{m["flags"] or "no extra flags"}`); {r["repetitions"]} repetitions of each
+(`{m["flags"] or "no extra flags"}`, {unity}); {r["repetitions"]} repetitions of each
 benchmark in random interleaved order, medians; logs of {r["rows"]:,} rows.
 """
 
@@ -506,7 +510,11 @@ time), and runs other banks on the dynamic kernel. Partial rows (GPS at 10 Hz in
 50 Hz log) dispatch to a fixed size K for the rows present. The EKF update
 uses a hand-written Cholesky for K <= 4 (Eigen's `LLT::solve` goes through its
 general triangular solver and packing), forward substitution alone for the
-NIS, and one logarithm for log det S. The model is still called through the
+NIS, and one logarithm for log det S. The kernel of fixed-size states with
+any rows updates the covariance as P- - W W' through the half gain
+W = P- H' L'^-1 (N^2 k products where the Joseph form takes 2 N^3), and
+takes the Joseph form where that would cancel
+more than half of a variance's digits ([engine.md](engine.md)). The model is still called through the
 plugin interface: three virtual calls per mode and step (Jacobian, process
 noise, prediction, given one view of the state); the `SizedMotionModel` trampolines pass arguments through
 fixed-size maps (a copy of the n + m doubles the fixed-size signature takes by
