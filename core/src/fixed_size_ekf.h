@@ -303,8 +303,8 @@ void joseph_update(const SelectedMeasurement& m, int k, const Eigen::MatrixXd& l
 // L L'), a third of the Joseph form's products at 9 states (the update is
 // where a BorealTC tune spends most of its time); the Joseph form is kept for
 // measurements that explain nearly all of a variance (kLeastRemainingVariance,
-// joseph_update()). Agrees with
-// ExtendedKalmanFilter's Joseph form to round-off (tests/core/ekf_test.cc).
+// joseph_update()). Agrees with ExtendedKalmanFilter's Joseph form to
+// round-off (tests/core/ekf_test.cc).
 template <int N>
 UpdateResult update_selected(const SelectedMeasurement& m, AngleMask state_angles, Eigen::Matrix<double, N, 1>* x,
                              Eigen::Matrix<double, N, N>* p, SelectedUpdateWorkspace<N>* w,

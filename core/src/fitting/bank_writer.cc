@@ -349,7 +349,8 @@ std::string format_transition_block(const BankConfig& config) {
       }
       std::string out = "transition:\n  mean_dwell_time: {";
       for (int j = 0; j < config.num_modes(); ++j) {
-        out += (j ? ", " : "") + config.modes[static_cast<std::size_t>(j)].name + ": " + bank_number(t.dwell_seconds[j]);
+        out += (j ? ", " : "") + config.modes[static_cast<std::size_t>(j)].name + ": " +
+               bank_number(t.dwell_seconds[j]);
       }
       return out + "}\n";
   }
@@ -372,8 +373,8 @@ std::string format_likelihood_dof_block(const BankConfig& config) {
 
 std::string format_unknown_block(const BankConfig& config) {
   if (!config.unknown.enabled()) return "";
-  return "unknown: {inflation: " + bank_number(config.unknown.inflation) + ", enter: " + bank_number(config.unknown.enter) +
-         ", leave: " + bank_number(config.unknown.leave) + "}\n";
+  return "unknown: {inflation: " + bank_number(config.unknown.inflation) +
+         ", enter: " + bank_number(config.unknown.enter) + ", leave: " + bank_number(config.unknown.leave) + "}\n";
 }
 
 }  // namespace fitting
