@@ -198,17 +198,9 @@ struct LinearFeatures {
     }
     const Vector w = drive(layout, u, p);
     if (is_diagonal(layout)) {
-      // As in process_noise(): the step's factors once per run of equal rates.
       const double* a = p + layout[kA].offset;
-      double last_rate = kNotANumber;
-      DiagonalZoh<double> zoh{0.0, 0.0};
-      for (int i = 0; i < n; ++i) {
-        if (!(a[i] == last_rate)) {
-          last_rate = a[i];
-          zoh = diagonal_zoh(a[i], dt);
-        }
-        x_next[i] = zoh.step<double>(x[i], w[i]);
-      }
+      SameArgumentOnce zoh([dt](double rate) { return diagonal_zoh(rate, dt); });
+      for (int i = 0; i < n; ++i) x_next[i] = zoh(a[i]).template step<double>(x[i], w[i]);
       return;
     }
     Vector next(n);
@@ -226,14 +218,8 @@ struct LinearFeatures {
     } else if (is_diagonal(layout)) {
       const double* a = p + layout[kA].offset;
       f.setZero();
-      double last_rate = kNotANumber, phi = 0.0;
-      for (int i = 0; i < n; ++i) {
-        if (!(a[i] == last_rate)) {
-          last_rate = a[i];
-          phi = std::exp(a[i] * dt);
-        }
-        f(i, i) = phi;
-      }
+      SameArgumentOnce phi([dt](double rate) { return std::exp(rate * dt); });
+      for (int i = 0; i < n; ++i) f(i, i) = phi(a[i]);
     } else {
       Matrix phi;
       if (!zoh_transition(full_a(layout, p), dt, &phi)) phi.setConstant(n, n, kNotANumber);
@@ -250,21 +236,10 @@ struct LinearFeatures {
     Eigen::Map<RowMajor> qd(noise, n, n);
     if (is_diagonal(layout)) {
       const double* a = p + layout[kA].offset;
-      // Banks usually give every feature the same rate (a held-fixed A), so
-      // most pairs share a_i + a_j: its integral is computed once per run of
-      // equal sums instead of n (n + 1) / 2 times (expm1 was 8% of
-      // `skidimm tune`'s profile). Same arguments, same values.
-      double last_sum = kNotANumber;
-      double last_integral = 0.0;
+      // The integral of e^{(a_i + a_j) s}, once per run of equal sums.
+      SameArgumentOnce integral([dt](double sum) { return exp_integral(sum, dt); });
       for (int i = 0; i < n; ++i) {
-        for (int j = 0; j <= i; ++j) {
-          const double sum = a[i] + a[j];
-          if (!(sum == last_sum)) {
-            last_sum = sum;
-            last_integral = exp_integral(sum, dt);
-          }
-          qd(i, j) = qd(j, i) = 0.5 * (q(i, j) + q(j, i)) * last_integral;
-        }
+        for (int j = 0; j <= i; ++j) qd(i, j) = qd(j, i) = 0.5 * (q(i, j) + q(j, i)) * integral(a[i] + a[j]);
       }
       return;
     }
