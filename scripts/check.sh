@@ -10,7 +10,8 @@
 #
 # ASan+UBSan: one clang build at -O1 (SKIDIMM_SANITIZE=address), undefined
 # behaviour fatal (-fno-sanitize-recover), of the core, the plugins, the CLI,
-# the GoogleTest binaries and the libFuzzer targets (tests/fuzz) - no Python
+# the GoogleTest binaries (their own code with ASan only: tests/CMakeLists.txt)
+# and the libFuzzer targets (tests/fuzz) - no Python
 # package, no benchmarks. The suite runs without the reproduction tests (ctest
 # names matching 'Reproduced|reproduce'): they rerun the paper's and the
 # real-data experiments, about 14 minutes on two cores in Release and many

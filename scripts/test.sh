@@ -26,12 +26,14 @@ done
 check=0
 if [ "$quick" -eq 0 ] && [ "${SKIDIMM_CHECK:-1}" != 0 ]; then check=1; fi
 if [ "$check" -eq 1 ]; then
-  # The whole sanitizer stage runs beside the Release build and suite, at a
-  # lower priority: it needs nothing from them, and on two cores the gate is
-  # bound by the CPU time of all its parts together, so the stage takes the
-  # cycles they leave idle (link steps, the one-core stretches of the
-  # reproductions) instead of starting only when they have ended. Its own
-  # session, so that a failure here stops it too. 5 s per fuzz target keeps
+  # The whole sanitizer stage runs beside the Release build and suite: it
+  # needs nothing from them, and on two cores the gate is bound by the CPU
+  # time of all its parts together, so the stage fills the cycles they leave
+  # idle (link steps, the one-core stretches of the reproductions) instead of
+  # starting only when they have ended. Its own session, so that a failure
+  # here stops it too; with Linux's autogroup (Debian's default) a session is
+  # scheduled as a group, so the nice value only orders the stage's own
+  # processes and the two halves share the cores evenly. 5 s per fuzz target keeps
   # the gate within CI's budget on two cores (README); the corpus and the
   # regression inputs are replayed whole in any case, and longer runs are for
   # check.sh by hand (tests/fuzz/README.md).
