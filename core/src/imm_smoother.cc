@@ -7,6 +7,7 @@
 #include "covariance.h"
 #include "filter_health.h"
 #include "gaussian_mixture.h"
+#include "ldlt_solve.h"
 #include "mode_probabilities_given_a_mode.h"
 #include "probability_floor.h"
 #include "skidimm/sdk/angles.h"
@@ -111,7 +112,12 @@ bool ImmSmoother::smooth_pair(int i, const Eigen::VectorXd& x, const Eigen::Matr
   // J = P F' (P^ji)^-1, solved: J' = (P^ji)^-1 F P.
   w.ldlt.compute(w.predicted_covariance);
   if (!(w.ldlt.info() == Eigen::Success && w.ldlt.isPositive() && (w.ldlt.vectorD().array() > 0.0).all())) return false;
-  w.gain_transposed = w.ldlt.solve(w.f_px);
+  if constexpr (N == Eigen::Dynamic) {
+    w.gain_transposed = w.ldlt.solve(w.f_px);
+  } else {
+    w.gain_transposed = w.f_px;
+    internal::ldlt_solve_in_place(w.ldlt, &w.gain_transposed);
+  }
   w.gain = w.gain_transposed.transpose();
   if (!w.gain.allFinite()) return false;
   w.difference = next.mode_states[static_cast<std::size_t>(i)] - w.predicted;
