@@ -54,7 +54,7 @@ ImmSmoother::ImmSmoother(const Bank& bank)
   workspace_.predicted.resize(n);
   workspace_.difference.resize(n);
   for (Eigen::MatrixXd* m : {&workspace_.f, &workspace_.q, &workspace_.f_px, &workspace_.predicted_covariance,
-                             &workspace_.gain, &workspace_.gain_transposed}) {
+                             &workspace_.gain, &workspace_.gain_transposed, &workspace_.left, &workspace_.correction}) {
     m->resize(n, n);
   }
   pair_covariances_.assign(static_cast<std::size_t>(modes), Eigen::MatrixXd(n, n));
@@ -128,8 +128,14 @@ bool ImmSmoother::smooth_pair(int i, const Eigen::VectorXd& x, const Eigen::Matr
   for (int d = 0; d < n; ++d) {
     if (angle_mask_[static_cast<std::size_t>(d)]) mean[d] = sdk::wrap_angle(mean[d]);
   }
+  // P + J (P_{k+1|N} - P^ji) J' in the products and order Eigen evaluates
+  // `px + gain * (next - predicted) * gain'` in (an N x dynamic product, then
+  // an N x N one), so the same bits, but into the workspace: at a fixed N
+  // nothing is allocated (the expression allocated its two temporaries).
+  w.left.noalias() = w.gain * (next.mode_covariances[static_cast<std::size_t>(i)] - w.predicted_covariance);
+  w.correction.noalias() = w.left * w.gain.transpose();
   Eigen::MatrixXd& pc = *covariance;
-  pc = px + w.gain * (next.mode_covariances[static_cast<std::size_t>(i)] - w.predicted_covariance) * w.gain.transpose();
+  pc = px + w.correction;
   symmetrize(pc);
   return internal::filter_is_healthy(mean, pc);
 }

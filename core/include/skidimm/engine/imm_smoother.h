@@ -96,7 +96,8 @@ class ImmSmoother {
   template <int N>
   struct PairWorkspace {
     Eigen::Matrix<double, N, 1> predicted, difference;
-    Eigen::Matrix<double, N, N> f, q, f_px, predicted_covariance, gain, gain_transposed;
+    Eigen::Matrix<double, N, N> f, q, f_px, predicted_covariance, gain, gain_transposed, correction;
+    Eigen::Matrix<double, N, Eigen::Dynamic, 0, N, N> left;  // J (P_{k+1|N} - P^ji): N x n, stored inline at a fixed N
     Eigen::LDLT<Eigen::Matrix<double, N, N>> ldlt;
   };
   // The RTS step of the pair (mode j at k, mode i at k+1) into mean and *covariance.
