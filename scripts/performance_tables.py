@@ -517,7 +517,8 @@ uses a hand-written Cholesky for K <= 4 (Eigen's `LLT::solve` goes through its
 general triangular solver and packing), forward substitution alone for the
 NIS, and one logarithm for log det S. The kernel of fixed-size states with
 any rows updates the covariance as P- - W W' through the half gain
-W = P- H' L'^-1 (N^2 k products where the Joseph form takes 2 N^3), and
+W = P- H' L'^-1 (its lower triangle, about N^2 k / 2 products, where the
+Joseph form takes 2 N^3), and
 takes the Joseph form where that would cancel
 more than half of a variance's digits ([engine.md](engine.md)). The model is still called through the
 plugin interface: three virtual calls per mode and step (Jacobian, process
