@@ -15,6 +15,7 @@
 #include <limits>
 #include <utility>
 
+#include "all_finite.h"
 #include "skidimm/engine/ekf.h"
 #include "skidimm/engine/measurement_model.h"
 #include "skidimm/sdk/angles.h"
@@ -50,15 +51,6 @@ inline void symmetrize_fixed(Eigen::Matrix<double, N, N>* m) {
       (*m)(j, i) = mean;
     }
   }
-}
-
-// Whether every entry is finite: x * 0 is (+-)0 for a finite x and NaN for an
-// infinity or a NaN, and a NaN survives any sum, so one vectorized sum
-// without a branch per entry (a test per entry took about 6 % of a 9-state
-// update's time). Without -ffast-math the product is not folded to 0.
-template <int R, int C>
-bool all_finite(const Eigen::Matrix<double, R, C>& m) {
-  return (m.array() * 0.0).sum() == 0.0;
 }
 
 // Propagates x, P by dt with input u through `model`; q_intensity is the
@@ -113,7 +105,7 @@ bool predict_fixed(const sdk::MotionModel& model, const Eigen::Matrix<double, N,
   }
   *p += q;
   symmetrize_fixed<N>(p);
-  return all_finite(*x) && all_finite(*p);
+  return internal::all_finite(*x) && internal::all_finite(*p);
 }
 
 // S = L L' in place (the lower triangle), for small fixed K, with the
@@ -222,7 +214,7 @@ UpdateResult update_fixed(const Eigen::Matrix<double, K, 1>& z, const Eigen::Mat
   const Eigen::Matrix<double, N, K> kr = gain * r;
   p->noalias() += kr * gain.transpose();
   symmetrize_fixed<N>(p);
-  result.ok = std::isfinite(result.log_likelihood) && all_finite(*x) && all_finite(*p);
+  result.ok = std::isfinite(result.log_likelihood) && internal::all_finite(*x) && internal::all_finite(*p);
   return result;
 }
 
@@ -440,7 +432,7 @@ UpdateResult update_selected(const SelectedMeasurement& m, AngleMask state_angle
   } else {
     joseph_update(m, k, s, inverse_diagonal, p, w);
   }
-  result.ok = std::isfinite(result.log_likelihood) && all_finite(*x) && all_finite(*p);
+  result.ok = std::isfinite(result.log_likelihood) && internal::all_finite(*x) && internal::all_finite(*p);
   return result;
 }
 

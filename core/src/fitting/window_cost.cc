@@ -3,19 +3,14 @@
 #include <cmath>
 #include <cstring>
 
+#include "all_finite.h"
 #include "skidimm/sdk/angles.h"
 
 namespace skidimm {
 namespace fitting {
 namespace internal {
 
-bool WindowCost::all_finite(const Eigen::Ref<const Eigen::MatrixXd>& m) {
-  const double* v = m.data();
-  for (Eigen::Index i = 0; i < m.size(); ++i) {
-    if (!std::isfinite(v[i])) return false;
-  }
-  return true;
-}
+using skidimm::internal::all_finite;
 
 std::string window_text(const Trajectory& t, const Window& w) {
   return t.source + ": the prediction from step " + std::to_string(w.start + 1) +

@@ -108,9 +108,6 @@ class WindowCost : public ceres::CostFunction {
                       double** jacobians) const;
 
  private:
-  // Eigen's allFinite() takes x - x over a temporary; this is one pass.
-  static bool all_finite(const Eigen::Ref<const Eigen::MatrixXd>& m);
-
   sdk::MotionModel* model_;
   Eigen::VectorXd base_;
   ParameterMapping mapping_;
