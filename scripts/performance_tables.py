@@ -593,7 +593,8 @@ row's reason as a 4-byte code into a table of texts written beside it
 (`log_run.h`) is the loop `skidimm run` runs.
 
 **Robustness checks.** Every step also checks each mode filter for
-divergence (`core/src/filter_health.h`: n + n^2 comparisons), compares each
+divergence (`core/src/filter_health.h`: 3 n comparisons and one sum over the
+n^2 covariance entries without a branch per entry), compares each
 NIS with the innovation gate (one comparison; the chi-square quantiles are
 computed once per bank), applies the exact probability floor (one pass over
 the modes, a second only when the floor bites) and checks the combined
