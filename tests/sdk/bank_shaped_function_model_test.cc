@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -71,6 +72,36 @@ struct BankDecay {
   }
 };
 using BankDecayModel = sdk::FunctionModel<BankDecay>;
+
+// BankDecay with a hand-written state Jacobian and process noise, each with
+// an entry off the diagonal on one side only (so that a transposed copy
+// shows), and with entries that are not finite below x_0 = -100.
+struct BankCoupled : BankDecay {
+  static constexpr double kCoupling = 0.5, kNoiseCoupling = 0.25;
+  static void jacobian(const sdk::Layout& layout, const double* x, const double* /*u*/, const double* p, double dt,
+                       double* jacobian) {
+    const int n = layout.num_states();
+    const double* k = p + layout[kK].offset;
+    for (int i = 0; i < n * n; ++i) jacobian[i] = 0.0;
+    for (int i = 0; i < n; ++i) jacobian[i * n + i] = 1.0 - dt * k[i];
+    jacobian[0 * n + 1] = kCoupling * dt;
+    if (x[0] < -100.0) {
+      jacobian[1 * n + 2] = std::nan("");
+      jacobian[2 * n + 0] = std::numeric_limits<double>::infinity();
+    }
+  }
+  static void process_noise(const sdk::Layout& layout, const double* intensity, const double* x, const double* /*u*/,
+                            const double* /*p*/, double dt, double* noise) {
+    const int n = layout.num_states();
+    for (int i = 0; i < n * n; ++i) noise[i] = intensity[i] * dt;
+    noise[0 * n + 2] += kNoiseCoupling * dt;
+    if (x[0] < -100.0) {
+      noise[2 * n + 1] = -std::numeric_limits<double>::infinity();
+      noise[2 * n + 2] = std::nan("");
+    }
+  }
+};
+using BankCoupledModel = sdk::FunctionModel<BankCoupled>;
 
 sdk::ParameterSet decay_params(std::vector<std::string> states = {"a", "b", "theta"}) {
   sdk::ParameterSet p;
@@ -169,6 +200,44 @@ TEST(BankShapedFunctionModel, AThrowOrANanRejectsTheStepWithTheReason) {
               HasSubstr("predict() gave a state that is not finite: b = nan (x_next[1]) at x = [-200, 0, 0]"));
   EXPECT_FALSE(model->predict(Eigen::Vector3d(1.0, 0.0, 0.0), Eigen::Vector2d(1.0, 1.0), -0.1, next));
   EXPECT_THAT(std::string(model->failure_reason()), HasSubstr("dt = -0.1 is not finite and non-negative"));
+}
+
+// The spec writes its matrices row by row; the model hands them over column
+// major, into any view (a corner of a larger matrix here, whose other
+// entries stay as they were), or names the first entry that is not finite.
+TEST(BankShapedFunctionModel, HandWrittenMatricesArriveWholeOrNameTheirFirstEntryThatIsNotFinite) {
+  std::string error;
+  auto model = BankCoupledModel::Create(decay_params(), &error);
+  ASSERT_TRUE(model) << error;
+  ASSERT_TRUE(model->has_analytic_jacobian());
+  const Eigen::Vector2d u(1.0, 1.0);
+  const double dt = 0.1;
+  const Eigen::Vector3d k(1.0, 2.0, 4.0);
+  Eigen::Matrix3d expected_f = Eigen::Matrix3d::Zero();
+  for (int i = 0; i < 3; ++i) expected_f(i, i) = 1.0 - dt * k[i];
+  expected_f(0, 1) = BankCoupled::kCoupling * dt;
+  Eigen::Matrix3d intensity;
+  intensity << 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0;
+  Eigen::Matrix3d expected_q = intensity * dt;
+  expected_q(0, 2) += BankCoupled::kNoiseCoupling * dt;
+
+  Eigen::MatrixXd f = Eigen::MatrixXd::Constant(5, 4, -7.0), q = Eigen::MatrixXd::Constant(5, 4, -7.0);
+  ASSERT_TRUE(model->jacobian(Eigen::Vector3d(1.0, 0.0, 0.0), u, dt, f.topLeftCorner(3, 3)));
+  ASSERT_TRUE(model->process_noise(intensity, Eigen::Vector3d(1.0, 0.0, 0.0), u, dt, q.topLeftCorner(3, 3)));
+  EXPECT_EQ(Eigen::Matrix3d(f.topLeftCorner(3, 3)), expected_f);
+  EXPECT_EQ(Eigen::Matrix3d(q.topLeftCorner(3, 3)), expected_q);
+  for (const Eigen::MatrixXd* m : {&f, &q}) {
+    EXPECT_TRUE((m->bottomRows(2).array() == -7.0).all());
+    EXPECT_TRUE((m->rightCols(1).array() == -7.0).all());
+  }
+
+  Eigen::MatrixXd out(3, 3);
+  EXPECT_FALSE(model->jacobian(Eigen::Vector3d(-200.0, 0.0, 0.0), u, dt, out));
+  EXPECT_THAT(std::string(model->failure_reason()),
+              HasSubstr("jacobian() is not finite: entry (row 1 'b', column 2 'theta') = nan"));
+  EXPECT_FALSE(model->process_noise(intensity, Eigen::Vector3d(-200.0, 0.0, 0.0), u, dt, out));
+  EXPECT_THAT(std::string(model->failure_reason()),
+              HasSubstr("process_noise() is not finite: entry (row 2 'theta', column 1 'b') = -inf"));
 }
 
 // No jets at runtime sizes: the state Jacobian is differenced, and the
