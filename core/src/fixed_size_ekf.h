@@ -4,7 +4,8 @@
 // (imm_kernel.h). predict_fixed() and update_fixed() call the model through
 // the same three virtuals (jacobian, process_noise, predict, in that order,
 // at the prior state) and agree with ExtendedKalmanFilter to round-off
-// (tests/core/ekf_test.cc).
+// (tests/core/ekf_test.cc); the kernels may keep the first two's results
+// (StepMatrices) for models whose F and Qd depend on dt only.
 #ifndef SKIDIMM_CORE_SRC_FIXED_SIZE_EKF_H_
 #define SKIDIMM_CORE_SRC_FIXED_SIZE_EKF_H_
 
@@ -53,44 +54,69 @@ inline void symmetrize_fixed(Eigen::Matrix<double, N, N>* m) {
   }
 }
 
-// Propagates x, P by dt with input u through `model`; q_intensity is the
-// mode's continuous-time Q. Returns false if the model fails or the result is
-// not finite (x, P are then unspecified).
+// A step's F (the model's Jacobian) and Qd (its process noise), with
+// whether F is diagonal. Stored in at least two doubles each: GCC 12 sees the
+// plugin's packet stores into a 1 x 1 matrix as out of bounds.
 template <int N>
-bool predict_fixed(const sdk::MotionModel& model, const Eigen::Matrix<double, N, N>& q_intensity, AngleMask angles,
-                   const Eigen::Ref<const Eigen::VectorXd>& u, double dt, Eigen::Matrix<double, N, 1>* x,
-                   Eigen::Matrix<double, N, N>* p) {
-  // Outputs of the model in storage of at least two doubles: GCC 12 sees the
-  // plugin's packet stores into a 1 x 1 matrix as out of bounds.
-  constexpr int kStorage = N * N < 2 ? 2 : N * N;
+struct StepMatrices {
+  static constexpr int kStorage = N * N < 2 ? 2 : N * N;
   alignas(16) double f_storage[kStorage];
   alignas(16) double q_storage[kStorage];
+  bool diagonal = false;
+
+  Eigen::Map<Eigen::Matrix<double, N, N>> f() { return Eigen::Map<Eigen::Matrix<double, N, N>>(f_storage); }
+  Eigen::Map<Eigen::Matrix<double, N, N>> q() { return Eigen::Map<Eigen::Matrix<double, N, N>>(q_storage); }
+  Eigen::Map<const Eigen::Matrix<double, N, N>> f() const {
+    return Eigen::Map<const Eigen::Matrix<double, N, N>>(f_storage);
+  }
+  Eigen::Map<const Eigen::Matrix<double, N, N>> q() const {
+    return Eigen::Map<const Eigen::Matrix<double, N, N>>(q_storage);
+  }
+};
+
+// F and Qd of `model` at the prior state for a step of dt; q_intensity is the
+// mode's continuous-time Q. False if the model fails.
+template <int N>
+bool compute_step_matrices(const sdk::MotionModel& model, const Eigen::Matrix<double, N, N>& q_intensity,
+                           const Eigen::Ref<const Eigen::VectorXd>& prior, const Eigen::Ref<const Eigen::VectorXd>& u,
+                           double dt, StepMatrices<N>* m) {
+  {
+    Eigen::Ref<Eigen::MatrixXd> f_out(m->f());
+    if (!model.jacobian(prior, u, dt, f_out)) return false;
+    Eigen::Ref<Eigen::MatrixXd> q_out(m->q());
+    if (!model.process_noise(q_intensity, prior, u, dt, q_out)) return false;
+  }
+  // A diagonal F (decoupled states: linear_features with a diagonal A) scales
+  // P's rows and columns: the same two roundings per entry as the products,
+  // so the same result to the bit, in n^2 instead of 2 n^3. Worth its check
+  // from 5 states on.
+  const auto f = m->f();
+  bool diagonal = N >= 5;
+  for (int j = 0; j < N && diagonal; ++j) {
+    for (int i = 0; i < N; ++i) diagonal = diagonal && (i == j || f(i, j) == 0.0);
+  }
+  m->diagonal = diagonal;
+  return true;
+}
+
+// Propagates x, P by dt with input u through `model`, given the step's F and
+// Qd at the prior state. Returns false if the model fails or the result is
+// not finite (x, P are then unspecified).
+template <int N>
+bool propagate_fixed(const sdk::MotionModel& model, const StepMatrices<N>& m, AngleMask angles,
+                     const Eigen::Ref<const Eigen::VectorXd>& u, double dt, Eigen::Matrix<double, N, 1>* x,
+                     Eigen::Matrix<double, N, N>* p) {
   alignas(16) double next_storage[N < 2 ? 2 : N];
-  Eigen::Map<Eigen::Matrix<double, N, N>> f(f_storage);
-  Eigen::Map<Eigen::Matrix<double, N, N>> q(q_storage);
   Eigen::Map<Eigen::Matrix<double, N, 1>> next(next_storage);
-  // F and Q are evaluated at the prior state, before x is overwritten. One
-  // view of x for the three calls (each would otherwise make its own).
   {
     const Eigen::Ref<const Eigen::VectorXd> prior(*x);
-    Eigen::Ref<Eigen::MatrixXd> f_out(f);
-    if (!model.jacobian(prior, u, dt, f_out)) return false;
-    Eigen::Ref<Eigen::MatrixXd> q_out(q);
-    if (!model.process_noise(q_intensity, prior, u, dt, q_out)) return false;
     Eigen::Ref<Eigen::VectorXd> next_out(next);
     if (!model.predict(prior, u, dt, next_out)) return false;
   }
   *x = next;
   wrap_angles_fixed<N>(angles, x);
-  // A diagonal F (decoupled states: linear_features with a diagonal A) scales
-  // P's rows and columns: the same two roundings per entry as the products,
-  // so the same result to the bit, in n^2 instead of 2 n^3. Worth its check
-  // from 5 states on.
-  bool diagonal = N >= 5;
-  for (int j = 0; j < N && diagonal; ++j) {
-    for (int i = 0; i < N; ++i) diagonal = diagonal && (i == j || f(i, j) == 0.0);
-  }
-  if (diagonal) {
+  const auto f = m.f();
+  if (m.diagonal) {
     for (int j = 0; j < N; ++j) {
       for (int i = 0; i < N; ++i) (*p)(i, j) = (f(i, i) * (*p)(i, j)) * f(j, j);
     }
@@ -103,9 +129,22 @@ bool predict_fixed(const sdk::MotionModel& model, const Eigen::Matrix<double, N,
     const Eigen::Matrix<double, N, N> fp = f.lazyProduct(*p);
     p->noalias() = fp.lazyProduct(f.transpose());
   }
-  *p += q;
+  *p += m.q();
   symmetrize_fixed<N>(p);
   return internal::all_finite(*x) && internal::all_finite(*p);
+}
+
+// Propagates x, P by dt with input u through `model`; q_intensity is the
+// mode's continuous-time Q. F and Qd are evaluated at the prior state, before
+// x is overwritten. Returns false if the model fails or the result is not
+// finite (x, P are then unspecified).
+template <int N>
+bool predict_fixed(const sdk::MotionModel& model, const Eigen::Matrix<double, N, N>& q_intensity, AngleMask angles,
+                   const Eigen::Ref<const Eigen::VectorXd>& u, double dt, Eigen::Matrix<double, N, 1>* x,
+                   Eigen::Matrix<double, N, N>* p) {
+  StepMatrices<N> m;
+  return compute_step_matrices<N>(model, q_intensity, *x, u, dt, &m) &&
+         propagate_fixed<N>(model, m, angles, u, dt, x, p);
 }
 
 // S = L L' in place (the lower triangle), for small fixed K, with the

@@ -22,8 +22,8 @@
 #include "filter_health.h"
 #include "fixed_size_ekf.h"
 #include "gaussian_mixture.h"
-#include "mode_probabilities_given_a_mode.h"
 #include "measured_outputs.h"
+#include "mode_probabilities_given_a_mode.h"
 #include "not_a_number.h"
 #include "probability_floor.h"
 #include "residual_correlation.h"
@@ -90,6 +90,9 @@ class FixedStateBank {
     }
     x_.assign(models_.size(), State::Zero());
     p_.assign(models_.size(), Covariance::Identity());
+    reused_.resize(models_.size());
+    for (std::size_t j = 0; j < models_.size(); ++j)
+      reused_[j].reusable = models_[j]->jacobian_and_noise_depend_only_on_dt();
   }
 
   State& state(int j) { return x_[static_cast<std::size_t>(j)]; }
@@ -97,15 +100,41 @@ class FixedStateBank {
   const sdk::MotionModel& model(int j) const { return *models_[static_cast<std::size_t>(j)]; }
 
   bool predict(int j, const Eigen::Ref<const Eigen::VectorXd>& u, double dt) {
-    return predict_fixed<N>(*models_[static_cast<std::size_t>(j)], q_[static_cast<std::size_t>(j)], state_angles_, u,
-                            dt, &x_[static_cast<std::size_t>(j)], &p_[static_cast<std::size_t>(j)]);
+    const std::size_t mode = static_cast<std::size_t>(j);
+    const sdk::MotionModel& model = *models_[mode];
+    ReusedStepMatrices& reused = reused_[mode];
+    if (!reused.reusable) return predict_fixed<N>(model, q_[mode], state_angles_, u, dt, &x_[mode], &p_[mode]);
+    if (!(reused.dt == dt)) {
+      reused.dt = kNaN;
+      if (!compute_step_matrices<N>(model, q_[mode], x_[mode], u, dt, &reused.matrices)) return false;
+      reused.dt = dt;
+    }
+    return propagate_fixed<N>(model, reused.matrices, state_angles_, u, dt, &x_[mode], &p_[mode]);
+  }
+
+  // From the next step on, asks the models for F and Qd afresh (a new run:
+  // Imm::reset()).
+  void forget_step_matrices() {
+    for (ReusedStepMatrices& reused : reused_) reused.dt = kNaN;
   }
 
  protected:
   int modes() const { return static_cast<int>(models_.size()); }
 
+  // A mode's F and Qd for the last dt, when its model says they depend on dt
+  // alone (sdk::MotionModel::jacobian_and_noise_depend_only_on_dt): runs at
+  // a fixed rate then ask for them once, not at every step (a 9-state
+  // linear_features mode spends most of its model time on them: Qd takes
+  // exponentials). The same values, so the same results to the bit.
+  struct ReusedStepMatrices {
+    bool reusable = false;
+    double dt = kNaN;  // NaN: none kept
+    StepMatrices<N> matrices;
+  };
+
   std::vector<const sdk::MotionModel*> models_;
   std::vector<Covariance, Eigen::aligned_allocator<Covariance>> q_;
+  std::vector<ReusedStepMatrices> reused_;
   AngleMask state_angles_ = 0;
   std::vector<State, Eigen::aligned_allocator<State>> x_;
   std::vector<Covariance, Eigen::aligned_allocator<Covariance>> p_;
@@ -285,6 +314,8 @@ class DynamicFilters {
   bool predict(int j, const Eigen::Ref<const Eigen::VectorXd>& u, double dt) {
     return filters_[static_cast<std::size_t>(j)].predict(u, dt);
   }
+  // ExtendedKalmanFilter asks the model for F and Qd at every step.
+  void forget_step_matrices() {}
 
   int update(const Eigen::Ref<const Eigen::VectorXd>& z, const MeasuredOutputs* outputs, const double* gates,
              ResidualCorrelation* correlation, ImmEstimate* e, int* rejected) {
@@ -391,6 +422,7 @@ class Kernel final : public ImmKernel {
       }
       predicted_ = e->mode_probabilities;
       correlation_.forget_all();
+      filters_.forget_step_matrices();
     } else {
       correlation_.advance();
       // The filters run on as the modes' estimates given that some mode
@@ -716,11 +748,11 @@ class Kernel final : public ImmKernel {
   int n_;
   int modes_;
   double floor_;
-  double likelihood_weight_;   // w of Lambda_j^w (bank.h)
+  double likelihood_weight_;         // w of Lambda_j^w (bank.h)
   UnknownHypothesisConfig unknown_;  // the bank's "none of these" hypothesis
-  StudentTLikelihood student_t_;  // the bank's likelihood_dof
+  StudentTLikelihood student_t_;     // the bank's likelihood_dof
   ResidualCorrelation correlation_;  // the modes' residual_correlation
-  std::vector<double> gates_;  // by number of measured components; +inf: no gate
+  std::vector<double> gates_;        // by number of measured components; +inf: no gate
   Eigen::VectorXd initial_state_;
   Eigen::MatrixXd initial_covariance_;
   std::unique_ptr<bool[]> is_angle_;
@@ -728,7 +760,7 @@ class Kernel final : public ImmKernel {
   Eigen::MatrixXd moments_;  // row i: mu_i [1, y_i, vech(P_i + y_i y_i')]
   Eigen::MatrixXd flowed_;   // P(dt)' moments
   Eigen::VectorXd prior_moments_;
-  Eigen::VectorXd predicted_;  // c_j
+  Eigen::VectorXd predicted_;      // c_j
   Eigen::VectorXd log_posterior_;  // the modes', then the unknown hypothesis' when on
   Eigen::VectorXd with_unknown_;   // the probabilities of the modes and the unknown hypothesis
   Eigen::VectorXd conditional_;    // the modes' probabilities given that some mode holds

@@ -208,6 +208,10 @@ struct LinearFeatures {
     Eigen::Map<Vector>(x_next, n) = next;
   }
 
+  // F and Qd below depend on A and dt alone: the engine computes them once
+  // per mode and dt, not at every step.
+  static constexpr bool kJacobianAndNoiseDependOnlyOnDt = true;
+
   // F = Phi = expm(A dt): predict() is affine in x.
   static void jacobian(const sdk::Layout& layout, const double* /*x*/, const double* /*u*/, const double* p, double dt,
                        double* jacobian) {

@@ -43,6 +43,8 @@ struct LtcSpec {
   static void jacobian(const double* /*x*/, const double* /*u*/, const double* p, double dt, double* f) {
     ltc_jacobian(p + kA, dt, f);
   }
+  // F above and the default noise Q dt: the engine reuses both while dt repeats.
+  static constexpr bool kJacobianAndNoiseDependOnlyOnDt = true;
 };
 
 struct LtcLinear : LtcSpec<sdk::ParameterScope::kMode> {

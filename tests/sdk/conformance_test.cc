@@ -10,22 +10,43 @@ namespace {
 
 using skidimm_test::ScalarLinearModel;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 // x_next = x + (a x + b u) dt, with deliberate defects switched on.
 class BrokenModel : public ScalarLinearModel {
  public:
-  enum Defect { kNone, kWrongJacobian, kWrongParameterJacobian, kMovesAtZeroDt, kWrongOutputJacobian };
+  enum Defect {
+    kNone,
+    kWrongJacobian,
+    kWrongParameterJacobian,
+    kMovesAtZeroDt,
+    kWrongOutputJacobian,
+    kDependsOnDtOnly,           // no defect: says so, truly
+    kSaysDtOnlyButCurves,       // a term in x^2, so F depends on x
+    kSaysDtOnlyButNoiseGrows,   // noise that grows with the input
+  };
   explicit BrokenModel(Defect defect) : ScalarLinearModel(-2.0, 0.5), defect_(defect) {}
 
   bool predict_fixed(const State& x, const Input& u, double dt, State* next) const noexcept override {
     ScalarLinearModel::predict_fixed(x, u, dt, next);
     if (defect_ == kMovesAtZeroDt) (*next)[0] += 1e-3;
+    if (defect_ == kSaysDtOnlyButCurves) (*next)[0] += 0.1 * x[0] * x[0] * dt;
     return true;
   }
   bool jacobian_fixed(const State& x, const Input& u, double dt, Jacobian* j) const noexcept override {
     ScalarLinearModel::jacobian_fixed(x, u, dt, j);
     if (defect_ == kWrongJacobian) (*j)(0, 0) += 0.5 * dt;  // a sign slip in a hand derivation
+    if (defect_ == kSaysDtOnlyButCurves) (*j)(0, 0) += 0.2 * x[0] * dt;  // right, but not constant
     return true;
+  }
+  bool process_noise_fixed(const Covariance& intensity, const State& x, const Input& u, double dt,
+                           Covariance* noise) const override {
+    ScalarLinearModel::process_noise_fixed(intensity, x, u, dt, noise);
+    if (defect_ == kSaysDtOnlyButNoiseGrows) *noise *= 1.0 + u[0] * u[0];
+    return true;
+  }
+  bool jacobian_and_noise_depend_only_on_dt() const noexcept override {
+    return defect_ == kDependsOnDtOnly || defect_ == kSaysDtOnlyButCurves || defect_ == kSaysDtOnlyButNoiseGrows;
   }
   // d next / d [a, b] = [x dt, u dt]; the defect drops the dt on b.
   bool parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
@@ -80,6 +101,31 @@ TEST(ConformanceKit, CatchesAWrongOutputParameterJacobian) {
   const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
   EXPECT_FALSE(result);
   EXPECT_THAT(result.message(), HasSubstr("output_parameter_jacobian() differs from central differences"));
+}
+
+TEST(ConformanceKit, PassesAModelWhoseJacobianAndNoiseTrulyDependOnDtOnly) {
+  BrokenModel model(BrokenModel::kDependsOnDtOnly);
+  EXPECT_MOTION_MODEL_CONFORMS(model, kX, kU, 0.1);
+}
+
+// The engine would reuse one F, or one Qd, for every state and input.
+TEST(ConformanceKit, CatchesAJacobianOrNoiseSaidToDependOnDtOnlyThatDependsOnTheStateOrInput) {
+  {
+    BrokenModel model(BrokenModel::kSaysDtOnlyButCurves);
+    const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
+    EXPECT_FALSE(result);
+    EXPECT_THAT(result.message(),
+                HasSubstr("jacobian_and_noise_depend_only_on_dt() is true, but jacobian() differs between x = [0.7]"));
+    EXPECT_THAT(result.message(), Not(HasSubstr("process_noise() differs")));
+  }
+  {
+    BrokenModel model(BrokenModel::kSaysDtOnlyButNoiseGrows);
+    const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
+    EXPECT_FALSE(result);
+    EXPECT_THAT(result.message(), HasSubstr("jacobian_and_noise_depend_only_on_dt() is true, but process_noise() "
+                                            "differs between x = [0.7], u = [2]"));
+    EXPECT_THAT(result.message(), Not(HasSubstr("jacobian() differs")));
+  }
 }
 
 TEST(ConformanceKit, CatchesAModelThatMovesInZeroTime) {

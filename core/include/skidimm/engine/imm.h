@@ -32,6 +32,12 @@
 // call concurrently (sdk/motion_model.h). Pinned by
 // tests/core/thread_safety_test.cc under ThreadSanitizer (docs/engine.md).
 //
+// Parameters: an Imm reads its models' parameters as they are at each step,
+// except that the fixed-size kernels keep F and Qd of a model whose
+// jacobian_and_noise_depend_only_on_dt() for as long as dt repeats, from the
+// first step after reset() on. Change a model's parameters between runs and
+// reset() before the next.
+//
 // Speed: the step runs in a kernel chosen once, here, for the bank's shape:
 // fixed-size Eigen types when the state and the measurement have at most 4
 // components each, dynamic ones otherwise; mixing (eq. 6-7) is one product of

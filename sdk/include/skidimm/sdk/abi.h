@@ -27,7 +27,8 @@ namespace sdk {
 // 4: MotionModel::failure_reason(); PluginInfo names states and inputs;
 //    plugins export their standard library configuration (kStdlibAbiTagSymbol).
 // 5: MotionModel::output_names(), outputs() and output_parameter_jacobian().
-inline constexpr int kAbiVersion = 5;
+// 6: MotionModel::jacobian_and_noise_depend_only_on_dt().
+inline constexpr int kAbiVersion = 6;
 
 #define SKIDIMM_SDK_STRINGIFY_(x) #x
 #define SKIDIMM_SDK_STRINGIFY(x) SKIDIMM_SDK_STRINGIFY_(x)

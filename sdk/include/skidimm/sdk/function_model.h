@@ -64,6 +64,13 @@
 //      static void process_noise(const double* intensity, const double* x, const double* u, const double* p,
 //                                double dt, double* noise);  // n x n, row-major
 //
+//  * for a model linear in its state whose noise does not depend on where it
+//    is, the promise that its state Jacobian and process noise depend on dt
+//    and the parameters only (MotionModel::jacobian_and_noise_depend_only_on_dt;
+//    the engine then reuses them while dt repeats):
+//
+//      static constexpr bool kJacobianAndNoiseDependOnlyOnDt = true;
+//
 // The filter asks for the state Jacobian and then the prediction at the same
 // state; the jets that give the one give the other, so predict() right after
 // jacobian() costs a comparison (LastEvaluation below). Angle states
@@ -182,13 +189,23 @@ struct HasProcessNoise<Spec,
                            std::declval<const double*>(), std::declval<const double*>(), std::declval<const double*>(),
                            std::declval<const double*>(), 0.0, std::declval<double*>()))>> : std::true_type {};
 
-// Whether all `count` values are finite, without a branch per value: a
-// non-finite one makes its product with 0 NaN, and NaN the sum.
+// A spec's kJacobianAndNoiseDependOnlyOnDt, false when it has none.
+template <typename Spec, typename = void>
+struct JacobianAndNoiseDependOnlyOnDt : std::false_type {};
+template <typename Spec>
+struct JacobianAndNoiseDependOnlyOnDt<Spec, std::void_t<decltype(Spec::kJacobianAndNoiseDependOnlyOnDt)>>
+    : std::bool_constant<Spec::kJacobianAndNoiseDependOnlyOnDt> {};
+
+// Whether all `count` values are finite, without a branch per value: x * 0
+// is 0 for a finite x and NaN otherwise, and one NaN makes the sum NaN.
+// (Eigen's sum adds in vector lanes; a plain loop keeps its order and would
+// not.)
+inline bool all_finite(const double* values, Eigen::Index count) {
+  return (Eigen::Map<const Eigen::ArrayXd>(values, count) * 0.0).sum() == 0.0;
+}
 template <int kCount>
 bool all_finite(const double* values) {
-  double sum = 0.0;
-  for (int i = 0; i < kCount; ++i) sum += values[i] * 0.0;
-  return sum == sum;
+  return (Eigen::Map<const Eigen::Array<double, kCount, 1>>(values) * 0.0).sum() == 0.0;
 }
 
 // A row-major rows x cols matrix, as the spec's hand-written parts fill it
@@ -454,6 +471,9 @@ class FunctionModel<Spec, internal::CompileTimeShapes> final
     return finite_jacobian(*jacobian, x.data(), input_data(u), dt);
   }
   bool has_analytic_jacobian() const noexcept override { return true; }
+  bool jacobian_and_noise_depend_only_on_dt() const noexcept override {
+    return internal::JacobianAndNoiseDependOnlyOnDt<Spec>::value;
+  }
 
   // The Jacobian by jets, whether or not the spec writes its own (the
   // conformance kit compares the two).
@@ -604,7 +624,8 @@ class FunctionModel<Spec, internal::CompileTimeShapes> final
       } catch (const std::exception& e) {
         return internal::caught("the output parameter Jacobian threw: ", e.what());
       } catch (...) {
-        return internal::caught("the output parameter Jacobian threw an exception that is not a std::exception", nullptr);
+        return internal::caught("the output parameter Jacobian threw an exception that is not a std::exception",
+                                nullptr);
       }
       for (int r = 0; r < kOutputs; ++r) {
         for (int c = 0; c < kNumParameters; ++c) {

@@ -102,6 +102,15 @@ class BOOST_SYMBOL_VISIBLE MotionModel {
     return true;
   }
 
+  // True if jacobian() and process_noise() depend on dt, the parameters and
+  // the intensity only, never on x or u: a model linear in its state with
+  // noise that does not depend on where it is (linear_features, ltc_linear).
+  // The engine then asks for them once per mode for each new dt and reuses
+  // them while dt repeats, from the first step after Imm::reset() on, so the
+  // parameters must not change during a run. The conformance kit checks the
+  // claim at distinct states and inputs (testing/conformance.h).
+  virtual bool jacobian_and_noise_depend_only_on_dt() const noexcept { return false; }
+
   // --- Outputs ---
   // Quantities the model predicts from the input alone, besides its state:
   // a yaw rate, a motor current. A bank measures them by name

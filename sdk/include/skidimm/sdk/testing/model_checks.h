@@ -11,6 +11,9 @@
 //    bounds and current values inside them;
 //  * process_noise(I, x, u, dt) is finite, symmetric positive semidefinite;
 //  * predict() right after jacobian() at the same point gives the same state;
+//  * a model whose Jacobian and process noise depend on dt only (its
+//    jacobian_and_noise_depend_only_on_dt()) gives the same ones at another
+//    state and input;
 //  * the Jacobian is finite and matches central differences of predict(),
 //    and so does the parameter Jacobian if the model provides one;
 //  * outputs, if the model has any, are uniquely named and finite, and their
@@ -266,6 +269,32 @@ inline std::vector<std::string> motion_model_failures(MotionModel& model, const 
   } else if (Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(noise).eigenvalues().minCoeff() <
              -1e-12 * std::max(1.0, noise.norm())) {
     fail("process_noise() is not positive semidefinite");
+  }
+
+  // A model that says its Jacobian and process noise depend on dt only gives
+  // the same ones, to the bit, at another state and input: the engine reuses
+  // them across steps.
+  if (model.jacobian_and_noise_depend_only_on_dt()) {
+    Eigen::VectorXd x_other = x;
+    for (int i = 0; i < n; ++i) {
+      x_other[i] += 0.375 * (1.0 + std::abs(x[i]));
+      if (model.is_angle(i)) x_other[i] = wrap_angle(x_other[i]);
+    }
+    const Eigen::VectorXd u_other = (1.25 * u.array() + 0.5).matrix();
+    Eigen::MatrixXd here(n, n);
+    Eigen::MatrixXd there(n, n);
+    const std::string other = internal::point_text(x_other, u_other, dt);
+    if (model.jacobian(x, u, dt, here) && model.jacobian(x_other, u_other, dt, there) &&
+        !(here.array() == there.array()).all()) {
+      fail("jacobian_and_noise_depend_only_on_dt() is true, but jacobian() differs between " + point + " and " + other);
+    }
+    const Eigen::MatrixXd intensity = Eigen::MatrixXd::Identity(n, n);
+    if (model.process_noise(intensity, x, u, dt, here) && model.process_noise(intensity, x_other, u_other, dt, there) &&
+        !(here.array() == there.array()).all()) {
+      fail("jacobian_and_noise_depend_only_on_dt() is true, but process_noise() differs between " + point + " and " +
+           other);
+    }
+    model.failure_reason();  // a failed call is reported by the checks below
   }
 
   // predict() is a function of its arguments: after jacobian() at the same
