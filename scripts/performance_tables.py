@@ -522,7 +522,10 @@ Joseph form takes 2 N^3), and
 takes the Joseph form where that would cancel
 more than half of a variance's digits ([engine.md](engine.md)). The model is still called through the
 plugin interface: three virtual calls per mode and step (Jacobian, process
-noise, prediction, given one view of the state); the `SizedMotionModel` trampolines pass arguments through
+noise, prediction, given one view of the state), or only the prediction for
+a model whose Jacobian and process noise depend on dt alone (`ltc_linear`,
+`linear_features`: the kernel keeps each mode's F and Qd while dt repeats,
+with the same results to the bit); the `SizedMotionModel` trampolines pass arguments through
 fixed-size maps (a copy of the n + m doubles the fixed-size signature takes by
 value; removing that would change the plugin authoring API). `stc_kinematic`
 computes sin and cos of the heading once for the Jacobian and the prediction
