@@ -332,11 +332,12 @@ void joseph_update(const SelectedMeasurement& m, int k, const Eigen::MatrixXd& l
 // triangle), held in registers while its k products are subtracted in
 // order; true if the difference keeps more than kLeastRemainingVariance of
 // the variance P-_jj (the share the measurement explains is cancelled).
-template <int N, int J>
+template <int N, int K, int J>
 bool subtract_outer_product_column(const Eigen::Matrix<double, N, N>& p,
-                                   const typename SelectedUpdateWorkspace<N>::Columns& w, int k,
+                                   const typename SelectedUpdateWorkspace<N>::Columns& w, int rows,
                                    Eigen::Matrix<double, N, N>* updated) {
   constexpr int kRows = N - J;
+  const int k = K > 0 ? K : rows;
   Eigen::Matrix<double, kRows, 1> column = p.col(J).template tail<kRows>();
   for (int a = 0; a < k; ++a) column -= w.col(a).template tail<kRows>() * w(J, a);
   updated->col(J).template tail<kRows>() = column;
@@ -346,12 +347,12 @@ bool subtract_outer_product_column(const Eigen::Matrix<double, N, N>& p,
 // The lower triangle of P- - W W' into *updated, a column of compile-time
 // length at a time (half the products of whole columns at 9 states); whether
 // every variance stays well conditioned.
-template <int N, int... J>
+template <int N, int K, int... J>
 bool subtract_outer_product_lower(const Eigen::Matrix<double, N, N>& p,
                                   const typename SelectedUpdateWorkspace<N>::Columns& w, int k,
                                   Eigen::Matrix<double, N, N>* updated, std::integer_sequence<int, J...>) {
   // Every column, without stopping at the first ill-conditioned one.
-  return (static_cast<int>(subtract_outer_product_column<N, J>(p, w, k, updated)) & ... & 1) != 0;
+  return (static_cast<int>(subtract_outer_product_column<N, K, J>(p, w, k, updated)) & ... & 1) != 0;
 }
 
 // The update of update_fixed() for N states known at compile time and the k
@@ -365,13 +366,16 @@ bool subtract_outer_product_lower(const Eigen::Matrix<double, N, N>& p,
 // measurements that explain nearly all of a variance (kLeastRemainingVariance,
 // joseph_update()). Agrees with ExtendedKalmanFilter's Joseph form to
 // round-off (tests/core/ekf_test.cc).
-template <int N>
-UpdateResult update_selected(const SelectedMeasurement& m, AngleMask state_angles, Eigen::Matrix<double, N, 1>* x,
-                             Eigen::Matrix<double, N, N>* p, SelectedUpdateWorkspace<N>* w,
-                             double gate = std::numeric_limits<double>::infinity()) {
+//
+// K > 0: the rows are K, known at compile time (loops of fixed length, which
+// the compiler unrolls); 0: m.size. The same operations in the same order
+// either way.
+template <int N, int K>
+UpdateResult update_selected_rows(const SelectedMeasurement& m, AngleMask state_angles, Eigen::Matrix<double, N, 1>* x,
+                                  Eigen::Matrix<double, N, N>* p, SelectedUpdateWorkspace<N>* w, double gate) {
   constexpr double kLog2Pi = 1.8378770664093454835606594728112;
   UpdateResult result;
-  const int k = m.size;
+  const int k = K > 0 ? K : m.size;
   if (k == 0) {
     result.ok = true;
     return result;
@@ -462,7 +466,7 @@ UpdateResult update_selected(const SelectedMeasurement& m, AngleMask state_angle
   // lower triangle copied up is the whole difference, exactly symmetric.
   auto& updated = w->updated;
   const bool well_conditioned =
-      subtract_outer_product_lower(*p, half_gain, k, &updated, std::make_integer_sequence<int, N>());
+      subtract_outer_product_lower<N, K>(*p, half_gain, k, &updated, std::make_integer_sequence<int, N>());
   if (well_conditioned) {
     for (int j = 1; j < N; ++j) {
       for (int i = 0; i < j; ++i) updated(i, j) = updated(j, i);
@@ -473,6 +477,16 @@ UpdateResult update_selected(const SelectedMeasurement& m, AngleMask state_angle
   }
   result.ok = std::isfinite(result.log_likelihood) && internal::all_finite(*x) && internal::all_finite(*p);
   return result;
+}
+
+// update_selected_rows() for any k, with loops of fixed length when every
+// row is measured (k = N, BorealTC's features measured directly).
+template <int N>
+UpdateResult update_selected(const SelectedMeasurement& m, AngleMask state_angles, Eigen::Matrix<double, N, 1>* x,
+                             Eigen::Matrix<double, N, N>* p, SelectedUpdateWorkspace<N>* w,
+                             double gate = std::numeric_limits<double>::infinity()) {
+  if (m.size == N) return update_selected_rows<N, N>(m, state_angles, x, p, w, gate);
+  return update_selected_rows<N, 0>(m, state_angles, x, p, w, gate);
 }
 
 }  // namespace skidimm

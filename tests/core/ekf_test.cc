@@ -343,6 +343,57 @@ TEST(FixedStateFilter, AgreesWithTheDynamicFilterForAnyMeasurementRows) {
   }
 }
 
+// Every row measured (k = N) runs loops of fixed length; they must do what
+// the loops of runtime length do, in the same order, so give the same bits:
+// for a direct and a summed measurement, a correlated R, an angle row, and a
+// measurement precise enough for the Joseph form.
+template <int N>
+void expect_fixed_row_count_is_the_same_update_to_the_bit(bool sums, double r_scale) {
+  SCOPED_TRACE("states " + std::to_string(N) + (sums ? ", sums" : ", direct") + ", R x " + std::to_string(r_scale));
+  Eigen::MatrixXd h = Eigen::MatrixXd::Identity(N, N);
+  if (sums) {
+    for (int a = 0; a + 1 < N; ++a) h(a, a + 1) = 0.5;
+  }
+  Eigen::MatrixXd r = Eigen::MatrixXd::Identity(N, N) * 0.01 * r_scale;
+  r(0, 1) = r(1, 0) = 0.002 * r_scale;
+  std::vector<bool> row_is_angle(static_cast<std::size_t>(N), false);
+  row_is_angle[N - 1] = !sums;
+  const MeasurementModel measurement(h, r, row_is_angle);
+  Eigen::Matrix<double, N, N> a = Eigen::Matrix<double, N, N>::Random();
+  const Eigen::Matrix<double, N, N> p0 = a * a.transpose() + Eigen::Matrix<double, N, N>::Identity();
+  const Eigen::Matrix<double, N, 1> x0 = Eigen::Matrix<double, N, 1>::Random();
+  for (int k = 0; k < 5; ++k) {
+    SelectedMeasurement selected = measurement.make_selection();
+    measurement.select(Eigen::VectorXd::LinSpaced(N, -1.0 + k, 1.0 + 2 * k), &selected);
+    ASSERT_EQ(selected.size, N);
+    Eigen::Matrix<double, N, 1> x_fixed = x0, x_runtime = x0;
+    Eigen::Matrix<double, N, N> p_fixed = p0, p_runtime = p0;
+    SelectedUpdateWorkspace<N> w_fixed(N), w_runtime(N);
+    const double gate = k == 4 ? 1.0 : std::numeric_limits<double>::infinity();  // the last one gated
+    const UpdateResult fixed = update_selected_rows<N, N>(selected, 1u << (N - 1), &x_fixed, &p_fixed, &w_fixed, gate);
+    const UpdateResult runtime =
+        update_selected_rows<N, 0>(selected, 1u << (N - 1), &x_runtime, &p_runtime, &w_runtime, gate);
+    ASSERT_TRUE(fixed.ok);
+    EXPECT_EQ(fixed.ok, runtime.ok);
+    EXPECT_EQ(fixed.gated, runtime.gated);
+    EXPECT_EQ(fixed.log_likelihood, runtime.log_likelihood);
+    EXPECT_EQ(fixed.nis, runtime.nis);
+    EXPECT_TRUE(x_fixed == x_runtime);
+    EXPECT_TRUE(p_fixed == p_runtime);
+    EXPECT_TRUE(w_fixed.whitened == w_runtime.whitened);
+  }
+}
+
+TEST(FixedStateFilter, EveryRowMeasuredIsTheSameUpdateToTheBitAsAnyRows) {
+  for (const bool sums : {false, true}) {
+    for (const double r_scale : {1.0, 1e-14}) {
+      expect_fixed_row_count_is_the_same_update_to_the_bit<5>(sums, r_scale);
+      expect_fixed_row_count_is_the_same_update_to_the_bit<9>(sums, r_scale);
+      expect_fixed_row_count_is_the_same_update_to_the_bit<12>(sums, r_scale);
+    }
+  }
+}
+
 // A measurement far more precise than the prediction: P- - W W' would cancel
 // nearly all of each variance's digits (what is left, about R, is round-off
 // of P-), so the update takes the Joseph form and agrees with

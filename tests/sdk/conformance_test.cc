@@ -21,9 +21,9 @@ class BrokenModel : public ScalarLinearModel {
     kWrongParameterJacobian,
     kMovesAtZeroDt,
     kWrongOutputJacobian,
-    kDependsOnDtOnly,           // no defect: says so, truly
-    kSaysDtOnlyButCurves,       // a term in x^2, so F depends on x
-    kSaysDtOnlyButNoiseGrows,   // noise that grows with the input
+    kDependsOnDtOnly,          // no defect: says so, truly
+    kSaysDtOnlyButCurves,      // a term in x^2, so F depends on x
+    kSaysDtOnlyButNoiseGrows,  // noise that grows with the input
   };
   explicit BrokenModel(Defect defect) : ScalarLinearModel(-2.0, 0.5), defect_(defect) {}
 
@@ -35,7 +35,7 @@ class BrokenModel : public ScalarLinearModel {
   }
   bool jacobian_fixed(const State& x, const Input& u, double dt, Jacobian* j) const noexcept override {
     ScalarLinearModel::jacobian_fixed(x, u, dt, j);
-    if (defect_ == kWrongJacobian) (*j)(0, 0) += 0.5 * dt;  // a sign slip in a hand derivation
+    if (defect_ == kWrongJacobian) (*j)(0, 0) += 0.5 * dt;               // a sign slip in a hand derivation
     if (defect_ == kSaysDtOnlyButCurves) (*j)(0, 0) += 0.2 * x[0] * dt;  // right, but not constant
     return true;
   }
@@ -77,30 +77,31 @@ class BrokenModel : public ScalarLinearModel {
 const Eigen::VectorXd kX = Eigen::VectorXd::Constant(1, 0.7);
 const Eigen::VectorXd kU = Eigen::VectorXd::Constant(1, 2.0);
 
+// What the kit says of a model with `defect`, which it must reject.
+std::string rejection(BrokenModel::Defect defect) {
+  BrokenModel model(defect);
+  const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
+  EXPECT_FALSE(result);
+  return result.message();
+}
+
 TEST(ConformanceKit, PassesACorrectModel) {
   BrokenModel model(BrokenModel::kNone);
   EXPECT_MOTION_MODEL_CONFORMS(model, kX, kU, 0.1);
 }
 
 TEST(ConformanceKit, CatchesAWrongStateJacobian) {
-  BrokenModel model(BrokenModel::kWrongJacobian);
-  const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
-  EXPECT_FALSE(result);
-  EXPECT_THAT(result.message(), HasSubstr("jacobian() differs from central differences"));
+  EXPECT_THAT(rejection(BrokenModel::kWrongJacobian), HasSubstr("jacobian() differs from central differences"));
 }
 
 TEST(ConformanceKit, CatchesAWrongParameterJacobian) {
-  BrokenModel model(BrokenModel::kWrongParameterJacobian);
-  const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
-  EXPECT_FALSE(result);
-  EXPECT_THAT(result.message(), HasSubstr("parameter_jacobian() differs from central differences"));
+  EXPECT_THAT(rejection(BrokenModel::kWrongParameterJacobian),
+              HasSubstr("parameter_jacobian() differs from central differences"));
 }
 
 TEST(ConformanceKit, CatchesAWrongOutputParameterJacobian) {
-  BrokenModel model(BrokenModel::kWrongOutputJacobian);
-  const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
-  EXPECT_FALSE(result);
-  EXPECT_THAT(result.message(), HasSubstr("output_parameter_jacobian() differs from central differences"));
+  EXPECT_THAT(rejection(BrokenModel::kWrongOutputJacobian),
+              HasSubstr("output_parameter_jacobian() differs from central differences"));
 }
 
 TEST(ConformanceKit, PassesAModelWhoseJacobianAndNoiseTrulyDependOnDtOnly) {
@@ -110,29 +111,18 @@ TEST(ConformanceKit, PassesAModelWhoseJacobianAndNoiseTrulyDependOnDtOnly) {
 
 // The engine would reuse one F, or one Qd, for every state and input.
 TEST(ConformanceKit, CatchesAJacobianOrNoiseSaidToDependOnDtOnlyThatDependsOnTheStateOrInput) {
-  {
-    BrokenModel model(BrokenModel::kSaysDtOnlyButCurves);
-    const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
-    EXPECT_FALSE(result);
-    EXPECT_THAT(result.message(),
-                HasSubstr("jacobian_and_noise_depend_only_on_dt() is true, but jacobian() differs between x = [0.7]"));
-    EXPECT_THAT(result.message(), Not(HasSubstr("process_noise() differs")));
-  }
-  {
-    BrokenModel model(BrokenModel::kSaysDtOnlyButNoiseGrows);
-    const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
-    EXPECT_FALSE(result);
-    EXPECT_THAT(result.message(), HasSubstr("jacobian_and_noise_depend_only_on_dt() is true, but process_noise() "
-                                            "differs between x = [0.7], u = [2]"));
-    EXPECT_THAT(result.message(), Not(HasSubstr("jacobian() differs")));
-  }
+  const std::string curves = rejection(BrokenModel::kSaysDtOnlyButCurves);
+  EXPECT_THAT(curves,
+              HasSubstr("jacobian_and_noise_depend_only_on_dt() is true, but jacobian() differs between x = [0.7]"));
+  EXPECT_THAT(curves, Not(HasSubstr("process_noise() differs")));
+  const std::string grows = rejection(BrokenModel::kSaysDtOnlyButNoiseGrows);
+  EXPECT_THAT(grows, HasSubstr("jacobian_and_noise_depend_only_on_dt() is true, but process_noise() differs between "
+                               "x = [0.7], u = [2]"));
+  EXPECT_THAT(grows, Not(HasSubstr("jacobian() differs")));
 }
 
 TEST(ConformanceKit, CatchesAModelThatMovesInZeroTime) {
-  BrokenModel model(BrokenModel::kMovesAtZeroDt);
-  const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
-  EXPECT_FALSE(result);
-  EXPECT_THAT(result.message(), HasSubstr("predict(x, u, 0) changed component 0"));
+  EXPECT_THAT(rejection(BrokenModel::kMovesAtZeroDt), HasSubstr("predict(x, u, 0) changed component 0"));
 }
 
 }  // namespace

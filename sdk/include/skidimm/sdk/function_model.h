@@ -198,14 +198,16 @@ struct JacobianAndNoiseDependOnlyOnDt<Spec, std::void_t<decltype(Spec::kJacobian
 
 // Whether all `count` values are finite, without a branch per value: x * 0
 // is 0 for a finite x and NaN otherwise, and one NaN makes the sum NaN.
-// (Eigen's sum adds in vector lanes; a plain loop keeps its order and would
-// not.)
-inline bool all_finite(const double* values, Eigen::Index count) {
-  return (Eigen::Map<const Eigen::ArrayXd>(values, count) * 0.0).sum() == 0.0;
+// (A plain loop: Eigen's vectorized sum into a stack array of a runtime
+// length makes GCC 12 warn of reads past its end.)
+inline bool all_finite(const double* values, int count) {
+  double sum = 0.0;
+  for (int i = 0; i < count; ++i) sum += values[i] * 0.0;
+  return sum == sum;
 }
 template <int kCount>
 bool all_finite(const double* values) {
-  return (Eigen::Map<const Eigen::Array<double, kCount, 1>>(values) * 0.0).sum() == 0.0;
+  return all_finite(values, kCount);
 }
 
 // A row-major rows x cols matrix, as the spec's hand-written parts fill it
