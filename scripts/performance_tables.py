@@ -518,8 +518,9 @@ general triangular solver and packing), forward substitution alone for the
 NIS, and one logarithm for log det S. The kernel of fixed-size states with
 any rows updates the covariance as P- - W W' through the half gain
 W = P- H' L'^-1 (its lower triangle, about N^2 k / 2 products, where the
-Joseph form takes 2 N^3; with loops of fixed length when every row is
-measured, k = N, the same operations in the same order), and
+Joseph form takes 2 N^3; when every row is measured, k = N, over matrices
+of fixed size on the stack with the triangular loops of S's factor and
+solves unrolled whole, the same operations in the same order), and
 takes the Joseph form where that would cancel
 more than half of a variance's digits ([engine.md](engine.md)). The model is still called through the
 plugin interface: three virtual calls per mode and step (Jacobian, process

@@ -45,7 +45,9 @@ void wrap_angles_fixed(AngleMask angles, Eigen::Matrix<double, N, 1>* x) {
 // unrolled.
 template <int N>
 inline void symmetrize_fixed(Eigen::Matrix<double, N, N>* m) {
+#pragma GCC unroll 16
   for (int j = 1; j < N; ++j) {
+#pragma GCC unroll 16
     for (int i = 0; i < j; ++i) {
       const double mean = 0.5 * ((*m)(i, j) + (*m)(j, i));
       (*m)(i, j) = mean;
@@ -117,9 +119,9 @@ bool propagate_fixed(const sdk::MotionModel& model, const StepMatrices<N>& m, An
   wrap_angles_fixed<N>(angles, x);
   const auto f = m.f();
   if (m.diagonal) {
-    for (int j = 0; j < N; ++j) {
-      for (int i = 0; i < N; ++i) (*p)(i, j) = (f(i, i) * (*p)(i, j)) * f(j, j);
-    }
+    // (f_ii p_ij) f_jj, a column at a time.
+    const Eigen::Matrix<double, N, 1> scale = f.diagonal();
+    for (int j = 0; j < N; ++j) p->col(j) = scale.cwiseProduct(p->col(j)) * f(j, j);
   } else if constexpr (N <= 4) {
     const Eigen::Matrix<double, N, N> fp = f * *p;
     p->noalias() = fp * f.transpose();
@@ -265,13 +267,14 @@ template <int N>
 struct SelectedUpdateWorkspace {
   using Columns = Eigen::Matrix<double, N, Eigen::Dynamic>;
   explicit SelectedUpdateWorkspace(int m) : gain(N, m), kr(N, m), s(m, m), nu(m), whitened(m), inverse_diagonal(m) {}
-  Columns gain;       // P- H', then W = P- H' L'^-1 (S = L L'), then K = W L^-1 for the Joseph form (N x k)
-  Columns kr;         // K R (N x k), the Joseph form's
-  Eigen::MatrixXd s;  // S, then its Cholesky factor (k x k)
-  Eigen::VectorXd nu, whitened, inverse_diagonal;
-  Eigen::Matrix<double, N, N> updated;  // P+
-  Eigen::Matrix<double, N, N> i_kh;     // I - K H, the Joseph form's
-  Eigen::Matrix<double, N, N> ikh_p;    // (I - K H) P-, the Joseph form's
+  Columns gain;              // P- H', then W = P- H' L'^-1 (S = L L'), then K = W L^-1 for the Joseph form (N x k)
+  Columns kr;                // K R (N x k), the Joseph form's
+  Eigen::MatrixXd s;         // S, then its Cholesky factor (k x k)
+  Eigen::VectorXd nu;        // the innovation (k)
+  Eigen::VectorXd whitened;  // L^-1 nu (k), left for the caller (correlated innovations read it)
+  Eigen::VectorXd inverse_diagonal;   // the reciprocals of L's diagonal (k)
+  Eigen::Matrix<double, N, N> i_kh;   // I - K H, the Joseph form's
+  Eigen::Matrix<double, N, N> ikh_p;  // (I - K H) P-, the Joseph form's
 };
 
 // update_selected() keeps P- - W W' where the measurement leaves every
@@ -283,13 +286,12 @@ struct SelectedUpdateWorkspace {
 inline constexpr double kLeastRemainingVariance = 1.0 / (1 << 26);
 
 // P+ = (I - K H) P- (I - K H)' + K R K' (Joseph form) for update_selected(),
-// from W = P- H' L'^-1 in w->gain and S's Cholesky factor L in `l` (lower
-// triangle, reciprocal diagonal in `inverse_diagonal`); w->gain ends as K.
-template <int N>
-void joseph_update(const SelectedMeasurement& m, int k, const Eigen::MatrixXd& l,
-                   const Eigen::VectorXd& inverse_diagonal, Eigen::Matrix<double, N, N>* p,
-                   SelectedUpdateWorkspace<N>* w) {
-  auto& gain = w->gain;
+// from W = P- H' L'^-1 in *gain (N x k) and S's Cholesky factor L in `l`
+// (lower triangle, reciprocal diagonal in `inverse_diagonal`); *gain ends as K.
+template <int N, typename Gain, typename Factor, typename Diagonal>
+void joseph_update(const SelectedMeasurement& m, int k, const Factor& l, const Diagonal& inverse_diagonal,
+                   Gain* gain_io, Eigen::Matrix<double, N, N>* p, SelectedUpdateWorkspace<N>* w) {
+  Gain& gain = *gain_io;
   // K L = W, a column at a time.
   for (int c = k - 1; c >= 0; --c) {
     for (int a = c + 1; a < k; ++a) gain.col(c) -= gain.col(a) * l(a, c);
@@ -332,9 +334,8 @@ void joseph_update(const SelectedMeasurement& m, int k, const Eigen::MatrixXd& l
 // triangle), held in registers while its k products are subtracted in
 // order; true if the difference keeps more than kLeastRemainingVariance of
 // the variance P-_jj (the share the measurement explains is cancelled).
-template <int N, int K, int J>
-bool subtract_outer_product_column(const Eigen::Matrix<double, N, N>& p,
-                                   const typename SelectedUpdateWorkspace<N>::Columns& w, int rows,
+template <int N, int K, int J, typename Gain>
+bool subtract_outer_product_column(const Eigen::Matrix<double, N, N>& p, const Gain& w, int rows,
                                    Eigen::Matrix<double, N, N>* updated) {
   constexpr int kRows = N - J;
   const int k = K > 0 ? K : rows;
@@ -347,9 +348,8 @@ bool subtract_outer_product_column(const Eigen::Matrix<double, N, N>& p,
 // The lower triangle of P- - W W' into *updated, a column of compile-time
 // length at a time (half the products of whole columns at 9 states); whether
 // every variance stays well conditioned.
-template <int N, int K, int... J>
-bool subtract_outer_product_lower(const Eigen::Matrix<double, N, N>& p,
-                                  const typename SelectedUpdateWorkspace<N>::Columns& w, int k,
+template <int N, int K, typename Gain, int... J>
+bool subtract_outer_product_lower(const Eigen::Matrix<double, N, N>& p, const Gain& w, int k,
                                   Eigen::Matrix<double, N, N>* updated, std::integer_sequence<int, J...>) {
   // Every column, without stopping at the first ill-conditioned one.
   return (static_cast<int>(subtract_outer_product_column<N, K, J>(p, w, k, updated)) & ... & 1) != 0;
@@ -367,12 +367,24 @@ bool subtract_outer_product_lower(const Eigen::Matrix<double, N, N>& p,
 // joseph_update()). Agrees with ExtendedKalmanFilter's Joseph form to
 // round-off (tests/core/ekf_test.cc).
 //
-// K > 0: the rows are K, known at compile time (loops of fixed length, which
-// the compiler unrolls); 0: m.size. The same operations in the same order
-// either way.
+// K > 0: the rows are K, known at compile time: loops of fixed length over
+// matrices of fixed size on the stack, which the compiler keeps in registers
+// (a store into a heap workspace could alias every pointer, so it reloads
+// them). The triangular loops (S, its factor, the solves) are unrolled whole
+// (#pragma GCC unroll): once the outer index is a constant, so is every
+// inner bound, and the loop overhead of the short inner sums goes. 0: m.size
+// rows, over the workspace. The same operations in the same order either way.
 template <int N, int K>
 UpdateResult update_selected_rows(const SelectedMeasurement& m, AngleMask state_angles, Eigen::Matrix<double, N, 1>* x,
-                                  Eigen::Matrix<double, N, N>* p, SelectedUpdateWorkspace<N>* w, double gate) {
+                                  Eigen::Matrix<double, N, N>* p, SelectedUpdateWorkspace<N>* w, double gate);
+
+// update_selected_rows()'s steps over the storage it gives: `gain` (N x k:
+// P- H', then W), `s` (k x k: S, then L), `nu`, `inverse_diagonal` (k), and
+// `whitened` (k: L^-1 nu, always the workspace's, which the caller reads).
+template <int N, int K, typename Gain, typename Square, typename Vector>
+UpdateResult update_rows_in(const SelectedMeasurement& m, AngleMask state_angles, Eigen::Matrix<double, N, 1>* x,
+                            Eigen::Matrix<double, N, N>* p, SelectedUpdateWorkspace<N>* w, double gate, Gain& gain,
+                            Square& s, Vector& nu, Eigen::VectorXd& whitened, Vector& inverse_diagonal) {
   constexpr double kLog2Pi = 1.8378770664093454835606594728112;
   UpdateResult result;
   const int k = K > 0 ? K : m.size;
@@ -381,8 +393,6 @@ UpdateResult update_selected_rows(const SelectedMeasurement& m, AngleMask state_
     return result;
   }
   const bool picks = m.picks_states;
-  auto& gain = w->gain;
-  auto& s = w->s;
   // nu = z - H x;  P- H' (into gain);  S = H P- H' + R.
   for (int a = 0; a < k; ++a) {
     double predicted = 0.0;
@@ -396,9 +406,11 @@ UpdateResult update_selected_rows(const SelectedMeasurement& m, AngleMask state_
       for (int i = 0; i < N; ++i) gain.col(a) += p->col(i) * m.h(a, i);
     }
     const double v = m.z[a] - predicted;
-    w->nu[a] = m.is_angle[static_cast<std::size_t>(a)] ? wrap_angle_fast(v) : v;
+    nu[a] = m.is_angle[static_cast<std::size_t>(a)] ? wrap_angle_fast(v) : v;
   }
+#pragma GCC unroll 16
   for (int b = 0; b < k; ++b) {
+#pragma GCC unroll 16
     for (int a = b; a < k; ++a) {
       double hph = 0.0;
       if (picks) {
@@ -409,8 +421,8 @@ UpdateResult update_selected_rows(const SelectedMeasurement& m, AngleMask state_
       s(a, b) = hph + 0.5 * (m.r(a, b) + m.r(b, a));
     }
   }
+#pragma GCC unroll 16
   // In-place Cholesky of the lower triangle, S = L L', with L's reciprocal diagonal.
-  auto& inverse_diagonal = w->inverse_diagonal;
   for (int j = 0; j < k; ++j) {
     double pivot = s(j, j);
     for (int c = 0; c < j; ++c) pivot -= s(j, c) * s(j, c);
@@ -419,6 +431,7 @@ UpdateResult update_selected_rows(const SelectedMeasurement& m, AngleMask state_
     s(j, j) = pivot;
     const double inverse = 1.0 / pivot;
     inverse_diagonal[j] = inverse;
+#pragma GCC unroll 16
     for (int i = j + 1; i < k; ++i) {
       double v = s(i, j);
       for (int c = 0; c < j; ++c) v -= s(i, c) * s(j, c);
@@ -427,10 +440,10 @@ UpdateResult update_selected_rows(const SelectedMeasurement& m, AngleMask state_
   }
   // NIS = |L^-1 nu|^2, log det S = 2 sum log L_aa (one log of the product
   // while it is inside double's range, as update_fixed()).
-  auto& whitened = w->whitened;
   result.nis = 0.0;
+#pragma GCC unroll 16
   for (int a = 0; a < k; ++a) {
-    double v = w->nu[a];
+    double v = nu[a];
     for (int c = 0; c < a; ++c) v -= s(a, c) * whitened[c];
     whitened[a] = v * inverse_diagonal[a];
     result.nis += whitened[a] * whitened[a];
@@ -450,21 +463,26 @@ UpdateResult update_selected_rows(const SelectedMeasurement& m, AngleMask state_
     return result;
   }
   result.log_likelihood = -0.5 * (result.nis + 2.0 * log_det + k * kLog2Pi);
-  // W = P- H' L'^-1, solved in place a column at a time (W L' = P- H'). The
-  // gain is K = P- H' S^-1 = W L^-1, so K nu = W (L^-1 nu) and K S K' = W W'.
+// W = P- H' L'^-1, solved in place a column at a time (W L' = P- H'). The
+// gain is K = P- H' S^-1 = W L^-1, so K nu = W (L^-1 nu) and K S K' = W W'.
+// Each column is held in registers while its sum runs.
+#pragma GCC unroll 16
   for (int a = 0; a < k; ++a) {
-    for (int c = 0; c < a; ++c) gain.col(a) -= gain.col(c) * s(a, c);
-    gain.col(a) *= inverse_diagonal[a];
+    Eigen::Matrix<double, N, 1> column = gain.col(a);
+    for (int c = 0; c < a; ++c) column -= gain.col(c) * s(a, c);
+    gain.col(a) = column * inverse_diagonal[a];
   }
   const auto& half_gain = gain;  // W
   // x+ = x- + W L^-1 nu.
-  for (int a = 0; a < k; ++a) *x += half_gain.col(a) * whitened[a];
+  Eigen::Matrix<double, N, 1> updated_state = *x;
+  for (int a = 0; a < k; ++a) updated_state += half_gain.col(a) * whitened[a];
+  *x = updated_state;
   wrap_angles_fixed<N>(state_angles, x);
   // P+ = P- - W W' (= P- - K S K'), its lower triangle column by column:
   // about N^2 k / 2 products where the Joseph form takes 2 N^3. Entry (i, j)
   // would subtract the same products in the same order as (j, i), so the
   // lower triangle copied up is the whole difference, exactly symmetric.
-  auto& updated = w->updated;
+  Eigen::Matrix<double, N, N> updated;
   const bool well_conditioned =
       subtract_outer_product_lower<N, K>(*p, half_gain, k, &updated, std::make_integer_sequence<int, N>());
   if (well_conditioned) {
@@ -473,10 +491,23 @@ UpdateResult update_selected_rows(const SelectedMeasurement& m, AngleMask state_
     }
     *p = updated;
   } else {
-    joseph_update(m, k, s, inverse_diagonal, p, w);
+    joseph_update(m, k, s, inverse_diagonal, &gain, p, w);
   }
   result.ok = std::isfinite(result.log_likelihood) && internal::all_finite(*x) && internal::all_finite(*p);
   return result;
+}
+
+template <int N, int K>
+UpdateResult update_selected_rows(const SelectedMeasurement& m, AngleMask state_angles, Eigen::Matrix<double, N, 1>* x,
+                                  Eigen::Matrix<double, N, N>* p, SelectedUpdateWorkspace<N>* w, double gate) {
+  if constexpr (K > 0) {
+    Eigen::Matrix<double, N, K> gain;
+    Eigen::Matrix<double, K, K> s;
+    Eigen::Matrix<double, K, 1> nu, inverse_diagonal;
+    return update_rows_in<N, K>(m, state_angles, x, p, w, gate, gain, s, nu, w->whitened, inverse_diagonal);
+  } else {
+    return update_rows_in<N, K>(m, state_angles, x, p, w, gate, w->gain, w->s, w->nu, w->whitened, w->inverse_diagonal);
+  }
 }
 
 // update_selected_rows() for any k, with loops of fixed length when every
