@@ -463,10 +463,10 @@ UpdateResult update_rows_in(const SelectedMeasurement& m, AngleMask state_angles
     return result;
   }
   result.log_likelihood = -0.5 * (result.nis + 2.0 * log_det + k * kLog2Pi);
-// W = P- H' L'^-1, solved in place a column at a time (W L' = P- H'). The
-// gain is K = P- H' S^-1 = W L^-1, so K nu = W (L^-1 nu) and K S K' = W W'.
-// Each column is held in registers while its sum runs.
 #pragma GCC unroll 16
+  // W = P- H' L'^-1, solved in place a column at a time (W L' = P- H'). The
+  // gain is K = P- H' S^-1 = W L^-1, so K nu = W (L^-1 nu) and K S K' = W W'.
+  // Each column is held in registers while its sum runs.
   for (int a = 0; a < k; ++a) {
     Eigen::Matrix<double, N, 1> column = gain.col(a);
     for (int c = 0; c < a; ++c) column -= gain.col(c) * s(a, c);
