@@ -1,4 +1,4 @@
-// Which bank shapes have a fixed-size IMM kernel compiled (imm.cc).
+// Which bank shapes have a fixed-size IMM kernel compiled (fixed_size_kernels.h).
 #pragma once
 
 #include "skidimm/engine/imm.h"

@@ -6,7 +6,7 @@
 #include <utility>
 
 #include "check.h"
-#include "fixed_size_shapes.h"
+#include "fixed_size_kernels.h"
 #include "imm_kernel.h"
 #include "not_a_number.h"
 
@@ -55,42 +55,25 @@ Imm Imm::from_yaml(const std::filesystem::path& bank_file, const std::vector<std
 
 namespace {
 
-template <int N, int M>
-std::unique_ptr<internal::ImmKernel> fixed_kernel(const Bank& bank) {
-  if constexpr (internal::compiles_fixed_filters(N, M)) {
-    return std::make_unique<internal::Kernel<internal::FixedFilters<N, M>>>(bank);
-  } else {
-    return nullptr;
-  }
-}
-
 template <int N>
 std::unique_ptr<internal::ImmKernel> fixed_kernel_for_measurement(const Bank& bank, int m) {
   switch (m) {
     case 1:
-      return fixed_kernel<N, 1>(bank);
+      return internal::make_fixed_filters_kernel<N, 1>(bank);
     case 2:
-      return fixed_kernel<N, 2>(bank);
+      return internal::make_fixed_filters_kernel<N, 2>(bank);
     case 3:
-      return fixed_kernel<N, 3>(bank);
+      return internal::make_fixed_filters_kernel<N, 3>(bank);
     case 4:
-      return fixed_kernel<N, 4>(bank);
+      return internal::make_fixed_filters_kernel<N, 4>(bank);
   }
   return nullptr;
 }
 
-template <int N>
-std::unique_ptr<internal::ImmKernel> fixed_state_kernel(const Bank& bank) {
-  if constexpr (internal::compiles_fixed_states(N)) {
-    return std::make_unique<internal::Kernel<internal::FixedStateFilters<N>>>(bank);
-  } else {
-    return nullptr;
-  }
-}
-
 // A fixed-size kernel for n states and m rows: fixed sizes up to 4 x 4;
 // fixed states up to kMaxFixedStates with any measurement; null if the build
-// has none for the shape (fixed_size_shapes.h).
+// has none for the shape (fixed_size_shapes.h). The kernels are compiled
+// apart from this file (fixed_size_kernels.h).
 std::unique_ptr<internal::ImmKernel> fixed_size_kernel(const Bank& bank, int n, int m) {
   if (m < 1) return nullptr;
   if (m <= 4) {
@@ -115,29 +98,29 @@ std::unique_ptr<internal::ImmKernel> fixed_size_kernel(const Bank& bank, int n, 
   }
   switch (n) {
     case 1:
-      return fixed_state_kernel<1>(bank);
+      return internal::make_fixed_state_kernel<1>(bank);
     case 2:
-      return fixed_state_kernel<2>(bank);
+      return internal::make_fixed_state_kernel<2>(bank);
     case 3:
-      return fixed_state_kernel<3>(bank);
+      return internal::make_fixed_state_kernel<3>(bank);
     case 4:
-      return fixed_state_kernel<4>(bank);
+      return internal::make_fixed_state_kernel<4>(bank);
     case 5:
-      return fixed_state_kernel<5>(bank);
+      return internal::make_fixed_state_kernel<5>(bank);
     case 6:
-      return fixed_state_kernel<6>(bank);
+      return internal::make_fixed_state_kernel<6>(bank);
     case 7:
-      return fixed_state_kernel<7>(bank);
+      return internal::make_fixed_state_kernel<7>(bank);
     case 8:
-      return fixed_state_kernel<8>(bank);
+      return internal::make_fixed_state_kernel<8>(bank);
     case 9:
-      return fixed_state_kernel<9>(bank);
+      return internal::make_fixed_state_kernel<9>(bank);
     case 10:
-      return fixed_state_kernel<10>(bank);
+      return internal::make_fixed_state_kernel<10>(bank);
     case 11:
-      return fixed_state_kernel<11>(bank);
+      return internal::make_fixed_state_kernel<11>(bank);
     case 12:
-      return fixed_state_kernel<12>(bank);
+      return internal::make_fixed_state_kernel<12>(bank);
     default:
       return nullptr;
   }

@@ -1,10 +1,11 @@
 // The body of Imm::step, for one shape of bank, chosen once when the Imm is
-// built (imm.cc, make_kernel): fixed-size Eigen types for states and
-// measurements of up to 4 components (FixedFilters<N, M>), fixed states of up
-// to 12 with any measurement (FixedStateFilters<N>), dynamic ones with
-// ExtendedKalmanFilter for everything else (DynamicFilters). The mixing,
-// probabilities and combination around them are the same code for both.
-// Private to imm.cc.
+// built (imm.cc): fixed-size Eigen types for states and measurements of up
+// to 4 components (FixedFilters<N, M>), fixed states of up to 12 with any
+// measurement (FixedStateFilters<N>), dynamic ones with ExtendedKalmanFilter
+// for everything else (DynamicFilters). The mixing, probabilities and
+// combination around them are the same code for both.
+// Private to imm.cc and the fixed-size kernels' own translation units
+// (fixed_size_kernels.h).
 #ifndef SKIDIMM_CORE_SRC_IMM_KERNEL_H_
 #define SKIDIMM_CORE_SRC_IMM_KERNEL_H_
 
