@@ -5,10 +5,9 @@
 // Each instantiation is defined in one of the translation units under
 // fixed_size_kernels/, a few shapes each, as Ceres compiles its Schur
 // eliminator's specializations. Together they are the largest part of the
-// library's compile (a 9-state kernel alone takes longer than most source
-// files); in one unit with imm.cc they were a single 4.4 GB, ten-minute
-// compile that the rest of a two-core build waited on, and apart a build
-// spreads them over its cores.
+// library's compile: in one unit with imm.cc they were a single 4.4 GB,
+// ten-minute compile that the rest of a two-core build waited on, and apart
+// a build spreads them over its cores.
 #ifndef SKIDIMM_CORE_SRC_FIXED_SIZE_KERNELS_H_
 #define SKIDIMM_CORE_SRC_FIXED_SIZE_KERNELS_H_
 
