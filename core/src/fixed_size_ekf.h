@@ -339,9 +339,15 @@ bool subtract_outer_product_column(const Eigen::Matrix<double, N, N>& p, const G
                                    Eigen::Matrix<double, N, N>* updated) {
   constexpr int kRows = N - J;
   const int k = K > 0 ? K : rows;
-  Eigen::Matrix<double, kRows, 1> column = p.col(J).template tail<kRows>();
-  for (int a = 0; a < k; ++a) column -= w.col(a).template tail<kRows>() * w(J, a);
-  updated->col(J).template tail<kRows>() = column;
+  // Maps of the columns' tails, rather than blocks of p, w and *updated:
+  // their types depend on the length alone, so the N lengths are N sets of
+  // Eigen expression types shared by every N, K and gain storage, where
+  // blocks made a set for each (which made this function most of what
+  // update_selected() costs the compiler). The same packets either way.
+  using Column = Eigen::Matrix<double, kRows, 1>;
+  Column column = Eigen::Map<const Column>(&p(J, J));
+  for (int a = 0; a < k; ++a) column -= Eigen::Map<const Column>(&w(J, a)) * w(J, a);
+  Eigen::Map<Column>(&(*updated)(J, J)) = column;
   return column[0] > kLeastRemainingVariance * p(J, J);
 }
 
