@@ -342,8 +342,9 @@ bool subtract_outer_product_column(const Eigen::Matrix<double, N, N>& p, const G
   // Maps of the columns' tails, rather than blocks of p, w and *updated:
   // their types depend on the length alone, so the N lengths are N sets of
   // Eigen expression types shared by every N, K and gain storage, where
-  // blocks made a set for each (which made this function most of what
-  // update_selected() costs the compiler). The same packets either way.
+  // blocks made a set for each (which made this function most of the time
+  // the compiler spent instantiating update_selected()). The same packets
+  // either way.
   using Column = Eigen::Matrix<double, kRows, 1>;
   Column column = Eigen::Map<const Column>(&p(J, J));
   for (int a = 0; a < k; ++a) column -= Eigen::Map<const Column>(&w(J, a)) * w(J, a);
