@@ -345,6 +345,10 @@ bool subtract_outer_product_column(const Eigen::Matrix<double, N, N>& p, const G
   // blocks made a set for each (which made this function most of the time
   // the compiler spent instantiating update_selected()). The same packets
   // either way.
+  // (Eigen stores a gain of one row, N = 1, row-major: its columns are one
+  // entry each.)
+  static_assert(N == 1 || (!Gain::IsRowMajor && Gain::InnerStrideAtCompileTime == 1),
+                "a column of the gain must be contiguous for its tail to be mapped");
   using Column = Eigen::Matrix<double, kRows, 1>;
   Column column = Eigen::Map<const Column>(&p(J, J));
   for (int a = 0; a < k; ++a) column -= Eigen::Map<const Column>(&w(J, a)) * w(J, a);
