@@ -81,6 +81,20 @@ int fit(const FitCommandOptions& options) {
     if (options.fit_r && !options.append_to.empty()) {
       throw Error("--fit-r fits the bank's R, which --append-to cannot change: use --output-bank");
     }
+    // Everything the fit is written to or scored on is checked before it
+    // starts: a mistyped path or label found after a long fit would lose it.
+    if (!options.append_to.empty()) {
+      if (data.size() != 1) throw Error("--append-to takes the fit of exactly one mode");
+      load_bank_config(options.append_to);
+      check_output_path(options.append_to, "--append-to");
+    }
+    if (!options.output_bank.empty()) check_output_path(options.output_bank, "--output-bank");
+    if (!options.output_entry.empty()) check_output_path(options.output_entry, "--output-entry");
+    std::vector<std::pair<std::string, std::vector<ModeLogs>>> held_out;
+    for (const std::string& text : options.held_out) {
+      // The argument's logs are read on their own threads.
+      held_out.emplace_back(text, fitting::load_mode_logs(config, {text}, options.mode, sampling, "--held-out", expansion));
+    }
 
     fitting::FitRequest request;
     fitting::BankFitOptions& fit_options = request.options;
@@ -113,15 +127,17 @@ int fit(const FitCommandOptions& options) {
     }
     const std::string entries = fitting::format_fitted_entries(bank, fitted, request);
 
-    for (const std::string& text : options.held_out) {
-      // The argument's logs are read on their own threads.
-      for (const ModeLogs& held :
-           fitting::load_mode_logs(config, {text}, options.mode, sampling, "--held-out", expansion)) {
+    // A held-out log the fitted bank cannot score fails the command, but
+    // after the fit is written.
+    std::exception_ptr held_out_error;
+    for (const auto& [text, logs] : held_out) {
+      for (const ModeLogs& held : logs) {
         FitReport r;
         try {
           r = fitting::evaluate(bank, held);
         } catch (const Error& e) {
-          throw Error("--held-out '" + text + "': " + e.what());
+          held_out_error = std::make_exception_ptr(Error("--held-out '" + text + "': " + e.what()));
+          break;
         }
         std::cerr << "held out " << text << " (" << config.modes[static_cast<std::size_t>(held.mode)].name
                   << "): one-step RMSE " << fitting::measurement_values_text(config, r.rmse) << " (no-change baseline "
@@ -136,10 +152,10 @@ int fit(const FitCommandOptions& options) {
         }
         std::cerr << "\n";
       }
+      if (held_out_error) break;
     }
 
     if (!options.append_to.empty()) {
-      if (data.size() != 1) throw Error("--append-to takes the fit of exactly one mode");
       fitting::append_mode_to_bank(options.append_to, entries);
       std::cerr << "appended mode '" << fitting::output_mode_name(config, request, data[0].mode) << "' to "
                 << options.append_to.string() << "\n";
@@ -153,6 +169,7 @@ int fit(const FitCommandOptions& options) {
     // full disk is an error with its reason.
     if (!options.output_entry.empty()) write_file_atomically(options.output_entry, entries);
     if (options.append_to.empty() && options.output_bank.empty() && options.output_entry.empty()) std::cout << entries;
+    if (held_out_error) std::rethrow_exception(held_out_error);
     return kExitOk;
   });
   const std::string solver = fitting::take_solver_messages("");

@@ -126,6 +126,18 @@ int tune(const TuneCommandOptions& options) {
     const Bank start = Bank::load(options.bank, options.plugin_paths);
     const BankConfig& config = start.config;
     const SamplingConfig sampling = sampling_of(config, options.rate);
+    // Where the results go, checked before the work: a mistyped directory
+    // found at the end would lose every fit and search.
+    if (!options.output_bank.empty()) check_output_path(options.output_bank, "--output-bank");
+    if (!options.table.empty()) check_output_path(options.table, "--table");
+    if (!options.estimates.empty()) {
+      std::error_code ec;
+      fs::create_directories(options.estimates, ec);
+      if (ec || !fs::is_directory(options.estimates)) {
+        throw Error("--estimates " + options.estimates.string() + ": cannot make this directory" +
+                    (ec ? ": " + ec.message() : std::string(": a file of that name exists")));
+      }
+    }
 
     std::vector<fitting::TuningLog> logs;
     auto add_logs = [&](const std::vector<std::string>& arguments, bool lockbox) {

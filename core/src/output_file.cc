@@ -186,4 +186,24 @@ void write_file_atomically(const fs::path& path, std::string_view text,
   out.commit();
 }
 
+void check_output_path(const fs::path& path, const std::string& option) {
+  const std::string named = option + " " + path.string();
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) throw Error(named + ": is a directory; give the name of a file to write");
+  if (OutputFile::writes_directly(path)) return;
+  // A name of this process's own (O_EXCL), as OutputFile's temporary files:
+  // never one that another writer holds.
+  for (int attempt = 0;; ++attempt) {
+    const fs::path probe = path.string() + ".probe." + std::to_string(::getpid()) + "-" + std::to_string(attempt);
+    errno = 0;
+    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd >= 0) {
+      ::close(fd);
+      fs::remove(probe, ec);
+      return;
+    }
+    if (errno != EEXIST || attempt >= 1000) throw Error(named + ": cannot write there: " + reason(errno));
+  }
+}
+
 }  // namespace skidimm

@@ -527,6 +527,43 @@ TEST(CliIo, TheLikelihoodFitNamesAnAbsurdRowWhenAStateIsUnmeasured) {
   EXPECT_FALSE(fs::exists(dir / "out.yaml"));
 }
 
+// What the fit is written to or scored on is checked before it starts: a
+// mistyped directory, label or --append-to found after a long fit would lose
+// it. Each of these fails before the first mode's report.
+TEST(CliIo, FitChecksItsOutputsAndHeldOutLogsBeforeFitting) {
+  const fs::path dir = test_directory();
+  const std::string fit = kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                          " --objective window --log " + kSwitching;
+  const fs::path missing = dir / "no_such_directory" / "fitted.yaml";
+  const Result bank = run_pipeline(fit + " --output-bank " + missing.string());
+  EXPECT_EQ(bank.exit_code, 1);
+  EXPECT_THAT(bank.err, HasSubstr("--output-bank " + missing.string() + ": cannot write there: No such file or directory"));
+  EXPECT_THAT(bank.err, ::testing::Not(HasSubstr("residuals")));
+  const Result entry = run_pipeline(fit + " --output-entry " + dir.string());
+  EXPECT_EQ(entry.exit_code, 1);
+  EXPECT_THAT(entry.err, HasSubstr("--output-entry " + dir.string() + ": is a directory"));
+  EXPECT_THAT(entry.err, ::testing::Not(HasSubstr("residuals")));
+  const Result label = run_pipeline(fit + " --held-out mud=" + kSwitching);
+  EXPECT_EQ(label.exit_code, 1);
+  EXPECT_THAT(label.err, HasSubstr("the bank has no mode or class 'mud'"));
+  EXPECT_THAT(label.err, ::testing::Not(HasSubstr("residuals")));
+  // Three modes in the log, one to append.
+  const fs::path target = write_file(dir / "target.yaml", read_file(kTerrains));
+  const Result append = run_pipeline(fit + " --append-to " + target.string());
+  EXPECT_EQ(append.exit_code, 1);
+  EXPECT_THAT(append.err, HasSubstr("--append-to takes the fit of exactly one mode"));
+  EXPECT_THAT(append.err, ::testing::Not(HasSubstr("residuals")));
+  EXPECT_EQ(read_file(target), read_file(kTerrains));
+  // The check leaves nothing behind, and a good path still gets the bank.
+  const fs::path good = dir / "fitted.yaml";
+  const Result written = run_pipeline(fit + " --output-bank " + good.string());
+  EXPECT_EQ(written.exit_code, 0) << written.err;
+  EXPECT_TRUE(fs::is_regular_file(good));
+  for (const auto& entry_in_dir : fs::directory_iterator(dir)) {
+    EXPECT_EQ(entry_in_dir.path().string().find(".probe"), std::string::npos) << entry_in_dir.path();
+  }
+}
+
 TEST(CliIo, FitterErrorsNameTheLogAndTheOptionAndCeresStaysQuiet) {
   const fs::path dir = test_directory();
   // Too short for the window objective: two rows.

@@ -20,6 +20,32 @@ namespace fs = std::filesystem;
 // move together. `tune --tune likelihood-weight` leaves the weight at 1
 // unless a smaller one scores the held-out runs better, so a weight below 1
 // in the written bank is that finding, on runs the fit never saw.
+// Where tune writes is checked before the fits and searches, which a
+// mistyped path found at the end would lose.
+TEST(CliIo, TuneChecksWhereItWritesBeforeTheWork) {
+  const fs::path dir = test_directory();
+  const std::string tune = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins + " --log " +
+                           kSwitching + " --log " + kSwitching + " --objective none --tune dwell --no-assess";
+  const fs::path missing = dir / "no_such_directory" / "tuned.yaml";
+  const Result bank = run_pipeline(tune + " --output-bank " + missing.string());
+  EXPECT_EQ(bank.exit_code, 1);
+  EXPECT_THAT(bank.err, HasSubstr("--output-bank " + missing.string() + ": cannot write there: No such file or directory"));
+  EXPECT_THAT(bank.err, ::testing::Not(HasSubstr("work:")));
+  const Result table = run_pipeline(tune + " --table " + dir.string());
+  EXPECT_EQ(table.exit_code, 1);
+  EXPECT_THAT(table.err, HasSubstr("--table " + dir.string() + ": is a directory"));
+  EXPECT_THAT(table.err, ::testing::Not(HasSubstr("work:")));
+  const fs::path file = write_file(dir / "a_file", "not a directory\n");
+  const Result estimates = run_pipeline(tune + " --estimates " + file.string());
+  EXPECT_EQ(estimates.exit_code, 1);
+  EXPECT_THAT(estimates.err, HasSubstr("--estimates " + file.string() + ": cannot make this directory"));
+  EXPECT_THAT(estimates.err, ::testing::Not(HasSubstr("work:")));
+  // A directory that does not exist yet is made.
+  const Result made = run_pipeline(tune + " --estimates " + (dir / "new" / "estimates").string());
+  EXPECT_EQ(made.exit_code, 0) << made.err;
+  EXPECT_TRUE(fs::is_directory(dir / "new" / "estimates"));
+}
+
 TEST(Cli, TuneTempersTheEvidenceOfABankThatOvercountsItOnRealRuns) {
   SKIDIMM_SKIP_UNDER_SANITIZERS_STATISTICAL();  // Tune.* and HostileInput.Tune* run the same code under them
   const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";

@@ -6,7 +6,10 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <csignal>
+#include <string>
+#include <vector>
 
 #include "core/temp_files.h"
 #include "skidimm/errors.h"
@@ -178,6 +181,30 @@ TEST(OutputFile, ACheckThatThrowsLeavesTheOldFileAndNoTemporary) {
 TEST(OutputFile, AnUnwritableDirectoryNamesTheReason) {
   EXPECT_THAT(error_of([] { OutputFile out("/nonexistent-directory/x.csv"); }),
               HasSubstr("/nonexistent-directory/x.csv.partial: cannot open for writing: No such file or directory"));
+}
+
+TEST(OutputFile, AnOutputPathIsCheckedWithoutLeavingAFileOrTouchingTheOldOne) {
+  const fs::path dir = test_directory();
+  EXPECT_EQ(error_of([&] { check_output_path(dir / "missing" / "x.yaml", "--output-bank"); }),
+            "--output-bank " + (dir / "missing" / "x.yaml").string() + ": cannot write there: No such file or directory");
+  EXPECT_EQ(error_of([&] { check_output_path(dir, "--table"); }),
+            "--table " + dir.string() + ": is a directory; give the name of a file to write");
+  // A file in a directory that cannot hold one (root may write anywhere else).
+  EXPECT_THAT(error_of([&] { check_output_path("/proc/skidimm.yaml", "--output-bank"); }),
+              HasSubstr("--output-bank /proc/skidimm.yaml: cannot write there: "));
+  write_file(dir / "old.yaml", "old");
+  check_output_path(dir / "old.yaml", "--output-bank");
+  check_output_path(dir / "new.yaml", "--output-bank");
+  check_output_path("-", "--output");
+  check_output_path("/dev/null", "--output");
+  // A FIFO without a reader: opened, it would block; it is taken as it is.
+  ASSERT_EQ(::mkfifo((dir / "fifo").c_str(), 0600), 0);
+  check_output_path(dir / "fifo", "--output");
+  EXPECT_EQ(read_file(dir / "old.yaml"), "old");
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"fifo", "old.yaml"}));
 }
 
 }  // namespace

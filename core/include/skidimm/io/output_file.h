@@ -89,6 +89,15 @@ void write_file_atomically(const std::filesystem::path& path, std::string_view t
                            const std::function<void(const std::filesystem::path&)>& check = nullptr,
                            const std::string& suffix = ".partial");
 
+// Checks, before a long computation whose result goes to `path`, that a file
+// can be created there as OutputFile would create it (a file is made beside
+// it and removed); standard output and devices are taken as they are.
+// Throws Error naming `option`, the path and the reason, so that a mistyped
+// directory or a read-only disk fails at once, not after the minutes of
+// fitting whose result it would then lose. It cannot foresee a disk that
+// fills up meanwhile: OutputFile still reports that when it happens.
+void check_output_path(const std::filesystem::path& path, const std::string& option);
+
 }  // namespace skidimm
 
 #endif  // SKIDIMM_IO_OUTPUT_FILE_H_
