@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -132,6 +133,20 @@ int fit(const FitCommandOptions& options) {
     std::exception_ptr held_out_error;
     for (const auto& [text, logs] : held_out) {
       for (const ModeLogs& held : logs) {
+        const std::string& mode_name = config.modes[static_cast<std::size_t>(held.mode)].name;
+        // A one-step prediction is scored on two rows in a row: without any
+        // (a one-row log, a mode's single row in a truth column), every error
+        // would print as 0.
+        long rows = 0, pairs = 0;
+        for (const fitting::Trajectory& t : held.logs) {
+          rows += t.size();
+          pairs += std::max(0, t.size() - 1);
+        }
+        if (pairs == 0) {
+          std::cerr << "held out " << text << " (" << mode_name << "): " << rows
+                    << " row(s), too few to score a one-step prediction (two in a row)\n";
+          continue;
+        }
         FitReport r;
         try {
           r = fitting::evaluate(bank, held);
@@ -139,8 +154,7 @@ int fit(const FitCommandOptions& options) {
           held_out_error = std::make_exception_ptr(Error("--held-out '" + text + "': " + e.what()));
           break;
         }
-        std::cerr << "held out " << text << " (" << config.modes[static_cast<std::size_t>(held.mode)].name
-                  << "): one-step RMSE " << fitting::measurement_values_text(config, r.rmse) << " (no-change baseline "
+        std::cerr << "held out " << text << " (" << mode_name << "): one-step RMSE " << fitting::measurement_values_text(config, r.rmse) << " (no-change baseline "
                   << fitting::measurement_values_text(config, fitting::persistence_rmse(held)) << ")";
         // The mode's own filter on the held-out log, whichever objective fitted it.
         const fitting::LikelihoodEvaluation e = fitting::evaluate_likelihood(bank, held);

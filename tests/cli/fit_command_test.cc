@@ -547,6 +547,18 @@ TEST(CliIo, FitChecksItsOutputsAndHeldOutLogsBeforeFitting) {
   EXPECT_EQ(label.exit_code, 1);
   EXPECT_THAT(label.err, HasSubstr("the bank has no mode or class 'mud'"));
   EXPECT_THAT(label.err, ::testing::Not(HasSubstr("residuals")));
+  // One row cannot score a one-step prediction: said so, where its errors
+  // used to print as 0.
+  std::ifstream in(kSwitching);
+  std::string header, first_row;
+  std::getline(in, header);
+  std::getline(in, first_row);
+  const fs::path one_row = write_file(dir / "one_row.csv", header + "\n" + first_row + "\n");
+  const Result short_held = run_pipeline(fit + " --held-out asphalt=" + one_row.string());
+  EXPECT_EQ(short_held.exit_code, 0) << short_held.err;
+  EXPECT_THAT(short_held.err, HasSubstr("held out asphalt=" + one_row.string() +
+                                        " (asphalt): 1 row(s), too few to score a one-step prediction (two in a row)"));
+  EXPECT_THAT(short_held.err, ::testing::Not(HasSubstr("held out asphalt=" + one_row.string() + " (asphalt): one-step")));
   // Three modes in the log, one to append.
   const fs::path target = write_file(dir / "target.yaml", read_file(kTerrains));
   const Result append = run_pipeline(fit + " --append-to " + target.string());
