@@ -94,7 +94,8 @@ int fit(const FitCommandOptions& options) {
     std::vector<std::pair<std::string, std::vector<ModeLogs>>> held_out;
     for (const std::string& text : options.held_out) {
       // The argument's logs are read on their own threads.
-      held_out.emplace_back(text, fitting::load_mode_logs(config, {text}, options.mode, sampling, "--held-out", expansion));
+      held_out.emplace_back(text,
+                            fitting::load_mode_logs(config, {text}, options.mode, sampling, "--held-out", expansion));
     }
 
     fitting::FitRequest request;
@@ -154,7 +155,8 @@ int fit(const FitCommandOptions& options) {
           held_out_error = std::make_exception_ptr(Error("--held-out '" + text + "': " + e.what()));
           break;
         }
-        std::cerr << "held out " << text << " (" << mode_name << "): one-step RMSE " << fitting::measurement_values_text(config, r.rmse) << " (no-change baseline "
+        std::cerr << "held out " << text << " (" << mode_name << "): one-step RMSE "
+                  << fitting::measurement_values_text(config, r.rmse) << " (no-change baseline "
                   << fitting::measurement_values_text(config, fitting::persistence_rmse(held)) << ")";
         // The mode's own filter on the held-out log, whichever objective fitted it.
         const fitting::LikelihoodEvaluation e = fitting::evaluate_likelihood(bank, held);

@@ -301,6 +301,8 @@ def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", wind
     bank_file = _os.fspath(bank.file if isinstance(bank, _native.Bank) else bank)
     if isinstance(bank, _native.Bank):
         plugin_paths, models = bank.plugin_paths, bank.python_models
+    if output_bank is not None:  # before the fit, which a bad path found after it would lose
+        _native.check_output_path(_os.fspath(output_bank), "output_bank")
     fresh = Bank(bank_file, plugin_paths, models)  # fitted in place
     data = _native.load_fit_logs(fresh, logs, mode, _rate(rate), skip_unpaired)
     fitted = _native.fit_in_place(fresh, data, options)

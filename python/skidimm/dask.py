@@ -131,6 +131,8 @@ def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihoo
     options = skidimm._native.fit_options(objective, float(window), loss, float(loss_scale), hold_unexcited, shared,
                                           fit_r, full_q, output_noise)
     rate = 0.0 if rate is None else float(rate)
+    if output_bank is not None:  # before the fit, which a bad path found after it would lose
+        skidimm._native.check_output_path(os.fspath(output_bank), "output_bank")
     specs = []
     for argument in logs:
         specs.extend(skidimm.expand_log_argument(os.fspath(argument), skip_unpaired))

@@ -27,6 +27,7 @@
 #include "skidimm/fitting/bank_fit.h"
 #include "skidimm/fitting/fit_logs.h"
 #include "skidimm/fitting/fit_output.h"
+#include "skidimm/io/output_file.h"
 #include "skidimm/progress.h"
 
 namespace skidimm {
@@ -237,6 +238,11 @@ void bind_fit(py::module_& m) {
       },
       py::arg("bank"), py::arg("mode"), py::arg("parameters"), py::arg("q"), py::arg("r") = py::none(),
       "Sets a mode's fitted parameters, Q and (given) its own R, as fit_in_place left them on the bank it fitted.");
+  m.def(
+      "check_output_path", [](const fs::path& path, const std::string& option) { check_output_path(path, option); },
+      py::arg("path"), py::arg("option"),
+      "Raises skidimm.Error, naming `option`, when a file cannot be written at `path` (output_file.h), so that "
+      "fit fails before the work and not after it.");
   m.def(
       "fit_texts",
       [options_from](const PyBank& bank, const py::dict& fitted, const py::dict& options, const std::string& mode,

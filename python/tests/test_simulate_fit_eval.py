@@ -79,6 +79,19 @@ def test_fit_equals_the_cli(tmp_path, configs, cli, singular_logs):
     skidimm.Imm(fitted).step(0.0, [1.0, 1.0], [0.1, 0.0])
 
 
+def test_fit_checks_its_output_bank_before_fitting(tmp_path, configs, singular_logs, monkeypatch):
+    bank = configs / "ltc_terrains.yaml"
+    logs = [f"asphalt={p}" for p in singular_logs["asphalt"]]
+    missing = tmp_path / "no_such_directory" / "fitted.yaml"
+    # The check comes first: a fit that started would be an error of its own.
+    monkeypatch.setattr(skidimm._native, "fit_in_place", lambda *a: pytest.fail("fitted before the check"))
+    with pytest.raises(skidimm.Error, match="output_bank .*no_such_directory/fitted.yaml: cannot write there: No such file"):
+        skidimm.fit(bank, logs, objective="window", output_bank=missing)
+    with pytest.raises(skidimm.Error, match="is a directory"):
+        skidimm.fit(bank, logs, objective="window", output_bank=tmp_path)
+    assert not missing.parent.exists()
+
+
 @pytest.fixture(scope="module")
 def traction_logs(tmp_path_factory, configs):
     """Two short realistic runs with right-two slip: the gyro and the motor currents as outputs."""

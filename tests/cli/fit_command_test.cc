@@ -537,7 +537,8 @@ TEST(CliIo, FitChecksItsOutputsAndHeldOutLogsBeforeFitting) {
   const fs::path missing = dir / "no_such_directory" / "fitted.yaml";
   const Result bank = run_pipeline(fit + " --output-bank " + missing.string());
   EXPECT_EQ(bank.exit_code, 1);
-  EXPECT_THAT(bank.err, HasSubstr("--output-bank " + missing.string() + ": cannot write there: No such file or directory"));
+  EXPECT_THAT(bank.err,
+              HasSubstr("--output-bank " + missing.string() + ": cannot write there: No such file or directory"));
   EXPECT_THAT(bank.err, ::testing::Not(HasSubstr("residuals")));
   const Result entry = run_pipeline(fit + " --output-entry " + dir.string());
   EXPECT_EQ(entry.exit_code, 1);
@@ -558,7 +559,8 @@ TEST(CliIo, FitChecksItsOutputsAndHeldOutLogsBeforeFitting) {
   EXPECT_EQ(short_held.exit_code, 0) << short_held.err;
   EXPECT_THAT(short_held.err, HasSubstr("held out asphalt=" + one_row.string() +
                                         " (asphalt): 1 row(s), too few to score a one-step prediction (two in a row)"));
-  EXPECT_THAT(short_held.err, ::testing::Not(HasSubstr("held out asphalt=" + one_row.string() + " (asphalt): one-step")));
+  EXPECT_THAT(short_held.err,
+              ::testing::Not(HasSubstr("held out asphalt=" + one_row.string() + " (asphalt): one-step")));
   // Three modes in the log, one to append.
   const fs::path target = write_file(dir / "target.yaml", read_file(kTerrains));
   const Result append = run_pipeline(fit + " --append-to " + target.string());

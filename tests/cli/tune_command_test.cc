@@ -29,7 +29,8 @@ TEST(CliIo, TuneChecksWhereItWritesBeforeTheWork) {
   const fs::path missing = dir / "no_such_directory" / "tuned.yaml";
   const Result bank = run_pipeline(tune + " --output-bank " + missing.string());
   EXPECT_EQ(bank.exit_code, 1);
-  EXPECT_THAT(bank.err, HasSubstr("--output-bank " + missing.string() + ": cannot write there: No such file or directory"));
+  EXPECT_THAT(bank.err,
+              HasSubstr("--output-bank " + missing.string() + ": cannot write there: No such file or directory"));
   EXPECT_THAT(bank.err, ::testing::Not(HasSubstr("work:")));
   const Result table = run_pipeline(tune + " --table " + dir.string());
   EXPECT_EQ(table.exit_code, 1);

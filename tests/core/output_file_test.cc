@@ -185,8 +185,9 @@ TEST(OutputFile, AnUnwritableDirectoryNamesTheReason) {
 
 TEST(OutputFile, AnOutputPathIsCheckedWithoutLeavingAFileOrTouchingTheOldOne) {
   const fs::path dir = test_directory();
-  EXPECT_EQ(error_of([&] { check_output_path(dir / "missing" / "x.yaml", "--output-bank"); }),
-            "--output-bank " + (dir / "missing" / "x.yaml").string() + ": cannot write there: No such file or directory");
+  const fs::path missing = dir / "missing" / "x.yaml";
+  EXPECT_EQ(error_of([&] { check_output_path(missing, "--output-bank"); }),
+            "--output-bank " + missing.string() + ": cannot write there: No such file or directory");
   EXPECT_EQ(error_of([&] { check_output_path(dir, "--table"); }),
             "--table " + dir.string() + ": is a directory; give the name of a file to write");
   // A file in a directory that cannot hold one (root may write anywhere else).
