@@ -34,6 +34,22 @@ namespace {
 
 std::string reason(int error) { return error != 0 ? std::strerror(error) : "unknown error"; }
 
+// Creates "<path><suffix>", or, when that exists (another run writing the
+// same output, or one killed before it finished), "<path><suffix>.<pid>-<n>",
+// exclusively (O_EXCL), so no two writers ever share a file. Returns its
+// descriptor, or -1 with errno set; *created names the last file tried.
+int create_exclusively(const fs::path& path, const std::string& suffix, fs::path* created) {
+  for (int attempt = 0;; ++attempt) {
+    *created =
+        attempt == 0
+            ? fs::path(path.string() + suffix)
+            : fs::path(path.string() + suffix + "." + std::to_string(::getpid()) + "-" + std::to_string(attempt));
+    errno = 0;
+    const int fd = ::open(created->c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd >= 0 || errno != EEXIST || attempt >= 1000) return fd;
+  }
+}
+
 // Makes a rename in `path`'s directory durable. Best effort: the file is
 // complete either way, and some file systems cannot sync a directory.
 void sync_directory_of(const fs::path& path) {
@@ -66,21 +82,11 @@ OutputFile::OutputFile(const fs::path& path, const std::string& suffix) : path_(
     std::setvbuf(out_, nullptr, _IONBF, 0);
     return;
   }
-  // Created exclusively (O_EXCL), so no two writers ever share a temporary
-  // file: "<path><suffix>", or, when that exists (another run writing the
-  // same output, or one killed before it finished), "<path><suffix>.<pid>-<n>".
-  // Each writer renames only the file it created.
-  int fd = -1;
-  for (int attempt = 0; fd < 0; ++attempt) {
-    written_ =
-        attempt == 0
-            ? fs::path(path.string() + suffix)
-            : fs::path(path.string() + suffix + "." + std::to_string(::getpid()) + "-" + std::to_string(attempt));
-    errno = 0;
-    fd = ::open(written_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (fd < 0 && (errno != EEXIST || attempt >= 1000)) {
-      throw Error(written_.string() + ": cannot open for writing: " + reason(errno));
-    }
+  // A temporary file of this writer's own: each renames only the file it created.
+  const int fd = create_exclusively(path, suffix, &written_);
+  if (fd < 0) {
+    const int error = errno;
+    throw Error(written_.string() + ": cannot open for writing: " + reason(error));
   }
   out_ = ::fdopen(fd, "wb");
   if (out_ == nullptr) {
@@ -191,19 +197,14 @@ void check_output_path(const fs::path& path, const std::string& option) {
   std::error_code ec;
   if (fs::is_directory(path, ec)) throw Error(named + ": is a directory; give the name of a file to write");
   if (OutputFile::writes_directly(path)) return;
-  // A name of this process's own (O_EXCL), as OutputFile's temporary files:
-  // never one that another writer holds.
-  for (int attempt = 0;; ++attempt) {
-    const fs::path probe = path.string() + ".probe." + std::to_string(::getpid()) + "-" + std::to_string(attempt);
-    errno = 0;
-    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (fd >= 0) {
-      ::close(fd);
-      fs::remove(probe, ec);
-      return;
-    }
-    if (errno != EEXIST || attempt >= 1000) throw Error(named + ": cannot write there: " + reason(errno));
+  fs::path probe;
+  const int fd = create_exclusively(path, ".probe", &probe);
+  if (fd < 0) {
+    const int error = errno;
+    throw Error(named + ": cannot write there: " + reason(error));
   }
+  ::close(fd);
+  fs::remove(probe, ec);
 }
 
 }  // namespace skidimm

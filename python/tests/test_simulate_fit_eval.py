@@ -85,7 +85,8 @@ def test_fit_checks_its_output_bank_before_fitting(tmp_path, configs, singular_l
     missing = tmp_path / "no_such_directory" / "fitted.yaml"
     # The check comes first: a fit that started would be an error of its own.
     monkeypatch.setattr(skidimm._native, "fit_in_place", lambda *a: pytest.fail("fitted before the check"))
-    with pytest.raises(skidimm.Error, match="output_bank .*no_such_directory/fitted.yaml: cannot write there: No such file"):
+    with pytest.raises(skidimm.Error,
+                       match="output_bank .*no_such_directory/fitted.yaml: cannot write there: No such file"):
         skidimm.fit(bank, logs, objective="window", output_bank=missing)
     with pytest.raises(skidimm.Error, match="is a directory"):
         skidimm.fit(bank, logs, objective="window", output_bank=tmp_path)
