@@ -16,6 +16,9 @@ if [ ! -d "$data/borealtc" ] || [ ! -d "$data/husky_ice" ]; then
 fi
 rm -rf "$work"
 mkdir -p "$work"
+# shellcheck source=../show_log_on_failure.sh
+source "$(dirname "$0")/../show_log_on_failure.sh"
+show_log_on_failure "$work/log.txt"
 cp "$source/docs/real-data.md" "$work/real-data.md"
 SKIDIMM="$skidimm" SKIDIMM_REAL_DATA_DIR="$work/run" SKIDIMM_REAL_DATA_MD="$work/real-data.md" \
   SKIDIMM_REAL_DATA_BANK="$work/terrains.yaml" SKIDIMM_REAL_DATA_WHEELS="$work/wheels.yaml" SKIDIMM_REAL_DATA_FIGURE="$work/splice.png" \

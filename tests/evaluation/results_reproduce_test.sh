@@ -8,6 +8,9 @@ skidimm=$2
 work=$3
 rm -rf "$work"
 mkdir -p "$work"
+# shellcheck source=../show_log_on_failure.sh
+source "$(dirname "$0")/../show_log_on_failure.sh"
+show_log_on_failure "$work/log.txt"
 cp "$source/docs/results.md" "$work/results.md"
 SKIDIMM="$skidimm" SKIDIMM_PAPER_DIR="$work/paper" SKIDIMM_FIGURES_DIR="$work/figures" \
   SKIDIMM_RESULTS_MD="$work/results.md" "$source/scripts/reproduce_paper.sh" 20 2>"$work/log.txt"

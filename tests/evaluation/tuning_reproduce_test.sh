@@ -8,6 +8,9 @@ skidimm=$2
 work=$3
 rm -rf "$work"
 mkdir -p "$work"
+# shellcheck source=../show_log_on_failure.sh
+source "$(dirname "$0")/../show_log_on_failure.sh"
+show_log_on_failure "$work/log.txt"
 cp "$source/docs/tuning.md" "$work/tuning.md"
 SKIDIMM="$skidimm" SKIDIMM_TUNING_DIR="$work/run" SKIDIMM_TUNING_MD="$work/tuning.md" \
   "$source/scripts/reproduce_tuning.sh" 20 2>"$work/log.txt"

@@ -10,6 +10,9 @@ skidimm=$2
 work=$3
 rm -rf "$work"
 mkdir -p "$work/out"
+# shellcheck source=../show_log_on_failure.sh
+source "$(dirname "$0")/../show_log_on_failure.sh"
+show_log_on_failure "$work/log.txt"
 SKIDIMM="$skidimm" SKIDIMM_FIT_LOGS="$work/logs" "$source/scripts/fit_bundled_configs.sh" "$work/out" 2>"$work/log.txt"
 status=0
 banks=(ltc_terrains ltc_shared stc_slip4 stc_slip16 stc_sided4 stc_sided16)
