@@ -1,4 +1,5 @@
 // skidimm eval: identification metrics over one or many logs.
+#include <algorithm>
 #include <iostream>
 #include <optional>
 
@@ -16,6 +17,9 @@ int eval(const EvalOptions& options) {
     std::vector<evaluation::LogGroup> groups;
     std::vector<std::string> classes, states;
     std::string decision_made;
+    // A log that fails half-way costs the others nothing: they are reported,
+    // the failures listed after them, and the exit code says it.
+    std::vector<evaluation::LogFailure> failures;
     if (!options.estimates.empty()) {
       // The files hold what a filter already computed; these would change the filter.
       if (options.overrides.likelihood_weight || options.overrides.innovation_gate) {
@@ -35,7 +39,7 @@ int eval(const EvalOptions& options) {
                              : std::string("the files' decision column");
       groups = evaluation::evaluate_estimate_groups(options.estimates, bank ? &*bank : nullptr,
                                                     decide ? &*decide : nullptr,
-                                                    unpaired_runs("skidimm eval", options.skip_unpaired));
+                                                    unpaired_runs("skidimm eval", options.skip_unpaired), &failures);
       classes = evaluation::classes_of(groups);
     } else {
       if (options.bank.empty()) throw Error("give --bank with --input, or --estimates");
@@ -46,12 +50,35 @@ int eval(const EvalOptions& options) {
       states = bank.config.state_names;
       groups = evaluation::evaluate_log_groups(bank, options.inputs, sampling_of(bank.config, options.overrides.rate),
                                                estimator_options(options.smooth, options.lag),
-                                               unpaired_runs("skidimm eval", options.skip_unpaired));
+                                               unpaired_runs("skidimm eval", options.skip_unpaired), &failures);
     }
-    if (groups.empty()) throw Error("nothing to evaluate: give --input (with --bank) or --estimates");
-    std::cout << (options.json ? evaluation::report_json(groups, classes, states)
-                               : evaluation::report_tables(groups, classes, states, decision_made));
-    return kExitOk;
+    if (groups.empty() && failures.empty()) {
+      throw Error("nothing to evaluate: give --input (with --bank) or --estimates");
+    }
+    if (!groups.empty()) {
+      std::cout << (options.json ? evaluation::report_json(groups, classes, states)
+                                 : evaluation::report_tables(groups, classes, states, decision_made));
+    }
+    if (failures.empty()) return kExitOk;
+    std::cout.flush();
+    long scored = 0;
+    for (const evaluation::LogGroup& g : groups) scored += static_cast<long>(g.logs.size());
+    for (const evaluation::LogFailure& f : failures) {
+      // Named by a file of the log, whatever the error itself names.
+      bool names_a_file = false;
+      for (std::size_t start = 0; start <= f.source.size() && !names_a_file;) {
+        const std::size_t end = std::min(f.source.find('+', start), f.source.size());
+        names_a_file = end > start && f.message.find(f.source.substr(start, end - start)) != std::string::npos;
+        start = end + 1;
+      }
+      std::cerr << "skidimm eval: error: " << printable(names_a_file ? f.message : f.source + ": " + f.message) << "\n";
+    }
+    std::cerr << "skidimm eval: " << failures.size() << " of " << failures.size() + static_cast<std::size_t>(scored)
+              << " log(s) failed and are left out of "
+              << (groups.empty() ? std::string("every figure: nothing was scored")
+                                 : std::string("the report above, which scores the other ") + std::to_string(scored))
+              << "\n";
+    return kExitFailure;
   });
 }
 

@@ -4,7 +4,8 @@
 // settings over the bank's, classes scoring several modes as one. It says what it means: per-class accuracy
 // over each class's own time, logs keyed by their paths, blank truth cells
 // unlabelled, patterns paired by run key, and one order for a confusion's
-// rows and columns.
+// rows and columns. A log that fails half-way is named, and the others are
+// still scored.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
@@ -164,6 +165,52 @@ std::vector<std::string> confusion_lines(const std::string& out, int rows) {
     at = end + 1;
   }
   return lines;
+}
+
+TEST(EvalCommand, ALogThatFailsHalfWayCostsTheOthersNothing) {
+  // Three copies of the switching log, the second with a bad cell half-way:
+  // the two good logs are scored as they would be alone, and the bad one is
+  // named with its line and left out, with a failing exit.
+  auto rows = read_csv(kSwitching);
+  const std::size_t bad_row = rows.size() / 2;
+  rows[bad_row][static_cast<std::size_t>(column(rows[0], "omega"))] = "abc";
+  const fs::path dir = test_directory();
+  const fs::path bad = write_file(dir / "bad.csv", csv_text(rows));
+  const fs::path good = dir / "good.csv";
+  fs::copy_file(kSwitching, good);
+  const std::string bad_line = bad.string() + ":" + std::to_string(bad_row + 1) + ":";
+
+  const Result r = run_skidimm(eval("--input " + kSwitching + " --input " + bad.string() + " --input " +
+                                    good.string() + " --json"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("skidimm eval: error: " + bad_line));
+  EXPECT_THAT(r.err, HasSubstr("1 of 3 log(s) failed and are left out of the report above, which scores the other 2"));
+  const YAML::Node partial = YAML::Load(r.out);
+  ASSERT_EQ(partial["logs"].size(), 2u) << r.out;
+  EXPECT_FALSE(partial["logs"][bad.string()]);
+  const YAML::Node alone =
+      json_of(run_skidimm(eval("--input " + kSwitching + " --input " + good.string() + " --json")));
+  EXPECT_EQ(YAML::Dump(partial["overall"]), YAML::Dump(alone["overall"]));
+
+  // The text report too; and when every log fails, no report at all.
+  const Result table = run_skidimm(eval("--input " + bad.string() + " --input " + good.string()));
+  EXPECT_EQ(table.exit_code, 1);
+  EXPECT_THAT(table.out, HasSubstr("accuracy (time fraction)"));
+  EXPECT_THAT(table.err, HasSubstr(bad_line));
+  const Result none = run_skidimm(eval("--input " + bad.string()));
+  EXPECT_EQ(none.exit_code, 1);
+  EXPECT_EQ(none.out, "");
+  EXPECT_THAT(none.err, HasSubstr("1 of 1 log(s) failed and are left out of every figure: nothing was scored"));
+
+  // Scoring files `skidimm run` wrote: a cut one fails, the whole one counts.
+  const fs::path whole = dir / "whole_estimates.csv";
+  ASSERT_EQ(run_shell(run_command(kTerrains, kSwitching, whole.string())).exit_code, 0);
+  std::string text = skidimm_test::read_file(whole);
+  const fs::path cut = write_file(dir / "cut_estimates.csv", text.substr(0, text.size() / 2) + "\n1,2\n");
+  const Result files = run_skidimm("eval --estimates " + whole.string() + " --estimates " + cut.string() + " --json");
+  EXPECT_EQ(files.exit_code, 1) << files.err;
+  EXPECT_THAT(files.err, HasSubstr(cut.string()));
+  EXPECT_EQ(YAML::Load(files.out)["logs"].size(), 1u) << files.out;
 }
 
 TEST(EvalCommand, ConfusionRowsAndColumnsAreInTheBanksOrder) {

@@ -1,5 +1,6 @@
 #include "skidimm/evaluation/log_groups.h"
 
+#include <algorithm>
 #include <exception>
 #include <functional>
 
@@ -38,17 +39,52 @@ std::vector<LogJob> log_jobs(const std::vector<std::string>& arguments, const Lo
   return jobs;
 }
 
+// The source of a log as evaluate_log() and evaluate_estimates() name it:
+// its files' paths joined by '+'.
+std::string source_of(const LogSpec& log) {
+  std::string source;
+  for (const LogFile& f : log.files) source += (source.empty() ? "" : "+") + f.path.string();
+  return source;
+}
+
 std::vector<LogGroup> evaluate_groups(const std::vector<std::string>& arguments, const LogArgumentOptions& expansion,
-                                      const std::function<LogResult(const LogSpec&)>& evaluate) {
+                                      const std::function<LogResult(const LogSpec&)>& evaluate,
+                                      std::vector<LogFailure>* failures) {
   std::vector<LogGroup> groups;
   const std::vector<LogJob> jobs = log_jobs(arguments, expansion, &groups);
+  if (failures != nullptr) {
+    // A bad argument costs nothing to find: before any log is scored.
+    for (const LogJob& job : jobs) {
+      if (job.error) std::rethrow_exception(job.error);
+    }
+  }
   std::vector<LogResult> results(jobs.size());
+  std::vector<std::string> errors(jobs.size());
+  std::vector<char> failed(jobs.size(), 0);
   parallel_for(static_cast<int>(jobs.size()), worker_count(), [&](int i, int) {
     const LogJob& job = jobs[static_cast<std::size_t>(i)];
     if (job.error) std::rethrow_exception(job.error);
-    results[static_cast<std::size_t>(i)] = evaluate(job.log);
+    if (failures == nullptr) {
+      results[static_cast<std::size_t>(i)] = evaluate(job.log);
+      return;
+    }
+    try {
+      results[static_cast<std::size_t>(i)] = evaluate(job.log);
+    } catch (const std::exception& e) {
+      failed[static_cast<std::size_t>(i)] = 1;
+      errors[static_cast<std::size_t>(i)] = e.what();
+    }
   });
-  for (std::size_t i = 0; i < jobs.size(); ++i) groups[jobs[i].group].logs.push_back(std::move(results[i]));
+  for (std::size_t i = 0; i < jobs.size(); ++i) {
+    if (failed[i]) {
+      failures->push_back(LogFailure{groups[jobs[i].group].name, source_of(jobs[i].log), errors[i]});
+    } else {
+      groups[jobs[i].group].logs.push_back(std::move(results[i]));
+    }
+  }
+  if (failures == nullptr) return groups;
+  groups.erase(std::remove_if(groups.begin(), groups.end(), [](const LogGroup& g) { return g.logs.empty(); }),
+               groups.end());
   return groups;
 }
 
@@ -56,16 +92,18 @@ std::vector<LogGroup> evaluate_groups(const std::vector<std::string>& arguments,
 
 std::vector<LogGroup> evaluate_log_groups(const Bank& bank, const std::vector<std::string>& arguments,
                                           const SamplingConfig& sampling, const EstimatorOptions& estimator,
-                                          const LogArgumentOptions& expansion) {
-  return evaluate_groups(arguments, expansion,
-                         [&](const LogSpec& log) { return evaluate_log(bank, log, sampling, {}, estimator); });
+                                          const LogArgumentOptions& expansion, std::vector<LogFailure>* failures) {
+  return evaluate_groups(
+      arguments, expansion, [&](const LogSpec& log) { return evaluate_log(bank, log, sampling, {}, estimator); },
+      failures);
 }
 
 std::vector<LogGroup> evaluate_estimate_groups(const std::vector<std::string>& arguments, const BankConfig* bank,
-                                               const DecisionConfig* decide, const LogArgumentOptions& expansion) {
-  return evaluate_groups(arguments, expansion, [&](const LogSpec& log) {
-    return evaluate_estimates(log.files.front().path, bank, decide);
-  });
+                                               const DecisionConfig* decide, const LogArgumentOptions& expansion,
+                                               std::vector<LogFailure>* failures) {
+  return evaluate_groups(
+      arguments, expansion,
+      [&](const LogSpec& log) { return evaluate_estimates(log.files.front().path, bank, decide); }, failures);
 }
 
 }  // namespace evaluation

@@ -21,19 +21,36 @@ struct LogGroup {
   std::vector<LogResult> logs;
 };
 
+// A log whose evaluation failed (a bad row half-way, an unreadable file),
+// left out of its group.
+struct LogFailure {
+  std::string group;    // its argument's group name
+  std::string source;   // the log as given: its files' paths joined by '+'
+  std::string message;  // the error, naming the file and line
+};
+
 // Runs `bank` over every log of `arguments` and scores it (evaluate_log).
 // Every log on its own thread (parallel.h), each with its own filter over the
 // shared, read-only bank: the results, and any error, are those of one
-// thread (SKIDIMM_THREADS=1). Throws Error, LogError.
+// thread (SKIDIMM_THREADS=1). An argument that expands to no log, or to a
+// file that does not exist, throws before any log is evaluated.
+// Without `failures`, the first failing log's error (in the arguments'
+// order) is thrown, and the other logs' results are lost with it. With
+// `failures`, every other log is still scored: a log that fails goes into
+// *failures, in the arguments' order, and is left out of its group, and a
+// group none of whose logs was scored is left out. Throws Error, LogError.
 std::vector<LogGroup> evaluate_log_groups(const Bank& bank, const std::vector<std::string>& arguments,
                                           const SamplingConfig& sampling, const EstimatorOptions& estimator,
-                                          const LogArgumentOptions& expansion = {});
+                                          const LogArgumentOptions& expansion = {},
+                                          std::vector<LogFailure>* failures = nullptr);
 
 // Scores the `skidimm run` outputs of `arguments` (files, directories,
 // patterns) as evaluate_estimates does with `bank` and `decide` (each may be
-// null), every file on its own thread, with the results of one.
+// null), every file on its own thread, with the results of one; `failures`
+// as for evaluate_log_groups().
 std::vector<LogGroup> evaluate_estimate_groups(const std::vector<std::string>& arguments, const BankConfig* bank,
-                                               const DecisionConfig* decide, const LogArgumentOptions& expansion = {});
+                                               const DecisionConfig* decide, const LogArgumentOptions& expansion = {},
+                                               std::vector<LogFailure>* failures = nullptr);
 
 }  // namespace evaluation
 }  // namespace skidimm
