@@ -13,6 +13,7 @@
 #include "fitting/simulated_logs.h"
 #include "skidimm/errors.h"
 #include "skidimm/fitting/bank_fit.h"
+#include "skidimm/fitting/fit_output.h"
 #include "skidimm/sdk/angles.h"
 
 namespace skidimm {
@@ -264,6 +265,29 @@ TEST(ModelFitter, RecoversMotorCurrentParametersFromMeasuredOutputs) {
   } catch (const FitError& e) {
     EXPECT_THAT(e.what(), HasSubstr("--objective window"));
   }
+}
+
+// A measurement row the logs never give has no one-step error: its RMSE is
+// NaN (reported as "not measured"), and output_noise keeps the bank's R for
+// it instead of taking the missing error for a perfect prediction (a 0 here
+// became R x 1e-6, a mode sure of a sensor it had never seen).
+TEST(ModelFitter, ARowNeverMeasuredHasNoErrorAndKeepsTheBanksNoise) {
+  Trajectory data = simulate_traction(1500, 7, 8);
+  data.z.row(3).setConstant(std::numeric_limits<double>::quiet_NaN());  // no gyro
+  Bank bank = load_bank(kTractionBank);
+  BankFitOptions options;
+  options.objective = Objective::kWindow;
+  options.window.window = 0.5;
+  options.output_noise = true;
+  const FitReport report = fit_bank(&bank, {ModeLogs{0, {data}}}, options).at(0);
+  ASSERT_EQ(report.rmse.size(), 6);
+  EXPECT_TRUE(std::isnan(report.rmse[3])) << report.rmse.transpose();
+  EXPECT_NEAR(report.rmse[4], 0.3, 0.05);
+  const Eigen::MatrixXd& r = bank.config.modes[0].r;
+  EXPECT_EQ(r(3, 3), bank.config.measurement.r(3, 3));
+  EXPECT_NEAR(std::sqrt(r(4, 4)), 0.3, 0.05);
+  EXPECT_THAT(measurement_values_text(bank.config, report.rmse),
+              HasSubstr(bank.config.measurement.names[3] + " not measured"));
 }
 
 // A mode with its own R (R: in its entry) has its residuals weighed by it,

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "not_a_number.h"
 #include "skidimm/fitting/bank_writer.h"
 
 namespace skidimm {
@@ -44,7 +45,7 @@ std::string measurement_values_text(const BankConfig& config, const Eigen::Vecto
   std::string out;
   for (Eigen::Index c = 0; c < values.size(); ++c) {
     out += (c ? ", " : "") + config.measurement.names[static_cast<std::size_t>(c)] + " " +
-           significant(values[c], digits);
+           (std::isnan(values[c]) ? std::string("not measured") : significant(values[c], digits));
   }
   return out;
 }
@@ -66,7 +67,7 @@ Eigen::VectorXd persistence_rmse(const ModeLogs& data) {
       }
     }
   }
-  return (squared.array() / counts.array().max(1.0)).sqrt();
+  return (counts.array() > 0.0).select((squared.array() / counts.array().max(1.0)).sqrt(), ::skidimm::internal::kNaN);
 }
 
 std::string format_fitted_entries(const Bank& bank, const std::vector<FittedMode>& fitted, const FitRequest& request) {

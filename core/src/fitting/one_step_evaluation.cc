@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "measurement_layout.h"
+#include "not_a_number.h"
 #include "process_noise_search.h"
 #include "skidimm/fitting/model_fitter.h"
 
@@ -117,7 +118,11 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
       previous = k;
     }
   }
-  report.rmse = (squared.array() / counts.array().max(1.0)).sqrt();
+  // A component never measured twice in a row has no one-step error: NaN,
+  // not 0, so that nothing downstream (output_noise_from_fit) takes it for
+  // a perfect prediction.
+  report.rmse =
+      (counts.array() > 0.0).select((squared.array() / counts.array().max(1.0)).sqrt(), ::skidimm::internal::kNaN);
 
   // Process noise: the diagonal intensity that makes the mode's own filter
   // consistent on its logs (process_noise_search.h).

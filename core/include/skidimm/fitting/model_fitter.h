@@ -108,7 +108,7 @@ struct ParameterEstimate {
 
 struct FitReport {
   std::vector<ParameterEstimate> parameters;  // the fitted ones
-  Eigen::VectorXd rmse;                       // one-step, per measurement component
+  Eigen::VectorXd rmse;                       // one-step, per measurement component (NaN: never two in a row)
   Eigen::MatrixXd q_intensity;                // estimated process noise (state_dim x state_dim)
   std::vector<std::string> warnings;
   int residuals = 0;
