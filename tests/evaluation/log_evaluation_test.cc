@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
@@ -117,6 +118,41 @@ TEST(EvaluateLog, ObserverSeesEachStepAsScored) {
   EXPECT_EQ(result.steps, static_cast<long>(steps.size()));
   EXPECT_LT(weighted, 0.0);
   EXPECT_NEAR(weighted / seconds, result.metrics.truth_mean_log_probability("mode0"), 1e-12);
+}
+
+// The smallest probability the filter gave a mode says whether the floor
+// changed a step (tune runs no floor candidate that could not have): above
+// the floor when it never bound, the floor itself when it did; not tracked
+// for smoothed estimates.
+TEST(EvaluateLog, SmallestProbabilitySaysWhetherTheFloorChangedAStep) {
+  std::vector<LogSample> steps = log_of("mode0", 1.0, 0.0);
+  const std::vector<LogSample> b = log_of("mode1", 0.25, 3.0);
+  steps.insert(steps.end(), b.begin(), b.end());
+  const auto smallest_seen = [&](const Bank& bank, LogResult* result) {
+    double smallest = 1.0;  // two modes: the smaller is 1 - the estimate's
+    ListSource source(steps);
+    *result = evaluate_log(bank, &source, "ab", "", {}, EstimatorOptions{},
+                           [&](const LogSample&, const LabelledStep& s) {
+                             smallest = std::min(smallest, 1.0 - s.estimate_probability);
+                           });
+    return smallest;
+  };
+  LogResult free_run;
+  const double seen = smallest_seen(two_modes(), &free_run);
+  EXPECT_NEAR(free_run.smallest_probability, seen, 1e-15);
+  EXPECT_GT(free_run.smallest_probability, 1e-9) << "the default floor never bound";
+  EXPECT_LT(free_run.smallest_probability, 0.3);
+
+  Bank floored = two_modes();
+  floored.config.mode_probability_floor = 0.3;
+  LogResult floored_run;
+  smallest_seen(floored, &floored_run);
+  EXPECT_EQ(floored_run.smallest_probability, 0.3) << "a floored mode gets exactly the floor";
+
+  ListSource source(steps);
+  EstimatorOptions smoothed;
+  smoothed.kind = EstimatorOptions::Kind::kFixedInterval;
+  EXPECT_TRUE(std::isnan(evaluate_log(two_modes(), &source, "ab", "", {}, smoothed).smallest_probability));
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <set>
 
 #include "core/temp_files.h"
@@ -343,6 +344,74 @@ TEST(Tune, ProtocolsThatHoldOutTheSameLogsShareTheirSearch) {
       EXPECT_EQ(s.mean_log_probability, same->mean_log_probability) << s.log;
     }
   }
+}
+
+// A floor candidate below the smallest probability every run of the best
+// settings reached, and above their own floor, changes no step: its runs
+// would be the best's bit for bit, a tie, and the search does not run it.
+// The tune's last line counts the settings scored and those known to tie.
+TEST(Tune, FloorCandidatesNoRunMeetsAreTiesWithoutARun) {
+  if (!std::filesystem::exists(kBorealTc)) GTEST_SKIP() << "no shared data at " << kBorealTc;
+  const std::vector<TuningLog> logs{borealtc_log("ICE", "04"), borealtc_log("ICE", "11"),
+                                    borealtc_log("FLOORING", "01"), borealtc_log("FLOORING", "08")};
+  TuneOptions options = weight_only_options();
+  options.knobs = {Knob::kFloor};
+  std::vector<std::string> lines;
+  options.progress = [&](const std::string& line) { lines.push_back(line); };
+  const Bank bundled = bundled_borealtc_bank();
+  const double start = bundled.config.mode_probability_floor;
+  std::vector<double> smallest;
+  std::vector<const TuningLog*> each;
+  for (const TuningLog& l : logs) each.push_back(&l);
+  for (const LogScore& s : score_logs(bundled, each, options.sampling)) smallest.push_back(s.smallest_probability);
+  const double least = *std::min_element(smallest.begin(), smallest.end());
+  ASSERT_GT(least, start * 64) << "these runs never meet the bundled floor or the candidates above it";
+
+  // The premise: scored with the highest candidate, every log scores the same.
+  Bank highest = bundled_borealtc_bank();
+  highest.config.mode_probability_floor = start * 64;
+  const std::vector<LogScore> at_start = score_logs(bundled, each, options.sampling);
+  const std::vector<LogScore> at_highest = score_logs(highest, each, options.sampling);
+  for (std::size_t i = 0; i < logs.size(); ++i) {
+    EXPECT_EQ(at_highest[i].mean_log_probability, at_start[i].mean_log_probability) << logs[i].spec.name();
+  }
+  // The selection and the four nested searches: 5 start scorings, and each
+  // search's six candidates (factors of 4 around the floor) all ties.
+  const TuneResult ties = tune(bundled_borealtc_bank, logs, kKeepModels, options);
+  EXPECT_EQ(ties.settings.probability_floor, start);
+  ASSERT_FALSE(lines.empty());
+  EXPECT_THAT(lines.back(), ::testing::HasSubstr("searches: 5 settings scored, 30 more known to tie"));
+
+  // Started just below the smallest probability: the candidates under it
+  // are ties, those above it are run. A search's logs are all four
+  // (selection) or the three a nested fold leaves (the bank is not refitted:
+  // the same runs).
+  const double near = 0.9 * least;
+  const double highest_floor = 0.5 / bundled.config.num_modes();
+  long expected_ties = 0, expected_runs = 5;
+  for (int held = -1; held < static_cast<int>(logs.size()); ++held) {
+    double search_least = 1.0;
+    for (int i = 0; i < static_cast<int>(logs.size()); ++i) {
+      if (i != held) search_least = std::min(search_least, smallest[static_cast<std::size_t>(i)]);
+    }
+    for (int k = -3; k <= 3; ++k) {
+      const double candidate = near * std::pow(4.0, k);
+      if (k == 0 || candidate > highest_floor) continue;
+      (candidate < search_least ? expected_ties : expected_runs) += 1;
+    }
+  }
+  lines.clear();
+  const auto near_bank = [&] {
+    Bank b = bundled_borealtc_bank();
+    b.config.mode_probability_floor = near;
+    return b;
+  };
+  tune(near_bank, logs, kKeepModels, options);
+  ASSERT_FALSE(lines.empty());
+  EXPECT_THAT(lines.back(), ::testing::HasSubstr("searches: " + std::to_string(expected_runs) + " settings scored, " +
+                                                 std::to_string(expected_ties) + " more known to tie"));
+  EXPECT_GE(expected_ties, 15) << "the three below the start, in each of the five searches";
+  EXPECT_LT(expected_ties, 30);
 }
 
 }  // namespace

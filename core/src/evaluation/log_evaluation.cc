@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include "skidimm/engine/decision.h"
@@ -111,7 +112,13 @@ ScoredRun score_run(const Bank& bank, SampleSource* source, const std::string& n
   std::optional<EstimatesWriter> writer;
   if (!estimates.empty()) writer.emplace(estimates, config, /*with_truth=*/true);
   ModeDecision decision(config);
+  double smallest = std::numeric_limits<double>::infinity();
   run_log(bank, source, estimator, [&](const LogSample& sample, const ImmEstimate& e) {
+    if (!e.mode_probabilities.allFinite() || !std::isfinite(e.unknown_probability)) {
+      smallest = std::numeric_limits<double>::quiet_NaN();  // and stays so: std::min keeps its first NaN
+    }
+    smallest = std::min(smallest, e.mode_probabilities.minCoeff());
+    if (config.unknown.enabled()) smallest = std::min(smallest, e.unknown_probability);
     const std::string& label = label_given.empty() ? sample.truth_mode : label_given;
     const std::string& decided = decision.name(decision.update(sample.t, e.mode_probabilities));
     if (writer) writer->write(sample.t, e, decided, label);
@@ -131,6 +138,8 @@ ScoredRun score_run(const Bank& bank, SampleSource* source, const std::string& n
     }
     ++result.steps;
   });
+  // A smoothed step's probabilities are not the ones the filter floored.
+  if (estimator.kind == EstimatorOptions::Kind::kFilter && result.steps > 0) result.smallest_probability = smallest;
   result.metrics = compute_mode_metrics(run.steps, scorer.class_names());
   result.decision_metrics = compute_mode_metrics(run.decisions, scorer.class_names());
   if (writer) writer->commit();

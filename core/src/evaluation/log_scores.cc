@@ -15,6 +15,7 @@ LogScore score_of(const LogResult& r) {
   s.accuracy = r.metrics.accuracy();
   s.mean_log_probability = r.metrics.mean_truth_log_probability();
   s.seconds = r.metrics.duration;
+  s.smallest_probability = r.smallest_probability;
   return s;
 }
 

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <mutex>
 #include <numeric>
@@ -172,6 +173,9 @@ class Tuner {
       result.lockbox.summary = summarize(result.lockbox.scores);
       progress("lockbox: " + std::to_string(lockbox.size()) + " logs scored once by the tuned bank");
     }
+    progress("searches: " + std::to_string(settings_scored_) + " settings scored, " +
+             std::to_string(settings_known_to_tie_) +
+             " more known to tie without a run (probability floors no run met)");
     // One line per distinct warning: folds repeat them.
     std::map<std::string, int> seen;
     for (const std::string& w : warnings_) {
@@ -718,6 +722,7 @@ class Tuner {
     // scoring stops once it cannot (ScoreBound). The bound sits below that by
     // far more than the round-off between its sums and summarize()'s.
     auto score_of = [&](const TunedSettings& s, std::vector<LogScore>* scores, double best_so_far) {
+      ++settings_scored_;
       const double must_beat = best_so_far + 1e-9 - 1e-6 * (1.0 + std::abs(best_so_far));
       ScoreBound bound(std::isfinite(must_beat) ? must_beat : -std::numeric_limits<double>::infinity(), &log_costs);
       *scores = evaluate(s, folds, within, "", nullptr, &bound);
@@ -726,17 +731,36 @@ class Tuner {
     };
     double best = score_of(current, best_scores, -std::numeric_limits<double>::infinity());
     const double floor_limit = 0.5 / config.num_modes();
+    // The floor changes a run only at a step where some probability falls to
+    // it. Where the best settings' runs never came down to either floor, the
+    // candidate's runs are theirs step for step, bit for bit: a tie. (Most
+    // banks never meet their floor; each such candidate cost a whole scoring.)
+    const auto floor_changes_nothing = [&](double chosen, double candidate) {
+      if (best_scores->empty()) return false;
+      for (const LogScore& score : *best_scores) {
+        if (!(score.smallest_probability > std::max(chosen, candidate))) return false;  // NaN: not known
+      }
+      return true;
+    };
     for (int sweep = 0; sweep < options_.sweeps; ++sweep) {
       const double factor = sweep == 0 ? 4.0 : 1.5;
       const int steps = sweep == 0 ? 3 : 2;
       // Tries value * factor^k for k in [-steps, steps] on one scalar of the settings.
-      auto line = [&](const std::string& name, double* value, double lowest, double highest) {
+      // `ties(chosen, candidate)`: true where the candidate is known to score
+      // exactly what the best settings (whose value is `chosen`) scored; it is
+      // then not run, as it could not be taken.
+      using Ties = std::function<bool(double, double)>;
+      auto line = [&](const std::string& name, double* value, double lowest, double highest, const Ties& ties = {}) {
         const double start = *value;
         double chosen = start;
         for (int k = -steps; k <= steps; ++k) {
           if (k == 0) continue;
           const double candidate = start * std::pow(factor, k);
           if (candidate < lowest || candidate > highest) continue;
+          if (ties && ties(chosen, candidate)) {
+            ++settings_known_to_tie_;
+            continue;
+          }
           *value = candidate;
           std::vector<LogScore> scores;
           const double score = score_of(current, &scores, best);
@@ -804,7 +828,7 @@ class Tuner {
             break;
           case Knob::kFloor:
             if (current.probability_floor <= 0.0) current.probability_floor = 1e-9;
-            line("probability floor", &current.probability_floor, 1e-15, floor_limit);
+            line("probability floor", &current.probability_floor, 1e-15, floor_limit, floor_changes_nothing);
             break;
           case Knob::kLikelihoodWeight:
             line("likelihood weight", &current.likelihood_weight, 1e-4, 1.0);
@@ -850,6 +874,8 @@ class Tuner {
   std::map<std::tuple<std::string, int, std::vector<int>>, std::string> mode_fit_failures_;  // why a fold's fit failed
   std::vector<int> development_;  // every log but the lockbox: the final fit's
   std::vector<std::string> warnings_;
+  long settings_scored_ = 0;        // by search()
+  long settings_known_to_tie_ = 0;  // by search(), without a run
 };
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -64,6 +65,11 @@ struct LogResult {
   std::vector<double> squared_state_error;    // per state, against true_<state> columns
   std::vector<long> state_error_count;
   long steps = 0;
+  // The smallest probability the filter gave any mode, or the unknown
+  // hypothesis, at any step: the bank's mode_probability_floor changed a
+  // step if and only if this is at most the floor. NaN where not tracked
+  // (smoothed estimates, a spliced run's logs).
+  double smallest_probability = std::numeric_limits<double>::quiet_NaN();
 };
 
 // Runs a fresh IMM of `bank` over `log` and scores it; with `estimates`, also

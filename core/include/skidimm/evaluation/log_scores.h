@@ -8,6 +8,7 @@
 #ifndef SKIDIMM_EVALUATION_LOG_SCORES_H_
 #define SKIDIMM_EVALUATION_LOG_SCORES_H_
 
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -25,6 +26,7 @@ struct LogScore {
   double mean_log_probability = 0.0;
   double seconds = 0.0;
   std::string settings;  // what scored it, when several did (tune's nested folds: the fold's settings)
+  double smallest_probability = std::numeric_limits<double>::quiet_NaN();  // LogResult's
 };
 
 // Over logs: mean over classes of the mean over each class's logs.
