@@ -199,8 +199,7 @@ struct LinearFeatures {
     const Vector w = drive(layout, u, p);
     if (is_diagonal(layout)) {
       const double* a = p + layout[kA].offset;
-      SameArgumentOnce zoh([dt](double rate) { return diagonal_zoh(rate, dt); });
-      for (int i = 0; i < n; ++i) x_next[i] = zoh(a[i]).template step<double>(x[i], w[i]);
+      for (int i = 0; i < n; ++i) x_next[i] = last_diagonal_zoh(a[i], dt).template step<double>(x[i], w[i]);
       return;
     }
     Vector next(n);

@@ -102,6 +102,23 @@ DiagonalZoh<R> diagonal_zoh(const R& a, double dt) noexcept {
   return {exp(a * dt), exp_integral(a, dt)};
 }
 
+// diagonal_zoh(rate, dt), computed again only when (rate, dt) differs from
+// this thread's last call: a filter's steps and a fit's windows repeat one
+// step size, and banks give every state one rate (a held-fixed A), so the
+// predictions of a run reuse one exp and one expm1 (they were 3% of a
+// BorealTC tune). Same arguments, same values; a NaN is always recomputed.
+inline const DiagonalZoh<double>& last_diagonal_zoh(double rate, double dt) noexcept {
+  thread_local double last_rate = std::numeric_limits<double>::quiet_NaN();
+  thread_local double last_dt = std::numeric_limits<double>::quiet_NaN();
+  thread_local DiagonalZoh<double> last{};
+  if (!(rate == last_rate && dt == last_dt)) {
+    last_rate = rate;
+    last_dt = dt;
+    last = diagonal_zoh(rate, dt);
+  }
+  return last;
+}
+
 template <typename T, typename R, typename W>
 T diagonal_zoh_step(const T& x, const R& a, const W& w, double dt) noexcept {
   return diagonal_zoh(a, dt).template step<T>(x, w);
