@@ -222,6 +222,7 @@ int tune(const TuneCommandOptions& options) {
                     "' cannot give it (--objective window)");
       }
       fit_options.residual_correlation = options.residual_correlation;
+      fit_options.window.standard_deviations = false;  // the folds' reports are not kept
       // Without a joint R each mode's fit depends on its own logs alone.
       if (!options.fit_r) tune_options.separable.insert(name);
       const fitting::FitWork work = fitting::fit_work(start, development_data, fit_options);

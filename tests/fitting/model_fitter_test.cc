@@ -24,6 +24,7 @@ using skidimm_test::rich_wheel_speeds;
 using skidimm_test::test_directory;
 using skidimm_test::write_file;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 const std::string kLtcBank = R"(name: fit_test
 states: [V, omega]
@@ -121,6 +122,37 @@ TEST(ModelFitter, ExactAndNumericDerivativesReachTheSameFit) {
     EXPECT_NEAR(exact_report.parameters[i].value, numeric_report.parameters[i].value,
                 1e-4 * std::max(1.0, std::abs(numeric_report.parameters[i].value)))
         << exact_report.parameters[i].name;
+  }
+}
+
+// Without standard deviations (what tune asks of its folds' fits) the fit
+// is the same to the bit; only the deviations are NaN, and no parameter is
+// called poorly determined on their account.
+TEST(ModelFitter, StandardDeviationsCanBeLeftOutWithoutChangingTheFit) {
+  Bank truth = load_bank(kLtcBank, "truth.yaml");
+  Eigen::VectorXd true_parameters(8);
+  true_parameters << -4.0, 0.3, 0.2, -3.0, 0.35, 0.3, -0.7, 0.75;
+  ASSERT_TRUE(truth.models[0]->set_parameters(true_parameters, nullptr));
+  const Trajectory data = simulate_model(*truth.models[0], 1500, 0.02, rich_wheel_speeds, Eigen::Vector2d(1e-4, 1e-4),
+                                         Eigen::Vector2d(0.01, 0.01), 6);
+  FitOptions options;
+  options.window = 0.2;
+  Bank with = load_bank(kLtcBank, "with.yaml");
+  const FitReport with_report = fit(&with, {ModeLogs{0, {data}}}, options).front();
+  options.standard_deviations = false;
+  Bank without = load_bank(kLtcBank, "without.yaml");
+  const FitReport without_report = fit(&without, {ModeLogs{0, {data}}}, options).front();
+  ASSERT_EQ(with_report.parameters.size(), without_report.parameters.size());
+  for (std::size_t i = 0; i < with_report.parameters.size(); ++i) {
+    EXPECT_EQ(without_report.parameters[i].value, with_report.parameters[i].value) << with_report.parameters[i].name;
+    EXPECT_TRUE(std::isfinite(with_report.parameters[i].standard_deviation));
+    EXPECT_TRUE(std::isnan(without_report.parameters[i].standard_deviation));
+  }
+  EXPECT_EQ(without_report.final_cost, with_report.final_cost);
+  EXPECT_EQ(without_report.q_intensity, with_report.q_intensity);
+  for (const std::string& w : without_report.warnings) {
+    EXPECT_THAT(w, Not(HasSubstr("poorly determined")));
+    EXPECT_THAT(w, Not(HasSubstr("covariance")));
   }
 }
 

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <memory>
 
@@ -488,7 +489,9 @@ FitReport report_of(const Bank& bank, const ModeLogs& d, const FitOptions& optio
       report.warnings.push_back("parameter '" + name + "' ended on its bound");
     }
   }
-  if (!std::isfinite(deviations[0])) report.warnings.push_back("Ceres could not compute the covariance");
+  if (options.standard_deviations && !std::isfinite(deviations[0])) {
+    report.warnings.push_back("Ceres could not compute the covariance");
+  }
   report.parameter_covariance = parameter_covariance;
   report.residuals = windows.residuals;
   report.derivatives = windows.all_analytic ? "autodiff" : "numeric";
@@ -558,7 +561,9 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<const ModeLogs*>& data,
     }
 
     const Solution solution = solve(options, who, logs, &block, &problem);
-    const std::vector<double> deviations = standard_deviations(&problem, &block, solution, windows.residuals);
+    const std::vector<double> deviations =
+        options.standard_deviations ? standard_deviations(&problem, &block, solution, windows.residuals)
+                                    : std::vector<double>(block.size(), std::numeric_limits<double>::quiet_NaN());
     Eigen::MatrixXd parameter_covariance;
     if (options.parameter_covariance && options.scope == sdk::ParameterScope::kMode && group.size() == 1) {
       const ModeLogs& d = *group.front();

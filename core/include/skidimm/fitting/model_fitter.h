@@ -97,6 +97,11 @@ struct FitOptions {
   // (FitReport::parameter_covariance): Gauss-Newton, one residual variance
   // per measurement channel.
   bool parameter_covariance = false;
+  // Each fitted parameter's standard deviation in the report, from Ceres'
+  // covariance: an SVD of the whole Jacobian, as costly as the solve. Off,
+  // they are NaN and no parameter is reported poorly determined; `tune`,
+  // which keeps only the fitted values of its hundreds of fits, turns it off.
+  bool standard_deviations = true;
   FitProgress progress;
 };
 
