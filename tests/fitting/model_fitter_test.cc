@@ -75,15 +75,25 @@ Trajectory simulate_model(const sdk::MotionModel& model, int rows, double dt,
   return t;
 }
 
+// ltc_linear's parameters the LTC tests simulate from.
+Eigen::VectorXd ltc_true_parameters() {
+  Eigen::VectorXd p(8);
+  p << -4.0, 0.3, 0.2, -3.0, 0.35, 0.3, -0.7, 0.75;
+  return p;
+}
+
+// `rows` rows of kLtcBank's model at ltc_true_parameters(), 50 Hz, with 1 cm/s and
+// 0.01 rad/s sensors (noise seed `seed`).
+Trajectory simulate_ltc_log(int rows, unsigned seed) {
+  Bank truth = load_bank(kLtcBank, "truth.yaml");
+  EXPECT_TRUE(truth.models[0]->set_parameters(ltc_true_parameters(), nullptr));
+  return simulate_model(*truth.models[0], rows, 0.02, rich_wheel_speeds, Eigen::Vector2d(1e-4, 1e-4),
+                        Eigen::Vector2d(0.01, 0.01), seed);
+}
 
 TEST(ModelFitter, RecoversLtcLinearParametersFromItsOwnData) {
-  Bank truth = load_bank(kLtcBank, "truth.yaml");
-  Eigen::VectorXd true_parameters(8);
-  true_parameters << -4.0, 0.3, 0.2, -3.0, 0.35, 0.3, -0.7, 0.75;
-  ASSERT_TRUE(truth.models[0]->set_parameters(true_parameters, nullptr));
-  // Two minutes at 50 Hz with 1 cm/s, 0.01 rad/s sensors.
-  const Trajectory data = simulate_model(*truth.models[0], 6000, 0.02, rich_wheel_speeds, Eigen::Vector2d(1e-4, 1e-4),
-                                         Eigen::Vector2d(0.01, 0.01), 1);
+  const Eigen::VectorXd true_parameters = ltc_true_parameters();
+  const Trajectory data = simulate_ltc_log(6000, 1);  // two minutes
   Bank bank = load_bank(kLtcBank);  // starts from A = -I, B small
   FitOptions options;
   options.window = 0.2;  // s: 10 rows at 50 Hz
@@ -103,12 +113,7 @@ TEST(ModelFitter, RecoversLtcLinearParametersFromItsOwnData) {
 }
 
 TEST(ModelFitter, ExactAndNumericDerivativesReachTheSameFit) {
-  Bank truth = load_bank(kLtcBank, "truth.yaml");
-  Eigen::VectorXd true_parameters(8);
-  true_parameters << -4.0, 0.3, 0.2, -3.0, 0.35, 0.3, -0.7, 0.75;
-  ASSERT_TRUE(truth.models[0]->set_parameters(true_parameters, nullptr));
-  const Trajectory data = simulate_model(*truth.models[0], 3000, 0.02, rich_wheel_speeds, Eigen::Vector2d(1e-4, 1e-4),
-                                         Eigen::Vector2d(0.01, 0.01), 5);
+  const Trajectory data = simulate_ltc_log(3000, 5);
   FitOptions options;
   options.window = 0.2;  // s: 10 rows at 50 Hz
   Bank exact = load_bank(kLtcBank, "exact.yaml");
@@ -129,12 +134,7 @@ TEST(ModelFitter, ExactAndNumericDerivativesReachTheSameFit) {
 // is the same to the bit; only the deviations are NaN, and no parameter is
 // called poorly determined on their account.
 TEST(ModelFitter, StandardDeviationsCanBeLeftOutWithoutChangingTheFit) {
-  Bank truth = load_bank(kLtcBank, "truth.yaml");
-  Eigen::VectorXd true_parameters(8);
-  true_parameters << -4.0, 0.3, 0.2, -3.0, 0.35, 0.3, -0.7, 0.75;
-  ASSERT_TRUE(truth.models[0]->set_parameters(true_parameters, nullptr));
-  const Trajectory data = simulate_model(*truth.models[0], 1500, 0.02, rich_wheel_speeds, Eigen::Vector2d(1e-4, 1e-4),
-                                         Eigen::Vector2d(0.01, 0.01), 6);
+  const Trajectory data = simulate_ltc_log(1500, 6);
   FitOptions options;
   options.window = 0.2;
   Bank with = load_bank(kLtcBank, "with.yaml");
