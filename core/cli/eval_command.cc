@@ -1,5 +1,4 @@
 // skidimm eval: identification metrics over one or many logs.
-#include <algorithm>
 #include <iostream>
 #include <optional>
 
@@ -64,14 +63,7 @@ int eval(const EvalOptions& options) {
     long scored = 0;
     for (const evaluation::LogGroup& g : groups) scored += static_cast<long>(g.logs.size());
     for (const evaluation::LogFailure& f : failures) {
-      // Named by a file of the log, whatever the error itself names.
-      bool names_a_file = false;
-      for (std::size_t start = 0; start <= f.source.size() && !names_a_file;) {
-        const std::size_t end = std::min(f.source.find('+', start), f.source.size());
-        names_a_file = end > start && f.message.find(f.source.substr(start, end - start)) != std::string::npos;
-        start = end + 1;
-      }
-      std::cerr << "skidimm eval: error: " << printable(names_a_file ? f.message : f.source + ": " + f.message) << "\n";
+      std::cerr << "skidimm eval: error: " << printable(f.message) << "\n";
     }
     std::cerr << "skidimm eval: " << failures.size() << " of " << failures.size() + static_cast<std::size_t>(scored)
               << " log(s) failed and are left out of "

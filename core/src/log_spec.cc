@@ -16,6 +16,12 @@ std::string LogSpec::name() const {
   return out;
 }
 
+std::string joined_paths(const std::vector<LogFile>& files) {
+  std::string out;
+  for (const LogFile& f : files) out += (out.empty() ? "" : "+") + f.path.string();
+  return out;
+}
+
 LogSpec parse_log_spec(const std::string& text) {
   LogSpec spec;
   spec.text = text;

@@ -83,8 +83,7 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
                 (config.columns.truth_mode.empty() ? "" : "; the log has no column '" + config.columns.truth_mode + "'"));
   }
   LogResult result = evaluate_log(bank, &reader, log.name(), log.label, estimates, estimator);
-  result.source.clear();
-  for (const LogFile& f : log.files) result.source += (result.source.empty() ? "" : "+") + f.path.string();
+  result.source = joined_paths(log.files);
   return result;
 }
 

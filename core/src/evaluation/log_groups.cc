@@ -39,12 +39,13 @@ std::vector<LogJob> log_jobs(const std::vector<std::string>& arguments, const Lo
   return jobs;
 }
 
-// The source of a log as evaluate_log() and evaluate_estimates() name it:
-// its files' paths joined by '+'.
-std::string source_of(const LogSpec& log) {
-  std::string source;
-  for (const LogFile& f : log.files) source += (source.empty() ? "" : "+") + f.path.string();
-  return source;
+// A failing log's error, naming one of its files: as it is when it does,
+// else after the log's paths.
+std::string failure_message(const LogSpec& log, const std::string& error) {
+  for (const LogFile& f : log.files) {
+    if (error.find(f.path.string()) != std::string::npos) return error;
+  }
+  return joined_paths(log.files) + ": " + error;
 }
 
 std::vector<LogGroup> evaluate_groups(const std::vector<std::string>& arguments, const LogArgumentOptions& expansion,
@@ -72,12 +73,12 @@ std::vector<LogGroup> evaluate_groups(const std::vector<std::string>& arguments,
       results[static_cast<std::size_t>(i)] = evaluate(job.log);
     } catch (const std::exception& e) {
       failed[static_cast<std::size_t>(i)] = 1;
-      errors[static_cast<std::size_t>(i)] = e.what();
+      errors[static_cast<std::size_t>(i)] = failure_message(job.log, e.what());
     }
   });
   for (std::size_t i = 0; i < jobs.size(); ++i) {
     if (failed[i]) {
-      failures->push_back(LogFailure{groups[jobs[i].group].name, source_of(jobs[i].log), errors[i]});
+      failures->push_back(LogFailure{groups[jobs[i].group].name, joined_paths(jobs[i].log.files), errors[i]});
     } else {
       groups[jobs[i].group].logs.push_back(std::move(results[i]));
     }

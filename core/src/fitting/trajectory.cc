@@ -2,13 +2,15 @@
 
 #include <cstdio>
 
+#include "skidimm/io/log_spec.h"
+
 namespace skidimm {
 namespace fitting {
 
 Trajectory load_trajectory(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling) {
   LogReader reader(bank, files, sampling);
   Trajectory trajectory;
-  for (const LogFile& f : files) trajectory.source += (trajectory.source.empty() ? "" : "+") + f.path.string();
+  trajectory.source = joined_paths(files);
   trajectory.log = trajectory.source;
   std::vector<Eigen::VectorXd> inputs, measurements;
   LogSample sample;

@@ -26,7 +26,7 @@ struct LogGroup {
 struct LogFailure {
   std::string group;    // its argument's group name
   std::string source;   // the log as given: its files' paths joined by '+'
-  std::string message;  // the error, naming the file and line
+  std::string message;  // the error, naming one of the log's files (prefixed with them where it did not)
 };
 
 // Runs `bank` over every log of `arguments` and scores it (evaluate_log).

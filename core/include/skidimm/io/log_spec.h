@@ -23,6 +23,10 @@ struct LogFile {
   double time_offset = 0.0;
 };
 
+// The files' paths joined with '+': how eval --json keys a log and fit
+// reports name it.
+std::string joined_paths(const std::vector<LogFile>& files);
+
 // A log as given on the command line: "[LABEL=]FILE[@OFFSET][+FILE[@OFFSET]...]".
 // LABEL names the mode (or class) the whole log shows; OFFSET is in seconds.
 struct LogSpec {
