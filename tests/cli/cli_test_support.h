@@ -66,6 +66,17 @@ inline Result run_shell(const std::string& script) {
 // A bash script whose pipelines fail when any of their commands does (pipefail).
 inline Result run_pipeline(const std::string& script) { return run_shell("set -o pipefail\n" + script); }
 
+// `command` fails (exit 1) with `message` on stderr, before `not_reached`
+// (what the work it refused would have printed) appears there.
+inline void expect_refused_before(const std::string& command, const std::string& message,
+                                  const std::string& not_reached) {
+  SCOPED_TRACE(command);
+  const Result r = run_pipeline(command);
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find(message), std::string::npos) << "no '" << message << "' in:\n" << r.err;
+  EXPECT_EQ(r.err.find(not_reached), std::string::npos) << "'" << not_reached << "' reached:\n" << r.err;
+}
+
 // The command line of `skidimm run`, quiet, over one input.
 inline std::string run_command(const std::string& bank, const std::string& input, const std::string& output) {
   return kSkidimm + " run -q --bank " + bank + " --plugin-path " + kPlugins + " --input " + input + " --output " +

@@ -27,20 +27,13 @@ TEST(CliIo, TuneChecksWhereItWritesBeforeTheWork) {
   const std::string tune = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins + " --log " +
                            kSwitching + " --log " + kSwitching + " --objective none --tune dwell --no-assess";
   const fs::path missing = dir / "no_such_directory" / "tuned.yaml";
-  const Result bank = run_pipeline(tune + " --output-bank " + missing.string());
-  EXPECT_EQ(bank.exit_code, 1);
-  EXPECT_THAT(bank.err,
-              HasSubstr("--output-bank " + missing.string() + ": cannot write there: No such file or directory"));
-  EXPECT_THAT(bank.err, ::testing::Not(HasSubstr("work:")));
-  const Result table = run_pipeline(tune + " --table " + dir.string());
-  EXPECT_EQ(table.exit_code, 1);
-  EXPECT_THAT(table.err, HasSubstr("--table " + dir.string() + ": is a directory"));
-  EXPECT_THAT(table.err, ::testing::Not(HasSubstr("work:")));
+  expect_refused_before(tune + " --output-bank " + missing.string(),
+                        "--output-bank " + missing.string() + ": cannot write there: No such file or directory",
+                        "work:");
+  expect_refused_before(tune + " --table " + dir.string(), "--table " + dir.string() + ": is a directory", "work:");
   const fs::path file = write_file(dir / "a_file", "not a directory\n");
-  const Result estimates = run_pipeline(tune + " --estimates " + file.string());
-  EXPECT_EQ(estimates.exit_code, 1);
-  EXPECT_THAT(estimates.err, HasSubstr("--estimates " + file.string() + ": cannot make this directory"));
-  EXPECT_THAT(estimates.err, ::testing::Not(HasSubstr("work:")));
+  expect_refused_before(tune + " --estimates " + file.string(),
+                        "--estimates " + file.string() + ": cannot make this directory", "work:");
   // A directory that does not exist yet is made.
   const Result made = run_pipeline(tune + " --estimates " + (dir / "new" / "estimates").string());
   EXPECT_EQ(made.exit_code, 0) << made.err;
