@@ -22,7 +22,19 @@ namespace {
 class ParameterUncertainModel final : public sdk::MotionModel {
  public:
   ParameterUncertainModel(ModelHandle model, Eigen::MatrixXd covariance)
-      : model_(std::move(model)), covariance_(std::move(covariance)) {}
+      : model_(std::move(model)), covariance_(std::move(covariance)) {
+    // Sigma's nonzero entries by column: a fitted covariance is often block
+    // diagonal (fitting/parameter_covariance.h), and its exact zeros add
+    // nothing to G Sigma G'.
+    const Eigen::Index p = covariance_.rows();
+    column_start_.assign(1, 0);
+    for (Eigen::Index k = 0; k < p; ++k) {
+      for (Eigen::Index l = 0; l < p; ++l) {
+        if (covariance_(l, k) != 0.0) column_rows_.push_back(l);
+      }
+      column_start_.push_back(static_cast<Eigen::Index>(column_rows_.size()));
+    }
+  }
 
   const ModelHandle& wrapped() const { return model_; }
   const Eigen::MatrixXd& covariance() const { return covariance_; }
@@ -60,52 +72,68 @@ class ParameterUncertainModel final : public sdk::MotionModel {
     if (!model_->process_noise(intensity, x, u, dt, noise)) return false;
     try {
       // Sized once per thread: no allocation per step after the first.
-      thread_local Eigen::MatrixXd g, sigma_g;
-      thread_local std::vector<Eigen::Index> nonzero;
-      thread_local std::vector<Eigen::Index> row_start;
+      thread_local Eigen::MatrixXd g;
+      thread_local Eigen::VectorXd sigma_g;  // a column of Sigma G'
+      thread_local std::vector<Eigen::Index> nonzero, row_count, touched;
+      thread_local std::vector<char> is_touched;
       const Eigen::Index n = noise.rows();
       const Eigen::Index p = covariance_.rows();
       g.resize(n, p);
-      sigma_g.resize(p, n);
       if (!model_->parameter_jacobian(x, u, dt, g)) {
         own_failure() = "parameter_covariance: the model's parameter_jacobian() failed";
         return false;
       }
       // G is mostly zeros (a parameter moves the states it belongs to: in
-      // linear_features with a diagonal A, a ninth of G), so the products
-      // run over each row's nonzero entries: Sigma G' column by column, then
-      // G (Sigma G'). Dense, the BorealTC bank's 10 modes spent ten times a
+      // linear_features with a diagonal A, a ninth of G), and so is a
+      // fitted Sigma, so G Sigma G' runs over the nonzero entries of both:
+      // for each row i of G, the column i of Sigma G' at the rows it can be
+      // nonzero, then the lower triangle's row i of G (Sigma G'). Each sum
+      // in increasing index order, as the dense products take it, less the
+      // exact zeros. Dense, the BorealTC bank's 10 modes spent ten times a
       // step's filtering on it.
-      nonzero.resize(static_cast<std::size_t>(n * p));
-      row_start.resize(static_cast<std::size_t>(n + 1));
-      std::size_t count = 0;
-      for (Eigen::Index i = 0; i < n; ++i) {
-        row_start[static_cast<std::size_t>(i)] = static_cast<Eigen::Index>(count);
-        for (Eigen::Index k = 0; k < p; ++k) {
-          if (g(i, k) != 0.0) nonzero[count++] = k;
+      nonzero.resize(static_cast<std::size_t>(n * p));  // row i's at [i p, i p + row_count[i])
+      row_count.assign(static_cast<std::size_t>(n), 0);
+      // (Plain pointers: through the containers, every store would reload them.)
+      Eigen::Index* const nonzero_of = nonzero.data();
+      Eigen::Index* const count_of = row_count.data();
+      const double* const g_of = g.data();
+      for (Eigen::Index k = 0; k < p; ++k) {  // down the columns, as G is stored
+        for (Eigen::Index i = 0; i < n; ++i) {
+          if (g_of[k * n + i] != 0.0) nonzero_of[i * p + count_of[i]++] = k;
         }
       }
-      row_start[static_cast<std::size_t>(n)] = static_cast<Eigen::Index>(count);
+      const auto row = [nonzero_of, count_of, p](Eigen::Index i) {
+        const Eigen::Index* first = nonzero_of + i * p;
+        return std::make_pair(first, first + count_of[i]);
+      };
+      sigma_g.resize(p);
+      is_touched.assign(static_cast<std::size_t>(p), 0);
       for (Eigen::Index i = 0; i < n; ++i) {
-        auto column = sigma_g.col(i);
-        column.setZero();
-        for (Eigen::Index e = row_start[static_cast<std::size_t>(i)]; e < row_start[static_cast<std::size_t>(i + 1)];
-             ++e) {
-          const Eigen::Index k = nonzero[static_cast<std::size_t>(e)];
-          column += g(i, k) * covariance_.col(k);  // Sigma is symmetric: its column k is its row k
+        const auto [first, last] = row(i);
+        touched.clear();
+        for (const Eigen::Index* k = first; k != last; ++k) {
+          const double g_ik = g(i, *k);
+          for (Eigen::Index e = column_start_[static_cast<std::size_t>(*k)];
+               e < column_start_[static_cast<std::size_t>(*k + 1)]; ++e) {
+            const Eigen::Index l = column_rows_[static_cast<std::size_t>(e)];
+            if (!is_touched[static_cast<std::size_t>(l)]) {
+              is_touched[static_cast<std::size_t>(l)] = 1;
+              touched.push_back(l);
+              sigma_g[l] = 0.0;
+            }
+            sigma_g[l] += g_ik * covariance_(l, *k);
+          }
         }
-      }
-      for (Eigen::Index i = 0; i < n; ++i) {
         for (Eigen::Index j = 0; j <= i; ++j) {
+          const auto [j_first, j_last] = row(j);
           double added = 0.0;
-          for (Eigen::Index e = row_start[static_cast<std::size_t>(j)]; e < row_start[static_cast<std::size_t>(j + 1)];
-               ++e) {
-            const Eigen::Index k = nonzero[static_cast<std::size_t>(e)];
-            added += sigma_g(k, i) * g(j, k);
+          for (const Eigen::Index* l = j_first; l != j_last; ++l) {
+            if (is_touched[static_cast<std::size_t>(*l)]) added += sigma_g[*l] * g(j, *l);
           }
           noise(i, j) += added;
           if (j != i) noise(j, i) += added;
         }
+        for (const Eigen::Index l : touched) is_touched[static_cast<std::size_t>(l)] = 0;
       }
     } catch (...) {  // bad_alloc
       own_failure() = "parameter_covariance: out of memory";
@@ -136,28 +164,30 @@ class ParameterUncertainModel final : public sdk::MotionModel {
 
   ModelHandle model_;
   Eigen::MatrixXd covariance_;
+  // Sigma's nonzero entries: column k's rows are column_rows_[column_start_[k] .. column_start_[k + 1]).
+  std::vector<Eigen::Index> column_rows_;
+  std::vector<Eigen::Index> column_start_;
 };
 
-}  // namespace
-
-ModelHandle with_parameter_uncertainty(ModelHandle model, const Eigen::MatrixXd& covariance, double dt) {
+ModelHandle unwrapped(ModelHandle model) {
   if (const auto* wrapped = dynamic_cast<const ParameterUncertainModel*>(model.get())) {
-    model = ModelHandle(wrapped->wrapped());
+    return ModelHandle(wrapped->wrapped());
   }
-  if (covariance.size() == 0) return model;
-  const Eigen::Index p = static_cast<Eigen::Index>(model->parameter_info().size());
+  return model;
+}
+
+void check_size(const sdk::MotionModel& model, const Eigen::MatrixXd& covariance) {
+  const Eigen::Index p = static_cast<Eigen::Index>(model.parameter_info().size());
   if (covariance.rows() != p || covariance.cols() != p) {
     throw Error("a parameter covariance must be " + std::to_string(p) + "x" + std::to_string(p) +
                 " (one row and column per parameter of the model), got " + std::to_string(covariance.rows()) + "x" +
                 std::to_string(covariance.cols()));
   }
-  std::string why;
-  if (!check_parameter_covariance(covariance, &why)) throw Error("a parameter covariance must be a covariance: " + why);
-  // Written to 10 digits, a covariance with directions of no variance (held
-  // parameters, exact combinations) can read back a hair below zero there.
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(covariance);
-  const Eigen::MatrixXd psd =
-      eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() * eigen.eigenvectors().transpose();
+}
+
+// `model` (unwrapped) with `covariance` (checked) added to its process noise.
+ModelHandle wrapped_with(ModelHandle model, Eigen::MatrixXd covariance, double dt) {
+  const Eigen::Index p = covariance.rows();
   Eigen::MatrixXd g(model->state_dim(), p);
   const Eigen::VectorXd x = Eigen::VectorXd::Zero(model->state_dim());
   const Eigen::VectorXd u = Eigen::VectorXd::Zero(model->input_dim());
@@ -165,7 +195,25 @@ ModelHandle with_parameter_uncertainty(ModelHandle model, const Eigen::MatrixXd&
     model->failure_reason();  // clear it
     throw Error("the model gives no parameter Jacobian (parameter_jacobian()), which a parameter covariance needs");
   }
-  return ModelHandle(std::make_shared<ParameterUncertainModel>(std::move(model), 0.5 * (psd + psd.transpose())));
+  return ModelHandle(std::make_shared<ParameterUncertainModel>(std::move(model), std::move(covariance)));
+}
+
+double step_of(const Bank& bank) { return bank.config.sampling.rate > 0.0 ? 1.0 / bank.config.sampling.rate : 0.1; }
+
+}  // namespace
+
+ModelHandle with_parameter_uncertainty(ModelHandle model, const Eigen::MatrixXd& covariance, double dt) {
+  model = unwrapped(std::move(model));
+  if (covariance.size() == 0) return model;
+  check_size(*model, covariance);
+  std::string why;
+  if (!check_parameter_covariance(covariance, &why)) throw Error("a parameter covariance must be a covariance: " + why);
+  // Written to 10 digits, a covariance with directions of no variance (held
+  // parameters, exact combinations) can read back a hair below zero there.
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(covariance);
+  const Eigen::MatrixXd psd =
+      eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() * eigen.eigenvectors().transpose();
+  return wrapped_with(std::move(model), 0.5 * (psd + psd.transpose()), dt);
 }
 
 bool check_parameter_covariance(const Eigen::MatrixXd& covariance, std::string* why) {
@@ -202,8 +250,18 @@ const Eigen::MatrixXd& parameter_covariance_of(const sdk::MotionModel& model) {
 
 void set_parameter_covariance(Bank* bank, int mode, const Eigen::MatrixXd& covariance) {
   const std::size_t j = static_cast<std::size_t>(mode);
-  const double dt = bank->config.sampling.rate > 0.0 ? 1.0 / bank->config.sampling.rate : 0.1;
-  bank->models[j] = with_parameter_uncertainty(bank->models[j], covariance, dt);
+  bank->models[j] = with_parameter_uncertainty(bank->models[j], covariance, step_of(*bank));
+  bank->config.modes[j].parameter_covariance = covariance;
+}
+
+void set_fitted_parameter_covariance(Bank* bank, int mode, const Eigen::MatrixXd& covariance) {
+  const std::size_t j = static_cast<std::size_t>(mode);
+  ModelHandle model = unwrapped(bank->models[j]);
+  if (covariance.size() > 0) {
+    check_size(*model, covariance);
+    model = wrapped_with(std::move(model), covariance, step_of(*bank));
+  }
+  bank->models[j] = std::move(model);
   bank->config.modes[j].parameter_covariance = covariance;
 }
 

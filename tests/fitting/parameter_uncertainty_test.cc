@@ -112,9 +112,10 @@ TEST(ParameterCovariance, IsEachFeaturesRegressionCovarianceSSquaredTimesTheInve
             << "feature " << i << " (" << p << ", " << q << ")";
       }
     }
-    // No covariance between the features' parameters: each depends on its own errors.
+    // No covariance between the features' parameters, exactly: each depends
+    // on its own errors, and the information is inverted a block at a time.
     for (int p = 0; p < 3; ++p) {
-      for (int q = 0; q < 3; ++q) EXPECT_NEAR(report.parameter_covariance(index[i][p], index[1 - i][q]), 0.0, 1e-12);
+      for (int q = 0; q < 3; ++q) EXPECT_EQ(report.parameter_covariance(index[i][p], index[1 - i][q]), 0.0);
     }
   }
   // The prediction variance phi' Sigma phi is least at the inputs' mean and
@@ -161,8 +162,27 @@ std::string flow_matrix(const Eigen::MatrixXd& m) {
   return out + "]";
 }
 
-TEST(ParameterUncertainty, AddsPhiSigmaPhiToTheProcessNoise) {
-  const Eigen::MatrixXd sigma = some_covariance();
+// The process noise a covariance adds to the two-feature model at (u, dt),
+// by hand: x+_i depends on B[i,:] and c[i] through Gamma_i (B[i,:] u + c_i),
+// so the added covariance of states i and k is
+//   Gamma_i Gamma_k sum_{p in i, q in k} phi_p Sigma_pq phi_q,  phi = (u1, u2, 1).
+Eigen::Matrix2d added_by_hand(const Eigen::MatrixXd& sigma, const Eigen::Vector2d& u, double dt) {
+  const int index[2][3] = {{0, 1, 4}, {2, 3, 5}};
+  const double phi[3] = {u[0], u[1], 1.0};
+  const double g[2] = {std::expm1(-2.0 * dt) / -2.0, std::expm1(-3.0 * dt) / -3.0};
+  Eigen::Matrix2d added = Eigen::Matrix2d::Zero();
+  for (int i = 0; i < 2; ++i) {
+    for (int k = 0; k < 2; ++k) {
+      for (int p = 0; p < 3; ++p) {
+        for (int r = 0; r < 3; ++r) added(i, k) += phi[p] * sigma(index[i][p], index[k][r]) * phi[r];
+      }
+      added(i, k) *= g[i] * g[k];
+    }
+  }
+  return added;
+}
+
+void expect_added_as_by_hand(const Eigen::MatrixXd& sigma) {
   const Bank plain = load_two_features(bank_text(), "plain.yaml");
   const Bank uncertain =
       load_two_features(bank_text("    parameter_covariance: " + flow_matrix(sigma) + "\n"), "uncertain.yaml");
@@ -173,20 +193,10 @@ TEST(ParameterUncertainty, AddsPhiSigmaPhiToTheProcessNoise) {
   Eigen::MatrixXd without(2, 2), with(2, 2);
   ASSERT_TRUE(plain.models[0]->process_noise(q, x, u, dt, without));
   ASSERT_TRUE(uncertain.models[0]->process_noise(q, x, u, dt, with));
-  // By hand: x+_i depends on B[i,:] and c[i] through Gamma_i (B[i,:] u + c_i),
-  // so the added covariance of states i and k is
-  //   Gamma_i Gamma_k sum_{p in i, q in k} phi_p Sigma_pq phi_q,  phi = (u1, u2, 1).
-  const int index[2][3] = {{0, 1, 4}, {2, 3, 5}};
-  const double phi[3] = {u[0], u[1], 1.0};
-  const double g[2] = {std::expm1(-2.0 * dt) / -2.0, std::expm1(-3.0 * dt) / -3.0};
+  const Eigen::Matrix2d added = added_by_hand(sigma, u, dt);
   for (int i = 0; i < 2; ++i) {
     for (int k = 0; k < 2; ++k) {
-      double added = 0.0;
-      for (int p = 0; p < 3; ++p) {
-        for (int r = 0; r < 3; ++r) added += phi[p] * sigma(index[i][p], index[k][r]) * phi[r];
-      }
-      added *= g[i] * g[k];
-      EXPECT_NEAR(with(i, k), without(i, k) + added, 1e-12 * (1.0 + std::abs(added))) << i << ", " << k;
+      EXPECT_NEAR(with(i, k), without(i, k) + added(i, k), 1e-12 * (1.0 + std::abs(added(i, k)))) << i << ", " << k;
     }
   }
   // Everything else is the model's own.
@@ -196,6 +206,54 @@ TEST(ParameterUncertainty, AddsPhiSigmaPhiToTheProcessNoise) {
   EXPECT_EQ(a, b);
   EXPECT_TRUE(parameter_covariance_of(*uncertain.models[0]).isApprox(sigma, 1e-12));
   EXPECT_EQ(parameter_covariance_of(*plain.models[0]).size(), 0);
+}
+
+TEST(ParameterUncertainty, AddsPhiSigmaPhiToTheProcessNoise) { expect_added_as_by_hand(some_covariance()); }
+
+// A covariance with exact zeros between the features' parameters (as a fit
+// of separate regressions leaves it), which the filter skips, and one with
+// a parameter of no variance (a held one).
+TEST(ParameterUncertainty, AddsPhiSigmaPhiWhereTheCovarianceHasExactZeros) {
+  Eigen::MatrixXd blocks = some_covariance();
+  const int first[3] = {0, 1, 4}, second[3] = {2, 3, 5};
+  for (int p : first) {
+    for (int r : second) blocks(p, r) = blocks(r, p) = 0.0;
+  }
+  expect_added_as_by_hand(blocks);
+  Eigen::MatrixXd held = blocks;
+  held.row(1).setZero();
+  held.col(1).setZero();
+  expect_added_as_by_hand(held);
+}
+
+// The tune's path: a fit's covariance is taken as it is, unchecked but for
+// its size, and gives the process noise a checked one gives.
+TEST(ParameterUncertainty, AFittedCovarianceIsTakenAsItIsButItsSizeIsChecked) {
+  const Eigen::MatrixXd sigma = some_covariance();
+  Bank checked = load_two_features(bank_text(), "checked.yaml");
+  Bank fitted = load_two_features(bank_text(), "fitted.yaml");
+  set_parameter_covariance(&checked, 0, sigma);
+  set_fitted_parameter_covariance(&fitted, 0, sigma);
+  EXPECT_EQ(parameter_covariance_of(*fitted.models[0]), sigma);
+  EXPECT_EQ(fitted.config.modes[0].parameter_covariance, sigma);
+  const Eigen::MatrixXd q = fitted.config.modes[0].q_intensity;
+  const Eigen::Vector2d x(0.1, 0.4), u(-0.5, 3.0);
+  Eigen::MatrixXd a(2, 2), b(2, 2);
+  ASSERT_TRUE(checked.models[0]->process_noise(q, x, u, 0.5, a));
+  ASSERT_TRUE(fitted.models[0]->process_noise(q, x, u, 0.5, b));
+  EXPECT_TRUE(b.isApprox(a, 1e-12));
+  // Swapped for another, not stacked on it; an empty one removes it.
+  set_fitted_parameter_covariance(&fitted, 0, 2.0 * sigma);
+  EXPECT_EQ(parameter_covariance_of(*fitted.models[0]), 2.0 * sigma);
+  set_fitted_parameter_covariance(&fitted, 0, Eigen::MatrixXd());
+  EXPECT_EQ(parameter_covariance_of(*fitted.models[0]).size(), 0);
+  EXPECT_EQ(fitted.config.modes[0].parameter_covariance.size(), 0);
+  try {
+    set_fitted_parameter_covariance(&fitted, 0, Eigen::MatrixXd::Identity(5, 5));
+    ADD_FAILURE() << "took a 5x5 covariance for 6 parameters";
+  } catch (const Error& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("must be 6x6 (one row and column per parameter of the model), got 5x5"));
+  }
 }
 
 void expect_bank_error(const std::string& covariance, const std::string& what) {
@@ -238,13 +296,13 @@ TEST(ParameterUncertainty, FitBankAndTuningSetTheCovarianceAndARefitWithoutItRem
   const FitReport report = fit_bank(&bank, data, options).at(0);
   ASSERT_EQ(report.parameter_covariance.rows(), 6);
   EXPECT_EQ(bank.config.modes[0].parameter_covariance, report.parameter_covariance);
-  EXPECT_TRUE(parameter_covariance_of(*bank.models[0]).isApprox(report.parameter_covariance, 1e-12));
+  EXPECT_EQ(parameter_covariance_of(*bank.models[0]), report.parameter_covariance);
   // Tuning carries it from a fold's fit to the bank it scores.
   const FittedValues values = values_of(bank);
   Bank other = load_two_features(bank_text(), "other.yaml");
   apply(values, TunedSettings{}, &other);
   EXPECT_EQ(other.config.modes[0].parameter_covariance, report.parameter_covariance);
-  EXPECT_TRUE(parameter_covariance_of(*other.models[0]).isApprox(report.parameter_covariance, 1e-12));
+  EXPECT_EQ(parameter_covariance_of(*other.models[0]), report.parameter_covariance);
   // Refitted without the option, the old covariance (of other parameters) goes.
   options.parameter_uncertainty = false;
   fit_bank(&bank, data, options);

@@ -190,7 +190,7 @@ std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data,
     if (options.output_noise) config.r = output_noise_from_fit(bank->config, report.rmse);
     if (options.parameter_uncertainty || config.parameter_covariance.size() > 0) {
       try {
-        set_parameter_covariance(bank, mode, report.parameter_covariance);
+        set_fitted_parameter_covariance(bank, mode, report.parameter_covariance);
       } catch (const Error& e) {
         throw FitError("mode '" + config.name + "': " + e.what());
       }

@@ -75,20 +75,70 @@ class ParameterCovarianceEstimate {
         for (Eigen::Index b = 0; b < q; ++b) information(a, b) += full(index[a], index[b]) / variance;
       }
     }
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(information);
-    if (eigen.info() != Eigen::Success) return out;
-    const Eigen::VectorXd& lambda = eigen.eigenvalues();
-    const double tiny = 1e-12 * std::max(0.0, lambda.maxCoeff()) + std::numeric_limits<double>::min();
-    Eigen::VectorXd inverse(q);
-    for (Eigen::Index i = 0; i < q; ++i) inverse[i] = lambda[i] > tiny ? 1.0 / lambda[i] : 0.0;
-    const Eigen::MatrixXd sigma = eigen.eigenvectors() * inverse.asDiagonal() * eigen.eigenvectors().transpose();
-    for (Eigen::Index a = 0; a < q; ++a) {
-      for (Eigen::Index b = 0; b < q; ++b) out(index[a], index[b]) = 0.5 * (sigma(a, b) + sigma(b, a));
+    // The information is block diagonal when groups of parameters are
+    // estimated from separate residuals (each feature's regression in
+    // linear_features), and so is its inverse: inverted a block at a time,
+    // the zeros between blocks stay exact, which the filter's use of the
+    // covariance skips (parameter_uncertainty.cc), instead of rounding
+    // noise. The same eigenvalues, so the same threshold: relative to the
+    // largest of all blocks.
+    const std::vector<std::vector<Eigen::Index>> blocks = coupled_blocks(information);
+    std::vector<Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>> eigen(blocks.size());
+    double largest = 0.0;
+    for (std::size_t k = 0; k < blocks.size(); ++k) {
+      const std::vector<Eigen::Index>& b = blocks[k];
+      eigen[k].compute(information(b, b));
+      if (eigen[k].info() != Eigen::Success) return out;
+      largest = std::max(largest, eigen[k].eigenvalues().maxCoeff());
+    }
+    const double tiny = 1e-12 * largest + std::numeric_limits<double>::min();
+    for (std::size_t k = 0; k < blocks.size(); ++k) {
+      const std::vector<Eigen::Index>& b = blocks[k];
+      const Eigen::VectorXd& lambda = eigen[k].eigenvalues();
+      Eigen::VectorXd inverse(lambda.size());
+      for (Eigen::Index i = 0; i < lambda.size(); ++i) inverse[i] = lambda[i] > tiny ? 1.0 / lambda[i] : 0.0;
+      const Eigen::MatrixXd sigma = eigen[k].eigenvectors() * inverse.asDiagonal() * eigen[k].eigenvectors().transpose();
+      for (std::size_t a = 0; a < b.size(); ++a) {
+        for (std::size_t c = 0; c < b.size(); ++c) {
+          out(index[static_cast<std::size_t>(b[a])], index[static_cast<std::size_t>(b[c])]) =
+              0.5 * (sigma(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(c)) +
+                     sigma(static_cast<Eigen::Index>(c), static_cast<Eigen::Index>(a)));
+        }
+      }
     }
     return out;
   }
 
  private:
+  // The indices of a symmetric matrix grouped into the blocks its nonzero
+  // entries couple (connected components), each in increasing order, the
+  // blocks ordered by their first index.
+  static std::vector<std::vector<Eigen::Index>> coupled_blocks(const Eigen::MatrixXd& m) {
+    const Eigen::Index q = m.rows();
+    std::vector<Eigen::Index> block(static_cast<std::size_t>(q), -1);
+    std::vector<std::vector<Eigen::Index>> blocks;
+    for (Eigen::Index start = 0; start < q; ++start) {
+      if (block[static_cast<std::size_t>(start)] >= 0) continue;
+      const Eigen::Index id = static_cast<Eigen::Index>(blocks.size());
+      std::vector<Eigen::Index> members{start}, todo{start};
+      block[static_cast<std::size_t>(start)] = id;
+      while (!todo.empty()) {
+        const Eigen::Index a = todo.back();
+        todo.pop_back();
+        for (Eigen::Index b = 0; b < q; ++b) {
+          if (block[static_cast<std::size_t>(b)] < 0 && (m(a, b) != 0.0 || m(b, a) != 0.0)) {
+            block[static_cast<std::size_t>(b)] = id;
+            members.push_back(b);
+            todo.push_back(b);
+          }
+        }
+      }
+      std::sort(members.begin(), members.end());
+      blocks.push_back(std::move(members));
+    }
+    return blocks;
+  }
+
   std::vector<Eigen::MatrixXd> information_;  // per channel, sum J_c' J_c (lower triangle)
   Eigen::VectorXd squares_;                   // per channel, the sum of squared residuals
   Eigen::VectorXd counts_;                    // per channel, its residual rows

@@ -127,7 +127,7 @@ void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
     const Eigen::MatrixXd& covariance = fitted.parameter_covariance[j];
     const Eigen::MatrixXd& now = config.modes[j].parameter_covariance;
     if (now.size() != covariance.size() || now != covariance) {
-      set_parameter_covariance(bank, static_cast<int>(j), covariance);
+      set_fitted_parameter_covariance(bank, static_cast<int>(j), covariance);
     }
   }
 }

@@ -52,6 +52,15 @@ const Eigen::MatrixXd& parameter_covariance_of(const sdk::MotionModel& model);
 // empty one removes it). Throws Error as with_parameter_uncertainty().
 void set_parameter_covariance(Bank* bank, int mode, const Eigen::MatrixXd& covariance);
 
+// As set_parameter_covariance(), for a covariance a fit has computed (the
+// fit report's parameter_covariance: symmetric and positive semi-definite by
+// construction) or one a loaded bank holds (checked when it was read), which
+// is taken as it is: only its size is checked. A tune swaps each fold's
+// covariances into its banks hundreds of times, and the eigendecompositions
+// that check and clean a covariance read from a file cost more there than
+// the filtering.
+void set_fitted_parameter_covariance(Bank* bank, int mode, const Eigen::MatrixXd& covariance);
+
 }  // namespace skidimm
 
 #endif  // SKIDIMM_ENGINE_PARAMETER_UNCERTAINTY_H_
