@@ -30,9 +30,15 @@ class ParameterUncertainModel final : public sdk::MotionModel {
     column_start_.assign(1, 0);
     for (Eigen::Index k = 0; k < p; ++k) {
       for (Eigen::Index l = 0; l < p; ++l) {
-        if (covariance_(l, k) != 0.0) column_rows_.push_back(l);
+        if (covariance_(l, k) != 0.0) {
+          column_rows_.push_back(l);
+          column_values_.push_back(covariance_(l, k));
+        }
       }
       column_start_.push_back(static_cast<Eigen::Index>(column_rows_.size()));
+      if (column_start_[static_cast<std::size_t>(k + 1)] > column_start_[static_cast<std::size_t>(k)]) {
+        uncertain_.push_back(k);
+      }
     }
   }
 
@@ -97,9 +103,14 @@ class ParameterUncertainModel final : public sdk::MotionModel {
       Eigen::Index* const nonzero_of = nonzero.data();
       Eigen::Index* const count_of = row_count.data();
       const double* const g_of = g.data();
-      for (Eigen::Index k = 0; k < p; ++k) {  // down the columns, as G is stored
+      // Down the columns, as G is stored; only those of parameters with some
+      // variance (a held parameter's column of G adds nothing).
+      // Without a branch per entry: k is written at row i's next place
+      // either way, and kept by counting it only when G(i, k) is nonzero.
+      for (const Eigen::Index k : uncertain_) {
         for (Eigen::Index i = 0; i < n; ++i) {
-          if (g_of[k * n + i] != 0.0) nonzero_of[i * p + count_of[i]++] = k;
+          nonzero_of[i * p + count_of[i]] = k;
+          count_of[i] += g_of[k * n + i] != 0.0;
         }
       }
       const auto row = [nonzero_of, count_of, p](Eigen::Index i) {
@@ -108,32 +119,38 @@ class ParameterUncertainModel final : public sdk::MotionModel {
       };
       sigma_g.resize(p);
       is_touched.assign(static_cast<std::size_t>(p), 0);
+      touched.resize(static_cast<std::size_t>(p));
+      double* const column_i = sigma_g.data();
+      char* const seen = is_touched.data();
+      Eigen::Index* const touched_of = touched.data();
+      const Eigen::Index* const start_of = column_start_.data();
+      const Eigen::Index* const rows_of = column_rows_.data();
+      const double* const values_of = column_values_.data();
       for (Eigen::Index i = 0; i < n; ++i) {
         const auto [first, last] = row(i);
-        touched.clear();
+        Eigen::Index touched_count = 0;
         for (const Eigen::Index* k = first; k != last; ++k) {
-          const double g_ik = g(i, *k);
-          for (Eigen::Index e = column_start_[static_cast<std::size_t>(*k)];
-               e < column_start_[static_cast<std::size_t>(*k + 1)]; ++e) {
-            const Eigen::Index l = column_rows_[static_cast<std::size_t>(e)];
-            if (!is_touched[static_cast<std::size_t>(l)]) {
-              is_touched[static_cast<std::size_t>(l)] = 1;
-              touched.push_back(l);
-              sigma_g[l] = 0.0;
+          const double g_ik = g_of[*k * n + i];
+          for (Eigen::Index e = start_of[*k]; e < start_of[*k + 1]; ++e) {
+            const Eigen::Index l = rows_of[e];
+            if (!seen[l]) {
+              seen[l] = 1;
+              touched_of[touched_count++] = l;
+              column_i[l] = 0.0;
             }
-            sigma_g[l] += g_ik * covariance_(l, *k);
+            column_i[l] += g_ik * values_of[e];
           }
         }
         for (Eigen::Index j = 0; j <= i; ++j) {
           const auto [j_first, j_last] = row(j);
           double added = 0.0;
           for (const Eigen::Index* l = j_first; l != j_last; ++l) {
-            if (is_touched[static_cast<std::size_t>(*l)]) added += sigma_g[*l] * g(j, *l);
+            if (seen[*l]) added += column_i[*l] * g_of[*l * n + j];
           }
           noise(i, j) += added;
           if (j != i) noise(j, i) += added;
         }
-        for (const Eigen::Index l : touched) is_touched[static_cast<std::size_t>(l)] = 0;
+        for (Eigen::Index t = 0; t < touched_count; ++t) seen[touched_of[t]] = 0;
       }
     } catch (...) {  // bad_alloc
       own_failure() = "parameter_covariance: out of memory";
@@ -164,9 +181,12 @@ class ParameterUncertainModel final : public sdk::MotionModel {
 
   ModelHandle model_;
   Eigen::MatrixXd covariance_;
-  // Sigma's nonzero entries: column k's rows are column_rows_[column_start_[k] .. column_start_[k + 1]).
+  // Sigma's nonzero entries: column k's rows are column_rows_[column_start_[k] .. column_start_[k + 1]),
+  // their values column_values_[...] at the same places.
   std::vector<Eigen::Index> column_rows_;
+  std::vector<double> column_values_;
   std::vector<Eigen::Index> column_start_;
+  std::vector<Eigen::Index> uncertain_;  // the columns with some nonzero entry
 };
 
 ModelHandle unwrapped(ModelHandle model) {

@@ -270,9 +270,14 @@ struct LinearFeatures {
     if (is_diagonal(layout)) {
       const double* a = p + a_row.offset;
       for (int i = 0; i < n; ++i) {
-        if (!a_row.fixed)
+        if (!a_row.fixed) {
           d(i, a_row.offset + i) = dt * std::exp(a[i] * dt) * x[i] + exp_integral_derivative(a[i], dt) * w[i];
-        gamma(i, i) = exp_integral(a[i], dt);
+          gamma(i, i) = exp_integral(a[i], dt);
+        } else {
+          // A filter's steps repeat one rate and step size (a mode's
+          // parameter uncertainty asks for this at every step).
+          gamma(i, i) = last_diagonal_zoh(a[i], dt).gamma;
+        }
       }
     } else if (!a_row.fixed) {
       Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxStates, kMaxStates * kMaxStates> d_a(n, n * n);
@@ -285,11 +290,20 @@ struct LinearFeatures {
       d.setConstant(kNotANumber);
       return;
     }
+    // With a diagonal A each parameter of row r moves state r alone, so of
+    // the columns Gamma(:, r) u_j only the entry r is written: the rest are
+    // the zeros d holds.
+    const bool diagonal = is_diagonal(layout);
     for (int r = 0; r < n; ++r) {
+      const int first = diagonal ? r : 0, rows = diagonal ? 1 : n;
       if (b_row.present() && !b_row.fixed) {
-        for (int j = 0; j < m; ++j) d.col(b_row.offset + r * m + j) = gamma.col(r) * u[j];
+        for (int j = 0; j < m; ++j) {
+          d.col(b_row.offset + r * m + j).segment(first, rows) = gamma.col(r).segment(first, rows) * u[j];
+        }
       }
-      if (c_row.present() && !c_row.fixed) d.col(c_row.offset + r) = gamma.col(r);
+      if (c_row.present() && !c_row.fixed) {
+        d.col(c_row.offset + r).segment(first, rows) = gamma.col(r).segment(first, rows);
+      }
     }
   }
 

@@ -254,6 +254,29 @@ TEST(BankShapedFunctionModel, ConformsWithItsHandWrittenParameterJacobian) {
   EXPECT_DOUBLE_EQ(jacobian(1, 0), 0.0);
 }
 
+// A parameter Jacobian that is not finite names its first such entry among
+// the parameters the model fits; one in a held parameter's column, which
+// the model drops, is no failure.
+TEST(BankShapedFunctionModel, AParameterJacobianNotFiniteNamesItsEntryUnlessTheColumnIsHeld) {
+  const Eigen::Vector3d x(1e308, 0.0, 0.0);  // d a+ / d k_0 = -dt a overflows at dt = 10
+  const Eigen::Vector2d u(1.0, 2.0);
+  std::string error;
+  auto model = BankDecayModel::Create(decay_params(), &error);
+  ASSERT_TRUE(model) << error;
+  Eigen::MatrixXd jacobian(3, 4);
+  EXPECT_FALSE(model->parameter_jacobian(x, u, 10.0, jacobian));
+  EXPECT_THAT(std::string(model->failure_reason()),
+              HasSubstr("parameter_jacobian() is not finite: entry (row 0 'a', column 0 'k[0]') = -inf"));
+
+  sdk::ParameterSet held = decay_params();
+  held.set_text("hold", {"k"});
+  auto holding = BankDecayModel::Create(held, &error);
+  ASSERT_TRUE(holding) << error;
+  Eigen::MatrixXd g_only(3, 1);
+  ASSERT_TRUE(holding->parameter_jacobian(x, u, 10.0, g_only)) << holding->failure_reason();
+  EXPECT_EQ(g_only, Eigen::Vector3d::Constant(30.0));  // d x+ / d g = dt sum(u)
+}
+
 TEST(BankShapedFunctionModel, ThePluginInfoShowsTheTableWithoutStatesOrInputs) {
   const sdk::PluginInfo& info = BankDecayModel::info();
   EXPECT_STREQ(info.name, "bank_decay");
