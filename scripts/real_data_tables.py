@@ -24,7 +24,15 @@ HELD_OUT = {
     "sessions": "each session (neighbouring run numbers)",
     "extrapolation-speed": "per terrain, the fastest-driven runs",
     "extrapolation-turn": "per terrain, the runs turning the most",
-    "lockbox": "**the lockbox**: 10 runs never used for any choice, scored once",
+    "lockbox": "**the lockbox**: 10 runs no fit, setting or choice used",
+}
+# The same, short, inside a sentence.
+SHORT = {
+    "logs": "each run",
+    "sessions": "each session",
+    "extrapolation-speed": "the fastest-driven runs",
+    "extrapolation-turn": "the runs turning the most",
+    "lockbox": "the lockbox",
 }
 TITLES = {
     "logs": "logs",
@@ -132,23 +140,30 @@ def verdict_word(verdict):
     return verdict
 
 
-def protocols(work):
-    """The headline table (every protocol, the most pessimistic first), the per-terrain table, and the
-    protocols' summaries for the other blocks."""
-    blocks = tune_blocks(os.path.join(work, "borealtc", "tune.txt"))
-    kinds = scores_by_kind(os.path.join(work, "borealtc", "scores.csv"))
+def assessed(work, prefix=""):
+    """A design's scores on every protocol and the lockbox ({prefix}tune.txt, {prefix}scores.csv and
+    {prefix}eval_<slug>.json), by slug: tune's block, eval's overall metrics and the table's rows; and
+    tune's blocks."""
+    blocks = tune_blocks(os.path.join(work, "borealtc", f"{prefix}tune.txt"))
+    kinds = scores_by_kind(os.path.join(work, "borealtc", f"{prefix}scores.csv"))
     summary = {}
     for slug in HELD_OUT:
-        evaluation = json.load(open(os.path.join(work, "borealtc", f"eval_{slug}.json")))["overall"]
+        evaluation = json.load(open(os.path.join(work, "borealtc", f"{prefix}eval_{slug}.json")))["overall"]
         tuned = blocks[slug]
         mean = evaluation["mean_over_classes"]["accuracy"]
         if f"{tuned['mean']:.3f}" != f"{mean:.3f}":
-            sys.exit(f"{slug}: tune's mean over classes {tuned['mean']:.3f} differs from eval's {mean:.3f}")
+            sys.exit(f"{prefix}{slug}: tune's mean over classes {tuned['mean']:.3f} differs from eval's {mean:.3f}")
         for c, (a, _) in tuned["classes"].items():
             if f"{a:.3f}" != f"{evaluation['mean_over_classes']['per_class'][c]['accuracy']:.3f}":
-                sys.exit(f"{slug}, {c}: tune's accuracy differs from eval's")
-        rows = kinds[slug]
-        summary[slug] = {"tune": tuned, "eval": evaluation, "rows": rows}
+                sys.exit(f"{prefix}{slug}, {c}: tune's accuracy differs from eval's")
+        summary[slug] = {"tune": tuned, "eval": evaluation, "rows": kinds[slug]}
+    return summary, blocks
+
+
+def protocols(work):
+    """The headline table (every protocol, the most pessimistic first), the per-terrain table, and the
+    protocols' summaries for the other blocks."""
+    summary, blocks = assessed(work)
 
     order = sorted(HELD_OUT, key=lambda s: summary[s]["tune"]["mean"])
     lines = ["| held out | runs scored | mean over terrains | worst terrain | runs below 50% | mean log p(truth) | "
@@ -233,8 +248,9 @@ def confusion(summary, work):
 
 
 def physics(work, summary):
+    """The first design's form against the physics-shaped one, neither with parameter uncertainty."""
     other = tune_blocks(os.path.join(work, "borealtc", "physics_tune.txt"))
-    lines = ["| held out | straight lines in speed and turn (the bank) | physics-shaped inputs |", "|---|---|---|"]
+    lines = ["| held out | straight lines in speed and turn (the bank's form) | physics-shaped inputs |", "|---|---|---|"]
     for slug in ("logs", "sessions", "extrapolation-speed", "extrapolation-turn"):
         ours = summary[slug]["tune"]
         theirs = other[slug]
@@ -249,27 +265,24 @@ def physics(work, summary):
                "**the physics-shaped form now scores better over the protocols than the bank's form**")
     return "\n".join(lines) + (
         "\n\nMean over terrains, the mean held-out log p(truth) in brackets; the same development runs, folds and "
-        f"searched settings. Mean over the four protocols: {pct(sum(ours) / 4)} for the bank's form, "
+        f"searched settings, neither form with parameter uncertainty. Mean over the four protocols: {pct(sum(ours) / 4)} for the bank's form, "
         f"{pct(sum(theirs) / 4)} for the physics-shaped form; the worst protocol: {pct(min(ours))} against "
         f"{pct(min(theirs))}: {verdict}. The physics-shaped form is better "
         f"{'on: ' + '; '.join(better) if better else 'on none of them'}. Chosen for it on every development run: "
         f"{other['chosen']}.\n")
 
 
-def extrapolation_rows(work, summary, prefix, column, with_name):
-    """The design against one variant of it (its tune and eval files named by prefix), on the extrapolation
-    protocols: the table's rows, the lists of what got better and worse, and the variant's tune blocks."""
-    other = tune_blocks(os.path.join(work, "borealtc", f"{prefix}_tune.txt"))
-    kinds = scores_by_kind(os.path.join(work, "borealtc", f"{prefix}_scores.csv"))
+FIRST = "without (the first design)"
+
+
+def comparison_rows(base, variant, slugs, column, base_name, with_name):
+    """Two designs' scores on the held-out sets `slugs` (each: slug -> (tune block, eval overall, table rows)):
+    the table's rows, and the lists of what got better and worse from the first to the second."""
     lines = [f"| held out | {column} | mean over terrains | mean log p(truth) | "
              "time at p >= 0.9: share, right | calibration error | the two worst runs |", "|---|---|---|---|---|---|---|"]
     better, worse = [], []
-    for slug in ("extrapolation-speed", "extrapolation-turn"):
-        evaluation = json.load(open(os.path.join(work, "borealtc", f"{prefix}_eval_{slug}.json")))["overall"]
-        if f"{other[slug]['mean']:.3f}" != f"{evaluation['mean_over_classes']['accuracy']:.3f}":
-            sys.exit(f"{prefix}, {slug}: tune's mean over classes differs from eval's")
-        forms = {"without (the design)": (summary[slug]["tune"], summary[slug]["eval"], summary[slug]["rows"]),
-                 with_name: (other[slug], evaluation, kinds[slug])}
+    for slug in slugs:
+        forms = {base_name: base[slug], with_name: variant[slug]}
         for name, (tuned, ev, rows) in forms.items():
             cal = ev["calibration"]
             worst = sorted(rows, key=lambda r: float(r["accuracy"]))[:2]
@@ -277,7 +290,7 @@ def extrapolation_rows(work, summary, prefix, column, with_name):
             lines.append(f"| {HELD_OUT[slug]} | {name} | {pct(tuned['mean'])} | {fmt(tuned['log_p'], 2)} | "
                          f"{pct(cal['confident_fraction'])}, {pct(cal['confident_accuracy'])} | "
                          f"{fmt(cal['expected_calibration_error'])} | {worst_text} |")
-        without, with_ = forms["without (the design)"], forms[with_name]
+        without, with_ = forms[base_name], forms[with_name]
         for label, a, b, higher in (
                 ("accuracy", without[0]["mean"], with_[0]["mean"], True),
                 ("mean log p(truth)", without[0]["log_p"], with_[0]["log_p"], True),
@@ -287,13 +300,34 @@ def extrapolation_rows(work, summary, prefix, column, with_name):
                  with_[1]["calibration"]["expected_calibration_error"], False)):
             if round(a, 3) == round(b, 3):
                 continue
-            (better if (b > a) == higher else worse).append(f"{label} ({HELD_OUT[slug].split(', ')[1]})")
+            (better if (b > a) == higher else worse).append(f"{label} ({SHORT[slug]})")
+    return lines, better, worse
+
+
+def as_forms(summary, slugs):
+    return {slug: (summary[slug]["tune"], summary[slug]["eval"], summary[slug]["rows"]) for slug in slugs}
+
+
+def extrapolation_rows(work, first, prefix, column, with_name):
+    """The first design against one variant of it (its tune and eval files named by prefix), on the
+    extrapolation protocols: the table's rows, the lists of what got better and worse, and the variant's tune
+    blocks."""
+    slugs = ("extrapolation-speed", "extrapolation-turn")
+    other = tune_blocks(os.path.join(work, "borealtc", f"{prefix}_tune.txt"))
+    kinds = scores_by_kind(os.path.join(work, "borealtc", f"{prefix}_scores.csv"))
+    variant = {}
+    for slug in slugs:
+        evaluation = json.load(open(os.path.join(work, "borealtc", f"{prefix}_eval_{slug}.json")))["overall"]
+        if f"{other[slug]['mean']:.3f}" != f"{evaluation['mean_over_classes']['accuracy']:.3f}":
+            sys.exit(f"{prefix}, {slug}: tune's mean over classes differs from eval's")
+        variant[slug] = (other[slug], evaluation, kinds[slug])
+    lines, better, worse = comparison_rows(as_forms(first, slugs), variant, slugs, column, FIRST, with_name)
     return lines, better, worse, other
 
 
-def extrapolation_comparison(work, summary, prefix, column, with_name, intro):
-    """The design against one variant of it on the extrapolation protocols, and the verdict."""
-    lines, better, worse, other = extrapolation_rows(work, summary, prefix, column, with_name)
+def extrapolation_comparison(work, first, prefix, column, with_name, intro):
+    """The first design against one variant of it on the extrapolation protocols, and the verdict."""
+    lines, better, worse, other = extrapolation_rows(work, first, prefix, column, with_name)
     return "\n".join(lines) + (
         f"\n\nThe same development runs, folds and searched settings; the lockbox does not score this. {intro} "
         f"the scores are better in {len(better)} and worse in {len(worse)} of the {len(better) + len(worse)} "
@@ -301,16 +335,31 @@ def extrapolation_comparison(work, summary, prefix, column, with_name, intro):
         f"Chosen with it on every development run: {other['chosen']}.")
 
 
-def uncertainty(work, summary):
-    """The design with and without each mode's parameter uncertainty, on the extrapolation protocols."""
-    return extrapolation_comparison(work, summary, "uncertainty", "parameter uncertainty", "with",
-                                     "With parameter uncertainty") + "\n"
+def uncertainty(first, summary, first_blocks):
+    """The first design against the design, which adds each mode's parameter uncertainty: every protocol on the
+    development runs, then the lockbox."""
+    development = ("logs", "sessions", "extrapolation-speed", "extrapolation-turn")
+    lines, better, worse = comparison_rows(as_forms(first, development), as_forms(summary, development), development,
+                                           "parameter uncertainty", FIRST, "with (the design)")
+    box, box_better, box_worse = comparison_rows(as_forms(first, ("lockbox",)), as_forms(summary, ("lockbox",)),
+                                                 ("lockbox",), "parameter uncertainty", FIRST, "with (the design)")
+    mean = lambda s: sum(s[slug]["tune"]["mean"] for slug in development) / len(development)
+    worst = lambda s: min(s[slug]["tune"]["mean"] for slug in development)
+    return "\n".join(lines + box[2:]) + (
+        f"\n\nOn the development runs, the same folds and searched settings: mean over the four protocols "
+        f"{pct(mean(first))} without, {pct(mean(summary))} with; the worst protocol {pct(worst(first))} against "
+        f"{pct(worst(summary))}. With parameter uncertainty the development scores are better in {len(better)} and "
+        f"worse in {len(worse)} of the {len(better) + len(worse)} that differ: better: "
+        f"{'; '.join(better) if better else 'none'}; worse: {'; '.join(worse) if worse else 'none'}. On the lockbox, "
+        f"better: {'; '.join(x.split(' (')[0] for x in box_better) if box_better else 'none'}; worse: "
+        f"{'; '.join(x.split(' (')[0] for x in box_worse) if box_worse else 'none'}. The first design's settings, chosen on every development "
+        f"run: {first_blocks['chosen']}.\n")
 
 
-def unknown(work, summary):
+def unknown(work, first):
     """The design with and without an unknown hypothesis, on the extrapolation protocols, and how much of the
     held-out time the unknown hypothesis held."""
-    text = extrapolation_comparison(work, summary, "unknown", "unknown hypothesis", "with",
+    text = extrapolation_comparison(work, first, "unknown", "unknown hypothesis", "with",
                                     "With the unknown hypothesis")
     held = []
     for slug in ("extrapolation-speed", "extrapolation-turn"):
@@ -326,20 +375,20 @@ def unknown(work, summary):
     return text + " The unknown hypothesis on the held-out runs: " + "; ".join(held) + ".\n"
 
 
-def correlation(work, summary):
+def correlation(work, first):
     """The design with and without correlated innovations: the extrapolation protocols, and development runs
     spliced end to end scored by each development bank."""
-    lines, _, _, other = extrapolation_rows(work, summary, "correlation", "correlated innovations", "with")
+    lines, _, _, other = extrapolation_rows(work, first, "correlation", "correlated innovations", "with")
     rhos = [float(x) for x in re.findall(r"^    residual_correlation: (\S+)$",
                                          read(os.path.join(work, "borealtc", "correlation_development.yaml")), re.M)]
     if not rhos:
         sys.exit("correlation: the development bank has no residual_correlation")
-    splice_lines = ["| development runs spliced (fitted on them) | without (the design) | with |", "|---|---|---|"]
+    splice_lines = ["| development runs spliced (fitted on them) | without (the first design) | with |", "|---|---|---|"]
     spliced = {}
-    for bank in ("development", "correlation_development"):
+    for bank in ("first_development", "correlation_development"):
         spliced[bank] = json.load(open(os.path.join(work, "splices", f"{bank}_eval.json")))["overall"]
     def row(label, cell):
-        splice_lines.append(f"| {label} | {cell(spliced['development'])} | {cell(spliced['correlation_development'])} |")
+        splice_lines.append(f"| {label} | {cell(spliced['first_development'])} | {cell(spliced['correlation_development'])} |")
     row("accuracy (most likely terrain)", lambda d: pct(d["accuracy"]))
     row("changes of terrain", lambda d: str(d["latency"]["switches"]))
     row("new terrain first most likely: median, never", lambda d: f"{fmt(d['first_latency']['median'], 1)} s, never "
@@ -347,7 +396,7 @@ def correlation(work, summary):
     row("decision follows: median, never", lambda d: f"{fmt(d['decision']['first_median'], 1)} s, never "
         f"{d['decision']['switches'] - d['decision']['first_detected']}")
     row(f"changes of the most likely terrain per minute (truth: "
-        f"{fmt(spliced['development']['changes_per_minute']['truth'], 2)})",
+        f"{fmt(spliced['first_development']['changes_per_minute']['truth'], 2)})",
         lambda d: fmt(d["changes_per_minute"]["most_likely"], 2))
     return "\n".join(lines) + "\n\n" + "\n".join(splice_lines) + (
         "\n\nThe same development runs, folds and searched settings; the lockbox does not score this. Each fold fits "
@@ -504,9 +553,11 @@ def per_run(summary, work, data):
 def main():
     work, doc, data = sys.argv[1], sys.argv[2], sys.argv[3]
     summary, headline, terrains = protocols(work)
+    first, first_blocks = assessed(work, "first_")
     blocks = {"husky": husky(work), "headline": headline, "terrains": terrains, "calibration": calibration(summary),
-              "confusion": confusion(summary, work), "physics": physics(work, summary),
-              "uncertainty": uncertainty(work, summary), "unknown": unknown(work, summary), "correlation": correlation(work, summary),
+              "confusion": confusion(summary, work), "physics": physics(work, first),
+              "uncertainty": uncertainty(first, summary, first_blocks), "unknown": unknown(work, first),
+              "correlation": correlation(work, first),
               "splices": splices(work), "reaction": reaction(work),
               "wheels": wheels(work), "runs": per_run(summary, work, data)}
     text = read(doc)

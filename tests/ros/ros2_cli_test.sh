@@ -60,7 +60,7 @@ PY
 
 # 1b. A bank with an unknown hypothesis: its probability is a field of the
 # message, equal to the CSV's column, and `mode` says unknown as the CSV does.
-{ cat "$bank"; echo "unknown: {inflation: 100, enter: 0.01, leave: 0.1}"; } >"$work/unknown_bank.yaml"
+{ cat "$bank"; echo "unknown: {inflation: 10, enter: 0.01, leave: 0.1}"; } >"$work/unknown_bank.yaml"
 "$skidimm" run -q --bank "$work/unknown_bank.yaml" --input "$work/drive.mcap" --output "$work/unknown.csv"
 "$skidimm" run -q --bank "$work/unknown_bank.yaml" --input "$work/drive.mcap" --output "$work/unknown.mcap"
 "$node" "$source_dir/tests/ros/read_mcap.cjs" "$work/unknown.mcap" >"$work/unknown.json"
