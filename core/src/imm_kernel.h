@@ -26,6 +26,7 @@
 #include "measured_outputs.h"
 #include "mode_probabilities_given_a_mode.h"
 #include "not_a_number.h"
+#include "parameter_noise.h"
 #include "probability_floor.h"
 #include "residual_correlation.h"
 #include "skidimm/config/bank.h"
@@ -92,8 +93,15 @@ class FixedStateBank {
     x_.assign(models_.size(), State::Zero());
     p_.assign(models_.size(), Covariance::Identity());
     reused_.resize(models_.size());
-    for (std::size_t j = 0; j < models_.size(); ++j)
-      reused_[j].reusable = models_[j]->jacobian_and_noise_depend_only_on_dt();
+    for (std::size_t j = 0; j < models_.size(); ++j) {
+      // A mode with parameter uncertainty: F and Qd are the wrapped model's,
+      // G Sigma G' is added at each step (parameter_noise.h).
+      const sdk::MotionModel* wrapped = internal::model_under_parameter_uncertainty(*models_[j]);
+      ReusedStepMatrices& reused = reused_[j];
+      reused.adds_parameter_noise = wrapped != nullptr;
+      reused.from = wrapped != nullptr ? wrapped : models_[j];
+      reused.reusable = reused.from->jacobian_and_noise_depend_only_on_dt();
+    }
   }
 
   State& state(int j) { return x_[static_cast<std::size_t>(j)]; }
@@ -107,10 +115,18 @@ class FixedStateBank {
     if (!reused.reusable) return predict_fixed<N>(model, q_[mode], state_angles_, u, dt, &x_[mode], &p_[mode]);
     if (!(reused.dt == dt)) {
       reused.dt = kNaN;
-      if (!compute_step_matrices<N>(model, q_[mode], x_[mode], u, dt, &reused.matrices)) return false;
+      if (!compute_step_matrices<N>(*reused.from, q_[mode], x_[mode], u, dt, &reused.matrices)) return false;
       reused.dt = dt;
     }
-    return propagate_fixed<N>(model, reused.matrices, state_angles_, u, dt, &x_[mode], &p_[mode]);
+    if (!reused.adds_parameter_noise) {
+      return propagate_fixed<N>(model, reused.matrices, state_angles_, u, dt, &x_[mode], &p_[mode]);
+    }
+    step_ = reused.matrices;
+    {
+      Eigen::Ref<Eigen::MatrixXd> q_out(step_.q());
+      if (!internal::add_parameter_noise(model, x_[mode], u, dt, q_out)) return false;
+    }
+    return propagate_fixed<N>(model, step_, state_angles_, u, dt, &x_[mode], &p_[mode]);
   }
 
   // From the next step on, asks the models for F and Qd afresh (a new run:
@@ -129,13 +145,16 @@ class FixedStateBank {
   // exponentials). The same values, so the same results to the bit.
   struct ReusedStepMatrices {
     bool reusable = false;
-    double dt = kNaN;  // NaN: none kept
+    bool adds_parameter_noise = false;      // G Sigma G' added at each step
+    const sdk::MotionModel* from = nullptr;  // the model asked for F and Qd
+    double dt = kNaN;                        // NaN: none kept
     StepMatrices<N> matrices;
   };
 
   std::vector<const sdk::MotionModel*> models_;
   std::vector<Covariance, Eigen::aligned_allocator<Covariance>> q_;
   std::vector<ReusedStepMatrices> reused_;
+  StepMatrices<N> step_;  // a step's F and Qd with a mode's G Sigma G' added
   AngleMask state_angles_ = 0;
   std::vector<State, Eigen::aligned_allocator<State>> x_;
   std::vector<Covariance, Eigen::aligned_allocator<Covariance>> p_;

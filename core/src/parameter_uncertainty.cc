@@ -2,13 +2,17 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <cstdint>
+#include <cstring>
 #include <memory>
 #include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "coupled_blocks.h"
 #include "covariance.h"
+#include "parameter_noise.h"
 #include "skidimm/config/bank.h"
 #include "skidimm/errors.h"
 
@@ -23,22 +27,14 @@ class ParameterUncertainModel final : public sdk::MotionModel {
  public:
   ParameterUncertainModel(ModelHandle model, Eigen::MatrixXd covariance)
       : model_(std::move(model)), covariance_(std::move(covariance)) {
-    // Sigma's nonzero entries by column: a fitted covariance is often block
-    // diagonal (fitting/parameter_covariance.h), and its exact zeros add
-    // nothing to G Sigma G'.
-    const Eigen::Index p = covariance_.rows();
-    column_start_.assign(1, 0);
-    for (Eigen::Index k = 0; k < p; ++k) {
-      for (Eigen::Index l = 0; l < p; ++l) {
-        if (covariance_(l, k) != 0.0) {
-          column_rows_.push_back(l);
-          column_values_.push_back(covariance_(l, k));
-        }
-      }
-      column_start_.push_back(static_cast<Eigen::Index>(column_rows_.size()));
-      if (column_start_[static_cast<std::size_t>(k + 1)] > column_start_[static_cast<std::size_t>(k)]) {
-        uncertain_.push_back(k);
-      }
+    // Sigma's blocks (coupled_blocks.h); parameters with no variance (held
+    // ones) add nothing and are left out.
+    for (std::vector<Eigen::Index>& parameters : coupled_blocks(covariance_)) {
+      Block block{std::move(parameters), Eigen::MatrixXd()};
+      block.sigma = covariance_(block.parameters, block.parameters);
+      if (block.sigma.cwiseAbs().maxCoeff() == 0.0) continue;
+      largest_block_ = std::max(largest_block_, static_cast<Eigen::Index>(block.parameters.size()));
+      blocks_.push_back(std::move(block));
     }
   }
 
@@ -75,82 +71,70 @@ class ParameterUncertainModel final : public sdk::MotionModel {
                      const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
                      Eigen::Ref<Eigen::MatrixXd> noise) const noexcept override {
     own_failure() = nullptr;
-    if (!model_->process_noise(intensity, x, u, dt, noise)) return false;
+    return model_->process_noise(intensity, x, u, dt, noise) && add_parameter_noise(x, u, dt, noise);
+  }
+
+  // noise += G Sigma G' at (x, u, dt), G = d predict / d theta.
+  bool add_parameter_noise(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+                           double dt, Eigen::Ref<Eigen::MatrixXd> noise) const noexcept {
     try {
       // Sized once per thread: no allocation per step after the first.
       thread_local Eigen::MatrixXd g;
-      thread_local Eigen::VectorXd sigma_g;  // a column of Sigma G'
-      thread_local std::vector<Eigen::Index> nonzero, row_count, touched;
-      thread_local std::vector<char> is_touched;
+      thread_local Eigen::MatrixXd sigma_g;  // Sigma_b G_b' at the rows of G in block b
+      thread_local std::vector<Eigen::Index> rows;
+      thread_local std::vector<std::uint64_t> row_bits;
       const Eigen::Index n = noise.rows();
-      const Eigen::Index p = covariance_.rows();
-      g.resize(n, p);
+      g.resize(n, covariance_.rows());
       if (!model_->parameter_jacobian(x, u, dt, g)) {
         own_failure() = "parameter_covariance: the model's parameter_jacobian() failed";
         return false;
       }
-      // G is mostly zeros (a parameter moves the states it belongs to: in
-      // linear_features with a diagonal A, a ninth of G), and so is a
-      // fitted Sigma, so G Sigma G' runs over the nonzero entries of both:
-      // for each row i of G, the column i of Sigma G' at the rows it can be
-      // nonzero, then the lower triangle's row i of G (Sigma G'). Each sum
-      // in increasing index order, as the dense products take it, less the
-      // exact zeros. Dense, the BorealTC bank's 10 modes spent ten times a
-      // step's filtering on it.
-      nonzero.resize(static_cast<std::size_t>(n * p));  // row i's at [i p, i p + row_count[i])
-      row_count.assign(static_cast<std::size_t>(n), 0);
-      // (Plain pointers: through the containers, every store would reload them.)
-      Eigen::Index* const nonzero_of = nonzero.data();
-      Eigen::Index* const count_of = row_count.data();
+      // G Sigma G' = sum over Sigma's blocks b of G_b Sigma_b G_b' (G_b: G's
+      // columns of b), and of G_b only the rows with a nonzero entry count:
+      // in linear_features with a diagonal A each block is one feature's
+      // regression and moves that feature's state alone, so a block is one
+      // row and a 4 x 4 product. Each sum in increasing index order, as the
+      // dense products take it. Dense, the BorealTC bank's 10 modes spent
+      // ten times a step's filtering on it.
+      sigma_g.resize(largest_block_, n);
+      rows.resize(static_cast<std::size_t>(n));
+      row_bits.resize(static_cast<std::size_t>(n));
       const double* const g_of = g.data();
-      // Down the columns, as G is stored; only those of parameters with some
-      // variance (a held parameter's column of G adds nothing).
-      // Without a branch per entry: k is written at row i's next place
-      // either way, and kept by counting it only when G(i, k) is nonzero.
-      for (const Eigen::Index k : uncertain_) {
+      std::uint64_t* const bits_of = row_bits.data();
+      for (const Block& block : blocks_) {
+        const Eigen::Index m = static_cast<Eigen::Index>(block.parameters.size());
+        const Eigen::Index* const k_of = block.parameters.data();
+        // Which rows of G_b are nonzero: the bits of their entries but the
+        // sign, or-ed down the block's columns (as G is stored), without a
+        // branch per entry.
+        std::fill(bits_of, bits_of + n, std::uint64_t{0});
+        for (Eigen::Index c = 0; c < m; ++c) {
+          const double* column = g_of + k_of[c] * n;
+          for (Eigen::Index i = 0; i < n; ++i) {
+            std::uint64_t bits;
+            std::memcpy(&bits, column + i, sizeof bits);
+            bits_of[i] |= bits << 1;
+          }
+        }
+        Eigen::Index count = 0;
         for (Eigen::Index i = 0; i < n; ++i) {
-          nonzero_of[i * p + count_of[i]] = k;
-          count_of[i] += g_of[k * n + i] != 0.0;
+          if (bits_of[i] != 0) rows[static_cast<std::size_t>(count++)] = i;
         }
-      }
-      const auto row = [nonzero_of, count_of, p](Eigen::Index i) {
-        const Eigen::Index* first = nonzero_of + i * p;
-        return std::make_pair(first, first + count_of[i]);
-      };
-      sigma_g.resize(p);
-      is_touched.assign(static_cast<std::size_t>(p), 0);
-      touched.resize(static_cast<std::size_t>(p));
-      double* const column_i = sigma_g.data();
-      char* const seen = is_touched.data();
-      Eigen::Index* const touched_of = touched.data();
-      const Eigen::Index* const start_of = column_start_.data();
-      const Eigen::Index* const rows_of = column_rows_.data();
-      const double* const values_of = column_values_.data();
-      for (Eigen::Index i = 0; i < n; ++i) {
-        const auto [first, last] = row(i);
-        Eigen::Index touched_count = 0;
-        for (const Eigen::Index* k = first; k != last; ++k) {
-          const double g_ik = g_of[*k * n + i];
-          for (Eigen::Index e = start_of[*k]; e < start_of[*k + 1]; ++e) {
-            const Eigen::Index l = rows_of[e];
-            if (!seen[l]) {
-              seen[l] = 1;
-              touched_of[touched_count++] = l;
-              column_i[l] = 0.0;
-            }
-            column_i[l] += g_ik * values_of[e];
+        for (Eigen::Index r = 0; r < count; ++r) {
+          const Eigen::Index i = rows[static_cast<std::size_t>(r)];
+          for (Eigen::Index l = 0; l < m; ++l) {
+            double entry = 0.0;
+            for (Eigen::Index c = 0; c < m; ++c) entry += g_of[k_of[c] * n + i] * block.sigma(l, c);
+            sigma_g(l, r) = entry;
+          }
+          for (Eigen::Index q = 0; q <= r; ++q) {
+            const Eigen::Index j = rows[static_cast<std::size_t>(q)];
+            double added = 0.0;
+            for (Eigen::Index l = 0; l < m; ++l) added += sigma_g(l, r) * g_of[k_of[l] * n + j];
+            noise(i, j) += added;
+            if (j != i) noise(j, i) += added;
           }
         }
-        for (Eigen::Index j = 0; j <= i; ++j) {
-          const auto [j_first, j_last] = row(j);
-          double added = 0.0;
-          for (const Eigen::Index* l = j_first; l != j_last; ++l) {
-            if (seen[*l]) added += column_i[*l] * g_of[*l * n + j];
-          }
-          noise(i, j) += added;
-          if (j != i) noise(j, i) += added;
-        }
-        for (Eigen::Index t = 0; t < touched_count; ++t) seen[touched_of[t]] = 0;
       }
     } catch (...) {  // bad_alloc
       own_failure() = "parameter_covariance: out of memory";
@@ -181,12 +165,13 @@ class ParameterUncertainModel final : public sdk::MotionModel {
 
   ModelHandle model_;
   Eigen::MatrixXd covariance_;
-  // Sigma's nonzero entries: column k's rows are column_rows_[column_start_[k] .. column_start_[k + 1]),
-  // their values column_values_[...] at the same places.
-  std::vector<Eigen::Index> column_rows_;
-  std::vector<double> column_values_;
-  std::vector<Eigen::Index> column_start_;
-  std::vector<Eigen::Index> uncertain_;  // the columns with some nonzero entry
+  // A block of Sigma: its parameters (increasing) and their covariance.
+  struct Block {
+    std::vector<Eigen::Index> parameters;
+    Eigen::MatrixXd sigma;
+  };
+  std::vector<Block> blocks_;
+  Eigen::Index largest_block_ = 0;
 };
 
 ModelHandle unwrapped(ModelHandle model) {
@@ -222,6 +207,20 @@ double step_of(const Bank& bank) { return bank.config.sampling.rate > 0.0 ? 1.0 
 
 }  // namespace
 
+namespace internal {
+
+const sdk::MotionModel* model_under_parameter_uncertainty(const sdk::MotionModel& model) {
+  const auto* wrapper = dynamic_cast<const ParameterUncertainModel*>(&model);
+  return wrapper != nullptr ? wrapper->wrapped().get() : nullptr;
+}
+
+bool add_parameter_noise(const sdk::MotionModel& model, const Eigen::Ref<const Eigen::VectorXd>& x,
+                         const Eigen::Ref<const Eigen::VectorXd>& u, double dt, Eigen::Ref<Eigen::MatrixXd> noise) {
+  return static_cast<const ParameterUncertainModel&>(model).add_parameter_noise(x, u, dt, noise);
+}
+
+}  // namespace internal
+
 ModelHandle with_parameter_uncertainty(ModelHandle model, const Eigen::MatrixXd& covariance, double dt) {
   model = unwrapped(std::move(model));
   if (covariance.size() == 0) return model;
@@ -229,10 +228,15 @@ ModelHandle with_parameter_uncertainty(ModelHandle model, const Eigen::MatrixXd&
   std::string why;
   if (!check_parameter_covariance(covariance, &why)) throw Error("a parameter covariance must be a covariance: " + why);
   // Written to 10 digits, a covariance with directions of no variance (held
-  // parameters, exact combinations) can read back a hair below zero there.
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(covariance);
-  const Eigen::MatrixXd psd =
-      eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() * eigen.eigenvectors().transpose();
+  // parameters, exact combinations) can read back a hair below zero there:
+  // its negative eigenvalues are taken as zero, a block at a time
+  // (coupled_blocks.h), so that the zeros between blocks stay exact.
+  Eigen::MatrixXd psd = Eigen::MatrixXd::Zero(covariance.rows(), covariance.cols());
+  for (const std::vector<Eigen::Index>& block : coupled_blocks(covariance)) {
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(covariance(block, block));
+    psd(block, block) =
+        eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() * eigen.eigenvectors().transpose();
+  }
   return wrapped_with(std::move(model), 0.5 * (psd + psd.transpose()), dt);
 }
 

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
@@ -16,6 +17,7 @@
 
 #include "core/temp_files.h"
 #include "skidimm/config/bank.h"
+#include "skidimm/engine/imm.h"
 #include "skidimm/errors.h"
 #include "skidimm/fitting/bank_fit.h"
 #include "skidimm/fitting/model_fitter.h"
@@ -224,6 +226,30 @@ TEST(ParameterUncertainty, AddsPhiSigmaPhiWhereTheCovarianceHasExactZeros) {
   held.row(1).setZero();
   held.col(1).setZero();
   expect_added_as_by_hand(held);
+}
+
+// The fixed-size filters keep a mode's F and Qd while dt repeats (its model
+// says they depend on dt alone) and add G Sigma G' at each step, with that
+// step's inputs; the dynamic kernel asks the model for all of it at every
+// step. The two agree, and differ from the same bank without the covariance.
+TEST(ParameterUncertainty, TheFiltersAddItAtEveryStepWithTheStepsInputs) {
+  const std::string covariance = "    parameter_covariance: " + flow_matrix(some_covariance()) + "\n";
+  Imm fixed(load_two_features(bank_text(covariance), "fixed.yaml"));
+  Imm dynamic(load_two_features(bank_text(covariance), "dynamic.yaml"), ImmKernelChoice::kDynamic);
+  Imm plain(load_two_features(bank_text(), "plain.yaml"));
+  const Trajectory log = regression_log(60, 23);
+  double largest_difference = 0.0;
+  for (int k = 0; k < log.size(); ++k) {
+    Eigen::Vector2d z = log.z.col(k);
+    if (k % 3 == 1) z.setConstant(std::nan(""));  // predictions alone, some steps
+    const ImmEstimate& a = fixed.step(log.t[static_cast<std::size_t>(k)], log.u.col(k), z);
+    const ImmEstimate& b = dynamic.step(log.t[static_cast<std::size_t>(k)], log.u.col(k), z);
+    const ImmEstimate& c = plain.step(log.t[static_cast<std::size_t>(k)], log.u.col(k), z);
+    ASSERT_TRUE(a.covariance.isApprox(b.covariance, 1e-12)) << "step " << k << "\n" << a.covariance << "\n" << b.covariance;
+    ASSERT_TRUE(a.state.isApprox(b.state, 1e-12)) << "step " << k;
+    largest_difference = std::max(largest_difference, (a.covariance - c.covariance).cwiseAbs().maxCoeff());
+  }
+  EXPECT_GT(largest_difference, 1e-3);
 }
 
 // The tune's path: a fit's covariance is taken as it is, unchecked but for

@@ -31,6 +31,8 @@
 #include <limits>
 #include <vector>
 
+#include "coupled_blocks.h"
+
 namespace skidimm {
 namespace fitting {
 namespace internal {
@@ -110,35 +112,6 @@ class ParameterCovarianceEstimate {
   }
 
  private:
-  // The indices of a symmetric matrix grouped into the blocks its nonzero
-  // entries couple (connected components), each in increasing order, the
-  // blocks ordered by their first index.
-  static std::vector<std::vector<Eigen::Index>> coupled_blocks(const Eigen::MatrixXd& m) {
-    const Eigen::Index q = m.rows();
-    std::vector<Eigen::Index> block(static_cast<std::size_t>(q), -1);
-    std::vector<std::vector<Eigen::Index>> blocks;
-    for (Eigen::Index start = 0; start < q; ++start) {
-      if (block[static_cast<std::size_t>(start)] >= 0) continue;
-      const Eigen::Index id = static_cast<Eigen::Index>(blocks.size());
-      std::vector<Eigen::Index> members{start}, todo{start};
-      block[static_cast<std::size_t>(start)] = id;
-      while (!todo.empty()) {
-        const Eigen::Index a = todo.back();
-        todo.pop_back();
-        for (Eigen::Index b = 0; b < q; ++b) {
-          if (block[static_cast<std::size_t>(b)] < 0 && (m(a, b) != 0.0 || m(b, a) != 0.0)) {
-            block[static_cast<std::size_t>(b)] = id;
-            members.push_back(b);
-            todo.push_back(b);
-          }
-        }
-      }
-      std::sort(members.begin(), members.end());
-      blocks.push_back(std::move(members));
-    }
-    return blocks;
-  }
-
   std::vector<Eigen::MatrixXd> information_;  // per channel, sum J_c' J_c (lower triangle)
   Eigen::VectorXd squares_;                   // per channel, the sum of squared residuals
   Eigen::VectorXd counts_;                    // per channel, its residual rows
