@@ -10,7 +10,7 @@
 #
 # ASan+UBSan: one clang build at -O1 (SKIDIMM_SANITIZE=address), undefined
 # behaviour fatal (-fno-sanitize-recover), of the core, the plugins, the CLI,
-# the GoogleTest binaries (their own code with ASan only: tests/CMakeLists.txt)
+# the GoogleTest binaries (their own code with ASan only and unoptimized: tests/CMakeLists.txt)
 # and the libFuzzer targets (tests/fuzz) - no Python
 # package, no benchmarks. The suite runs without the reproduction tests (ctest
 # names matching 'Reproduced|reproduce'): they rerun the paper's and the
