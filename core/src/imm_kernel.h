@@ -170,6 +170,7 @@ class FixedFilters : public FixedStateBank<N> {
     for (int a = 0; a < M; ++a) {
       if (c.measurement.is_angle[static_cast<std::size_t>(a)]) z_angles_ |= 1u << a;
     }
+    h_is_identity_ = M == N && h_ == Eigen::Matrix<double, M, N>::Identity();  // update_fixed()'s h_is_identity
   }
 
   // Updates every mode whose log-likelihood is not already -inf with the
@@ -235,7 +236,8 @@ class FixedFilters : public FixedStateBank<N> {
         Eigen::Matrix<double, K, 1> whitened;
         UpdateResult result = update_fixed<N, K>(
             zj, hk, rk, angles, this->state_angles_, &this->x_[static_cast<std::size_t>(j)],
-            &this->p_[static_cast<std::size_t>(j)], gate, correlation != nullptr ? &whitened : nullptr);
+            &this->p_[static_cast<std::size_t>(j)], gate, correlation != nullptr ? &whitened : nullptr,
+            K == M && h_is_identity_);
         if (correlation != nullptr && result.ok && !result.gated) {
           result.log_likelihood = correlation->condition(j, rows, K, whitened, result.log_likelihood, result.nis);
         }
@@ -247,6 +249,7 @@ class FixedFilters : public FixedStateBank<N> {
   Eigen::Matrix<double, M, N> h_;
   std::vector<Eigen::Matrix<double, M, M>, Eigen::aligned_allocator<Eigen::Matrix<double, M, M>>> r_;  // per mode
   AngleMask z_angles_ = 0;
+  bool h_is_identity_ = false;  // H = I: every state measured directly
 };
 
 // The mode-matched filters for N states known at compile time and any number

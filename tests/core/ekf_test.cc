@@ -145,6 +145,36 @@ TEST(FixedSizeFilter, ANonPositiveDefiniteInnovationIsReportedLikeTheDynamicFilt
   EXPECT_FALSE((update_fixed<2, 1>(z, h, r, 0, 0, &x, &p).ok));
 }
 
+// H = I skips the products with H (copies and I - K, update_fixed()); the
+// products give the same numbers, so the two paths agree to the bit.
+TEST(FixedSizeFilter, AnIdentityHIsTheProductsToTheBit) {
+  const Eigen::Matrix3d h = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d r;
+  r << 0.04, 0.001, 0.0, 0.001, 0.09, -0.002, 0.0, -0.002, 0.0009;
+  Eigen::Vector3d x_product(1.0, -2.0, 3.1), x_identity = x_product;
+  Eigen::Matrix3d p_product;
+  p_product << 0.02, 0.005, 0.001, 0.005, 0.03, -0.002, 0.001, -0.002, 0.01;
+  Eigen::Matrix3d p_identity = p_product;
+  for (int k = 0; k < 20; ++k) {
+    const Eigen::Vector3d z(1.0 + 0.1 * k, -2.0 + 0.07 * k, sdk::wrap_angle(3.1 + 0.3 * k));
+    const double gate = std::numeric_limits<double>::infinity();
+    Eigen::Vector3d whitened_product, whitened_identity;
+    const UpdateResult product =
+        update_fixed<3, 3>(z, h, r, 0b100, 0b100, &x_product, &p_product, gate, &whitened_product, false);
+    const UpdateResult identity =
+        update_fixed<3, 3>(z, h, r, 0b100, 0b100, &x_identity, &p_identity, gate, &whitened_identity, true);
+    ASSERT_TRUE(product.ok && identity.ok);
+    ASSERT_EQ(identity.log_likelihood, product.log_likelihood) << "step " << k;
+    ASSERT_EQ(identity.nis, product.nis) << "step " << k;
+    ASSERT_EQ(whitened_identity, whitened_product) << "step " << k;
+    ASSERT_EQ(x_identity, x_product) << "step " << k;
+    ASSERT_EQ(p_identity, p_product) << "step " << k;
+    // Let the covariance grow again, as a prediction would.
+    p_product += 0.01 * Eigen::Matrix3d::Identity();
+    p_identity += 0.01 * Eigen::Matrix3d::Identity();
+  }
+}
+
 // H rows that pick states are applied by gathering rows and columns of P
 // (ekf.cc); the general product path must give the same numbers, to the bit
 // when no state is picked twice, with rows missing, reordered and repeated.
