@@ -515,7 +515,9 @@ time), and runs other banks on the dynamic kernel. Partial rows (GPS at 10 Hz in
 50 Hz log) dispatch to a fixed size K for the rows present. The EKF update
 uses a hand-written Cholesky for K <= 4 (Eigen's `LLT::solve` goes through its
 general triangular solver and packing), forward substitution alone for the
-NIS, and one logarithm for log det S. The kernel of fixed-size states with
+NIS, and one logarithm for log det S; where H is the identity (every state
+measured directly, as in the bundled LTC and STC banks) its products with H
+are copies and I - K H is I - K, the same numbers to the bit. The kernel of fixed-size states with
 any rows updates the covariance as P- - W W' through the half gain
 W = P- H' L'^-1 (its lower triangle, about N^2 k / 2 products, where the
 Joseph form takes 2 N^3; when every row is measured, k = N, over matrices
