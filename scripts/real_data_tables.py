@@ -497,13 +497,88 @@ def wheels(work):
 
 
 @functools.lru_cache(maxsize=None)
-def driving(data, terrain, number):
-    """How a run was driven (each wheel file read once): mean |speed| and mean |velR - velL| (m/s) from its wheel file."""
+def wheel_file(data, terrain, number):
+    """A run's wheel file, read once: its rows."""
     with open(os.path.join(data, terrain, "pro_%s.csv" % number), newline="") as f:
-        rows = list(csv.DictReader(f))
+        return list(csv.DictReader(f))
+
+
+def driving(data, terrain, number):
+    """How a run was driven: mean |speed| and mean |velR - velL| (m/s) from its wheel file."""
+    rows = wheel_file(data, terrain, number)
     speed = sum(abs(float(r["velL"]) + float(r["velR"])) / 2 for r in rows) / len(rows)
     turn = sum(abs(float(r["velR"]) - float(r["velL"])) for r in rows) / len(rows)
     return speed, turn
+
+
+def how_driven(speed, turn):
+    """A run by its mean speed and turn (m/s): on the spot, turning or straight."""
+    return "on the spot" if speed < 0.05 else ("turning" if turn > 0.08 else "straight")
+
+
+def summed_current(data, terrain, number):
+    """A run's mean summed motor current curL + curR (A) from its wheel file."""
+    rows = wheel_file(data, terrain, number)
+    return sum(float(r["curL"]) + float(r["curR"]) for r in rows) / len(rows)
+
+
+def most_often_read_as(work, slug, terrain, number):
+    """The terrain a held-out run's most likely mode belonged to most often, and the share of its steps, from the
+    protocol's held-out estimates."""
+    paths = glob.glob(os.path.join(work, "borealtc", "held_out", slug, "*_%s_pro_%s.csv" % (terrain, number)))
+    if len(paths) != 1:
+        sys.exit(f"{slug}: expected one held-out estimate file of {terrain} {number}, found {len(paths)}")
+    counts = {}
+    with open(paths[0]) as f:
+        for r in csv.DictReader(f):
+            read_as = next(t for t in TERRAINS if r["mode"] == t or r["mode"].startswith(t + "_"))
+            counts[read_as] = counts.get(read_as, 0) + 1
+    read_as = max(counts, key=counts.get)
+    return read_as, counts[read_as] / sum(counts.values())
+
+
+def pivots(summary, work, data):
+    """The development runs driven on the spot (how_driven()): how fast each turned, the summed
+    current it drew and its held-out accuracy, by terrain; and per terrain how the current follows the turn."""
+    turn_held = {(r["truth"], run_number(r["log"])): float(r["accuracy"])
+                 for r in summary["extrapolation-turn"]["rows"]}
+    by_terrain = {}
+    for r in summary["logs"]["rows"]:
+        number = run_number(r["log"])
+        speed, turn = driving(data, r["truth"], number)
+        if how_driven(speed, turn) != "on the spot":
+            continue
+        by_terrain.setdefault(r["truth"], []).append(
+            (turn, summed_current(data, r["truth"], number), number, float(r["accuracy"]),
+             (r["truth"], number) in turn_held))
+    lines = ["| terrain | run | mean turn (m/s) | mean summed current (A) | each run held out | "
+             "held out by extrapolation in turn: accuracy, most often read as |", "|---|---|---|---|---|---|"]
+    for terrain in TERRAINS:
+        for turn, current, number, accuracy, held in sorted(by_terrain.get(terrain, [])):
+            extrapolated = ""
+            if held:
+                read_as, share = most_often_read_as(work, "extrapolation-turn", terrain, number)
+                extrapolated = f"{pct(turn_held[(terrain, number)])}, {read_as} ({pct(share)} of its steps)"
+            lines.append(f"| {terrain} | {number} | {turn:.2f} | {current:.1f} | {pct(accuracy)} | {extrapolated} |")
+    mean = lambda xs: sum(xs) / len(xs)
+    slopes, split = [], []
+    for terrain in TERRAINS:
+        runs = by_terrain.get(terrain, [])
+        if len(runs) >= 3:
+            turn0, current0 = mean([x[0] for x in runs]), mean([x[1] for x in runs])
+            slope = (sum((x[0] - turn0) * (x[1] - current0) for x in runs) /
+                     sum((x[0] - turn0) ** 2 for x in runs))
+            slopes.append(f"{terrain} {slope:+.0f} A per m/s ({len(runs)} runs)")
+        held = [x for x in runs if x[4]]
+        if held and len(held) < len(runs):
+            rest = [x for x in runs if not x[4]]
+            split.append(f"{terrain}: the {len(held)} held out turn at {mean([x[0] for x in held]):.2f} m/s and draw "
+                         f"{mean([x[1] for x in held]):.1f} A, the {len(rest)} it is fitted on turn at "
+                         f"{mean([x[0] for x in rest]):.2f} m/s and draw {mean([x[1] for x in rest]):.1f} A")
+    return ("\n".join(lines) + "\n\nHow a terrain's current follows the turn on the spot (the least-squares slope of a "
+            "run's mean summed current on its mean turn, terrains with three runs on the spot or more): "
+            + "; ".join(slopes) + ". The runs on the spot that extrapolation in turn holds out, against those of "
+            "their terrain it fits on: " + ("; ".join(split) if split else "none") + ".\n")
 
 
 def per_run(summary, work, data):
@@ -520,7 +595,7 @@ def per_run(summary, work, data):
     for r, kind_of_set in rows:
         number = run_number(r["log"])
         speed, turn = driving(data, r["truth"], number)
-        kind = "on the spot" if speed < 0.05 else ("turning" if turn > 0.08 else "straight")
+        kind = how_driven(speed, turn)
         acc = float(r["accuracy"])
         counts.setdefault(kind, []).append(acc)
         bold = lambda a: "**" + pct(a) + "**" if a < 0.5 else pct(a)
@@ -559,7 +634,7 @@ def main():
               "uncertainty": uncertainty(first, summary, first_blocks), "unknown": unknown(work, first),
               "correlation": correlation(work, first),
               "splices": splices(work), "reaction": reaction(work),
-              "wheels": wheels(work), "runs": per_run(summary, work, data)}
+              "wheels": wheels(work), "runs": per_run(summary, work, data), "pivots": pivots(summary, work, data)}
     text = read(doc)
     for name, block in blocks.items():
         pattern = re.compile(r"(<!-- real:%s -->\n).*?(<!-- end -->)" % re.escape(name), re.S)
