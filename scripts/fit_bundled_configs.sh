@@ -111,8 +111,9 @@ fit() {  # fit STARTING_BANK OUTPUT REPORT ARGS...
   "$skidimm" fit --bank "$bank" --objective window "$@" --output-bank "$output" 2>"$report"
 }
 
-# Three independent pipelines share the two cores: the ideal banks, and the
-# realistic banks of each model (LTC with eq. 3). Each writes its own files.
+# Four independent pipelines share the cores: the ideal banks, and the
+# realistic banks of each STC model (slip, sided, traction; the realistic LTC
+# banks with the first). Each writes its own files.
 ideal() {
   echo "== ideal sensors: LTC terrains" >&2
   local ltc stc stc4
