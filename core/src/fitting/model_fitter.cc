@@ -302,7 +302,14 @@ struct Solution {
 Solution solve(const FitOptions& options, const std::string& who, const std::string& logs, ParameterBlock* block,
                ceres::Problem* problem) {
   ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::DENSE_QR;
+  // Each Levenberg-Marquardt step solves the normal equations (J'J + D) dx =
+  // -J'r by Cholesky: a window problem has thousands of rows and tens of
+  // parameters, where forming J'J costs a fraction of a Householder QR of J
+  // (the costliest step of a BorealTC fit). The squared condition number is
+  // harmless here: the identifiability check below (the Jacobian's own
+  // singular values) holds every direction the logs barely excite, and LM's
+  // damping keeps the system positive definite while it does.
+  solver_options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   solver_options.max_num_iterations = options.max_iterations;
   solver_options.function_tolerance = 1e-12;
   solver_options.parameter_tolerance = 1e-12;
@@ -358,16 +365,25 @@ Solution solve(const FitOptions& options, const std::string& who, const std::str
     const Eigen::MatrixXd& v = svd.matrixV();
     // One parameter per unexcited direction: the one that moves most along
     // it. A combination (speed x B + c at a constant speed) keeps its other
-    // members free, so what the logs do determine is still fitted.
+    // members free, so what the logs do determine is still fitted. Members
+    // that move alike (two wheel gains on a straight run: 1/sqrt(2) each)
+    // differ only in round-off, which the solver's path decides; within
+    // kTie of the largest, the parameter listed first is held, so the
+    // choice is the same whichever way the last bits fall.
+    constexpr double kTie = 1e-3;
+    const auto is_free = [&](int parameter) { return std::find(held.begin(), held.end(), parameter) == held.end(); };
     for (Eigen::Index k = 0; k < singular.size(); ++k) {
       if (singular[k] >= threshold) continue;
-      int chosen = -1;
-      double weight = 0.0;
+      double largest_move = 0.0;
       for (Eigen::Index i = 0; i < v.rows(); ++i) {
+        if (is_free(free_index[static_cast<std::size_t>(i)])) largest_move = std::max(largest_move, std::abs(v(i, k)));
+      }
+      int chosen = -1;
+      for (Eigen::Index i = 0; i < v.rows() && largest_move > 0.0; ++i) {
         const int parameter = free_index[static_cast<std::size_t>(i)];
-        if (std::abs(v(i, k)) > weight && std::find(held.begin(), held.end(), parameter) == held.end()) {
-          weight = std::abs(v(i, k));
+        if (is_free(parameter) && std::abs(v(i, k)) >= (1.0 - kTie) * largest_move) {
           chosen = parameter;
+          break;
         }
       }
       if (chosen < 0) continue;
