@@ -7,6 +7,7 @@
 
 #include <ceres/ceres.h>
 
+#include <Eigen/QR>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
@@ -15,6 +16,7 @@
 #include <map>
 #include <memory>
 
+#include "affine_subspace_manifold.h"
 #include "bounded_median.h"
 #include "condensed_windows.h"
 #include "measurement_layout.h"
@@ -58,22 +60,33 @@ ceres::LossFunction* make_loss(const FitOptions& options) {
   throw FitError("unknown loss '" + options.loss + "' (expected huber, cauchy or none)");
 }
 
+// "B[0,0], B[0,1]": the parameters that move along a direction in parameter
+// space (a unit vector), largest components first; the largest always.
+std::string describe_direction(const Eigen::Ref<const Eigen::VectorXd>& direction,
+                               const std::vector<std::string>& names) {
+  std::vector<std::pair<double, std::string>> parts;
+  Eigen::Index largest = 0;
+  direction.cwiseAbs().maxCoeff(&largest);
+  for (Eigen::Index i = 0; i < direction.size(); ++i) {
+    if (std::abs(direction[i]) > 0.2 || i == largest) {
+      parts.emplace_back(std::abs(direction[i]), names[static_cast<std::size_t>(i)]);
+    }
+  }
+  std::sort(parts.rbegin(), parts.rend());
+  std::string out;
+  for (const auto& p : parts) out += (out.empty() ? "" : ", ") + p.second;
+  return out;
+}
+
 // "[B[0,0], B[0,1]], [A[1,1]]": the parameters in each direction the logs do
 // not excite (right singular vectors of the Jacobian with negligible singular
-// values), largest components first.
-std::string describe_unexcited(const Eigen::MatrixXd& v, const Eigen::VectorXd& singular, double threshold,
+// values, here in parameter space).
+std::string describe_unexcited(const Eigen::MatrixXd& directions, const Eigen::VectorXd& singular, double threshold,
                                const std::vector<std::string>& names) {
   std::string out;
   for (Eigen::Index k = 0; k < singular.size(); ++k) {
     if (singular[k] >= threshold) continue;
-    std::vector<std::pair<double, std::string>> parts;
-    for (Eigen::Index i = 0; i < v.rows(); ++i) {
-      if (std::abs(v(i, k)) > 0.2) parts.emplace_back(std::abs(v(i, k)), names[static_cast<std::size_t>(i)]);
-    }
-    std::sort(parts.rbegin(), parts.rend());
-    std::string direction;
-    for (const auto& p : parts) direction += (direction.empty() ? "" : ", ") + p.second;
-    out += (out.empty() ? "[" : ", [") + direction + "]";
+    out += (out.empty() ? "[" : ", [") + describe_direction(directions.col(k), names) + "]";
   }
   return out;
 }
@@ -291,14 +304,25 @@ WindowProblem build_window_problem(Bank* bank, const Group& group, const std::ma
 
 // Where the solver left the block, and how well the logs determine it.
 struct Solution {
-  ceres::Solver::Summary summary;        // of the last solve
-  std::vector<int> held;                 // parameters held at their starting values, ascending
+  ceres::Solver::Summary summary;  // of the last solve
+  // The directions in parameter space the logs do not excite, each held
+  // where it started (unit columns), the members of each, and a basis of the
+  // directions the fit moved (orthonormal columns, the identity when it held
+  // nothing): every uncertainty lives in the latter.
+  Eigen::MatrixXd held;
+  std::vector<std::string> held_members;
+  Eigen::MatrixXd free_basis;
   double largest = 0.0, smallest = 0.0;  // singular values of the Jacobian at the solution
   double first_initial_cost = -1.0;
+
+  // A parameter no free direction moves: held entirely at its start.
+  bool holds_whole(std::size_t parameter) const {
+    return free_basis.row(static_cast<Eigen::Index>(parameter)).norm() < 1e-12;
+  }
 };
 
-// Solves; with hold_unexcited, parameters the logs do not excite are held
-// at their starting values and the rest solved again.
+// Solves; with hold_unexcited, the directions the logs do not excite are held
+// where they started and the rest solved again.
 Solution solve(const FitOptions& options, const std::string& who, const std::string& logs, ParameterBlock* block,
                ceres::Problem* problem) {
   ceres::Solver::Options solver_options;
@@ -319,8 +343,10 @@ Solution solve(const FitOptions& options, const std::string& who, const std::str
   if (options.progress) solver_options.callbacks.push_back(&solver_progress);
   Solution s;
   std::vector<double>& values = block->values;
-  const std::vector<double> start = values;
-  std::vector<int>& held = s.held;
+  const Eigen::Index n = static_cast<Eigen::Index>(values.size());
+  const Eigen::VectorXd start = Eigen::Map<const Eigen::VectorXd>(values.data(), n);
+  s.free_basis = Eigen::MatrixXd::Identity(n, n);
+  s.held.resize(n, 0);
   while (true) {
     ceres::Solve(solver_options, problem, &s.summary);
     if (s.first_initial_cost < 0.0) s.first_initial_cost = s.summary.initial_cost;
@@ -330,8 +356,8 @@ Solution solve(const FitOptions& options, const std::string& who, const std::str
                      std::to_string(s.summary.final_cost) + "); a cell of the logs is absurd");
     }
 
-    // Identifiability: singular values of the Jacobian at the solution (in
-    // the free parameters: the held ones have no column).
+    // Identifiability: singular values of the Jacobian at the solution, in
+    // the directions still free (Ceres differentiates along the manifold).
     ceres::CRSMatrix crs;
     double cost = 0.0;
     problem->Evaluate(ceres::Problem::EvaluateOptions(), &cost, nullptr, nullptr, &crs);
@@ -341,68 +367,62 @@ Solution solve(const FitOptions& options, const std::string& who, const std::str
         jacobian(row, crs.cols[static_cast<std::size_t>(k)]) = crs.values[static_cast<std::size_t>(k)];
       }
     }
-    std::vector<std::string> free_names;
-    std::vector<int> free_index;
-    for (std::size_t i = 0; i < block->names.size(); ++i) {
-      if (std::find(held.begin(), held.end(), static_cast<int>(i)) == held.end()) {
-        free_names.push_back(block->names[i]);
-        free_index.push_back(static_cast<int>(i));
-      }
-    }
     Eigen::JacobiSVD<Eigen::MatrixXd> svd(jacobian, Eigen::ComputeThinV);
     const Eigen::VectorXd singular = svd.singularValues();
     s.largest = singular[0];
     s.smallest = singular[singular.size() - 1];
     const double threshold = options.identifiability_threshold * s.largest;
     if (s.largest > 0.0 && s.smallest >= threshold) break;
-    const std::string unexcited = describe_unexcited(svd.matrixV(), singular, threshold, free_names);
+    const Eigen::MatrixXd directions = s.free_basis * svd.matrixV();  // in parameter space
+    const std::string unexcited = describe_unexcited(directions, singular, threshold, block->names);
     if (!options.hold_unexcited || !(s.largest > 0.0)) {
       throw FitError(who + logs + ": the logs do not excite every parameter: no information on the combinations " +
                      unexcited + "; drive maneuvers that move them (turns and speed changes), or fix them" +
                      (options.hold_unexcited ? "" : " (or let the fit hold them: --hold-unexcited)"));
     }
-    const std::size_t before = held.size();
-    const Eigen::MatrixXd& v = svd.matrixV();
-    // One parameter per unexcited direction: the one that moves most along
-    // it. A combination (speed x B + c at a constant speed) keeps its other
-    // members free, so what the logs do determine is still fitted. Members
-    // that move alike (two wheel gains on a straight run: 1/sqrt(2) each)
-    // differ only in round-off, which the solver's path decides; within
-    // kTie of the largest, the parameter listed first is held, so the
-    // choice is the same whichever way the last bits fall.
-    constexpr double kTie = 1e-3;
-    const auto is_free = [&](int parameter) { return std::find(held.begin(), held.end(), parameter) == held.end(); };
+    // Each unexcited direction is held where it started, and the parameters
+    // move the least that fits what the logs do determine: the part of the
+    // solution in the unexcited directions goes back to the start's. Holding
+    // one parameter per direction instead would let the basis the SVD
+    // returns, and round-off between parameters that move alike (two wheel
+    // gains on a straight run; the coefficients of dv and turn = abs(dv) on
+    // runs turning one way), decide which one carries the fit, and with it
+    // how the mode extrapolates; the subspace is what the logs define.
     for (Eigen::Index k = 0; k < singular.size(); ++k) {
       if (singular[k] >= threshold) continue;
-      double largest_move = 0.0;
-      for (Eigen::Index i = 0; i < v.rows(); ++i) {
-        if (is_free(free_index[static_cast<std::size_t>(i)])) largest_move = std::max(largest_move, std::abs(v(i, k)));
+      Eigen::VectorXd u = directions.col(k);
+      // Components at round-off level belong to no parameter: a direction
+      // within some parameters then stays exactly within them.
+      const double largest = u.cwiseAbs().maxCoeff();
+      for (Eigen::Index i = 0; i < n; ++i) {
+        if (std::abs(u[i]) <= 1e-9 * largest) u[i] = 0.0;
       }
-      int chosen = -1;
-      for (Eigen::Index i = 0; i < v.rows() && largest_move > 0.0; ++i) {
-        const int parameter = free_index[static_cast<std::size_t>(i)];
-        if (is_free(parameter) && std::abs(v(i, k)) >= (1.0 - kTie) * largest_move) {
-          chosen = parameter;
-          break;
-        }
-      }
-      if (chosen < 0) continue;
-      held.push_back(chosen);
-      values[static_cast<std::size_t>(chosen)] = start[static_cast<std::size_t>(chosen)];
+      u.normalize();
+      s.held.conservativeResize(Eigen::NoChange, s.held.cols() + 1);
+      s.held.col(s.held.cols() - 1) = u;
+      s.held_members.push_back(describe_direction(u, block->names));
     }
-    if (held.size() == before || held.size() == values.size()) {
+    if (s.held.cols() >= n) {
       throw FitError(who + logs + ": the logs do not excite every parameter: no information on the combinations " +
                      unexcited + "; drive maneuvers that move them, or fix them");
     }
-    std::sort(held.begin(), held.end());
-    problem->SetManifold(values.data(), new ceres::SubsetManifold(static_cast<int>(values.size()), held));
+    // The free directions: the orthogonal complement of the held ones.
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(s.held);
+    const Eigen::MatrixXd q = qr.householderQ() * Eigen::MatrixXd::Identity(n, n);
+    s.free_basis = q.rightCols(n - s.held.cols());
+    Eigen::Map<Eigen::VectorXd> x(values.data(), n);
+    x = start + s.free_basis * (s.free_basis.transpose() * (x - start));
+    for (Eigen::Index i = 0; i < n; ++i) {  // a bound still holds
+      x[i] = std::clamp(x[i], block->lower[static_cast<std::size_t>(i)], block->upper[static_cast<std::size_t>(i)]);
+    }
+    problem->SetManifold(values.data(), new internal::AffineSubspaceManifold(s.free_basis));
   }
   return s;
 }
 
 // Each parameter's standard deviation from Ceres' covariance at the
-// solution, scaled by the residuals' variance; NaN where Ceres cannot
-// compute it and for the held parameters.
+// solution (in the directions the fit moved), scaled by the residuals'
+// variance; NaN where Ceres cannot compute it and for parameters held whole.
 std::vector<double> standard_deviations(ceres::Problem* problem, ParameterBlock* block, const Solution& s,
                                         int residuals) {
   std::vector<double> deviations(block->size(), std::nan(""));
@@ -416,7 +436,9 @@ std::vector<double> standard_deviations(ceres::Problem* problem, ParameterBlock*
     covariance.GetCovarianceBlock(values, values, c.data());
     const double variance = 2.0 * s.summary.final_cost / dof;  // residuals are whitened by the assumed R
     for (std::size_t i = 0; i < block->size(); ++i) deviations[i] = std::sqrt(c[i * block->size() + i] * variance);
-    for (int i : s.held) deviations[static_cast<std::size_t>(i)] = std::nan("");
+    for (std::size_t i = 0; i < block->size(); ++i) {
+      if (s.holds_whole(i)) deviations[i] = std::nan("");
+    }
   }
   return deviations;
 }
@@ -425,7 +447,8 @@ std::vector<double> standard_deviations(ceres::Problem* problem, ParameterBlock*
 // every window's residuals and exact derivatives at the solution, in the
 // model's flat parameter order.
 Eigen::MatrixXd mode_parameter_covariance(Bank* bank, const ModeLogs& d, const MeasurementLayout& m,
-                                          const ParameterBlock& block, const std::vector<int>& held, int most_residuals,
+                                          const ParameterBlock& block, const Eigen::MatrixXd& free_basis,
+                                          int most_residuals,
                                           const FitOptions& options, const std::string& who) {
   sdk::MotionModel* model = bank->models[static_cast<std::size_t>(d.mode)].get();
   const auto& [base, mapping] = block.per_mode.at(d.mode);
@@ -453,9 +476,7 @@ Eigen::MatrixXd mode_parameter_covariance(Bank* bank, const ModeLogs& d, const M
       }
     });
   }
-  std::vector<bool> free(block.size(), true);
-  for (int i : held) free[static_cast<std::size_t>(i)] = false;
-  const Eigen::MatrixXd in_block = estimate.covariance(free);
+  const Eigen::MatrixXd in_block = estimate.covariance(free_basis);
   const Eigen::Index size = base.size();
   Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(size, size);
   for (std::size_t a = 0; a < mapping.model_index.size(); ++a) {
@@ -492,11 +513,7 @@ FitReport report_of(const Bank& bank, const ModeLogs& d, const FitOptions& optio
   for (std::size_t i = 0; i < values.size(); ++i) {
     const std::string& name = block.names[i];
     report.parameters.push_back({name, values[i], deviations[i]});
-    if (std::find(s.held.begin(), s.held.end(), static_cast<int>(i)) != s.held.end()) {
-      report.warnings.push_back("parameter '" + name + "' is held at its starting value " + std::to_string(values[i]) +
-                                ": the logs do not excite it");
-      continue;
-    }
+    if (s.holds_whole(i)) continue;  // a warning below
     if (std::isfinite(deviations[i]) && deviations[i] > std::max(std::abs(values[i]), 1e-9)) {
       report.warnings.push_back("parameter '" + name + "' is poorly determined: standard deviation " +
                                 std::to_string(deviations[i]) + " exceeds its value");
@@ -505,7 +522,23 @@ FitReport report_of(const Bank& bank, const ModeLogs& d, const FitOptions& optio
       report.warnings.push_back("parameter '" + name + "' ended on its bound");
     }
   }
-  if (options.standard_deviations && !std::isfinite(deviations[0])) {
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    if (s.holds_whole(i)) {
+      report.warnings.push_back("parameter '" + block.names[i] + "' is held at its starting value " +
+                                std::to_string(values[i]) + ": the logs do not excite it");
+    }
+  }
+  for (Eigen::Index k = 0; k < s.held.cols(); ++k) {
+    bool named = true;  // every member already named as held whole
+    for (Eigen::Index i = 0; i < s.held.rows(); ++i) {
+      if (s.held(i, k) != 0.0 && !s.holds_whole(static_cast<std::size_t>(i))) named = false;
+    }
+    if (named) continue;
+    report.warnings.push_back("the logs do not excite a combination of " + s.held_members[static_cast<std::size_t>(k)] +
+                              ": it is held where it started, and those parameters move the least that fits the rest");
+  }
+  const auto finite = [](double value) { return std::isfinite(value); };
+  if (options.standard_deviations && std::none_of(deviations.begin(), deviations.end(), finite)) {
     report.warnings.push_back("Ceres could not compute the covariance");
   }
   report.parameter_covariance = parameter_covariance;
@@ -583,7 +616,7 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<const ModeLogs*>& data,
     Eigen::MatrixXd parameter_covariance;
     if (options.parameter_covariance && options.scope == sdk::ParameterScope::kMode && group.size() == 1) {
       const ModeLogs& d = *group.front();
-      parameter_covariance = mode_parameter_covariance(bank, d, layouts.at(d.mode), block, solution.held,
+      parameter_covariance = mode_parameter_covariance(bank, d, layouts.at(d.mode), block, solution.free_basis,
                                                        windows.most_residuals, options, who);
     }
     set_fitted_parameters(bank, group, block, who);

@@ -52,31 +52,32 @@ class ParameterCovarianceEstimate {
     counts_[channel] += 1.0;
   }
 
-  // Sigma over every parameter, zero where `free` is false. Directions the
-  // information does not determine (singular values below 1e-12 of the
-  // largest) get no variance rather than an infinite one; the fit holds or
-  // reports such parameters itself.
-  Eigen::MatrixXd covariance(const std::vector<bool>& free) const {
-    const Eigen::Index p = static_cast<Eigen::Index>(free.size());
-    std::vector<Eigen::Index> index;
-    for (Eigen::Index i = 0; i < p; ++i) {
-      if (free[static_cast<std::size_t>(i)]) index.push_back(i);
-    }
-    const Eigen::Index q = static_cast<Eigen::Index>(index.size());
+  // Sigma over every parameter, in the directions `free_basis` spans
+  // (parameters x free directions, orthonormal columns; the identity when
+  // the fit holds nothing) and none in those the fit held. Directions the
+  // information does not determine (eigenvalues below 1e-12 of the largest)
+  // get no variance rather than an infinite one; the fit holds or reports
+  // such parameters itself.
+  Eigen::MatrixXd covariance(const Eigen::MatrixXd& free_basis) const {
+    const Eigen::Index p = free_basis.rows();
+    const Eigen::Index q = free_basis.cols();
     const double rows = counts_.sum();
     Eigen::MatrixXd out = Eigen::MatrixXd::Zero(p, p);
     if (q == 0 || rows <= static_cast<double>(q)) return out;
     const double dof = rows / (rows - static_cast<double>(q));
-    Eigen::MatrixXd information = Eigen::MatrixXd::Zero(q, q);
+    Eigen::MatrixXd information = Eigen::MatrixXd::Zero(p, p);
     for (std::size_t c = 0; c < information_.size(); ++c) {
       if (counts_[static_cast<Eigen::Index>(c)] == 0.0) continue;
       const double variance = squares_[static_cast<Eigen::Index>(c)] / counts_[static_cast<Eigen::Index>(c)] * dof;
       if (!(variance > 0.0)) continue;  // a channel predicted exactly says nothing of the scale
-      const Eigen::MatrixXd full = information_[c].selfadjointView<Eigen::Lower>();
-      for (Eigen::Index a = 0; a < q; ++a) {
-        for (Eigen::Index b = 0; b < q; ++b) information(a, b) += full(index[a], index[b]) / variance;
-      }
+      information += Eigen::MatrixXd(information_[c].selfadjointView<Eigen::Lower>()) / variance;
     }
+    // The information in the free directions only: projected, the held ones
+    // have none and get no variance below. A projector of the identity or of
+    // whole parameters (0 and 1 on its diagonal) leaves the other entries
+    // exactly as they were.
+    const Eigen::MatrixXd projector = free_basis * free_basis.transpose();
+    information = projector * information * projector;
     // The information is block diagonal when groups of parameters are
     // estimated from separate residuals (each feature's regression in
     // linear_features), and so is its inverse: inverted a block at a time,
@@ -102,9 +103,8 @@ class ParameterCovarianceEstimate {
       const Eigen::MatrixXd sigma = eigen[k].eigenvectors() * inverse.asDiagonal() * eigen[k].eigenvectors().transpose();
       for (std::size_t a = 0; a < b.size(); ++a) {
         for (std::size_t c = 0; c < b.size(); ++c) {
-          out(index[static_cast<std::size_t>(b[a])], index[static_cast<std::size_t>(b[c])]) =
-              0.5 * (sigma(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(c)) +
-                     sigma(static_cast<Eigen::Index>(c), static_cast<Eigen::Index>(a)));
+          out(b[a], b[c]) = 0.5 * (sigma(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(c)) +
+                                   sigma(static_cast<Eigen::Index>(c), static_cast<Eigen::Index>(a)));
         }
       }
     }
