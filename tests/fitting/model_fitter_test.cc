@@ -497,19 +497,29 @@ TEST(ModelFitter, CondensedWindowsReachTheWindowsOwnFit) {
   }
 }
 
+// The LTC bank fitted to `data` from its starting values, holding what the
+// data do not excite: the parameters before and after, and the report.
+struct HeldFit {
+  Eigen::VectorXd start, fitted;
+  FitReport report;
+};
+HeldFit fit_holding_unexcited(const Trajectory& data) {
+  Bank bank = load_bank(kLtcBank);
+  HeldFit out{Eigen::VectorXd(8), Eigen::VectorXd(8), {}};
+  bank.models[0]->get_parameters(out.start);
+  FitOptions options;
+  options.hold_unexcited = true;
+  out.report = fit(&bank, {ModeLogs{0, {data}}}, options).front();
+  bank.models[0]->get_parameters(out.fitted);
+  return out;
+}
+
 TEST(ModelFitter, HoldingUnexcitedParametersFitsTheRest) {
   Bank truth = load_bank(kLtcBank, "truth.yaml");
   auto straight = [](double t) { return Eigen::Vector2d(4.0 + std::sin(t), 4.0 + std::sin(t)); };
   const Trajectory data =
       simulate_model(*truth.models[0], 1000, 0.02, straight, Eigen::Vector2d(0, 0), Eigen::Vector2d(0.02, 0.02), 1);
-  Bank bank = load_bank(kLtcBank);
-  Eigen::VectorXd start(8);
-  bank.models[0]->get_parameters(start);
-  FitOptions options;
-  options.hold_unexcited = true;
-  const FitReport report = fit(&bank, {ModeLogs{0, {data}}}, options).front();
-  Eigen::VectorXd fitted(8);
-  bank.models[0]->get_parameters(fitted);
+  const auto [start, fitted, report] = fit_holding_unexcited(data);
   // Equal wheel speeds see only each row's sum B[r,0] + B[r,1]: their
   // difference is held where it started, so both gains move by the same
   // amount (the least move from the start that fits), and their sum is fitted.
@@ -552,14 +562,7 @@ TEST(ModelFitter, ParametersTheLogsNeverMoveAreHeldWholeAtTheirStart) {
   auto still = [](double) { return Eigen::Vector2d(0.0, 0.0); };
   const Trajectory data = simulate_model(*truth.models[0], 1500, 0.02, still, Eigen::Vector2d(1e-2, 1e-2),
                                          Eigen::Vector2d(0.005, 0.005), 3);
-  Bank bank = load_bank(kLtcBank);
-  Eigen::VectorXd start(8);
-  bank.models[0]->get_parameters(start);
-  FitOptions options;
-  options.hold_unexcited = true;
-  const FitReport report = fit(&bank, {ModeLogs{0, {data}}}, options).front();
-  Eigen::VectorXd fitted(8);
-  bank.models[0]->get_parameters(fitted);
+  const auto [start, fitted, report] = fit_holding_unexcited(data);
   int held = 0;
   for (const std::string& w : report.warnings) {
     held += w.find("is held at its starting value") != std::string::npos;
