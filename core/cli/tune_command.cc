@@ -65,14 +65,17 @@ void print_scores(std::ostream& out, const std::string& title, const std::vector
 }
 
 // One row per scored log: `kind` is the protocol of a nested assessment
-// (logs, sessions, extrapolation-INPUT), lockbox, or selection.
+// (logs, sessions, extrapolation-INPUT), lockbox, or selection; `fold` the
+// held-out set of its protocol (empty for selection) and `selection_score`
+// the mean log p(truth) its settings were chosen by, without it.
 void write_table(const fs::path& file, const fitting::TuneResult& result) {
   std::ostringstream out;
-  out << "kind,log,truth,accuracy,mean_log_probability,seconds\n";
+  out << "kind,log,truth,accuracy,mean_log_probability,seconds,fold,selection_score\n";
   auto rows = [&](const std::string& kind, const std::vector<LogScore>& scores) {
     for (const LogScore& s : scores) {
       out << kind << "," << s.log << "," << s.truth << "," << number(s.accuracy, "%.6f") << ","
-          << number(s.mean_log_probability, "%.6f") << "," << number(s.seconds, "%.3f") << "\n";
+          << number(s.mean_log_probability, "%.6f") << "," << number(s.seconds, "%.3f") << ","
+          << (s.fold >= 0 ? std::to_string(s.fold) : "") << "," << number(s.selection_score, "%.9g") << "\n";
     }
   };
   for (const fitting::Assessment& a : result.assessments) rows(a.protocol.slug(), a.scores);

@@ -286,8 +286,22 @@ TEST(Tune, LockboxLogsAreScoredOnceAndChangeNothingElse) {
     EXPECT_EQ(with.assessments[0].scores[i].mean_log_probability,
               without.assessments[0].scores[i].mean_log_probability);
   }
+  // Each held-out log is its own fold here, and its settings were chosen by
+  // the inner cross-validation over the other three: the score that chose
+  // them is what a tune of those three alone selects by.
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_EQ(without.assessments[0].scores[i].fold, static_cast<int>(i));
+  const std::vector<TuningLog> others(development.begin() + 1, development.end());
+  TuneOptions selection_only = options;
+  selection_only.assess = false;
+  const TuneResult without_first = tune(make_bank, others, fitters, selection_only);
+  EXPECT_EQ(without.assessments[0].scores[0].selection_score, without_first.selection.mean_log_probability);
+  for (const LogScore& s : without_first.selection_scores) {
+    EXPECT_EQ(s.selection_score, without_first.selection.mean_log_probability);
+    EXPECT_EQ(s.fold, -1);
+  }
   EXPECT_TRUE(without.lockbox.scores.empty());
   ASSERT_EQ(with.lockbox.scores.size(), 1u);
+  EXPECT_EQ(with.lockbox.scores[0].selection_score, with.selection.mean_log_probability);
   EXPECT_EQ(with.lockbox.scores[0].log, "pro_07.csv+imu_07.csv");
   EXPECT_EQ(with.lockbox.scores[0].truth, "ICE");
   // Scored by the bank the tune ends with.

@@ -154,6 +154,7 @@ class Tuner {
     }
     result.selection_scores = evaluate(result.settings, outer, development);
     result.selection = summarize(result.selection_scores);
+    for (LogScore& score : result.selection_scores) score.selection_score = result.selection.mean_log_probability;
 
     // Assessment, per protocol: each held-out set scored with settings tuned
     // on the other logs alone.
@@ -169,7 +170,11 @@ class Tuner {
       std::vector<int> all = development;
       all.insert(all.end(), lockbox.begin(), lockbox.end());
       result.lockbox.scores = evaluate(result.settings, {lockbox}, all, "lockbox", &result.lockbox);
-      for (LogScore& score : result.lockbox.scores) score.settings = result.settings.describe(banks_[0].config);
+      for (LogScore& score : result.lockbox.scores) {
+        score.settings = result.settings.describe(banks_[0].config);
+        score.fold = 0;
+        score.selection_score = result.selection.mean_log_probability;
+      }
       result.lockbox.summary = summarize(result.lockbox.scores);
       progress("lockbox: " + std::to_string(lockbox.size()) + " logs scored once by the tuned bank");
     }
@@ -355,9 +360,11 @@ class Tuner {
     int done = 0;
     const auto start = std::chrono::steady_clock::now();
     for (const auto& held : folds) {
-      const TunedSettings fold_best = tuned_without(held, development);
+      const auto& [fold_best, inner_score] = tuned_without(held, development);
       for (LogScore& score : evaluate(fold_best, {held}, development, protocol.slug(), &out)) {
         score.settings = fold_best.describe(banks_[0].config);
+        score.fold = done;
+        score.selection_score = inner_score;
         out.scores.push_back(score);
       }
       progress("assessment (" + protocol.name() + "):", ++done, static_cast<long>(folds.size()), "folds", start);
@@ -367,10 +374,12 @@ class Tuner {
   }
 
   // The settings an inner cross-validation on the development logs but
-  // `held` chooses. Protocols that hold out the same logs share the search (a
-  // session of one log is that log's fold of `logs`): the same logs, folds
-  // and fits give the same choice, so it is made once.
-  TunedSettings tuned_without(const std::vector<int>& held, const std::vector<int>& development) {
+  // `held` chooses, and their mean log p(truth) there. Protocols that hold
+  // out the same logs share the search (a session of one log is that log's
+  // fold of `logs`): the same logs, folds and fits give the same choice, so
+  // it is made once.
+  const std::pair<TunedSettings, double>& tuned_without(const std::vector<int>& held,
+                                                       const std::vector<int>& development) {
     std::vector<int> key = held;
     std::sort(key.begin(), key.end());
     if (const auto known = settings_without_.find(key); known != settings_without_.end()) return known->second;
@@ -387,8 +396,7 @@ class Tuner {
         best = s;
       }
     }
-    settings_without_.emplace(std::move(key), best);
-    return best;
+    return settings_without_.emplace(std::move(key), std::make_pair(best, best_score)).first->second;
   }
 
   void compute_fits(const std::vector<FitKey>& keys) {
@@ -862,7 +870,7 @@ class Tuner {
   std::vector<std::vector<double>> step_weights_;  // weigh_steps()
   std::vector<double> truth_seconds_;
   std::map<FitKey, FittedValues> fits_;
-  std::map<std::vector<int>, TunedSettings> settings_without_;  // tuned_without(), by the held-out logs
+  std::map<std::vector<int>, std::pair<TunedSettings, double>> settings_without_;  // tuned_without(), by the held-out logs
   // One mode's fit.
   struct ModeFit {
     Eigen::VectorXd parameters;

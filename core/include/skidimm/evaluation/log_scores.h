@@ -26,6 +26,14 @@ struct LogScore {
   double mean_log_probability = 0.0;
   double seconds = 0.0;
   std::string settings;  // what scored it, when several did (tune's nested folds: the fold's settings)
+  // tune's nested folds: which held-out set of its protocol scored the log
+  // (0, 1, ... in the protocol's order), and the mean log p(truth) by which
+  // that set's settings were chosen, over the other logs alone (the inner
+  // cross-validation's). What a choice made inside the outer loop, between
+  // two banks say, compares: the set's own scores never enter it. -1 and NaN
+  // elsewhere.
+  int fold = -1;
+  double selection_score = std::numeric_limits<double>::quiet_NaN();
   double smallest_probability = std::numeric_limits<double>::quiet_NaN();  // LogResult's
 };
 
