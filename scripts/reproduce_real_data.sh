@@ -23,7 +23,9 @@
 #     B1b. The first design, frozen and scored on the lockbox before the
 #         second: the same without parameter uncertainty.
 #     B2. The physics-shaped alternative, on the same runs and protocols,
-#         against the first design (neither with parameter uncertainty);
+#         against the first design (neither with parameter uncertainty),
+#         and the rule that picks one of the two inside each fold by the
+#         fold's inner cross-validation (from both --table files);
 #         B2d. the first design with an unknown hypothesis, on the
 #         extrapolation protocols; B2c. the first design with correlated
 #         innovations, on the extrapolation protocols and on development runs
