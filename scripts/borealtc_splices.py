@@ -20,17 +20,22 @@ from splice_runs import main as splice
 TERRAINS = ["ASPHALT", "FLOORING", "ICE", "SANDY_LOAM", "SNOW"]
 
 
-def main(argv):
-    if len(argv) < 4:
-        sys.exit(__doc__)
-    out_dir, data, runs = argv[1], argv[2], argv[3:]
+def rotations(runs):
+    """The runs (TERRAIN/NN) each rotation drives, in order: rotation k starts on TERRAINS[k] and takes, on
+    each terrain, that terrain's run k modulo how many it has (in sorted order)."""
     by_terrain = {t: sorted(r for r in runs if r.split("/")[0] == t) for t in TERRAINS}
     missing = [t for t in TERRAINS if not by_terrain[t]]
     if missing:
         sys.exit("no run of " + ", ".join(missing))
-    for k in range(len(TERRAINS)):
-        order = TERRAINS[k:] + TERRAINS[:k]
-        chosen = [by_terrain[t][k % len(by_terrain[t])] for t in order]
+    return [[by_terrain[t][k % len(by_terrain[t])] for t in TERRAINS[k:] + TERRAINS[:k]]
+            for k in range(len(TERRAINS))]
+
+
+def main(argv):
+    if len(argv) < 4:
+        sys.exit(__doc__)
+    out_dir, data, runs = argv[1], argv[2], argv[3:]
+    for k, chosen in enumerate(rotations(runs)):
         name = f"rotation_{k}"
         splice(["splice_runs.py", out_dir, name, data] + chosen)
         print(f"{os.path.join(out_dir, 'pro_' + name + '.csv')}+{os.path.join(out_dir, 'imu_' + name + '.csv')}")

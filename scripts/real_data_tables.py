@@ -16,7 +16,9 @@ import os
 import re
 import sys
 
-TERRAINS = ["ASPHALT", "FLOORING", "ICE", "SANDY_LOAM", "SNOW"]
+import borealtc_splices
+
+TERRAINS = borealtc_splices.TERRAINS
 
 # What each protocol holds out, by the slug tune's table and estimate folders use.
 HELD_OUT = {
@@ -468,7 +470,41 @@ def correlation(work, first):
         f"development run: {other['chosen']}.\n")
 
 
-def splices(work):
+def changes_not_followed(work, summary, data):
+    """The lockbox splices' changes of terrain the most likely terrain never followed, and those it followed
+    slowest, named by the runs on either side (the rotations borealtc_splices.py drives); how many of those
+    never followed lead onto a run driven faster than every development run of its terrain."""
+    lockbox_runs = [f"{r['truth']}/{run_number(r['log'])}" for r in summary["lockbox"]["rows"]]
+    fastest = fastest_development_runs(summary, data)
+    onto_faster = 0
+    driven = borealtc_splices.rotations(lockbox_runs)
+    logs = json.load(open(os.path.join(work, "splices", "eval.json")))["logs"]
+    never, followed = {}, {}
+    for name, result in logs.items():
+        k = int(re.search(r"rotation_(\d+)\.csv$", name).group(1))
+        for i, change in enumerate(result["switches"]):
+            before, after = driven[k][i], driven[k][i + 1]
+            if (change["from"], change["to"]) != (before.split("/")[0], after.split("/")[0]):
+                sys.exit(f"{name}: change {i} is {change['from']} -> {change['to']}, not {before} -> {after}")
+            label = f"{before.replace('/', ' ')} -> {after.replace('/', ' ')}"
+            if change["first_latency"] is None:
+                never[label] = never.get(label, 0) + 1
+                terrain, number = after.split("/")
+                onto_faster += driving(data, terrain, number)[0] > fastest[terrain]
+            else:
+                followed.setdefault(label, []).append(change["first_latency"])
+    times = lambda n: "" if n == 1 else f" ({n} times)"
+    slowest = sorted(followed.items(), key=lambda item: -max(item[1]))[:3]
+    return ("Changes the most likely terrain never followed: "
+            + ("; ".join(f"{label}{times(n)}" for label, n in sorted(never.items())) if never else "none")
+            + (f", {onto_faster} of {sum(never.values())} onto a run driven faster than every development run of "
+               "its terrain" if never else "")
+            + ". Followed slowest: "
+            + "; ".join(f"{label} after {', '.join(fmt(t, 1) for t in sorted(ts, reverse=True))} s"
+                        for label, ts in slowest) + ".")
+
+
+def splices(work, summary, data_dir):
     data = json.load(open(os.path.join(work, "splices", "eval.json")))["overall"]
     latency, first, decision = data["latency"], data["first_latency"], data["decision"]
     switches = latency["switches"]
@@ -489,7 +525,7 @@ def splices(work):
              f"{pct(data['calibration']['confident_accuracy'])} | "
              f"{pct(decision['calibration']['confident_fraction'])}, {pct(decision['calibration']['confident_accuracy'])} |",
              f"| time `unknown` | - | {pct(decision['unknown_fraction'])} |"]
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines) + "\n\n" + changes_not_followed(work, summary, data_dir) + "\n"
 
 
 REACTION_FACTORS = (2, 4, 8)
@@ -572,6 +608,15 @@ def driving(data, terrain, number):
     speed = sum(abs(float(r["velL"]) + float(r["velR"])) / 2 for r in rows) / len(rows)
     turn = sum(abs(float(r["velR"]) - float(r["velL"])) for r in rows) / len(rows)
     return speed, turn
+
+
+def fastest_development_runs(summary, data):
+    """Per terrain, the mean speed (m/s) of its fastest development run."""
+    fastest = {}
+    for r in summary["logs"]["rows"]:
+        speed, _ = driving(data, r["truth"], run_number(r["log"]))
+        fastest[r["truth"]] = max(fastest.get(r["truth"], 0.0), speed)
+    return fastest
 
 
 def how_driven(speed, turn):
@@ -669,10 +714,7 @@ def per_run(summary, work, data):
                      f"{held} | {bold(w) if w is not None else '-'} |")
     # Lockbox runs driven faster than every development run of their terrain: the next run a user drives
     # faster than their fitting runs.
-    development_speed = {}
-    for r in summary["logs"]["rows"]:
-        speed, _ = driving(data, r["truth"], run_number(r["log"]))
-        development_speed[r["truth"]] = max(development_speed.get(r["truth"], 0.0), speed)
+    development_speed = fastest_development_runs(summary, data)
     faster, others = [], []
     for r in summary["lockbox"]["rows"]:
         speed, _ = driving(data, r["truth"], run_number(r["log"]))
@@ -696,7 +738,7 @@ def main():
               "confusion": confusion(summary, work), "physics": physics(work, first),
               "uncertainty": uncertainty(first, summary, first_blocks), "unknown": unknown(work, first),
               "correlation": correlation(work, first),
-              "splices": splices(work), "reaction": reaction(work),
+              "splices": splices(work, summary, data), "reaction": reaction(work),
               "wheels": wheels(work), "runs": per_run(summary, work, data), "pivots": pivots(summary, work, data)}
     text = read(doc)
     for name, block in blocks.items():
