@@ -448,8 +448,7 @@ std::vector<double> standard_deviations(ceres::Problem* problem, ParameterBlock*
 // model's flat parameter order.
 Eigen::MatrixXd mode_parameter_covariance(Bank* bank, const ModeLogs& d, const MeasurementLayout& m,
                                           const ParameterBlock& block, const Eigen::MatrixXd& free_basis,
-                                          int most_residuals,
-                                          const FitOptions& options, const std::string& who) {
+                                          int most_residuals, const FitOptions& options, const std::string& who) {
   sdk::MotionModel* model = bank->models[static_cast<std::size_t>(d.mode)].get();
   const auto& [base, mapping] = block.per_mode.at(d.mode);
   const int p = static_cast<int>(block.size());
@@ -513,19 +512,17 @@ FitReport report_of(const Bank& bank, const ModeLogs& d, const FitOptions& optio
   for (std::size_t i = 0; i < values.size(); ++i) {
     const std::string& name = block.names[i];
     report.parameters.push_back({name, values[i], deviations[i]});
-    if (s.holds_whole(i)) continue;  // a warning below
+    if (s.holds_whole(i)) {
+      report.warnings.push_back("parameter '" + name + "' is held at its starting value " + std::to_string(values[i]) +
+                                ": the logs do not excite it");
+      continue;
+    }
     if (std::isfinite(deviations[i]) && deviations[i] > std::max(std::abs(values[i]), 1e-9)) {
       report.warnings.push_back("parameter '" + name + "' is poorly determined: standard deviation " +
                                 std::to_string(deviations[i]) + " exceeds its value");
     }
     if (values[i] <= block.lower[i] || values[i] >= block.upper[i]) {
       report.warnings.push_back("parameter '" + name + "' ended on its bound");
-    }
-  }
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    if (s.holds_whole(i)) {
-      report.warnings.push_back("parameter '" + block.names[i] + "' is held at its starting value " +
-                                std::to_string(values[i]) + ": the logs do not excite it");
     }
   }
   for (Eigen::Index k = 0; k < s.held.cols(); ++k) {
