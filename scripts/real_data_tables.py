@@ -689,14 +689,29 @@ def pivots(summary, work, data):
             "their terrain it fits on: " + ("; ".join(split) if split else "none") + ".\n")
 
 
+def confidently_wrong(work, slug):
+    """Per (terrain, run) scored by protocol `slug`: the share of its time the most likely terrain had p >= 0.9
+    and was wrong (`skidimm eval`'s per-log calibration of the held-out outputs)."""
+    logs = json.load(open(os.path.join(work, "borealtc", f"eval_{slug}.json")))["logs"]
+    out = {}
+    for name, result in logs.items():
+        terrain, number = re.search(r"\d+_(\w+?)_pro_(\d+)\.csv$", name).groups()
+        calibration = result["calibration"]
+        right = calibration["confident_accuracy"]  # none when never that sure
+        out[(terrain, number)] = 0.0 if right is None else calibration["confident_fraction"] * (1.0 - right)
+    return out
+
+
 def per_run(summary, work, data):
     wheel_rows = scores_by_kind(os.path.join(work, "borealtc", "wheels_scores.csv"))
+    sure_and_wrong = {**confidently_wrong(work, "logs"), **confidently_wrong(work, "lockbox")}
     wheel = {(r["truth"], run_number(r["log"])): float(r["accuracy"])
              for kind in ("logs", "lockbox") for r in wheel_rows[kind]}
     extrapolated = {(r["truth"], run_number(r["log"])): slug
                     for slug in ("extrapolation-speed", "extrapolation-turn") for r in summary[slug]["rows"]}
     lines = ["| terrain | run | set | driven | mean speed (m/s) | mean turn (m/s) | held-out accuracy | "
-             "held out for extrapolation in | wheels only |", "|---|---|---|---|---|---|---|---|---|"]
+             "time sure of a wrong terrain (p >= 0.9) | held out for extrapolation in | wheels only |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     counts = {}
     rows = [(r, "development") for r in summary["logs"]["rows"]] + [(r, "lockbox") for r in summary["lockbox"]["rows"]]
     rows.sort(key=lambda x: (x[0]["truth"], run_number(x[0]["log"])))
@@ -710,8 +725,10 @@ def per_run(summary, work, data):
         held = extrapolated.get((r["truth"], number), "")
         held = {"extrapolation-speed": "speed", "extrapolation-turn": "turn"}.get(held, "")
         w = wheel.get((r["truth"], number))
+        wrong = sure_and_wrong[(r["truth"], number)]
         lines.append(f"| {r['truth']} | {number} | {kind_of_set} | {kind} | {speed:.2f} | {turn:.2f} | {bold(acc)} | "
-                     f"{held} | {bold(w) if w is not None else '-'} |")
+                     f"{'**' + pct(wrong) + '**' if wrong >= 0.25 else pct(wrong)} | {held} | "
+                     f"{bold(w) if w is not None else '-'} |")
     # Lockbox runs driven faster than every development run of their terrain: the next run a user drives
     # faster than their fitting runs.
     development_speed = fastest_development_runs(summary, data)
@@ -727,7 +744,11 @@ def per_run(summary, work, data):
               + f". Mean held-out accuracy of those: {mean(faster)}; of the other lockbox runs: {mean(others)}.")
     summary_text = "; ".join(f"{kind}: {len(a)} runs, mean {pct(sum(a) / len(a))}, {sum(x < 0.5 for x in a)} below 50%"
                              for kind, a in sorted(counts.items()))
-    return "\n".join(lines) + f"\n\nBy how the run was driven (held-out accuracy): {summary_text}.{beyond}\n"
+    sure = sorted((w, key) for key, w in sure_and_wrong.items() if w >= 0.25)
+    sure_text = ("Runs sure of a wrong terrain (p >= 0.9) for a quarter of their time or more: "
+                 + ("; ".join(f"{t} {n} ({pct(w)})" for w, (t, n) in reversed(sure)) if sure else "none") + ". ")
+    return "\n".join(lines) + (f"\n\n{sure_text}By how the run was driven (held-out accuracy): "
+                               f"{summary_text}.{beyond}\n")
 
 
 def main():
