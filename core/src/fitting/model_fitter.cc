@@ -306,11 +306,10 @@ WindowProblem build_window_problem(Bank* bank, const Group& group, const std::ma
 struct Solution {
   ceres::Solver::Summary summary;  // of the last solve
   // The directions in parameter space the logs do not excite, each held
-  // where it started (unit columns), the members of each, and a basis of the
-  // directions the fit moved (orthonormal columns, the identity when it held
-  // nothing): every uncertainty lives in the latter.
+  // where it started (unit columns), and a basis of the directions the fit
+  // moved (orthonormal columns, the identity when it held nothing): every
+  // uncertainty lives in the latter.
   Eigen::MatrixXd held;
-  std::vector<std::string> held_members;
   Eigen::MatrixXd free_basis;
   double largest = 0.0, smallest = 0.0;  // singular values of the Jacobian at the solution
   double first_initial_cost = -1.0;
@@ -400,7 +399,6 @@ Solution solve(const FitOptions& options, const std::string& who, const std::str
       u.normalize();
       s.held.conservativeResize(Eigen::NoChange, s.held.cols() + 1);
       s.held.col(s.held.cols() - 1) = u;
-      s.held_members.push_back(describe_direction(u, block->names));
     }
     if (s.held.cols() >= n) {
       throw FitError(who + logs + ": the logs do not excite every parameter: no information on the combinations " +
@@ -531,7 +529,7 @@ FitReport report_of(const Bank& bank, const ModeLogs& d, const FitOptions& optio
       if (s.held(i, k) != 0.0 && !s.holds_whole(static_cast<std::size_t>(i))) named = false;
     }
     if (named) continue;
-    report.warnings.push_back("the logs do not excite a combination of " + s.held_members[static_cast<std::size_t>(k)] +
+    report.warnings.push_back("the logs do not excite a combination of " + describe_direction(s.held.col(k), block.names) +
                               ": it is held where it started, and those parameters move the least that fits the rest");
   }
   const auto finite = [](double value) { return std::isfinite(value); };
