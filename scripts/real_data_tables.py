@@ -333,8 +333,9 @@ def physics(work, summary):
         f"{'on: ' + '; '.join(better) if better else 'on none of them'}. Chosen for it on every development run: "
         f"{other['chosen']}. Chosen inside each fold (the form whose inner cross-validation, without the fold, "
         f"scored the better mean log p(truth)): mean over the four protocols {pct(rule_mean)}, the worst "
-        f"{pct(rule_worst)}, {rule_verdict}; on every development run, that rule chooses {rule} (cross-validated mean log "
-        f"p(truth) {fmt(selection[0], 3)} for the bank's form, {fmt(selection[1], 3)} for the physics-shaped form).\n")
+        f"{pct(rule_worst)}, {rule_verdict}; on every development run, that rule chooses {rule} "
+        f"(cross-validated mean log p(truth) {fmt(selection[0], 3)} for the bank's form, {fmt(selection[1], 3)} for "
+        "the physics-shaped form).\n")
 
 
 FIRST = "without (the first design)"

@@ -529,7 +529,8 @@ FitReport report_of(const Bank& bank, const ModeLogs& d, const FitOptions& optio
       if (s.held(i, k) != 0.0 && !s.holds_whole(static_cast<std::size_t>(i))) named = false;
     }
     if (named) continue;
-    report.warnings.push_back("the logs do not excite a combination of " + describe_direction(s.held.col(k), block.names) +
+    report.warnings.push_back("the logs do not excite a combination of " +
+                              describe_direction(s.held.col(k), block.names) +
                               ": it is held where it started, and those parameters move the least that fits the rest");
   }
   const auto finite = [](double value) { return std::isfinite(value); };

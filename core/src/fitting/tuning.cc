@@ -870,7 +870,8 @@ class Tuner {
   std::vector<std::vector<double>> step_weights_;  // weigh_steps()
   std::vector<double> truth_seconds_;
   std::map<FitKey, FittedValues> fits_;
-  std::map<std::vector<int>, std::pair<TunedSettings, double>> settings_without_;  // tuned_without(), by the held-out logs
+  // tuned_without(), by the held-out logs.
+  std::map<std::vector<int>, std::pair<TunedSettings, double>> settings_without_;
   // One mode's fit.
   struct ModeFit {
     Eigen::VectorXd parameters;
