@@ -738,11 +738,14 @@ def per_run(summary, work, data):
         speed, _ = driving(data, r["truth"], run_number(r["log"]))
         (faster if speed > development_speed[r["truth"]] else others).append(
             (r["truth"], run_number(r["log"]), speed, float(r["accuracy"])))
-    mean = lambda runs: pct(sum(x[3] for x in runs) / len(runs)) if runs else "-"
+    mean = lambda runs, of=lambda x: x[3]: pct(sum(of(x) for x in runs) / len(runs)) if runs else "-"
+    wheels_only = lambda x: wheel[(x[0], x[1])]
     beyond = (f"\n\nLockbox runs driven faster than every development run of their terrain: "
               + ("; ".join(f"{t} {n} at {v:.2f} m/s (its development runs at most {development_speed[t]:.2f}): "
-                           f"{pct(a)}" for t, n, v, a in faster) if faster else "none")
-              + f". Mean held-out accuracy of those: {mean(faster)}; of the other lockbox runs: {mean(others)}.")
+                           f"{pct(a)}, wheels only {pct(wheel[(t, n)])}" for t, n, v, a in faster)
+                 if faster else "none")
+              + f". Mean held-out accuracy of those: {mean(faster)}, wheels only {mean(faster, wheels_only)}; "
+              f"of the other lockbox runs: {mean(others)}, wheels only {mean(others, wheels_only)}.")
     summary_text = "; ".join(f"{kind}: {len(a)} runs, mean {pct(sum(a) / len(a))}, {sum(x < 0.5 for x in a)} below 50%"
                              for kind, a in sorted(counts.items()))
     sure = sorted((w, key) for key, w in sure_and_wrong.items() if w >= 0.25)
