@@ -25,7 +25,8 @@
 #     B2. The physics-shaped alternative, on the same runs and protocols,
 #         against the first design (neither with parameter uncertainty),
 #         and the rule that picks one of the two inside each fold by the
-#         fold's inner cross-validation (from both --table files);
+#         fold's inner cross-validation (from both --table files); B2e. the
+#         physics-shaped form with parameter uncertainty against the design;
 #         B2d. the first design with an unknown hypothesis, on the
 #         extrapolation protocols; B2c. the first design with correlated
 #         innovations, on the extrapolation protocols and on development runs
@@ -122,6 +123,11 @@ done
 # it was not chosen), against the first design: neither has parameter uncertainty.
 "$skidimm" tune -q --bank configs/borealtc/physics_start.yaml "${develop[@]}" "${fit[@]}" --tune "$knobs" \
   --assess "$protocols" --table "$work/borealtc/physics_scores.csv" >"$work/borealtc/physics_tune.txt"
+# B2e. The physics-shaped form with each mode's parameter uncertainty, as the design has it: the two
+# forms compared as the bank would use them, on the same runs and protocols as B1 (no lockbox).
+"$skidimm" tune -q --bank configs/borealtc/physics_start.yaml "${develop[@]}" "${fit[@]}" --parameter-uncertainty \
+  --tune "$knobs" --assess "$protocols" --table "$work/borealtc/physics_uncertainty_scores.csv" \
+  >"$work/borealtc/physics_uncertainty_tune.txt"
 
 # B2d. The first design with an explicit unknown hypothesis ("none of these": bank key `unknown:`, its
 # covariance factor tuned inside each fold with the other knobs; enter 0.01 and leave 0.1 a step,
