@@ -28,6 +28,8 @@ HELD_OUT = {
     "extrapolation-turn": "per terrain, the runs turning the most",
     "lockbox": "**the lockbox**: 10 runs no fit, setting or choice used",
 }
+# The protocols on the development runs: every one but the lockbox.
+DEVELOPMENT = tuple(slug for slug in HELD_OUT if slug != "lockbox")
 # The same, short, inside a sentence.
 SHORT = {
     "logs": "each run",
@@ -281,6 +283,12 @@ def chosen_per_fold(ours, theirs, slug):
     return rows, won
 
 
+def check_table_agrees(rows, block, what):
+    """Exits unless a --table's rows give the mean over classes its tune printed (`block`)."""
+    if f"{mean_over_classes(rows)[0]:.3f}" != f"{block['mean']:.3f}":
+        sys.exit(f"{what}'s table disagrees with its tune's mean over classes")
+
+
 def physics(work, summary):
     """The first design's form against the physics-shaped one, neither with parameter uncertainty, and the
     rule that chooses between them inside each fold."""
@@ -290,15 +298,13 @@ def physics(work, summary):
     lines = ["| held out | straight lines in speed and turn (the bank's form) | physics-shaped inputs | "
              "the form each fold's inner cross-validation chose | folds that chose the physics-shaped form |",
              "|---|---|---|---|---|"]
-    slugs = ("logs", "sessions", "extrapolation-speed", "extrapolation-turn")
+    slugs = DEVELOPMENT
     chosen_means = []
     for slug in slugs:
         ours = summary[slug]["tune"]
         theirs = other[slug]
-        for name, rows, block in (("the bank's form", first_rows[slug], ours), ("the physics-shaped form",
-                                                                             other_rows[slug], theirs)):
-            if f"{mean_over_classes(rows)[0]:.3f}" != f"{block['mean']:.3f}":
-                sys.exit(f"{slug}: {name}'s table disagrees with its tune's mean over classes")
+        check_table_agrees(first_rows[slug], ours, f"{slug}: the bank's form")
+        check_table_agrees(other_rows[slug], theirs, f"{slug}: the physics-shaped form")
         rows, won = chosen_per_fold(first_rows[slug], other_rows[slug], slug)
         accuracy, log_p = mean_over_classes(rows)
         chosen_means.append(accuracy)
@@ -350,11 +356,10 @@ def physics_with_uncertainty(work, design):
     the rule that kept the bank's form (the better worst case over the protocols) says of them."""
     other = tune_blocks(os.path.join(work, "borealtc", "physics_uncertainty_tune.txt"))
     other_rows = scores_by_kind(os.path.join(work, "borealtc", "physics_uncertainty_scores.csv"))
-    slugs = ("logs", "sessions", "extrapolation-speed", "extrapolation-turn")
+    slugs = DEVELOPMENT
     lines = ["| held out | straight lines in speed and turn (the design) | physics-shaped inputs |", "|---|---|---|"]
     for slug in slugs:
-        if f"{mean_over_classes(other_rows[slug])[0]:.3f}" != f"{other[slug]['mean']:.3f}":
-            sys.exit(f"{slug}: the physics-shaped form's table disagrees with its tune's mean over classes")
+        check_table_agrees(other_rows[slug], other[slug], f"{slug}: the physics-shaped form")
         ours, theirs = design[slug]["tune"], other[slug]
         lines.append(f"| {HELD_OUT[slug]} | {pct(ours['mean'])} ({fmt(ours['log_p'], 2)}) | "
                      f"{pct(theirs['mean'])} ({fmt(theirs['log_p'], 2)}) |")
@@ -362,7 +367,7 @@ def physics_with_uncertainty(work, design):
     theirs = {s: other[s]["mean"] for s in slugs}
     worst_ours, worst_theirs = min(slugs, key=ours.get), min(slugs, key=theirs.get)
     better = [HELD_OUT[s] for s in slugs if theirs[s] > ours[s]]
-    mean_ours, mean_theirs = sum(ours.values()) / 4, sum(theirs.values()) / 4
+    mean_ours, mean_theirs = sum(ours.values()) / len(slugs), sum(theirs.values()) / len(slugs)
     if ours[worst_ours] >= theirs[worst_theirs]:
         verdict = ("the bank's form keeps the better worst case, and by that rule the bank keeps its form"
                    + (", though the physics-shaped form has the better mean" if mean_theirs > mean_ours else ""))
@@ -448,7 +453,7 @@ def extrapolation_comparison(work, first, prefix, column, with_name, intro):
 def uncertainty(first, summary, first_blocks):
     """The first design against the design, which adds each mode's parameter uncertainty: every protocol on the
     development runs, then the lockbox."""
-    development = ("logs", "sessions", "extrapolation-speed", "extrapolation-turn")
+    development = DEVELOPMENT
     lines, better, worse = comparison_rows(as_forms(first, development), as_forms(summary, development), development,
                                            "parameter uncertainty", FIRST, "with (the design)")
     box, box_better, box_worse = comparison_rows(as_forms(first, ("lockbox",)), as_forms(summary, ("lockbox",)),
@@ -782,8 +787,12 @@ def per_run(summary, work, data):
         speed, _ = driving(data, r["truth"], run_number(r["log"]))
         (faster if speed > development_speed[r["truth"]] else others).append(
             (r["truth"], run_number(r["log"]), speed, float(r["accuracy"])))
-    mean = lambda runs, of=lambda x: x[3]: pct(sum(of(x) for x in runs) / len(runs)) if runs else "-"
-    wheels_only = lambda x: wheel[(x[0], x[1])]
+    def mean(runs, of=lambda run: run[3]):
+        return pct(sum(of(run) for run in runs) / len(runs)) if runs else "-"
+
+    def wheels_only(run):
+        return wheel[(run[0], run[1])]
+
     beyond = (f"\n\nLockbox runs driven faster than every development run of their terrain: "
               + ("; ".join(f"{t} {n} at {v:.2f} m/s (its development runs at most {development_speed[t]:.2f}): "
                            f"{pct(a)}, wheels only {pct(wheel[(t, n)])}" for t, n, v, a in faster)
