@@ -80,7 +80,8 @@ class ParameterUncertainModel final : public sdk::MotionModel {
     try {
       // Sized once per thread: no allocation per step after the first.
       thread_local Eigen::MatrixXd g;
-      thread_local Eigen::MatrixXd sigma_g;  // Sigma_b G_b' at the rows of G in block b
+      thread_local Eigen::MatrixXd gathered;  // G_b's nonzero rows, one per column, at block b
+      thread_local Eigen::MatrixXd sigma_g;   // Sigma_b G_b' at those rows
       thread_local std::vector<Eigen::Index> rows;
       thread_local std::vector<std::uint64_t> row_bits;
       const Eigen::Index n = noise.rows();
@@ -93,9 +94,10 @@ class ParameterUncertainModel final : public sdk::MotionModel {
       // columns of b), and of G_b only the rows with a nonzero entry count:
       // in linear_features with a diagonal A each block is one feature's
       // regression and moves that feature's state alone, so a block is one
-      // row and a 4 x 4 product. Each sum in increasing index order, as the
-      // dense products take it. Dense, the BorealTC bank's 10 modes spent
-      // ten times a step's filtering on it.
+      // row and a 4 x 4 product. Dense, the BorealTC bank's 10 modes spent
+      // ten times a step's filtering on it. Those rows of G_b are gathered
+      // into contiguous columns for add_block().
+      gathered.resize(largest_block_, n);
       sigma_g.resize(largest_block_, n);
       rows.resize(static_cast<std::size_t>(n));
       row_bits.resize(static_cast<std::size_t>(n));
@@ -118,22 +120,19 @@ class ParameterUncertainModel final : public sdk::MotionModel {
         }
         Eigen::Index count = 0;
         for (Eigen::Index i = 0; i < n; ++i) {
-          if (bits_of[i] != 0) rows[static_cast<std::size_t>(count++)] = i;
+          if (bits_of[i] == 0) continue;
+          for (Eigen::Index c = 0; c < m; ++c) gathered(c, count) = g_of[k_of[c] * n + i];
+          rows[static_cast<std::size_t>(count++)] = i;
         }
-        for (Eigen::Index r = 0; r < count; ++r) {
-          const Eigen::Index i = rows[static_cast<std::size_t>(r)];
-          for (Eigen::Index l = 0; l < m; ++l) {
-            double entry = 0.0;
-            for (Eigen::Index c = 0; c < m; ++c) entry += g_of[k_of[c] * n + i] * block.sigma(l, c);
-            sigma_g(l, r) = entry;
-          }
-          for (Eigen::Index q = 0; q <= r; ++q) {
-            const Eigen::Index j = rows[static_cast<std::size_t>(q)];
-            double added = 0.0;
-            for (Eigen::Index l = 0; l < m; ++l) added += sigma_g(l, r) * g_of[k_of[l] * n + j];
-            noise(i, j) += added;
-            if (j != i) noise(j, i) += added;
-          }
+        // Up to 4 parameters (one feature's regression on up to three inputs)
+        // at compile time; larger blocks (features whose fits are coupled) at
+        // run time.
+        switch (m) {
+          case 1: add_block<1>(block.sigma, gathered, rows, count, &sigma_g, &noise); break;
+          case 2: add_block<2>(block.sigma, gathered, rows, count, &sigma_g, &noise); break;
+          case 3: add_block<3>(block.sigma, gathered, rows, count, &sigma_g, &noise); break;
+          case 4: add_block<4>(block.sigma, gathered, rows, count, &sigma_g, &noise); break;
+          default: add_block<Eigen::Dynamic>(block.sigma, gathered, rows, count, &sigma_g, &noise); break;
         }
       }
     } catch (...) {  // bad_alloc
@@ -141,6 +140,39 @@ class ParameterUncertainModel final : public sdk::MotionModel {
       return false;
     }
     return true;
+  }
+
+  // noise += G_b Sigma_b G_b' at the `count` rows of G_b in `rows`, whose
+  // entries are the columns of `gathered`. Sigma_b G_b' is a sum of Sigma_b's
+  // columns (contiguous, a few to a vector instruction) rather than of
+  // entries found through the block's parameter indices, held in registers
+  // where the block's size M is known at compile time and in *sigma_g
+  // otherwise. Each entry's sum runs in increasing index order, as the dense
+  // products take it: the same result to the bit.
+  template <int M>
+  static void add_block(const Eigen::MatrixXd& sigma, const Eigen::MatrixXd& gathered,
+                        const std::vector<Eigen::Index>& rows, Eigen::Index count, Eigen::MatrixXd* sigma_g,
+                        Eigen::Ref<Eigen::MatrixXd>* noise) {
+    const Eigen::Index m = M == Eigen::Dynamic ? sigma.rows() : M;
+    const auto add_row = [&](Eigen::Index r, auto&& column) {
+      column.setZero();
+      for (Eigen::Index c = 0; c < m; ++c) column += gathered(c, r) * sigma.col(c);
+      const Eigen::Index i = rows[static_cast<std::size_t>(r)];
+      for (Eigen::Index q = 0; q <= r; ++q) {
+        const Eigen::Index j = rows[static_cast<std::size_t>(q)];
+        double added = 0.0;
+        for (Eigen::Index l = 0; l < m; ++l) added += column[l] * gathered(l, q);
+        (*noise)(i, j) += added;
+        if (j != i) (*noise)(j, i) += added;
+      }
+    };
+    for (Eigen::Index r = 0; r < count; ++r) {
+      if constexpr (M == Eigen::Dynamic) {
+        add_row(r, sigma_g->col(r).head(m));
+      } else {
+        add_row(r, Eigen::Matrix<double, M, 1>());
+      }
+    }
   }
 
   const std::vector<std::string>& output_names() const noexcept override { return model_->output_names(); }
