@@ -259,6 +259,31 @@ void parse_initial(const YamlFields& y, const YAML::Node& root, BankConfig* bank
   }
 }
 
+// `fitted_inputs: {speed: [0.05, 0.31], ...}`: an input's range as [lowest, highest].
+void parse_fitted_inputs(const YamlFields& y, const YAML::Node& node, const BankConfig& bank, const std::string& field,
+                         ModeConfig* mode) {
+  const std::string ranges_field = field + ".fitted_inputs";
+  if (!node.IsMap()) y.fail(node, ranges_field, "expected a mapping from input name to [lowest, highest]");
+  for (const auto& entry : node) {
+    const std::string input = y.key(entry.first, ranges_field);
+    const std::string input_field = ranges_field + "." + input;
+    if (index_of(bank.input_names, input) < 0) {
+      y.fail(entry.first, input_field, "'" + input + "' is not an input (inputs: " + join(bank.input_names) + ")");
+    }
+    const YAML::Node range = entry.second;
+    if (!range.IsSequence() || range.size() != 2) {
+      y.fail(range, input_field, "expected [lowest, highest], the input's range over the steps the mode was fitted on");
+    }
+    InputRange r{y.number(range[0], input_field + "[0]"), y.number(range[1], input_field + "[1]")};
+    if (!std::isfinite(r.lowest) || !std::isfinite(r.highest) || r.lowest > r.highest) {
+      y.fail(range, input_field, "expected finite numbers, the lowest first, got [" + printable(range[0].Scalar()) + ", " +
+                                     printable(range[1].Scalar()) + "]");
+    }
+    mode->fitted_inputs[input] = r;
+  }
+  mode->fitted_inputs_line = YamlFields::line_of(node);
+}
+
 void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {
   const YAML::Node node = y.required(root, "modes", "");
   if (!node.IsSequence() || node.size() == 0) y.fail(node, "modes", "expected a non-empty list of modes");
@@ -267,7 +292,7 @@ void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) 
     const std::string field = "modes[" + std::to_string(i) + "]";
     y.check_keys(m,
                  {"name", "model", "params", "Q", "R", "description", "fit_when", "parameter_covariance",
-                  "residual_correlation"},
+                  "residual_correlation", "fitted_inputs"},
                  field);
     ModeConfig mode;
     mode.line = YamlFields::line_of(m);
@@ -326,6 +351,7 @@ void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) 
                    "'): the lag-1 correlation of the mode's whitened innovations (0: independent steps)");
       }
     }
+    if (const YAML::Node ranges = m["fitted_inputs"]) parse_fitted_inputs(y, ranges, *bank, field, &mode);
     bank->modes.push_back(std::move(mode));
   }
 }

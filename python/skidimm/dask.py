@@ -153,6 +153,6 @@ def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihoo
         fitted.update(result)
     local = skidimm.Bank(bank_file, plugin_paths, models)
     for j, entry in fitted.items():
-        skidimm._native.apply_fit(local, j, entry["parameters"], entry["q"], entry["r"])
+        skidimm._native.apply_fit(local, j, entry["parameters"], entry["q"], entry["r"], entry["fitted_inputs"])
     call = "skidimm.dask.fit(" + ", ".join(repr(os.fspath(log)) for log in logs) + ")"
     return skidimm._fit_result(local, fitted, options, mode, name, output_bank, plugin_paths, models, call)

@@ -161,6 +161,11 @@ py::dict fit_in_place(PyBank& bank, const std::vector<fitting::ModeLogs>& data,
     entry["q"] = matrix_array(bank.config().modes[static_cast<std::size_t>(d.mode)].q_intensity);
     const Eigen::MatrixXd& own_r = bank.config().modes[static_cast<std::size_t>(d.mode)].r;
     entry["r"] = own_r.size() > 0 ? py::object(matrix_array(own_r)) : py::object(py::none());  // the mode's own, if any
+    py::dict ranges;  // ModeConfig::fitted_inputs
+    for (const auto& [input, range] : bank.config().modes[static_cast<std::size_t>(d.mode)].fitted_inputs) {
+      ranges[py::str(input)] = py::make_tuple(range.lowest, range.highest);
+    }
+    entry["fitted_inputs"] = ranges;
     entry["logs"] = fitting::log_count(d);
     out[py::int_(d.mode)] = entry;
   }
@@ -229,15 +234,20 @@ void bind_fit(py::module_& m) {
   m.def(
       "apply_fit",
       [](PyBank& bank, int mode, const Eigen::VectorXd& parameters, const Eigen::MatrixXd& q,
-         const std::optional<Eigen::MatrixXd>& r) {
+         const std::optional<Eigen::MatrixXd>& r, const std::map<std::string, std::pair<double, double>>& fitted_inputs) {
         if (mode < 0 || mode >= bank.config().num_modes()) throw py::index_error("no mode " + std::to_string(mode));
         std::string error;
         if (!bank.bank->models[static_cast<std::size_t>(mode)]->set_parameters(parameters, &error)) throw Error(error);
-        bank.bank->config.modes[static_cast<std::size_t>(mode)].q_intensity = q;
-        if (r) bank.bank->config.modes[static_cast<std::size_t>(mode)].r = *r;
+        ModeConfig& config = bank.bank->config.modes[static_cast<std::size_t>(mode)];
+        config.q_intensity = q;
+        if (r) config.r = *r;
+        config.fitted_inputs.clear();
+        for (const auto& [input, range] : fitted_inputs) config.fitted_inputs[input] = InputRange{range.first, range.second};
       },
       py::arg("bank"), py::arg("mode"), py::arg("parameters"), py::arg("q"), py::arg("r") = py::none(),
-      "Sets a mode's fitted parameters, Q and (given) its own R, as fit_in_place left them on the bank it fitted.");
+      py::arg("fitted_inputs") = std::map<std::string, std::pair<double, double>>{},
+      "Sets a mode's fitted parameters, Q, (given) its own R and its inputs' fitted ranges, as fit_in_place left "
+      "them on the bank it fitted.");
   m.def(
       "check_output_path", [](const fs::path& path, const std::string& option) { check_output_path(path, option); },
       py::arg("path"), py::arg("option"),

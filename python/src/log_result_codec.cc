@@ -98,6 +98,17 @@ py::dict to_dict(const evaluation::LogResult& result) {
   d["squared_state_error"] = result.squared_state_error;
   d["state_error_count"] = result.state_error_count;
   d["steps"] = result.steps;
+  const evaluation::ExtrapolationCounts& e = result.extrapolation;
+  py::dict extrapolation;
+  extrapolation["steps"] = e.steps;
+  extrapolation["outside_estimate"] = e.outside_estimate;
+  extrapolation["labelled"] = e.labelled;
+  extrapolation["outside_truth"] = e.outside_truth;
+  extrapolation["outside_truth_right"] = e.outside_truth_right;
+  extrapolation["inside_truth_right"] = e.inside_truth_right;
+  extrapolation["farthest"] = e.farthest;
+  extrapolation["farthest_beyond"] = e.farthest_beyond;
+  d["extrapolation"] = extrapolation;
   return d;
 }
 
@@ -119,6 +130,15 @@ evaluation::LogResult log_result_from_dict(const py::dict& d) {
   r.squared_state_error = d["squared_state_error"].cast<std::vector<double>>();
   r.state_error_count = d["state_error_count"].cast<std::vector<long>>();
   r.steps = d["steps"].cast<long>();
+  const py::dict e = d["extrapolation"].cast<py::dict>();
+  r.extrapolation.steps = e["steps"].cast<long>();
+  r.extrapolation.outside_estimate = e["outside_estimate"].cast<long>();
+  r.extrapolation.labelled = e["labelled"].cast<long>();
+  r.extrapolation.outside_truth = e["outside_truth"].cast<long>();
+  r.extrapolation.outside_truth_right = e["outside_truth_right"].cast<long>();
+  r.extrapolation.inside_truth_right = e["inside_truth_right"].cast<long>();
+  r.extrapolation.farthest = e["farthest"].cast<std::string>();
+  r.extrapolation.farthest_beyond = e["farthest_beyond"].cast<double>();
   return r;
 }
 

@@ -263,6 +263,58 @@ TEST(Cli, EvalReportsAccuracyLatencyAndConsistencyAsTextAndJson) {
   EXPECT_THAT(no_truth.err, HasSubstr("names no columns.truth_mode"));
 }
 
+// The bundled bank records where each terrain was fitted (fitted_inputs);
+// eval counts the steps outside those ranges. With every terrain fitted on
+// wheel speeds in [0, 1] rad/s, a step is outside for every class exactly
+// when a wheel turned outside [0, 1]: the share is the rows', counted here
+// from the log itself. A bank that records no ranges prints no line.
+TEST(EvalCommand, CountsTheStepsOutsideTheInputsTheTerrainsWereFittedOn) {
+  const Result bundled = run_skidimm(eval("--input " + kSwitching));
+  ASSERT_EQ(bundled.exit_code, 0) << bundled.err;
+  EXPECT_THAT(bundled.out, HasSubstr("inputs outside the ranges the classes were fitted on: "));
+
+  std::string narrow = read_file(kTerrains);
+  std::string::size_type at = 0;
+  int ranges = 0;
+  while ((at = narrow.find("    fitted_inputs: {", at)) != std::string::npos) {
+    const std::string::size_type end = narrow.find('\n', at);
+    narrow.replace(at, end - at, "    fitted_inputs: {phi_dot_L: [0, 1], phi_dot_R: [0, 1]}");
+    ++at;
+    ++ranges;
+  }
+  ASSERT_EQ(ranges, 3) << "one per terrain in " << kTerrains;
+  const fs::path narrow_bank = write_file(test_directory() / "narrow.yaml", narrow);
+  const auto rows = read_csv(kSwitching);
+  const int left = column(rows[0], "phi_dot_L"), right = column(rows[0], "phi_dot_R");
+  long outside = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const double l = std::stod(rows[i][static_cast<std::size_t>(left)]);
+    const double r = std::stod(rows[i][static_cast<std::size_t>(right)]);
+    if (l < 0.0 || l > 1.0 || r < 0.0 || r > 1.0) ++outside;
+  }
+  ASSERT_GT(outside, 0);
+  const double share = static_cast<double>(outside) / static_cast<double>(rows.size() - 1);
+  const YAML::Node json = json_of(run_skidimm("eval --bank " + narrow_bank.string() + " --plugin-path " + kPlugins +
+                                              " --input " + kSwitching + " --json"));
+  const YAML::Node e = json["overall"]["extrapolation"];
+  ASSERT_TRUE(e.IsMap()) << "overall.extrapolation";
+  EXPECT_EQ(e["steps"].as<long>(), static_cast<long>(rows.size() - 1));
+  EXPECT_NEAR(e["outside_estimate"].as<double>(), share, 1e-6);
+  EXPECT_NEAR(e["outside_truth"].as<double>(), share, 1e-6);
+  EXPECT_THAT(e["farthest"].as<std::string>(), HasSubstr("fitted on 0 to 1)"));
+
+  std::string none = read_file(kTerrains);
+  while ((at = none.find("    fitted_inputs: {")) != std::string::npos) none.erase(at, none.find('\n', at) + 1 - at);
+  const fs::path none_bank = write_file(test_directory() / "none.yaml", none);
+  const Result without = run_skidimm("eval --bank " + none_bank.string() + " --plugin-path " + kPlugins + " --input " +
+                                     kSwitching);
+  ASSERT_EQ(without.exit_code, 0) << without.err;
+  EXPECT_THAT(without.out, Not(HasSubstr("inputs outside")));
+  EXPECT_TRUE(json_of(run_skidimm("eval --bank " + none_bank.string() + " --plugin-path " + kPlugins + " --input " +
+                                  kSwitching + " --json"))["overall"]["extrapolation"]
+                  .IsNull());
+}
+
 TEST(Cli, EvalTakesDecisionSettingsAndRemakesARunsDecisionFromItsProbabilities) {
   const fs::path dir = test_directory();
   const std::string bank = kSource + "/configs/ltc_terrains.yaml",

@@ -419,6 +419,37 @@ TEST(BankConfig, ResidualCorrelationIsInMinusOneToOne) {
   }
 }
 
+// Each input's range over the steps a mode's fit used: input names of the
+// bank, [lowest, highest] finite and in order.
+TEST(BankConfig, FittedInputRangesNameInputsAndHoldTheirLowestFirst) {
+  const std::string ice_q = "    Q: [[0.02, 0], [0, 0.02]]\n";
+  const auto with = [&](const std::string& ranges) {
+    return replace(kValidBank, ice_q, ice_q + "    fitted_inputs: " + ranges + "\n");
+  };
+  const BankConfig c =
+      load_bank_config(write_file(test_directory() / "ranges.yaml", with("{phi_dot_L: [-1.5, 2], phi_dot_R: [0, 0]}")));
+  EXPECT_TRUE(c.modes[0].fitted_inputs.empty());
+  ASSERT_EQ(c.modes[1].fitted_inputs.size(), 2u);
+  EXPECT_EQ(c.modes[1].fitted_inputs.at("phi_dot_L").lowest, -1.5);
+  EXPECT_EQ(c.modes[1].fitted_inputs.at("phi_dot_L").highest, 2.0);
+  EXPECT_EQ(c.modes[1].fitted_inputs.at("phi_dot_R").highest, 0.0);
+  EXPECT_EQ(c.modes[1].fitted_inputs_line, 23);
+  // An input left out has no range.
+  EXPECT_EQ(load_bank_config(write_file(test_directory() / "one.yaml", with("{phi_dot_R: [0, 1]}")))
+                .modes[1]
+                .fitted_inputs.count("phi_dot_L"),
+            0u);
+  expect_config_error(with("{v: [0, 1]}"), {"bank.yaml:23: modes[1].fitted_inputs.v",
+                                            "'v' is not an input (inputs: phi_dot_L, phi_dot_R)"});
+  expect_config_error(with("{phi_dot_L: [2, 1]}"),
+                      {"bank.yaml:23: modes[1].fitted_inputs.phi_dot_L", "the lowest first, got [2, 1]"});
+  expect_config_error(with("{phi_dot_L: [0, .inf]}"), {"modes[1].fitted_inputs.phi_dot_L", "finite"});
+  expect_config_error(with("{phi_dot_L: [0, 1, 2]}"), {"modes[1].fitted_inputs.phi_dot_L", "[lowest, highest]"});
+  expect_config_error(with("{phi_dot_L: 1}"), {"modes[1].fitted_inputs.phi_dot_L", "[lowest, highest]"});
+  expect_config_error(with("{phi_dot_L: [0, fast]}"), {"modes[1].fitted_inputs.phi_dot_L[1]", "expected a number"});
+  expect_config_error(with("[0, 1]"), {"bank.yaml:23: modes[1].fitted_inputs", "mapping from input name"});
+}
+
 TEST(BankConfig, LikelihoodWeightIsInZeroToOne) {
   const auto ok = write_file(test_directory() / "ok.yaml", "likelihood_weight: 0.25\n" + kValidBank);
   EXPECT_EQ(load_bank_config(ok).likelihood_weight, 0.25);

@@ -90,6 +90,66 @@ TEST(EvaluateSpliced, ScoresEachLogsStepsOfOneRunOverAll) {
   EXPECT_NE(fresh.metrics.truth_probability, logs[1].metrics.truth_probability);
 }
 
+// Steps outside the input range a class was fitted on are counted against
+// the class estimated there and against the true class. mode0 was fitted on
+// u in [0.5, 1.5], mode1 on [0.9, 1.1]; log a (mode0, estimated mode0 on
+// nearly every step) is driven at u = 1 for 10 steps, then at 2 (outside
+// both) and at 1.2 (outside mode1 only). The counts are the steps', by hand.
+TEST(EvaluateLog, CountsTheStepsOutsideTheInputsEachClassWasFittedOn) {
+  Bank bank = two_modes();
+  bank.config.modes[0].fitted_inputs["u"] = {0.5, 1.5};
+  bank.config.modes[1].fitted_inputs["u"] = {0.9, 1.1};
+  std::vector<LogSample> steps = log_of("mode0", 1.0, 0.0);
+  for (int k = 10; k < 20; ++k) steps[static_cast<std::size_t>(k)].u = vec({2.0});
+  for (int k = 20; k < 30; ++k) steps[static_cast<std::size_t>(k)].u = vec({1.2});
+  ListSource source(steps);
+  std::vector<std::string> estimates;
+  const LogResult r = evaluate_log(bank, &source, "a", "", {}, EstimatorOptions{},
+                                   [&](const LogSample&, const LabelledStep& step) { estimates.push_back(step.estimate); });
+  ASSERT_EQ(estimates.size(), 30u);
+  long outside_estimate = 0, right_outside = 0, right_inside = 0;
+  for (int k = 0; k < 30; ++k) {
+    const bool mode0 = estimates[static_cast<std::size_t>(k)] == "mode0";
+    const double u = steps[static_cast<std::size_t>(k)].u[0];
+    if (mode0 ? (u < 0.5 || u > 1.5) : (u < 0.9 || u > 1.1)) ++outside_estimate;
+    if (u > 1.5 && mode0) ++right_outside;
+    if (u <= 1.5 && mode0) ++right_inside;
+  }
+  const ExtrapolationCounts& e = r.extrapolation;
+  EXPECT_EQ(e.steps, 30);
+  EXPECT_EQ(e.labelled, 30);
+  EXPECT_EQ(e.outside_truth, 10) << "u = 2, outside mode0's [0.5, 1.5]";
+  EXPECT_EQ(e.outside_truth_right, right_outside);
+  EXPECT_EQ(e.inside_truth_right, right_inside);
+  EXPECT_EQ(e.outside_estimate, outside_estimate);
+  EXPECT_GE(e.outside_estimate, 10);
+  EXPECT_EQ(e.farthest, "u 2 (mode0 fitted on 0.5 to 1.5)");
+  EXPECT_DOUBLE_EQ(e.farthest_beyond, 0.5) << "0.5 beyond a range 1 wide";
+
+  // A bank that records no ranges counts nothing.
+  ListSource again(steps);
+  EXPECT_EQ(evaluate_log(two_modes(), &again, "a", "").extrapolation.steps, 0);
+}
+
+// The envelope of a class spans its modes' ranges; an input a mode has no
+// range for is unbounded for its class.
+TEST(InputEnvelope, AClassSpansItsModesAndAMissingRangeIsUnbounded) {
+  Bank bank = two_modes();
+  bank.config.classes = {{"both", {0, 1}}};
+  bank.config.modes[0].fitted_inputs["u"] = {0.5, 1.5};
+  bank.config.modes[1].fitted_inputs["u"] = {2.0, 3.0};
+  const InputEnvelope spanned(bank.config);
+  EXPECT_EQ(spanned.outside(0, vec({1.75})).input, -1) << "between the modes' ranges, inside the class's";
+  const Excursion above = spanned.outside(0, vec({3.5}));
+  EXPECT_EQ(above.input, 0);
+  EXPECT_DOUBLE_EQ(above.beyond, 0.2) << "0.5 beyond a range 2.5 wide";
+  EXPECT_EQ(spanned.outside(0, vec({std::nan("")})).input, -1) << "a missing value is not outside";
+  bank.config.modes[1].fitted_inputs.clear();
+  const InputEnvelope unbounded(bank.config);
+  EXPECT_FALSE(unbounded.empty());
+  EXPECT_EQ(unbounded.outside(0, vec({100.0})).input, -1);
+}
+
 // The observer sees every step, in order, as scored: its weighted log
 // p(truth) (each step's interval to the next, the last's to the one before)
 // over the seconds of the truth is the log's score, and each term is at most

@@ -4,7 +4,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
+#include <map>
 
 #include "core/sanitizer.h"
 #include "skidimm/fitting/likelihood_fitter.h"
@@ -51,6 +53,20 @@ TEST(BankFit, LikelihoodFromAPhysicalGuessOnRealHuskyIceRuns) {
   BankFitOptions window;
   window.objective = Objective::kWindow;
   fit_bank(&window_bank, {fit_logs}, window);
+  // Where each input ranged over the fitted runs, recorded on the mode.
+  const std::map<std::string, InputRange>& ranges = window_bank.config.modes[static_cast<std::size_t>(ice)].fitted_inputs;
+  ASSERT_EQ(ranges.size(), window_bank.config.input_names.size());
+  for (int i = 0; i < window_bank.config.input_dim(); ++i) {
+    double lowest = fit_logs.logs[0].u.row(i).minCoeff(), highest = fit_logs.logs[0].u.row(i).maxCoeff();
+    for (const Trajectory& t : fit_logs.logs) {
+      lowest = std::min(lowest, t.u.row(i).minCoeff());
+      highest = std::max(highest, t.u.row(i).maxCoeff());
+    }
+    const InputRange& range = ranges.at(window_bank.config.input_names[static_cast<std::size_t>(i)]);
+    EXPECT_EQ(range.lowest, lowest) << window_bank.config.input_names[static_cast<std::size_t>(i)];
+    EXPECT_EQ(range.highest, highest) << window_bank.config.input_names[static_cast<std::size_t>(i)];
+    EXPECT_LT(range.lowest, range.highest);
+  }
 
   // Runs 10 and 11 (driven faster) are held out.
   const ModeLogs held_out{ice, husky_runs(likelihood_bank.config, {"10", "11"})};

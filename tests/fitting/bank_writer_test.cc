@@ -31,6 +31,15 @@ modes:
 
 )";
 
+// A mode entry as a fit leaves it: ltc_linear with Q = q I.
+ModeConfig mode_named(const std::string& name, double q = 0.02) {
+  ModeConfig mode;
+  mode.name = name;
+  mode.model = "ltc_linear";
+  mode.q_intensity = Eigen::Matrix2d::Identity() * q;
+  return mode;
+}
+
 TEST(BankWriter, FormatsParametersByKeyAndShape) {
   const Bank bank = Bank::load(write_file(test_directory() / "b.yaml", kBank), {SKIDIMM_PLUGIN_DIR});
   EXPECT_EQ(format_parameters(*bank.models[0], sdk::ParameterScope::kMode),
@@ -53,14 +62,12 @@ TEST(BankWriter, KeepsWhatTheBankGaveThatWasNotFitted) {
 TEST(BankWriter, NamesThatYamlWouldReadOtherwiseAreQuoted) {
   const auto file = write_file(test_directory() / "b.yaml", kBank);
   Bank bank = Bank::load(file, {SKIDIMM_PLUGIN_DIR});
-  append_mode_to_bank(file, format_mode_entry("ice: slick #1", "ltc_linear", *bank.models[0],
-                                              Eigen::Matrix2d::Identity() * 0.02, {}));
+  append_mode_to_bank(file, format_mode_entry(mode_named("ice: slick #1"), *bank.models[0]));
   EXPECT_THAT(read_file(file), HasSubstr("  - name: \"ice: slick #1\"\n"));
   EXPECT_EQ(load_bank_config(file).modes[1].name, "ice: slick #1");
   // A name with a line break cannot add keys to the bank: the result does not validate, nothing is written.
   const std::string before = read_file(file);
-  EXPECT_THROW(append_mode_to_bank(file, format_mode_entry("ice\n    model: x", "ltc_linear", *bank.models[0],
-                                                           Eigen::Matrix2d::Identity() * 0.02, {})),
+  EXPECT_THROW(append_mode_to_bank(file, format_mode_entry(mode_named("ice\n    model: x"), *bank.models[0])),
                ConfigError);
   EXPECT_EQ(read_file(file), before);
 }
@@ -68,8 +75,7 @@ TEST(BankWriter, NamesThatYamlWouldReadOtherwiseAreQuoted) {
 TEST(BankWriter, AppendKeepsCommentsAndTheResultLoads) {
   const auto file = write_file(test_directory() / "b.yaml", kBank);
   Bank bank = Bank::load(file, {SKIDIMM_PLUGIN_DIR});
-  append_mode_to_bank(file, format_mode_entry("ice", "ltc_linear", *bank.models[0], Eigen::Matrix2d::Identity() * 0.02,
-                                              {"fitted on ice"}));
+  append_mode_to_bank(file, format_mode_entry(mode_named("ice"), *bank.models[0], {"fitted on ice"}));
   const std::string text = read_file(file);
   EXPECT_THAT(text, HasSubstr("# A hand-written bank: this comment must survive appends."));
   EXPECT_THAT(text, HasSubstr("# sensor noise"));
@@ -87,14 +93,13 @@ TEST(BankWriter, AModesOwnMeasurementNoiseLoadsBack) {
   Bank bank = Bank::load(file, {SKIDIMM_PLUGIN_DIR});
   Eigen::Matrix2d r;
   r << 0.0009, 0.0002, 0.0002, 0.0016;
-  const std::string entry =
-      format_mode_entry("ice", "ltc_linear", *bank.models[0], Eigen::Matrix2d::Identity() * 0.02, {}, {}, "", r);
+  ModeConfig own_r = mode_named("ice");
+  own_r.r = r;
+  const std::string entry = format_mode_entry(own_r, *bank.models[0]);
   EXPECT_THAT(entry, HasSubstr("    R: [[0.0009, 0.0002], [0.0002, 0.0016]]\n"));
-  EXPECT_THAT(format_mode_entry("ice", "ltc_linear", *bank.models[0], Eigen::Matrix2d::Identity() * 0.02, {}, {}, "",
-                                Eigen::Vector2d(0.01, 0.04).asDiagonal().toDenseMatrix()),
-              HasSubstr("    R: {diagonal: [0.01, 0.04]}\n"));
-  EXPECT_THAT(format_mode_entry("ice", "ltc_linear", *bank.models[0], Eigen::Matrix2d::Identity() * 0.02, {}),
-              ::testing::Not(HasSubstr("R:")));
+  own_r.r = Eigen::Vector2d(0.01, 0.04).asDiagonal().toDenseMatrix();
+  EXPECT_THAT(format_mode_entry(own_r, *bank.models[0]), HasSubstr("    R: {diagonal: [0.01, 0.04]}\n"));
+  EXPECT_THAT(format_mode_entry(mode_named("ice"), *bank.models[0]), ::testing::Not(HasSubstr("R:")));
   append_mode_to_bank(file, entry);
   const BankConfig config = load_bank_config(file);
   EXPECT_EQ(config.modes[0].r.size(), 0);
@@ -103,11 +108,11 @@ TEST(BankWriter, AModesOwnMeasurementNoiseLoadsBack) {
 
 TEST(BankWriter, AModesFitConditionIsKept) {
   Bank bank = Bank::load(write_file(test_directory() / "b.yaml", kBank), {SKIDIMM_PLUGIN_DIR});
-  const std::string turning = format_mode_entry("ice_turning", "ltc_linear", *bank.models[0],
-                                                Eigen::Matrix2d::Identity() * 0.02, {}, {}, "abs(phi_dot_R - phi_dot_L) > 0.5");
+  ModeConfig turning_mode = mode_named("ice_turning");
+  turning_mode.fit_when = "abs(phi_dot_R - phi_dot_L) > 0.5";
+  const std::string turning = format_mode_entry(turning_mode, *bank.models[0]);
   EXPECT_THAT(turning, HasSubstr("    fit_when: \"abs(phi_dot_R - phi_dot_L) > 0.5\"\n"));
-  const std::string straight =
-      format_mode_entry("ice_straight", "ltc_linear", *bank.models[0], Eigen::Matrix2d::Identity() * 0.02, {});
+  const std::string straight = format_mode_entry(mode_named("ice_straight"), *bank.models[0]);
   const std::string head = kBank.substr(0, kBank.find("modes:"));
   const auto file =
       write_file(test_directory() / "classes.yaml",
@@ -115,12 +120,32 @@ TEST(BankWriter, AModesFitConditionIsKept) {
   EXPECT_EQ(load_bank_config(file).modes[0].fit_when, "abs(phi_dot_R - phi_dot_L) > 0.5");
 }
 
+// The inputs' ranges over the fitted steps are written in the bank's input
+// order, rounded outward to the bank's 7 digits so that they still hold every
+// fitted step, and load back; a mode without them writes none.
+TEST(BankWriter, FittedInputRangesLoadBack) {
+  const auto file = write_file(test_directory() / "b.yaml", kBank);
+  Bank bank = Bank::load(file, {SKIDIMM_PLUGIN_DIR});
+  ModeConfig ice = mode_named("ice");
+  ice.fitted_inputs["phi_dot_R"] = {-0.25, 3.5};
+  ice.fitted_inputs["phi_dot_L"] = {0.12345678, 4.0000000001};
+  const std::string entry = format_mode_entry(ice, *bank.models[0], {}, {}, bank.config.input_names);
+  EXPECT_THAT(entry, HasSubstr("    fitted_inputs: {phi_dot_L: [0.1234567, 4.000001], phi_dot_R: [-0.25, 3.5]}\n"));
+  EXPECT_THAT(format_mode_entry(mode_named("ice"), *bank.models[0]), ::testing::Not(HasSubstr("fitted_inputs")));
+  append_mode_to_bank(file, entry);
+  const BankConfig config = load_bank_config(file);
+  EXPECT_TRUE(config.modes[0].fitted_inputs.empty());
+  ASSERT_EQ(config.modes[1].fitted_inputs.size(), 2u);
+  EXPECT_EQ(config.modes[1].fitted_inputs.at("phi_dot_L").lowest, 0.1234567);
+  EXPECT_EQ(config.modes[1].fitted_inputs.at("phi_dot_R").highest, 3.5);
+}
+
 TEST(BankWriter, AnAppendThatWouldBreakTheBankChangesNothing) {
   const auto file = write_file(test_directory() / "b.yaml", kBank);
   Bank bank = Bank::load(file, {SKIDIMM_PLUGIN_DIR});
   try {
     append_mode_to_bank(file,
-                        format_mode_entry("asphalt", "ltc_linear", *bank.models[0], Eigen::Matrix2d::Identity(), {}));
+                        format_mode_entry(mode_named("asphalt", 1.0), *bank.models[0]));
     FAIL();
   } catch (const ConfigError& e) {
     EXPECT_THAT(e.what(), HasSubstr("the result would not be a valid bank, nothing was written"));

@@ -110,6 +110,33 @@ std::string json_calibration(const ModeMetrics& m) {
 // `decision_made`: how the scored decision was made, e.g. "enter 0.9, leave
 // 0.05, hold 1 s".
 // Whether the logs' scores tell `classes` classes apart at all (log_scores.h).
+// Where the steps were outside the input ranges the classes were fitted on
+// (input_envelope.h): shares of the steps, and the estimate's accuracy
+// outside and inside the true class's ranges.
+void print_extrapolation(std::ostream& out, const ExtrapolationCounts& e) {
+  const auto share = [](long part, long whole) { return whole > 0 ? static_cast<double>(part) / whole : kNaN; };
+  out << "  inputs outside the ranges the classes were fitted on: " << fmt(100.0 * share(e.outside_estimate, e.steps), "%.1f")
+      << "% of the steps for the most likely class";
+  if (e.labelled > 0) {
+    out << "; " << fmt(100.0 * share(e.outside_truth, e.labelled), "%.1f") << "% for the true class, the most likely right on "
+        << fmt(100.0 * share(e.outside_truth_right, e.outside_truth), "%.1f") << "% of those and "
+        << fmt(100.0 * share(e.inside_truth_right, e.labelled - e.outside_truth), "%.1f") << "% of the others";
+  }
+  out << "\n";
+  if (!e.farthest.empty()) out << "    farthest: " << e.farthest << "\n";
+}
+
+std::string json_extrapolation(const ExtrapolationCounts& e) {
+  const auto share = [](long part, long whole) { return whole > 0 ? static_cast<double>(part) / whole : kNaN; };
+  std::ostringstream o;
+  o << "{\"steps\": " << e.steps << ", \"outside_estimate\": " << json_number(share(e.outside_estimate, e.steps))
+    << ", \"outside_truth\": " << json_number(share(e.outside_truth, e.labelled))
+    << ", \"accuracy_outside_truth\": " << json_number(share(e.outside_truth_right, e.outside_truth))
+    << ", \"accuracy_inside_truth\": " << json_number(share(e.inside_truth_right, e.labelled - e.outside_truth))
+    << ", \"farthest\": " << json_string(e.farthest) << "}";
+  return o.str();
+}
+
 Separability separability_of(const std::vector<const LogResult*>& logs, std::size_t classes) {
   std::vector<LogScore> scores;
   for (const LogResult* l : logs) scores.push_back(score_of(*l));
@@ -138,6 +165,7 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
   out << "  mean log probability of the truth " << fmt(m.mean_truth_log_probability()) << "\n";
   out << "  Brier score " << fmt(m.mean_brier()) << " (0: sure and right; 2: sure and wrong)\n";
   if (modes.size() >= 2) out << "  " << separated.describe() << "\n";
+  if (s.extrapolation.steps > 0) print_extrapolation(out, s.extrapolation);
   out << "  calibration of the most likely mode's probability:\n";
   print_calibration(out, "    ", m);
   for (const auto& [mode, seconds] : m.truth_absent) {
@@ -222,7 +250,9 @@ std::string json_summary(const EvaluationSummary& s, const std::vector<std::stri
   const std::vector<std::string> truths = truths_in_order(m, classes);
   std::ostringstream o;
   o << "{\"logs\": " << s.accuracies.size() << ", \"duration\": " << json_number(m.duration)
-    << ", \"unlabelled_seconds\": " << json_number(m.unlabelled) << ", \"accuracy\": " << json_number(m.accuracy())
+    << ", \"unlabelled_seconds\": " << json_number(m.unlabelled)
+    << ", \"extrapolation\": " << (s.extrapolation.steps > 0 ? json_extrapolation(s.extrapolation) : std::string("null"))
+    << ", \"accuracy\": " << json_number(m.accuracy())
     << ", \"accuracy_per_log\": {\"mean\": " << json_number(s.accuracy_per_log.mean)
     << ", \"std\": " << json_number(s.accuracy_per_log.standard_deviation)
     << ", \"min\": " << json_number(s.accuracy_per_log.min) << "}, \"mean_over_classes\": {\"accuracy\": " << json_number(by_class.accuracy)

@@ -45,6 +45,7 @@ EvaluationSummary summarize(const std::vector<const LogResult*>& logs, std::size
   std::vector<LogScore> scores;
   for (const LogResult* log : logs) {
     s.metrics.merge(log->metrics);
+    s.extrapolation.merge(log->extrapolation);
     s.decisions.merge(log->decision_metrics);
     if (log->decision_metrics.duration > 0.0) s.decision_lost += switches_lost(log->metrics, log->decision_metrics);
     for (const auto& [mode, acc] : log->nis) s.nis[mode].merge(acc);

@@ -27,6 +27,7 @@ struct PerLogSpread {
 };
 
 struct EvaluationSummary {
+  ExtrapolationCounts extrapolation;  // over every log
   ModeMetrics metrics;    // of the most likely mode (class), merged over the logs
   ModeMetrics decisions;  // of the decision
   std::map<std::string, NisAccumulator> nis;  // per true mode

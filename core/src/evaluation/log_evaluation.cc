@@ -32,15 +32,19 @@ LabelledStep ClassScorer::score(double t, const std::string& label, const Eigen:
   class_probabilities_.maxCoeff(&best);
   LabelledStep step;
   step.t = t;
+  last_truth_ = -1;
   if (unknown_outweighs(unknown_probability, class_probabilities_[best])) {
     step.estimate = "unknown";
     step.estimate_probability = 0.0;
+    last_estimate_ = -1;
   } else {
     step.estimate = names_[static_cast<std::size_t>(best)];
     step.estimate_probability = class_probabilities_[best];
+    last_estimate_ = static_cast<int>(best);
   }
   if (!label.empty()) {
     const int c = class_of_label(label);
+    last_truth_ = c;
     step.truth = c >= 0 ? names_[static_cast<std::size_t>(c)] : printable(label);  // a CSV cell: make it safe
     // The truth is always one of the classes, so "none of these" says nothing
     // about which: its probability is spread evenly over the classes, as a
@@ -89,6 +93,33 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
 
 namespace {
 
+// Counts the step `scorer` scored last in `counts`: whether its inputs are
+// outside the ranges of the class estimated there and of the true class
+// (InputEnvelope), and where the estimate was right.
+void count_extrapolation(const InputEnvelope& envelope, const ClassScorer& scorer, const LogSample& sample,
+                         ExtrapolationCounts* counts) {
+  ++counts->steps;
+  const int estimate = scorer.last_estimate();
+  const Excursion from_estimate = envelope.outside(estimate, sample.u);
+  if (from_estimate.input >= 0) ++counts->outside_estimate;
+  const int truth = scorer.last_truth();
+  const Excursion& farthest = truth >= 0 ? envelope.outside(truth, sample.u) : from_estimate;
+  if (truth >= 0) {
+    ++counts->labelled;
+    const bool right = estimate == truth;
+    if (farthest.input >= 0) {
+      ++counts->outside_truth;
+      if (right) ++counts->outside_truth_right;
+    } else if (right) {
+      ++counts->inside_truth_right;
+    }
+  }
+  if (farthest.input >= 0 && farthest.beyond > counts->farthest_beyond) {
+    counts->farthest_beyond = farthest.beyond;
+    counts->farthest = envelope.describe(truth >= 0 ? truth : estimate, farthest);
+  }
+}
+
 // One IMM over `source`: the result, and every step scored for the most
 // likely class and for the decision.
 struct ScoredRun {
@@ -111,6 +142,7 @@ ScoredRun score_run(const Bank& bank, SampleSource* source, const std::string& n
   std::optional<EstimatesWriter> writer;
   if (!estimates.empty()) writer.emplace(estimates, config, /*with_truth=*/true);
   ModeDecision decision(config);
+  const InputEnvelope envelope(config);
   double smallest = std::numeric_limits<double>::infinity();
   run_log(bank, source, estimator, [&](const LogSample& sample, const ImmEstimate& e) {
     if (!e.mode_probabilities.allFinite() || !std::isfinite(e.unknown_probability)) {
@@ -124,6 +156,7 @@ ScoredRun score_run(const Bank& bank, SampleSource* source, const std::string& n
     run.steps.push_back(scorer.score(sample.t, label, e.mode_probabilities, e.unknown_probability));
     run.decisions.push_back(scorer.decided(run.steps.back(), decided));
     if (observer) observer(sample, run.steps.back());
+    if (!envelope.empty()) count_extrapolation(envelope, scorer, sample, &result.extrapolation);
     const int truth_mode = config.mode_index(label);
     if (truth_mode >= 0 && e.status == StepStatus::kUpdated && std::isfinite(e.nis[truth_mode])) {
       result.nis[label].add(e.nis[truth_mode], e.num_measured);

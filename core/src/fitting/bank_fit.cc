@@ -7,6 +7,7 @@
 
 #include "skidimm/engine/measurement_model.h"
 #include "skidimm/errors.h"
+#include "skidimm/fitting/fit_logs.h"
 #include "skidimm/fitting/likelihood_fitter.h"
 #include "skidimm/engine/parameter_uncertainty.h"
 
@@ -178,6 +179,9 @@ std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data,
   for (auto& [mode, report] : reports) {
     ModeConfig& config = bank->config.modes[static_cast<std::size_t>(mode)];
     config.q_intensity = report.q_intensity;
+    for (const ModeLogs& d : data) {
+      if (d.mode == mode) config.fitted_inputs = fitted_input_ranges(bank->config, d);
+    }
     if (options.residual_correlation) {
       if (std::isfinite(report.residual_correlation)) {
         config.residual_correlation = report.residual_correlation;

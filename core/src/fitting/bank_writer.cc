@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -27,6 +29,17 @@ std::string bank_number(double v) {
   char buffer[32];
   std::snprintf(buffer, sizeof(buffer), "%.7g", v);
   return buffer;
+}
+
+// A bound of a range to bank_number()'s digits, rounded outward (down for
+// the lowest value, up for the highest), so that the range written still
+// holds every value it was found from.
+std::string bank_bound(double v, bool highest) {
+  const std::string text = bank_number(v);
+  const double back = std::strtod(text.c_str(), nullptr);
+  if (highest ? back >= v : back <= v) return text;
+  const double unit = std::pow(10.0, std::floor(std::log10(std::abs(v))) - 6.0);  // of the 7th significant digit
+  return bank_number(highest ? back + unit : back - unit);
 }
 
 std::string read_text(const fs::path& file) {
@@ -238,25 +251,42 @@ std::string yaml_scalar(const std::string& text) {
 
 }  // namespace
 
-std::string format_mode_entry(const std::string& name, const std::string& model_name, const sdk::MotionModel& model,
-                              const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments,
-                              const sdk::ParameterSet& original, const std::string& fit_when,
-                              const Eigen::MatrixXd& measurement_noise, const std::vector<std::string>& table,
-                              double residual_correlation) {
+std::string format_mode_entry(const ModeConfig& mode, const sdk::MotionModel& model,
+                              const std::vector<std::string>& comments, const std::vector<std::string>& table,
+                              const std::vector<std::string>& input_names) {
   std::string out;
   for (const std::string& c : comments) out += "  # " + c + "\n";
-  out += "  - name: " + yaml_scalar(name) + "\n";
-  out += "    model: " + yaml_scalar(model_name) + "\n";
-  if (!fit_when.empty()) out += "    fit_when: " + yaml_scalar(fit_when) + "\n";
-  const std::string params = format_parameters(model, sdk::ParameterScope::kMode, original, table);
+  out += "  - name: " + yaml_scalar(mode.name) + "\n";
+  out += "    model: " + yaml_scalar(mode.model) + "\n";
+  if (!mode.fit_when.empty()) out += "    fit_when: " + yaml_scalar(mode.fit_when) + "\n";
+  const std::string params = format_parameters(model, sdk::ParameterScope::kMode, mode.params, table);
   if (params != "{}") out += "    params: " + params + "\n";
-  out += "    Q: " + format_matrix(q_intensity) + "\n";
-  if (measurement_noise.size() > 0) out += "    R: " + format_covariance(measurement_noise) + "\n";
+  out += "    Q: " + format_matrix(mode.q_intensity) + "\n";
+  if (mode.r.size() > 0) out += "    R: " + format_covariance(mode.r) + "\n";
   const Eigen::MatrixXd& parameter_covariance = parameter_covariance_of(model);
   if (parameter_covariance.size() > 0) {
     out += "    parameter_covariance: " + format_parameter_covariance(parameter_covariance) + "\n";
   }
-  if (residual_correlation != 0.0) out += "    residual_correlation: " + bank_number(residual_correlation) + "\n";
+  if (mode.residual_correlation != 0.0) {
+    out += "    residual_correlation: " + bank_number(mode.residual_correlation) + "\n";
+  }
+  if (!mode.fitted_inputs.empty()) {
+    // In the bank's input order, then any other (a caller without the order).
+    std::vector<std::string> order;
+    for (const std::string& input : input_names) {
+      if (mode.fitted_inputs.count(input) > 0) order.push_back(input);
+    }
+    for (const auto& [input, range] : mode.fitted_inputs) {
+      if (std::find(order.begin(), order.end(), input) == order.end()) order.push_back(input);
+    }
+    std::string ranges;
+    for (const std::string& input : order) {
+      const InputRange& range = mode.fitted_inputs.at(input);
+      ranges += (ranges.empty() ? "" : ", ") + yaml_scalar(input) + ": [" + bank_bound(range.lowest, false) + ", " +
+                bank_bound(range.highest, true) + "]";
+    }
+    out += "    fitted_inputs: {" + ranges + "}\n";
+  }
   return out;
 }
 

@@ -70,6 +70,18 @@ Eigen::VectorXd persistence_rmse(const ModeLogs& data) {
   return (counts.array() > 0.0).select((squared.array() / counts.array().max(1.0)).sqrt(), ::skidimm::internal::kNaN);
 }
 
+namespace {
+
+// Mode f.mode as the fit leaves it: its output name and fitted Q.
+ModeConfig fitted_mode(const BankConfig& config, const FittedMode& f, const FitRequest& request) {
+  ModeConfig mode = config.modes[static_cast<std::size_t>(f.mode)];
+  mode.name = output_mode_name(config, request, f.mode);
+  mode.q_intensity = f.report.q_intensity;
+  return mode;
+}
+
+}  // namespace
+
 std::string format_fitted_entries(const Bank& bank, const std::vector<FittedMode>& fitted, const FitRequest& request) {
   const BankConfig& config = bank.config;
   const FitOptions& window = request.options.window;
@@ -81,11 +93,8 @@ std::string format_fitted_entries(const Bank& bank, const std::vector<FittedMode
                                    ") from ") +
         std::to_string(f.logs) + " log(s); " + (likelihood(request) ? "innovation RMSE " : "one-step RMSE ") +
         measurement_values_text(config, f.report.rmse);
-    const ModeConfig& mode = config.modes[static_cast<std::size_t>(f.mode)];
-    entries +=
-        format_mode_entry(output_mode_name(config, request, f.mode), mode.model,
-                          *bank.models[static_cast<std::size_t>(f.mode)], f.report.q_intensity, {comment}, mode.params,
-                          mode.fit_when, mode.r, parameter_table(bank, f.mode), mode.residual_correlation);
+    entries += format_mode_entry(fitted_mode(config, f, request), *bank.models[static_cast<std::size_t>(f.mode)],
+                                 {comment}, parameter_table(bank, f.mode), config.input_names);
   }
   return entries;
 }
@@ -96,19 +105,18 @@ void write_fitted_bank(const Bank& bank, const std::vector<FittedMode>& fitted, 
   const BankConfig& config = bank.config;
   std::string modes_block = "modes:\n";
   for (int j = 0; j < config.num_modes(); ++j) {
-    const ModeConfig& mode = config.modes[static_cast<std::size_t>(j)];
     const sdk::MotionModel& model = *bank.models[static_cast<std::size_t>(j)];
-    const std::string name = output_mode_name(config, request, j);
     if (const FittedMode* f = find_fitted(fitted, j)) {
       const std::string comment = std::string(likelihood(request) ? "innovation RMSE " : "one-step RMSE ") +
                                   measurement_values_text(config, f->report.rmse) + " on " + std::to_string(f->logs) +
                                   " log(s)";
-      modes_block += format_mode_entry(name, mode.model, model, f->report.q_intensity, {comment}, mode.params,
-                                       mode.fit_when, mode.r, parameter_table(bank, j), mode.residual_correlation);
-    } else {
       modes_block +=
-          format_mode_entry(name, mode.model, model, mode.q_intensity, {"not fitted: no log given for this mode"},
-                            mode.params, mode.fit_when, mode.r, parameter_table(bank, j), mode.residual_correlation);
+          format_mode_entry(fitted_mode(config, *f, request), model, {comment}, parameter_table(bank, j), config.input_names);
+    } else {
+      ModeConfig mode = config.modes[static_cast<std::size_t>(j)];
+      mode.name = output_mode_name(config, request, j);
+      modes_block += format_mode_entry(mode, model, {"not fitted: no log given for this mode"}, parameter_table(bank, j),
+                                       config.input_names);
     }
   }
   std::vector<std::pair<std::string, std::string>> blocks;

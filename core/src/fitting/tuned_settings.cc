@@ -88,6 +88,7 @@ FittedValues values_of(const Bank& bank) {
     v.mode_r.push_back(bank.config.modes[j].r);
     v.parameter_covariance.push_back(bank.config.modes[j].parameter_covariance);
     v.residual_correlation.push_back(bank.config.modes[j].residual_correlation);
+    v.fitted_inputs.push_back(bank.config.modes[j].fitted_inputs);
   }
   v.r = bank.config.measurement.r;
   return v;
@@ -121,6 +122,9 @@ void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
   if (s.unknown_inflation > 0.0) config.unknown.inflation = s.unknown_inflation;
   for (std::size_t j = 0; j < fitted.residual_correlation.size() && j < config.modes.size(); ++j) {
     config.modes[j].residual_correlation = fitted.residual_correlation[j];
+  }
+  for (std::size_t j = 0; j < fitted.fitted_inputs.size() && j < config.modes.size(); ++j) {
+    config.modes[j].fitted_inputs = fitted.fitted_inputs[j];
   }
   for (std::size_t j = 0; j < fitted.parameter_covariance.size() && j < bank->models.size(); ++j) {
     // An unchanged covariance leaves the model as it is (the hundreds of scorings of one fold).

@@ -463,7 +463,8 @@ class Tuner {
       values[static_cast<std::size_t>(i)] = {fitted.parameters[static_cast<std::size_t>(j)],
                                              fitted.q[static_cast<std::size_t>(j)],
                                              fitted.parameter_covariance[static_cast<std::size_t>(j)],
-                                             fitted.residual_correlation[static_cast<std::size_t>(j)]};
+                                             fitted.residual_correlation[static_cast<std::size_t>(j)],
+                                             fitted.fitted_inputs[static_cast<std::size_t>(j)]};
       const int n = ++finished;
       std::lock_guard<std::mutex> lock(progress_mutex);
       if (n == static_cast<int>(todo.size()) || n % 20 == 0) {
@@ -499,6 +500,7 @@ class Tuner {
         v.q[static_cast<std::size_t>(j)] = found->second.q;
         v.parameter_covariance[static_cast<std::size_t>(j)] = found->second.parameter_covariance;
         v.residual_correlation[static_cast<std::size_t>(j)] = found->second.residual_correlation;
+        v.fitted_inputs[static_cast<std::size_t>(j)] = found->second.fitted_inputs;
       }
       fits_[k] = v;
       if (!missing.empty()) {
@@ -878,6 +880,7 @@ class Tuner {
     Eigen::MatrixXd q;
     Eigen::MatrixXd parameter_covariance;
     double residual_correlation = 0.0;
+    std::map<std::string, InputRange> fitted_inputs;
   };
   std::map<std::tuple<std::string, int, std::vector<int>>, ModeFit> mode_fits_;
   std::map<std::tuple<std::string, int, std::vector<int>>, std::string> mode_fit_failures_;  // why a fold's fit failed

@@ -30,6 +30,12 @@
 
 namespace skidimm {
 
+// The values an input took over the steps a mode was fitted on.
+struct InputRange {
+  double lowest = 0.0;
+  double highest = 0.0;
+};
+
 struct ModeConfig {
   std::string name;
   std::string model;            // plugin name
@@ -54,6 +60,13 @@ struct ModeConfig {
   // residual_correlation.h): the mode's likelihood of a step is conditioned on
   // its last innovation. 0: independent steps, the IMM as derived.
   double residual_correlation = 0.0;
+  // Where the mode's parameters were estimated (`fitted_inputs:`, written by
+  // fit and tune): each input's range over the steps its fit used, by input
+  // name. A step outside it asks the mode to extrapolate. Empty: not
+  // recorded (a bank written by hand or before fits recorded it); an input
+  // left out has no range.
+  std::map<std::string, InputRange> fitted_inputs;
+  int fitted_inputs_line = 0;
   int line = 0;                 // where the mode starts in the file
   std::map<std::string, int> param_lines;
 };

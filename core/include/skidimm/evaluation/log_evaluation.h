@@ -20,6 +20,7 @@
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/log_run.h"
 #include "skidimm/evaluation/consistency.h"
+#include "skidimm/evaluation/input_envelope.h"
 #include "skidimm/evaluation/mode_metrics.h"
 #include "skidimm/io/log_reader.h"
 
@@ -46,12 +47,18 @@ class ClassScorer {
   // The same step with a decision for its estimate (a class name or
   // "unknown"), and that class's probability, from the last score().
   LabelledStep decided(const LabelledStep& step, const std::string& decision) const;
+  // The class indices of the last score()'s estimate and truth; -1 for
+  // "unknown", an unlabelled step or a truth the bank lacks.
+  int last_estimate() const { return last_estimate_; }
+  int last_truth() const { return last_truth_; }
 
  private:
   const BankConfig* bank_;
   std::vector<std::string> names_;
   std::vector<int> class_of_mode_;
   mutable Eigen::VectorXd class_probabilities_;
+  mutable int last_estimate_ = -1;
+  mutable int last_truth_ = -1;
 };
 
 // One log's results.
@@ -70,6 +77,8 @@ struct LogResult {
   // step if and only if this is at most the floor. NaN where not tracked
   // (smoothed estimates, a spliced run's logs).
   double smallest_probability = std::numeric_limits<double>::quiet_NaN();
+  // Steps outside the input ranges the classes were fitted on (input_envelope.h).
+  ExtrapolationCounts extrapolation;
 };
 
 // Runs a fresh IMM of `bank` over `log` and scores it; with `estimates`, also

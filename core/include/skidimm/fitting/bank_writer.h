@@ -35,16 +35,16 @@ std::string format_text(const std::vector<std::string>& values);
 // A matrix as YAML flow text, 7 significant digits.
 std::string format_matrix(const Eigen::MatrixXd& m);
 
-// One `modes:` list item (two-space indented), with comment lines above it.
-// `original`: the mode's `params:` as the bank gave them (see format_parameters);
-// `fit_when`: the mode's condition on the steps it is fitted on (kept);
-// `table`: the order of its parameters (see format_parameters);
-// `residual_correlation`: written when not 0 (ModeConfig::residual_correlation).
-std::string format_mode_entry(const std::string& name, const std::string& model_name, const sdk::MotionModel& model,
-                              const Eigen::MatrixXd& q_intensity, const std::vector<std::string>& comments,
-                              const sdk::ParameterSet& original = {}, const std::string& fit_when = "",
-                              const Eigen::MatrixXd& measurement_noise = Eigen::MatrixXd(),
-                              const std::vector<std::string>& table = {}, double residual_correlation = 0.0);
+// One `modes:` list item (two-space indented), with comment lines above it:
+// `mode` as the bank says it (its name, model, Q, `params:` as the bank gave
+// them (see format_parameters), fit_when, own R, residual correlation and
+// fitted input ranges, each written where it says something), with the
+// parameter values of `model`; `table`: the order of its parameters (see
+// format_parameters); `input_names`: the order of its fitted input ranges
+// (the bank's inputs).
+std::string format_mode_entry(const ModeConfig& mode, const sdk::MotionModel& model,
+                              const std::vector<std::string>& comments = {}, const std::vector<std::string>& table = {},
+                              const std::vector<std::string>& input_names = {});
 
 // Appends a mode entry at the end of the bank file's `modes:` list. Throws
 // ConfigError if the result is not a valid bank (e.g. a mode of that name

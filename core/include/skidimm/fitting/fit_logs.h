@@ -9,6 +9,7 @@
 #ifndef SKIDIMM_FITTING_FIT_LOGS_H_
 #define SKIDIMM_FITTING_FIT_LOGS_H_
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,10 @@ std::vector<ModeLogs> load_mode_logs(const BankConfig& config, const std::vector
 
 // How many logs `data`'s segments were read from (Trajectory::log).
 int log_count(const ModeLogs& data);
+
+// Each input's range over `data`'s steps (ModeConfig::fitted_inputs), by the
+// bank's input names; an input with no finite value has none.
+std::map<std::string, InputRange> fitted_input_ranges(const BankConfig& config, const ModeLogs& data);
 
 }  // namespace fitting
 }  // namespace skidimm

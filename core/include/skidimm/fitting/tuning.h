@@ -91,6 +91,8 @@ struct FittedValues {
   std::vector<Eigen::MatrixXd> parameter_covariance;
   // Per mode, its innovations' lag-1 correlation (ModeConfig::residual_correlation).
   std::vector<double> residual_correlation;
+  // Per mode, its inputs' ranges over the steps it was fitted on (ModeConfig::fitted_inputs).
+  std::vector<std::map<std::string, InputRange>> fitted_inputs;
 };
 
 // Fits `bank` in place to `data` (parameters, Q, and R if the objective fits
