@@ -9,6 +9,7 @@
 #include <map>
 
 #include "core/sanitizer.h"
+#include "skidimm/fitting/fit_logs.h"
 #include "skidimm/fitting/likelihood_fitter.h"
 #include "skidimm/fitting/trajectory.h"
 
@@ -67,6 +68,13 @@ TEST(BankFit, LikelihoodFromAPhysicalGuessOnRealHuskyIceRuns) {
     EXPECT_EQ(range.highest, highest) << window_bank.config.input_names[static_cast<std::size_t>(i)];
     EXPECT_LT(range.lowest, range.highest);
   }
+  // A mode given in several entries (a fit pools them) ranges over all of them, not the last one's.
+  std::vector<ModeLogs> split{{ice, {fit_logs.logs.begin(), fit_logs.logs.begin() + 4}},
+                              {ice, {fit_logs.logs.begin() + 4, fit_logs.logs.end()}}};
+  EXPECT_EQ(fitted_input_ranges(window_bank.config, split, ice).at("phi_dot_L").lowest, ranges.at("phi_dot_L").lowest);
+  EXPECT_EQ(fitted_input_ranges(window_bank.config, split, ice).at("phi_dot_L").highest,
+            ranges.at("phi_dot_L").highest);
+  EXPECT_EQ(fitted_input_ranges(window_bank.config, split, ice + 1).count("phi_dot_L"), 0u) << "no steps of that mode";
 
   // Runs 10 and 11 (driven faster) are held out.
   const ModeLogs held_out{ice, husky_runs(likelihood_bank.config, {"10", "11"})};

@@ -179,9 +179,7 @@ std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data,
   for (auto& [mode, report] : reports) {
     ModeConfig& config = bank->config.modes[static_cast<std::size_t>(mode)];
     config.q_intensity = report.q_intensity;
-    for (const ModeLogs& d : data) {
-      if (d.mode == mode) config.fitted_inputs = fitted_input_ranges(bank->config, d);
-    }
+    config.fitted_inputs = fitted_input_ranges(bank->config, data, mode);
     if (options.residual_correlation) {
       if (std::isfinite(report.residual_correlation)) {
         config.residual_correlation = report.residual_correlation;

@@ -151,17 +151,21 @@ std::vector<ModeLogs> load_mode_logs(const BankConfig& config, const std::vector
   return out;
 }
 
-std::map<std::string, InputRange> fitted_input_ranges(const BankConfig& config, const ModeLogs& data) {
+std::map<std::string, InputRange> fitted_input_ranges(const BankConfig& config, const std::vector<ModeLogs>& data,
+                                                      int mode) {
   std::map<std::string, InputRange> ranges;
   for (int input = 0; input < config.input_dim(); ++input) {
     double lowest = std::numeric_limits<double>::infinity();
     double highest = -lowest;
-    for (const Trajectory& t : data.logs) {
-      for (Eigen::Index k = 0; k < t.u.cols(); ++k) {
-        const double value = t.u(input, k);
-        if (!std::isfinite(value)) continue;
-        lowest = std::min(lowest, value);
-        highest = std::max(highest, value);
+    for (const ModeLogs& d : data) {
+      if (d.mode != mode) continue;
+      for (const Trajectory& t : d.logs) {
+        for (Eigen::Index k = 0; k < t.u.cols(); ++k) {
+          const double value = t.u(input, k);
+          if (!std::isfinite(value)) continue;
+          lowest = std::min(lowest, value);
+          highest = std::max(highest, value);
+        }
       }
     }
     if (lowest <= highest) ranges[config.input_names[static_cast<std::size_t>(input)]] = InputRange{lowest, highest};

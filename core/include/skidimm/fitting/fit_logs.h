@@ -37,9 +37,11 @@ std::vector<ModeLogs> load_mode_logs(const BankConfig& config, const std::vector
 // How many logs `data`'s segments were read from (Trajectory::log).
 int log_count(const ModeLogs& data);
 
-// Each input's range over `data`'s steps (ModeConfig::fitted_inputs), by the
-// bank's input names; an input with no finite value has none.
-std::map<std::string, InputRange> fitted_input_ranges(const BankConfig& config, const ModeLogs& data);
+// Each input's range over the steps of mode `mode` in `data`, every entry of
+// it (a fit pools them), by the bank's input names (ModeConfig::fitted_inputs);
+// an input with no finite value has none.
+std::map<std::string, InputRange> fitted_input_ranges(const BankConfig& config, const std::vector<ModeLogs>& data,
+                                                      int mode);
 
 }  // namespace fitting
 }  // namespace skidimm
