@@ -423,10 +423,10 @@ def as_forms(summary, slugs):
     return {slug: (summary[slug]["tune"], summary[slug]["eval"], summary[slug]["rows"]) for slug in slugs}
 
 
-def extrapolation_rows(work, first, prefix, column, with_name):
-    """The first design against one variant of it (its tune and eval files named by prefix), on the
-    extrapolation protocols: the table's rows, the lists of what got better and worse, and the variant's tune
-    blocks."""
+def extrapolation_rows(work, first, prefix, column, with_name, base_name=FIRST):
+    """The first design (or `first`, another design named base_name) against one variant of it (its tune and
+    eval files named by prefix), on the extrapolation protocols: the table's rows, the lists of what got better
+    and worse, and the variant's tune blocks."""
     slugs = ("extrapolation-speed", "extrapolation-turn")
     other = tune_blocks(os.path.join(work, "borealtc", f"{prefix}_tune.txt"))
     kinds = scores_by_kind(os.path.join(work, "borealtc", f"{prefix}_scores.csv"))
@@ -436,7 +436,7 @@ def extrapolation_rows(work, first, prefix, column, with_name):
         if f"{other[slug]['mean']:.3f}" != f"{evaluation['mean_over_classes']['accuracy']:.3f}":
             sys.exit(f"{prefix}, {slug}: tune's mean over classes differs from eval's")
         variant[slug] = (other[slug], evaluation, kinds[slug])
-    lines, better, worse = comparison_rows(as_forms(first, slugs), variant, slugs, column, FIRST, with_name)
+    lines, better, worse = comparison_rows(as_forms(first, slugs), variant, slugs, column, base_name, with_name)
     return lines, better, worse, other
 
 
@@ -488,6 +488,46 @@ def unknown(work, first):
         held.append(f"{HELD_OUT[slug].split(', ')[1]}: mean probability {fmt(total / rows)}, the most likely "
                     f"{pct(most_likely / rows)} of the steps")
     return text + " The unknown hypothesis on the held-out runs: " + "; ".join(held) + ".\n"
+
+
+def discount(work, first, summary):
+    """The first design and the design, each with and without the extrapolation discount, on the extrapolation
+    protocols; what each fold chose; and what the rule the design's choices were made by says of it."""
+    slugs = ("extrapolation-speed", "extrapolation-turn")
+    first_lines, first_better, first_worse, first_other = extrapolation_rows(
+        work, first, "discount_first", "extrapolation discount", "with (the first design)")
+    lines, better, worse, other = extrapolation_rows(work, summary, "discount", "extrapolation discount",
+                                                     "with (the design)", "without (the design)")
+    chosen = {}
+    for prefix in ("discount_first", "discount"):
+        # Each held-out log's row of a nested assessment ends with the settings its fold chose.
+        for line in read(os.path.join(work, "borealtc", f"{prefix}_tune.txt")).splitlines():
+            if not (line.startswith("  pro_") and " objective " in line):
+                continue
+            scale = re.search(r"extrapolation scale (\S+?)(?:,|$)", line)
+            if not scale:
+                sys.exit(f"{prefix}: a fold's settings name no extrapolation scale: {line}")
+            chosen.setdefault(prefix, set()).add(scale.group(1))
+    folds = lambda prefix: ", ".join(sorted(chosen[prefix], key=lambda s: (s != "off", float(s) if s != "off" else 0)))
+    worst = lambda design: min(design[slug][0]["mean"] for slug in slugs)
+    mean = lambda design: sum(design[slug][0]["mean"] for slug in slugs) / len(slugs)
+    design = {slug: (summary[slug]["tune"],) for slug in slugs}
+    variant = {slug: (tune_blocks(os.path.join(work, "borealtc", "discount_tune.txt"))[slug],) for slug in slugs}
+    adopted = worst(variant) > worst(design) and mean(variant) >= mean(design)
+    verdict = (f"With the design, the worst of the two protocols is {pct(worst(variant))} with the discount against "
+               f"{pct(worst(design))} without, the mean {pct(mean(variant))} against {pct(mean(design))}. By the rule "
+               "parameter uncertainty was taken and the physics-shaped form was not by (a better worst case, and a "
+               "mean no worse), " + ("the bank would take it." if adopted else "the bank does without it."))
+    return "\n".join(first_lines + lines[2:]) + (
+        f"\n\nThe same development runs, folds and searched settings; the lockbox does not score this. With the "
+        f"discount, the first design's scores are better in {len(first_better)} and worse in {len(first_worse)} of "
+        f"the {len(first_better) + len(first_worse)} that differ (better: "
+        f"{'; '.join(first_better) if first_better else 'none'}; worse: "
+        f"{'; '.join(first_worse) if first_worse else 'none'}); the design's, better in {len(better)} and worse in "
+        f"{len(worse)} of {len(better) + len(worse)} (better: {'; '.join(better) if better else 'none'}; worse: "
+        f"{'; '.join(worse) if worse else 'none'}). The scales the folds chose, in range widths: the first design "
+        f"{folds('discount_first')}; the design {folds('discount')}. Chosen on every development run: the first "
+        f"design {first_other['chosen']}; the design {other['chosen']}. {verdict}\n")
 
 
 def correlation(work, first):
@@ -816,6 +856,7 @@ def main():
               "confusion": confusion(summary, work), "physics": physics(work, first),
               "physics_uncertainty": physics_with_uncertainty(work, summary),
               "uncertainty": uncertainty(first, summary, first_blocks), "unknown": unknown(work, first),
+              "discount": discount(work, first, summary),
               "correlation": correlation(work, first),
               "splices": splices(work, summary, data), "reaction": reaction(work),
               "wheels": wheels(work), "runs": per_run(summary, work, data), "pivots": pivots(summary, work, data)}

@@ -28,9 +28,10 @@
 #         fold's inner cross-validation (from both --table files); B2e. the
 #         physics-shaped form with parameter uncertainty against the design;
 #         B2d. the first design with an unknown hypothesis, on the
-#         extrapolation protocols; B2c. the first design with correlated
-#         innovations, on the extrapolation protocols and on development runs
-#         spliced end to end.
+#         extrapolation protocols; B2f. the first design and the design
+#         with the extrapolation discount, on the extrapolation protocols;
+#         B2c. the first design with correlated innovations, on the
+#         extrapolation protocols and on development runs spliced end to end.
 #     B3. The bundled bank: the design fitted and tuned on all 47 runs.
 #     B4. Without an IMU: the wheel-only bank, each development log held out
 #         and the lockbox, then fitted and tuned on all 47 runs.
@@ -142,6 +143,23 @@ done
 for slug in extrapolation-speed extrapolation-turn; do
   "$skidimm" eval --estimates "$work/borealtc/unknown_held_out/$slug" --bank "$work/borealtc/unknown_start.yaml" \
     --json >"$work/borealtc/unknown_eval_$slug.json"
+done
+
+# B2f. The first design and the design with the extrapolation discount (bank key `extrapolation_scale`:
+# a terrain's evidence fades where the inputs leave the ranges its modes were fitted on), its scale
+# tuned inside each fold with the other knobs, off among the candidates, on the same development runs
+# and the two extrapolation protocols, where it is meant to help. Development only: the lockbox does
+# not score this.
+for variant in discount_first discount; do
+  uncertainty=(); [ "$variant" = discount ] && uncertainty=(--parameter-uncertainty)
+  "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${fit[@]}" "${uncertainty[@]}" \
+    --tune "$knobs,extrapolation-scale" --assess "extrapolation:$speed,extrapolation:$turn" \
+    --table "$work/borealtc/${variant}_scores.csv" --estimates "$work/borealtc/${variant}_held_out" \
+    >"$work/borealtc/${variant}_tune.txt"
+  for slug in extrapolation-speed extrapolation-turn; do
+    "$skidimm" eval --estimates "$work/borealtc/${variant}_held_out/$slug" --bank configs/borealtc/terrains_start.yaml \
+      --json >"$work/borealtc/${variant}_eval_$slug.json"
+  done
 done
 
 # B2c. The first design with correlated innovations (`--residual-correlation`: each mode's likelihood of a

@@ -9,6 +9,7 @@
 
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/imm.h"
+#include "skidimm/engine/input_envelope.h"
 #include "skidimm/engine/log_run.h"
 #include "skidimm/engine/mode_timeline.h"
 #include "skidimm/engine/model_conformance.h"
@@ -182,6 +183,15 @@ int run(const RunOptions& options) {
                      log.label.empty() ? ("column '" + config.columns.truth_mode + "'").c_str() : "the log's label",
                      100.0 * summary.truth_matches / summary.truth_rows, summary.truth_rows,
                      config.classes.empty() ? "" : " (a mode counts for its class)");
+      }
+      if (summary.outside_fitted_inputs > 0) {
+        std::fprintf(stderr,
+                     "  inputs outside the ranges the most likely class was fitted on: %.1f%% of the rows "
+                     "(farthest: %s)\n",
+                     100.0 * summary.outside_fitted_inputs / summary.rows,
+                     InputEnvelope(config)
+                         .describe(summary.farthest_outside_class, summary.farthest_outside)
+                         .c_str());
       }
       print_rejections(bank, summary);
     }

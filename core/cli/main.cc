@@ -277,7 +277,8 @@ int main(int argc, char** argv) {
                    "are: tune the settings only); default likelihood");
   tune->add_option("--tune", tune_options.knobs,
                    "Settings to choose, comma-separated: r-scale, r-components, q-scale, q-modes, dwell, floor, "
-                   "likelihood-weight, likelihood-dof, unknown-inflation (default r-scale,q-scale,dwell,floor)");
+                   "likelihood-weight, likelihood-dof, unknown-inflation, extrapolation-scale (default "
+                   "r-scale,q-scale,dwell,floor)");
   // One group would leave every fold nothing to train on.
   const CLI::Validator folds_count(
       [](std::string& text) {

@@ -291,6 +291,7 @@ int tune(const TuneCommandOptions& options) {
           {"mode_probability_floor", fitting::format_floor_block(c)},
           {"likelihood_weight", fitting::format_likelihood_weight_block(c)},
           {"likelihood_dof", fitting::format_likelihood_dof_block(c)},
+          {"extrapolation_scale", fitting::format_extrapolation_scale_block(c)},
           {"unknown", fitting::format_unknown_block(c)}};
       bool bank_parameters = false;
       for (const auto& info : tuned.models[0]->parameter_info()) {

@@ -498,8 +498,8 @@ BankConfig load_bank_config(const fs::path& file) {
 
   y.check_keys(root,
                {"name", "description", "states", "angles", "inputs", "columns", "sampling", "measurement", "transition",
-                "initial", "mode_probability_floor", "likelihood_weight", "likelihood_dof", "innovation_gate", "unknown", "plugin_paths", "shared",
-                "modes", "classes", "decision"},
+                "initial", "mode_probability_floor", "likelihood_weight", "likelihood_dof", "extrapolation_scale",
+                "innovation_gate", "unknown", "plugin_paths", "shared", "modes", "classes", "decision"},
                "");
   BankConfig bank;
   bank.file = fs::absolute(file);
@@ -579,6 +579,14 @@ BankConfig load_bank_config(const fs::path& file) {
       y.fail(dof, "likelihood_dof",
              "must be a finite number > 0: the degrees of freedom of the Student-t likelihood (omit it for the "
              "Gaussian one)");
+    }
+  }
+  if (const YAML::Node scale = root["extrapolation_scale"]) {
+    bank.extrapolation_scale = y.number(scale, "extrapolation_scale");
+    if (!(bank.extrapolation_scale > 0.0 && std::isfinite(bank.extrapolation_scale))) {
+      y.fail(scale, "extrapolation_scale",
+             "must be a finite number > 0: how many widths of a class's fitted input range outside it its "
+             "evidence keeps 1/e of its weight (omit it for no extrapolation discount)");
     }
   }
   if (const YAML::Node gate = root["innovation_gate"]) {

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "covariance.h"
+#include "extrapolation_discount.h"
 #include "filter_health.h"
 #include "fixed_size_ekf.h"
 #include "gaussian_mixture.h"
@@ -396,6 +397,7 @@ class Kernel final : public ImmKernel {
         likelihood_weight_(bank.config.likelihood_weight),
         unknown_(bank.config.unknown),
         student_t_(bank.config.likelihood_dof, static_cast<int>(bank.config.measurement.h.rows())),
+        discount_(bank.config),
         correlation_(bank.config),
         initial_state_(bank.config.initial_state),
         initial_covariance_(bank.config.initial_covariance) {
@@ -515,12 +517,16 @@ class Kernel final : public ImmKernel {
     e->num_gated_modes = gated;
     // Likelihoods count only when some mode applied the measurement: a
     // measurement every mode gated (or failed on) says nothing about which
-    // mode is right.
+    // mode is right. Where a class's models extrapolate, their evidence is
+    // faded (extrapolation_discount.h).
+    const Eigen::VectorXd& evidence = discount_.active() && accepted > 0
+                                          ? discount_.evidence(u_now, predicted_, e->log_likelihoods)
+                                          : e->log_likelihoods;
     if (unknown_.enabled()) {
-      update_probabilities_with_unknown(first, accepted > 0, previous_unknown, unknown_log_likelihood, e);
+      update_probabilities_with_unknown(first, accepted > 0, previous_unknown, unknown_log_likelihood, evidence, e);
       combine(condition_on_modes(e->mode_probabilities), e);
     } else {
-      update_mode_probabilities(accepted > 0, e);
+      update_mode_probabilities(accepted > 0, evidence, e);
       combine(e->mode_probabilities, e);
     }
   }
@@ -659,14 +665,15 @@ class Kernel final : public ImmKernel {
   // with c'_j the modes' own chain on their conditional probabilities (the
   // first step: no transition). Then mu ~ c Lambda^w, floored.
   void update_probabilities_with_unknown(bool first, bool have_likelihoods, double previous_unknown,
-                                         double unknown_log_likelihood, ImmEstimate* e) {
+                                         double unknown_log_likelihood, const Eigen::VectorXd& evidence,
+                                         ImmEstimate* e) {
     const double known = 1.0 - previous_unknown;
     const double enter = unknown_.enter, leave = unknown_.leave;
     for (int j = 0; j < modes_; ++j) {
       const double c =
           !first ? known * (1.0 - enter) * predicted_[j] + previous_unknown * leave / modes_ : predicted_[j];
       log_posterior_[j] = c > 0.0 ? std::log(c) : kMinusInfinity;
-      if (have_likelihoods) log_posterior_[j] += likelihood_weight_ * e->log_likelihoods[j];
+      if (have_likelihoods) log_posterior_[j] += likelihood_weight_ * evidence[j];
     }
     const double c_unknown = !first ? known * enter + previous_unknown * (1.0 - leave) : previous_unknown;
     log_posterior_[modes_] = c_unknown > 0.0 ? std::log(c_unknown) : kMinusInfinity;
@@ -684,11 +691,12 @@ class Kernel final : public ImmKernel {
     e->mode_probabilities.maxCoeff(&e->most_likely_mode);
   }
 
-  void update_mode_probabilities(bool have_likelihoods, ImmEstimate* e) {
+  // evidence: the modes' log-likelihoods as the probabilities use them.
+  void update_mode_probabilities(bool have_likelihoods, const Eigen::VectorXd& evidence, ImmEstimate* e) {
     for (int j = 0; j < modes_; ++j) {
       const double c = predicted_[j];
       log_posterior_[j] = c > 0.0 ? std::log(c) : kMinusInfinity;
-      if (have_likelihoods) log_posterior_[j] += likelihood_weight_ * e->log_likelihoods[j];
+      if (have_likelihoods) log_posterior_[j] += likelihood_weight_ * evidence[j];
     }
     // log-sum-exp: the largest term is exp(0) = 1, so nothing underflows to an
     // all-zero vector however small the likelihoods are.
@@ -774,6 +782,7 @@ class Kernel final : public ImmKernel {
   double likelihood_weight_;         // w of Lambda_j^w (bank.h)
   UnknownHypothesisConfig unknown_;  // the bank's "none of these" hypothesis
   StudentTLikelihood student_t_;     // the bank's likelihood_dof
+  ExtrapolationDiscount discount_;   // the bank's extrapolation_scale
   ResidualCorrelation correlation_;  // the modes' residual_correlation
   std::vector<double> gates_;        // by number of measured components; +inf: no gate
   Eigen::VectorXd initial_state_;

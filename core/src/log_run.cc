@@ -135,6 +135,7 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
   const std::vector<int> class_of_mode = config.class_of_modes();
   ModeDecision decision(config, decision_settings);
   int last_decision = ModeDecision::kUnknown;
+  const InputEnvelope envelope(config);
   // The truth's class: each label looked up once (class_index builds the
   // class names), then by comparison with the last one and the few seen.
   std::vector<std::pair<std::string, int>> classes_seen;
@@ -172,6 +173,17 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
     s.gated += e.status == StepStatus::kGated;
     s.mode_gated += e.num_gated_modes > 0 && e.status != StepStatus::kGated;
     s.timeline.add(sample.t, e.most_likely_mode, e.mode_probabilities[e.most_likely_mode]);
+    if (!envelope.empty() && !e.unknown_is_most_likely()) {
+      const int c = class_of_mode[static_cast<std::size_t>(e.most_likely_mode)];
+      const Excursion outside = envelope.outside(c, sample.u);
+      if (outside.input >= 0) {
+        ++s.outside_fitted_inputs;
+        if (s.farthest_outside_class < 0 || outside.beyond > s.farthest_outside.beyond) {
+          s.farthest_outside = outside;
+          s.farthest_outside_class = c;
+        }
+      }
+    }
     if (progress && s.rows % 1024 == 0) progress();
   });
 }

@@ -83,6 +83,26 @@ inline std::string run_command(const std::string& bank, const std::string& input
          output;
 }
 
+// `bank_text` with every mode's `fitted_inputs:` line replaced by `ranges`
+// (e.g. "{phi_dot_L: [0, 1]}"), or removed where `ranges` is empty; the
+// number of lines replaced.
+inline int with_fitted_inputs(std::string* bank_text, const std::string& ranges) {
+  const std::string key = "    fitted_inputs: {";
+  std::string::size_type at = 0;
+  int replaced = 0;
+  while ((at = bank_text->find(key, at)) != std::string::npos) {
+    const std::string::size_type end = bank_text->find('\n', at);
+    if (ranges.empty()) {
+      bank_text->erase(at, end + 1 - at);
+    } else {
+      bank_text->replace(at, end - at, "    fitted_inputs: " + ranges);
+      ++at;
+    }
+    ++replaced;
+  }
+  return replaced;
+}
+
 // A CSV file's rows, the header first.
 inline std::vector<std::vector<std::string>> read_csv(const std::filesystem::path& path) {
   skidimm::CsvReader reader(path);

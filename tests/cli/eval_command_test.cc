@@ -274,15 +274,8 @@ TEST(EvalCommand, CountsTheStepsOutsideTheInputsTheTerrainsWereFittedOn) {
   EXPECT_THAT(bundled.out, HasSubstr("inputs outside the ranges the classes were fitted on: "));
 
   std::string narrow = read_file(kTerrains);
-  std::string::size_type at = 0;
-  int ranges = 0;
-  while ((at = narrow.find("    fitted_inputs: {", at)) != std::string::npos) {
-    const std::string::size_type end = narrow.find('\n', at);
-    narrow.replace(at, end - at, "    fitted_inputs: {phi_dot_L: [0, 1], phi_dot_R: [0, 1]}");
-    ++at;
-    ++ranges;
-  }
-  ASSERT_EQ(ranges, 3) << "one per terrain in " << kTerrains;
+  ASSERT_EQ(with_fitted_inputs(&narrow, "{phi_dot_L: [0, 1], phi_dot_R: [0, 1]}"), 3) << "one per terrain in "
+                                                                                       << kTerrains;
   const fs::path narrow_bank = write_file(test_directory() / "narrow.yaml", narrow);
   const auto rows = read_csv(kSwitching);
   const int left = column(rows[0], "phi_dot_L"), right = column(rows[0], "phi_dot_R");
@@ -304,7 +297,7 @@ TEST(EvalCommand, CountsTheStepsOutsideTheInputsTheTerrainsWereFittedOn) {
   EXPECT_THAT(e["farthest"].as<std::string>(), HasSubstr("fitted on 0 to 1)"));
 
   std::string none = read_file(kTerrains);
-  while ((at = none.find("    fitted_inputs: {")) != std::string::npos) none.erase(at, none.find('\n', at) + 1 - at);
+  with_fitted_inputs(&none, "");
   const fs::path none_bank = write_file(test_directory() / "none.yaml", none);
   const Result without = run_skidimm("eval --bank " + none_bank.string() + " --plugin-path " + kPlugins + " --input " +
                                      kSwitching);

@@ -331,6 +331,56 @@ fs::path log_with_outlier(const fs::path& dir, int row, const std::string& value
 // filter is still settling, the modes miss too and "unknown" leads for about
 // a second. `eval` scores such a step as wrong, from the run's output as when
 // it runs the IMM itself.
+// The bundled terrains given narrow fitted ranges (every terrain [0, 1] rad/s
+// on both wheels): run reports the share of rows outside the most likely
+// terrain's (here every terrain's) ranges and the farthest. With an
+// extrapolation_scale, every terrain far out is equally unsure, each such row
+// counts almost nothing, and the estimate is less sure than without.
+TEST(Cli, RunReportsTheRowsOutsideTheFittedInputsAndTheDiscountMakesThemLessSure) {
+  const fs::path dir = test_directory();
+  std::string narrow = read_file(kTerrains);
+  ASSERT_EQ(with_fitted_inputs(&narrow, "{phi_dot_L: [0, 1], phi_dot_R: [0, 1]}"), 3);
+  const auto rows = read_csv(kSwitching);
+  const int left = column(rows[0], "phi_dot_L"), right = column(rows[0], "phi_dot_R");
+  long outside = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const double l = std::stod(rows[i][static_cast<std::size_t>(left)]);
+    const double r = std::stod(rows[i][static_cast<std::size_t>(right)]);
+    outside += l < 0.0 || l > 1.0 || r < 0.0 || r > 1.0;
+  }
+  ASSERT_GT(outside, 0);
+  ASSERT_LT(outside, static_cast<long>(rows.size() - 1));
+  char share[32];
+  std::snprintf(share, sizeof(share), "%.1f%%", 100.0 * static_cast<double>(outside) / (rows.size() - 1));
+  const fs::path plain_bank = write_file(dir / "narrow.yaml", narrow);
+  const Result plain = run_skidimm("run --bank " + plain_bank.string() + " --plugin-path " + kPlugins + " --input " +
+                                   kSwitching + " --output " + (dir / "plain.csv").string());
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_THAT(plain.err, HasSubstr(std::string("inputs outside the ranges the most likely class was fitted on: ") +
+                                   share + " of the rows (farthest: "));
+  EXPECT_THAT(plain.err, HasSubstr("fitted on 0 to 1)"));
+
+  const fs::path discounted_bank = write_file(dir / "discounted.yaml", "extrapolation_scale: 0.01\n" + narrow);
+  ASSERT_EQ(run_pipeline(run_command(discounted_bank.string(), kSwitching, (dir / "discounted.csv").string()))
+                .exit_code,
+            0);
+  const auto mean_top_probability = [](const fs::path& file) {
+    const auto out = read_csv(file);
+    double sum = 0.0;
+    for (std::size_t i = 1; i < out.size(); ++i) {
+      sum += std::max({std::stod(out[i][1]), std::stod(out[i][2]), std::stod(out[i][3])});
+    }
+    return sum / static_cast<double>(out.size() - 1);
+  };
+  EXPECT_LT(mean_top_probability(dir / "discounted.csv"), mean_top_probability(dir / "plain.csv") - 0.05);
+  std::string none = read_file(kTerrains);
+  with_fitted_inputs(&none, "");
+  const Result without = run_skidimm("run --bank " + write_file(dir / "none.yaml", none).string() + " --plugin-path " +
+                                     kPlugins + " --input " + kSwitching + " --output " + (dir / "none.csv").string());
+  ASSERT_EQ(without.exit_code, 0) << without.err;
+  EXPECT_THAT(without.err, ::testing::Not(HasSubstr("inputs outside")));
+}
+
 TEST(Cli, RunWritesTheUnknownHypothesisProbabilityAndEvalCountsItWrong) {
   const fs::path dir = test_directory();
   const fs::path bank =

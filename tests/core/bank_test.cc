@@ -383,6 +383,17 @@ TEST(BankConfig, LikelihoodDofIsAPositiveNumberOrAbsent) {
   expect_config_error("likelihood_dof: .inf\n" + kValidBank, {"likelihood_dof"});
 }
 
+TEST(BankConfig, ExtrapolationScaleIsAPositiveNumberOrAbsent) {
+  EXPECT_EQ(load_bank_config(write_file(test_directory() / "scale.yaml", "extrapolation_scale: 0.5\n" + kValidBank))
+                .extrapolation_scale,
+            0.5);
+  EXPECT_EQ(load_bank_config(write_file(test_directory() / "no_scale.yaml", kValidBank)).extrapolation_scale, 0.0);
+  expect_config_error("extrapolation_scale: 0\n" + kValidBank,
+                      {"bank.yaml:1: extrapolation_scale", "finite number > 0", "range"});
+  expect_config_error("extrapolation_scale: -1\n" + kValidBank, {"extrapolation_scale"});
+  expect_config_error("extrapolation_scale: .nan\n" + kValidBank, {"extrapolation_scale"});
+}
+
 TEST(BankConfig, UnknownHypothesisIsOptInAndChecked) {
   EXPECT_FALSE(load_bank_config(write_file(test_directory() / "plain.yaml", kValidBank)).unknown.enabled());
   const BankConfig c = load_bank_config(write_file(

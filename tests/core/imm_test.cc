@@ -245,6 +245,64 @@ TEST(Imm, LikelihoodDofScoresInnovationsWithTheStudentTDensity) {
   ExpectMatchesReferenceOverManySteps(0.4, 17, 7.5);
 }
 
+// extrapolation_scale s: at a step whose input lies d range widths outside
+// the inputs a class was fitted on, its modes' log-likelihoods count
+// t = exp(-d / s) of themselves and 1 - t of the trusted mixture's,
+// log((c_0 t Lambda_0 + c_1 Lambda_1) / (c_0 t + c_1)). By hand at the step
+// above (u = 0, c and Lambda as there): mode 0 fitted on u in [0.5, 1]
+// (d = 1), s = 0.5, so t = exp(-2); mode 1 has no ranges and is used as it
+// is. The reported log-likelihoods and the filters are untouched: only the
+// probabilities move.
+TEST(Imm, ExtrapolationScaleFadesTheEvidenceOfAClassOutsideItsFittedInputs) {
+  const auto probability_of_mode_0 = [](double lowest, double highest, double scale) {
+    Bank bank = two_mode_scalar_bank().build();
+    bank.config.modes[0].fitted_inputs["u"] = InputRange{lowest, highest};
+    bank.config.extrapolation_scale = scale;
+    Imm imm(std::move(bank));
+    imm.step(0.0, vec({1.0}), vec({0.6}));
+    const ImmEstimate& e1 = imm.step(0.1, vec({0.0}), vec({0.7}));
+    EXPECT_NEAR(e1.log_likelihoods[0], std::log(0.6097098555942483), 1e-13);
+    EXPECT_NEAR(e1.mode_states[0][0], 0.6537914691943127, 1e-14);
+    return e1.mode_probabilities[0];
+  };
+  EXPECT_NEAR(probability_of_mode_0(0.5, 1.0, 0.5), 0.6220325635889563, 1e-13);
+  // Fitted at one value of u: any other is infinitely far out, t = 0, mode 0
+  // is scored as mode 1 is, and keeps its prior c_0 = 0.62.
+  EXPECT_NEAR(probability_of_mode_0(0.5, 0.5, 0.5), 0.62, 1e-13);
+  // Inside its range, the plain IMM's probability (0.62 Lambda_0 / (0.62
+  // Lambda_0 + 0.38 Lambda_1)), bit for bit that of a bank without the key.
+  Bank plain_bank = two_mode_scalar_bank().build();
+  Imm plain(std::move(plain_bank));
+  plain.step(0.0, vec({1.0}), vec({0.6}));
+  const double expected = plain.step(0.1, vec({0.0}), vec({0.7})).mode_probabilities[0];
+  EXPECT_NEAR(expected, 0.626904671091847, 1e-13);
+  EXPECT_EQ(probability_of_mode_0(-1.0, 1.0, 0.5), expected);
+}
+
+// A class driven far outside its fitted inputs, whose model misses every step,
+// is not driven to its floor: it keeps the share the transitions give it (here
+// its prior 0.4, with sticky transitions), where the plain IMM all but rules
+// it out.
+TEST(Imm, AClassFarOutsideItsFittedInputsIsNotRuledOutByItsMisses) {
+  const auto smallest_probability_of_mode_1 = [](double scale) {
+    BankBuilder b = two_mode_scalar_bank();
+    b.transition << 0.999, 0.001, 0.001, 0.999;
+    Bank bank = b.build();
+    bank.config.modes[1].fitted_inputs["u"] = InputRange{0.0, 0.1};
+    if (scale > 0.0) bank.config.extrapolation_scale = scale;
+    Imm imm(std::move(bank));
+    double smallest = 1.0;
+    // u = 2: mode 0 (x' = -x + u) settles at 2, mode 1 (x' = -2x + u/2) at 0.5; z follows mode 0.
+    for (int k = 0; k < 60; ++k) {
+      smallest = std::min(smallest, imm.step(0.1 * k, vec({2.0}), vec({2.0})).mode_probabilities[1]);
+    }
+    return smallest;
+  };
+  EXPECT_LT(smallest_probability_of_mode_1(0.0), 0.01);
+  // 19 range widths out: t = exp(-380), mode 1 scored as mode 0 at every step.
+  EXPECT_GT(smallest_probability_of_mode_1(0.05), 0.35);
+}
+
 // A measurement far from every mode: the Gaussian density makes the mode whose
 // prediction is least wrong almost certain at once; the Student-t one leaves
 // the modes near their prior, as neither explains the step.

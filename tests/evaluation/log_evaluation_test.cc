@@ -131,25 +131,6 @@ TEST(EvaluateLog, CountsTheStepsOutsideTheInputsEachClassWasFittedOn) {
   EXPECT_EQ(evaluate_log(two_modes(), &again, "a", "").extrapolation.steps, 0);
 }
 
-// The envelope of a class spans its modes' ranges; an input a mode has no
-// range for is unbounded for its class.
-TEST(InputEnvelope, AClassSpansItsModesAndAMissingRangeIsUnbounded) {
-  Bank bank = two_modes();
-  bank.config.classes = {{"both", {0, 1}}};
-  bank.config.modes[0].fitted_inputs["u"] = {0.5, 1.5};
-  bank.config.modes[1].fitted_inputs["u"] = {2.0, 3.0};
-  const InputEnvelope spanned(bank.config);
-  EXPECT_EQ(spanned.outside(0, vec({1.75})).input, -1) << "between the modes' ranges, inside the class's";
-  const Excursion above = spanned.outside(0, vec({3.5}));
-  EXPECT_EQ(above.input, 0);
-  EXPECT_DOUBLE_EQ(above.beyond, 0.2) << "0.5 beyond a range 2.5 wide";
-  EXPECT_EQ(spanned.outside(0, vec({std::nan("")})).input, -1) << "a missing value is not outside";
-  bank.config.modes[1].fitted_inputs.clear();
-  const InputEnvelope unbounded(bank.config);
-  EXPECT_FALSE(unbounded.empty());
-  EXPECT_EQ(unbounded.outside(0, vec({100.0})).input, -1);
-}
-
 // The observer sees every step, in order, as scored: its weighted log
 // p(truth) (each step's interval to the next, the last's to the one before)
 // over the seconds of the truth is the log's score, and each term is at most

@@ -197,6 +197,16 @@ TEST(TunedSettings, ApplyScalesFittedValuesAndSetsTheTransitionAndFloor) {
   apply(fitted, s, &bank);
   EXPECT_EQ(bank.config.likelihood_dof, 4.0);
   EXPECT_THAT(s.describe(bank.config), ::testing::EndsWith("likelihood weight 0.25, likelihood dof 4"));
+  EXPECT_EQ(knob_from_string("extrapolation-scale"), Knob::kExtrapolationScale);
+  s.extrapolation_scale = 0.5;
+  apply(fitted, s, &bank);
+  EXPECT_EQ(bank.config.extrapolation_scale, 0.5);
+  EXPECT_THAT(s.describe(bank.config), ::testing::EndsWith("likelihood dof 4, extrapolation scale 0.5"));
+  // Searched and kept off: said so, and the bank has none.
+  s.extrapolation_scale = 0.0;
+  apply(fitted, s, &bank);
+  EXPECT_EQ(bank.config.extrapolation_scale, 0.0);
+  EXPECT_THAT(s.describe(bank.config), ::testing::EndsWith("extrapolation scale off"));
 }
 
 TEST(Sessions, APatternMatchesAPathOrItsEndAndEveryLogNeedsOne) {

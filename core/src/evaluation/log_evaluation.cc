@@ -7,6 +7,7 @@
 
 #include "skidimm/engine/decision.h"
 #include "skidimm/engine/imm.h"
+#include "skidimm/engine/input_envelope.h"
 #include "skidimm/errors.h"
 #include "skidimm/io/estimates_writer.h"
 #include "skidimm/printable.h"

@@ -401,6 +401,11 @@ std::string format_likelihood_dof_block(const BankConfig& config) {
   return "likelihood_dof: " + bank_number(config.likelihood_dof) + "\n";
 }
 
+std::string format_extrapolation_scale_block(const BankConfig& config) {
+  if (config.extrapolation_scale <= 0.0) return "";
+  return "extrapolation_scale: " + bank_number(config.extrapolation_scale) + "\n";
+}
+
 std::string format_unknown_block(const BankConfig& config) {
   if (!config.unknown.enabled()) return "";
   return "unknown: {inflation: " + bank_number(config.unknown.inflation) +

@@ -45,18 +45,20 @@ const char* to_string(Knob knob) {
       return "likelihood-dof";
     case Knob::kUnknownInflation:
       return "unknown-inflation";
+    case Knob::kExtrapolationScale:
+      return "extrapolation-scale";
   }
   return "?";
 }
 
 Knob knob_from_string(const std::string& name) {
   for (Knob k : {Knob::kRScale, Knob::kRComponents, Knob::kQScale, Knob::kQModes, Knob::kDwell, Knob::kFloor,
-                 Knob::kLikelihoodWeight, Knob::kLikelihoodDof, Knob::kUnknownInflation}) {
+                 Knob::kLikelihoodWeight, Knob::kLikelihoodDof, Knob::kUnknownInflation, Knob::kExtrapolationScale}) {
     if (name == to_string(k)) return k;
   }
   throw Error("unknown setting '" + name +
               "' (expected r-scale, r-components, q-scale, q-modes, dwell, floor, likelihood-weight, likelihood-dof, "
-              "unknown-inflation)");
+              "unknown-inflation, extrapolation-scale)");
 }
 
 std::string TunedSettings::describe(const BankConfig& config) const {
@@ -75,6 +77,10 @@ std::string TunedSettings::describe(const BankConfig& config) const {
   // Only when Student-t, for the same reason.
   if (likelihood_dof > 0.0) out += ", likelihood dof " + brief(likelihood_dof);
   if (unknown_inflation > 0.0) out += ", unknown inflation " + brief(unknown_inflation);
+  // Only once searched: "off" where the search kept it off.
+  if (extrapolation_scale >= 0.0) {
+    out += ", extrapolation scale " + (extrapolation_scale > 0.0 ? brief(extrapolation_scale) : std::string("off"));
+  }
   return out;
 }
 
@@ -120,6 +126,7 @@ void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
   if (s.likelihood_weight > 0.0) config.likelihood_weight = s.likelihood_weight;
   if (s.likelihood_dof >= 0.0) config.likelihood_dof = s.likelihood_dof;
   if (s.unknown_inflation > 0.0) config.unknown.inflation = s.unknown_inflation;
+  if (s.extrapolation_scale >= 0.0) config.extrapolation_scale = s.extrapolation_scale;
   for (std::size_t j = 0; j < fitted.residual_correlation.size() && j < config.modes.size(); ++j) {
     config.modes[j].residual_correlation = fitted.residual_correlation[j];
   }

@@ -85,6 +85,7 @@ class Tuner {
     base_weight_ = config.likelihood_weight;
     base_dof_ = config.likelihood_dof;
     base_unknown_inflation_ = config.unknown.inflation;
+    base_extrapolation_scale_ = config.extrapolation_scale;
     if (!config.unknown.enabled() &&
         std::find(options.knobs.begin(), options.knobs.end(), Knob::kUnknownInflation) != options.knobs.end()) {
       throw Error(config.file.string() +
@@ -258,6 +259,7 @@ class Tuner {
             count += line * config.num_modes();
             break;
           case Knob::kLikelihoodDof:
+          case Knob::kExtrapolationScale:
             count += sweep == 0 ? 7 : 2;
             break;
           default:
@@ -570,6 +572,7 @@ class Tuner {
     bank->config.likelihood_weight = base_weight_;
     bank->config.likelihood_dof = base_dof_;
     bank->config.unknown.inflation = base_unknown_inflation_;
+    bank->config.extrapolation_scale = base_extrapolation_scale_;
     apply(base_, TunedSettings{}, bank);
   }
 
@@ -727,6 +730,9 @@ class Tuner {
     current.likelihood_weight = base_weight_;
     current.likelihood_dof = base_dof_;
     if (config.unknown.enabled()) current.unknown_inflation = base_unknown_inflation_;
+    const bool searches_extrapolation =
+        std::find(options_.knobs.begin(), options_.knobs.end(), Knob::kExtrapolationScale) != options_.knobs.end();
+    if (searches_extrapolation) current.extrapolation_scale = base_extrapolation_scale_;
     std::vector<double> log_costs(logs_.size(), 0.0);
     // A candidate is taken when it beats the best by more than 1e-9; its
     // scoring stops once it cannot (ScoreBound). The bound sits below that by
@@ -783,20 +789,23 @@ class Tuner {
         *value = chosen;
         if (!quiet) progress("  " + objective + ": " + name + " " + brief(chosen) + " -> mean log p(truth) " + brief(best));
       };
-      // The Student-t degrees of freedom, the Gaussian (0) among the candidates:
-      // a coarse ladder first, then the neighbours of the best.
-      auto dof_line = [&](bool coarse) {
-        const double start = current.likelihood_dof;
+      // A setting whose 0 turns a feature off (the Student-t degrees of
+      // freedom: the Gaussian; the extrapolation scale: no discount), 0
+      // among the candidates: a coarse ladder first, then the neighbours of
+      // the best.
+      auto ladder = [&](const std::string& name, double* value, const std::vector<double>& coarse_ladder, bool coarse,
+                        const std::string& off) {
+        const double start = *value;
         std::vector<double> candidates;
         if (coarse) {
-          candidates = {0.0, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0};
+          candidates = coarse_ladder;
         } else if (start > 0.0) {
           candidates = {start / std::sqrt(2.0), start * std::sqrt(2.0)};
         }
         double chosen = start;
         for (double candidate : candidates) {
           if (candidate == start) continue;
-          current.likelihood_dof = candidate;
+          *value = candidate;
           std::vector<LogScore> scores;
           const double score = score_of(current, &scores, best);
           if (score > best + 1e-9) {
@@ -805,9 +814,9 @@ class Tuner {
             *best_scores = scores;
           }
         }
-        current.likelihood_dof = chosen;
+        *value = chosen;
         if (!quiet) {
-          progress("  " + objective + ": likelihood dof " + (chosen > 0.0 ? brief(chosen) : std::string("Gaussian")) +
+          progress("  " + objective + ": " + name + " " + (chosen > 0.0 ? brief(chosen) : off) +
                    " -> mean log p(truth) " + brief(best));
         }
       };
@@ -844,7 +853,13 @@ class Tuner {
             line("likelihood weight", &current.likelihood_weight, 1e-4, 1.0);
             break;
           case Knob::kLikelihoodDof:
-            dof_line(sweep == 0);
+            ladder("likelihood dof", &current.likelihood_dof, {0.0, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0}, sweep == 0,
+                   "Gaussian");
+            break;
+          case Knob::kExtrapolationScale:
+            // In widths of a class's fitted input range (extrapolation_discount.h).
+            ladder("extrapolation scale", &current.extrapolation_scale, {0.0, 0.125, 0.25, 0.5, 1.0, 2.0, 4.0},
+                   sweep == 0, "off");
             break;
           case Knob::kUnknownInflation:
             line("unknown inflation", &current.unknown_inflation, 1.0 + 1e-6, 1e12);
@@ -867,6 +882,7 @@ class Tuner {
   double base_weight_ = 1.0;
   double base_dof_ = 0.0;
   double base_unknown_inflation_ = 0.0;  // the bank's unknown.inflation; 0: no unknown hypothesis
+  double base_extrapolation_scale_ = 0.0;  // the bank's extrapolation_scale; 0: no discount
   std::vector<std::string> classes_;
   std::vector<RecordedLog> recorded_;
   std::vector<std::vector<double>> step_weights_;  // weigh_steps()

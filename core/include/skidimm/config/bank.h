@@ -169,6 +169,13 @@ struct BankConfig {
   // off then loses by log, not by the square, of its miss, so one step that
   // no mode explains cannot make the filter sure of the least wrong one.
   double likelihood_dof = 0.0;
+  // How far outside the inputs a class was fitted on (ModeConfig::fitted_inputs)
+  // its modes' evidence fades: at a step whose inputs lie d of the class's
+  // range widths outside them, each of its modes' log-likelihoods counts
+  // exp(-d / scale) of itself and the rest that of the step's mixture, so a
+  // class that cannot predict the step is neither confirmed nor refuted by it
+  // (docs/engine.md, "Extrapolation discount"); 0: off.
+  double extrapolation_scale = 0.0;
   // Chi-square innovation gate (docs/engine.md): the probability a consistent
   // measurement passes, in (0, 1); 0: no gate.
   double innovation_gate = 0.0;

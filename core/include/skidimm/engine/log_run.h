@@ -10,6 +10,7 @@
 
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/imm_estimate.h"
+#include "skidimm/engine/input_envelope.h"
 #include "skidimm/engine/mode_timeline.h"
 #include "skidimm/io/estimates_writer.h"
 #include "skidimm/io/log_reader.h"
@@ -55,6 +56,12 @@ struct RunSummary {
   long gated = 0;             // rows whose measurement every mode gated (status gated)
   long mode_gated = 0;        // rows whose measurement some modes gated (status mode_gated or mode_reset)
   long decision_changes = 0;  // changes of the decision after the first row
+  // Rows whose inputs were outside the ranges the most likely class was
+  // fitted on (input_envelope.h; 0 for a bank that records none), and the
+  // farthest out of them, in the terms of that class.
+  long outside_fitted_inputs = 0;
+  Excursion farthest_outside;
+  int farthest_outside_class = -1;
   ModeTimeline timeline;      // the most likely mode over time
   // One per mode once a mode's filter was rejected or gated (empty until then).
   std::vector<ModeRejections> rejections;

@@ -20,7 +20,7 @@
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/log_run.h"
 #include "skidimm/evaluation/consistency.h"
-#include "skidimm/evaluation/input_envelope.h"
+#include "skidimm/evaluation/extrapolation_counts.h"
 #include "skidimm/evaluation/mode_metrics.h"
 #include "skidimm/io/log_reader.h"
 

@@ -68,6 +68,8 @@ std::string format_floor_block(const BankConfig& config);        // "mode_probab
 std::string format_likelihood_weight_block(const BankConfig& config);
 // "likelihood_dof: ...", or nothing for the Gaussian likelihood (no key).
 std::string format_likelihood_dof_block(const BankConfig& config);
+// "extrapolation_scale: ...", or nothing without an extrapolation discount (no key).
+std::string format_extrapolation_scale_block(const BankConfig& config);
 // "unknown: {inflation: ..., enter: ..., leave: ...}", or nothing without an
 // unknown hypothesis (no key).
 std::string format_unknown_block(const BankConfig& config);

@@ -111,6 +111,7 @@ struct TunedSettings {
   double likelihood_weight = -1.0;   // > 0: likelihood_weight
   double likelihood_dof = -1.0;      // >= 0: likelihood_dof (0: Gaussian)
   double unknown_inflation = -1.0;   // > 0: unknown.inflation (a bank with an unknown hypothesis)
+  double extrapolation_scale = -1.0;  // >= 0: extrapolation_scale (0: no extrapolation discount)
   std::string describe(const BankConfig& config) const;
 };
 
@@ -130,7 +131,8 @@ enum class Knob {
   kFloor,
   kLikelihoodWeight,
   kLikelihoodDof,
-  kUnknownInflation
+  kUnknownInflation,
+  kExtrapolationScale
 };
 const char* to_string(Knob knob);
 Knob knob_from_string(const std::string& name);  // throws Error listing the names

@@ -3,9 +3,10 @@
 // fitted on (ModeConfig::fitted_inputs); a class's range is the span of its
 // modes'. A robot driven faster or turning harder than a terrain's runs were
 // is outside that terrain's ranges, and its probability there is a straight
-// line followed past its data, however confident it looks.
-#ifndef SKIDIMM_EVALUATION_INPUT_ENVELOPE_H_
-#define SKIDIMM_EVALUATION_INPUT_ENVELOPE_H_
+// line followed past its data, however confident it looks. The engine fades
+// such a class's evidence (`extrapolation_scale`), `eval` counts such steps.
+#ifndef SKIDIMM_ENGINE_INPUT_ENVELOPE_H_
+#define SKIDIMM_ENGINE_INPUT_ENVELOPE_H_
 
 #include <Eigen/Core>
 #include <string>
@@ -14,7 +15,6 @@
 #include "skidimm/config/bank.h"
 
 namespace skidimm {
-namespace evaluation {
 
 // An input of a step beyond a class's range.
 struct Excursion {
@@ -22,7 +22,8 @@ struct Excursion {
   double value = 0.0;      // the step's value
   double lowest = 0.0;     // the class's range
   double highest = 0.0;
-  double beyond = 0.0;     // how far outside, in widths of the range (a range of no width: of 1)
+  // How far outside, in widths of the range; a range of one value: infinitely far.
+  double beyond = 0.0;
 };
 
 class InputEnvelope {
@@ -33,9 +34,10 @@ class InputEnvelope {
 
   // True when no mode of the bank records its ranges: nothing is outside.
   bool empty() const { return empty_; }
+  int num_classes() const { return static_cast<int>(classes_.size()); }
   // The input of `u` farthest outside class c's ranges (Excursion::input -1
   // when `u` is inside them all or is not finite).
-  Excursion outside(int c, const Eigen::VectorXd& u) const;
+  Excursion outside(int c, const Eigen::Ref<const Eigen::VectorXd>& u) const;
   // "speed 0.78 (ICE fitted on 0.04 to 0.31)".
   std::string describe(int c, const Excursion& e) const;
 
@@ -46,25 +48,6 @@ class InputEnvelope {
   std::vector<Eigen::VectorXd> lowest_, highest_;  // per class, per input; +-inf where unbounded
 };
 
-// How many of a log's steps were outside the ranges of the class estimated
-// there, and, where the truth is known, of the true class, and how often the
-// estimate was right inside and outside them.
-struct ExtrapolationCounts {
-  long steps = 0;                // steps counted (the bank records ranges)
-  long outside_estimate = 0;     // outside the most likely class's ranges
-  long labelled = 0;             // steps whose truth is a class of the bank
-  long outside_truth = 0;        // ... outside the true class's ranges
-  long outside_truth_right = 0;  // ... of which the most likely class was right
-  long inside_truth_right = 0;   // right where inside the true class's ranges
-  // The step farthest outside the true class's ranges (or, without truth,
-  // the estimated class's), as InputEnvelope::describe() says it.
-  std::string farthest;
-  double farthest_beyond = 0.0;
-
-  void merge(const ExtrapolationCounts& other);
-};
-
-}  // namespace evaluation
 }  // namespace skidimm
 
-#endif  // SKIDIMM_EVALUATION_INPUT_ENVELOPE_H_
+#endif  // SKIDIMM_ENGINE_INPUT_ENVELOPE_H_

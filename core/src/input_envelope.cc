@@ -1,11 +1,10 @@
-#include "skidimm/evaluation/input_envelope.h"
+#include "skidimm/engine/input_envelope.h"
 
 #include <cmath>
 #include <cstdio>
 #include <limits>
 
 namespace skidimm {
-namespace evaluation {
 
 namespace {
 
@@ -38,7 +37,7 @@ InputEnvelope::InputEnvelope(const BankConfig& bank) : inputs_(bank.input_names)
   }
 }
 
-Excursion InputEnvelope::outside(int c, const Eigen::VectorXd& u) const {
+Excursion InputEnvelope::outside(int c, const Eigen::Ref<const Eigen::VectorXd>& u) const {
   Excursion farthest;
   if (empty_ || c < 0 || static_cast<std::size_t>(c) >= classes_.size()) return farthest;
   const Eigen::VectorXd& low = lowest_[static_cast<std::size_t>(c)];
@@ -48,7 +47,8 @@ Excursion InputEnvelope::outside(int c, const Eigen::VectorXd& u) const {
     if (!std::isfinite(value) || (value >= low[i] && value <= high[i])) continue;
     const double width = high[i] - low[i];
     const double distance = value < low[i] ? low[i] - value : value - high[i];
-    const double beyond = distance / (width > 0.0 && std::isfinite(width) ? width : 1.0);
+    // A range of one value: any other is infinitely far out.
+    const double beyond = width > 0.0 ? distance / width : kInfinity;
     if (farthest.input < 0 || beyond > farthest.beyond) {
       farthest = Excursion{static_cast<int>(i), value, low[i], high[i], beyond};
     }
@@ -62,18 +62,4 @@ std::string InputEnvelope::describe(int c, const Excursion& e) const {
          classes_[static_cast<std::size_t>(c)] + " fitted on " + number(e.lowest) + " to " + number(e.highest) + ")";
 }
 
-void ExtrapolationCounts::merge(const ExtrapolationCounts& other) {
-  steps += other.steps;
-  outside_estimate += other.outside_estimate;
-  labelled += other.labelled;
-  outside_truth += other.outside_truth;
-  outside_truth_right += other.outside_truth_right;
-  inside_truth_right += other.inside_truth_right;
-  if (other.farthest_beyond > farthest_beyond) {
-    farthest_beyond = other.farthest_beyond;
-    farthest = other.farthest;
-  }
-}
-
-}  // namespace evaluation
 }  // namespace skidimm
