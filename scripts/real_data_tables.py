@@ -112,8 +112,12 @@ def tune_blocks(path):
         mean = re.search(r"mean over classes: accuracy ([0-9.]+), mean log p\(truth\) (-?[0-9.]+)", part)
         lines = part.rstrip("\n").splitlines()
         verdict = lines[-1].strip() if slug != "selection" else ""
+        # The share of held-out steps outside the true class's fitted ranges, and the accuracy there and elsewhere.
+        outside = re.search(r"inputs outside the ranges the true class was fitted on: ([0-9.]+%) of the labelled "
+                            r"steps; the most likely class right on ([0-9.]+%|-) of those and ([0-9.]+%|-) of the "
+                            r"others", part)
         out[slug] = {"classes": classes, "mean": float(mean.group(1)), "log_p": float(mean.group(2)),
-                     "verdict": verdict}
+                     "verdict": verdict, "outside": outside.groups() if outside else None}
     return out
 
 
@@ -518,7 +522,26 @@ def discount(work, first, summary):
                f"{pct(worst(design))} without, the mean {pct(mean(variant))} against {pct(mean(design))}. By the rule "
                "parameter uncertainty was taken and the physics-shaped form was not by (a better worst case, and a "
                "mean no worse), " + ("the bank would take it." if adopted else "the bank does without it."))
+    design_blocks = tune_blocks(os.path.join(work, "borealtc", "tune.txt"))
+    if any(design_blocks[slug]["outside"] is None for slug in HELD_OUT):
+        sys.exit("discount: the design's tune names no held-out steps outside the fitted ranges")
+    shares = {slug: design_blocks[slug]["outside"] for slug in HELD_OUT}
+    outside = "; ".join(f"{SHORT[slug]} {share} (right on {right} of it, {elsewhere} elsewhere)"
+                        for slug, (share, right, elsewhere) in shares.items())
+    # The held-out runs a quarter or more of whose steps lie outside their terrain's ranges, by protocol.
+    kinds = scores_by_kind(os.path.join(work, "borealtc", "scores.csv"))
+    far = []
+    for slug in HELD_OUT:
+        runs = [r for r in kinds[slug] if float(r["outside_fitted_inputs"]) >= 0.25]
+        runs.sort(key=lambda r: (r["truth"], r["log"]))
+        far.append(f"{SHORT[slug]}: " + (", ".join(
+            f"{r['truth']} {run_number(r['log'])} ({pct(float(r['outside_fitted_inputs']))} of it, read right "
+            f"{pct(float(r['accuracy']))})" for r in runs) if runs else "none"))
     return "\n".join(first_lines + lines[2:]) + (
+        f"\n\nThe share of the held-out steps whose inputs lie outside the ranges the true terrain's modes were "
+        f"fitted on in their fold, and the design's accuracy on them and elsewhere (step B1, every step of every "
+        f"held-out run together): {outside}. The held-out runs with a quarter of their steps or more outside: "
+        f"{'; '.join(far)}."
         f"\n\nThe same development runs, folds and searched settings; the lockbox does not score this. With the "
         f"discount, the first design's scores are better in {len(first_better)} and worse in {len(first_worse)} of "
         f"the {len(first_better) + len(first_worse)} that differ (better: "

@@ -70,18 +70,43 @@ void print_scores(std::ostream& out, const std::string& title, const std::vector
 // the mean log p(truth) its settings were chosen by, without it.
 void write_table(const fs::path& file, const fitting::TuneResult& result) {
   std::ostringstream out;
-  out << "kind,log,truth,accuracy,mean_log_probability,seconds,fold,selection_score\n";
+  out << "kind,log,truth,accuracy,mean_log_probability,seconds,fold,selection_score,outside_fitted_inputs\n";
   auto rows = [&](const std::string& kind, const std::vector<LogScore>& scores) {
     for (const LogScore& s : scores) {
+      const double outside = s.labelled_steps > 0 ? static_cast<double>(s.outside_truth_steps) / s.labelled_steps
+                                                  : std::numeric_limits<double>::quiet_NaN();
       out << kind << "," << s.log << "," << s.truth << "," << number(s.accuracy, "%.6f") << ","
           << number(s.mean_log_probability, "%.6f") << "," << number(s.seconds, "%.3f") << ","
-          << (s.fold >= 0 ? std::to_string(s.fold) : "") << "," << number(s.selection_score, "%.9g") << "\n";
+          << (s.fold >= 0 ? std::to_string(s.fold) : "") << "," << number(s.selection_score, "%.9g") << ","
+          << number(outside, "%.6f") << "\n";
     }
   };
   for (const fitting::Assessment& a : result.assessments) rows(a.protocol.slug(), a.scores);
   rows("lockbox", result.lockbox.scores);
   rows("selection", result.selection_scores);
   write_file_atomically(file, out.str());  // output_file.h: checked, renamed when whole
+}
+
+// How much of the held-out logs' time asked the true class's models to
+// extrapolate (outside the input ranges the fold's fit recorded), and the
+// most likely class's accuracy there and elsewhere; nothing for a bank that
+// records no ranges.
+void print_extrapolation(std::ostream& out, const std::vector<LogScore>& scores) {
+  long labelled = 0, outside = 0, outside_right = 0, inside_right = 0;
+  for (const LogScore& s : scores) {
+    labelled += s.labelled_steps;
+    outside += s.outside_truth_steps;
+    outside_right += s.outside_truth_right;
+    inside_right += s.inside_truth_right;
+  }
+  if (labelled == 0) return;
+  const auto percent = [](long part, long whole) {
+    return whole > 0 ? number(100.0 * static_cast<double>(part) / static_cast<double>(whole), "%.1f") + "%"
+                     : std::string("-");
+  };
+  out << "  inputs outside the ranges the true class was fitted on: " << percent(outside, labelled)
+      << " of the labelled steps; the most likely class right on " << percent(outside_right, outside)
+      << " of those and " << percent(inside_right, labelled - outside) << " of the others\n";
 }
 
 // How fast the spliced runs' changes of class were followed (tune --splice).
@@ -262,12 +287,14 @@ int tune(const TuneCommandOptions& options) {
                        "; each scored by models fitted and settings tuned without it)",
                    a.scores, a.summary, true);
       print_switches(out, a);
+      print_extrapolation(out, a.scores);
       out << "  " << evaluation::separability(a.scores, static_cast<int>(config.class_names().size())).describe() << "\n";
     }
     if (!result.lockbox.scores.empty()) {
       print_scores(out, "lockbox (kept aside, scored once by the bank tuned on the other logs)", result.lockbox.scores,
                    result.lockbox.summary, false);
       print_switches(out, result.lockbox);
+      print_extrapolation(out, result.lockbox.scores);
       out << "  " << evaluation::separability(result.lockbox.scores, static_cast<int>(config.class_names().size())).describe()
           << "\n";
     }

@@ -1,5 +1,6 @@
 #include "skidimm/engine/input_envelope.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -9,6 +10,7 @@ namespace skidimm {
 namespace {
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
+constexpr double kRelativeSlack = 1e-7;
 
 std::string number(double v) {
   char buffer[32];
@@ -44,7 +46,12 @@ Excursion InputEnvelope::outside(int c, const Eigen::Ref<const Eigen::VectorXd>&
   const Eigen::VectorXd& high = highest_[static_cast<std::size_t>(c)];
   for (Eigen::Index i = 0; i < u.size() && i < low.size(); ++i) {
     const double value = u[i];
-    if (!std::isfinite(value) || (value >= low[i] && value <= high[i])) continue;
+    // The same wheel speeds computed another way (velR - velL from other
+    // rows) can differ from a range's end in the last bit; within the 7
+    // digits a written bank keeps of a range (rounded outward), a value is
+    // inside, in memory as from a file.
+    const double slack = kRelativeSlack * std::max(std::abs(low[i]), std::abs(high[i]));
+    if (!std::isfinite(value) || (value >= low[i] - slack && value <= high[i] + slack)) continue;
     const double width = high[i] - low[i];
     const double distance = value < low[i] ? low[i] - value : value - high[i];
     // A range of one value: any other is infinitely far out.

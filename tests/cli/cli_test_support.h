@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -119,6 +120,31 @@ inline int column(const std::vector<std::string>& header, const std::string& nam
   }
   ADD_FAILURE() << "no column " << name;
   return 0;
+}
+
+// How many rows of the bundled switching log have a wheel speed
+// (phi_dot_L, phi_dot_R) outside [lowest, highest], of how many, and that
+// share as a run's or tune's summary prints it ("12.5%").
+struct RowsOutside {
+  long outside = 0;
+  long rows = 0;
+  std::string percent;
+};
+
+inline RowsOutside switching_rows_outside(double lowest, double highest) {
+  const auto rows = read_csv(kSwitching);
+  const int left = column(rows[0], "phi_dot_L"), right = column(rows[0], "phi_dot_R");
+  RowsOutside r;
+  r.rows = static_cast<long>(rows.size()) - 1;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const double l = std::stod(rows[i][static_cast<std::size_t>(left)]);
+    const double w = std::stod(rows[i][static_cast<std::size_t>(right)]);
+    r.outside += l < lowest || l > highest || w < lowest || w > highest;
+  }
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.1f%%", 100.0 * static_cast<double>(r.outside) / static_cast<double>(r.rows));
+  r.percent = text;
+  return r;
 }
 
 // Rows as CSV text.

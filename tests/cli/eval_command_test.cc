@@ -277,21 +277,14 @@ TEST(EvalCommand, CountsTheStepsOutsideTheInputsTheTerrainsWereFittedOn) {
   ASSERT_EQ(with_fitted_inputs(&narrow, "{phi_dot_L: [0, 1], phi_dot_R: [0, 1]}"), 3) << "one per terrain in "
                                                                                        << kTerrains;
   const fs::path narrow_bank = write_file(test_directory() / "narrow.yaml", narrow);
-  const auto rows = read_csv(kSwitching);
-  const int left = column(rows[0], "phi_dot_L"), right = column(rows[0], "phi_dot_R");
-  long outside = 0;
-  for (std::size_t i = 1; i < rows.size(); ++i) {
-    const double l = std::stod(rows[i][static_cast<std::size_t>(left)]);
-    const double r = std::stod(rows[i][static_cast<std::size_t>(right)]);
-    if (l < 0.0 || l > 1.0 || r < 0.0 || r > 1.0) ++outside;
-  }
-  ASSERT_GT(outside, 0);
-  const double share = static_cast<double>(outside) / static_cast<double>(rows.size() - 1);
+  const RowsOutside outside = switching_rows_outside(0.0, 1.0);
+  ASSERT_GT(outside.outside, 0);
+  const double share = static_cast<double>(outside.outside) / static_cast<double>(outside.rows);
   const YAML::Node json = json_of(run_skidimm("eval --bank " + narrow_bank.string() + " --plugin-path " + kPlugins +
                                               " --input " + kSwitching + " --json"));
   const YAML::Node e = json["overall"]["extrapolation"];
   ASSERT_TRUE(e.IsMap()) << "overall.extrapolation";
-  EXPECT_EQ(e["steps"].as<long>(), static_cast<long>(rows.size() - 1));
+  EXPECT_EQ(e["steps"].as<long>(), outside.rows);
   EXPECT_NEAR(e["outside_estimate"].as<double>(), share, 1e-6);
   EXPECT_NEAR(e["outside_truth"].as<double>(), share, 1e-6);
   EXPECT_THAT(e["farthest"].as<std::string>(), HasSubstr("fitted on 0 to 1)"));

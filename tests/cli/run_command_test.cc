@@ -340,24 +340,15 @@ TEST(Cli, RunReportsTheRowsOutsideTheFittedInputsAndTheDiscountMakesThemLessSure
   const fs::path dir = test_directory();
   std::string narrow = read_file(kTerrains);
   ASSERT_EQ(with_fitted_inputs(&narrow, "{phi_dot_L: [0, 1], phi_dot_R: [0, 1]}"), 3);
-  const auto rows = read_csv(kSwitching);
-  const int left = column(rows[0], "phi_dot_L"), right = column(rows[0], "phi_dot_R");
-  long outside = 0;
-  for (std::size_t i = 1; i < rows.size(); ++i) {
-    const double l = std::stod(rows[i][static_cast<std::size_t>(left)]);
-    const double r = std::stod(rows[i][static_cast<std::size_t>(right)]);
-    outside += l < 0.0 || l > 1.0 || r < 0.0 || r > 1.0;
-  }
-  ASSERT_GT(outside, 0);
-  ASSERT_LT(outside, static_cast<long>(rows.size() - 1));
-  char share[32];
-  std::snprintf(share, sizeof(share), "%.1f%%", 100.0 * static_cast<double>(outside) / (rows.size() - 1));
+  const RowsOutside outside = switching_rows_outside(0.0, 1.0);
+  ASSERT_GT(outside.outside, 0);
+  ASSERT_LT(outside.outside, outside.rows);
   const fs::path plain_bank = write_file(dir / "narrow.yaml", narrow);
   const Result plain = run_skidimm("run --bank " + plain_bank.string() + " --plugin-path " + kPlugins + " --input " +
                                    kSwitching + " --output " + (dir / "plain.csv").string());
   ASSERT_EQ(plain.exit_code, 0) << plain.err;
-  EXPECT_THAT(plain.err, HasSubstr(std::string("inputs outside the ranges the most likely class was fitted on: ") +
-                                   share + " of the rows (farthest: "));
+  EXPECT_THAT(plain.err, HasSubstr("inputs outside the ranges the most likely class was fitted on: " + outside.percent +
+                                   " of the rows (farthest: "));
   EXPECT_THAT(plain.err, HasSubstr("fitted on 0 to 1)"));
 
   const fs::path discounted_bank = write_file(dir / "discounted.yaml", "extrapolation_scale: 0.01\n" + narrow);

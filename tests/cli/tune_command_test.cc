@@ -2,6 +2,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -64,12 +65,8 @@ TEST(Cli, TuneTempersTheEvidenceOfABankThatOvercountsItOnRealRuns) {
   EXPECT_THAT(read_file(dir / "tuned.yaml"), HasSubstr("likelihood weight"));  // the header's chosen settings
 }
 
-// `--tune unknown-inflation` chooses the unknown hypothesis' covariance
-// factor in each fold and writes it into the bank with its enter and leave
-// as they were; a bank without `unknown:` has nothing to tune and says so.
-// The bundled switching log in four parts, the bank's models as they are.
-TEST(Cli, TuneChoosesTheUnknownInflationOfABankThatHasOne) {
-  const fs::path dir = test_directory();
+// The bundled switching log in four parts, as `--log` arguments.
+std::string switching_log_in_four_parts(const fs::path& dir) {
   const std::string log = read_file(kSwitching);
   const std::size_t header_end = log.find('\n') + 1;
   std::vector<std::string> rows;
@@ -84,6 +81,16 @@ TEST(Cli, TuneChoosesTheUnknownInflationOfABankThatHasOne) {
     for (std::size_t r = part * rows.size() / 4; r < (part + 1) * rows.size() / 4; ++r) text += rows[r];
     logs += " --log " + write_file(dir / ("part" + std::to_string(part) + ".csv"), text).string();
   }
+  return logs;
+}
+
+// `--tune unknown-inflation` chooses the unknown hypothesis' covariance
+// factor in each fold and writes it into the bank with its enter and leave
+// as they were; a bank without `unknown:` has nothing to tune and says so.
+// The bundled switching log in four parts, the bank's models as they are.
+TEST(Cli, TuneChoosesTheUnknownInflationOfABankThatHasOne) {
+  const fs::path dir = test_directory();
+  const std::string logs = switching_log_in_four_parts(dir);
   const fs::path bank =
       write_file(dir / "unknown.yaml", "unknown: {inflation: 100, enter: 0.01, leave: 0.2}\n" + read_file(kTerrains));
   const std::string args = logs + " --objective none --tune unknown-inflation --no-assess --threads 1 --plugin-path " +
@@ -99,6 +106,40 @@ TEST(Cli, TuneChoosesTheUnknownInflationOfABankThatHasOne) {
   const Result plain = run_skidimm("tune --bank " + kTerrains + args);
   EXPECT_NE(plain.exit_code, 0);
   EXPECT_THAT(plain.err, HasSubstr("--tune unknown-inflation needs a bank with an unknown hypothesis"));
+}
+
+// `--tune extrapolation-scale` searches the scale with "off" among the
+// candidates and says what it chose; each nested assessment reports the share
+// of its held-out steps outside the ranges the true class was fitted on. The
+// bundled terrains given narrow ranges (every terrain [0, 1] rad/s on both
+// wheels), the bank's models as they are, so the share is that of the rows.
+TEST(Cli, TuneSearchesTheExtrapolationScaleAndReportsTheHeldOutStepsOutsideTheFittedRanges) {
+  const fs::path dir = test_directory();
+  const std::string logs = switching_log_in_four_parts(dir);
+  std::string narrow = read_file(kTerrains);
+  ASSERT_EQ(with_fitted_inputs(&narrow, "{phi_dot_L: [0, 1], phi_dot_R: [0, 1]}"), 3);
+  const RowsOutside outside = switching_rows_outside(0.0, 1.0);
+  ASSERT_GT(outside.outside, 0);
+  const fs::path bank = write_file(dir / "narrow.yaml", narrow);
+  const Result tune =
+      run_skidimm("tune --bank " + bank.string() + logs +
+                  " --objective none --tune extrapolation-scale --assess logs --threads 1 --plugin-path " + kPlugins +
+                  " --output-bank " + (dir / "tuned.yaml").string());
+  ASSERT_EQ(tune.exit_code, 0) << tune.err;
+  EXPECT_THAT(tune.err, HasSubstr("extrapolation scale"));
+  EXPECT_THAT(tune.out, HasSubstr(", extrapolation scale "));  // "chosen: ...": a scale, or "off"
+  EXPECT_THAT(tune.out, HasSubstr("inputs outside the ranges the true class was fitted on: " + outside.percent +
+                                  " of the labelled steps; the most likely class right on "));
+  const skidimm::BankConfig tuned = skidimm::load_bank_config(dir / "tuned.yaml");
+  EXPECT_EQ(tuned.extrapolation_scale > 0.0, tune.out.find(", extrapolation scale off") == std::string::npos);
+  // A bank without ranges: nothing to report.
+  std::string none = read_file(kTerrains);
+  with_fitted_inputs(&none, "");
+  const Result plain =
+      run_skidimm("tune --bank " + write_file(dir / "none.yaml", none).string() + logs +
+                  " --objective none --tune dwell --assess logs --threads 1 --plugin-path " + kPlugins);
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_THAT(plain.out, ::testing::Not(HasSubstr("inputs outside")));
 }
 
 }  // namespace

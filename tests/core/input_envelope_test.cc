@@ -39,6 +39,9 @@ TEST(InputEnvelope, AClassSpansItsModesAndAMissingRangeIsUnbounded) {
   EXPECT_DOUBLE_EQ(above.beyond, 0.2) << "0.5 beyond a range 2.5 wide";
   EXPECT_EQ(spanned.describe(0, above), "u 3.5 (both fitted on 0.5 to 3)");
   EXPECT_EQ(spanned.outside(0, vec({std::nan("")})).input, -1) << "a missing value is not outside";
+  EXPECT_EQ(spanned.outside(0, vec({3.0 + 1e-12})).input, -1) << "round-off past the end is inside";
+  EXPECT_EQ(spanned.outside(0, vec({0.5 - 1e-8})).input, -1) << "within 1e-7 of the end's magnitude";
+  EXPECT_EQ(spanned.outside(0, vec({0.5 - 1e-6})).input, 0);
   bank.config.modes[1].fitted_inputs.clear();
   const InputEnvelope unbounded(bank.config);
   EXPECT_FALSE(unbounded.empty());

@@ -36,7 +36,9 @@ class InputEnvelope {
   bool empty() const { return empty_; }
   int num_classes() const { return static_cast<int>(classes_.size()); }
   // The input of `u` farthest outside class c's ranges (Excursion::input -1
-  // when `u` is inside them all or is not finite).
+  // when `u` is inside them all or is not finite). A value beyond a range's
+  // end by less than 1e-7 of that end is inside: the round-off of inputs
+  // computed from other rows, and the 7 digits a written bank keeps.
   Excursion outside(int c, const Eigen::Ref<const Eigen::VectorXd>& u) const;
   // "speed 0.78 (ICE fitted on 0.04 to 0.31)".
   std::string describe(int c, const Excursion& e) const;
