@@ -33,6 +33,7 @@ logs=${SKIDIMM_FIT_LOGS:-build/fit_logs}
 skidimm=${SKIDIMM:-build/bin/skidimm}
 [ -x "$skidimm" ] || { echo "$0: build skidimm first (scripts/build.sh)" >&2; exit 1; }
 source scripts/seeds.sh
+source scripts/same_bits.sh
 mkdir -p "$out" "$out/realistic" "$logs" "$logs/realistic" "$logs/realistic_tune"
 
 maneuvers=(

@@ -6,6 +6,7 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
+source scripts/same_bits.sh
 data=${1:-../shared/data/husky_ice}
 skidimm=${SKIDIMM:-build/bin/skidimm}
 [ -d "$data" ] || { echo "$0: no Husky data at $data" >&2; exit 1; }

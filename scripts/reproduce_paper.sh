@@ -23,6 +23,7 @@ results=${SKIDIMM_RESULTS_MD:-docs/results.md}
 python=$(command -v /usr/bin/python3 || command -v python3)
 [ -x "$skidimm" ] || { echo "$0: build skidimm first (scripts/build.sh)" >&2; exit 1; }
 source scripts/seeds.sh
+source scripts/same_bits.sh
 eval_seeds=$(paper_eval_seeds "$seeds")
 check_disjoint "$eval_seeds" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(decision_default_seeds)" "$(model_selection_seeds)" "$(window_protocol_seeds)"
 # The decision's settings are weighed on seeds of their own: none may be a fitting one either.

@@ -47,6 +47,7 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
+source scripts/same_bits.sh
 data=${1:-../shared/data}
 skidimm=${SKIDIMM:-build/bin/skidimm}
 work=${SKIDIMM_REAL_DATA_DIR:-build/real_data}

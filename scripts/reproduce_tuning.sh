@@ -31,6 +31,7 @@ rm -rf "$work"
 mkdir -p "$work"/{drivers,fit,fresh,poor_tune,poor_eval,eval}
 
 source scripts/seeds.sh
+source scripts/same_bits.sh
 all_fit_seeds=($(tuning_fit_seeds))  # no `| head`: with pipefail, seq's SIGPIPE would end the script
 fit_seeds=("${all_fit_seeds[@]:0:3}")
 tune_seeds="${all_fit_seeds[*]:3}"
