@@ -189,9 +189,7 @@ int run(const RunOptions& options) {
                      "  inputs outside the ranges the most likely class was fitted on: %.1f%% of the rows "
                      "(farthest: %s)\n",
                      100.0 * summary.outside_fitted_inputs / summary.rows,
-                     InputEnvelope(config)
-                         .describe(summary.farthest_outside_class, summary.farthest_outside)
-                         .c_str());
+                     InputEnvelope(config).describe(summary.farthest_outside_class, summary.farthest_outside).c_str());
       }
       print_rejections(bank, summary);
     }

@@ -308,9 +308,9 @@ int tune(const TuneCommandOptions& options) {
       std::string modes_block = "modes:\n";
       for (int j = 0; j < c.num_modes(); ++j) {
         const ModeConfig& mode = c.modes[static_cast<std::size_t>(j)];
-        modes_block += fitting::format_mode_entry(mode, *tuned.models[static_cast<std::size_t>(j)], {},
-                                                  tuned.model_sources[static_cast<std::size_t>(j)].parameter_keys,
-                                                  c.input_names);
+        modes_block +=
+            fitting::format_mode_entry(mode, *tuned.models[static_cast<std::size_t>(j)], {},
+                                       tuned.model_sources[static_cast<std::size_t>(j)].parameter_keys, c.input_names);
       }
       std::vector<std::pair<std::string, std::string>> blocks{
           {"measurement", fitting::format_measurement_block(c)},

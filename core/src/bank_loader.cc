@@ -276,8 +276,9 @@ void parse_fitted_inputs(const YamlFields& y, const YAML::Node& node, const Bank
     }
     InputRange r{y.number(range[0], input_field + "[0]"), y.number(range[1], input_field + "[1]")};
     if (!std::isfinite(r.lowest) || !std::isfinite(r.highest) || r.lowest > r.highest) {
-      y.fail(range, input_field, "expected finite numbers, the lowest first, got [" + printable(range[0].Scalar()) + ", " +
-                                     printable(range[1].Scalar()) + "]");
+      y.fail(range, input_field,
+             "expected finite numbers, the lowest first, got [" + printable(range[0].Scalar()) + ", " +
+                 printable(range[1].Scalar()) + "]");
     }
     mode->fitted_inputs[input] = r;
   }

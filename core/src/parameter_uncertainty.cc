@@ -128,11 +128,21 @@ class ParameterUncertainModel final : public sdk::MotionModel {
         // at compile time; larger blocks (features whose fits are coupled) at
         // run time.
         switch (m) {
-          case 1: add_block<1>(block.sigma, gathered, rows, count, &sigma_g, &noise); break;
-          case 2: add_block<2>(block.sigma, gathered, rows, count, &sigma_g, &noise); break;
-          case 3: add_block<3>(block.sigma, gathered, rows, count, &sigma_g, &noise); break;
-          case 4: add_block<4>(block.sigma, gathered, rows, count, &sigma_g, &noise); break;
-          default: add_block<Eigen::Dynamic>(block.sigma, gathered, rows, count, &sigma_g, &noise); break;
+          case 1:
+            add_block<1>(block.sigma, gathered, rows, count, &sigma_g, &noise);
+            break;
+          case 2:
+            add_block<2>(block.sigma, gathered, rows, count, &sigma_g, &noise);
+            break;
+          case 3:
+            add_block<3>(block.sigma, gathered, rows, count, &sigma_g, &noise);
+            break;
+          case 4:
+            add_block<4>(block.sigma, gathered, rows, count, &sigma_g, &noise);
+            break;
+          default:
+            add_block<Eigen::Dynamic>(block.sigma, gathered, rows, count, &sigma_g, &noise);
+            break;
         }
       }
     } catch (...) {  // bad_alloc

@@ -234,7 +234,8 @@ void bind_fit(py::module_& m) {
   m.def(
       "apply_fit",
       [](PyBank& bank, int mode, const Eigen::VectorXd& parameters, const Eigen::MatrixXd& q,
-         const std::optional<Eigen::MatrixXd>& r, const std::map<std::string, std::pair<double, double>>& fitted_inputs) {
+         const std::optional<Eigen::MatrixXd>& r,
+         const std::map<std::string, std::pair<double, double>>& fitted_inputs) {
         if (mode < 0 || mode >= bank.config().num_modes()) throw py::index_error("no mode " + std::to_string(mode));
         std::string error;
         if (!bank.bank->models[static_cast<std::size_t>(mode)]->set_parameters(parameters, &error)) throw Error(error);
@@ -242,7 +243,8 @@ void bind_fit(py::module_& m) {
         config.q_intensity = q;
         if (r) config.r = *r;
         config.fitted_inputs.clear();
-        for (const auto& [input, range] : fitted_inputs) config.fitted_inputs[input] = InputRange{range.first, range.second};
+        for (const auto& [input, range] : fitted_inputs)
+          config.fitted_inputs[input] = InputRange{range.first, range.second};
       },
       py::arg("bank"), py::arg("mode"), py::arg("parameters"), py::arg("q"), py::arg("r") = py::none(),
       py::arg("fitted_inputs") = std::map<std::string, std::pair<double, double>>{},

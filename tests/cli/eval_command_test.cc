@@ -274,8 +274,8 @@ TEST(EvalCommand, CountsTheStepsOutsideTheInputsTheTerrainsWereFittedOn) {
   EXPECT_THAT(bundled.out, HasSubstr("inputs outside the ranges the classes were fitted on: "));
 
   std::string narrow = read_file(kTerrains);
-  ASSERT_EQ(with_fitted_inputs(&narrow, "{phi_dot_L: [0, 1], phi_dot_R: [0, 1]}"), 3) << "one per terrain in "
-                                                                                       << kTerrains;
+  ASSERT_EQ(with_fitted_inputs(&narrow, "{phi_dot_L: [0, 1], phi_dot_R: [0, 1]}"), 3)
+      << "one per terrain in " << kTerrains;
   const fs::path narrow_bank = write_file(test_directory() / "narrow.yaml", narrow);
   const RowsOutside outside = switching_rows_outside(0.0, 1.0);
   ASSERT_GT(outside.outside, 0);
@@ -292,8 +292,8 @@ TEST(EvalCommand, CountsTheStepsOutsideTheInputsTheTerrainsWereFittedOn) {
   std::string none = read_file(kTerrains);
   with_fitted_inputs(&none, "");
   const fs::path none_bank = write_file(test_directory() / "none.yaml", none);
-  const Result without = run_skidimm("eval --bank " + none_bank.string() + " --plugin-path " + kPlugins + " --input " +
-                                     kSwitching);
+  const Result without =
+      run_skidimm("eval --bank " + none_bank.string() + " --plugin-path " + kPlugins + " --input " + kSwitching);
   ASSERT_EQ(without.exit_code, 0) << without.err;
   EXPECT_THAT(without.out, Not(HasSubstr("inputs outside")));
   EXPECT_TRUE(json_of(run_skidimm("eval --bank " + none_bank.string() + " --plugin-path " + kPlugins + " --input " +

@@ -352,9 +352,8 @@ TEST(Cli, RunReportsTheRowsOutsideTheFittedInputsAndTheDiscountMakesThemLessSure
   EXPECT_THAT(plain.err, HasSubstr("fitted on 0 to 1)"));
 
   const fs::path discounted_bank = write_file(dir / "discounted.yaml", "extrapolation_scale: 0.01\n" + narrow);
-  ASSERT_EQ(run_pipeline(run_command(discounted_bank.string(), kSwitching, (dir / "discounted.csv").string()))
-                .exit_code,
-            0);
+  ASSERT_EQ(
+      run_pipeline(run_command(discounted_bank.string(), kSwitching, (dir / "discounted.csv").string())).exit_code, 0);
   const auto mean_top_probability = [](const fs::path& file) {
     const auto out = read_csv(file);
     double sum = 0.0;

@@ -450,8 +450,8 @@ TEST(BankConfig, FittedInputRangesNameInputsAndHoldTheirLowestFirst) {
                 .modes[1]
                 .fitted_inputs.count("phi_dot_L"),
             0u);
-  expect_config_error(with("{v: [0, 1]}"), {"bank.yaml:23: modes[1].fitted_inputs.v",
-                                            "'v' is not an input (inputs: phi_dot_L, phi_dot_R)"});
+  expect_config_error(with("{v: [0, 1]}"),
+                      {"bank.yaml:23: modes[1].fitted_inputs.v", "'v' is not an input (inputs: phi_dot_L, phi_dot_R)"});
   expect_config_error(with("{phi_dot_L: [2, 1]}"),
                       {"bank.yaml:23: modes[1].fitted_inputs.phi_dot_L", "the lowest first, got [2, 1]"});
   expect_config_error(with("{phi_dot_L: [0, .inf]}"), {"modes[1].fitted_inputs.phi_dot_L", "finite"});

@@ -104,8 +104,9 @@ TEST(EvaluateLog, CountsTheStepsOutsideTheInputsEachClassWasFittedOn) {
   for (int k = 20; k < 30; ++k) steps[static_cast<std::size_t>(k)].u = vec({1.2});
   ListSource source(steps);
   std::vector<std::string> estimates;
-  const LogResult r = evaluate_log(bank, &source, "a", "", {}, EstimatorOptions{},
-                                   [&](const LogSample&, const LabelledStep& step) { estimates.push_back(step.estimate); });
+  const LogResult r =
+      evaluate_log(bank, &source, "a", "", {}, EstimatorOptions{},
+                   [&](const LogSample&, const LabelledStep& step) { estimates.push_back(step.estimate); });
   ASSERT_EQ(estimates.size(), 30u);
   long outside_estimate = 0, right_outside = 0, right_inside = 0;
   for (int k = 0; k < 30; ++k) {

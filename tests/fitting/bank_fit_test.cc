@@ -55,7 +55,8 @@ TEST(BankFit, LikelihoodFromAPhysicalGuessOnRealHuskyIceRuns) {
   window.objective = Objective::kWindow;
   fit_bank(&window_bank, {fit_logs}, window);
   // Where each input ranged over the fitted runs, recorded on the mode.
-  const std::map<std::string, InputRange>& ranges = window_bank.config.modes[static_cast<std::size_t>(ice)].fitted_inputs;
+  const std::map<std::string, InputRange>& ranges =
+      window_bank.config.modes[static_cast<std::size_t>(ice)].fitted_inputs;
   ASSERT_EQ(ranges.size(), window_bank.config.input_names.size());
   for (int i = 0; i < window_bank.config.input_dim(); ++i) {
     double lowest = fit_logs.logs[0].u.row(i).minCoeff(), highest = fit_logs.logs[0].u.row(i).maxCoeff();

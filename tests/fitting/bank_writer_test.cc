@@ -144,8 +144,7 @@ TEST(BankWriter, AnAppendThatWouldBreakTheBankChangesNothing) {
   const auto file = write_file(test_directory() / "b.yaml", kBank);
   Bank bank = Bank::load(file, {SKIDIMM_PLUGIN_DIR});
   try {
-    append_mode_to_bank(file,
-                        format_mode_entry(mode_named("asphalt", 1.0), *bank.models[0]));
+    append_mode_to_bank(file, format_mode_entry(mode_named("asphalt", 1.0), *bank.models[0]));
     FAIL();
   } catch (const ConfigError& e) {
     EXPECT_THAT(e.what(), HasSubstr("the result would not be a valid bank, nothing was written"));

@@ -115,10 +115,11 @@ std::string json_calibration(const ModeMetrics& m) {
 // outside and inside the true class's ranges.
 void print_extrapolation(std::ostream& out, const ExtrapolationCounts& e) {
   const auto share = [](long part, long whole) { return whole > 0 ? static_cast<double>(part) / whole : kNaN; };
-  out << "  inputs outside the ranges the classes were fitted on: " << fmt(100.0 * share(e.outside_estimate, e.steps), "%.1f")
-      << "% of the steps for the most likely class";
+  out << "  inputs outside the ranges the classes were fitted on: "
+      << fmt(100.0 * share(e.outside_estimate, e.steps), "%.1f") << "% of the steps for the most likely class";
   if (e.labelled > 0) {
-    out << "; " << fmt(100.0 * share(e.outside_truth, e.labelled), "%.1f") << "% for the true class, the most likely right on "
+    out << "; " << fmt(100.0 * share(e.outside_truth, e.labelled), "%.1f")
+        << "% for the true class, the most likely right on "
         << fmt(100.0 * share(e.outside_truth_right, e.outside_truth), "%.1f") << "% of those and "
         << fmt(100.0 * share(e.inside_truth_right, e.labelled - e.outside_truth), "%.1f") << "% of the others";
   }
@@ -250,12 +251,13 @@ std::string json_summary(const EvaluationSummary& s, const std::vector<std::stri
   const std::vector<std::string> truths = truths_in_order(m, classes);
   std::ostringstream o;
   o << "{\"logs\": " << s.accuracies.size() << ", \"duration\": " << json_number(m.duration)
-    << ", \"unlabelled_seconds\": " << json_number(m.unlabelled)
-    << ", \"extrapolation\": " << (s.extrapolation.steps > 0 ? json_extrapolation(s.extrapolation) : std::string("null"))
+    << ", \"unlabelled_seconds\": " << json_number(m.unlabelled) << ", \"extrapolation\": "
+    << (s.extrapolation.steps > 0 ? json_extrapolation(s.extrapolation) : std::string("null"))
     << ", \"accuracy\": " << json_number(m.accuracy())
     << ", \"accuracy_per_log\": {\"mean\": " << json_number(s.accuracy_per_log.mean)
     << ", \"std\": " << json_number(s.accuracy_per_log.standard_deviation)
-    << ", \"min\": " << json_number(s.accuracy_per_log.min) << "}, \"mean_over_classes\": {\"accuracy\": " << json_number(by_class.accuracy)
+    << ", \"min\": " << json_number(s.accuracy_per_log.min)
+    << "}, \"mean_over_classes\": {\"accuracy\": " << json_number(by_class.accuracy)
     << ", \"mean_truth_log_probability\": " << json_number(by_class.mean_log_probability) << ", \"per_class\": {";
   bool listed = false;
   for (const auto& [name, accuracy] : by_class.class_accuracy) {

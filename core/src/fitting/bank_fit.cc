@@ -6,10 +6,10 @@
 #include <vector>
 
 #include "skidimm/engine/measurement_model.h"
+#include "skidimm/engine/parameter_uncertainty.h"
 #include "skidimm/errors.h"
 #include "skidimm/fitting/fit_logs.h"
 #include "skidimm/fitting/likelihood_fitter.h"
-#include "skidimm/engine/parameter_uncertainty.h"
 
 namespace skidimm {
 namespace fitting {

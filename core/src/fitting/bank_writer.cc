@@ -3,17 +3,17 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <map>
 #include <regex>
 #include <sstream>
 
+#include "skidimm/engine/parameter_uncertainty.h"
 #include "skidimm/errors.h"
 #include "skidimm/io/output_file.h"
-#include "skidimm/engine/parameter_uncertainty.h"
 
 namespace skidimm {
 namespace fitting {

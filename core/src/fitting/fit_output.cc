@@ -110,13 +110,13 @@ void write_fitted_bank(const Bank& bank, const std::vector<FittedMode>& fitted, 
       const std::string comment = std::string(likelihood(request) ? "innovation RMSE " : "one-step RMSE ") +
                                   measurement_values_text(config, f->report.rmse) + " on " + std::to_string(f->logs) +
                                   " log(s)";
-      modes_block +=
-          format_mode_entry(fitted_mode(config, *f, request), model, {comment}, parameter_table(bank, j), config.input_names);
+      modes_block += format_mode_entry(fitted_mode(config, *f, request), model, {comment}, parameter_table(bank, j),
+                                       config.input_names);
     } else {
       ModeConfig mode = config.modes[static_cast<std::size_t>(j)];
       mode.name = output_mode_name(config, request, j);
-      modes_block += format_mode_entry(mode, model, {"not fitted: no log given for this mode"}, parameter_table(bank, j),
-                                       config.input_names);
+      modes_block += format_mode_entry(mode, model, {"not fitted: no log given for this mode"},
+                                       parameter_table(bank, j), config.input_names);
     }
   }
   std::vector<std::pair<std::string, std::string>> blocks;

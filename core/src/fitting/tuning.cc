@@ -462,11 +462,10 @@ class Tuner {
         return;
       }
       const FittedValues fitted = values_of(bank);
-      values[static_cast<std::size_t>(i)] = {fitted.parameters[static_cast<std::size_t>(j)],
-                                             fitted.q[static_cast<std::size_t>(j)],
-                                             fitted.parameter_covariance[static_cast<std::size_t>(j)],
-                                             fitted.residual_correlation[static_cast<std::size_t>(j)],
-                                             fitted.fitted_inputs[static_cast<std::size_t>(j)]};
+      values[static_cast<std::size_t>(i)] = {
+          fitted.parameters[static_cast<std::size_t>(j)], fitted.q[static_cast<std::size_t>(j)],
+          fitted.parameter_covariance[static_cast<std::size_t>(j)],
+          fitted.residual_correlation[static_cast<std::size_t>(j)], fitted.fitted_inputs[static_cast<std::size_t>(j)]};
       const int n = ++finished;
       std::lock_guard<std::mutex> lock(progress_mutex);
       if (n == static_cast<int>(todo.size()) || n % 20 == 0) {

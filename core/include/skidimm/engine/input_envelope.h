@@ -18,9 +18,9 @@ namespace skidimm {
 
 // An input of a step beyond a class's range.
 struct Excursion {
-  int input = -1;          // the bank's input index; -1: inside every range
-  double value = 0.0;      // the step's value
-  double lowest = 0.0;     // the class's range
+  int input = -1;       // the bank's input index; -1: inside every range
+  double value = 0.0;   // the step's value
+  double lowest = 0.0;  // the class's range
   double highest = 0.0;
   // How far outside, in widths of the range; a range of one value: infinitely far.
   double beyond = 0.0;
