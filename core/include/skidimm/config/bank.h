@@ -172,9 +172,10 @@ struct BankConfig {
   // How far outside the inputs a class was fitted on (ModeConfig::fitted_inputs)
   // its modes' evidence fades: at a step whose inputs lie d of the class's
   // range widths outside them, each of its modes' log-likelihoods counts
-  // exp(-d / scale) of itself and the rest that of the step's mixture, so a
-  // class that cannot predict the step is neither confirmed nor refuted by it
-  // (docs/engine.md, "Extrapolation discount"); 0: off.
+  // exp(-d / scale) of itself and the rest that of the mixture of the
+  // classes inside theirs, so a class that cannot predict the step is
+  // neither confirmed nor refuted by it (docs/engine.md, "Extrapolation
+  // discount"); 0: off.
   double extrapolation_scale = 0.0;
   // Chi-square innovation gate (docs/engine.md): the probability a consistent
   // measurement passes, in (0, 1); 0: no gate.
