@@ -39,6 +39,7 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "skidimm/config/bank.h"
@@ -49,15 +50,18 @@ namespace internal {
 
 class ExtrapolationDiscount {
  public:
-  explicit ExtrapolationDiscount(const BankConfig& bank)
-      : scale_(bank.extrapolation_scale),
-        envelope_(bank),
-        class_of_mode_(bank.class_of_modes()),
-        trust_(static_cast<std::size_t>(envelope_.num_classes()), 1.0),
-        evidence_(bank.num_modes()) {}
+  // Without a scale nothing is built: tune constructs an engine per log and
+  // candidate, and most banks go without the discount.
+  explicit ExtrapolationDiscount(const BankConfig& bank) : scale_(bank.extrapolation_scale) {
+    if (!(scale_ > 0.0)) return;
+    envelope_.emplace(bank);
+    class_of_mode_ = bank.class_of_modes();
+    trust_.assign(static_cast<std::size_t>(envelope_->num_classes()), 1.0);
+    evidence_.resize(bank.num_modes());
+  }
 
   // A bank with a scale and some mode's ranges.
-  bool active() const { return scale_ > 0.0 && !envelope_.empty(); }
+  bool active() const { return envelope_.has_value() && !envelope_->empty(); }
 
   // The log-likelihoods the mode probabilities are to use at a step with
   // inputs `u`: `log_likelihoods` itself where no class extrapolates, else
@@ -106,8 +110,8 @@ class ExtrapolationDiscount {
   // Sets each class's t for `u`; false when every class is inside its ranges.
   bool update_trust(const Eigen::Ref<const Eigen::VectorXd>& u) {
     bool outside = false;
-    for (int c = 0; c < envelope_.num_classes(); ++c) {
-      const Excursion farthest = envelope_.outside(c, u);
+    for (int c = 0; c < envelope_->num_classes(); ++c) {
+      const Excursion farthest = envelope_->outside(c, u);
       const double t = farthest.input < 0 ? 1.0 : std::exp(-farthest.beyond / scale_);
       trust_[static_cast<std::size_t>(c)] = t;
       outside = outside || t < 1.0;
@@ -116,7 +120,7 @@ class ExtrapolationDiscount {
   }
 
   double scale_;
-  InputEnvelope envelope_;          // the classes' fitted input ranges
+  std::optional<InputEnvelope> envelope_;  // the classes' fitted input ranges; none without a scale
   std::vector<int> class_of_mode_;  // per mode, its class
   std::vector<double> trust_;       // per class, the weight t of its own evidence at the last step
   Eigen::VectorXd evidence_;        // the discounted log-likelihoods

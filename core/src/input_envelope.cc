@@ -37,6 +37,19 @@ InputEnvelope::InputEnvelope(const BankConfig& bank) : inputs_(bank.input_names)
       highest_[c][i] = std::max(highest_[c][i], high);
     }
   }
+  // The same wheel speeds computed another way (velR - velL from other rows)
+  // can differ from a range's end in the last bit; within the 7 digits a
+  // written bank keeps of a range (rounded outward), a value is inside, in
+  // memory as from a file.
+  inside_from_ = lowest_;
+  inside_to_ = highest_;
+  for (std::size_t c = 0; c < classes_.size(); ++c) {
+    for (Eigen::Index i = 0; i < inputs; ++i) {
+      const double slack = kRelativeSlack * std::max(std::abs(lowest_[c][i]), std::abs(highest_[c][i]));
+      inside_from_[c][i] -= slack;
+      inside_to_[c][i] += slack;
+    }
+  }
 }
 
 Excursion InputEnvelope::outside(int c, const Eigen::Ref<const Eigen::VectorXd>& u) const {
@@ -44,14 +57,11 @@ Excursion InputEnvelope::outside(int c, const Eigen::Ref<const Eigen::VectorXd>&
   if (empty_ || c < 0 || static_cast<std::size_t>(c) >= classes_.size()) return farthest;
   const Eigen::VectorXd& low = lowest_[static_cast<std::size_t>(c)];
   const Eigen::VectorXd& high = highest_[static_cast<std::size_t>(c)];
+  const Eigen::VectorXd& from = inside_from_[static_cast<std::size_t>(c)];
+  const Eigen::VectorXd& to = inside_to_[static_cast<std::size_t>(c)];
   for (Eigen::Index i = 0; i < u.size() && i < low.size(); ++i) {
     const double value = u[i];
-    // The same wheel speeds computed another way (velR - velL from other
-    // rows) can differ from a range's end in the last bit; within the 7
-    // digits a written bank keeps of a range (rounded outward), a value is
-    // inside, in memory as from a file.
-    const double slack = kRelativeSlack * std::max(std::abs(low[i]), std::abs(high[i]));
-    if (!std::isfinite(value) || (value >= low[i] - slack && value <= high[i] + slack)) continue;
+    if (!std::isfinite(value) || (value >= from[i] && value <= to[i])) continue;
     const double width = high[i] - low[i];
     const double distance = value < low[i] ? low[i] - value : value - high[i];
     // A range of one value: any other is infinitely far out.

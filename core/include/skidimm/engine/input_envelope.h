@@ -48,6 +48,7 @@ class InputEnvelope {
   std::vector<std::string> inputs_;
   std::vector<std::string> classes_;
   std::vector<Eigen::VectorXd> lowest_, highest_;  // per class, per input; +-inf where unbounded
+  std::vector<Eigen::VectorXd> inside_from_, inside_to_;  // the same widened by the round-off slack
 };
 
 }  // namespace skidimm
