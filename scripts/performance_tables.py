@@ -556,7 +556,9 @@ so it costs about what equal dwell times cost. For longer steps,
 `P(dt_a)` is computed once per anchor by uniformisation (each term a
 structured product, O(N^2)), and every later step reuses it:
 `P(dt) = P(dt_a) expm(Pi_c (dt - dt_a))`, the second factor the same
-short Taylor series. From 16 modes on, the dense product loads each column of `P` once
+short Taylor series, applied to the moments' C columns or, when there are
+fewer modes than columns (4 STC modes carry 10 moments each), to the N
+columns of `P(dt)'` before the product. From 16 modes on, the dense product loads each column of `P` once
 for four columns of the moments, each entry summed exactly as Eigen's dot
 product sums it (`ModeTransition.ManyModesPropagateIsEigensDotProductBitForBit`).
 A few anchors serve logs that alternate between rates; gaps much

@@ -436,10 +436,25 @@ void ModeTransition::propagate(double dt, const Eigen::Ref<const Eigen::MatrixXd
     eigen_propagate(dt, in, out);
     return;
   }
-  // P(dt)' x = expm(Pi_c delta)' P(dt_a)' x: one dense product, then the
-  // Taylor series.
   const Anchor& anchor = anchors_[static_cast<std::size_t>(a)];
   const double delta = dt - anchor.dt;
+  if (delta != 0.0 && columns > n) {
+    // Fewer modes than columns (a few modes, each with a state's moments):
+    // the series costs less on the N columns of P(dt)' = expm(Pi_c delta)'
+    // P(dt_a)' than on the C columns of x, and then one product.
+    power_ = anchor.p.transpose();
+    taylor_propagate(delta, power_);
+    for (Eigen::Index c = 0; c < columns; ++c) {
+      for (Eigen::Index j = 0; j < n; ++j) {
+        double sum = 0.0;
+        for (Eigen::Index i = 0; i < n; ++i) sum += power_(j, i) * in(i, c);
+        out(j, c) = sum;
+      }
+    }
+    return;
+  }
+  // P(dt)' x = expm(Pi_c delta)' P(dt_a)' x: one dense product, then the
+  // Taylor series.
   transpose_times(anchor.p, in, out);
   if (delta != 0.0) taylor_propagate(delta, out);
 }

@@ -142,6 +142,29 @@ TEST(ModeTransition, PerModeDwellTimesMatchTheOriginalUniformisationOnIrregularS
   EXPECT_LT(worst_matrix, 1e-14);
 }
 
+// A few modes and more columns than modes (4 STC modes carry 10 moments
+// each): the series then runs on P(dt)' before the product instead of on the
+// columns, and must agree as closely on the same irregular log.
+TEST(ModeTransition, FewModesWithManyColumnsMatchTheOriginalUniformisationOnIrregularSteps) {
+  Eigen::VectorXd dwell(4);
+  dwell << 5.0, 0.7, 20.0, 12.0;
+  ModeTransition t = ModeTransition::from_dwell_times(dwell);
+  t.reserve_columns(10);
+  std::mt19937 rng(6);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  Eigen::MatrixXd in(4, 10), out(4, 10);
+  double worst = 0.0;
+  for (double dt : irregular_steps()) {
+    const Eigen::MatrixXd expected = original_uniformisation(t.generator(), dt);
+    for (int i = 0; i < in.size(); ++i) in.data()[i] = uniform(rng);
+    t.propagate(dt, in, out);
+    const double error = (out - expected.transpose() * in).cwiseAbs().maxCoeff();
+    ASSERT_LT(error, 1e-12) << "dt = " << dt;
+    worst = std::max(worst, error);
+  }
+  EXPECT_LT(worst, 1e-14);
+}
+
 // Dwell times of seconds and steps of tens of milliseconds (||Pi_c dt|| up to
 // 0.01): the series from the identity, no anchor; longer steps of the same
 // log take the anchors or the eigenvectors in between, and each path must
