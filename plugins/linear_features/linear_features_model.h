@@ -252,7 +252,8 @@ struct LinearFeatures {
   }
 
   // d x+ / d [A, B, c], every entry of p (the SDK drops the fixed keys'
-  // columns, so theirs are skipped), exactly:
+  // columns, so theirs are skipped; it hands `jacobian` over zeroed, so only
+  // the entries that can be nonzero are written), exactly:
   //   d x+ / d B(r, j) = Gamma(:, r) u_j,   d x+ / d c(r) = Gamma(:, r),
   //   diagonal A: d x+_i / d a_i = dt e^{a_i dt} x_i + (int_0^dt s e^{a_i s} ds) w_i,
   //   full A: zoh_step_derivatives() (Fréchet derivatives of expm).
@@ -261,7 +262,6 @@ struct LinearFeatures {
     const int n = layout.num_states();
     const int m = layout.num_inputs();
     Eigen::Map<RowMajor> d(jacobian, n, layout.num_entries());
-    d.setZero();
     if (dt == 0.0) return;  // x+ = x whatever the parameters
     const sdk::ParameterLayout &a_row = layout[kA], &b_row = layout[kB], &c_row = layout[kC];
     const Vector w = drive(layout, u, p);

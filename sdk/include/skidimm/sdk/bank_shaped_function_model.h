@@ -319,6 +319,7 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
       if (!valid_step(x, u, dt) || jacobian.rows() != n || jacobian.cols() != columns) return false;
       if (columns == 0) return true;
       double every[kMaxStates * (kMaxParameters > 0 ? kMaxParameters : 1)];
+      // Zeroed: a spec writes only the entries that can be nonzero (function_model.h).
       std::fill(every, every + n * total, 0.0);
       try {
         Spec::parameter_jacobian(layout_, x.data(), input_data(u), p_.data(), dt, every);

@@ -93,7 +93,8 @@
 // doubles only: predict(layout, x, u, p, dt, x_next), and optionally
 // jacobian(layout, ...), parameter_jacobian(layout, ...) (state x every
 // numeric entry of p, fixed ones included; their columns may be left
-// alone, they are dropped) and process_noise(layout, intensity, ...). Jets
+// alone, they are dropped; the buffer arrives zeroed, so only the entries
+// that can be nonzero need writing) and process_noise(layout, intensity, ...). Jets
 // need their sizes at compile time, so without a hand-written derivative
 // the model says it has none and the engine and the fitter difference
 // predict(). The rest is generated as above (bank_shaped_function_model.h);
