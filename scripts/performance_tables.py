@@ -33,7 +33,7 @@ PAGE = ROOT / "docs" / "performance.md"
 
 # The speed targets the page states as met or not.
 IMM_STEP_TARGET = 1.3  # Imm::step over the hand-written reference, every bank
-PER_MODE_DWELL_TARGET = 1.3  # per-mode dwell times over equal dwell times, 64 modes
+PER_MODE_DWELL_TARGET = 1.3  # per-mode dwell times over equal dwell times, every bank of 4 modes or more
 RUN_FLOOR_TARGET = 1.5  # skidimm run (CSV) over its I/O floor
 NPY_SPEEDUP_TARGET = 2.0  # CSV run time over .npy run time
 CORE_SHARE_TARGET = 5.0  # % of one core for 256 modes at 100 Hz
@@ -304,8 +304,8 @@ The benchmark sources are in `tests/benchmarks/`:
                 uniform = self.seconds(f"Scaling/uniform_dwell/{states}/{modes}")
                 per_mode = self.seconds(f"Scaling/per_mode_dwell/{states}/{modes}")
                 dwell = per_mode / uniform if uniform and per_mode else None
-                if modes == 64 and dwell is not None:
-                    dwell_ratio[states] = dwell
+                if modes >= 4 and dwell is not None:
+                    dwell_ratio[(states, modes)] = dwell
                 if all(c == "-" for c in cells):
                     continue
                 lines.append(f"| {label} | {modes} | " + " | ".join(cells) + f" | {ratio(dwell) if dwell else '-'} |")
@@ -322,9 +322,16 @@ The benchmark sources are in `tests/benchmarks/`:
             self.targets.append((f"256 modes at 100 Hz under {CORE_SHARE_TARGET:g} % of a core, every transition "
                                  "form", max(worst_share.values()) < CORE_SHARE_TARGET, shares))
         if dwell_ratio:
+            # The worst bank size of each state count (1 mode has no transition to pay for).
+            worst = {}
+            for (states, modes), x in dwell_ratio.items():
+                if states not in worst or x > worst[states][1]:
+                    worst[states] = (modes, x)
             self.targets.append((f"per-mode dwell times within {PER_MODE_DWELL_TARGET}x of equal dwell times at "
-                                 "64 modes", max(dwell_ratio.values()) <= PER_MODE_DWELL_TARGET,
-                                 ", ".join(f"{s.upper()} {ratio(x)}" for s, x in dwell_ratio.items())))
+                                 "every bank size from 4 to 256 modes",
+                                 max(dwell_ratio.values()) <= PER_MODE_DWELL_TARGET,
+                                 ", ".join(f"{s.upper()} at worst {ratio(x)} ({m} modes)"
+                                           for s, (m, x) in worst.items())))
         return "\n".join(lines) + "\n"
 
     def runs(self):
