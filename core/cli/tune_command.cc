@@ -73,8 +73,9 @@ void write_table(const fs::path& file, const fitting::TuneResult& result) {
   out << "kind,log,truth,accuracy,mean_log_probability,seconds,fold,selection_score,outside_fitted_inputs\n";
   auto rows = [&](const std::string& kind, const std::vector<LogScore>& scores) {
     for (const LogScore& s : scores) {
-      const double outside = s.labelled_steps > 0 ? static_cast<double>(s.outside_truth_steps) / s.labelled_steps
-                                                  : std::numeric_limits<double>::quiet_NaN();
+      const evaluation::ExtrapolationCounts& e = s.extrapolation;
+      const double outside = e.labelled > 0 ? static_cast<double>(e.outside_truth) / static_cast<double>(e.labelled)
+                                            : std::numeric_limits<double>::quiet_NaN();
       out << kind << "," << s.log << "," << s.truth << "," << number(s.accuracy, "%.6f") << ","
           << number(s.mean_log_probability, "%.6f") << "," << number(s.seconds, "%.3f") << ","
           << (s.fold >= 0 ? std::to_string(s.fold) : "") << "," << number(s.selection_score, "%.9g") << ","
@@ -92,21 +93,16 @@ void write_table(const fs::path& file, const fitting::TuneResult& result) {
 // most likely class's accuracy there and elsewhere; nothing for a bank that
 // records no ranges.
 void print_extrapolation(std::ostream& out, const std::vector<LogScore>& scores) {
-  long labelled = 0, outside = 0, outside_right = 0, inside_right = 0;
-  for (const LogScore& s : scores) {
-    labelled += s.labelled_steps;
-    outside += s.outside_truth_steps;
-    outside_right += s.outside_truth_right;
-    inside_right += s.inside_truth_right;
-  }
-  if (labelled == 0) return;
+  evaluation::ExtrapolationCounts e;
+  for (const LogScore& s : scores) e.merge(s.extrapolation);
+  if (e.labelled == 0) return;
   const auto percent = [](long part, long whole) {
     return whole > 0 ? number(100.0 * static_cast<double>(part) / static_cast<double>(whole), "%.1f") + "%"
                      : std::string("-");
   };
-  out << "  inputs outside the ranges the true class was fitted on: " << percent(outside, labelled)
-      << " of the labelled steps; the most likely class right on " << percent(outside_right, outside)
-      << " of those and " << percent(inside_right, labelled - outside) << " of the others\n";
+  out << "  inputs outside the ranges the true class was fitted on: " << percent(e.outside_truth, e.labelled)
+      << " of the labelled steps; the most likely class right on " << percent(e.outside_truth_right, e.outside_truth)
+      << " of those and " << percent(e.inside_truth_right, e.labelled - e.outside_truth) << " of the others\n";
 }
 
 // How fast the spliced runs' changes of class were followed (tune --splice).

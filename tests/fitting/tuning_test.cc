@@ -17,6 +17,17 @@ namespace {
 using skidimm_test::test_directory;
 using skidimm_test::write_file;
 
+// A log's score with only what the summaries read.
+LogScore scored(const char* log, const char* truth, double accuracy, double mean_log_probability, double seconds) {
+  LogScore s;
+  s.log = log;
+  s.truth = truth;
+  s.accuracy = accuracy;
+  s.mean_log_probability = mean_log_probability;
+  s.seconds = seconds;
+  return s;
+}
+
 TEST(GroupedFolds, LeaveOneOutAndStratifiedGroupsPartitionTheLogs) {
   const std::vector<std::string> classes{"ice", "ice", "ice", "snow", "snow", "sand", "sand", "sand", "sand"};
   std::vector<int> all(classes.size());
@@ -108,7 +119,7 @@ TEST(Protocols, ExtrapolationHoldsOutTheHardestDrivenLogsOfEachClassAndSessionsH
 TEST(Separability, SaysWhetherHeldOutScoresBeatAUniformGuess) {
   auto scores = [](std::initializer_list<std::pair<const char*, double>> logs) {
     std::vector<LogScore> out;
-    for (const auto& [truth, log_p] : logs) out.push_back({"log", truth, 0.25, log_p, 10, ""});
+    for (const auto& [truth, log_p] : logs) out.push_back(scored("log", truth, 0.25, log_p, 10));
     return out;
   };
   const evaluation::Separability none =
@@ -136,10 +147,10 @@ TEST(Separability, SaysWhetherHeldOutScoresBeatAUniformGuess) {
 
 TEST(TuningSummary, AveragesLogsWithinAClassThenClasses) {
   std::vector<LogScore> scores(4);
-  scores[0] = {"a", "ice", 1.0, -0.1, 10, ""};
-  scores[1] = {"b", "ice", 0.5, -0.5, 100, ""};
-  scores[2] = {"c", "ice", 0.0, -3.0, 10, ""};
-  scores[3] = {"d", "snow", 0.2, -1.0, 10, ""};
+  scores[0] = scored("a", "ice", 1.0, -0.1, 10);
+  scores[1] = scored("b", "ice", 0.5, -0.5, 100);
+  scores[2] = scored("c", "ice", 0.0, -3.0, 10);
+  scores[3] = scored("d", "snow", 0.2, -1.0, 10);
   const Summary s = summarize(scores);
   EXPECT_DOUBLE_EQ(s.class_accuracy.at("ice"), 0.5);
   EXPECT_DOUBLE_EQ(s.class_log_probability.at("ice"), -3.6 / 3.0);

@@ -16,10 +16,7 @@ LogScore score_of(const LogResult& r) {
   s.mean_log_probability = r.metrics.mean_truth_log_probability();
   s.seconds = r.metrics.duration;
   s.smallest_probability = r.smallest_probability;
-  s.labelled_steps = r.extrapolation.labelled;
-  s.outside_truth_steps = r.extrapolation.outside_truth;
-  s.outside_truth_right = r.extrapolation.outside_truth_right;
-  s.inside_truth_right = r.extrapolation.inside_truth_right;
+  s.extrapolation = r.extrapolation;
   return s;
 }
 

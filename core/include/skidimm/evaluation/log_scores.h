@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "skidimm/evaluation/extrapolation_counts.h"
 #include "skidimm/evaluation/log_evaluation.h"
 
 namespace skidimm {
@@ -35,14 +36,7 @@ struct LogScore {
   int fold = -1;
   double selection_score = std::numeric_limits<double>::quiet_NaN();
   double smallest_probability = std::numeric_limits<double>::quiet_NaN();  // LogResult's
-  // LogResult::extrapolation's counts: the steps whose truth is a class of
-  // the bank, those outside the input ranges the true class was fitted on,
-  // and how many of either the most likely class got right (all 0 for a bank
-  // that records no ranges).
-  long labelled_steps = 0;
-  long outside_truth_steps = 0;
-  long outside_truth_right = 0;
-  long inside_truth_right = 0;
+  ExtrapolationCounts extrapolation;                                       // LogResult's
 };
 
 // Over logs: mean over classes of the mean over each class's logs.
