@@ -30,12 +30,14 @@ class ParameterUncertainModel final : public sdk::MotionModel {
     // Sigma's blocks (coupled_blocks.h); parameters with no variance (held
     // ones) add nothing and are left out.
     for (std::vector<Eigen::Index>& parameters : coupled_blocks(covariance_)) {
-      Block block{std::move(parameters), Eigen::MatrixXd()};
+      Block block;
+      block.parameters = std::move(parameters);
       block.sigma = covariance_(block.parameters, block.parameters);
       if (block.sigma.cwiseAbs().maxCoeff() == 0.0) continue;
       largest_block_ = std::max(largest_block_, static_cast<Eigen::Index>(block.parameters.size()));
       blocks_.push_back(std::move(block));
     }
+    use_declared_rows();
   }
 
   const ModelHandle& wrapped() const { return model_; }
@@ -66,6 +68,14 @@ class ParameterUncertainModel final : public sdk::MotionModel {
                           double dt, Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept override {
     return model_->parameter_jacobian(x, u, dt, jacobian);
   }
+  const std::vector<std::vector<int>>& parameter_jacobian_rows() const noexcept override {
+    return model_->parameter_jacobian_rows();
+  }
+  bool parameter_jacobian_entries(const Eigen::Ref<const Eigen::VectorXd>& x,
+                                  const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                                  Eigen::Ref<Eigen::VectorXd> entries) const noexcept override {
+    return model_->parameter_jacobian_entries(x, u, dt, entries);
+  }
 
   bool process_noise(const Eigen::Ref<const Eigen::MatrixXd>& intensity, const Eigen::Ref<const Eigen::VectorXd>& x,
                      const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
@@ -78,6 +88,7 @@ class ParameterUncertainModel final : public sdk::MotionModel {
   bool add_parameter_noise(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                            double dt, Eigen::Ref<Eigen::MatrixXd> noise) const noexcept {
     try {
+      if (declared_entries_ > 0) return add_declared_parameter_noise(x, u, dt, noise);
       // Sized once per thread: no allocation per step after the first.
       thread_local Eigen::MatrixXd g;
       thread_local Eigen::MatrixXd gathered;  // G_b's nonzero rows, one per column, at block b
@@ -124,32 +135,113 @@ class ParameterUncertainModel final : public sdk::MotionModel {
           for (Eigen::Index c = 0; c < m; ++c) gathered(c, count) = g_of[k_of[c] * n + i];
           rows[static_cast<std::size_t>(count++)] = i;
         }
-        // Up to 4 parameters (one feature's regression on up to three inputs)
-        // at compile time; larger blocks (features whose fits are coupled) at
-        // run time.
-        switch (m) {
-          case 1:
-            add_block<1>(block.sigma, gathered, rows, count, &sigma_g, &noise);
-            break;
-          case 2:
-            add_block<2>(block.sigma, gathered, rows, count, &sigma_g, &noise);
-            break;
-          case 3:
-            add_block<3>(block.sigma, gathered, rows, count, &sigma_g, &noise);
-            break;
-          case 4:
-            add_block<4>(block.sigma, gathered, rows, count, &sigma_g, &noise);
-            break;
-          default:
-            add_block<Eigen::Dynamic>(block.sigma, gathered, rows, count, &sigma_g, &noise);
-            break;
-        }
+        add_gathered(block.sigma, gathered, rows, count, &sigma_g, &noise);
       }
     } catch (...) {  // bad_alloc
       own_failure() = "parameter_covariance: out of memory";
       return false;
     }
     return true;
+  }
+
+  // add_parameter_noise() for a model that declares where its parameter
+  // Jacobian can be nonzero (MotionModel::parameter_jacobian_rows()): only
+  // those entries are asked for, and each block's rows are known beforehand.
+  // A declared row whose entries are all zero at this step adds +0 to the
+  // noise, which the scan of the dense Jacobian would have skipped: the same
+  // sums otherwise, in the same order.
+  bool add_declared_parameter_noise(const Eigen::Ref<const Eigen::VectorXd>& x,
+                                    const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                                    Eigen::Ref<Eigen::MatrixXd> noise) const {
+    thread_local Eigen::VectorXd entries;
+    thread_local Eigen::MatrixXd gathered;
+    thread_local Eigen::MatrixXd sigma_g;
+    entries.resize(declared_entries_);
+    if (!model_->parameter_jacobian_entries(x, u, dt, entries)) {
+      own_failure() = "parameter_covariance: the model's parameter_jacobian_entries() failed";
+      return false;
+    }
+    gathered.resize(largest_block_, largest_declared_rows_);
+    sigma_g.resize(largest_block_, largest_declared_rows_);
+    for (const Block& block : blocks_) {
+      const Eigen::Index m = static_cast<Eigen::Index>(block.parameters.size());
+      const Eigen::Index count = static_cast<Eigen::Index>(block.rows.size());
+      const int* source = block.sources.data();
+      for (Eigen::Index q = 0; q < count; ++q) {
+        for (Eigen::Index c = 0; c < m; ++c, ++source) gathered(c, q) = *source >= 0 ? entries[*source] : 0.0;
+      }
+      add_gathered(block.sigma, gathered, block.rows, count, &sigma_g, &noise);
+    }
+    return true;
+  }
+
+  // Up to 4 parameters (one feature's regression on up to three inputs) at
+  // compile time; larger blocks (features whose fits are coupled) at run time.
+  static void add_gathered(const Eigen::MatrixXd& sigma, const Eigen::MatrixXd& gathered,
+                           const std::vector<Eigen::Index>& rows, Eigen::Index count, Eigen::MatrixXd* sigma_g,
+                           Eigen::Ref<Eigen::MatrixXd>* noise) {
+    switch (sigma.rows()) {
+      case 1:
+        add_block<1>(sigma, gathered, rows, count, sigma_g, noise);
+        break;
+      case 2:
+        add_block<2>(sigma, gathered, rows, count, sigma_g, noise);
+        break;
+      case 3:
+        add_block<3>(sigma, gathered, rows, count, sigma_g, noise);
+        break;
+      case 4:
+        add_block<4>(sigma, gathered, rows, count, sigma_g, noise);
+        break;
+      default:
+        add_block<Eigen::Dynamic>(sigma, gathered, rows, count, sigma_g, noise);
+        break;
+    }
+  }
+
+  // With the wrapped model's declared rows (checked: one list per parameter,
+  // increasing, within the states), each block's rows (their union over its
+  // parameters) and where each of its entries is in
+  // parameter_jacobian_entries()' output. Without, the dense Jacobian.
+  void use_declared_rows() {
+    const std::vector<std::vector<int>>& declared = model_->parameter_jacobian_rows();
+    if (declared.empty()) return;
+    const int n = model_->state_dim();
+    if (static_cast<Eigen::Index>(declared.size()) != covariance_.rows()) {
+      throw Error("the model's parameter_jacobian_rows() lists " + std::to_string(declared.size()) +
+                  " parameters; it has " + std::to_string(covariance_.rows()));
+    }
+    std::vector<int> first(declared.size() + 1, 0);  // where each parameter's entries start
+    for (std::size_t k = 0; k < declared.size(); ++k) {
+      for (std::size_t i = 0; i < declared[k].size(); ++i) {
+        const int row = declared[k][i];
+        if (row < 0 || row >= n || (i > 0 && row <= declared[k][i - 1])) {
+          throw Error("the model's parameter_jacobian_rows() for parameter " + std::to_string(k) +
+                      " are not increasing rows of its " + std::to_string(n) + " states");
+        }
+      }
+      first[k + 1] = first[k] + static_cast<int>(declared[k].size());
+    }
+    for (Block& block : blocks_) {
+      std::vector<int> rows;
+      for (Eigen::Index k : block.parameters) {
+        rows.insert(rows.end(), declared[static_cast<std::size_t>(k)].begin(),
+                    declared[static_cast<std::size_t>(k)].end());
+      }
+      std::sort(rows.begin(), rows.end());
+      rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
+      for (int row : rows) {
+        block.rows.push_back(row);
+        for (Eigen::Index k : block.parameters) {
+          const std::vector<int>& moved = declared[static_cast<std::size_t>(k)];
+          const auto at = std::find(moved.begin(), moved.end(), row);
+          block.sources.push_back(
+              at == moved.end() ? -1 : first[static_cast<std::size_t>(k)] + static_cast<int>(at - moved.begin()));
+        }
+      }
+      largest_declared_rows_ = std::max(largest_declared_rows_, static_cast<Eigen::Index>(block.rows.size()));
+    }
+    declared_entries_ = first.back();
   }
 
   // noise += G_b Sigma_b G_b' at the `count` rows of G_b in `rows`, whose
@@ -211,9 +303,16 @@ class ParameterUncertainModel final : public sdk::MotionModel {
   struct Block {
     std::vector<Eigen::Index> parameters;
     Eigen::MatrixXd sigma;
+    // With declared rows (use_declared_rows()): the rows the block can move,
+    // and for each of them, each parameter's entry in
+    // parameter_jacobian_entries()' output (-1: it does not move that row).
+    std::vector<Eigen::Index> rows;
+    std::vector<int> sources;
   };
   std::vector<Block> blocks_;
   Eigen::Index largest_block_ = 0;
+  Eigen::Index declared_entries_ = 0;  // > 0: the model declares its rows
+  Eigen::Index largest_declared_rows_ = 0;
 };
 
 ModelHandle unwrapped(ModelHandle model) {

@@ -251,6 +251,20 @@ struct LinearFeatures {
     qd = discrete;
   }
 
+  // Which states entry `entry` of p can move: with a diagonal A, each row's
+  // parameters (a_r, B(r, :), c_r) move state r alone; with a full A, any.
+  static bool parameter_jacobian_may_move(const sdk::Layout& layout, int entry, int row) {
+    if (!is_diagonal(layout)) return true;
+    const int m = layout.num_inputs();
+    for (const int key : {kA, kB, kC}) {
+      const sdk::ParameterLayout& keyed = layout[key];
+      if (entry < keyed.offset || entry >= keyed.offset + keyed.size()) continue;
+      const int at = entry - keyed.offset;
+      return row == (key == kB ? at / m : at);  // B is row-major, n x m
+    }
+    return true;
+  }
+
   // d x+ / d [A, B, c], every entry of p (the SDK drops the fixed keys'
   // columns, so theirs are skipped; it hands `jacobian` over zeroed, so only
   // the entries that can be nonzero are written), exactly:

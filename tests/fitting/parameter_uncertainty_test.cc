@@ -11,6 +11,8 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -250,6 +252,101 @@ TEST(ParameterUncertainty, TheFiltersAddItAtEveryStepWithTheStepsInputs) {
     largest_difference = std::max(largest_difference, (a.covariance - c.covariance).cwiseAbs().maxCoeff());
   }
   EXPECT_GT(largest_difference, 1e-3);
+}
+
+// The wrapped model as it is, but for the rows of its parameter Jacobian it
+// declares: none (the filter then scans the dense Jacobian), or `rows`.
+class DeclaringOtherRows final : public sdk::MotionModel {
+ public:
+  DeclaringOtherRows(ModelHandle model, std::vector<std::vector<int>> rows)
+      : model_(std::move(model)), rows_(std::move(rows)) {}
+  int state_dim() const noexcept override { return model_->state_dim(); }
+  int input_dim() const noexcept override { return model_->input_dim(); }
+  const std::vector<std::string>& state_names() const noexcept override { return model_->state_names(); }
+  const std::vector<std::string>& input_names() const noexcept override { return model_->input_names(); }
+  const std::vector<sdk::ParameterInfo>& parameter_info() const noexcept override { return model_->parameter_info(); }
+  void get_parameters(Eigen::Ref<Eigen::VectorXd> values) const noexcept override { model_->get_parameters(values); }
+  bool set_parameters(const Eigen::Ref<const Eigen::VectorXd>& values, std::string* error) noexcept override {
+    return model_->set_parameters(values, error);
+  }
+  bool predict(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+               Eigen::Ref<Eigen::VectorXd> x_next) const noexcept override {
+    return model_->predict(x, u, dt, x_next);
+  }
+  bool parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+                          double dt, Eigen::Ref<Eigen::MatrixXd> jacobian) const noexcept override {
+    return model_->parameter_jacobian(x, u, dt, jacobian);
+  }
+  const std::vector<std::vector<int>>& parameter_jacobian_rows() const noexcept override { return rows_; }
+  bool process_noise(const Eigen::Ref<const Eigen::MatrixXd>& intensity, const Eigen::Ref<const Eigen::VectorXd>& x,
+                     const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                     Eigen::Ref<Eigen::MatrixXd> noise) const noexcept override {
+    return model_->process_noise(intensity, x, u, dt, noise);
+  }
+
+ private:
+  ModelHandle model_;
+  std::vector<std::vector<int>> rows_;
+};
+
+// linear_features declares that each feature's B[i,:] and c[i] move state i
+// alone, and the filter asks for those entries only. That adds the same
+// numbers, bit for bit, as the scan of the dense parameter Jacobian it
+// replaces, with blocks of one feature and with blocks that couple both.
+TEST(ParameterUncertainty, DeclaredJacobianRowsAddWhatTheDenseJacobianAddsBitForBit) {
+  const Bank plain = load_two_features(bank_text(), "declared.yaml");
+  const ModelHandle model = plain.models[0];
+  ASSERT_EQ(model->parameter_jacobian_rows(), (std::vector<std::vector<int>>{{0}, {0}, {1}, {1}, {0}, {1}}));
+  Eigen::MatrixXd per_feature = some_covariance();
+  for (int p : {0, 1, 4}) {
+    for (int r : {2, 3, 5}) per_feature(p, r) = per_feature(r, p) = 0.0;
+  }
+  const Eigen::MatrixXd q = plain.config.modes[0].q_intensity;
+  std::mt19937 rng(31);
+  std::normal_distribution<double> normal(0.0, 2.0);
+  for (const Eigen::MatrixXd& sigma : {some_covariance(), per_feature}) {
+    const ModelHandle declared = with_parameter_uncertainty(model, sigma, kFeatureDt);
+    const ModelHandle dense = with_parameter_uncertainty(
+        ModelHandle(std::make_shared<DeclaringOtherRows>(model, std::vector<std::vector<int>>{})), sigma, kFeatureDt);
+    for (int k = 0; k < 200; ++k) {
+      const Eigen::Vector2d x(normal(rng), normal(rng));
+      const Eigen::Vector2d u =
+          k % 10 == 0 ? Eigen::Vector2d(0.0, normal(rng)) : Eigen::Vector2d(normal(rng), normal(rng));
+      const double dt = k % 7 == 0 ? 0.0 : 0.05 * (1 + k % 5);
+      Eigen::MatrixXd a(2, 2), b(2, 2);
+      ASSERT_TRUE(declared->process_noise(q, x, u, dt, a));
+      ASSERT_TRUE(dense->process_noise(q, x, u, dt, b));
+      for (int i = 0; i < 4; ++i) {
+        ASSERT_EQ(std::memcmp(a.data() + i, b.data() + i, sizeof(double)), 0) << "step " << k << "\n" << a << "\n" << b;
+      }
+    }
+  }
+}
+
+TEST(ParameterUncertainty, DeclaredJacobianRowsThatDoNotFitTheModelAreABankError) {
+  const Bank plain = load_two_features(bank_text(), "misdeclared.yaml");
+  const auto declaring = [&](std::vector<std::vector<int>> rows) {
+    return ModelHandle(std::make_shared<DeclaringOtherRows>(plain.models[0], std::move(rows)));
+  };
+  const Eigen::MatrixXd sigma = some_covariance();
+  try {
+    with_parameter_uncertainty(declaring({{0}, {1}}), sigma, kFeatureDt);
+    FAIL() << "two lists for six parameters";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("lists 2 parameters; it has 6"));
+  }
+  try {
+    with_parameter_uncertainty(declaring({{0}, {0}, {1}, {1}, {0}, {2}}), sigma, kFeatureDt);
+    FAIL() << "a row past the states";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("parameter 5 are not increasing rows of its 2 states"));
+  }
+  try {
+    with_parameter_uncertainty(declaring({{0}, {0}, {1}, {1}, {1, 0}, {1}}), sigma, kFeatureDt);
+    FAIL() << "rows out of order";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("parameter 4 are not increasing"));
+  }
 }
 
 // The tune's path: a fit's covariance is taken as it is, unchecked but for

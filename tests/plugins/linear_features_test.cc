@@ -176,6 +176,30 @@ TEST_F(LinearFeatures, ConformsWithDiagonalAndFullAWithAndWithoutC) {
   }
 }
 
+// Where the parameter Jacobian can be nonzero (a mode with parameter
+// uncertainty asks for those entries alone): with a diagonal A, a_r, B[r, :]
+// and c[r] move state r alone; with a full A, every parameter every state.
+// That the other entries are zero, and the entries are the Jacobian's, the
+// conformance kit checks above.
+TEST_F(LinearFeatures, DeclaresWhichStatesEachParameterMoves) {
+  for (const Form& form : kForms) {
+    SCOPED_TRACE(form.name);
+    ModelHandle model = create(form_params(form));
+    const std::vector<std::vector<int>>& rows = model->parameter_jacobian_rows();
+    const std::vector<sdk::ParameterInfo>& info = model->parameter_info();
+    ASSERT_EQ(rows.size(), info.size());
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      if (form.full) {
+        EXPECT_EQ(rows[k], (std::vector<int>{0, 1, 2})) << info[k].name;
+      } else {
+        // The flat names: "A[r]", "B[r,j]", "c[r]".
+        const int state = info[k].name[2] - '0';
+        EXPECT_EQ(rows[k], std::vector<int>{state}) << info[k].name;
+      }
+    }
+  }
+}
+
 // A bank without inputs: dx/dt = A x + c, and B is not a parameter.
 TEST_F(LinearFeatures, WorksWithoutInputs) {
   sdk::ParameterSet params;

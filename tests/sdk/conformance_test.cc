@@ -24,6 +24,9 @@ class BrokenModel : public ScalarLinearModel {
     kDependsOnDtOnly,          // no defect: says so, truly
     kSaysDtOnlyButCurves,      // a term in x^2, so F depends on x
     kSaysDtOnlyButNoiseGrows,  // noise that grows with the input
+    kDeclaresJacobianRows,     // no defect: both parameters move the one state
+    kLeavesOutARow,            // declares that b moves nothing
+    kWrongDeclaredEntry,       // entries that are not parameter_jacobian()'s
   };
   explicit BrokenModel(Defect defect) : ScalarLinearModel(-2.0, 0.5), defect_(defect) {}
 
@@ -53,6 +56,22 @@ class BrokenModel : public ScalarLinearModel {
                           double dt, Eigen::Ref<Eigen::MatrixXd> j) const noexcept override {
     j(0, 0) = x[0] * dt;
     j(0, 1) = defect_ == kWrongParameterJacobian ? u[0] : u[0] * dt;
+    return true;
+  }
+  const std::vector<std::vector<int>>& parameter_jacobian_rows() const noexcept override {
+    static const std::vector<std::vector<int>> none, both{{0}, {0}}, a_only{{0}, {}};
+    if (defect_ == kLeavesOutARow) return a_only;
+    return defect_ == kDeclaresJacobianRows || defect_ == kWrongDeclaredEntry ? both : none;
+  }
+  bool parameter_jacobian_entries(const Eigen::Ref<const Eigen::VectorXd>& x,
+                                  const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                                  Eigen::Ref<Eigen::VectorXd> entries) const noexcept override {
+    if (defect_ == kLeavesOutARow) {
+      entries[0] = x[0] * dt;
+      return true;
+    }
+    entries[0] = x[0] * dt;
+    entries[1] = defect_ == kWrongDeclaredEntry ? u[0] * dt * (1.0 + 1e-15) : u[0] * dt;
     return true;
   }
   // Outputs a u and b u; d / d [a, b] = diag(u, u), the defect doubles one.
@@ -119,6 +138,22 @@ TEST(ConformanceKit, CatchesAJacobianOrNoiseSaidToDependOnDtOnlyThatDependsOnThe
   EXPECT_THAT(grows, HasSubstr("jacobian_and_noise_depend_only_on_dt() is true, but process_noise() differs between "
                                "x = [0.7], u = [2]"));
   EXPECT_THAT(grows, Not(HasSubstr("jacobian() differs")));
+}
+
+TEST(ConformanceKit, PassesAModelThatDeclaresWhereItsParameterJacobianCanBeNonzero) {
+  BrokenModel model(BrokenModel::kDeclaresJacobianRows);
+  EXPECT_MOTION_MODEL_CONFORMS(model, kX, kU, 0.1);
+}
+
+// A mode with parameter uncertainty would leave out what the rows leave out,
+// or add entries other than the Jacobian's.
+TEST(ConformanceKit, CatchesDeclaredParameterJacobianRowsThatMissAnEntryOrEntriesThatDiffer) {
+  EXPECT_THAT(rejection(BrokenModel::kLeavesOutARow),
+              HasSubstr("parameter_jacobian() entry (row 0 'x', column 1 'b') is not zero but "
+                        "parameter_jacobian_rows() leaves it out"));
+  EXPECT_THAT(rejection(BrokenModel::kWrongDeclaredEntry),
+              HasSubstr("parameter_jacobian_entries() differs from parameter_jacobian() at entry (row 0 'x', column 1 "
+                        "'b')"));
 }
 
 TEST(ConformanceKit, CatchesAModelThatMovesInZeroTime) {

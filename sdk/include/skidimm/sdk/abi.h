@@ -28,7 +28,8 @@ namespace sdk {
 //    plugins export their standard library configuration (kStdlibAbiTagSymbol).
 // 5: MotionModel::output_names(), outputs() and output_parameter_jacobian().
 // 6: MotionModel::jacobian_and_noise_depend_only_on_dt().
-inline constexpr int kAbiVersion = 6;
+// 7: MotionModel::parameter_jacobian_rows() and parameter_jacobian_entries().
+inline constexpr int kAbiVersion = 7;
 
 #define SKIDIMM_SDK_STRINGIFY_(x) #x
 #define SKIDIMM_SDK_STRINGIFY(x) SKIDIMM_SDK_STRINGIFY_(x)

@@ -67,6 +67,13 @@ struct HasLayoutParameterJacobian<
                                                         0.0, std::declval<double*>()))>> : std::true_type {};
 
 template <typename Spec, typename = void>
+struct HasLayoutParameterJacobianRows : std::false_type {};
+template <typename Spec>
+struct HasLayoutParameterJacobianRows<
+    Spec, std::void_t<decltype(Spec::parameter_jacobian_may_move(std::declval<const Layout&>(), 0, 0))>>
+    : std::true_type {};
+
+template <typename Spec, typename = void>
 struct HasLayoutProcessNoise : std::false_type {};
 template <typename Spec>
 struct HasLayoutProcessNoise<
@@ -199,6 +206,16 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
     }
     if (!check_parameter_values(every, Eigen::Map<const Eigen::VectorXd>(model->p_.data(), total), error)) {
       return nullptr;
+    }
+    if constexpr (kHandWrittenParameterJacobian && internal::HasLayoutParameterJacobianRows<Spec>::value) {
+      for (int entry : model->free_) {
+        std::vector<int> rows;
+        for (int r = 0; r < model->layout_.num_states(); ++r) {
+          if (Spec::parameter_jacobian_may_move(model->layout_, entry, r)) rows.push_back(r);
+        }
+        model->jacobian_entries_ += static_cast<int>(rows.size());
+        model->jacobian_rows_.push_back(std::move(rows));
+      }
     }
     return model;
   }
@@ -352,6 +369,48 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
     }
   }
 
+  // The rows the spec's parameter_jacobian_may_move(layout, entry, row)
+  // allows for each parameter, when it has one; empty otherwise.
+  const std::vector<std::vector<int>>& parameter_jacobian_rows() const noexcept override { return jacobian_rows_; }
+  // Those entries of the spec's parameter Jacobian, tested only they.
+  bool parameter_jacobian_entries(const Eigen::Ref<const Eigen::VectorXd>& x,
+                                  const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                                  Eigen::Ref<Eigen::VectorXd> entries) const noexcept override {
+    if constexpr (!kHandWrittenParameterJacobian) {
+      return false;
+    } else {
+      if (jacobian_rows_.empty() || !valid_step(x, u, dt) || entries.size() != jacobian_entries_) return false;
+      const int n = state_dim();
+      const int total = static_cast<int>(p_.size());
+      double every[kMaxStates * (kMaxParameters > 0 ? kMaxParameters : 1)];
+      std::fill(every, every + n * total, 0.0);  // as parameter_jacobian() hands it over
+      try {
+        Spec::parameter_jacobian(layout_, x.data(), input_data(u), p_.data(), dt, every);
+      } catch (const std::exception& e) {
+        return internal::caught("the parameter Jacobian threw: ", e.what());
+      } catch (...) {
+        return internal::caught("the parameter Jacobian threw an exception that is not a std::exception", nullptr);
+      }
+      Eigen::Index at = 0;
+      for (std::size_t k = 0; k < free_.size(); ++k) {
+        for (int r : jacobian_rows_[k]) entries[at++] = every[r * total + free_[k]];
+      }
+      if (internal::all_finite(entries.data(), jacobian_entries_)) return true;
+      at = 0;
+      for (std::size_t k = 0; k < free_.size(); ++k) {
+        for (int r : jacobian_rows_[k]) {
+          const double value = entries[at++];
+          if (std::isfinite(value)) continue;
+          FailureText why;
+          why << "parameter_jacobian() is not finite: entry (row " << r << " '" << state_name(r) << "', column "
+              << static_cast<int>(k) << " '" << info_[k].name.c_str() << "') = " << value;
+          return report_at(why, x, u, dt);
+        }
+      }
+      return true;  // unreachable: the sum is NaN only with an entry not finite
+    }
+  }
+
   // What `skidimm plugins` shows: the table, without states or inputs
   // (the bank's); built once, with static storage in the plugin.
   static const PluginInfo& info() {
@@ -424,6 +483,8 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
   std::vector<double> p_;  // every numeric entry, table order, fixed ones included
   std::vector<int> free_;  // where each of the model's parameters is in p_
   std::vector<ParameterInfo> info_;
+  std::vector<std::vector<int>> jacobian_rows_;  // parameter_jacobian_rows()
+  int jacobian_entries_ = 0;                     // how many they name
 };
 
 }  // namespace sdk

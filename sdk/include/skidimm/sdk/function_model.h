@@ -94,7 +94,11 @@
 // jacobian(layout, ...), parameter_jacobian(layout, ...) (state x every
 // numeric entry of p, fixed ones included; their columns may be left
 // alone, they are dropped; the buffer arrives zeroed, so only the entries
-// that can be nonzero need writing) and process_noise(layout, intensity, ...). Jets
+// that can be nonzero need writing), with it optionally
+// parameter_jacobian_may_move(layout, entry, row) (whether entry `entry` of
+// p can move state `row` at any point: a mode with parameter uncertainty then
+// asks for those entries alone, MotionModel::parameter_jacobian_rows()) and
+// process_noise(layout, intensity, ...). Jets
 // need their sizes at compile time, so without a hand-written derivative
 // the model says it has none and the engine and the fitter difference
 // predict(). The rest is generated as above (bank_shaped_function_model.h);

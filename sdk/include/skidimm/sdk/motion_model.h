@@ -89,6 +89,27 @@ class BOOST_SYMBOL_VISIBLE MotionModel {
     return false;
   }
 
+  // Where parameter_jacobian() can be nonzero, for a model that knows it from
+  // its structure: element k lists, increasing, the rows parameter k can move
+  // at any x, u and dt. Empty (the default): any row. A mode with parameter
+  // uncertainty adds G Sigma G' to its process noise at every step; with the
+  // rows known it asks parameter_jacobian_entries() for those entries alone
+  // (a 9-state model of 45 parameters, each moving one state: 45 entries of
+  // 405).
+  virtual const std::vector<std::vector<int>>& parameter_jacobian_rows() const noexcept {
+    static const std::vector<std::vector<int>> any;
+    return any;
+  }
+  // The entries of parameter_jacobian() that parameter_jacobian_rows() names,
+  // at (x, u, dt): column by column, each column's rows in their order, into
+  // `entries` (as many as the rows name in all). False as parameter_jacobian()
+  // (the default: not provided).
+  virtual bool parameter_jacobian_entries(const Eigen::Ref<const Eigen::VectorXd>& /*x*/,
+                                          const Eigen::Ref<const Eigen::VectorXd>& /*u*/, double /*dt*/,
+                                          Eigen::Ref<Eigen::VectorXd> /*entries*/) const noexcept {
+    return false;
+  }
+
   // Covariance of the process noise added over a step of dt seconds, given the
   // mode's continuous-time intensity `intensity` (the bank's Q). The default,
   // Q * dt, is the usual random-walk discretisation (robot_localization, fuse)

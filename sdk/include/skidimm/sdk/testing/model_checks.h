@@ -29,6 +29,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <set>
 #include <sstream>
@@ -362,6 +363,57 @@ inline std::vector<std::string> motion_model_failures(MotionModel& model, const 
     // model said why it failed.
     const char* reason = model.failure_reason();
     if (reason != nullptr && reason[0] != '\0') fail("parameter_jacobian() failed: " + std::string(reason));
+  }
+
+  // Declared rows of the parameter Jacobian, if any: one increasing list of
+  // rows per parameter, every entry outside them zero here, and
+  // parameter_jacobian_entries() giving the entries inside them, to the bit.
+  const std::vector<std::vector<int>>& declared = model.parameter_jacobian_rows();
+  if (!declared.empty()) {
+    int count = 0;
+    bool valid = static_cast<Eigen::Index>(declared.size()) == num_parameters;
+    if (!valid) {
+      fail("parameter_jacobian_rows() lists " + std::to_string(declared.size()) + " parameters; the model has " +
+           std::to_string(num_parameters));
+    }
+    for (std::size_t k = 0; valid && k < declared.size(); ++k) {
+      for (std::size_t i = 0; i < declared[k].size(); ++i) {
+        const int row = declared[k][i];
+        if (row < 0 || row >= n || (i > 0 && row <= declared[k][i - 1])) {
+          fail("parameter_jacobian_rows() of '" + parameter_names[k] + "' are not increasing rows of the " +
+               std::to_string(n) + " states");
+          valid = false;
+          break;
+        }
+      }
+      count += static_cast<int>(declared[k].size());
+    }
+    Eigen::MatrixXd dense(n, num_parameters);
+    Eigen::VectorXd entries(count);
+    if (valid && model.parameter_jacobian(x, u, dt, dense)) {
+      if (!model.parameter_jacobian_entries(x, u, dt, entries)) {
+        fail(internal::failed(model, "parameter_jacobian_entries(x, u, dt)") + " at " + point);
+      } else {
+        int at = 0;
+        for (Eigen::Index k = 0; k < num_parameters; ++k) {
+          const std::vector<int>& rows = declared[static_cast<std::size_t>(k)];
+          for (int r = 0; r < n; ++r) {
+            const bool listed = std::find(rows.begin(), rows.end(), r) != rows.end();
+            const std::string entry = "(row " + std::to_string(r) + " '" + states[static_cast<std::size_t>(r)] +
+                                      "', column " + std::to_string(k) + " '" +
+                                      parameter_names[static_cast<std::size_t>(k)] + "')";
+            if (!listed && dense(r, k) != 0.0) {
+              fail("parameter_jacobian() entry " + entry +
+                   " is not zero but parameter_jacobian_rows() leaves it out, at " + point);
+            } else if (listed && std::memcmp(&entries[at++], &dense(r, k), sizeof(double)) != 0) {
+              fail("parameter_jacobian_entries() differs from parameter_jacobian() at entry " + entry + ", at " +
+                   point);
+            }
+          }
+        }
+      }
+    }
+    model.failure_reason();  // a failed parameter_jacobian() is reported above
   }
 
   // Outputs, if any: unique names, finite values, and their parameter
