@@ -278,7 +278,8 @@ struct LinearFeatures {
     Eigen::Map<RowMajor> d(jacobian, n, layout.num_entries());
     if (dt == 0.0) return;  // x+ = x whatever the parameters
     const sdk::ParameterLayout &a_row = layout[kA], &b_row = layout[kB], &c_row = layout[kC];
-    const Vector w = drive(layout, u, p);
+    // The forcing enters only the derivatives in A: none when A is held.
+    const Vector w = a_row.fixed ? Vector() : drive(layout, u, p);
     Matrix gamma = Matrix::Zero(n, n);
     bool evaluated = true;
     if (is_diagonal(layout)) {
