@@ -336,15 +336,7 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
       if (!valid_step(x, u, dt) || jacobian.rows() != n || jacobian.cols() != columns) return false;
       if (columns == 0) return true;
       double every[kMaxStates * (kMaxParameters > 0 ? kMaxParameters : 1)];
-      // Zeroed: a spec writes only the entries that can be nonzero (function_model.h).
-      std::fill(every, every + n * total, 0.0);
-      try {
-        Spec::parameter_jacobian(layout_, x.data(), input_data(u), p_.data(), dt, every);
-      } catch (const std::exception& e) {
-        return internal::caught("the parameter Jacobian threw: ", e.what());
-      } catch (...) {
-        return internal::caught("the parameter Jacobian threw an exception that is not a std::exception", nullptr);
-      }
+      if (!spec_parameter_jacobian(x, u, dt, every)) return false;
       // One test of every entry without branches first (a filter with
       // parameter uncertainty asks for this at every step); the entry to
       // blame only when it fails.
@@ -352,12 +344,7 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
         for (int r = 0; r < n; ++r) {
           for (int k = 0; k < columns; ++k) {
             const double value = every[r * total + free_[static_cast<std::size_t>(k)]];
-            if (!std::isfinite(value)) {
-              FailureText why;
-              why << "parameter_jacobian() is not finite: entry (row " << r << " '" << state_name(r) << "', column "
-                  << k << " '" << info_[static_cast<std::size_t>(k)].name.c_str() << "') = " << value;
-              return report_at(why, x, u, dt);
-            }
+            if (!std::isfinite(value)) return report_not_finite_parameter_jacobian(r, k, value, x, u, dt);
           }
         }
       }
@@ -380,17 +367,9 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
       return false;
     } else {
       if (jacobian_rows_.empty() || !valid_step(x, u, dt) || entries.size() != jacobian_entries_) return false;
-      const int n = state_dim();
       const int total = static_cast<int>(p_.size());
       double every[kMaxStates * (kMaxParameters > 0 ? kMaxParameters : 1)];
-      std::fill(every, every + n * total, 0.0);  // as parameter_jacobian() hands it over
-      try {
-        Spec::parameter_jacobian(layout_, x.data(), input_data(u), p_.data(), dt, every);
-      } catch (const std::exception& e) {
-        return internal::caught("the parameter Jacobian threw: ", e.what());
-      } catch (...) {
-        return internal::caught("the parameter Jacobian threw an exception that is not a std::exception", nullptr);
-      }
+      if (!spec_parameter_jacobian(x, u, dt, every)) return false;
       Eigen::Index at = 0;
       for (std::size_t k = 0; k < free_.size(); ++k) {
         for (int r : jacobian_rows_[k]) entries[at++] = every[r * total + free_[k]];
@@ -400,11 +379,9 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
       for (std::size_t k = 0; k < free_.size(); ++k) {
         for (int r : jacobian_rows_[k]) {
           const double value = entries[at++];
-          if (std::isfinite(value)) continue;
-          FailureText why;
-          why << "parameter_jacobian() is not finite: entry (row " << r << " '" << state_name(r) << "', column "
-              << static_cast<int>(k) << " '" << info_[k].name.c_str() << "') = " << value;
-          return report_at(why, x, u, dt);
+          if (!std::isfinite(value)) {
+            return report_not_finite_parameter_jacobian(r, static_cast<int>(k), value, x, u, dt);
+          }
         }
       }
       return true;  // unreachable: the sum is NaN only with an entry not finite
@@ -467,6 +444,33 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
       }
     }
     return true;  // unreachable: the sum is NaN only with an entry not finite
+  }
+
+  // The spec's parameter Jacobian over every entry of p into `every` (n x
+  // p_.size(), row-major), zeroed first: a spec writes only the entries that
+  // can be nonzero (function_model.h). False, with the reason, if it threw.
+  bool spec_parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+                               double dt, double* every) const noexcept {
+    std::fill(every, every + state_dim() * static_cast<int>(p_.size()), 0.0);
+    try {
+      Spec::parameter_jacobian(layout_, x.data(), input_data(u), p_.data(), dt, every);
+    } catch (const std::exception& e) {
+      return internal::caught("the parameter Jacobian threw: ", e.what());
+    } catch (...) {
+      return internal::caught("the parameter Jacobian threw an exception that is not a std::exception", nullptr);
+    }
+    return true;
+  }
+
+  // Reports the parameter Jacobian's entry (row, column) = value, which is
+  // not finite, with the operating point; false.
+  bool report_not_finite_parameter_jacobian(int row, int column, double value,
+                                            const Eigen::Ref<const Eigen::VectorXd>& x,
+                                            const Eigen::Ref<const Eigen::VectorXd>& u, double dt) const noexcept {
+    FailureText why;
+    why << "parameter_jacobian() is not finite: entry (row " << row << " '" << state_name(row) << "', column " << column
+        << " '" << info_[static_cast<std::size_t>(column)].name.c_str() << "') = " << value;
+    return report_at(why, x, u, dt);
   }
 
   // Reports `why` with the operating point; false.
