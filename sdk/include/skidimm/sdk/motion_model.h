@@ -94,8 +94,8 @@ class BOOST_SYMBOL_VISIBLE MotionModel {
   // at any x, u and dt. Empty (the default): any row. A mode with parameter
   // uncertainty adds G Sigma G' to its process noise at every step; with the
   // rows known it asks parameter_jacobian_entries() for those entries alone
-  // (a 9-state model of 45 parameters, each moving one state: 45 entries of
-  // 405).
+  // (the BorealTC bank: 9 states and 36 parameters, each moving one state,
+  // 36 entries of 324).
   virtual const std::vector<std::vector<int>>& parameter_jacobian_rows() const noexcept {
     static const std::vector<std::vector<int>> any;
     return any;
