@@ -28,7 +28,7 @@ eval_seeds=$(paper_eval_seeds "$seeds")
 check_disjoint "$eval_seeds" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(decision_default_seeds)" "$(model_selection_seeds)" "$(window_protocol_seeds)"
 # The decision's settings are weighed on seeds of their own: none may be a fitting one either.
 check_disjoint "$(decision_default_seeds)" "$(bundled_fit_seeds)" "$(tuning_fit_seeds)" "$(model_selection_seeds)" "$(window_protocol_seeds)"
-first_seed=$(echo "$eval_seeds" | head -n 1)
+first_seed=${eval_seeds%%$'\n'*}  # no `| head`: with pipefail, echo's SIGPIPE (it writes line by line) would end the script
 rm -rf "$work/logs" "$work/eval" "$work/banks" "$work/kinematics" "$work/decision_defaults" "$work/model_selection"  # a rerun must not score last run's logs
 mkdir -p "$work/logs" "$work/eval" "$work/banks" "$work/kinematics" "$figures/realistic"
 

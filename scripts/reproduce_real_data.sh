@@ -77,13 +77,17 @@ bt=$data/borealtc
 # The lockbox: a quarter of each terrain's runs, drawn with a fixed seed and
 # kept aside from every design choice.
 mapfile -t lockbox < <("$python" scripts/borealtc_lockbox.py "$bt")
+# Looked up in an array, not with `printf | grep -q`: with pipefail, printf's
+# SIGPIPE when grep stops at a match would make the test false at random.
+declare -A in_lockbox=()
+for run in "${lockbox[@]}"; do in_lockbox[$run]=1; done
 develop=()   # --log arguments: the development runs
 aside=()     # --lockbox arguments
 for terrain in "${terrains[@]}"; do
   for file in "$bt/$terrain"/pro_*.csv; do
     run=$(basename "$file" .csv); run=${run#pro_}
     log="$terrain=$bt/$terrain/pro_$run.csv+$bt/$terrain/imu_$run.csv"
-    if printf '%s\n' "${lockbox[@]}" | grep -qx "$terrain/$run"; then aside+=(--lockbox "$log"); else develop+=(--log "$log"); fi
+    if [ -n "${in_lockbox[$terrain/$run]:-}" ]; then aside+=(--lockbox "$log"); else develop+=(--log "$log"); fi
   done
 done
 all=("${develop[@]}")

@@ -28,7 +28,7 @@ done
 while IFS=: read -r header included; do
   [ -e "$prefix/include/$included" ] || fail "${header#"$prefix/include/"} includes \"$included\", which is not installed"
 done < <(grep -r -o '^#include "[^"]*"' "$prefix/include/skidimm" | sed 's/:#include "\(.*\)"$/:\1/')
-config=$(find "$prefix" -name skidimmConfig.cmake | head -n 1)
+config=$(find "$prefix" -name skidimmConfig.cmake -print -quit)
 [ -n "$config" ] || fail "no skidimmConfig.cmake installed"
 [ -e "$(dirname "$config")/skidimmConfigVersion.cmake" ] || fail "no package version file"
 
@@ -50,7 +50,8 @@ plugin="$example_build/icr_kinematic.so"
 # Hidden visibility: only the five plugin symbols (and Boost.DLL's section) are exported.
 exported=$(nm -D --defined-only "$plugin" | awk '{print $3}' | grep -c '^skidimm_' || true)
 [ "$exported" -eq 5 ] || fail "expected 5 exported skidimm_ symbols, found $exported"
-if nm -DC --defined-only "$plugin" | grep -q "IcrKinematicModel::"; then fail "model internals are exported"; fi
+# grep without -q reads to the end: with pipefail, nm's SIGPIPE would hide a match.
+if nm -DC --defined-only "$plugin" | grep "IcrKinematicModel::" >/dev/null; then fail "model internals are exported"; fi
 
 step "the example's own conformance and reload tests"
 "$example_build/icr_kinematic_test" --gtest_brief=1 >"$work/example_test.log" 2>&1 || {
