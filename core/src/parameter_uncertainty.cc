@@ -15,6 +15,7 @@
 #include "parameter_noise.h"
 #include "skidimm/config/bank.h"
 #include "skidimm/errors.h"
+#include "skidimm/sdk/parameter_jacobian_rows.h"
 
 namespace skidimm {
 
@@ -206,20 +207,11 @@ class ParameterUncertainModel final : public sdk::MotionModel {
   void use_declared_rows() {
     const std::vector<std::vector<int>>& declared = model_->parameter_jacobian_rows();
     if (declared.empty()) return;
-    const int n = model_->state_dim();
-    if (static_cast<Eigen::Index>(declared.size()) != covariance_.rows()) {
-      throw Error("the model's parameter_jacobian_rows() lists " + std::to_string(declared.size()) +
-                  " parameters; it has " + std::to_string(covariance_.rows()));
-    }
+    const std::string problem =
+        sdk::parameter_jacobian_rows_problem(declared, static_cast<int>(covariance_.rows()), model_->state_dim());
+    if (!problem.empty()) throw Error("the model's parameter_jacobian_rows() " + problem);
     std::vector<int> first(declared.size() + 1, 0);  // where each parameter's entries start
     for (std::size_t k = 0; k < declared.size(); ++k) {
-      for (std::size_t i = 0; i < declared[k].size(); ++i) {
-        const int row = declared[k][i];
-        if (row < 0 || row >= n || (i > 0 && row <= declared[k][i - 1])) {
-          throw Error("the model's parameter_jacobian_rows() for parameter " + std::to_string(k) +
-                      " are not increasing rows of its " + std::to_string(n) + " states");
-        }
-      }
       first[k + 1] = first[k] + static_cast<int>(declared[k].size());
     }
     for (Block& block : blocks_) {

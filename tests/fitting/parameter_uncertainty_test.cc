@@ -333,7 +333,7 @@ TEST(ParameterUncertainty, DeclaredJacobianRowsThatDoNotFitTheModelAreABankError
     with_parameter_uncertainty(declaring({{0}, {1}}), sigma, kFeatureDt);
     FAIL() << "two lists for six parameters";
   } catch (const Error& e) {
-    EXPECT_THAT(e.what(), HasSubstr("lists 2 parameters; it has 6"));
+    EXPECT_THAT(e.what(), HasSubstr("parameter_jacobian_rows() lists 2 parameters; the model has 6"));
   }
   try {
     with_parameter_uncertainty(declaring({{0}, {0}, {1}, {1}, {0}, {2}}), sigma, kFeatureDt);

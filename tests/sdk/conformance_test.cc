@@ -21,12 +21,13 @@ class BrokenModel : public ScalarLinearModel {
     kWrongParameterJacobian,
     kMovesAtZeroDt,
     kWrongOutputJacobian,
-    kDependsOnDtOnly,          // no defect: says so, truly
-    kSaysDtOnlyButCurves,      // a term in x^2, so F depends on x
-    kSaysDtOnlyButNoiseGrows,  // noise that grows with the input
-    kDeclaresJacobianRows,     // no defect: both parameters move the one state
-    kLeavesOutARow,            // declares that b moves nothing
-    kWrongDeclaredEntry,       // entries that are not parameter_jacobian()'s
+    kDependsOnDtOnly,           // no defect: says so, truly
+    kSaysDtOnlyButCurves,       // a term in x^2, so F depends on x
+    kSaysDtOnlyButNoiseGrows,   // noise that grows with the input
+    kDeclaresJacobianRows,      // no defect: both parameters move the one state
+    kLeavesOutARow,             // declares that b moves nothing
+    kWrongDeclaredEntry,        // entries that are not parameter_jacobian()'s
+    kDeclaresARowPastTheState,  // b moves a second state the model does not have
   };
   explicit BrokenModel(Defect defect) : ScalarLinearModel(-2.0, 0.5), defect_(defect) {}
 
@@ -59,8 +60,9 @@ class BrokenModel : public ScalarLinearModel {
     return true;
   }
   const std::vector<std::vector<int>>& parameter_jacobian_rows() const noexcept override {
-    static const std::vector<std::vector<int>> none, both{{0}, {0}}, a_only{{0}, {}};
+    static const std::vector<std::vector<int>> none, both{{0}, {0}}, a_only{{0}, {}}, past{{0}, {0, 1}};
     if (defect_ == kLeavesOutARow) return a_only;
+    if (defect_ == kDeclaresARowPastTheState) return past;
     return defect_ == kDeclaresJacobianRows || defect_ == kWrongDeclaredEntry ? both : none;
   }
   bool parameter_jacobian_entries(const Eigen::Ref<const Eigen::VectorXd>& x,
@@ -154,6 +156,8 @@ TEST(ConformanceKit, CatchesDeclaredParameterJacobianRowsThatMissAnEntryOrEntrie
   EXPECT_THAT(rejection(BrokenModel::kWrongDeclaredEntry),
               HasSubstr("parameter_jacobian_entries() differs from parameter_jacobian() at entry (row 0 'x', column 1 "
                         "'b')"));
+  EXPECT_THAT(rejection(BrokenModel::kDeclaresARowPastTheState),
+              HasSubstr("parameter_jacobian_rows() for parameter 1 are not increasing rows of its 1 states"));
 }
 
 TEST(ConformanceKit, CatchesAModelThatMovesInZeroTime) {

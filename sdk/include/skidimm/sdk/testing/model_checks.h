@@ -40,6 +40,7 @@
 #include "skidimm/sdk/angles.h"
 #include "skidimm/sdk/motion_model.h"
 #include "skidimm/sdk/numeric_jacobian.h"
+#include "skidimm/sdk/parameter_jacobian_rows.h"
 
 namespace skidimm {
 namespace sdk {
@@ -370,24 +371,12 @@ inline std::vector<std::string> motion_model_failures(MotionModel& model, const 
   // parameter_jacobian_entries() giving the entries inside them, to the bit.
   const std::vector<std::vector<int>>& declared = model.parameter_jacobian_rows();
   if (!declared.empty()) {
+    const std::string problem =
+        parameter_jacobian_rows_problem(declared, static_cast<int>(num_parameters), static_cast<int>(n));
+    const bool valid = problem.empty();
+    if (!valid) fail("parameter_jacobian_rows() " + problem);
     int count = 0;
-    bool valid = static_cast<Eigen::Index>(declared.size()) == num_parameters;
-    if (!valid) {
-      fail("parameter_jacobian_rows() lists " + std::to_string(declared.size()) + " parameters; the model has " +
-           std::to_string(num_parameters));
-    }
-    for (std::size_t k = 0; valid && k < declared.size(); ++k) {
-      for (std::size_t i = 0; i < declared[k].size(); ++i) {
-        const int row = declared[k][i];
-        if (row < 0 || row >= n || (i > 0 && row <= declared[k][i - 1])) {
-          fail("parameter_jacobian_rows() of '" + parameter_names[k] + "' are not increasing rows of the " +
-               std::to_string(n) + " states");
-          valid = false;
-          break;
-        }
-      }
-      count += static_cast<int>(declared[k].size());
-    }
+    for (const std::vector<int>& rows : declared) count += static_cast<int>(rows.size());
     Eigen::MatrixXd dense(n, num_parameters);
     Eigen::VectorXd entries(count);
     if (valid && model.parameter_jacobian(x, u, dt, dense)) {
@@ -397,16 +386,17 @@ inline std::vector<std::string> motion_model_failures(MotionModel& model, const 
         int at = 0;
         for (Eigen::Index k = 0; k < num_parameters; ++k) {
           const std::vector<int>& rows = declared[static_cast<std::size_t>(k)];
+          const auto entry = [&](int r) {
+            return "(row " + std::to_string(r) + " '" + states[static_cast<std::size_t>(r)] + "', column " +
+                   std::to_string(k) + " '" + parameter_names[static_cast<std::size_t>(k)] + "')";
+          };
           for (int r = 0; r < n; ++r) {
             const bool listed = std::find(rows.begin(), rows.end(), r) != rows.end();
-            const std::string entry = "(row " + std::to_string(r) + " '" + states[static_cast<std::size_t>(r)] +
-                                      "', column " + std::to_string(k) + " '" +
-                                      parameter_names[static_cast<std::size_t>(k)] + "')";
             if (!listed && dense(r, k) != 0.0) {
-              fail("parameter_jacobian() entry " + entry +
+              fail("parameter_jacobian() entry " + entry(r) +
                    " is not zero but parameter_jacobian_rows() leaves it out, at " + point);
             } else if (listed && std::memcmp(&entries[at++], &dense(r, k), sizeof(double)) != 0) {
-              fail("parameter_jacobian_entries() differs from parameter_jacobian() at entry " + entry + ", at " +
+              fail("parameter_jacobian_entries() differs from parameter_jacobian() at entry " + entry(r) + ", at " +
                    point);
             }
           }
