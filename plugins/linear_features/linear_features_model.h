@@ -199,7 +199,8 @@ struct LinearFeatures {
     const Vector w = drive(layout, u, p);
     if (is_diagonal(layout)) {
       const double* a = p + layout[kA].offset;
-      for (int i = 0; i < n; ++i) x_next[i] = last_diagonal_zoh(a[i], dt).template step<double>(x[i], w[i]);
+      RowsZoh zoh(dt);
+      for (int i = 0; i < n; ++i) x_next[i] = zoh(a[i]).template step<double>(x[i], w[i]);
       return;
     }
     Vector next(n);
@@ -278,21 +279,31 @@ struct LinearFeatures {
     Eigen::Map<RowMajor> d(jacobian, n, layout.num_entries());
     if (dt == 0.0) return;  // x+ = x whatever the parameters
     const sdk::ParameterLayout &a_row = layout[kA], &b_row = layout[kB], &c_row = layout[kC];
+    const bool diagonal = is_diagonal(layout);
+    if (diagonal && a_row.fixed) {
+      // A filter with parameter uncertainty asks for this at every step:
+      // d x+_r / d B(r, j) = gamma_r u_j and d x+_r / d c(r) = gamma_r, the
+      // products below, written straight into row r.
+      const double* a = p + a_row.offset;
+      RowsZoh zoh(dt);
+      for (int r = 0; r < n; ++r) {
+        const double gamma = zoh(a[r]).gamma;
+        if (b_row.present() && !b_row.fixed) {
+          for (int j = 0; j < m; ++j) d(r, b_row.offset + r * m + j) = gamma * u[j];
+        }
+        if (c_row.present() && !c_row.fixed) d(r, c_row.offset + r) = gamma;
+      }
+      return;
+    }
     // The forcing enters only the derivatives in A: none when A is held.
     const Vector w = a_row.fixed ? Vector() : drive(layout, u, p);
     Matrix gamma = Matrix::Zero(n, n);
     bool evaluated = true;
-    if (is_diagonal(layout)) {
+    if (diagonal) {
       const double* a = p + a_row.offset;
       for (int i = 0; i < n; ++i) {
-        if (!a_row.fixed) {
-          d(i, a_row.offset + i) = dt * std::exp(a[i] * dt) * x[i] + exp_integral_derivative(a[i], dt) * w[i];
-          gamma(i, i) = exp_integral(a[i], dt);
-        } else {
-          // A filter's steps repeat one rate and step size (a mode's
-          // parameter uncertainty asks for this at every step).
-          gamma(i, i) = last_diagonal_zoh(a[i], dt).gamma;
-        }
+        d(i, a_row.offset + i) = dt * std::exp(a[i] * dt) * x[i] + exp_integral_derivative(a[i], dt) * w[i];
+        gamma(i, i) = exp_integral(a[i], dt);
       }
     } else if (!a_row.fixed) {
       Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxStates, kMaxStates * kMaxStates> d_a(n, n * n);
@@ -308,7 +319,6 @@ struct LinearFeatures {
     // With a diagonal A each parameter of row r moves state r alone, so of
     // the columns Gamma(:, r) u_j only the entry r is written: the rest are
     // the zeros d holds.
-    const bool diagonal = is_diagonal(layout);
     for (int r = 0; r < n; ++r) {
       const int first = diagonal ? r : 0, rows = diagonal ? 1 : n;
       if (b_row.present() && !b_row.fixed) {

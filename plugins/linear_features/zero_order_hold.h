@@ -119,6 +119,27 @@ inline const DiagonalZoh<double>& last_diagonal_zoh(double rate, double dt) noex
   return last;
 }
 
+// last_diagonal_zoh() over the rows of one call, asked again only when a
+// row's rate differs from the row before's. Banks give every state one rate,
+// and in a plugin loaded at run time each access to a thread_local is a call
+// (__tls_get_addr): three per row cost a BorealTC tune 4% of its time.
+class RowsZoh {
+ public:
+  explicit RowsZoh(double dt) noexcept : dt_(dt) {}
+  const DiagonalZoh<double>& operator()(double rate) noexcept {
+    if (!(rate == rate_)) {  // a NaN rate: every time, as last_diagonal_zoh()
+      zoh_ = last_diagonal_zoh(rate, dt_);
+      rate_ = rate;
+    }
+    return zoh_;
+  }
+
+ private:
+  double dt_;
+  double rate_ = std::numeric_limits<double>::quiet_NaN();
+  DiagonalZoh<double> zoh_{};
+};
+
 template <typename T, typename R, typename W>
 T diagonal_zoh_step(const T& x, const R& a, const W& w, double dt) noexcept {
   return diagonal_zoh(a, dt).template step<T>(x, w);

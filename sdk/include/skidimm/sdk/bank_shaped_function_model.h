@@ -213,9 +213,10 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
         for (int r = 0; r < model->layout_.num_states(); ++r) {
           if (Spec::parameter_jacobian_may_move(model->layout_, entry, r)) rows.push_back(r);
         }
-        model->jacobian_entries_ += static_cast<int>(rows.size());
+        for (int r : rows) model->jacobian_sources_.push_back(r * total + entry);
         model->jacobian_rows_.push_back(std::move(rows));
       }
+      model->jacobian_entries_ = static_cast<int>(model->jacobian_sources_.size());
     }
     return model;
   }
@@ -367,15 +368,12 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
       return false;
     } else {
       if (jacobian_rows_.empty() || !valid_step(x, u, dt) || entries.size() != jacobian_entries_) return false;
-      const int total = static_cast<int>(p_.size());
       double every[kMaxStates * (kMaxParameters > 0 ? kMaxParameters : 1)];
       if (!spec_parameter_jacobian(x, u, dt, every)) return false;
-      Eigen::Index at = 0;
-      for (std::size_t k = 0; k < free_.size(); ++k) {
-        for (int r : jacobian_rows_[k]) entries[at++] = every[r * total + free_[k]];
-      }
+      const int* source = jacobian_sources_.data();
+      for (int at = 0; at < jacobian_entries_; ++at) entries[at] = every[source[at]];
       if (internal::all_finite(entries.data(), jacobian_entries_)) return true;
-      at = 0;
+      Eigen::Index at = 0;
       for (std::size_t k = 0; k < free_.size(); ++k) {
         for (int r : jacobian_rows_[k]) {
           const double value = entries[at++];
@@ -488,6 +486,7 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
   std::vector<int> free_;  // where each of the model's parameters is in p_
   std::vector<ParameterInfo> info_;
   std::vector<std::vector<int>> jacobian_rows_;  // parameter_jacobian_rows()
+  std::vector<int> jacobian_sources_;            // where each entry they name is in the spec's dense Jacobian
   int jacobian_entries_ = 0;                     // how many they name
 };
 
