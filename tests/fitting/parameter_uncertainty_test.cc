@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "core/temp_files.h"
+#include "fitting/kept_covariance_models.h"
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/imm.h"
 #include "skidimm/errors.h"
@@ -377,6 +378,51 @@ TEST(ParameterUncertainty, AFittedCovarianceIsTakenAsItIsButItsSizeIsChecked) {
   } catch (const Error& e) {
     EXPECT_THAT(std::string(e.what()), HasSubstr("must be 6x6 (one row and column per parameter of the model), got 5x5"));
   }
+}
+
+// A tuner applies each fold's fit once per candidate setting: the model a
+// mode had with a covariance is taken again for the same matrix, only while
+// it wraps the bank's own model and the matrix holds the same values.
+TEST(ParameterUncertainty, AKeptModelIsReusedOnlyForTheSameValuesOnTheSameModel) {
+  Eigen::MatrixXd sigma = some_covariance();
+  Bank bank = load_two_features(bank_text(), "kept.yaml");
+  internal::KeptCovarianceModels kept;
+  kept.set(&bank, 0, sigma);
+  const ModelHandle first = bank.models[0];
+  EXPECT_EQ(parameter_covariance_of(*first), sigma);
+  EXPECT_EQ(bank.config.modes[0].parameter_covariance, sigma);
+  // Between scorings the tuner puts the starting values back: no covariance.
+  set_fitted_parameter_covariance(&bank, 0, Eigen::MatrixXd());
+  kept.set(&bank, 0, sigma);
+  EXPECT_EQ(bank.models[0].get(), first.get());
+  EXPECT_EQ(bank.config.modes[0].parameter_covariance, sigma);
+  // The same matrix with other values: wrapped again, with those.
+  set_fitted_parameter_covariance(&bank, 0, Eigen::MatrixXd());
+  sigma *= 3.0;
+  kept.set(&bank, 0, sigma);
+  EXPECT_NE(bank.models[0].get(), first.get());
+  EXPECT_EQ(parameter_covariance_of(*bank.models[0]), sigma);
+  EXPECT_EQ(bank.config.modes[0].parameter_covariance, sigma);
+  // The bank's model replaced by another: the one kept wraps the old one.
+  const ModelHandle tripled = bank.models[0];
+  Bank other = load_two_features(bank_text(), "other.yaml");
+  bank.models[0] = other.models[0];
+  kept.set(&bank, 0, sigma);
+  EXPECT_NE(bank.models[0].get(), tripled.get());
+  EXPECT_EQ(parameter_covariance_of(*bank.models[0]), sigma);
+  // And what it adds to the process noise is the covariance's, as set directly.
+  Bank direct = load_two_features(bank_text(), "direct.yaml");
+  set_fitted_parameter_covariance(&direct, 0, sigma);
+  const Eigen::MatrixXd q = direct.config.modes[0].q_intensity;
+  const Eigen::Vector2d x(0.1, 0.4), u(-0.5, 3.0);
+  Eigen::MatrixXd a(2, 2), b(2, 2);
+  ASSERT_TRUE(direct.models[0]->process_noise(q, x, u, 0.5, a));
+  ASSERT_TRUE(bank.models[0]->process_noise(q, x, u, 0.5, b));
+  EXPECT_EQ(a, b);
+  // An empty covariance removes it.
+  kept.set(&bank, 0, Eigen::MatrixXd());
+  EXPECT_EQ(parameter_covariance_of(*bank.models[0]).size(), 0);
+  EXPECT_EQ(bank.config.modes[0].parameter_covariance.size(), 0);
 }
 
 void expect_bank_error(const std::string& covariance, const std::string& what) {

@@ -101,6 +101,12 @@ FittedValues values_of(const Bank& bank) {
 }
 
 void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
+  internal::apply(fitted, s, bank, nullptr);
+}
+
+namespace internal {
+
+void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank, KeptCovarianceModels* kept) {
   BankConfig& config = bank->config;
   for (std::size_t j = 0; j < bank->models.size(); ++j) {
     std::string error;
@@ -138,10 +144,16 @@ void apply(const FittedValues& fitted, const TunedSettings& s, Bank* bank) {
     const Eigen::MatrixXd& covariance = fitted.parameter_covariance[j];
     const Eigen::MatrixXd& now = config.modes[j].parameter_covariance;
     if (now.size() != covariance.size() || now != covariance) {
-      set_fitted_parameter_covariance(bank, static_cast<int>(j), covariance);
+      if (kept != nullptr) {
+        kept->set(bank, static_cast<int>(j), covariance);
+      } else {
+        set_fitted_parameter_covariance(bank, static_cast<int>(j), covariance);
+      }
     }
   }
 }
+
+}  // namespace internal
 
 }  // namespace fitting
 }  // namespace skidimm

@@ -74,6 +74,7 @@ class Tuner {
     const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     workers_ = options.threads > 0 ? std::min(options.threads, cores) : cores;
     for (int w = 0; w < workers_; ++w) banks_.push_back(make_bank());
+    kept_models_.resize(banks_.size());
     base_ = values_of(banks_[0]);
     const BankConfig& config = banks_[0].config;
     base_transition_ = config.transition;
@@ -628,7 +629,8 @@ class Tuner {
         SKIDIMM_CHECK(std::find(training.begin(), training.end(), i) == training.end(),
                       "a held-out log is in its fold's training set");
       }
-      apply(fit_of(settings.objective, training), settings, &bank);
+      internal::apply(fit_of(settings.objective, training), settings, &bank,
+                      &kept_models_[static_cast<std::size_t>(w)]);
       if (options_.splice && held_out.size() > 1) {
         // Named by the fold's first log, as a log's own file would be.
         char name[32];
@@ -874,6 +876,7 @@ class Tuner {
   const TuneOptions& options_;
   int workers_ = 1;
   std::vector<Bank> banks_;
+  std::vector<internal::KeptCovarianceModels> kept_models_;  // one per bank, as apply() meets fits again
   FittedValues base_;
   TransitionConfig base_transition_;
   double base_dwell_ = 0.0;
