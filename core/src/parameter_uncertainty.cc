@@ -2,6 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <memory>
@@ -25,6 +26,8 @@ namespace {
 // else is the wrapped model's. Like any model it may be shared by filters on
 // several threads: its buffers are per thread.
 class ParameterUncertainModel final : public sdk::MotionModel {
+  struct Block;  // of Sigma, below
+
  public:
   ParameterUncertainModel(ModelHandle model, Eigen::MatrixXd covariance)
       : model_(std::move(model)), covariance_(std::move(covariance)) {
@@ -35,6 +38,7 @@ class ParameterUncertainModel final : public sdk::MotionModel {
       block.parameters = std::move(parameters);
       block.sigma = covariance_(block.parameters, block.parameters);
       if (block.sigma.cwiseAbs().maxCoeff() == 0.0) continue;
+      block.sigma_finite = block.sigma.allFinite();
       largest_block_ = std::max(largest_block_, static_cast<Eigen::Index>(block.parameters.size()));
       blocks_.push_back(std::move(block));
     }
@@ -136,7 +140,7 @@ class ParameterUncertainModel final : public sdk::MotionModel {
           for (Eigen::Index c = 0; c < m; ++c) gathered(c, count) = g_of[k_of[c] * n + i];
           rows[static_cast<std::size_t>(count++)] = i;
         }
-        add_gathered(block.sigma, gathered, rows, count, &sigma_g, &noise);
+        add_gathered(block, gathered, rows, count, &sigma_g, &noise);
       }
     } catch (...) {  // bad_alloc
       own_failure() = "parameter_covariance: out of memory";
@@ -171,16 +175,16 @@ class ParameterUncertainModel final : public sdk::MotionModel {
       for (Eigen::Index q = 0; q < count; ++q) {
         for (Eigen::Index c = 0; c < m; ++c, ++source) gathered(c, q) = *source >= 0 ? entries[*source] : 0.0;
       }
-      add_gathered(block.sigma, gathered, block.rows, count, &sigma_g, &noise);
+      add_gathered(block, gathered, block.rows, count, &sigma_g, &noise);
     }
     return true;
   }
 
   // Up to 4 parameters (one feature's regression on up to three inputs) at
   // compile time; larger blocks (features whose fits are coupled) at run time.
-  static void add_gathered(const Eigen::MatrixXd& sigma, const Eigen::MatrixXd& gathered,
-                           const std::vector<Eigen::Index>& rows, Eigen::Index count, Eigen::MatrixXd* sigma_g,
-                           Eigen::Ref<Eigen::MatrixXd>* noise) {
+  static void add_gathered(const Block& block, const Eigen::MatrixXd& gathered, const std::vector<Eigen::Index>& rows,
+                           Eigen::Index count, Eigen::MatrixXd* sigma_g, Eigen::Ref<Eigen::MatrixXd>* noise) {
+    const Eigen::MatrixXd& sigma = block.sigma;
     switch (sigma.rows()) {
       case 1:
         add_block<1>(sigma, gathered, rows, count, sigma_g, noise);
@@ -195,7 +199,9 @@ class ParameterUncertainModel final : public sdk::MotionModel {
         add_block<4>(sigma, gathered, rows, count, sigma_g, noise);
         break;
       default:
-        add_block<Eigen::Dynamic>(sigma, gathered, rows, count, sigma_g, noise);
+        if (!block.sigma_finite || !add_sparse_block(sigma, gathered, rows, count, sigma_g, noise)) {
+          add_block<Eigen::Dynamic>(sigma, gathered, rows, count, sigma_g, noise);
+        }
         break;
     }
   }
@@ -269,6 +275,50 @@ class ParameterUncertainModel final : public sdk::MotionModel {
     }
   }
 
+  // add_block() for a block coupled across several rows (features whose
+  // fits share parameters), where each row's G_b has mostly zeros: those
+  // terms are left out. With Sigma_b and G_b finite each would add a zero
+  // (+0 or -0) to a sum that starts at +0 and so is never -0, which changes
+  // no bit: the same results as add_block(), with a fraction of its
+  // products. False, with nothing added, where G_b is not finite.
+  static bool add_sparse_block(const Eigen::MatrixXd& sigma, const Eigen::MatrixXd& gathered,
+                               const std::vector<Eigen::Index>& rows, Eigen::Index count, Eigen::MatrixXd* sigma_g,
+                               Eigen::Ref<Eigen::MatrixXd>* noise) {
+    const Eigen::Index m = sigma.rows();
+    thread_local std::vector<Eigen::Index> nonzero;  // per row r, its nonzero entries, from first[r]
+    thread_local std::vector<Eigen::Index> first;
+    nonzero.clear();
+    first.assign(static_cast<std::size_t>(count) + 1, 0);
+    for (Eigen::Index r = 0; r < count; ++r) {
+      for (Eigen::Index c = 0; c < m; ++c) {
+        const double entry = gathered(c, r);
+        if (!std::isfinite(entry)) return false;
+        if (entry != 0.0) nonzero.push_back(c);
+      }
+      first[static_cast<std::size_t>(r) + 1] = static_cast<Eigen::Index>(nonzero.size());
+    }
+    const auto of_row = [&](Eigen::Index r) {
+      return std::make_pair(nonzero.data() + first[static_cast<std::size_t>(r)],
+                            nonzero.data() + first[static_cast<std::size_t>(r) + 1]);
+    };
+    for (Eigen::Index r = 0; r < count; ++r) {
+      auto column = sigma_g->col(r).head(m);
+      column.setZero();
+      const auto [begin, end] = of_row(r);
+      for (const Eigen::Index* c = begin; c != end; ++c) column += gathered(*c, r) * sigma.col(*c);
+      const Eigen::Index i = rows[static_cast<std::size_t>(r)];
+      for (Eigen::Index q = 0; q <= r; ++q) {
+        const Eigen::Index j = rows[static_cast<std::size_t>(q)];
+        double added = 0.0;
+        const auto [from, to] = of_row(q);
+        for (const Eigen::Index* l = from; l != to; ++l) added += column[*l] * gathered(*l, q);
+        (*noise)(i, j) += added;
+        if (j != i) (*noise)(j, i) += added;
+      }
+    }
+    return true;
+  }
+
   const std::vector<std::string>& output_names() const noexcept override { return model_->output_names(); }
   bool outputs(const Eigen::Ref<const Eigen::VectorXd>& u, Eigen::Ref<Eigen::VectorXd> y) const noexcept override {
     return model_->outputs(u, y);
@@ -295,6 +345,7 @@ class ParameterUncertainModel final : public sdk::MotionModel {
   struct Block {
     std::vector<Eigen::Index> parameters;
     Eigen::MatrixXd sigma;
+    bool sigma_finite = false;
     // With declared rows (use_declared_rows()): the rows the block can move,
     // and for each of them, each parameter's entry in
     // parameter_jacobian_entries()' output (-1: it does not move that row).

@@ -320,6 +320,31 @@ TEST(ParameterUncertainty, DeclaredJacobianRowsAddWhatTheDenseJacobianAddsBitFor
       for (int i = 0; i < 4; ++i) {
         ASSERT_EQ(std::memcmp(a.data() + i, b.data() + i, sizeof(double)), 0) << "step " << k << "\n" << a << "\n" << b;
       }
+      if (sigma(0, 2) == 0.0) continue;
+      // One block coupling both rows, where the filter leaves out the terms
+      // of G's zeros: the same bits as the sums over every term, in index
+      // order, done here by hand.
+      const Eigen::MatrixXd& used = parameter_covariance_of(*declared);  // as the model holds it
+      Eigen::MatrixXd g(2, 6), every_term(2, 2);
+      ASSERT_TRUE(model->parameter_jacobian(x, u, dt, g));
+      ASSERT_TRUE(model->process_noise(q, x, u, dt, every_term));
+      for (int r = 0; r < 2; ++r) {
+        double column[6] = {0, 0, 0, 0, 0, 0};
+        for (int c = 0; c < 6; ++c) {
+          for (int l = 0; l < 6; ++l) column[l] += g(r, c) * used(l, c);
+        }
+        for (int s = 0; s <= r; ++s) {
+          double added = 0.0;
+          for (int l = 0; l < 6; ++l) added += column[l] * g(s, l);
+          every_term(r, s) += added;
+          if (s != r) every_term(s, r) += added;
+        }
+      }
+      for (int i = 0; i < 4; ++i) {
+        ASSERT_EQ(std::memcmp(a.data() + i, every_term.data() + i, sizeof(double)), 0) << "step " << k << "\n"
+                                                                                       << a << "\n"
+                                                                                       << every_term;
+      }
     }
   }
 }
