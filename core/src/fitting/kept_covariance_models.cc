@@ -31,8 +31,13 @@ void KeptCovarianceModels::set(Bank* bank, int mode, const Eigen::MatrixXd& cova
     }
   }
   set_fitted_parameter_covariance(bank, mode, covariance);
-  if (kept_.size() >= kMostKept) kept_.clear();
-  kept_[key] = bank->models[j];
+  if (entries_ + covariance.size() > kMostEntries) {
+    kept_.clear();
+    entries_ = 0;
+  }
+  ModelHandle& kept = kept_[key];
+  if (!kept) entries_ += covariance.size();
+  kept = bank->models[j];
 }
 
 }  // namespace internal

@@ -27,10 +27,12 @@ class KeptCovarianceModels {
   void set(Bank* bank, int mode, const Eigen::MatrixXd& covariance);
 
  private:
-  // At most this many models (a search's folds times the bank's modes, for
-  // the BorealTC bank 370): then the oldest searches' are let go at once.
-  static constexpr std::size_t kMostKept = 1024;
+  // The covariance entries the kept models hold, at most about 16 MB of them
+  // (a search's folds times the bank's modes: for the BorealTC bank 370
+  // models of 36 x 36), past which all are let go at once.
+  static constexpr Eigen::Index kMostEntries = Eigen::Index{1} << 21;
   std::map<std::pair<const Eigen::MatrixXd*, int>, ModelHandle> kept_;
+  Eigen::Index entries_ = 0;
 };
 
 }  // namespace internal
