@@ -279,15 +279,20 @@ struct LinearFeatures {
     Eigen::Map<RowMajor> d(jacobian, n, layout.num_entries());
     if (dt == 0.0) return;  // x+ = x whatever the parameters
     const sdk::ParameterLayout &a_row = layout[kA], &b_row = layout[kB], &c_row = layout[kC];
-    const bool diagonal = is_diagonal(layout);
-    if (diagonal && a_row.fixed) {
-      // A filter with parameter uncertainty asks for this at every step:
-      // d x+_r / d B(r, j) = gamma_r u_j and d x+_r / d c(r) = gamma_r, the
-      // products below, written straight into row r.
+    // The forcing enters only the derivatives in A: none when A is held.
+    const Vector w = a_row.fixed ? Vector() : drive(layout, u, p);
+    if (is_diagonal(layout)) {
+      // Each parameter of row r moves state r alone: d x+_r / d B(r, j) =
+      // gamma_r u_j and d x+_r / d c(r) = gamma_r are written straight into
+      // row r, and the rest are the zeros d holds. (A filter with parameter
+      // uncertainty asks for this at every step.)
       const double* a = p + a_row.offset;
       RowsZoh zoh(dt);
       for (int r = 0; r < n; ++r) {
         const double gamma = zoh(a[r]).gamma;
+        if (!a_row.fixed) {
+          d(r, a_row.offset + r) = dt * std::exp(a[r] * dt) * x[r] + exp_integral_derivative(a[r], dt) * w[r];
+        }
         if (b_row.present() && !b_row.fixed) {
           for (int j = 0; j < m; ++j) d(r, b_row.offset + r * m + j) = gamma * u[j];
         }
@@ -295,17 +300,9 @@ struct LinearFeatures {
       }
       return;
     }
-    // The forcing enters only the derivatives in A: none when A is held.
-    const Vector w = a_row.fixed ? Vector() : drive(layout, u, p);
     Matrix gamma = Matrix::Zero(n, n);
     bool evaluated = true;
-    if (diagonal) {
-      const double* a = p + a_row.offset;
-      for (int i = 0; i < n; ++i) {
-        d(i, a_row.offset + i) = dt * std::exp(a[i] * dt) * x[i] + exp_integral_derivative(a[i], dt) * w[i];
-        gamma(i, i) = exp_integral(a[i], dt);
-      }
-    } else if (!a_row.fixed) {
+    if (!a_row.fixed) {
       Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxStates, kMaxStates * kMaxStates> d_a(n, n * n);
       evaluated = zoh_step_derivatives(full_a(layout, p), Eigen::Map<const Vector>(x, n), w, dt, d_a, &gamma);
       d.middleCols(a_row.offset, n * n) = d_a;
@@ -316,19 +313,11 @@ struct LinearFeatures {
       d.setConstant(kNotANumber);
       return;
     }
-    // With a diagonal A each parameter of row r moves state r alone, so of
-    // the columns Gamma(:, r) u_j only the entry r is written: the rest are
-    // the zeros d holds.
     for (int r = 0; r < n; ++r) {
-      const int first = diagonal ? r : 0, rows = diagonal ? 1 : n;
       if (b_row.present() && !b_row.fixed) {
-        for (int j = 0; j < m; ++j) {
-          d.col(b_row.offset + r * m + j).segment(first, rows) = gamma.col(r).segment(first, rows) * u[j];
-        }
+        for (int j = 0; j < m; ++j) d.col(b_row.offset + r * m + j) = gamma.col(r) * u[j];
       }
-      if (c_row.present() && !c_row.fixed) {
-        d.col(c_row.offset + r).segment(first, rows) = gamma.col(r).segment(first, rows);
-      }
+      if (c_row.present() && !c_row.fixed) d.col(c_row.offset + r) = gamma.col(r);
     }
   }
 

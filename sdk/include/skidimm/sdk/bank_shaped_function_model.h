@@ -216,7 +216,6 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
         for (int r : rows) model->jacobian_sources_.push_back(r * total + entry);
         model->jacobian_rows_.push_back(std::move(rows));
       }
-      model->jacobian_entries_ = static_cast<int>(model->jacobian_sources_.size());
     }
     return model;
   }
@@ -367,12 +366,13 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
     if constexpr (!kHandWrittenParameterJacobian) {
       return false;
     } else {
-      if (jacobian_rows_.empty() || !valid_step(x, u, dt) || entries.size() != jacobian_entries_) return false;
+      const int count = static_cast<int>(jacobian_sources_.size());
+      if (jacobian_rows_.empty() || !valid_step(x, u, dt) || entries.size() != count) return false;
       double every[kMaxStates * (kMaxParameters > 0 ? kMaxParameters : 1)];
       if (!spec_parameter_jacobian(x, u, dt, every)) return false;
       const int* source = jacobian_sources_.data();
-      for (int at = 0; at < jacobian_entries_; ++at) entries[at] = every[source[at]];
-      if (internal::all_finite(entries.data(), jacobian_entries_)) return true;
+      for (int at = 0; at < count; ++at) entries[at] = every[source[at]];
+      if (internal::all_finite(entries.data(), count)) return true;
       Eigen::Index at = 0;
       for (std::size_t k = 0; k < free_.size(); ++k) {
         for (int r : jacobian_rows_[k]) {
@@ -487,7 +487,6 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
   std::vector<ParameterInfo> info_;
   std::vector<std::vector<int>> jacobian_rows_;  // parameter_jacobian_rows()
   std::vector<int> jacobian_sources_;            // where each entry they name is in the spec's dense Jacobian
-  int jacobian_entries_ = 0;                     // how many they name
 };
 
 }  // namespace sdk
