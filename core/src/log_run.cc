@@ -1,6 +1,7 @@
 #include "skidimm/engine/log_run.h"
 
 #include <deque>
+#include <exception>
 #include <string>
 #include <utility>
 #include <vector>
@@ -98,10 +99,22 @@ long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& opt
       held.pop_front();
     }
   };
+  // A log that fails part way (a bad row) still gets its steps so far
+  // smoothed and handed on, over the data read, before the error is raised:
+  // what was computed is not lost.
+  std::exception_ptr read_error;
+  const auto next = [&](LogSample* into) {
+    try {
+      return reader->next(into);
+    } catch (...) {
+      read_error = std::current_exception();
+      return false;
+    }
+  };
   std::vector<SmoothedStep> ready;
   if (options.kind == EstimatorOptions::Kind::kFixedInterval) {
     std::vector<ForwardStep> forward;
-    while (reader->next(&sample)) {
+    while (next(&sample)) {
       const ImmEstimate& e = imm.step(sample.t, sample.u, sample.z);
       if (accepted(e.status)) forward.push_back(record_step(sample.t, sample.u, e));
       held.push_back(Held{sample, e});
@@ -111,7 +124,7 @@ long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& opt
     release(ready);
   } else {
     FixedLagSmoother smoother(bank, options.lag);
-    while (reader->next(&sample)) {
+    while (next(&sample)) {
       const ImmEstimate& e = imm.step(sample.t, sample.u, sample.z);
       held.push_back(Held{sample, e});
       ++steps;
@@ -125,6 +138,7 @@ long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& opt
     release(ready);
   }
   for (const Held& h : held) sink(h.sample, h.filtered);  // trailing rejected steps
+  if (read_error) std::rethrow_exception(read_error);
   return steps;
 }
 

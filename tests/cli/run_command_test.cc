@@ -122,6 +122,28 @@ TEST(Cli, BadRowMidLogKeepsTheRowsAlreadyComputed) {
   EXPECT_EQ(read_csv(dir / "out.csv.partial").size(), 102u);
 }
 
+// Smoothing needs the whole log; one that fails part way still gets the
+// steps read so far smoothed over what was read, and kept.
+TEST(Cli, BadRowMidLogKeepsTheSmoothedRowsAlreadyComputed) {
+  const fs::path dir = test_directory();
+  std::string log = read_file(kSource + "/configs/examples/ltc_switching.csv");
+  std::size_t at = 0;
+  for (int line = 0; line < 102; ++line) at = log.find('\n', at) + 1;
+  log.replace(log.find(',', at) + 1, 1, "x");
+  const fs::path input = write_file(dir / "corrupt.csv", log);
+  for (const std::string smoothing : {"--smooth", "--lag 1"}) {
+    fs::remove(dir / "out.csv.partial");
+    const Result r =
+        run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml --input " + input.string() + " --output " +
+                    (dir / "out.csv").string() + " " + smoothing + " --plugin-path " + kPlugins);
+    EXPECT_EQ(r.exit_code, 1) << smoothing;
+    EXPECT_THAT(r.err, HasSubstr("corrupt.csv:103: column 2 ('phi_dot_L'): expected a finite number")) << smoothing;
+    EXPECT_THAT(r.err, HasSubstr("the 101 rows computed before the error are in")) << smoothing;
+    EXPECT_FALSE(fs::exists(dir / "out.csv")) << smoothing;
+    EXPECT_EQ(read_csv(dir / "out.csv.partial").size(), 102u) << smoothing;
+  }
+}
+
 TEST(Cli, MissingColumnNamesTheBankField) {
   const fs::path dir = test_directory();
   const fs::path input = write_file(dir / "log.csv", "t,phi_dot_L,phi_dot_R,V\n0,1,1,0\n");
