@@ -76,6 +76,20 @@ LogArgumentOptions unpaired_runs(const char* command, bool skip) {
   return options;
 }
 
+void refuse_output_over_logs(const fs::path& output, const std::string& option, const std::vector<LogSpec>& logs) {
+  if (output.empty()) return;
+  for (const LogSpec& log : logs) {
+    for (const LogFile& file : log.files) {
+      std::error_code ec;
+      // Renaming the output over a log being read would replace the log.
+      if (fs::is_regular_file(file.path, ec) && fs::equivalent(file.path, output, ec)) {
+        throw Error(option + " " + output.string() + " is the log file " + file.path.string() +
+                    " itself: writing it would replace the log; give another output file");
+      }
+    }
+  }
+}
+
 int run(const RunOptions& options) {
   std::optional<ros::LiveEstimates> live;
   std::optional<EstimatesWriter> writer;
@@ -89,14 +103,7 @@ int run(const RunOptions& options) {
     if (!log.label.empty() && config.class_index(log.label) < 0) {
       throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'");
     }
-    // Renaming the output over a log being read would replace the log.
-    for (const LogFile& file : log.files) {
-      std::error_code ec;
-      if (fs::is_regular_file(file.path, ec) && fs::equivalent(file.path, options.output, ec)) {
-        throw Error("--output " + options.output.string() + " is the log file " + file.path.string() +
-                    " itself: writing it would replace the log; give another output file");
-      }
-    }
+    refuse_output_over_logs(options.output, "--output", {log});
     // Listening first: a log through a pipe may wait for its first line.
     if (!options.serve.empty()) {
       std::string host;

@@ -42,6 +42,11 @@ int report_errors(const char* command, Body&& body) {
 // --skip-unpaired (`skip`) each is left out with a note on stderr.
 LogArgumentOptions unpaired_runs(const char* command, bool skip);
 
+// Throws when writing `output` (given with `option`) would replace one of
+// the files of `logs`, which the command reads: a log is never overwritten.
+void refuse_output_over_logs(const std::filesystem::path& output, const std::string& option,
+                             const std::vector<LogSpec>& logs);
+
 struct RunOptions {
   std::filesystem::path bank;
   std::vector<std::string> inputs;  // the files of one log: [LABEL=]FILE[@OFFSET][+FILE...], repeatable

@@ -19,6 +19,7 @@ int simulate(const SimulateOptions& options) {
       if (!options.scenario.empty()) throw Error("give either --scenario or --bank, not both");
       const Bank bank = Bank::load(options.bank, options.plugin_paths);
       const LogSpec source = join_log_arguments({options.inputs_from});
+      refuse_output_over_logs(options.output, "--output", {source});
       const std::uint64_t seed = options.has_seed ? options.seed : 1;
       const simulation::ModelSimulationSummary summary = simulation::simulate_models(
           bank, source, sampling_of(bank.config, options.rate), seed, options.output);

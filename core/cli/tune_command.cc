@@ -30,6 +30,32 @@ using fitting::Summary;
 
 namespace {
 
+// Whether two logs read the same files (offsets aside: the same recording).
+bool same_files(const LogSpec& a, const LogSpec& b) {
+  if (a.files.size() != b.files.size()) return false;
+  for (std::size_t k = 0; k < a.files.size(); ++k) {
+    std::error_code ec;
+    if (!fs::equivalent(a.files[k].path, b.files[k].path, ec)) return false;
+  }
+  return true;
+}
+
+// A log given twice would be scored by a fold whose fit trained on its copy,
+// and a lockbox log that is also a development log is no lockbox: either
+// would make the scores optimistic without a word.
+void refuse_repeated_logs(const std::vector<fitting::TuningLog>& logs) {
+  const auto given = [](const fitting::TuningLog& log) {
+    return (log.lockbox ? "--lockbox " : "--log ") + log.spec.text;
+  };
+  for (std::size_t i = 0; i < logs.size(); ++i) {
+    for (std::size_t j = 0; j < i; ++j) {
+      if (!same_files(logs[j].spec, logs[i].spec)) continue;
+      throw Error("the log " + logs[i].spec.name() + " is given twice (" + given(logs[j]) + " and " + given(logs[i]) +
+                  "): a fold would score it with a fit trained on its copy; give each log once");
+    }
+  }
+}
+
 std::vector<std::string> split_list(const std::string& text) {
   std::vector<std::string> out;
   std::stringstream in(text);
@@ -181,9 +207,23 @@ int tune(const TuneCommandOptions& options) {
     const std::size_t development = logs.size();
     add_logs(options.lockbox, true);
     if (development < 2) throw Error("tune needs at least two logs to cross-validate (--log)");
+    std::vector<LogSpec> read;
+    for (const fitting::TuningLog& log : logs) read.push_back(log.spec);
+    refuse_output_over_logs(options.table, "--table", read);
+    refuse_output_over_logs(options.output_bank, "--output-bank", read);
+    refuse_repeated_logs(logs);
 
     std::vector<fitting::Protocol> protocols;
-    for (const std::string& p : split_list(options.protocols)) protocols.push_back(fitting::protocol_from_string(p));
+    for (const std::string& p : split_list(options.protocols)) {
+      protocols.push_back(fitting::protocol_from_string(p));
+      // Their tables, table rows and estimate folders are named by the slug.
+      for (std::size_t k = 0; k + 1 < protocols.size(); ++k) {
+        if (protocols[k].slug() == protocols.back().slug()) {
+          throw Error("--assess: two protocols named '" + protocols.back().name() +
+                      "': their tables and estimates would be mixed; give each its own name");
+        }
+      }
+    }
     if (protocols.empty()) throw Error("--assess: expected at least one protocol");
     bool by_session = false;
     for (const fitting::Protocol& p : protocols) by_session = by_session || p.kind == fitting::Protocol::Kind::kSessions;
@@ -226,6 +266,13 @@ int tune(const TuneCommandOptions& options) {
     }
     for (const std::string& name : tune_options.objectives) {
       if (name == "none") {  // the bank's models as they are: tune the settings only
+        // Fit options with nothing to fit would be ignored without a word.
+        if (options.parameter_uncertainty || options.residual_correlation) {
+          throw Error(
+              std::string(options.parameter_uncertainty ? "--parameter-uncertainty" : "--residual-correlation") +
+              " is estimated by the window objective, but '--objective none' fits nothing (--objective "
+              "window)");
+        }
         fitters[name] = [](Bank*, const std::vector<fitting::ModeLogs>&) {};
         tune_options.separable.insert(name);
         continue;
@@ -256,19 +303,21 @@ int tune(const TuneCommandOptions& options) {
         fitting::fit_bank(bank, data, fit_options);
       };
     }
-    tune_options.progress(std::to_string(development) + " logs" +
-                          (logs.size() > development ? " (and " + std::to_string(logs.size() - development) +
-                                                           " kept aside in the lockbox)"
-                                                     : std::string()) +
-                          ", " +
-                          (options.folds > 0 ? std::to_string(options.folds) + "-fold" : "leave-one-log-out") +
-                          " cross-validation" +
-                          (tune_options.assess ? (options.inner_folds > 0
-                                                                   ? ", nested " + std::to_string(options.inner_folds) +
-                                                                         "-fold assessment"
-                                                                   : ", nested leave-one-log-out assessment")
-                                               : "") +
-                          fit_work);
+    tune_options.progress(
+        std::to_string(development) + " logs" +
+        (logs.size() > development
+             ? " (and " + std::to_string(logs.size() - development) + " kept aside in the lockbox)"
+             : std::string()) +
+        ", " +
+        // As many folds as logs or more is one log per fold (grouped_folds()).
+        (options.folds > 0 && options.folds < static_cast<int>(development) ? std::to_string(options.folds) + "-fold"
+                                                                            : "leave-one-log-out") +
+        " cross-validation" +
+        (tune_options.assess
+             ? (options.inner_folds > 0 ? ", nested " + std::to_string(options.inner_folds) + "-fold assessment"
+                                        : ", nested leave-one-log-out assessment")
+             : "") +
+        fit_work);
     const fitting::TuneResult result = fitting::tune(
         [&] { return Bank::load(options.bank, options.plugin_paths); }, logs, fitters, tune_options);
 

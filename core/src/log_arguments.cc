@@ -166,6 +166,11 @@ LogSpec join_log_arguments(const std::vector<std::string>& arguments) {
 
 void require_rereadable(const LogSpec& log, const std::string& who) {
   for (const LogFile& file : log.files) {
+    // A missing file is not a pipe: say what it is, as reading it would.
+    std::error_code ec;
+    if (!is_standard_input(file.path) && !std::filesystem::exists(file.path, ec)) {
+      throw LogError(file.path.string(), 0, "no such log file");
+    }
     if (!is_rereadable(file.path)) {
       throw Error(log.text + ": " + (is_standard_input(file.path) ? std::string("standard input") : file.path.string()) +
                   " can be read only once (standard input, a pipe or a FIFO), but " + who +

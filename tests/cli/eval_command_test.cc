@@ -122,6 +122,33 @@ TEST(EvalCommand, BlankTruthCellsAreUnlabelledAndNotScoredUnlessTheBankCarriesTh
   EXPECT_NEAR(c["unlabelled_seconds"].as<double>(), 0.0, 1e-12);
 }
 
+// A log without labelled time has nothing to score: said so, null in the
+// JSON, and out of the per-log means, where its 0 used to read as a score.
+TEST(EvalCommand, ALogWithoutLabelledTimeIsNotScored) {
+  auto rows = read_csv(kSwitching);
+  const int mode = column(rows[0], "mode");
+  for (std::size_t i = 1; i < rows.size(); ++i) rows[i][static_cast<std::size_t>(mode)] = "";
+  const fs::path dir = test_directory();
+  const fs::path blank = write_file(dir / "all_blank.csv", csv_text(rows));
+  const Result table = run_skidimm(eval("--input " + blank.string()));
+  EXPECT_EQ(table.exit_code, 0) << table.err;
+  EXPECT_THAT(table.out, HasSubstr("1 without labelled time, not scored"));
+  EXPECT_THAT(table.out, HasSubstr("nothing to score: no labelled time"));
+  EXPECT_THAT(table.out, Not(HasSubstr("accuracy (time fraction)")));
+  const YAML::Node all = json_of(run_skidimm(eval("--input " + blank.string() + " --json")))["overall"];
+  EXPECT_TRUE(all["accuracy"].IsNull());
+  EXPECT_TRUE(all["mean_truth_log_probability"].IsNull());
+  EXPECT_TRUE(all["mean_over_classes"]["accuracy"].IsNull());
+  // Beside a labelled log, the per-log figures are the labelled log's alone.
+  const YAML::Node both =
+      json_of(run_skidimm(eval("--input " + blank.string() + " --input " + kSwitching + " --json")))["overall"];
+  const YAML::Node alone = json_of(run_skidimm(eval("--input " + kSwitching + " --json")))["overall"];
+  EXPECT_EQ(both["logs"].as<int>(), 2);
+  EXPECT_DOUBLE_EQ(both["accuracy_per_log"]["min"].as<double>(), alone["accuracy_per_log"]["min"].as<double>());
+  EXPECT_DOUBLE_EQ(both["mean_over_classes"]["accuracy"].as<double>(),
+                   alone["mean_over_classes"]["accuracy"].as<double>());
+}
+
 TEST(EvalCommand, PatternsPairFilesByRunKeyAndListOrSkipTheUnpaired) {
   // The switching log split into a wheel file and a sensor file per run, as
   // the BorealTC data comes (pro_NN.csv + imu_NN.csv).

@@ -23,5 +23,18 @@ TEST(Cli, BundledExampleLogsAreReproducibleFromTheirScenarios) {
   }
 }
 
+// The log whose inputs drive the models, given as the output too: refused,
+// the log kept.
+TEST(Cli, SimulateRefusesToWriteOverTheLogItReads) {
+  const fs::path dir = test_directory();
+  const fs::path log = write_file(dir / "log.csv", read_file(kSwitching));
+  const Result r = run_skidimm("simulate -q --bank " + kTerrains + " --plugin-path " + kPlugins + " --inputs-from " +
+                               log.string() + " --output " + (dir / "." / "log.csv").string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, ::testing::HasSubstr("--output " + (dir / "." / "log.csv").string() + " is the log file " +
+                                          log.string() + " itself"));
+  EXPECT_EQ(read_file(log), read_file(kSwitching));
+}
+
 }  // namespace
 }  // namespace skidimm_test

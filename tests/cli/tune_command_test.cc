@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -14,6 +16,7 @@ namespace skidimm_test {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 namespace fs = std::filesystem;
 
 // On real runs the plain IMM (likelihood weight 1) counts the same evidence
@@ -25,8 +28,11 @@ namespace fs = std::filesystem;
 // mistyped path found at the end would lose.
 TEST(CliIo, TuneChecksWhereItWritesBeforeTheWork) {
   const fs::path dir = test_directory();
+  // A second log (tune refuses the same file twice): a copy of the first.
+  const fs::path copy = dir / "switching_copy.csv";
+  fs::copy_file(kSwitching, copy, fs::copy_options::overwrite_existing);
   const std::string tune = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins + " --log " +
-                           kSwitching + " --log " + kSwitching + " --objective none --tune dwell --no-assess";
+                           kSwitching + " --log " + copy.string() + " --objective none --tune dwell --no-assess";
   const fs::path missing = dir / "no_such_directory" / "tuned.yaml";
   expect_refused_before(tune + " --output-bank " + missing.string(),
                         "--output-bank " + missing.string() + ": cannot write there: No such file or directory",
@@ -39,6 +45,63 @@ TEST(CliIo, TuneChecksWhereItWritesBeforeTheWork) {
   const Result made = run_pipeline(tune + " --estimates " + (dir / "new" / "estimates").string());
   EXPECT_EQ(made.exit_code, 0) << made.err;
   EXPECT_TRUE(fs::is_directory(dir / "new" / "estimates"));
+}
+
+// A log given twice, or kept in the lockbox and trained on, would make the
+// scores optimistic without a word; an output over a log would replace it;
+// a log without labelled time would score as the best there is. All are
+// refused before the work, naming what is wrong.
+TEST(CliIo, TuneRefusesRepeatedLogsOutputsOverLogsAndLogsWithNothingToScore) {
+  const fs::path dir = test_directory();
+  const fs::path copy = dir / "switching_copy.csv";
+  fs::copy_file(kSwitching, copy, fs::copy_options::overwrite_existing);
+  const std::string tune = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins +
+                           " --objective none --tune dwell --no-assess --log " + kSwitching + " --log " + copy.string();
+  const std::string twice = "the log ltc_switching.csv is given twice (--log " + kSwitching;
+  expect_refused_before(tune + " --log " + (fs::path(kSwitching).parent_path() / "." / "ltc_switching.csv").string(),
+                        twice, "work:");
+  expect_refused_before(tune + " --lockbox " + kSwitching, twice + " and --lockbox " + kSwitching + ")", "work:");
+  expect_refused_before(tune + " --table " + copy.string(),
+                        "--table " + copy.string() + " is the log file " + copy.string() + " itself", "work:");
+  expect_refused_before(tune + " --output-bank " + copy.string(), "is the log file " + copy.string() + " itself",
+                        "work:");
+  EXPECT_EQ(read_file(copy), read_file(kSwitching));
+  // One row: no interval, so no labelled time.
+  std::ifstream in(kSwitching);
+  std::string header, first_row;
+  std::getline(in, header);
+  std::getline(in, first_row);
+  const fs::path one_row = write_file(dir / "one_row.csv", header + "\n" + first_row + "\n");
+  const Result short_log = run_pipeline(tune + " --log asphalt=" + one_row.string());
+  EXPECT_EQ(short_log.exit_code, 1);
+  EXPECT_THAT(short_log.err, HasSubstr("asphalt=" + one_row.string() + ": no labelled time to score"));
+  // A file that is not there is said to be missing, not to be a pipe.
+  const Result missing = run_pipeline(tune + " --log " + (dir / "no_such.csv").string());
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_THAT(missing.err, HasSubstr((dir / "no_such.csv").string() + ": no such log file"));
+  EXPECT_THAT(missing.err, Not(HasSubstr("can be read only once")));
+}
+
+// Options the command would ignore, or whose outputs would mix, are refused.
+TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
+  const fs::path dir = test_directory();
+  const fs::path copy = dir / "switching_copy.csv";
+  fs::copy_file(kSwitching, copy, fs::copy_options::overwrite_existing);
+  const std::string tune = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins +
+                           " --tune dwell --log " + kSwitching + " --log " + copy.string();
+  for (const std::string option : {"--parameter-uncertainty", "--residual-correlation"}) {
+    expect_refused_before(tune + " --objective none --no-assess " + option,
+                          option + " is estimated by the window objective, but '--objective none' fits nothing",
+                          "work:");
+  }
+  expect_refused_before(
+      tune + " --objective none --assess 'extrapolation:v=abs(phi_dot_L),extrapolation:v=abs(phi_dot_R)'",
+      "--assess: two protocols named 'extrapolation in v'", "work:");
+  // An expression the log cannot give is the protocol's, and said so.
+  const Result undefined =
+      run_pipeline(tune + " --objective none --inner-folds 2 --assess 'extrapolation:d=1/(phi_dot_L-phi_dot_L)'");
+  EXPECT_EQ(undefined.exit_code, 1);
+  EXPECT_THAT(undefined.err, HasSubstr("--assess extrapolation:d=1/(phi_dot_L-phi_dot_L): "));
 }
 
 TEST(Cli, TuneTempersTheEvidenceOfABankThatOvercountsItOnRealRuns) {

@@ -138,9 +138,21 @@ std::string json_extrapolation(const ExtrapolationCounts& e) {
   return o.str();
 }
 
+// The state errors against true_<state> columns, where the log has them.
+void print_state_rmse(std::ostream& out, const EvaluationSummary& s, const std::vector<std::string>& states) {
+  bool any_rmse = false;
+  for (double r : s.state_rmse) any_rmse = any_rmse || std::isfinite(r);
+  if (!any_rmse) return;
+  out << "  state RMSE vs true_<state>:";
+  for (std::size_t i = 0; i < states.size(); ++i) out << " " << states[i] << " " << fmt(s.state_rmse[i], "%.4f");
+  out << "\n";
+}
+
 Separability separability_of(const std::vector<const LogResult*>& logs, std::size_t classes) {
   std::vector<LogScore> scores;
-  for (const LogResult* l : logs) scores.push_back(score_of(*l));
+  for (const LogResult* l : logs) {
+    if (l->metrics.duration > 0.0) scores.push_back(score_of(*l));
+  }
   return separability(scores, static_cast<int>(classes));
 }
 
@@ -148,9 +160,18 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
                  const std::vector<std::string>& states, bool list_switches, const std::string& decision_made,
                  const Separability& separated) {
   const ModeMetrics& m = s.metrics;
-  out << "\n" << title << ": " << s.accuracies.size() << " log(s), " << fmt(m.duration, "%.1f") << " s labelled";
+  out << "\n" << title << ": " << s.logs << " log(s), " << fmt(m.duration, "%.1f") << " s labelled";
   if (m.unlabelled > 0.0) out << ", " << fmt(m.unlabelled, "%.1f") << " s unlabelled (blank truth: not scored)";
+  if (s.logs > s.accuracies.size())
+    out << "; " << (s.logs - s.accuracies.size()) << " without labelled time, not scored";
   out << "\n";
+  if (!(m.duration > 0.0)) {
+    // Every figure below would read 0, which is no score at all.
+    out << "  nothing to score: no labelled time (a truth column, or LABEL= before the log, gives the truth; "
+           "a step stands for the time to the next, so a log needs two steps or more)\n";
+    print_state_rmse(out, s, states);
+    return;
+  }
   out << "  accuracy (time fraction)        " << fmt(m.accuracy());
   if (s.accuracies.size() > 1) {
     out << "   per log: mean " << fmt(s.accuracy_per_log.mean) << " +- " << fmt(s.accuracy_per_log.standard_deviation)
@@ -227,13 +248,7 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
           << "); lost against the most likely " << s.decision_lost << "\n";
     }
   }
-  bool any_rmse = false;
-  for (double r : s.state_rmse) any_rmse = any_rmse || std::isfinite(r);
-  if (any_rmse) {
-    out << "  state RMSE vs true_<state>:";
-    for (std::size_t i = 0; i < states.size(); ++i) out << " " << states[i] << " " << fmt(s.state_rmse[i], "%.4f");
-    out << "\n";
-  }
+  print_state_rmse(out, s, states);
   if (!s.nis.empty()) {
     out << "  consistency of the true mode's filter (mean NIS per measured component, 95% bounds):\n";
     for (const auto& [mode, acc] : in_order(s.nis, modes)) {
@@ -250,15 +265,17 @@ std::string json_summary(const EvaluationSummary& s, const std::vector<std::stri
   const ScoreSummary& by_class = s.by_log_class;
   const std::vector<std::string> truths = truths_in_order(m, classes);
   std::ostringstream o;
-  o << "{\"logs\": " << s.accuracies.size() << ", \"duration\": " << json_number(m.duration)
+  // Without labelled time there is nothing to score: null, not a 0 that reads as a score.
+  const auto scored = [&](double value) { return json_number(m.duration > 0.0 ? value : kNaN); };
+  o << "{\"logs\": " << s.logs << ", \"duration\": " << json_number(m.duration)
     << ", \"unlabelled_seconds\": " << json_number(m.unlabelled) << ", \"extrapolation\": "
     << (s.extrapolation.steps > 0 ? json_extrapolation(s.extrapolation) : std::string("null"))
-    << ", \"accuracy\": " << json_number(m.accuracy())
+    << ", \"accuracy\": " << scored(m.accuracy())
     << ", \"accuracy_per_log\": {\"mean\": " << json_number(s.accuracy_per_log.mean)
     << ", \"std\": " << json_number(s.accuracy_per_log.standard_deviation)
     << ", \"min\": " << json_number(s.accuracy_per_log.min)
-    << "}, \"mean_over_classes\": {\"accuracy\": " << json_number(by_class.accuracy)
-    << ", \"mean_truth_log_probability\": " << json_number(by_class.mean_log_probability) << ", \"per_class\": {";
+    << "}, \"mean_over_classes\": {\"accuracy\": " << scored(by_class.accuracy)
+    << ", \"mean_truth_log_probability\": " << scored(by_class.mean_log_probability) << ", \"per_class\": {";
   bool listed = false;
   for (const auto& [name, accuracy] : by_class.class_accuracy) {
     o << (listed ? ", " : "") << json_string(name) << ": {\"accuracy\": " << json_number(accuracy)
@@ -273,9 +290,9 @@ std::string json_summary(const EvaluationSummary& s, const std::vector<std::stri
   }
   o << "}, \"mean_over_classes_by_time\": {\"accuracy\": " << json_number(s.mean_class_accuracy)
     << ", \"mean_truth_log_probability\": " << json_number(s.mean_class_log_probability)
-    << "}, \"mean_truth_probability\": " << json_number(m.mean_truth_probability())
-    << ", \"mean_truth_log_probability\": " << json_number(m.mean_truth_log_probability())
-    << ", \"brier\": " << json_number(m.mean_brier()) << ", \"calibration\": " << json_calibration(m)
+    << "}, \"mean_truth_probability\": " << scored(m.mean_truth_probability())
+    << ", \"mean_truth_log_probability\": " << scored(m.mean_truth_log_probability())
+    << ", \"brier\": " << scored(m.mean_brier()) << ", \"calibration\": " << json_calibration(m)
     << ", \"confusion_seconds\": {";
   bool first = true;
   for (const std::string& truth : truths) {

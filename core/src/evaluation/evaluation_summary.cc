@@ -43,6 +43,7 @@ EvaluationSummary summarize(const std::vector<const LogResult*>& logs, std::size
   std::vector<double> squared(states, 0.0);
   std::vector<long> counts(states, 0);
   std::vector<LogScore> scores;
+  s.logs = logs.size();
   for (const LogResult* log : logs) {
     s.metrics.merge(log->metrics);
     s.extrapolation.merge(log->extrapolation);
@@ -53,6 +54,8 @@ EvaluationSummary summarize(const std::vector<const LogResult*>& logs, std::size
       squared[i] += log->squared_state_error[i];
       counts[i] += log->state_error_count[i];
     }
+    // A log without labelled time has no accuracy: a 0 would pull every mean down.
+    if (!(log->metrics.duration > 0.0)) continue;
     s.accuracies.push_back(log->metrics.accuracy());
     if (log->decision_metrics.duration > 0.0) s.decision_accuracies.push_back(log->decision_metrics.accuracy());
     LogScore score = score_of(*log);

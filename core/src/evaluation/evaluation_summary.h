@@ -32,7 +32,8 @@ struct EvaluationSummary {
   ModeMetrics decisions;  // of the decision
   std::map<std::string, NisAccumulator> nis;  // per true mode
   std::vector<double> state_rmse;             // per state; NaN without true_<state> values
-  std::vector<double> accuracies;             // per log
+  std::size_t logs = 0;                       // every log summarized, scored or not
+  std::vector<double> accuracies;             // per log with labelled time
   std::vector<double> decision_accuracies;    // per log with a decision
   PerLogSpread accuracy_per_log;              // of `accuracies`
   PerLogSpread decision_accuracy_per_log;     // of `decision_accuracies`

@@ -101,10 +101,17 @@ class Tuner {
     // scored), and replayed from memory for the hundreds of scorings below.
     recorded_.resize(logs.size());
     parallel_for(static_cast<int>(logs.size()), workers_, [&](int i, int w) {
-      classes_[static_cast<std::size_t>(i)] = score_logs(banks_[static_cast<std::size_t>(w)], {all[static_cast<std::size_t>(i)]},
-                                                         options_.sampling)
-                                                  .front()
-                                                  .truth;
+      const LogScore first =
+          score_logs(banks_[static_cast<std::size_t>(w)], {all[static_cast<std::size_t>(i)]}, options_.sampling)
+              .front();
+      // Scored as accuracy 0 and log p(truth) 0, the best there is, a log
+      // without labelled time would move every mean it entered.
+      if (!(first.seconds > 0.0)) {
+        throw Error(all[static_cast<std::size_t>(i)]->spec.text +
+                    ": no labelled time to score: a log needs two steps or more with a truth (its truth column, or "
+                    "MODE= before the log)");
+      }
+      classes_[static_cast<std::size_t>(i)] = first.truth;
       LogReader reader(banks_[static_cast<std::size_t>(w)].config, all[static_cast<std::size_t>(i)]->spec.files,
                        options_.sampling);
       recorded_[static_cast<std::size_t>(i)] = RecordedLog::record(&reader);
@@ -326,18 +333,23 @@ class Tuner {
     config.input_names = {protocol.input};
     config.columns.inputs = {expression};
     std::vector<double> ranking(logs_.size(), 0.0);
-    for (int i : development) {
-      LogReader reader(config, logs_[static_cast<std::size_t>(i)].spec.files, options_.sampling);
-      LogSample sample;
-      double sum = 0.0;
-      long count = 0;
-      while (reader.next(&sample)) {
-        if (std::isfinite(sample.u[0])) {
-          sum += std::abs(sample.u[0]);
-          ++count;
+    try {
+      for (int i : development) {
+        LogReader reader(config, logs_[static_cast<std::size_t>(i)].spec.files, options_.sampling);
+        LogSample sample;
+        double sum = 0.0;
+        long count = 0;
+        while (reader.next(&sample)) {
+          if (std::isfinite(sample.u[0])) {
+            sum += std::abs(sample.u[0]);
+            ++count;
+          }
         }
+        ranking[static_cast<std::size_t>(i)] = count > 0 ? sum / static_cast<double>(count) : 0.0;
       }
-      ranking[static_cast<std::size_t>(i)] = count > 0 ? sum / static_cast<double>(count) : 0.0;
+    } catch (const Error& e) {
+      // The reader names the bank's file and its inputs; the expression is the protocol's.
+      throw Error("--assess extrapolation:" + protocol.input + "=" + expression + ": " + e.what());
     }
     return ranking;
   }
