@@ -91,6 +91,17 @@ int fit(const FitCommandOptions& options) {
     }
     if (!options.output_bank.empty()) check_output_path(options.output_bank, "--output-bank");
     if (!options.output_entry.empty()) check_output_path(options.output_entry, "--output-entry");
+    std::vector<LogSpec> read;
+    LogArgumentOptions quietly = expansion;  // the runs it leaves out were told above
+    quietly.skipped = nullptr;
+    for (const auto* arguments : {&options.logs, &options.held_out}) {
+      for (const std::string& argument : *arguments) {
+        for (LogSpec& spec : expand_log_argument(argument, quietly)) read.push_back(std::move(spec));
+      }
+    }
+    refuse_output_over_logs(options.append_to, "--append-to", read);
+    refuse_output_over_logs(options.output_bank, "--output-bank", read);
+    refuse_output_over_logs(options.output_entry, "--output-entry", read);
     std::vector<std::pair<std::string, std::vector<ModeLogs>>> held_out;
     for (const std::string& text : options.held_out) {
       // The argument's logs are read on their own threads.

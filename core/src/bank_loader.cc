@@ -335,6 +335,8 @@ void parse_modes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) 
       } else {
         p = static_cast<int>(y.matrix(c, c_field).rows());
       }
+      // An empty one would read as no covariance at all, silently.
+      if (p == 0) y.fail(c, c_field, "is empty: expected one value per parameter of the model (or no key at all)");
       mode.parameter_covariance = c.IsMap() ? y.covariance(c, p, c_field) : y.matrix(c, p, p, c_field);
       check_magnitude(y, c, mode.parameter_covariance, c_field);
       std::string why;

@@ -467,6 +467,11 @@ void set_fitted_parameter_covariance(Bank* bank, int mode, const Eigen::MatrixXd
   ModelHandle model = unwrapped(bank->models[j]);
   if (covariance.size() > 0) {
     check_size(*model, covariance);
+    // Not checked as a file's is (a fit's is a covariance by construction),
+    // but a non-finite entry would turn the noise of any step into NaN.
+    if (!covariance.allFinite()) {
+      throw Error("mode '" + bank->config.modes[j].name + "': the fitted parameter covariance has non-finite entries");
+    }
     model = wrapped_with(std::move(model), covariance, step_of(*bank));
   }
   bank->models[j] = std::move(model);

@@ -25,6 +25,7 @@ namespace skidimm_test {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 namespace fs = std::filesystem;
 
 TEST(FitCommand, CountsLogsNotTheSegmentsTheirTruthCutsThemInto) {
@@ -430,6 +431,46 @@ TEST(Cli, AClassLabelTrainsItsModesByTheirFitWhen) {
   EXPECT_THAT(fit.out, HasSubstr("- name: concrete_left\n    model: ltc_linear"));
 }
 
+// A condition undefined for some inputs (NaN, which compares unequal to 0)
+// is an error naming the mode, the log and the time, not a condition that holds.
+TEST(Cli, AFitWhenThatIsNotANumberIsAnErrorNotTrue) {
+  const fs::path dir = test_directory();
+  std::string bank = read_file(kSource + "/configs/physical/ltc_terrains.yaml");
+  const std::string from = "  - name: crushed_concrete\n";
+  const auto at = bank.find(from);
+  ASSERT_NE(at, std::string::npos);
+  const auto end = bank.find("\n  - name:", at + 1);
+  const std::string entry = bank.substr(at, end == std::string::npos ? std::string::npos : end - at + 1);
+  std::string first = entry, second = entry;
+  first.replace(0, from.size(), "  - name: concrete_a\n    fit_when: \"log(phi_dot_L - 100)\"\n");
+  second.replace(0, from.size(), "  - name: concrete_b\n");
+  bank.replace(at, entry.size(), first + second);
+  bank += "\nclasses:\n  crushed_concrete: [concrete_a, concrete_b]\n";
+  write_file(dir / "undefined.yaml", bank);
+  const Result fit =
+      run_skidimm("fit --bank " + (dir / "undefined.yaml").string() +
+                  " --objective window --log crushed_concrete=" + kSwitching + " --plugin-path " + kPlugins);
+  EXPECT_EQ(fit.exit_code, 1);
+  EXPECT_THAT(fit.err, HasSubstr("ltc_switching.csv"));
+  EXPECT_THAT(fit.err, HasSubstr("t = 0 s: fit_when \"log(phi_dot_L - 100)\" of mode 'concrete_a' is not a number"));
+}
+
+// Inputs and measurements that never move leave no direction to name: the
+// error says the logs carry nothing, not "the combinations ;".
+TEST(Cli, AFitOnLogsThatNeverMoveSaysTheyCarryNothing) {
+  const fs::path dir = test_directory();
+  std::string log = "t,phi_dot_L,phi_dot_R,V,omega\n";
+  for (int k = 0; k < 200; ++k) log += std::to_string(0.02 * k) + ",0,0,0,0\n";
+  write_file(dir / "still.csv", log);
+  for (const std::string hold : {"", " --hold-unexcited"}) {
+    const Result fit = run_skidimm("fit --bank " + kTerrains + " --objective window --mode asphalt --log " +
+                                   (dir / "still.csv").string() + hold + " --plugin-path " + kPlugins);
+    EXPECT_EQ(fit.exit_code, 1) << hold;
+    EXPECT_THAT(fit.err, HasSubstr("the logs carry no information on any parameter")) << hold;
+    EXPECT_THAT(fit.err, Not(HasSubstr("combinations ;"))) << hold;
+  }
+}
+
 // A log whose input at row 100 is `value` (1e200 makes every cost infinite).
 fs::path corrupt_log(const fs::path& dir, const std::string& value = "1e200") {
   std::ifstream in(kSwitching);
@@ -554,6 +595,18 @@ TEST(CliIo, FitChecksItsOutputsAndHeldOutLogsBeforeFitting) {
                                         " (asphalt): 1 row(s), too few to score a one-step prediction (two in a row)"));
   EXPECT_THAT(short_held.err,
               ::testing::Not(HasSubstr("held out asphalt=" + one_row.string() + " (asphalt): one-step")));
+  // A log (another path to it) as an output: refused, the log kept.
+  const fs::path log = write_file(dir / "log.csv", read_file(kSwitching));
+  const std::string fit_log = kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                              " --objective window --log " + log.string();
+  for (const std::string option : {"--output-bank", "--output-entry"}) {
+    expect_refused_before(
+        fit_log + " " + option + " " + (dir / "." / "log.csv").string(),
+        option + " " + (dir / "." / "log.csv").string() + " is the log file " + log.string() + " itself", "residuals");
+  }
+  expect_refused_before(fit + " --held-out " + log.string() + " --output-bank " + log.string(),
+                        "is the log file " + log.string() + " itself", "residuals");
+  EXPECT_EQ(read_file(log), read_file(kSwitching));
   // Three modes in the log, one to append.
   const fs::path target = write_file(dir / "target.yaml", read_file(kTerrains));
   expect_refused_before(fit + " --append-to " + target.string(), "--append-to takes the fit of exactly one mode",

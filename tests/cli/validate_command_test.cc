@@ -97,5 +97,20 @@ TEST(Cli, ValidateRefusesAQOf1e300) {
   EXPECT_THAT(r.err, HasSubstr("entry (0, 0) = 1e+300 is larger in magnitude than 1e+15"));
 }
 
+// An empty parameter covariance would read as none at all.
+TEST(Cli, ValidateRefusesAnEmptyParameterCovariance) {
+  const fs::path dir = test_directory();
+  std::string bank = read_file(kSource + "/configs/ltc_terrains.yaml");
+  const std::size_t q = bank.find("    Q:");
+  ASSERT_NE(q, std::string::npos);
+  bank.insert(q, "    parameter_covariance: {diagonal: []}\n");
+  const fs::path file = write_file(dir / "empty_covariance.yaml", bank);
+  const Result r = run_skidimm("validate " + file.string() + " --plugin-path " + kPlugins);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("empty_covariance.yaml:"));
+  EXPECT_THAT(r.err, HasSubstr(".parameter_covariance"));
+  EXPECT_THAT(r.err, HasSubstr("is empty: expected one value per parameter of the model"));
+}
+
 }  // namespace
 }  // namespace skidimm_test

@@ -12,6 +12,7 @@
 #include "skidimm/config/expression.h"
 #include "skidimm/errors.h"
 #include "skidimm/fitting/trajectory.h"
+#include "skidimm/io/csv.h"
 #include "skidimm/io/log_arguments.h"
 
 namespace skidimm {
@@ -50,7 +51,16 @@ void split_class(const BankConfig& config, const ClassConfig& c, const Trajector
   for (int k = 0; k < t.size(); ++k) {
     for (Condition& cond : conditions) {
       for (std::size_t i = 0; i < cond.inputs.size(); ++i) cond.values[i] = t.u(cond.inputs[i], k);
-      if (cond.expression->evaluate(cond.values.data()) != 0.0) {
+      const double holds = cond.expression->evaluate(cond.values.data());
+      // NaN compares unequal to 0 and would read as true: an expression
+      // undefined for these inputs is an error, not a condition that holds.
+      if (std::isnan(holds)) {
+        throw Error(t.source + ": t = " + CsvWriter::format(t.t[static_cast<std::size_t>(k)]) + " s: fit_when \"" +
+                    config.modes[static_cast<std::size_t>(cond.mode)].fit_when + "\" of mode '" +
+                    config.modes[static_cast<std::size_t>(cond.mode)].name +
+                    "' is not a number for these inputs; a condition is true (not 0) or false (0)");
+      }
+      if (holds != 0.0) {
         owner[static_cast<std::size_t>(k)] = cond.mode;
         break;
       }

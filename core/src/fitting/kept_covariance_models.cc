@@ -36,7 +36,8 @@ void KeptCovarianceModels::set(Bank* bank, int mode, const Eigen::MatrixXd& cova
     entries_ = 0;
   }
   ModelHandle& kept = kept_[key];
-  if (!kept) entries_ += covariance.size();
+  if (kept) entries_ -= parameter_covariance_of(*kept).size();  // replaced: its entries are no longer held
+  entries_ += covariance.size();
   kept = bank->models[j];
 }
 

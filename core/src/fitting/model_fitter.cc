@@ -373,8 +373,15 @@ Solution solve(const FitOptions& options, const std::string& who, const std::str
     const double threshold = options.identifiability_threshold * s.largest;
     if (s.largest > 0.0 && s.smallest >= threshold) break;
     const Eigen::MatrixXd directions = s.free_basis * svd.matrixV();  // in parameter space
+    if (!(s.largest > 0.0)) {
+      // No direction stands out against the others: there is none to name.
+      throw FitError(who + logs +
+                     ": the logs carry no information on any parameter (the fit's residuals do not change with "
+                     "them: inputs that never move, or no measured row the model predicts); drive maneuvers that "
+                     "move them (turns and speed changes)");
+    }
     const std::string unexcited = describe_unexcited(directions, singular, threshold, block->names);
-    if (!options.hold_unexcited || !(s.largest > 0.0)) {
+    if (!options.hold_unexcited) {
       throw FitError(who + logs + ": the logs do not excite every parameter: no information on the combinations " +
                      unexcited + "; drive maneuvers that move them (turns and speed changes), or fix them" +
                      (options.hold_unexcited ? "" : " (or let the fit hold them: --hold-unexcited)"));
