@@ -391,22 +391,28 @@ TEST(Cli, FitTakesEachModeFromTheTruthColumnAndEvalTakesLabelsAndPatterns) {
   EXPECT_THAT(none.err, HasSubstr("no file matches"));
 }
 
-TEST(Cli, AClassLabelTrainsItsModesByTheirFitWhen) {
-  const fs::path dir = test_directory();
+// The physical terrain bank with crushed concrete split into a class of two
+// modes, `first` (fit_when: `condition`) and `second`, written to `file`.
+fs::path bank_with_concrete_split(const fs::path& file, const std::string& first, const std::string& condition,
+                                  const std::string& second) {
   std::string bank = read_file(kSource + "/configs/physical/ltc_terrains.yaml");
-  // Two modes for crushed concrete, one per turning direction.
   const std::string from = "  - name: crushed_concrete\n";
   const auto at = bank.find(from);
-  ASSERT_NE(at, std::string::npos);
-  const std::string entry = bank.substr(at, bank.find("\n  - name:", at + 1) == std::string::npos
-                                                ? std::string::npos
-                                                : bank.find("\n  - name:", at + 1) - at + 1);
-  std::string left = entry, right = entry;
-  left.replace(0, from.size(), "  - name: concrete_left\n    fit_when: phi_dot_R > phi_dot_L\n");
-  right.replace(0, from.size(), "  - name: concrete_right\n");
-  bank.replace(at, entry.size(), left + right);
-  bank += "\nclasses:\n  crushed_concrete: [concrete_left, concrete_right]\n";
-  write_file(dir / "sided.yaml", bank);
+  EXPECT_NE(at, std::string::npos);
+  const auto end = bank.find("\n  - name:", at + 1);
+  const std::string entry = bank.substr(at, end == std::string::npos ? std::string::npos : end - at + 1);
+  std::string a = entry, b = entry;
+  a.replace(0, from.size(), "  - name: " + first + "\n    fit_when: " + condition + "\n");
+  b.replace(0, from.size(), "  - name: " + second + "\n");
+  bank.replace(at, entry.size(), a + b);
+  bank += "\nclasses:\n  crushed_concrete: [" + first + ", " + second + "]\n";
+  return write_file(file, bank);
+}
+
+TEST(Cli, AClassLabelTrainsItsModesByTheirFitWhen) {
+  const fs::path dir = test_directory();
+  // Two modes for crushed concrete, one per turning direction.
+  bank_with_concrete_split(dir / "sided.yaml", "concrete_left", "phi_dot_R > phi_dot_L", "concrete_right");
   // A log that turns left for 5 s, then right for 5 s.
   // States from eq. 2 (A = diag(-5, -4)) with varied wheel speeds, and a little deterministic noise.
   std::string log = "t,phi_dot_L,phi_dot_R,V,omega\n";
@@ -435,18 +441,7 @@ TEST(Cli, AClassLabelTrainsItsModesByTheirFitWhen) {
 // is an error naming the mode, the log and the time, not a condition that holds.
 TEST(Cli, AFitWhenThatIsNotANumberIsAnErrorNotTrue) {
   const fs::path dir = test_directory();
-  std::string bank = read_file(kSource + "/configs/physical/ltc_terrains.yaml");
-  const std::string from = "  - name: crushed_concrete\n";
-  const auto at = bank.find(from);
-  ASSERT_NE(at, std::string::npos);
-  const auto end = bank.find("\n  - name:", at + 1);
-  const std::string entry = bank.substr(at, end == std::string::npos ? std::string::npos : end - at + 1);
-  std::string first = entry, second = entry;
-  first.replace(0, from.size(), "  - name: concrete_a\n    fit_when: \"log(phi_dot_L - 100)\"\n");
-  second.replace(0, from.size(), "  - name: concrete_b\n");
-  bank.replace(at, entry.size(), first + second);
-  bank += "\nclasses:\n  crushed_concrete: [concrete_a, concrete_b]\n";
-  write_file(dir / "undefined.yaml", bank);
+  bank_with_concrete_split(dir / "undefined.yaml", "concrete_a", "\"log(phi_dot_L - 100)\"", "concrete_b");
   const Result fit =
       run_skidimm("fit --bank " + (dir / "undefined.yaml").string() +
                   " --objective window --log crushed_concrete=" + kSwitching + " --plugin-path " + kPlugins);

@@ -105,14 +105,18 @@ TEST(Cli, BadBankIsReportedWithFileAndLineAndExitsNonZero) {
   EXPECT_FALSE(fs::exists(dir / "out.csv"));
 }
 
-TEST(Cli, BadRowMidLogKeepsTheRowsAlreadyComputed) {
-  const fs::path dir = test_directory();
+// The switching log with its 101st data row's wheel speed corrupted.
+fs::path log_corrupt_at_row_101(const fs::path& dir) {
   std::string log = read_file(kSource + "/configs/examples/ltc_switching.csv");
-  // Corrupt the 101st data row's wheel speed.
   std::size_t at = 0;
   for (int line = 0; line < 102; ++line) at = log.find('\n', at) + 1;
   log.replace(log.find(',', at) + 1, 1, "x");
-  const fs::path input = write_file(dir / "corrupt.csv", log);
+  return write_file(dir / "corrupt.csv", log);
+}
+
+TEST(Cli, BadRowMidLogKeepsTheRowsAlreadyComputed) {
+  const fs::path dir = test_directory();
+  const fs::path input = log_corrupt_at_row_101(dir);
   const Result r = run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml --input " + input.string() +
                                " --output " + (dir / "out.csv").string() + " --plugin-path " + kPlugins);
   EXPECT_EQ(r.exit_code, 1);
@@ -126,11 +130,7 @@ TEST(Cli, BadRowMidLogKeepsTheRowsAlreadyComputed) {
 // steps read so far smoothed over what was read, and kept.
 TEST(Cli, BadRowMidLogKeepsTheSmoothedRowsAlreadyComputed) {
   const fs::path dir = test_directory();
-  std::string log = read_file(kSource + "/configs/examples/ltc_switching.csv");
-  std::size_t at = 0;
-  for (int line = 0; line < 102; ++line) at = log.find('\n', at) + 1;
-  log.replace(log.find(',', at) + 1, 1, "x");
-  const fs::path input = write_file(dir / "corrupt.csv", log);
+  const fs::path input = log_corrupt_at_row_101(dir);
   for (const std::string smoothing : {"--smooth", "--lag 1"}) {
     fs::remove(dir / "out.csv.partial");
     const Result r =
