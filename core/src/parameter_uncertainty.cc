@@ -154,7 +154,9 @@ class ParameterUncertainModel final : public sdk::MotionModel {
   // those entries are asked for, and each block's rows are known beforehand.
   // A declared row whose entries are all zero at this step adds +0 to the
   // noise, which the scan of the dense Jacobian would have skipped: the same
-  // sums otherwise, in the same order.
+  // sums otherwise, in the same order. The +0 can turn a -0 of the noise into
+  // +0, no value; it would be NaN against a non-finite Sigma, which no wrapper
+  // holds (a file's covariance and a fit's are checked finite when set).
   bool add_declared_parameter_noise(const Eigen::Ref<const Eigen::VectorXd>& x,
                                     const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
                                     Eigen::Ref<Eigen::MatrixXd> noise) const {
