@@ -47,6 +47,37 @@ TEST(Cli, UsageErrorsExitWithTwoAndHelpWithZero) {
   }
 }
 
+// Options a command cannot honour together are a bad command line: exit 2,
+// a message naming them, and nothing read or written (one of them used to be
+// ignored without a word, or to fail with 1 like a bad file).
+TEST(Cli, OptionsThatCannotBeHonouredTogetherExitWithTwo) {
+  const fs::path dir = test_directory();
+  const std::string bank = " --bank " + kTerrains + " --plugin-path " + kPlugins;
+  const std::string scenario = " --scenario " + kSource + "/configs/scenarios/ltc_switching.yaml";
+  const std::string out = " --output " + (dir / "out.csv").string();
+  const struct {
+    std::string arguments, message;
+  } clashes[] = {
+      {"run" + bank + " --input " + kSwitching + out + " --smooth --lag 1", "--smooth (over the whole log) and --lag"},
+      {"eval" + bank + " --input " + kSwitching + " --smooth --lag 1", "--smooth (over the whole log) and --lag"},
+      {"eval --input " + kSwitching, "give --bank with --input, or --estimates"},
+      {"simulate" + scenario + bank + out, "give either --scenario or --bank, not both"},
+      {"simulate" + out, "give --scenario (the physical simulator) or --bank with --inputs-from"},
+      {"simulate" + bank + out, "--bank needs --inputs-from LOG"},
+      {"simulate" + bank + " --inputs-from " + kSwitching + " --duration 5" + out, "--duration is the scenario's"},
+      {"simulate" + scenario + " --inputs-from " + kSwitching + out, "--inputs-from drives a bank's models"},
+      {"simulate" + scenario + " --rate 10" + out, "--rate steps a bank's models"},
+      {"fit" + bank + " --log " + kSwitching + " --objective window --fit-r", "--fit-r is an option of the likelihood"},
+      {"fit" + bank + " --log " + kSwitching + " --output-noise", "--output-noise is an option of the window objective"},
+  };
+  for (const auto& c : clashes) {
+    const Result r = run_skidimm(c.arguments);
+    EXPECT_EQ(r.exit_code, 2) << c.arguments << "\n" << r.err;
+    EXPECT_THAT(r.err, HasSubstr(c.message)) << c.arguments;
+    EXPECT_FALSE(fs::exists(dir / "out.csv")) << c.arguments;
+  }
+}
+
 // Progress (rate, time left) is for a person at a terminal: a stderr
 // captured to a file gets none of it, so what a script logs is the same from
 // run to run; on a terminal (a pseudo-terminal from script(1)) run shows how

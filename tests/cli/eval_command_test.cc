@@ -393,7 +393,7 @@ TEST(Cli, EvalTakesTheFiltersSettingsAsTheBankWouldHoldThem) {
             0);
   for (const std::string option : {"--likelihood-weight 0.5", "--innovation-gate 0.99"}) {
     const Result refused = run_skidimm("eval --estimates " + (dir / "run.csv").string() + " " + option);
-    EXPECT_EQ(refused.exit_code, 1) << option;
+    EXPECT_EQ(refused.exit_code, 2) << option;
     EXPECT_THAT(refused.err, HasSubstr(option.substr(0, option.find(' ')) + " changes how the filter runs")) << option;
   }
   const Result bad = run_skidimm(eval(scores + " --likelihood-weight 1.5"));

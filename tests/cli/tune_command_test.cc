@@ -89,11 +89,17 @@ TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
   fs::copy_file(kSwitching, copy, fs::copy_options::overwrite_existing);
   const std::string tune = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins +
                            " --tune dwell --log " + kSwitching + " --log " + copy.string();
+  // A bad command line: exit 2, before anything is read.
   for (const std::string option : {"--parameter-uncertainty", "--residual-correlation"}) {
-    expect_refused_before(tune + " --objective none --no-assess " + option,
-                          option + " is estimated by the window objective, but '--objective none' fits nothing",
-                          "work:");
+    const Result none = run_pipeline(tune + " --objective none --no-assess " + option);
+    EXPECT_EQ(none.exit_code, 2) << none.err;
+    EXPECT_THAT(none.err, HasSubstr(option + " is estimated by the window objective; every objective of --objective "
+                                             "must be window (got 'none')"));
+    EXPECT_THAT(none.err, Not(HasSubstr("work:")));
   }
+  const Result fit_r = run_pipeline(tune + " --objective window --no-assess --fit-r");
+  EXPECT_EQ(fit_r.exit_code, 2) << fit_r.err;
+  EXPECT_THAT(fit_r.err, HasSubstr("--fit-r is an option of the likelihood objective"));
   expect_refused_before(
       tune + " --objective none --assess 'extrapolation:v=abs(phi_dot_L),extrapolation:v=abs(phi_dot_R)'",
       "--assess: two protocols named 'extrapolation in v'", "work:");
