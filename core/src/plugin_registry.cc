@@ -98,7 +98,13 @@ std::shared_ptr<boost::dll::shared_library> inspect_or_throw(const fs::path& pat
     return nullptr;
   }
   if (library->has(sdk::kPluginNameSymbol)) {
-    descriptor->name = library->get_alias<const char*()>(sdk::kPluginNameSymbol)();
+    // A C string from another library: null is its bug, not a crash of ours.
+    const char* name = library->get_alias<const char*()>(sdk::kPluginNameSymbol)();
+    if (name == nullptr) {
+      descriptor->error = std::string("incomplete plugin: '") + sdk::kPluginNameSymbol + "' returned no name (null)";
+      return nullptr;
+    }
+    descriptor->name = name;
   }
   const int abi = library->get_alias<int()>(sdk::kAbiVersionSymbol)();
   if (abi != sdk::kAbiVersion) {
@@ -135,11 +141,21 @@ std::shared_ptr<boost::dll::shared_library> inspect_or_throw(const fs::path& pat
   descriptor->name = info->name;
   descriptor->version = info->version != nullptr ? info->version : "";
   descriptor->description = info->description != nullptr ? info->description : "";
+  if (info->num_parameters > 0 && info->parameters == nullptr) {
+    descriptor->error =
+        "the plugin's info lists " + std::to_string(info->num_parameters) + " parameters but gives none (null)";
+    return nullptr;
+  }
+  const auto text = [](const char* c_string) { return std::string(c_string != nullptr ? c_string : ""); };
   for (int i = 0; i < info->num_parameters; ++i) {
     const sdk::ParameterDoc& doc = info->parameters[i];
+    if (doc.key == nullptr || doc.key[0] == '\0') {
+      descriptor->error = "the plugin's info has a parameter without a key (parameter " + std::to_string(i) + ")";
+      return nullptr;
+    }
     descriptor->parameter_keys.emplace_back(doc.key);
     if (documents_bank_level(doc)) descriptor->shared_parameter_keys.emplace_back(doc.key);
-    descriptor->parameter_docs.push_back(std::string(doc.key) + " (" + doc.shape + "): " + doc.description);
+    descriptor->parameter_docs.push_back(text(doc.key) + " (" + text(doc.shape) + "): " + text(doc.description));
   }
   auto variables = [](const sdk::VariableDoc* docs, int count, std::vector<PluginVariable>* out) {
     for (int i = 0; docs != nullptr && i < count; ++i) {

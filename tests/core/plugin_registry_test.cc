@@ -138,6 +138,18 @@ TEST(PluginRegistry, MissingFactoryIsNamed) {
               HasSubstr("incomplete plugin: missing symbol 'skidimm_create_motion_model'"));
 }
 
+// A null where a name belongs is the plugin's bug: that file is refused,
+// the other plugins still load.
+TEST(PluginRegistry, ANullNameIsRefusedAndTheOthersStillLoad) {
+  PluginRegistry registry({kFixtures / "null_name", kBundledPlugins});
+  std::string error;
+  for (const PluginDescriptor& d : registry.plugins()) {
+    if (d.path.parent_path().filename() == "null_name") error = d.error;
+  }
+  EXPECT_THAT(error, HasSubstr("incomplete plugin: 'skidimm_plugin_name' returned no name (null)"));
+  EXPECT_NO_THROW(registry.find("ltc_linear"));
+}
+
 TEST(PluginRegistry, ThrowingFactoryBecomesAnError) {
   PluginRegistry registry({kFixtures / "throwing"});
   const std::string e = plugin_error([&] { registry.create("throwing_model", {}); });
