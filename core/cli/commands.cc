@@ -41,11 +41,11 @@ std::string plugin_of(const Bank& bank, std::size_t j) {
   return bank.model_sources[j].describe();
 }
 
-// Per mode whose filter was rejected: how often, why, and where first; and
-// how often each mode gated the measurement.
-void print_rejections(const Bank& bank, const RunSummary& summary) {
-  for (std::size_t j = 0; j < summary.rejections.size(); ++j) {
-    const ModeRejections& r = summary.rejections[j];
+}  // namespace
+
+void print_rejections(const Bank& bank, const std::vector<ModeRejections>& rejections) {
+  for (std::size_t j = 0; j < rejections.size(); ++j) {
+    const ModeRejections& r = rejections[j];
     const long gated = r.by_failure[static_cast<int>(ModeFailure::kGated)];
     if (gated > 0) {
       std::cerr << "  mode '" << bank.config.modes[j].name << "' gated the measurement on " << gated << " row(s)\n";
@@ -64,8 +64,6 @@ void print_rejections(const Bank& bank, const RunSummary& summary) {
               << "): " << to_string(r.first_failure) << (r.first_reason.empty() ? "" : ": " + r.first_reason) << "\n";
   }
 }
-
-}  // namespace
 
 LogArgumentOptions unpaired_runs(const char* command, bool skip) {
   LogArgumentOptions options;
@@ -198,7 +196,7 @@ int run(const RunOptions& options) {
                      100.0 * summary.outside_fitted_inputs / summary.rows,
                      InputEnvelope(config).describe(summary.farthest_outside_class, summary.farthest_outside).c_str());
       }
-      print_rejections(bank, summary);
+      print_rejections(bank, summary.rejections);
     }
     return kExitOk;
   });

@@ -10,7 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "skidimm/config/bank.h"
 #include "skidimm/config/run_overrides.h"
+#include "skidimm/engine/log_run.h"
 #include "skidimm/errors.h"
 #include "skidimm/io/log_arguments.h"
 #include "skidimm/printable.h"
@@ -41,6 +43,10 @@ int report_errors(const char* command, Body&& body) {
 // How `command`'s log patterns treat runs some of their files lack: with
 // --skip-unpaired (`skip`) each is left out with a note on stderr.
 LogArgumentOptions unpaired_runs(const char* command, bool skip);
+
+// Per mode whose filter was rejected: how often, why, and where first; and
+// how often each mode gated the measurement (stderr, indented).
+void print_rejections(const Bank& bank, const std::vector<ModeRejections>& rejections);
 
 // Throws when writing `output` (given with `option`) would replace one of
 // the files of `logs`, which the command reads: a log is never overwritten.

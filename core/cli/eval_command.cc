@@ -11,6 +11,32 @@
 namespace skidimm {
 namespace cli {
 
+namespace {
+
+// A mode whose model failed is reset and scores as if it had not: its
+// failures are said (stderr, as `run` says them), per log, and a log on which
+// no mode's filter ever ran is named as such, whatever its scores read.
+void report_rejections(const Bank& bank, const std::vector<evaluation::LogGroup>& groups) {
+  std::cout.flush();
+  for (const evaluation::LogGroup& group : groups) {
+    for (const evaluation::LogResult& log : group.logs) {
+      bool any = false;
+      for (const ModeRejections& r : log.rejections) any = any || r.rows > 0;
+      if (!any) continue;
+      std::cerr << "skidimm eval: " << printable(log.source) << ": modes rejected and reset (their steps score the "
+                << "reset filter, not the model):\n";
+      print_rejections(bank, log.rejections);
+      if (log.steps_every_mode_rejected > 0) {
+        std::cerr << "  on " << log.steps_every_mode_rejected << " of " << log.steps
+                  << " steps every mode was rejected: no model ran there, and the scores above do not measure "
+                     "the bank on them\n";
+      }
+    }
+  }
+}
+
+}  // namespace
+
 int eval(const EvalOptions& options) {
   return report_errors("skidimm eval", [&] {
     std::vector<evaluation::LogGroup> groups;
@@ -19,6 +45,7 @@ int eval(const EvalOptions& options) {
     // A log that fails half-way costs the others nothing: they are reported,
     // the failures listed after them, and the exit code says it.
     std::vector<evaluation::LogFailure> failures;
+    std::optional<Bank> ran;  // the bank run over the logs (not with --estimates)
     if (!options.estimates.empty()) {
       // The files hold what a filter already computed; these would change the filter.
       if (options.overrides.likelihood_weight || options.overrides.innovation_gate) {
@@ -42,7 +69,7 @@ int eval(const EvalOptions& options) {
       classes = evaluation::classes_of(groups);
     } else {
       if (options.bank.empty()) throw Error("give --bank with --input, or --estimates");
-      Bank bank = Bank::load(options.bank, options.plugin_paths);
+      Bank& bank = ran.emplace(Bank::load(options.bank, options.plugin_paths));
       apply_overrides(options.overrides, &bank.config);
       decision_made = evaluation::decision_settings_text(bank.config.decision);
       classes = bank.config.class_names();
@@ -58,6 +85,7 @@ int eval(const EvalOptions& options) {
       std::cout << (options.json ? evaluation::report_json(groups, classes, states)
                                  : evaluation::report_tables(groups, classes, states, decision_made));
     }
+    if (ran) report_rejections(*ran, groups);
     if (failures.empty()) return kExitOk;
     std::cout.flush();
     long scored = 0;

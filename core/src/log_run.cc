@@ -13,26 +13,25 @@
 
 namespace skidimm {
 
-namespace {
-
-// Which modes' filters were rejected or gated in the step just counted in s->rows.
-void count_rejections(const ImmEstimate& e, double t, RunSummary* s) {
+void count_mode_rejections(const ImmEstimate& e, long row, double t, std::vector<ModeRejections>* rejections) {
   const std::size_t modes = e.mode_failures.size();
-  if (s->rejections.size() != modes) s->rejections.resize(modes);
+  if (rejections->size() != modes) rejections->resize(modes);
   for (std::size_t j = 0; j < modes; ++j) {
     const ModeFailure failure = e.mode_failures[j];
     if (failure == ModeFailure::kNone) continue;
-    ModeRejections& r = s->rejections[j];
+    ModeRejections& r = (*rejections)[j];
     ++r.by_failure[static_cast<int>(failure)];
     if (!is_rejection(failure)) continue;
     if (r.rows++ == 0) {
-      r.first_row = s->rows;
+      r.first_row = row;
       r.first_t = t;
       r.first_failure = failure;
       if (failure == ModeFailure::kModel) r.first_reason = e.failure_reasons[j];
     }
   }
 }
+
+namespace {
 
 // The smoothed step in the filter's shape, with the filter's bookkeeping.
 void fill(const SmoothedStep& s, const ImmEstimate& filtered, ImmEstimate* out) {
@@ -162,7 +161,7 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
     s.decision_changes += decided != last_decision && s.rows > 1;
     last_decision = decided;
     writer->write(sample.t, e, decision.name(decided), truth);
-    if (e.num_rejected_modes > 0 || e.num_gated_modes > 0) count_rejections(e, sample.t, &s);
+    if (e.num_rejected_modes > 0 || e.num_gated_modes > 0) count_mode_rejections(e, s.rows, sample.t, &s.rejections);
     if (strict && e.num_rejected_modes > 0) throw Error(describe_first_rejection(bank, e, s.rows));
     if (with_truth && !truth.empty()) {
       if (last == nullptr || last->first != truth) {

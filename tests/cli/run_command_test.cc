@@ -20,6 +20,7 @@ namespace skidimm_test {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 namespace fs = std::filesystem;
 
 TEST(Cli, RunIdentifiesTheTerrainsOfTheBundledSwitchingExample) {
@@ -201,6 +202,27 @@ TEST(Cli, RunSurvivesAPluginThatThrowsAndNamesTheModePluginAndReason) {
                                  out.string() + " --plugin-path " + kPlugins + " --plugin-path " + faulty);
   ASSERT_EQ(nan.exit_code, 0) << nan.err;
   EXPECT_THAT(nan.err, HasSubstr("because the model returned a non-finite state, Jacobian or process noise"));
+}
+
+// eval scores what the filter did, a reset mode included: the failures are
+// said as run says them, not only folded into the scores.
+TEST(Cli, EvalNamesAModeWhosePluginFailsAndWhyAsRunDoes) {
+  const fs::path dir = test_directory();
+  const std::string input = kSource + "/configs/examples/ltc_switching.csv";
+  const std::string faulty = kFixturePlugins + "/faulty";
+  const Result r = run_skidimm("eval --bank " + faulty_bank(dir, "predict_throws").string() + " --input " + input +
+                               " --plugin-path " + kPlugins + " --plugin-path " + faulty);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr(input + ": modes rejected and reset"));
+  EXPECT_THAT(r.err, HasSubstr("mode 'slippery' (plugin faulty_model 0.0.2 (" + faulty +
+                               "/faulty_plugin.so)) was rejected on "));
+  EXPECT_THAT(r.err, HasSubstr("): the model failed: predict_fixed() threw: vector::_M_range_check"));
+  EXPECT_THAT(r.err, Not(HasSubstr("mode 'asphalt' (plugin")));
+  EXPECT_THAT(r.err, Not(HasSubstr("every mode was rejected"))) << "asphalt's filter ran throughout";
+  // A log without failures says nothing of them.
+  const Result clean = run_skidimm("eval --bank " + kTerrains + " --input " + input + " --plugin-path " + kPlugins);
+  ASSERT_EQ(clean.exit_code, 0) << clean.err;
+  EXPECT_THAT(clean.err, Not(HasSubstr("rejected")));
 }
 
 TEST(Cli, RunMergesFilesByTimeAndSteadiesAtAFixedRate) {

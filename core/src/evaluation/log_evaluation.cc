@@ -169,6 +169,10 @@ ScoredRun score_run(const Bank& bank, SampleSource* source, const std::string& n
       result.squared_state_error[static_cast<std::size_t>(s)] += d * d;
       ++result.state_error_count[static_cast<std::size_t>(s)];
     }
+    if (e.num_rejected_modes > 0 || e.num_gated_modes > 0) {
+      count_mode_rejections(e, result.steps + 1, sample.t, &result.rejections);
+      if (e.num_rejected_modes == config.num_modes()) ++result.steps_every_mode_rejected;
+    }
     ++result.steps;
   });
   // A smoothed step's probabilities are not the ones the filter floored.

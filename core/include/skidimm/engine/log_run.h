@@ -46,6 +46,10 @@ struct ModeRejections {
   std::string first_reason;  // the model's own words (ModeFailure::kModel)
 };
 
+// Counts the rejected and gated modes of step `e`, the `row`-th (1-based) at
+// time `t`, into `rejections` (one per mode, made on the first count).
+void count_mode_rejections(const ImmEstimate& e, long row, double t, std::vector<ModeRejections>* rejections);
+
 // What `skidimm run` reports about a log besides its rows.
 struct RunSummary {
   long rows = 0;

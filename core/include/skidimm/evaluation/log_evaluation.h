@@ -79,6 +79,10 @@ struct LogResult {
   double smallest_probability = std::numeric_limits<double>::quiet_NaN();
   // Steps outside the input ranges the classes were fitted on (input_envelope.h).
   ExtrapolationCounts extrapolation;
+  // Per mode, once one was rejected or gated: how often and the first time
+  // why (log_run.h), so that a model failing is said, not only scored.
+  std::vector<ModeRejections> rejections;
+  long steps_every_mode_rejected = 0;  // steps where no mode's filter ran
 };
 
 // Runs a fresh IMM of `bank` over `log` and scores it; with `estimates`, also
