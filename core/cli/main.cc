@@ -24,6 +24,7 @@
 #include "skidimm/io/estimates_writer.h"
 #include "skidimm/io/log_arguments.h"
 #include "skidimm/io/output_file.h"
+#include "skidimm/io/ros/bag_reader.h"
 
 namespace fs = std::filesystem;
 using namespace skidimm::cli;
@@ -418,6 +419,24 @@ int main(int argc, char** argv) {
   if ((*run && given(run, "--smooth") && given(run, "--lag") && clash("run", smooth_or_lag)) ||
       (*eval && given(eval, "--smooth") && given(eval, "--lag") && clash("eval", smooth_or_lag))) {
     return kExitUsage;
+  }
+  if (*run && run_options.copy_topics) {
+    // Found after the run, either would cost the whole run.
+    bool bag = false;
+    for (const std::string& input : run_options.inputs) {
+      try {
+        for (const skidimm::LogFile& file : skidimm::parse_log_spec(input).files) {
+          bag = bag || skidimm::ros::BagReader::is_bag(file.path);
+        }
+      } catch (const skidimm::Error&) {  // run reports it
+      }
+    }
+    if ((fs::path(output).extension() != ".mcap" &&
+         clash("run", "--copy-topics copies a bag's topics into an MCAP output (--output ending in .mcap)")) ||
+        (!bag && clash("run", "--copy-topics copies the topics of a bag the log is read from, and no --input is a "
+                              "bag"))) {
+      return kExitUsage;
+    }
   }
   if (*eval) {
     for (const char* setting : {"--likelihood-weight", "--innovation-gate"}) {

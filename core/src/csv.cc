@@ -95,6 +95,13 @@ CsvReader::CsvReader(const fs::path& path) : path_(path) {
                      "a NumPy array (.npy), not CSV: this command reads CSV (for a `skidimm run` output, run it "
                      "again with --output X.csv; numpy.load reads the .npy)");
     }
+    // Likewise an MCAP bag, which arrives here only through a pipe (a bag
+    // file is read by its own reader, which seeks: a pipe cannot give it).
+    if (field_count_ > 0 && fields_[0].compare(0, 5, "\x89MCAP") == 0) {
+      throw LogError(path_.string(), 1,
+                     "an MCAP bag, not CSV: a bag is read from its file, not from a pipe or standard input "
+                     "(give its path to --input)");
+    }
     header_.assign(fields_.begin(), fields_.begin() + static_cast<std::ptrdiff_t>(field_count_));
     if (!header_.empty() && header_[0].size() >= 3 && header_[0].compare(0, 3, "\xEF\xBB\xBF") == 0) {
       header_[0].erase(0, 3);  // UTF-8 byte-order mark from spreadsheet exports

@@ -171,4 +171,15 @@ write_bag "$work/drive.jsonl"
 expect_error db3 "drive\|db3_bag_0.db3: no metadata.yaml beside this .db3 file" no -- \
   run --bank "$bank" --input "$work/db3_bag/db3_bag_0.db3" --output "$work/db3.csv"
 expect_error bag_cut "cut short" no -- bag "$work/cut.mcap"
+# --copy-topics without an MCAP output or a bag input: refused before the run
+# (a bad command line, exit 2), not after it.
+expect_error copy_csv "--copy-topics copies a bag's topics into an MCAP output" no -- \
+  run --bank "$bank" --input "$work/drive.mcap" --output "$work/copy.csv" --copy-topics
+status=0
+"$skidimm" run -q --bank "$bank" --input "$work/drive.mcap" --output "$work/copy.csv" --copy-topics 2>/dev/null || status=$?
+[ "$status" -eq 2 ] || fail "copy_csv: exit $status, expected 2 (a bad command line)"
+[ ! -e "$work/copy.csv.partial" ] || fail "copy_csv: the run started"
+# A bag through a pipe is named as one, not read as a CSV header of binary junk.
+expect_error stdin_bag "standard input:1: an MCAP bag, not CSV" no -- \
+  run --bank "$bank" --input - --output "$work/stdin_bag.csv" <"$work/drive.mcap"
 echo "every bad input: a located error, a non-zero exit, the rows before it kept"
