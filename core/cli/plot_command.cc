@@ -173,11 +173,18 @@ int plot(const PlotOptions& options) {
     std::vector<Band> decisions;
     std::vector<std::string> fields;
     double last_t = 0.0;
+    long rows = 0;
     while (reader.next(&fields)) {
       double t = 0.0;
       if (!parse_finite_number(fields[0], &t)) {
         throw LogError(reader.path().string(), reader.line(),  // "standard input" for -
                        "column 1 ('t'): expected the time, a finite number, got '" + fields[0].substr(0, 80) + "'");
+      }
+      // As `run` writes them; gnuplot would draw anything else wrongly or fail with its own words.
+      if (rows++ > 0 && !(t > last_t)) {
+        throw LogError(reader.path().string(), reader.line(),
+                       "column 1 ('t'): time must increase, but " + fields[0].substr(0, 80) + " follows " +
+                           CsvWriter::format(last_t));
       }
       if (estimates_copy) estimates_copy->write_row(fields);
       last_t = t;
@@ -198,6 +205,11 @@ int plot(const PlotOptions& options) {
       bands.back().end = t;
     }
 
+    if (rows < 2) {
+      throw LogError(reader.path().string(), reader.line(),
+                     rows == 0 ? "no rows to plot: the estimates have a header only"
+                               : "one row: a figure over time needs two time stamps or more");
+    }
     if (estimates_copy) {
       estimates_copy->commit();
       temporary.push_back(estimates_file);

@@ -123,6 +123,34 @@ TEST(CliIo, PlotReadsAPipeAndGivesGnuplotNoRawTextFromTheFiles) {
   EXPECT_THAT(located.err, HasSubstr(bad.string() + ":4: column 1 ('t'): expected the time, a finite number, got '2.5s'"));
   EXPECT_FALSE(fs::exists(dir / "bad.png"));
   EXPECT_FALSE(fs::exists(dir / "bad.png.gnuplot"));
+  // Too few rows, or times that do not increase: said before gnuplot is
+  // given them (it failed in its own words, or drew them wrongly).
+  rows = read_csv(estimates);
+  const auto csv_of = [](const std::vector<std::vector<std::string>>& table) {
+    std::string out;
+    for (const auto& row : table) {
+      for (std::size_t c = 0; c < row.size(); ++c) out += (c ? "," : "") + row[c];
+      out += "\n";
+    }
+    return out;
+  };
+  const struct {
+    std::string name;
+    std::vector<std::vector<std::string>> table;
+    std::string message;
+  } cases[] = {
+      {"header_only", {rows[0]}, ":1: no rows to plot: the estimates have a header only"},
+      {"one_row", {rows[0], rows[1]}, ":2: one row: a figure over time needs two time stamps or more"},
+      {"repeated_t", {rows[0], rows[1], rows[2], rows[2]}, ":4: column 1 ('t'): time must increase, but "},
+  };
+  for (const auto& c : cases) {
+    const fs::path file = write_file(dir / (c.name + ".csv"), csv_of(c.table));
+    const Result r = run_skidimm("plot --estimates " + file.string() + " --output " + (dir / "few.png").string());
+    EXPECT_EQ(r.exit_code, 1) << c.name;
+    EXPECT_THAT(r.err, HasSubstr(file.string() + c.message)) << c.name;
+    EXPECT_THAT(r.err, ::testing::Not(HasSubstr("gnuplot"))) << c.name;
+    EXPECT_FALSE(fs::exists(dir / "few.png")) << c.name;
+  }
 }
 
 }  // namespace
