@@ -1,6 +1,9 @@
 #include "commands.h"
 
+#include <signal.h>
+
 #include <algorithm>
+#include <csignal>
 #include <cstdio>
 #include <exception>
 #include <iostream>
@@ -21,6 +24,7 @@
 #include "skidimm/io/ros/bag_reader.h"
 #include "skidimm/io/ros/live_estimates.h"
 #include "skidimm/progress.h"
+#include "skidimm/stop_request.h"
 
 namespace skidimm {
 namespace cli {
@@ -88,11 +92,52 @@ void refuse_output_over_logs(const fs::path& output, const std::string& option, 
   }
 }
 
+namespace {
+
+// While a run goes on, SIGINT and SIGTERM ask it to stop at its next row and
+// keep its rows so far (stop_request.h); the handler is then the default
+// again (SA_RESETHAND), so a second signal ends the program at once. No
+// SA_RESTART: a read waiting on a pipe returns, and sees the request.
+class StopOnSignals {
+ public:
+  StopOnSignals() {
+    clear_stop_request();
+    struct sigaction action {};
+    action.sa_handler = [](int signal) { request_stop(signal); };
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_RESETHAND;
+    for (std::size_t i = 0; i < 2; ++i) {
+      installed_[i] = ::sigaction(kSignals[i], &action, &previous_[i]) == 0;
+      // A signal ignored by whoever started us (nohup, a background job of
+      // a script) stays ignored.
+      if (installed_[i] && previous_[i].sa_handler == SIG_IGN) {
+        ::sigaction(kSignals[i], &previous_[i], nullptr);
+        installed_[i] = false;
+      }
+    }
+  }
+  ~StopOnSignals() {
+    for (std::size_t i = 0; i < 2; ++i) {
+      if (installed_[i]) ::sigaction(kSignals[i], &previous_[i], nullptr);
+    }
+  }
+  StopOnSignals(const StopOnSignals&) = delete;
+  StopOnSignals& operator=(const StopOnSignals&) = delete;
+
+ private:
+  static constexpr int kSignals[2] = {SIGINT, SIGTERM};
+  struct sigaction previous_[2]{};
+  bool installed_[2] = {false, false};
+};
+
+}  // namespace
+
 int run(const RunOptions& options) {
   std::optional<ros::LiveEstimates> live;
   std::optional<EstimatesWriter> writer;
   RunSummary summary;
-  const int code = report_errors("skidimm run", [&] {
+  const StopOnSignals stop_on_signals;
+  int code = report_errors("skidimm run", [&] {
     Bank bank = Bank::load(options.bank, options.plugin_paths);
     apply_overrides(options.overrides, &bank.config);
     const EstimatorOptions estimator = estimator_options(options.smooth, options.lag);
@@ -200,6 +245,7 @@ int run(const RunOptions& options) {
     }
     return kExitOk;
   });
+  if (const int signal = stop_requested()) code = 128 + signal;  // as the signal's default ending reports it
   if (code != kExitOk && writer && summary.rows > 0) {
     std::cerr << "skidimm run: the " << summary.rows << " rows computed before the error are in "
               << writer->partial_path().string() << "\n";

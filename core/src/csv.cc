@@ -1,3 +1,5 @@
+#include "skidimm/io/csv.h"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -12,7 +14,7 @@
 #include "check.h"
 #include "number_text.h"
 #include "skidimm/errors.h"
-#include "skidimm/io/csv.h"
+#include "skidimm/stop_request.h"
 
 namespace skidimm {
 
@@ -180,6 +182,12 @@ void CsvReader::fill() {
   ssize_t got = 0;
   do {
     got = ::read(::fileno(file_), buffer_.data() + end_, buffer_.size() - end_);
+    // A stop asked for while waiting for a pipe's next row (stop_request.h):
+    // the rows read so far are the log.
+    if (got < 0 && errno == EINTR && stop_requested()) {
+      throw LogError(path_.string(), next_line_,
+                     std::string("stopped by ") + signal_name(stop_requested()) + " while waiting for the next row");
+    }
   } while (got < 0 && errno == EINTR);
   if (got < 0) throw LogError(path_.string(), next_line_, std::string("read failed: ") + std::strerror(errno));
   if (got == 0) end_of_file_ = true;

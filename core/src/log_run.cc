@@ -10,6 +10,7 @@
 #include "skidimm/engine/imm.h"
 #include "skidimm/engine/imm_smoother.h"
 #include "skidimm/errors.h"
+#include "skidimm/stop_request.h"
 
 namespace skidimm {
 
@@ -70,11 +71,27 @@ long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& opt
   Imm imm(bank);
   LogSample sample;
   long steps = 0;
+  // A log that fails part way (a bad row), or a stop asked for from outside
+  // (stop_request.h), still gets its steps so far handed on (smoothed over
+  // the data read) before the error is raised: what was computed is not lost.
+  std::exception_ptr read_error;
+  const auto next = [&](LogSample* into) {
+    try {
+      if (const int signal = stop_requested()) {
+        throw Error(std::string("stopped by ") + signal_name(signal) + " after " + std::to_string(steps) + " step(s)");
+      }
+      return reader->next(into);
+    } catch (...) {
+      read_error = std::current_exception();
+      return false;
+    }
+  };
   if (options.kind == EstimatorOptions::Kind::kFilter) {
-    while (reader->next(&sample)) {
+    while (next(&sample)) {
       sink(sample, imm.step(sample.t, sample.u, sample.z));
       ++steps;
     }
+    if (read_error) std::rethrow_exception(read_error);
     return steps;
   }
 
@@ -96,18 +113,6 @@ long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& opt
       fill(s, held.front().filtered, &out);
       sink(held.front().sample, out);
       held.pop_front();
-    }
-  };
-  // A log that fails part way (a bad row) still gets its steps so far
-  // smoothed and handed on, over the data read, before the error is raised:
-  // what was computed is not lost.
-  std::exception_ptr read_error;
-  const auto next = [&](LogSample* into) {
-    try {
-      return reader->next(into);
-    } catch (...) {
-      read_error = std::current_exception();
-      return false;
     }
   };
   std::vector<SmoothedStep> ready;

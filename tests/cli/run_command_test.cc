@@ -145,6 +145,41 @@ TEST(Cli, BadRowMidLogKeepsTheSmoothedRowsAlreadyComputed) {
   }
 }
 
+// SIGTERM (or Ctrl-C's SIGINT) while a run waits on a pipe: it stops, keeps
+// every row computed in the .partial file, and exits 128 + the signal, where
+// the default ending lost the rows still in the writer's buffer.
+TEST(Cli, ASignalStopsARunAndKeepsItsRows) {
+  const fs::path dir = test_directory();
+  const std::string input = kSource + "/configs/examples/ltc_switching.csv";
+  const fs::path out = dir / "out.csv";
+  // 100 rows down a FIFO, which then stays open: the run waits for more.
+  // --flush shows each row in the .partial file once computed, which is when
+  // the signal is sent (no guess at how long the rows take).
+  const Result r = run_shell("mkfifo " + (dir / "rows").string() + "\n" + kSkidimm + " run -q --flush --bank " +
+                             kTerrains + " --plugin-path " + kPlugins + " --input " + (dir / "rows").string() +
+                             " --output " + out.string() + " 2>" + (dir / "err").string() +
+                             " & run=$!\n"
+                             "exec 3>" +
+                             (dir / "rows").string() +
+                             "\n"
+                             "head -n 101 " +
+                             input +
+                             " >&3\n"
+                             "for i in $(seq 600); do [ \"$(wc -l <" +
+                             out.string() +
+                             ".partial 2>/dev/null)\" = 101 ] && break; sleep 0.05; done\n"
+                             "kill -TERM $run\n"
+                             "status=0; wait $run || status=$?\n"
+                             "exec 3>&-\n"
+                             "echo $status");
+  EXPECT_EQ(r.out, "143\n") << r.err;
+  const std::string err = read_file(dir / "err");
+  EXPECT_THAT(err, HasSubstr("stopped by SIGTERM while waiting for the next row"));
+  EXPECT_THAT(err, HasSubstr("the 100 rows computed before the error are in " + out.string() + ".partial"));
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_EQ(read_csv(out.string() + ".partial").size(), 101u);
+}
+
 TEST(Cli, MissingColumnNamesTheBankField) {
   const fs::path dir = test_directory();
   const fs::path input = write_file(dir / "log.csv", "t,phi_dot_L,phi_dot_R,V\n0,1,1,0\n");
