@@ -19,7 +19,9 @@
 #include "skidimm/engine/ekf.h"
 #include "skidimm/engine/imm.h"
 #include "skidimm/engine/measurement_model.h"
+#include "skidimm/fitting/model_fitter.h"
 #include "skidimm/sdk/angles.h"
+#include "skidimm/sdk/failure.h"
 #include "stc_kinematic/stc_kinematic_model.h"
 
 namespace skidimm {
@@ -27,6 +29,7 @@ namespace fitting {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 using Options = LikelihoodFitOptions;
 using skidimm_test::rich_wheel_speeds;
 using skidimm_test::simulate;
@@ -590,6 +593,42 @@ TEST(LikelihoodFitter, APluginWithoutParameterJacobianGetsDifferencesAndTheSameO
               1e-4 * exact_report.noise_parameters[0].standard_deviation);
   EXPECT_NEAR(numeric_report.final_cost, exact_report.final_cost, 1e-8 * std::abs(exact_report.final_cost));
   expect_recovered(exact_report.parameters, {a, b});
+}
+
+// A model that fails where the log drives it past what it covers: the window
+// fit's check of the starting values gives the model's own words, not a
+// suspicion of the log's numbers.
+TEST(LikelihoodFitter, AWindowFitNamesWhyTheModelFailedAtTheStartingValues) {
+  class FailingAbove final : public MaskedLinearModel {
+   public:
+    using MaskedLinearModel::MaskedLinearModel;
+    bool predict(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                 Eigen::Ref<Eigen::VectorXd> x_next) const noexcept override {
+      if (u[0] > 1.5) {
+        sdk::report_failure("the input is past what this model covers");
+        return false;
+      }
+      return MaskedLinearModel::predict(x, u, dt, x_next);
+    }
+  };
+  const Eigen::MatrixXd r = diagonal({0.05 * 0.05});
+  auto input = [](double t) { return Eigen::VectorXd::Constant(1, std::sin(0.5 * t) + std::sin(1.7 * t)); };
+  const Trajectory log = simulate(skidimm_test::ScalarLinearModel(-1.5, 0.8), diagonal({0.02}),
+                                  Eigen::MatrixXd::Identity(1, 1), r, 400, 0.05, input, 51);
+  Bank bank = make_bank(
+      {std::make_shared<FailingAbove>(Eigen::MatrixXd::Constant(1, 1, -0.5), Eigen::MatrixXd::Constant(1, 1, 0.3),
+                                      Eigen::MatrixXi::Ones(1, 1), Eigen::MatrixXi::Ones(1, 1), true)},
+      {diagonal({0.1})}, Eigen::MatrixXd::Identity(1, 1), r);
+  FitOptions options;
+  options.window = 0.2;
+  try {
+    fit(&bank, {ModeLogs{0, {log}}}, options);
+    FAIL() << "the model fails on the log";
+  } catch (const FitError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("failed with the starting values of mode '"));
+    EXPECT_THAT(e.what(), HasSubstr(": the model failed: the input is past what this model covers"));
+    EXPECT_THAT(e.what(), Not(HasSubstr("check the log's inputs")));
+  }
 }
 
 TEST(LikelihoodFitter, FitsOnlyTheNoiseOfAModelWithoutParameters) {

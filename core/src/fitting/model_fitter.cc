@@ -163,8 +163,14 @@ class StartingValueCheck {
       largest_residual = std::max(largest_residual, std::abs(v));
     }
     if (!finite) {
-      throw FitError(window_text(t, w) + " is not finite (or absurd) with the starting values of " + *who_ +
-                     "; check the log's inputs and measurements there");
+      // A model that failed says why (a plugin's exception, its own report);
+      // otherwise the numbers themselves are the suspects.
+      const std::string failure = ok ? "" : cost.model_failure();
+      throw FitError(window_text(t, w) +
+                     (failure.empty()
+                          ? " is not finite (or absurd) with the starting values of " + *who_ +
+                                "; check the log's inputs and measurements there"
+                          : " failed with the starting values of " + *who_ + ": the model failed: " + failure));
     }
     start_residuals_.add(largest_residual);
     if (largest_residual > worst_residual_) {

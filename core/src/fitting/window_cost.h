@@ -107,6 +107,12 @@ class WindowCost : public ceres::CostFunction {
   bool EvaluateWindow(const Window& window, double const* const* parameters, double* residuals,
                       double** jacobians) const;
 
+  // Why the model's last call failed, in its own words, or "" (sdk/failure.h).
+  std::string model_failure() const {
+    const char* reason = model_->failure_reason();
+    return reason != nullptr ? reason : "";
+  }
+
  private:
   sdk::MotionModel* model_;
   Eigen::VectorXd base_;
