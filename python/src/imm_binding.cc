@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 
 #include <atomic>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <mutex>
@@ -117,6 +118,22 @@ DoubleArray rows_of(const py::object& a, long n, int width, const char* what) {
   return arr;
 }
 
+// Measurements are numbers or NaN (not measured); the engine would take an
+// infinity for "not measured" too, which the CLI's reader refuses as a cell.
+void refuse_infinite_measurements(const DoubleArray& z, long rows, int width) {
+  const double* data = z.data();
+  for (long k = 0; k < rows; ++k) {
+    for (int j = 0; j < width; ++j) {
+      const double v = data[k * width + j];
+      if (std::isinf(v)) {
+        throw py::value_error("z[" + std::to_string(k) + ", " + std::to_string(j) + "] is " +
+                              (v > 0 ? "inf" : "-inf") +
+                              ": a measurement is a finite number, or NaN where it was not measured");
+      }
+    }
+  }
+}
+
 Estimate make_estimate(const PyImm& self, const ImmEstimate& e, int decided) {
   Estimate out;
   out.t = e.t;
@@ -149,6 +166,7 @@ Estimate make_estimate(const PyImm& self, const ImmEstimate& e, int decided) {
 Estimate step(PyImm& self, double t, const py::object& u, const py::object& z) {
   const DoubleArray uu = rows_of(u, 1, self.input_dim(), "u");
   const DoubleArray zz = rows_of(z, 1, self.measurement_dim(), "z");
+  refuse_infinite_measurements(zz, 1, self.measurement_dim());
   const ImmInUse hold(self);
   clear_python_model_error();
   int decided = ModeDecision::kUnknown;
@@ -170,6 +188,7 @@ py::dict run(PyImm& self, const py::object& t, const py::object& u, const py::ob
   const long n = static_cast<long>(tt.shape(0));
   const DoubleArray uu = rows_of(u, n, self.input_dim(), "u");
   const DoubleArray zz = rows_of(z, n, self.measurement_dim(), "z");
+  refuse_infinite_measurements(zz, n, self.measurement_dim());
   const EstimatorOptions estimator = estimator_options(smooth, lag);
   py::object truth_column = py::none();
   if (!truth.is_none()) {

@@ -105,6 +105,19 @@ def test_wrong_array_shapes_raise_instead_of_aborting(configs):
     assert imm.step(0.0, [1.0, 1.0], [0.0, 0.0]).status == "updated"  # still usable
 
 
+def test_an_infinite_measurement_is_refused_not_taken_as_missing(configs):
+    # NaN is "not measured"; inf is a bad value, as the CLI's reader says of a cell.
+    imm = skidimm.Imm(configs / "ltc_terrains.yaml")
+    z = np.zeros((4, 2))
+    z[2, 1] = -np.inf
+    with pytest.raises(ValueError, match=r"z\[2, 1\] is -inf: a measurement is a finite number, or NaN"):
+        imm.run(np.arange(4.0), np.ones((4, 2)), z)
+    with pytest.raises(ValueError, match=r"z\[0, 0\] is inf"):
+        imm.step(0.0, [1.0, 1.0], [np.inf, 0.0])
+    z[2, 1] = np.nan
+    assert list(imm.run(np.arange(4.0), np.ones((4, 2)), z)["status"])[2] == "updated"  # NaN: one row not measured
+
+
 def test_fit_error(tmp_path, configs, singular_logs):
     short = tmp_path / "short.csv"
     lines = pathlib.Path(singular_logs["asphalt"][0]).read_text().splitlines()[:4]
