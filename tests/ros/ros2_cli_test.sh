@@ -171,6 +171,10 @@ write_bag "$work/drive.jsonl"
 expect_error db3 "drive\|db3_bag_0.db3: no metadata.yaml beside this .db3 file" no -- \
   run --bank "$bank" --input "$work/db3_bag/db3_bag_0.db3" --output "$work/db3.csv"
 expect_error bag_cut "cut short" no -- bag "$work/cut.mcap"
+# Cut inside its first chunk: no channel was read, which is the file's fault, not the bank's.
+head -c 1000 "$work/no_summary.mcap" >"$work/cut_first.mcap"
+expect_error cut_first "no channel was read from the file (a recording cut short inside its first chunk" no -- \
+  run --bank "$bank" --input "$work/cut_first.mcap" --output "$work/cut_first.csv"
 # --copy-topics without an MCAP output or a bag input: refused before the run
 # (a bad command line, exit 2), not after it.
 expect_error copy_csv "--copy-topics copies a bag's topics into an MCAP output" no -- \

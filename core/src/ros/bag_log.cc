@@ -26,7 +26,12 @@ std::string topic_list(const BagReader& bag) {
   for (const BagTopic& t : bag.topics()) {
     out += (out.empty() ? "" : ", ") + t.name + (t.type.empty() ? "" : " (" + t.type + ")");
   }
-  return out.empty() ? "none" : out;
+  // No channel at all is the file's problem, not the bank's: a recording cut
+  // short before its first chunk ended, or one that recorded nothing.
+  return out.empty() ? "none: no channel was read from the file (a recording cut short inside its first chunk, or an "
+                       "empty one; `skidimm bag " +
+                           bag.path().string() + "` says where it ends)"
+                     : out;
 }
 
 // Whether `rest` (what follows a topic in a column name) is a field path:
