@@ -9,6 +9,8 @@
 //   skidimm plot --estimates out.csv --output figure.png
 //   skidimm plugins
 //   skidimm new-plugin NAME [--dir DIR]
+#include <arpa/inet.h>
+
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
@@ -25,6 +27,7 @@
 #include "skidimm/io/log_arguments.h"
 #include "skidimm/io/output_file.h"
 #include "skidimm/io/ros/bag_reader.h"
+#include "skidimm/io/ros/live_estimates.h"
 
 namespace fs = std::filesystem;
 using namespace skidimm::cli;
@@ -158,7 +161,26 @@ int main(int argc, char** argv) {
   run->add_option("--plot", run_plot, "Also draw the mode probabilities to this .png or .svg (needs gnuplot)");
   run->add_option("--serve", run_options.serve,
                   "[HOST:]PORT: publish each step live to Foxglove (its WebSocket protocol; " +
-                      documentation_path("docs/foxglove.md") + "); HOST 127.0.0.1 unless given, PORT 0 for any free port");
+                      documentation_path("docs/foxglove.md") +
+                      "); HOST 127.0.0.1 unless given, PORT 0 for any free port")
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            // A bad address is a bad command line, found before the bank is read.
+            std::string host;
+            std::uint16_t port = 0;
+            try {
+              skidimm::ros::LiveEstimates::parse_address(text, &host, &port);
+            } catch (const skidimm::Error&) {
+              return "expected [HOST:]PORT, a port from 0 (any free port) to 65535, got '" + text + "'";
+            }
+            in6_addr address{};
+            if (::inet_pton(AF_INET, host.c_str(), &address) != 1 &&
+                ::inet_pton(AF_INET6, host.c_str(), &address) != 1) {
+              return "'" + host + "' is not an IP address (HOST is numeric: 127.0.0.1, 0.0.0.0, ::1)";
+            }
+            return std::string();
+          },
+          "[HOST:]PORT"));
   run->add_option("--serve-speed", run_options.serve_speed,
                   "With --serve, replaying a file: times real time (default 1); 0 as fast as the filter runs")
       ->check(finite_number())->check(CLI::NonNegativeNumber);

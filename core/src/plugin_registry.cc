@@ -305,7 +305,8 @@ ModelHandle PluginRegistry::create(const std::string& name, const sdk::Parameter
   std::string error;
   sdk::MotionModel* raw = factory(params, &error);
   if (raw == nullptr) {
-    throw PluginError("plugin '" + name + "' (" + descriptor.path.string() + ") rejected its parameters: " + error);
+    throw PluginError("plugin '" + name + "' (" + descriptor.path.string() + ") rejected its parameters: " +
+                      (error.empty() ? "its factory returned no model and gave no reason" : error));
   }
   // The deleter owns a reference to the library: the object's code (its
   // destructor, its vtable) stays mapped until the object is gone.

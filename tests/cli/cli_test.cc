@@ -68,7 +68,10 @@ TEST(Cli, OptionsThatCannotBeHonouredTogetherExitWithTwo) {
       {"simulate" + scenario + " --inputs-from " + kSwitching + out, "--inputs-from drives a bank's models"},
       {"simulate" + scenario + " --rate 10" + out, "--rate steps a bank's models"},
       {"fit" + bank + " --log " + kSwitching + " --objective window --fit-r", "--fit-r is an option of the likelihood"},
-      {"fit" + bank + " --log " + kSwitching + " --output-noise", "--output-noise is an option of the window objective"},
+      {"fit" + bank + " --log " + kSwitching + " --output-noise",
+       "--output-noise is an option of the window objective"},
+      {"run" + bank + " --input " + kSwitching + out + " --serve 99999", "a port from 0 (any free port) to 65535"},
+      {"run" + bank + " --input " + kSwitching + out + " --serve localhost:0", "'localhost' is not an IP address"},
   };
   for (const auto& c : clashes) {
     const Result r = run_skidimm(c.arguments);
