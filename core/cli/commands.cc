@@ -11,6 +11,7 @@
 #include <string_view>
 
 #include "skidimm/config/bank.h"
+#include "skidimm/engine/fatal_signal_report.h"
 #include "skidimm/engine/imm.h"
 #include "skidimm/engine/input_envelope.h"
 #include "skidimm/engine/log_run.h"
@@ -140,6 +141,14 @@ int run(const RunOptions& options) {
   int code = report_errors("skidimm run", [&] {
     Bank bank = Bank::load(options.bank, options.plugin_paths);
     apply_overrides(options.overrides, &bank.config);
+    {
+      // A plugin that crashes the process is named on the way down.
+      std::vector<std::string> modes;
+      for (std::size_t j = 0; j < bank.config.modes.size(); ++j) {
+        modes.push_back("mode '" + printable(bank.config.modes[j].name) + "' (" + plugin_of(bank, j) + ")");
+      }
+      report_fatal_signals("skidimm run", std::move(modes));
+    }
     const EstimatorOptions estimator = estimator_options(options.smooth, options.lag);
     const BankConfig& config = bank.config;
     const LogSpec log = join_log_arguments(options.inputs);

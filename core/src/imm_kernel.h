@@ -31,6 +31,7 @@
 #include "probability_floor.h"
 #include "residual_correlation.h"
 #include "skidimm/config/bank.h"
+#include "skidimm/engine/fatal_signal_report.h"
 #include "skidimm/engine/imm_estimate.h"
 #include "skidimm/engine/measurement_model.h"
 #include "skidimm/engine/mode_transition.h"
@@ -454,6 +455,7 @@ class Kernel final : public ImmKernel {
       // holds: the unknown hypothesis has no state to mix in.
       mix(dt, unknown_.enabled() ? condition_on_modes(e->mode_probabilities) : e->mode_probabilities);
       for (int j = 0; j < modes_; ++j) {
+        const internal::ModelCallMark in_model(j);
         if (!filters_.predict(j, u, dt)) {
           e->log_likelihoods[j] = kMinusInfinity;
           record_predict_failure(j, e);
@@ -466,6 +468,7 @@ class Kernel final : public ImmKernel {
     if (outputs_measured) {
       for (int j = 0; j < modes_; ++j) {
         if (e->log_likelihoods[j] == kMinusInfinity) continue;
+        const internal::ModelCallMark in_model(j);
         if (!outputs_.predict(j, u_now, &output_failure_)) {
           e->log_likelihoods[j] = kMinusInfinity;
           e->mode_failures[static_cast<std::size_t>(j)] = ModeFailure::kModel;

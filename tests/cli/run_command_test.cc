@@ -260,6 +260,23 @@ TEST(Cli, EvalNamesAModeWhosePluginFailsAndWhyAsRunDoes) {
   EXPECT_THAT(clean.err, Not(HasSubstr("rejected")));
 }
 
+// A plugin that aborts the process cannot be survived, but it is named on
+// the way down instead of a bare "Aborted"; the process still ends as the
+// signal ends it (exit status 128 + 6 from the shell).
+TEST(Cli, APluginThatAbortsTheProcessIsNamed) {
+  const fs::path dir = test_directory();
+  const std::string input = kSource + "/configs/examples/ltc_switching.csv";
+  const Result r =
+      run_shell(kSkidimm + " run -q --bank " + faulty_bank(dir, "abort").string() + " --input " + input + " --output " +
+                (dir / "out.csv").string() + " --plugin-path " + kPlugins + " --plugin-path " + kFixturePlugins +
+                "/faulty 2>" + (dir / "err").string() + "; echo \"status $?\"");
+  EXPECT_THAT(r.out, HasSubstr("status 134"));
+  const std::string err = read_file(dir / "err");
+  EXPECT_THAT(err, HasSubstr("skidimm run: SIGABRT (abort) while the model of mode 'slippery' (plugin faulty_model"));
+  EXPECT_THAT(err, HasSubstr("faulty_plugin.so)) was running: the fault is that plugin's"));
+  EXPECT_FALSE(fs::exists(dir / "out.csv"));
+}
+
 TEST(Cli, RunMergesFilesByTimeAndSteadiesAtAFixedRate) {
   const fs::path dir = test_directory();
   const SplitLog log = split_example(dir);

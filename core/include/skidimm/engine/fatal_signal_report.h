@@ -1,0 +1,50 @@
+// What a fatal signal names. A plugin is code in skidimm's own process: a
+// segmentation fault or an abort in it ends the program, which no exception
+// handler can prevent. What the command line can still do is say where it
+// happened: which mode's model was running (not "Segmentation fault" alone),
+// so that the user knows which plugin to suspect.
+#ifndef SKIDIMM_ENGINE_FATAL_SIGNAL_REPORT_H_
+#define SKIDIMM_ENGINE_FATAL_SIGNAL_REPORT_H_
+
+#include <atomic>
+#include <string>
+#include <vector>
+
+namespace skidimm {
+
+// From now on, SIGSEGV, SIGBUS, SIGFPE, SIGILL and SIGABRT print
+// "<program>: <signal> in the model of <mode_descriptions[j]>" when they
+// arrive while the engine runs mode j's model (or that no model was running),
+// then end the program as the signal would have. For a program that steps one
+// Imm at a time (skidimm run): the engine marks the mode it calls on any
+// thread, so two at once would be named ambiguously.
+void report_fatal_signals(const std::string& program, std::vector<std::string> mode_descriptions);
+
+namespace internal {
+
+// Whether report_fatal_signals() is on, and the mode whose model runs (-1:
+// none); the engine's kernel sets it around each mode's model calls.
+extern std::atomic<bool> fatal_signals_reported;
+extern std::atomic<int> mode_in_model_call;
+
+// Marks mode j's model calls for the report, when it is on (one load of a
+// flag otherwise, no store: the tuner's threads share nothing here).
+class ModelCallMark {
+ public:
+  explicit ModelCallMark(int mode) noexcept : on_(fatal_signals_reported.load(std::memory_order_relaxed)) {
+    if (on_) mode_in_model_call.store(mode, std::memory_order_relaxed);
+  }
+  ~ModelCallMark() {
+    if (on_) mode_in_model_call.store(-1, std::memory_order_relaxed);
+  }
+  ModelCallMark(const ModelCallMark&) = delete;
+  ModelCallMark& operator=(const ModelCallMark&) = delete;
+
+ private:
+  const bool on_;
+};
+
+}  // namespace internal
+}  // namespace skidimm
+
+#endif  // SKIDIMM_ENGINE_FATAL_SIGNAL_REPORT_H_
