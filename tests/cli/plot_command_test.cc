@@ -126,14 +126,6 @@ TEST(CliIo, PlotReadsAPipeAndGivesGnuplotNoRawTextFromTheFiles) {
   // Too few rows, or times that do not increase: said before gnuplot is
   // given them (it failed in its own words, or drew them wrongly).
   rows = read_csv(estimates);
-  const auto csv_of = [](const std::vector<std::vector<std::string>>& table) {
-    std::string out;
-    for (const auto& row : table) {
-      for (std::size_t c = 0; c < row.size(); ++c) out += (c ? "," : "") + row[c];
-      out += "\n";
-    }
-    return out;
-  };
   const struct {
     std::string name;
     std::vector<std::vector<std::string>> table;
@@ -144,7 +136,7 @@ TEST(CliIo, PlotReadsAPipeAndGivesGnuplotNoRawTextFromTheFiles) {
       {"repeated_t", {rows[0], rows[1], rows[2], rows[2]}, ":4: column 1 ('t'): time must increase, but "},
   };
   for (const auto& c : cases) {
-    const fs::path file = write_file(dir / (c.name + ".csv"), csv_of(c.table));
+    const fs::path file = write_file(dir / (c.name + ".csv"), csv_text(c.table));
     const Result r = run_skidimm("plot --estimates " + file.string() + " --output " + (dir / "few.png").string());
     EXPECT_EQ(r.exit_code, 1) << c.name;
     EXPECT_THAT(r.err, HasSubstr(file.string() + c.message)) << c.name;
