@@ -79,6 +79,14 @@ LogArgumentOptions unpaired_runs(const char* command, bool skip) {
   return options;
 }
 
+EstimatorOptions command_line_estimator(bool smooth, std::optional<double> lag) {
+  try {
+    return estimator_options(smooth, lag);
+  } catch (const Error& e) {  // what it refuses, --smooth with --lag, is a bad command line here
+    throw UsageError(std::string("--smooth, --lag: ") + e.what());
+  }
+}
+
 void refuse_output_over_logs(const fs::path& output, const std::string& option, const std::vector<LogSpec>& logs) {
   if (output.empty()) return;
   for (const LogSpec& log : logs) {
@@ -139,6 +147,18 @@ int run(const RunOptions& options) {
   RunSummary summary;
   const StopOnSignals stop_on_signals;
   int code = report_errors("skidimm run", [&] {
+    const EstimatorOptions estimator = command_line_estimator(options.smooth, options.lag);
+    const LogSpec log = join_log_arguments(options.inputs);
+    if (options.copy_topics) {
+      // Found after the run, either would cost the whole run.
+      if (options.output.extension() != ".mcap") {
+        throw UsageError("--copy-topics copies a bag's topics into an MCAP output (--output ending in .mcap)");
+      }
+      bool bag = false;
+      for (const LogFile& f : log.files) bag = bag || ros::BagReader::is_bag(f.path);
+      if (!bag)
+        throw UsageError("--copy-topics copies the topics of a bag the log is read from, and no --input is a bag");
+    }
     Bank bank = Bank::load(options.bank, options.plugin_paths);
     apply_overrides(options.overrides, &bank.config);
     {
@@ -149,9 +169,7 @@ int run(const RunOptions& options) {
       }
       report_fatal_signals("skidimm run", std::move(modes));
     }
-    const EstimatorOptions estimator = estimator_options(options.smooth, options.lag);
     const BankConfig& config = bank.config;
-    const LogSpec log = join_log_arguments(options.inputs);
     if (!log.label.empty() && config.class_index(log.label) < 0) {
       throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'");
     }

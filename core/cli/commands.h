@@ -25,13 +25,24 @@ inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;  // bad bank, plugin, log, or I/O
 inline constexpr int kExitUsage = 2;    // bad command line
 
+// Options a command cannot honour together (or would ignore): a bad command
+// line, exit kExitUsage, never one of them silently dropped.
+class UsageError : public Error {
+ public:
+  using Error::Error;
+};
+
 // Runs a command's body; a library error becomes "<command>: error: ..." on
-// stderr and kExitFailure, never an uncaught exception.
-// Messages are made printable (printable.h): they often quote file contents.
+// stderr and kExitFailure (a UsageError, kExitUsage), never an uncaught
+// exception. Messages are made printable (printable.h): they often quote
+// file contents.
 template <typename Body>
 int report_errors(const char* command, Body&& body) {
   try {
     return body();
+  } catch (const UsageError& e) {
+    std::cerr << command << ": error: " << printable(e.what()) << "\n";
+    return kExitUsage;
   } catch (const Error& e) {
     std::cerr << command << ": error: " << printable(e.what()) << "\n";
   } catch (const std::exception& e) {
@@ -47,6 +58,10 @@ LogArgumentOptions unpaired_runs(const char* command, bool skip);
 // Per mode whose filter was rejected: how often, why, and where first; and
 // how often each mode gated the measurement (stderr, indented).
 void print_rejections(const Bank& bank, const std::vector<ModeRejections>& rejections);
+
+// estimator_options() (run_overrides.h), its refusal of --smooth with --lag a
+// UsageError.
+EstimatorOptions command_line_estimator(bool smooth, std::optional<double> lag);
 
 // Throws when writing `output` (given with `option`) would replace one of
 // the files of `logs`, which the command reads: a log is never overwritten.

@@ -46,12 +46,14 @@ int eval(const EvalOptions& options) {
     // the failures listed after them, and the exit code says it.
     std::vector<evaluation::LogFailure> failures;
     std::optional<Bank> ran;  // the bank run over the logs (not with --estimates)
+    const EstimatorOptions estimator = command_line_estimator(options.smooth, options.lag);
     if (!options.estimates.empty()) {
       // The files hold what a filter already computed; these would change the filter.
       if (options.overrides.likelihood_weight || options.overrides.innovation_gate) {
-        throw Error(std::string(options.overrides.likelihood_weight ? "--likelihood-weight" : "--innovation-gate") +
-                    " changes how the filter runs, and --estimates scores files a filter already wrote: give the "
-                    "logs with --bank and --input, or run them again with `skidimm run` and this setting");
+        throw UsageError(
+            std::string(options.overrides.likelihood_weight ? "--likelihood-weight" : "--innovation-gate") +
+            " changes how the filter runs, and --estimates scores files a filter already wrote: give the "
+            "logs with --bank and --input, or run them again with `skidimm run` and this setting");
       }
       std::optional<BankConfig> bank;
       if (!options.bank.empty()) bank = load_bank_config(options.bank);
@@ -68,15 +70,15 @@ int eval(const EvalOptions& options) {
                                                     unpaired_runs("skidimm eval", options.skip_unpaired), &failures);
       classes = evaluation::classes_of(groups);
     } else {
-      if (options.bank.empty()) throw Error("give --bank with --input, or --estimates");
+      if (options.bank.empty()) throw UsageError("give --bank with --input, or --estimates");
       Bank& bank = ran.emplace(Bank::load(options.bank, options.plugin_paths));
       apply_overrides(options.overrides, &bank.config);
       decision_made = evaluation::decision_settings_text(bank.config.decision);
       classes = bank.config.class_names();
       states = bank.config.state_names;
-      groups = evaluation::evaluate_log_groups(bank, options.inputs, sampling_of(bank.config, options.overrides.rate),
-                                               estimator_options(options.smooth, options.lag),
-                                               unpaired_runs("skidimm eval", options.skip_unpaired), &failures);
+      groups =
+          evaluation::evaluate_log_groups(bank, options.inputs, sampling_of(bank.config, options.overrides.rate),
+                                          estimator, unpaired_runs("skidimm eval", options.skip_unpaired), &failures);
     }
     if (groups.empty() && failures.empty()) {
       throw Error("nothing to evaluate: give --input (with --bank) or --estimates");

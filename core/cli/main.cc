@@ -12,10 +12,8 @@
 #include <arpa/inet.h>
 
 #include <CLI/CLI.hpp>
-#include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <sstream>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -26,7 +24,6 @@
 #include "skidimm/io/estimates_writer.h"
 #include "skidimm/io/log_arguments.h"
 #include "skidimm/io/output_file.h"
-#include "skidimm/io/ros/bag_reader.h"
 #include "skidimm/io/ros/live_estimates.h"
 
 namespace fs = std::filesystem;
@@ -429,100 +426,6 @@ int main(int argc, char** argv) {
     return code == 0 ? kExitOk : kExitUsage;
   }
 
-  // Options given together that the command cannot honour together: a bad
-  // command line (exit 2) that names them, never one of them silently ignored.
-  const auto given = [](CLI::App* command, const char* name) { return command->get_option(name)->count() > 0; };
-  const auto clash = [](const char* command, const std::string& message) {
-    std::cerr << "skidimm " << command << ": " << message << "\n";
-    return true;
-  };
-  const std::string smooth_or_lag =
-      "--smooth (over the whole log) and --lag (smoothing with a fixed lag) exclude each other: give one, not both";
-  if ((*run && given(run, "--smooth") && given(run, "--lag") && clash("run", smooth_or_lag)) ||
-      (*eval && given(eval, "--smooth") && given(eval, "--lag") && clash("eval", smooth_or_lag))) {
-    return kExitUsage;
-  }
-  if (*run && run_options.copy_topics) {
-    // Found after the run, either would cost the whole run.
-    bool bag = false;
-    for (const std::string& input : run_options.inputs) {
-      try {
-        for (const skidimm::LogFile& file : skidimm::parse_log_spec(input).files) {
-          bag = bag || skidimm::ros::BagReader::is_bag(file.path);
-        }
-      } catch (const skidimm::Error&) {  // run reports it
-      }
-    }
-    if ((fs::path(output).extension() != ".mcap" &&
-         clash("run", "--copy-topics copies a bag's topics into an MCAP output (--output ending in .mcap)")) ||
-        (!bag && clash("run", "--copy-topics copies the topics of a bag the log is read from, and no --input is a "
-                              "bag"))) {
-      return kExitUsage;
-    }
-  }
-  if (*eval) {
-    for (const char* setting : {"--likelihood-weight", "--innovation-gate"}) {
-      if (given(eval, "--estimates") && given(eval, setting) &&
-          clash("eval", std::string(setting) +
-                            " changes how the filter runs, and --estimates scores files a filter already wrote: give "
-                            "the logs with --bank and --input, or run them again with `skidimm run` and this "
-                            "setting")) {
-        return kExitUsage;
-      }
-    }
-    if (!given(eval, "--estimates") && !given(eval, "--bank") &&
-        clash("eval", "give --bank with --input, or --estimates")) {
-      return kExitUsage;
-    }
-  }
-  if (*simulate) {
-    const bool from_bank = given(simulate, "--bank"), from_scenario = given(simulate, "--scenario");
-    if ((from_bank && from_scenario && clash("simulate", "give either --scenario or --bank, not both")) ||
-        (!from_bank && !from_scenario &&
-         clash("simulate", "give --scenario (the physical simulator) or --bank with --inputs-from")) ||
-        (from_bank && !given(simulate, "--inputs-from") &&
-         clash("simulate", "--bank needs --inputs-from LOG (its inputs and modes drive the models)")) ||
-        (from_bank && given(simulate, "--duration") &&
-         clash("simulate", "--duration is the scenario's length; with --bank the log of --inputs-from sets it")) ||
-        (from_scenario && given(simulate, "--inputs-from") &&
-         clash("simulate", "--inputs-from drives a bank's models (--bank); a scenario drives its own")) ||
-        (from_scenario && given(simulate, "--rate") &&
-         clash("simulate", "--rate steps a bank's models (--bank); a scenario states its own rates"))) {
-      return kExitUsage;
-    }
-  }
-  if (*fit && fit_options.objective == "window" && given(fit, "--fit-r") &&
-      clash("fit",
-            "--fit-r is an option of the likelihood objective (the window objective keeps the bank's R); "
-            "leave out --objective window or --fit-r")) {
-    return kExitUsage;
-  }
-  if (*tune) {
-    std::vector<std::string> objectives;
-    std::stringstream list(tune_options.objectives);
-    for (std::string name; std::getline(list, name, ',');) objectives.push_back(name);
-    const auto all_are = [&](const std::string& wanted) {
-      for (const std::string& name : objectives) {
-        if (name != wanted) return false;
-      }
-      return true;
-    };
-    const bool likelihood = std::find(objectives.begin(), objectives.end(), "likelihood") != objectives.end();
-    if (given(tune, "--fit-r") && !likelihood &&
-        clash("tune", "--fit-r is an option of the likelihood objective, which --objective does not name")) {
-      return kExitUsage;
-    }
-    for (const char* window_option : {"--parameter-uncertainty", "--residual-correlation"}) {
-      if (given(tune, window_option) && !all_are("window") &&
-          clash("tune", std::string(window_option) +
-                            " is estimated by the window objective; every objective of "
-                            "--objective must be window (got '" +
-                            tune_options.objectives + "')")) {
-        return kExitUsage;
-      }
-    }
-  }
-
   std::vector<fs::path> paths(plugin_paths.begin(), plugin_paths.end());
   if (*bag) return skidimm::cli::bag_info(bag_file);
   if (*run) {
@@ -592,6 +495,11 @@ int main(int argc, char** argv) {
     fit_options.plugin_paths = paths;
     fit_options.command_line = "skidimm";
     for (int i = 1; i < argc; ++i) fit_options.command_line += std::string(" ") + argv[i];
+    if (fit_options.objective == "window" && fit->get_option("--fit-r")->count() > 0) {
+      std::cerr << "skidimm fit: --fit-r is an option of the likelihood objective (the window objective keeps the "
+                   "bank's R); leave out --objective window or --fit-r\n";
+      return kExitUsage;
+    }
     if (fit_options.objective == "likelihood") {
       // The window objective's options would be silently ignored.
       for (const char* name : {"--window", "--loss", "--loss-scale", "--output-noise", "--parameter-uncertainty",

@@ -14,9 +14,16 @@ namespace cli {
 
 int simulate(const SimulateOptions& options) {
   return report_errors("skidimm simulate", [&] {
+    if (!options.bank.empty() && !options.scenario.empty()) {
+      throw UsageError("give either --scenario or --bank, not both");
+    }
     if (!options.bank.empty()) {
-      if (options.inputs_from.empty()) throw Error("--bank needs --inputs-from LOG (its inputs and modes drive the models)");
-      if (!options.scenario.empty()) throw Error("give either --scenario or --bank, not both");
+      if (options.inputs_from.empty()) {
+        throw UsageError("--bank needs --inputs-from LOG (its inputs and modes drive the models)");
+      }
+      if (options.duration > 0.0) {
+        throw UsageError("--duration is the scenario's length; with --bank the log of --inputs-from sets it");
+      }
       const Bank bank = Bank::load(options.bank, options.plugin_paths);
       const LogSpec source = join_log_arguments({options.inputs_from});
       refuse_output_over_logs(options.output, "--output", {source});
@@ -30,7 +37,13 @@ int simulate(const SimulateOptions& options) {
       }
       return kExitOk;
     }
-    if (options.scenario.empty()) throw Error("give --scenario (the physical simulator) or --bank with --inputs-from");
+    if (options.scenario.empty()) {
+      throw UsageError("give --scenario (the physical simulator) or --bank with --inputs-from");
+    }
+    if (!options.inputs_from.empty()) {
+      throw UsageError("--inputs-from drives a bank's models (--bank); a scenario drives its own");
+    }
+    if (options.rate > 0.0) throw UsageError("--rate steps a bank's models (--bank); a scenario states its own rates");
     simulation::Scenario scenario = simulation::load_scenario(options.scenario);
     if (options.duration > 0.0) scenario.duration = options.duration;
     const std::uint64_t seed = options.has_seed ? options.seed : scenario.seed;

@@ -173,6 +173,22 @@ std::string question_of(const fitting::Protocol& p, int folds) {
 int tune(const TuneCommandOptions& options) {
   fitting::capture_solver_messages();  // Ceres' glog output, summarised at the end
   const int code = report_errors("skidimm tune", [&] {
+    // Fit options the objectives cannot give would be ignored without a word.
+    const std::vector<std::string> objectives = split_list(options.objectives);
+    if (options.fit_r && std::find(objectives.begin(), objectives.end(), "likelihood") == objectives.end()) {
+      throw UsageError("--fit-r is an option of the likelihood objective, which --objective does not name");
+    }
+    for (const auto& [given, option] : {std::make_pair(options.parameter_uncertainty, "--parameter-uncertainty"),
+                                        std::make_pair(options.residual_correlation, "--residual-correlation")}) {
+      for (const std::string& name : objectives) {
+        if (given && name != "window") {
+          throw UsageError(std::string(option) +
+                           " is estimated by the window objective; every objective of --objective must be window "
+                           "(got '" +
+                           options.objectives + "')");
+        }
+      }
+    }
     const Bank start = Bank::load(options.bank, options.plugin_paths);
     const BankConfig& config = start.config;
     const SamplingConfig sampling = sampling_of(config, options.rate);
@@ -226,7 +242,8 @@ int tune(const TuneCommandOptions& options) {
     }
     if (protocols.empty()) throw Error("--assess: expected at least one protocol");
     bool by_session = false;
-    for (const fitting::Protocol& p : protocols) by_session = by_session || p.kind == fitting::Protocol::Kind::kSessions;
+    for (const fitting::Protocol& p : protocols)
+      by_session = by_session || p.kind == fitting::Protocol::Kind::kSessions;
     if (by_session && options.sessions.empty()) throw Error("--assess sessions needs --sessions FILE");
     if (!options.sessions.empty()) {
       std::vector<std::string> first_files;
@@ -266,13 +283,6 @@ int tune(const TuneCommandOptions& options) {
     }
     for (const std::string& name : tune_options.objectives) {
       if (name == "none") {  // the bank's models as they are: tune the settings only
-        // Fit options with nothing to fit would be ignored without a word.
-        if (options.parameter_uncertainty || options.residual_correlation) {
-          throw Error(
-              std::string(options.parameter_uncertainty ? "--parameter-uncertainty" : "--residual-correlation") +
-              " is estimated by the window objective, but '--objective none' fits nothing (--objective "
-              "window)");
-        }
         fitters[name] = [](Bank*, const std::vector<fitting::ModeLogs>&) {};
         tune_options.separable.insert(name);
         continue;
@@ -283,15 +293,7 @@ int tune(const TuneCommandOptions& options) {
       fit_options.window.hold_unexcited = options.hold_unexcited;
       fit_options.fit_measurement_noise = options.fit_r;
       fit_options.full_process_noise = options.full_q;
-      if (options.parameter_uncertainty && fit_options.objective != fitting::Objective::kWindow) {
-        throw Error("--parameter-uncertainty is estimated by the window objective; '" + name +
-                    "' cannot give it (--objective window)");
-      }
       fit_options.parameter_uncertainty = options.parameter_uncertainty;
-      if (options.residual_correlation && fit_options.objective != fitting::Objective::kWindow) {
-        throw Error("--residual-correlation is estimated by the window objective; '" + name +
-                    "' cannot give it (--objective window)");
-      }
       fit_options.residual_correlation = options.residual_correlation;
       fit_options.window.standard_deviations = false;  // the folds' reports are not kept
       // Without a joint R each mode's fit depends on its own logs alone.

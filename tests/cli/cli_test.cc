@@ -58,8 +58,10 @@ TEST(Cli, OptionsThatCannotBeHonouredTogetherExitWithTwo) {
   const struct {
     std::string arguments, message;
   } clashes[] = {
-      {"run" + bank + " --input " + kSwitching + out + " --smooth --lag 1", "--smooth (over the whole log) and --lag"},
-      {"eval" + bank + " --input " + kSwitching + " --smooth --lag 1", "--smooth (over the whole log) and --lag"},
+      {"run" + bank + " --input " + kSwitching + out + " --smooth --lag 1",
+       "smooth (over the whole log) and lag (smoothing with a fixed lag) exclude each other"},
+      {"eval" + bank + " --input " + kSwitching + " --smooth --lag 1",
+       "smooth (over the whole log) and lag (smoothing with a fixed lag) exclude each other"},
       {"eval --input " + kSwitching, "give --bank with --input, or --estimates"},
       {"simulate" + scenario + bank + out, "give either --scenario or --bank, not both"},
       {"simulate" + out, "give --scenario (the physical simulator) or --bank with --inputs-from"},
