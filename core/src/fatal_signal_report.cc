@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "skidimm/stop_request.h"
+
 namespace skidimm {
 
 namespace {
@@ -35,21 +37,6 @@ constexpr int kFatal[] = {SIGABRT};
 constexpr int kFatal[] = {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT};
 #endif
 
-const char* name_of(int signal) noexcept {
-  switch (signal) {
-    case SIGSEGV:
-      return "SIGSEGV (segmentation fault)";
-    case SIGBUS:
-      return "SIGBUS (bus error)";
-    case SIGFPE:
-      return "SIGFPE (arithmetic error)";
-    case SIGILL:
-      return "SIGILL (illegal instruction)";
-    default:
-      return "SIGABRT (abort)";
-  }
-}
-
 void write_all(const char* text) noexcept {
   std::size_t left = std::strlen(text);
   while (left > 0) {
@@ -68,7 +55,7 @@ void on_fatal_signal(int signal) noexcept {
                                                                               : m.size() - 1;
   write_all("\n");
   write_all(m.front().c_str());
-  write_all(name_of(signal));
+  write_all(signal_name(signal));
   write_all(m[line].c_str());
   // SA_RESETHAND put the default action back: raising the signal again ends
   // the program as it would have ended (and its exit status says so).

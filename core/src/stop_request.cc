@@ -25,6 +25,16 @@ const char* signal_name(int signal) noexcept {
       return "SIGINT";
     case SIGTERM:
       return "SIGTERM";
+    case SIGSEGV:
+      return "SIGSEGV (segmentation fault)";
+    case SIGBUS:
+      return "SIGBUS (bus error)";
+    case SIGFPE:
+      return "SIGFPE (arithmetic error)";
+    case SIGILL:
+      return "SIGILL (illegal instruction)";
+    case SIGABRT:
+      return "SIGABRT (abort)";
     default:
       return "a signal";
   }

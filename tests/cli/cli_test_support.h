@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -145,6 +146,16 @@ inline RowsOutside switching_rows_outside(double lowest, double highest) {
   std::snprintf(text, sizeof(text), "%.1f%%", 100.0 * static_cast<double>(r.outside) / static_cast<double>(r.rows));
   r.percent = text;
   return r;
+}
+
+// The switching example's header and first row alone, in `dir`: a log too
+// short to score (a step stands for the time to the next).
+inline std::filesystem::path one_row_log(const std::filesystem::path& dir) {
+  std::ifstream in(kSwitching);
+  std::string header, first_row;
+  std::getline(in, header);
+  std::getline(in, first_row);
+  return write_file(dir / "one_row.csv", header + "\n" + first_row + "\n");
 }
 
 // Rows as CSV text.

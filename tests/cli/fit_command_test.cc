@@ -579,11 +579,7 @@ TEST(CliIo, FitChecksItsOutputsAndHeldOutLogsBeforeFitting) {
   expect_refused_before(fit + " --held-out mud=" + kSwitching, "the bank has no mode or class 'mud'", "residuals");
   // One row cannot score a one-step prediction: said so, where its errors
   // used to print as 0.
-  std::ifstream in(kSwitching);
-  std::string header, first_row;
-  std::getline(in, header);
-  std::getline(in, first_row);
-  const fs::path one_row = write_file(dir / "one_row.csv", header + "\n" + first_row + "\n");
+  const fs::path one_row = one_row_log(dir);
   const Result short_held = run_pipeline(fit + " --held-out asphalt=" + one_row.string());
   EXPECT_EQ(short_held.exit_code, 0) << short_held.err;
   EXPECT_THAT(short_held.err, HasSubstr("held out asphalt=" + one_row.string() +

@@ -19,6 +19,14 @@ using ::testing::HasSubstr;
 using ::testing::Not;
 namespace fs = std::filesystem;
 
+// A second log beside the switching example, for tune, which refuses the
+// same file twice: a copy of it in `dir`.
+fs::path switching_copy(const fs::path& dir) {
+  const fs::path copy = dir / "switching_copy.csv";
+  fs::copy_file(kSwitching, copy, fs::copy_options::overwrite_existing);
+  return copy;
+}
+
 // On real runs the plain IMM (likelihood weight 1) counts the same evidence
 // many times: nine features averaged over overlapping windows, whose errors
 // move together. `tune --tune likelihood-weight` leaves the weight at 1
@@ -28,9 +36,7 @@ namespace fs = std::filesystem;
 // mistyped path found at the end would lose.
 TEST(CliIo, TuneChecksWhereItWritesBeforeTheWork) {
   const fs::path dir = test_directory();
-  // A second log (tune refuses the same file twice): a copy of the first.
-  const fs::path copy = dir / "switching_copy.csv";
-  fs::copy_file(kSwitching, copy, fs::copy_options::overwrite_existing);
+  const fs::path copy = switching_copy(dir);
   const std::string tune = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins + " --log " +
                            kSwitching + " --log " + copy.string() + " --objective none --tune dwell --no-assess";
   const fs::path missing = dir / "no_such_directory" / "tuned.yaml";
@@ -53,8 +59,7 @@ TEST(CliIo, TuneChecksWhereItWritesBeforeTheWork) {
 // refused before the work, naming what is wrong.
 TEST(CliIo, TuneRefusesRepeatedLogsOutputsOverLogsAndLogsWithNothingToScore) {
   const fs::path dir = test_directory();
-  const fs::path copy = dir / "switching_copy.csv";
-  fs::copy_file(kSwitching, copy, fs::copy_options::overwrite_existing);
+  const fs::path copy = switching_copy(dir);
   const std::string tune = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins +
                            " --objective none --tune dwell --no-assess --log " + kSwitching + " --log " + copy.string();
   const std::string twice = "the log ltc_switching.csv is given twice (--log " + kSwitching;
@@ -67,11 +72,7 @@ TEST(CliIo, TuneRefusesRepeatedLogsOutputsOverLogsAndLogsWithNothingToScore) {
                         "work:");
   EXPECT_EQ(read_file(copy), read_file(kSwitching));
   // One row: no interval, so no labelled time.
-  std::ifstream in(kSwitching);
-  std::string header, first_row;
-  std::getline(in, header);
-  std::getline(in, first_row);
-  const fs::path one_row = write_file(dir / "one_row.csv", header + "\n" + first_row + "\n");
+  const fs::path one_row = one_row_log(dir);
   const Result short_log = run_pipeline(tune + " --log asphalt=" + one_row.string());
   EXPECT_EQ(short_log.exit_code, 1);
   EXPECT_THAT(short_log.err, HasSubstr("asphalt=" + one_row.string() + ": no labelled time to score"));
@@ -85,8 +86,7 @@ TEST(CliIo, TuneRefusesRepeatedLogsOutputsOverLogsAndLogsWithNothingToScore) {
 // Options the command would ignore, or whose outputs would mix, are refused.
 TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
   const fs::path dir = test_directory();
-  const fs::path copy = dir / "switching_copy.csv";
-  fs::copy_file(kSwitching, copy, fs::copy_options::overwrite_existing);
+  const fs::path copy = switching_copy(dir);
   const std::string tune = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins +
                            " --tune dwell --log " + kSwitching + " --log " + copy.string();
   // A bad command line: exit 2, before anything is read.

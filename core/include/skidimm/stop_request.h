@@ -14,7 +14,8 @@ void request_stop(int signal) noexcept;
 int stop_requested() noexcept;
 void clear_stop_request() noexcept;
 
-// "SIGINT", "SIGTERM", or "signal N".
+// "SIGINT", "SIGTERM", "SIGSEGV (segmentation fault)", ... or "a signal":
+// what a message says of a signal. Async-signal-safe (a constant string).
 const char* signal_name(int signal) noexcept;
 
 }  // namespace skidimm

@@ -12,8 +12,9 @@
 
 namespace skidimm {
 
-// From now on, SIGSEGV, SIGBUS, SIGFPE, SIGILL and SIGABRT print
-// "<program>: <signal> in the model of <mode_descriptions[j]>" when they
+// From now on, SIGSEGV, SIGBUS, SIGFPE, SIGILL and SIGABRT (SIGABRT alone
+// under AddressSanitizer, whose own reports say more) print "<program>:
+// <signal> while the model of <mode_descriptions[j]> was running" when they
 // arrive while the engine runs mode j's model (or that no model was running),
 // then end the program as the signal would have. For a program that steps one
 // Imm at a time (skidimm run): the engine marks the mode it calls on any
