@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 #include "covariance.h"
 #include "filter_health.h"
@@ -94,6 +95,17 @@ bool ImmSmoother::smooth_pair(int i, const Eigen::VectorXd& x, const Eigen::Matr
   PairWorkspace<N> local;
   PairWorkspace<N>& w = select<N == Eigen::Dynamic>(workspace_, local);
   const int n = static_cast<int>(x.size());
+  // The stored estimates are dynamic; at a fixed N they are read as
+  // fixed-size maps, so that every product below is of fixed size: no
+  // temporary on the heap, and the same sums in the same order.
+  const auto fixed = [](const auto& m) -> decltype(auto) {
+    using Plain = std::decay_t<decltype(m)>;
+    if constexpr (N == Eigen::Dynamic) {
+      return (m);
+    } else {
+      return Eigen::Map<const Eigen::Matrix<double, N, Plain::ColsAtCompileTime == 1 ? 1 : N>>(m.data());
+    }
+  };
   const sdk::MotionModel& model = *bank_.models[static_cast<std::size_t>(i)];
   // The prediction of mode j's filtered estimate through mode i's model, as the filter predicts.
   if (!(model.jacobian(x, u, dt, w.f) &&
@@ -105,7 +117,7 @@ bool ImmSmoother::smooth_pair(int i, const Eigen::VectorXd& x, const Eigen::Matr
     if (angle_mask_[static_cast<std::size_t>(d)]) w.predicted[d] = sdk::wrap_angle(w.predicted[d]);
   }
   // F P, once: it is the left factor of F P F' and the right-hand side of the gain's solve.
-  w.f_px.noalias() = w.f * px;
+  w.f_px.noalias() = w.f * fixed(px);
   w.predicted_covariance.noalias() = w.f_px * w.f.transpose();
   w.predicted_covariance += w.q;
   symmetrize(w.predicted_covariance);
@@ -124,7 +136,7 @@ bool ImmSmoother::smooth_pair(int i, const Eigen::VectorXd& x, const Eigen::Matr
   for (int d = 0; d < n; ++d) {
     if (angle_mask_[static_cast<std::size_t>(d)]) w.difference[d] = sdk::wrap_angle(w.difference[d]);
   }
-  mean = x + w.gain * w.difference;
+  mean = fixed(x) + w.gain * w.difference;
   for (int d = 0; d < n; ++d) {
     if (angle_mask_[static_cast<std::size_t>(d)]) mean[d] = sdk::wrap_angle(mean[d]);
   }
@@ -132,10 +144,10 @@ bool ImmSmoother::smooth_pair(int i, const Eigen::VectorXd& x, const Eigen::Matr
   // `px + gain * (next - predicted) * gain'` in (an N x dynamic product, then
   // an N x N one), so the same bits, but into the workspace: at a fixed N
   // nothing is allocated (the expression allocated its two temporaries).
-  w.left.noalias() = w.gain * (next.mode_covariances[static_cast<std::size_t>(i)] - w.predicted_covariance);
+  w.left.noalias() = w.gain * (fixed(next.mode_covariances[static_cast<std::size_t>(i)]) - w.predicted_covariance);
   w.correction.noalias() = w.left * w.gain.transpose();
   Eigen::MatrixXd& pc = *covariance;
-  pc = px + w.correction;
+  pc = fixed(px) + w.correction;
   symmetrize(pc);
   return internal::filter_is_healthy(mean, pc);
 }
