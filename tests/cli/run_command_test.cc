@@ -180,6 +180,37 @@ TEST(Cli, ASignalStopsARunAndKeepsItsRows) {
   EXPECT_EQ(read_csv(out.string() + ".partial").size(), 101u);
 }
 
+// A slow replay to Foxglove (--serve-speed 1e-4: a 0.02 s step waits 200 s)
+// waits its rows' full time, and a stop request during such a wait (SIGTERM
+// here: a shell's background job ignores SIGINT, which the run keeps) stops
+// the run there, with its rows kept, instead of once the wait is over.
+TEST(Cli, ASignalDuringASlowServedReplaysWaitStopsTheRun) {
+  const fs::path dir = test_directory();
+  const fs::path out = dir / "out.csv";
+  const Result r = run_shell(kSkidimm + " run -q --flush --serve 0 --serve-speed 1e-4 --bank " + kTerrains +
+                             " --plugin-path " + kPlugins + " --input " + kSource +
+                             "/configs/examples/ltc_switching.csv --output " + out.string() + " 2>" +
+                             (dir / "err").string() +
+                             " & run=$!\n"
+                             "for i in $(seq 600); do [ \"$(wc -l <" +
+                             out.string() +
+                             ".partial 2>/dev/null)\" -ge 2 ] && break; sleep 0.05; done\n"
+                             "sleep 1\n"
+                             "rows=$(wc -l <" +
+                             out.string() +
+                             ".partial)\n"
+                             "kill -TERM $run\n"
+                             "for i in $(seq 300); do kill -0 $run 2>/dev/null || break; sleep 0.1; done\n"
+                             "if kill -0 $run 2>/dev/null; then kill -KILL $run; echo still waiting; fi\n"
+                             "status=0; wait $run || status=$?\n"
+                             "echo $rows $status");
+  // The header and the first row or two: the second is due 200 s after the first.
+  EXPECT_THAT(r.out, testing::AnyOf(testing::Eq("2 143\n"), testing::Eq("3 143\n"))) << r.err;
+  EXPECT_THAT(read_file(dir / "err"), HasSubstr("stopped by SIGTERM"));
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_TRUE(fs::exists(out.string() + ".partial"));
+}
+
 TEST(Cli, MissingColumnNamesTheBankField) {
   const fs::path dir = test_directory();
   const fs::path input = write_file(dir / "log.csv", "t,phi_dot_L,phi_dot_R,V\n0,1,1,0\n");

@@ -1,10 +1,12 @@
 #include "skidimm/io/ros/live_estimates.h"
 
+#include <algorithm>
 #include <charconv>
 #include <thread>
 
 #include "estimates_mcap_writer.h"
 #include "skidimm/errors.h"
+#include "skidimm/stop_request.h"
 
 namespace skidimm {
 namespace ros {
@@ -14,29 +16,20 @@ LiveEstimates::LiveEstimates(const std::string& host, std::uint16_t port, const 
 
 void LiveEstimates::advertise(const BankConfig& config, bool with_truth, double speed) {
   json_ = std::make_unique<EstimateJson>(config, with_truth);
-  speed_ = speed;
+  pacer_.reset();
+  if (speed > 0.0) pacer_.emplace(speed);
   channel_ = server_.add_channel(kEstimateTopic, "json", kEstimateSchemaName, json_->schema(), "jsonschema");
 }
 
 void LiveEstimates::publish(double t, const ImmEstimate& estimate, const std::string& decision,
                             const std::string& truth) {
-  if (speed_ > 0.0) {
-    if (!started_) {
-      started_ = true;
-      first_t_ = t;
-      start_ = std::chrono::steady_clock::now();
-    } else {
-      // Never sleeps for a backwards or absurd time jump longer than a minute.
-      const double wait = std::min((t - first_t_) / speed_, 1e9);
-      const auto due = start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                    std::chrono::duration<double>(wait));
-      const auto now = std::chrono::steady_clock::now();
-      if (due > now + std::chrono::seconds(60)) {
-        start_ = now - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                           std::chrono::duration<double>((t - first_t_) / speed_));
-      } else if (due > now) {
-        std::this_thread::sleep_until(due);
-      }
+  if (pacer_) {
+    using Clock = ReplayPacer::Clock;
+    const Clock::time_point due = pacer_->due(t, Clock::now());
+    // In slices, so that a Ctrl-C during a slow replay's long wait is heard.
+    constexpr auto kSlice = std::chrono::milliseconds(100);
+    for (Clock::time_point now = Clock::now(); now < due && stop_requested() == 0; now = Clock::now()) {
+      std::this_thread::sleep_until(std::min(due, now + kSlice));
     }
   }
   if (!json_) return;

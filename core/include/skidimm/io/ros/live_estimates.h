@@ -14,12 +14,14 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/imm_estimate.h"
 #include "skidimm/io/ros/estimate_json.h"
 #include "skidimm/io/ros/foxglove_server.h"
+#include "skidimm/io/ros/replay_pacer.h"
 
 namespace skidimm {
 namespace ros {
@@ -34,7 +36,9 @@ class LiveEstimates {
   // Advertises /skidimm/estimate for `config`'s modes and states, once the
   // log is open. `speed` <= 0: unpaced.
   void advertise(const BankConfig& config, bool with_truth, double speed);
-  // Publishes one step, first waiting for the log's clock when paced.
+  // Publishes one step, first waiting for the log's clock when paced
+  // (ReplayPacer). A stop request (stop_request.h) ends the wait: the row is
+  // published at once, and the run stops at its next row.
   void publish(double t, const ImmEstimate& estimate, const std::string& decision, const std::string& truth);
   // Messages a client that fell behind did not get.
   long dropped() const { return server_.dropped(); }
@@ -49,10 +53,7 @@ class LiveEstimates {
   FoxgloveServer server_;
   std::unique_ptr<EstimateJson> json_;
   std::uint32_t channel_ = 0;
-  double speed_ = 0.0;
-  bool started_ = false;
-  double first_t_ = 0.0;
-  std::chrono::steady_clock::time_point start_;
+  std::optional<ReplayPacer> pacer_;  // when paced
 };
 
 }  // namespace ros
