@@ -20,6 +20,7 @@
 
 #include "commands.h"
 #include "documentation.h"
+#include "skidimm/engine/fatal_signal_report.h"
 #include "skidimm/io/csv.h"
 #include "skidimm/io/estimates_writer.h"
 #include "skidimm/io/log_arguments.h"
@@ -426,6 +427,8 @@ int main(int argc, char** argv) {
     return code == 0 ? kExitOk : kExitUsage;
   }
 
+  // A plugin library that crashes or calls exit() while it is loaded is named.
+  skidimm::report_plugin_load_faults("skidimm " + app.get_subcommands().front()->get_name());
   std::vector<fs::path> paths(plugin_paths.begin(), plugin_paths.end());
   if (*bag) return skidimm::cli::bag_info(bag_file);
   if (*run) {

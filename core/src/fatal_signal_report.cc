@@ -3,9 +3,12 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <csignal>
+#include <cstdlib>
 #include <cstring>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -37,6 +40,21 @@ constexpr int kFatal[] = {SIGABRT};
 constexpr int kFatal[] = {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT};
 #endif
 
+// report_plugin_load_faults(): the program's name, and the library being
+// loaded while `loading` is set, in fixed buffers a handler can read.
+std::atomic<bool> load_faults_reported{false};
+std::atomic<bool> loading{false};
+char load_program[256];
+char loading_path[4096];
+std::mutex load_mutex;  // one load at a time: the saved handlers are one set
+struct sigaction handlers_before_load[std::size(kFatal)];
+
+void copy_truncated(const std::string& text, char* buffer, std::size_t size) {
+  const std::size_t length = std::min(text.size(), size - 1);
+  std::memcpy(buffer, text.data(), length);
+  buffer[length] = '\0';
+}
+
 void write_all(const char* text) noexcept {
   std::size_t left = std::strlen(text);
   while (left > 0) {
@@ -48,6 +66,21 @@ void write_all(const char* text) noexcept {
 }
 
 void on_fatal_signal(int signal) noexcept {
+  if (loading.load(std::memory_order_relaxed)) {
+    write_all("\n");
+    write_all(load_program);
+    write_all(": ");
+    write_all(signal_name(signal));
+    write_all(" while loading the plugin library ");
+    write_all(loading_path);
+    write_all(": the fault is in its load-time code (a static constructor); fix or remove that file\n");
+    ::raise(signal);
+    return;
+  }
+  if (messages == nullptr) {  // only the handlers of a load were installed, and it has ended
+    ::raise(signal);
+    return;
+  }
   const int mode = internal::mode_in_model_call.load(std::memory_order_relaxed);
   const std::vector<std::string>& m = *messages;
   const std::size_t modes = m.size() - 2;
@@ -83,7 +116,50 @@ void report_fatal_signals(const std::string& program, std::vector<std::string> m
   internal::fatal_signals_reported.store(true, std::memory_order_relaxed);
 }
 
+namespace {
+
+// An exit() from a library's load-time code runs the handlers std::atexit()
+// registered before it, this one among them: it names the library and ends
+// the program with status 1 at once.
+void on_exit_while_loading() noexcept {
+  if (!loading.load(std::memory_order_relaxed)) return;
+  write_all(load_program);
+  write_all(": the plugin library ");
+  write_all(loading_path);
+  write_all(
+      " called exit() while it was being loaded (in its load-time code, a static constructor); fix or remove "
+      "that file\n");
+  ::_exit(1);
+}
+
+}  // namespace
+
+void report_plugin_load_faults(const std::string& program) {
+  copy_truncated(program, load_program, sizeof(load_program));
+  if (!load_faults_reported.exchange(true)) std::atexit(on_exit_while_loading);
+}
+
 namespace internal {
+
+PluginLoadMark::PluginLoadMark(const std::string& path) {
+  if (!load_faults_reported.load(std::memory_order_relaxed)) return;
+  load_mutex.lock();
+  on_ = true;
+  copy_truncated(path, loading_path, sizeof(loading_path));
+  struct sigaction action {};
+  action.sa_handler = on_fatal_signal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = SA_RESETHAND | SA_NODEFER;
+  for (std::size_t k = 0; k < std::size(kFatal); ++k) ::sigaction(kFatal[k], &action, &handlers_before_load[k]);
+  loading.store(true, std::memory_order_relaxed);
+}
+
+PluginLoadMark::~PluginLoadMark() {
+  if (!on_) return;
+  loading.store(false, std::memory_order_relaxed);
+  for (std::size_t k = 0; k < std::size(kFatal); ++k) ::sigaction(kFatal[k], &handlers_before_load[k], nullptr);
+  load_mutex.unlock();
+}
 
 std::atomic<bool> fatal_signals_reported{false};
 std::atomic<int> mode_in_model_call{-1};

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "skidimm/engine/fatal_signal_report.h"
 #include "skidimm/errors.h"
 #include "skidimm/sdk/abi.h"
 #include "skidimm/sdk/export.h"
@@ -87,7 +88,11 @@ std::shared_ptr<boost::dll::shared_library> inspect_or_throw(const fs::path& pat
   // From a private copy: rewriting or truncating the file later cannot
   // reach the loaded code, and a truncated file is refused, not mapped.
   std::string load_error;
-  std::shared_ptr<boost::dll::shared_library> library = sdk::load_private_copy(path, &load_error);
+  std::shared_ptr<boost::dll::shared_library> library;
+  {
+    const internal::PluginLoadMark loading(path.string());  // names the library if its load-time code crashes
+    library = sdk::load_private_copy(path, &load_error);
+  }
   if (library == nullptr) {
     descriptor->error = "cannot load: " + load_error;
     return nullptr;

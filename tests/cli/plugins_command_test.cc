@@ -5,8 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <utility>
 
 #include "cli/cli_test_support.h"
+#include "core/sanitizer.h"
 
 namespace skidimm_test {
 namespace {
@@ -94,6 +96,40 @@ modes:
   EXPECT_THAT(validated.err, HasSubstr("no plugin named 'slip_ratio'"));
   EXPECT_THAT(validated.err, HasSubstr("skipped " + (dir / "slip" / "slip_ratio.so").string() + ": cannot load: "));
   EXPECT_THAT(validated.err, HasSubstr("truncated: its ELF segment"));
+}
+
+// A plugin library's load-time code (a static constructor) runs in
+// skidimm's process when the library is loaded: a crash or an exit() there
+// ended every command that searched its directory without a word, and an
+// exit(0) as if it had succeeded. The library is named; an exit() ends the
+// command with status 1; a signal still ends it as the signal does.
+TEST(Cli, APluginLibraryThatCrashesOrExitsWhileLoadedIsNamed) {
+  const fs::path dir = test_directory();
+  const std::string library = kFixturePlugins + "/load_fault/load_fault_plugin.so";
+  const auto plugins_with = [&](const std::string& fault) {
+    const Result r =
+        run_shell("SKIDIMM_TEST_LOAD_FAULT=" + fault + " " + kSkidimm + " plugins --plugin-path " + kFixturePlugins +
+                  "/load_fault >" + (dir / "out").string() + " 2>" + (dir / "err").string() + "; echo \"status $?\"");
+    return std::make_pair(r.out, read_file(dir / "err"));
+  };
+  const auto [exit_status, exit_err] = plugins_with("exit");
+  EXPECT_EQ(exit_status, "status 1\n");
+  EXPECT_THAT(exit_err, HasSubstr("skidimm plugins: the plugin library " + library +
+                                  " called exit() while it was being loaded (in its load-time code"));
+  const auto [abort_status, abort_err] = plugins_with("abort");
+  EXPECT_EQ(abort_status, "status 134\n");
+  EXPECT_THAT(abort_err,
+              HasSubstr("skidimm plugins: SIGABRT (abort) while loading the plugin library " + library + ": "));
+  if (!SKIDIMM_SANITIZED) {  // AddressSanitizer reports a segmentation fault itself
+    const auto [segv_status, segv_err] = plugins_with("segv");
+    EXPECT_EQ(segv_status, "status 139\n");
+    EXPECT_THAT(segv_err, HasSubstr("skidimm plugins: SIGSEGV"));
+    EXPECT_THAT(segv_err, HasSubstr(" while loading the plugin library " + library + ": "));
+  }
+  // Without a fault the same library is a plugin like any other.
+  const auto [clean_status, clean_err] = plugins_with("none");
+  EXPECT_EQ(clean_status, "status 0\n") << clean_err;
+  EXPECT_THAT(read_file(dir / "out"), HasSubstr("load_fault_model 0.0.1"));
 }
 
 TEST(Cli, NewPluginWritesAProjectAndRefusesBadNames) {

@@ -1,8 +1,9 @@
 // What a fatal signal names. A plugin is code in skidimm's own process: a
 // segmentation fault or an abort in it ends the program, which no exception
 // handler can prevent. What the command line can still do is say where it
-// happened: which mode's model was running (not "Segmentation fault" alone),
-// so that the user knows which plugin to suspect.
+// happened: which mode's model was running, or which plugin library was
+// being loaded (not "Segmentation fault" alone), so that the user knows which
+// plugin to suspect.
 #ifndef SKIDIMM_ENGINE_FATAL_SIGNAL_REPORT_H_
 #define SKIDIMM_ENGINE_FATAL_SIGNAL_REPORT_H_
 
@@ -20,6 +21,17 @@ namespace skidimm {
 // Imm at a time (skidimm run): the engine marks the mode it calls on any
 // thread, so two at once would be named ambiguously.
 void report_fatal_signals(const std::string& program, std::vector<std::string> mode_descriptions);
+
+// Loading a plugin library runs its load-time code (static constructors) in
+// skidimm's process. From now on, while a library is loaded, the signals
+// above print "<program>: <signal> while loading the plugin library <path>:
+// ..." before the program ends as the signal would have ended it, and a call
+// to exit() from that code prints that the library called exit() and ends the
+// program with status 1, whatever status the library chose (0 would read as
+// success). For a program (the command line), once, before it loads plugins;
+// the plugin registry marks each load (PluginLoadMark). _exit() from a
+// library cannot be seen.
+void report_plugin_load_faults(const std::string& program);
 
 namespace internal {
 
@@ -43,6 +55,21 @@ class ModelCallMark {
 
  private:
   const bool on_;
+};
+
+// Marks the loading of the library at `path` for report_plugin_load_faults(),
+// when it is on: its handlers are installed for the load, and the ones before
+// are put back after it. Loads are serialized (dlopen's own loads are not
+// thread safe in the plugin registry's use either).
+class PluginLoadMark {
+ public:
+  explicit PluginLoadMark(const std::string& path);
+  ~PluginLoadMark();
+  PluginLoadMark(const PluginLoadMark&) = delete;
+  PluginLoadMark& operator=(const PluginLoadMark&) = delete;
+
+ private:
+  bool on_ = false;
 };
 
 }  // namespace internal
