@@ -178,6 +178,9 @@ int fit(const FitCommandOptions& options) {
           std::cerr << "; the filter failed: " << e.failure;
         }
         std::cerr << "\n";
+        if (r.failed_predictions > 0) {
+          std::cerr << "  warning: " << fitting::failed_predictions_text(r) << "; the RMSE leaves them out\n";
+        }
       }
       if (held_out_error) break;
     }

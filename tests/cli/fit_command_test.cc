@@ -143,6 +143,59 @@ TEST(Cli, AFittedTerrainAppendedToABankIsIdentifiedWithoutRebuilding) {
   }
 }
 
+// A mode whose model has nothing of its own to fit is evaluated on its logs
+// (its one-step RMSE and a consistent Q). Where the model fails (its refusal,
+// above 0.5 m/s here) those steps used to be left out without a word, and Q
+// came from the steps before the first failure. The fit is refused, with the
+// count and the first failure in the model's words, as a fit refuses a model
+// failing at its starting values; a held-out log it fails on is warned of.
+TEST(Cli, AModelWithNothingToFitThatFailsOnItsLogsIsNamed) {
+  const fs::path dir = test_directory();
+  const auto bank = [&](const std::string& above) {
+    return write_file(dir / ("faulty_" + above + ".yaml"), R"(name: faulty
+states: [V, omega]
+inputs: [phi_dot_L, phi_dot_R]
+columns: {time: t, truth_mode: mode}
+measurement: {observe: [V, omega], R: {std: [0.05, 0.02]}}
+transition: {mean_dwell_time: 10.0}
+initial: {covariance: {std: [0.5, 0.5]}}
+modes:
+  - {name: slippery, model: faulty_model, params: {failure: false, above: )" +
+                                                               above +
+                                                               R"(}, Q: {diagonal: [0.01, 0.01]}}
+)");
+  };
+  const std::string log = kSource + "/configs/examples/ltc_switching.csv";
+  const std::string plugins = " --plugin-path " + kPlugins + " --plugin-path " + kFixturePlugins + "/faulty";
+  const fs::path out = dir / "out.yaml";
+  const Result refused =
+      run_skidimm("fit --bank " + bank("0.5").string() + " --mode slippery --objective window --log " + log +
+                  " --output-bank " + out.string() + plugins);
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_THAT(refused.err, HasSubstr("mode 'slippery' (nothing of its own to fit): the model failed 1440 of its 1486 "
+                                     "predictions on these logs (the first: " +
+                                     log + ": step 43 (t = 0.853000 s): the slip ratio is undefined at this speed)"));
+  EXPECT_FALSE(fs::exists(out));
+  // Fitted where it never fails (the first 40 rows), held out where it does.
+  const fs::path slow = dir / "slow.csv";
+  std::ifstream source(log);
+  std::ofstream first_rows(slow);
+  std::string line;
+  for (int row = 0; row <= 40 && std::getline(source, line); ++row) first_rows << line << "\n";
+  first_rows.close();
+  const Result held = run_skidimm("fit --bank " + bank("0.5").string() + " --mode slippery --objective window --log " +
+                                  slow.string() + " --held-out " + log + " --output-bank " + out.string() + plugins);
+  EXPECT_EQ(held.exit_code, 0) << held.err;
+  EXPECT_THAT(held.err, Not(HasSubstr("slippery' (nothing of its own")));
+  EXPECT_THAT(held.err, HasSubstr("warning: the model failed 1440 of its 1486 predictions on these logs (the first: " +
+                                  log + ": step 43"));
+  // A model that never fails is evaluated as before, with no warning.
+  const Result clean = run_skidimm("fit --bank " + bank("100").string() + " --mode slippery --objective window --log " +
+                                   log + " --output-bank " + out.string() + plugins);
+  EXPECT_EQ(clean.exit_code, 0) << clean.err;
+  EXPECT_THAT(clean.err, Not(HasSubstr("failed")));
+}
+
 TEST(Cli, FitReportsBadLogsAndUnknownModes) {
   const fs::path dir = test_directory();
   const fs::path log = write_file(dir / "log.csv", "t,phi_dot_L,phi_dot_R,V\n0,1,1,0\n");

@@ -54,8 +54,16 @@ std::map<int, FitReport> fit_window(Bank* bank, const std::vector<ModeLogs>& dat
   for (const ModeLogs& d : data) {
     const bool after_shared = reports.count(d.mode) > 0;
     if (!has_parameters(*bank->models[static_cast<std::size_t>(d.mode)], sdk::ParameterScope::kMode)) {
-      // Nothing of its own to fit: the shared fit's report stands, or just the consistent Q.
-      if (!after_shared) reports[d.mode] = evaluate(*bank, d, fit_options.correlated_process_noise);
+      // Nothing of its own to fit: the shared fit's report stands, or just the consistent Q. A model
+      // that fails on its logs is refused, as a fit refuses one failing at its starting values.
+      if (!after_shared) {
+        FitReport report = evaluate(*bank, d, fit_options.correlated_process_noise);
+        if (report.failed_predictions > 0) {
+          throw FitError("mode '" + bank->config.modes[static_cast<std::size_t>(d.mode)].name +
+                         "' (nothing of its own to fit): " + failed_predictions_text(report));
+        }
+        reports[d.mode] = std::move(report);
+      }
       continue;
     }
     FitReport report = fit(bank, std::vector<const ModeLogs*>{&d}, fit_options).front();

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "measurement_layout.h"
@@ -47,6 +48,12 @@ bool propagate(const sdk::MotionModel& model, const Trajectory& t, int from, int
 
 }  // namespace
 
+std::string failed_predictions_text(const FitReport& report) {
+  return "the model failed " + std::to_string(report.failed_predictions) + " of its " +
+         std::to_string(report.predictions) +
+         " predictions on these logs (the first: " + report.first_failed_prediction + ")";
+}
+
 FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
   const MeasurementLayout m = layout_of(bank.config, data.mode);
   const sdk::MotionModel& model = *bank.models[static_cast<std::size_t>(data.mode)];
@@ -68,10 +75,26 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
   double pairs = 0.0;
   const std::vector<int> positions = output_positions(model, m);
   Eigen::VectorXd all_outputs, expected = Eigen::VectorXd::Zero(rows);
+  // Predictions the model failed (its refusal or error) cannot be scored:
+  // counted, the first named, and said in a warning, not left out silently.
+  long predictions = 0, failed = 0;
+  std::string first_failure;
+  const auto count_prediction = [&](bool ok, const Trajectory& t, int k) {
+    ++predictions;
+    if (ok) return true;
+    if (failed++ == 0) {
+      const char* reason = model.failure_reason();
+      first_failure = t.source + ": step " + std::to_string(k + 1) + " (t = " + std::to_string(t.t[k]) + " s)" +
+                      (reason != nullptr && *reason != '\0' ? std::string(": ") + reason : std::string());
+    }
+    return false;
+  };
   for (const Trajectory& t : data.logs) {
     // Each output row's error is the model's outputs against the measured ones.
     for (int k = 0; k < t.size() && !m.outputs.empty(); ++k) {
-      if (!expected_outputs(model, m, positions, t.u.col(k), &all_outputs, &expected)) continue;
+      if (!count_prediction(expected_outputs(model, m, positions, t.u.col(k), &all_outputs, &expected), t, k)) {
+        continue;
+      }
       for (Eigen::Index c = m.first_output_row; c < rows; ++c) {
         if (!std::isfinite(t.z(c, k))) continue;
         squared[c] += (t.z(c, k) - expected[c]) * (t.z(c, k) - expected[c]);
@@ -88,7 +111,7 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
       bool have_error = false;
       if (previous >= 0) {
         Eigen::VectorXd x = measured_state(m, t, previous);
-        if (propagate(model, t, previous, k, &x)) {
+        if (count_prediction(propagate(model, t, previous, k, &x), t, previous)) {
           state_error.setConstant(std::numeric_limits<double>::quiet_NaN());
           for_each_error(m, t, k, x, expected.setZero(), [&](Eigen::Index c, double e) {
             if (c >= m.first_output_row) return;  // counted above, at every row
@@ -117,6 +140,14 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
       have_previous_error = have_error;
       previous = k;
     }
+  }
+  report.failed_predictions = failed;
+  report.predictions = predictions;
+  report.first_failed_prediction = first_failure;
+  if (failed > 0) {
+    report.warnings.push_back(failed_predictions_text(report) +
+                              "; the RMSE leaves them out, and Q is estimated from each log's steps before its "
+                              "first failure");
   }
   // A component never measured twice in a row has no one-step error: NaN,
   // not 0, so that nothing downstream (output_noise_from_fit) takes it for

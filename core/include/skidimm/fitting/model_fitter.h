@@ -134,6 +134,12 @@ struct FitReport {
   // [-0.99, 0.99]; NaN when fewer than 2n pairs of rows follow each other.
   // Filled by the window objective.
   double residual_correlation = std::numeric_limits<double>::quiet_NaN();
+  // evaluate(): how many of the model's predictions on the logs (one-step
+  // and output predictions) failed, left out of rmse (a warning says so),
+  // and where the first did and why.
+  long failed_predictions = 0;
+  long predictions = 0;
+  std::string first_failed_prediction;
 
   // Filled by the likelihood objective (likelihood_fitter.h) only.
   // Rows with at least one measured component.
@@ -168,6 +174,9 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<const ModeLogs*>& data,
 // evaluation). With `correlated`, Q gets off-diagonal terms: see
 // FitOptions::correlated_process_noise.
 FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated = false);
+// "the model failed N of its M predictions on these logs (the first: <log>:
+// step k (t = ... s): <the model's reason>)", from evaluate()'s report.
+std::string failed_predictions_text(const FitReport& report);
 
 }  // namespace fitting
 }  // namespace skidimm
