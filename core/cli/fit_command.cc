@@ -40,10 +40,18 @@ void print_report(const BankConfig& config, const std::string& name, const ModeL
   const int logs = fitting::log_count(data);
   const int segments = static_cast<int>(data.logs.size());
   std::cerr << "mode '" << name << "': " << logs << " log(s)"
-            << (segments != logs ? " (" + std::to_string(segments) + " segments)" : std::string()) << ", "
-            << r.residuals << " residuals, "
-            << r.derivatives << " derivatives, " << r.iterations << " iterations, cost " << fixed(r.initial_cost)
-            << " -> " << fixed(r.final_cost) << ", condition number " << fixed(r.condition_number, 3) << "\n";
+            << (segments != logs ? " (" + std::to_string(segments) + " segments)" : std::string());
+  if (r.derivatives.empty() && r.iterations == 0 && r.residuals == 0) {
+    // No solve ran (fit_bank's mode with nothing of its own to fit): no
+    // "0 iterations, cost 0 -> 0" that would read as a fit that failed.
+    std::cerr << ": nothing of its own to fit; evaluated at its parameters\n";
+  } else {
+    std::cerr << ", " << r.residuals << " residuals, "
+              << (r.derivatives == "none" ? std::string("no model parameters (noise only)")
+                                          : r.derivatives + " derivatives")
+              << ", " << r.iterations << " iterations, cost " << fixed(r.initial_cost) << " -> " << fixed(r.final_cost)
+              << ", condition number " << fixed(r.condition_number, 3) << "\n";
+  }
   // A standard deviation is NaN when Ceres could not compute the covariance
   // (warned below) or the parameter was held: say so rather than "+- nan".
   auto print_estimate = [](const fitting::ParameterEstimate& p) {

@@ -194,6 +194,15 @@ modes:
                                    log + " --output-bank " + out.string() + plugins);
   EXPECT_EQ(clean.exit_code, 0) << clean.err;
   EXPECT_THAT(clean.err, Not(HasSubstr("failed")));
+  EXPECT_THAT(clean.err,
+              HasSubstr("mode 'slippery': 1 log(s): nothing of its own to fit; evaluated at its parameters"));
+  EXPECT_THAT(clean.err, Not(HasSubstr("0 iterations"))) << "no solve ran";
+  // By likelihood only its noise is fitted: said as such, not as "none derivatives".
+  const Result noise =
+      run_skidimm("fit --bank " + bank("100").string() + " --mode slippery --objective likelihood --log " + log +
+                  " --output-bank " + out.string() + plugins);
+  EXPECT_EQ(noise.exit_code, 0) << noise.err;
+  EXPECT_THAT(noise.err, HasSubstr(" residuals, no model parameters (noise only), "));
 }
 
 TEST(Cli, FitReportsBadLogsAndUnknownModes) {
