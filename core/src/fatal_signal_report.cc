@@ -96,28 +96,18 @@ void on_fatal_signal(int signal) noexcept {
   ::raise(signal);
 }
 
-}  // namespace
-
-void report_fatal_signals(const std::string& program, std::vector<std::string> mode_descriptions) {
-  // messages[0]: "<program>: "; messages[1 + j]: mode j's line; last: no model running.
-  auto* lines = new std::vector<std::string>();  // lives until the program ends: a handler may read it
-  lines->push_back(program + ": ");
-  for (const std::string& mode : mode_descriptions) {
-    lines->push_back(" while the model of " + mode +
-                     " was running: the fault is that plugin's; rows not yet written are lost (--flush writes "
-                     "each row as it is computed)\n");
-  }
-  lines->push_back(" while no model was running: a fault of skidimm itself, please report it\n");
-  messages = lines;
+// Installs on_fatal_signal() for each of kFatal (SA_RESETHAND: the signal's
+// default action is back when it runs); the handlers it replaces go into
+// `before`, when given.
+void install_fatal_signal_handlers(struct sigaction* before) {
   struct sigaction action {};
   action.sa_handler = on_fatal_signal;
   sigemptyset(&action.sa_mask);
   action.sa_flags = SA_RESETHAND | SA_NODEFER;
-  for (const int signal : kFatal) ::sigaction(signal, &action, nullptr);
-  internal::fatal_signals_reported.store(true, std::memory_order_relaxed);
+  for (std::size_t k = 0; k < std::size(kFatal); ++k) {
+    ::sigaction(kFatal[k], &action, before != nullptr ? &before[k] : nullptr);
+  }
 }
-
-namespace {
 
 // An exit() from a library's load-time code runs the handlers std::atexit()
 // registered before it, this one among them: it names the library and ends
@@ -135,6 +125,21 @@ void on_exit_while_loading() noexcept {
 
 }  // namespace
 
+void report_fatal_signals(const std::string& program, std::vector<std::string> mode_descriptions) {
+  // messages[0]: "<program>: "; messages[1 + j]: mode j's line; last: no model running.
+  auto* lines = new std::vector<std::string>();  // lives until the program ends: a handler may read it
+  lines->push_back(program + ": ");
+  for (const std::string& mode : mode_descriptions) {
+    lines->push_back(" while the model of " + mode +
+                     " was running: the fault is that plugin's; rows not yet written are lost (--flush writes "
+                     "each row as it is computed)\n");
+  }
+  lines->push_back(" while no model was running: a fault of skidimm itself, please report it\n");
+  messages = lines;
+  install_fatal_signal_handlers(nullptr);
+  internal::fatal_signals_reported.store(true, std::memory_order_relaxed);
+}
+
 void report_plugin_load_faults(const std::string& program) {
   copy_truncated(program, load_program, sizeof(load_program));
   if (!load_faults_reported.exchange(true)) std::atexit(on_exit_while_loading);
@@ -147,11 +152,7 @@ PluginLoadMark::PluginLoadMark(const std::string& path) {
   load_mutex.lock();
   on_ = true;
   copy_truncated(path, loading_path, sizeof(loading_path));
-  struct sigaction action {};
-  action.sa_handler = on_fatal_signal;
-  sigemptyset(&action.sa_mask);
-  action.sa_flags = SA_RESETHAND | SA_NODEFER;
-  for (std::size_t k = 0; k < std::size(kFatal); ++k) ::sigaction(kFatal[k], &action, &handlers_before_load[k]);
+  install_fatal_signal_handlers(handlers_before_load);
   loading.store(true, std::memory_order_relaxed);
 }
 

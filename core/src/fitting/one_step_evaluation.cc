@@ -77,15 +77,14 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
   Eigen::VectorXd all_outputs, expected = Eigen::VectorXd::Zero(rows);
   // Predictions the model failed (its refusal or error) cannot be scored:
   // counted, the first named, and said in a warning, not left out silently.
-  long predictions = 0, failed = 0;
-  std::string first_failure;
   const auto count_prediction = [&](bool ok, const Trajectory& t, int k) {
-    ++predictions;
+    ++report.predictions;
     if (ok) return true;
-    if (failed++ == 0) {
+    if (report.failed_predictions++ == 0) {
       const char* reason = model.failure_reason();
-      first_failure = t.source + ": step " + std::to_string(k + 1) + " (t = " + std::to_string(t.t[k]) + " s)" +
-                      (reason != nullptr && *reason != '\0' ? std::string(": ") + reason : std::string());
+      report.first_failed_prediction =
+          t.source + ": step " + std::to_string(k + 1) + " (t = " + std::to_string(t.t[k]) + " s)" +
+          (reason != nullptr && *reason != '\0' ? std::string(": ") + reason : std::string());
     }
     return false;
   };
@@ -141,10 +140,7 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
       previous = k;
     }
   }
-  report.failed_predictions = failed;
-  report.predictions = predictions;
-  report.first_failed_prediction = first_failure;
-  if (failed > 0) {
+  if (report.failed_predictions > 0) {
     report.warnings.push_back(failed_predictions_text(report) +
                               "; the RMSE leaves them out, and Q is estimated from each log's steps before its "
                               "first failure");
