@@ -46,6 +46,23 @@ std::string plugin_of(const Bank& bank, std::size_t j) {
   return bank.model_sources[j].describe();
 }
 
+// Whether paths `a` and `b` are one regular file, or will be: both existing,
+// the same file; neither, the same path once made absolute (a path through
+// a link to a directory included).
+bool same_regular_file(const fs::path& a, const fs::path& b) {
+  std::error_code ec;
+  const bool a_exists = fs::exists(a, ec);
+  const bool b_exists = fs::exists(b, ec);
+  if (a_exists && b_exists) {
+    return fs::is_regular_file(a, ec) && fs::is_regular_file(b, ec) && fs::equivalent(a, b, ec);
+  }
+  if (a_exists || b_exists) return false;
+  const fs::path canonical_a = fs::weakly_canonical(a, ec);
+  if (ec) return false;
+  const fs::path canonical_b = fs::weakly_canonical(b, ec);
+  return !ec && canonical_a == canonical_b;
+}
+
 }  // namespace
 
 void print_rejections(const Bank& bank, const std::vector<ModeRejections>& rejections) {
@@ -96,6 +113,26 @@ void refuse_output_over_logs(const fs::path& output, const std::string& option, 
       if (fs::is_regular_file(file.path, ec) && fs::equivalent(file.path, output, ec)) {
         throw Error(option + " " + output.string() + " is the log file " + file.path.string() +
                     " itself: writing it would replace the log; give another output file");
+      }
+    }
+  }
+}
+
+void refuse_clashing_files(const std::vector<NamedFile>& outputs, const std::vector<NamedFile>& inputs) {
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    const NamedFile& output = outputs[i];
+    if (output.path.empty()) continue;
+    for (const NamedFile& input : inputs) {
+      if (!input.path.empty() && same_regular_file(output.path, input.path)) {
+        throw Error(output.option + " " + output.path.string() + " is the file of " + input.option + " (" +
+                    input.path.string() + "), which this command reads: writing it would replace it; give " +
+                    output.option + " another file");
+      }
+    }
+    for (std::size_t j = 0; j < i; ++j) {
+      if (!outputs[j].path.empty() && same_regular_file(output.path, outputs[j].path)) {
+        throw Error(outputs[j].option + " and " + output.option + " name the same file (" + output.path.string() +
+                    "): one would replace the other; give each its own file");
       }
     }
   }
@@ -174,6 +211,8 @@ int run(const RunOptions& options) {
       throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'");
     }
     refuse_output_over_logs(options.output, "--output", {log});
+    refuse_output_over_logs(options.plot, "--plot", {log});
+    refuse_clashing_files({{"--output", options.output}, {"--plot", options.plot}}, {{"--bank", options.bank}});
     // Listening first: a log through a pipe may wait for its first line.
     if (!options.serve.empty()) {
       std::string host;

@@ -68,6 +68,19 @@ EstimatorOptions command_line_estimator(bool smooth, std::optional<double> lag);
 void refuse_output_over_logs(const std::filesystem::path& output, const std::string& option,
                              const std::vector<LogSpec>& logs);
 
+// A file a command reads or writes, and the option that names it (empty:
+// not given).
+struct NamedFile {
+  std::string option;
+  std::filesystem::path path;
+};
+
+// Throws when two of `outputs` are one file (the later write would replace
+// the earlier) or an output is one of `inputs` (its write would replace
+// what the command read): checked before any work, so that nothing is lost
+// at the end. Devices and pipes (/dev/null) are never a clash.
+void refuse_clashing_files(const std::vector<NamedFile>& outputs, const std::vector<NamedFile>& inputs = {});
+
 struct RunOptions {
   std::filesystem::path bank;
   std::vector<std::string> inputs;  // the files of one log: [LABEL=]FILE[@OFFSET][+FILE...], repeatable
@@ -76,6 +89,7 @@ struct RunOptions {
   bool smooth = false;         // fixed-interval smoothing over the whole log
   std::optional<double> lag;   // fixed-lag smoothing with this lag (s)
   std::filesystem::path output;
+  std::filesystem::path plot;  // --plot: the figure drawn from the output after the run (main.cc)
   std::vector<std::filesystem::path> plugin_paths;
   bool quiet = false;
   bool progress = true;  // shown only when stderr is a terminal

@@ -110,6 +110,12 @@ int fit(const FitCommandOptions& options) {
     refuse_output_over_logs(options.append_to, "--append-to", read);
     refuse_output_over_logs(options.output_bank, "--output-bank", read);
     refuse_output_over_logs(options.output_entry, "--output-entry", read);
+    // A bank written over the bank it was read from (--output-bank, --append-to)
+    // is an update in place; the entries alone would replace it.
+    refuse_clashing_files({{"--append-to", options.append_to},
+                           {"--output-bank", options.output_bank},
+                           {"--output-entry", options.output_entry}});
+    refuse_clashing_files({{"--output-entry", options.output_entry}}, {{"--bank", options.bank}});
     std::vector<std::pair<std::string, std::vector<ModeLogs>>> held_out;
     for (const std::string& text : options.held_out) {
       // The argument's logs are read on their own threads.

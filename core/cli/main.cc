@@ -434,6 +434,7 @@ int main(int argc, char** argv) {
   if (*run) {
     run_options.bank = bank;
     run_options.output = output;
+    run_options.plot = run_plot;
     run_options.plugin_paths = paths;
     if (!run_plot.empty()) {
       if (fs::path(output).extension() == ".mcap") {

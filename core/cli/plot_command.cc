@@ -137,6 +137,9 @@ int plot(const PlotOptions& options) {
       throw Error(options.output.string() + ": the figure must end in .png or .svg");
     }
 
+    refuse_clashing_files({{"--output", options.output}},
+                          {{"--estimates", options.estimates}, {"--bank", options.bank}});
+    if (!options.log.empty()) refuse_output_over_logs(options.output, "--output", {join_log_arguments(options.log)});
     TemporaryFiles temporary;  // removed however plot ends, unless kept
     CsvReader reader(options.estimates);
     const std::vector<std::string> header = reader.header();

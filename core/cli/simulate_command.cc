@@ -27,6 +27,7 @@ int simulate(const SimulateOptions& options) {
       const Bank bank = Bank::load(options.bank, options.plugin_paths);
       const LogSpec source = join_log_arguments({options.inputs_from});
       refuse_output_over_logs(options.output, "--output", {source});
+      refuse_clashing_files({{"--output", options.output}}, {{"--bank", options.bank}});
       const std::uint64_t seed = options.has_seed ? options.seed : 1;
       const simulation::ModelSimulationSummary summary = simulation::simulate_models(
           bank, source, sampling_of(bank.config, options.rate), seed, options.output);
@@ -45,6 +46,7 @@ int simulate(const SimulateOptions& options) {
     }
     if (options.rate > 0.0) throw UsageError("--rate steps a bank's models (--bank); a scenario states its own rates");
     simulation::Scenario scenario = simulation::load_scenario(options.scenario);
+    refuse_clashing_files({{"--output", options.output}}, {{"--scenario", options.scenario}});
     if (options.duration > 0.0) scenario.duration = options.duration;
     const std::uint64_t seed = options.has_seed ? options.seed : scenario.seed;
     const simulation::SimulationSummary summary = simulation::simulate(scenario, seed, options.output);

@@ -227,6 +227,10 @@ int tune(const TuneCommandOptions& options) {
     for (const fitting::TuningLog& log : logs) read.push_back(log.spec);
     refuse_output_over_logs(options.table, "--table", read);
     refuse_output_over_logs(options.output_bank, "--output-bank", read);
+    // The tuned bank written over its start (--bank) is an update in place; the table would replace it.
+    refuse_clashing_files({{"--table", options.table}, {"--output-bank", options.output_bank}},
+                          {{"--sessions", options.sessions}});
+    refuse_clashing_files({{"--table", options.table}}, {{"--bank", options.bank}});
     refuse_repeated_logs(logs);
 
     std::vector<fitting::Protocol> protocols;
@@ -241,9 +245,9 @@ int tune(const TuneCommandOptions& options) {
       }
     }
     if (protocols.empty()) throw Error("--assess: expected at least one protocol");
-    bool by_session = false;
-    for (const fitting::Protocol& p : protocols)
-      by_session = by_session || p.kind == fitting::Protocol::Kind::kSessions;
+    const bool by_session = std::any_of(protocols.begin(), protocols.end(), [](const fitting::Protocol& p) {
+      return p.kind == fitting::Protocol::Kind::kSessions;
+    });
     if (by_session && options.sessions.empty()) throw Error("--assess sessions needs --sessions FILE");
     if (!options.sessions.empty()) {
       std::vector<std::string> first_files;

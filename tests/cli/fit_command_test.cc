@@ -660,6 +660,27 @@ TEST(CliIo, FitChecksItsOutputsAndHeldOutLogsBeforeFitting) {
   expect_refused_before(fit + " --held-out " + log.string() + " --output-bank " + log.string(),
                         "is the log file " + log.string() + " itself", "residuals");
   EXPECT_EQ(read_file(log), read_file(kSwitching));
+  // Two outputs of one file, or the entries over the bank they were fitted
+  // from: one write would replace the other, or the bank, with a fragment.
+  const fs::path bank = write_file(dir / "bank.yaml", read_file(kTerrains));
+  const std::string fit_bank = kSkidimm + " fit --bank " + bank.string() + " --plugin-path " + kPlugins +
+                               " --objective window --log asphalt=" + kSwitching + " --mode asphalt";
+  expect_refused_before(fit_bank + " --output-entry " + (dir / "." / "bank.yaml").string(),
+                        "--output-entry " + (dir / "." / "bank.yaml").string() + " is the file of --bank (" +
+                            bank.string() + "), which this command reads",
+                        "residuals");
+  expect_refused_before(fit_bank + " --append-to " + bank.string() + " --output-entry " + bank.string(),
+                        "--append-to and --output-entry name the same file (" + bank.string() + ")", "residuals");
+  const fs::path fresh = dir / "fresh.yaml";  // not written yet: the same path all the same
+  expect_refused_before(
+      fit + " --output-bank " + fresh.string() + " --output-entry " + (dir / "." / "fresh.yaml").string(),
+      "--output-bank and --output-entry name the same file", "residuals");
+  EXPECT_FALSE(fs::exists(fresh));
+  EXPECT_EQ(read_file(bank), read_file(kTerrains));
+  // A bank fitted over the one it was read from is an update in place, and allowed.
+  const Result in_place = run_pipeline(fit_bank + " --output-bank " + bank.string());
+  EXPECT_EQ(in_place.exit_code, 0) << in_place.err;
+  EXPECT_NE(read_file(bank), read_file(kTerrains));
   // Three modes in the log, one to append.
   const fs::path target = write_file(dir / "target.yaml", read_file(kTerrains));
   expect_refused_before(fit + " --append-to " + target.string(), "--append-to takes the fit of exactly one mode",

@@ -249,6 +249,22 @@ TEST(HostileInput, TwoRunsWritingOneOutputNeverMix) {
   EXPECT_EQ(itself.exit_code, 1);
   EXPECT_THAT(itself.err, HasSubstr("is the log file " + log.string() + " itself"));
   EXPECT_EQ(read_file(log), read_file(kSwitching));
+  // The bank as the output, or the figure over the output: refused, the bank kept.
+  const fs::path bank = write_file(dir / "bank.yaml", read_file(kTerrains));
+  const Result over_bank = run_shell(run_command(bank.string(), kSwitching, (dir / "." / "bank.yaml").string()));
+  EXPECT_EQ(over_bank.exit_code, 1);
+  EXPECT_THAT(over_bank.err, HasSubstr("--output " + (dir / "." / "bank.yaml").string() + " is the file of --bank (" +
+                                       bank.string() + "), which this command reads"));
+  EXPECT_EQ(read_file(bank), read_file(kTerrains));
+  const fs::path figure = dir / "figure.svg";
+  const Result figure_over_output =
+      run_shell(run_command(kTerrains, kSwitching, figure.string()) + " --plot " + figure.string());
+  EXPECT_EQ(figure_over_output.exit_code, 1);
+  EXPECT_THAT(figure_over_output.err, HasSubstr("--output and --plot name the same file (" + figure.string() + ")"));
+  EXPECT_FALSE(fs::exists(figure));
+  // Devices are not files: two outputs to /dev/null are no clash.
+  const Result discarded = run_shell(run_command(kTerrains, kSwitching, "/dev/null"));
+  EXPECT_EQ(discarded.exit_code, 0) << discarded.err;
 }
 
 TEST(HostileInput, PluginPathsOpenOnlyRegularFilesAndSurviveHugeOnes) {

@@ -45,6 +45,13 @@ TEST(Cli, PlotDrawsPngAndSvgAndSaysWhenGnuplotIsMissing) {
   EXPECT_EQ(WEXITSTATUS(status), 1);
   EXPECT_THAT(read_file(dir / "err"), HasSubstr("gnuplot is not installed or not on PATH"));
   EXPECT_EQ(run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --output x.pdf").exit_code, 1);
+  // The figure over the estimates it draws (named as a figure): refused, the estimates kept.
+  fs::copy_file(dir / "out.csv", dir / "estimates.svg");
+  const Result over = run_skidimm("plot --estimates " + (dir / "estimates.svg").string() + " --output " +
+                                  (dir / "." / "estimates.svg").string());
+  EXPECT_EQ(over.exit_code, 1);
+  EXPECT_THAT(over.err, HasSubstr("is the file of --estimates (" + (dir / "estimates.svg").string() + ")"));
+  EXPECT_EQ(read_file(dir / "estimates.svg"), read_file(dir / "out.csv"));
 }
 
 // gnuplot's line colours repeat after 8: in a bank of more modes, each mode

@@ -34,6 +34,14 @@ TEST(Cli, SimulateRefusesToWriteOverTheLogItReads) {
   EXPECT_THAT(r.err, ::testing::HasSubstr("--output " + (dir / "." / "log.csv").string() + " is the log file " +
                                           log.string() + " itself"));
   EXPECT_EQ(read_file(log), read_file(kSwitching));
+  // Nor over the scenario it reads.
+  const fs::path scenario =
+      write_file(dir / "scenario.yaml", read_file(kSource + "/configs/scenarios/ltc_switching.yaml"));
+  const Result over_scenario = run_skidimm("simulate -q --scenario " + scenario.string() + " --output " +
+                                           (dir / "." / "scenario.yaml").string());
+  EXPECT_EQ(over_scenario.exit_code, 1);
+  EXPECT_THAT(over_scenario.err, ::testing::HasSubstr("is the file of --scenario (" + scenario.string() + ")"));
+  EXPECT_EQ(read_file(scenario), read_file(kSource + "/configs/scenarios/ltc_switching.yaml"));
 }
 
 }  // namespace

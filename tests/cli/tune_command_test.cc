@@ -71,6 +71,21 @@ TEST(CliIo, TuneRefusesRepeatedLogsOutputsOverLogsAndLogsWithNothingToScore) {
   expect_refused_before(tune + " --output-bank " + copy.string(), "is the log file " + copy.string() + " itself",
                         "work:");
   EXPECT_EQ(read_file(copy), read_file(kSwitching));
+  // The table over the bank or the sessions file it reads, or over the tuned bank.
+  const fs::path bank = write_file(dir / "bank.yaml", read_file(kTerrains));
+  const fs::path sessions = write_file(dir / "sessions.txt", kSwitching + "\n" + copy.string() + "\n");
+  const std::string tune_bank = kSkidimm + " tune --bank " + bank.string() + " --plugin-path " + kPlugins +
+                                " --objective none --tune dwell --no-assess --log " + kSwitching + " --log " +
+                                copy.string() + " --sessions " + sessions.string();
+  expect_refused_before(tune_bank + " --table " + bank.string(),
+                        "--table " + bank.string() + " is the file of --bank (" + bank.string() + ")", "work:");
+  expect_refused_before(tune_bank + " --output-bank " + sessions.string(),
+                        "--output-bank " + sessions.string() + " is the file of --sessions", "work:");
+  const fs::path out = dir / "out.yaml";
+  expect_refused_before(tune_bank + " --table " + out.string() + " --output-bank " + out.string(),
+                        "--table and --output-bank name the same file (" + out.string() + ")", "work:");
+  EXPECT_EQ(read_file(bank), read_file(kTerrains));
+  EXPECT_FALSE(fs::exists(out));
   // One row: no interval, so no labelled time.
   const fs::path one_row = one_row_log(dir);
   const Result short_log = run_pipeline(tune + " --log asphalt=" + one_row.string());
