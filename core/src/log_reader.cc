@@ -324,6 +324,7 @@ bool LogReader::Impl::next(LogSample* sample) {
       return false;
     }
     if (!past_end(step_t)) {
+      if (step_t - last_row_t_ > sampling_.max_gap) pass_gap(step_t);
       for (std::size_t k = 0; k < streams_.size(); ++k) {
         if (streams_[k].has_row && streams_[k].row_t == step_t) apply_row(static_cast<int>(k));
       }
@@ -355,23 +356,8 @@ double LogReader::Impl::next_grid_time() {
   const double step_t = grid_origin_ + static_cast<double>(grid_index_ + 1) / sampling_.rate;
   if (past_end(step_t)) return step_t;  // the log ends before this step
   if (std::isfinite(next_row) && next_row > step_t && next_row - last_row_t_ > sampling_.max_gap) {
-    const Stream* s = stream_at(next_row);
-    const LogTable& reader = *s->files[static_cast<std::size_t>(s->time_file)];
-    const double gap = next_row - last_row_t_;
-    if (!sampling_.skip_gaps) {
-      const double steps = gap * sampling_.rate;
-      throw reader.error_at_row("column '" + bank_.columns.time + "': the log has no row from t = " +
-                                CsvWriter::format(last_row_t_) + " to " + CsvWriter::format(next_row) +
-                                " s, a gap of " + CsvWriter::format(gap) + " s, longer than sampling.max_gap (" +
-                                CsvWriter::format(sampling_.max_gap) + " s): at " + CsvWriter::format(sampling_.rate) +
-                                " Hz the filter's grid would step " + CsvWriter::format(std::floor(steps)) +
-                                " times through it. If a time stamp is wrong, fix it; if the recording paused, set "
-                                "sampling.skip_gaps: true in the bank to restart the grid after such gaps, or raise "
-                                "sampling.max_gap");
-    }
+    pass_gap(next_row);
     // Restart the grid at the row after the gap: no step inside it.
-    ++stats_.gaps_skipped;
-    stats_.seconds_skipped += gap;
     grid_origin_ = next_row;
     grid_index_ = 0;
     last_step_t_ = next_row;
@@ -405,6 +391,32 @@ double LogReader::Impl::next_grid_time() {
   ++grid_index_;
   last_step_t_ = step_t;
   return step_t;
+}
+
+// A stretch without rows from the last row applied to `next_row`, longer
+// than sampling.max_gap: an error naming the row after it (a wrong time
+// stamp, 1e9 for 1.0, would otherwise be stepped through by the grid, or
+// crossed in one step whose row then stands for the whole gap in every
+// time-weighted score), or, with sampling.skip_gaps, counted.
+void LogReader::Impl::pass_gap(double next_row) {
+  const double gap = next_row - last_row_t_;
+  if (!sampling_.skip_gaps) {
+    const Stream* s = stream_at(next_row);
+    const LogTable& reader = *s->files[static_cast<std::size_t>(s->time_file)];
+    const std::string crossing =
+        sampling_.rate > 0.0 ? "at " + CsvWriter::format(sampling_.rate) + " Hz the filter's grid would step " +
+                                   CsvWriter::format(std::floor(gap * sampling_.rate)) + " times through it"
+                             : "the filter would cross it in one step, and the row before it would stand for the whole "
+                               "gap in every time-weighted score";
+    throw reader.error_at_row(
+        "column '" + bank_.columns.time + "': the log has no row from t = " + CsvWriter::format(last_row_t_) + " to " +
+        CsvWriter::format(next_row) + " s, a gap of " + CsvWriter::format(gap) + " s, longer than sampling.max_gap (" +
+        CsvWriter::format(sampling_.max_gap) + " s): " + crossing +
+        ". If a time stamp is wrong, fix it; if the recording paused, set sampling.skip_gaps: true in the bank to " +
+        (sampling_.rate > 0.0 ? "restart the grid after" : "step across") + " such gaps, or raise sampling.max_gap");
+  }
+  ++stats_.gaps_skipped;
+  stats_.seconds_skipped += gap;
 }
 
 // The stream whose pending row is at time t.
@@ -449,9 +461,12 @@ std::string LogReader::describe_stats(const BankConfig& bank) const {
            " row(s) after the last row of a file that feeds an input were not used\n";
   }
   if (s.gaps_skipped > 0) {
+    const bool grid = impl_->sampling_.rate > 0.0;
     out += "  " + std::to_string(s.gaps_skipped) + " gap(s) without rows longer than sampling.max_gap (" +
-           CsvWriter::format(impl_->sampling_.max_gap) + " s) were skipped, " + CsvWriter::format(s.seconds_skipped) +
-           " s in all: the grid restarted at the row after each (sampling.skip_gaps)\n";
+           CsvWriter::format(impl_->sampling_.max_gap) + " s) were " + (grid ? "skipped, " : "crossed, ") +
+           CsvWriter::format(s.seconds_skipped) +
+           " s in all: " + (grid ? "the grid restarted at the row after each" : "the filter crossed each in one step") +
+           " (sampling.skip_gaps)\n";
   }
   for (std::size_t i = 0; i < s.measured.size(); ++i) {
     if (s.steps > 0 && s.measured[i] == 0) {

@@ -147,6 +147,7 @@ class LogReader::Impl {
   void discard_measurements();
   bool past_end(double t) const;
   double next_grid_time();
+  void pass_gap(double next_row);
   void check_no_file_is_empty() const;
   void check_every_file_was_used() const;
   const Stream* stream_at(double t) const;

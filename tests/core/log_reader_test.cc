@@ -283,6 +283,37 @@ TEST(LogReader, SkipGapsRestartsTheGridAfterAGapAndSaysSo) {
   expect_error([&] { read_all(strict); }, {"log.csv:4:", "sampling.max_gap (0.4 s)"});
 }
 
+// Stepping at every time stamp, a wrong one (1e308 for the last row) is one
+// step, but the row before it would stand for the whole gap in every
+// time-weighted score: eval printed a perfect one. The same limit, and the
+// same way out.
+TEST(LogReader, StepsAtTheTimeStampsRefuseAGapLongerThanMaxGapToo) {
+  const auto file =
+      write_file(test_directory() / "log.csv", "t,left,right,v,w\n0,1,2,3,4\n0.1,1,2,3,4\n1e308,1,2,3,4\n");
+  BankConfig bank = simple_bank();
+  ASSERT_EQ(bank.sampling.rate, 0.0);
+  {
+    LogReader reader(bank, {file}, bank.sampling);
+    LogSample s;
+    int steps = 0;
+    expect_error(
+        [&] {
+          while (reader.next(&s)) ++steps;
+        },
+        {"log.csv:4: column 't': the log has no row from t = 0.1 to 1e+308 s",
+         "the filter would cross it in one step, and the row before it would stand for the whole gap",
+         "sampling.skip_gaps: true in the bank to step across such gaps"});
+    EXPECT_EQ(steps, 2) << "every step before the gap is delivered";
+  }
+  bank.sampling.skip_gaps = true;
+  LogReader reader(bank, {file}, bank.sampling);
+  const auto s = read_all(reader);
+  ASSERT_EQ(s.size(), 3u);
+  EXPECT_EQ(s[2].t, 1e308);
+  EXPECT_THAT(reader.describe_stats(bank), HasSubstr("1 gap(s) without rows longer than sampling.max_gap (10 s) were "
+                                                     "crossed, 1e+308 s in all: the filter crossed each in one step"));
+}
+
 TEST(LogReader, AGridFarFasterThanTheLogsRowsIsRefused) {
   // 8 s at 100 Hz, filtered at 1e6 Hz: 8 million steps for 800 rows.
   std::string text = "t,left,right,v,w\n";

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "skidimm/errors.h"
 #include "skidimm/evaluation/consistency.h"
 #include "skidimm/evaluation/log_evaluation.h"
 
@@ -26,6 +27,23 @@ TEST(ModeMetrics, AccuracyConfusionAndProbabilityByTime) {
   EXPECT_DOUBLE_EQ(m.confusion.at("a").at("b"), 2.0);
   EXPECT_DOUBLE_EQ(m.confusion.at("b").at("b"), 2.0);
   EXPECT_DOUBLE_EQ(m.mean_truth_probability(), (0.9 * 1 + 0.4 * 2 + 0.8 * 1 + 0.6 * 1) / 5.0);
+}
+
+// Time stamps near the largest double: each of two steps stands for 1e308 s,
+// which sum past it. Every figure would be NaN; the error says why.
+TEST(ModeMetrics, IntervalsThatDoNotSumToAFiniteTimeAreAnError) {
+  try {
+    compute_mode_metrics(steps({{0, "a", "a", 0.9}, {1e308, "a", "a", 0.9}}), {"a"});
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("do not sum to a finite time (time stamps from 0 to 1e+308 s)"),
+              std::string::npos)
+        << e.what();
+  }
+  // Near it but summing within it: figures as usual.
+  const ModeMetrics m = compute_mode_metrics(steps({{0, "a", "a", 0.9}, {5e307, "a", "a", 0.9}}), {"a"});
+  EXPECT_DOUBLE_EQ(m.duration, 1e308);
+  EXPECT_DOUBLE_EQ(m.accuracy(), 1.0);
 }
 
 // Calibration by hand: rows at t = 0, 1, 3, 4, 5 (weights 1, 2, 1, 1, 1 s),

@@ -6,6 +6,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "skidimm/errors.h"
+#include "skidimm/io/csv.h"
+
 namespace skidimm {
 namespace evaluation {
 
@@ -109,6 +112,13 @@ ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& all_steps,
   }
   const std::size_t n = steps.size();
   if (n == 0) return m;
+  double seconds = m.unlabelled;
+  for (double w : weights) seconds += w;
+  if (!std::isfinite(seconds)) {
+    throw Error("the intervals between its steps do not sum to a finite time (time stamps from " +
+                CsvWriter::format(all_steps.front().t) + " to " + CsvWriter::format(all_steps.back().t) +
+                " s): no time-weighted figure can be computed. Are the time stamps in seconds?");
+  }
   auto weight = [&](std::size_t k) { return weights[k]; };
   // While the log's leading run of "unknown" lasts, no decision has been taken yet.
   bool undecided = steps[0].estimate == "unknown";

@@ -119,6 +119,9 @@ std::string main_truth(const ModeMetrics& m);
 // `bank_modes`: the names the estimator can answer with. A step stands for
 // the interval to the next step of the log, labelled or not (the last for
 // the one before it); the intervals of unlabelled steps add to `unlabelled`.
+// Throws skidimm::Error where the intervals do not sum to a finite time (time
+// stamps near 1e308, which a bank with sampling.skip_gaps lets through):
+// every time-weighted figure would be NaN.
 ModeMetrics compute_mode_metrics(const std::vector<LabelledStep>& steps, const std::vector<std::string>& bank_modes);
 
 // Of the true switches `reference` (the most likely mode) ever detected, how
