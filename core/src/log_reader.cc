@@ -106,7 +106,10 @@ void LogReader::Impl::apply_row(int k) {
     if (!m.aggregated()) {
       const double value = m.row.evaluate(row_values_);
       if (std::isnan(value) && !m.row.expression) continue;  // the cell is empty: not measured in this row
-      if (!std::isnan(m.pending)) ++stats_.superseded[i];
+      if (!std::isnan(m.pending)) {
+        ++stats_.superseded[i];
+        ++m.superseded_in_step;
+      }
       m.pending = value;
       if (!std::isfinite(value)) {
         // An expression of present cells that is not finite (log(0)): missing, counted.
@@ -229,7 +232,11 @@ void LogReader::Impl::emit(double t, LogSample* sample) {
     sample->z[static_cast<Eigen::Index>(i)] = value;
     if (!std::isnan(value)) ++stats_.measured[i];
     m.pending = kNaN;
+    m.superseded_in_step = 0;
   }
+  for (Stream& s : streams_) s.delivered_t = s.last_t;
+  rows_delivered_ = rows_applied_;
+  delivered_step_t_ = t;
   sample->t = t;
   sample->truth_mode = held_truth_;
   sample->true_state.resize(static_cast<Eigen::Index>(true_state_columns_.size()));
@@ -266,15 +273,21 @@ void LogReader::Impl::check_no_file_is_empty() const {
 void LogReader::Impl::check_every_file_was_used() const {
   if (!started_) return;
   for (const Stream& s : streams_) {
-    const bool applied = s.last_t > -std::numeric_limits<double>::infinity();
-    if (s.rows_read == 0 || s.last_t >= first_step_t_ || (applied && s.holds_values)) continue;
+    // Rows gathered for a last step past the end of the inputs were not used either.
+    const bool applied = s.delivered_t > -std::numeric_limits<double>::infinity();
+    if (s.rows_read == 0 || s.delivered_t >= first_step_t_ || (applied && s.holds_values)) continue;
     const LogTable& reader = *s.files[static_cast<std::size_t>(s.time_file)];
     const std::string offset =
         s.offset != 0.0 ? " (with its offset of " + CsvWriter::format(s.offset) + " s)" : std::string();
-    const std::string where = s.first_t > last_step_t_
+    const std::string end =
+        stats_.dropped_last_step > 0
+            ? ": the grid's next step, t = " + CsvWriter::format(stats_.step_not_taken_t) +
+                  " s, is past the last row of the inputs (t = " + CsvWriter::format(stats_.inputs_end_t) + " s)"
+            : ", where a file that feeds an input ends";
+    const std::string where = s.first_t > delivered_step_t_
                                   ? "its rows start at t = " + CsvWriter::format(s.first_t) + " s" + offset +
-                                        ", after the log's last step at t = " + CsvWriter::format(last_step_t_) +
-                                        " s, where a file that feeds an input ends"
+                                        ", after the log's last step at t = " + CsvWriter::format(delivered_step_t_) +
+                                        " s" + end
                                   : "its rows end at t = " + CsvWriter::format(s.last_t) + " s" + offset +
                                         ", before the log's first step at t = " + CsvWriter::format(first_step_t_) +
                                         " s, the first time every input has a value";
@@ -332,6 +345,7 @@ bool LogReader::Impl::next(LogSample* sample) {
   }
   if (past_end(step_t)) {
     throw_pending_error();
+    if (sampling_.rate > 0.0) drop_last_step(step_t);
     // Count what is left unread so the summary can say so.
     read_pending_rows();
     for (Stream& s : streams_) {
@@ -419,6 +433,24 @@ void LogReader::Impl::pass_gap(double next_row) {
   stats_.seconds_skipped += gap;
 }
 
+// The grid's step at `step_t` lies after the last row of the inputs: the
+// rows gathered for it since the last step are not used. Counted, and the
+// values they replaced are no longer counted as replaced.
+void LogReader::Impl::drop_last_step(double step_t) {
+  stats_.dropped_last_step = rows_applied_ - rows_delivered_;
+  if (stats_.dropped_last_step == 0) return;
+  stats_.last_step_t = delivered_step_t_;
+  stats_.step_not_taken_t = step_t;
+  stats_.inputs_end_t = std::numeric_limits<double>::infinity();
+  for (const Stream& s : streams_) {
+    if (s.feeds_inputs && s.ended) stats_.inputs_end_t = std::min(stats_.inputs_end_t, s.last_t);
+  }
+  for (std::size_t i = 0; i < measurements_.size(); ++i) {
+    stats_.superseded[i] -= measurements_[i].superseded_in_step;
+    measurements_[i].superseded_in_step = 0;
+  }
+}
+
 // The stream whose pending row is at time t.
 const Stream* LogReader::Impl::stream_at(double t) const {
   for (const Stream& s : streams_) {
@@ -455,6 +487,12 @@ std::string LogReader::describe_stats(const BankConfig& bank) const {
   if (s.dropped_before_start > 0) {
     out += "  " + std::to_string(s.dropped_before_start) +
            " measurement value(s) came before every input had a value and were not used\n";
+  }
+  if (s.dropped_last_step > 0) {
+    out += "  " + std::to_string(s.dropped_last_step) +
+           " row(s) after the last step (t = " + CsvWriter::format(s.last_step_t) +
+           " s) were not used: the grid's next step, t = " + CsvWriter::format(s.step_not_taken_t) +
+           " s, is past the last row of the inputs (t = " + CsvWriter::format(s.inputs_end_t) + " s)\n";
   }
   if (s.dropped_after_end > 0) {
     out += "  " + std::to_string(s.dropped_after_end) +

@@ -62,6 +62,7 @@ struct MeasurementBinding {
   std::vector<double> outer_scratch;
   int stream = -1;
   double pending = std::numeric_limits<double>::quiet_NaN();
+  long superseded_in_step = 0;  // values of the step being gathered replaced by a later one
   bool aggregated() const { return outer != nullptr; }
 };
 
@@ -81,7 +82,8 @@ struct Stream {
   bool read_pending = false;
   bool ended = false;
   double row_t = 0.0;
-  double last_t = -std::numeric_limits<double>::infinity();  // of the last row applied
+  double last_t = -std::numeric_limits<double>::infinity();       // of the last row applied
+  double delivered_t = -std::numeric_limits<double>::infinity();  // of the last row a delivered step took
   long rows_read = 0;
   double first_t = 0.0;  // of its first row
   bool feeds_inputs = false;
@@ -126,6 +128,8 @@ class LogReader::Impl {
   double grid_origin_ = 0.0;
   double last_step_t_ = -std::numeric_limits<double>::infinity();
   long rows_applied_ = 0;  // rows (of a stream) applied, over all streams
+  long rows_delivered_ = 0;                                             // of those, the rows a delivered step took
+  double delivered_step_t_ = -std::numeric_limits<double>::infinity();  // the last step delivered
   double first_row_t_ = 0.0;
   double first_step_t_ = 0.0;
   double last_row_t_ = -std::numeric_limits<double>::infinity();
@@ -148,6 +152,7 @@ class LogReader::Impl {
   bool past_end(double t) const;
   double next_grid_time();
   void pass_gap(double next_row);
+  void drop_last_step(double step_t);
   void check_no_file_is_empty() const;
   void check_every_file_was_used() const;
   const Stream* stream_at(double t) const;

@@ -237,6 +237,35 @@ TEST(LogReader, RowsAfterTheInputsEndAreNotUsed) {
   EXPECT_EQ(reader.stats().dropped_after_end, 2);
 }
 
+// At 1 Hz the wheels (the inputs) end at 1.9 s, before the grid's step at
+// 2 s: the rows gathered for it are not used, and the summary says so; they
+// were counted as values replaced within a step, which the filter never saw.
+// A file whose rows all fell in that step is not used at all: an error, where
+// the rows counted as used.
+TEST(LogReader, RowsGatheredForAGridStepPastTheInputsAreCountedAsNotUsed) {
+  const auto dir = test_directory();
+  const auto wheels =
+      write_file(dir / "w.csv", "time,velL,velR,cur\n0,0,0,1\n0.5,0,0,1\n1,0,0,1\n1.5,0,0,1\n1.9,0,0,1\n");
+  const auto gyro = write_file(dir / "g.csv", "time,wz\n0.2,1\n1.4,2\n1.6,3\n");
+  BankConfig bank = two_rate_bank();
+  bank.sampling.rate = 1.0;
+  LogReader reader(bank, {wheels, gyro}, bank.sampling);
+  const auto s = read_all(reader);
+  ASSERT_EQ(s.size(), 2u);
+  EXPECT_EQ(s.back().t, 1.0);
+  EXPECT_EQ(reader.stats().dropped_last_step, 4) << "the wheels at 1.5 and 1.9 s, the gyro at 1.4 and 1.6 s";
+  EXPECT_EQ(reader.stats().superseded[0], 0) << "the gyro's 1.4 s was replaced in a step never taken";
+  EXPECT_THAT(reader.describe_stats(bank),
+              HasSubstr("4 row(s) after the last step (t = 1 s) were not used: the grid's next step, t = 2 s, is past "
+                        "the last row of the inputs (t = 1.9 s)"));
+  const auto late = write_file(dir / "late.csv", "time,wz\n1.2,1\n1.4,2\n");
+  LogReader unused(bank, {wheels, late}, bank.sampling);
+  expect_error(
+      [&] { read_all(unused); },
+      {"late.csv: none of its 2 row(s) was used: its rows start at t = 1.2 s, after the log's last step at t = "
+       "1 s: the grid's next step, t = 2 s, is past the last row of the inputs (t = 1.9 s)"});
+}
+
 // A fixed rate steps through gaps in the log: a wrong time stamp (1e9, or
 // 1e300) or a long pause must not make it write steps until the disk is full.
 TEST(LogReader, AFixedRateRefusesAGapLongerThanMaxGapNamingTheRowAndTheLimit) {

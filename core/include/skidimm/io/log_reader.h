@@ -81,6 +81,12 @@ struct LogStats {
   std::vector<long> rows;         // data rows read, per file
   long dropped_before_start = 0;  // measurement values before every input had a value
   long dropped_after_end = 0;     // rows after the end of a file feeding an input (rows join: none)
+  // Rows gathered for a grid step past the last row of the inputs, which is
+  // not taken; the last step taken, the one not taken, and where the inputs end.
+  long dropped_last_step = 0;
+  double last_step_t = 0.0;
+  double step_not_taken_t = 0.0;
+  double inputs_end_t = 0.0;
   std::vector<long> superseded;   // per measurement: values replaced by a later one in the same step
   std::vector<long> not_finite;   // per measurement: expression values that were not finite
   std::vector<long> measured;     // per measurement: steps that had a value for it
