@@ -591,6 +591,45 @@ TEST(CliIo, FittingWithAFiniteButAbsurdCellIsAnErrorNamingWhereAndAppendsNothing
   EXPECT_EQ(clean.exit_code, 0) << clean.err;
 }
 
+// A window fit whose windows end before their measurements reach the
+// corrupt input (the GPS one row in five, one-second windows) fitted without
+// it, and then printed a one-step RMSE of inf or 1e97 with Q at a bound, and
+// wrote the bank: the one-step evaluation names the prediction instead.
+TEST(CliIo, AnAbsurdCellNoWindowReachedIsNamedByTheOneStepEvaluation) {
+  const fs::path dir = test_directory();
+  const std::string source = read_file(kSource + "/configs/examples/stc_switching.csv");
+  std::vector<std::string> lines;
+  std::size_t from = 0;
+  while (lines.size() < 300) {
+    const std::size_t end = source.find('\n', from);
+    lines.push_back(source.substr(from, end - from));
+    from = end + 1;
+  }
+  for (const std::string value : {"1e308", "1e100"}) {
+    std::string text;
+    for (std::size_t i = 0; i < lines.size(); ++i) {
+      // Line 50, data row 49: its first input, phi_dot_L.
+      text += i == 49 ? lines[i].substr(0, lines[i].find(',')) + "," + value +
+                            lines[i].substr(lines[i].find(',', lines[i].find(',') + 1))
+                      : lines[i];
+      text += "\n";
+    }
+    const fs::path log = write_file(dir / ("corrupt_" + value + ".csv"), text);
+    const fs::path out = dir / ("fitted_" + value + ".yaml");
+    const Result fit =
+        run_pipeline(kSkidimm + " fit --bank " + kSource + "/configs/stc_slip4.yaml --plugin-path " + kPlugins +
+                     " --objective window --window 1 --log " + log.string() + " --output-bank " + out.string());
+    EXPECT_EQ(fit.exit_code, 1) << value << ": " << fit.err;
+    EXPECT_THAT(fit.err, HasSubstr("the one-step prediction of " + log.string() +
+                                   "[0-6.0655 s]: step 52 (t = 1.016500 s, predicted from step 47 with the inputs "
+                                   "between) misses 'X' by "))
+        << value;
+    EXPECT_THAT(fit.err, HasSubstr("an absurd input or measurement there")) << value;
+    EXPECT_THAT(fit.err, Not(HasSubstr("RMSE: X inf"))) << value;
+    EXPECT_FALSE(fs::exists(out)) << value;
+  }
+}
+
 // With a state no sensor measures (V here) there is no window fit to start
 // from: the likelihood objective itself names the row. A measurement of
 // 1e100 used to end in "the logs do not identify every parameter".

@@ -1,5 +1,5 @@
 // The median of a stream of values in bounded memory: exact while at most
-// kKept values have come, then the median of a systematic sample (every
+// `kept` values have come, then the median of a systematic sample (every
 // stride-th value, the stride doubling each time the sample fills). Fits use
 // it to compare one window or row with the typical one, which needs the
 // median's size, not its last digit, and must not hold a value per row of a
@@ -17,14 +17,15 @@ namespace internal {
 
 class BoundedMedian {
  public:
-  static constexpr std::size_t kKept = 1 << 16;
+  // `kept`: at most this many values held (even).
+  explicit BoundedMedian(std::size_t kept = 1 << 16) : kept_limit_(kept) {}
 
   void add(double value) {
     if (seen_++ % stride_ != 0) return;
-    if (kept_.size() == kKept) {
+    if (kept_.size() == kept_limit_) {
       // Keep every other value: the sample of the doubled stride so far.
-      for (std::size_t i = 0; i < kKept / 2; ++i) kept_[i] = kept_[2 * i];
-      kept_.resize(kKept / 2);
+      for (std::size_t i = 0; i < kept_limit_ / 2; ++i) kept_[i] = kept_[2 * i];
+      kept_.resize(kept_limit_ / 2);
       stride_ *= 2;
       if ((seen_ - 1) % stride_ != 0) return;
     }
@@ -39,6 +40,7 @@ class BoundedMedian {
   }
 
  private:
+  std::size_t kept_limit_;
   std::vector<double> kept_;
   std::size_t seen_ = 0;
   std::size_t stride_ = 1;

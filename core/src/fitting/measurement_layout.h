@@ -83,6 +83,12 @@ void for_each_error(const MeasurementLayout& m, const Trajectory& t, int target,
   }
 }
 
+// How many times the median miss (at least one sigma of R) a window or a
+// one-step prediction may miss its measurements by before it is called a
+// corrupt cell rather than a poor model: a start far off a robot's dynamics
+// misses by tens of sigma, a cell of 1e100 by 1e90.
+inline constexpr double kAbsurdMissRatio = 1e6;
+
 }  // namespace internal
 }  // namespace fitting
 }  // namespace skidimm

@@ -41,12 +41,6 @@ using internal::window_text;
 using internal::WindowCost;
 using internal::WindowWorkspace;
 
-// How many times the median window's residual (at least one sigma) a window
-// may miss by before it is called a corrupt cell rather than a poor start:
-// a start far off a robot's dynamics misses by tens of sigma, a cell of 1e100
-// by 1e90.
-constexpr double kAbsurdWindowRatio = 1e6;
-
 std::string format_number(double value) {
   char text[32];
   std::snprintf(text, sizeof text, "%.3g", value);
@@ -187,7 +181,7 @@ class StartingValueCheck {
   void check_absurd() {
     if (start_residuals_.empty()) return;
     const double median = start_residuals_.median();
-    if (worst_residual_ > kAbsurdWindowRatio * std::max(1.0, median)) {
+    if (worst_residual_ > internal::kAbsurdMissRatio * std::max(1.0, median)) {
       throw FitError(window_text(*worst_log_, worst_window_) + " misses its measurements by " +
                      format_number(worst_residual_) + " times their noise (R) with the starting values of " + *who_ +
                      ", against " + format_number(median) +

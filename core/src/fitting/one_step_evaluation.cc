@@ -6,10 +6,12 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <string>
 #include <vector>
 
+#include "bounded_median.h"
 #include "measurement_layout.h"
 #include "not_a_number.h"
 #include "process_noise_search.h"
@@ -27,6 +29,12 @@ using internal::layout_of;
 using internal::measured_state;
 using internal::MeasurementLayout;
 using internal::output_positions;
+
+std::string format_size(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", value);
+  return text;
+}
 
 // Propagates x from row `from` to row `to` with the logged inputs.
 bool propagate(const sdk::MotionModel& model, const Trajectory& t, int from, int to, Eigen::VectorXd* x,
@@ -88,6 +96,23 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
     }
     return false;
   };
+  // Each error in units of its measurement's noise (R): the median, and the
+  // largest and where it is. One a million times the median is a corrupt
+  // cell (an input of 1e308 that no window of the fit reached), which would
+  // otherwise print as an RMSE of inf or 1e90 and pin Q at a bound.
+  internal::BoundedMedian error_sizes(4096);  // a median's size, in memory that does not grow with the logs
+  double largest_error = 0.0;
+  std::string largest_at;
+  const auto note_error = [&](const Trajectory& t, int from, int k, Eigen::Index c, double e) {
+    const double size = std::abs(e) / std::sqrt(std::max(bank.config.measurement.r(c, c), 1e-300));
+    error_sizes.add(size);
+    if (!(size <= largest_error)) {
+      largest_error = size;
+      largest_at = t.source + ": step " + std::to_string(k + 1) + " (t = " + std::to_string(t.t[k]) + " s" +
+                   (from < k ? ", predicted from step " + std::to_string(from + 1) + " with the inputs between" : "") +
+                   ") misses '" + bank.config.measurement.names[static_cast<std::size_t>(c)] + "'";
+    }
+  };
   for (const Trajectory& t : data.logs) {
     // Each output row's error is the model's outputs against the measured ones.
     for (int k = 0; k < t.size() && !m.outputs.empty(); ++k) {
@@ -98,6 +123,7 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
         if (!std::isfinite(t.z(c, k))) continue;
         squared[c] += (t.z(c, k) - expected[c]) * (t.z(c, k) - expected[c]);
         counts[c] += 1.0;
+        note_error(t, k, k, c, t.z(c, k) - expected[c]);
       }
     }
     int previous = -1;
@@ -116,6 +142,7 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
             if (c >= m.first_output_row) return;  // counted above, at every row
             squared[c] += e * e;
             counts[c] += 1.0;
+            note_error(t, previous, k, c, e);
             for (int s = 0; s < n; ++s) {
               if (m.state_row[static_cast<std::size_t>(s)] == c) state_error[s] = e;
             }
@@ -139,6 +166,11 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
       have_previous_error = have_error;
       previous = k;
     }
+  }
+  if (!error_sizes.empty() && !(largest_error <= internal::kAbsurdMissRatio * std::max(1.0, error_sizes.median()))) {
+    throw FitError("the one-step prediction of " + largest_at + " by " + format_size(largest_error) +
+                   " times its noise (R), against " + format_size(error_sizes.median()) +
+                   " for the median: an absurd input or measurement there (a corrupt cell?); fix or remove it");
   }
   if (report.failed_predictions > 0) {
     report.warnings.push_back(failed_predictions_text(report) +
