@@ -45,6 +45,12 @@ CLI::Validator finite_number() {
       "");
 }
 
+// An empty path would be found only when the output is renamed into place,
+// after the whole run.
+CLI::Validator file_path() {
+  return CLI::Validator([](std::string& text) { return text.empty() ? std::string("expected a file path") : ""; }, "");
+}
+
 const char* const kSkipUnpaired =
     "A pattern pairs its files by run key ('pro_*.csv+imu_*.csv': pro_02 with imu_02); leave out, with a note, "
     "the runs some of its files lack, instead of an error listing them";
@@ -148,7 +154,8 @@ int main(int argc, char** argv) {
   add_decision_options(run, &run_options.overrides);
   run->add_option("--output,-o", output,
                   "Output CSV (written as <output>.partial, renamed when complete); '-' for standard output")
-      ->required();
+      ->required()
+      ->check(file_path());
   run->add_flag("--flush", run_options.flush,
                 "Write each row as soon as it is computed (run behind another program, through a pipe)");
   run->add_flag("--quiet,-q", run_options.quiet, "No summary or progress on stderr");
@@ -156,7 +163,8 @@ int main(int argc, char** argv) {
   run->add_flag("--strict", run_options.strict,
                 "The first row where a mode's filter is rejected ends the run with an error (rows so far are kept)");
   std::string run_plot;
-  run->add_option("--plot", run_plot, "Also draw the mode probabilities to this .png or .svg (needs gnuplot)");
+  run->add_option("--plot", run_plot, "Also draw the mode probabilities to this .png or .svg (needs gnuplot)")
+      ->check(file_path());
   run->add_option("--serve", run_options.serve,
                   "[HOST:]PORT: publish each step live to Foxglove (its WebSocket protocol; " +
                       documentation_path("docs/foxglove.md") +
@@ -217,7 +225,7 @@ int main(int argc, char** argv) {
                        "With --bank: the log whose inputs, times and truth (or MODE= label) drive the models");
   add_rate(simulate, &simulate_options.rate);
   add_plugin_path(simulate);
-  simulate->add_option("--output,-o", simulate_output, "Log CSV to write")->required();
+  simulate->add_option("--output,-o", simulate_output, "Log CSV to write")->required()->check(file_path());
   simulate->add_option("--seed", simulate_options.seed, "Random seed (default: the scenario's)");
   simulate->add_option("--duration", simulate_options.duration, "Seconds to simulate (default: the scenario's)")
       ->check(finite_number())->check(CLI::PositiveNumber);
@@ -271,10 +279,12 @@ int main(int argc, char** argv) {
   fit->add_option("--loss-scale", fit_options.loss_scale, "Loss scale in measurement standard deviations (3)")
       ->check(finite_number())->check(CLI::PositiveNumber);
   fit->add_option("--held-out", fit_options.held_out, "[MODE=]FILE[+FILE...] to evaluate after fitting; repeatable");
-  fit->add_option("--output-entry", entry_output, "Write the fitted mode entries (YAML) to this file");
+  fit->add_option("--output-entry", entry_output, "Write the fitted mode entries (YAML) to this file")
+      ->check(file_path());
   fit->add_option("--append-to", append_to, "Append the fitted mode to this bank file (comments kept)")
       ->check(CLI::ExistingFile);
-  fit->add_option("--output-bank", bank_output, "Write the whole bank with fitted values to this file");
+  fit->add_option("--output-bank", bank_output, "Write the whole bank with fitted values to this file")
+      ->check(file_path());
   add_plugin_path(fit);
 
   TuneCommandOptions tune_options;
@@ -347,8 +357,9 @@ int main(int argc, char** argv) {
   tune->add_flag("--hold-unexcited", tune_options.hold_unexcited,
                  "Hold parameters the logs do not excite at their starting values instead of failing the fit");
   tune->add_option("--output-bank", tune_options.output_bank,
-                   "Write the tuned bank (fitted on every log but the lockbox) here");
-  tune->add_option("--table", tune_options.table, "Write every log's held-out scores to this CSV");
+                   "Write the tuned bank (fitted on every log but the lockbox) here")
+      ->check(file_path());
+  tune->add_option("--table", tune_options.table, "Write every log's held-out scores to this CSV")->check(file_path());
   tune->add_option("--estimates", tune_options.estimates,
                    "Write each log's nested-assessment steps under this directory, a folder per protocol (and "
                    "'lockbox'), as `run` does, for `eval --estimates`");
@@ -387,7 +398,7 @@ int main(int argc, char** argv) {
   plot->add_option("--estimates,-e", plot_estimates, "A `skidimm run` output ('-': standard input)")
       ->required()
       ->check(existing_file_or_stdin);
-  plot->add_option("--output,-o", plot_output, "Figure to write: .png or .svg")->required();
+  plot->add_option("--output,-o", plot_output, "Figure to write: .png or .svg")->required()->check(file_path());
   plot->add_option("--log,-l", plot_options.log,
                    "The input log, to draw measurements and true states; with --bank any log form `run` reads");
   plot->add_option("--bank,-b", plot_options.bank, "The bank the estimates came from: reads --log with its columns")
@@ -437,6 +448,12 @@ int main(int argc, char** argv) {
     run_options.plot = run_plot;
     run_options.plugin_paths = paths;
     if (!run_plot.empty()) {
+      // Checked before the run, which may be long: the figure is drawn after it.
+      const std::string figure = fs::path(run_plot).extension().string();
+      if (figure != ".png" && figure != ".svg") {
+        std::cerr << "skidimm run: --plot " << run_plot << ": the figure must end in .png or .svg\n";
+        return kExitUsage;
+      }
       if (fs::path(output).extension() == ".mcap") {
         std::cerr << "skidimm run: --plot draws a CSV output; an .mcap output is for Foxglove ("
                   << documentation_path("docs/foxglove.md") << ")\n";

@@ -591,6 +591,31 @@ TEST(CliIo, FittingWithAFiniteButAbsurdCellIsAnErrorNamingWhereAndAppendsNothing
   EXPECT_EQ(clean.exit_code, 0) << clean.err;
 }
 
+// A bank written with --parameter-uncertainty (as the bundled BorealTC banks
+// are) adds the covariance to each mode's process noise; refitted by the
+// default objective, the error named an internal enum ("process noise
+// kKeep") as the way out. It names the two a user has.
+TEST(CliIo, RefittingABankWithParameterCovarianceByLikelihoodSaysWhatToDo) {
+  const fs::path dir = test_directory();
+  const fs::path uncertain = dir / "uncertain.yaml";
+  const Result first = run_pipeline(kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                                    " --objective window --parameter-uncertainty --log " + kSwitching +
+                                    " --output-bank " + uncertain.string());
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  ASSERT_THAT(read_file(uncertain), HasSubstr("parameter_covariance"));
+  const Result again = run_pipeline(kSkidimm + " fit --bank " + uncertain.string() + " --plugin-path " + kPlugins +
+                                    " --log " + kSwitching + " --output-bank " + (dir / "again.yaml").string());
+  EXPECT_EQ(again.exit_code, 1) << again.err;
+  EXPECT_THAT(again.err, HasSubstr("its parameter_covariance (the uncertainty of the fit it came from) is added to its "
+                                   "process noise, which the likelihood objective cannot fit Q through; fit it by the "
+                                   "window objective"));
+  EXPECT_THAT(again.err, Not(HasSubstr("kKeep")));
+  const Result window =
+      run_pipeline(kSkidimm + " fit --bank " + uncertain.string() + " --plugin-path " + kPlugins +
+                   " --objective window --log " + kSwitching + " --output-bank " + (dir / "window.yaml").string());
+  EXPECT_EQ(window.exit_code, 0) << window.err;
+}
+
 // A window fit whose windows end before their measurements reach the
 // corrupt input (the GPS one row in five, one-second windows) fitted without
 // it, and then printed a one-step RMSE of inf or 1e97 with Q at a bound, and

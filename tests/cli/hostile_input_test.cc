@@ -262,6 +262,25 @@ TEST(HostileInput, TwoRunsWritingOneOutputNeverMix) {
   EXPECT_EQ(figure_over_output.exit_code, 1);
   EXPECT_THAT(figure_over_output.err, HasSubstr("--output and --plot name the same file (" + figure.string() + ")"));
   EXPECT_FALSE(fs::exists(figure));
+  // An empty output path was found only when renaming into place, after the
+  // whole run; a figure that is not .png or .svg only after it too.
+  const Result empty = run_shell(run_command(kTerrains, kSwitching, "''"));
+  EXPECT_EQ(empty.exit_code, 2);
+  EXPECT_THAT(empty.err, HasSubstr("--output: expected a file path"));
+  const Result text_figure =
+      run_shell(run_command(kTerrains, kSwitching, (dir / "e.csv").string()) + " --plot " + (dir / "f.txt").string());
+  EXPECT_EQ(text_figure.exit_code, 2);
+  EXPECT_THAT(text_figure.err,
+              HasSubstr("--plot " + (dir / "f.txt").string() + ": the figure must end in .png or .svg"));
+  EXPECT_FALSE(fs::exists(dir / "e.csv")) << "refused before the run";
+  for (const std::string command :
+       {"simulate --scenario " + kSource + "/configs/scenarios/ltc_switching.yaml --output ''",
+        "fit --bank " + kTerrains + " --log " + kSwitching + " --output-bank ''",
+        "tune --bank " + kTerrains + " --log " + kSwitching + " --table ''"}) {
+    const Result r = run_skidimm(command);
+    EXPECT_EQ(r.exit_code, 2) << command;
+    EXPECT_THAT(r.err, HasSubstr(": expected a file path")) << command;
+  }
   // Devices are not files: two outputs to /dev/null are no clash.
   const Result discarded = run_shell(run_command(kTerrains, kSwitching, "/dev/null"));
   EXPECT_EQ(discarded.exit_code, 0) << discarded.err;

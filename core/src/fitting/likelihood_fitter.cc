@@ -21,6 +21,7 @@
 #include "bounded_median.h"
 #include "covariance.h"
 #include "likelihood_problem.h"
+#include "parameter_noise.h"
 #include "skidimm/engine/measurement_model.h"
 #include "skidimm/sdk/angles.h"
 #include "solver_progress.h"
@@ -279,6 +280,14 @@ std::map<int, FitReport> fit_group(Bank* bank, const std::vector<std::pair<int, 
         if (t->size() < 2) continue;
         std::string why;
         if (!check_linear_in_intensity(*b.model, v.q, config.initial_state, t->u.col(0), t->t[1] - t->t[0], &why)) {
+          if (::skidimm::internal::model_under_parameter_uncertainty(*b.model) != nullptr) {
+            // A bank as fit and tune write it with --parameter-uncertainty (the bundled BorealTC banks).
+            throw FitError(mode_name(config, b.mode) +
+                           ": its parameter_covariance (the uncertainty of the fit it came from) is added to its "
+                           "process noise, which the likelihood objective cannot fit Q through; fit it by the window "
+                           "objective (--parameter-uncertainty estimates the covariance anew), or start from a bank "
+                           "without parameter_covariance");
+          }
           throw FitError(mode_name(config, b.mode) + ": " + why);
         }
         break;
