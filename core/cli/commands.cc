@@ -212,7 +212,13 @@ int run(const RunOptions& options) {
     }
     refuse_output_over_logs(options.output, "--output", {log});
     refuse_output_over_logs(options.plot, "--plot", {log});
-    refuse_clashing_files({{"--output", options.output}, {"--plot", options.plot}}, {{"--bank", options.bank}});
+    // A .npy output writes its reason table beside it.
+    const fs::path reasons =
+        EstimatesWriter::is_npy(options.output) ? EstimatesWriter::reasons_path(options.output) : fs::path();
+    refuse_output_over_logs(reasons, "--output's reason table", {log});
+    refuse_clashing_files(
+        {{"--output", options.output}, {"--output's reason table", reasons}, {"--plot", options.plot}},
+        {{"--bank", options.bank}});
     // Listening first: a log through a pipe may wait for its first line.
     if (!options.serve.empty()) {
       std::string host;

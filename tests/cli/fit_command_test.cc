@@ -591,6 +591,22 @@ TEST(CliIo, FittingWithAFiniteButAbsurdCellIsAnErrorNamingWhereAndAppendsNothing
   EXPECT_EQ(clean.exit_code, 0) << clean.err;
 }
 
+// The written bank's header repeats the command line: a log whose name holds
+// a newline made the rest of the name a line of the bank, here a key that
+// loaded (innovation_gate: 0.5). It is written as an escape, in the comment.
+TEST(CliIo, AFileNameWithANewlineStaysInTheWrittenBanksComment) {
+  const fs::path dir = test_directory();
+  const fs::path log = write_file(dir / "inj\ninnovation_gate: 0.5 #.csv", read_file(kSwitching));
+  const fs::path out = dir / "out.yaml";
+  const Result fit = run_skidimm("fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                                 " --objective window --log '" + log.string() + "' --output-bank " + out.string());
+  ASSERT_EQ(fit.exit_code, 0) << fit.err;
+  const std::string bank = read_file(out);
+  EXPECT_THAT(bank, HasSubstr("--log " + dir.string() + "/inj\\ninnovation_gate: 0.5 #.csv --output-bank"));
+  EXPECT_THAT(bank, Not(HasSubstr("\ninnovation_gate")));
+  EXPECT_EQ(run_skidimm("validate " + out.string() + " --plugin-path " + kPlugins).exit_code, 0);
+}
+
 // A bank written with --parameter-uncertainty (as the bundled BorealTC banks
 // are) adds the covariance to each mode's process noise; refitted by the
 // default objective, the error named an internal enum ("process noise

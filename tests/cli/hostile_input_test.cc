@@ -262,6 +262,12 @@ TEST(HostileInput, TwoRunsWritingOneOutputNeverMix) {
   EXPECT_EQ(figure_over_output.exit_code, 1);
   EXPECT_THAT(figure_over_output.err, HasSubstr("--output and --plot name the same file (" + figure.string() + ")"));
   EXPECT_FALSE(fs::exists(figure));
+  // A .npy output's reason table (x.npy -> x.reasons.json) over the log: refused, the log kept.
+  const fs::path json_log = write_file(dir / "x.reasons.json", read_file(kSwitching));
+  const Result over_log = run_shell(run_command(kTerrains, json_log.string(), (dir / "x.npy").string()));
+  EXPECT_EQ(over_log.exit_code, 1);
+  EXPECT_THAT(over_log.err, HasSubstr("--output's reason table " + json_log.string() + " is the log file"));
+  EXPECT_EQ(read_file(json_log), read_file(kSwitching));
   // An empty output path was found only when renaming into place, after the
   // whole run; a figure that is not .png or .svg only after it too.
   const Result empty = run_shell(run_command(kTerrains, kSwitching, "''"));

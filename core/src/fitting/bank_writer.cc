@@ -22,6 +22,28 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// `text` on one comment line: a control character (a newline in a path of
+// the command line) written as an escape, so that nothing after it can
+// become a key of the bank.
+std::string comment_text(const std::string& text) {
+  std::string out;
+  for (const char c : text) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (c == '\n') {
+      out += "\\n";
+    } else if (c == '\r') {
+      out += "\\r";
+    } else if (byte < 0x20 || byte == 0x7f) {
+      char escape[8];
+      std::snprintf(escape, sizeof escape, "\\x%02x", byte);
+      out += escape;
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
 // Seven significant digits: what a bank file holds of a fitted value. A name of
 // its own, so that a unity build, which joins this file's anonymous namespace
 // with the fitters', cannot hand them this format for their messages.
@@ -322,7 +344,7 @@ void write_bank_from_template(const fs::path& template_file, const fs::path& out
     }
   }
   std::string text;
-  for (const std::string& h : header) text += "# " + h + "\n";
+  for (const std::string& h : header) text += "# " + comment_text(h) + "\n";
   write_validated(output, text + join_lines(lines));
 }
 
