@@ -98,6 +98,33 @@ TEST(CliIo, TuneRefusesRepeatedLogsOutputsOverLogsAndLogsWithNothingToScore) {
   EXPECT_THAT(missing.err, Not(HasSubstr("can be read only once")));
 }
 
+// A corrupt cell fails the fit on every log, which tune made last, after every
+// search and assessment (their folds may keep a mode's starting values; the
+// final fit may not): all that work was lost to an error fit gives at once.
+// That fit now comes first.
+TEST(CliIo, TuneFailsOnACorruptCellBeforeItsSearches) {
+  const fs::path dir = test_directory();
+  std::ifstream in(kSwitching);
+  std::string text, line;
+  for (int row = 0; std::getline(in, line); ++row) {
+    if (row == 100)
+      line = line.substr(0, line.find(',') + 1) + "1e100" + line.substr(line.find(',', line.find(',') + 1));
+    text += line + "\n";
+  }
+  const fs::path corrupt = write_file(dir / "corrupt.csv", text);
+  const fs::path table = dir / "table.csv";
+  const Result r =
+      run_pipeline(kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins +
+                   " --objective window --tune dwell --inner-folds 2 --log " + kSwitching + " --log " +
+                   switching_copy(dir).string() + " --log " + corrupt.string() + " --table " + table.string());
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_THAT(r.err, HasSubstr(corrupt.string() + "[0-9.9905 s]: the prediction from step 100 (t = 2.009000 s)"));
+  EXPECT_THAT(r.err, HasSubstr("an absurd input or measurement there"));
+  EXPECT_THAT(r.err, Not(HasSubstr("window: dwell"))) << "no search ran";
+  EXPECT_THAT(r.err, HasSubstr("3 modes; 13 fits, ")) << "the final fit counted once among them";
+  EXPECT_FALSE(fs::exists(table));
+}
+
 // Options the command would ignore, or whose outputs would mix, are refused.
 TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
   const fs::path dir = test_directory();

@@ -132,9 +132,13 @@ class Tuner {
     if (options_.assess) {
       for (const Protocol& p : options_.protocols) protocol_folds.push_back(folds_of(p, development, outer));
     }
-    // Every fit the run needs, computed once, in parallel.
+    // Every fit the run needs, computed once, in parallel. The final fit on
+    // every development log among them: it may not fail where a fold's may
+    // (a corrupt cell, a mode too short to fit), and failing there, after
+    // every search, lost them all.
     std::vector<std::pair<std::string, std::vector<int>>> fits;
     for (const std::string& objective : options_.objectives) {
+      fits.emplace_back(objective, development);
       for (const auto& held : outer) fits.emplace_back(objective, complement(held, development));
       for (const auto& folds : protocol_folds) {
         for (const auto& held : folds) {
@@ -306,9 +310,9 @@ class Tuner {
     const long settings = settings_per_search();
     return "work: " + std::to_string(recorded_.size()) + " logs of " + std::to_string(rows) + " rows in all (" +
            std::to_string(lockbox.size()) + " in the lockbox), " + std::to_string(banks_[0].config.num_modes()) +
-           " modes; " + std::to_string(fits.size() + 1) + " fits, " + std::to_string(searches) +
-           " searches of at most " + std::to_string(settings) + " settings, at most " +
-           std::to_string(scored * settings) + " filter runs over a log";
+           " modes; " + std::to_string(fits.size()) + " fits, " + std::to_string(searches) + " searches of at most " +
+           std::to_string(settings) + " settings, at most " + std::to_string(scored * settings) +
+           " filter runs over a log";
   }
 
   // The held-out sets of a protocol over the development logs.
