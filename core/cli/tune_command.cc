@@ -249,6 +249,26 @@ int tune(const TuneCommandOptions& options) {
       return p.kind == fitting::Protocol::Kind::kSessions;
     });
     if (by_session && options.sessions.empty()) throw Error("--assess sessions needs --sessions FILE");
+    if (!options.estimates.empty()) {
+      // A folder of an earlier run's files would be scored with this run's
+      // by `eval --estimates`, as if one run had written them all.
+      std::vector<std::string> folders;
+      if (!options.no_assess) {
+        for (const fitting::Protocol& p : protocols) folders.push_back(p.slug());
+      }
+      if (!options.lockbox.empty()) folders.push_back("lockbox");
+      for (const std::string& folder : folders) {
+        const fs::path path = options.estimates / folder;
+        std::error_code ec;
+        if (!fs::is_directory(path, ec)) continue;
+        const long files = std::distance(fs::directory_iterator(path, ec), fs::directory_iterator());
+        if (files > 0) {
+          throw Error("--estimates " + options.estimates.string() + ": " + path.string() + " already holds " +
+                      std::to_string(files) + " file(s), from an earlier run: `eval --estimates " + path.string() +
+                      "` would score them with this run's; give a new or empty directory, or remove " + path.string());
+        }
+      }
+    }
     if (!options.sessions.empty()) {
       std::vector<std::string> first_files;
       for (const fitting::TuningLog& l : logs) first_files.push_back(l.spec.files.front().path.string());

@@ -51,6 +51,23 @@ TEST(CliIo, TuneChecksWhereItWritesBeforeTheWork) {
   const Result made = run_pipeline(tune + " --estimates " + (dir / "new" / "estimates").string());
   EXPECT_EQ(made.exit_code, 0) << made.err;
   EXPECT_TRUE(fs::is_directory(dir / "new" / "estimates"));
+  // A folder an earlier run wrote: eval --estimates on it would score both
+  // runs' files as one (9 logs where 4 were tuned). Refused; another
+  // protocol's empty folder is not.
+  const fs::path estimates = dir / "estimates";
+  const std::string assessed = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins + " --log " +
+                               kSwitching + " --log " + copy.string() +
+                               " --objective none --tune dwell --inner-folds 2 --estimates " + estimates.string();
+  const Result first = run_pipeline(assessed);
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  ASSERT_TRUE(fs::exists(estimates / "logs" / "000_ltc_switching.csv"));
+  expect_refused_before(assessed,
+                        "--estimates " + estimates.string() + ": " + (estimates / "logs").string() +
+                            " already holds 2 file(s), from an earlier run",
+                        "work:");
+  fs::create_directories(dir / "other" / "logs");
+  const Result empty = run_pipeline(assessed + "/../other");
+  EXPECT_EQ(empty.exit_code, 0) << empty.err;
 }
 
 // A log given twice, or kept in the lockbox and trained on, would make the
