@@ -160,12 +160,12 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
   const std::pair<std::string, int>* last = nullptr;
   run_log(bank, reader, options, [&](const LogSample& sample, const ImmEstimate& e) {
     RunSummary& s = *summary;
-    ++s.rows;
     const std::string& truth = label.empty() ? sample.truth_mode : label;
     const int decided = decision.update(sample.t, e.mode_probabilities);
-    s.decision_changes += decided != last_decision && s.rows > 1;
+    s.decision_changes += decided != last_decision && s.rows > 0;
     last_decision = decided;
     writer->write(sample.t, e, decision.name(decided), truth);
+    ++s.rows;  // written: a row the writer refused is not among those kept
     if (e.num_rejected_modes > 0 || e.num_gated_modes > 0) count_mode_rejections(e, s.rows, sample.t, &s.rejections);
     if (strict && e.num_rejected_modes > 0) throw Error(describe_first_rejection(bank, e, s.rows));
     if (with_truth && !truth.empty()) {

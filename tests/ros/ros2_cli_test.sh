@@ -121,6 +121,16 @@ rows=$(grep -o "the [0-9]* rows computed before the error" "$work/cut_mcap.err" 
 "$python" -c 'import json,sys; n=len(json.load(open(sys.argv[1]))["messages"]); assert n == int(sys.argv[2]) > 10, n' \
   "$work/cut_out.json" "$rows" || fail "cut_mcap: the .partial MCAP should hold the $rows steps before the error"
 echo "4. cut_mcap: @mcap/core reads the $rows steps before the cut in cut_out.mcap.partial"
+# A step whose time an MCAP log time cannot hold (nanoseconds from 0 to 1.8e10 s) is refused, not
+# clamped onto one instant with every later step; the steps before it are in the .partial MCAP.
+expect_error late_mcap "s cannot be written to an MCAP file, whose log times are nanoseconds from 0 to 1.8e10 s" no -- \
+  run --bank "$source_dir/configs/ltc_terrains.yaml" --input "$source_dir/configs/examples/ltc_switching.csv@17999999995" \
+  --output "$work/late.mcap"
+"$node" "$source_dir/tests/ros/read_mcap.cjs" "$work/late.mcap.partial" >"$work/late.json"
+rows=$(grep -o "the [0-9]* rows computed before the error" "$work/late_mcap.err" | grep -o "[0-9]*")
+"$python" -c 'import json,sys; m=json.load(open(sys.argv[1]))["messages"]; assert len(m) == int(sys.argv[2]) > 100, len(m)' \
+  "$work/late.json" "$rows" || fail "late_mcap: the .partial MCAP should hold the $rows steps before t = 1.8e10 s"
+echo "4. late_mcap: @mcap/core reads the $rows steps before t = 1.8e10 s in late.mcap.partial"
 # A byte changed in a message of an uncompressed chunk: only the chunk's CRC can tell.
 write_bag "$work/plain.mcap" --compression none
 "$python" - "$work/plain.mcap" "$work/crc.mcap" <<'PY'

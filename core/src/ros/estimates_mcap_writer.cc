@@ -4,6 +4,8 @@
 
 #include "bag_log.h"
 #include "bundled_message_definitions.h"
+#include "skidimm/errors.h"
+#include "skidimm/io/csv.h"
 #include "skidimm/io/ros/bag_reader.h"
 
 namespace skidimm {
@@ -34,6 +36,13 @@ EstimatesMcapWriter::EstimatesMcapWriter(const std::filesystem::path& path, cons
 
 void EstimatesMcapWriter::write(double t, const ImmEstimate& estimate, const std::string& decision,
                                 const std::string& truth) {
+  // A time the log-time field cannot hold is not clamped: every such step
+  // would land on one instant, and Foxglove draw the run as a point.
+  if (!(t >= 0.0 && t < 1.8e10)) {
+    throw Error("the step at t = " + CsvWriter::format(t) +
+                " s cannot be written to an MCAP file, whose log times are nanoseconds from 0 to 1.8e10 s: shift the "
+                "log's clock (FILE@OFFSET), or write CSV or .npy");
+  }
   const std::string& message = json_.format(t, estimate, decision, truth);
   const std::uint64_t ns = nanoseconds_from_seconds(t);
   writer_.write(channel_, ns, ns, message.data(), message.size());

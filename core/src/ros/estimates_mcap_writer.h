@@ -42,7 +42,9 @@ class EstimatesMcapWriter {
   std::uint16_t channel_ = 0;
 };
 
-// A step's time in nanoseconds for MCAP: 0 for negative or non-finite times.
+// A step's time in nanoseconds for MCAP (the live server's stamps): 0 for
+// negative or non-finite times, clamped at 1.8e19. EstimatesMcapWriter::write()
+// refuses such times instead.
 std::uint64_t nanoseconds_from_seconds(double t);
 
 }  // namespace ros
