@@ -13,6 +13,7 @@
 #include "ros/estimates_mcap_writer.h"
 #include "skidimm/errors.h"
 #include "skidimm/io/output_file.h"
+#include "skidimm/printable.h"
 
 namespace skidimm {
 
@@ -281,12 +282,19 @@ class EstimatesWriter::Npy {
     buffer_.append(bytes, 4);
   }
 
+  // Where the row being written starts in the buffer: a row refused
+  // midway is taken back whole, so the .partial file kept holds the rows
+  // its header counts and nothing after them.
+  void begin_row() { row_start_ = buffer_.size(); }
+
   void add_text(std::string_view text, std::size_t column, const char* what) {
     const std::size_t width = text_widths_[column];
     if (text.size() > width) {
-      throw LogError(partial_path().string(), rows_ + 1,
-                     std::string(what) + " '" + std::string(text) + "' is longer than the " + std::to_string(width) +
-                         " bytes of its .npy column; write CSV instead");
+      buffer_.resize(row_start_);
+      throw Error(partial_path().string() + ": row " + std::to_string(rows_ + 1) + ": the " + what + " '" +
+                  printable(std::string(text)) + "' is longer than the " + std::to_string(width) +
+                  " bytes of its .npy column (the longest mode or class name, and at least 64 bytes for a truth "
+                  "label); write CSV instead");
     }
     buffer_.append(text);
     buffer_.append(width - text.size(), '\0');
@@ -350,6 +358,7 @@ class EstimatesWriter::Npy {
   std::string buffer_;
   std::vector<std::size_t> text_widths_;
   std::size_t shape_offset_ = 0;
+  std::size_t row_start_ = 0;
   long rows_ = 0;
 };
 
@@ -432,6 +441,7 @@ void EstimatesWriter::write(double t, const ImmEstimate& e, const std::string& d
     return;
   }
   Npy& w = *npy_;
+  w.begin_row();
   w.add_number(t);
   for (Eigen::Index j = 0; j < e.mode_probabilities.size(); ++j) w.add_number(e.mode_probabilities[j]);
   if (with_unknown_) w.add_number(e.unknown_probability);

@@ -79,6 +79,29 @@ def main():
                           capture_output=True, text=True)
     if done.returncode != 2 or "--plot draws a CSV output" not in done.stderr or (work / "plotted.npy").exists():
         failures.append(f"run --output .npy --plot: exit {done.returncode}, {done.stderr.strip()!r}")
+    # A truth label longer than its column, first at data row 10: an error
+    # naming the row, and the .partial array holds the 9 rows before it and
+    # nothing after them (a half-written row followed the header's count).
+    with open(source / "configs" / "examples" / "ltc_switching.csv", newline="") as f:
+        table = list(csv.reader(f))
+    truth = table[0].index("mode")
+    for row in table[10:]:
+        row[truth] = "x" * 100
+    with open(work / "long_label.csv", "w", newline="") as f:
+        csv.writer(f).writerows(table)
+    done = subprocess.run([skidimm, "run", "-q", "--bank", str(source / "configs" / "ltc_terrains.yaml"),
+                           "--input", str(work / "long_label.csv"), "--output", str(work / "long.npy")],
+                          capture_output=True, text=True)
+    partial = work / "long.npy.partial"
+    if done.returncode != 1 or "row 10: the truth label 'xxx" not in done.stderr or not partial.exists():
+        failures.append(f"a truth label too long for .npy: exit {done.returncode}, {done.stderr.strip()!r}")
+    else:
+        kept = numpy.load(partial)
+        # The header is padded to a multiple of 64 bytes; the records follow it, and nothing else.
+        if len(kept) != 9 or (partial.stat().st_size - kept.nbytes) % 64 != 0:
+            failures.append(f"{len(kept)} rows, {partial.stat().st_size} bytes in {partial.name}: not the 9 rows alone")
+        if "the 9 rows computed before the error" not in done.stderr:
+            failures.append(f"the rows kept, as said: {done.stderr.strip()!r}")
     for failure in failures:
         print("FAIL:", failure)
     print(f"{len(estimates)} records, {with_reason} with a reason, {len(texts)} distinct reason texts")
