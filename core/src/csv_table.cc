@@ -26,8 +26,13 @@ bool parse_number(std::string_view cell, double* value, bool* missing) {
     return true;
   }
   const char* begin = text.data();
-  if (*begin == '+') ++begin;
   const char* end = text.data() + text.size();
+  // One sign: from_chars takes a '-', not a '+', so a '+' is stepped over
+  // here, and a sign after it ("+-1") is not a number.
+  if (*begin == '+') {
+    ++begin;
+    if (begin == end || *begin == '-' || *begin == '+') return false;
+  }
   // Most cells are plain decimals: exactly from_chars's value, faster (number_text.h).
   if (number_text::parse_plain_decimal(std::string_view(begin, static_cast<std::size_t>(end - begin)), value)) {
     return true;

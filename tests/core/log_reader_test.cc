@@ -617,6 +617,21 @@ TEST(LogReader, NonNumericCellNamesLineAndColumn) {
                 "'fast'"});
 }
 
+// A leading '+' is a sign, once: "+-1" was read as -1.
+TEST(LogReader, APlusSignIsReadOnceAndTwoSignsAreNotANumber) {
+  const auto dir = test_directory();
+  LogReader reader(simple_bank(), {write_file(dir / "log.csv", "t,left,right,v,w\n0,1,2,+3.5,4\n0.1,1,2,+-1,4\n")});
+  LogSample s;
+  ASSERT_TRUE(reader.next(&s));
+  EXPECT_EQ(s.z[0], 3.5);
+  expect_error([&] { reader.next(&s); }, {"log.csv:3: column 4 ('v'): expected a finite number", "got '+-1'"});
+  for (const std::string cell : {"++1", "+", "-+1"}) {
+    LogReader twice(simple_bank(), {write_file(dir / "twice.csv", "t,left,right,v,w\n0,1,2," + cell + ",4\n")});
+    LogSample first;
+    expect_error([&] { twice.next(&first); }, {"got '" + cell + "'"});
+  }
+}
+
 TEST(LogReader, SubnormalCellsAreReadAsTheNearestDoubleAndOverflowIsAnError) {
   const auto dir = test_directory();
   LogReader reader(simple_bank(), {write_file(dir / "log.csv", "t,left,right,v,w\n0,1,2,1e-320,4\n0.1,1,2,1e400,4\n")});
