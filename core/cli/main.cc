@@ -12,6 +12,7 @@
 #include <arpa/inet.h>
 
 #include <CLI/CLI.hpp>
+#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -41,6 +42,20 @@ CLI::Validator finite_number() {
         return CLI::detail::lexical_cast(text, value) && std::isfinite(value)
                    ? std::string()
                    : "expected a finite number, got '" + text + "'";
+      },
+      "");
+}
+
+// A seed as the scenario's `seed:` takes it: a whole number that fits 64
+// bits. CLI11 wrapped -1 and clamped 2^64 to 18446744073709551615.
+CLI::Validator whole_seed() {
+  return CLI::Validator(
+      [](std::string& text) {
+        std::uint64_t value = 0;
+        const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+        return error == std::errc() && end == text.data() + text.size() && !text.empty()
+                   ? std::string()
+                   : "expected a whole number from 0 to 18446744073709551615, got '" + text + "'";
       },
       "");
 }
@@ -226,7 +241,7 @@ int main(int argc, char** argv) {
   add_rate(simulate, &simulate_options.rate);
   add_plugin_path(simulate);
   simulate->add_option("--output,-o", simulate_output, "Log CSV to write")->required()->check(file_path());
-  simulate->add_option("--seed", simulate_options.seed, "Random seed (default: the scenario's)");
+  simulate->add_option("--seed", simulate_options.seed, "Random seed (default: the scenario's)")->check(whole_seed());
   simulate->add_option("--duration", simulate_options.duration, "Seconds to simulate (default: the scenario's)")
       ->check(finite_number())->check(CLI::PositiveNumber);
   simulate->add_flag("--quiet,-q", simulate_options.quiet, "No summary on stderr");

@@ -44,5 +44,19 @@ TEST(Cli, SimulateRefusesToWriteOverTheLogItReads) {
   EXPECT_EQ(read_file(scenario), read_file(kSource + "/configs/scenarios/ltc_switching.yaml"));
 }
 
+// --seed takes what a scenario's `seed:` takes: -1 ran with seed 2^64 - 1,
+// and 2^64 or more clamped to it, so different seeds gave one log.
+TEST(Cli, SimulateTakesAWholeSeedOf64BitsAndRefusesTheRest) {
+  const std::string simulate =
+      "simulate -q --scenario " + kSource + "/configs/scenarios/ltc_switching.yaml --output /dev/null --seed ";
+  for (const std::string seed : {"-1", "-5", "18446744073709551616", "1e3", "7.5", ""}) {
+    const Result r = run_skidimm(simulate + "'" + seed + "'");
+    EXPECT_EQ(r.exit_code, 2) << seed << ": " << r.err;
+    EXPECT_THAT(r.err, ::testing::HasSubstr("--seed: expected a whole number from 0 to 18446744073709551615, got '" +
+                                            seed + "'"));
+  }
+  EXPECT_EQ(run_skidimm(simulate + "18446744073709551615").exit_code, 0);
+}
+
 }  // namespace
 }  // namespace skidimm_test
