@@ -14,7 +14,10 @@
 #include <CLI/CLI.hpp>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -42,6 +45,33 @@ CLI::Validator finite_number() {
         return CLI::detail::lexical_cast(text, value) && std::isfinite(value)
                    ? std::string()
                    : "expected a finite number, got '" + text + "'";
+      },
+      "");
+}
+
+// A number above `lowest` (or from it, `inclusive`) and at most `highest`,
+// said in those words: CLI11's PositiveNumber printed DBL_MAX's 309 digits.
+// After finite_number(), which refuses what is not a number.
+CLI::Validator number_above(double lowest, bool inclusive, double highest = std::numeric_limits<double>::max()) {
+  return CLI::Validator(
+      [=](std::string& text) {
+        double value = 0.0;
+        if (!CLI::detail::lexical_cast(text, value)) return std::string();  // finite_number() says so
+        if ((inclusive ? value >= lowest : value > lowest) && value <= highest) return std::string();
+        // 1e6, not 1e+06.
+        const auto bound = [](double value) {
+          char digits[32];
+          std::snprintf(digits, sizeof digits, "%g", value);
+          std::string out = digits;
+          for (const char* exponent : {"e+0", "e+"}) {
+            const std::size_t at = out.find(exponent);
+            if (at != std::string::npos) out.replace(at, std::strlen(exponent), "e");
+          }
+          return out;
+        };
+        std::string expected = std::string("expected a number ") + (inclusive ? ">= " : "> ") + bound(lowest);
+        if (highest < std::numeric_limits<double>::max()) expected += " and at most " + bound(highest);
+        return expected + ", got '" + text + "'";
       },
       "");
 }
@@ -108,7 +138,8 @@ int main(int argc, char** argv) {
         ->add_option("--rate", *rate,
                      "Filter steps per second on a fixed grid (overrides the bank's sampling.rate); "
                      "default: a step at every time stamp of the log")
-        ->check(finite_number())->check(CLI::PositiveNumber);
+        ->check(finite_number())
+        ->check(number_above(0.0, false, 1e6));
   };
   auto add_decision_options = [](CLI::App* command, skidimm::RunOverrides* overrides) {
     command
@@ -124,7 +155,8 @@ int main(int argc, char** argv) {
         ->add_option("--decision-hold", overrides->decision_hold,
                      "Seconds a decision is kept at least, and below decision.leave before it is given up "
                      "(decision.min_hold)")
-        ->check(finite_number())->check(CLI::NonNegativeNumber);
+        ->check(finite_number())
+        ->check(number_above(0.0, true));
   };
 
   // Settings of the filter itself, over the bank's (run, and eval when it runs a bank).
@@ -165,7 +197,8 @@ int main(int argc, char** argv) {
                     documentation_path("docs/engine.md") + ")");
   run->add_option("--lag", run_options.lag,
                   "Write each step smoothed with this many seconds of later data (online, delayed)")
-      ->check(finite_number())->check(CLI::NonNegativeNumber);
+      ->check(finite_number())
+      ->check(number_above(0.0, true));
   add_decision_options(run, &run_options.overrides);
   run->add_option("--output,-o", output,
                   "Output CSV (written as <output>.partial, renamed when complete); '-' for standard output")
@@ -204,7 +237,8 @@ int main(int argc, char** argv) {
           "[HOST:]PORT"));
   run->add_option("--serve-speed", run_options.serve_speed,
                   "With --serve, replaying a file: times real time (default 1); 0 as fast as the filter runs")
-      ->check(finite_number())->check(CLI::NonNegativeNumber);
+      ->check(finite_number())
+      ->check(number_above(0.0, true));
   run->add_flag("--copy-topics", run_options.copy_topics,
                 "With an .mcap output and a bag input: copy the bag topics the bank reads into the output");
   add_plugin_path(run);
@@ -243,7 +277,8 @@ int main(int argc, char** argv) {
   simulate->add_option("--output,-o", simulate_output, "Log CSV to write")->required()->check(file_path());
   simulate->add_option("--seed", simulate_options.seed, "Random seed (default: the scenario's)")->check(whole_seed());
   simulate->add_option("--duration", simulate_options.duration, "Seconds to simulate (default: the scenario's)")
-      ->check(finite_number())->check(CLI::PositiveNumber);
+      ->check(finite_number())
+      ->check(number_above(0.0, false));
   simulate->add_flag("--quiet,-q", simulate_options.quiet, "No summary on stderr");
 
   FitCommandOptions fit_options;
@@ -287,12 +322,14 @@ int main(int argc, char** argv) {
                 "Hold parameters the logs do not excite at their starting values instead of failing (each is named)");
   fit->add_option("--window", fit_options.window,
                   "Window objective: seconds each prediction runs from a measured start; 0 = one-step (default)")
-      ->check(finite_number())->check(CLI::NonNegativeNumber);
+      ->check(finite_number())
+      ->check(number_above(0.0, true));
   add_rate(fit, &fit_options.rate);
   fit->add_option("--loss", fit_options.loss, "Robust loss: huber (default), cauchy, none")
       ->check(CLI::IsMember({"huber", "cauchy", "none"}));
   fit->add_option("--loss-scale", fit_options.loss_scale, "Loss scale in measurement standard deviations (3)")
-      ->check(finite_number())->check(CLI::PositiveNumber);
+      ->check(finite_number())
+      ->check(number_above(0.0, false));
   fit->add_option("--held-out", fit_options.held_out, "[MODE=]FILE[+FILE...] to evaluate after fitting; repeatable");
   fit->add_option("--output-entry", entry_output, "Write the fitted mode entries (YAML) to this file")
       ->check(file_path());
@@ -357,9 +394,11 @@ int main(int argc, char** argv) {
   tune->add_option("--lockbox", tune_options.lockbox,
                    "Logs kept aside (as --log): neither fitted nor tuned on, scored once by the tuned bank; repeatable");
   tune->add_option("--threads", tune_options.threads, "Worker threads (default, and at most: every core)")
-      ->check(finite_number())->check(CLI::NonNegativeNumber);
+      ->check(finite_number())
+      ->check(number_above(0.0, true));
   tune->add_option("--window", tune_options.window, "The window objective's window in seconds (0: one-step)")
-      ->check(finite_number())->check(CLI::NonNegativeNumber);
+      ->check(finite_number())
+      ->check(number_above(0.0, true));
   tune->add_flag("--fit-r", tune_options.fit_r, "Likelihood objective: also fit one R for the bank");
   tune->add_flag("--full-q", tune_options.full_q,
                  "Q with off-diagonal terms (likelihood: fitted; window: the correlations of the one-step errors)");
@@ -394,7 +433,8 @@ int main(int argc, char** argv) {
   add_rate(eval, &eval_options.overrides.rate);
   eval->add_flag("--smooth", eval_options.smooth, "Score the probabilities smoothed over each whole log");
   eval->add_option("--lag", eval_options.lag, "Score the probabilities smoothed with this lag (s)")
-      ->check(finite_number())->check(CLI::NonNegativeNumber);
+      ->check(finite_number())
+      ->check(number_above(0.0, true));
   eval->add_option("--estimates,-e", eval_options.estimates,
                    "Evaluate `skidimm run` outputs (files or directories) instead of running a bank");
   add_decision_options(eval, &eval_options.overrides);

@@ -343,6 +343,18 @@ TEST(HostileInput, NumberOptionsMustBeFinite) {
                                kSwitching);
   EXPECT_EQ(fit.exit_code, 2) << fit.err;
   EXPECT_THAT(fit.err, HasSubstr("expected a finite number, got 'nan'"));
+  // Out of range, said in a few words (CLI11 printed DBL_MAX's 309 digits), and
+  // --rate's upper bound on the command line, not only in the library's message.
+  for (const auto& [option, message] : std::vector<std::pair<std::string, std::string>>{
+           {"--rate 0", "--rate: expected a number > 0 and at most 1e6, got '0'"},
+           {"--rate 1e7", "--rate: expected a number > 0 and at most 1e6, got '1e7'"},
+           {"--lag -1", "--lag: expected a number >= 0, got '-1'"},
+           {"--decision-hold -2", "--decision-hold: expected a number >= 0, got '-2'"}}) {
+    const Result r = run_shell(run + " " + option);
+    EXPECT_EQ(r.exit_code, 2) << option << ": " << r.err;
+    EXPECT_THAT(r.err, HasSubstr(message)) << option;
+    EXPECT_LT(r.err.size(), 200u) << option;
+  }
   EXPECT_FALSE(fs::exists(dir / "out.csv"));
 }
 
