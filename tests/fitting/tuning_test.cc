@@ -143,6 +143,19 @@ TEST(Separability, SaysWhetherHeldOutScoresBeatAUniformGuess) {
   const evaluation::Separability worse = evaluation::separability(scores({{"a", -4.0}, {"b", -3.9}}), 4);
   EXPECT_EQ(worse.verdict, evaluation::Separability::Verdict::kWorse);
   EXPECT_THAT(worse.describe(), ::testing::StartsWith("worse than a uniform guess"));
+
+  // A mean that is the guess to round-off (uniform probabilities summed in
+  // another order): not told apart, nor worse, whichever side it lands on.
+  // One log has no standard error: said so, not shown as +- 0.
+  const double guess = -std::log(4.0);
+  for (const double log_p :
+       {guess, std::nextafter(guess, 0.0), std::nextafter(guess, -1.0), guess * (1.0 + 4e-16), guess * (1.0 - 4e-16)}) {
+    const evaluation::Separability one = evaluation::separability(scores({{"a", log_p}}), 4);
+    EXPECT_EQ(one.verdict, evaluation::Separability::Verdict::kNotSeparated) << log_p - guess;
+    EXPECT_THAT(one.describe(), ::testing::HasSubstr("on one log (no standard error over logs)"));
+  }
+  EXPECT_EQ(evaluation::separability(scores({{"a", guess}, {"b", std::nextafter(guess, 0.0)}}), 4).verdict,
+            evaluation::Separability::Verdict::kNotSeparated);
 }
 
 TEST(TuningSummary, AveragesLogsWithinAClassThenClasses) {

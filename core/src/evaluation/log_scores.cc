@@ -54,10 +54,14 @@ Separability separability(const std::vector<LogScore>& scores, int classes) {
     for (const LogScore& l : scores) squares += (l.mean_log_probability - s.mean) * (l.mean_log_probability - s.mean);
     s.standard_error = std::sqrt(squares / (n - 1.0) / n);
   }
-  s.verdict = s.mean - 2.0 * s.standard_error > s.uniform ? Separability::Verdict::kSeparated
-              : s.mean > s.uniform                          ? Separability::Verdict::kUnclear
-              : s.mean + 2.0 * s.standard_error >= s.uniform ? Separability::Verdict::kNotSeparated
-                                                              : Separability::Verdict::kWorse;
+  s.logs = static_cast<int>(scores.size());
+  // A mean that is the guess to round-off (every probability uniform, summed
+  // in another order) is the guess: not above it, nor below it.
+  const double tie = 1e-9 * std::abs(s.uniform);
+  s.verdict = s.mean - 2.0 * s.standard_error > s.uniform + tie    ? Separability::Verdict::kSeparated
+              : s.mean > s.uniform + tie                           ? Separability::Verdict::kUnclear
+              : s.mean + 2.0 * s.standard_error >= s.uniform - tie ? Separability::Verdict::kNotSeparated
+                                                                   : Separability::Verdict::kWorse;
   for (const auto& [name, log_p] : summarize(scores).class_log_probability) {
     if (log_p <= s.uniform) s.not_separated.push_back(name);
   }
@@ -70,9 +74,11 @@ std::string Separability::describe() const {
     std::snprintf(b, sizeof(b), "%.3f", v);
     return std::string(b);
   };
-  const std::string figures = "mean log p(truth) " + number(mean) + " +- " + number(standard_error) +
-                              " over logs, against " + number(uniform) + " for a uniform guess over " +
-                              std::to_string(classes) + " classes";
+  // One log has no spread over logs to weigh its mean by: said, not shown as +- 0.
+  const std::string figures =
+      "mean log p(truth) " + number(mean) +
+      (logs == 1 ? " on one log (no standard error over logs)" : " +- " + number(standard_error) + " over logs") +
+      ", against " + number(uniform) + " for a uniform guess over " + std::to_string(classes) + " classes";
   std::string out;
   switch (verdict) {
     case Verdict::kSeparated:

@@ -69,6 +69,7 @@ struct Separability {
   double uniform = 0.0;  // log(1/K)
   double mean = 0.0;
   double standard_error = 0.0;  // 0 over fewer than two logs
+  int logs = 0;
   Verdict verdict = Verdict::kNotSeparated;
   std::vector<std::string> not_separated;  // classes at or below the guess
   // One or two sentences for a user: what the logs show, and what to do
