@@ -3,14 +3,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <set>
 #include <sstream>
 
 #include "covariance.h"
 #include "skidimm/config/bank.h"
 #include "skidimm/config/expression.h"
-#include "skidimm/errors.h"
 #include "skidimm/engine/parameter_uncertainty.h"
+#include "skidimm/errors.h"
 #include "skidimm/printable.h"
 #include "yaml_fields.h"
 
@@ -185,8 +186,9 @@ void parse_transition(const YamlFields& y, const YAML::Node& root, BankConfig* b
       const double sum = t.matrix.row(i).sum();
       if (std::abs(sum - 1.0) > 1e-9) {
         std::ostringstream out;
-        out << "row " << i << " (from mode '" << bank->modes[i].name << "') sums to " << sum
-            << "; rows are 'from', columns 'to', and each must sum to 1";
+        // Digits enough to show how far from 1: 1.0000001 printed as 1.
+        out << "row " << i << " (from mode '" << bank->modes[i].name << "') sums to " << std::setprecision(12) << sum
+            << " (within 1e-9 of 1 is taken as 1); rows are 'from', columns 'to', and each must sum to 1";
         y.fail(node["matrix"][i], row_field, out.str());
       }
       t.matrix.row(i) /= sum;
@@ -462,7 +464,9 @@ void parse_decision(const YamlFields& y, const YAML::Node& root, BankConfig* ban
   if (!(d.leave >= 0.0 && d.leave < d.enter)) {
     y.fail(node, "decision.leave", "must be a probability in [0, decision.enter)");
   }
-  if (!(d.min_hold >= 0.0 && d.min_hold < 1e9)) y.fail(node, "decision.min_hold", "must be seconds >= 0");
+  if (!(d.min_hold >= 0.0 && d.min_hold < kLongestDecisionHold)) {
+    y.fail(node, "decision.min_hold", "must be seconds, >= 0 and under 1e9");
+  }
 }
 
 void parse_classes(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {

@@ -22,7 +22,10 @@ void check_decision_settings(const DecisionConfig& d) {
     throw Error("decision thresholds: need 0 <= leave < enter <= 1, got enter " + CsvWriter::format(d.enter) +
                 ", leave " + CsvWriter::format(d.leave));
   }
-  if (!(d.min_hold >= 0.0)) throw Error("decision hold: need min_hold >= 0 s, got " + CsvWriter::format(d.min_hold));
+  // The bank's own bound (bank_loader.cc): a hold of 1e308 s was taken from the command line.
+  if (!(d.min_hold >= 0.0 && d.min_hold < kLongestDecisionHold)) {
+    throw Error("decision hold: need min_hold >= 0 s and under 1e9 s, got " + CsvWriter::format(d.min_hold));
+  }
 }
 
 DecisionConfig decision_settings_of(const DecisionConfig& bank, const RunOverrides& overrides) {

@@ -355,6 +355,10 @@ TEST(HostileInput, NumberOptionsMustBeFinite) {
     EXPECT_THAT(r.err, HasSubstr(message)) << option;
     EXPECT_LT(r.err.size(), 200u) << option;
   }
+  // The bank's bound on the decision's hold holds for the command line too (1e308 s was taken).
+  const Result hold = run_shell(run + " --decision-hold 1e308");
+  EXPECT_EQ(hold.exit_code, 1) << hold.err;
+  EXPECT_THAT(hold.err, HasSubstr("decision hold: need min_hold >= 0 s and under 1e9 s, got 1e+308"));
   EXPECT_FALSE(fs::exists(dir / "out.csv"));
 }
 

@@ -142,6 +142,8 @@ TEST(BankConfig, AModesOwnMeasurementNoiseIsReadAndChecked) {
 TEST(BankConfig, TransitionRowsMustSumToOne) {
   expect_config_error(replace(kValidBank, "  stay: 0.98", "  matrix: [[0.9, 0.1], [0.3, 0.6]]"),
                       {"transition.matrix[1]", "sums to 0.9", "rows are 'from', columns 'to'"});
+  expect_config_error(replace(kValidBank, "  stay: 0.98", "  matrix: [[0.5, 0.5000001], [0.3, 0.7]]"),
+                      {"transition.matrix[0]", "sums to 1.0000001 (within 1e-9 of 1 is taken as 1)"});
 }
 
 TEST(BankConfig, UnknownKeyIsATypoNotIgnored) {

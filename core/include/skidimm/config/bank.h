@@ -114,6 +114,9 @@ struct SamplingConfig {
   bool skip_gaps = false;
 };
 
+// The longest min_hold a bank or a command line may state, in seconds.
+inline constexpr double kLongestDecisionHold = 1e9;
+
 // How a decision a controller can act on is made from the probabilities
 // (decision.h, `decision:` in the bank).
 struct DecisionConfig {
