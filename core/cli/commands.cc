@@ -185,6 +185,11 @@ int run(const RunOptions& options) {
   const StopOnSignals stop_on_signals;
   int code = report_errors("skidimm run", [&] {
     const EstimatorOptions estimator = command_line_estimator(options.smooth, options.lag);
+    if (options.flush && (EstimatesWriter::is_npy(options.output) || options.output.extension() == ".mcap")) {
+      // Before the output is opened: it left an empty .partial behind.
+      throw UsageError(
+          "--flush writes CSV rows as they are computed; a .npy or .mcap file is complete only at the end");
+    }
     const LogSpec log = join_log_arguments(options.inputs);
     if (options.copy_topics) {
       // Found after the run, either would cost the whole run.

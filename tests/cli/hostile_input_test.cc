@@ -355,6 +355,14 @@ TEST(HostileInput, NumberOptionsMustBeFinite) {
     EXPECT_THAT(r.err, HasSubstr(message)) << option;
     EXPECT_LT(r.err.size(), 200u) << option;
   }
+  // --flush with an output written whole at the end: a bad command line, before the output is opened.
+  for (const std::string output : {"flushed.mcap", "flushed.npy"}) {
+    const Result flushed = run_shell(kSkidimm + " run -q --bank " + kTerrains + " --plugin-path " + kPlugins +
+                                     " --input " + kSwitching + " --flush --output " + (dir / output).string());
+    EXPECT_EQ(flushed.exit_code, 2) << output << ": " << flushed.err;
+    EXPECT_THAT(flushed.err, HasSubstr("--flush writes CSV rows as they are computed"));
+    EXPECT_FALSE(fs::exists(dir / (output + ".partial"))) << output;
+  }
   // The bank's bound on the decision's hold holds for the command line too (1e308 s was taken).
   const Result hold = run_shell(run + " --decision-hold 1e308");
   EXPECT_EQ(hold.exit_code, 1) << hold.err;
