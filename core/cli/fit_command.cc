@@ -19,6 +19,7 @@
 #include "skidimm/fitting/model_fitter.h"
 #include "skidimm/fitting/solver_messages.h"
 #include "skidimm/io/output_file.h"
+#include "skidimm/printable.h"
 #include "skidimm/progress.h"
 
 namespace skidimm {
@@ -96,6 +97,28 @@ int fit(const FitCommandOptions& options) {
       if (data.size() != 1) throw Error("--append-to takes the fit of exactly one mode");
       load_bank_config(options.append_to);
       check_output_path(options.append_to, "--append-to");
+    }
+    if (!options.name.empty()) {
+      // A name the written bank would refuse: found after the fit, and an
+      // --output-entry was written with it unchecked.
+      const std::string& name = options.name;
+      if (printable(name) != name || name.find_first_of("\t\n") != std::string::npos) {
+        throw Error("--name '" + printable(name) + "' has control characters or invalid UTF-8");
+      }
+      if (name == "unknown") {
+        throw Error("--name: 'unknown' is the decision's answer when no mode is confident: pick another");
+      }
+      const auto taken = [&](const BankConfig& target, const std::string& renamed, const std::string& where) {
+        for (const ModeConfig& m : target.modes) {
+          if (m.name == name && m.name != renamed) {
+            throw Error("--name '" + name + "': " + where + " already has a mode of that name: pick another");
+          }
+        }
+      };
+      if (!options.output_bank.empty()) taken(config, options.mode, "the bank (" + options.bank.string() + ")");
+      if (!options.append_to.empty()) {
+        taken(load_bank_config(options.append_to), "", "--append-to " + options.append_to.string());
+      }
     }
     if (!options.output_bank.empty()) check_output_path(options.output_bank, "--output-bank");
     if (!options.output_entry.empty()) check_output_path(options.output_entry, "--output-entry");

@@ -591,6 +591,26 @@ TEST(CliIo, FittingWithAFiniteButAbsurdCellIsAnErrorNamingWhereAndAppendsNothing
   EXPECT_EQ(clean.exit_code, 0) << clean.err;
 }
 
+// A --name the written bank would refuse failed only after the fit, and an
+// --output-entry was written with it unchecked.
+TEST(CliIo, FitChecksTheNameOfTheFittedModeBeforeFitting) {
+  const fs::path dir = test_directory();
+  const std::string fit = kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                          " --objective window --mode asphalt --log asphalt=" + kSwitching;
+  expect_refused_before(fit + " --name grass --output-bank " + (dir / "b.yaml").string(),
+                        "--name 'grass': the bank (" + kTerrains + ") already has a mode of that name", "residuals");
+  expect_refused_before(fit + " --name unknown --output-entry " + (dir / "e.yaml").string(),
+                        "--name: 'unknown' is the decision's answer", "residuals");
+  const fs::path target = write_file(dir / "target.yaml", read_file(kTerrains));
+  expect_refused_before(fit + " --name grass --append-to " + target.string(),
+                        "--name 'grass': --append-to " + target.string() + " already has a mode of that name",
+                        "residuals");
+  EXPECT_FALSE(fs::exists(dir / "e.yaml"));
+  EXPECT_EQ(read_file(target), read_file(kTerrains));
+  // The fitted mode keeping its own name is no clash.
+  EXPECT_EQ(run_pipeline(fit + " --name asphalt --output-bank " + (dir / "b.yaml").string()).exit_code, 0);
+}
+
 // The written bank's header repeats the command line: a log whose name holds
 // a newline made the rest of the name a line of the bank, here a key that
 // loaded (innovation_gate: 0.5). It is written as an escape, in the comment.
