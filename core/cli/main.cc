@@ -327,9 +327,12 @@ int main(int argc, char** argv) {
   add_rate(fit, &fit_options.rate);
   fit->add_option("--loss", fit_options.loss, "Robust loss: huber (default), cauchy, none")
       ->check(CLI::IsMember({"huber", "cauchy", "none"}));
+  // In units of R's standard deviations: far below one, the robust loss
+  // underflows (1e-170 made the cost NaN, blamed on the logs); far above,
+  // it is the plain square.
   fit->add_option("--loss-scale", fit_options.loss_scale, "Loss scale in measurement standard deviations (3)")
       ->check(finite_number())
-      ->check(number_above(0.0, false));
+      ->check(number_above(1e-3, true, 1e6));
   fit->add_option("--held-out", fit_options.held_out, "[MODE=]FILE[+FILE...] to evaluate after fitting; repeatable");
   fit->add_option("--output-entry", entry_output, "Write the fitted mode entries (YAML) to this file")
       ->check(file_path());

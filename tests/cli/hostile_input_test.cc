@@ -363,6 +363,11 @@ TEST(HostileInput, NumberOptionsMustBeFinite) {
     EXPECT_THAT(flushed.err, HasSubstr("--flush writes CSV rows as they are computed"));
     EXPECT_FALSE(fs::exists(dir / (output + ".partial"))) << output;
   }
+  // A loss scale at which the robust loss underflows (1e-170 made the cost NaN, blamed on the logs).
+  const Result scale = run_shell(kSkidimm + " fit --objective window --loss cauchy --loss-scale 1e-170 --bank " +
+                                 kTerrains + " --log asphalt=" + kSwitching);
+  EXPECT_EQ(scale.exit_code, 2) << scale.err;
+  EXPECT_THAT(scale.err, HasSubstr("--loss-scale: expected a number >= 0.001 and at most 1e6, got '1e-170'"));
   // The bank's bound on the decision's hold holds for the command line too (1e308 s was taken).
   const Result hold = run_shell(run + " --decision-hold 1e308");
   EXPECT_EQ(hold.exit_code, 1) << hold.err;
