@@ -18,6 +18,7 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <sstream>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -366,7 +367,14 @@ int main(int argc, char** argv) {
   tune->add_option("--tune", tune_options.knobs,
                    "Settings to choose, comma-separated: r-scale, r-components, q-scale, q-modes, dwell, floor, "
                    "likelihood-weight, likelihood-dof, unknown-inflation, extrapolation-scale (default "
-                   "r-scale,q-scale,dwell,floor)");
+                   "r-scale,q-scale,dwell,floor)")
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            // '' tuned the defaults and ',' nothing, each without a word.
+            return text.find_first_not_of(", ") == std::string::npos ? std::string("expected one or more settings")
+                                                                     : std::string();
+          },
+          ""));
   // One group would leave every fold nothing to train on.
   const CLI::Validator folds_count(
       [](std::string& text) {
@@ -593,6 +601,17 @@ int main(int argc, char** argv) {
     return skidimm::cli::fit(fit_options);
   }
   if (*tune) {
+    if (tune->get_option("--window")->count() > 0) {
+      // Ignored without a word by the other objectives.
+      bool window = false;
+      std::stringstream list(tune_options.objectives);
+      for (std::string name; std::getline(list, name, ',');) window = window || name == "window";
+      if (!window) {
+        std::cerr << "skidimm tune: --window is the window objective's, which --objective (" << tune_options.objectives
+                  << ") does not name\n";
+        return kExitUsage;
+      }
+    }
     tune_options.bank = tune_bank;
     tune_options.plugin_paths = paths;
     tune_options.command_line = "skidimm";

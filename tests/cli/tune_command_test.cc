@@ -167,6 +167,18 @@ TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
       run_pipeline(tune + " --objective none --inner-folds 2 --assess 'extrapolation:d=1/(phi_dot_L-phi_dot_L)'");
   EXPECT_EQ(undefined.exit_code, 1);
   EXPECT_THAT(undefined.err, HasSubstr("--assess extrapolation:d=1/(phi_dot_L-phi_dot_L): "));
+  // --window without the window objective, and a --tune that names nothing ('' tuned the defaults,
+  // ',' nothing), were taken without a word.
+  const Result window = run_pipeline(tune + " --objective none --no-assess --window 1");
+  EXPECT_EQ(window.exit_code, 2) << window.err;
+  EXPECT_THAT(window.err, HasSubstr("--window is the window objective's, which --objective (none) does not name"));
+  const std::string untuned = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins + " --log " +
+                              kSwitching + " --log " + copy.string() + " --objective none --no-assess --tune ";
+  for (const std::string knobs : {"''", "','"}) {
+    const Result none = run_pipeline(untuned + knobs);
+    EXPECT_EQ(none.exit_code, 2) << knobs << ": " << none.err;
+    EXPECT_THAT(none.err, HasSubstr("--tune: expected one or more settings")) << knobs;
+  }
 }
 
 TEST(Cli, TuneTempersTheEvidenceOfABankThatOvercountsItOnRealRuns) {
