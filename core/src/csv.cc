@@ -73,7 +73,13 @@ CsvReader::CsvReader(const fs::path& path) : path_(path) {
     if (ec && ec != std::errc::no_such_file_or_directory) {
       throw LogError(path.string(), 0, "cannot read: " + ec.message());  // a symlink loop, a denied directory
     }
-    if (!fs::exists(status)) throw LogError(path.string(), 0, "no such log file");
+    if (!fs::exists(status)) {
+      // run reads one log: a pattern is for the commands that read many.
+      throw LogError(path.string(), 0,
+                     path.string().find('*') != std::string::npos
+                         ? "no such log file (a pattern with '*' names the runs of fit, tune and eval; run reads one)"
+                         : "no such log file");
+    }
     if (fs::is_directory(status)) throw LogError(path.string(), 0, "is a directory, not a log file");
     // Regular files, and pipes, FIFOs, /dev/stdin and <(...): read front to back.
     if (fs::is_regular_file(status)) file_size_ = fs::file_size(path, ec);

@@ -29,7 +29,15 @@ class YamlFields {
   // non-mapping document are ConfigErrors.
   YAML::Node load_mapping(const std::string& kind) const {
     std::error_code ec;
-    if (!std::filesystem::is_regular_file(file_, ec)) throw ConfigError(file_, 0, "", "no such " + kind + " file");
+    if (!std::filesystem::is_regular_file(file_, ec)) {
+      // A pipe (<(...)) exists, but is read again (the bank's writers copy it): say what it is.
+      const bool exists = std::filesystem::exists(file_, ec);
+      throw ConfigError(file_, 0, "",
+                        !exists ? "no such " + kind + " file"
+                        : std::filesystem::is_directory(file_, ec)
+                            ? "is a directory, not a " + kind + " file"
+                            : "is not a regular file (a pipe or a device): give the " + kind + " as a file");
+    }
     YAML::Node root;
     try {
       root = YAML::LoadFile(file_);

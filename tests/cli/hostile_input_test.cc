@@ -292,6 +292,19 @@ TEST(HostileInput, TwoRunsWritingOneOutputNeverMix) {
   EXPECT_EQ(discarded.exit_code, 0) << discarded.err;
 }
 
+// What is wrong with an input is said: a pattern given to run (which reads
+// one log) and a bank through a pipe were both "no such ... file".
+TEST(HostileInput, APatternForRunAndABankThroughAPipeAreSaidForWhatTheyAre) {
+  const Result pattern = run_shell(run_command(kTerrains, "'" + kSource + "/configs/examples/ltc_*.csv'", "/dev/null"));
+  EXPECT_EQ(pattern.exit_code, 1);
+  EXPECT_THAT(pattern.err, HasSubstr("no such log file (a pattern with '*' names the runs of fit, tune and eval; run "
+                                     "reads one)"));
+  const Result piped = run_shell(kSkidimm + " run -q --bank <(cat " + kTerrains + ") --plugin-path " + kPlugins +
+                                 " --input " + kSwitching + " --output /dev/null");
+  EXPECT_EQ(piped.exit_code, 1);
+  EXPECT_THAT(piped.err, HasSubstr("is not a regular file (a pipe or a device): give the bank as a file"));
+}
+
 TEST(HostileInput, PluginPathsOpenOnlyRegularFilesAndSurviveHugeOnes) {
   const fs::path dir = test_directory();
   const fs::path fifo = dir / "fifo.so";
