@@ -1,4 +1,5 @@
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 
 #include "commands.h"
@@ -13,7 +14,11 @@ namespace skidimm {
 namespace cli {
 
 int simulate(const SimulateOptions& options) {
-  return report_errors("skidimm simulate", [&] {
+  // Whether a .partial of this output was there before: only one this run left is reported.
+  const std::filesystem::path partial = options.output.string() + ".partial";
+  std::error_code ec;
+  const bool partial_before = std::filesystem::exists(partial, ec);
+  const int code = report_errors("skidimm simulate", [&] {
     if (!options.bank.empty() && !options.scenario.empty()) {
       throw UsageError("give either --scenario or --bank, not both");
     }
@@ -62,6 +67,10 @@ int simulate(const SimulateOptions& options) {
     }
     return kExitOk;
   });
+  if (code != kExitOk && !partial_before && std::filesystem::exists(partial, ec)) {
+    std::cerr << "skidimm simulate: the rows simulated before the error are in " << partial.string() << "\n";
+  }
+  return code;
 }
 
 }  // namespace cli

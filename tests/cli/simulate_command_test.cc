@@ -44,6 +44,22 @@ TEST(Cli, SimulateRefusesToWriteOverTheLogItReads) {
   EXPECT_EQ(read_file(scenario), read_file(kSource + "/configs/scenarios/ltc_switching.yaml"));
 }
 
+// A simulation that stops on a state it cannot integrate keeps the rows
+// before it in the .partial file, and says so (it said nothing of them).
+TEST(Cli, ASimulationThatFailsSaysWhereItsRowsAre) {
+  const fs::path dir = test_directory();
+  std::string scenario = read_file(kSource + "/configs/scenarios/ltc_switching.yaml");
+  scenario.replace(scenario.find("speed: 0.8"), 10, "speed: 1e308");
+  const fs::path file = write_file(dir / "fast.yaml", scenario);
+  const Result r = run_skidimm("simulate --scenario " + file.string() + " --output " + (dir / "log.csv").string());
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("the simulated state is not finite at t = "));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("the rows simulated before the error are in " + (dir / "log.csv").string() +
+                                          ".partial"));
+  EXPECT_TRUE(fs::exists(dir / "log.csv.partial"));
+  EXPECT_FALSE(fs::exists(dir / "log.csv"));
+}
+
 // --seed takes what a scenario's `seed:` takes: -1 ran with seed 2^64 - 1,
 // and 2^64 or more clamped to it, so different seeds gave one log.
 TEST(Cli, SimulateTakesAWholeSeedOf64BitsAndRefusesTheRest) {
