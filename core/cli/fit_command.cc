@@ -141,9 +141,14 @@ int fit(const FitCommandOptions& options) {
     refuse_clashing_files({{"--output-entry", options.output_entry}}, {{"--bank", options.bank}});
     std::vector<std::pair<std::string, std::vector<ModeLogs>>> held_out;
     for (const std::string& text : options.held_out) {
-      // The argument's logs are read on their own threads.
-      held_out.emplace_back(text,
-                            fitting::load_mode_logs(config, {text}, options.mode, sampling, "--held-out", expansion));
+      // The argument's logs are read on their own threads. A file that cannot
+      // be read is blamed on --held-out, as a label is.
+      try {
+        held_out.emplace_back(text,
+                              fitting::load_mode_logs(config, {text}, options.mode, sampling, "--held-out", expansion));
+      } catch (const LogError& e) {
+        throw Error("--held-out '" + text + "': " + e.what());
+      }
     }
 
     fitting::FitRequest request;

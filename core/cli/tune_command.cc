@@ -211,7 +211,7 @@ int tune(const TuneCommandOptions& options) {
         for (LogSpec& spec : expand_log_argument(argument, unpaired_runs("skidimm tune", options.skip_unpaired))) {
           require_rereadable(spec, "tune reads each log more than once");
           fitting::TuningLog log;
-          log.fit_data = fitting::mode_segments(config, spec, options.mode, sampling);
+          log.fit_data = fitting::mode_segments(config, spec, options.mode, sampling, lockbox ? "--lockbox" : "--log");
           if (spec.label.empty() && !options.mode.empty()) spec.label = options.mode;
           log.spec = spec;
           log.lockbox = lockbox;

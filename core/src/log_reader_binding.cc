@@ -100,6 +100,20 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
       throw reader.error(message);
     }
   }
+  if (by_rows) {
+    // Read row for row, the files share the time of the one with the time
+    // column: an offset on another would be ignored without a word.
+    const std::size_t timed = static_cast<std::size_t>(streams_.front().time_file);
+    for (std::size_t f = 0; f < files.size(); ++f) {
+      if (f != timed && files[f].time_offset != 0.0) {
+        throw LogError(
+            files[f].path.string(), 0,
+            "an offset (@" + CsvWriter::format(files[f].time_offset) +
+                ") on a file without the log's time: with sampling.join: rows every file takes the time of " +
+                files[timed].path.string() + ", so put the offset there");
+      }
+    }
+  }
 
   for (std::size_t i = 0; i < bank.columns.inputs.size(); ++i) {
     const std::string field = "columns.inputs." + bank.input_names[i];

@@ -739,6 +739,11 @@ TEST(CliIo, FitChecksItsOutputsAndHeldOutLogsBeforeFitting) {
   expect_refused_before(fit + " --output-entry " + dir.string(), "--output-entry " + dir.string() + ": is a directory",
                         "residuals");
   expect_refused_before(fit + " --held-out mud=" + kSwitching, "the bank has no mode or class 'mud'", "residuals");
+  // A file of a --held-out log that is not there is blamed on --held-out, as a label is.
+  const std::string missing_part = (dir / "no_such.csv").string();
+  expect_refused_before(fit + " --held-out '" + kSwitching + "+" + missing_part + "'",
+                        "--held-out '" + kSwitching + "+" + missing_part + "': " + missing_part + ": no such log file",
+                        "residuals");
   // One row cannot score a one-step prediction: said so, where its errors
   // used to print as 0.
   const fs::path one_row = one_row_log(dir);

@@ -52,22 +52,23 @@ TEST(CliIo, TuneChecksWhereItWritesBeforeTheWork) {
   EXPECT_EQ(made.exit_code, 0) << made.err;
   EXPECT_TRUE(fs::is_directory(dir / "new" / "estimates"));
   // A folder an earlier run wrote: eval --estimates on it would score both
-  // runs' files as one (9 logs where 4 were tuned). Refused; another
-  // protocol's empty folder is not.
+  // runs' files as one (9 logs where 4 were tuned). Refused; a folder this
+  // run does not write is not. (The lockbox's folder, without an
+  // assessment: the same check as a protocol's, at a fraction of the work.)
   const fs::path estimates = dir / "estimates";
-  const std::string assessed = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins + " --log " +
-                               kSwitching + " --log " + copy.string() +
-                               " --objective none --tune dwell --inner-folds 2 --estimates " + estimates.string();
-  const Result first = run_pipeline(assessed);
+  const fs::path third = dir / "third.csv";
+  fs::copy_file(kSwitching, third);
+  const std::string boxed = tune + " --lockbox " + third.string() + " --estimates " + estimates.string();
+  const Result first = run_pipeline(boxed);
   ASSERT_EQ(first.exit_code, 0) << first.err;
-  ASSERT_TRUE(fs::exists(estimates / "logs" / "000_ltc_switching.csv"));
-  expect_refused_before(assessed,
-                        "--estimates " + estimates.string() + ": " + (estimates / "logs").string() +
-                            " already holds 2 file(s), from an earlier run",
+  ASSERT_TRUE(fs::exists(estimates / "lockbox" / "002_third.csv"));
+  expect_refused_before(boxed,
+                        "--estimates " + estimates.string() + ": " + (estimates / "lockbox").string() +
+                            " already holds 1 file(s), from an earlier run",
                         "work:");
   fs::create_directories(dir / "other" / "logs");
-  const Result empty = run_pipeline(assessed + "/../other");
-  EXPECT_EQ(empty.exit_code, 0) << empty.err;
+  const Result other = run_pipeline(boxed + "/../other");
+  EXPECT_EQ(other.exit_code, 0) << other.err;
 }
 
 // A log given twice, or kept in the lockbox and trained on, would make the
@@ -83,6 +84,9 @@ TEST(CliIo, TuneRefusesRepeatedLogsOutputsOverLogsAndLogsWithNothingToScore) {
   expect_refused_before(tune + " --log " + (fs::path(kSwitching).parent_path() / "." / "ltc_switching.csv").string(),
                         twice, "work:");
   expect_refused_before(tune + " --lockbox " + kSwitching, twice + " and --lockbox " + kSwitching + ")", "work:");
+  // A lockbox log's label is the lockbox's, not blamed on --log.
+  expect_refused_before(tune + " --lockbox mud=" + kSwitching,
+                        "--lockbox 'mud=" + kSwitching + "': the bank has no mode", "work:");
   expect_refused_before(tune + " --table " + copy.string(),
                         "--table " + copy.string() + " is the log file " + copy.string() + " itself", "work:");
   expect_refused_before(tune + " --output-bank " + copy.string(), "is the log file " + copy.string() + " itself",

@@ -480,6 +480,17 @@ TEST(LogReader, SideBySideFilesMustMatchRowForRow) {
   ASSERT_TRUE(reader.next(&s));
   EXPECT_EQ(s.z, Eigen::Vector2d(3, 4));
   expect_error([&] { reader.next(&s); }, {"a.csv:3", "must match row for row", "b.csv has ended"});
+  // An offset on the file without the time was ignored; on the timed one it shifts every row.
+  expect_error(
+      [&] {
+        LogReader(bank, {a, LogFile(b, 5.0)});
+      },
+      {"b.csv: an offset (@5) on a file without the log's time: with sampling.join: rows every file takes "
+       "the time of " +
+       a.string() + ", so put the offset there"});
+  LogReader shifted(bank, {LogFile(a, 5.0), b});
+  ASSERT_TRUE(shifted.next(&s));
+  EXPECT_EQ(s.t, 5.0);
 }
 
 TEST(LogReader, AFileWithoutTheTimeColumnSaysHowToJoinByRows) {

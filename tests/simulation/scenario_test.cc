@@ -290,6 +290,10 @@ TEST(Scenario, ErrorsNameFileLineAndField) {
               HasSubstr("sensors.heading: expected direct or gps_course"));
   EXPECT_THAT(error(replace_first(kScenario, "sensors: {", "sensors: {gps_correlation_time: 0, ")),
               HasSubstr("sensors.gps_correlation_time: must be a finite number > 0"));
+  // A mode's name is each row's truth label: "" wrote blank cells, read back as unlabelled.
+  EXPECT_THAT(error(replace_first(replace_first(kScenario, "  grass: {terrain", "  \"\": {terrain"), "mode: grass}",
+                                  "mode: \"\"}")),
+              HasSubstr("a mode's name cannot be empty: it is the log's truth label"));
 }
 
 // The bundled, fitted LTC bank identifies each terrain on spirals it was not

@@ -74,6 +74,10 @@ TEST(SimulationBounds, AnImplausibleRobotIsNamed) {
                         "speed loop response on mode 'asphalt' (time constant 0.0001 s)"));
   EXPECT_THAT(load_error(replace_first(kBoundsScenario, "{yaw_inertia: 6.0}", "{yaw_inertia: 1e-12}")),
               HasSubstr("s.yaml:3: robot.yaw_inertia: integration_step 0.0005 s does not resolve the yaw response"));
+  // The yaw response is the inertia against the wheels' moment arms: an absurd wheelbase was blamed on the inertia
+  // alone.
+  EXPECT_THAT(load_error(replace_first(kBoundsScenario, "{yaw_inertia: 6.0}", "{yaw_inertia: 6.0, wheelbase: 1e300}")),
+              HasSubstr("(or check robot.track and robot.wheelbase, the wheels' moment arms)"));
 }
 
 TEST(SimulationBounds, TheNumberOfStepsIsBounded) {
@@ -114,6 +118,9 @@ TEST(SimulationBounds, SensorRatesTheIntegrationCannotDeliverAreErrors) {
   EXPECT_THAT(load_error(replace_first(kBoundsScenario, "gps_rate: 10", "gps_rate: 10, current_rate: 51")),
               HasSubstr("sensors.current_rate: a current sample is written on a sensor row, so it must be <= "
                         "sensors.rate = 50 Hz, got 51 Hz"));
+  // A rate too small for six decimals is shown, not rounded to 0 Hz.
+  EXPECT_THAT(load_error(replace_first(kBoundsScenario, "rate: 50,", "rate: 1e-9,")),
+              HasSubstr("must be <= sensors.rate = 1e-09 Hz, got 10 Hz"));
   EXPECT_THAT(load_error(replace_first(kBoundsScenario, "gps_rate: 10", "gps_rate: 10, current_std: -1")),
               HasSubstr("sensors.current_std"));
   EXPECT_THAT(load_error(replace_first(kBoundsScenario, "gps_rate: 10", "gps_rate: 10, current_dropout: 2")),

@@ -15,6 +15,7 @@
 #include "random.h"
 #include "skidimm/errors.h"
 #include "skidimm/io/csv.h"
+#include "skidimm/printable.h"
 #include "skidimm/sdk/angles.h"
 
 namespace skidimm {
@@ -196,6 +197,14 @@ void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s)
 
 std::string approx(double v) { return CsvWriter::format(std::round(v * 1e6) / 1e6); }
 
+// A rate in a message: six significant digits (approx() rounds to 1e-6,
+// which wrote a rate of 1e-9 Hz as 0).
+std::string rate_text(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", v);
+  return text;
+}
+
 struct Problem {
   std::string field;
   std::string message;
@@ -217,10 +226,12 @@ std::optional<Problem> simulation_problem(const Scenario& s) {
       std::snprintf(text, sizeof(text),
                     "integration_step %.6g s does not resolve the %s response on mode '%s' (time constant %.3g s): "
                     "RK4 diverges beyond 2.785 time constants a step, and the step must be <= %.2g of them, %.3g s. "
-                    "Lower integration_step%s%s%s",
+                    "Lower integration_step%s%s%s%s",
                     h, fastest.what, printable(mode.name).c_str(), 1.0 / fastest.rate, kMaxStepTimesRate,
                     kMaxStepTimesRate / fastest.rate, knob.empty() ? "" : " or raise ", knob.c_str(),
-                    knob.empty() ? "" : " to a physical value");
+                    knob.empty() ? "" : " to a physical value",
+                    // The yaw response is the inertia against the wheels' moment arms: the geometry may be what is off.
+                    what == "yaw" ? " (or check robot.track and robot.wheelbase, the wheels' moment arms)" : "");
       // At the default step the robot is what changed; a chosen step is named.
       const bool default_step = h == Scenario().integration_step;
       return Problem{knob.empty() || !default_step ? "integration_step" : knob, text};
@@ -236,18 +247,20 @@ std::optional<Problem> simulation_problem(const Scenario& s) {
     return Problem{"duration", text};
   }
   if (s.sensors.rate * h > 1.0 + 1e-9) {
-    return Problem{"sensors.rate", "a row is written at most once per integration step, so the rate must be <= 1 / "
-                                   "integration_step = " +
-                                       approx(1.0 / h) + " Hz, got " + approx(s.sensors.rate) + " Hz"};
+    return Problem{"sensors.rate",
+                   "a row is written at most once per integration step, so the rate must be <= 1 / "
+                   "integration_step = " +
+                       rate_text(1.0 / h) + " Hz, got " + rate_text(s.sensors.rate) + " Hz"};
   }
   if (s.sensors.gps_rate > s.sensors.rate * (1.0 + 1e-9)) {
     return Problem{"sensors.gps_rate", "a GPS fix is written on a sensor row, so it must be <= sensors.rate = " +
-                                           approx(s.sensors.rate) + " Hz, got " + approx(s.sensors.gps_rate) + " Hz"};
+                                           rate_text(s.sensors.rate) + " Hz, got " + rate_text(s.sensors.gps_rate) +
+                                           " Hz"};
   }
   if (s.sensors.current_rate > s.sensors.rate * (1.0 + 1e-9)) {
     return Problem{"sensors.current_rate",
                    "a current sample is written on a sensor row, so it must be <= sensors.rate = " +
-                       approx(s.sensors.rate) + " Hz, got " + approx(s.sensors.current_rate) + " Hz"};
+                       rate_text(s.sensors.rate) + " Hz, got " + rate_text(s.sensors.current_rate) + " Hz"};
   }
   return std::nullopt;
 }
@@ -330,6 +343,11 @@ Scenario load_scenario(const fs::path& file) {
   for (const auto& entry : modes) {
     const std::string name = y.key(entry.first, "modes");
     const std::string field = "modes." + name;
+    // The name is each row's truth label: an empty one reads as unlabelled.
+    if (name.empty()) y.fail(entry.first, "modes", "a mode's name cannot be empty: it is the log's truth label");
+    if (printable(name) != name || name.find_first_of("\t\n\r") != std::string::npos) {
+      y.fail(entry.first, "modes", "'" + printable(name) + "' has control characters or invalid UTF-8");
+    }
     y.check_keys(entry.second, {"terrain", "tarp"}, field);
     const std::string terrain = y.string(y.required(entry.second, "terrain", field), field + ".terrain");
     std::vector<std::string> tarp;
