@@ -55,6 +55,23 @@ std::vector<LogSample> read_all(LogReader& reader) {
   return out;
 }
 
+// Reads until `reader` throws, expecting each of `parts` in the error: how
+// many steps it delivered before, and the error's message.
+struct StepsBeforeError {
+  long steps = 0;
+  std::string message;
+};
+StepsBeforeError read_until_error(LogReader& reader, std::initializer_list<std::string> parts) {
+  StepsBeforeError out;
+  LogSample s;
+  out.message = expect_error(
+      [&] {
+        while (reader.next(&s)) ++out.steps;
+      },
+      parts);
+  return out;
+}
+
 constexpr double kTight = 1e-12;
 
 TEST(LogSpec, ParsesLabelsFilesAndOffsets) {
@@ -276,16 +293,11 @@ TEST(LogReader, AFixedRateRefusesAGapLongerThanMaxGapNamingTheRowAndTheLimit) {
     BankConfig bank = simple_bank();
     bank.sampling.rate = 100.0;
     LogReader reader(bank, {file}, bank.sampling);
-    LogSample s;
-    int steps = 0;
-    const std::string message = expect_error(
-        [&] {
-          while (reader.next(&s)) ++steps;
-        },
-        {"log.csv:5: column 't': the log has no row from t = 0.2 to ", "longer than sampling.max_gap (10 s)",
-         "sampling.skip_gaps: true"});
-    EXPECT_EQ(steps, 21) << "every step up to the gap is delivered: 0 .. 0.2 s at 100 Hz";
-    EXPECT_LT(message.size(), 600u);
+    const StepsBeforeError read =
+        read_until_error(reader, {"log.csv:5: column 't': the log has no row from t = 0.2 to ",
+                                  "longer than sampling.max_gap (10 s)", "sampling.skip_gaps: true"});
+    EXPECT_EQ(read.steps, 21) << "every step up to the gap is delivered: 0 .. 0.2 s at 100 Hz";
+    EXPECT_LT(read.message.size(), 600u);
   }
 }
 
@@ -323,16 +335,12 @@ TEST(LogReader, StepsAtTheTimeStampsRefuseAGapLongerThanMaxGapToo) {
   ASSERT_EQ(bank.sampling.rate, 0.0);
   {
     LogReader reader(bank, {file}, bank.sampling);
-    LogSample s;
-    int steps = 0;
-    expect_error(
-        [&] {
-          while (reader.next(&s)) ++steps;
-        },
-        {"log.csv:4: column 't': the log has no row from t = 0.1 to 1e+308 s",
-         "the filter would cross it in one step, and the row before it would stand for the whole gap",
-         "sampling.skip_gaps: true in the bank to step across such gaps"});
-    EXPECT_EQ(steps, 2) << "every step before the gap is delivered";
+    const StepsBeforeError read =
+        read_until_error(reader, {"log.csv:4: column 't': the log has no row from t = 0.1 to 1e+308 s",
+                                  "the filter would cross it in one step, and the row before it would stand for the "
+                                  "whole gap",
+                                  "sampling.skip_gaps: true in the bank to step across such gaps"});
+    EXPECT_EQ(read.steps, 2) << "every step before the gap is delivered";
   }
   bank.sampling.skip_gaps = true;
   LogReader reader(bank, {file}, bank.sampling);
@@ -351,14 +359,10 @@ TEST(LogReader, AGridFarFasterThanTheLogsRowsIsRefused) {
   BankConfig bank = simple_bank();
   bank.sampling.rate = 1e6;
   LogReader reader(bank, {file}, bank.sampling);
-  LogSample s;
-  long steps = 0;
-  expect_error(
-      [&] {
-        while (reader.next(&s)) ++steps;
-      },
+  const StepsBeforeError read = read_until_error(
+      reader,
       {"log.csv: the filter's rate, 1e+06 Hz (sampling.rate or --rate)", "at most 1000 steps per row", "about 100 Hz"});
-  EXPECT_LE(steps, 1000 * 3) << "refused within the first rows, not after 8 million steps";
+  EXPECT_LE(read.steps, 1000 * 3) << "refused within the first rows, not after 8 million steps";
   // 1e4 Hz on the same rows is 100 steps per row: allowed.
   bank.sampling.rate = 1e4;
   LogReader fine(bank, {file}, bank.sampling);
@@ -400,15 +404,10 @@ TEST(LogReader, AFileNoneOfWhoseRowsIsUsedIsAnErrorNamingItAndWhere) {
   const TwoRateLog log = two_rate_log();
   // An offset of 1e6 s: the gyro's rows all come after the wheels end.
   LogReader late(two_rate_bank(), {LogFile(log.wheels), LogFile(log.gyro, 1e6)});
-  LogSample s;
-  int steps = 0;
-  expect_error(
-      [&] {
-        while (late.next(&s)) ++steps;
-      },
-      {"gyro.csv: none of its", "row(s) was used: its rows start at t = 1e+06 s (with its offset of 1e+06 s)",
-       "after the log's last step at t = 0.6 s", "FILE@OFFSET"});
-  EXPECT_EQ(steps, 5) << "the steps of the wheels are delivered first";
+  const StepsBeforeError read = read_until_error(
+      late, {"gyro.csv: none of its", "row(s) was used: its rows start at t = 1e+06 s (with its offset of 1e+06 s)",
+             "after the log's last step at t = 0.6 s", "FILE@OFFSET"});
+  EXPECT_EQ(read.steps, 5) << "the steps of the wheels are delivered first";
   // An offset of -1e6 s: all before the first step.
   LogReader early(two_rate_bank(), {LogFile(log.wheels), LogFile(log.gyro, -1e6)});
   expect_error([&] { read_all(early); }, {"gyro.csv: none of its 61 row(s) was used: its rows end at t = -999999.4 s",
