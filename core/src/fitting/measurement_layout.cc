@@ -1,5 +1,7 @@
 #include "measurement_layout.h"
 
+#include <cstdio>
+
 #include "measured_outputs.h"
 #include "skidimm/engine/measurement_model.h"
 #include "skidimm/fitting/model_fitter.h"
@@ -7,6 +9,12 @@
 namespace skidimm {
 namespace fitting {
 namespace internal {
+
+std::string miss_text(double sigmas) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", sigmas);
+  return text;
+}
 
 MeasurementLayout layout_of(const BankConfig& bank, int mode) {
   MeasurementLayout m;

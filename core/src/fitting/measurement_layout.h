@@ -5,6 +5,7 @@
 #define SKIDIMM_CORE_SRC_FITTING_MEASUREMENT_LAYOUT_H_
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -88,6 +89,15 @@ void for_each_error(const MeasurementLayout& m, const Trajectory& t, int target,
 // corrupt cell rather than a poor model: a start far off a robot's dynamics
 // misses by tens of sigma, a cell of 1e100 by 1e90.
 inline constexpr double kAbsurdMissRatio = 1e6;
+
+// Whether the largest miss, against the median miss (both in sigma of R),
+// is a corrupt cell by kAbsurdMissRatio (a NaN miss is).
+inline bool is_absurd_miss(double largest, double median) {
+  return !(largest <= kAbsurdMissRatio * std::max(1.0, median));
+}
+
+// A miss in sigma of R as the error messages give it, three digits.
+std::string miss_text(double sigmas);
 
 }  // namespace internal
 }  // namespace fitting

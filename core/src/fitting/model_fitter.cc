@@ -11,7 +11,6 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <map>
 #include <memory>
@@ -40,12 +39,6 @@ using internal::Window;
 using internal::window_text;
 using internal::WindowCost;
 using internal::WindowWorkspace;
-
-std::string format_number(double value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.3g", value);
-  return text;
-}
 
 ceres::LossFunction* make_loss(const FitOptions& options) {
   if (options.loss == "huber") return new ceres::HuberLoss(options.loss_scale);
@@ -181,10 +174,10 @@ class StartingValueCheck {
   void check_absurd() {
     if (start_residuals_.empty()) return;
     const double median = start_residuals_.median();
-    if (worst_residual_ > internal::kAbsurdMissRatio * std::max(1.0, median)) {
+    if (internal::is_absurd_miss(worst_residual_, median)) {
       throw FitError(window_text(*worst_log_, worst_window_) + " misses its measurements by " +
-                     format_number(worst_residual_) + " times their noise (R) with the starting values of " + *who_ +
-                     ", against " + format_number(median) +
+                     internal::miss_text(worst_residual_) + " times their noise (R) with the starting values of " +
+                     *who_ + ", against " + internal::miss_text(median) +
                      " for the median window: an absurd input or measurement there (a corrupt cell?); "
                      "fix or remove it");
     }

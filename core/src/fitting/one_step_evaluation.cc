@@ -6,7 +6,6 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <string>
 #include <vector>
@@ -29,12 +28,6 @@ using internal::layout_of;
 using internal::measured_state;
 using internal::MeasurementLayout;
 using internal::output_positions;
-
-std::string format_size(double value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.3g", value);
-  return text;
-}
 
 // Propagates x from row `from` to row `to` with the logged inputs.
 bool propagate(const sdk::MotionModel& model, const Trajectory& t, int from, int to, Eigen::VectorXd* x,
@@ -167,9 +160,9 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
       previous = k;
     }
   }
-  if (!error_sizes.empty() && !(largest_error <= internal::kAbsurdMissRatio * std::max(1.0, error_sizes.median()))) {
-    throw FitError("the one-step prediction of " + largest_at + " by " + format_size(largest_error) +
-                   " times its noise (R), against " + format_size(error_sizes.median()) +
+  if (!error_sizes.empty() && internal::is_absurd_miss(largest_error, error_sizes.median())) {
+    throw FitError("the one-step prediction of " + largest_at + " by " + internal::miss_text(largest_error) +
+                   " times its noise (R), against " + internal::miss_text(error_sizes.median()) +
                    " for the median: an absurd input or measurement there (a corrupt cell?); fix or remove it");
   }
   if (report.failed_predictions > 0) {
