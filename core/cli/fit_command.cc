@@ -19,7 +19,6 @@
 #include "skidimm/fitting/model_fitter.h"
 #include "skidimm/fitting/solver_messages.h"
 #include "skidimm/io/output_file.h"
-#include "skidimm/printable.h"
 #include "skidimm/progress.h"
 
 namespace skidimm {
@@ -99,15 +98,11 @@ int fit(const FitCommandOptions& options) {
       check_output_path(options.append_to, "--append-to");
     }
     if (!options.name.empty()) {
-      // A name the written bank would refuse: found after the fit, and an
-      // --output-entry was written with it unchecked.
+      // Checked before the fit: the written bank would refuse the name
+      // only after it, and an --output-entry is written without a check.
       const std::string& name = options.name;
-      if (printable(name) != name || name.find_first_of("\t\n") != std::string::npos) {
-        throw Error("--name '" + printable(name) + "' has control characters or invalid UTF-8");
-      }
-      if (name == "unknown") {
-        throw Error("--name: 'unknown' is the decision's answer when no mode is confident: pick another");
-      }
+      const std::string problem = name_problem(name);
+      if (!problem.empty()) throw Error("--name: " + problem);
       const auto taken = [&](const BankConfig& target, const std::string& renamed, const std::string& where) {
         for (const ModeConfig& m : target.modes) {
           if (m.name == name && m.name != renamed) {

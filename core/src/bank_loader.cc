@@ -35,14 +35,9 @@ int index_of(const std::vector<std::string>& names, const std::string& name) {
   return -1;
 }
 
-// A mode's or class's name appears in output columns, tables and YAML
-// written back: printable, one line, and not the decision's "unknown".
 void check_name(const YamlFields& y, const YAML::Node& node, const std::string& name, const std::string& field) {
-  if (name.empty()) y.fail(node, field, "cannot be empty");
-  if (printable(name) != name || name.find_first_of("\t\n") != std::string::npos) {
-    y.fail(node, field, "'" + printable(name) + "' has control characters or invalid UTF-8");
-  }
-  if (name == "unknown") y.fail(node, field, "'unknown' is the decision's answer when no mode is confident: pick another");
+  const std::string problem = name_problem(name);
+  if (!problem.empty()) y.fail(node, field, problem);
 }
 
 void check_unique(const YamlFields& y, const YAML::Node& node, const std::vector<std::string>& names,
@@ -498,6 +493,15 @@ void parse_classes(const YamlFields& y, const YAML::Node& root, BankConfig* bank
 }
 
 }  // namespace
+
+std::string name_problem(const std::string& name) {
+  if (name.empty()) return "cannot be empty";
+  if (printable(name) != name || name.find_first_of("\t\n") != std::string::npos) {
+    return "'" + printable(name) + "' has control characters or invalid UTF-8";
+  }
+  if (name == "unknown") return "'unknown' is the decision's answer when no mode is confident: pick another";
+  return "";
+}
 
 BankConfig load_bank_config(const fs::path& file) {
   const YamlFields y(file.string());

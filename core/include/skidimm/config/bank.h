@@ -228,6 +228,11 @@ struct BankConfig {
 // Parses and validates a bank file. Throws ConfigError.
 BankConfig load_bank_config(const std::filesystem::path& file);
 
+// Why `name` cannot name a mode or a class ("" when it can): it appears in
+// output columns, tables and the YAML written back, so it must be non-empty,
+// printable and one line, and not the decision's "unknown".
+std::string name_problem(const std::string& name);
+
 // Where a mode's model was created from: a plugin file (and its version),
 // or another source (ModelProvider), for messages.
 struct ModelSource {
