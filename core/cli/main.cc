@@ -12,7 +12,6 @@
 #include <arpa/inet.h>
 
 #include <CLI/CLI.hpp>
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -31,6 +30,7 @@
 #include "skidimm/io/log_arguments.h"
 #include "skidimm/io/output_file.h"
 #include "skidimm/io/ros/live_estimates.h"
+#include "skidimm/simulation/scenario.h"
 
 namespace fs = std::filesystem;
 using namespace skidimm::cli;
@@ -77,14 +77,12 @@ CLI::Validator number_above(double lowest, bool inclusive, double highest = std:
       "");
 }
 
-// A seed as the scenario's `seed:` takes it: a whole number that fits 64
-// bits. CLI11 wrapped -1 and clamped 2^64 to 18446744073709551615.
+// A seed as the scenario's `seed:` takes it (parse_seed), where CLI11's own
+// reading would wrap -1 and clamp 2^64 to 18446744073709551615.
 CLI::Validator whole_seed() {
   return CLI::Validator(
       [](std::string& text) {
-        std::uint64_t value = 0;
-        const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-        return error == std::errc() && end == text.data() + text.size() && !text.empty()
+        return skidimm::simulation::parse_seed(text)
                    ? std::string()
                    : "expected a whole number from 0 to 18446744073709551615, got '" + text + "'";
       },

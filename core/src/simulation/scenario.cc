@@ -38,17 +38,11 @@ double non_negative(const YamlFields& y, const YAML::Node& node, const std::stri
   return value;
 }
 
-// A seed: a whole number that fits 64 bits, read as one. (Read as a double
-// and cast, a seed of 1e103 was undefined behaviour: found by the scenario
-// fuzzer under UBSan.)
 std::uint64_t seed_of(const YamlFields& y, const YAML::Node& node, const std::string& field) {
   const std::string text = y.string(node, field);
-  std::uint64_t value = 0;
-  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (error != std::errc() || end != text.data() + text.size() || text.empty()) {
-    y.fail(node, field, "must be a whole number from 0 to 18446744073709551615, got '" + text + "'");
-  }
-  return value;
+  const std::optional<std::uint64_t> seed = parse_seed(text);
+  if (!seed) y.fail(node, field, "must be a whole number from 0 to 18446744073709551615, got '" + text + "'");
+  return *seed;
 }
 
 double probability(const YamlFields& y, const YAML::Node& node, const std::string& field) {
@@ -316,6 +310,13 @@ SensorConfig husky_sensors() {
   s.current_std = 0.3;             // A (assumed)
   s.current_dropout = 0.005;
   return s;
+}
+
+std::optional<std::uint64_t> parse_seed(std::string_view text) {
+  std::uint64_t value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error != std::errc() || end != text.data() + text.size() || text.empty()) return std::nullopt;
+  return value;
 }
 
 Scenario load_scenario(const fs::path& file) {

@@ -8,7 +8,9 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "skidimm/simulation/maneuver.h"
@@ -105,6 +107,12 @@ inline constexpr double kMaxStepTimesRate = 2.5;
 // 10,000 s at the default step of 0.5 ms, minutes of CPU and a log of
 // 500,000 rows at 50 Hz. Longer runs are several scenarios with other seeds.
 inline constexpr long kMaxIntegrationSteps = 20000000;
+
+// A seed as a scenario's `seed:` and `simulate --seed` take it: a whole
+// number that fits 64 bits, read as one (a double cast to an integer is
+// undefined behaviour for 1e103, and a signed read wraps -1). Empty when
+// `text` is anything else.
+std::optional<std::uint64_t> parse_seed(std::string_view text);
 
 // Throws ConfigError with file, line and field: for a malformed file, and for
 // a scenario simulate() cannot integrate (check_simulable()).
