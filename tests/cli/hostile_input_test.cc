@@ -279,7 +279,7 @@ TEST(HostileInput, TwoRunsWritingOneOutputNeverMix) {
   EXPECT_THAT(text_figure.err,
               HasSubstr("--plot " + (dir / "f.txt").string() + ": the figure must end in .png or .svg"));
   EXPECT_FALSE(fs::exists(dir / "e.csv")) << "refused before the run";
-  for (const std::string command :
+  for (const std::string& command :
        {"simulate --scenario " + kSource + "/configs/scenarios/ltc_switching.yaml --output ''",
         "fit --bank " + kTerrains + " --log " + kSwitching + " --output-bank ''",
         "tune --bank " + kTerrains + " --log " + kSwitching + " --table ''"}) {
