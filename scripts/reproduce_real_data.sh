@@ -99,13 +99,15 @@ turn='turn=abs(velR - velL)'
 protocols="logs,sessions,extrapolation:$speed,extrapolation:$turn"
 # How every tune here fits and searches: each inner fold holds out one log (--inner-folds 0), except
 # step C2's splice-scored search, which needs several logs per inner fold.
-inner() { echo --objective window --hold-unexcited --full-q --inner-folds "$1" --sessions configs/borealtc/sessions.txt; }
+inner() { echo --objective window --hold-unexcited --full-q --inner-folds "$1"; }
 read -ra fit <<<"$(inner 0)"
+# Which runs were recorded together, for the protocol that holds each session out.
+by_session=(--sessions configs/borealtc/sessions.txt)
 knobs=likelihood-weight,likelihood-dof,q-scale,r-scale,floor
 
 # B1. The design, scored.
 "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${aside[@]}" "${fit[@]}" \
-  --parameter-uncertainty --tune "$knobs" --assess "$protocols" --table "$work/borealtc/scores.csv" \
+  --parameter-uncertainty --tune "$knobs" --assess "$protocols" "${by_session[@]}" --table "$work/borealtc/scores.csv" \
   --estimates "$work/borealtc/held_out" --output-bank "$work/borealtc/development.yaml" >"$work/borealtc/tune.txt"
 for folder in "$work/borealtc/held_out"/*/; do
   name=$(basename "$folder")
@@ -116,7 +118,7 @@ done
 # scored on the lockbox first; parameter uncertainty was added afterwards on the development runs'
 # scores of both (B1, B1b), and the lockbox scored the second design once.
 "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${aside[@]}" "${fit[@]}" \
-  --tune "$knobs" --assess "$protocols" --table "$work/borealtc/first_scores.csv" \
+  --tune "$knobs" --assess "$protocols" "${by_session[@]}" --table "$work/borealtc/first_scores.csv" \
   --estimates "$work/borealtc/first_held_out" --output-bank "$work/borealtc/first_development.yaml" \
   >"$work/borealtc/first_tune.txt"
 for folder in "$work/borealtc/first_held_out"/*/; do
@@ -128,11 +130,11 @@ done
 # B2. The physics-shaped form, on the same runs and protocols (no lockbox:
 # it was not chosen), against the first design: neither has parameter uncertainty.
 "$skidimm" tune -q --bank configs/borealtc/physics_start.yaml "${develop[@]}" "${fit[@]}" --tune "$knobs" \
-  --assess "$protocols" --table "$work/borealtc/physics_scores.csv" >"$work/borealtc/physics_tune.txt"
+  --assess "$protocols" "${by_session[@]}" --table "$work/borealtc/physics_scores.csv" >"$work/borealtc/physics_tune.txt"
 # B2e. The physics-shaped form with each mode's parameter uncertainty, as the design has it: the two
 # forms compared as the bank would use them, on the same runs and protocols as B1 (no lockbox).
 "$skidimm" tune -q --bank configs/borealtc/physics_start.yaml "${develop[@]}" "${fit[@]}" --parameter-uncertainty \
-  --tune "$knobs" --assess "$protocols" --table "$work/borealtc/physics_uncertainty_scores.csv" \
+  --tune "$knobs" --assess "$protocols" "${by_session[@]}" --table "$work/borealtc/physics_uncertainty_scores.csv" \
   >"$work/borealtc/physics_uncertainty_tune.txt"
 
 # B2d. The first design with an explicit unknown hypothesis ("none of these": bank key `unknown:`, its

@@ -249,6 +249,13 @@ int tune(const TuneCommandOptions& options) {
       return p.kind == fitting::Protocol::Kind::kSessions;
     });
     if (by_session && options.sessions.empty()) throw Error("--assess sessions needs --sessions FILE");
+    // Read by the sessions protocol alone: without it the file would be
+    // checked against the logs and then ignored.
+    if (!options.sessions.empty() && (options.no_assess || !by_session)) {
+      throw UsageError("--sessions " + options.sessions.string() +
+                       ": the sessions are used only by --assess sessions, which this command does not run" +
+                       (options.no_assess ? " (--no-assess)" : "") + "; add the protocol or leave --sessions out");
+    }
     if (!options.estimates.empty()) {
       // A folder of an earlier run's files would be scored with this run's
       // by `eval --estimates`, as if one run had written them all.

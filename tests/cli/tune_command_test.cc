@@ -183,6 +183,17 @@ TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
     EXPECT_EQ(none.exit_code, 2) << knobs << ": " << none.err;
     EXPECT_THAT(none.err, HasSubstr("--tune: expected one or more settings")) << knobs;
   }
+  // --sessions without the protocol that holds sessions out was checked against the logs and ignored.
+  const fs::path sessions = write_file(dir / "sessions.txt", kSwitching + " a\n" + copy.string() + " b\n");
+  for (const std::string assess : {" --assess logs", " --no-assess"}) {
+    const Result unused = run_pipeline(tune + " --objective none" + assess + " --sessions " + sessions.string());
+    EXPECT_EQ(unused.exit_code, 2) << assess << ": " << unused.err;
+    EXPECT_THAT(unused.err, HasSubstr("--sessions " + sessions.string() +
+                                      ": the sessions are used only by --assess sessions, which this command does "
+                                      "not run"))
+        << assess;
+    EXPECT_THAT(unused.err, Not(HasSubstr("work:"))) << assess;
+  }
 }
 
 TEST(Cli, TuneTempersTheEvidenceOfABankThatOvercountsItOnRealRuns) {
