@@ -262,6 +262,46 @@ TEST(EvalCommand, ConfusionRowsAndColumnsAreInTheBanksOrder) {
   EXPECT_EQ(confusion_lines(from_file.out, 3), lines);
 }
 
+// The decision column of a bank with classes names classes, which files read
+// without the bank do not know: each mu_ column is then a class, and every
+// decision was scored wrong at probability 0 beside a confusion matrix of
+// modes against classes.
+TEST(EvalCommand, EstimatesOfABankWithClassesNeedThatBank) {
+  const fs::path dir = test_directory();
+  const fs::path bank =
+      write_file(dir / "paved.yaml", skidimm_test::read_file(kTerrains) +
+                                         "\nclasses:\n  paved: [asphalt, crushed_concrete]\n  soft: [grass]\n");
+  const fs::path estimates = dir / "estimates.csv";
+  ASSERT_EQ(run_skidimm("run -q --bank " + bank.string() + " --plugin-path " + kPlugins + " --input " + kSwitching +
+                        " --output " + estimates.string())
+                .exit_code,
+            0);
+  const Result alone = run_skidimm("eval --estimates " + estimates.string());
+  EXPECT_EQ(alone.exit_code, 1) << alone.err;
+  EXPECT_THAT(alone.err, HasSubstr(estimates.string() + ":"));
+  EXPECT_THAT(alone.err, HasSubstr("column"));
+  EXPECT_THAT(alone.err, HasSubstr("('decision'): '"));
+  EXPECT_THAT(alone.err, HasSubstr("' is neither 'unknown' nor a class of the file ('asphalt', 'grass', "
+                                   "'crushed_concrete'); without --bank each mu_ column is a class of its own"));
+  const Result with_bank = run_skidimm("eval --estimates " + estimates.string() + " --bank " + bank.string());
+  ASSERT_EQ(with_bank.exit_code, 0) << with_bank.err;
+  EXPECT_THAT(with_bank.out, HasSubstr("decision (the files' decision column): accuracy"));
+  // A cell no bank wrote is refused with the bank too.
+  std::string text = skidimm_test::read_file(estimates);
+  const std::size_t row = text.find("\n") + 1;
+  const std::size_t end = text.find("\n", row);
+  std::string line = text.substr(row, end - row);
+  for (const std::string decided : {",paved,", ",soft,", ",unknown,"}) {
+    const std::size_t at = line.find(decided);
+    if (at != std::string::npos) line.replace(at, decided.size(), ",gravel,");
+  }
+  const fs::path edited = write_file(dir / "edited.csv", text.substr(0, row) + line + text.substr(end));
+  const Result gravel = run_skidimm("eval --estimates " + edited.string() + " --bank " + bank.string());
+  EXPECT_EQ(gravel.exit_code, 1) << gravel.err;
+  EXPECT_THAT(gravel.err, HasSubstr(edited.string() + ":2: column"));
+  EXPECT_THAT(gravel.err, HasSubstr("'gravel' is neither 'unknown' nor a class of the bank ('paved', 'soft')"));
+}
+
 TEST(Cli, EvalReportsAccuracyLatencyAndConsistencyAsTextAndJson) {
   const std::string args = "eval --bank " + kSource + "/configs/ltc_terrains.yaml --input " + kSource +
                            "/configs/examples/ltc_switching.csv --plugin-path " + kPlugins;

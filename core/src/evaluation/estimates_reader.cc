@@ -1,6 +1,7 @@
 // skidimm eval --estimates: a `skidimm run` output read back and scored.
 #include "estimates_reader.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -11,6 +12,7 @@
 #include "skidimm/errors.h"
 #include "skidimm/evaluation/mode_metrics.h"
 #include "skidimm/io/csv.h"
+#include "skidimm/printable.h"
 
 namespace skidimm {
 namespace evaluation {
@@ -35,6 +37,25 @@ double parse_cell(const CsvReader& reader, const std::vector<std::string>& field
 // they are written with every digit, so the sum is 1 to a few ulps; anything
 // beyond this did not come from `skidimm run`.
 constexpr double kProbabilityTolerance = 1e-6;
+
+// A decision cell names a class the probabilities are summed into, or is
+// "unknown". Anything else was written with other classes: files of a bank
+// with classes (ICE: [ICE_turning, ICE_straight]) read without that bank,
+// whose every decision would be scored wrong, and at probability 0.
+void check_decision(const CsvReader& reader, int column, const std::string& cell,
+                    const std::vector<std::string>& classes, bool with_bank) {
+  if (cell == "unknown" || std::find(classes.begin(), classes.end(), cell) != classes.end()) return;
+  std::string names;
+  for (std::size_t c = 0; c < classes.size() && c < 8; ++c) names += (c == 0 ? "'" : ", '") + classes[c] + "'";
+  if (classes.size() > 8) names += " and " + std::to_string(classes.size() - 8) + " more";
+  throw LogError(reader.path().string(), reader.line(),
+                 "column " + std::to_string(column + 1) + " ('decision'): '" + printable(cell.substr(0, 80)) +
+                     "' is neither 'unknown' nor a class of " + (with_bank ? "the bank" : "the file") + " (" + names +
+                     ")" +
+                     (with_bank ? ""
+                                : "; without --bank each mu_ column is a class of its own: give the bank the file "
+                                  "was run with (--bank) when its modes form classes"));
+}
 
 }  // namespace
 
@@ -111,9 +132,12 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank, const
                          ") sum to " + CsvWriter::format(sum) + "; in a `skidimm run` output they sum to 1");
     }
     steps.push_back(scorer.score(time, f[static_cast<std::size_t>(truth)], mu, unknown_probability));
-    if (decision >= 0 || decider) {
-      decisions.push_back(scorer.decided(
-          steps.back(), decider ? decider->name(decider->update(time, mu)) : f[static_cast<std::size_t>(decision)]));
+    if (decider) {
+      decisions.push_back(scorer.decided(steps.back(), decider->name(decider->update(time, mu))));
+    } else if (decision >= 0) {
+      const std::string& decided = f[static_cast<std::size_t>(decision)];
+      check_decision(reader, decision, decided, scorer.class_names(), bank != nullptr);
+      decisions.push_back(scorer.decided(steps.back(), decided));
     }
   }
   if (steps.empty()) {
