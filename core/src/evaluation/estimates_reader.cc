@@ -46,7 +46,8 @@ void check_decision(const CsvReader& reader, int column, const std::string& cell
                     const std::vector<std::string>& classes, bool with_bank) {
   if (cell == "unknown" || std::find(classes.begin(), classes.end(), cell) != classes.end()) return;
   std::string names;
-  for (std::size_t c = 0; c < classes.size() && c < 8; ++c) names += (c == 0 ? "'" : ", '") + classes[c] + "'";
+  for (std::size_t c = 0; c < classes.size() && c < 8; ++c)
+    names += (c == 0 ? "'" : ", '") + printable(classes[c]) + "'";
   if (classes.size() > 8) names += " and " + std::to_string(classes.size() - 8) + " more";
   throw LogError(reader.path().string(), reader.line(),
                  "column " + std::to_string(column + 1) + " ('decision'): '" + printable(cell.substr(0, 80)) +
