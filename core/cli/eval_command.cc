@@ -55,6 +55,17 @@ int eval(const EvalOptions& options) {
             " changes how the filter runs, and --estimates scores files a filter already wrote: give the "
             "logs with --bank and --input, or run them again with `skidimm run` and this setting");
       }
+      // ... and these would be ignored: the files were run, smoothed or not, at their rate.
+      const char* unused = !options.inputs.empty()  ? "--input"
+                           : options.smooth         ? "--smooth"
+                           : options.lag            ? "--lag"
+                           : options.overrides.rate ? "--rate"
+                                                    : nullptr;
+      if (unused != nullptr) {
+        throw UsageError(std::string(unused) +
+                         " is for logs the bank is run over, and --estimates scores files `skidimm run` already "
+                         "wrote (smoothed or not, at their rate): give one or the other");
+      }
       std::optional<BankConfig> bank;
       if (!options.bank.empty()) bank = load_bank_config(options.bank);
       // Given on the command line, the decision is made again from each

@@ -91,8 +91,9 @@ CLI::Validator whole_seed() {
 
 // An empty path would be found only when the output is renamed into place,
 // after the whole run.
-CLI::Validator file_path() {
-  return CLI::Validator([](std::string& text) { return text.empty() ? std::string("expected a file path") : ""; }, "");
+CLI::Validator file_path(const char* expected = "a file path") {
+  return CLI::Validator(
+      [expected](std::string& text) { return text.empty() ? "expected " + std::string(expected) : std::string(); }, "");
 }
 
 const char* const kSkipUnpaired =
@@ -163,8 +164,18 @@ int main(int argc, char** argv) {
     command
         ->add_option("--innovation-gate", overrides->innovation_gate,
                      "Chi-square innovation gate: probability a consistent measurement passes, in (0, 1); 0: none "
-                     "(overrides the bank's innovation_gate; " + documentation_path("docs/engine.md") + ")")
-        ->check(finite_number())->check(CLI::Range(0.0, 1.0));
+                     "(overrides the bank's innovation_gate; " +
+                         documentation_path("docs/engine.md") + ")")
+        ->check(finite_number())
+        ->check(CLI::Validator(
+            [](std::string& text) {
+              double value = 0.0;
+              if (!CLI::detail::lexical_cast(text, value)) return std::string();  // finite_number() says so
+              return value >= 0.0 && value < 1.0
+                         ? std::string()
+                         : "expected a probability in (0, 1), or 0 for none, got '" + text + "'";
+            },
+            ""));
     command
         ->add_option("--likelihood-weight", overrides->likelihood_weight,
                      "Weight of each step's evidence in the mode probabilities, in (0, 1]; 1: the plain IMM "
@@ -425,7 +436,8 @@ int main(int argc, char** argv) {
   tune->add_option("--table", tune_options.table, "Write every log's held-out scores to this CSV")->check(file_path());
   tune->add_option("--estimates", tune_options.estimates,
                    "Write each log's nested-assessment steps under this directory, a folder per protocol (and "
-                   "'lockbox'), as `run` does, for `eval --estimates`");
+                   "'lockbox'), as `run` does, for `eval --estimates`")
+      ->check(file_path("a directory path"));
   tune->add_flag("--quiet,-q", tune_options.quiet, "No progress on stderr");
   add_plugin_path(tune);
 
@@ -480,7 +492,10 @@ int main(int argc, char** argv) {
   CLI::App* new_plugin_command = app.add_subcommand(
       "new-plugin", "Write a buildable out-of-tree plugin project: model, CMakeLists, conformance test, example bank");
   new_plugin_command->footer(examples({"skidimm new-plugin my_model --dir plugins_src"}, "#skidimm-new-plugin"));
-  new_plugin_command->add_option("name", new_plugin_name, "The plugin's name (lowercase, digits, '_')")->required();
+  new_plugin_command
+      ->add_option("name", new_plugin_name,
+                   "The plugin's name: a lowercase letter, then lowercase letters, digits or '_' (at most 64)")
+      ->required();
   new_plugin_command->add_option("--dir", new_plugin_dir, "Where to create the project's directory NAME (default: .)");
 
   std::string bag_file;
@@ -580,6 +595,12 @@ int main(int argc, char** argv) {
     fit_options.plugin_paths = paths;
     fit_options.command_line = "skidimm";
     for (int i = 1; i < argc; ++i) fit_options.command_line += std::string(" ") + argv[i];
+    if (!fit_options.name.empty() && fit_options.mode.empty()) {
+      // It renames the --mode fitted; with every mode fitted it would rename none.
+      std::cerr << "skidimm fit: --name renames the mode of --mode, and every mode is fitted without it; add --mode "
+                   "MODE or leave out --name\n";
+      return kExitUsage;
+    }
     if (fit_options.objective == "window" && fit->get_option("--fit-r")->count() > 0) {
       std::cerr << "skidimm fit: --fit-r is an option of the likelihood objective (the window objective keeps the "
                    "bank's R); leave out --objective window or --fit-r\n";

@@ -121,12 +121,6 @@ int column_of(const std::vector<std::string>& header, const std::string& name) {
 
 int plot(const PlotOptions& options) {
   return report_errors("skidimm plot", [&] {
-    const std::string gnuplot = find_gnuplot();
-    if (gnuplot.empty()) {
-      throw Error(
-          "gnuplot is not installed or not on PATH; install it with `apt-get install gnuplot-nox` "
-          "(scripts/setup.sh does)");
-    }
     const std::string extension = options.output.extension().string();
     std::string terminal;
     if (extension == ".png") {
@@ -134,7 +128,13 @@ int plot(const PlotOptions& options) {
     } else if (extension == ".svg") {
       terminal = "svg";
     } else {
-      throw Error(options.output.string() + ": the figure must end in .png or .svg");
+      throw UsageError("--output " + options.output.string() + ": the figure must end in .png or .svg");
+    }
+    const std::string gnuplot = find_gnuplot();
+    if (gnuplot.empty()) {
+      throw Error(
+          "gnuplot is not installed or not on PATH; install it with `apt-get install gnuplot-nox` "
+          "(scripts/setup.sh does)");
     }
 
     refuse_clashing_files({{"--output", options.output}},

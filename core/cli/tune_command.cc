@@ -173,8 +173,30 @@ std::string question_of(const fitting::Protocol& p, int folds) {
 int tune(const TuneCommandOptions& options) {
   fitting::capture_solver_messages();  // Ceres' glog output, summarised at the end
   const int code = report_errors("skidimm tune", [&] {
-    // Fit options the objectives cannot give would be ignored without a word.
+    // The names of --objective, --tune and --assess are the command line's:
+    // a typo is a bad command line (exit 2), found before any log is read.
     const std::vector<std::string> objectives = split_list(options.objectives);
+    for (const std::string& name : objectives) {
+      if (name != "none" && name != "likelihood" && name != "window") {
+        throw UsageError("--objective: unknown objective '" + name + "' (expected likelihood, window or none)");
+      }
+    }
+    const auto named = [](const char* option, const auto& parse) {
+      try {
+        parse();
+      } catch (const UsageError&) {
+        throw;
+      } catch (const Error& e) {
+        throw UsageError(std::string(option) + ": " + e.what());
+      }
+    };
+    named("--tune", [&] {
+      for (const std::string& k : split_list(options.knobs)) fitting::knob_from_string(k);
+    });
+    named("--assess", [&] {
+      for (const std::string& p : split_list(options.protocols)) fitting::protocol_from_string(p);
+    });
+    // Fit options the objectives cannot give would be ignored without a word.
     if (options.fit_r && std::find(objectives.begin(), objectives.end(), "likelihood") == objectives.end()) {
       throw UsageError("--fit-r is an option of the likelihood objective, which --objective does not name");
     }

@@ -609,6 +609,14 @@ TEST(CliIo, FitChecksTheNameOfTheFittedModeBeforeFitting) {
   EXPECT_EQ(read_file(target), read_file(kTerrains));
   // The fitted mode keeping its own name is no clash.
   EXPECT_EQ(run_pipeline(fit + " --name asphalt --output-bank " + (dir / "b.yaml").string()).exit_code, 0);
+  // Without --mode every mode is fitted and --name renamed none, with exit 0.
+  const std::string every = kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                            " --objective window --log " + kSwitching + " --name gravel --output-entry " +
+                            (dir / "every.yaml").string();
+  const Result unnamed = run_pipeline(every);
+  EXPECT_EQ(unnamed.exit_code, 2) << unnamed.err;
+  EXPECT_THAT(unnamed.err, HasSubstr("--name renames the mode of --mode, and every mode is fitted without it"));
+  EXPECT_FALSE(fs::exists(dir / "every.yaml"));
 }
 
 // The written bank's header repeats the command line: a log whose name holds

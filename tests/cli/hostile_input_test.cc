@@ -290,6 +290,39 @@ TEST(HostileInput, TwoRunsWritingOneOutputNeverMix) {
   // Devices are not files: two outputs to /dev/null are no clash.
   const Result discarded = run_shell(run_command(kTerrains, kSwitching, "/dev/null"));
   EXPECT_EQ(discarded.exit_code, 0) << discarded.err;
+  // tune wrote no held-out steps for an empty --estimates, with exit 0.
+  const Result no_folder = run_skidimm("tune --bank " + kTerrains + " --log " + kSwitching + " --estimates ''");
+  EXPECT_EQ(no_folder.exit_code, 2) << no_folder.err;
+  EXPECT_THAT(no_folder.err, HasSubstr("--estimates: expected a directory path"));
+  // plot's figure of another kind is a bad command line, as run --plot's is (it exited 1).
+  const fs::path estimates = dir / "plotted.csv";
+  ASSERT_EQ(run_shell(run_command(kTerrains, kSwitching, estimates.string())).exit_code, 0);
+  const Result pdf = run_skidimm("plot --estimates " + estimates.string() + " --output " + (dir / "f.pdf").string());
+  EXPECT_EQ(pdf.exit_code, 2) << pdf.err;
+  EXPECT_THAT(pdf.err, HasSubstr("--output " + (dir / "f.pdf").string() + ": the figure must end in .png or .svg"));
+  EXPECT_FALSE(fs::exists(dir / "f.pdf"));
+}
+
+// Options that cannot apply are refused, not ignored: an innovation gate of 1
+// (which passes everything, like 0) got past the command line to fail after
+// the bank was loaded, with exit 1; eval --estimates dropped --input and
+// scored the files alone, with exit 0.
+TEST(HostileInput, OptionsThatCannotApplyAreABadCommandLine) {
+  const Result gate = run_shell(run_command(kTerrains, kSwitching, "/dev/null") + " --innovation-gate 1");
+  EXPECT_EQ(gate.exit_code, 2) << gate.err;
+  EXPECT_THAT(gate.err, HasSubstr("--innovation-gate: expected a probability in (0, 1), or 0 for none, got '1'"));
+  EXPECT_EQ(run_shell(run_command(kTerrains, kSwitching, "/dev/null") + " --innovation-gate 0").exit_code, 0);
+  const fs::path dir = test_directory();
+  const fs::path estimates = dir / "estimates.csv";
+  ASSERT_EQ(run_shell(run_command(kTerrains, kSwitching, estimates.string())).exit_code, 0);
+  for (const std::string& option :
+       {"--input " + kSwitching, std::string("--smooth"), std::string("--lag 1"), std::string("--rate 10")}) {
+    const Result r = run_skidimm("eval --estimates " + estimates.string() + " " + option);
+    EXPECT_EQ(r.exit_code, 2) << option << ": " << r.err;
+    EXPECT_THAT(r.err, HasSubstr(option.substr(0, option.find(' ')) + " is for logs the bank is run over")) << option;
+    EXPECT_EQ(r.out, "") << option;
+  }
+  EXPECT_EQ(run_skidimm("eval --estimates " + estimates.string()).exit_code, 0);
 }
 
 // What is wrong with an input is said: a pattern given to run (which reads

@@ -44,7 +44,8 @@ TEST(Cli, PlotDrawsPngAndSvgAndSaysWhenGnuplotIsMissing) {
   const int status = std::system(command.c_str());
   EXPECT_EQ(WEXITSTATUS(status), 1);
   EXPECT_THAT(read_file(dir / "err"), HasSubstr("gnuplot is not installed or not on PATH"));
-  EXPECT_EQ(run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --output x.pdf").exit_code, 1);
+  // A figure of another kind is a bad command line, as run --plot's is.
+  EXPECT_EQ(run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --output x.pdf").exit_code, 2);
   // The figure over the estimates it draws (named as a figure): refused, the estimates kept.
   fs::copy_file(dir / "out.csv", dir / "estimates.svg");
   const Result over = run_skidimm("plot --estimates " + (dir / "estimates.svg").string() + " --output " +

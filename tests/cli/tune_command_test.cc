@@ -183,6 +183,23 @@ TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
     EXPECT_EQ(none.exit_code, 2) << knobs << ": " << none.err;
     EXPECT_THAT(none.err, HasSubstr("--tune: expected one or more settings")) << knobs;
   }
+  // A mistyped name in --objective, --tune or --assess is a bad command line, found before the logs are read.
+  const std::string logs = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins + " --log " +
+                           kSwitching + " --log " + copy.string();
+  for (const auto& [option, expected] :
+       {std::make_pair(std::string(" --objective windw"),
+                       std::string("--objective: unknown objective 'windw' (expected likelihood, window or none)")),
+        std::make_pair(std::string(" --objective none --tune dwell,dwel"),
+                       std::string("--tune: unknown setting 'dwel'")),
+        std::make_pair(std::string(" --objective none --assess session"),
+                       std::string("--assess: unknown protocol 'session'")),
+        std::make_pair(std::string(" --objective none --assess extrapolation:v:2"),
+                       std::string("--assess: protocol 'extrapolation:v:2': expected a fraction in (0, 1)"))}) {
+    const Result typo = run_pipeline(logs + option);
+    EXPECT_EQ(typo.exit_code, 2) << option << ": " << typo.err;
+    EXPECT_THAT(typo.err, HasSubstr(expected)) << option;
+    EXPECT_THAT(typo.err, Not(HasSubstr("work:"))) << option;
+  }
   // --sessions without the protocol that holds sessions out was checked against the logs and ignored.
   const fs::path sessions = write_file(dir / "sessions.txt", kSwitching + " a\n" + copy.string() + " b\n");
   for (const std::string assess : {" --assess logs", " --no-assess"}) {
