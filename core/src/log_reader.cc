@@ -74,10 +74,11 @@ bool LogReader::Impl::read_row_or_throw(Stream& s) {
     throw reader.cell_error(
         s.time_index, "a time that stays finite with the file's offset (" + CsvWriter::format(s.offset) + " s) added");
   }
-  if (t <= s.last_t) {
+  if (t <= s.read_t) {
     throw reader.error_at_row("column '" + bank_.columns.time + "': time must increase strictly, but " +
-                              CsvWriter::format(t) + " follows " + CsvWriter::format(s.last_t));
+                              CsvWriter::format(t) + " follows " + CsvWriter::format(s.read_t));
   }
+  s.read_t = t;
   s.row_t = t;
   s.has_row = true;
   if (s.rows_read++ == 0) s.first_t = t;
@@ -354,6 +355,9 @@ bool LogReader::Impl::next(LogSample* sample) {
         read_row(s);
       }
     }
+    // Rows after the end are not used, but a time that goes back among them
+    // is a broken log all the same (it hid the rows a wrong stamp cut off).
+    throw_pending_error();
     check_every_file_was_used();
     return false;
   }

@@ -83,6 +83,11 @@ struct Stream {
   bool ended = false;
   double row_t = 0.0;
   double last_t = -std::numeric_limits<double>::infinity();       // of the last row applied
+  // Of the last row read, applied or not: the rows left after the log's end
+  // are read (and counted) without being applied, and their times must
+  // increase too, or a stamp past the end followed by one back inside it
+  // would pass for rows after the end.
+  double read_t = -std::numeric_limits<double>::infinity();
   double delivered_t = -std::numeric_limits<double>::infinity();  // of the last row a delivered step took
   long rows_read = 0;
   double first_t = 0.0;  // of its first row

@@ -400,6 +400,24 @@ TEST(LogReader, AHeaderOnlyFileIsAnErrorNamingItAndItsColumns) {
   expect_error([&] { alone.next(&s); }, {"empty.csv:1: the file has a header but no data rows"});
 }
 
+// A wrong stamp past the inputs' end (the gyro's line 32 at 57 s where the
+// wheels end at 0.6 s) ended the log there, and the gyro's rows after it,
+// back at 0.31 s, were only counted as rows after the end: a run lost half
+// its IMU with exit 0. Each file's time increases strictly, read or used.
+TEST(LogReader, AStampPastTheEndFollowedByOneInsideItIsAnError) {
+  const TwoRateLog log = two_rate_log();
+  std::string gyro = skidimm_test::read_file(log.gyro);
+  const std::string row = std::to_string(0.01 * 30) + ",";
+  const std::size_t at = gyro.find("\n" + row);
+  ASSERT_NE(at, std::string::npos);
+  gyro.replace(at + 1, row.size(), "57,");
+  write_file(log.gyro, gyro);
+  LogReader reader(two_rate_bank(), {log.wheels, log.gyro});
+  const StepsBeforeError read =
+      read_until_error(reader, {"gyro.csv:33: column 'time': time must increase strictly, but 0.31 follows 57"});
+  EXPECT_EQ(read.steps, 33) << "the steps up to the wheels' end (0.6 s) are delivered, then the error";
+}
+
 TEST(LogReader, AFileNoneOfWhoseRowsIsUsedIsAnErrorNamingItAndWhere) {
   const TwoRateLog log = two_rate_log();
   // An offset of 1e6 s: the gyro's rows all come after the wheels end.
