@@ -103,12 +103,14 @@ CsvReader::CsvReader(const fs::path& path) : path_(path) {
                      "a NumPy array (.npy), not CSV: this command reads CSV (for a `skidimm run` output, run it "
                      "again with --output X.csv; numpy.load reads the .npy)");
     }
-    // Likewise an MCAP bag, which arrives here only through a pipe (a bag
-    // file is read by its own reader, which seeks: a pipe cannot give it).
+    // Likewise MCAP: a log's bag through a pipe (a bag file is read by its
+    // own reader, which seeks: a pipe cannot give it), or a `skidimm run`
+    // output in .mcap given to a command that reads estimates as CSV.
     if (field_count_ > 0 && fields_[0].compare(0, 5, "\x89MCAP") == 0) {
       throw LogError(path_.string(), 1,
-                     "an MCAP bag, not CSV: a bag is read from its file, not from a pipe or standard input "
-                     "(give its path to --input)");
+                     "an MCAP bag, not CSV: this reads CSV. A log's bag is read from its file, not from a pipe or "
+                     "standard input (give its path to --input); estimates `skidimm run` wrote as .mcap are for "
+                     "Foxglove and ROS 2 tools (for eval or plot, run again with --output X.csv)");
     }
     header_.assign(fields_.begin(), fields_.begin() + static_cast<std::ptrdiff_t>(field_count_));
     if (!header_.empty() && header_[0].size() >= 3 && header_[0].compare(0, 3, "\xEF\xBB\xBF") == 0) {

@@ -323,6 +323,19 @@ TEST(HostileInput, OptionsThatCannotApplyAreABadCommandLine) {
     EXPECT_EQ(r.out, "") << option;
   }
   EXPECT_EQ(run_skidimm("eval --estimates " + estimates.string()).exit_code, 0);
+  // An .mcap output given to what reads estimates as CSV was told it came
+  // through a pipe and to give it to --input, as a log.
+  const fs::path mcap = dir / "estimates.mcap";
+  ASSERT_EQ(run_shell(run_command(kTerrains, kSwitching, mcap.string())).exit_code, 0);
+  for (const std::string& command : {"eval --estimates " + mcap.string(),
+                                     "plot --estimates " + mcap.string() + " --output " + (dir / "f.png").string()}) {
+    const Result r = run_skidimm(command);
+    EXPECT_EQ(r.exit_code, 1) << command;
+    EXPECT_THAT(r.err, HasSubstr(mcap.string() + ":1: an MCAP bag, not CSV: this reads CSV")) << command;
+    EXPECT_THAT(r.err, HasSubstr("estimates `skidimm run` wrote as .mcap are for Foxglove and ROS 2 tools (for "
+                                 "eval or plot, run again with --output X.csv)"))
+        << command;
+  }
 }
 
 // What is wrong with an input is said: a pattern given to run (which reads
