@@ -56,6 +56,9 @@ std::string printable_header(const std::vector<std::string>& header, int* listed
     }
     std::string printable;
     for (unsigned char c : h.substr(0, 40)) printable += (c >= 32 && c < 127) ? static_cast<char>(c) : '?';
+    // A name with a space at either end (" velL" after "time, ") or none
+    // would look like another name in a list: quoted.
+    if (printable.empty() || printable.front() == ' ' || printable.back() == ' ') printable = "'" + printable + "'";
     present += (present.empty() ? "" : ", ") + printable;
   }
   return present;

@@ -53,7 +53,7 @@ class CsvTable : public LogTable {
 };
 
 // A header made printable and short: a binary file given by mistake must not
-// flood the terminal.
+// flood the terminal. A name with a space at either end, or empty, is quoted.
 std::string printable_header(const std::vector<std::string>& header, int* listed, std::size_t budget);
 
 }  // namespace internal

@@ -155,16 +155,23 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
 }
 
 void LogReader::Impl::missing_column(const std::string& column, const std::string& field) const {
+  // Each file's columns after its name when the log has several: one list
+  // read as the first file's (an IMU column reported missing from the wheels').
+  std::size_t files = 0;
+  for (const Stream& s : streams_) files += s.files.size();
   std::string present;
   int listed = 0;
   for (const Stream& s : streams_) {
     for (const auto& reader : s.files) {
       const std::string h = printable_header(reader->columns_present(), &listed, 400);
-      if (!h.empty()) present += (present.empty() ? "" : ", ") + h;
+      if (h.empty()) continue;
+      present += (present.empty() ? "" : "; ") + h;
+      if (files > 1) present += " (" + reader->path().filename().string() + ")";
     }
   }
   throw streams_.front().files.front()->error("no column '" + Expression::excerpt(column) + "' (the bank's " + field +
-                                              "); columns present: " + present);
+                                              ")" + (files > 1 ? " in any file of the log" : "") +
+                                              "; columns present: " + present);
 }
 
 int LogReader::Impl::column_id(const std::string& name, const std::string& field, bool required) {

@@ -524,6 +524,23 @@ TEST(LogReader, ColumnProblemsAreNamedBeforeAnyRowIsRead) {
   bank.columns.inputs[0] = "velR - velLeft";
   expect_error([&] { LogReader(bank, {log.wheels, log.gyro}); },
                {"no column 'velLeft' (the bank's columns.inputs.dv)", "columns present: time, velL, velR, cur"});
+  // Each file's columns named by the file (an IMU column was reported missing
+  // from the wheels' file in one list of both), and a name with a space at
+  // either end quoted, where ", velL" hid it.
+  bank = two_rate_bank();
+  bank.columns.measurements[0] = "wzz";
+  expect_error(
+      [&] {
+        LogReader(bank, {log.wheels, log.gyro});
+      },
+      {"no column 'wzz' (the bank's columns.measurements.omega) in any file of the log; columns present: "
+       "time, velL, velR, cur (wheels.csv); time, wz (gyro.csv)"});
+  const auto spaced = write_file(log.wheels.parent_path() / "spaced.csv", "time, velL, velR,cur\n0,1,2,3\n");
+  expect_error(
+      [&] {
+        LogReader(two_rate_bank(), {spaced, log.gyro});
+      },
+      {"columns present: time, ' velL', ' velR', cur (spaced.csv)"});
   bank = two_rate_bank();
   bank.columns.inputs[1] = "abs(velL +* velR)";
   expect_error([&] { LogReader(bank, {log.wheels, log.gyro}); },
