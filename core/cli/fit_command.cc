@@ -19,6 +19,7 @@
 #include "skidimm/fitting/model_fitter.h"
 #include "skidimm/fitting/solver_messages.h"
 #include "skidimm/io/output_file.h"
+#include "skidimm/printable.h"
 #include "skidimm/progress.h"
 
 namespace skidimm {
@@ -84,6 +85,13 @@ int fit(const FitCommandOptions& options) {
     const BankConfig& config = bank.config;
     const SamplingConfig sampling = sampling_of(config, options.rate);
     const LogArgumentOptions expansion = unpaired_runs("skidimm fit", options.skip_unpaired);
+    // Named for what it is, before any log is read (it was blamed on the first --log).
+    if (!options.mode.empty() && config.mode_index(options.mode) < 0 && config.class_index(options.mode) < 0) {
+      std::string names;
+      for (const ModeConfig& m : config.modes) names += (names.empty() ? "" : ", ") + m.name;
+      throw Error("--mode '" + printable(options.mode) + "': the bank (" + options.bank.string() +
+                  ") has no mode or class of that name; its modes: " + names);
+    }
     const std::vector<ModeLogs> data =
         fitting::load_mode_logs(config, options.logs, options.mode, sampling, "--log", expansion);
     if (data.empty()) throw Error("no logs given (--log)");

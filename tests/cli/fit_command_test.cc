@@ -609,6 +609,12 @@ TEST(CliIo, FitChecksTheNameOfTheFittedModeBeforeFitting) {
   EXPECT_EQ(read_file(target), read_file(kTerrains));
   // The fitted mode keeping its own name is no clash.
   EXPECT_EQ(run_pipeline(fit + " --name asphalt --output-bank " + (dir / "b.yaml").string()).exit_code, 0);
+  // A --mode the bank lacks is named as --mode's, before any log is read (it was blamed on --log).
+  expect_refused_before(kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                            " --objective window --mode gravel --log " + kSwitching,
+                        "--mode 'gravel': the bank (" + kTerrains +
+                            ") has no mode or class of that name; its modes: asphalt, grass, crushed_concrete",
+                        "--log");
   // Without --mode every mode is fitted and --name renamed none, with exit 0.
   const std::string every = kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
                             " --objective window --log " + kSwitching + " --name gravel --output-entry " +

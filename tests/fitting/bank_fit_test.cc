@@ -107,26 +107,30 @@ TEST(BankFit, SharedParametersNeedTheWindowObjective) {
 // of a full one.
 TEST(BankFit, StatesTheWorkItFaces) {
   const Bank bank = Bank::load(std::string(SKIDIMM_SOURCE_DIR) + "/configs/ltc_terrains.yaml", {SKIDIMM_PLUGIN_DIR});
-  const auto rows = [](int n) {
+  const auto rows = [](int n, const std::string& log) {
     Trajectory t;
     t.t.resize(static_cast<std::size_t>(n));
+    t.log = log;
     return t;
   };
-  // Mode 0 twice (its logs pooled), mode 2 once.
-  const std::vector<ModeLogs> data{{0, {rows(100), rows(50)}}, {2, {rows(7)}}, {0, {rows(3)}}};
+  // Mode 0 twice (its logs pooled), mode 2 once; three logs, one of them in
+  // two segments (its truth changes): logs are counted once.
+  const std::vector<ModeLogs> data{
+      {0, {rows(100, "a.csv"), rows(50, "b.csv")}}, {2, {rows(7, "c.csv")}}, {0, {rows(3, "c.csv")}}};
   BankFitOptions options;
   FitWork work = fit_work(bank, data, options);
   EXPECT_EQ(work.modes, 2);
-  EXPECT_EQ(work.logs, 4);
+  EXPECT_EQ(work.logs, 3);
+  EXPECT_EQ(work.segments, 4);
   EXPECT_EQ(work.rows, 160);
   EXPECT_EQ(work.parameters, 2 * (8 + 2));
-  EXPECT_EQ(work.describe(), "2 modes, 4 logs, 160 rows, 20 parameters (likelihood objective)");
+  EXPECT_EQ(work.describe(), "2 modes, 3 logs (4 segments), 160 rows, 20 parameters (likelihood objective)");
   options.full_process_noise = true;
   options.fit_measurement_noise = true;
   options.objective = Objective::kWindow;
   work = fit_work(bank, data, options);
   EXPECT_EQ(work.parameters, 2 * (8 + 3) + 2);
-  EXPECT_EQ(work.describe(), "2 modes, 4 logs, 160 rows, 24 parameters (window objective)");
+  EXPECT_EQ(work.describe(), "2 modes, 3 logs (4 segments), 160 rows, 24 parameters (window objective)");
 }
 
 }  // namespace

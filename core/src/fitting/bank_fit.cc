@@ -127,8 +127,10 @@ std::map<int, FitReport> fit_by_likelihood(Bank* bank, const std::vector<ModeLog
 
 std::string FitWork::describe() const {
   return std::to_string(modes) + (modes == 1 ? " mode, " : " modes, ") + std::to_string(logs) +
-         (logs == 1 ? " log, " : " logs, ") + std::to_string(rows) + " rows, " + std::to_string(parameters) +
-         " parameters (" + to_string(objective) + " objective)";
+         (logs == 1 ? " log" : " logs") +
+         (segments != logs ? " (" + std::to_string(segments) + " segments)" : std::string()) + ", " +
+         std::to_string(rows) + " rows, " + std::to_string(parameters) + " parameters (" + to_string(objective) +
+         " objective)";
 }
 
 FitWork fit_work(const Bank& bank, const std::vector<ModeLogs>& data, const BankFitOptions& options) {
@@ -143,11 +145,15 @@ FitWork fit_work(const Bank& bank, const std::vector<const ModeLogs*>& data, con
   const int n = bank.config.state_dim();
   const bool full_q = options.full_process_noise || options.window.correlated_process_noise;
   std::set<int> modes;
+  std::set<std::string> logs;
   bool shared_counted = false;
-  for (const ModeLogs* logs : data) {
-    const ModeLogs& d = *logs;
-    work.logs += static_cast<long>(d.logs.size());
-    for (const Trajectory& t : d.logs) work.rows += t.size();
+  for (const ModeLogs* mode_logs : data) {
+    const ModeLogs& d = *mode_logs;
+    work.segments += static_cast<long>(d.logs.size());
+    for (const Trajectory& t : d.logs) {
+      work.rows += t.size();
+      logs.insert(t.log);
+    }
     if (!modes.insert(d.mode).second) continue;
     for (const auto& info : bank.models[static_cast<std::size_t>(d.mode)]->parameter_info()) {
       const bool shared = info.scope == sdk::ParameterScope::kBank;
@@ -158,6 +164,7 @@ FitWork fit_work(const Bank& bank, const std::vector<const ModeLogs*>& data, con
   }
   if (options.fit_measurement_noise) work.parameters += static_cast<int>(bank.config.measurement.h.rows());
   work.modes = static_cast<int>(modes.size());
+  work.logs = static_cast<long>(logs.size());
   return work;
 }
 

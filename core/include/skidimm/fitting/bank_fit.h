@@ -65,11 +65,12 @@ Eigen::MatrixXd output_noise_from_fit(const BankConfig& config, const Eigen::Vec
 // fit_measurement_noise). The work grows with rows x parameters.
 struct FitWork {
   int modes = 0;
-  long logs = 0;
+  long logs = 0;      // distinct logs (a file, or files joined by +)
+  long segments = 0;  // the pieces of them each mode fits (a log splits where its truth changes)
   long rows = 0;
   int parameters = 0;  // model parameters and noise entries, over every mode
   Objective objective = Objective::kLikelihood;
-  // "3 modes, 12 logs, 45678 rows, 54 parameters (likelihood objective)"
+  // "3 modes, 12 logs (40 segments), 45678 rows, 54 parameters (likelihood objective)"
   std::string describe() const;
 };
 FitWork fit_work(const Bank& bank, const std::vector<ModeLogs>& data, const BankFitOptions& options);
