@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The sanitizer stage (./scripts/test.sh runs it beside the Release build and
-# suite, at a lower priority, with 5 s per fuzz target; see README):
+# The sanitizer stage (./scripts/test.sh --sanitizers runs it beside the gate,
+# at a lower priority, with 5 s per fuzz target; see README):
 #
 #   ./scripts/check.sh           ASan+UBSan build, the test suite under it, each fuzz target for a bounded time
 #   ./scripts/check.sh --tsan    also the ThreadSanitizer build and its thread-safety tests

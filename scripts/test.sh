@@ -1,30 +1,41 @@
 #!/usr/bin/env bash
-# The test command: installs dependencies, builds everything, runs every test,
-# and the sanitizer stage (scripts/check.sh: a clang build with ASan+UBSan,
-# the suite under it without the reproduction tests, and each fuzz target for
-# SKIDIMM_FUZZ_SECONDS, set below). CI runs this script.
-#   ./scripts/test.sh            the full gate
-#   ./scripts/test.sh --quick    the loop while editing: an incremental build and
-#                                every test but those labelled `slow` (the
-#                                reproductions, the install, demo and
-#                                out-of-tree packaging tests); no sanitizer stage
-# SKIDIMM_CHECK=0 skips the sanitizer stage; SKIDIMM_CHECK_ARGS is passed to
-# check.sh (e.g. --tsan for the ThreadSanitizer build as well).
+# The test command: installs dependencies, builds everything, runs every test.
+# CI runs this script.
+#   ./scripts/test.sh               the gate
+#   ./scripts/test.sh --quick       the loop while editing: an incremental build and
+#                                   every test but those labelled `slow` (the
+#                                   reproductions, the install, demo and
+#                                   out-of-tree packaging tests)
+#   ./scripts/test.sh --sanitizers  the gate and, beside it, the sanitizer stage
+#                                   (scripts/check.sh: a clang build with ASan+UBSan,
+#                                   the suite under it without the reproduction
+#                                   tests, each fuzz target for SKIDIMM_FUZZ_SECONDS,
+#                                   set below); SKIDIMM_CHECK_ARGS is passed to
+#                                   check.sh (e.g. --tsan)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${SKIDIMM_BUILD_DIR:-$root/build}
 jobs=${SKIDIMM_JOBS:-$(nproc 2>/dev/null || echo 2)}
 quick=0
+sanitizers=0
 for arg in "$@"; do
   case "$arg" in
     --quick) quick=1 ;;
-    -h|--help) sed -n '2,13p' "$0"; exit 0 ;;
+    --sanitizers) sanitizers=1 ;;
+    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
     *) echo "test.sh: unknown argument '$arg' (see --help)" >&2; exit 2 ;;
   esac
 done
 "$root/scripts/setup.sh"
-check=0
-if [ "$quick" -eq 0 ] && [ "${SKIDIMM_CHECK:-1}" != 0 ]; then check=1; fi
+if [ "$quick" -eq 1 ] && [ "$sanitizers" -eq 1 ]; then
+  echo "test.sh: --quick and --sanitizers do not go together (the stage is a cold build of its own)" >&2
+  exit 2
+fi
+# The sanitizer stage is not in the gate by default: its second, instrumented
+# build of everything and its suite cost about as much CPU as the Release
+# build and suite together, and the gate must finish within 20 minutes from
+# cold on two cores (README). It runs on request, and by hand before a release.
+check=$sanitizers
 if [ "$check" -eq 1 ]; then
   # The whole sanitizer stage runs beside the Release build and suite: it
   # needs nothing from them, and on two cores the gate is bound by the CPU
@@ -33,10 +44,9 @@ if [ "$check" -eq 1 ]; then
   # starting only when they have ended. Its own session, so that a failure
   # here stops it too; with Linux's autogroup (Debian's default) a session is
   # scheduled as a group, so the nice value only orders the stage's own
-  # processes and the two halves share the cores evenly. 5 s per fuzz target keeps
-  # the gate within CI's budget on two cores (README); the corpus and the
-  # regression inputs are replayed whole in any case, and longer runs are for
-  # check.sh by hand (tests/fuzz/README.md).
+  # processes and the two halves share the cores evenly. 5 s per fuzz target
+  # here; the corpus and the regression inputs are replayed whole in any
+  # case, and longer runs are for check.sh alone (tests/fuzz/README.md).
   mkdir -p "$build"
   sanitizer_log=$build/sanitizer.log
   # shellcheck disable=SC2086 # word splitting of the arguments is intended
