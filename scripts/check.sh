@@ -26,7 +26,8 @@
 # plugin_registry.h (docs/engine.md, "Thread safety").
 #
 # Builds live under the build directory: $SKIDIMM_BUILD_DIR/sanitize-address
-# and .../sanitize-thread. Needs clang and libclang-rt-14-dev (setup.sh).
+# and .../sanitize-thread. Installs what it needs first (setup.sh --sanitizers:
+# clang, libclang-rt-14-dev, llvm-14).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${SKIDIMM_BUILD_DIR:-$root/build}
@@ -48,6 +49,8 @@ for arg in "$@"; do
 done
 
 stamp() { echo "check.sh: $* ($(date -u +%H:%M:%S))" >&2; }
+
+"$root/scripts/setup.sh" --sanitizers
 
 # configure DIR ARGS...: clang, Release flags overridden to -O1 by the
 # sanitizer options, no Python package, no benchmarks. Every target in unity

@@ -2,7 +2,16 @@
 # Installs skidimm's build and test dependencies from Debian packages.
 # Idempotent: when every package is already installed it returns in well
 # under a second without touching apt.
+#   scripts/setup.sh                what the build and the gate need
+#   scripts/setup.sh --sanitizers   and clang's sanitizers and libFuzzer (scripts/check.sh)
 set -euo pipefail
+sanitizers=0
+for arg in "$@"; do
+  case "$arg" in
+    --sanitizers) sanitizers=1 ;;
+    *) echo "setup.sh: unknown argument '$arg' (--sanitizers or nothing)" >&2; exit 2 ;;
+  esac
+done
 
 packages=(
   build-essential cmake
@@ -16,9 +25,13 @@ packages=(
   python3-pytest                 # ... its tests (run by ctest)
   python3-dask python3-distributed  # ... fleet-scale eval and fit (skidimm.dask)
   python3-matplotlib             # ... the figure of docs/python.md
-  clang libclang-rt-14-dev llvm-14  # the sanitizer stage (scripts/check.sh): ASan, UBSan, TSan, libFuzzer, llvm-symbolizer
   libzstd-dev liblz4-dev libsqlite3-dev  # ROS 2 bags (docs/ros2.md): MCAP chunks, .db3 storage
 )
+# The sanitizer stage (scripts/check.sh): ASan, UBSan, TSan, libFuzzer,
+# llvm-symbolizer. Not in the gate, so not installed for it.
+if [ "$sanitizers" -eq 1 ]; then
+  packages+=(clang libclang-rt-14-dev llvm-14)
+fi
 # Node and npm run the ROS 2 tests' independent MCAP, CDR and Foxglove
 # implementations (tests only). A machine that has Node already (from
 # another source than Debian) keeps it.

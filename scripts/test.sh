@@ -26,11 +26,13 @@ for arg in "$@"; do
     *) echo "test.sh: unknown argument '$arg' (see --help)" >&2; exit 2 ;;
   esac
 done
-"$root/scripts/setup.sh"
 if [ "$quick" -eq 1 ] && [ "$sanitizers" -eq 1 ]; then
   echo "test.sh: --quick and --sanitizers do not go together (the stage is a cold build of its own)" >&2
   exit 2
 fi
+# Everything either half needs, installed before they start side by side
+# (two apt-get runs at once would fight over dpkg's lock).
+if [ "$sanitizers" -eq 1 ]; then "$root/scripts/setup.sh" --sanitizers; else "$root/scripts/setup.sh"; fi
 # The sanitizer stage is not in the gate by default: its second, instrumented
 # build of everything and its suite cost about as much CPU as the Release
 # build and suite together, and the gate must finish within 20 minutes from
