@@ -43,7 +43,7 @@ for arg in "$@"; do
     --only-tsan) asan=0; tsan=1 ;;
     --build-only) test_asan=0 ;;
     --skip-build) build_asan=0 ;;
-    -h|--help) sed -n '2,31p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
     *) echo "check.sh: unknown argument '$arg' (see --help)" >&2; exit 2 ;;
   esac
 done
