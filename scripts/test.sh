@@ -35,7 +35,7 @@ fi
 if [ "$sanitizers" -eq 1 ]; then "$root/scripts/setup.sh" --sanitizers; else "$root/scripts/setup.sh"; fi
 # The sanitizer stage is not in the gate by default: its second, instrumented
 # build of everything and its suite cost about as much CPU as the Release
-# build and suite together, and the gate must finish within 20 minutes from
+# build and suite together, against the gate's budget of 20 minutes from
 # cold on two cores (README). It runs on request, and by hand before a release.
 check=$sanitizers
 if [ "$check" -eq 1 ]; then
