@@ -248,7 +248,8 @@ int main(int argc, char** argv) {
   run->add_option("--serve-speed", run_options.serve_speed,
                   "With --serve, replaying a file: times real time (default 1); 0 as fast as the filter runs")
       ->check(finite_number())
-      ->check(number_above(0.0, true));
+      ->check(number_above(0.0, true))
+      ->needs("--serve");  // it paces the replay the server shows, and nothing else
   run->add_flag("--copy-topics", run_options.copy_topics,
                 "With an .mcap output and a bag input: copy the bag topics the bank reads into the output");
   add_plugin_path(run);
@@ -581,6 +582,15 @@ int main(int argc, char** argv) {
     return skidimm::cli::eval(eval_options);
   }
   if (*plot) {
+    if (plot->get_option("--rate")->count() > 0 && plot_options.bank.empty()) {
+      // The rate reads --log as the bank's filter read it; a plain log is drawn row by row.
+      std::cerr << "skidimm plot: --rate reads --log through the bank's columns, which needs --bank\n";
+      return kExitUsage;
+    }
+    if (!plot_options.log.empty() && !plot_options.states) {
+      std::cerr << "skidimm plot: --log is drawn in the panels of --states; add --states or leave out --log\n";
+      return kExitUsage;
+    }
     plot_options.estimates = plot_estimates;
     plot_options.output = plot_output;
     plot_options.plugin_paths = paths;

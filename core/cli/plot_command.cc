@@ -264,6 +264,22 @@ int plot(const PlotOptions& options) {
         }
       }
       log_header = CsvReader(log_file).header();
+      if (options.states && options.bank.empty()) {
+        // Read without a bank, the log is drawn by its columns' names: a log
+        // named otherwise would add nothing to the figure, without a word.
+        bool drawn = false;
+        for (const std::string& s : states) {
+          drawn = drawn || column_of(log_header, s) > 0 || column_of(log_header, "true_" + s) > 0;
+        }
+        if (column_of(log_header, "t") == 0 || !drawn) {
+          std::string columns;
+          for (const std::string& h : log_header) columns += (columns.empty() ? "" : ", ") + h;
+          throw Error(parse_log_spec(options.log[0]).files[0].path.string() +
+                      ": nothing of this log can be drawn: without --bank, --states draws its columns named like the "
+                      "states or 'true_' and a state's name, against its column 't'; it has " +
+                      columns + " (give --bank to read it as run did)");
+        }
+      }
     }
     const int panels = 1 + (decision > 0 ? 1 : 0) + (options.states ? static_cast<int>(states.size()) : 0);
 

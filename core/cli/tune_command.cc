@@ -175,12 +175,6 @@ int tune(const TuneCommandOptions& options) {
   const int code = report_errors("skidimm tune", [&] {
     // The names of --objective, --tune and --assess are the command line's:
     // a typo is a bad command line (exit 2), found before any log is read.
-    const std::vector<std::string> objectives = split_list(options.objectives);
-    for (const std::string& name : objectives) {
-      if (name != "none" && name != "likelihood" && name != "window") {
-        throw UsageError("--objective: unknown objective '" + name + "' (expected likelihood, window or none)");
-      }
-    }
     const auto named = [](const char* option, const auto& parse) {
       try {
         parse();
@@ -190,15 +184,38 @@ int tune(const TuneCommandOptions& options) {
         throw UsageError(std::string(option) + ": " + e.what());
       }
     };
-    named("--tune", [&] {
-      for (const std::string& k : split_list(options.knobs)) fitting::knob_from_string(k);
+    const std::vector<std::string> objectives = split_list(options.objectives);
+    named("--objective", [&] {
+      for (const std::string& name : objectives) {
+        if (name == "none") continue;  // tune's own: the bank's models as they are
+        try {
+          fitting::objective_from_string(name);
+        } catch (const Error& e) {
+          throw Error(std::string(e.what()) + ", or none (no fit)");
+        }
+      }
     });
+    std::vector<fitting::Knob> knobs;
+    named("--tune", [&] {
+      for (const std::string& k : split_list(options.knobs)) knobs.push_back(fitting::knob_from_string(k));
+    });
+    std::vector<fitting::Protocol> protocols;
     named("--assess", [&] {
-      for (const std::string& p : split_list(options.protocols)) fitting::protocol_from_string(p);
+      for (const std::string& p : split_list(options.protocols)) protocols.push_back(fitting::protocol_from_string(p));
     });
     // Fit options the objectives cannot give would be ignored without a word.
     if (options.fit_r && std::find(objectives.begin(), objectives.end(), "likelihood") == objectives.end()) {
       throw UsageError("--fit-r is an option of the likelihood objective, which --objective does not name");
+    }
+    const bool fits =
+        std::any_of(objectives.begin(), objectives.end(), [](const std::string& n) { return n != "none"; });
+    for (const auto& [given, option] :
+         {std::make_pair(options.full_q, "--full-q"), std::make_pair(options.hold_unexcited, "--hold-unexcited")}) {
+      if (given && !fits) {
+        throw UsageError(std::string(option) +
+                         " is an option of the fits, and --objective none fits nothing (it tunes the bank's models as "
+                         "they are); leave it out or name an objective that fits");
+      }
     }
     for (const auto& [given, option] : {std::make_pair(options.parameter_uncertainty, "--parameter-uncertainty"),
                                         std::make_pair(options.residual_correlation, "--residual-correlation")}) {
@@ -255,13 +272,11 @@ int tune(const TuneCommandOptions& options) {
     refuse_clashing_files({{"--table", options.table}}, {{"--bank", options.bank}});
     refuse_repeated_logs(logs);
 
-    std::vector<fitting::Protocol> protocols;
-    for (const std::string& p : split_list(options.protocols)) {
-      protocols.push_back(fitting::protocol_from_string(p));
-      // Their tables, table rows and estimate folders are named by the slug.
-      for (std::size_t k = 0; k + 1 < protocols.size(); ++k) {
-        if (protocols[k].slug() == protocols.back().slug()) {
-          throw Error("--assess: two protocols named '" + protocols.back().name() +
+    // Their tables, table rows and estimate folders are named by the slug.
+    for (std::size_t later = 1; later < protocols.size(); ++later) {
+      for (std::size_t k = 0; k < later; ++k) {
+        if (protocols[k].slug() == protocols[later].slug()) {
+          throw Error("--assess: two protocols named '" + protocols[later].name() +
                       "': their tables and estimates would be mixed; give each its own name");
         }
       }
@@ -307,11 +322,8 @@ int tune(const TuneCommandOptions& options) {
     }
 
     fitting::TuneOptions tune_options;
-    tune_options.objectives = split_list(options.objectives);
-    if (!options.knobs.empty()) {
-      tune_options.knobs.clear();
-      for (const std::string& k : split_list(options.knobs)) tune_options.knobs.push_back(fitting::knob_from_string(k));
-    }
+    tune_options.objectives = objectives;
+    if (!options.knobs.empty()) tune_options.knobs = knobs;
     tune_options.folds = options.folds;
     tune_options.inner_folds = options.inner_folds;
     tune_options.assess = !options.no_assess;

@@ -74,6 +74,9 @@ TEST(Cli, OptionsThatCannotBeHonouredTogetherExitWithTwo) {
        "--output-noise is an option of the window objective"},
       {"run" + bank + " --input " + kSwitching + out + " --serve 99999", "a port from 0 (any free port) to 65535"},
       {"run" + bank + " --input " + kSwitching + out + " --serve localhost:0", "'localhost' is not an IP address"},
+      {"run" + bank + " --input " + kSwitching + out + " --serve-speed 2", "--serve-speed requires --serve"},
+      {"plot --estimates " + kSwitching + out + " --log " + kSwitching + " --rate 10",
+       "--rate reads --log through the bank's columns, which needs --bank"},
   };
   for (const auto& c : clashes) {
     const Result r = run_skidimm(c.arguments);

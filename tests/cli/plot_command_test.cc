@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <fstream>
 #include <string>
 
 #include "cli/cli_test_support.h"
@@ -53,6 +54,23 @@ TEST(Cli, PlotDrawsPngAndSvgAndSaysWhenGnuplotIsMissing) {
   EXPECT_EQ(over.exit_code, 1);
   EXPECT_THAT(over.err, HasSubstr("is the file of --estimates (" + (dir / "estimates.svg").string() + ")"));
   EXPECT_EQ(read_file(dir / "estimates.svg"), read_file(dir / "out.csv"));
+  // A log without a bank is drawn by its columns' names; one named otherwise
+  // added nothing to the figure, without a word. A log without --states was
+  // not drawn at all.
+  {
+    std::ofstream other(dir / "other.csv");
+    other << "time,x,y\n0,1,2\n1,2,3\n";
+  }
+  const Result unnamed = run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --log " +
+                                     (dir / "other.csv").string() + " --states --output " + (dir / "o.png").string());
+  EXPECT_EQ(unnamed.exit_code, 1) << unnamed.err;
+  EXPECT_THAT(unnamed.err, HasSubstr((dir / "other.csv").string() + ": nothing of this log can be drawn"));
+  EXPECT_THAT(unnamed.err, HasSubstr("it has time, x, y"));
+  EXPECT_FALSE(fs::exists(dir / "o.png"));
+  const Result undrawn = run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --log " + log + " --output " +
+                                     (dir / "o.png").string());
+  EXPECT_EQ(undrawn.exit_code, 2) << undrawn.err;
+  EXPECT_THAT(undrawn.err, HasSubstr("--log is drawn in the panels of --states"));
 }
 
 // gnuplot's line colours repeat after 8: in a bank of more modes, each mode

@@ -163,6 +163,13 @@ TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
   const Result fit_r = run_pipeline(tune + " --objective window --no-assess --fit-r");
   EXPECT_EQ(fit_r.exit_code, 2) << fit_r.err;
   EXPECT_THAT(fit_r.err, HasSubstr("--fit-r is an option of the likelihood objective"));
+  // --objective none fits nothing: the fit options were ignored without a word.
+  for (const std::string option : {"--full-q", "--hold-unexcited"}) {
+    const Result unfitted = run_pipeline(tune + " --objective none --no-assess " + option);
+    EXPECT_EQ(unfitted.exit_code, 2) << unfitted.err;
+    EXPECT_THAT(unfitted.err, HasSubstr(option + " is an option of the fits, and --objective none fits nothing"));
+    EXPECT_THAT(unfitted.err, Not(HasSubstr("work:")));
+  }
   expect_refused_before(
       tune + " --objective none --assess 'extrapolation:v=abs(phi_dot_L),extrapolation:v=abs(phi_dot_R)'",
       "--assess: two protocols named 'extrapolation in v'", "work:");
@@ -187,8 +194,10 @@ TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
   const std::string logs = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins + " --log " +
                            kSwitching + " --log " + copy.string();
   for (const auto& [option, expected] :
-       {std::make_pair(std::string(" --objective windw"),
-                       std::string("--objective: unknown objective 'windw' (expected likelihood, window or none)")),
+       {std::make_pair(
+            std::string(" --objective windw"),
+            std::string(
+                "--objective: unknown fit objective 'windw' (expected likelihood or window), or none (no fit)")),
         std::make_pair(std::string(" --objective none --tune dwell,dwel"),
                        std::string("--tune: unknown setting 'dwel'")),
         std::make_pair(std::string(" --objective none --assess session"),
