@@ -117,7 +117,7 @@ if [ "$asan" -eq 1 ]; then
     }
     grep -E '^stat::number_of_executed_units|^#[0-9]+.*DONE' "$work/log" | tail -n 2 | sed "s/^/$fuzzer: /" >&2 || true
   }
-  # $jobs targets at a time (two on CI's two cores). A finding fails the
+  # $jobs targets at a time (one per core). A finding fails the
   # stage once the targets still running have ended (each is bounded by
   # -max_total_time), so no fuzzer outlives the script.
   running=()
