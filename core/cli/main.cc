@@ -544,22 +544,11 @@ int main(int argc, char** argv) {
                      "--output X.csv to plot it\n";
         return kExitUsage;
       }
-      // The figure reads the estimates and the log again after the run.
-      std::string once;
-      if (skidimm::OutputFile::writes_directly(output)) once = "--output " + output;
-      for (const std::string& input : run_options.inputs) {
-        try {
-          for (const skidimm::LogFile& file : skidimm::parse_log_spec(input).files) {
-            std::error_code missing;
-            const bool exists = skidimm::is_standard_input(file.path) || fs::exists(file.path, missing);
-            if (exists && !skidimm::is_rereadable(file.path)) once = "--input " + file.path.string();
-          }
-        } catch (const skidimm::Error&) {  // run reports it
-        }
-      }
-      if (!once.empty()) {
-        std::cerr << "skidimm run: --plot reads the estimates and the log again after the run, which " << once
-                  << " (standard input, a pipe or a device) cannot give: write to files and run skidimm plot\n";
+      // The figure reads the estimates again after the run (the log it does
+      // not: the probabilities and the decisions are all in the estimates).
+      if (skidimm::OutputFile::writes_directly(output)) {
+        std::cerr << "skidimm run: --plot reads the estimates again after the run, which --output " << output
+                  << " (standard output, a pipe or a device) cannot give: write to a file and run skidimm plot\n";
         return kExitUsage;
       }
     }
@@ -570,8 +559,6 @@ int main(int argc, char** argv) {
     figure.output = run_plot;
     figure.bank = bank;
     figure.plugin_paths = paths;
-    figure.rate = run_options.overrides.rate.value_or(0.0);
-    figure.log = run_options.inputs;
     figure.title = fs::path(bank).stem().string() + " on " + skidimm::join_log_arguments(run_options.inputs).name();
     return skidimm::cli::plot(figure);
   }
@@ -582,9 +569,13 @@ int main(int argc, char** argv) {
     return skidimm::cli::eval(eval_options);
   }
   if (*plot) {
-    if (plot->get_option("--rate")->count() > 0 && plot_options.bank.empty()) {
+    if (plot->get_option("--rate")->count() > 0 && (plot_options.bank.empty() || plot_options.log.empty())) {
       // The rate reads --log as the bank's filter read it; a plain log is drawn row by row.
-      std::cerr << "skidimm plot: --rate reads --log through the bank's columns, which needs --bank\n";
+      std::cerr << "skidimm plot: --rate reads --log through the bank's columns, which needs --bank and --log\n";
+      return kExitUsage;
+    }
+    if (!plot_options.bank.empty() && plot_options.log.empty()) {
+      std::cerr << "skidimm plot: --bank reads --log with its columns; add --log --states or leave out --bank\n";
       return kExitUsage;
     }
     if (!plot_options.log.empty() && !plot_options.states) {

@@ -225,7 +225,7 @@ int plot(const PlotOptions& options) {
     std::vector<std::string> log_header;
     const fs::path log_data = options.output.string() + ".log.csv";
     temporary.push_back(log_data.string() + ".partial");
-    if (!options.log.empty()) {
+    if (!options.log.empty() && options.states) {  // the log is drawn in the states' panels alone
       if (!options.bank.empty()) {
         const BankConfig config = load_bank_config(options.bank);
         const LogSpec log = join_log_arguments(options.log);

@@ -212,9 +212,9 @@ int tune(const TuneCommandOptions& options) {
     for (const auto& [given, option] :
          {std::make_pair(options.full_q, "--full-q"), std::make_pair(options.hold_unexcited, "--hold-unexcited")}) {
       if (given && !fits) {
-        throw UsageError(std::string(option) +
-                         " is an option of the fits, and --objective none fits nothing (it tunes the bank's models as "
-                         "they are); leave it out or name an objective that fits");
+        throw UsageError(std::string(option) + " is an option of the fits, and --objective (" + options.objectives +
+                         ") names none that fits (none tunes the bank's models as they are); leave it out or name an "
+                         "objective that fits");
       }
     }
     for (const auto& [given, option] : {std::make_pair(options.parameter_uncertainty, "--parameter-uncertainty"),

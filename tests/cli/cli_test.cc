@@ -76,7 +76,8 @@ TEST(Cli, OptionsThatCannotBeHonouredTogetherExitWithTwo) {
       {"run" + bank + " --input " + kSwitching + out + " --serve localhost:0", "'localhost' is not an IP address"},
       {"run" + bank + " --input " + kSwitching + out + " --serve-speed 2", "--serve-speed requires --serve"},
       {"plot --estimates " + kSwitching + out + " --log " + kSwitching + " --rate 10",
-       "--rate reads --log through the bank's columns, which needs --bank"},
+       "--rate reads --log through the bank's columns, which needs --bank and --log"},
+      {"plot --estimates " + kSwitching + out + bank, "--bank reads --log with its columns"},
   };
   for (const auto& c : clashes) {
     const Result r = run_skidimm(c.arguments);
@@ -129,10 +130,18 @@ TEST(CliIo, CommandsThatReadALogTwiceRefuseAPipeAndSaySo) {
   EXPECT_EQ(tune.exit_code, 1);
   EXPECT_THAT(tune.err, HasSubstr("-: standard input can be read only once (standard input, a pipe or a FIFO), but tune "
                                   "reads each log more than once: save it to a file first"));
-  const Result plot = run_pipeline("cat " + kSwitching + " | " + run_command(kTerrains, "-", (dir / "out.csv").string()) +
-                                " --plot " + (dir / "figure.png").string());
-  EXPECT_EQ(plot.exit_code, 2);
-  EXPECT_THAT(plot.err, HasSubstr("--plot reads the estimates and the log again after the run, which --input -"));
+  // run --plot reads its estimates again, not its log: a piped input is
+  // drawn, a piped output is refused before the run.
+  const Result plot =
+      run_pipeline("cat " + kSwitching + " | " + run_command(kTerrains, "-", (dir / "out.csv").string()) + " --plot " +
+                   (dir / "figure.png").string());
+  EXPECT_EQ(plot.exit_code, 0) << plot.err;
+  EXPECT_TRUE(fs::exists(dir / "figure.png"));
+  const Result piped = run_pipeline(run_command(kTerrains, kSwitching, "-") + " --plot " +
+                                    (dir / "piped.png").string() + " > /dev/null");
+  EXPECT_EQ(piped.exit_code, 2);
+  EXPECT_THAT(piped.err, HasSubstr("--plot reads the estimates again after the run, which --output -"));
+  EXPECT_FALSE(fs::exists(dir / "piped.png"));
 }
 
 TEST(CliIo, WritesOntoAFullDiskFailWithTheReasonAndLeaveNoFile) {

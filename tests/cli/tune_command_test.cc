@@ -167,7 +167,8 @@ TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
   for (const std::string option : {"--full-q", "--hold-unexcited"}) {
     const Result unfitted = run_pipeline(tune + " --objective none --no-assess " + option);
     EXPECT_EQ(unfitted.exit_code, 2) << unfitted.err;
-    EXPECT_THAT(unfitted.err, HasSubstr(option + " is an option of the fits, and --objective none fits nothing"));
+    EXPECT_THAT(unfitted.err,
+                HasSubstr(option + " is an option of the fits, and --objective (none) names none that fits"));
     EXPECT_THAT(unfitted.err, Not(HasSubstr("work:")));
   }
   expect_refused_before(
