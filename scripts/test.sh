@@ -37,8 +37,7 @@ if [ "$sanitizers" -eq 1 ]; then "$root/scripts/setup.sh" --sanitizers; else "$r
 # build of everything and its suite cost about as much CPU as the Release
 # build and suite together, against the gate's budget of 20 minutes from
 # cold on two cores (README). It runs on request, and by hand before a release.
-check=$sanitizers
-if [ "$check" -eq 1 ]; then
+if [ "$sanitizers" -eq 1 ]; then
   # The whole sanitizer stage runs beside the Release build and suite: it
   # needs nothing from them, and on two cores the gate is bound by the CPU
   # time of all its parts together, so the stage fills the cycles they leave
@@ -67,7 +66,7 @@ if [ "$quick" -eq 1 ]; then
   exec ctest --output-on-failure -j "$jobs" -LE slow
 fi
 ctest --output-on-failure -j "$jobs"
-if [ "$check" -eq 1 ]; then
+if [ "$sanitizers" -eq 1 ]; then
   echo "test.sh: the Release suite passed; waiting for the sanitizer stage ($sanitizer_log)" >&2
   status=0
   wait "$sanitizer_stage" || status=$?

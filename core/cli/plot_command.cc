@@ -226,6 +226,7 @@ int plot(const PlotOptions& options) {
     const fs::path log_data = options.output.string() + ".log.csv";
     temporary.push_back(log_data.string() + ".partial");
     if (!options.log.empty() && options.states) {  // the log is drawn in the states' panels alone
+      fs::path given_log;                          // without --bank: the one file, as --log named it
       if (!options.bank.empty()) {
         const BankConfig config = load_bank_config(options.bank);
         const LogSpec log = join_log_arguments(options.log);
@@ -252,7 +253,8 @@ int plot(const PlotOptions& options) {
         if (options.log.size() != 1 || parse_log_spec(options.log[0]).files.size() != 1) {
           throw Error("--log with several files needs --bank to read them");
         }
-        log_file = parse_log_spec(options.log[0]).files[0].path;
+        given_log = parse_log_spec(options.log[0]).files[0].path;
+        log_file = given_log;
         if (!is_rereadable(log_file)) {  // read here for its header, then by gnuplot: copy it
           CsvReader log_reader(log_file);
           CsvWriter copy(log_data, log_reader.header());
@@ -264,7 +266,7 @@ int plot(const PlotOptions& options) {
         }
       }
       log_header = CsvReader(log_file).header();
-      if (options.states && options.bank.empty()) {
+      if (options.bank.empty()) {
         // Read without a bank, the log is drawn by its columns' names: a log
         // named otherwise would add nothing to the figure, without a word.
         bool drawn = false;
@@ -274,7 +276,7 @@ int plot(const PlotOptions& options) {
         if (column_of(log_header, "t") == 0 || !drawn) {
           std::string columns;
           for (const std::string& h : log_header) columns += (columns.empty() ? "" : ", ") + h;
-          throw Error(parse_log_spec(options.log[0]).files[0].path.string() +
+          throw Error(given_log.string() +
                       ": nothing of this log can be drawn: without --bank, --states draws its columns named like the "
                       "states or 'true_' and a state's name, against its column 't'; it has " +
                       columns + " (give --bank to read it as run did)");
