@@ -369,7 +369,7 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
       const int count = static_cast<int>(jacobian_sources_.size());
       if (jacobian_rows_.empty() || !valid_step(x, u, dt) || entries.size() != count) return false;
       double every[kMaxStates * (kMaxParameters > 0 ? kMaxParameters : 1)];
-      if (!spec_parameter_jacobian(x, u, dt, every)) return false;
+      if (!spec_parameter_jacobian(x, u, dt, every, &jacobian_sources_)) return false;
       const int* source = jacobian_sources_.data();
       for (int at = 0; at < count; ++at) entries[at] = every[source[at]];
       if (internal::all_finite(entries.data(), count)) return true;
@@ -446,10 +446,18 @@ class FunctionModel<Spec, internal::BankShapes> final : public MotionModel {
 
   // The spec's parameter Jacobian over every entry of p into `every` (n x
   // p_.size(), row-major), zeroed first: a spec writes only the entries that
-  // can be nonzero (function_model.h). False, with the reason, if it threw.
+  // can be nonzero (function_model.h). With `read`, only those positions are
+  // zeroed, the only ones the caller reads (the entries its
+  // parameter_jacobian_may_move() allows: a filter with parameter
+  // uncertainty asks for them at every step, a few dozen of a few hundred).
+  // False, with the reason, if it threw.
   bool spec_parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
-                               double dt, double* every) const noexcept {
-    std::fill(every, every + state_dim() * static_cast<int>(p_.size()), 0.0);
+                               double dt, double* every, const std::vector<int>* read = nullptr) const noexcept {
+    if (read != nullptr) {
+      for (int at : *read) every[at] = 0.0;
+    } else {
+      std::fill(every, every + state_dim() * static_cast<int>(p_.size()), 0.0);
+    }
     try {
       Spec::parameter_jacobian(layout_, x.data(), input_data(u), p_.data(), dt, every);
     } catch (const std::exception& e) {
