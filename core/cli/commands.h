@@ -163,6 +163,7 @@ struct TuneCommandOptions {
   std::filesystem::path sessions;    // which logs were recorded together (fitting/sessions.h)
   std::vector<std::string> lockbox;  // logs kept aside, scored once by the tuned bank; as `logs`
   bool splice = false;               // score the logs a fold holds out as one spliced run
+  bool walk = false;                 // walk each knob's line instead of running its whole grid
   int threads = 0;
   double window = 0.0;  // the window objective's window (s)
   bool fit_r = false;

@@ -412,6 +412,10 @@ int main(int argc, char** argv) {
   tune->add_flag("--splice", tune_options.splice,
                  "Score the logs a fold holds out as one run spliced end to end (classes taking turns), so that the "
                  "scores include following each change; with --folds/--inner-folds K the search sees changes too");
+  tune->add_flag("--walk", tune_options.walk,
+                 "Search each log-spaced setting outward from its current value while each step scores better, "
+                 "instead of every candidate of its grid: the grid's best with fewer scorings where the score has "
+                 "one peak along the setting; it can stop on the nearer of two");
   tune->add_option("--lockbox", tune_options.lockbox,
                    "Logs kept aside (as --log): neither fitted nor tuned on, scored once by the tuned bank; repeatable");
   tune->add_option("--threads", tune_options.threads, "Worker threads (default, and at most: every core)")

@@ -329,6 +329,7 @@ int tune(const TuneCommandOptions& options) {
     tune_options.assess = !options.no_assess;
     tune_options.protocols = protocols;
     tune_options.splice = options.splice;
+    if (options.walk) tune_options.line_search = fitting::TuneOptions::LineSearch::kWalk;
     tune_options.threads = options.threads;
     tune_options.sampling = sampling;
     tune_options.assessment_estimates = options.estimates;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <set>
 
 #include "core/temp_files.h"
@@ -392,6 +393,71 @@ TEST(Tune, ProtocolsThatHoldOutTheSameLogsShareTheirSearch) {
       EXPECT_EQ(s.mean_log_probability, same->mean_log_probability) << s.log;
     }
   }
+}
+
+// A line is searched over its whole grid (the default), or walked from its
+// start while each step beats the best (LineSearch::kWalk): on real BorealTC
+// runs, the bundled bank's likelihood weight. The grid's scores are
+// computed here, each candidate's bank scoring every log (the models are
+// kept, so every fold's are the bank's), and each search's choice and its
+// number of runs follow from them: both choose the grid's best (these
+// scores rise to one peak), the walk after the runs up to it and the one
+// past it.
+TEST(Tune, AWalkChoosesTheGridsBestOfOnePeakWithFewerRuns) {
+  if (!std::filesystem::exists(kBorealTc)) GTEST_SKIP() << "no shared data at " << kBorealTc;
+  const std::vector<TuningLog> logs{borealtc_log("ICE", "04"), borealtc_log("ICE", "11"),
+                                    borealtc_log("FLOORING", "01"), borealtc_log("FLOORING", "08")};
+  std::vector<const TuningLog*> each;
+  for (const TuningLog& l : logs) each.push_back(&l);
+  TuneOptions options = weight_only_options();
+  options.assess = false;
+  std::vector<std::string> lines;
+  options.progress = [&](const std::string& line) { lines.push_back(line); };
+  const double start = bundled_borealtc_bank().config.likelihood_weight;
+  std::map<int, double> grid;  // 4^k times the start, within [1e-4, 1]
+  for (int k = -3; k <= 3; ++k) {
+    Bank b = bundled_borealtc_bank();
+    b.config.likelihood_weight = start * std::pow(4.0, k);
+    if (b.config.likelihood_weight < 1e-4 || b.config.likelihood_weight > 1.0) continue;
+    grid[k] = summarize(score_logs(b, each, options.sampling)).mean_log_probability;
+  }
+  ASSERT_EQ(grid.size(), 6u) << "the start and five others: k = 3 is above 1";
+  int peak = 0;
+  for (const auto& [k, score] : grid) {
+    if (score > grid[peak]) peak = k;
+  }
+  for (const auto& [k, score] : grid) {
+    if (k < peak) {
+      EXPECT_LT(score, grid.at(k + 1)) << "one peak: rising to it, k = " << k;
+    } else if (k > peak) {
+      EXPECT_LT(score, grid.at(k - 1)) << "one peak: falling after it, k = " << k;
+    }
+  }
+  int walked = 0, walk_runs = 1;  // the start's own scoring
+  for (const int direction : {-1, 1}) {
+    for (int k = direction; grid.count(k) != 0; k += direction) {
+      ++walk_runs;
+      if (!(grid[k] > grid[walked] + 1e-9)) break;
+      walked = k;
+    }
+    if (walked != 0) break;
+  }
+  EXPECT_EQ(walked, peak);
+  EXPECT_LT(walk_runs, static_cast<int>(grid.size()));
+
+  const TuneResult by_grid = tune(bundled_borealtc_bank, logs, kKeepModels, options);
+  EXPECT_EQ(by_grid.settings.likelihood_weight, start * std::pow(4.0, peak));
+  EXPECT_EQ(by_grid.selection.mean_log_probability, grid[peak]);
+  ASSERT_FALSE(lines.empty());
+  EXPECT_THAT(lines.back(), ::testing::HasSubstr("searches: " + std::to_string(grid.size()) + " settings scored"));
+
+  lines.clear();
+  options.line_search = TuneOptions::LineSearch::kWalk;
+  const TuneResult by_walk = tune(bundled_borealtc_bank, logs, kKeepModels, options);
+  EXPECT_EQ(by_walk.settings.likelihood_weight, by_grid.settings.likelihood_weight);
+  EXPECT_EQ(by_walk.selection.mean_log_probability, by_grid.selection.mean_log_probability);
+  ASSERT_FALSE(lines.empty());
+  EXPECT_THAT(lines.back(), ::testing::HasSubstr("searches: " + std::to_string(walk_runs) + " settings scored"));
 }
 
 // A floor candidate below the smallest probability every run of the best

@@ -778,30 +778,49 @@ class Tuner {
     for (int sweep = 0; sweep < options_.sweeps; ++sweep) {
       const double factor = sweep == 0 ? 4.0 : 1.5;
       const int steps = sweep == 0 ? 3 : 2;
-      // Tries value * factor^k for k in [-steps, steps] on one scalar of the settings.
+      // Tries value * factor^k for k in [-steps, steps] on one scalar of the
+      // settings: every k (LineSearch::kGrid), or a walk: k = -1, -2, ...
+      // while each candidate beats the best, then, if none did, k = 1, 2, ...
+      // the same way (kWalk). Where the score rises to one peak along the
+      // line the walk ends on the grid's best, and the far candidates it
+      // skips would have lost, each after up to a whole scoring.
       // `ties(chosen, candidate)`: true where the candidate is known to score
       // exactly what the best settings (whose value is `chosen`) scored; it is
-      // then not run, as it could not be taken.
+      // then not run, as it could not be taken, and a walk goes on past it
+      // (a floor changes nothing until some probability comes down to it).
       using Ties = std::function<bool(double, double)>;
+      const bool walk = options_.line_search == TuneOptions::LineSearch::kWalk;
       auto line = [&](const std::string& name, double* value, double lowest, double highest, const Ties& ties = {}) {
         const double start = *value;
         double chosen = start;
-        for (int k = -steps; k <= steps; ++k) {
-          if (k == 0) continue;
-          const double candidate = start * std::pow(factor, k);
-          if (candidate < lowest || candidate > highest) continue;
-          if (ties && ties(chosen, candidate)) {
-            ++settings_known_to_tie_;
-            continue;
+        // The grid takes k = -steps ... -1, then 1 ... steps, as it always
+        // has (the order decides between exact ties); a walk goes outward.
+        for (const int direction : {-1, 1}) {
+          std::vector<int> ks;
+          for (int k = direction; std::abs(k) <= steps; k += direction) ks.push_back(k);
+          if (!walk && direction < 0) std::reverse(ks.begin(), ks.end());  // -steps first, as it always has
+          for (const int k : ks) {
+            const double candidate = start * std::pow(factor, k);
+            if (candidate < lowest || candidate > highest) {
+              if (walk) break;  // and every candidate beyond
+              continue;
+            }
+            if (ties && ties(chosen, candidate)) {
+              ++settings_known_to_tie_;
+              continue;
+            }
+            *value = candidate;
+            std::vector<LogScore> scores;
+            const double score = score_of(current, &scores, best);
+            if (score > best + 1e-9) {
+              best = score;
+              chosen = candidate;
+              *best_scores = scores;
+            } else if (walk) {
+              break;
+            }
           }
-          *value = candidate;
-          std::vector<LogScore> scores;
-          const double score = score_of(current, &scores, best);
-          if (score > best + 1e-9) {
-            best = score;
-            chosen = candidate;
-            *best_scores = scores;
-          }
+          if (walk && chosen != start) break;
         }
         *value = chosen;
         if (!quiet) progress("  " + objective + ": " + name + " " + brief(chosen) + " -> mean log p(truth) " + brief(best));

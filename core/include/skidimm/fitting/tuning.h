@@ -157,6 +157,12 @@ struct TuneOptions {
   // inner_folds >= 2, the assessment with multi-log folds.
   bool splice = false;
   int sweeps = 2;       // coordinate-search passes over the knobs
+  // How a log-spaced knob's line is searched: every candidate of its grid
+  // (kGrid), or from the current value while each step beats the best
+  // (kWalk): the grid's best, with fewer scorings, where the score rises to
+  // one peak along the line; it can stop on the nearer of two.
+  enum class LineSearch { kGrid, kWalk };
+  LineSearch line_search = LineSearch::kGrid;
   int threads = 0;      // 0: the machine's cores; more than its cores: its cores
   SamplingConfig sampling;
   std::function<void(const std::string&)> progress;  // one line at a time; may be empty
