@@ -290,6 +290,30 @@ TEST(Cli, TuneChoosesTheUnknownInflationOfABankThatHasOne) {
   EXPECT_THAT(plain.err, HasSubstr("--tune unknown-inflation needs a bank with an unknown hypothesis"));
 }
 
+// The settings scored, from the last progress line ("searches: N settings scored, ...").
+long settings_scored(const std::string& err) {
+  const std::size_t at = err.rfind("searches: ");
+  return at == std::string::npos ? -1 : std::stol(err.substr(at + std::string("searches: ").size()));
+}
+
+// `--walk` walks each setting's grid instead of scoring all of it: fewer
+// settings scored, and the tuned bank says how to reproduce it. The bundled
+// switching log in four parts, the bank's models as they are.
+TEST(Cli, TuneWalksEachSettingsGridWhenAskedTo) {
+  const fs::path dir = test_directory();
+  const std::string args = switching_log_in_four_parts(dir) +
+                           " --objective none --tune likelihood-weight,q-scale --no-assess --threads 1 --plugin-path " +
+                           kPlugins + " --output-bank ";
+  const Result grid = run_skidimm("tune --bank " + kTerrains + args + (dir / "grid.yaml").string());
+  ASSERT_EQ(grid.exit_code, 0) << grid.err;
+  const Result walk = run_skidimm("tune --walk --bank " + kTerrains + args + (dir / "walk.yaml").string());
+  ASSERT_EQ(walk.exit_code, 0) << walk.err;
+  EXPECT_GT(settings_scored(walk.err), 2) << walk.err;
+  EXPECT_LT(settings_scored(walk.err), settings_scored(grid.err)) << walk.err << grid.err;
+  EXPECT_THAT(read_file(dir / "walk.yaml"), HasSubstr("skidimm tune --walk --bank "));
+  EXPECT_THAT(read_file(dir / "grid.yaml"), Not(HasSubstr("--walk")));
+}
+
 // `--tune extrapolation-scale` searches the scale with "off" among the
 // candidates and says what it chose; each nested assessment reports the share
 // of its held-out steps outside the ranges the true class was fitted on. The

@@ -397,67 +397,85 @@ TEST(Tune, ProtocolsThatHoldOutTheSameLogsShareTheirSearch) {
 
 // A line is searched over its whole grid (the default), or walked from its
 // start while each step beats the best (LineSearch::kWalk): on real BorealTC
-// runs, the bundled bank's likelihood weight. The grid's scores are
-// computed here, each candidate's bank scoring every log (the models are
-// kept, so every fold's are the bank's), and each search's choice and its
-// number of runs follow from them: both choose the grid's best (these
-// scores rise to one peak), the walk after the runs up to it and the one
-// past it.
+// runs, the bundled bank's likelihood weight, started from it and from 16
+// times less and more. The grid's scores are computed here, each
+// candidate's bank scoring every log (the models are kept, so every fold's
+// are the bank's), and each search's choice and its number of runs follow
+// from them: both choose the grid's best (these scores rise to one peak),
+// the walk after the runs up to it and the first that lost, downward from
+// one start and upward from another.
 TEST(Tune, AWalkChoosesTheGridsBestOfOnePeakWithFewerRuns) {
   if (!std::filesystem::exists(kBorealTc)) GTEST_SKIP() << "no shared data at " << kBorealTc;
   const std::vector<TuningLog> logs{borealtc_log("ICE", "04"), borealtc_log("ICE", "11"),
                                     borealtc_log("FLOORING", "01"), borealtc_log("FLOORING", "08")};
   std::vector<const TuningLog*> each;
   for (const TuningLog& l : logs) each.push_back(&l);
-  TuneOptions options = weight_only_options();
-  options.assess = false;
-  std::vector<std::string> lines;
-  options.progress = [&](const std::string& line) { lines.push_back(line); };
-  const double start = bundled_borealtc_bank().config.likelihood_weight;
-  std::map<int, double> grid;  // 4^k times the start, within [1e-4, 1]
-  for (int k = -3; k <= 3; ++k) {
-    Bank b = bundled_borealtc_bank();
-    b.config.likelihood_weight = start * std::pow(4.0, k);
-    if (b.config.likelihood_weight < 1e-4 || b.config.likelihood_weight > 1.0) continue;
-    grid[k] = summarize(score_logs(b, each, options.sampling)).mean_log_probability;
-  }
-  ASSERT_EQ(grid.size(), 6u) << "the start and five others: k = 3 is above 1";
-  int peak = 0;
-  for (const auto& [k, score] : grid) {
-    if (score > grid[peak]) peak = k;
-  }
-  for (const auto& [k, score] : grid) {
-    if (k < peak) {
-      EXPECT_LT(score, grid.at(k + 1)) << "one peak: rising to it, k = " << k;
-    } else if (k > peak) {
-      EXPECT_LT(score, grid.at(k - 1)) << "one peak: falling after it, k = " << k;
+  const double bundled = bundled_borealtc_bank().config.likelihood_weight;
+  bool walked_down = false, walked_up = false;
+  int all_walk_runs = 0, all_grid_runs = 0;
+  for (const double start : {bundled / 16, bundled, bundled * 16}) {
+    SCOPED_TRACE("start " + std::to_string(start));
+    const auto starting_bank = [start] {
+      Bank b = bundled_borealtc_bank();
+      b.config.likelihood_weight = start;
+      return b;
+    };
+    TuneOptions options = weight_only_options();
+    options.assess = false;
+    std::vector<std::string> lines;
+    options.progress = [&](const std::string& line) { lines.push_back(line); };
+    std::map<int, double> grid;  // 4^k times the start, within [1e-4, 1]
+    for (int k = -3; k <= 3; ++k) {
+      Bank b = starting_bank();
+      b.config.likelihood_weight = start * std::pow(4.0, k);
+      if (b.config.likelihood_weight < 1e-4 || b.config.likelihood_weight > 1.0) continue;
+      grid[k] = summarize(score_logs(b, each, options.sampling)).mean_log_probability;
     }
-  }
-  int walked = 0, walk_runs = 1;  // the start's own scoring
-  for (const int direction : {-1, 1}) {
-    for (int k = direction; grid.count(k) != 0; k += direction) {
-      ++walk_runs;
-      if (!(grid[k] > grid[walked] + 1e-9)) break;
-      walked = k;
+    ASSERT_GE(grid.size(), 4u) << "the start and three others at least";
+    int peak = 0;
+    for (const auto& [k, score] : grid) {
+      if (score > grid[peak]) peak = k;
     }
-    if (walked != 0) break;
+    for (const auto& [k, score] : grid) {
+      if (k < peak) {
+        EXPECT_LT(score, grid.at(k + 1)) << "one peak: rising to it, k = " << k;
+      } else if (k > peak) {
+        EXPECT_LT(score, grid.at(k - 1)) << "one peak: falling after it, k = " << k;
+      }
+    }
+    int walked = 0, walk_runs = 1;  // the start's own scoring
+    for (const int direction : {-1, 1}) {
+      for (int k = direction; grid.count(k) != 0; k += direction) {
+        ++walk_runs;
+        if (!(grid[k] > grid[walked] + 1e-9)) break;
+        walked = k;
+      }
+      if (walked != 0) break;
+    }
+    EXPECT_EQ(walked, peak);
+    walked_down = walked_down || walked < 0;
+    walked_up = walked_up || walked > 0;
+
+    const TuneResult by_grid = tune(starting_bank, logs, kKeepModels, options);
+    EXPECT_EQ(by_grid.settings.likelihood_weight, start * std::pow(4.0, peak));
+    EXPECT_EQ(by_grid.selection.mean_log_probability, grid[peak]);
+    ASSERT_FALSE(lines.empty());
+    EXPECT_THAT(lines.back(), ::testing::HasSubstr("searches: " + std::to_string(grid.size()) + " settings scored"));
+
+    lines.clear();
+    options.line_search = TuneOptions::LineSearch::kWalk;
+    const TuneResult by_walk = tune(starting_bank, logs, kKeepModels, options);
+    EXPECT_EQ(by_walk.settings.likelihood_weight, by_grid.settings.likelihood_weight);
+    EXPECT_EQ(by_walk.selection.mean_log_probability, by_grid.selection.mean_log_probability);
+    ASSERT_FALSE(lines.empty());
+    EXPECT_THAT(lines.back(), ::testing::HasSubstr("searches: " + std::to_string(walk_runs) + " settings scored"));
+    EXPECT_LE(walk_runs, static_cast<int>(grid.size()));
+    all_walk_runs += walk_runs;
+    all_grid_runs += static_cast<int>(grid.size());
   }
-  EXPECT_EQ(walked, peak);
-  EXPECT_LT(walk_runs, static_cast<int>(grid.size()));
-
-  const TuneResult by_grid = tune(bundled_borealtc_bank, logs, kKeepModels, options);
-  EXPECT_EQ(by_grid.settings.likelihood_weight, start * std::pow(4.0, peak));
-  EXPECT_EQ(by_grid.selection.mean_log_probability, grid[peak]);
-  ASSERT_FALSE(lines.empty());
-  EXPECT_THAT(lines.back(), ::testing::HasSubstr("searches: " + std::to_string(grid.size()) + " settings scored"));
-
-  lines.clear();
-  options.line_search = TuneOptions::LineSearch::kWalk;
-  const TuneResult by_walk = tune(bundled_borealtc_bank, logs, kKeepModels, options);
-  EXPECT_EQ(by_walk.settings.likelihood_weight, by_grid.settings.likelihood_weight);
-  EXPECT_EQ(by_walk.selection.mean_log_probability, by_grid.selection.mean_log_probability);
-  ASSERT_FALSE(lines.empty());
-  EXPECT_THAT(lines.back(), ::testing::HasSubstr("searches: " + std::to_string(walk_runs) + " settings scored"));
+  EXPECT_TRUE(walked_down) << "from the start above the peak";
+  EXPECT_TRUE(walked_up) << "from the start below it";
+  EXPECT_LT(all_walk_runs, all_grid_runs);
 }
 
 // A floor candidate below the smallest probability every run of the best

@@ -98,7 +98,8 @@
 // parameter_jacobian_may_move(layout, entry, row) (whether entry `entry` of
 // p can move state `row` at any point: a mode with parameter uncertainty then
 // asks for those entries alone, MotionModel::parameter_jacobian_rows(), and
-// only they arrive zeroed and are read) and
+// only they arrive zeroed and are read: a spec never reads, += included, an
+// entry it says cannot move) and
 // process_noise(layout, intensity, ...). Jets
 // need their sizes at compile time, so without a hand-written derivative
 // the model says it has none and the engine and the fitter difference
