@@ -98,7 +98,7 @@ speed='speed=abs(velL + velR) / 2'
 turn='turn=abs(velR - velL)'
 protocols="logs,sessions,extrapolation:$speed,extrapolation:$turn"
 # How every tune here fits and searches: each inner fold holds out one log (--inner-folds 0), except
-# step C2's splice-scored search, which needs several logs per inner fold; each setting's line is
+# step C2's splice-scored search, which needs several logs per inner fold; each log-spaced setting is
 # walked from its start (--walk), with fewer runs than its whole grid. When the walk was adopted,
 # no number this script publishes moved: on these runs it chose what the grid chose, in every fold.
 inner() { echo --objective window --hold-unexcited --full-q --walk --inner-folds "$1"; }
