@@ -351,6 +351,7 @@ int tune(const TuneCommandOptions& options) {
       if (name == "none") {  // the bank's models as they are: tune the settings only
         fitters[name] = [](Bank*, const std::vector<fitting::ModeLogs>&) {};
         tune_options.separable.insert(name);
+        tune_options.fit_nothing.insert(name);
         continue;
       }
       fitting::BankFitOptions fit_options;

@@ -314,6 +314,25 @@ TEST(Cli, TuneWalksEachSettingsGridWhenAskedTo) {
   EXPECT_THAT(read_file(dir / "grid.yaml"), Not(HasSubstr("--walk")));
 }
 
+// A fold without logs of a mode keeps that mode's starting values, which a
+// fit must say; `--objective none` keeps every mode's anyway, so it says
+// nothing. The first and last quarters of the bundled switching log, which
+// leave out at least one of its three terrains.
+TEST(Cli, TuneWithoutAFitSaysNothingOfModesWithoutLogs) {
+  const fs::path dir = test_directory();
+  const std::string logs = switching_log_in_four_parts(dir);
+  const std::string two_parts = " --log " + (dir / "part0.csv").string() + " --log " + (dir / "part3.csv").string();
+  ASSERT_THAT(logs, HasSubstr((dir / "part3.csv").string()));
+  const std::string args = two_parts + " --tune dwell --no-assess --threads 1 --plugin-path " + kPlugins +
+                           " --output-bank " + (dir / "tuned.yaml").string();
+  const Result fitted = run_skidimm("tune --bank " + kTerrains + args + " --objective window");
+  ASSERT_EQ(fitted.exit_code, 0) << fitted.err;
+  EXPECT_THAT(fitted.err, HasSubstr("kept their starting values (objective window)"));
+  const Result kept = run_skidimm("tune --bank " + kTerrains + args + " --objective none");
+  ASSERT_EQ(kept.exit_code, 0) << kept.err;
+  EXPECT_THAT(kept.err, Not(HasSubstr("starting values"))) << kept.err;
+}
+
 // `--tune extrapolation-scale` searches the scale with "off" among the
 // candidates and says what it chose; each nested assessment reports the share
 // of its held-out steps outside the ranges the true class was fitted on. The

@@ -521,7 +521,7 @@ class Tuner {
         v.fitted_inputs[static_cast<std::size_t>(j)] = found->second.fitted_inputs;
       }
       fits_[k] = v;
-      if (!missing.empty()) {
+      if (!missing.empty() && options_.fit_nothing.count(k.first) == 0) {
         warnings_.push_back("a fold without logs of mode(s)" + missing + " kept their starting values (objective " +
                             k.first + ")");
       }
@@ -560,7 +560,7 @@ class Tuner {
     });
     for (std::size_t i = 0; i < todo.size(); ++i) {
       fits_[todo[i]] = values[i];
-      if (!notes[i].empty()) {
+      if (!notes[i].empty() && options_.fit_nothing.count(todo[i].first) == 0) {
         warnings_.push_back("a fold without logs of mode(s)" + notes[i] + " kept their starting values (objective " +
                             todo[i].first + ")");
       }

@@ -143,6 +143,10 @@ struct TuneOptions {
   // joint R, no bank-level parameters): each mode is fitted once per distinct
   // set of its training logs, and the folds share those fits.
   std::set<std::string> separable;
+  // Objectives that fit nothing (the bank's models as they are, `tune
+  // --objective none`): every mode keeps its starting values whether or not
+  // a fold has logs of it, so no fold warns that one did.
+  std::set<std::string> fit_nothing;
   std::vector<Knob> knobs = {Knob::kRScale, Knob::kQScale, Knob::kDwell, Knob::kFloor};
   int folds = 0;        // 0: leave one log out; K >= 2: K groups of logs (1 is an error)
   int inner_folds = 4;  // the nested assessment's inner cross-validation
