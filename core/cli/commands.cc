@@ -309,7 +309,9 @@ int run(const RunOptions& options) {
         std::fprintf(stderr, "most likely mode equals %s on %.1f%% of %ld labelled rows%s\n",
                      log.label.empty() ? ("column '" + config.columns.truth_mode + "'").c_str() : "the log's label",
                      100.0 * summary.truth_matches / summary.truth_rows, summary.truth_rows,
-                     config.classes.empty() ? "" : " (a mode counts for its class)");
+                     config.classes.empty() ? ""
+                                            : " (a mode counts for its class; `skidimm eval` scores the most "
+                                              "likely class, its modes' probabilities summed, over time)");
       }
       if (summary.outside_fitted_inputs > 0) {
         std::fprintf(stderr,

@@ -61,7 +61,24 @@ TEST(Cli, RunIdentifiesTheTerrainsOfTheBundledSwitchingExample) {
   EXPECT_NE(grass, std::string::npos) << r.err;
   EXPECT_NE(asphalt, std::string::npos) << r.err;
   EXPECT_THAT(r.err, HasSubstr("most likely mode equals column 'mode' on"));
+  EXPECT_THAT(r.err, Not(HasSubstr("counts for its class")));  // a bank without classes scores its modes
   EXPECT_FALSE(fs::exists(out.string() + ".partial"));
+}
+
+// With classes, run's summary scores the most likely mode by rows and eval
+// the most likely class (its modes' probabilities summed) by time, which
+// differ; the summary line says so, so that the two numbers are not taken
+// for one.
+TEST(Cli, RunSaysHowItsAccuracyOfABankWithClassesDiffersFromEvals) {
+  const fs::path dir = test_directory();
+  const fs::path bank = write_file(dir / "paved.yaml", read_file(kTerrains) +
+                                                           "\nclasses:\n  paved: [asphalt, crushed_concrete]\n"
+                                                           "  soft: [grass]\n");
+  const Result r = run_skidimm("run --bank " + bank.string() + " --plugin-path " + kPlugins + " --input " + kSwitching +
+                               " --output " + (dir / "out.csv").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("labelled rows (a mode counts for its class; `skidimm eval` scores the most likely "
+                               "class, its modes' probabilities summed, over time)"));
 }
 
 TEST(Cli, RunHandlesGpsRowsMissingFromAFasterLog) {
