@@ -154,6 +154,47 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
   for (Stream& s : streams_) s.read_pending = true;
 }
 
+std::vector<std::string> LogReader::unreadable_column_texts(const BankConfig& bank) {
+  std::vector<std::string> problems;
+  // As bind_row_value() reads a text when no column has its exact name.
+  const auto check_row_value = [&](const std::string& text, const std::string& field) {
+    if (Expression::is_identifier(std::string(trim(text)))) return;
+    try {
+      if (Expression(text).variables().empty()) {
+        problems.push_back(field + ": \"" + Expression::excerpt(text) + "\" uses no column of the log");
+      }
+    } catch (const ExpressionError& e) {
+      problems.push_back(field + ": " + e.what());
+    }
+  };
+  for (std::size_t i = 0; i < bank.columns.inputs.size() && i < bank.input_names.size(); ++i) {
+    check_row_value(bank.columns.inputs[i], "columns.inputs." + bank.input_names[i]);
+  }
+  // As bind_measurement() reads a text: its aggregates cut out first.
+  for (std::size_t i = 0; i < bank.columns.measurements.size() && i < bank.measurement.names.size(); ++i) {
+    const std::string& text = bank.columns.measurements[i];
+    const std::string field = "columns.measurements." + bank.measurement.names[i];
+    if (Expression::is_identifier(std::string(trim(text)))) continue;
+    Expression::WithCalls cut;
+    try {
+      cut = Expression::cut_calls(text, aggregate_names());
+    } catch (const ExpressionError& e) {
+      problems.push_back(field + ": " + e.what());
+      continue;
+    }
+    if (cut.calls.empty()) {
+      check_row_value(text, field);
+    } else if (!cut.names_outside.empty()) {
+      problems.push_back(field + ": \"" + Expression::excerpt(text) + "\" uses column '" +
+                         Expression::excerpt(cut.names_outside.front()) +
+                         "' outside mean(), std() or rms(); in an aggregated measurement every column is inside one");
+    } else {
+      for (const Expression::Call& call : cut.calls) check_row_value(call.argument, field);
+    }
+  }
+  return problems;
+}
+
 void LogReader::Impl::missing_column(const std::string& column, const std::string& field) const {
   // Each file's columns after its name when the log has several: one list
   // read as the first file's (an IMU column reported missing from the wheels').

@@ -112,5 +112,42 @@ TEST(Cli, ValidateRefusesAnEmptyParameterCovariance) {
   EXPECT_THAT(r.err, HasSubstr("is empty: expected one value per parameter of the model"));
 }
 
+// A column text that is neither a plain name nor an expression the log
+// reader evaluates is found without a log: each field named, with why, and
+// exit 1. Every bundled bank's columns pass (Install.* validates them all),
+// the bag-reading one's topic paths included.
+TEST(Cli, ValidateFindsColumnsNoLogCanGive) {
+  const fs::path dir = test_directory();
+  const std::string source = read_file(kSource + "/configs/borealtc/terrains.yaml");
+  const auto edited = [&](const std::string& name, const std::string& from, const std::string& to) {
+    std::string bank = source;
+    const std::size_t at = bank.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) bank.replace(at, from.size(), to);
+    return write_file(dir / name, bank);
+  };
+  const Result good =
+      run_skidimm("validate " + (kSource + "/configs/borealtc/terrains.yaml") + " --plugin-path " + kPlugins);
+  EXPECT_EQ(good.exit_code, 0) << good.err;
+  EXPECT_THAT(good.out, HasSubstr("terrains.yaml: OK"));
+  const fs::path unbalanced = edited("unbalanced.yaml", "abs(velL + velR) / 2", "abs(velL + velR)) / 2");
+  const Result r = run_skidimm("validate " + unbalanced.string() + " --plugin-path " + kPlugins);
+  EXPECT_EQ(r.exit_code, 1) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("unbalanced.yaml: columns no log can give (below)"));
+  EXPECT_THAT(r.err, HasSubstr("unbalanced.yaml: columns.inputs.speed: cannot parse \"abs(velL + velR)) / 2\": a ')' "
+                               "without its '('"));
+  EXPECT_THAT(r.err, HasSubstr("only as a column of exactly that text; --check LOG reads one"));
+  const Result unknown = run_skidimm("validate " + edited("unknown.yaml", "log(std(ax))", "log(stdev(ax))").string() +
+                                     " --plugin-path " + kPlugins);
+  EXPECT_EQ(unknown.exit_code, 1);
+  EXPECT_THAT(unknown.err, HasSubstr("columns.measurements.vib_ax: cannot parse \"log(stdev(ax))\": unknown function "
+                                     "'stdev'"));
+  const Result outside = run_skidimm("validate " + edited("outside.yaml", "mean(wz)", "mean(wz) + wx").string() +
+                                     " --plugin-path " + kPlugins);
+  EXPECT_EQ(outside.exit_code, 1);
+  EXPECT_THAT(outside.err, HasSubstr("columns.measurements.omega: \"mean(wz) + wx\" uses column 'wx' outside mean(), "
+                                     "std() or rms()"));
+}
+
 }  // namespace
 }  // namespace skidimm_test

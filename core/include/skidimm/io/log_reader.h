@@ -110,6 +110,16 @@ class LogReader : public SampleSource {
   LogReader(const LogReader&) = delete;
   LogReader& operator=(const LogReader&) = delete;
 
+  // The bank's column texts (columns.inputs, columns.measurements) that no
+  // log can give as the bank means them, found without a log: each is
+  // neither a plain name nor an expression the reader evaluates (a syntax
+  // error, an unknown function, no column at all, a column outside every
+  // aggregate of an aggregated measurement). One line each, "FIELD: why".
+  // A log with a column of exactly such a text would still be read as that
+  // column, so these are what a reader would most likely refuse, not a
+  // certainty.
+  static std::vector<std::string> unreadable_column_texts(const BankConfig& bank);
+
   // Reads the next step. Returns false at the end of the log.
   bool next(LogSample* sample) override;
 
