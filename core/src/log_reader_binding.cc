@@ -29,6 +29,12 @@ std::vector<std::string> bag_column_texts(const BankConfig& bank) {
   return texts;
 }
 
+// Why an aggregated measurement cannot use `name` outside its aggregates.
+std::string outside_aggregates(const std::string& text, const std::string& name) {
+  return "\"" + Expression::excerpt(text) + "\" uses column '" + Expression::excerpt(name) +
+         "' outside mean(), std() or rms(); in an aggregated measurement every column is inside one";
+}
+
 }  // namespace
 
 LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling)
@@ -185,9 +191,7 @@ std::vector<std::string> LogReader::unreadable_column_texts(const BankConfig& ba
     if (cut.calls.empty()) {
       check_row_value(text, field);
     } else if (!cut.names_outside.empty()) {
-      problems.push_back(field + ": \"" + Expression::excerpt(text) + "\" uses column '" +
-                         Expression::excerpt(cut.names_outside.front()) +
-                         "' outside mean(), std() or rms(); in an aggregated measurement every column is inside one");
+      problems.push_back(field + ": " + outside_aggregates(text, cut.names_outside.front()));
     } else {
       for (const Expression::Call& call : cut.calls) check_row_value(call.argument, field);
     }
@@ -311,9 +315,7 @@ void LogReader::Impl::bind_measurement(MeasurementBinding* m, const std::string&
     return;
   }
   if (!cut.names_outside.empty()) {
-    throw Error(bank_.file.string() + ": " + m->field + ": " + quoted + " uses column '" +
-                Expression::excerpt(cut.names_outside.front()) +
-                "' outside mean(), std() or rms(); in an aggregated measurement every column is inside one");
+    throw Error(bank_.file.string() + ": " + m->field + ": " + outside_aggregates(text, cut.names_outside.front()));
   }
   m->outer = std::move(cut.outer);
   for (const Expression::Call& call : cut.calls) {
