@@ -10,8 +10,10 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -260,6 +262,45 @@ TEST(EvalCommand, ConfusionRowsAndColumnsAreInTheBanksOrder) {
   const Result from_file = run_skidimm("eval --estimates " + estimates.string());
   ASSERT_EQ(from_file.exit_code, 0) << from_file.err;
   EXPECT_EQ(confusion_lines(from_file.out, 3), lines);
+}
+
+// Estimates files of which only some have a decision column: the decision
+// is scored over those, and the report says how many of the logs that is.
+TEST(EvalCommand, ADecisionOverSomeOfTheFilesSaysOverHowMany) {
+  const fs::path dir = test_directory();
+  const fs::path with = dir / "with.csv";
+  ASSERT_EQ(run_skidimm("run -q --bank " + kTerrains + " --plugin-path " + kPlugins + " --input " + kSwitching +
+                        " --output " + with.string())
+                .exit_code,
+            0);
+  // The same file without its decision column.
+  std::istringstream lines(skidimm_test::read_file(with));
+  std::string line, without;
+  std::size_t drop = std::string::npos;
+  while (std::getline(lines, line)) {
+    std::vector<std::string> cells;
+    std::stringstream row(line);
+    for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+    if (!line.empty() && line.back() == ',') cells.emplace_back();  // an empty last cell (reason)
+    if (drop == std::string::npos) drop = std::find(cells.begin(), cells.end(), "decision") - cells.begin();
+    ASSERT_LT(drop, cells.size()) << line;
+    cells.erase(cells.begin() + static_cast<std::ptrdiff_t>(drop));
+    for (std::size_t c = 0; c < cells.size(); ++c) without += (c ? "," : "") + cells[c];
+    without += "\n";
+  }
+  const fs::path none = write_file(dir / "without.csv", without);
+  const std::string both = "eval --estimates " + with.string() + " --estimates " + none.string();
+  const Result text = run_skidimm(both);
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_THAT(text.out, HasSubstr("decision (the files' decision column; 1 of 2 logs, the others have none)"));
+  const YAML::Node json = json_of(run_skidimm(both + " --json"));
+  EXPECT_EQ(json["overall"]["decision"]["logs"].as<int>(), 1);
+  const Result one = run_skidimm("eval --estimates " + with.string());
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  EXPECT_THAT(one.out, HasSubstr("decision (the files' decision column): accuracy"));
+  EXPECT_EQ(
+      json_of(run_skidimm("eval --estimates " + with.string() + " --json"))["overall"]["decision"]["logs"].as<int>(),
+      1);
 }
 
 // The decision column of a bank with classes names classes, which files read

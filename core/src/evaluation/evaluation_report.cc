@@ -233,7 +233,12 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
     const ModeMetrics& d = s.decisions;
     const LatencyStats dl = latency_stats(d);
     const LatencyStats df = latency_stats(d, true);
-    out << "  decision (" << decision_made << "): accuracy " << fmt(d.accuracy()) << ", unknown "
+    // Estimates files without a decision column leave their logs out of it.
+    const std::string of_logs = s.decision_logs < s.scored_logs
+                                    ? "; " + std::to_string(s.decision_logs) + " of " + std::to_string(s.scored_logs) +
+                                          " logs, the others have none"
+                                    : std::string();
+    out << "  decision (" << decision_made << of_logs << "): accuracy " << fmt(d.accuracy()) << ", unknown "
         << fmt(d.duration > 0 ? d.unknown_seconds / d.duration : 0.0) << " of the time\n";
     out << "    calibration of the decided class's probability (time decided):\n";
     print_calibration(out, "      ", d);
@@ -340,12 +345,13 @@ std::string json_summary(const EvaluationSummary& s, const std::vector<std::stri
     << "}, \"decision\": {\"accuracy\": " << json_number(d.duration > 0 ? d.accuracy() : kNaN)
     << ", \"accuracy_per_log\": {\"mean\": " << json_number(s.decision_accuracy_per_log.mean)
     << ", \"std\": " << json_number(s.decision_accuracy_per_log.standard_deviation)
-    << ", \"min\": " << json_number(s.decision_accuracy_per_log.min) << "}, \"unknown_fraction\": " << json_number(d.duration > 0 ? d.unknown_seconds / d.duration : kNaN)
+    << ", \"min\": " << json_number(s.decision_accuracy_per_log.min)
+    << "}, \"unknown_fraction\": " << json_number(d.duration > 0 ? d.unknown_seconds / d.duration : kNaN)
     << ", \"switches\": " << dl.switches << ", \"first_detected\": " << df.detected
     << ", \"first_median\": " << json_number(df.median) << ", \"settled\": " << dl.detected
     << ", \"settled_median\": " << json_number(dl.median) << ", \"settled_max\": " << json_number(dl.max)
     << ", \"median_changes_per_switch\": " << json_number(dl.median_changes) << ", \"lost\": " << s.decision_lost
-    << ", \"calibration\": " << json_calibration(d);
+    << ", \"calibration\": " << json_calibration(d) << ", \"logs\": " << s.decision_logs;
   o << "}, \"nis\": {";
   first = true;
   for (const auto& [mode, acc] : in_order(s.nis, classes)) {
