@@ -31,6 +31,10 @@ TEST(Cli, UsageErrorsExitWithTwoAndHelpWithZero) {
   const Result missing_path = run_skidimm("plugins --plugin-path /no/such/dir");
   EXPECT_EQ(missing_path.exit_code, 2);
   EXPECT_THAT(missing_path.err, HasSubstr("/no/such/dir"));
+  // A bank file that does not exist is a bad command line too, named (docs/cli.md's exit codes).
+  const Result missing_bank = run_skidimm("run --bank /no/such/bank.yaml --input /no/such/log.csv");
+  EXPECT_EQ(missing_bank.exit_code, 2);
+  EXPECT_THAT(missing_bank.err, HasSubstr("--bank: File does not exist: /no/such/bank.yaml"));
   const Result help = run_skidimm("run --help");
   EXPECT_EQ(help.exit_code, 0);
   EXPECT_THAT(help.out, HasSubstr("--plugin-path"));
