@@ -114,6 +114,9 @@ struct SimulateOptions {
   std::vector<std::filesystem::path> plugin_paths;
   double rate = 0.0;
   std::filesystem::path output;
+  // With --bank: a copy of the bank whose columns read the simulated log
+  // (each input and measurement under the name it was written with).
+  std::filesystem::path output_bank;
   bool has_seed = false;
   unsigned long long seed = 0;
   double duration = 0.0;  // 0: the scenario's

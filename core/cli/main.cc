@@ -286,6 +286,11 @@ int main(int argc, char** argv) {
   add_rate(simulate, &simulate_options.rate);
   add_plugin_path(simulate);
   simulate->add_option("--output,-o", simulate_output, "Log CSV to write")->required()->check(file_path());
+  simulate
+      ->add_option("--output-bank", simulate_options.output_bank,
+                   "With --bank: also write the bank with columns that read the simulated log (where the bank "
+                   "reads expressions, the log has the inputs and measurements under their own names)")
+      ->check(file_path());
   simulate->add_option("--seed", simulate_options.seed, "Random seed (default: the scenario's)")->check(whole_seed());
   simulate->add_option("--duration", simulate_options.duration, "Seconds to simulate (default: the scenario's)")
       ->check(finite_number())

@@ -1,17 +1,56 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "commands.h"
 #include "skidimm/config/bank.h"
 #include "skidimm/config/run_overrides.h"
 #include "skidimm/errors.h"
+#include "skidimm/fitting/bank_writer.h"
 #include "skidimm/io/log_arguments.h"
 #include "skidimm/simulation/model_simulation.h"
 #include "skidimm/simulation/scenario.h"
 
 namespace skidimm {
 namespace cli {
+
+namespace {
+
+// A YAML double-quoted scalar.
+std::string quoted(const std::string& text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+// `bank_file` with a `columns:` block that reads the log simulate_models()
+// wrote from it (`columns`), everything else as it was.
+void write_bank_reading(const std::filesystem::path& bank_file, const simulation::SimulatedColumns& columns,
+                        const std::filesystem::path& log, const std::filesystem::path& output) {
+  const BankConfig config = load_bank_config(bank_file);
+  std::string block = "columns:\n  time: " + quoted(columns.time) + "\n  inputs:\n";
+  for (std::size_t i = 0; i < columns.inputs.size(); ++i) {
+    block += "    " + config.input_names[i] + ": " + quoted(columns.inputs[i]) + "\n";
+  }
+  block += "  measurements:\n";
+  for (std::size_t i = 0; i < columns.measurements.size(); ++i) {
+    block += "    " + config.measurement.names[i] + ": " + quoted(columns.measurements[i]) + "\n";
+  }
+  block += "  truth_mode: " + quoted(columns.truth);
+  fitting::write_bank_from_template(
+      bank_file, output,
+      {"The bank of " + bank_file.string() + " with the columns of the log that `skidimm simulate --bank` wrote",
+       "from it (" + log.string() + "): each input and measurement under its own name where that bank reads",
+       "an expression. Everything else is that bank's."},
+      {{"columns", block}});
+}
+
+}  // namespace
 
 int simulate(const SimulateOptions& options) {
   // Whether a .partial of this output was there before: only one this run left is reported.
@@ -32,7 +71,12 @@ int simulate(const SimulateOptions& options) {
       const Bank bank = Bank::load(options.bank, options.plugin_paths);
       const LogSpec source = join_log_arguments({options.inputs_from});
       refuse_output_over_logs(options.output, "--output", {source});
-      refuse_clashing_files({{"--output", options.output}}, {{"--bank", options.bank}});
+      std::vector<NamedFile> outputs{{"--output", options.output}};
+      if (!options.output_bank.empty()) {
+        refuse_output_over_logs(options.output_bank, "--output-bank", {source});
+        outputs.push_back({"--output-bank", options.output_bank});
+      }
+      refuse_clashing_files(outputs, {{"--bank", options.bank}});
       const std::uint64_t seed = options.has_seed ? options.seed : 1;
       const simulation::ModelSimulationSummary summary = simulation::simulate_models(
           bank, source, sampling_of(bank.config, options.rate), seed, options.output);
@@ -40,6 +84,15 @@ int simulate(const SimulateOptions& options) {
         std::fprintf(stderr, "skidimm simulate: bank '%s' driven by %s (seed %llu): %ld rows, %ld mode switches -> %s\n",
                      bank.config.name.c_str(), source.name().c_str(), static_cast<unsigned long long>(seed),
                      summary.rows, summary.mode_switches, options.output.string().c_str());
+      }
+      const simulation::SimulatedColumns columns = simulation::simulated_log_columns(bank.config);
+      if (!options.output_bank.empty()) {
+        write_bank_reading(options.bank, columns, options.output, options.output_bank);
+        if (!options.quiet) std::cerr << "skidimm simulate: wrote " << options.output_bank.string() << "\n";
+      } else if (!columns.bank_reads_them && !options.quiet) {
+        std::cerr << "skidimm simulate: the bank reads some of its columns through expressions, and the log has "
+                     "those inputs and measurements under their own names, which it cannot read back; "
+                     "--output-bank writes a copy of the bank that reads the log\n";
       }
       return kExitOk;
     }
@@ -49,6 +102,7 @@ int simulate(const SimulateOptions& options) {
     if (!options.inputs_from.empty()) {
       throw UsageError("--inputs-from drives a bank's models (--bank); a scenario drives its own");
     }
+    if (!options.output_bank.empty()) throw UsageError("--output-bank writes a bank given with --bank, not a scenario");
     if (options.rate > 0.0) throw UsageError("--rate steps a bank's models (--bank); a scenario states its own rates");
     simulation::Scenario scenario = simulation::load_scenario(options.scenario);
     refuse_clashing_files({{"--output", options.output}}, {{"--scenario", options.scenario}});

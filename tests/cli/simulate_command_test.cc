@@ -44,6 +44,45 @@ TEST(Cli, SimulateRefusesToWriteOverTheLogItReads) {
   EXPECT_EQ(read_file(scenario), read_file(kSource + "/configs/scenarios/ltc_switching.yaml"));
 }
 
+// A bank that reads expressions (BorealTC's: inputs from wheel speeds,
+// measurements aggregated over a step) cannot read the log of its own
+// models back, which has them under their own names: simulate says so, and
+// --output-bank writes the copy that reads it, with which the log runs and
+// its truth is found. A bank of plain columns reads its log as it is.
+TEST(Cli, SimulateWritesTheBankThatReadsTheLogOfABankOfExpressions) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  const fs::path dir = test_directory();
+  const std::string bank = kSource + "/configs/borealtc/terrains.yaml";
+  const std::string simulate = "simulate --bank " + bank + " --plugin-path " + kPlugins +
+                               " --inputs-from 'ICE_straight=" + boreal + "/ICE/pro_00.csv+" + boreal +
+                               "/ICE/imu_00.csv' --seed 3 --output " + (dir / "log.csv").string();
+  const Result alone = run_skidimm(simulate);
+  ASSERT_EQ(alone.exit_code, 0) << alone.err;
+  EXPECT_THAT(alone.err, ::testing::HasSubstr("which it cannot read back; --output-bank writes a copy of the bank"));
+  const Result unread = run_skidimm("run --bank " + bank + " --plugin-path " + kPlugins + " --input " +
+                                    (dir / "log.csv").string() + " --output " + (dir / "unread.csv").string());
+  EXPECT_EQ(unread.exit_code, 1);
+  EXPECT_THAT(unread.err, ::testing::HasSubstr("no column 'velL'"));
+  const Result with_bank = run_skidimm(simulate + " --output-bank " + (dir / "reads.yaml").string());
+  ASSERT_EQ(with_bank.exit_code, 0) << with_bank.err;
+  EXPECT_THAT(with_bank.err, ::testing::HasSubstr("wrote " + (dir / "reads.yaml").string()));
+  EXPECT_THAT(read_file(dir / "reads.yaml"), ::testing::HasSubstr("    speed: \"speed\"\n"));
+  const Result run = run_skidimm("run --bank " + (dir / "reads.yaml").string() + " --plugin-path " + kPlugins +
+                                 " --input " + (dir / "log.csv").string() + " --output " + (dir / "run.csv").string());
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_THAT(run.err, ::testing::HasSubstr("most likely mode equals column 'terrain' on"));
+  const Result plain = run_skidimm("simulate --bank " + kTerrains + " --plugin-path " + kPlugins + " --inputs-from " +
+                                   kSwitching + " --output " + (dir / "plain.csv").string());
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_THAT(plain.err, ::testing::Not(::testing::HasSubstr("cannot read back")));
+  const Result scenario =
+      run_skidimm("simulate --scenario " + kSource + "/configs/scenarios/ltc_switching.yaml" + " --output " +
+                  (dir / "s.csv").string() + " --output-bank " + (dir / "s.yaml").string());
+  EXPECT_EQ(scenario.exit_code, 2);
+  EXPECT_THAT(scenario.err, ::testing::HasSubstr("--output-bank writes a bank given with --bank, not a scenario"));
+}
+
 // A simulation that stops on a state it cannot integrate keeps the rows
 // before it in the .partial file, and says so (it said nothing of them).
 TEST(Cli, ASimulationThatFailsSaysWhereItsRowsAre) {

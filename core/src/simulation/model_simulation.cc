@@ -34,6 +34,21 @@ std::string number(double v) { return std::isnan(v) ? "" : CsvWriter::format(v);
 
 }  // namespace
 
+SimulatedColumns simulated_log_columns(const BankConfig& config) {
+  SimulatedColumns columns;
+  columns.time = config.columns.time;
+  for (std::size_t i = 0; i < config.input_names.size(); ++i) {
+    columns.inputs.push_back(column_for(config.columns.inputs[i], config.input_names[i]));
+    columns.bank_reads_them = columns.bank_reads_them && columns.inputs.back() == config.columns.inputs[i];
+  }
+  for (std::size_t i = 0; i < config.measurement.names.size(); ++i) {
+    columns.measurements.push_back(column_for(config.columns.measurements[i], config.measurement.names[i]));
+    columns.bank_reads_them = columns.bank_reads_them && columns.measurements.back() == config.columns.measurements[i];
+  }
+  columns.truth = config.columns.truth_mode.empty() ? "mode" : config.columns.truth_mode;
+  return columns;
+}
+
 ModelSimulationSummary simulate_models(const Bank& bank, const LogSpec& source, const SamplingConfig& sampling,
                                        std::uint64_t seed, const std::filesystem::path& output) {
   const BankConfig& config = bank.config;
@@ -43,14 +58,11 @@ ModelSimulationSummary simulate_models(const Bank& bank, const LogSpec& source, 
                 "' or a label (MODE=...) to say which mode drives each step");
   }
   const int n = config.state_dim();
-  std::vector<std::string> header{config.columns.time};
-  for (std::size_t i = 0; i < config.input_names.size(); ++i) {
-    header.push_back(column_for(config.columns.inputs[i], config.input_names[i]));
-  }
-  for (std::size_t i = 0; i < config.measurement.names.size(); ++i) {
-    header.push_back(column_for(config.columns.measurements[i], config.measurement.names[i]));
-  }
-  header.push_back(config.columns.truth_mode.empty() ? "mode" : config.columns.truth_mode);
+  const SimulatedColumns columns = simulated_log_columns(config);
+  std::vector<std::string> header{columns.time};
+  header.insert(header.end(), columns.inputs.begin(), columns.inputs.end());
+  header.insert(header.end(), columns.measurements.begin(), columns.measurements.end());
+  header.push_back(columns.truth);
   for (const std::string& s : config.state_names) header.push_back("true_" + s);
   CsvWriter writer(output, header);
 

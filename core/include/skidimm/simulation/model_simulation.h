@@ -19,6 +19,8 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "skidimm/config/bank.h"
 #include "skidimm/io/log_reader.h"
@@ -31,10 +33,23 @@ struct ModelSimulationSummary {
   long mode_switches = 0;
 };
 
-// Writes the log (atomically) to `output`: the bank's time column, each input
-// and measurement under the column the bank reads it from (its name, when the
-// bank reads an expression), the truth under the bank's truth column ("mode"
-// if none), and true_<state>. Throws Error when a step's mode is not in the bank.
+// The columns of the log simulate_models() writes: the bank's time column,
+// each input and measurement under the column the bank reads it from, or
+// under its own name where the bank reads an expression (the bank itself
+// then cannot read the log back), and the truth column (the bank's, or
+// "mode" if none).
+struct SimulatedColumns {
+  std::string time;
+  std::vector<std::string> inputs;        // per bank input
+  std::vector<std::string> measurements;  // per measurement row
+  std::string truth;
+  // Whether the bank reads every one of them as written (no expression).
+  bool bank_reads_them = true;
+};
+SimulatedColumns simulated_log_columns(const BankConfig& config);
+
+// Writes the log (atomically) to `output`: simulated_log_columns(), then
+// true_<state>. Throws Error when a step's mode is not in the bank.
 ModelSimulationSummary simulate_models(const Bank& bank, const LogSpec& source, const SamplingConfig& sampling,
                                        std::uint64_t seed, const std::filesystem::path& output);
 
