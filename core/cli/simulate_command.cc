@@ -18,36 +18,21 @@ namespace cli {
 
 namespace {
 
-// A YAML double-quoted scalar.
-std::string quoted(const std::string& text) {
-  std::string out = "\"";
-  for (const char c : text) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out + "\"";
-}
-
-// `bank_file` with a `columns:` block that reads the log simulate_models()
-// wrote from it (`columns`), everything else as it was.
-void write_bank_reading(const std::filesystem::path& bank_file, const simulation::SimulatedColumns& columns,
-                        const std::filesystem::path& log, const std::filesystem::path& output) {
-  const BankConfig config = load_bank_config(bank_file);
-  std::string block = "columns:\n  time: " + quoted(columns.time) + "\n  inputs:\n";
-  for (std::size_t i = 0; i < columns.inputs.size(); ++i) {
-    block += "    " + config.input_names[i] + ": " + quoted(columns.inputs[i]) + "\n";
-  }
-  block += "  measurements:\n";
-  for (std::size_t i = 0; i < columns.measurements.size(); ++i) {
-    block += "    " + config.measurement.names[i] + ": " + quoted(columns.measurements[i]) + "\n";
-  }
-  block += "  truth_mode: " + quoted(columns.truth);
+// The bank of `bank_file` (`config`) with the columns of the log
+// simulate_models() wrote from it (`columns`), everything else as it was.
+void write_bank_reading(const std::filesystem::path& bank_file, BankConfig config,
+                        const simulation::SimulatedColumns& columns, const std::filesystem::path& log,
+                        const std::filesystem::path& output) {
+  config.columns.time = columns.time;
+  config.columns.inputs = columns.inputs;
+  config.columns.measurements = columns.measurements;
+  config.columns.truth_mode = columns.truth;
   fitting::write_bank_from_template(
       bank_file, output,
       {"The bank of " + bank_file.string() + " with the columns of the log that `skidimm simulate --bank` wrote",
        "from it (" + log.string() + "): each input and measurement under its own name where that bank reads",
        "an expression. Everything else is that bank's."},
-      {{"columns", block}});
+      {{"columns", fitting::format_columns_block(config)}});
 }
 
 }  // namespace
@@ -87,12 +72,23 @@ int simulate(const SimulateOptions& options) {
       }
       const simulation::SimulatedColumns columns = simulation::simulated_log_columns(bank.config);
       if (!options.output_bank.empty()) {
-        write_bank_reading(options.bank, columns, options.output, options.output_bank);
+        write_bank_reading(options.bank, bank.config, columns, options.output, options.output_bank);
         if (!options.quiet) std::cerr << "skidimm simulate: wrote " << options.output_bank.string() << "\n";
       } else if (!columns.bank_reads_them && !options.quiet) {
-        std::cerr << "skidimm simulate: the bank reads some of its columns through expressions, and the log has "
-                     "those inputs and measurements under their own names, which it cannot read back; "
-                     "--output-bank writes a copy of the bank that reads the log\n";
+        std::string renamed;
+        for (std::size_t i = 0; i < columns.inputs.size(); ++i) {
+          if (columns.inputs[i] != bank.config.columns.inputs[i])
+            renamed += (renamed.empty() ? "" : ", ") + columns.inputs[i];
+        }
+        for (std::size_t i = 0; i < columns.measurements.size(); ++i) {
+          if (columns.measurements[i] != bank.config.columns.measurements[i]) {
+            renamed += (renamed.empty() ? "" : ", ") + columns.measurements[i];
+          }
+        }
+        std::cerr << "skidimm simulate: the log has " << renamed
+                  << " under their own names, where the bank reads expressions (or column texts that are not "
+                     "plain names), so the bank cannot read it back; --output-bank writes a copy of the bank that "
+                     "reads the log\n";
       }
       return kExitOk;
     }

@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,18 @@ std::vector<std::string> bag_column_texts(const BankConfig& bank) {
 std::string outside_aggregates(const std::string& text, const std::string& name) {
   return "\"" + Expression::excerpt(text) + "\" uses column '" + Expression::excerpt(name) +
          "' outside mean(), std() or rms(); in an aggregated measurement every column is inside one";
+}
+
+// A column text that is no column of the log, read as an expression into
+// *parsed: why it cannot be ("" when it can), as the reader says it.
+std::string row_value_problem(const std::string& text, std::unique_ptr<Expression>* parsed) {
+  try {
+    *parsed = std::make_unique<Expression>(text);
+  } catch (const ExpressionError& e) {
+    return e.what();
+  }
+  if ((*parsed)->variables().empty()) return "\"" + Expression::excerpt(text) + "\" uses no column of the log";
+  return std::string();
 }
 
 }  // namespace
@@ -165,13 +178,9 @@ std::vector<std::string> LogReader::unreadable_column_texts(const BankConfig& ba
   // As bind_row_value() reads a text when no column has its exact name.
   const auto check_row_value = [&](const std::string& text, const std::string& field) {
     if (Expression::is_identifier(std::string(trim(text)))) return;
-    try {
-      if (Expression(text).variables().empty()) {
-        problems.push_back(field + ": \"" + Expression::excerpt(text) + "\" uses no column of the log");
-      }
-    } catch (const ExpressionError& e) {
-      problems.push_back(field + ": " + e.what());
-    }
+    std::unique_ptr<Expression> parsed;
+    const std::string problem = row_value_problem(text, &parsed);
+    if (!problem.empty()) problems.push_back(field + ": " + problem);
   };
   for (std::size_t i = 0; i < bank.columns.inputs.size() && i < bank.input_names.size(); ++i) {
     check_row_value(bank.columns.inputs[i], "columns.inputs." + bank.input_names[i]);
@@ -256,15 +265,12 @@ LogReader::Impl::RowValue LogReader::Impl::bind_row_value(const std::string& tex
   if (is_column(text)) {
     v.columns.push_back(column_id(text, field, true));
   } else {
-    try {
-      v.expression = std::make_unique<Expression>(text);
-    } catch (const ExpressionError& e) {
-      if (Expression::is_identifier(std::string(trim(text)))) missing_column(std::string(trim(text)), field);
-      throw Error(bank_.file.string() + ": " + field + ": " + e.what());
-    }
-    if (v.expression->variables().empty()) {
-      throw Error(bank_.file.string() + ": " + field + ": \"" + Expression::excerpt(text) +
-                  "\" uses no column of the log");
+    const std::string problem = row_value_problem(text, &v.expression);
+    if (!problem.empty()) {
+      if (!v.expression && Expression::is_identifier(std::string(trim(text)))) {
+        missing_column(std::string(trim(text)), field);
+      }
+      throw Error(bank_.file.string() + ": " + field + ": " + problem);
     }
     for (const std::string& name : v.expression->variables()) v.columns.push_back(column_id(name, field, true));
   }

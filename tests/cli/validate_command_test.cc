@@ -14,6 +14,7 @@ namespace skidimm_test {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 namespace fs = std::filesystem;
 
 TEST(Cli, ValidateReportsTheBankAndItsModes) {
@@ -113,10 +114,11 @@ TEST(Cli, ValidateRefusesAnEmptyParameterCovariance) {
 }
 
 // A column text that is neither a plain name nor an expression the log
-// reader evaluates is found without a log: each field named, with why, and
-// exit 1. Every bundled bank's columns pass (Install.* validates them all),
-// the bag-reading one's topic paths included.
-TEST(Cli, ValidateFindsColumnsNoLogCanGive) {
+// reader evaluates is found without a log: a warning naming the field and
+// why, on a bank still OK (exit 0), as a log with a column of exactly that
+// text would be read. Every bundled bank's columns pass (Install.* validates
+// them all), the bag-reading one's topic paths included.
+TEST(Cli, ValidateWarnsOfColumnsOnlyAColumnOfThatExactTextCouldGive) {
   const fs::path dir = test_directory();
   const std::string source = read_file(kSource + "/configs/borealtc/terrains.yaml");
   const auto edited = [&](const std::string& name, const std::string& from, const std::string& to) {
@@ -130,23 +132,46 @@ TEST(Cli, ValidateFindsColumnsNoLogCanGive) {
       run_skidimm("validate " + (kSource + "/configs/borealtc/terrains.yaml") + " --plugin-path " + kPlugins);
   EXPECT_EQ(good.exit_code, 0) << good.err;
   EXPECT_THAT(good.out, HasSubstr("terrains.yaml: OK"));
+  EXPECT_THAT(good.err, Not(HasSubstr("warning")));
   const fs::path unbalanced = edited("unbalanced.yaml", "abs(velL + velR) / 2", "abs(velL + velR)) / 2");
   const Result r = run_skidimm("validate " + unbalanced.string() + " --plugin-path " + kPlugins);
-  EXPECT_EQ(r.exit_code, 1) << r.out;
-  EXPECT_THAT(r.out, HasSubstr("unbalanced.yaml: columns no log can give (below)"));
-  EXPECT_THAT(r.err, HasSubstr("unbalanced.yaml: columns.inputs.speed: cannot parse \"abs(velL + velR)) / 2\": a ')' "
-                               "without its '('"));
-  EXPECT_THAT(r.err, HasSubstr("only as a column of exactly that text; --check LOG reads one"));
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("unbalanced.yaml: OK"));
+  EXPECT_THAT(r.err,
+              HasSubstr("warning: " + unbalanced.string() +
+                        ": columns.inputs.speed: cannot parse \"abs(velL + velR)) / 2\": a ')' without its '('"));
+  EXPECT_THAT(r.err, HasSubstr("(a log can give it only as a column of exactly this text; --check LOG reads one)"));
   const Result unknown = run_skidimm("validate " + edited("unknown.yaml", "log(std(ax))", "log(stdev(ax))").string() +
                                      " --plugin-path " + kPlugins);
-  EXPECT_EQ(unknown.exit_code, 1);
+  EXPECT_EQ(unknown.exit_code, 0);
   EXPECT_THAT(unknown.err, HasSubstr("columns.measurements.vib_ax: cannot parse \"log(stdev(ax))\": unknown function "
                                      "'stdev'"));
   const Result outside = run_skidimm("validate " + edited("outside.yaml", "mean(wz)", "mean(wz) + wx").string() +
                                      " --plugin-path " + kPlugins);
-  EXPECT_EQ(outside.exit_code, 1);
+  EXPECT_EQ(outside.exit_code, 0);
   EXPECT_THAT(outside.err, HasSubstr("columns.measurements.omega: \"mean(wz) + wx\" uses column 'wx' outside mean(), "
                                      "std() or rms()"));
+  // A dotted column name, as ROS CSV exports write them, is a column of a
+  // log that has it: the warning without one, nothing with --check of it.
+  std::string ltc = read_file(kTerrains);
+  const std::size_t columns = ltc.find("columns:\n");
+  ASSERT_NE(columns, std::string::npos);
+  ltc.insert(columns + 9, "  inputs: {phi_dot_L: field.phi_dot_L, phi_dot_R: phi_dot_R}\n");
+  const fs::path dotted = write_file(dir / "dotted.yaml", ltc);
+  std::string log = read_file(kSwitching);
+  log.replace(log.find("phi_dot_L"), 9, "field.phi_dot_L");
+  const fs::path dotted_log = write_file(dir / "dotted.csv", log);
+  const Result without_log = run_skidimm("validate " + dotted.string() + " --plugin-path " + kPlugins);
+  EXPECT_EQ(without_log.exit_code, 0) << without_log.err;
+  EXPECT_THAT(without_log.err, HasSubstr("columns.inputs.phi_dot_L: cannot parse \"field.phi_dot_L\""));
+  const Result with_log =
+      run_skidimm("validate " + dotted.string() + " --check " + dotted_log.string() + " --plugin-path " + kPlugins);
+  EXPECT_EQ(with_log.exit_code, 0) << with_log.err;
+  EXPECT_THAT(with_log.err, Not(HasSubstr("warning")));
+  EXPECT_EQ(run_skidimm("run -q --bank " + dotted.string() + " --input " + dotted_log.string() + " --output " +
+                        (dir / "out.csv").string() + " --plugin-path " + kPlugins)
+                .exit_code,
+            0);
 }
 
 }  // namespace

@@ -234,9 +234,9 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
     const LatencyStats dl = latency_stats(d);
     const LatencyStats df = latency_stats(d, true);
     // Estimates files without a decision column leave their logs out of it.
-    const std::string of_logs = s.decision_logs < s.scored_logs
-                                    ? "; " + std::to_string(s.decision_logs) + " of " + std::to_string(s.scored_logs) +
-                                          " logs, the others have none"
+    const std::string of_logs = s.decision_accuracies.size() < s.accuracies.size()
+                                    ? "; " + std::to_string(s.decision_accuracies.size()) + " of " +
+                                          std::to_string(s.accuracies.size()) + " logs, the others have none"
                                     : std::string();
     out << "  decision (" << decision_made << of_logs << "): accuracy " << fmt(d.accuracy()) << ", unknown "
         << fmt(d.duration > 0 ? d.unknown_seconds / d.duration : 0.0) << " of the time\n";
@@ -351,7 +351,7 @@ std::string json_summary(const EvaluationSummary& s, const std::vector<std::stri
     << ", \"first_median\": " << json_number(df.median) << ", \"settled\": " << dl.detected
     << ", \"settled_median\": " << json_number(dl.median) << ", \"settled_max\": " << json_number(dl.max)
     << ", \"median_changes_per_switch\": " << json_number(dl.median_changes) << ", \"lost\": " << s.decision_lost
-    << ", \"calibration\": " << json_calibration(d) << ", \"logs\": " << s.decision_logs;
+    << ", \"calibration\": " << json_calibration(d) << ", \"logs\": " << s.decision_accuracies.size();
   o << "}, \"nis\": {";
   first = true;
   for (const auto& [mode, acc] : in_order(s.nis, classes)) {

@@ -56,8 +56,6 @@ EvaluationSummary summarize(const std::vector<const LogResult*>& logs, std::size
     }
     // A log without labelled time has no accuracy: a 0 would pull every mean down.
     if (!(log->metrics.duration > 0.0)) continue;
-    ++s.scored_logs;
-    if (log->decision_metrics.duration > 0.0) ++s.decision_logs;
     s.accuracies.push_back(log->metrics.accuracy());
     if (log->decision_metrics.duration > 0.0) s.decision_accuracies.push_back(log->decision_metrics.accuracy());
     LogScore score = score_of(*log);

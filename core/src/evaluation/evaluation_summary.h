@@ -33,10 +33,8 @@ struct EvaluationSummary {
   std::map<std::string, NisAccumulator> nis;  // per true mode
   std::vector<double> state_rmse;             // per state; NaN without true_<state> values
   std::size_t logs = 0;                       // every log summarized, scored or not
-  std::size_t scored_logs = 0;                // ... with labelled time
-  std::size_t decision_logs = 0;              // ... and a decision (an estimates file may have no column of it)
   std::vector<double> accuracies;             // per log with labelled time
-  std::vector<double> decision_accuracies;    // per log with a decision
+  std::vector<double> decision_accuracies;    // per log with a decision (an estimates file may have no column of it)
   PerLogSpread accuracy_per_log;              // of `accuracies`
   PerLogSpread decision_accuracy_per_log;     // of `decision_accuracies`
   long decision_lost = 0;  // switches the most likely mode detected and the decision never did

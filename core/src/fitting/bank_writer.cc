@@ -358,6 +358,22 @@ std::string join_names(const std::vector<std::string>& names) {
 
 }  // namespace
 
+std::string format_columns_block(const BankConfig& config) {
+  std::string out = "columns:\n  time: " + yaml_scalar(config.columns.time) + "\n";
+  out += "  inputs:\n";
+  for (std::size_t i = 0; i < config.columns.inputs.size() && i < config.input_names.size(); ++i) {
+    out += "    " + yaml_scalar(config.input_names[i]) + ": " + yaml_scalar(config.columns.inputs[i]) + "\n";
+  }
+  out += "  measurements:\n";
+  for (std::size_t i = 0; i < config.columns.measurements.size() && i < config.measurement.names.size(); ++i) {
+    out +=
+        "    " + yaml_scalar(config.measurement.names[i]) + ": " + yaml_scalar(config.columns.measurements[i]) + "\n";
+  }
+  if (!config.columns.truth_mode.empty()) out += "  truth_mode: " + yaml_scalar(config.columns.truth_mode) + "\n";
+  if (config.columns.carry_truth) out += "  truth_blank: carry\n";
+  return out;
+}
+
 std::string format_measurement_block(const BankConfig& config) {
   const MeasurementConfig& m = config.measurement;
   // The state rows; the measured outputs follow them (`outputs:`).

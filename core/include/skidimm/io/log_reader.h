@@ -115,9 +115,9 @@ class LogReader : public SampleSource {
   // neither a plain name nor an expression the reader evaluates (a syntax
   // error, an unknown function, no column at all, a column outside every
   // aggregate of an aggregated measurement). One line each, "FIELD: why".
-  // A log with a column of exactly such a text would still be read as that
-  // column, so these are what a reader would most likely refuse, not a
-  // certainty.
+  // A log with a column of exactly such a text (a dotted ROS export name,
+  // `field.angular_velocity.z`) is still read as that column, so these are
+  // warnings, not errors.
   static std::vector<std::string> unreadable_column_texts(const BankConfig& bank);
 
   // Reads the next step. Returns false at the end of the log.
