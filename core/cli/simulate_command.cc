@@ -74,17 +74,9 @@ int simulate(const SimulateOptions& options) {
       if (!options.output_bank.empty()) {
         write_bank_reading(options.bank, bank.config, columns, options.output, options.output_bank);
         if (!options.quiet) std::cerr << "skidimm simulate: wrote " << options.output_bank.string() << "\n";
-      } else if (!columns.bank_reads_them && !options.quiet) {
+      } else if (!columns.renamed.empty() && !options.quiet) {
         std::string renamed;
-        for (std::size_t i = 0; i < columns.inputs.size(); ++i) {
-          if (columns.inputs[i] != bank.config.columns.inputs[i])
-            renamed += (renamed.empty() ? "" : ", ") + columns.inputs[i];
-        }
-        for (std::size_t i = 0; i < columns.measurements.size(); ++i) {
-          if (columns.measurements[i] != bank.config.columns.measurements[i]) {
-            renamed += (renamed.empty() ? "" : ", ") + columns.measurements[i];
-          }
-        }
+        for (const std::string& name : columns.renamed) renamed += (renamed.empty() ? "" : ", ") + name;
         std::cerr << "skidimm simulate: the log has " << renamed
                   << " under their own names, where the bank reads expressions (or column texts that are not "
                      "plain names), so the bank cannot read it back; --output-bank writes a copy of the bank that "

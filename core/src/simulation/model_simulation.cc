@@ -37,13 +37,15 @@ std::string number(double v) { return std::isnan(v) ? "" : CsvWriter::format(v);
 SimulatedColumns simulated_log_columns(const BankConfig& config) {
   SimulatedColumns columns;
   columns.time = config.columns.time;
+  const auto add = [&](const std::string& spec, const std::string& name, std::vector<std::string>* written) {
+    written->push_back(column_for(spec, name));
+    if (written->back() != spec) columns.renamed.push_back(written->back());
+  };
   for (std::size_t i = 0; i < config.input_names.size(); ++i) {
-    columns.inputs.push_back(column_for(config.columns.inputs[i], config.input_names[i]));
-    columns.bank_reads_them = columns.bank_reads_them && columns.inputs.back() == config.columns.inputs[i];
+    add(config.columns.inputs[i], config.input_names[i], &columns.inputs);
   }
   for (std::size_t i = 0; i < config.measurement.names.size(); ++i) {
-    columns.measurements.push_back(column_for(config.columns.measurements[i], config.measurement.names[i]));
-    columns.bank_reads_them = columns.bank_reads_them && columns.measurements.back() == config.columns.measurements[i];
+    add(config.columns.measurements[i], config.measurement.names[i], &columns.measurements);
   }
   columns.truth = config.columns.truth_mode.empty() ? "mode" : config.columns.truth_mode;
   return columns;

@@ -43,8 +43,10 @@ struct SimulatedColumns {
   std::vector<std::string> inputs;        // per bank input
   std::vector<std::string> measurements;  // per measurement row
   std::string truth;
-  // Whether the bank reads every one of them as written (no expression).
-  bool bank_reads_them = true;
+  // Those of `inputs` and `measurements` written under their own name, which
+  // the bank reads from another column text: empty when the bank reads the
+  // log back as it is.
+  std::vector<std::string> renamed;
 };
 SimulatedColumns simulated_log_columns(const BankConfig& config);
 
