@@ -3,10 +3,16 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <deque>
+#include <filesystem>
 #include <random>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "core/test_banks.h"
 #include "skidimm/engine/imm.h"
+#include "skidimm/io/log_reader.h"
 
 namespace skidimm {
 namespace {
@@ -299,6 +305,96 @@ TEST(ImmSmoother, FixedLagSpansFilterToFixedInterval) {
       } else if (lag == 100.0) {
         EXPECT_LT((out[k].mode_probabilities - interval[k].mode_probabilities).norm(), 1e-12)
             << "a lag longer than the log is fixed-interval smoothing";
+      }
+    }
+  }
+}
+
+// Every field of two smoothed steps, bit for bit.
+void expect_same_bits(const SmoothedStep& a, const SmoothedStep& b, const std::string& where) {
+  const auto same = [](const auto& x, const auto& y) {
+    return x.rows() == y.rows() && x.cols() == y.cols() && (x.array() == y.array()).all();
+  };
+  EXPECT_EQ(a.t, b.t) << where;
+  EXPECT_TRUE(same(a.mode_probabilities, b.mode_probabilities)) << where;
+  EXPECT_EQ(a.unknown_probability, b.unknown_probability) << where;
+  ASSERT_EQ(a.mode_states.size(), b.mode_states.size()) << where;
+  for (std::size_t j = 0; j < a.mode_states.size(); ++j) {
+    EXPECT_TRUE(same(a.mode_states[j], b.mode_states[j])) << where << ", mode " << j;
+    EXPECT_TRUE(same(a.mode_covariances[j], b.mode_covariances[j])) << where << ", mode " << j;
+  }
+  EXPECT_TRUE(same(a.state, b.state)) << where;
+  EXPECT_TRUE(same(a.covariance, b.covariance)) << where;
+  EXPECT_EQ(a.most_likely_mode, b.most_likely_mode) << where;
+}
+
+// The fixed-lag smoother predicts each of a step's mode pairs once and keeps
+// the predictions while its window holds the step, where it smooths the
+// window again for every step it releases. Its output must be, bit for bit,
+// that of smoothing each window from scratch: with the predictions kept,
+// with none kept (a budget of 0) and with a budget that runs out half way,
+// on the bundled example logs of a 2-state bank and of a 3-state one whose
+// heading is an angle (the fixed-size pairs), and of the 1-state bank above
+// (the dynamic ones).
+TEST(ImmSmoother, FixedLagKeepsPairPredictionsWithoutChangingABit) {
+  const std::filesystem::path source = SKIDIMM_SOURCE_DIR;
+  std::vector<std::pair<Bank, std::vector<ForwardStep>>> runs;
+  for (const auto& [bank_file, log] : {std::pair{"configs/ltc_terrains.yaml", "configs/examples/ltc_switching.csv"},
+                                       std::pair{"configs/stc_slip4.yaml", "configs/examples/stc_switching.csv"}}) {
+    Bank bank = Bank::load(source / bank_file, {SKIDIMM_PLUGIN_DIR});
+    Imm imm(bank);
+    LogReader reader(bank.config, {source / log});
+    std::vector<ForwardStep> forward;
+    LogSample sample;
+    while (reader.next(&sample))
+      forward.push_back(record_step(sample.t, sample.u, imm.step(sample.t, sample.u, sample.z)));
+    runs.emplace_back(std::move(bank), std::move(forward));
+  }
+  {
+    const MemorylessBank b;
+    Bank bank = b.build();
+    Imm imm(bank);
+    std::vector<double> z;
+    for (int k = 0; k < 60; ++k) z.push_back(b.level[static_cast<std::size_t>(k / 20)] + 0.3 * std::sin(k));
+    std::vector<ForwardStep> forward = run_forward(imm, z).forward;
+    runs.emplace_back(std::move(bank), std::move(forward));
+  }
+  for (const auto& [bank, forward] : runs) {
+    const std::string name = bank.config.name;
+    ASSERT_GT(forward.size(), 40u) << name;
+    const double lag = 10.5 * (forward[1].t - forward[0].t);
+    // Each window as FixedLagSmoother holds it, smoothed from scratch.
+    std::vector<SmoothedStep> expected;
+    ImmSmoother smoother(bank);
+    std::deque<ForwardStep> window;
+    std::vector<SmoothedStep> smoothed;
+    for (const ForwardStep& step : forward) {
+      window.push_back(step);
+      if (window.front().t > step.t - lag) continue;
+      smoother.smooth(window, &smoothed);
+      std::size_t released = 0;
+      while (released < window.size() && window[released].t <= step.t - lag) expected.push_back(smoothed[released++]);
+      window.erase(window.begin(), window.begin() + static_cast<std::ptrdiff_t>(released));
+    }
+    smoother.smooth(window, &smoothed);
+    expected.insert(expected.end(), smoothed.begin(), smoothed.end());
+    ASSERT_EQ(expected.size(), forward.size()) << name;
+
+    ImmSmoother::PairPredictions one_step;
+    smoother.predict_pairs(forward[0], forward[1].t, &one_step);
+    const std::size_t step_bytes =
+        (one_step.predicted.size() + one_step.covariance.size() + one_step.gain.size()) * sizeof(double) +
+        one_step.sound.size();
+    for (const std::size_t budget : {FixedLagSmoother::kDefaultMostKeptPairBytes, std::size_t{0}, 5 * step_bytes}) {
+      FixedLagSmoother lagged(bank, lag, budget);
+      std::vector<SmoothedStep> out;
+      for (const ForwardStep& step : forward) lagged.add(step, &out);
+      lagged.finish(&out);
+      ASSERT_EQ(out.size(), expected.size()) << name << ", budget " << budget;
+      for (std::size_t k = 0; k < out.size(); ++k) {
+        expect_same_bits(out[k], expected[k],
+                         name + ", budget " + std::to_string(budget) + ", step " + std::to_string(k));
+        if (HasFailure()) return;
       }
     }
   }

@@ -29,12 +29,16 @@
 //
 // Cost: O(N^2 n^3) per step backwards (a prediction per mode pair), the same
 // order as the filter's mixing. Memory: the fixed-interval smoother keeps
-// every forward step; the fixed-lag one only its window.
+// every forward step; the fixed-lag one only its window. The fixed-lag
+// smoother smooths its window again for each step it releases, but predicts
+// each pair of a step once (PairPredictions): a step then costs one
+// prediction per pair and, per step of the window, one correction per pair.
 #ifndef SKIDIMM_ENGINE_IMM_SMOOTHER_H_
 #define SKIDIMM_ENGINE_IMM_SMOOTHER_H_
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <cstddef>
 #include <deque>
 #include <vector>
 
@@ -86,11 +90,33 @@ class ImmSmoother {
   // its filtered one. Used by the fixed-lag smoother on its window.
   void smooth(const std::deque<ForwardStep>& forward, std::vector<SmoothedStep>* out);
 
+  // What the RTS steps of one step's mode pairs take from the forward pass
+  // alone: for the pair (mode j at k, mode i at k+1), mode j's filtered
+  // estimate predicted through mode i's model (x^ji, P^ji) and the gain J.
+  // Only the correction depends on the smoothed step k+1. A fixed-lag window
+  // smooths each of its steps again for every step it releases, and these
+  // stay the same, so FixedLagSmoother keeps them while it holds the step.
+  struct PairPredictions {
+    std::vector<double> predicted;     // x^ji, n for each pair j * N + i
+    std::vector<double> covariance;    // P^ji, n x n column-major for each pair
+    std::vector<double> gain;          // J, n x n for each pair
+    std::vector<unsigned char> sound;  // 0: the pair cannot be smoothed and keeps mode j's filtered estimate
+  };
+  // The predictions of step k's pairs to the step at t_next into *out.
+  void predict_pairs(const ForwardStep& k, double t_next, PairPredictions* out);
+  // smooth() of a window whose pairs are predicted already: pairs[k] those
+  // of forward[k] to forward[k + 1], for every step but the last. The same
+  // result, bit for bit.
+  void smooth(const std::deque<ForwardStep>& forward, const std::deque<PairPredictions>& pairs,
+              std::vector<SmoothedStep>* out);
+
  private:
-  template <typename Steps>
-  void smooth_range(const Steps& forward, std::vector<SmoothedStep>* out);
-  // From the smoothed step k+1 and the filtered k (and k+1's time) to the smoothed k.
-  void backward(const ForwardStep& k, double t_next, const SmoothedStep& next, SmoothedStep* out);
+  // pairs_of(k): the PairPredictions of forward[k] (to forward[k + 1]).
+  template <typename Steps, typename PairsOf>
+  void smooth_range(const Steps& forward, const PairsOf& pairs_of, std::vector<SmoothedStep>* out);
+  // From the smoothed step k+1, the filtered k and its pairs' predictions to the smoothed k.
+  void backward(const ForwardStep& k, double t_next, const PairPredictions& pairs, const SmoothedStep& next,
+                SmoothedStep* out);
   // What one pair's RTS step works in: N states known at compile time (on
   // the stack), or Eigen::Dynamic (the smoother's own, sized once).
   template <int N>
@@ -100,10 +126,20 @@ class ImmSmoother {
     Eigen::Matrix<double, N, Eigen::Dynamic, 0, N, N> left;  // J (P_{k+1|N} - P^ji): N x n, stored inline at a fixed N
     Eigen::LDLT<Eigen::Matrix<double, N, N>> ldlt;
   };
-  // The RTS step of the pair (mode j at k, mode i at k+1) into mean and *covariance.
+  // The forward half of the pair (mode j's filtered x, px at k; mode i's
+  // model): x^ji, P^ji and J into the n, n x n and n x n doubles at
+  // `predicted`, `covariance` and `gain`. False if the pair cannot be smoothed.
   template <int N>
-  bool smooth_pair(int i, const Eigen::VectorXd& x, const Eigen::MatrixXd& px, const Eigen::VectorXd& u, double dt,
-                   const SmoothedStep& next, Eigen::Ref<Eigen::VectorXd> mean, Eigen::MatrixXd* covariance);
+  bool predict_pair(int i, const Eigen::VectorXd& x, const Eigen::MatrixXd& px, const Eigen::VectorXd& u, double dt,
+                    double* predicted, double* covariance, double* gain);
+  // The RTS correction of a predicted pair by mode i's smoothed estimate at
+  // k+1, into mean and *covariance; false if it is not sound.
+  template <int N>
+  bool correct_pair(int i, const Eigen::VectorXd& x, const Eigen::MatrixXd& px, const double* predicted,
+                    const double* covariance, const double* gain, const SmoothedStep& next,
+                    Eigen::Ref<Eigen::VectorXd> mean, Eigen::MatrixXd* corrected);
+  template <int N>
+  void mix_pair_covariances(Eigen::MatrixXd* covariance) const;
   void combine(SmoothedStep* s) const;
   // Kim's smoothed probabilities over the modes and the unknown hypothesis
   // (the bank's `unknown:`) into out, and the modes' joint into joint_.
@@ -122,7 +158,8 @@ class ImmSmoother {
   Eigen::MatrixXd joint_;                          // N x N
   Eigen::VectorXd weights_;                        // N: of the pairs (j, i) over i
   std::vector<Eigen::MatrixXd> pair_covariances_;  // N, n x n each
-  PairWorkspace<Eigen::Dynamic> workspace_;        // smooth_pair() for other than 2 and 3 states
+  PairWorkspace<Eigen::Dynamic> workspace_;        // the pairs' steps for other than 2 and 3 states
+  PairPredictions step_pairs_;                     // one step's, where none are kept
 };
 
 // Fixed-lag smoothing for online use that can wait: each step's smoothed
@@ -131,8 +168,15 @@ class ImmSmoother {
 // same algorithm, with the window's last step as its end).
 class FixedLagSmoother {
  public:
-  FixedLagSmoother(const Bank& bank, double lag_seconds);
-  FixedLagSmoother(Bank&& bank, double lag_seconds) = delete;  // as ImmSmoother's
+  // How many bytes of its window's pair predictions (ImmSmoother::
+  // PairPredictions) a smoother keeps at most: 16 modes of 3 states take
+  // 43 kB a step, 4 MB for a 2 s lag at 50 Hz. Past it (a bank of hundreds
+  // of modes, a long lag) they are predicted again at every smoothing, the
+  // same result at more cost.
+  static constexpr std::size_t kDefaultMostKeptPairBytes = std::size_t{64} << 20;
+
+  FixedLagSmoother(const Bank& bank, double lag_seconds, std::size_t most_kept_pair_bytes = kDefaultMostKeptPairBytes);
+  FixedLagSmoother(Bank&& bank, double lag_seconds, std::size_t most_kept_pair_bytes = 0) = delete;  // as ImmSmoother's
 
   // Adds the newest forward step; appends the steps now `lag` behind it,
   // oldest first, to *ready.
@@ -144,6 +188,11 @@ class FixedLagSmoother {
   ImmSmoother smoother_;
   double lag_;
   std::deque<ForwardStep> window_;
+  // pairs_[k]: window_[k]'s pair predictions to window_[k + 1], kept while
+  // the window's fit in most_kept_pair_bytes_.
+  std::size_t most_kept_pair_bytes_;
+  bool keeps_pairs_ = true;
+  std::deque<ImmSmoother::PairPredictions> pairs_;
   std::vector<SmoothedStep> smoothed_;
 };
 
