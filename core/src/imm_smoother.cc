@@ -351,7 +351,8 @@ void ImmSmoother::smooth_range(const Steps& forward, const PairsOf& pairs_of, st
   }
 }
 
-void ImmSmoother::smooth(const std::vector<ForwardStep>& forward, std::vector<SmoothedStep>* out) {
+template <typename Steps>
+void ImmSmoother::smooth_predicting(const Steps& forward, std::vector<SmoothedStep>* out) {
   smooth_range(
       forward,
       [&](std::size_t k) -> const PairPredictions& {
@@ -361,14 +362,12 @@ void ImmSmoother::smooth(const std::vector<ForwardStep>& forward, std::vector<Sm
       out);
 }
 
+void ImmSmoother::smooth(const std::vector<ForwardStep>& forward, std::vector<SmoothedStep>* out) {
+  smooth_predicting(forward, out);
+}
+
 void ImmSmoother::smooth(const std::deque<ForwardStep>& forward, std::vector<SmoothedStep>* out) {
-  smooth_range(
-      forward,
-      [&](std::size_t k) -> const PairPredictions& {
-        predict_pairs(forward[k], forward[k + 1].t, &step_pairs_);
-        return step_pairs_;
-      },
-      out);
+  smooth_predicting(forward, out);
 }
 
 void ImmSmoother::smooth(const std::deque<ForwardStep>& forward, const std::deque<PairPredictions>& pairs,

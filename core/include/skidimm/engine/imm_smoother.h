@@ -114,6 +114,9 @@ class ImmSmoother {
   // pairs_of(k): the PairPredictions of forward[k] (to forward[k + 1]).
   template <typename Steps, typename PairsOf>
   void smooth_range(const Steps& forward, const PairsOf& pairs_of, std::vector<SmoothedStep>* out);
+  // smooth_range() predicting each step's pairs as it comes to it.
+  template <typename Steps>
+  void smooth_predicting(const Steps& forward, std::vector<SmoothedStep>* out);
   // From the smoothed step k+1, the filtered k and its pairs' predictions to the smoothed k.
   void backward(const ForwardStep& k, double t_next, const PairPredictions& pairs, const SmoothedStep& next,
                 SmoothedStep* out);
