@@ -375,6 +375,14 @@ void ImmSmoother::smooth(const std::deque<ForwardStep>& forward, const std::dequ
   if (pairs.size() + 1 != forward.size() && !(forward.empty() && pairs.empty())) {
     throw std::invalid_argument("ImmSmoother::smooth: one PairPredictions for each step but the last");
   }
+  const std::size_t modes = static_cast<std::size_t>(bank_.config.num_modes());
+  const std::size_t n = static_cast<std::size_t>(bank_.config.state_dim());
+  for (const PairPredictions& p : pairs) {
+    if (p.sound.size() != modes * modes || p.predicted.size() != modes * modes * n ||
+        p.covariance.size() != modes * modes * n * n || p.gain.size() != modes * modes * n * n) {
+      throw std::invalid_argument("ImmSmoother::smooth: PairPredictions of another bank's size");
+    }
+  }
   smooth_range(
       forward, [&](std::size_t k) -> const PairPredictions& { return pairs[k]; }, out);
 }
@@ -425,6 +433,7 @@ void FixedLagSmoother::finish(std::vector<SmoothedStep>* ready) {
   ready->insert(ready->end(), smoothed_.begin(), smoothed_.end());
   window_.clear();
   pairs_.clear();
+  keeps_pairs_ = true;  // for the next log
 }
 
 }  // namespace skidimm

@@ -332,7 +332,8 @@ void expect_same_bits(const SmoothedStep& a, const SmoothedStep& b, const std::s
 // the predictions while its window holds the step, where it smooths the
 // window again for every step it releases. Its output must be, bit for bit,
 // that of smoothing each window from scratch: with the predictions kept,
-// with none kept (a budget of 0) and with a budget that runs out half way,
+// with none kept (a budget of 0) and with a budget that runs out after a
+// few steps,
 // on the bundled example logs of a 2-state bank and of a 3-state one whose
 // heading is an angle (the fixed-size pairs), and of the 1-state bank above
 // (the dynamic ones).

@@ -86,7 +86,7 @@ class ImmSmoother {
 
   // Fixed-interval smoothing of a whole forward pass: out[k] for forward[k].
   void smooth(const std::vector<ForwardStep>& forward, std::vector<SmoothedStep>* out);
-  // The same over forward[begin, end), the last step's smoothed estimate being
+  // The same over a window of steps, the last one's smoothed estimate being
   // its filtered one. Used by the fixed-lag smoother on its window.
   void smooth(const std::deque<ForwardStep>& forward, std::vector<SmoothedStep>* out);
 
@@ -105,8 +105,9 @@ class ImmSmoother {
   // The predictions of step k's pairs to the step at t_next into *out.
   void predict_pairs(const ForwardStep& k, double t_next, PairPredictions* out);
   // smooth() of a window whose pairs are predicted already: pairs[k] those
-  // of forward[k] to forward[k + 1], for every step but the last. The same
-  // result, bit for bit.
+  // of forward[k] to forward[k + 1] (predict_pairs() by a smoother of the
+  // same bank), for every step but the last. The same result, bit for bit.
+  // Throws std::invalid_argument for a count or an entry of the wrong size.
   void smooth(const std::deque<ForwardStep>& forward, const std::deque<PairPredictions>& pairs,
               std::vector<SmoothedStep>* out);
 
@@ -171,11 +172,11 @@ class ImmSmoother {
 // same algorithm, with the window's last step as its end).
 class FixedLagSmoother {
  public:
-  // How many bytes of its window's pair predictions (ImmSmoother::
+  // How many bytes of numbers of its window's pair predictions (ImmSmoother::
   // PairPredictions) a smoother keeps at most: 16 modes of 3 states take
   // 43 kB a step, 4 MB for a 2 s lag at 50 Hz. Past it (a bank of hundreds
-  // of modes, a long lag) they are predicted again at every smoothing, the
-  // same result at more cost.
+  // of modes, a long lag) it stops keeping them until finish() and predicts
+  // them again at every smoothing, the same result at more cost.
   static constexpr std::size_t kDefaultMostKeptPairBytes = std::size_t{64} << 20;
 
   FixedLagSmoother(const Bank& bank, double lag_seconds, std::size_t most_kept_pair_bytes = kDefaultMostKeptPairBytes);
@@ -191,8 +192,8 @@ class FixedLagSmoother {
   ImmSmoother smoother_;
   double lag_;
   std::deque<ForwardStep> window_;
-  // pairs_[k]: window_[k]'s pair predictions to window_[k + 1], kept while
-  // the window's fit in most_kept_pair_bytes_.
+  // pairs_[k]: window_[k]'s pair predictions to window_[k + 1], while
+  // keeps_pairs_: until the window's would exceed most_kept_pair_bytes_.
   std::size_t most_kept_pair_bytes_;
   bool keeps_pairs_ = true;
   std::deque<ImmSmoother::PairPredictions> pairs_;
