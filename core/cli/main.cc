@@ -258,7 +258,7 @@ int main(int argc, char** argv) {
   CLI::App* validate = app.add_subcommand("validate", "Check a bank file and its plugins without running it");
   validate->footer(examples({"skidimm validate " + terrains, "skidimm validate " + terrains + " --check " + switching},
                             "#skidimm-validate"));
-  validate->add_option("bank", validate_bank, "Bank file (YAML)")->required();
+  validate->add_option("bank", validate_bank, "Bank file (YAML)")->required()->check(CLI::ExistingFile);
   std::vector<std::string> validate_checks;
   validate->add_option("--check", validate_checks,
                        "[MODE=]FILE[@OFFSET][+FILE...]: also check each mode's model at 20 operating points of this "

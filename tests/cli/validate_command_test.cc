@@ -23,9 +23,10 @@ TEST(Cli, ValidateReportsTheBankAndItsModes) {
   EXPECT_THAT(ok.out, HasSubstr("stc_slip4.yaml: OK"));
   EXPECT_THAT(ok.out, HasSubstr("angles [theta]"));
   EXPECT_THAT(ok.out, HasSubstr("slip_FR_RR"));
+  // A bank that does not exist is a bad command line, as for every command's --bank.
   const Result missing = run_skidimm("validate /nonexistent.yaml");
-  EXPECT_EQ(missing.exit_code, 1);
-  EXPECT_THAT(missing.err, HasSubstr("/nonexistent.yaml: no such bank file"));
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_THAT(missing.err, HasSubstr("File does not exist: /nonexistent.yaml"));
 }
 
 TEST(Cli, ValidateNamesEachModesPluginFileAndVersion) {
