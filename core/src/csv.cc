@@ -80,7 +80,11 @@ CsvReader::CsvReader(const fs::path& path) : path_(path) {
                          ? "no such log file (a pattern with '*' names the runs of fit, tune and eval; run reads one)"
                          : "no such log file");
     }
-    if (fs::is_directory(status)) throw LogError(path.string(), 0, "is a directory, not a log file");
+    if (fs::is_directory(status)) {
+      throw LogError(
+          path.string(), 0,
+          "is a directory, not a log file (a directory names the runs of fit, tune and eval; run reads one)");
+    }
     // Regular files, and pipes, FIFOs, /dev/stdin and <(...): read front to back.
     if (fs::is_regular_file(status)) file_size_ = fs::file_size(path, ec);
     errno = 0;

@@ -176,9 +176,11 @@ TEST(HostileInput, AFileThatGivesNothingIsAnErrorNamingIt) {
       run_shell(run_command(bank.string(), pro.string() + "+" + (dir / "loop.csv").string(), out.string()));
   EXPECT_EQ(loop.exit_code, 1);
   EXPECT_THAT(loop.err, HasSubstr("loop.csv: cannot read: Too many levels of symbolic links"));
+  // run reads one log, where fit, tune and eval read a directory's runs.
   const Result directory = run_shell(run_command(bank.string(), dir.string(), out.string()));
   EXPECT_EQ(directory.exit_code, 1);
-  EXPECT_THAT(directory.err, HasSubstr("is a directory, not a log file"));
+  EXPECT_THAT(directory.err, HasSubstr("is a directory, not a log file (a directory names the runs of fit, tune and "
+                                       "eval; run reads one)"));
   // And a column that is empty in every row is said in the summary.
   std::string no_omega;
   std::ifstream again(imu);
