@@ -118,10 +118,16 @@ void print_extrapolation(std::ostream& out, const ExtrapolationCounts& e) {
   out << "  inputs outside the ranges the classes were fitted on: "
       << fmt(100.0 * share(e.outside_estimate, e.steps), "%.1f") << "% of the steps for the most likely class";
   if (e.labelled > 0) {
+    // Each accuracy only over steps that exist: no "-%" for an empty side.
+    const long inside = e.labelled - e.outside_truth;
     out << "; " << fmt(100.0 * share(e.outside_truth, e.labelled), "%.1f")
-        << "% for the true class, the most likely right on "
-        << fmt(100.0 * share(e.outside_truth_right, e.outside_truth), "%.1f") << "% of those and "
-        << fmt(100.0 * share(e.inside_truth_right, e.labelled - e.outside_truth), "%.1f") << "% of the others";
+        << "% for the true class, the most likely right on ";
+    if (e.outside_truth > 0) out << fmt(100.0 * share(e.outside_truth_right, e.outside_truth), "%.1f") << "% of those";
+    if (e.outside_truth > 0 && inside > 0) out << " and ";
+    if (inside > 0) {
+      out << fmt(100.0 * share(e.inside_truth_right, inside), "%.1f")
+          << (e.outside_truth > 0 ? "% of the others" : "% of the steps");
+    }
   }
   out << "\n";
   if (!e.farthest.empty()) out << "    farthest: " << e.farthest << "\n";
