@@ -123,7 +123,12 @@ void LogReader::Impl::apply_row(int k) {
     }
     for (AggregateTerm& term : m.aggregates) {
       const double value = term.inner.evaluate(row_values_);
-      if (std::isfinite(value)) term.accumulator.add(value);
+      if (std::isfinite(value)) {
+        term.accumulator.add(value);
+      } else {
+        ++term.left_out;
+        ++stats_.left_out_of_aggregates[i];
+      }
     }
   }
   if (truth_stream_ == k) {
@@ -172,6 +177,7 @@ void LogReader::Impl::discard_measurements() {
     for (AggregateTerm& term : m.aggregates) {
       stats_.dropped_before_start += term.accumulator.count;
       term.accumulator.reset();
+      term.left_out = 0;
     }
   }
 }
@@ -219,11 +225,17 @@ void LogReader::Impl::emit(double t, LogSample* sample) {
     if (m.aggregated()) {
       // Missing unless every aggregate has enough rows in this step.
       bool complete = true;
+      bool rows_left_out = false;
       for (std::size_t a = 0; a < m.aggregates.size(); ++a) {
         m.outer_scratch[a] = m.aggregates[a].accumulator.value(m.aggregates[a].kind);
         complete = complete && !std::isnan(m.outer_scratch[a]);
+        rows_left_out = rows_left_out || m.aggregates[a].left_out > 0;
         m.aggregates[a].accumulator.reset();
+        m.aggregates[a].left_out = 0;
       }
+      // A step without rows of the measurement's file is not counted: a
+      // slower sensor, or a gap, says nothing of its cells.
+      if (!complete && rows_left_out) ++stats_.steps_without_enough_rows[i];
       value = complete ? m.outer->evaluate(m.outer_scratch.data()) : kNaN;
       if (complete && !std::isfinite(value)) {
         ++stats_.not_finite[i];
@@ -526,6 +538,16 @@ std::string LogReader::describe_stats(const BankConfig& bank) const {
     if (s.not_finite[i] > 0) {
       out += "  measurement '" + bank.measurement.names[i] + "': " + std::to_string(s.not_finite[i]) +
              " value(s) of its expression were not finite and count as missing\n";
+    }
+    if (i < s.left_out_of_aggregates.size() && s.left_out_of_aggregates[i] > 0) {
+      out += "  measurement '" + bank.measurement.names[i] + "' (\"" +
+             Expression::excerpt(bank.columns.measurements[i]) + "\"): " + std::to_string(s.left_out_of_aggregates[i]) +
+             " row value(s) were left out of its aggregates (an empty or nan cell, or not finite inside mean/std/rms)";
+      if (s.steps_without_enough_rows[i] > 0) {
+        out += "; " + std::to_string(s.steps_without_enough_rows[i]) +
+               " step(s) were left with too few rows and count as missing";
+      }
+      out += "\n";
     }
   }
   return out;

@@ -169,6 +169,8 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
   held_values_.assign(columns_.size(), kNaN);
   stats_.superseded.assign(measurements_.size(), 0);
   stats_.not_finite.assign(measurements_.size(), 0);
+  stats_.left_out_of_aggregates.assign(measurements_.size(), 0);
+  stats_.steps_without_enough_rows.assign(measurements_.size(), 0);
   stats_.measured.assign(measurements_.size(), 0);
   for (Stream& s : streams_) s.read_pending = true;
 }

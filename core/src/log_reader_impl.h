@@ -50,6 +50,7 @@ struct AggregateTerm {
   Aggregation kind = Aggregation::kMean;
   RowValue inner;
   Accumulator accumulator;
+  long left_out = 0;  // rows of the step being gathered whose value was not finite
 };
 
 struct MeasurementBinding {

@@ -652,6 +652,43 @@ TEST(LogReader, ANonFiniteMeasurementIsMissingAndCounted) {
   EXPECT_EQ(reader.stats().not_finite[0], 1);
 }
 
+// Rows whose cell an aggregate cannot take (empty, nan) are left out of it,
+// and a step left with too few rows has no value: both are counted and said,
+// where a dropped sensor axis would otherwise pass unnoticed. A step with no
+// rows of the file at all is not counted (a slower sensor says nothing of
+// its cells).
+TEST(LogReader, RowsLeftOutOfAnAggregateAreCountedAndSaid) {
+  BankConfig bank = simple_bank();
+  bank.columns.measurements = {"mean(v)", "log(std(w))"};
+  // Steps of 0.1 s (the rows after 0 up to 0.1 form the step at 0.1): v is nan
+  // in every row of the step at 0.2 and in one row of the step at 0.3; w is
+  // empty in one row of the step at 0.3, where std() still has two rows.
+  std::string text = "t,left,right,v,w\n";
+  const std::vector<std::string> v{"1", "2", "3", "nan", "nan", "nan", "4", "nan", "6"};
+  const std::vector<std::string> w{"1", "2", "4", "1", "2", "4", "1", "", "4"};
+  const std::vector<std::string> t{"0.04", "0.07", "0.1", "0.14", "0.17", "0.2", "0.24", "0.27", "0.3"};
+  text += "0,1,2,0,0\n";
+  for (std::size_t r = 0; r < v.size(); ++r) text += t[r] + ",1,2," + v[r] + "," + w[r] + "\n";
+  const auto file = write_file(test_directory() / "log.csv", text);
+  SamplingConfig sampling;
+  sampling.rate = 10.0;
+  LogReader reader(bank, {file}, sampling);
+  const auto s = read_all(reader);
+  ASSERT_EQ(s.size(), 4u);
+  EXPECT_EQ(s[1].z[0], 2.0);
+  EXPECT_TRUE(std::isnan(s[2].z[0])) << "every v of the step is nan";
+  EXPECT_EQ(s[3].z[0], 5.0) << "the mean of the two v that are numbers";
+  EXPECT_NEAR(s[3].z[1], std::log(std::sqrt(4.5)), 1e-12) << "std of w = 1 and 4";
+  EXPECT_EQ(reader.stats().left_out_of_aggregates, (std::vector<long>{4, 1}));
+  EXPECT_EQ(reader.stats().steps_without_enough_rows, (std::vector<long>{1, 0}));
+  const std::string said = reader.describe_stats(bank);
+  EXPECT_THAT(said, HasSubstr("measurement 'V' (\"mean(v)\"): 4 row value(s) were left out of its aggregates (an "
+                              "empty or nan cell, or not finite inside mean/std/rms); 1 step(s) were left with too few "
+                              "rows and count as missing"));
+  EXPECT_THAT(said, HasSubstr("measurement 'omega' (\"log(std(w))\"): 1 row value(s) were left out of its "
+                              "aggregates (an empty or nan cell, or not finite inside mean/std/rms)\n"));
+}
+
 TEST(LogReader, NonNumericCellNamesLineAndColumn) {
   const auto file = write_file(test_directory() / "log.csv", "t,left,right,v,w\n0,1,2,3,4\n0.1,1,fast,3,4\n");
   LogReader reader(simple_bank(), {file});

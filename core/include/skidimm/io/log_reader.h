@@ -89,6 +89,11 @@ struct LogStats {
   double inputs_end_t = 0.0;
   std::vector<long> superseded;   // per measurement: values replaced by a later one in the same step
   std::vector<long> not_finite;   // per measurement: expression values that were not finite
+  // Per aggregated measurement (mean/std/rms over a step): row values inside
+  // an aggregate that were left out (an empty or nan cell, an inner
+  // expression that is not finite), and the steps left with too few of them.
+  std::vector<long> left_out_of_aggregates;
+  std::vector<long> steps_without_enough_rows;
   std::vector<long> measured;     // per measurement: steps that had a value for it
   long gaps_skipped = 0;          // gaps longer than sampling.max_gap the grid restarted after (skip_gaps)
   double seconds_skipped = 0.0;   // ... and the time they spanned
