@@ -659,6 +659,39 @@ std::string ModelSource::describe() const {
          (file.empty() ? "" : " (" + file.string() + ")");
 }
 
+namespace {
+
+// Where a model's complaint about its parameters points: the one key of
+// `keys` it names in quotes ('r' in "parameter 'r' = -1 is outside ..."),
+// at the line that gave it, the mode's own params or else the bank's
+// shared:; the mode's line when it names none, or several (a list of what
+// it was given says nothing of which one is wrong).
+struct ComplaintPlace {
+  int line = 0;
+  std::string field;
+};
+
+ComplaintPlace place_of_complaint(const std::string& complaint, const BankConfig& config, const ModeConfig& mode,
+                                  const std::string& mode_field, const std::vector<std::string>& keys) {
+  const ComplaintPlace the_mode{mode.line, mode_field + ".params"};
+  const std::string* named = nullptr;
+  for (const std::string& key : keys) {
+    if (complaint.find("'" + key + "'") == std::string::npos) continue;
+    if (named != nullptr) return the_mode;
+    named = &key;
+  }
+  if (named == nullptr) return the_mode;
+  if (const auto own = mode.param_lines.find(*named); own != mode.param_lines.end()) {
+    return {own->second, mode_field + ".params." + *named};
+  }
+  if (const auto shared = config.shared_lines.find(*named); shared != config.shared_lines.end()) {
+    return {shared->second, "shared." + *named};
+  }
+  return the_mode;
+}
+
+}  // namespace
+
 Bank Bank::instantiate(BankConfig config, PluginRegistry& registry, const ModelProvider* provider) {
   const std::string file = config.file.string();
   Bank bank;
@@ -685,14 +718,19 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry, const ModelP
       if (const Eigen::MatrixXd* value = from.find(key)) params.set(key, *value);
       if (const std::vector<std::string>* text = from.find_text(key)) params.set_text(key, *text);
     };
+    std::vector<std::string> given;  // the keys the model is given, its own last
     for (const std::string& key :
          provided ? provider->shared_parameter_keys(mode.model) : descriptor->parameter_keys) {
       if (config.shared.contains(key)) {
         copy(config.shared, key);
         shared_keys_used.insert(key);
+        if (!mode.params.contains(key)) given.push_back(key);
       }
     }
-    for (const std::string& key : mode.params.keys()) copy(mode.params, key);
+    for (const std::string& key : mode.params.keys()) {
+      copy(mode.params, key);
+      given.push_back(key);
+    }
 
     ModelHandle model;
     try {
@@ -712,7 +750,12 @@ Bank Bank::instantiate(BankConfig config, PluginRegistry& registry, const ModelP
                               (unset.size() == 1 ? "it" : "them") +
                               " once under 'shared:' (the model said: " + e.what() + ")");
       }
-      throw ConfigError(file, mode.line, field + ".params", who + ": " + e.what());
+      const ComplaintPlace place = place_of_complaint(e.what(), config, mode, field, given);
+      const bool from_shared = place.field.rfind("shared.", 0) == 0;
+      throw ConfigError(
+          file, place.line, place.field,
+          from_shared ? "mode '" + mode.name + "' (model " + mode.model + ", its value from 'shared:'): " + e.what()
+                      : who + ": " + e.what());
     } catch (const Error& e) {
       if (!provided) throw;
       throw ConfigError(file, mode.line, field + ".model", who + ": " + e.what());

@@ -3,6 +3,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "core/temp_files.h"
 #include "skidimm/errors.h"
 
@@ -333,6 +335,30 @@ TEST(Bank, BankScopedParameterGivenNowhereIsSaidToBelongUnderShared) {
   expect_config_error(replace(sided, "  r: 0.165", "  r_typo: 0.165"),
                       {"modes[0].params: mode 'no_slip' (model stc_sided): the bank gives no 'r', which model "
                        "stc_sided declares bank-level (one value for every mode): give it once under 'shared:'"},
+                      true);
+}
+
+// A model's complaint about a parameter it names points at the line that
+// gave that parameter: a mode's own params, or the bank's shared: (given to
+// every mode, but not written at any mode's line), not at the first mode.
+TEST(Bank, AModelsComplaintAboutAParameterPointsAtTheLineThatGaveIt) {
+  const std::string slip = skidimm_test::read_file(std::filesystem::path(kSourceDir) / "configs/stc_slip4.yaml");
+  const auto line_of = [](const std::string& yaml, const std::string& text) {
+    const std::size_t at = yaml.find(text);
+    return at == std::string::npos ? -1 : 1 + static_cast<int>(std::count(yaml.begin(), yaml.begin() + at, '\n'));
+  };
+  const std::string shared = replace(slip, "  r: 0.165", "  r: -1");
+  expect_config_error(shared,
+                      {"bank.yaml:" + std::to_string(line_of(shared, "  r: -1")) +
+                           ": shared.r: mode 'no_slip' (model stc_kinematic, its value from 'shared:'): ",
+                       "parameter 'r' = -1.000000 is outside"},
+                      true);
+  const std::string own = replace(slip, "params: {k: 0.9990679,", "params: {k: -3,");
+  ASSERT_NE(own, slip) << "the second mode's params in configs/stc_slip4.yaml";
+  expect_config_error(own,
+                      {"bank.yaml:" + std::to_string(line_of(own, "params: {k: -3,")) +
+                           ": modes[1].params.k: mode 'slip_FL_FR' (model stc_kinematic): ",
+                       "parameter 'k' = -3.000000 is outside"},
                       true);
 }
 

@@ -630,7 +630,7 @@ TEST_F(LinearFeaturesBankErrors, NameTheKeyAndTheShapeInTheBanksTerms) {
   EXPECT_THAT(load_error("      A: [-4.0, -20.0, -0.8]\n      B: [[0.0, 0.35], [1.2, 0.5], [0.0, 0.7]]\n"),
               HasSubstr("no error"));
   EXPECT_THAT(load_error("      A: [-4.0, -20.0, -0.8]\n      B: [[0.0, 0.35, 1.2], [0.5, 0.0, 0.7]]\n"),
-              AllOf(HasSubstr("bank.yaml:22: modes[0].params: mode 'grip' (model linear_features)"),
+              AllOf(HasSubstr("bank.yaml:26: modes[0].params.B: mode 'grip' (model linear_features)"),
                     HasSubstr("parameter 'B' must be 3x2 (states omega, current, vibration x inputs v, dv), got 2x3")));
   EXPECT_THAT(load_error("      A: [-4.0, -20.0, -0.8]\n"),
               HasSubstr("missing parameter 'B': expected 3x2 (states omega, current, vibration x inputs v, dv)"));
