@@ -153,6 +153,7 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
   const std::vector<int> class_of_mode = config.class_of_modes();
   ModeDecision decision(config, decision_settings);
   int last_decision = ModeDecision::kUnknown;
+  bool undecided = true;  // every row so far `unknown`: its first decision is not a change (as eval counts)
   const InputEnvelope envelope(config);
   // The truth's class: each label looked up once (class_index builds the
   // class names), then by comparison with the last one and the few seen.
@@ -162,7 +163,8 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
     RunSummary& s = *summary;
     const std::string& truth = label.empty() ? sample.truth_mode : label;
     const int decided = decision.update(sample.t, e.mode_probabilities);
-    s.decision_changes += decided != last_decision && s.rows > 0;
+    s.decision_changes += decided != last_decision && s.rows > 0 && !undecided;
+    undecided = undecided && decided == ModeDecision::kUnknown;
     last_decision = decided;
     writer->write(sample.t, e, decision.name(decided), truth);
     ++s.rows;  // written: a row the writer refused is not among those kept
