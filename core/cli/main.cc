@@ -104,7 +104,16 @@ const char* const kSkipUnpaired =
 // logs, bundled_path) and the page that says more.
 std::string examples(const std::vector<std::string>& commands, const std::string& section) {
   std::string text = "Examples:\n";
-  for (const std::string& command : commands) text += "  " + command + "\n";
+  bool reads_log = false, reads_estimates = false;
+  for (const std::string& command : commands) {
+    text += "  " + command + "\n";
+    reads_log = reads_log || command.find("--input log.csv") != std::string::npos ||
+                command.find("--log log.csv") != std::string::npos;
+    reads_estimates = reads_estimates || command.find("--estimates estimates.csv") != std::string::npos;
+  }
+  // Two files the examples pass from one command to the next.
+  if (reads_log) text += "  (log.csv: the log the first example of `skidimm simulate --help` writes)\n";
+  if (reads_estimates) text += "  (estimates.csv: the output the first example of `skidimm run --help` writes)\n";
   return text + "More: " + documentation_path("docs/cli.md") + section;
 }
 
@@ -194,7 +203,7 @@ int main(int argc, char** argv) {
   std::string bank, output;
   CLI::App* run = app.add_subcommand("run", "Run a bank of modes over a log and write per-step estimates");
   run->footer(examples({"skidimm run --bank " + terrains + " --input " + switching + " --output estimates.csv",
-                        "skidimm run --bank " + terrains + " --input log.csv --smooth --output smoothed.csv"},
+                        "skidimm run --bank " + terrains + " --input " + switching + " --smooth --output smoothed.csv"},
                        "#skidimm-run"));
   run->add_option("--bank,-b", bank, "Bank file (YAML), see " + documentation_path("docs/bank-format.md"))->required()->check(CLI::ExistingFile);
   run->add_option("--input,-i", run_options.inputs,
