@@ -116,6 +116,15 @@ CsvReader::CsvReader(const fs::path& path) : path_(path) {
                      "standard input (give its path to --input); estimates `skidimm run` wrote as .mcap are for "
                      "Foxglove and ROS 2 tools (for eval or plot, run again with --output X.csv)");
     }
+    // Binary data (a program, an image, an archive) is said to be such, not
+    // read as a header of junk: CSV text holds no NUL byte.
+    for (std::size_t f = 0; f < field_count_; ++f) {
+      if (fields_[f].find('\0') != std::string::npos) {
+        throw LogError(path_.string(), 1,
+                       "binary data, not CSV text (its first line holds a NUL byte): this reads CSV with a header "
+                       "row of column names");
+      }
+    }
     header_.assign(fields_.begin(), fields_.begin() + static_cast<std::ptrdiff_t>(field_count_));
     if (!header_.empty() && header_[0].size() >= 3 && header_[0].compare(0, 3, "\xEF\xBB\xBF") == 0) {
       header_[0].erase(0, 3);  // UTF-8 byte-order mark from spreadsheet exports

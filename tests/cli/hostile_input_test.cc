@@ -176,6 +176,13 @@ TEST(HostileInput, AFileThatGivesNothingIsAnErrorNamingIt) {
       run_shell(run_command(bank.string(), pro.string() + "+" + (dir / "loop.csv").string(), out.string()));
   EXPECT_EQ(loop.exit_code, 1);
   EXPECT_THAT(loop.err, HasSubstr("loop.csv: cannot read: Too many levels of symbolic links"));
+  // A binary file (here the start of a program) is said to be one.
+  const fs::path binary = write_file(dir / "program.csv", std::string("\x7f"
+                                                                      "ELF\x02\x01\x01\0\0\0,x\n1,2\n",
+                                                                      17));
+  const Result binary_run = run_shell(run_command(bank.string(), binary.string(), out.string()));
+  EXPECT_EQ(binary_run.exit_code, 1);
+  EXPECT_THAT(binary_run.err, HasSubstr("program.csv:1: binary data, not CSV text (its first line holds a NUL byte)"));
   // run reads one log, where fit, tune and eval read a directory's runs.
   const Result directory = run_shell(run_command(bank.string(), dir.string(), out.string()));
   EXPECT_EQ(directory.exit_code, 1);
