@@ -390,6 +390,14 @@ void ImmSmoother::smooth(const std::deque<ForwardStep>& forward, const std::dequ
 FixedLagSmoother::FixedLagSmoother(const Bank& bank, double lag_seconds, std::size_t most_kept_pair_bytes)
     : smoother_(bank), lag_(lag_seconds), most_kept_pair_bytes_(most_kept_pair_bytes) {}
 
+void FixedLagSmoother::smooth_window() {
+  if (keeps_pairs_) {
+    smoother_.smooth(window_, pairs_, &smoothed_);
+  } else {
+    smoother_.smooth(window_, &smoothed_);
+  }
+}
+
 void FixedLagSmoother::add(ForwardStep step, std::vector<SmoothedStep>* ready) {
   const double newest = step.t;
   window_.push_back(std::move(step));
@@ -397,10 +405,7 @@ void FixedLagSmoother::add(ForwardStep step, std::vector<SmoothedStep>* ready) {
     // The previous newest step's pairs, now that the step after it is known.
     pairs_.emplace_back();
     smoother_.predict_pairs(window_[window_.size() - 2], newest, &pairs_.back());
-    const ImmSmoother::PairPredictions& last = pairs_.back();
-    const std::size_t bytes =
-        (last.predicted.size() + last.covariance.size() + last.gain.size()) * sizeof(double) + last.sound.size();
-    if (bytes * pairs_.size() > most_kept_pair_bytes_) {
+    if (pairs_.back().bytes() * pairs_.size() > most_kept_pair_bytes_) {
       keeps_pairs_ = false;
       pairs_.clear();
     }
@@ -408,11 +413,7 @@ void FixedLagSmoother::add(ForwardStep step, std::vector<SmoothedStep>* ready) {
   // Release every step that is now `lag` behind the newest, each smoothed
   // over the window that ends at the newest step.
   if (window_.front().t > newest - lag_) return;
-  if (keeps_pairs_) {
-    smoother_.smooth(window_, pairs_, &smoothed_);
-  } else {
-    smoother_.smooth(window_, &smoothed_);
-  }
+  smooth_window();
   std::size_t released = 0;
   while (released < window_.size() && window_[released].t <= newest - lag_) {
     ready->push_back(smoothed_[released]);
@@ -425,11 +426,7 @@ void FixedLagSmoother::add(ForwardStep step, std::vector<SmoothedStep>* ready) {
 }
 
 void FixedLagSmoother::finish(std::vector<SmoothedStep>* ready) {
-  if (keeps_pairs_) {
-    smoother_.smooth(window_, pairs_, &smoothed_);
-  } else {
-    smoother_.smooth(window_, &smoothed_);
-  }
+  smooth_window();
   ready->insert(ready->end(), smoothed_.begin(), smoothed_.end());
   window_.clear();
   pairs_.clear();

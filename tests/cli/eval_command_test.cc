@@ -397,28 +397,26 @@ TEST(EvalCommand, CountsTheStepsOutsideTheInputsTheTerrainsWereFittedOn) {
   EXPECT_NEAR(e["outside_truth"].as<double>(), share, 1e-6);
   EXPECT_THAT(e["farthest"].as<std::string>(), HasSubstr("fitted on 0 to 1)"));
 
+  // The bundled bank with `ranges` as every terrain's fitted inputs ("": none), evaluated with `options`.
+  const auto eval_with_ranges = [](const std::string& name, const std::string& ranges, const std::string& options) {
+    std::string text = read_file(kTerrains);
+    with_fitted_inputs(&text, ranges);
+    const fs::path bank = write_file(test_directory() / name, text);
+    return run_skidimm("eval --bank " + bank.string() + " --plugin-path " + kPlugins + " --input " + kSwitching +
+                       options);
+  };
   // Ranges no step leaves: the accuracy is over all the steps, with no empty "of those".
-  std::string wide = read_file(kTerrains);
-  with_fitted_inputs(&wide, "{phi_dot_L: [-1000, 1000], phi_dot_R: [-1000, 1000]}");
-  const fs::path wide_bank = write_file(test_directory() / "wide.yaml", wide);
-  const Result inside =
-      run_skidimm("eval --bank " + wide_bank.string() + " --plugin-path " + kPlugins + " --input " + kSwitching);
+  const Result inside = eval_with_ranges("wide.yaml", "{phi_dot_L: [-1000, 1000], phi_dot_R: [-1000, 1000]}", "");
   ASSERT_EQ(inside.exit_code, 0) << inside.err;
   EXPECT_THAT(inside.out, HasSubstr(": 0.0% of the steps for the most likely class; 0.0% for the true class, the "
                                     "most likely right on "));
   EXPECT_THAT(inside.out, HasSubstr("% of the steps\n"));
   EXPECT_THAT(inside.out, Not(HasSubstr("-%")));
 
-  std::string none = read_file(kTerrains);
-  with_fitted_inputs(&none, "");
-  const fs::path none_bank = write_file(test_directory() / "none.yaml", none);
-  const Result without =
-      run_skidimm("eval --bank " + none_bank.string() + " --plugin-path " + kPlugins + " --input " + kSwitching);
+  const Result without = eval_with_ranges("none.yaml", "", "");
   ASSERT_EQ(without.exit_code, 0) << without.err;
   EXPECT_THAT(without.out, Not(HasSubstr("inputs outside")));
-  EXPECT_TRUE(json_of(run_skidimm("eval --bank " + none_bank.string() + " --plugin-path " + kPlugins + " --input " +
-                                  kSwitching + " --json"))["overall"]["extrapolation"]
-                  .IsNull());
+  EXPECT_TRUE(json_of(eval_with_ranges("none.yaml", "", " --json"))["overall"]["extrapolation"].IsNull());
 }
 
 TEST(Cli, EvalTakesDecisionSettingsAndRemakesARunsDecisionFromItsProbabilities) {

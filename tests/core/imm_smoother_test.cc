@@ -383,9 +383,7 @@ TEST(ImmSmoother, FixedLagKeepsPairPredictionsWithoutChangingABit) {
 
     ImmSmoother::PairPredictions one_step;
     smoother.predict_pairs(forward[0], forward[1].t, &one_step);
-    const std::size_t step_bytes =
-        (one_step.predicted.size() + one_step.covariance.size() + one_step.gain.size()) * sizeof(double) +
-        one_step.sound.size();
+    const std::size_t step_bytes = one_step.bytes();
     for (const std::size_t budget : {FixedLagSmoother::kDefaultMostKeptPairBytes, std::size_t{0}, 5 * step_bytes}) {
       FixedLagSmoother lagged(bank, lag, budget);
       std::vector<SmoothedStep> out;

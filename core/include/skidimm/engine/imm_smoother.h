@@ -101,6 +101,10 @@ class ImmSmoother {
     std::vector<double> covariance;    // P^ji, n x n column-major for each pair
     std::vector<double> gain;          // J, n x n for each pair
     std::vector<unsigned char> sound;  // 0: the pair cannot be smoothed and keeps mode j's filtered estimate
+    // The bytes of its numbers (what FixedLagSmoother's budget counts).
+    std::size_t bytes() const {
+      return (predicted.size() + covariance.size() + gain.size()) * sizeof(double) + sound.size();
+    }
   };
   // The predictions of step k's pairs to the step at t_next into *out.
   void predict_pairs(const ForwardStep& k, double t_next, PairPredictions* out);
@@ -189,6 +193,9 @@ class FixedLagSmoother {
   void finish(std::vector<SmoothedStep>* ready);
 
  private:
+  // The window smoothed into smoothed_, with its kept predictions while there are.
+  void smooth_window();
+
   ImmSmoother smoother_;
   double lag_;
   std::deque<ForwardStep> window_;
