@@ -371,6 +371,16 @@ void parse_mode_measurement_noise(const YamlFields& y, const YAML::Node& root, B
 
 }  // namespace
 
+std::string BankConfig::shown_file() const {
+  std::error_code error;
+  const fs::path here = fs::current_path(error);
+  if (!error) {
+    const fs::path below = file.lexically_relative(here);
+    if (!below.empty() && *below.begin() != "..") return below.string();
+  }
+  return file.string();
+}
+
 int BankConfig::mode_index(const std::string& mode_name) const {
   for (std::size_t j = 0; j < modes.size(); ++j) {
     if (modes[j].name == mode_name) return static_cast<int>(j);
@@ -693,7 +703,7 @@ ComplaintPlace place_of_complaint(const std::string& complaint, const BankConfig
 }  // namespace
 
 Bank Bank::instantiate(BankConfig config, PluginRegistry& registry, const ModelProvider* provider) {
-  const std::string file = config.file.string();
+  const std::string file = config.shown_file();
   Bank bank;
   std::set<std::string> shared_keys_used;
   for (std::size_t i = 0; i < config.modes.size(); ++i) {

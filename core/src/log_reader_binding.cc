@@ -75,7 +75,7 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
     if (!is_standard_input(file.path) && ros::BagReader::is_bag(file.path)) {
       // A ROS 2 bag: each topic the bank names is a file of its own (ros/bag_log.h).
       if (by_rows) {
-        throw Error(bank.file.string() + ": sampling.join: rows is for CSV files that match row for row; " +
+        throw Error(bank.shown_file() + ": sampling.join: rows is for CSV files that match row for row; " +
                     file.path.string() + " is a ROS 2 bag, whose topics are merged by time");
       }
       streams_.pop_back();
@@ -272,7 +272,7 @@ LogReader::Impl::RowValue LogReader::Impl::bind_row_value(const std::string& tex
       if (!v.expression && Expression::is_identifier(std::string(trim(text)))) {
         missing_column(std::string(trim(text)), field);
       }
-      throw Error(bank_.file.string() + ": " + field + ": " + problem);
+      throw Error(bank_.shown_file() + ": " + field + ": " + problem);
     }
     for (const std::string& name : v.expression->variables()) v.columns.push_back(column_id(name, field, true));
   }
@@ -303,7 +303,7 @@ void LogReader::Impl::bind_measurement(MeasurementBinding* m, const std::string&
         names += (names.empty() ? "" : ", ") + col.name + " (" +
                  streams_[static_cast<std::size_t>(col.stream)].files[static_cast<std::size_t>(col.file)]->name() + ")";
       }
-      throw Error(bank_.file.string() + ": " + m->field + ": " + what + " uses columns of different files [" + names +
+      throw Error(bank_.shown_file() + ": " + m->field + ": " + what + " uses columns of different files [" + names +
                   "]; a measurement arrives with a row of one file (inputs may mix files)");
     }
     return v.streams.front();
@@ -314,7 +314,7 @@ void LogReader::Impl::bind_measurement(MeasurementBinding* m, const std::string&
       cut = Expression::cut_calls(text, aggregate_names());
     } catch (const ExpressionError& e) {
       if (Expression::is_identifier(std::string(trim(text)))) missing_column(std::string(trim(text)), m->field);
-      throw Error(bank_.file.string() + ": " + m->field + ": " + e.what());
+      throw Error(bank_.shown_file() + ": " + m->field + ": " + e.what());
     }
   }
   if (cut.calls.empty()) {
@@ -323,7 +323,7 @@ void LogReader::Impl::bind_measurement(MeasurementBinding* m, const std::string&
     return;
   }
   if (!cut.names_outside.empty()) {
-    throw Error(bank_.file.string() + ": " + m->field + ": " + outside_aggregates(text, cut.names_outside.front()));
+    throw Error(bank_.shown_file() + ": " + m->field + ": " + outside_aggregates(text, cut.names_outside.front()));
   }
   m->outer = std::move(cut.outer);
   for (const Expression::Call& call : cut.calls) {
@@ -332,7 +332,7 @@ void LogReader::Impl::bind_measurement(MeasurementBinding* m, const std::string&
     t.inner = bind_row_value(call.argument, m->field);
     const int s = one_stream(t.inner, call.function + "(" + Expression::excerpt(call.argument) + ")");
     if (m->stream >= 0 && s != m->stream) {
-      throw Error(bank_.file.string() + ": " + m->field + ": " + quoted +
+      throw Error(bank_.shown_file() + ": " + m->field + ": " + quoted +
                   " aggregates columns of different files; a measurement arrives with the rows of one file");
     }
     m->stream = s;
@@ -340,7 +340,7 @@ void LogReader::Impl::bind_measurement(MeasurementBinding* m, const std::string&
   }
   m->outer_scratch.resize(m->aggregates.size());
   if (sampling_.rate <= 0.0) {
-    throw Error(bank_.file.string() + ": " + m->field + ": " + quoted + " aggregates the rows of a filter step, " +
+    throw Error(bank_.shown_file() + ": " + m->field + ": " + quoted + " aggregates the rows of a filter step, " +
                 "which needs a fixed step: set sampling.rate (Hz) in the bank or --rate");
   }
 }

@@ -99,6 +99,30 @@ TEST(Cli, ValidateRefusesAQOf1e300) {
   EXPECT_THAT(r.err, HasSubstr("entry (0, 0) = 1e+300 is larger in magnitude than 1e+15"));
 }
 
+// A model's complaint names the bank as the user gave it (a path relative to
+// the working directory), as the parser's errors do, not as an absolute path.
+TEST(Cli, AModelsComplaintNamesTheBankAsItWasGiven) {
+  const fs::path dir = test_directory();
+  std::string bank = read_file(kSource + "/configs/stc_slip4.yaml");
+  const std::size_t r = bank.find("  r: 0.165");
+  ASSERT_NE(r, std::string::npos);
+  bank.replace(r, 10, "  r: -1");
+  write_file(dir / "negative_radius.yaml", bank);
+  const Result given =
+      run_shell("cd " + dir.string() + " && " + kSkidimm + " validate negative_radius.yaml --plugin-path " + kPlugins);
+  EXPECT_EQ(given.exit_code, 1);
+  EXPECT_THAT(given.err, ::testing::StartsWith("skidimm validate: error: negative_radius.yaml:"));
+  EXPECT_THAT(given.err, HasSubstr(": shared.r: mode 'no_slip' (model stc_kinematic, its value from 'shared:'): "));
+  EXPECT_THAT(given.err, Not(HasSubstr(dir.string())));
+  // Not below the working directory: the absolute path, which names it wherever the command ran.
+  fs::create_directories(dir / "elsewhere");
+  const Result elsewhere = run_shell("cd " + (dir / "elsewhere").string() + " && " + kSkidimm + " validate " +
+                                     (dir / "negative_radius.yaml").string() + " --plugin-path " + kPlugins);
+  EXPECT_EQ(elsewhere.exit_code, 1);
+  EXPECT_THAT(elsewhere.err,
+              ::testing::StartsWith("skidimm validate: error: " + (dir / "negative_radius.yaml").string() + ":"));
+}
+
 // An empty parameter covariance would read as none at all.
 TEST(Cli, ValidateRefusesAnEmptyParameterCovariance) {
   const fs::path dir = test_directory();

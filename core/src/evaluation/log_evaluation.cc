@@ -75,7 +75,7 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
                        const std::filesystem::path& estimates, const EstimatorOptions& estimator) {
   const BankConfig& config = bank.config;
   if (log.label.empty() && config.columns.truth_mode.empty()) {
-    throw Error(config.file.string() + ": the bank names no columns.truth_mode, so there is nothing to evaluate " +
+    throw Error(config.shown_file() + ": the bank names no columns.truth_mode, so there is nothing to evaluate " +
                 log.text + " against; label the log (MODE=" + log.text + ") or name the truth column");
   }
   if (!log.label.empty() && config.class_index(log.label) < 0) {

@@ -89,7 +89,7 @@ class Tuner {
     base_extrapolation_scale_ = config.extrapolation_scale;
     if (!config.unknown.enabled() &&
         std::find(options.knobs.begin(), options.knobs.end(), Knob::kUnknownInflation) != options.knobs.end()) {
-      throw Error(config.file.string() +
+      throw Error(config.shown_file() +
                   ": --tune unknown-inflation needs a bank with an unknown hypothesis (the key `unknown:`, "
                   "docs/bank-format.md)");
     }

@@ -146,7 +146,12 @@ struct UnknownHypothesisConfig {
 };
 
 struct BankConfig {
+  // Absolute, so that the files the bank names resolve wherever it is used
+  // (another working directory, a Dask worker).
   std::filesystem::path file;
+  // `file` as messages name it: relative to the working directory when it
+  // lies below it (as it was most likely given), otherwise absolute.
+  std::string shown_file() const;
   std::string name;
   std::string description;
   std::vector<std::string> state_names;
