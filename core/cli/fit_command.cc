@@ -169,6 +169,21 @@ int fit(const FitCommandOptions& options) {
     fit_options.residual_correlation = options.residual_correlation;
     request.mode = options.mode;
     request.name = options.name;
+    if (!options.append_to.empty()) {
+      // The entry of the starting values joins the bank as the fitted one
+      // would: a bank it cannot join is said now, not after the fit.
+      FitReport start;
+      start.q_intensity = config.modes[static_cast<std::size_t>(data[0].mode)].q_intensity;
+      const std::vector<fitting::FittedMode> unfitted{{data[0].mode, fitting::log_count(data[0]), start}};
+      try {
+        fitting::check_mode_appends(options.append_to, fitting::format_fitted_entries(bank, unfitted, request));
+      } catch (const ConfigError& e) {
+        throw ConfigError(e.file(), e.line(), e.field(),
+                          "--append-to cannot take mode '" + fitting::output_mode_name(config, request, data[0].mode) +
+                              "' (nothing was fitted or written): " + e.message() +
+                              "; write the entry with --output-entry and add it to the bank by hand");
+      }
+    }
     // The work up front: a fit on a long log is long, and should say so before it starts.
     std::cerr << "skidimm fit: " << fitting::fit_work(bank, data, fit_options).describe() << "\n";
     // Each solve's iterations, rate and time so far; only on a terminal.

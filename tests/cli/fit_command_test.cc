@@ -739,6 +739,56 @@ TEST(CliIo, TheLikelihoodFitNamesAnAbsurdRowWhenAStateIsUnmeasured) {
   EXPECT_FALSE(fs::exists(dir / "out.yaml"));
 }
 
+// A bank the fitted mode cannot join was found only after the fit, which
+// was then lost, and the error named the temporary file the result was
+// checked in. The entry of the starting values is checked before the fit:
+// per-mode dwell times without one for the new mode, a transition matrix of
+// the old size, a floor too high for one more mode, another state size.
+TEST(CliIo, FitChecksThatTheAppendedModeCanJoinTheBankBeforeFitting) {
+  const fs::path dir = test_directory();
+  const std::string fit = kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                          " --objective window --mode asphalt --name ice --log " + kSwitching + " --append-to ";
+  const std::string terrains = read_file(kTerrains);
+  const std::string dwell = "  mean_dwell_time: 10.0     # s; the paper's switching runs hold each terrain 10 s\n";
+  ASSERT_NE(terrains.find(dwell), std::string::npos);
+  const auto with = [&](const std::string& name, const std::string& from, const std::string& to) {
+    std::string text = terrains;
+    text.replace(text.find(from), from.size(), to);
+    return write_file(dir / name, text);
+  };
+  struct Case {
+    fs::path bank;
+    std::string complaint;
+  };
+  const std::vector<Case> cases = {
+      {with("per_mode.yaml", dwell, "  mean_dwell_time: {asphalt: 20, grass: 10, crushed_concrete: 5}\n"),
+       ": transition.mean_dwell_time: --append-to cannot take mode 'ice' (nothing was fitted or written): no dwell "
+       "time for mode 'ice'; write the entry with --output-entry and add it to the bank by hand"},
+      {with("matrix.yaml", dwell, "  matrix: [[0.98, 0.01, 0.01], [0.01, 0.98, 0.01], [0.01, 0.01, 0.98]]\n"),
+       ": transition.matrix: --append-to cannot take mode 'ice'"},
+      {with("floor.yaml", "transition:\n", "mode_probability_floor: 0.3\ntransition:\n"),
+       ": mode_probability_floor: --append-to cannot take mode 'ice'"},
+      {fs::path(kSource + "/configs/stc_slip4.yaml"), "--append-to cannot take mode 'ice'"},
+  };
+  for (const Case& c : cases) {
+    const fs::path target = c.bank.parent_path() == dir ? c.bank : write_file(dir / "stc.yaml", read_file(c.bank));
+    const std::string before = read_file(target);
+    expect_refused_before(fit + target.string(), c.complaint, "residuals");
+    EXPECT_EQ(read_file(target), before) << target;
+    const Result r = run_pipeline(fit + target.string());
+    EXPECT_THAT(r.err, HasSubstr("skidimm fit: error: " + target.string() + ":")) << r.err;
+    EXPECT_THAT(r.err, Not(HasSubstr(".tmp"))) << r.err;
+  }
+  for (const auto& entry_in_dir : fs::directory_iterator(dir)) {
+    EXPECT_EQ(entry_in_dir.path().string().find(".tmp"), std::string::npos) << entry_in_dir.path();
+  }
+  // A bank it can join takes the fitted mode.
+  const fs::path plain = write_file(dir / "plain.yaml", terrains);
+  const Result appended = run_pipeline(fit + plain.string());
+  ASSERT_EQ(appended.exit_code, 0) << appended.err;
+  EXPECT_THAT(read_file(plain), HasSubstr("name: ice"));
+}
+
 // What the fit is written to or scored on is checked before it starts: a
 // mistyped directory, label or --append-to found after a long fit would lose
 // it. Each of these fails before the first mode's report.

@@ -26,11 +26,12 @@ class Error : public std::runtime_error {
 class ConfigError : public Error {
  public:
   ConfigError(const std::string& file, int line, const std::string& field, const std::string& message)
-      : Error(format(file, line, field, message)), file_(file), line_(line), field_(field) {}
+      : Error(format(file, line, field, message)), file_(file), line_(line), field_(field), message_(message) {}
 
   const std::string& file() const { return file_; }
   int line() const { return line_; }  // 1-based; 0 when unknown
   const std::string& field() const { return field_; }
+  const std::string& message() const { return message_; }  // what() without its file, line and field
 
  private:
   static std::string format(const std::string& file, int line, const std::string& field, const std::string& message) {
@@ -43,6 +44,7 @@ class ConfigError : public Error {
   std::string file_;
   int line_;
   std::string field_;
+  std::string message_;
 };
 
 // A plugin could not be found, loaded or instantiated.

@@ -71,21 +71,23 @@ std::string read_text(const fs::path& file) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
+// Loads `temporary`, the text meant for `file`, as a bank; its complaint is
+// made about `file` (the user's), at the same line and field.
+void check_loads_as_bank(const fs::path& temporary, const fs::path& file) {
+  try {
+    load_bank_config(temporary);
+  } catch (const ConfigError& e) {
+    throw ConfigError(file.string(), e.line(), e.field(),
+                      "the result would not be a valid bank, nothing was written: " + e.message());
+  }
+}
+
 // Writes text to <file>.tmp, checks it loads as a bank, then renames
 // (output_file.h: a full disk or a failed close is an error with its reason,
 // and the .tmp file is removed).
 void write_validated(const fs::path& file, const std::string& text) {
   write_file_atomically(
-      file, text,
-      [&](const fs::path& temporary) {
-        try {
-          load_bank_config(temporary);
-        } catch (const ConfigError& e) {
-          throw ConfigError(file.string(), e.line(), e.field(),
-                            "the result would not be a valid bank, nothing was written: " + std::string(e.what()));
-        }
-      },
-      ".tmp");
+      file, text, [&](const fs::path& temporary) { check_loads_as_bank(temporary, file); }, ".tmp");
 }
 
 bool is_top_level_key(const std::string& line) {
@@ -312,7 +314,10 @@ std::string format_mode_entry(const ModeConfig& mode, const sdk::MotionModel& mo
   return out;
 }
 
-void append_mode_to_bank(const fs::path& bank_file, const std::string& entry) {
+namespace {
+
+// The text of `bank_file` with `entry` at the end of its `modes:` list.
+std::string with_mode_appended(const fs::path& bank_file, const std::string& entry) {
   std::vector<std::string> lines = split_lines(read_text(bank_file));
   const auto [begin, end] = block_of(lines, "modes");
   if (begin == lines.size()) throw ConfigError(bank_file.string(), 0, "modes", "the bank has no modes: list");
@@ -321,7 +326,32 @@ void append_mode_to_bank(const fs::path& bank_file, const std::string& entry) {
   while (at > begin + 1 && lines[at - 1].find_first_not_of(' ') == std::string::npos) --at;
   std::vector<std::string> entry_lines = split_lines(entry);
   lines.insert(lines.begin() + static_cast<std::ptrdiff_t>(at), entry_lines.begin(), entry_lines.end());
-  write_validated(bank_file, join_lines(lines));
+  return join_lines(lines);
+}
+
+}  // namespace
+
+void append_mode_to_bank(const fs::path& bank_file, const std::string& entry) {
+  write_validated(bank_file, with_mode_appended(bank_file, entry));
+}
+
+void check_mode_appends(const fs::path& bank_file, const std::string& entry) {
+  // Beside the bank, as write_validated() checks it: the paths a bank names
+  // are relative to its own file.
+  const fs::path temporary = bank_file.string() + ".check.tmp";
+  struct Removed {
+    const fs::path& file;
+    ~Removed() {
+      std::error_code ignored;
+      fs::remove(file, ignored);
+    }
+  } removed{temporary};
+  write_file_atomically(temporary, with_mode_appended(bank_file, entry));
+  try {
+    load_bank_config(temporary);
+  } catch (const ConfigError& e) {
+    throw ConfigError(bank_file.string(), e.line(), e.field(), e.message());
+  }
 }
 
 void write_bank_from_template(const fs::path& template_file, const fs::path& output,

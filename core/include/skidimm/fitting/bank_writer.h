@@ -52,6 +52,14 @@ std::string format_mode_entry(const ModeConfig& mode, const sdk::MotionModel& mo
 // it was.
 void append_mode_to_bank(const std::filesystem::path& bank_file, const std::string& entry);
 
+// Throws what append_mode_to_bank() would, without changing the bank: before
+// a fit, with the entry of its starting values, so that a bank the fitted
+// mode cannot join (per-mode dwell times without one for it, a transition
+// matrix, a floor too high for one more mode, another state size) is found
+// before the fit rather than after it. Its ConfigError names `bank_file`, at
+// the line and field of the complaint.
+void check_mode_appends(const std::filesystem::path& bank_file, const std::string& entry);
+
 // Writes `output`: the template's text with its leading comment replaced by
 // `header` (lines, without '#') and each listed top-level block (key, text
 // starting with "key:") replaced, or inserted before `modes:` when the
