@@ -113,9 +113,10 @@ def tune_blocks(path):
         lines = part.rstrip("\n").splitlines()
         verdict = lines[-1].strip() if slug != "selection" else ""
         # The share of held-out steps outside the true class's fitted ranges, and the accuracy there and elsewhere.
+        # (tune names only the sides that have steps: "A of those and B of the others", "A of those", "B of the steps")
         outside = re.search(r"inputs outside the ranges the true class was fitted on: ([0-9.]+%) of the labelled "
-                            r"steps; the most likely class right on ([0-9.]+%|-) of those and ([0-9.]+%|-) of the "
-                            r"others", part)
+                            r"steps; the most likely class right on (?:([0-9.]+%) of those)?(?: and )?"
+                            r"(?:([0-9.]+%) of the (?:others|steps))?\n", part)
         out[slug] = {"classes": classes, "mean": float(mean.group(1)), "log_p": float(mean.group(2)),
                      "verdict": verdict, "outside": outside.groups() if outside else None}
     return out
@@ -131,7 +132,8 @@ def scores_by_kind(path):
 
 
 def run_number(log):
-    return re.match(r"pro_(\d+)\.csv", log).group(1)
+    # tune names a run "pro_NN.csv+imu_NN.csv", or "TERRAIN/pro_NN.csv+..." where another terrain has a run NN.
+    return re.match(r"(?:\w+/)?pro_(\d+)\.csv", log).group(1)
 
 
 def verdict_word(verdict):
@@ -506,7 +508,7 @@ def discount(work, first, summary):
     for prefix in ("discount_first", "discount"):
         # Each held-out log's row of a nested assessment ends with the settings its fold chose.
         for line in read(os.path.join(work, "borealtc", f"{prefix}_tune.txt")).splitlines():
-            if not (line.startswith("  pro_") and " objective " in line):
+            if not (re.match(r"  (?:\w+/)?pro_", line) and " objective " in line):
                 continue
             scale = re.search(r"extrapolation scale (\S+?)(?:,|$)", line)
             if not scale:
@@ -526,7 +528,9 @@ def discount(work, first, summary):
     if any(design_blocks[slug]["outside"] is None for slug in HELD_OUT):
         sys.exit("discount: the design's tune names no held-out steps outside the fitted ranges")
     shares = {slug: design_blocks[slug]["outside"] for slug in HELD_OUT}
-    outside = "; ".join(f"{SHORT[slug]} {share} (right on {right} of it, {elsewhere} elsewhere)"
+    def accuracies(right, elsewhere):
+        return ", ".join(([f"right on {right} of it"] if right else []) + ([f"{elsewhere} elsewhere"] if elsewhere else []))
+    outside = "; ".join(f"{SHORT[slug]} {share} ({accuracies(right, elsewhere)})"
                         for slug, (share, right, elsewhere) in shares.items())
     # The held-out runs a quarter or more of whose steps lie outside their terrain's ranges, by protocol.
     kinds = scores_by_kind(os.path.join(work, "borealtc", "scores.csv"))

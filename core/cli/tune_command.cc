@@ -123,12 +123,17 @@ void print_extrapolation(std::ostream& out, const std::vector<LogScore>& scores)
   for (const LogScore& s : scores) e.merge(s.extrapolation);
   if (e.labelled == 0) return;
   const auto percent = [](long part, long whole) {
-    return whole > 0 ? number(100.0 * static_cast<double>(part) / static_cast<double>(whole), "%.1f") + "%"
-                     : std::string("-");
+    return number(100.0 * static_cast<double>(part) / static_cast<double>(whole), "%.1f") + "%";
   };
+  // Each accuracy only over steps that exist, as eval says it: no "-" for an empty side.
+  const long inside = e.labelled - e.outside_truth;
   out << "  inputs outside the ranges the true class was fitted on: " << percent(e.outside_truth, e.labelled)
-      << " of the labelled steps; the most likely class right on " << percent(e.outside_truth_right, e.outside_truth)
-      << " of those and " << percent(e.inside_truth_right, e.labelled - e.outside_truth) << " of the others\n";
+      << " of the labelled steps; the most likely class right on ";
+  if (e.outside_truth > 0) out << percent(e.outside_truth_right, e.outside_truth) << " of those";
+  if (e.outside_truth > 0 && inside > 0) out << " and ";
+  if (inside > 0)
+    out << percent(e.inside_truth_right, inside) << (e.outside_truth > 0 ? " of the others" : " of the steps");
+  out << "\n";
 }
 
 // How fast the spliced runs' changes of class were followed (tune --splice).

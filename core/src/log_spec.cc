@@ -1,7 +1,10 @@
 #include "skidimm/io/log_spec.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <iterator>
+#include <map>
 #include <system_error>
 
 #include "skidimm/errors.h"
@@ -14,6 +17,56 @@ std::string LogSpec::name() const {
   std::string out;
   for (const LogFile& f : files) out += (out.empty() ? "" : "+") + f.path.filename().string();
   return out;
+}
+
+namespace {
+
+// The files' paths joined with '+', each from its last `depth` parts.
+std::string name_from_depth(const LogSpec& log, std::size_t depth) {
+  std::string out;
+  for (const LogFile& f : log.files) {
+    const std::vector<fs::path> parts(f.path.begin(), f.path.end());
+    fs::path tail;
+    for (std::size_t k = parts.size() > depth ? parts.size() - depth : 0; k < parts.size(); ++k) tail /= parts[k];
+    out += (out.empty() ? "" : "+") + tail.string();
+  }
+  return out;
+}
+
+std::size_t deepest_path(const LogSpec& log) {
+  std::size_t deepest = 0;
+  for (const LogFile& f : log.files) {
+    deepest = std::max(deepest, static_cast<std::size_t>(std::distance(f.path.begin(), f.path.end())));
+  }
+  return deepest;
+}
+
+}  // namespace
+
+std::vector<std::string> distinct_names(const std::vector<const LogSpec*>& logs) {
+  std::vector<std::string> names;
+  std::map<std::string, std::vector<std::size_t>> sharing;  // name() -> the logs that have it
+  for (std::size_t i = 0; i < logs.size(); ++i) {
+    names.push_back(logs[i]->name());
+    sharing[names.back()].push_back(i);
+  }
+  for (const auto& [name, group] : sharing) {
+    if (group.size() < 2) continue;
+    for (std::size_t i : group) {
+      const auto collides = [&](std::size_t depth) {
+        const std::string mine = name_from_depth(*logs[i], depth);
+        for (std::size_t j : group) {
+          if (j != i && name_from_depth(*logs[j], depth) == mine) return true;
+        }
+        return false;
+      };
+      std::size_t depth = 2;
+      const std::size_t deepest = deepest_path(*logs[i]);
+      while (depth < deepest && collides(depth)) ++depth;
+      names[i] = name_from_depth(*logs[i], depth);
+    }
+  }
+  return names;
 }
 
 std::string joined_paths(const std::vector<LogFile>& files) {

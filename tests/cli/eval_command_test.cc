@@ -68,7 +68,9 @@ TEST(EvalCommand, PerClassAccuracyIsOverEachClassesOwnTimeInSwitchingLogs) {
   EXPECT_EQ(all["mean_over_classes"]["per_class"].size(), 1u) << "tune's figure: each log counted for its main truth";
   const Result table = run_skidimm(eval("--input " + kSwitching + " --input " + kSwitching));
   ASSERT_EQ(table.exit_code, 0) << table.err;
-  const std::string all_table = table.out.substr(table.out.find("\nall:"));
+  // Arguments of one name are one group (ArgumentsOfOneNameAreOneGroup): its section is the whole.
+  ASSERT_THAT(table.out, HasSubstr("ltc_switching: 2 log(s)"));
+  const std::string all_table = table.out;
   EXPECT_THAT(all_table, HasSubstr("per class, over its own true time:  asphalt "));
   EXPECT_THAT(all_table, HasSubstr(" grass "));
   EXPECT_THAT(all_table, HasSubstr(" crushed_concrete "));
@@ -122,6 +124,23 @@ TEST(EvalCommand, BlankTruthCellsAreUnlabelledAndNotScoredUnlessTheBankCarriesTh
   const YAML::Node c = json_of(carried)["overall"];
   EXPECT_NEAR(c["duration"].as<double>(), labelled + blank, 1e-4);
   EXPECT_NEAR(c["unlabelled_seconds"].as<double>(), 0.0, 1e-12);
+}
+
+// Two arguments of one name (files of one name in two folders) are one
+// group: --json named both groups alike, one key over the other.
+TEST(EvalCommand, ArgumentsOfOneNameAreOneGroup) {
+  const fs::path dir = test_directory();
+  fs::create_directories(dir / "a");
+  fs::create_directories(dir / "b");
+  const fs::path a = write_file(dir / "a" / "run.csv", read_file(kSwitching));
+  const fs::path b = write_file(dir / "b" / "run.csv", read_file(kSwitching));
+  const Result table = run_skidimm(eval("--input " + a.string() + " --input " + b.string()));
+  ASSERT_EQ(table.exit_code, 0) << table.err;
+  EXPECT_THAT(table.out, HasSubstr("run: 2 log(s)"));
+  const YAML::Node json = json_of(run_skidimm(eval("--input " + a.string() + " --input " + b.string() + " --json")));
+  ASSERT_EQ(json["groups"].size(), 1u);
+  EXPECT_EQ(json["groups"]["run"]["logs"].as<int>(), 2);
+  EXPECT_EQ(json["logs"].size(), 2u);
 }
 
 // A log without labelled time has nothing to score: said so, null in the

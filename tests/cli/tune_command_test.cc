@@ -266,6 +266,29 @@ std::string switching_log_in_four_parts(const fs::path& dir) {
   return logs;
 }
 
+// Logs of two folders with the same file names (as BorealTC's terrains
+// have) were named alike in tune's tables and --table: each is named by the
+// folder that tells it apart.
+TEST(Cli, TuneNamesLogsOfTheSameFileNameByTheirFolders) {
+  const fs::path dir = test_directory();
+  fs::create_directories(dir / "a");
+  fs::create_directories(dir / "b");
+  const std::string logs = switching_log_in_four_parts(dir / "a") + switching_log_in_four_parts(dir / "b");
+  const fs::path table = dir / "scores.csv";
+  const Result tune = run_skidimm("tune --bank " + kTerrains + logs + " --objective none --tune dwell --assess logs " +
+                                  "--threads 1 --plugin-path " + kPlugins + " --table " + table.string());
+  ASSERT_EQ(tune.exit_code, 0) << tune.err;
+  const std::string scores = read_file(table);
+  for (const std::string folder : {"a", "b"}) {
+    for (int part = 0; part < 4; ++part) {
+      const std::string name = folder + "/part" + std::to_string(part) + ".csv";
+      EXPECT_THAT(scores, HasSubstr("," + name + ",")) << scores;
+      EXPECT_THAT(tune.out, HasSubstr("  " + name + " ")) << tune.out;
+    }
+  }
+  EXPECT_THAT(scores, Not(::testing::ContainsRegex(",part[0-9][.]csv,")));
+}
+
 // `--tune unknown-inflation` chooses the unknown hypothesis' covariance
 // factor in each fold and writes it into the bank with its enter and leave
 // as they were; a bank without `unknown:` has nothing to tune and says so.
@@ -357,6 +380,18 @@ TEST(Cli, TuneSearchesTheExtrapolationScaleAndReportsTheHeldOutStepsOutsideTheFi
                                   " of the labelled steps; the most likely class right on "));
   const skidimm::BankConfig tuned = skidimm::load_bank_config(dir / "tuned.yaml");
   EXPECT_EQ(tuned.extrapolation_scale > 0.0, tune.out.find(", extrapolation scale off") == std::string::npos);
+  // Ranges every row is inside: the accuracy over all the steps, and no
+  // empty side ("-") to report.
+  std::string wide = read_file(kTerrains);
+  ASSERT_EQ(with_fitted_inputs(&wide, "{phi_dot_L: [-100, 100], phi_dot_R: [-100, 100]}"), 3);
+  const Result inside =
+      run_skidimm("tune --bank " + write_file(dir / "wide.yaml", wide).string() + logs +
+                  " --objective none --tune dwell --assess logs --threads 1 --plugin-path " + kPlugins);
+  ASSERT_EQ(inside.exit_code, 0) << inside.err;
+  EXPECT_THAT(inside.out, ::testing::ContainsRegex("inputs outside the ranges the true class was fitted on: 0.0% of "
+                                                   "the labelled steps; the most likely class right on "
+                                                   "[0-9]+[.][0-9]% of the steps\n"));
+  EXPECT_THAT(inside.out, Not(HasSubstr("right on -")));
   // A bank without ranges: nothing to report.
   std::string none = read_file(kTerrains);
   with_fitted_inputs(&none, "");

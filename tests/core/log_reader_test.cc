@@ -95,6 +95,35 @@ TEST(LogSpec, ParsesLabelsFilesAndOffsets) {
   expect_error([] { parse_log_spec("ice=+"); }, {"no file given"});
 }
 
+// Tables name a log by its files' names, and logs whose names would be the
+// same by as many of their last folders as tell them apart.
+TEST(LogSpec, DistinctNamesAddFoldersOnlyWhereNamesWouldBeTheSame) {
+  const std::vector<LogSpec> logs = {
+      parse_log_spec("ICE=data/ICE/pro_04.csv+data/ICE/imu_04.csv"),
+      parse_log_spec("SNOW=data/SNOW/pro_04.csv+data/SNOW/imu_04.csv"),
+      parse_log_spec("SNOW=data/SNOW/pro_05.csv+data/SNOW/imu_05.csv"),
+      parse_log_spec("a/day1/run.csv"),
+      parse_log_spec("b/day1/run.csv"),
+      parse_log_spec("run.csv"),
+      parse_log_spec("/abs/x.csv"),
+      parse_log_spec("/abs/x.csv"),
+  };
+  std::vector<const LogSpec*> specs;
+  for (const LogSpec& log : logs) specs.push_back(&log);
+  const std::vector<std::string> names = distinct_names(specs);
+  ASSERT_EQ(names.size(), logs.size());
+  EXPECT_EQ(names[0], "ICE/pro_04.csv+ICE/imu_04.csv");
+  EXPECT_EQ(names[1], "SNOW/pro_04.csv+SNOW/imu_04.csv");
+  EXPECT_EQ(names[2], "pro_05.csv+imu_05.csv");  // no other log of that name
+  EXPECT_EQ(names[3], "a/day1/run.csv");         // day1/ alone would not tell them apart
+  EXPECT_EQ(names[4], "b/day1/run.csv");
+  EXPECT_EQ(names[5], "run.csv");  // all of its path
+  // The same file twice: its whole path, the most there is to tell.
+  EXPECT_EQ(names[6], "/abs/x.csv");
+  EXPECT_EQ(names[7], "/abs/x.csv");
+  EXPECT_TRUE(distinct_names({}).empty());
+}
+
 TEST(LogReader, OneFileEveryRowAStepMissingMeasurementsNaN) {
   const auto file = write_file(test_directory() / "log.csv", "t,left,right,v,w\n0,1,2,0.5,\n0.1,1,2,nan,0.2\n");
   LogReader reader(simple_bank(), {file});

@@ -27,10 +27,14 @@ std::vector<LogJob> log_jobs(const std::vector<std::string>& arguments, const Lo
   std::vector<LogJob> jobs;
   for (const std::string& argument : arguments) {
     try {
-      LogGroup g{log_group_name(argument), {}};
+      const std::string name = log_group_name(argument);
       const std::vector<LogSpec> logs = expand_log_argument(argument, expansion);
-      groups->push_back(std::move(g));
-      for (const LogSpec& log : logs) jobs.push_back(LogJob{groups->size() - 1, log, nullptr});
+      // Arguments of one name (a label given twice, files of one name in
+      // two folders) are one group: the tables and --json name groups by it.
+      const auto same = std::find_if(groups->begin(), groups->end(), [&](const LogGroup& g) { return g.name == name; });
+      const std::size_t group = static_cast<std::size_t>(same - groups->begin());
+      if (same == groups->end()) groups->push_back(LogGroup{name, {}});
+      for (const LogSpec& log : logs) jobs.push_back(LogJob{group, log, nullptr});
     } catch (...) {
       jobs.push_back(LogJob{0, LogSpec{}, std::current_exception()});
       break;
@@ -76,7 +80,11 @@ std::vector<LogGroup> evaluate_groups(const std::vector<std::string>& arguments,
       errors[static_cast<std::size_t>(i)] = failure_message(job.log, e.what());
     }
   });
+  std::vector<const LogSpec*> specs;
+  for (const LogJob& job : jobs) specs.push_back(&job.log);
+  const std::vector<std::string> names = distinct_names(specs);
   for (std::size_t i = 0; i < jobs.size(); ++i) {
+    results[i].name = names[i];
     if (failed[i]) {
       failures->push_back(LogFailure{groups[jobs[i].group].name, joined_paths(jobs[i].log.files), errors[i]});
     } else {

@@ -68,7 +68,7 @@ class Tuner {
  public:
   Tuner(const std::function<Bank()>& make_bank, const std::vector<TuningLog>& logs,
         const std::map<std::string, BankFitter>& fitters, const TuneOptions& options)
-      : logs_(logs), fitters_(fitters), options_(options) {
+      : logs_(logs), names_(table_names(logs)), fitters_(fitters), options_(options) {
     // At most one thread per core: each worker holds a whole bank, and more
     // threads than cores only wait (a million of them never finished loading).
     const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -694,7 +694,7 @@ class Tuner {
       const TuningLog& log = logs_[static_cast<std::size_t>(i)];
       recorded.push_back(&recorded_[static_cast<std::size_t>(i)]);
       labels.push_back(log.spec.label);
-      names.push_back(log.spec.name());
+      names.push_back(names_[static_cast<std::size_t>(i)]);
       steps.push_back(static_cast<long>(recorded_[static_cast<std::size_t>(i)].samples().size()));
     }
     SplicedReplay source(recorded, labels, options_.sampling.rate > 0.0 ? 1.0 / options_.sampling.rate : 0.0);
@@ -716,7 +716,8 @@ class Tuner {
     const LogSpec& spec = logs_[static_cast<std::size_t>(i)].spec;
     RecordedLog::Replay replay = recorded_[static_cast<std::size_t>(i)].replay();
     if (bound == nullptr) {
-      return evaluation::score_of(evaluation::evaluate_log(bank, &replay, spec.name(), spec.label, estimates));
+      return evaluation::score_of(
+          evaluation::evaluate_log(bank, &replay, names_[static_cast<std::size_t>(i)], spec.label, estimates));
     }
     BoundedSource source(&replay, bound);
     const std::vector<double>& step_weight = step_weights_[static_cast<std::size_t>(i)];
@@ -729,8 +730,8 @@ class Tuner {
       cost += term;
       bound->add(term);
     };
-    LogScore score = evaluation::score_of(
-        evaluation::evaluate_log(bank, &source, spec.name(), spec.label, estimates, EstimatorOptions{}, observe));
+    LogScore score = evaluation::score_of(evaluation::evaluate_log(bank, &source, names_[static_cast<std::size_t>(i)],
+                                                                   spec.label, estimates, EstimatorOptions{}, observe));
     // Each log is in one fold of an evaluation: no other thread writes its entry.
     if (bound->costs != nullptr && !bound->lost) (*bound->costs)[static_cast<std::size_t>(i)] = cost;
     return score;
@@ -906,7 +907,15 @@ class Tuner {
     return current;
   }
 
+  // Each log's name in the tables: its files' names, or paths where those would be the same.
+  static std::vector<std::string> table_names(const std::vector<TuningLog>& logs) {
+    std::vector<const LogSpec*> specs;
+    for (const TuningLog& log : logs) specs.push_back(&log.spec);
+    return distinct_names(specs);
+  }
+
   const std::vector<TuningLog>& logs_;
+  const std::vector<std::string> names_;
   const std::map<std::string, BankFitter>& fitters_;
   const TuneOptions& options_;
   int workers_ = 1;

@@ -63,7 +63,7 @@ class ClassScorer {
 
 // One log's results.
 struct LogResult {
-  std::string name;    // the files' names joined by '+', for tables
+  std::string name;    // for tables: the files' names joined by '+' (distinct_names(), log_spec.h)
   std::string source;  // the log as given: its files' paths joined by '+' (eval --json keys logs by it)
   std::vector<std::string> classes;  // what the estimator answers with, in the bank's order
   ModeMetrics metrics;           // of the most likely mode (class)

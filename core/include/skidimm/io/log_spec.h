@@ -36,6 +36,12 @@ struct LogSpec {
   std::string name() const;  // the files' names joined with '+', for tables
 };
 
+// Each log's name() for tables, except where two logs' names would be the
+// same (runs of two folders that share file names, as BorealTC's terrains
+// do): those are named by their files' paths from as many of the last
+// folders as tell them apart ("ICE/pro_04.csv+ICE/imu_04.csv").
+std::vector<std::string> distinct_names(const std::vector<const LogSpec*>& logs);
+
 // Parses one log argument. A '=' or '@' that is part of an existing file's
 // name is kept in the name. Throws Error on an empty file list or a bad offset.
 LogSpec parse_log_spec(const std::string& text);
