@@ -159,6 +159,14 @@ int plot(const PlotOptions& options) {
     if (modes.empty() || column_of(header, "t") != 1) {
       throw LogError(options.estimates.string(), 1, "not a `skidimm run` output: expected t and mu_<mode> columns");
     }
+    if (!options.bank.empty()) {
+      // The bank reads the log for the figure's panels: another bank's would
+      // draw them from another log's columns, or from none, without a word.
+      std::vector<std::string> names;
+      for (const auto& mode : modes) names.push_back(mode.second);
+      const std::string problem = load_bank_config(options.bank).estimates_modes_problem(names);
+      if (!problem.empty()) throw LogError(options.estimates.string(), 1, problem);
+    }
     // State columns: those followed by var_<state>.
     std::vector<std::string> states;
     for (const std::string& h : header) {

@@ -381,6 +381,12 @@ std::string BankConfig::shown_file() const {
   return file.string();
 }
 
+std::string BankConfig::estimates_modes_problem(const std::vector<std::string>& estimated) const {
+  bool same = estimated.size() == modes.size();
+  for (std::size_t j = 0; same && j < modes.size(); ++j) same = estimated[j] == modes[j].name;
+  return same ? std::string() : "its modes differ from bank '" + name + "': it was run with another bank";
+}
+
 int BankConfig::mode_index(const std::string& mode_name) const {
   for (std::size_t j = 0; j < modes.size(); ++j) {
     if (modes[j].name == mode_name) return static_cast<int>(j);

@@ -71,6 +71,19 @@ TEST(Cli, PlotDrawsPngAndSvgAndSaysWhenGnuplotIsMissing) {
                                      (dir / "o.png").string());
   EXPECT_EQ(undrawn.exit_code, 2) << undrawn.err;
   EXPECT_THAT(undrawn.err, HasSubstr("--log is drawn in the panels of --states"));
+  // Estimates of another bank than --bank's were drawn without the log's
+  // panels, and exit 0; eval refuses them, and so does plot now.
+  const Result other_bank = run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --bank " + kSource +
+                                        "/configs/ltc_terrains.yaml --plugin-path " + kPlugins + " --log " + log +
+                                        " --states --output " + (dir / "b.png").string());
+  EXPECT_EQ(other_bank.exit_code, 1) << other_bank.err;
+  EXPECT_THAT(other_bank.err, HasSubstr((dir / "out.csv").string() +
+                                        ":1: its modes differ from bank 'ltc_terrains': it was run with another bank"));
+  EXPECT_FALSE(fs::exists(dir / "b.png"));
+  const Result same_bank = run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --bank " + kSource +
+                                       "/configs/stc_slip4.yaml --plugin-path " + kPlugins + " --log " + log +
+                                       " --states --output " + (dir / "b.png").string());
+  EXPECT_EQ(same_bank.exit_code, 0) << same_bank.err;
 }
 
 // gnuplot's line colours repeat after 8: in a bank of more modes, each mode

@@ -78,11 +78,10 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank, const
   }
   if (probability_columns.empty()) throw LogError(file.string(), 1, "no mu_<mode> columns: not a `skidimm run` output");
   if (bank != nullptr) {
-    for (std::size_t j = 0; j < modes_only.modes.size(); ++j) {
-      if (static_cast<int>(j) >= bank->num_modes() || bank->modes[j].name != modes_only.modes[j].name) {
-        throw LogError(file.string(), 1, "its modes differ from bank '" + bank->name + "': it was run with another bank");
-      }
-    }
+    std::vector<std::string> names;
+    for (const ModeConfig& m : modes_only.modes) names.push_back(m.name);
+    const std::string problem = bank->estimates_modes_problem(names);
+    if (!problem.empty()) throw LogError(file.string(), 1, problem);
   }
   // The probability of the bank's unknown hypothesis, when it has one.
   const int unknown = reader.column("unknown_probability");

@@ -201,6 +201,9 @@ struct BankConfig {
   int input_dim() const { return static_cast<int>(input_names.size()); }
   int num_modes() const { return static_cast<int>(modes.size()); }
   int mode_index(const std::string& mode_name) const;  // -1 if absent
+  // Whether a run output whose mu_<mode> columns name `modes`, in order, was
+  // written with this bank: empty if so, else why not (for eval and plot).
+  std::string estimates_modes_problem(const std::vector<std::string>& modes) const;
   // Mode j's measurement noise: its own R, else the bank's.
   const Eigen::MatrixXd& measurement_noise(int j) const {
     const Eigen::MatrixXd& own = modes[static_cast<std::size_t>(j)].r;
