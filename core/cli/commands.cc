@@ -333,9 +333,10 @@ int run(const RunOptions& options) {
 }
 
 int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_paths,
-             const std::vector<std::string>& checks) {
+             const std::vector<std::string>& checks, double rate) {
   return report_errors("skidimm validate", [&] {
-    const Bank bank = Bank::load(bank_file, plugin_paths);
+    Bank bank = Bank::load(bank_file, plugin_paths);
+    bank.config.sampling = sampling_of(bank.config, rate);
     const BankConfig& c = bank.config;
     // Without a log, the column texts any log would be refused for. (With
     // --check each log is read through the columns, which decides for certain.)
@@ -346,6 +347,15 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
     for (const std::string& problem : unreadable) {
       std::cerr << "skidimm validate: warning: " << bank_file.string() << ": " << problem
                 << " (a log can give it only as a column of exactly this text; --check LOG reads one)\n";
+    }
+    // A measurement that aggregates a step's rows needs a fixed step, which
+    // `run --rate` can give: a warning here, an error where it runs without one.
+    if (c.sampling.rate <= 0.0) {
+      for (const std::string& field : LogReader::aggregated_measurements(c)) {
+        std::cerr << "skidimm validate: warning: " << bank_file.string() << ": " << field
+                  << " aggregates the rows of a filter step, which needs a fixed step: run, eval, fit and tune "
+                     "refuse this bank without --rate; set sampling.rate (Hz) in the bank, or give --rate\n";
+      }
     }
     std::cout << "  bank:        " << c.name << (c.description.empty() ? "" : " - " + c.description) << "\n";
     std::cout << "  states:      [" << join(c.state_names) << "]";

@@ -214,9 +214,11 @@ struct PlotOptions {
 int plot(const PlotOptions& options);
 // With `checks` (log arguments, as `fit --log` takes them), also runs the
 // conformance kit's checks on each mode at operating points of those logs
-// (model_conformance.h); kExitFailure when a mode fails them.
+// (model_conformance.h); kExitFailure when a mode fails them. `rate` (Hz,
+// > 0) steps the bank as `run --rate` would, for the logs and for the
+// warning of measurements that aggregate a step's rows.
 int validate(const std::filesystem::path& bank, const std::vector<std::filesystem::path>& plugin_paths,
-             const std::vector<std::string>& checks = {});
+             const std::vector<std::string>& checks = {}, double rate = 0.0);
 // Writes the project of a new plugin NAME into parent/NAME (which must not exist).
 int new_plugin(const std::string& name, const std::filesystem::path& parent);
 int plugins(const std::vector<std::filesystem::path>& plugin_paths);

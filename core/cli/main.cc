@@ -273,6 +273,8 @@ int main(int argc, char** argv) {
                        "[MODE=]FILE[@OFFSET][+FILE...]: also check each mode's model at 20 operating points of this "
                        "log (a directory or a '*' pattern for several): its Jacobian against finite differences, "
                        "finite values, dt = 0 the identity; repeatable");
+  double validate_rate = 0.0;
+  add_rate(validate, &validate_rate);
   add_plugin_path(validate);
 
   SimulateOptions simulate_options;
@@ -529,8 +531,27 @@ int main(int argc, char** argv) {
     std::cout << app.help();
     return kExitOk;
   }
+  // What was not expected, in the order given (CLI11's own message lists
+  // it backwards: "x --smoth" for "--smoth x").
+  const auto not_expected = [&app] {
+    const std::vector<std::string> extras = app.remaining(true);
+    std::string text =
+        extras.size() > 1 ? "The following arguments were not expected:" : "The following argument was not expected:";
+    for (const std::string& extra : extras) text += " " + extra;
+    return text;
+  };
   try {
     app.parse(argc, argv);
+  } catch (const CLI::ExtrasError& e) {
+    app.exit(CLI::ExtrasError(not_expected(), e.get_exit_code()));
+    return kExitUsage;
+  } catch (const CLI::RequiredError& e) {
+    // CLI11 checks what is required before what was not expected, so a
+    // mistyped required option (--ouput) read "--output is required" and
+    // the typo went unnamed. What was not expected is the news.
+    if (!app.remaining(true).empty()) std::cerr << not_expected() << "\n";
+    app.exit(e);
+    return kExitUsage;
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);
     return code == 0 ? kExitOk : kExitUsage;
@@ -580,7 +601,7 @@ int main(int argc, char** argv) {
     figure.title = fs::path(bank).stem().string() + " on " + skidimm::join_log_arguments(run_options.inputs).name();
     return skidimm::cli::plot(figure);
   }
-  if (*validate) return skidimm::cli::validate(validate_bank, paths, validate_checks);
+  if (*validate) return skidimm::cli::validate(validate_bank, paths, validate_checks, validate_rate);
   if (*eval) {
     eval_options.bank = eval_bank;
     eval_options.plugin_paths = paths;

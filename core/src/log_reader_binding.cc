@@ -210,6 +210,22 @@ std::vector<std::string> LogReader::unreadable_column_texts(const BankConfig& ba
   return problems;
 }
 
+std::vector<std::string> LogReader::aggregated_measurements(const BankConfig& bank) {
+  std::vector<std::string> fields;
+  for (std::size_t i = 0; i < bank.columns.measurements.size() && i < bank.measurement.names.size(); ++i) {
+    const std::string& text = bank.columns.measurements[i];
+    if (Expression::is_identifier(std::string(trim(text)))) continue;
+    try {
+      if (!Expression::cut_calls(text, aggregate_names()).calls.empty()) {
+        fields.push_back("columns.measurements." + bank.measurement.names[i]);
+      }
+    } catch (const ExpressionError&) {
+      // unreadable_column_texts() says why
+    }
+  }
+  return fields;
+}
+
 void LogReader::Impl::missing_column(const std::string& column, const std::string& field) const {
   // Each file's columns after its name when the log has several: one list
   // read as the first file's (an IMU column reported missing from the wheels').

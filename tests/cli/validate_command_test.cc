@@ -123,6 +123,33 @@ TEST(Cli, AModelsComplaintNamesTheBankAsItWasGiven) {
               ::testing::StartsWith("skidimm validate: error: " + (dir / "negative_radius.yaml").string() + ":"));
 }
 
+// A measurement that aggregates a step's rows needs a fixed step: validate
+// said OK of a bank without one, which run refused. A warning (run --rate
+// can give the step), and --rate gives it to validate as to run.
+TEST(Cli, ValidateWarnsOfAnAggregatedMeasurementWithoutAFixedStep) {
+  const fs::path dir = test_directory();
+  std::string text = read_file(kSource + "/configs/ltc_terrains.yaml");
+  const std::string columns = "  truth_mode: mode";
+  ASSERT_NE(text.find(columns), std::string::npos);
+  text.replace(text.find(columns), columns.size(), columns + "\n  measurements: {V: \"mean(V)\"}");
+  const fs::path bank = write_file(dir / "mean.yaml", text);
+  const std::string validate = "validate " + bank.string() + " --plugin-path " + kPlugins;
+  const Result plain = run_skidimm(validate);
+  EXPECT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_THAT(plain.err, HasSubstr("skidimm validate: warning: " + bank.string() +
+                                   ": columns.measurements.V aggregates the rows of a filter step, which needs a "
+                                   "fixed step"));
+  const std::string log = kSource + "/configs/examples/ltc_switching.csv";
+  const Result run = run_skidimm("run -q --bank " + bank.string() + " --plugin-path " + kPlugins + " --input " + log +
+                                 " --output " + (dir / "out.csv").string());
+  EXPECT_EQ(run.exit_code, 1) << "what the warning foretells";
+  EXPECT_THAT(run.err, HasSubstr("aggregates the rows of a filter step"));
+  const Result stepped = run_skidimm(validate + " --rate 10 --check " + log);
+  EXPECT_EQ(stepped.exit_code, 0) << stepped.err;
+  EXPECT_THAT(stepped.err, Not(HasSubstr("aggregates")));
+  EXPECT_EQ(run_skidimm(validate + " --check " + log).exit_code, 1) << "the log read without a fixed step";
+}
+
 // An empty parameter covariance would read as none at all.
 TEST(Cli, ValidateRefusesAnEmptyParameterCovariance) {
   const fs::path dir = test_directory();

@@ -124,6 +124,10 @@ class LogReader : public SampleSource {
   // `field.angular_velocity.z`) is still read as that column, so these are
   // warnings, not errors.
   static std::vector<std::string> unreadable_column_texts(const BankConfig& bank);
+  // The fields (columns.measurements.NAME) whose text aggregates the rows of
+  // a filter step (mean(...), last(...), ...), which a reader can bind only
+  // with a fixed step (sampling.rate).
+  static std::vector<std::string> aggregated_measurements(const BankConfig& bank);
 
   // Reads the next step. Returns false at the end of the log.
   bool next(LogSample* sample) override;
