@@ -81,6 +81,13 @@ void print_report(const BankConfig& config, const std::string& name, const ModeL
 int fit(const FitCommandOptions& options) {
   fitting::capture_solver_messages();  // Ceres' glog output, summarised below instead of flooding stderr
   const int code = report_errors("skidimm fit", [&] {
+    // Options that cannot go together are a bad command line, said before
+    // the bank and the logs are read (the fit would refuse it only then).
+    if (options.shared && fitting::objective_from_string(options.objective) == fitting::Objective::kLikelihood) {
+      throw UsageError(
+          "--shared fits the bank-level (shared:) parameters by the window objective only: add "
+          "--objective window (the likelihood objective fits each mode's own parameters and noise)");
+    }
     Bank bank = Bank::load(options.bank, options.plugin_paths);
     const BankConfig& config = bank.config;
     const SamplingConfig sampling = sampling_of(config, options.rate);

@@ -290,7 +290,7 @@ int tune(const TuneCommandOptions& options) {
     const bool by_session = std::any_of(protocols.begin(), protocols.end(), [](const fitting::Protocol& p) {
       return p.kind == fitting::Protocol::Kind::kSessions;
     });
-    if (by_session && options.sessions.empty()) throw Error("--assess sessions needs --sessions FILE");
+    if (by_session && options.sessions.empty()) throw UsageError("--assess sessions needs --sessions FILE");
     // Read by the sessions protocol alone: without it the file would be
     // checked against the logs and then ignored.
     if (!options.sessions.empty() && (options.no_assess || !by_session)) {

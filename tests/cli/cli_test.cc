@@ -35,6 +35,22 @@ TEST(Cli, UsageErrorsExitWithTwoAndHelpWithZero) {
   const Result missing_bank = run_skidimm("run --bank /no/such/bank.yaml --input /no/such/log.csv");
   EXPECT_EQ(missing_bank.exit_code, 2);
   EXPECT_THAT(missing_bank.err, HasSubstr("--bank: File does not exist: /no/such/bank.yaml"));
+  // A mistyped required option is named, not only the option it left out
+  // (CLI11 checks what is required first: "--output is required" alone).
+  const Result typo = run_skidimm("run --bank " + kTerrains + " --input " + kSwitching + " --ouput o.csv");
+  EXPECT_EQ(typo.exit_code, 2);
+  EXPECT_THAT(typo.err, HasSubstr("The following arguments were not expected: --ouput o.csv"));
+  EXPECT_THAT(typo.err, HasSubstr("--output is required"));
+  const Result only_missing = run_skidimm("run --bank " + kTerrains + " --input " + kSwitching);
+  EXPECT_EQ(only_missing.exit_code, 2);
+  EXPECT_THAT(only_missing.err, HasSubstr("--output is required"));
+  EXPECT_THAT(only_missing.err, ::testing::Not(HasSubstr("not expected")));
+  // In the order given (CLI11 lists them backwards).
+  const Result extras = run_skidimm("run --bank " + kTerrains + " --input " + kSwitching + " --output o.csv --smoth x");
+  EXPECT_EQ(extras.exit_code, 2);
+  EXPECT_THAT(extras.err, HasSubstr("The following arguments were not expected: --smoth x\n"));
+  EXPECT_THAT(run_skidimm("eval --input " + kSwitching + " --bnak").err,
+              HasSubstr("The following argument was not expected: --bnak\n"));
   const Result help = run_skidimm("run --help");
   EXPECT_EQ(help.exit_code, 0);
   EXPECT_THAT(help.out, HasSubstr("--plugin-path"));
@@ -59,9 +75,14 @@ TEST(Cli, OptionsThatCannotBeHonouredTogetherExitWithTwo) {
   const std::string bank = " --bank " + kTerrains + " --plugin-path " + kPlugins;
   const std::string scenario = " --scenario " + kSource + "/configs/scenarios/ltc_switching.yaml";
   const std::string out = " --output " + (dir / "out.csv").string();
+  const std::string two_logs =
+      " --log " + kSwitching + " --log " + write_file(dir / "copy.csv", read_file(kSwitching)).string();
   const struct {
     std::string arguments, message;
   } clashes[] = {
+      {"fit" + bank + " --log " + kSwitching + " --shared",
+       "--shared fits the bank-level (shared:) parameters by the window objective only: add --objective window"},
+      {"tune" + bank + two_logs + " --assess sessions", "--assess sessions needs --sessions FILE"},
       {"run" + bank + " --input " + kSwitching + out + " --smooth --lag 1",
        "smooth (over the whole log) and lag (smoothing with a fixed lag) exclude each other"},
       {"eval" + bank + " --input " + kSwitching + " --smooth --lag 1",
