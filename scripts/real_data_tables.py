@@ -280,7 +280,8 @@ def chosen_per_fold(ours, theirs, slug):
         sys.exit(f"{slug}: the two designs' tables hold out different sets")
     rows, won = [], [0, 0]
     for fold in sorted(a):
-        logs = lambda rs: sorted((r["log"], r["truth"]) for r in rs)
+        # By run: a log's name in a tune's table depends on the other logs given (distinct_names)
+        logs = lambda rs: sorted((r["truth"], run_number(r["log"])) for r in rs)
         if logs(a[fold]) != logs(b[fold]):
             sys.exit(f"{slug}, held-out set {fold}: the two designs hold out different logs")
         take_theirs = float(b[fold][0]["selection_score"]) > float(a[fold][0]["selection_score"])
@@ -537,7 +538,7 @@ def discount(work, first, summary):
     far = []
     for slug in HELD_OUT:
         runs = [r for r in kinds[slug] if float(r["outside_fitted_inputs"]) >= 0.25]
-        runs.sort(key=lambda r: (r["truth"], r["log"]))
+        runs.sort(key=lambda r: (r["truth"], run_number(r["log"])))
         far.append(f"{SHORT[slug]}: " + (", ".join(
             f"{r['truth']} {run_number(r['log'])} ({pct(float(r['outside_fitted_inputs']))} of it, read right "
             f"{pct(float(r['accuracy']))})" for r in runs) if runs else "none"))
