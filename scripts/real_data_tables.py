@@ -133,7 +133,7 @@ def scores_by_kind(path):
 
 def run_number(log):
     # tune names a run "pro_NN.csv+imu_NN.csv", or "TERRAIN/pro_NN.csv+..." where another terrain has a run NN.
-    return re.match(r"(?:\w+/)?pro_(\d+)\.csv", log).group(1)
+    return re.match(r"(?:.*/)?pro_(\d+)\.csv", log).group(1)
 
 
 def verdict_word(verdict):
@@ -509,7 +509,7 @@ def discount(work, first, summary):
     for prefix in ("discount_first", "discount"):
         # Each held-out log's row of a nested assessment ends with the settings its fold chose.
         for line in read(os.path.join(work, "borealtc", f"{prefix}_tune.txt")).splitlines():
-            if not (re.match(r"  (?:\w+/)?pro_", line) and " objective " in line):
+            if not (re.match(r"  (?:\S*/)?pro_", line) and " objective " in line):
                 continue
             scale = re.search(r"extrapolation scale (\S+?)(?:,|$)", line)
             if not scale:

@@ -354,7 +354,8 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
       for (const std::string& field : LogReader::aggregated_measurements(c)) {
         std::cerr << "skidimm validate: warning: " << bank_file.string() << ": " << field
                   << " aggregates the rows of a filter step, which needs a fixed step: run, eval, fit and tune "
-                     "refuse this bank without --rate; set sampling.rate (Hz) in the bank, or give --rate\n";
+                     "refuse this bank without --rate (unless a log has a column of exactly this text); set "
+                     "sampling.rate (Hz) in the bank, or give --rate\n";
       }
     }
     std::cout << "  bank:        " << c.name << (c.description.empty() ? "" : " - " + c.description) << "\n";

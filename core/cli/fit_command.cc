@@ -129,6 +129,15 @@ int fit(const FitCommandOptions& options) {
       if (!options.append_to.empty()) {
         taken(load_bank_config(options.append_to), "", "--append-to " + options.append_to.string());
       }
+    } else if (!options.append_to.empty()) {
+      // The fitted mode keeps its name: one the bank already has is a clash too.
+      const std::string& name = config.modes[static_cast<std::size_t>(data[0].mode)].name;
+      for (const ModeConfig& m : load_bank_config(options.append_to).modes) {
+        if (m.name == name) {
+          throw Error("mode '" + name + "': --append-to " + options.append_to.string() +
+                      " already has a mode of that name: give the fitted mode another with --name");
+        }
+      }
     }
     if (!options.output_bank.empty()) check_output_path(options.output_bank, "--output-bank");
     if (!options.output_entry.empty()) check_output_path(options.output_entry, "--output-entry");

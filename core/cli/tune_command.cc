@@ -233,6 +233,28 @@ int tune(const TuneCommandOptions& options) {
         }
       }
     }
+    // Checked before the bank and the logs are read. Their tables, table rows and estimate folders are named by the
+    // slug.
+    for (std::size_t later = 1; later < protocols.size(); ++later) {
+      for (std::size_t k = 0; k < later; ++k) {
+        if (protocols[k].slug() == protocols[later].slug()) {
+          throw Error("--assess: two protocols named '" + protocols[later].name() +
+                      "': their tables and estimates would be mixed; give each its own name");
+        }
+      }
+    }
+    if (protocols.empty()) throw Error("--assess: expected at least one protocol");
+    const bool by_session = std::any_of(protocols.begin(), protocols.end(), [](const fitting::Protocol& p) {
+      return p.kind == fitting::Protocol::Kind::kSessions;
+    });
+    if (by_session && options.sessions.empty()) throw UsageError("--assess sessions needs --sessions FILE");
+    // Read by the sessions protocol alone: without it the file would be
+    // checked against the logs and then ignored.
+    if (!options.sessions.empty() && (options.no_assess || !by_session)) {
+      throw UsageError("--sessions " + options.sessions.string() +
+                       ": the sessions are used only by --assess sessions, which this command does not run" +
+                       (options.no_assess ? " (--no-assess)" : "") + "; add the protocol or leave --sessions out");
+    }
     const Bank start = Bank::load(options.bank, options.plugin_paths);
     const BankConfig& config = start.config;
     const SamplingConfig sampling = sampling_of(config, options.rate);
@@ -277,27 +299,6 @@ int tune(const TuneCommandOptions& options) {
     refuse_clashing_files({{"--table", options.table}}, {{"--bank", options.bank}});
     refuse_repeated_logs(logs);
 
-    // Their tables, table rows and estimate folders are named by the slug.
-    for (std::size_t later = 1; later < protocols.size(); ++later) {
-      for (std::size_t k = 0; k < later; ++k) {
-        if (protocols[k].slug() == protocols[later].slug()) {
-          throw Error("--assess: two protocols named '" + protocols[later].name() +
-                      "': their tables and estimates would be mixed; give each its own name");
-        }
-      }
-    }
-    if (protocols.empty()) throw Error("--assess: expected at least one protocol");
-    const bool by_session = std::any_of(protocols.begin(), protocols.end(), [](const fitting::Protocol& p) {
-      return p.kind == fitting::Protocol::Kind::kSessions;
-    });
-    if (by_session && options.sessions.empty()) throw UsageError("--assess sessions needs --sessions FILE");
-    // Read by the sessions protocol alone: without it the file would be
-    // checked against the logs and then ignored.
-    if (!options.sessions.empty() && (options.no_assess || !by_session)) {
-      throw UsageError("--sessions " + options.sessions.string() +
-                       ": the sessions are used only by --assess sessions, which this command does not run" +
-                       (options.no_assess ? " (--no-assess)" : "") + "; add the protocol or leave --sessions out");
-    }
     if (!options.estimates.empty()) {
       // A folder of an earlier run's files would be scored with this run's
       // by `eval --estimates`, as if one run had written them all.

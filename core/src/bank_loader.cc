@@ -375,10 +375,10 @@ std::string BankConfig::shown_file() const {
   std::error_code error;
   const fs::path here = fs::current_path(error);
   if (!error) {
-    const fs::path below = file.lexically_relative(here);
-    if (!below.empty() && *below.begin() != "..") return below.string();
+    const std::string relative = file.lexically_normal().lexically_relative(here).string();
+    if (!relative.empty() && relative.size() <= file.lexically_normal().string().size()) return relative;
   }
-  return file.string();
+  return file.lexically_normal().string();
 }
 
 std::string BankConfig::estimates_modes_problem(const std::vector<std::string>& estimated) const {

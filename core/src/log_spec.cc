@@ -52,18 +52,23 @@ std::vector<std::string> distinct_names(const std::vector<const LogSpec*>& logs)
   }
   for (const auto& [name, group] : sharing) {
     if (group.size() < 2) continue;
-    for (std::size_t i : group) {
-      const auto collides = [&](std::size_t depth) {
-        const std::string mine = name_from_depth(*logs[i], depth);
-        for (std::size_t j : group) {
-          if (j != i && name_from_depth(*logs[j], depth) == mine) return true;
+    // Deeper a folder at a time, every log of the group's tail counted once
+    // a depth: a log is named at the first depth where its tail is its own,
+    // or by its whole path.
+    std::vector<std::size_t> unnamed = group;
+    for (std::size_t depth = 2; !unnamed.empty(); ++depth) {
+      std::map<std::string, int> count;
+      for (std::size_t i : group) ++count[name_from_depth(*logs[i], depth)];
+      std::vector<std::size_t> still;
+      for (std::size_t i : unnamed) {
+        std::string tail = name_from_depth(*logs[i], depth);
+        if (count[tail] == 1 || depth >= deepest_path(*logs[i])) {
+          names[i] = std::move(tail);
+        } else {
+          still.push_back(i);
         }
-        return false;
-      };
-      std::size_t depth = 2;
-      const std::size_t deepest = deepest_path(*logs[i]);
-      while (depth < deepest && collides(depth)) ++depth;
-      names[i] = name_from_depth(*logs[i], depth);
+      }
+      unnamed = std::move(still);
     }
   }
   return names;

@@ -82,7 +82,9 @@ TEST(Cli, OptionsThatCannotBeHonouredTogetherExitWithTwo) {
   } clashes[] = {
       {"fit" + bank + " --log " + kSwitching + " --shared",
        "--shared fits the bank-level (shared:) parameters by the window objective only: add --objective window"},
-      {"tune" + bank + two_logs + " --assess sessions", "--assess sessions needs --sessions FILE"},
+      // Said before the logs are read: a missing one does not hide it.
+      {"tune" + bank + two_logs + " --log " + (dir / "missing.csv").string() + " --assess sessions",
+       "--assess sessions needs --sessions FILE"},
       {"run" + bank + " --input " + kSwitching + out + " --smooth --lag 1",
        "smooth (over the whole log) and lag (smoothing with a fixed lag) exclude each other"},
       {"eval" + bank + " --input " + kSwitching + " --smooth --lag 1",

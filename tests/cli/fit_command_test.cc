@@ -782,6 +782,32 @@ TEST(CliIo, FitChecksThatTheAppendedModeCanJoinTheBankBeforeFitting) {
   for (const auto& entry_in_dir : fs::directory_iterator(dir)) {
     EXPECT_EQ(entry_in_dir.path().string().find(".tmp"), std::string::npos) << entry_in_dir.path();
   }
+  // A block after modes: is named at its own line, not the line it has
+  // with the entry inserted before it.
+  std::string late = terrains;
+  const std::string transition = "transition:\n" + dwell;
+  ASSERT_NE(late.find(transition), std::string::npos);
+  late.erase(late.find(transition), transition.size());
+  late += "transition:\n  mean_dwell_time: {asphalt: 20, grass: 10, crushed_concrete: 5}\n";
+  const fs::path moved = write_file(dir / "late.yaml", late);
+  const int line = 1 + static_cast<int>(std::count(late.begin(), late.begin() + late.rfind("  mean_dwell_time"), '\n'));
+  expect_refused_before(fit + moved.string(),
+                        moved.string() + ":" + std::to_string(line) + ": transition.mean_dwell_time: ", "residuals");
+  // The fitted mode keeping a name the bank has: said so, with what to do.
+  expect_refused_before(kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                            " --objective window --mode asphalt --log " + kSwitching + " --append-to " +
+                            write_file(dir / "same.yaml", terrains).string(),
+                        "mode 'asphalt': --append-to " + (dir / "same.yaml").string() +
+                            " already has a mode of that name: give the fitted mode another with --name",
+                        "residuals");
+  // A file of the name the check might have used is the user's, and stays.
+  const fs::path users = write_file(dir / "per_mode.yaml.check", "mine\n");
+  expect_refused_before(fit + cases[0].bank.string(), "no dwell time for mode 'ice'", "residuals");
+  EXPECT_EQ(read_file(users), "mine\n");
+  fs::remove(users);
+  for (const auto& entry_in_dir : fs::directory_iterator(dir)) {
+    EXPECT_EQ(entry_in_dir.path().string().find(".check"), std::string::npos) << entry_in_dir.path();
+  }
   // A bank it can join takes the fitted mode.
   const fs::path plain = write_file(dir / "plain.yaml", terrains);
   const Result appended = run_pipeline(fit + plain.string());
@@ -838,7 +864,7 @@ TEST(CliIo, FitChecksItsOutputsAndHeldOutLogsBeforeFitting) {
                         "--output-entry " + (dir / "." / "bank.yaml").string() + " is the file of --bank (" +
                             bank.string() + "), which this command reads",
                         "residuals");
-  expect_refused_before(fit_bank + " --append-to " + bank.string() + " --output-entry " + bank.string(),
+  expect_refused_before(fit_bank + " --name ice --append-to " + bank.string() + " --output-entry " + bank.string(),
                         "--append-to and --output-entry name the same file (" + bank.string() + ")", "residuals");
   const fs::path fresh = dir / "fresh.yaml";  // not written yet: the same path all the same
   expect_refused_before(

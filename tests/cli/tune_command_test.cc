@@ -96,7 +96,7 @@ TEST(CliIo, TuneRefusesRepeatedLogsOutputsOverLogsAndLogsWithNothingToScore) {
   const fs::path bank = write_file(dir / "bank.yaml", read_file(kTerrains));
   const fs::path sessions = write_file(dir / "sessions.txt", kSwitching + "\n" + copy.string() + "\n");
   const std::string tune_bank = kSkidimm + " tune --bank " + bank.string() + " --plugin-path " + kPlugins +
-                                " --objective none --tune dwell --no-assess --log " + kSwitching + " --log " +
+                                " --objective none --tune dwell --assess sessions --log " + kSwitching + " --log " +
                                 copy.string() + " --sessions " + sessions.string();
   expect_refused_before(tune_bank + " --table " + bank.string(),
                         "--table " + bank.string() + " is the file of --bank (" + bank.string() + ")", "work:");

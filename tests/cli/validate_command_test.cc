@@ -114,13 +114,18 @@ TEST(Cli, AModelsComplaintNamesTheBankAsItWasGiven) {
   EXPECT_THAT(given.err, ::testing::StartsWith("skidimm validate: error: negative_radius.yaml:"));
   EXPECT_THAT(given.err, HasSubstr(": shared.r: mode 'no_slip' (model stc_kinematic, its value from 'shared:'): "));
   EXPECT_THAT(given.err, Not(HasSubstr(dir.string())));
-  // Not below the working directory: the absolute path, which names it wherever the command ran.
+  // Beside the working directory, given as '..': so named, as the parser names it.
   fs::create_directories(dir / "elsewhere");
-  const Result elsewhere = run_shell("cd " + (dir / "elsewhere").string() + " && " + kSkidimm + " validate " +
-                                     (dir / "negative_radius.yaml").string() + " --plugin-path " + kPlugins);
-  EXPECT_EQ(elsewhere.exit_code, 1);
-  EXPECT_THAT(elsewhere.err,
-              ::testing::StartsWith("skidimm validate: error: " + (dir / "negative_radius.yaml").string() + ":"));
+  const Result beside = run_shell("cd " + (dir / "elsewhere").string() + " && " + kSkidimm +
+                                  " validate ../negative_radius.yaml --plugin-path " + kPlugins);
+  EXPECT_EQ(beside.exit_code, 1);
+  EXPECT_THAT(beside.err, ::testing::StartsWith("skidimm validate: error: ../negative_radius.yaml:"));
+  // From anywhere else (/): a path that names it from there.
+  const Result far = run_shell("cd / && " + kSkidimm + " validate " + (dir / "negative_radius.yaml").string() +
+                               " --plugin-path " + kPlugins);
+  EXPECT_EQ(far.exit_code, 1);
+  EXPECT_THAT(far.err, ::testing::StartsWith("skidimm validate: error: "));
+  EXPECT_THAT(far.err, HasSubstr("negative_radius.yaml:"));
 }
 
 // A measurement that aggregates a step's rows needs a fixed step: validate

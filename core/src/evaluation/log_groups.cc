@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <exception>
 #include <functional>
+#include <map>
 
 #include "estimates_reader.h"
 #include "parallel.h"
@@ -25,21 +26,46 @@ struct LogJob {
 std::vector<LogJob> log_jobs(const std::vector<std::string>& arguments, const LogArgumentOptions& expansion,
                              std::vector<LogGroup>* groups) {
   std::vector<LogJob> jobs;
+  std::vector<LogSpec> given;  // each group's argument, parsed
   for (const std::string& argument : arguments) {
     try {
       const std::string name = log_group_name(argument);
       const std::vector<LogSpec> logs = expand_log_argument(argument, expansion);
-      // Arguments of one name (a label given twice, files of one name in
-      // two folders) are one group: the tables and --json name groups by it.
-      const auto same = std::find_if(groups->begin(), groups->end(), [&](const LogGroup& g) { return g.name == name; });
-      const std::size_t group = static_cast<std::size_t>(same - groups->begin());
-      if (same == groups->end()) groups->push_back(LogGroup{name, {}});
-      for (const LogSpec& log : logs) jobs.push_back(LogJob{group, log, nullptr});
+      given.push_back(parse_log_spec(argument));
+      groups->push_back(LogGroup{name, {}});
+      for (const LogSpec& log : logs) jobs.push_back(LogJob{groups->size() - 1, log, nullptr});
     } catch (...) {
       jobs.push_back(LogJob{0, LogSpec{}, std::current_exception()});
       break;
     }
   }
+  // The tables and --json name groups: unlabelled arguments whose names
+  // would be the same ('ICE/*.csv' and 'SNOW/*.csv' are both '*') are named
+  // by the folders that tell them apart; arguments still of one name (one
+  // label given twice, one argument twice) are one group.
+  std::map<std::string, std::vector<std::size_t>> unlabelled;
+  for (std::size_t g = 0; g < given.size(); ++g) {
+    if (given[g].label.empty()) unlabelled[(*groups)[g].name].push_back(g);
+  }
+  for (const auto& [name, sharing] : unlabelled) {
+    if (sharing.size() < 2) continue;
+    std::vector<const LogSpec*> specs;
+    for (std::size_t g : sharing) specs.push_back(&given[g]);
+    const std::vector<std::string> names = distinct_names(specs);
+    for (std::size_t k = 0; k < sharing.size(); ++k) (*groups)[sharing[k]].name = names[k];
+  }
+  std::vector<std::size_t> merged(groups->size());
+  std::vector<LogGroup> kept;
+  for (std::size_t g = 0; g < groups->size(); ++g) {
+    const auto same =
+        std::find_if(kept.begin(), kept.end(), [&](const LogGroup& k) { return k.name == (*groups)[g].name; });
+    merged[g] = static_cast<std::size_t>(same - kept.begin());
+    if (same == kept.end()) kept.push_back(std::move((*groups)[g]));
+  }
+  for (LogJob& job : jobs) {
+    if (!job.error) job.group = merged[job.group];
+  }
+  *groups = std::move(kept);
   return jobs;
 }
 

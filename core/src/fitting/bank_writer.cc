@@ -71,23 +71,21 @@ std::string read_text(const fs::path& file) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-// Loads `temporary`, the text meant for `file`, as a bank; its complaint is
-// made about `file` (the user's), at the same line and field.
-void check_loads_as_bank(const fs::path& temporary, const fs::path& file) {
-  try {
-    load_bank_config(temporary);
-  } catch (const ConfigError& e) {
-    throw ConfigError(file.string(), e.line(), e.field(),
-                      "the result would not be a valid bank, nothing was written: " + e.message());
-  }
-}
-
 // Writes text to <file>.tmp, checks it loads as a bank, then renames
 // (output_file.h: a full disk or a failed close is an error with its reason,
 // and the .tmp file is removed).
 void write_validated(const fs::path& file, const std::string& text) {
   write_file_atomically(
-      file, text, [&](const fs::path& temporary) { check_loads_as_bank(temporary, file); }, ".tmp");
+      file, text,
+      [&](const fs::path& temporary) {
+        try {
+          load_bank_config(temporary);
+        } catch (const ConfigError& e) {
+          throw ConfigError(file.string(), e.line(), e.field(),
+                            "the result would not be a valid bank, nothing was written: " + e.message());
+        }
+      },
+      ".tmp");
 }
 
 bool is_top_level_key(const std::string& line) {
@@ -316,41 +314,69 @@ std::string format_mode_entry(const ModeConfig& mode, const sdk::MotionModel& mo
 
 namespace {
 
-// The text of `bank_file` with `entry` at the end of its `modes:` list.
-std::string with_mode_appended(const fs::path& bank_file, const std::string& entry) {
+// The text of `bank_file` with `entry` at the end of its `modes:` list, and
+// where the entry went: lines [at, at + count) of the text (0-based).
+struct AppendedBank {
+  std::string text;
+  std::size_t at = 0, count = 0;
+
+  // A complaint about the appended text, made about `bank_file` at the line
+  // of the bank it comes from: lines after the entry move up by its length,
+  // and a complaint inside the entry names the end of the modes: list.
+  ConfigError at_bank_line(const fs::path& bank_file, const ConfigError& e, const std::string& lead) const {
+    const std::size_t line = static_cast<std::size_t>(std::max(0, e.line()));
+    if (line > at && line <= at + count) {
+      return ConfigError(bank_file.string(), static_cast<int>(at), e.field(),
+                         lead + "(the appended entry) " + e.message());
+    }
+    return ConfigError(bank_file.string(), static_cast<int>(line > at ? line - count : line), e.field(),
+                       lead + e.message());
+  }
+};
+
+AppendedBank with_mode_appended(const fs::path& bank_file, const std::string& entry) {
   std::vector<std::string> lines = split_lines(read_text(bank_file));
   const auto [begin, end] = block_of(lines, "modes");
   if (begin == lines.size()) throw ConfigError(bank_file.string(), 0, "modes", "the bank has no modes: list");
   // Insert after the last non-blank line of the modes block.
-  std::size_t at = end;
-  while (at > begin + 1 && lines[at - 1].find_first_not_of(' ') == std::string::npos) --at;
+  AppendedBank appended;
+  appended.at = end;
+  while (appended.at > begin + 1 && lines[appended.at - 1].find_first_not_of(' ') == std::string::npos) --appended.at;
   std::vector<std::string> entry_lines = split_lines(entry);
-  lines.insert(lines.begin() + static_cast<std::ptrdiff_t>(at), entry_lines.begin(), entry_lines.end());
-  return join_lines(lines);
+  appended.count = entry_lines.size();
+  lines.insert(lines.begin() + static_cast<std::ptrdiff_t>(appended.at), entry_lines.begin(), entry_lines.end());
+  appended.text = join_lines(lines);
+  return appended;
 }
 
 }  // namespace
 
 void append_mode_to_bank(const fs::path& bank_file, const std::string& entry) {
-  write_validated(bank_file, with_mode_appended(bank_file, entry));
+  const AppendedBank appended = with_mode_appended(bank_file, entry);
+  write_file_atomically(
+      bank_file, appended.text,
+      [&](const fs::path& temporary) {
+        try {
+          load_bank_config(temporary);
+        } catch (const ConfigError& e) {
+          throw appended.at_bank_line(bank_file, e, "the result would not be a valid bank, nothing was written: ");
+        }
+      },
+      ".tmp");
 }
 
 void check_mode_appends(const fs::path& bank_file, const std::string& entry) {
-  // Beside the bank, as write_validated() checks it: the paths a bank names
-  // are relative to its own file.
-  const fs::path temporary = bank_file.string() + ".check.tmp";
-  struct Removed {
-    const fs::path& file;
-    ~Removed() {
-      std::error_code ignored;
-      fs::remove(file, ignored);
-    }
-  } removed{temporary};
-  write_file_atomically(temporary, with_mode_appended(bank_file, entry));
+  const AppendedBank appended = with_mode_appended(bank_file, entry);
+  // Beside the bank, as append_mode_to_bank() checks it (the paths a bank
+  // names are relative to its own file), in a file of its own (OutputFile
+  // never takes an existing name) that is never committed, so removed.
+  OutputFile probe(bank_file, ".check");
+  probe.write(appended.text);
+  probe.seek_end();  // a seek hands the buffered bytes to the file
   try {
-    load_bank_config(temporary);
+    load_bank_config(probe.written_path());
   } catch (const ConfigError& e) {
-    throw ConfigError(bank_file.string(), e.line(), e.field(), e.message());
+    throw appended.at_bank_line(bank_file, e, "");
   }
 }
 

@@ -149,8 +149,9 @@ struct BankConfig {
   // Absolute, so that the files the bank names resolve wherever it is used
   // (another working directory, a Dask worker).
   std::filesystem::path file;
-  // `file` as messages name it: relative to the working directory when it
-  // lies below it (as it was most likely given), otherwise absolute.
+  // `file` as messages name it: relative to the working directory (as it
+  // was most likely given, `../bank.yaml` too) unless that is longer than
+  // the absolute path.
   std::string shown_file() const;
   std::string name;
   std::string description;
