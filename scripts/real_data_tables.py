@@ -30,6 +30,10 @@ HELD_OUT = {
 }
 # The protocols on the development runs: every one but the lockbox.
 DEVELOPMENT = tuple(slug for slug in HELD_OUT if slug != "lockbox")
+# Those other designs are compared with the bank's on (reproduce_real_data.sh, `compared`): every one
+# that holds out several runs at a time, not each run alone.
+COMPARED = tuple(slug for slug in DEVELOPMENT if slug != "logs")
+COUNT = {1: "one", 2: "two", 3: "three", 4: "four", 5: "five"}
 # The same, short, inside a sentence.
 SHORT = {
     "logs": "each run",
@@ -150,14 +154,14 @@ def verdict_word(verdict):
     return verdict
 
 
-def assessed(work, prefix=""):
-    """A design's scores on every protocol and the lockbox ({prefix}tune.txt, {prefix}scores.csv and
-    {prefix}eval_<slug>.json), by slug: tune's block, eval's overall metrics and the table's rows; and
-    tune's blocks."""
+def assessed(work, prefix="", slugs=tuple(HELD_OUT)):
+    """A design's scores on the protocols `slugs` (every one and the lockbox by default; {prefix}tune.txt,
+    {prefix}scores.csv and {prefix}eval_<slug>.json), by slug: tune's block, eval's overall metrics and the
+    table's rows; and tune's blocks."""
     blocks = tune_blocks(os.path.join(work, "borealtc", f"{prefix}tune.txt"))
     kinds = scores_by_kind(os.path.join(work, "borealtc", f"{prefix}scores.csv"))
     summary = {}
-    for slug in HELD_OUT:
+    for slug in slugs:
         evaluation = json.load(open(os.path.join(work, "borealtc", f"{prefix}eval_{slug}.json")))["overall"]
         tuned = blocks[slug]
         mean = evaluation["mean_over_classes"]["accuracy"]
@@ -305,7 +309,7 @@ def physics(work, summary):
     lines = ["| held out | straight lines in speed and turn (the bank's form) | physics-shaped inputs | "
              "the form each fold's inner cross-validation chose | folds that chose the physics-shaped form |",
              "|---|---|---|---|---|"]
-    slugs = DEVELOPMENT
+    slugs = COMPARED
     chosen_means = []
     for slug in slugs:
         ours = summary[slug]["tune"]
@@ -336,23 +340,25 @@ def physics(work, summary):
     rule = "the physics-shaped form" if selection[1] > selection[0] else "the bank's form"
     # Compared as printed (tenths of a percent): tune's blocks give three decimals, the rows more.
     r = lambda x: round(x, 3)
-    rule_mean, rule_worst = sum(chosen_means) / 4, min(chosen_means)
-    if (r(rule_mean) <= r(min(sum(ours), sum(theirs)) / 4)
+    n = len(slugs)
+    rule_mean, rule_worst = sum(chosen_means) / n, min(chosen_means)
+    if (r(rule_mean) <= r(min(sum(ours), sum(theirs)) / n)
             and r(rule_worst) <= r(min(min(ours), min(theirs)))):
         rule_verdict = "no better than either form kept fixed, on the mean or on the worst protocol"
-    elif (r(rule_mean) >= r(max(sum(ours), sum(theirs)) / 4)
+    elif (r(rule_mean) >= r(max(sum(ours), sum(theirs)) / n)
             and r(rule_worst) >= r(max(min(ours), min(theirs)))):
         rule_verdict = "better than either form kept fixed, on the mean and on the worst protocol"
     else:
         rule_verdict = "between the two forms kept fixed"
     return "\n".join(lines) + (
         "\n\nMean over terrains, the mean held-out log p(truth) in brackets; the same development runs, folds and "
-        f"searched settings, neither form with parameter uncertainty. Mean over the four protocols: {pct(sum(ours) / 4)} for the bank's form, "
-        f"{pct(sum(theirs) / 4)} for the physics-shaped form; the worst protocol: {pct(min(ours))} against "
+        f"searched settings, neither form with parameter uncertainty. Mean over the {COUNT[n]} protocols: "
+        f"{pct(sum(ours) / n)} for the bank's form, "
+        f"{pct(sum(theirs) / n)} for the physics-shaped form; the worst protocol: {pct(min(ours))} against "
         f"{pct(min(theirs))}: {verdict}. The physics-shaped form is better "
         f"{'on: ' + '; '.join(better) if better else 'on none of them'}. Chosen for it on every development run: "
         f"{other['chosen']}. Chosen inside each fold (the form whose inner cross-validation, without the fold, "
-        f"scored the better mean log p(truth)): mean over the four protocols {pct(rule_mean)}, the worst "
+        f"scored the better mean log p(truth)): mean over the {COUNT[n]} protocols {pct(rule_mean)}, the worst "
         f"{pct(rule_worst)}, {rule_verdict}; on every development run, that rule chooses {rule} "
         f"(cross-validated mean log p(truth) {fmt(selection[0], 3)} for the bank's form, {fmt(selection[1], 3)} for "
         "the physics-shaped form).\n")
@@ -363,7 +369,7 @@ def physics_with_uncertainty(work, design):
     the rule that kept the bank's form (the better worst case over the protocols) says of them."""
     other = tune_blocks(os.path.join(work, "borealtc", "physics_uncertainty_tune.txt"))
     other_rows = scores_by_kind(os.path.join(work, "borealtc", "physics_uncertainty_scores.csv"))
-    slugs = DEVELOPMENT
+    slugs = COMPARED
     lines = ["| held out | straight lines in speed and turn (the design) | physics-shaped inputs |", "|---|---|---|"]
     for slug in slugs:
         check_table_agrees(other_rows[slug], other[slug], f"{slug}: the physics-shaped form")
@@ -387,7 +393,8 @@ def physics_with_uncertainty(work, design):
              f"({HELD_OUT[worst_theirs]})")
     return "\n".join(lines) + (
         "\n\nMean over terrains, the mean held-out log p(truth) in brackets; the same development runs, folds and "
-        f"searched settings, both forms with parameter uncertainty. Mean over the four protocols: {pct(mean_ours)} "
+        f"searched settings, both forms with parameter uncertainty. Mean over the {COUNT[len(slugs)]} protocols: "
+        f"{pct(mean_ours)} "
         f"for the bank's form, {pct(mean_theirs)} for the physics-shaped form; the worst protocol, {worst}: "
         f"{verdict}. The physics-shaped form is better "
         f"{'on: ' + '; '.join(better) if better else 'on none of them'}. Chosen for it on every development run: "
@@ -460,7 +467,7 @@ def extrapolation_comparison(work, first, prefix, column, with_name, intro):
 def uncertainty(first, summary, first_blocks):
     """The first design against the design, which adds each mode's parameter uncertainty: every protocol on the
     development runs, then the lockbox."""
-    development = DEVELOPMENT
+    development = COMPARED
     lines, better, worse = comparison_rows(as_forms(first, development), as_forms(summary, development), development,
                                            "parameter uncertainty", FIRST, "with (the design)")
     box, box_better, box_worse = comparison_rows(as_forms(first, ("lockbox",)), as_forms(summary, ("lockbox",)),
@@ -468,7 +475,8 @@ def uncertainty(first, summary, first_blocks):
     mean = lambda s: sum(s[slug]["tune"]["mean"] for slug in development) / len(development)
     worst = lambda s: min(s[slug]["tune"]["mean"] for slug in development)
     return "\n".join(lines + box[2:]) + (
-        f"\n\nOn the development runs, the same folds and searched settings: mean over the four protocols "
+        f"\n\nOn the development runs, the same folds and searched settings: mean over the "
+        f"{COUNT[len(development)]} protocols "
         f"{pct(mean(first))} without, {pct(mean(summary))} with; the worst protocol {pct(worst(first))} against "
         f"{pct(worst(summary))}. With parameter uncertainty the development scores are better in {len(better)} and "
         f"worse in {len(worse)} of the {len(better) + len(worse)} that differ: better: "
@@ -879,7 +887,7 @@ def per_run(summary, work, data):
 def main():
     work, doc, data = sys.argv[1], sys.argv[2], sys.argv[3]
     summary, headline, terrains = protocols(work)
-    first, first_blocks = assessed(work, "first_")
+    first, first_blocks = assessed(work, "first_", COMPARED + ("lockbox",))
     blocks = {"husky": husky(work), "headline": headline, "terrains": terrains, "calibration": calibration(summary),
               "confusion": confusion(summary, work), "physics": physics(work, first),
               "physics_uncertainty": physics_with_uncertainty(work, summary),

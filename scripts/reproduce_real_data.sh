@@ -21,7 +21,9 @@
 #         recomputes each protocol's metrics, with calibration, from the
 #         held-out outputs tune wrote.
 #     B1b. The first design, frozen and scored on the lockbox before the
-#         second: the same without parameter uncertainty.
+#         second: the same without parameter uncertainty, on the protocols
+#         that hold out several runs at a time (each session; the fastest;
+#         the most-turning), as every comparison of designs here.
 #     B2. The physics-shaped alternative, on the same runs and protocols,
 #         against the first design (neither with parameter uncertainty),
 #         and the rule that picks one of the two inside each fold by the
@@ -97,6 +99,10 @@ for ((i = 1; i < ${#aside[@]}; i += 2)); do all+=(--log "${aside[$i]}"); done
 speed='speed=abs(velL + velR) / 2'
 turn='turn=abs(velR - velL)'
 protocols="logs,sessions,extrapolation:$speed,extrapolation:$turn"
+# Designs other than the bank's are compared with it on the protocols that hold out more than one run
+# at a time: each run held out alone is the most optimistic of them on these runs, and the costliest
+# (a search per development run), so it scores the design alone.
+compared="sessions,extrapolation:$speed,extrapolation:$turn"
 # How every tune here fits and searches: each inner fold holds out one log (--inner-folds 0), except
 # step C2's splice-scored search, which needs several logs per inner fold; each log-spaced setting is
 # walked from its start (--walk), with fewer runs than its whole grid. When the walk was adopted,
@@ -116,11 +122,12 @@ for folder in "$work/borealtc/held_out"/*/; do
   "$skidimm" eval --estimates "$folder" --bank "$work/borealtc/development.yaml" --json >"$work/borealtc/eval_$name.json"
 done
 
-# B1b. The first design: the same without each mode's parameter uncertainty. It was frozen and
-# scored on the lockbox first; parameter uncertainty was added afterwards on the development runs'
-# scores of both (B1, B1b), and the lockbox scored the second design once.
+# B1b. The first design: the same without each mode's parameter uncertainty, on the compared
+# protocols. It was frozen and scored on the lockbox first; parameter uncertainty was added
+# afterwards on the development runs' scores of both (B1, B1b), and the lockbox scored the second
+# design once.
 "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${aside[@]}" "${fit[@]}" \
-  --tune "$knobs" --assess "$protocols" "${by_session[@]}" --table "$work/borealtc/first_scores.csv" \
+  --tune "$knobs" --assess "$compared" "${by_session[@]}" --table "$work/borealtc/first_scores.csv" \
   --estimates "$work/borealtc/first_held_out" --output-bank "$work/borealtc/first_development.yaml" \
   >"$work/borealtc/first_tune.txt"
 for folder in "$work/borealtc/first_held_out"/*/; do
@@ -129,14 +136,14 @@ for folder in "$work/borealtc/first_held_out"/*/; do
     >"$work/borealtc/first_eval_$name.json"
 done
 
-# B2. The physics-shaped form, on the same runs and protocols (no lockbox:
+# B2. The physics-shaped form, on the same runs and compared protocols (no lockbox:
 # it was not chosen), against the first design: neither has parameter uncertainty.
 "$skidimm" tune -q --bank configs/borealtc/physics_start.yaml "${develop[@]}" "${fit[@]}" --tune "$knobs" \
-  --assess "$protocols" "${by_session[@]}" --table "$work/borealtc/physics_scores.csv" >"$work/borealtc/physics_tune.txt"
+  --assess "$compared" "${by_session[@]}" --table "$work/borealtc/physics_scores.csv" >"$work/borealtc/physics_tune.txt"
 # B2e. The physics-shaped form with each mode's parameter uncertainty, as the design has it: the two
-# forms compared as the bank would use them, on the same runs and protocols as B1 (no lockbox).
+# forms compared as the bank would use them, on the same runs and compared protocols (no lockbox).
 "$skidimm" tune -q --bank configs/borealtc/physics_start.yaml "${develop[@]}" "${fit[@]}" --parameter-uncertainty \
-  --tune "$knobs" --assess "$protocols" "${by_session[@]}" --table "$work/borealtc/physics_uncertainty_scores.csv" \
+  --tune "$knobs" --assess "$compared" "${by_session[@]}" --table "$work/borealtc/physics_uncertainty_scores.csv" \
   >"$work/borealtc/physics_uncertainty_tune.txt"
 
 # B2d. The first design with an explicit unknown hypothesis ("none of these": bank key `unknown:`, its
