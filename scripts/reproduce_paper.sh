@@ -130,15 +130,10 @@ choose_all() {  # choose_all SENSORS
         "$skidimm" run -q --bank "$(bank_file "$sensors" "$bank")" \
           --input "$choice/logs/$sensors/$scenario/seed_$seed.csv" --output "$runs/seed_$seed.csv"
       done
-      for enter in 0.55 0.6 0.65 0.7 0.75 0.8 0.85 0.9 0.95; do
-        for leave in 0.02 0.05 0.1; do
-          for hold in 0.5 1 2; do
-            "$skidimm" eval --estimates "$runs" --bank "$(bank_file "$sensors" "$bank")" --json \
-              --decision-enter "$enter" --decision-leave "$leave" --decision-hold "$hold" \
-              >"$choice/eval/${scenario}__${sensors}__${bank}__${enter}_${leave}_${hold}.json"
-          done
-        done
-      done
+      # Every candidate setting, the runs' files read once.
+      "$skidimm" eval --estimates "$runs" --bank "$(bank_file "$sensors" "$bank")" --json \
+        --decision-enter 0.55,0.6,0.65,0.7,0.75,0.8,0.85,0.9,0.95 --decision-leave 0.02,0.05,0.1 \
+        --decision-hold 0.5,1,2 >"$choice/eval/${scenario}__${sensors}__${bank}.json"
     done
   done
 }

@@ -9,10 +9,10 @@ from `skidimm eval --json` outputs and simulated logs. Standard library only.
 Eval outputs are named EXPERIMENT__SENSORS__BANK.json (and
 ...__smoothed.json), SENSORS being "ideal" or "realistic". The kinematics
 directory holds one noise-free spiral per wheel configuration (truth columns).
-The decision-defaults directory holds, per candidate setting, the
-`eval --estimates --decision-*` outputs of the switching experiments on the
-seeds kept for choosing the defaults, named
-EXPERIMENT__SENSORS__BANK__ENTER_LEAVE_HOLD.json; --compiled-defaults are
+The decision-defaults directory holds, per switching experiment on the
+seeds kept for choosing the defaults, the `eval --estimates` output that
+compares every candidate setting (lists of --decision-*), named
+EXPERIMENT__SENSORS__BANK.json; --compiled-defaults are
 skidimm's own (DecisionConfig), which the tables name.
 """
 import argparse
@@ -289,14 +289,15 @@ def decision_defaults_table(directory, defaults):
     setting that meets the target most often."""
     scores = {}  # (enter, leave, hold) -> [(met, accuracy, [changes per switch of each log])]
     for path in sorted(glob.glob(os.path.join(directory, "*.json"))):
-        _, _, _, setting = os.path.basename(path)[:-5].split("__")
-        candidate = tuple(float(x) for x in setting.split("_"))
         with open(path) as f:
-            data = json.load(f)
-        per_log = [l["decision"]["median_changes_per_switch"] for l in data["logs"].values()]
-        for group in data["groups"].values():
-            scores.setdefault(candidate, []).append(
-                (decision_target(group)[0], group["decision"]["accuracy"], [c for c in per_log if c is not None]))
+            compared = json.load(f)["decision_settings"]  # one experiment, every setting (eval with lists)
+        for setting in compared:
+            candidate = (setting["enter"], setting["leave"], setting["hold"])
+            data = setting["report"]
+            per_log = [l["decision"]["median_changes_per_switch"] for l in data["logs"].values()]
+            for group in data["groups"].values():
+                scores.setdefault(candidate, []).append(
+                    (decision_target(group)[0], group["decision"]["accuracy"], [c for c in per_log if c is not None]))
     if defaults not in scores:
         sys.exit(f"{directory}: the defaults ({settings_text(defaults)}) are not among the settings tried")
     counts = {len(v) for v in scores.values()}

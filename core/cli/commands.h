@@ -185,9 +185,12 @@ int tune(const TuneCommandOptions& options);
 
 struct EvalOptions {
   std::filesystem::path bank;
-  // --rate and --decision-* over the bank's (with --estimates, decision
-  // settings make the decision again from the files' probabilities).
+  // --rate and the filter's settings over the bank's.
   RunOverrides overrides;
+  // --decision-*: one value each overrides the bank's decision settings
+  // (with --estimates the decision is made again from the files'
+  // probabilities); with --estimates, lists compare every combination.
+  std::vector<double> decision_enter, decision_leave, decision_hold;
   std::vector<std::string> inputs;     // logs: FILE[+FILE...] or directories; each argument is a group
   std::vector<std::string> estimates;  // `skidimm run` outputs (files or directories) instead of running
   std::vector<std::filesystem::path> plugin_paths;

@@ -35,10 +35,64 @@ void report_rejections(const Bank& bank, const std::vector<evaluation::LogGroup>
   }
 }
 
+// Every combination of the decision settings given (a list each, in the
+// order given: enter slowest, hold fastest), over `base` for those not given.
+std::vector<DecisionConfig> decision_grid(const DecisionConfig& base, const EvalOptions& options) {
+  const auto or_base = [](const std::vector<double>& given, double value) {
+    return given.empty() ? std::vector<double>{value} : given;
+  };
+  std::vector<DecisionConfig> grid;
+  for (double enter : or_base(options.decision_enter, base.enter)) {
+    for (double leave : or_base(options.decision_leave, base.leave)) {
+      for (double hold : or_base(options.decision_hold, base.min_hold)) {
+        RunOverrides overrides;
+        overrides.decision_enter = enter;
+        overrides.decision_leave = leave;
+        overrides.decision_hold = hold;
+        grid.push_back(decision_settings_of(base, overrides));  // checks each as a bank's setting
+      }
+    }
+  }
+  return grid;
+}
+
+// The logs that failed, after the report of the others (stderr), and the
+// exit code: a failure even when every other log was scored.
+int report_failures(const std::vector<evaluation::LogGroup>& groups,
+                    const std::vector<evaluation::LogFailure>& failures) {
+  if (failures.empty()) return kExitOk;
+  std::cout.flush();
+  long scored = 0;
+  for (const evaluation::LogGroup& g : groups) scored += static_cast<long>(g.logs.size());
+  for (const evaluation::LogFailure& f : failures) {
+    std::cerr << "skidimm eval: error: " << printable(f.message) << "\n";
+  }
+  std::cerr << "skidimm eval: " << failures.size() << " of " << failures.size() + static_cast<std::size_t>(scored)
+            << " log(s) failed and are left out of "
+            << (groups.empty() ? std::string("every figure: nothing was scored")
+                               : std::string("the report above, which scores the other ") + std::to_string(scored))
+            << "\n";
+  return kExitFailure;
+}
+
 }  // namespace
 
-int eval(const EvalOptions& options) {
+int eval(const EvalOptions& given) {
   return report_errors("skidimm eval", [&] {
+    // One value of each decision setting overrides the bank's; lists compare settings (--estimates).
+    EvalOptions options = given;
+    const bool compares_decisions =
+        options.decision_enter.size() > 1 || options.decision_leave.size() > 1 || options.decision_hold.size() > 1;
+    if (compares_decisions && options.estimates.empty()) {
+      throw UsageError(
+          "lists of --decision-* settings are compared on files a filter already wrote (--estimates): run the logs "
+          "once with `skidimm run`, then score them with each setting");
+    }
+    if (!compares_decisions) {
+      if (!options.decision_enter.empty()) options.overrides.decision_enter = options.decision_enter.front();
+      if (!options.decision_leave.empty()) options.overrides.decision_leave = options.decision_leave.front();
+      if (!options.decision_hold.empty()) options.overrides.decision_hold = options.decision_hold.front();
+    }
     std::vector<evaluation::LogGroup> groups;
     std::vector<std::string> classes, states;
     std::string decision_made;
@@ -68,6 +122,17 @@ int eval(const EvalOptions& options) {
       }
       std::optional<BankConfig> bank;
       if (!options.bank.empty()) bank = load_bank_config(options.bank);
+      if (compares_decisions) {
+        const std::vector<DecisionConfig> grid = decision_grid(bank ? bank->decision : DecisionConfig{}, options);
+        const std::vector<std::vector<evaluation::LogGroup>> scored =
+            evaluation::evaluate_estimate_groups(options.estimates, bank ? &*bank : nullptr, grid,
+                                                 unpaired_runs("skidimm eval", options.skip_unpaired), &failures);
+        groups = scored.front();
+        if (groups.empty() && failures.empty()) throw Error("nothing to evaluate: the --estimates hold no run output");
+        classes = evaluation::classes_of(groups);
+        if (!groups.empty()) std::cout << evaluation::report_decision_settings(grid, scored, classes, {}, options.json);
+        return report_failures(groups, failures);
+      }
       // Given on the command line, the decision is made again from each
       // file's probabilities (from the bank's settings, or the defaults).
       std::optional<DecisionConfig> decide;
@@ -99,19 +164,7 @@ int eval(const EvalOptions& options) {
                                  : evaluation::report_tables(groups, classes, states, decision_made));
     }
     if (ran) report_rejections(*ran, groups);
-    if (failures.empty()) return kExitOk;
-    std::cout.flush();
-    long scored = 0;
-    for (const evaluation::LogGroup& g : groups) scored += static_cast<long>(g.logs.size());
-    for (const evaluation::LogFailure& f : failures) {
-      std::cerr << "skidimm eval: error: " << printable(f.message) << "\n";
-    }
-    std::cerr << "skidimm eval: " << failures.size() << " of " << failures.size() + static_cast<std::size_t>(scored)
-              << " log(s) failed and are left out of "
-              << (groups.empty() ? std::string("every figure: nothing was scored")
-                                 : std::string("the report above, which scores the other ") + std::to_string(scored))
-              << "\n";
-    return kExitFailure;
+    return report_failures(groups, failures);
   });
 }
 

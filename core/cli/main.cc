@@ -17,9 +17,11 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <system_error>
+#include <type_traits>
 #include <vector>
 
 #include "commands.h"
@@ -150,21 +152,24 @@ int main(int argc, char** argv) {
         ->check(finite_number())
         ->check(number_above(0.0, false, 1e6));
   };
-  auto add_decision_options = [](CLI::App* command, skidimm::RunOverrides* overrides) {
-    command
-        ->add_option("--decision-enter", overrides->decision_enter,
-                     "Probability at which a mode (class) is decided (overrides the bank's decision.enter)")
-        ->check(finite_number())->check(CLI::Range(0.0, 1.0));
-    command
-        ->add_option("--decision-leave", overrides->decision_leave,
-                     "Probability below which, for the hold, the decided mode is given up for unknown "
-                     "(decision.leave; 0: never)")
-        ->check(finite_number())->check(CLI::Range(0.0, 1.0));
-    command
-        ->add_option("--decision-hold", overrides->decision_hold,
-                     "Seconds a decision is kept at least, and below decision.leave before it is given up "
-                     "(decision.min_hold)")
-        ->check(finite_number())
+  // The decision's settings: a value each (run: std::optional), or a list
+  // each (eval: std::vector, comma-separated; with --estimates, every
+  // combination is compared). `lists`: what a list does, for the help.
+  auto add_decision_options = [](CLI::App* command, auto* enter, auto* leave, auto* hold, const std::string& lists) {
+    const auto option = [&](const char* name, auto* value, const std::string& help) {
+      CLI::Option* o = command->add_option(name, *value, help + lists);
+      if constexpr (!std::is_same_v<std::decay_t<decltype(*value)>, std::optional<double>>) o->delimiter(',');
+      return o->check(finite_number());
+    };
+    option("--decision-enter", enter,
+           "Probability at which a mode (class) is decided (overrides the bank's decision.enter)")
+        ->check(CLI::Range(0.0, 1.0));
+    option("--decision-leave", leave,
+           "Probability below which, for the hold, the decided mode is given up for unknown (decision.leave; 0: "
+           "never)")
+        ->check(CLI::Range(0.0, 1.0));
+    option("--decision-hold", hold,
+           "Seconds a decision is kept at least, and below decision.leave before it is given up (decision.min_hold)")
         ->check(number_above(0.0, true));
   };
 
@@ -218,7 +223,8 @@ int main(int argc, char** argv) {
                   "Write each step smoothed with this many seconds of later data (online, delayed)")
       ->check(finite_number())
       ->check(number_above(0.0, true));
-  add_decision_options(run, &run_options.overrides);
+  add_decision_options(run, &run_options.overrides.decision_enter, &run_options.overrides.decision_leave,
+                       &run_options.overrides.decision_hold, "");
   run->add_option("--output,-o", output,
                   "Output CSV (written as <output>.partial, renamed when complete); '-' for standard output")
       ->required()
@@ -466,7 +472,8 @@ int main(int argc, char** argv) {
   std::string eval_bank;
   CLI::App* eval = app.add_subcommand("eval", "Measure how well a bank identifies the true modes of logs");
   eval->footer(examples({"skidimm eval --bank " + terrains + " --input " + switching + " --input log.csv",
-                         "skidimm eval --estimates estimates.csv --decision-enter 0.8 --json"},
+                         "skidimm eval --estimates estimates.csv --decision-enter 0.8 --json",
+                         "skidimm eval --estimates estimates.csv --decision-enter 0.6,0.8,0.9 --decision-hold 0.5,1"},
                         "#skidimm-eval"));
   eval->add_option("--bank,-b", eval_bank, "Bank to run over the logs")->check(CLI::ExistingFile);
   eval->add_option("--input,-i", eval_options.inputs,
@@ -479,7 +486,8 @@ int main(int argc, char** argv) {
       ->check(number_above(0.0, true));
   eval->add_option("--estimates,-e", eval_options.estimates,
                    "Evaluate `skidimm run` outputs (files or directories) instead of running a bank");
-  add_decision_options(eval, &eval_options.overrides);
+  add_decision_options(eval, &eval_options.decision_enter, &eval_options.decision_leave,
+                       &eval_options.decision_hold, "; with --estimates a list (0.6,0.8) compares settings");
   add_filter_overrides(eval, &eval_options.overrides);
   eval->add_flag("--skip-unpaired", eval_options.skip_unpaired, kSkipUnpaired);
   eval->add_flag("--json", eval_options.json, "Print JSON instead of tables");

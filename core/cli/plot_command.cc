@@ -197,6 +197,17 @@ int plot(const PlotOptions& options) {
                        "column 1 ('t'): time must increase, but " + fields[0].substr(0, 80) + " follows " +
                            CsvWriter::format(last_t));
       }
+      // gnuplot draws a probability that is not one (nan, text, outside [0, 1])
+      // as a gap or off the axis, without a word.
+      for (const auto& [column, mode] : modes) {
+        const std::string& cell = fields[static_cast<std::size_t>(column - 1)];
+        double mu = 0.0;
+        if (!parse_finite_number(cell, &mu) || mu < 0.0 || mu > 1.0 + 1e-9) {
+          throw LogError(reader.path().string(), reader.line(),
+                         "column " + std::to_string(column) + " ('mu_" + mode +
+                             "'): expected a probability, a number from 0 to 1, got '" + cell.substr(0, 80) + "'");
+        }
+      }
       if (estimates_copy) estimates_copy->write_row(fields);
       last_t = t;
       if (decision > 0) {

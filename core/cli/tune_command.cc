@@ -125,15 +125,8 @@ void print_extrapolation(std::ostream& out, const std::vector<LogScore>& scores)
   const auto percent = [](long part, long whole) {
     return number(100.0 * static_cast<double>(part) / static_cast<double>(whole), "%.1f") + "%";
   };
-  // Each accuracy only over steps that exist, as eval says it: no "-" for an empty side.
-  const long inside = e.labelled - e.outside_truth;
   out << "  inputs outside the ranges the true class was fitted on: " << percent(e.outside_truth, e.labelled)
-      << " of the labelled steps; the most likely class right on ";
-  if (e.outside_truth > 0) out << percent(e.outside_truth_right, e.outside_truth) << " of those";
-  if (e.outside_truth > 0 && inside > 0) out << " and ";
-  if (inside > 0)
-    out << percent(e.inside_truth_right, inside) << (e.outside_truth > 0 ? " of the others" : " of the steps");
-  out << "\n";
+      << " of the labelled steps; the most likely class right on " << e.accuracy_by_truth_side() << "\n";
 }
 
 // How fast the spliced runs' changes of class were followed (tune --splice).
@@ -255,6 +248,23 @@ int tune(const TuneCommandOptions& options) {
                        ": the sessions are used only by --assess sessions, which this command does not run" +
                        (options.no_assess ? " (--no-assess)" : "") + "; add the protocol or leave --sessions out");
     }
+    // The arguments' files, found before the bank and any log are read: a
+    // command with fewer than two development logs cannot cross-validate.
+    const auto expand = [&](const std::vector<std::string>& arguments) {
+      std::vector<LogSpec> specs;
+      for (const std::string& argument : arguments) {
+        for (LogSpec& spec : expand_log_argument(argument, unpaired_runs("skidimm tune", options.skip_unpaired))) {
+          specs.push_back(std::move(spec));
+        }
+      }
+      return specs;
+    };
+    std::vector<LogSpec> development_specs = expand(options.logs);
+    std::vector<LogSpec> lockbox_specs = expand(options.lockbox);
+    if (development_specs.size() < 2) {
+      throw UsageError("tune needs at least two logs to cross-validate (--log): " +
+                       std::string(development_specs.empty() ? "none" : "one") + " given");
+    }
     const Bank start = Bank::load(options.bank, options.plugin_paths);
     const BankConfig& config = start.config;
     const SamplingConfig sampling = sampling_of(config, options.rate);
@@ -272,23 +282,20 @@ int tune(const TuneCommandOptions& options) {
     }
 
     std::vector<fitting::TuningLog> logs;
-    auto add_logs = [&](const std::vector<std::string>& arguments, bool lockbox) {
-      for (const std::string& argument : arguments) {
-        for (LogSpec& spec : expand_log_argument(argument, unpaired_runs("skidimm tune", options.skip_unpaired))) {
-          require_rereadable(spec, "tune reads each log more than once");
-          fitting::TuningLog log;
-          log.fit_data = fitting::mode_segments(config, spec, options.mode, sampling, lockbox ? "--lockbox" : "--log");
-          if (spec.label.empty() && !options.mode.empty()) spec.label = options.mode;
-          log.spec = spec;
-          log.lockbox = lockbox;
-          logs.push_back(std::move(log));
-        }
+    auto add_logs = [&](std::vector<LogSpec>& specs, bool lockbox) {
+      for (LogSpec& spec : specs) {
+        require_rereadable(spec, "tune reads each log more than once");
+        fitting::TuningLog log;
+        log.fit_data = fitting::mode_segments(config, spec, options.mode, sampling, lockbox ? "--lockbox" : "--log");
+        if (spec.label.empty() && !options.mode.empty()) spec.label = options.mode;
+        log.spec = spec;
+        log.lockbox = lockbox;
+        logs.push_back(std::move(log));
       }
     };
-    add_logs(options.logs, false);
+    add_logs(development_specs, false);
     const std::size_t development = logs.size();
-    add_logs(options.lockbox, true);
-    if (development < 2) throw Error("tune needs at least two logs to cross-validate (--log)");
+    add_logs(lockbox_specs, true);
     std::vector<LogSpec> read;
     for (const fitting::TuningLog& log : logs) read.push_back(log.spec);
     refuse_output_over_logs(options.table, "--table", read);

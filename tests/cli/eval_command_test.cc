@@ -489,6 +489,61 @@ TEST(Cli, EvalTakesDecisionSettingsAndRemakesARunsDecisionFromItsProbabilities) 
   EXPECT_THAT(bad.err, HasSubstr("need 0 <= leave < enter <= 1, got enter 0.05, leave 0.1"));
 }
 
+// Lists of decision settings score every combination on the files read
+// once: each combination's report is, to the byte, what eval with that one
+// setting prints.
+TEST(Cli, EvalComparesListsOfDecisionSettingsAsEachAlone) {
+  const fs::path dir = test_directory();
+  const std::string bank = kSource + "/configs/ltc_terrains.yaml",
+                    log = kSource + "/configs/examples/ltc_switching.csv";
+  for (const char* name : {"a.csv", "b.csv"}) {  // the second run with another bank's decision column
+    ASSERT_EQ(run_skidimm("run -q --bank " + bank + " --input " + log + " --output " + (dir / name).string() +
+                          (name[0] == 'b' ? " --decision-enter 0.7" : "") + " --plugin-path " + kPlugins)
+                  .exit_code,
+              0);
+  }
+  const std::string estimates = " --estimates " + (dir / "a.csv").string() + " --estimates " + (dir / "b.csv").string();
+  const Result compared =
+      run_skidimm("eval --json --bank " + bank + estimates + " --decision-enter 0.6,0.9 --decision-hold 0.2,1,3");
+  ASSERT_EQ(compared.exit_code, 0) << compared.err;
+  const YAML::Node settings = json_of(compared)["decision_settings"];
+  ASSERT_EQ(settings.size(), 6u);
+  std::vector<std::string> reports;
+  std::size_t k = 0;
+  for (const char* enter : {"0.6", "0.9"}) {
+    for (const char* hold : {"0.2", "1", "3"}) {
+      SCOPED_TRACE(std::string(enter) + " " + hold);
+      EXPECT_EQ(settings[k]["enter"].as<std::string>(), enter) << "enter slowest, hold fastest";
+      EXPECT_EQ(settings[k]["hold"].as<std::string>(), hold);
+      EXPECT_EQ(settings[k]["leave"].as<double>(), 0.05) << "the bank's leave where none is given";
+      const Result alone = run_skidimm("eval --json --bank " + bank + estimates + " --decision-enter " + enter +
+                                       " --decision-hold " + hold);
+      ASSERT_EQ(alone.exit_code, 0) << alone.err;
+      const std::size_t at = compared.out.find("\"report\": " + alone.out.substr(0, alone.out.size() - 1) + "}");
+      EXPECT_NE(at, std::string::npos) << "the report of this setting is what eval with it alone prints";
+      reports.push_back(alone.out);
+      ++k;
+    }
+  }
+  EXPECT_NE(reports.front(), reports.back()) << "the settings change the decision on these runs";
+  // The table: a row per setting, after the most likely class's accuracy, said once.
+  const Result table =
+      run_skidimm("eval --bank " + bank + estimates + " --decision-enter 0.6,0.9 --decision-hold 0.2,1,3");
+  ASSERT_EQ(table.exit_code, 0) << table.err;
+  EXPECT_THAT(table.out, HasSubstr("decision settings compared on 2 log(s); the most likely class, the same for each: "
+                                   "accuracy "));
+  EXPECT_THAT(table.out, HasSubstr("\n  0.9      0.05     3         "));
+  // Lists need files a filter wrote: a bad command line, before anything runs.
+  const Result without =
+      run_skidimm("eval --bank " + bank + " --input " + log + " --decision-enter 0.6,0.9 --plugin-path " + kPlugins);
+  EXPECT_EQ(without.exit_code, 2) << without.err;
+  EXPECT_THAT(without.err, HasSubstr("lists of --decision-* settings are compared on files a filter already wrote"));
+  // Each setting is checked as a bank's would be.
+  const Result bad = run_skidimm("eval" + estimates + " --decision-enter 0.9,0.05 --decision-leave 0.1");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_THAT(bad.err, HasSubstr("need 0 <= leave < enter <= 1, got enter 0.05, leave 0.1"));
+}
+
 // --likelihood-weight and --innovation-gate are the bank's own settings,
 // given on the command line as `run` takes them: eval with the option scores
 // exactly what eval of a bank file holding the same value scores. With

@@ -165,6 +165,11 @@ TEST(CliIo, PlotReadsAPipeAndGivesGnuplotNoRawTextFromTheFiles) {
   // Too few rows, or times that do not increase: said before gnuplot is
   // given them (it failed in its own words, or drew them wrongly).
   rows = read_csv(estimates);
+  ASSERT_EQ(rows[0][1].rfind("mu_", 0), 0u) << "the second column is a mode's probability";
+  const auto with_cell = [](std::vector<std::string> row, std::size_t c, const std::string& cell) {
+    row[c] = cell;
+    return row;
+  };
   const struct {
     std::string name;
     std::vector<std::vector<std::string>> table;
@@ -173,6 +178,12 @@ TEST(CliIo, PlotReadsAPipeAndGivesGnuplotNoRawTextFromTheFiles) {
       {"header_only", {rows[0]}, ":1: no rows to plot: the estimates have a header only"},
       {"one_row", {rows[0], rows[1]}, ":2: one row: a figure over time needs two time stamps or more"},
       {"repeated_t", {rows[0], rows[1], rows[2], rows[2]}, ":4: column 1 ('t'): time must increase, but "},
+      {"nan_mu",
+       {rows[0], rows[1], with_cell(rows[2], 1, "nan")},
+       ":3: column 2 ('" + rows[0][1] + "'): expected a probability, a number from 0 to 1, got 'nan'"},
+      {"mu_above_one",
+       {rows[0], with_cell(rows[1], 1, "1.5"), rows[2]},
+       ":2: column 2 ('" + rows[0][1] + "'): expected a probability, a number from 0 to 1, got '1.5'"},
   };
   for (const auto& c : cases) {
     const fs::path file = write_file(dir / (c.name + ".csv"), csv_text(c.table));

@@ -160,6 +160,13 @@ TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
                                              "must be window (got 'none')"));
     EXPECT_THAT(none.err, Not(HasSubstr("work:")));
   }
+  // One log cannot be cross-validated: said before the bank is read (here one that would not load).
+  const fs::path broken = write_file(dir / "broken.yaml", "modes: [\n");
+  const Result one = run_pipeline(kSkidimm + " tune --bank " + broken.string() + " --log " + kSwitching +
+                                  " --objective none --tune dwell --no-assess");
+  EXPECT_EQ(one.exit_code, 2) << one.err;
+  EXPECT_THAT(one.err, HasSubstr("tune needs at least two logs to cross-validate (--log): one given"));
+  EXPECT_THAT(one.err, Not(HasSubstr("broken.yaml")));
   const Result fit_r = run_pipeline(tune + " --objective window --no-assess --fit-r");
   EXPECT_EQ(fit_r.exit_code, 2) << fit_r.err;
   EXPECT_THAT(fit_r.err, HasSubstr("--fit-r is an option of the likelihood objective"));

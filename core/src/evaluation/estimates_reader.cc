@@ -61,6 +61,13 @@ void check_decision(const CsvReader& reader, int column, const std::string& cell
 }  // namespace
 
 LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank, const DecisionConfig* decide) {
+  return evaluate_estimates(file, bank,
+                            decide != nullptr ? std::vector<DecisionConfig>{*decide} : std::vector<DecisionConfig>{})
+      .front();
+}
+
+std::vector<LogResult> evaluate_estimates(const fs::path& file, const BankConfig* bank,
+                                          const std::vector<DecisionConfig>& decisions) {
   CsvReader reader(file);
   const int t = reader.column("t"), truth = reader.column("truth_mode");
   if (t < 0 || truth < 0) {
@@ -87,10 +94,12 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank, const
   const int unknown = reader.column("unknown_probability");
   const BankConfig& classes = bank != nullptr ? *bank : modes_only;
   const ClassScorer scorer(classes);
-  const int decision = decide != nullptr ? -1 : reader.column("decision");
-  std::optional<ModeDecision> decider;
-  if (decide != nullptr) decider.emplace(classes, *decide);
-  std::vector<LabelledStep> steps, decisions;
+  const int decision = decisions.empty() ? reader.column("decision") : -1;
+  std::vector<ModeDecision> deciders;
+  for (const DecisionConfig& settings : decisions) deciders.emplace_back(classes, settings);
+  std::vector<LabelledStep> steps;
+  // Per setting (or the decision column), each step as decided.
+  std::vector<std::vector<LabelledStep>> decided(std::max<std::size_t>(deciders.size(), 1));
   std::vector<std::string> f;
   Eigen::VectorXd mu(static_cast<Eigen::Index>(probability_columns.size()));
   double last_t = -std::numeric_limits<double>::infinity();
@@ -132,12 +141,13 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank, const
                          ") sum to " + CsvWriter::format(sum) + "; in a `skidimm run` output they sum to 1");
     }
     steps.push_back(scorer.score(time, f[static_cast<std::size_t>(truth)], mu, unknown_probability));
-    if (decider) {
-      decisions.push_back(scorer.decided(steps.back(), decider->name(decider->update(time, mu))));
-    } else if (decision >= 0) {
-      const std::string& decided = f[static_cast<std::size_t>(decision)];
-      check_decision(reader, decision, decided, scorer.class_names(), bank != nullptr);
-      decisions.push_back(scorer.decided(steps.back(), decided));
+    for (std::size_t k = 0; k < deciders.size(); ++k) {
+      decided[k].push_back(scorer.decided(steps.back(), deciders[k].name(deciders[k].update(time, mu))));
+    }
+    if (decision >= 0) {
+      const std::string& cell = f[static_cast<std::size_t>(decision)];
+      check_decision(reader, decision, cell, scorer.class_names(), bank != nullptr);
+      decided.front().push_back(scorer.decided(steps.back(), cell));
     }
   }
   if (steps.empty()) {
@@ -148,8 +158,11 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank, const
   result.source = file.string();
   result.classes = scorer.class_names();
   result.metrics = compute_mode_metrics(steps, scorer.class_names());
-  if (!decisions.empty()) result.decision_metrics = compute_mode_metrics(decisions, scorer.class_names());
-  return result;
+  std::vector<LogResult> results(decided.size(), result);
+  for (std::size_t k = 0; k < decided.size(); ++k) {
+    if (!decided[k].empty()) results[k].decision_metrics = compute_mode_metrics(decided[k], scorer.class_names());
+  }
+  return results;
 }
 
 }  // namespace evaluation

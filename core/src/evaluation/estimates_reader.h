@@ -5,6 +5,7 @@
 #define SKIDIMM_CORE_SRC_EVALUATION_ESTIMATES_READER_H_
 
 #include <filesystem>
+#include <vector>
 
 #include "skidimm/config/bank.h"
 #include "skidimm/evaluation/log_evaluation.h"
@@ -25,6 +26,13 @@ namespace evaluation {
 // of read from its decision column: choosing thresholds needs no new run.
 LogResult evaluate_estimates(const std::filesystem::path& file, const BankConfig* bank,
                              const DecisionConfig* decide = nullptr);
+
+// evaluate_estimates() with each of `decisions` in turn, the file read once:
+// a result per setting, in their order (none given: one, from the file's
+// decision column). Comparing decision settings costs one reading of the
+// files, not one per setting.
+std::vector<LogResult> evaluate_estimates(const std::filesystem::path& file, const BankConfig* bank,
+                                          const std::vector<DecisionConfig>& decisions);
 
 }  // namespace evaluation
 }  // namespace skidimm

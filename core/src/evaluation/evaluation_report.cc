@@ -118,16 +118,8 @@ void print_extrapolation(std::ostream& out, const ExtrapolationCounts& e) {
   out << "  inputs outside the ranges the classes were fitted on: "
       << fmt(100.0 * share(e.outside_estimate, e.steps), "%.1f") << "% of the steps for the most likely class";
   if (e.labelled > 0) {
-    // Each accuracy only over steps that exist: no "-%" for an empty side.
-    const long inside = e.labelled - e.outside_truth;
     out << "; " << fmt(100.0 * share(e.outside_truth, e.labelled), "%.1f")
-        << "% for the true class, the most likely right on ";
-    if (e.outside_truth > 0) out << fmt(100.0 * share(e.outside_truth_right, e.outside_truth), "%.1f") << "% of those";
-    if (e.outside_truth > 0 && inside > 0) out << " and ";
-    if (inside > 0) {
-      out << fmt(100.0 * share(e.inside_truth_right, inside), "%.1f")
-          << (e.outside_truth > 0 ? "% of the others" : "% of the steps");
-    }
+        << "% for the true class, the most likely right on " << e.accuracy_by_truth_side();
   }
   out << "\n";
   if (!e.farthest.empty()) out << "    farthest: " << e.farthest << "\n";
@@ -414,6 +406,46 @@ std::string report_tables(const std::vector<LogGroup>& groups, const std::vector
     const std::vector<const LogResult*> all = pointers(groups);
     print_table(out, groups.size() > 1 ? "all" : groups[0].name, summarize(all, states.size()), classes, states,
                 all.size() <= 3, decision_made, separability_of(all, classes.size()));
+  }
+  return out.str();
+}
+
+std::string report_decision_settings(const std::vector<DecisionConfig>& settings,
+                                     const std::vector<std::vector<LogGroup>>& scored,
+                                     const std::vector<std::string>& classes, const std::vector<std::string>& states,
+                                     bool json) {
+  std::ostringstream out;
+  if (json) {
+    out << "{\"decision_settings\": [";
+    for (std::size_t k = 0; k < settings.size(); ++k) {
+      std::string report = report_json(scored[k], classes, states);
+      if (!report.empty() && report.back() == '\n') report.pop_back();
+      out << (k ? ", " : "") << "{\"enter\": " << json_number(settings[k].enter)
+          << ", \"leave\": " << json_number(settings[k].leave) << ", \"hold\": " << json_number(settings[k].min_hold)
+          << ", \"report\": " << report << "}";
+    }
+    out << "]}\n";
+    return out.str();
+  }
+  // The most likely class is the files' whatever the decision: said once.
+  std::vector<const LogResult*> logs;
+  if (!scored.empty()) logs = pointers(scored.front());
+  const EvaluationSummary first = summarize(logs, states.size());
+  out << "decision settings compared on " << logs.size() << " log(s); the most likely class, the same for each: "
+      << "accuracy " << fmt(first.metrics.duration > 0 ? first.metrics.accuracy() : kNaN) << "\n";
+  out << "  enter    leave    hold (s)  accuracy  unknown  settled  settled median (s)  changes per switch  lost\n";
+  for (std::size_t k = 0; k < settings.size(); ++k) {
+    const EvaluationSummary s = summarize(pointers(scored[k]), states.size());
+    const ModeMetrics& d = s.decisions;
+    const LatencyStats settled = latency_stats(d);
+    char row[256];
+    std::snprintf(row, sizeof(row), "  %-8s %-8s %-9s %-9s %-8s %-8s %-18s %-19s %ld\n",
+                  CsvWriter::format(settings[k].enter).c_str(), CsvWriter::format(settings[k].leave).c_str(),
+                  CsvWriter::format(settings[k].min_hold).c_str(), fmt(d.duration > 0 ? d.accuracy() : kNaN).c_str(),
+                  fmt(d.duration > 0 ? d.unknown_seconds / d.duration : kNaN).c_str(),
+                  (std::to_string(settled.detected) + "/" + std::to_string(settled.switches)).c_str(),
+                  fmt(settled.median, "%.2f").c_str(), fmt(settled.median_changes, "%.1f").c_str(), s.decision_lost);
+    out << row;
   }
   return out.str();
 }

@@ -5,6 +5,7 @@
 #include <functional>
 #include <map>
 
+#include "check.h"
 #include "estimates_reader.h"
 #include "parallel.h"
 #include "skidimm/io/log_arguments.h"
@@ -78,9 +79,11 @@ std::string failure_message(const LogSpec& log, const std::string& error) {
   return joined_paths(log.files) + ": " + error;
 }
 
-std::vector<LogGroup> evaluate_groups(const std::vector<std::string>& arguments, const LogArgumentOptions& expansion,
-                                      const std::function<LogResult(const LogSpec&)>& evaluate,
-                                      std::vector<LogFailure>* failures) {
+// The logs of `arguments` in their groups, each log scored `scorings` ways
+// by `evaluate` (a result per way, in order): the groups once per way.
+std::vector<std::vector<LogGroup>> evaluate_groups(
+    const std::vector<std::string>& arguments, const LogArgumentOptions& expansion, std::size_t scorings,
+    const std::function<std::vector<LogResult>(const LogSpec&)>& evaluate, std::vector<LogFailure>* failures) {
   std::vector<LogGroup> groups;
   const std::vector<LogJob> jobs = log_jobs(arguments, expansion, &groups);
   if (failures != nullptr) {
@@ -89,7 +92,7 @@ std::vector<LogGroup> evaluate_groups(const std::vector<std::string>& arguments,
       if (job.error) std::rethrow_exception(job.error);
     }
   }
-  std::vector<LogResult> results(jobs.size());
+  std::vector<std::vector<LogResult>> results(jobs.size());
   std::vector<std::string> errors(jobs.size());
   std::vector<char> failed(jobs.size(), 0);
   parallel_for(static_cast<int>(jobs.size()), worker_count(), [&](int i, int) {
@@ -109,18 +112,23 @@ std::vector<LogGroup> evaluate_groups(const std::vector<std::string>& arguments,
   std::vector<const LogSpec*> specs;
   for (const LogJob& job : jobs) specs.push_back(&job.log);
   const std::vector<std::string> names = distinct_names(specs);
+  std::vector<std::vector<LogGroup>> scored(scorings, groups);
   for (std::size_t i = 0; i < jobs.size(); ++i) {
-    results[i].name = names[i];
     if (failed[i]) {
       failures->push_back(LogFailure{groups[jobs[i].group].name, joined_paths(jobs[i].log.files), errors[i]});
-    } else {
-      groups[jobs[i].group].logs.push_back(std::move(results[i]));
+      continue;
+    }
+    SKIDIMM_CHECK(results[i].size() == scorings, "a log was not scored every way asked");
+    for (std::size_t k = 0; k < scorings; ++k) {
+      results[i][k].name = names[i];
+      scored[k][jobs[i].group].logs.push_back(std::move(results[i][k]));
     }
   }
-  if (failures == nullptr) return groups;
-  groups.erase(std::remove_if(groups.begin(), groups.end(), [](const LogGroup& g) { return g.logs.empty(); }),
-               groups.end());
-  return groups;
+  if (failures == nullptr) return scored;
+  for (std::vector<LogGroup>& way : scored) {
+    way.erase(std::remove_if(way.begin(), way.end(), [](const LogGroup& g) { return g.logs.empty(); }), way.end());
+  }
+  return scored;
 }
 
 }  // namespace
@@ -129,16 +137,31 @@ std::vector<LogGroup> evaluate_log_groups(const Bank& bank, const std::vector<st
                                           const SamplingConfig& sampling, const EstimatorOptions& estimator,
                                           const LogArgumentOptions& expansion, std::vector<LogFailure>* failures) {
   return evaluate_groups(
-      arguments, expansion, [&](const LogSpec& log) { return evaluate_log(bank, log, sampling, {}, estimator); },
-      failures);
+             arguments, expansion, 1,
+             [&](const LogSpec& log) {
+               return std::vector<LogResult>{evaluate_log(bank, log, sampling, {}, estimator)};
+             },
+             failures)
+      .front();
 }
 
 std::vector<LogGroup> evaluate_estimate_groups(const std::vector<std::string>& arguments, const BankConfig* bank,
                                                const DecisionConfig* decide, const LogArgumentOptions& expansion,
                                                std::vector<LogFailure>* failures) {
+  return evaluate_estimate_groups(
+             arguments, bank, decide != nullptr ? std::vector<DecisionConfig>{*decide} : std::vector<DecisionConfig>{},
+             expansion, failures)
+      .front();
+}
+
+std::vector<std::vector<LogGroup>> evaluate_estimate_groups(const std::vector<std::string>& arguments,
+                                                            const BankConfig* bank,
+                                                            const std::vector<DecisionConfig>& decisions,
+                                                            const LogArgumentOptions& expansion,
+                                                            std::vector<LogFailure>* failures) {
   return evaluate_groups(
-      arguments, expansion,
-      [&](const LogSpec& log) { return evaluate_estimates(log.files.front().path, bank, decide); }, failures);
+      arguments, expansion, std::max<std::size_t>(decisions.size(), 1),
+      [&](const LogSpec& log) { return evaluate_estimates(log.files.front().path, bank, decisions); }, failures);
 }
 
 }  // namespace evaluation

@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <regex>
 #include <sstream>
@@ -71,18 +72,23 @@ std::string read_text(const fs::path& file) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
+// A complaint about a text to be written, said of the file it is written
+// to, after `lead`: by default at the text's own line.
+using ComplaintAbout = std::function<ConfigError(const ConfigError& complaint, const std::string& lead)>;
+
 // Writes text to <file>.tmp, checks it loads as a bank, then renames
 // (output_file.h: a full disk or a failed close is an error with its reason,
 // and the .tmp file is removed).
-void write_validated(const fs::path& file, const std::string& text) {
+void write_validated(const fs::path& file, const std::string& text, const ComplaintAbout& complaint = {}) {
   write_file_atomically(
       file, text,
       [&](const fs::path& temporary) {
         try {
           load_bank_config(temporary);
         } catch (const ConfigError& e) {
-          throw ConfigError(file.string(), e.line(), e.field(),
-                            "the result would not be a valid bank, nothing was written: " + e.message());
+          const std::string lead = "the result would not be a valid bank, nothing was written: ";
+          if (complaint) throw complaint(e, lead);
+          throw ConfigError(file.string(), e.line(), e.field(), lead + e.message());
         }
       },
       ".tmp");
@@ -353,16 +359,9 @@ AppendedBank with_mode_appended(const fs::path& bank_file, const std::string& en
 
 void append_mode_to_bank(const fs::path& bank_file, const std::string& entry) {
   const AppendedBank appended = with_mode_appended(bank_file, entry);
-  write_file_atomically(
-      bank_file, appended.text,
-      [&](const fs::path& temporary) {
-        try {
-          load_bank_config(temporary);
-        } catch (const ConfigError& e) {
-          throw appended.at_bank_line(bank_file, e, "the result would not be a valid bank, nothing was written: ");
-        }
-      },
-      ".tmp");
+  write_validated(bank_file, appended.text, [&](const ConfigError& e, const std::string& lead) {
+    return appended.at_bank_line(bank_file, e, lead);
+  });
 }
 
 void check_mode_appends(const fs::path& bank_file, const std::string& entry) {

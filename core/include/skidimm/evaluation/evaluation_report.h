@@ -30,6 +30,15 @@ std::string report_json(const std::vector<LogGroup>& groups, const std::vector<s
 std::string report_tables(const std::vector<LogGroup>& groups, const std::vector<std::string>& classes,
                           const std::vector<std::string>& states, const std::string& decision_made);
 
+// Decision settings compared on the same scored logs (`scored[k]` made with
+// `settings[k]`, evaluate_estimate_groups()): as JSON,
+// {"decision_settings": [{"enter", "leave", "hold", "report": report_json()}...]};
+// as a table, one row per setting of its decision's figures over all logs.
+std::string report_decision_settings(const std::vector<DecisionConfig>& settings,
+                                     const std::vector<std::vector<LogGroup>>& scored,
+                                     const std::vector<std::string>& classes, const std::vector<std::string>& states,
+                                     bool json);
+
 // The classes the logs were scored over (LogResult::classes: the bank's, or
 // an estimates file's modes), in their order, as first met.
 std::vector<std::string> classes_of(const std::vector<LogGroup>& groups);

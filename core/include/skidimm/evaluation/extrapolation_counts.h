@@ -25,6 +25,12 @@ struct ExtrapolationCounts {
   double farthest_beyond = 0.0;
 
   void merge(const ExtrapolationCounts& other);
+
+  // The most likely class's accuracy on the labelled steps outside the true
+  // class's ranges and on the others, naming only the sides that have steps:
+  // "40.0% of those and 90.0% of the others", or "90.0% of the steps" when
+  // none was outside; "" without labelled steps.
+  std::string accuracy_by_truth_side() const;
 };
 
 }  // namespace evaluation

@@ -52,6 +52,16 @@ std::vector<LogGroup> evaluate_estimate_groups(const std::vector<std::string>& a
                                                const DecisionConfig* decide, const LogArgumentOptions& expansion = {},
                                                std::vector<LogFailure>* failures = nullptr);
 
+// The same with each of `decisions` (the decision made again from the files'
+// probabilities, each file read once): the groups once per setting, in their
+// order (none given: once, from the files' decision column). A file that
+// fails is one failure, left out of every setting's groups.
+std::vector<std::vector<LogGroup>> evaluate_estimate_groups(const std::vector<std::string>& arguments,
+                                                            const BankConfig* bank,
+                                                            const std::vector<DecisionConfig>& decisions,
+                                                            const LogArgumentOptions& expansion = {},
+                                                            std::vector<LogFailure>* failures = nullptr);
+
 }  // namespace evaluation
 }  // namespace skidimm
 
