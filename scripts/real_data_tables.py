@@ -30,8 +30,8 @@ HELD_OUT = {
 }
 # The protocols on the development runs: every one but the lockbox.
 DEVELOPMENT = tuple(slug for slug in HELD_OUT if slug != "lockbox")
-# Those other designs are compared with the bank's on (reproduce_real_data.sh, `compared`): every one
-# that holds out several runs at a time, not each run alone.
+# The first design and the physics-shaped form are compared with the design on (reproduce_real_data.sh,
+# `compared`): every one that holds out several runs at a time, not each run alone.
 COMPARED = tuple(slug for slug in DEVELOPMENT if slug != "logs")
 COUNT = {1: "one", 2: "two", 3: "three", 4: "four", 5: "five"}
 # The same, short, inside a sentence.
@@ -465,8 +465,8 @@ def extrapolation_comparison(work, first, prefix, column, with_name, intro):
 
 
 def uncertainty(first, summary, first_blocks):
-    """The first design against the design, which adds each mode's parameter uncertainty: every protocol on the
-    development runs, then the lockbox."""
+    """The first design against the design, which adds each mode's parameter uncertainty: the compared protocols
+    on the development runs, then the lockbox."""
     development = COMPARED
     lines, better, worse = comparison_rows(as_forms(first, development), as_forms(summary, development), development,
                                            "parameter uncertainty", FIRST, "with (the design)")

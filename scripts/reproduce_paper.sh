@@ -115,7 +115,7 @@ choice="$work/decision_defaults"
 rm -rf "$choice"
 mkdir -p "$choice/eval"
 choose_all() {  # choose_all SENSORS
-  local sensors=$1 scenario seed bank banks enter leave hold
+  local sensors=$1 scenario seed bank banks
   for scenario in ltc_switching stc_switching; do
     mkdir -p "$choice/logs/$sensors/$scenario"
     for seed in $(decision_default_seeds); do

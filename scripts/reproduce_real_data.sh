@@ -99,9 +99,10 @@ for ((i = 1; i < ${#aside[@]}; i += 2)); do all+=(--log "${aside[$i]}"); done
 speed='speed=abs(velL + velR) / 2'
 turn='turn=abs(velR - velL)'
 protocols="logs,sessions,extrapolation:$speed,extrapolation:$turn"
-# Designs other than the bank's are compared with it on the protocols that hold out more than one run
-# at a time: each run held out alone is the most optimistic of them on these runs, and the costliest
-# (a search per development run), so it scores the design alone.
+# The first design and the physics-shaped form (B1b, B2, B2e) are compared with the design on the
+# protocols that hold out several runs at a time: each run held out alone, the costliest (a search
+# per development run), leaves the runs recorded with it in training; it scores the design (B1) and
+# the wheel-only bank (B4).
 compared="sessions,extrapolation:$speed,extrapolation:$turn"
 # How every tune here fits and searches: each inner fold holds out one log (--inner-folds 0), except
 # step C2's splice-scored search, which needs several logs per inner fold; each log-spaced setting is

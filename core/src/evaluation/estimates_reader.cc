@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -95,11 +94,11 @@ std::vector<LogResult> evaluate_estimates(const fs::path& file, const BankConfig
   const BankConfig& classes = bank != nullptr ? *bank : modes_only;
   const ClassScorer scorer(classes);
   const int decision = decisions.empty() ? reader.column("decision") : -1;
-  std::vector<ModeDecision> deciders;
-  for (const DecisionConfig& settings : decisions) deciders.emplace_back(classes, settings);
-  std::vector<LabelledStep> steps;
-  // Per setting (or the decision column), each step as decided.
-  std::vector<std::vector<LabelledStep>> decided(std::max<std::size_t>(deciders.size(), 1));
+  std::vector<LabelledStep> steps, from_column;
+  // With decision settings, each step's time and probabilities, kept to make
+  // the decision again with each setting in turn: memory for one setting's
+  // decisions at a time, however many are compared.
+  std::vector<double> times, probabilities;
   std::vector<std::string> f;
   Eigen::VectorXd mu(static_cast<Eigen::Index>(probability_columns.size()));
   double last_t = -std::numeric_limits<double>::infinity();
@@ -141,13 +140,13 @@ std::vector<LogResult> evaluate_estimates(const fs::path& file, const BankConfig
                          ") sum to " + CsvWriter::format(sum) + "; in a `skidimm run` output they sum to 1");
     }
     steps.push_back(scorer.score(time, f[static_cast<std::size_t>(truth)], mu, unknown_probability));
-    for (std::size_t k = 0; k < deciders.size(); ++k) {
-      decided[k].push_back(scorer.decided(steps.back(), deciders[k].name(deciders[k].update(time, mu))));
-    }
-    if (decision >= 0) {
+    if (!decisions.empty()) {
+      times.push_back(time);
+      probabilities.insert(probabilities.end(), mu.data(), mu.data() + mu.size());
+    } else if (decision >= 0) {
       const std::string& cell = f[static_cast<std::size_t>(decision)];
       check_decision(reader, decision, cell, scorer.class_names(), bank != nullptr);
-      decided.front().push_back(scorer.decided(steps.back(), cell));
+      from_column.push_back(scorer.decided(steps.back(), cell));
     }
   }
   if (steps.empty()) {
@@ -158,9 +157,22 @@ std::vector<LogResult> evaluate_estimates(const fs::path& file, const BankConfig
   result.source = file.string();
   result.classes = scorer.class_names();
   result.metrics = compute_mode_metrics(steps, scorer.class_names());
-  std::vector<LogResult> results(decided.size(), result);
-  for (std::size_t k = 0; k < decided.size(); ++k) {
-    if (!decided[k].empty()) results[k].decision_metrics = compute_mode_metrics(decided[k], scorer.class_names());
+  if (decisions.empty()) {
+    if (!from_column.empty()) result.decision_metrics = compute_mode_metrics(from_column, scorer.class_names());
+    return {result};
+  }
+  std::vector<LogResult> results(decisions.size(), result);
+  const Eigen::Index modes = mu.size();
+  std::vector<LabelledStep> decided;
+  decided.reserve(steps.size());
+  for (std::size_t k = 0; k < decisions.size(); ++k) {
+    ModeDecision decider(classes, decisions[k]);
+    decided.clear();
+    for (std::size_t i = 0; i < steps.size(); ++i) {
+      const Eigen::Map<const Eigen::VectorXd> row(probabilities.data() + i * static_cast<std::size_t>(modes), modes);
+      decided.push_back(scorer.decided(steps[i], decider.name(decider.update(times[i], row))));
+    }
+    results[k].decision_metrics = compute_mode_metrics(decided, scorer.class_names());
   }
   return results;
 }

@@ -420,9 +420,10 @@ std::string report_decision_settings(const std::vector<DecisionConfig>& settings
     for (std::size_t k = 0; k < settings.size(); ++k) {
       std::string report = report_json(scored[k], classes, states);
       if (!report.empty() && report.back() == '\n') report.pop_back();
-      out << (k ? ", " : "") << "{\"enter\": " << json_number(settings[k].enter)
-          << ", \"leave\": " << json_number(settings[k].leave) << ", \"hold\": " << json_number(settings[k].min_hold)
-          << ", \"report\": " << report << "}";
+      // Every digit, as the table gives them: settings that %.6g would print alike stay apart.
+      out << (k ? ", " : "") << "{\"enter\": " << CsvWriter::format(settings[k].enter)
+          << ", \"leave\": " << CsvWriter::format(settings[k].leave)
+          << ", \"hold\": " << CsvWriter::format(settings[k].min_hold) << ", \"report\": " << report << "}";
     }
     out << "]}\n";
     return out.str();
@@ -433,7 +434,7 @@ std::string report_decision_settings(const std::vector<DecisionConfig>& settings
   const EvaluationSummary first = summarize(logs, states.size());
   out << "decision settings compared on " << logs.size() << " log(s); the most likely class, the same for each: "
       << "accuracy " << fmt(first.metrics.duration > 0 ? first.metrics.accuracy() : kNaN) << "\n";
-  out << "  enter    leave    hold (s)  accuracy  unknown  settled  settled median (s)  changes per switch  lost\n";
+  out << "  enter    leave    hold (s)  accuracy  unknown  settled  settled median (s) changes per switch  lost\n";
   for (std::size_t k = 0; k < settings.size(); ++k) {
     const EvaluationSummary s = summarize(pointers(scored[k]), states.size());
     const ModeMetrics& d = s.decisions;

@@ -139,7 +139,9 @@ std::vector<LogGroup> evaluate_log_groups(const Bank& bank, const std::vector<st
   return evaluate_groups(
              arguments, expansion, 1,
              [&](const LogSpec& log) {
-               return std::vector<LogResult>{evaluate_log(bank, log, sampling, {}, estimator)};
+               std::vector<LogResult> one;
+               one.push_back(evaluate_log(bank, log, sampling, {}, estimator));
+               return one;
              },
              failures)
       .front();

@@ -1,7 +1,8 @@
 // What `skidimm eval` prints, for every front end (the CLI; Python's
 // skidimm.eval and skidimm.eval_report; skidimm.dask.eval): a table per
-// group when there are several, then one over all logs; or the same as JSON.
-// Groups are reduced in the order given (evaluation_summary.h).
+// group when there are several, then one over all logs; or the same as JSON;
+// and, comparing decision settings, a row (or a report) per setting. Groups
+// are reduced in the order given (evaluation_summary.h).
 #ifndef SKIDIMM_EVALUATION_EVALUATION_REPORT_H_
 #define SKIDIMM_EVALUATION_EVALUATION_REPORT_H_
 
