@@ -94,6 +94,9 @@ int eval(const EvalOptions& given) {
       if (!options.decision_hold.empty()) options.overrides.decision_hold = options.decision_hold.front();
     }
     std::vector<evaluation::LogGroup> groups;
+    // Decision settings compared (lists given), and the groups scored with each.
+    std::vector<DecisionConfig> grid;
+    std::vector<std::vector<evaluation::LogGroup>> compared;
     std::vector<std::string> classes, states;
     std::string decision_made;
     // A log that fails half-way costs the others nothing: they are reported,
@@ -123,27 +126,24 @@ int eval(const EvalOptions& given) {
       std::optional<BankConfig> bank;
       if (!options.bank.empty()) bank = load_bank_config(options.bank);
       if (compares_decisions) {
-        const std::vector<DecisionConfig> grid = decision_grid(bank ? bank->decision : DecisionConfig{}, options);
-        const std::vector<std::vector<evaluation::LogGroup>> scored =
+        grid = decision_grid(bank ? bank->decision : DecisionConfig{}, options);
+        compared =
             evaluation::evaluate_estimate_groups(options.estimates, bank ? &*bank : nullptr, grid,
                                                  unpaired_runs("skidimm eval", options.skip_unpaired), &failures);
-        groups = scored.front();
-        if (groups.empty() && failures.empty()) throw Error("nothing to evaluate: the --estimates hold no run output");
-        classes = evaluation::classes_of(groups);
-        if (!groups.empty()) std::cout << evaluation::report_decision_settings(grid, scored, classes, {}, options.json);
-        return report_failures(groups, failures);
+        groups = compared.front();
+      } else {
+        // Given on the command line, the decision is made again from each
+        // file's probabilities (from the bank's settings, or the defaults).
+        std::optional<DecisionConfig> decide;
+        if (options.overrides.changes_decision()) {
+          decide = decision_settings_of(bank ? bank->decision : DecisionConfig{}, options.overrides);
+        }
+        decision_made = decide ? "made again: " + evaluation::decision_settings_text(*decide)
+                               : std::string("the files' decision column");
+        groups = evaluation::evaluate_estimate_groups(options.estimates, bank ? &*bank : nullptr,
+                                                      decide ? &*decide : nullptr,
+                                                      unpaired_runs("skidimm eval", options.skip_unpaired), &failures);
       }
-      // Given on the command line, the decision is made again from each
-      // file's probabilities (from the bank's settings, or the defaults).
-      std::optional<DecisionConfig> decide;
-      if (options.overrides.changes_decision()) {
-        decide = decision_settings_of(bank ? bank->decision : DecisionConfig{}, options.overrides);
-      }
-      decision_made = decide ? "made again: " + evaluation::decision_settings_text(*decide)
-                             : std::string("the files' decision column");
-      groups = evaluation::evaluate_estimate_groups(options.estimates, bank ? &*bank : nullptr,
-                                                    decide ? &*decide : nullptr,
-                                                    unpaired_runs("skidimm eval", options.skip_unpaired), &failures);
       classes = evaluation::classes_of(groups);
     } else {
       if (options.bank.empty()) throw UsageError("give --bank with --input, or --estimates");
@@ -160,8 +160,9 @@ int eval(const EvalOptions& given) {
       throw Error("nothing to evaluate: give --input (with --bank) or --estimates");
     }
     if (!groups.empty()) {
-      std::cout << (options.json ? evaluation::report_json(groups, classes, states)
-                                 : evaluation::report_tables(groups, classes, states, decision_made));
+      std::cout << (!grid.empty()  ? evaluation::report_decision_settings(grid, compared, classes, states, options.json)
+                    : options.json ? evaluation::report_json(groups, classes, states)
+                                   : evaluation::report_tables(groups, classes, states, decision_made));
     }
     if (ran) report_rejections(*ran, groups);
     return report_failures(groups, failures);

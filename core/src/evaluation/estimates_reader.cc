@@ -95,10 +95,10 @@ std::vector<LogResult> evaluate_estimates(const fs::path& file, const BankConfig
   const ClassScorer scorer(classes);
   const int decision = decisions.empty() ? reader.column("decision") : -1;
   std::vector<LabelledStep> steps, from_column;
-  // With decision settings, each step's time and probabilities, kept to make
-  // the decision again with each setting in turn: memory for one setting's
-  // decisions at a time, however many are compared.
-  std::vector<double> times, probabilities;
+  // With decision settings, each step's probabilities (its time is in
+  // `steps`), kept to make the decision again with each setting in turn:
+  // memory for one setting's decisions at a time, however many are compared.
+  std::vector<double> probabilities;
   std::vector<std::string> f;
   Eigen::VectorXd mu(static_cast<Eigen::Index>(probability_columns.size()));
   double last_t = -std::numeric_limits<double>::infinity();
@@ -141,7 +141,6 @@ std::vector<LogResult> evaluate_estimates(const fs::path& file, const BankConfig
     }
     steps.push_back(scorer.score(time, f[static_cast<std::size_t>(truth)], mu, unknown_probability));
     if (!decisions.empty()) {
-      times.push_back(time);
       probabilities.insert(probabilities.end(), mu.data(), mu.data() + mu.size());
     } else if (decision >= 0) {
       const std::string& cell = f[static_cast<std::size_t>(decision)];
@@ -170,7 +169,7 @@ std::vector<LogResult> evaluate_estimates(const fs::path& file, const BankConfig
     decided.clear();
     for (std::size_t i = 0; i < steps.size(); ++i) {
       const Eigen::Map<const Eigen::VectorXd> row(probabilities.data() + i * static_cast<std::size_t>(modes), modes);
-      decided.push_back(scorer.decided(steps[i], decider.name(decider.update(times[i], row))));
+      decided.push_back(scorer.decided(steps[i], decider.name(decider.update(steps[i].t, row))));
     }
     results[k].decision_metrics = compute_mode_metrics(decided, scorer.class_names());
   }
