@@ -300,87 +300,34 @@ def check_table_agrees(rows, block, what):
         sys.exit(f"{what}'s table disagrees with its tune's mean over classes")
 
 
-def physics(work, summary):
-    """The first design's form against the physics-shaped one, neither with parameter uncertainty, and the
-    rule that chooses between them inside each fold."""
+def physics(work, design):
+    """The design's form against the physics-shaped one, both with each mode's parameter uncertainty; the
+    rule the bank's form was kept by (the better worst case over the protocols) on them; and the rule that
+    chooses between them inside each fold by the fold's inner cross-validation."""
     other = tune_blocks(os.path.join(work, "borealtc", "physics_tune.txt"))
     other_rows = scores_by_kind(os.path.join(work, "borealtc", "physics_scores.csv"))
-    first_rows = scores_by_kind(os.path.join(work, "borealtc", "first_scores.csv"))
-    lines = ["| held out | straight lines in speed and turn (the bank's form) | physics-shaped inputs | "
+    design_rows = scores_by_kind(os.path.join(work, "borealtc", "scores.csv"))
+    lines = ["| held out | straight lines in speed and turn (the design) | physics-shaped inputs | "
              "the form each fold's inner cross-validation chose | folds that chose the physics-shaped form |",
              "|---|---|---|---|---|"]
     slugs = COMPARED
     chosen_means = []
     for slug in slugs:
-        ours = summary[slug]["tune"]
-        theirs = other[slug]
-        check_table_agrees(first_rows[slug], ours, f"{slug}: the bank's form")
+        ours, theirs = design[slug]["tune"], other[slug]
+        check_table_agrees(design_rows[slug], ours, f"{slug}: the bank's form")
         check_table_agrees(other_rows[slug], theirs, f"{slug}: the physics-shaped form")
-        rows, won = chosen_per_fold(first_rows[slug], other_rows[slug], slug)
+        rows, won = chosen_per_fold(design_rows[slug], other_rows[slug], slug)
         accuracy, log_p = mean_over_classes(rows)
         chosen_means.append(accuracy)
         lines.append(f"| {HELD_OUT[slug]} | {pct(ours['mean'])} ({fmt(ours['log_p'], 2)}) | "
                      f"{pct(theirs['mean'])} ({fmt(theirs['log_p'], 2)}) | {pct(accuracy)} ({fmt(log_p, 2)}) | "
                      f"{won[1]} of {sum(won)} |")
-    ours = [summary[s]["tune"]["mean"] for s in slugs]
-    theirs = [other[s]["mean"] for s in slugs]
-    better = [HELD_OUT[s] for s, a, b in zip(slugs, ours, theirs) if b > a]
-    if sum(ours) >= sum(theirs) and min(ours) >= min(theirs):
-        verdict = "the bank's form has the better mean over the protocols and the better worst case"
-    elif sum(ours) < sum(theirs) and min(ours) < min(theirs):
-        verdict = "**the physics-shaped form has the better mean over the protocols and the better worst case**"
-    elif sum(ours) < sum(theirs):
-        verdict = ("**the physics-shaped form has the better mean over the protocols**, the bank's form the better "
-                   "worst case")
-    else:
-        verdict = ("the bank's form has the better mean over the protocols, **the physics-shaped form the better "
-                   "worst case**")
-    selection = [float(first_rows["selection"][0]["selection_score"]),
-                 float(other_rows["selection"][0]["selection_score"])]
-    rule = "the physics-shaped form" if selection[1] > selection[0] else "the bank's form"
-    # Compared as printed (tenths of a percent): tune's blocks give three decimals, the rows more.
-    r = lambda x: round(x, 3)
-    n = len(slugs)
-    rule_mean, rule_worst = sum(chosen_means) / n, min(chosen_means)
-    if (r(rule_mean) <= r(min(sum(ours), sum(theirs)) / n)
-            and r(rule_worst) <= r(min(min(ours), min(theirs)))):
-        rule_verdict = "no better than either form kept fixed, on the mean or on the worst protocol"
-    elif (r(rule_mean) >= r(max(sum(ours), sum(theirs)) / n)
-            and r(rule_worst) >= r(max(min(ours), min(theirs)))):
-        rule_verdict = "better than either form kept fixed, on the mean and on the worst protocol"
-    else:
-        rule_verdict = "between the two forms kept fixed"
-    return "\n".join(lines) + (
-        "\n\nMean over terrains, the mean held-out log p(truth) in brackets; the same development runs, folds and "
-        f"searched settings, neither form with parameter uncertainty. Mean over the {COUNT[n]} protocols: "
-        f"{pct(sum(ours) / n)} for the bank's form, "
-        f"{pct(sum(theirs) / n)} for the physics-shaped form; the worst protocol: {pct(min(ours))} against "
-        f"{pct(min(theirs))}: {verdict}. The physics-shaped form is better "
-        f"{'on: ' + '; '.join(better) if better else 'on none of them'}. Chosen for it on every development run: "
-        f"{other['chosen']}. Chosen inside each fold (the form whose inner cross-validation, without the fold, "
-        f"scored the better mean log p(truth)): mean over the {COUNT[n]} protocols {pct(rule_mean)}, the worst "
-        f"{pct(rule_worst)}, {rule_verdict}; on every development run, that rule chooses {rule} "
-        f"(cross-validated mean log p(truth) {fmt(selection[0], 3)} for the bank's form, {fmt(selection[1], 3)} for "
-        "the physics-shaped form).\n")
-
-
-def physics_with_uncertainty(work, design):
-    """The design's form against the physics-shaped one, both with each mode's parameter uncertainty, and what
-    the rule that kept the bank's form (the better worst case over the protocols) says of them."""
-    other = tune_blocks(os.path.join(work, "borealtc", "physics_uncertainty_tune.txt"))
-    other_rows = scores_by_kind(os.path.join(work, "borealtc", "physics_uncertainty_scores.csv"))
-    slugs = COMPARED
-    lines = ["| held out | straight lines in speed and turn (the design) | physics-shaped inputs |", "|---|---|---|"]
-    for slug in slugs:
-        check_table_agrees(other_rows[slug], other[slug], f"{slug}: the physics-shaped form")
-        ours, theirs = design[slug]["tune"], other[slug]
-        lines.append(f"| {HELD_OUT[slug]} | {pct(ours['mean'])} ({fmt(ours['log_p'], 2)}) | "
-                     f"{pct(theirs['mean'])} ({fmt(theirs['log_p'], 2)}) |")
     ours = {s: design[s]["tune"]["mean"] for s in slugs}
     theirs = {s: other[s]["mean"] for s in slugs}
+    n = len(slugs)
     worst_ours, worst_theirs = min(slugs, key=ours.get), min(slugs, key=theirs.get)
     better = [HELD_OUT[s] for s in slugs if theirs[s] > ours[s]]
-    mean_ours, mean_theirs = sum(ours.values()) / len(slugs), sum(theirs.values()) / len(slugs)
+    mean_ours, mean_theirs = sum(ours.values()) / n, sum(theirs.values()) / n
     if ours[worst_ours] >= theirs[worst_theirs]:
         verdict = ("the bank's form keeps the better worst case, and by that rule the bank keeps its form"
                    + (", though the physics-shaped form has the better mean" if mean_theirs > mean_ours else ""))
@@ -391,14 +338,30 @@ def physics_with_uncertainty(work, design):
              if worst_ours == worst_theirs else
              f"{pct(ours[worst_ours])} ({HELD_OUT[worst_ours]}) against {pct(theirs[worst_theirs])} "
              f"({HELD_OUT[worst_theirs]})")
+    selection = [float(design_rows["selection"][0]["selection_score"]),
+                 float(other_rows["selection"][0]["selection_score"])]
+    rule = "the physics-shaped form" if selection[1] > selection[0] else "the bank's form"
+    # Compared as printed (tenths of a percent): tune's blocks give three decimals, the rows more.
+    r = lambda x: round(x, 3)
+    rule_mean, rule_worst = sum(chosen_means) / n, min(chosen_means)
+    fixed_means, fixed_worsts = (mean_ours, mean_theirs), (ours[worst_ours], theirs[worst_theirs])
+    if r(rule_mean) <= r(min(fixed_means)) and r(rule_worst) <= r(min(fixed_worsts)):
+        rule_verdict = "no better than either form kept fixed, on the mean or on the worst protocol"
+    elif r(rule_mean) >= r(max(fixed_means)) and r(rule_worst) >= r(max(fixed_worsts)):
+        rule_verdict = "better than either form kept fixed, on the mean and on the worst protocol"
+    else:
+        rule_verdict = "between the two forms kept fixed"
     return "\n".join(lines) + (
         "\n\nMean over terrains, the mean held-out log p(truth) in brackets; the same development runs, folds and "
-        f"searched settings, both forms with parameter uncertainty. Mean over the {COUNT[len(slugs)]} protocols: "
-        f"{pct(mean_ours)} "
-        f"for the bank's form, {pct(mean_theirs)} for the physics-shaped form; the worst protocol, {worst}: "
-        f"{verdict}. The physics-shaped form is better "
+        f"searched settings, both forms with parameter uncertainty. Mean over the {COUNT[n]} protocols: "
+        f"{pct(mean_ours)} for the bank's form, {pct(mean_theirs)} for the physics-shaped form; the worst "
+        f"protocol, {worst}: {verdict}. The physics-shaped form is better "
         f"{'on: ' + '; '.join(better) if better else 'on none of them'}. Chosen for it on every development run: "
-        f"{other['chosen']}.\n")
+        f"{other['chosen']}. Chosen inside each fold (the form whose inner cross-validation, without the fold, "
+        f"scored the better mean log p(truth)): mean over the {COUNT[n]} protocols {pct(rule_mean)}, the worst "
+        f"{pct(rule_worst)}, {rule_verdict}; on every development run, that rule chooses {rule} "
+        f"(cross-validated mean log p(truth) {fmt(selection[0], 3)} for the bank's form, {fmt(selection[1], 3)} for "
+        "the physics-shaped form).\n")
 
 
 FIRST = "without (the first design)"
@@ -889,8 +852,7 @@ def main():
     summary, headline, terrains = protocols(work)
     first, first_blocks = assessed(work, "first_", COMPARED + ("lockbox",))
     blocks = {"husky": husky(work), "headline": headline, "terrains": terrains, "calibration": calibration(summary),
-              "confusion": confusion(summary, work), "physics": physics(work, first),
-              "physics_uncertainty": physics_with_uncertainty(work, summary),
+              "confusion": confusion(summary, work), "physics": physics(work, summary),
               "uncertainty": uncertainty(first, summary, first_blocks), "unknown": unknown(work, first),
               "discount": discount(work, first, summary),
               "correlation": correlation(work, first),

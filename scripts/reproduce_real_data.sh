@@ -24,11 +24,10 @@
 #         second: the same without parameter uncertainty, on the protocols
 #         that hold out several runs at a time (each session; the fastest;
 #         the most-turning), as every comparison of designs here.
-#     B2. The physics-shaped alternative, on the same runs and protocols,
-#         against the first design (neither with parameter uncertainty),
-#         and the rule that picks one of the two inside each fold by the
-#         fold's inner cross-validation (from both --table files); B2e. the
-#         physics-shaped form with parameter uncertainty against the design;
+#     B2. The physics-shaped alternative with parameter uncertainty, on the
+#         same runs and protocols, against the design, and the rule that
+#         picks one of the two inside each fold by the fold's inner
+#         cross-validation (from both --table files);
 #         B2d. the first design with an unknown hypothesis, on the
 #         extrapolation protocols; B2f. the first design and the design
 #         with the extrapolation discount, on the extrapolation protocols;
@@ -99,7 +98,7 @@ for ((i = 1; i < ${#aside[@]}; i += 2)); do all+=(--log "${aside[$i]}"); done
 speed='speed=abs(velL + velR) / 2'
 turn='turn=abs(velR - velL)'
 protocols="logs,sessions,extrapolation:$speed,extrapolation:$turn"
-# The first design and the physics-shaped form (B1b, B2, B2e) are compared with the design on the
+# The first design and the physics-shaped form (B1b, B2) are compared with the design on the
 # protocols that hold out several runs at a time: each run held out alone, the costliest (a search
 # per development run), leaves the runs recorded with it in training; it scores the design (B1) and
 # the wheel-only bank (B4).
@@ -137,15 +136,13 @@ for folder in "$work/borealtc/first_held_out"/*/; do
     >"$work/borealtc/first_eval_$name.json"
 done
 
-# B2. The physics-shaped form, on the same runs and compared protocols (no lockbox:
-# it was not chosen), against the first design: neither has parameter uncertainty.
-"$skidimm" tune -q --bank configs/borealtc/physics_start.yaml "${develop[@]}" "${fit[@]}" --tune "$knobs" \
-  --assess "$compared" "${by_session[@]}" --table "$work/borealtc/physics_scores.csv" >"$work/borealtc/physics_tune.txt"
-# B2e. The physics-shaped form with each mode's parameter uncertainty, as the design has it: the two
-# forms compared as the bank would use them, on the same runs and compared protocols (no lockbox).
+# B2. The physics-shaped form with each mode's parameter uncertainty, as the design has it: the two
+# forms compared as the bank would use them, on the same runs and compared protocols (no lockbox: it
+# was not chosen), and the rule that picks one of the two inside each fold by the fold's inner
+# cross-validation (from both --table files).
 "$skidimm" tune -q --bank configs/borealtc/physics_start.yaml "${develop[@]}" "${fit[@]}" --parameter-uncertainty \
-  --tune "$knobs" --assess "$compared" "${by_session[@]}" --table "$work/borealtc/physics_uncertainty_scores.csv" \
-  >"$work/borealtc/physics_uncertainty_tune.txt"
+  --tune "$knobs" --assess "$compared" "${by_session[@]}" --table "$work/borealtc/physics_scores.csv" \
+  >"$work/borealtc/physics_tune.txt"
 
 # B2d. The first design with an explicit unknown hypothesis ("none of these": bank key `unknown:`, its
 # covariance factor tuned inside each fold with the other knobs; enter 0.01 and leave 0.1 a step,
