@@ -138,6 +138,7 @@ struct FitCommandOptions {
   bool full_q = false;                // likelihood: Q with off-diagonal terms
   bool output_noise = false;          // window: each mode's own R for the outputs it predicts
   bool parameter_uncertainty = false;  // window: write each fitted mode's parameter covariance
+  bool uncertainty_per_log = false;    // with it: each log's rows counted as correlated
   bool residual_correlation = false;   // window: write each fitted mode's residual correlation
   bool hold_unexcited = false;        // hold parameters the logs do not excite at their starting values
   double window = 0.0;                // s; 0: one-step
@@ -173,6 +174,7 @@ struct TuneCommandOptions {
   bool full_q = false;
   bool hold_unexcited = false;
   bool parameter_uncertainty = false;  // window objective: each fitted mode's parameter covariance
+  bool uncertainty_per_log = false;    // with it: each log's rows counted as correlated
   bool residual_correlation = false;   // window objective: each fitted mode's residual correlation
   std::filesystem::path output_bank;
   std::filesystem::path table;      // per-log scores as CSV

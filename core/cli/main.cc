@@ -346,6 +346,11 @@ int main(int argc, char** argv) {
   fit->add_flag("--parameter-uncertainty", fit_options.parameter_uncertainty,
                 "Window objective: write each fitted mode's parameter covariance (parameter_covariance:), so its "
                 "predictions widen for inputs unlike those it was fitted on");
+  fit->add_flag("--uncertainty-per-log", fit_options.uncertainty_per_log,
+                "With --parameter-uncertainty: count each log's rows as correlated, each channel's residual variance "
+                "scaled by its design effect over the logs (about the rows per log where each log is missed by an "
+                "offset of its own), so a mode fitted on a few logs widens as a fit on a few rows would")
+      ->needs("--parameter-uncertainty");
   fit->add_flag("--residual-correlation", fit_options.residual_correlation,
                 "Window objective: write each fitted mode's residual correlation (residual_correlation:), the lag-1 "
                 "correlation of its whitened one-step errors, so its likelihood counts a persistent miss once");
@@ -452,6 +457,11 @@ int main(int argc, char** argv) {
   tune->add_flag("--parameter-uncertainty", tune_options.parameter_uncertainty,
                  "Window objective: each fitted mode's parameter covariance widens its predictions for inputs unlike "
                  "those it was fitted on (written to --output-bank)");
+  tune->add_flag("--uncertainty-per-log", tune_options.uncertainty_per_log,
+                 "With --parameter-uncertainty: count each log's rows as correlated, each channel's residual variance "
+                 "scaled by its design effect over the logs (about the rows per log where each log is missed by an "
+                 "offset of its own), so a mode fitted on a few logs widens as a fit on a few rows would")
+      ->needs("--parameter-uncertainty");
   tune->add_flag("--residual-correlation", tune_options.residual_correlation,
                  "Window objective: each fitted mode's residual correlation (residual_correlation:), estimated on "
                  "each fold's training runs (written to --output-bank)");

@@ -322,6 +322,66 @@ modes:
   EXPECT_THAT(likelihood.err, HasSubstr("--parameter-uncertainty is an option of the window objective"));
 }
 
+// --uncertainty-per-log: three logs of one mode, each missed by an offset of
+// its own for its whole length. Counted as correlated within each log, the
+// parameter covariance is the independent rows' times each channel's design
+// effect, here far above 1; the option needs --parameter-uncertainty, for fit
+// and tune alike.
+TEST(Cli, FitCountsEachLogsRowsAsCorrelatedWhenAsked) {
+  const fs::path dir = test_directory();
+  write_file(dir / "feature.yaml", R"(name: feature
+states: [f]
+inputs: [v]
+measurement: {observe: [f], R: {std: [0.05]}}
+transition: {stay: 0.99}
+initial: {covariance: {std: [1]}}
+modes:
+  - name: only
+    model: linear_features
+    params: {A: [-5], B: [[1]], c: [0], fixed: [A]}
+    Q: {diagonal: [0.1]}
+)");
+  std::string logs;
+  const double offsets[] = {0.4, -0.5, 0.1};
+  for (int g = 0; g < 3; ++g) {
+    std::string log = "t,v,f\n";
+    double f = 0.0;
+    for (int k = 0; k < 200; ++k) {
+      const double t = 0.1 * k, v = 1.0 + 0.3 * std::sin(0.37 * t + g);
+      log += std::to_string(t) + "," + std::to_string(v) + "," + std::to_string(f + 0.05 * std::sin(7.1 * t)) + "\n";
+      f = std::exp(-0.5) * f + (1.0 - std::exp(-0.5)) * (2.0 * v + 1.0 + offsets[g]) + 0.1 * std::cos(3.3 * t + g);
+    }
+    const fs::path file = dir / ("log" + std::to_string(g) + ".csv");
+    write_file(file, log);
+    logs += " --log only=" + file.string();
+  }
+  const std::string fit = "fit --bank " + (dir / "feature.yaml").string() + " --objective window" + logs +
+                          " --plugin-path " + kPlugins + " --parameter-uncertainty --output-bank ";
+  const Result independent = run_skidimm(fit + (dir / "independent.yaml").string());
+  ASSERT_EQ(independent.exit_code, 0) << independent.err;
+  const Result per_log = run_skidimm(fit + (dir / "per_log.yaml").string() + " --uncertainty-per-log");
+  ASSERT_EQ(per_log.exit_code, 0) << per_log.err;
+  const Eigen::MatrixXd a = skidimm::load_bank_config(dir / "independent.yaml").modes[0].parameter_covariance;
+  const Eigen::MatrixXd b = skidimm::load_bank_config(dir / "per_log.yaml").modes[0].parameter_covariance;
+  ASSERT_EQ(a.rows(), 2);
+  ASSERT_EQ(b.rows(), 2);
+  // One channel: one factor for the whole matrix, the offsets' sums far
+  // above the rows' own errors'.
+  const double factor = b(1, 1) / a(1, 1);
+  EXPECT_GT(factor, 20.0);
+  EXPECT_NEAR(b(0, 0), factor * a(0, 0), 1e-6 * b(0, 0));
+  EXPECT_NEAR(b(0, 1), factor * a(0, 1), 1e-6 * b(0, 0));
+  // The option alone: a usage error, for fit and for tune.
+  const Result alone = run_skidimm("fit --bank " + (dir / "feature.yaml").string() + " --objective window" + logs +
+                                   " --plugin-path " + kPlugins + " --uncertainty-per-log");
+  EXPECT_EQ(alone.exit_code, 2);
+  EXPECT_THAT(alone.err, HasSubstr("--uncertainty-per-log requires --parameter-uncertainty"));
+  const Result tune_alone = run_skidimm("tune --bank " + (dir / "feature.yaml").string() + " --objective window" +
+                                        logs + " --plugin-path " + kPlugins + " --uncertainty-per-log");
+  EXPECT_EQ(tune_alone.exit_code, 2);
+  EXPECT_THAT(tune_alone.err, HasSubstr("--uncertainty-per-log requires --parameter-uncertainty"));
+}
+
 // --residual-correlation: fit estimates each mode's lag-1 correlation of its
 // whitened one-step errors and writes it; tune does the same on its folds'
 // training logs. Each mode's feature follows its line in v (at the input

@@ -60,12 +60,13 @@ Bank load_two_features(const std::string& text, const std::string& name = "two.y
 // Gamma of one feature: int_0^dt e^{a s} ds.
 double feature_gamma(int state) { return std::expm1(kFeatureRate[state] * kFeatureDt) / kFeatureRate[state]; }
 
-// A log of the two features with errors of unequal size (0.05, 0.4 per step).
-Trajectory regression_log(int rows, unsigned seed) {
+// A log of the two features with errors of unequal size (0.05, 0.4 per step),
+// each feature's target moved by `offset` for the whole log.
+Trajectory regression_log(int rows, unsigned seed, const Eigen::Vector2d& offset = Eigen::Vector2d::Zero()) {
   std::mt19937 random(seed);
   std::normal_distribution<double> normal;
   const Eigen::Matrix<double, 2, 2> b = (Eigen::Matrix<double, 2, 2>() << 1.5, -0.7, 0.4, 2.0).finished();
-  const Eigen::Vector2d c(0.3, -1.0), error(0.05, 0.4);
+  const Eigen::Vector2d c = Eigen::Vector2d(0.3, -1.0) + offset, error(0.05, 0.4);
   Trajectory t;
   t.source = "regression";
   t.u.resize(2, rows);
@@ -135,6 +136,87 @@ TEST(ParameterCovariance, IsEachFeaturesRegressionCovarianceSSquaredTimesTheInve
   EXPECT_GT(far.dot(first * far), 10.0 * mean.dot(first * mean));
   // Unequal errors, unequal variances: one s^2 for both features would blur them.
   EXPECT_GT(report.parameter_covariance(5, 5), 20.0 * report.parameter_covariance(4, 4));
+}
+
+// Logs each missed by an offset of its own: per log, the covariance is the
+// regression's s^2 (X'X)^-1 times each feature's design effect over the logs,
+// G / (G - 1) sum_g (sum of log g's residuals)^2 / SSE, computed here from
+// the same regression with Eigen alone.
+TEST(ParameterCovariance, PerLogIsTheRegressionsTimesEachFeaturesDesignEffect) {
+  const std::vector<Eigen::Vector2d> offsets = {{0.2, -1.5}, {-0.3, 2.0}, {0.05, 0.3}};
+  std::vector<Trajectory> logs;
+  for (std::size_t g = 0; g < offsets.size(); ++g) {
+    logs.push_back(regression_log(150, 40 + static_cast<unsigned>(g), offsets[g]));
+    logs.back().log = "run_" + std::to_string(g);
+  }
+  FitOptions options;
+  options.window = 0.0;
+  options.loss = "none";
+  options.parameter_covariance = true;
+  Bank independent_bank = load_two_features(bank_text());
+  const FitReport independent = fit(&independent_bank, std::vector<ModeLogs>{{0, logs}}, options).front();
+  options.parameter_covariance_per_log = true;
+  Bank bank = load_two_features(bank_text());
+  const FitReport per_log = fit(&bank, std::vector<ModeLogs>{{0, logs}}, options).front();
+  ASSERT_EQ(per_log.parameter_covariance.rows(), 6);
+
+  int rows = 0;
+  for (const Trajectory& t : logs) rows += t.size() - 1;
+  Eigen::MatrixXd x(rows, 3);
+  std::vector<int> log_of(static_cast<std::size_t>(rows));
+  for (int g = 0, r = 0; g < static_cast<int>(logs.size()); ++g) {
+    for (int k = 0; k + 1 < logs[static_cast<std::size_t>(g)].size(); ++k, ++r) {
+      x.row(r) << logs[static_cast<std::size_t>(g)].u(0, k), logs[static_cast<std::size_t>(g)].u(1, k), 1.0;
+      log_of[static_cast<std::size_t>(r)] = g;
+    }
+  }
+  const Eigen::MatrixXd xtx_inverse = (x.transpose() * x).ldlt().solve(Eigen::MatrixXd::Identity(3, 3));
+  const int index[2][3] = {{0, 1, 4}, {2, 3, 5}};
+  for (int i = 0; i < 2; ++i) {
+    Eigen::VectorXd y(rows);
+    for (int g = 0, r = 0; g < static_cast<int>(logs.size()); ++g) {
+      const Trajectory& t = logs[static_cast<std::size_t>(g)];
+      for (int k = 0; k + 1 < t.size(); ++k, ++r) {
+        y[r] = (t.z(i, k + 1) - std::exp(kFeatureRate[i] * kFeatureDt) * t.z(i, k)) / feature_gamma(i);
+      }
+    }
+    const Eigen::VectorXd residual = y - x * (xtx_inverse * x.transpose() * y);
+    std::vector<double> sums(logs.size(), 0.0);
+    for (int r = 0; r < rows; ++r) sums[static_cast<std::size_t>(log_of[static_cast<std::size_t>(r)])] += residual[r];
+    double between = 0.0;
+    for (double sum : sums) between += sum * sum;
+    const double g = static_cast<double>(logs.size());
+    const double design_effect = g / (g - 1.0) * between / residual.squaredNorm();
+    // The offsets dwarf the errors of a step: far from independent rows.
+    EXPECT_GT(design_effect, 10.0) << "feature " << i;
+    const Eigen::Matrix3d expected = design_effect * residual.squaredNorm() / (rows - 3) * xtx_inverse;
+    for (int p = 0; p < 3; ++p) {
+      for (int q = 0; q < 3; ++q) {
+        EXPECT_NEAR(per_log.parameter_covariance(index[i][p], index[i][q]), expected(p, q),
+                    1e-6 * std::abs(expected(p, p)))
+            << "feature " << i << " (" << p << ", " << q << ")";
+        EXPECT_NEAR(per_log.parameter_covariance(index[i][p], index[i][q]),
+                    design_effect * independent.parameter_covariance(index[i][p], index[i][q]),
+                    1e-6 * std::abs(expected(p, p)));
+      }
+    }
+  }
+}
+
+// One log says nothing of how logs differ: the rows count as independent.
+TEST(ParameterCovariance, PerLogWithOneLogIsTheIndependentRowsCovariance) {
+  FitOptions options;
+  options.window = 0.0;
+  options.loss = "none";
+  options.parameter_covariance = true;
+  Trajectory log = regression_log(300, 5, Eigen::Vector2d(0.4, -0.4));
+  log.log = "one";
+  Bank independent_bank = load_two_features(bank_text());
+  const FitReport independent = fit(&independent_bank, std::vector<ModeLogs>{{0, {log}}}, options).front();
+  options.parameter_covariance_per_log = true;
+  Bank bank = load_two_features(bank_text());
+  const FitReport per_log = fit(&bank, std::vector<ModeLogs>{{0, {log}}}, options).front();
+  EXPECT_EQ(per_log.parameter_covariance, independent.parameter_covariance);
 }
 
 TEST(ParameterCovariance, IsLeftEmptyUnlessAsked) {

@@ -454,7 +454,11 @@ Eigen::MatrixXd mode_parameter_covariance(Bank* bank, const ModeLogs& d, const M
   std::vector<double> r(static_cast<std::size_t>(std::max(1, most_residuals)));
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> j(std::max(1, most_residuals), p);
   const double* point[] = {block.values.data()};
+  std::map<std::string, int> log_index;  // a log's segments (fit_when) are one log
   for (const Trajectory& t : d.logs) {
+    const int log = options.parameter_covariance_per_log
+                        ? log_index.emplace(t.log, static_cast<int>(log_index.size())).first->second
+                        : -1;
     if (t.size() < 2) continue;  // no window
     if (!has_parameter_jacobian(*model, m, t)) {
       throw FitError(who + ": the parameter covariance needs the model's exact derivatives (parameter_jacobian())");
@@ -467,7 +471,7 @@ Eigen::MatrixXd mode_parameter_covariance(Bank* bank, const ModeLogs& d, const M
       for (int target : w.targets) {
         for (Eigen::Index c = 0; c < t.z.rows(); ++c) {
           if (!std::isfinite(t.z(c, target))) continue;
-          estimate.add(static_cast<int>(c), j.row(row), r[static_cast<std::size_t>(row)]);
+          estimate.add(static_cast<int>(c), j.row(row), r[static_cast<std::size_t>(row)], log);
           ++row;
         }
       }

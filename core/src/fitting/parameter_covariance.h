@@ -21,7 +21,18 @@
 //
 // Assumes the residual rows independent: correlated errors over a run make
 // it smaller than the parameters' real uncertainty (docs/fitting.md,
-// "Parameter uncertainty").
+// "Parameter uncertainty"). Given which log each row came from (add() with
+// a log index), each channel's variance is instead scaled by its design
+// effect over the logs,
+//
+//   deff_c = G / (G - 1) * sum_g (sum of log g's residuals of c)^2 / SSE_c
+//
+// (G logs with rows of the channel; at least 1, and 1 with fewer than two
+// logs): about 1 where a log's errors are independent from row to row, and
+// about the rows per log where each log is missed by an offset of its own,
+// as if each log were one row. The sums over a log are what a persistent
+// miss adds up in; G / (G - 1) undoes their being centred on the fit's own
+// line (with an intercept they sum to zero over all logs).
 #ifndef SKIDIMM_CORE_SRC_FITTING_PARAMETER_COVARIANCE_H_
 #define SKIDIMM_CORE_SRC_FITTING_PARAMETER_COVARIANCE_H_
 
@@ -42,14 +53,38 @@ class ParameterCovarianceEstimate {
   ParameterCovarianceEstimate(int parameters, int channels)
       : information_(static_cast<std::size_t>(channels), Eigen::MatrixXd::Zero(parameters, parameters)),
         squares_(Eigen::VectorXd::Zero(channels)),
-        counts_(Eigen::VectorXd::Zero(channels)) {}
+        counts_(Eigen::VectorXd::Zero(channels)),
+        log_sums_(static_cast<std::size_t>(channels)) {}
 
-  // One residual row of `channel`: its value and its derivatives in the parameters.
-  void add(int channel, const Eigen::Ref<const Eigen::RowVectorXd>& jacobian_row, double residual) {
+  // One residual row of `channel`: its value and its derivatives in the
+  // parameters; `log` (0, 1, ...), the log it came from, for the design
+  // effect, or -1 to count the rows independent.
+  void add(int channel, const Eigen::Ref<const Eigen::RowVectorXd>& jacobian_row, double residual, int log = -1) {
     information_[static_cast<std::size_t>(channel)].selfadjointView<Eigen::Lower>().rankUpdate(
         jacobian_row.transpose());
     squares_[channel] += residual * residual;
     counts_[channel] += 1.0;
+    if (log >= 0) {
+      std::vector<LogSum>& sums = log_sums_[static_cast<std::size_t>(channel)];
+      if (sums.size() <= static_cast<std::size_t>(log)) sums.resize(static_cast<std::size_t>(log) + 1);
+      sums[static_cast<std::size_t>(log)].residuals += residual;
+      ++sums[static_cast<std::size_t>(log)].rows;
+    }
+  }
+
+  // Channel c's design effect over the logs (above); 1 where no row of it
+  // came with a log.
+  double design_effect(int channel) const {
+    double between = 0.0;
+    int logs = 0;
+    for (const LogSum& sum : log_sums_[static_cast<std::size_t>(channel)]) {
+      if (sum.rows == 0) continue;  // a log without rows of the channel
+      between += sum.residuals * sum.residuals;
+      ++logs;
+    }
+    const double squares = squares_[channel];
+    if (logs < 2 || !(squares > 0.0)) return 1.0;
+    return std::max(1.0, logs / (logs - 1.0) * between / squares);
   }
 
   // Sigma over every parameter, in the directions `free_basis` spans
@@ -68,7 +103,8 @@ class ParameterCovarianceEstimate {
     Eigen::MatrixXd information = Eigen::MatrixXd::Zero(p, p);
     for (std::size_t c = 0; c < information_.size(); ++c) {
       if (counts_[static_cast<Eigen::Index>(c)] == 0.0) continue;
-      const double variance = squares_[static_cast<Eigen::Index>(c)] / counts_[static_cast<Eigen::Index>(c)] * dof;
+      const double variance = squares_[static_cast<Eigen::Index>(c)] / counts_[static_cast<Eigen::Index>(c)] * dof *
+                              design_effect(static_cast<int>(c));
       if (!(variance > 0.0)) continue;  // a channel predicted exactly says nothing of the scale
       information += Eigen::MatrixXd(information_[c].selfadjointView<Eigen::Lower>()) / variance;
     }
@@ -115,6 +151,11 @@ class ParameterCovarianceEstimate {
   std::vector<Eigen::MatrixXd> information_;  // per channel, sum J_c' J_c (lower triangle)
   Eigen::VectorXd squares_;                   // per channel, the sum of squared residuals
   Eigen::VectorXd counts_;                    // per channel, its residual rows
+  struct LogSum {
+    double residuals = 0.0;
+    long rows = 0;
+  };
+  std::vector<std::vector<LogSum>> log_sums_;  // per channel, per log
 };
 
 }  // namespace internal

@@ -97,6 +97,12 @@ struct FitOptions {
   // (FitReport::parameter_covariance): Gauss-Newton, one residual variance
   // per measurement channel.
   bool parameter_covariance = false;
+  // With parameter_covariance: count each log's residual rows as correlated,
+  // each channel's variance scaled by its design effect over the logs (about
+  // the rows per log where each log is missed by an offset of its own;
+  // docs/fitting.md, "Parameter uncertainty"). Off, the rows count as
+  // independent.
+  bool parameter_covariance_per_log = false;
   // Each fitted parameter's standard deviation in the report, from Ceres'
   // covariance: an SVD of the whole Jacobian, as costly as the solve. Off,
   // they are NaN and no parameter is reported poorly determined; `tune`,
