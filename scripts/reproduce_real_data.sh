@@ -13,17 +13,21 @@
 #     Student-t likelihood, which settings tune searches, each mode's
 #     parameter uncertainty) was chosen on the other 37, the development
 #     runs, and scored on the lockbox here.
-#     B1. The design: `skidimm tune --parameter-uncertainty` on the
-#         development runs with every protocol of nested assessment (each
-#         log held out; each session held out; per terrain, the fastest and
-#         the most-turning runs held out), and the lockbox scored by the bank
-#         tuned on the development runs. `skidimm eval --estimates`
-#         recomputes each protocol's metrics, with calibration, from the
-#         held-out outputs tune wrote.
+#     B1. The design: `skidimm tune --parameter-uncertainty
+#         --uncertainty-per-log` on the development runs with every protocol
+#         of nested assessment (each log held out; each session held out;
+#         per terrain, the fastest and the most-turning runs held out), and
+#         the lockbox scored by the bank tuned on the development runs.
+#         `skidimm eval --estimates` recomputes each protocol's metrics,
+#         with calibration, from the held-out outputs tune wrote.
 #     B1b. The first design, frozen and scored on the lockbox before the
-#         second: the same without parameter uncertainty, on the protocols
+#         others: the same without parameter uncertainty, on the protocols
 #         that hold out several runs at a time (each session; the fastest;
-#         the most-turning), as every comparison of designs here.
+#         the most-turning), as every comparison of designs here, and the
+#         lockbox.
+#     B1i. The second design, scored on the lockbox before the third: each
+#         mode's parameter uncertainty with its rows counted independent,
+#         on the same protocols and the lockbox.
 #     B2. The physics-shaped alternative with parameter uncertainty, on the
 #         same runs and protocols, against the design, and the rule that
 #         picks one of the two inside each fold by the fold's inner
@@ -112,10 +116,13 @@ read -ra fit <<<"$(inner 0)"
 # Which runs were recorded together, for the protocol that holds each session out.
 by_session=(--sessions configs/borealtc/sessions.txt)
 knobs=likelihood-weight,likelihood-dof,q-scale,r-scale,floor
+# The design's parameter uncertainty: each mode's parameter covariance, its rows counted as correlated
+# within each log (the third design; the second counted them independent, step B1i).
+uncertainty=(--parameter-uncertainty --uncertainty-per-log)
 
 # B1. The design, scored.
 "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${aside[@]}" "${fit[@]}" \
-  --parameter-uncertainty --tune "$knobs" --assess "$protocols" "${by_session[@]}" --table "$work/borealtc/scores.csv" \
+  "${uncertainty[@]}" --tune "$knobs" --assess "$protocols" "${by_session[@]}" --table "$work/borealtc/scores.csv" \
   --estimates "$work/borealtc/held_out" --output-bank "$work/borealtc/development.yaml" >"$work/borealtc/tune.txt"
 for folder in "$work/borealtc/held_out"/*/; do
   name=$(basename "$folder")
@@ -136,11 +143,25 @@ for folder in "$work/borealtc/first_held_out"/*/; do
     >"$work/borealtc/first_eval_$name.json"
 done
 
+# B1i. The second design, frozen and scored on the lockbox before the third: each mode's parameter
+# uncertainty with its rows counted independent, on the compared protocols. The third design counts
+# each log's rows as correlated; it was chosen on the development runs' scores of both (B1, B1i) and
+# the lockbox scored it once.
+"$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${aside[@]}" "${fit[@]}" \
+  --parameter-uncertainty --tune "$knobs" --assess "$compared" "${by_session[@]}" \
+  --table "$work/borealtc/independent_scores.csv" --estimates "$work/borealtc/independent_held_out" \
+  --output-bank "$work/borealtc/independent_development.yaml" >"$work/borealtc/independent_tune.txt"
+for folder in "$work/borealtc/independent_held_out"/*/; do
+  name=$(basename "$folder")
+  "$skidimm" eval --estimates "$folder" --bank "$work/borealtc/independent_development.yaml" --json \
+    >"$work/borealtc/independent_eval_$name.json"
+done
+
 # B2. The physics-shaped form with each mode's parameter uncertainty, as the design has it: the two
 # forms compared as the bank would use them, on the same runs and compared protocols (no lockbox: it
 # was not chosen), and the rule that picks one of the two inside each fold by the fold's inner
 # cross-validation (from both --table files).
-"$skidimm" tune -q --bank configs/borealtc/physics_start.yaml "${develop[@]}" "${fit[@]}" --parameter-uncertainty \
+"$skidimm" tune -q --bank configs/borealtc/physics_start.yaml "${develop[@]}" "${fit[@]}" "${uncertainty[@]}" \
   --tune "$knobs" --assess "$compared" "${by_session[@]}" --table "$work/borealtc/physics_scores.csv" \
   >"$work/borealtc/physics_tune.txt"
 
@@ -165,8 +186,8 @@ done
 # and the two extrapolation protocols, where it is meant to help. Development only: the lockbox does
 # not score this.
 for variant in discount_first discount; do
-  uncertainty=(); [ "$variant" = discount ] && uncertainty=(--parameter-uncertainty)
-  "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${fit[@]}" "${uncertainty[@]}" \
+  with=(); [ "$variant" = discount ] && with=("${uncertainty[@]}")
+  "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${fit[@]}" "${with[@]}" \
     --tune "$knobs,extrapolation-scale" --assess "extrapolation:$speed,extrapolation:$turn" \
     --table "$work/borealtc/${variant}_scores.csv" --estimates "$work/borealtc/${variant}_held_out" \
     >"$work/borealtc/${variant}_tune.txt"
@@ -204,7 +225,7 @@ for bank in first_development correlation_development; do
 done
 
 # B3. The bundled bank.
-"$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${all[@]}" "${fit[@]}" --parameter-uncertainty \
+"$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${all[@]}" "${fit[@]}" "${uncertainty[@]}" \
   --tune "$knobs" --no-assess --output-bank "$work/borealtc/terrains.yaml" >"$work/borealtc/final_tune.txt"
 sed "s|$bt/||g; s|$data/||g" "$work/borealtc/terrains.yaml" >"$bank_out"
 # The same bank reading ROS 2 bags follows it (scripts/derive_ros2_config.py).
@@ -248,7 +269,7 @@ for factor in 2 4 8; do
 done
 read -ra splice_search <<<"$(inner 5)"
 "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${splice_search[@]}" \
-  --parameter-uncertainty --tune "$knobs" --splice --no-assess --output-bank "$work/borealtc/splice_development.yaml" \
+  "${uncertainty[@]}" --tune "$knobs" --splice --no-assess --output-bank "$work/borealtc/splice_development.yaml" \
   >"$work/borealtc/splice_tune.txt"
 
 "$python" scripts/real_data_tables.py "$work" "$doc" "$bt"
