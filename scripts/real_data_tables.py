@@ -341,8 +341,7 @@ def physics(work, design):
     selection = [float(design_rows["selection"][0]["selection_score"]),
                  float(other_rows["selection"][0]["selection_score"])]
     rule = "the physics-shaped form" if selection[1] > selection[0] else "the bank's form"
-    # Compared as printed (tenths of a percent): tune's blocks give three decimals, the rows more.
-    r = lambda x: round(x, 3)
+    r = printed
     rule_mean, rule_worst = sum(chosen_means) / n, min(chosen_means)
     fixed_means, fixed_worsts = (mean_ours, mean_theirs), (ours[worst_ours], theirs[worst_theirs])
     if r(rule_mean) <= r(min(fixed_means)) and r(rule_worst) <= r(min(fixed_worsts)):
@@ -427,58 +426,62 @@ def extrapolation_comparison(work, first, prefix, column, with_name, intro):
         f"Chosen with it on every development run: {other['chosen']}.")
 
 
-def uncertainty(first, summary, first_blocks):
-    """The first design against the design, which adds each mode's parameter uncertainty: the compared protocols
-    on the development runs, then the lockbox."""
+def printed(x):
+    """A share as the tables print it (tenths of a percent), for comparing two of them: tune's blocks give three
+    decimals, the rows more."""
+    return round(x, 3)
+
+
+def against_design(base, summary, base_blocks, change, names, words, rule=False):
+    """An earlier design (`base`) against the design on the compared protocols of the development runs, then the
+    lockbox, which scored each once: the table (its column `change`, the two designs' `names`), the means and
+    worst protocols (the designs as `words`), with `rule` what the rule the design's choices were made by says,
+    what got better and worse, and the lockbox runs that moved by five points or more."""
     development = COMPARED
-    lines, better, worse = comparison_rows(as_forms(first, development), as_forms(summary, development), development,
-                                           "parameter uncertainty", FIRST, "with (the design)")
-    box, box_better, box_worse = comparison_rows(as_forms(first, ("lockbox",)), as_forms(summary, ("lockbox",)),
-                                                 ("lockbox",), "parameter uncertainty", FIRST, "with (the design)")
+    base_name, design_name = names
+    lines, better, worse = comparison_rows(as_forms(base, development), as_forms(summary, development), development,
+                                           change, base_name, design_name)
+    box, box_better, box_worse = comparison_rows(as_forms(base, ("lockbox",)), as_forms(summary, ("lockbox",)),
+                                                 ("lockbox",), change, base_name, design_name)
     mean = lambda s: sum(s[slug]["tune"]["mean"] for slug in development) / len(development)
     worst = lambda s: min(s[slug]["tune"]["mean"] for slug in development)
+    verdict = ""
+    if rule:
+        taken = (printed(worst(summary)) > printed(worst(base)) and printed(mean(summary)) >= printed(mean(base)))
+        verdict = (": a better worst case and a mean no worse: by the rule the design's choices were made by, it is "
+                   "taken" if taken else
+                   ": not a better worst case with a mean no worse: by the rule the design's choices were made by, it "
+                   "is not")
+    before = {r["log"]: float(r["accuracy"]) for r in base["lockbox"]["rows"]}
+    moved = [(r["truth"], run_number(r["log"]), before[r["log"]], float(r["accuracy"]))
+             for r in summary["lockbox"]["rows"] if abs(float(r["accuracy"]) - before[r["log"]]) >= 0.05]
+    moved_text = ("; ".join(f"{t} {n} {pct(a)} -> {pct(b)}" for t, n, a, b in moved) if moved else "none")
     return "\n".join(lines + box[2:]) + (
         f"\n\nOn the development runs, the same folds and searched settings: mean over the "
         f"{COUNT[len(development)]} protocols "
-        f"{pct(mean(first))} without, {pct(mean(summary))} with; the worst protocol {pct(worst(first))} against "
-        f"{pct(worst(summary))}. With parameter uncertainty the development scores are better in {len(better)} and "
+        f"{pct(mean(base))} {words[0]}, {pct(mean(summary))} {words[1]}; the worst protocol {pct(worst(base))} "
+        f"against {pct(worst(summary))}{verdict}. {words[2]} the development scores are better in {len(better)} and "
         f"worse in {len(worse)} of the {len(better) + len(worse)} that differ: better: "
         f"{'; '.join(better) if better else 'none'}; worse: {'; '.join(worse) if worse else 'none'}. On the lockbox, "
         f"better: {'; '.join(x.split(' (')[0] for x in box_better) if box_better else 'none'}; worse: "
-        f"{'; '.join(x.split(' (')[0] for x in box_worse) if box_worse else 'none'}. The first design's settings, chosen on every development "
-        f"run: {first_blocks['chosen']}.\n")
+        f"{'; '.join(x.split(' (')[0] for x in box_worse) if box_worse else 'none'}; its runs that moved by five "
+        f"points or more: {moved_text}. {words[3]}'s settings, chosen on every development run: "
+        f"{base_blocks['chosen']}.\n")
 
 
-SECOND = "independent (the second design)"
+def uncertainty(first, summary, first_blocks):
+    """The first design against the design, which adds each mode's parameter uncertainty."""
+    return against_design(first, summary, first_blocks, "parameter uncertainty", (FIRST, "with (the design)"),
+                          ("without", "with", "With parameter uncertainty", "The first design"))
 
 
 def per_log(second, summary, second_blocks):
     """The second design (each mode's parameter uncertainty, its rows counted independent) against the design
-    (each log's rows counted as correlated): the compared protocols, the rule the design was chosen by, and the
-    lockbox, which scored each once."""
-    development = COMPARED
-    lines, better, worse = comparison_rows(as_forms(second, development), as_forms(summary, development), development,
-                                           "the rows of a log", SECOND, "correlated (the design)")
-    box, box_better, box_worse = comparison_rows(as_forms(second, ("lockbox",)), as_forms(summary, ("lockbox",)),
-                                                 ("lockbox",), "the rows of a log", SECOND, "correlated (the design)")
-    mean = lambda s: sum(s[slug]["tune"]["mean"] for slug in development) / len(development)
-    worst = lambda s: min(s[slug]["tune"]["mean"] for slug in development)
-    # Compared as printed (tenths of a percent).
-    r = lambda x: round(x, 3)
-    if r(worst(summary)) > r(worst(second)) and r(mean(summary)) >= r(mean(second)):
-        verdict = "a better worst case and a mean no worse: by the rule the design's choices were made by, it is taken"
-    else:
-        verdict = "not a better worst case with a mean no worse: by the rule the design's choices were made by, it is not"
-    return "\n".join(lines + box[2:]) + (
-        f"\n\nOn the development runs, the same folds and searched settings: mean over the "
-        f"{COUNT[len(development)]} protocols {pct(mean(second))} with the rows counted independent, "
-        f"{pct(mean(summary))} with each log's counted as correlated; the worst protocol {pct(worst(second))} against "
-        f"{pct(worst(summary))}: {verdict}. Counted as correlated, the development scores are better in {len(better)} "
-        f"and worse in {len(worse)} of the {len(better) + len(worse)} that differ: better: "
-        f"{'; '.join(better) if better else 'none'}; worse: {'; '.join(worse) if worse else 'none'}. On the lockbox, "
-        f"better: {'; '.join(x.split(' (')[0] for x in box_better) if box_better else 'none'}; worse: "
-        f"{'; '.join(x.split(' (')[0] for x in box_worse) if box_worse else 'none'}. The second design's settings, "
-        f"chosen on every development run: {second_blocks['chosen']}.\n")
+    (each log's rows counted as correlated), and what the rule the design was chosen by says of them."""
+    return against_design(second, summary, second_blocks, "the rows of a log",
+                          ("independent (the second design)", "correlated (the design)"),
+                          ("with the rows counted independent", "with each log's counted as correlated",
+                           "Counted as correlated,", "The second design"), rule=True)
 
 
 def unknown(work, first):

@@ -102,7 +102,7 @@ for ((i = 1; i < ${#aside[@]}; i += 2)); do all+=(--log "${aside[$i]}"); done
 speed='speed=abs(velL + velR) / 2'
 turn='turn=abs(velR - velL)'
 protocols="logs,sessions,extrapolation:$speed,extrapolation:$turn"
-# The first design and the physics-shaped form (B1b, B2) are compared with the design on the
+# The first and second designs and the physics-shaped form (B1b, B1i, B2) are compared with the design on the
 # protocols that hold out several runs at a time: each run held out alone, the costliest (a search
 # per development run), leaves the runs recorded with it in training; it scores the design (B1) and
 # the wheel-only bank (B4).
@@ -129,33 +129,32 @@ for folder in "$work/borealtc/held_out"/*/; do
   "$skidimm" eval --estimates "$folder" --bank "$work/borealtc/development.yaml" --json >"$work/borealtc/eval_$name.json"
 done
 
-# B1b. The first design: the same without each mode's parameter uncertainty, on the compared
-# protocols. It was frozen and scored on the lockbox first; parameter uncertainty was added
-# afterwards on the development runs' scores of both (B1, B1b), and the lockbox scored the second
-# design once.
-"$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${aside[@]}" "${fit[@]}" \
-  --tune "$knobs" --assess "$compared" "${by_session[@]}" --table "$work/borealtc/first_scores.csv" \
-  --estimates "$work/borealtc/first_held_out" --output-bank "$work/borealtc/first_development.yaml" \
-  >"$work/borealtc/first_tune.txt"
-for folder in "$work/borealtc/first_held_out"/*/; do
-  name=$(basename "$folder")
-  "$skidimm" eval --estimates "$folder" --bank "$work/borealtc/first_development.yaml" --json \
-    >"$work/borealtc/first_eval_$name.json"
-done
+# An earlier design, tuned and assessed as the design is but on the compared protocols, and the
+# lockbox: PREFIX_tune.txt, PREFIX_scores.csv, PREFIX_held_out/, PREFIX_development.yaml and
+# PREFIX_eval_<protocol>.json. The arguments after PREFIX are its fit options beyond `fit`.
+earlier_design() {
+  local prefix=$1
+  shift
+  "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${aside[@]}" "${fit[@]}" "$@" \
+    --tune "$knobs" --assess "$compared" "${by_session[@]}" --table "$work/borealtc/${prefix}_scores.csv" \
+    --estimates "$work/borealtc/${prefix}_held_out" --output-bank "$work/borealtc/${prefix}_development.yaml" \
+    >"$work/borealtc/${prefix}_tune.txt"
+  for folder in "$work/borealtc/${prefix}_held_out"/*/; do
+    "$skidimm" eval --estimates "$folder" --bank "$work/borealtc/${prefix}_development.yaml" --json \
+      >"$work/borealtc/${prefix}_eval_$(basename "$folder").json"
+  done
+}
+
+# B1b. The first design: the same without each mode's parameter uncertainty. It was frozen and
+# scored on the lockbox first; parameter uncertainty was added afterwards on the development runs'
+# scores of both (the second design, B1i, and B1b), and the lockbox scored the second design once.
+earlier_design first
 
 # B1i. The second design, frozen and scored on the lockbox before the third: each mode's parameter
-# uncertainty with its rows counted independent, on the compared protocols. The third design counts
-# each log's rows as correlated; it was chosen on the development runs' scores of both (B1, B1i) and
-# the lockbox scored it once.
-"$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${aside[@]}" "${fit[@]}" \
-  --parameter-uncertainty --tune "$knobs" --assess "$compared" "${by_session[@]}" \
-  --table "$work/borealtc/independent_scores.csv" --estimates "$work/borealtc/independent_held_out" \
-  --output-bank "$work/borealtc/independent_development.yaml" >"$work/borealtc/independent_tune.txt"
-for folder in "$work/borealtc/independent_held_out"/*/; do
-  name=$(basename "$folder")
-  "$skidimm" eval --estimates "$folder" --bank "$work/borealtc/independent_development.yaml" --json \
-    >"$work/borealtc/independent_eval_$name.json"
-done
+# uncertainty with its rows counted independent. The third design counts each log's rows as
+# correlated; it was chosen on the development runs' scores of both (B1, B1i) and the lockbox scored
+# it once.
+earlier_design independent --parameter-uncertainty
 
 # B2. The physics-shaped form with each mode's parameter uncertainty, as the design has it: the two
 # forms compared as the bank would use them, on the same runs and compared protocols (no lockbox: it
@@ -186,8 +185,8 @@ done
 # and the two extrapolation protocols, where it is meant to help. Development only: the lockbox does
 # not score this.
 for variant in discount_first discount; do
-  with=(); [ "$variant" = discount ] && with=("${uncertainty[@]}")
-  "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${fit[@]}" "${with[@]}" \
+  design_uncertainty=(); [ "$variant" = discount ] && design_uncertainty=("${uncertainty[@]}")
+  "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${fit[@]}" "${design_uncertainty[@]}" \
     --tune "$knobs,extrapolation-scale" --assess "extrapolation:$speed,extrapolation:$turn" \
     --table "$work/borealtc/${variant}_scores.csv" --estimates "$work/borealtc/${variant}_held_out" \
     >"$work/borealtc/${variant}_tune.txt"

@@ -182,7 +182,7 @@ int fit(const FitCommandOptions& options) {
     fit_options.full_process_noise = options.full_q;
     fit_options.output_noise = options.output_noise;
     fit_options.parameter_uncertainty = options.parameter_uncertainty;
-    fit_options.window.parameter_covariance_per_log = options.uncertainty_per_log;
+    fit_options.uncertainty_per_log = options.uncertainty_per_log;
     fit_options.residual_correlation = options.residual_correlation;
     request.mode = options.mode;
     request.name = options.name;

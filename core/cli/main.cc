@@ -98,6 +98,11 @@ CLI::Validator file_path(const char* expected = "a file path") {
       [expected](std::string& text) { return text.empty() ? "expected " + std::string(expected) : std::string(); }, "");
 }
 
+const char* const kUncertaintyPerLog =
+    "With --parameter-uncertainty: count each log's rows as correlated, each channel's residual variance scaled by "
+    "its design effect over the logs (about the rows per log where each log is missed by an offset of its own), so "
+    "a mode fitted on a few logs widens as a fit on a few rows would";
+
 const char* const kSkipUnpaired =
     "A pattern pairs its files by run key ('pro_*.csv+imu_*.csv': pro_02 with imu_02); leave out, with a note, "
     "the runs some of its files lack, instead of an error listing them";
@@ -346,10 +351,7 @@ int main(int argc, char** argv) {
   fit->add_flag("--parameter-uncertainty", fit_options.parameter_uncertainty,
                 "Window objective: write each fitted mode's parameter covariance (parameter_covariance:), so its "
                 "predictions widen for inputs unlike those it was fitted on");
-  fit->add_flag("--uncertainty-per-log", fit_options.uncertainty_per_log,
-                "With --parameter-uncertainty: count each log's rows as correlated, each channel's residual variance "
-                "scaled by its design effect over the logs (about the rows per log where each log is missed by an "
-                "offset of its own), so a mode fitted on a few logs widens as a fit on a few rows would")
+  fit->add_flag("--uncertainty-per-log", fit_options.uncertainty_per_log, kUncertaintyPerLog)
       ->needs("--parameter-uncertainty");
   fit->add_flag("--residual-correlation", fit_options.residual_correlation,
                 "Window objective: write each fitted mode's residual correlation (residual_correlation:), the lag-1 "
@@ -457,10 +459,7 @@ int main(int argc, char** argv) {
   tune->add_flag("--parameter-uncertainty", tune_options.parameter_uncertainty,
                  "Window objective: each fitted mode's parameter covariance widens its predictions for inputs unlike "
                  "those it was fitted on (written to --output-bank)");
-  tune->add_flag("--uncertainty-per-log", tune_options.uncertainty_per_log,
-                 "With --parameter-uncertainty: count each log's rows as correlated, each channel's residual variance "
-                 "scaled by its design effect over the logs (about the rows per log where each log is missed by an "
-                 "offset of its own), so a mode fitted on a few logs widens as a fit on a few rows would")
+  tune->add_flag("--uncertainty-per-log", tune_options.uncertainty_per_log, kUncertaintyPerLog)
       ->needs("--parameter-uncertainty");
   tune->add_flag("--residual-correlation", tune_options.residual_correlation,
                  "Window objective: each fitted mode's residual correlation (residual_correlation:), estimated on "

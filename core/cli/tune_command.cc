@@ -374,7 +374,7 @@ int tune(const TuneCommandOptions& options) {
       fit_options.fit_measurement_noise = options.fit_r;
       fit_options.full_process_noise = options.full_q;
       fit_options.parameter_uncertainty = options.parameter_uncertainty;
-      fit_options.window.parameter_covariance_per_log = options.uncertainty_per_log;
+      fit_options.uncertainty_per_log = options.uncertainty_per_log;
       fit_options.residual_correlation = options.residual_correlation;
       fit_options.window.standard_deviations = false;  // the folds' reports are not kept
       // Without a joint R each mode's fit depends on its own logs alone.

@@ -230,11 +230,9 @@ TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
   }
 }
 
-TEST(Cli, TuneTempersTheEvidenceOfABankThatOvercountsItOnRealRuns) {
-  SKIDIMM_SKIP_UNDER_SANITIZERS_STATISTICAL();  // Tune.* and HostileInput.Tune* run the same code under them
-  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
-  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
-  const fs::path dir = test_directory();
+// Three BorealTC runs each of flooring and ice (those present), as `--log`
+// arguments.
+std::string flooring_and_ice_runs(const std::string& boreal) {
   std::string logs;
   for (const std::string terrain : {"FLOORING", "ICE"}) {
     for (const std::string run : {"00", "01", "05"}) {
@@ -243,6 +241,15 @@ TEST(Cli, TuneTempersTheEvidenceOfABankThatOvercountsItOnRealRuns) {
               "/imu_" + run + ".csv'";
     }
   }
+  return logs;
+}
+
+TEST(Cli, TuneTempersTheEvidenceOfABankThatOvercountsItOnRealRuns) {
+  SKIDIMM_SKIP_UNDER_SANITIZERS_STATISTICAL();  // Tune.* and HostileInput.Tune* run the same code under them
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  const fs::path dir = test_directory();
+  const std::string logs = flooring_and_ice_runs(boreal);
   const Result tune = run_skidimm("tune --bank " + kSource + "/configs/borealtc/terrains_start.yaml" + logs +
                                   " --objective window --hold-unexcited --full-q --tune likelihood-weight --no-assess"
                                   " --threads 2 --output-bank " +
@@ -252,6 +259,40 @@ TEST(Cli, TuneTempersTheEvidenceOfABankThatOvercountsItOnRealRuns) {
   const skidimm::BankConfig tuned = skidimm::load_bank_config(dir / "tuned.yaml");
   EXPECT_LT(tuned.likelihood_weight, 0.5) << tune.err;
   EXPECT_THAT(read_file(dir / "tuned.yaml"), HasSubstr("likelihood weight"));  // the header's chosen settings
+}
+
+// --uncertainty-per-log reaches every fit tune makes: on real runs, each
+// mode's parameter covariance in the tuned bank is the independent rows' or
+// larger, and larger for some mode, each run being missed by an offset of
+// its own.
+TEST(Cli, TuneCountsEachLogsRowsAsCorrelatedWhenAsked) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  const fs::path dir = test_directory();
+  const std::string logs = flooring_and_ice_runs(boreal);
+  const std::string tune = "tune -q --bank " + kSource + "/configs/borealtc/terrains_start.yaml" + logs +
+                           " --objective window --hold-unexcited --tune floor --no-assess --threads 2"
+                           " --parameter-uncertainty --plugin-path " +
+                           kPlugins + " --output-bank ";
+  const Result independent = run_skidimm(tune + (dir / "independent.yaml").string());
+  ASSERT_EQ(independent.exit_code, 0) << independent.err;
+  const Result per_log = run_skidimm(tune + (dir / "per_log.yaml").string() + " --uncertainty-per-log");
+  ASSERT_EQ(per_log.exit_code, 0) << per_log.err;
+  const skidimm::BankConfig a = skidimm::load_bank_config(dir / "independent.yaml");
+  const skidimm::BankConfig b = skidimm::load_bank_config(dir / "per_log.yaml");
+  ASSERT_EQ(a.modes.size(), b.modes.size());
+  int widened = 0;
+  for (std::size_t j = 0; j < a.modes.size(); ++j) {
+    const Eigen::VectorXd before = a.modes[j].parameter_covariance.diagonal();
+    const Eigen::VectorXd after = b.modes[j].parameter_covariance.diagonal();
+    if (before.size() == 0) continue;  // a mode without logs here keeps its start
+    ASSERT_EQ(after.size(), before.size()) << a.modes[j].name;
+    for (Eigen::Index i = 0; i < before.size(); ++i) {
+      EXPECT_GE(after[i], before[i] * (1.0 - 1e-9)) << a.modes[j].name << " " << i;
+    }
+    widened += (after.array() > 2.0 * before.array()).any() ? 1 : 0;
+  }
+  EXPECT_GT(widened, 0);
 }
 
 // The bundled switching log in four parts, as `--log` arguments.

@@ -19,6 +19,7 @@
 
 #include "core/temp_files.h"
 #include "fitting/kept_covariance_models.h"
+#include "fitting/parameter_covariance.h"
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/imm.h"
 #include "skidimm/errors.h"
@@ -84,6 +85,18 @@ Trajectory regression_log(int rows, unsigned seed, const Eigen::Vector2d& offset
   return t;
 }
 
+// Three logs of 150 rows, each feature's target moved by an offset of the
+// log's own, far larger than a step's error: run_0, run_1, run_2.
+std::vector<Trajectory> logs_each_off_its_line() {
+  const std::vector<Eigen::Vector2d> offsets = {{0.2, -1.5}, {-0.3, 2.0}, {0.05, 0.3}};
+  std::vector<Trajectory> logs;
+  for (std::size_t g = 0; g < offsets.size(); ++g) {
+    logs.push_back(regression_log(150, 40 + static_cast<unsigned>(g), offsets[g]));
+    logs.back().log = "run_" + std::to_string(g);
+  }
+  return logs;
+}
+
 TEST(ParameterCovariance, IsEachFeaturesRegressionCovarianceSSquaredTimesTheInverseOfXtX) {
   Bank bank = load_two_features(bank_text());
   const Trajectory log = regression_log(400, 17);
@@ -143,12 +156,7 @@ TEST(ParameterCovariance, IsEachFeaturesRegressionCovarianceSSquaredTimesTheInve
 // G / (G - 1) sum_g (sum of log g's residuals)^2 / SSE, computed here from
 // the same regression with Eigen alone.
 TEST(ParameterCovariance, PerLogIsTheRegressionsTimesEachFeaturesDesignEffect) {
-  const std::vector<Eigen::Vector2d> offsets = {{0.2, -1.5}, {-0.3, 2.0}, {0.05, 0.3}};
-  std::vector<Trajectory> logs;
-  for (std::size_t g = 0; g < offsets.size(); ++g) {
-    logs.push_back(regression_log(150, 40 + static_cast<unsigned>(g), offsets[g]));
-    logs.back().log = "run_" + std::to_string(g);
-  }
+  const std::vector<Trajectory> logs = logs_each_off_its_line();
   FitOptions options;
   options.window = 0.0;
   options.loss = "none";
@@ -201,6 +209,70 @@ TEST(ParameterCovariance, PerLogIsTheRegressionsTimesEachFeaturesDesignEffect) {
       }
     }
   }
+}
+
+// The design effect by hand: one parameter (an intercept) seen by two
+// channels. Channel 0: logs 0 and 2 (log 1 has none of its rows) each missed
+// by an offset, residual sums 2 and -2 over 4 squares: 2/1 * 8/4 = 4.
+// Channel 1: each log's residuals cancel, so its sums say less than
+// independent rows would: floored at 1. The variances s_c^2 = SSE_c / n_c *
+// N / (N - p) times the design effect give the information 4 / (4 * 8/7) +
+// 4 / (8/7) = 35/8.
+TEST(ParameterCovariance, DesignEffectByHandWithALogWithoutRowsAndItsFloor) {
+  internal::ParameterCovarianceEstimate estimate(1, 2);
+  const Eigen::RowVectorXd one = Eigen::RowVectorXd::Ones(1);
+  for (const auto& [log, residual] : {std::pair{0, 1.0}, {0, 1.0}, {2, -1.0}, {2, -1.0}}) {
+    estimate.add(0, one, residual, log);
+  }
+  for (const auto& [log, residual] : {std::pair{0, 1.0}, {0, -1.0}, {1, 1.0}, {1, -1.0}}) {
+    estimate.add(1, one, residual, log);
+  }
+  EXPECT_DOUBLE_EQ(estimate.design_effect(0), 4.0);
+  EXPECT_DOUBLE_EQ(estimate.design_effect(1), 1.0);
+  EXPECT_NEAR(estimate.covariance(Eigen::MatrixXd::Identity(1, 1))(0, 0), 8.0 / 35.0, 1e-15);
+  // Rows given without a log count as independent.
+  internal::ParameterCovarianceEstimate independent(1, 1);
+  for (double residual : {1.0, 1.0, -1.0, -1.0}) independent.add(0, one, residual);
+  EXPECT_DOUBLE_EQ(independent.design_effect(0), 1.0);
+}
+
+// A log's segments (the rows a mode's fit_when gives it, split where it does
+// not hold) are one log: split in two under the same log name, a log's
+// offset still counts once, not as two logs that agree.
+TEST(ParameterCovariance, PerLogCountsALogsSegmentsAsOneLog) {
+  const std::vector<Trajectory> whole = logs_each_off_its_line();
+  // Each log cut into two segments at row 75.
+  auto segments = [&](bool same_name) {
+    std::vector<Trajectory> out;
+    for (const Trajectory& t : whole) {
+      for (int part = 0; part < 2; ++part) {
+        Trajectory s;
+        const int from = part * 75, count = 75;
+        s.t.assign(t.t.begin() + from, t.t.begin() + from + count);
+        s.u = t.u.middleCols(from, count);
+        s.z = t.z.middleCols(from, count);
+        s.source = t.log + (part ? "[b]" : "[a]");
+        s.log = same_name ? t.log : s.source;
+        out.push_back(std::move(s));
+      }
+    }
+    return out;
+  };
+  FitOptions options;
+  options.window = 0.0;
+  options.loss = "none";
+  options.parameter_covariance = true;
+  options.parameter_covariance_per_log = true;
+  Bank as_logs = load_two_features(bank_text());
+  const Eigen::MatrixXd logs =
+      fit(&as_logs, std::vector<ModeLogs>{{0, segments(true)}}, options).front().parameter_covariance;
+  Bank as_segments = load_two_features(bank_text());
+  const Eigen::MatrixXd apart =
+      fit(&as_segments, std::vector<ModeLogs>{{0, segments(false)}}, options).front().parameter_covariance;
+  // Where the offsets dominate, each segment sums to about half its log's
+  // S_g: as three logs 3/2 sum S_g^2 / SSE, as six segments
+  // 6/5 * (sum S_g^2 / 2) / SSE, 2.5 times less.
+  for (int p = 0; p < 6; ++p) EXPECT_GT(logs(p, p), 1.5 * apart(p, p)) << p;
 }
 
 // One log says nothing of how logs differ: the rows count as independent.
@@ -584,6 +656,30 @@ TEST(ParameterUncertainty, FitBankAndTuningSetTheCovarianceAndARefitWithoutItRem
   fit_bank(&bank, data, options);
   EXPECT_EQ(bank.config.modes[0].parameter_covariance.size(), 0);
   EXPECT_EQ(parameter_covariance_of(*bank.models[0]).size(), 0);
+}
+
+// fit_bank (which fit and tune call) counts each log's rows as correlated
+// when asked: the same covariance as the fit's own option gives.
+TEST(ParameterUncertainty, FitBankCountsEachLogsRowsAsCorrelatedWhenAsked) {
+  const std::vector<Trajectory> logs = logs_each_off_its_line();
+  BankFitOptions options;
+  options.objective = Objective::kWindow;
+  options.window.loss = "none";
+  options.parameter_uncertainty = true;
+  Bank independent = load_two_features(bank_text());
+  fit_bank(&independent, std::vector<ModeLogs>{{0, logs}}, options);
+  options.uncertainty_per_log = true;
+  Bank per_log = load_two_features(bank_text(), "per_log.yaml");
+  fit_bank(&per_log, std::vector<ModeLogs>{{0, logs}}, options);
+  FitOptions direct;
+  direct.loss = "none";
+  direct.parameter_covariance = true;
+  direct.parameter_covariance_per_log = true;
+  Bank reference = load_two_features(bank_text(), "reference.yaml");
+  const FitReport report = fit(&reference, std::vector<ModeLogs>{{0, logs}}, direct).front();
+  EXPECT_EQ(per_log.config.modes[0].parameter_covariance, report.parameter_covariance);
+  EXPECT_GT(per_log.config.modes[0].parameter_covariance(4, 4),
+            10.0 * independent.config.modes[0].parameter_covariance(4, 4));
 }
 
 TEST(ParameterUncertainty, TheLikelihoodObjectiveRefusesIt) {

@@ -45,6 +45,7 @@ std::map<int, FitReport> fit_window(Bank* bank, const std::vector<ModeLogs>& dat
   fit_options.progress = options.progress;
   fit_options.correlated_process_noise = fit_options.correlated_process_noise || options.full_process_noise;
   fit_options.parameter_covariance = options.parameter_uncertainty;
+  fit_options.parameter_covariance_per_log = options.uncertainty_per_log;
   if (options.shared) {
     fit_options.scope = sdk::ParameterScope::kBank;
     const std::vector<FitReport> shared = fit(bank, data, fit_options);

@@ -43,6 +43,9 @@ struct BankFitOptions {
   // predictions widen where the fit saw no data; without it a fitted mode's
   // old covariance is removed (it belonged to other parameters).
   bool parameter_uncertainty = false;
+  // With it: each log's rows counted as correlated in that covariance
+  // (FitOptions::parameter_covariance_per_log).
+  bool uncertainty_per_log = false;
   // Window objective: write each fitted mode's residual correlation, the
   // lag-1 correlation of its whitened one-step errors on its logs
   // (FitReport::residual_correlation, ModeConfig::residual_correlation), so
