@@ -289,6 +289,9 @@ TEST(ParameterCovariance, PerLogWithOneLogIsTheIndependentRowsCovariance) {
   Bank bank = load_two_features(bank_text());
   const FitReport per_log = fit(&bank, std::vector<ModeLogs>{{0, {log}}}, options).front();
   EXPECT_EQ(per_log.parameter_covariance, independent.parameter_covariance);
+  EXPECT_THAT(per_log.warnings, ::testing::Contains(HasSubstr("fitted on one log: its parameter covariance counts "
+                                                              "the rows as independent")));
+  EXPECT_THAT(independent.warnings, ::testing::Not(::testing::Contains(HasSubstr("fitted on one log"))));
 }
 
 TEST(ParameterCovariance, IsLeftEmptyUnlessAsked) {

@@ -14,6 +14,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <set>
 
 #include "affine_subspace_manifold.h"
 #include "bounded_median.h"
@@ -622,6 +623,15 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<const ModeLogs*>& data,
     set_fitted_parameters(bank, group, block, who);
     for (const ModeLogs* d : group) {
       reports[d->mode] = report_of(*bank, *d, options, block, deviations, parameter_covariance, windows, solution);
+      if (parameter_covariance.size() > 0 && options.parameter_covariance_per_log) {
+        std::set<std::string> logs;
+        for (const Trajectory& t : d->logs) logs.insert(t.log);
+        if (logs.size() < 2) {
+          reports[d->mode].warnings.push_back(
+              "fitted on one log: its parameter covariance counts the rows as independent (the rows of one log "
+              "cannot say how much logs differ)");
+        }
+      }
     }
   }
   std::vector<FitReport> out;
