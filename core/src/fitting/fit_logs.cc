@@ -6,7 +6,6 @@
 #include <limits>
 #include <map>
 #include <memory>
-#include <set>
 
 #include "parallel.h"
 #include "skidimm/config/expression.h"
@@ -181,12 +180,6 @@ std::map<std::string, InputRange> fitted_input_ranges(const BankConfig& config, 
     if (lowest <= highest) ranges[config.input_names[static_cast<std::size_t>(input)]] = InputRange{lowest, highest};
   }
   return ranges;
-}
-
-int log_count(const ModeLogs& data) {
-  std::set<std::string> logs;
-  for (const Trajectory& t : data.logs) logs.insert(t.log);
-  return static_cast<int>(logs.size());
 }
 
 }  // namespace fitting

@@ -623,20 +623,22 @@ std::vector<FitReport> fit(Bank* bank, const std::vector<const ModeLogs*>& data,
     set_fitted_parameters(bank, group, block, who);
     for (const ModeLogs* d : group) {
       reports[d->mode] = report_of(*bank, *d, options, block, deviations, parameter_covariance, windows, solution);
-      if (parameter_covariance.size() > 0 && options.parameter_covariance_per_log) {
-        std::set<std::string> logs;
-        for (const Trajectory& t : d->logs) logs.insert(t.log);
-        if (logs.size() < 2) {
-          reports[d->mode].warnings.push_back(
-              "fitted on one log: its parameter covariance counts the rows as independent (the rows of one log "
-              "cannot say how much logs differ)");
-        }
+      if (parameter_covariance.size() > 0 && options.parameter_covariance_per_log && log_count(*d) < 2) {
+        reports[d->mode].warnings.push_back(
+            "fitted on one log: its parameter covariance counts the rows as independent (the rows of one log "
+            "cannot say how much logs differ)");
       }
     }
   }
   std::vector<FitReport> out;
   for (const ModeLogs* d : data) out.push_back(reports[d->mode]);
   return out;
+}
+
+int log_count(const ModeLogs& data) {
+  std::set<std::string> logs;
+  for (const Trajectory& t : data.logs) logs.insert(t.log);
+  return static_cast<int>(logs.size());
 }
 
 }  // namespace fitting

@@ -34,9 +34,6 @@ std::vector<ModeLogs> load_mode_logs(const BankConfig& config, const std::vector
                                      const std::string& default_mode, const SamplingConfig& sampling,
                                      const std::string& option = "--log", const LogArgumentOptions& expansion = {});
 
-// How many logs `data`'s segments were read from (Trajectory::log).
-int log_count(const ModeLogs& data);
-
 // Each input's range over the steps of mode `mode` in `data`, every entry of
 // it (a fit pools them), by the bank's input names (ModeConfig::fitted_inputs);
 // an input with no finite value has none.

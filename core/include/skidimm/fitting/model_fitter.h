@@ -167,6 +167,9 @@ struct ModeLogs {
   std::vector<Trajectory> logs;
 };
 
+// How many logs `data`'s segments were read from (Trajectory::log).
+int log_count(const ModeLogs& data);
+
 // Fits the parameters of `options.scope` of the bank's models in place
 // (bank->models[j]->set_parameters) and returns one report per mode in
 // `data` (for kBank, the parameters are common and every report lists them).
