@@ -85,6 +85,29 @@ TEST(Cli, ValidateCheckFindsAWrongJacobianAtOperatingPointsOfARealLog) {
   EXPECT_EQ(ran.exit_code, 0) << ran.err;
 }
 
+// A parameter of absurd size makes the prediction too large for central
+// differences to check the plugin's (right) derivatives: validate says the
+// entry cannot be checked and names the bank's parameter behind it, instead
+// of calling the plugin's Jacobian wrong.
+TEST(Cli, ValidateCheckNamesAParameterOfAbsurdSizeInsteadOfBlamingThePlugin) {
+  const fs::path dir = test_directory();
+  std::string bank = read_file(kSource + "/configs/ltc_terrains.yaml");
+  const std::size_t a = bank.find("params: {A: [[");
+  ASSERT_NE(a, std::string::npos);
+  const std::size_t first = a + std::string("params: {A: [[").size();
+  bank.replace(first, bank.find(',', first) - first, "1e300");
+  const fs::path file = write_file(dir / "absurd_a.yaml", bank);
+  const Result r = run_skidimm("validate " + file.string() + " --plugin-path " + kPlugins + " --check " + kSource +
+                               "/configs/examples/ltc_switching.csv");
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("    asphalt: FAILED at 20 of 20 points"));
+  EXPECT_THAT(r.out, HasSubstr("parameter_jacobian() cannot be checked at x = ["));
+  EXPECT_THAT(r.out, HasSubstr("the largest term of 'V' is parameter 'A[0,0]' = 1e+300"));
+  EXPECT_THAT(r.out, Not(HasSubstr("differs from central differences")));
+  EXPECT_THAT(r.out, HasSubstr("    grass: ok\n    crushed_concrete: ok\n"));
+  EXPECT_THAT(r.err, HasSubstr("absurd_a.yaml"));
+}
+
 TEST(Cli, ValidateRefusesAQOf1e300) {
   const fs::path dir = test_directory();
   std::string bank = read_file(kSource + "/configs/ltc_terrains.yaml");

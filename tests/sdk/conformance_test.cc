@@ -160,6 +160,27 @@ TEST(ConformanceKit, CatchesDeclaredParameterJacobianRowsThatMissAnEntryOrEntrie
               HasSubstr("parameter_jacobian_rows() for parameter 1 are not increasing rows of its 1 states"));
 }
 
+// With a = 1e300 the prediction is about 7e298, so central differences over
+// b (stepped by about 6e-6) round by about 1e284: a mismatch there would say
+// nothing of b's derivative. The kit says the entry cannot be checked and
+// names the parameter behind the size, instead of calling a right
+// derivative wrong. The state Jacobian, 1 + a dt, is resolved and passes.
+TEST(ConformanceKit, SaysAPredictionTooLargeToDifferenceCannotBeCheckedAndNamesTheParameterBehindIt) {
+  BrokenModel model(BrokenModel::kNone);
+  Eigen::VectorXd huge(2);
+  huge << 1e300, 0.5;
+  ASSERT_TRUE(model.set_parameters(huge, nullptr));
+  const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
+  EXPECT_FALSE(result);
+  EXPECT_THAT(result.message(), HasSubstr("parameter_jacobian() cannot be checked at x = [0.7]"));
+  EXPECT_THAT(result.message(), HasSubstr("central differences over 'b' round by about "));
+  EXPECT_THAT(result.message(), HasSubstr("the largest term of 'x' is parameter 'a' = 1e+300 (about 7e+298)"));
+  EXPECT_THAT(result.message(), Not(HasSubstr("differs from central differences")));
+  // The model's output ya = a u is as far out of scale, and said so the same way.
+  EXPECT_THAT(result.message(), HasSubstr("output_parameter_jacobian() cannot be checked at u = [2]: 'ya' = 2e+300"));
+  EXPECT_THAT(result.message(), HasSubstr("the largest term of 'ya' is parameter 'a' = 1e+300 (about 2e+300)"));
+}
+
 TEST(ConformanceKit, CatchesAModelThatMovesInZeroTime) {
   EXPECT_THAT(rejection(BrokenModel::kMovesAtZeroDt), HasSubstr("predict(x, u, 0) changed component 0"));
 }

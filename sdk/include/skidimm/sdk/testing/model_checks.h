@@ -160,6 +160,56 @@ inline std::string compare_with_differences(const std::string& what, const Eigen
   return out.str();
 }
 
+// Central differences of a value v perturbing one argument by h round to
+// about eps |v| / h (the evaluations at +-h each round to eps |v|, a few
+// operations more). Where that exceeds what the comparison allows, a
+// mismatch says nothing about the analytic derivative: "what cannot be
+// checked at <point>: ..." naming the worst row and argument, followed by
+// why(row); "" when every entry is resolved. `at` are the perturbed
+// arguments, stepped as numeric_parameter_jacobian() and
+// numeric_state_jacobian() step.
+template <typename Why>
+std::string unresolved_by_differences(const std::string& what, const Eigen::VectorXd& value, const Eigen::VectorXd& at,
+                                      const Eigen::MatrixXd& numeric, double tolerance, const std::string& point,
+                                      const std::vector<std::string>& row_names,
+                                      const std::vector<std::string>& column_names, const Why& why) {
+  const double eps = std::numeric_limits<double>::epsilon();
+  const double allowed = tolerance * std::max(1.0, numeric.cwiseAbs().maxCoeff());
+  double worst = 0.0;
+  Eigen::Index row = -1, column = -1;
+  for (Eigen::Index i = 0; i < value.size(); ++i) {
+    if (!std::isfinite(value[i])) continue;  // reported as not finite
+    for (Eigen::Index j = 0; j < at.size(); ++j) {
+      const double h = std::cbrt(eps) * std::max(1.0, std::abs(at[j]));
+      const double rounding = 4.0 * eps * std::abs(value[i]) / h;
+      if (rounding > worst) worst = rounding, row = i, column = j;
+    }
+  }
+  if (!(worst > allowed)) return "";
+  std::ostringstream out;
+  out.precision(6);
+  out << what << " cannot be checked at " << point << ": '" << name_of(row_names, row) << "' = " << value[row]
+      << " there, so central differences over '" << name_of(column_names, column) << "' round by about " << worst
+      << ", more than the " << allowed << " the comparison allows" << why(row);
+  return out.str();
+}
+
+// The parameter that contributes most to row `row` of a prediction,
+// |d row / d theta_k| |theta_k| (exact for a model linear in its parameters):
+// "; the largest term of '<row>' is '<name>' = <value> (about <term>)".
+inline std::string largest_term(const Eigen::MatrixXd& parameter_jacobian, const Eigen::VectorXd& values,
+                                Eigen::Index row, const std::vector<std::string>& row_names,
+                                const std::vector<std::string>& parameter_names) {
+  if (values.size() == 0 || row < 0 || row >= parameter_jacobian.rows()) return "";
+  Eigen::Index k = 0;
+  (parameter_jacobian.row(row).transpose().cwiseAbs().cwiseProduct(values.cwiseAbs())).maxCoeff(&k);
+  std::ostringstream out;
+  out.precision(6);
+  out << "; the largest term of '" << name_of(row_names, row) << "' is parameter '" << name_of(parameter_names, k)
+      << "' = " << values[k] << " (about " << std::abs(parameter_jacobian(row, k) * values[k]) << ")";
+  return out.str();
+}
+
 }  // namespace internal
 
 inline std::vector<std::string> motion_model_failures(MotionModel& model, const Eigen::VectorXd& x,
@@ -335,8 +385,20 @@ inline std::vector<std::string> motion_model_failures(MotionModel& model, const 
     if (!numeric_state_jacobian(step, angle, x, numeric)) {
       fail(internal::failed(model, "numeric differentiation of predict()") + " at " + point);
     } else {
-      const std::string differs = internal::compare_with_differences("jacobian()", jacobian, numeric,
-                                                                     options.jacobian_tolerance, point, states, states);
+      const auto why = [&](Eigen::Index row) {
+        Eigen::MatrixXd terms(n, num_parameters);
+        if (num_parameters > 0 && model.parameter_jacobian(x, u, dt, terms) && terms.allFinite()) {
+          return internal::largest_term(terms, values, row, states, parameter_names);
+        }
+        model.failure_reason();  // a failed parameter_jacobian() is reported below
+        return std::string("; a prediction this large usually means a parameter or the state out of scale");
+      };
+      std::string differs = internal::unresolved_by_differences("jacobian()", next, x, numeric,
+                                                                options.jacobian_tolerance, point, states, states, why);
+      if (differs.empty()) {
+        differs = internal::compare_with_differences("jacobian()", jacobian, numeric, options.jacobian_tolerance, point,
+                                                     states, states);
+      }
       if (!differs.empty()) fail(differs);
     }
   }
@@ -354,9 +416,16 @@ inline std::vector<std::string> motion_model_failures(MotionModel& model, const 
     } else if (!evaluated) {
       fail("could not perturb the parameters to check parameter_jacobian() (a parameter on its bound?)");
     } else {
-      const std::string differs =
-          internal::compare_with_differences("parameter_jacobian()", parameter_jacobian, numeric,
-                                             options.jacobian_tolerance, point, states, parameter_names);
+      const auto why = [&](Eigen::Index row) {
+        return internal::largest_term(parameter_jacobian, values, row, states, parameter_names);
+      };
+      std::string differs =
+          internal::unresolved_by_differences("parameter_jacobian()", next, values, numeric, options.jacobian_tolerance,
+                                              point, states, parameter_names, why);
+      if (differs.empty()) {
+        differs = internal::compare_with_differences("parameter_jacobian()", parameter_jacobian, numeric,
+                                                     options.jacobian_tolerance, point, states, parameter_names);
+      }
       if (!differs.empty()) fail(differs);
     }
   } else if (num_parameters > 0) {
@@ -440,9 +509,17 @@ inline std::vector<std::string> motion_model_failures(MotionModel& model, const 
     if (!evaluated) {
       fail("could not perturb the parameters to check output_parameter_jacobian() (a parameter on its bound?)");
     } else {
-      const std::string differs = internal::compare_with_differences(
-          "output_parameter_jacobian()", output_jacobian, numeric, options.jacobian_tolerance,
-          "u = " + internal::vector_text(u), outputs, parameter_names);
+      const std::string at = "u = " + internal::vector_text(u);
+      const auto why = [&](Eigen::Index row) {
+        return internal::largest_term(output_jacobian, values, row, outputs, parameter_names);
+      };
+      std::string differs =
+          internal::unresolved_by_differences("output_parameter_jacobian()", y, values, numeric,
+                                              options.jacobian_tolerance, at, outputs, parameter_names, why);
+      if (differs.empty()) {
+        differs = internal::compare_with_differences("output_parameter_jacobian()", output_jacobian, numeric,
+                                                     options.jacobian_tolerance, at, outputs, parameter_names);
+      }
       if (!differs.empty()) fail(differs);
     }
   }
