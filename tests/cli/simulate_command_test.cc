@@ -18,6 +18,7 @@ TEST(Cli, BundledExampleLogsAreReproducibleFromTheirScenarios) {
     const Result r = run_skidimm("simulate -q --scenario " + kSource + "/configs/scenarios/" + name +
                                  ".yaml --output " + out.string());
     ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(r.err, "") << "a robot that follows its maneuver gets no warning";
     EXPECT_EQ(read_file(out), read_file(kSource + "/configs/examples/" + name + ".csv"))
         << "regenerate with scripts/make_examples.sh";
   }
@@ -99,6 +100,23 @@ TEST(Cli, ASimulationThatFailsSaysWhereItsRowsAre) {
                                           ".partial"));
   EXPECT_TRUE(fs::exists(dir / "log.csv.partial"));
   EXPECT_FALSE(fs::exists(dir / "log.csv"));
+}
+
+// A maneuver faster than the robot can drive on its terrain (1e6 m/s) runs,
+// but its log is of wheels spinning under a body that cannot keep up: a
+// warning says so, naming the scenario, the speeds and what to change.
+TEST(Cli, SimulateWarnsWhenTheRobotCannotFollowTheManeuversSpeed) {
+  const fs::path dir = test_directory();
+  std::string scenario = read_file(kSource + "/configs/scenarios/ltc_switching.yaml");
+  scenario.replace(scenario.find("speed: 0.8"), 10, "speed: 1e6");
+  const fs::path file = write_file(dir / "fast.yaml", scenario);
+  const Result r = run_skidimm("simulate -q --scenario " + file.string() + " --output " + (dir / "log.csv").string());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("skidimm simulate: warning: " + file.string() +
+                                          ": the robot went less than half the maneuver's speed on 100% of the rows"));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("where maneuver.speed asked 1e+06 m/s"));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("lower maneuver.speed"));
+  EXPECT_TRUE(fs::exists(dir / "log.csv"));
 }
 
 // --seed takes what a scenario's `seed:` takes: -1 ran with seed 2^64 - 1,

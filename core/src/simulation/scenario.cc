@@ -488,6 +488,8 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
   const long steps = static_cast<long>(std::ceil(scenario.duration / h));
   std::size_t segment = 0;
   std::vector<std::string> row(columns.size());
+  long commanded_rows = 0, behind_rows = 0;
+  double worst_achieved = HUGE_VAL;
   for (long k = 0; k <= steps; ++k) {
     const double t = k * h;
     while (segment + 1 < scenario.schedule.size() && t >= scenario.schedule[segment + 1].start) ++segment;
@@ -505,6 +507,16 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
     const double right = (v + omega * robot.track / 2.0) / robot.wheel_radius;
 
     if (t + 1e-12 >= next_sample) {
+      if (std::abs(v) >= 0.1) {
+        ++commanded_rows;
+        const double achieved = state.vx / v;  // negative when the body goes the other way
+        if (achieved < 0.5) ++behind_rows;
+        if (achieved < worst_achieved) {
+          worst_achieved = achieved;
+          summary.worst_commanded_speed = v;
+          summary.worst_body_speed = state.vx;
+        }
+      }
       const ContactForces forces = dynamics.forces(state, *mode);
       summary.max_horizontal_accel = std::max(summary.max_horizontal_accel, std::hypot(forces.ax, forces.ay));
       const double true_left = (state.wheel_speed[kFrontLeft] + state.wheel_speed[kRearLeft]) / 2.0;
@@ -590,6 +602,9 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
     }
   }
   out.commit();
+  if (commanded_rows > 0) {
+    summary.share_behind_command = static_cast<double>(behind_rows) / static_cast<double>(commanded_rows);
+  }
   return summary;
 }
 

@@ -131,6 +131,13 @@ struct SimulationSummary {
   double max_horizontal_accel = 0.0;  // m/s^2, |(ax, ay)| of the body
   double max_friction_accel = 0.0;    // m/s^2, max over modes of mu_max g
   std::vector<std::string> modes_driven;
+  // How well the robot followed the maneuver's forward speed: the share of
+  // the rows where the maneuver asked for at least 0.1 m/s at which the body
+  // went less than half as fast, and the speeds at the row where the body
+  // fell shortest (the commanded speed, m/s, and the body's, m/s).
+  double share_behind_command = 0.0;
+  double worst_commanded_speed = 0.0;
+  double worst_body_speed = 0.0;
 };
 
 // Simulates and writes the log (atomically) to `output`. Calls
