@@ -414,8 +414,10 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
     }
     if (!all_ok) {
       std::cerr << "skidimm validate: a mode's model fails the checks at operating points of the log(s): its "
-                   "filter runs, but on a wrong model (see the reasons above: a parameter out of scale is "
-                << bank_file.string() << "'s to fix, a wrong derivative the plugin's)\n";
+                   "filter runs, but on a wrong model (see the reasons above: a derivative that differs is the "
+                   "plugin's to fix; one that cannot be checked comes of a value too large to difference, often a "
+                   "parameter of "
+                << bank_file.string() << " out of scale)\n";
     }
     return all_ok ? kExitOk : kExitFailure;
   });

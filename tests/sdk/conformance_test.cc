@@ -28,6 +28,7 @@ class BrokenModel : public ScalarLinearModel {
     kLeavesOutARow,             // declares that b moves nothing
     kWrongDeclaredEntry,        // entries that are not parameter_jacobian()'s
     kDeclaresARowPastTheState,  // b moves a second state the model does not have
+    kWrongDerivativeInA,        // d next / d a without its dt
   };
   explicit BrokenModel(Defect defect) : ScalarLinearModel(-2.0, 0.5), defect_(defect) {}
 
@@ -55,7 +56,7 @@ class BrokenModel : public ScalarLinearModel {
   // d next / d [a, b] = [x dt, u dt]; the defect drops the dt on b.
   bool parameter_jacobian(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                           double dt, Eigen::Ref<Eigen::MatrixXd> j) const noexcept override {
-    j(0, 0) = x[0] * dt;
+    j(0, 0) = defect_ == kWrongDerivativeInA ? x[0] : x[0] * dt;
     j(0, 1) = defect_ == kWrongParameterJacobian ? u[0] : u[0] * dt;
     return true;
   }
@@ -161,10 +162,11 @@ TEST(ConformanceKit, CatchesDeclaredParameterJacobianRowsThatMissAnEntryOrEntrie
 }
 
 // With a = 1e300 the prediction is about 7e298, so central differences over
-// b (stepped by about 6e-6) round by about 1e284: a mismatch there would say
-// nothing of b's derivative. The kit says the entry cannot be checked and
-// names the parameter behind the size, instead of calling a right
-// derivative wrong. The state Jacobian, 1 + a dt, is resolved and passes.
+// b (stepped by about 6e-6) round by up to eps 7e298 / 6e-6, about 3e283:
+// the right derivative b's differences lose says nothing of the model. The
+// kit says the entry cannot be checked and names the parameter behind the
+// size, instead of calling a right derivative wrong. The state Jacobian,
+// 1 + a dt, is resolved and passes.
 TEST(ConformanceKit, SaysAPredictionTooLargeToDifferenceCannotBeCheckedAndNamesTheParameterBehindIt) {
   BrokenModel model(BrokenModel::kNone);
   Eigen::VectorXd huge(2);
@@ -172,13 +174,37 @@ TEST(ConformanceKit, SaysAPredictionTooLargeToDifferenceCannotBeCheckedAndNamesT
   ASSERT_TRUE(model.set_parameters(huge, nullptr));
   const auto result = skidimm::sdk::testing::MotionModelConforms(model, kX, kU, 0.1);
   EXPECT_FALSE(result);
-  EXPECT_THAT(result.message(), HasSubstr("parameter_jacobian() cannot be checked at x = [0.7]"));
-  EXPECT_THAT(result.message(), HasSubstr("central differences over 'b' round by about "));
-  EXPECT_THAT(result.message(), HasSubstr("the largest term of 'x' is parameter 'a' = 1e+300 (about 7e+298)"));
+  EXPECT_THAT(result.message(), HasSubstr("parameter_jacobian() cannot be checked at x = [0.7], u = [2], dt = 0.1: "
+                                          "'x' = 7e+298 there, too large for central differences to resolve"));
+  EXPECT_THAT(result.message(), HasSubstr("the largest term of 'x' is parameter 'a' = 1e+300 (about 7e+298): a "
+                                          "parameter out of scale?"));
+  EXPECT_THAT(result.message(), HasSubstr("entry (row 0 'x', column 1 'b'): analytic 0.2, numeric 0, rounding up to "));
   EXPECT_THAT(result.message(), Not(HasSubstr("differs from central differences")));
-  // The model's output ya = a u is as far out of scale, and said so the same way.
-  EXPECT_THAT(result.message(), HasSubstr("output_parameter_jacobian() cannot be checked at u = [2]: 'ya' = 2e+300"));
-  EXPECT_THAT(result.message(), HasSubstr("the largest term of 'ya' is parameter 'a' = 1e+300 (about 2e+300)"));
+  // The model's output ya = a u is as large, but its differences resolve
+  // every entry: only an entry that differs can be unresolved.
+  EXPECT_THAT(result.message(), Not(HasSubstr("output_parameter_jacobian()")));
+}
+
+// An entry that cannot be resolved does not hide one that is wrong: with
+// a = 1e12 the prediction is about 7e10, b's differences round by up to
+// about 3 (unresolved), a's by about 3e-12, and a's derivative without its
+// dt (0.7 for 0.07) is reported as differing, alone. At ordinary sizes (a
+// state of 1e4) a right model passes: nothing is called unresolved there.
+TEST(ConformanceKit, AWrongEntryIsReportedBesideOneTooLargeToCheckAndOrdinarySizesPass) {
+  BrokenModel wrong(BrokenModel::kWrongDerivativeInA);
+  Eigen::VectorXd large(2);
+  large << 1e12, 0.5;
+  ASSERT_TRUE(wrong.set_parameters(large, nullptr));
+  const auto result = skidimm::sdk::testing::MotionModelConforms(wrong, kX, kU, 0.1);
+  EXPECT_FALSE(result);
+  const std::string message = result.message();
+  EXPECT_THAT(message, HasSubstr("parameter_jacobian() differs from central differences by "));
+  EXPECT_THAT(message, HasSubstr("entry (row 0 'x', column 0 'a'): analytic 0.7, numeric 0.07"));
+  EXPECT_THAT(message, Not(HasSubstr("entry (row 0 'x', column 1 'b')")));
+  EXPECT_THAT(message, Not(HasSubstr("parameter_jacobian() cannot be checked")));
+
+  BrokenModel right(BrokenModel::kNone);
+  EXPECT_MOTION_MODEL_CONFORMS(right, Eigen::VectorXd::Constant(1, 1e4), kU, 0.1);
 }
 
 TEST(ConformanceKit, CatchesAModelThatMovesInZeroTime) {

@@ -16,6 +16,14 @@
 namespace skidimm {
 namespace sdk {
 
+// The step central differences take for an argument of value `a`:
+// cbrt(eps) balances truncation and round-off error, relative to |a| where
+// it exceeds 1. Rounding alone then errs by up to about eps |f| / h in a
+// derivative of f (each evaluation rounds by eps |f| / 2).
+inline double central_difference_step(double a) {
+  return std::cbrt(std::numeric_limits<double>::epsilon()) * std::max(1.0, std::abs(a));
+}
+
 // predict(x, x_next) -> bool. `is_angle(i)` says which outputs wrap.
 // Returns false if any evaluation fails or is non-finite.
 namespace internal {
@@ -24,11 +32,9 @@ template <typename Vector, typename Matrix, typename Predict, typename IsAngle>
 bool central_differences(const Predict& predict, const IsAngle& is_angle, const Vector& x, Vector& x_perturbed,
                          Vector& plus, Vector& minus, Matrix& jacobian) {
   const Eigen::Index n = x.size();
-  // cbrt(eps) balances truncation and round-off error for central differences.
-  const double relative_step = std::cbrt(std::numeric_limits<double>::epsilon());
   x_perturbed = x;
   for (Eigen::Index j = 0; j < n; ++j) {
-    const double h = relative_step * std::max(1.0, std::abs(x[j]));
+    const double h = central_difference_step(x[j]);
     x_perturbed[j] = x[j] + h;
     if (!predict(x_perturbed, plus)) return false;
     x_perturbed[j] = x[j] - h;

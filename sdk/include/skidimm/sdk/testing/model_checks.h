@@ -103,7 +103,7 @@ bool numeric_parameter_jacobian(MotionModel& model, const Eigen::VectorXd& value
   Eigen::VectorXd plus(rows), minus(rows), perturbed = values;
   bool evaluated = true;
   for (Eigen::Index j = 0; j < values.size() && evaluated; ++j) {
-    const double h = std::cbrt(std::numeric_limits<double>::epsilon()) * std::max(1.0, std::abs(values[j]));
+    const double h = central_difference_step(values[j]);
     perturbed[j] = values[j] + h;
     evaluated = model.set_parameters(perturbed, nullptr) && evaluate(plus);
     perturbed[j] = values[j] - h;
@@ -119,16 +119,33 @@ bool numeric_parameter_jacobian(MotionModel& model, const Eigen::VectorXd& value
   return evaluated;
 }
 
-// The entries of `analytic` that differ from `numeric` by more than
-// `tolerance`, worst first (at most five), each named by row and column.
-inline std::string differing_entries(const Eigen::MatrixXd& analytic, const Eigen::MatrixXd& numeric, double tolerance,
-                                     const std::vector<std::string>& row_names,
-                                     const std::vector<std::string>& column_names) {
+// Where `analytic` and `numeric` (central differences of `value`, stepping
+// the arguments `at`) disagree, and whether rounding can explain it.
+struct Comparison {
+  Eigen::MatrixXd analytic, numeric;
+  Eigen::VectorXd value, at;
+  double tolerance = 0.0;  // allowed |analytic - numeric|, already scaled
+  // An entry's rounding: up to eps |value_i| / h_j (central_difference_step).
+  double rounding(int r, int c) const {
+    return std::numeric_limits<double>::epsilon() * std::abs(value[r]) / central_difference_step(at[c]);
+  }
+  double difference(int r, int c) const { return std::abs(analytic(r, c) - numeric(r, c)); }
+  // Beyond the tolerance; unresolved if within it plus the entry's
+  // rounding (a value too large for differences to check), else wrong.
+  bool differs(int r, int c) const { return !(difference(r, c) <= tolerance); }
+  bool unresolved(int r, int c) const { return difference(r, c) <= tolerance + rounding(r, c); }
+};
+
+// The entries that differ and are `unresolved` (or not), worst first (at
+// most five), each named by row and column with both values.
+inline std::string listed_entries(const Comparison& cmp, bool unresolved, const std::vector<std::string>& row_names,
+                                  const std::vector<std::string>& column_names) {
   std::vector<std::pair<double, std::pair<int, int>>> entries;
-  for (int r = 0; r < analytic.rows(); ++r) {
-    for (int c = 0; c < analytic.cols(); ++c) {
-      const double difference = std::abs(analytic(r, c) - numeric(r, c));
-      if (!(difference <= tolerance)) entries.push_back({std::isnan(difference) ? HUGE_VAL : difference, {r, c}});
+  for (int r = 0; r < cmp.analytic.rows(); ++r) {
+    for (int c = 0; c < cmp.analytic.cols(); ++c) {
+      if (!cmp.differs(r, c) || cmp.unresolved(r, c) != unresolved) continue;
+      const double difference = cmp.difference(r, c);
+      entries.push_back({std::isnan(difference) ? HUGE_VAL : difference, {r, c}});
     }
   }
   std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
@@ -137,76 +154,86 @@ inline std::string differing_entries(const Eigen::MatrixXd& analytic, const Eige
   for (std::size_t k = 0; k < entries.size() && k < 5; ++k) {
     const int r = entries[k].second.first, c = entries[k].second.second;
     out << "\n    entry (row " << r << " '" << name_of(row_names, r) << "', column " << c << " '"
-        << name_of(column_names, c) << "'): analytic " << analytic(r, c) << ", numeric " << numeric(r, c);
+        << name_of(column_names, c) << "'): analytic " << cmp.analytic(r, c) << ", numeric " << cmp.numeric(r, c);
+    if (unresolved) out << ", rounding up to " << cmp.rounding(r, c);
   }
   if (entries.size() > 5) out << "\n    and " << entries.size() - 5 << " more entries";
   return out.str();
 }
 
-// "what differs from central differences by E at <point><entries>", or ""
-// when `reported` is within tolerance of `numeric`.
-inline std::string compare_with_differences(const std::string& what, const Eigen::MatrixXd& reported,
-                                            const Eigen::MatrixXd& numeric, double tolerance, const std::string& point,
-                                            const std::vector<std::string>& row_names,
-                                            const std::vector<std::string>& column_names) {
-  const double scale = std::max(1.0, numeric.cwiseAbs().maxCoeff());
-  const double error_norm = (reported - numeric).cwiseAbs().maxCoeff();
-  if (error_norm <= tolerance * scale) return "";
-  std::ostringstream out;
-  out << what << " differs from central differences by " << error_norm << " at " << point
-      << differing_entries(reported, numeric, tolerance * scale, row_names, column_names) << "\n    reported:\n"
-      << reported << "\n    numeric:\n"
-      << numeric;
-  return out.str();
+// The entries of `analytic` that differ from `numeric` by more than
+// `tolerance`, worst first (at most five), each named by row and column:
+// two derivatives compared exactly (no rounding of differences).
+inline std::string differing_entries(const Eigen::MatrixXd& analytic, const Eigen::MatrixXd& numeric, double tolerance,
+                                     const std::vector<std::string>& row_names,
+                                     const std::vector<std::string>& column_names) {
+  const Comparison exact{analytic, numeric, Eigen::VectorXd::Zero(analytic.rows()),
+                         Eigen::VectorXd::Zero(analytic.cols()), tolerance};
+  return listed_entries(exact, false, row_names, column_names);
 }
 
-// Central differences of a value v perturbing one argument by h round to
-// about eps |v| / h (the evaluations at +-h each round to eps |v|, a few
-// operations more). Where that exceeds what the comparison allows, a
-// mismatch says nothing about the analytic derivative: "what cannot be
-// checked at <point>: ..." naming the worst row and argument, followed by
-// why(row); "" when every entry is resolved. `at` are the perturbed
-// arguments, stepped as numeric_parameter_jacobian() and
-// numeric_state_jacobian() step.
+// "what differs from central differences by E at <point><entries>" for the
+// entries rounding cannot explain; else, for entries it can, "what cannot be
+// checked at <point>: ..." with why(row) of the largest one's row (what
+// makes that row's value large); "" when every entry is within tolerance.
+// A wrong entry is reported whatever the size of the others.
 template <typename Why>
-std::string unresolved_by_differences(const std::string& what, const Eigen::VectorXd& value, const Eigen::VectorXd& at,
-                                      const Eigen::MatrixXd& numeric, double tolerance, const std::string& point,
-                                      const std::vector<std::string>& row_names,
-                                      const std::vector<std::string>& column_names, const Why& why) {
-  const double eps = std::numeric_limits<double>::epsilon();
-  const double allowed = tolerance * std::max(1.0, numeric.cwiseAbs().maxCoeff());
-  double worst = 0.0;
-  Eigen::Index row = -1, column = -1;
-  for (Eigen::Index i = 0; i < value.size(); ++i) {
-    if (!std::isfinite(value[i])) continue;  // reported as not finite
-    for (Eigen::Index j = 0; j < at.size(); ++j) {
-      const double h = std::cbrt(eps) * std::max(1.0, std::abs(at[j]));
-      const double rounding = 4.0 * eps * std::abs(value[i]) / h;
-      if (rounding > worst) worst = rounding, row = i, column = j;
+std::string compare_with_differences(const std::string& what, const Eigen::MatrixXd& reported,
+                                     const Eigen::MatrixXd& numeric, const Eigen::VectorXd& value,
+                                     const Eigen::VectorXd& at, double tolerance, const std::string& point,
+                                     const std::vector<std::string>& row_names,
+                                     const std::vector<std::string>& column_names, const Why& why) {
+  const double scale = std::max(1.0, numeric.cwiseAbs().maxCoeff());
+  const Comparison cmp{reported, numeric, value, at, tolerance * scale};
+  bool wrong = false, unresolved = false;
+  int worst_row = -1;
+  double worst_rounding = 0.0;
+  for (int r = 0; r < reported.rows(); ++r) {
+    for (int c = 0; c < reported.cols(); ++c) {
+      if (!cmp.differs(r, c)) continue;
+      if (!cmp.unresolved(r, c)) {
+        wrong = true;
+      } else if (!unresolved || cmp.rounding(r, c) > worst_rounding) {
+        unresolved = true;
+        worst_row = r;
+        worst_rounding = cmp.rounding(r, c);
+      }
     }
   }
-  if (!(worst > allowed)) return "";
   std::ostringstream out;
-  out.precision(6);
-  out << what << " cannot be checked at " << point << ": '" << name_of(row_names, row) << "' = " << value[row]
-      << " there, so central differences over '" << name_of(column_names, column) << "' round by about " << worst
-      << ", more than the " << allowed << " the comparison allows" << why(row);
+  if (wrong) {
+    out << what << " differs from central differences by " << (reported - numeric).cwiseAbs().maxCoeff() << " at "
+        << point << listed_entries(cmp, false, row_names, column_names) << "\n    reported:\n"
+        << reported << "\n    numeric:\n"
+        << numeric;
+  } else if (unresolved) {
+    out.precision(6);
+    out << what << " cannot be checked at " << point << ": '" << name_of(row_names, worst_row)
+        << "' = " << value[worst_row] << " there, too large for central differences to resolve the entries below "
+        << "within the " << cmp.tolerance << " allowed" << why(worst_row)
+        << listed_entries(cmp, true, row_names, column_names);
+  }
   return out.str();
 }
 
-// The parameter that contributes most to row `row` of a prediction,
-// |d row / d theta_k| |theta_k| (exact for a model linear in its parameters):
-// "; the largest term of '<row>' is '<name>' = <value> (about <term>)".
+// What makes row `row` of a model's value large, from the parameter Jacobian
+// (exact for a model linear in its parameters): the parameter whose term
+// |d f_row / d theta_k| |theta_k| is at least half of |f_row|, named with
+// its value ("; the largest term of 'V' is parameter 'A[0,0]' = 1e+300
+// (about 1.5e+297): a parameter out of scale?"), or the state or input.
 inline std::string largest_term(const Eigen::MatrixXd& parameter_jacobian, const Eigen::VectorXd& values,
-                                Eigen::Index row, const std::vector<std::string>& row_names,
+                                const Eigen::VectorXd& value, Eigen::Index row,
+                                const std::vector<std::string>& row_names,
                                 const std::vector<std::string>& parameter_names) {
-  if (values.size() == 0 || row < 0 || row >= parameter_jacobian.rows()) return "";
+  const std::string state_or_input = "; its size comes from the state or the input, not from one parameter";
+  if (values.size() == 0 || row < 0 || row >= parameter_jacobian.rows()) return state_or_input;
   Eigen::Index k = 0;
-  (parameter_jacobian.row(row).transpose().cwiseAbs().cwiseProduct(values.cwiseAbs())).maxCoeff(&k);
+  const double term = parameter_jacobian.row(row).transpose().cwiseAbs().cwiseProduct(values.cwiseAbs()).maxCoeff(&k);
+  if (!(term >= 0.5 * std::abs(value[row]))) return state_or_input;
   std::ostringstream out;
   out.precision(6);
   out << "; the largest term of '" << name_of(row_names, row) << "' is parameter '" << name_of(parameter_names, k)
-      << "' = " << values[k] << " (about " << std::abs(parameter_jacobian(row, k) * values[k]) << ")";
+      << "' = " << values[k] << " (about " << term << "): a parameter out of scale?";
   return out.str();
 }
 
@@ -388,17 +415,13 @@ inline std::vector<std::string> motion_model_failures(MotionModel& model, const 
       const auto why = [&](Eigen::Index row) {
         Eigen::MatrixXd terms(n, num_parameters);
         if (num_parameters > 0 && model.parameter_jacobian(x, u, dt, terms) && terms.allFinite()) {
-          return internal::largest_term(terms, values, row, states, parameter_names);
+          return internal::largest_term(terms, values, next, row, states, parameter_names);
         }
         model.failure_reason();  // a failed parameter_jacobian() is reported below
-        return std::string("; a prediction this large usually means a parameter or the state out of scale");
+        return std::string("; a parameter out of scale, or the state?");
       };
-      std::string differs = internal::unresolved_by_differences("jacobian()", next, x, numeric,
-                                                                options.jacobian_tolerance, point, states, states, why);
-      if (differs.empty()) {
-        differs = internal::compare_with_differences("jacobian()", jacobian, numeric, options.jacobian_tolerance, point,
-                                                     states, states);
-      }
+      const std::string differs = internal::compare_with_differences(
+          "jacobian()", jacobian, numeric, next, x, options.jacobian_tolerance, point, states, states, why);
       if (!differs.empty()) fail(differs);
     }
   }
@@ -417,15 +440,11 @@ inline std::vector<std::string> motion_model_failures(MotionModel& model, const 
       fail("could not perturb the parameters to check parameter_jacobian() (a parameter on its bound?)");
     } else {
       const auto why = [&](Eigen::Index row) {
-        return internal::largest_term(parameter_jacobian, values, row, states, parameter_names);
+        return internal::largest_term(parameter_jacobian, values, next, row, states, parameter_names);
       };
-      std::string differs =
-          internal::unresolved_by_differences("parameter_jacobian()", next, values, numeric, options.jacobian_tolerance,
-                                              point, states, parameter_names, why);
-      if (differs.empty()) {
-        differs = internal::compare_with_differences("parameter_jacobian()", parameter_jacobian, numeric,
-                                                     options.jacobian_tolerance, point, states, parameter_names);
-      }
+      const std::string differs =
+          internal::compare_with_differences("parameter_jacobian()", parameter_jacobian, numeric, next, values,
+                                             options.jacobian_tolerance, point, states, parameter_names, why);
       if (!differs.empty()) fail(differs);
     }
   } else if (num_parameters > 0) {
@@ -509,17 +528,12 @@ inline std::vector<std::string> motion_model_failures(MotionModel& model, const 
     if (!evaluated) {
       fail("could not perturb the parameters to check output_parameter_jacobian() (a parameter on its bound?)");
     } else {
-      const std::string at = "u = " + internal::vector_text(u);
       const auto why = [&](Eigen::Index row) {
-        return internal::largest_term(output_jacobian, values, row, outputs, parameter_names);
+        return internal::largest_term(output_jacobian, values, y, row, outputs, parameter_names);
       };
-      std::string differs =
-          internal::unresolved_by_differences("output_parameter_jacobian()", y, values, numeric,
-                                              options.jacobian_tolerance, at, outputs, parameter_names, why);
-      if (differs.empty()) {
-        differs = internal::compare_with_differences("output_parameter_jacobian()", output_jacobian, numeric,
-                                                     options.jacobian_tolerance, at, outputs, parameter_names);
-      }
+      const std::string differs = internal::compare_with_differences(
+          "output_parameter_jacobian()", output_jacobian, numeric, y, values, options.jacobian_tolerance,
+          "u = " + internal::vector_text(u), outputs, parameter_names, why);
       if (!differs.empty()) fail(differs);
     }
   }
