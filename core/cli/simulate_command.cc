@@ -107,16 +107,21 @@ int simulate(const SimulateOptions& options) {
                    static_cast<unsigned long long>(seed), summary.rows, options.output.string().c_str(), modes.c_str(),
                    summary.max_horizontal_accel, summary.max_friction_accel);
     }
-    // A start from rest lags for a fraction of a second (under 2% of the rows
-    // of every bundled scenario); a tenth of the run behind is a maneuver the
-    // robot on that terrain cannot drive, and its log is of wheels spinning.
+    // Past the start from rest (scenario.h), every bundled scenario keeps
+    // up on every row; a tenth of the rows behind is a maneuver the robot
+    // cannot drive on that terrain, and its log is of wheels slipping.
     if (summary.share_behind_command > 0.1) {
+      const std::string shortfall =
+          summary.reached_half_command
+              ? "the body went less than half the maneuver's commanded speed on " +
+                    std::to_string(static_cast<int>(std::lround(100.0 * summary.share_behind_command))) +
+                    "% of the rows after it first reached half of it (at worst "
+              : std::string("the body never went half the maneuver's commanded speed (at most ");
       std::fprintf(stderr,
-                   "skidimm simulate: warning: %s: the robot went less than half the maneuver's speed on %.0f%% of "
-                   "the rows (at worst %.3g m/s where maneuver.speed asked %.3g m/s): it cannot follow this "
-                   "maneuver, and the log is of wheels slipping; lower maneuver.speed or lengthen maneuver.ramp\n",
-                   options.scenario.string().c_str(), 100.0 * summary.share_behind_command, summary.worst_body_speed,
-                   summary.worst_commanded_speed);
+                   "skidimm simulate: warning: %s: %s%.3g m/s where it commanded %.3g m/s): the robot cannot follow "
+                   "this maneuver on this terrain, and the log is of wheels slipping; lower maneuver.speed (or the "
+                   "turn it asks: maneuver.radius, maneuver.yaw_rate_amplitude), or lengthen maneuver.ramp\n",
+                   options.scenario.string().c_str(), shortfall.c_str(), summary.body_speed, summary.commanded_speed);
     }
     return kExitOk;
   });

@@ -113,10 +113,17 @@ TEST(Cli, SimulateWarnsWhenTheRobotCannotFollowTheManeuversSpeed) {
   const Result r = run_skidimm("simulate -q --scenario " + file.string() + " --output " + (dir / "log.csv").string());
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.err, ::testing::HasSubstr("skidimm simulate: warning: " + file.string() +
-                                          ": the robot went less than half the maneuver's speed on 100% of the rows"));
-  EXPECT_THAT(r.err, ::testing::HasSubstr("where maneuver.speed asked 1e+06 m/s"));
+                                          ": the body never went half the maneuver's commanded speed (at most "));
+  EXPECT_THAT(r.err, ::testing::HasSubstr(" m/s where it commanded 1e+06 m/s)"));
   EXPECT_THAT(r.err, ::testing::HasSubstr("lower maneuver.speed"));
   EXPECT_TRUE(fs::exists(dir / "log.csv"));
+  // A short run of a bundled scenario is mostly its start from rest, which
+  // is not counted: no warning.
+  const Result short_run =
+      run_skidimm("simulate -q --duration 1 --scenario " + kSource + "/configs/scenarios/stc_switching.yaml --output " +
+                  (dir / "short.csv").string());
+  EXPECT_EQ(short_run.exit_code, 0) << short_run.err;
+  EXPECT_EQ(short_run.err, "");
 }
 
 // --seed takes what a scenario's `seed:` takes: -1 ran with seed 2^64 - 1,

@@ -489,7 +489,7 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
   std::size_t segment = 0;
   std::vector<std::string> row(columns.size());
   long commanded_rows = 0, behind_rows = 0;
-  double worst_achieved = HUGE_VAL;
+  double worst_achieved = HUGE_VAL, fastest_along_command = -HUGE_VAL;
   for (long k = 0; k <= steps; ++k) {
     const double t = k * h;
     while (segment + 1 < scenario.schedule.size() && t >= scenario.schedule[segment + 1].start) ++segment;
@@ -508,13 +508,25 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
 
     if (t + 1e-12 >= next_sample) {
       if (std::abs(v) >= 0.1) {
-        ++commanded_rows;
         const double achieved = state.vx / v;  // negative when the body goes the other way
-        if (achieved < 0.5) ++behind_rows;
-        if (achieved < worst_achieved) {
-          worst_achieved = achieved;
-          summary.worst_commanded_speed = v;
-          summary.worst_body_speed = state.vx;
+        if (!summary.reached_half_command) {
+          summary.reached_half_command = achieved >= 0.5;
+          // Until then: the largest command and the body's fastest in its direction.
+          if (std::abs(v) > std::abs(summary.commanded_speed)) summary.commanded_speed = v;
+          if (achieved * std::abs(v) > fastest_along_command) {
+            fastest_along_command = achieved * std::abs(v);
+            summary.body_speed = state.vx;
+          }
+          worst_achieved = HUGE_VAL;
+        }
+        if (summary.reached_half_command) {
+          ++commanded_rows;
+          if (achieved < 0.5) ++behind_rows;
+          if (achieved < worst_achieved) {
+            worst_achieved = achieved;
+            summary.commanded_speed = v;
+            summary.body_speed = state.vx;
+          }
         }
       }
       const ContactForces forces = dynamics.forces(state, *mode);
@@ -604,6 +616,8 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
   out.commit();
   if (commanded_rows > 0) {
     summary.share_behind_command = static_cast<double>(behind_rows) / static_cast<double>(commanded_rows);
+  } else if (!summary.reached_half_command && summary.commanded_speed != 0.0) {
+    summary.share_behind_command = 1.0;
   }
   return summary;
 }

@@ -131,13 +131,17 @@ struct SimulationSummary {
   double max_horizontal_accel = 0.0;  // m/s^2, |(ax, ay)| of the body
   double max_friction_accel = 0.0;    // m/s^2, max over modes of mu_max g
   std::vector<std::string> modes_driven;
-  // How well the robot followed the maneuver's forward speed: the share of
-  // the rows where the maneuver asked for at least 0.1 m/s at which the body
-  // went less than half as fast, and the speeds at the row where the body
-  // fell shortest (the commanded speed, m/s, and the body's, m/s).
+  // How well the robot followed the maneuver's forward speed, over the rows
+  // where it commanded at least 0.1 m/s. A start from rest lags for a
+  // moment, so only the rows from the first at which the body went at least
+  // half the commanded speed count: the share of them at which it went less
+  // (1 when it never did), and the speeds of the worst of them (the
+  // commanded and the body's, m/s; where it never did, the largest command
+  // and the body's fastest in its direction).
+  bool reached_half_command = false;
   double share_behind_command = 0.0;
-  double worst_commanded_speed = 0.0;
-  double worst_body_speed = 0.0;
+  double commanded_speed = 0.0;
+  double body_speed = 0.0;
 };
 
 // Simulates and writes the log (atomically) to `output`. Calls
