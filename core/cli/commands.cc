@@ -96,6 +96,18 @@ LogArgumentOptions unpaired_runs(const char* command, bool skip) {
   return options;
 }
 
+void warn_of_rate_unlike_the_banks(const char* command, const std::filesystem::path& bank_file, const BankConfig& bank,
+                                   std::optional<double> rate) {
+  if (!rate || !(*rate > 0.0) || !(bank.sampling.rate > 0.0) || *rate == bank.sampling.rate) return;
+  const std::vector<std::string> aggregated = LogReader::aggregated_measurements(bank);
+  if (aggregated.empty()) return;
+  std::cerr << command << ": warning: --rate " << CsvWriter::format(*rate) << " Hz steps " << bank_file.string()
+            << " at another rate than its sampling.rate of " << CsvWriter::format(bank.sampling.rate) << " Hz, and "
+            << join(aggregated) << " aggregate the rows of a step: over steps of " << CsvWriter::format(1.0 / *rate)
+            << " s they measure something other than what its modes were fitted on, and its estimates can be "
+               "confidently wrong. Leave --rate out, or fit the bank at this rate (fit --rate)\n";
+}
+
 EstimatorOptions command_line_estimator(bool smooth, std::optional<double> lag) {
   try {
     return estimator_options(smooth, lag);
@@ -233,6 +245,7 @@ int run(const RunOptions& options) {
       std::cerr << "skidimm run: serving Foxglove WebSocket on ws://" << host << ":" << live->port() << std::endl;
     }
     LogReader reader(config, log.files, sampling_of(config, options.overrides.rate));
+    warn_of_rate_unlike_the_banks("skidimm run", options.bank, config, options.overrides.rate);
     const bool with_truth = reader.has_truth() || !log.label.empty();
     // A path ending in .npy gets a NumPy array, .mcap an MCAP file (estimates_writer.h), anything else CSV.
     writer.emplace(options.output, config, with_truth);
@@ -312,6 +325,11 @@ int run(const RunOptions& options) {
                      config.classes.empty() ? ""
                                             : " (a mode counts for its class; `skidimm eval` scores the most "
                                               "likely class, its modes' probabilities summed, over time)");
+      } else if (!with_truth && !config.columns.truth_mode.empty()) {
+        // Optional (a robot's own logs have no truth), but a misspelt name
+        // would otherwise go unnoticed until `eval --estimates` needs it.
+        std::cerr << "  no accuracy: the log has no column '" << printable(config.columns.truth_mode)
+                  << "' (the bank's columns.truth_mode) and no MODE= label\n";
       }
       if (summary.outside_fitted_inputs > 0) {
         std::fprintf(stderr,

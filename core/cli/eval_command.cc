@@ -149,6 +149,7 @@ int eval(const EvalOptions& given) {
       if (options.bank.empty()) throw UsageError("give --bank with --input, or --estimates");
       Bank& bank = ran.emplace(Bank::load(options.bank, options.plugin_paths));
       apply_overrides(options.overrides, &bank.config);
+      warn_of_rate_unlike_the_banks("skidimm eval", options.bank, bank.config, options.overrides.rate);
       decision_made = evaluation::decision_settings_text(bank.config.decision);
       classes = bank.config.class_names();
       states = bank.config.state_names;

@@ -118,6 +118,58 @@ TEST(Cli, RunHandlesGpsRowsMissingFromAFasterLog) {
   EXPECT_GT(right_two, before_switch * 9 / 10);
 }
 
+// A truth column is optional, but one the log lacks (a misspelt name) is
+// said in the summary, where it would otherwise surface only when `eval
+// --estimates` needs the column; a log that has it gets its accuracy line.
+TEST(Cli, RunSaysWhenTheLogHasNoTruthColumnOfTheBanksName) {
+  const fs::path dir = test_directory();
+  std::string bank = read_file(kSource + "/configs/ltc_terrains.yaml");
+  const std::size_t truth = bank.find("truth_mode: mode");
+  ASSERT_NE(truth, std::string::npos);
+  bank.replace(truth, 16, "truth_mode: Mode");
+  const fs::path misspelt = write_file(dir / "misspelt.yaml", bank);
+  const std::string input = " --input " + kSource + "/configs/examples/ltc_switching.csv --output ";
+  const Result r = run_skidimm("run --bank " + misspelt.string() + input + (dir / "a.csv").string());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(
+      r.err,
+      HasSubstr("  no accuracy: the log has no column 'Mode' (the bank's columns.truth_mode) and no MODE= label"));
+  const Result right =
+      run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml" + input + (dir / "b.csv").string());
+  EXPECT_EQ(right.exit_code, 0) << right.err;
+  EXPECT_THAT(right.err, HasSubstr("most likely mode equals column 'mode' on "));
+  EXPECT_THAT(right.err, Not(HasSubstr("no accuracy")));
+}
+
+// The bundled BorealTC bank's measurements aggregate the rows of its 0.5 s
+// steps (log(std(...)) of the IMU); stepped at 100 Hz they measure something
+// else, and the estimate is confidently wrong. `run` and `eval` warn of a
+// --rate unlike the bank's; its own rate, or none, gets no warning.
+TEST(Cli, RunAndEvalWarnOfARateUnlikeTheOneABankOfAggregatesWasFittedAt) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  const std::string bank = kSource + "/configs/borealtc/terrains.yaml";
+  const std::string log = "ICE=" + boreal + "/ICE/pro_00.csv+" + boreal + "/ICE/imu_00.csv";
+  const fs::path dir = test_directory();
+  const std::string warning = "warning: --rate 100 Hz steps " + bank +
+                              " at another rate than its sampling.rate of 2 Hz, and columns.measurements.omega, ";
+  const Result fast = run_skidimm("run -q --bank " + bank + " --input '" + log + "' --rate 100 --output " +
+                                  (dir / "fast.csv").string());
+  EXPECT_EQ(fast.exit_code, 0) << fast.err;
+  EXPECT_THAT(fast.err, HasSubstr("skidimm run: " + warning));
+  EXPECT_THAT(fast.err, HasSubstr("over steps of 0.01 s they measure something other than what its modes were "
+                                  "fitted on"));
+  const Result evaluated = run_skidimm("eval --bank " + bank + " --input '" + log + "' --rate 100");
+  EXPECT_EQ(evaluated.exit_code, 0) << evaluated.err;
+  EXPECT_THAT(evaluated.err, HasSubstr("skidimm eval: " + warning));
+  for (const std::string rate : {"", " --rate 2"}) {
+    const Result own = run_skidimm("run -q --bank " + bank + " --input '" + log + "'" + rate + " --output " +
+                                   (dir / "own.csv").string());
+    EXPECT_EQ(own.exit_code, 0) << own.err;
+    EXPECT_THAT(own.err, Not(HasSubstr("warning"))) << rate;
+  }
+}
+
 TEST(Cli, BadBankIsReportedWithFileAndLineAndExitsNonZero) {
   const fs::path dir = test_directory();
   std::string bank = read_file(kSource + "/configs/physical/ltc_terrains.yaml");
