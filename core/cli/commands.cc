@@ -225,7 +225,8 @@ int run(const RunOptions& options) {
     }
     const BankConfig& config = bank.config;
     if (!log.label.empty() && config.class_index(log.label) < 0) {
-      throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'");
+      throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'; " +
+                  config.label_choices(log.label));
     }
     refuse_output_over_logs(options.output, "--output", {log});
     refuse_output_over_logs(options.plot, "--plot", {log});

@@ -94,10 +94,8 @@ int fit(const FitCommandOptions& options) {
     const LogArgumentOptions expansion = unpaired_runs("skidimm fit", options.skip_unpaired);
     // Named for what it is, before any log is read (it was blamed on the first --log).
     if (!options.mode.empty() && config.mode_index(options.mode) < 0 && config.class_index(options.mode) < 0) {
-      std::string names;
-      for (const ModeConfig& m : config.modes) names += (names.empty() ? "" : ", ") + m.name;
       throw Error("--mode '" + printable(options.mode) + "': the bank (" + options.bank.string() +
-                  ") has no mode or class of that name; its modes: " + names);
+                  ") has no mode or class of that name; " + config.label_choices(options.mode));
     }
     const std::vector<ModeLogs> data =
         fitting::load_mode_logs(config, options.logs, options.mode, sampling, "--log", expansion);

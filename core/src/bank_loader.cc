@@ -2,6 +2,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <iomanip>
 #include <set>
@@ -422,6 +423,24 @@ int BankConfig::class_index(const std::string& label) const {
   }
   const int j = mode_index(label);
   return j < 0 ? -1 : class_of_modes()[static_cast<std::size_t>(j)];
+}
+
+std::string BankConfig::label_choices(const std::string& label) const {
+  const auto folded = [](std::string text) {
+    for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return text;
+  };
+  std::string listed, modes_listed, same_but_case;
+  const auto add = [&](std::string* list, const std::string& name) {
+    *list += (list->empty() ? "" : ", ") + printable(name);
+    if (same_but_case.empty() && name != label && folded(name) == folded(label)) same_but_case = name;
+  };
+  for (const ClassConfig& c : classes) add(&listed, c.name);
+  for (const ModeConfig& m : modes) add(&modes_listed, m.name);
+  std::string text =
+      classes.empty() ? "its modes: " + modes_listed : "its classes: " + listed + "; its modes: " + modes_listed;
+  if (!same_but_case.empty()) text += "; names are case-sensitive: '" + printable(same_but_case) + "'?";
+  return text;
 }
 
 namespace {

@@ -54,7 +54,8 @@ void bind_logs(py::module_& m) {
         const LogSpec log = join_log_arguments(inputs);
         const BankConfig& config = bank.config();
         if (!log.label.empty() && config.class_index(log.label) < 0) {
-          throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'");
+          throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'; " +
+                      config.label_choices(log.label));
         }
         const EstimatorOptions estimator = estimator_options(smooth, lag);
         const DecisionConfig settings = decision_of(config, decision);

@@ -506,7 +506,19 @@ TEST(Cli, FitTakesEachModeFromTheTruthColumnAndEvalTakesLabelsAndPatterns) {
   const Result bad = run_skidimm("eval --bank " + kSource + "/configs/ltc_terrains.yaml --input 'mud=" +
                                  (dir / "runs" / "a_*.csv").string() + "'");
   EXPECT_EQ(bad.exit_code, 1);
-  EXPECT_THAT(bad.err, HasSubstr("'mud' is neither a mode nor a class of bank 'ltc_terrains'"));
+  EXPECT_THAT(bad.err, HasSubstr("'mud' is neither a mode nor a class of bank 'ltc_terrains'; its modes: asphalt, "
+                                 "grass, crushed_concrete\n"));
+  // A name in the wrong case is pointed out, with the classes of a bank that has them.
+  const Result upper = run_skidimm("eval --bank " + kSource + "/configs/ltc_terrains.yaml --input 'GRASS=" +
+                                   (dir / "runs" / "a_*.csv").string() + "'");
+  EXPECT_EQ(upper.exit_code, 1);
+  EXPECT_THAT(upper.err, HasSubstr("its modes: asphalt, grass, crushed_concrete; names are case-sensitive: 'grass'?"));
+  const Result ice = run_skidimm("run --bank " + kSource + "/configs/borealtc/terrains.yaml --input 'ice=" +
+                                 (dir / "runs" / "a_1.csv").string() + "' --output " + (dir / "ice.csv").string());
+  EXPECT_EQ(ice.exit_code, 1);
+  EXPECT_THAT(ice.err, HasSubstr("'ice' is neither a mode nor a class of bank 'borealtc_terrains'; its classes: "
+                                 "ASPHALT, FLOORING, ICE, SANDY_LOAM, SNOW; its modes: "));
+  EXPECT_THAT(ice.err, HasSubstr("; names are case-sensitive: 'ICE'?"));
   const Result none = run_skidimm("eval --bank " + kSource + "/configs/ltc_terrains.yaml --input '" +
                                   (dir / "runs" / "b_*.csv").string() + "'");
   EXPECT_EQ(none.exit_code, 1);
