@@ -205,6 +205,31 @@ TEST(Cli, BadRowMidLogKeepsTheRowsAlreadyComputed) {
   EXPECT_EQ(read_csv(dir / "out.csv.partial").size(), 102u);
 }
 
+// A logger killed mid-write leaves a last line cut short, without its
+// newline: the error says so, and the rows before it are kept. A short line
+// with its newline is only a short line.
+TEST(Cli, ALastLineCutOffMidWriteIsNamedAsSuch) {
+  const fs::path dir = test_directory();
+  const std::string log = read_file(kSource + "/configs/examples/ltc_switching.csv");
+  const fs::path cut = write_file(dir / "cut.csv", log.substr(0, log.size() - 40));
+  const Result r = run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml --input " + cut.string() +
+                               " --output " + (dir / "out.csv").string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("cut.csv:1488: expected 19 fields like the header, got 15; it is the file's last line "
+                               "and has no newline: the file was cut off while being written?"));
+  EXPECT_THAT(r.err, HasSubstr("the 1486 rows computed before the error are in"));
+  const std::size_t sixth = [&] {
+    std::size_t at = 0;
+    for (int line = 0; line < 5; ++line) at = log.find('\n', at) + 1;
+    return at;
+  }();
+  const fs::path short_line = write_file(dir / "short.csv", log.substr(0, sixth) + "1,2,3\n");
+  const Result s = run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml --input " + short_line.string() +
+                               " --output " + (dir / "short_out.csv").string());
+  EXPECT_EQ(s.exit_code, 1);
+  EXPECT_THAT(s.err, HasSubstr("short.csv:6: expected 19 fields like the header, got 3\n"));
+}
+
 // Smoothing needs the whole log; one that fails part way still gets the
 // steps read so far smoothed over what was read, and kept.
 TEST(Cli, BadRowMidLogKeepsTheSmoothedRowsAlreadyComputed) {
