@@ -166,7 +166,19 @@ int eval(const EvalOptions& given) {
                                    : evaluation::report_tables(groups, classes, states, decision_made));
     }
     if (ran) report_rejections(*ran, groups);
-    return report_failures(groups, failures);
+    const int code = report_failures(groups, failures);
+    // A report of no labelled time scores nothing: a script or CI check must
+    // not read it as a pass.
+    bool scored = false;
+    for (const evaluation::LogGroup& g : groups) {
+      for (const evaluation::LogResult& l : g.logs) scored = scored || l.metrics.duration > 0.0;
+    }
+    if (!groups.empty() && !scored) {
+      std::cerr << "skidimm eval: error: no log has labelled time (two steps or more with a truth): nothing was "
+                   "scored\n";
+      return kExitFailure;
+    }
+    return code;
   });
 }
 

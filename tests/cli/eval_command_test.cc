@@ -153,6 +153,8 @@ TEST(EvalCommand, GroupsNamedAlikeAreToldApartByTheirFolders) {
 
 // A log without labelled time has nothing to score: said so, null in the
 // JSON, and out of the per-log means, where its 0 used to read as a score.
+// When no log has any, the report is printed and eval exits 1: a script
+// must not take a report of nothing for a pass.
 TEST(EvalCommand, ALogWithoutLabelledTimeIsNotScored) {
   auto rows = read_csv(kSwitching);
   const int mode = column(rows[0], "mode");
@@ -160,17 +162,22 @@ TEST(EvalCommand, ALogWithoutLabelledTimeIsNotScored) {
   const fs::path dir = test_directory();
   const fs::path blank = write_file(dir / "all_blank.csv", csv_text(rows));
   const Result table = run_skidimm(eval("--input " + blank.string()));
-  EXPECT_EQ(table.exit_code, 0) << table.err;
+  EXPECT_EQ(table.exit_code, 1) << table.err;
+  EXPECT_THAT(table.err, HasSubstr("skidimm eval: error: no log has labelled time (two steps or more with a truth): "
+                                   "nothing was scored"));
   EXPECT_THAT(table.out, HasSubstr("1 without labelled time, not scored"));
   EXPECT_THAT(table.out, HasSubstr("nothing to score: no labelled time"));
   EXPECT_THAT(table.out, Not(HasSubstr("accuracy (time fraction)")));
-  const YAML::Node all = json_of(run_skidimm(eval("--input " + blank.string() + " --json")))["overall"];
+  const Result blank_json = run_skidimm(eval("--input " + blank.string() + " --json"));
+  EXPECT_EQ(blank_json.exit_code, 1);
+  const YAML::Node all = YAML::Load(blank_json.out)["overall"];
   EXPECT_TRUE(all["accuracy"].IsNull());
   EXPECT_TRUE(all["mean_truth_log_probability"].IsNull());
   EXPECT_TRUE(all["mean_over_classes"]["accuracy"].IsNull());
   // Beside a labelled log, the per-log figures are the labelled log's alone.
-  const YAML::Node both =
-      json_of(run_skidimm(eval("--input " + blank.string() + " --input " + kSwitching + " --json")))["overall"];
+  const Result mixed = run_skidimm(eval("--input " + blank.string() + " --input " + kSwitching + " --json"));
+  EXPECT_EQ(mixed.exit_code, 0) << mixed.err;
+  const YAML::Node both = json_of(mixed)["overall"];
   const YAML::Node alone = json_of(run_skidimm(eval("--input " + kSwitching + " --json")))["overall"];
   EXPECT_EQ(both["logs"].as<int>(), 2);
   EXPECT_DOUBLE_EQ(both["accuracy_per_log"]["min"].as<double>(), alone["accuracy_per_log"]["min"].as<double>());
