@@ -32,6 +32,7 @@
 #include "skidimm/io/log_arguments.h"
 #include "skidimm/io/output_file.h"
 #include "skidimm/io/ros/live_estimates.h"
+#include "skidimm/printable.h"
 #include "skidimm/simulation/scenario.h"
 
 namespace fs = std::filesystem;
@@ -557,6 +558,22 @@ int main(int argc, char** argv) {
     for (const std::string& extra : extras) text += " " + extra;
     return text;
   };
+  // A first word that names no command (a typo, or a command of another
+  // tool) is named, with the commands there are, rather than CLI11's "not
+  // expected ... a subcommand is required".
+  if (argc > 1 && argv[1][0] != '-') {
+    std::string commands;
+    bool known = false;
+    for (const CLI::App* command : app.get_subcommands([](CLI::App*) { return true; })) {
+      known = known || command->get_name() == argv[1];
+      commands += (commands.empty() ? "" : ", ") + command->get_name();
+    }
+    if (!known) {
+      std::cerr << "skidimm: unknown command '" << skidimm::printable(argv[1]) << "'; the commands: " << commands
+                << " (skidimm --help says what each does)\n";
+      return kExitUsage;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ExtrasError& e) {

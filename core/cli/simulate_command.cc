@@ -10,6 +10,7 @@
 #include "skidimm/errors.h"
 #include "skidimm/fitting/bank_writer.h"
 #include "skidimm/io/log_arguments.h"
+#include "skidimm/printable.h"
 #include "skidimm/simulation/model_simulation.h"
 #include "skidimm/simulation/scenario.h"
 
@@ -106,6 +107,16 @@ int simulate(const SimulateOptions& options) {
                    scenario.name.c_str(), simulation::to_string(scenario.maneuver.type), scenario.duration,
                    static_cast<unsigned long long>(seed), summary.rows, options.output.string().c_str(), modes.c_str(),
                    summary.max_horizontal_accel, summary.max_friction_accel);
+    }
+    // A switch at or after the scenario's own end is never driven (a typo
+    // in `at` or `duration`); a shorter --duration asks for that.
+    for (std::size_t i = 1; i < scenario.schedule.size() && !(options.duration > 0.0); ++i) {
+      const simulation::ScheduleEntry& entry = scenario.schedule[i];
+      if (entry.start < scenario.duration) continue;
+      std::fprintf(stderr,
+                   "skidimm simulate: warning: %s: schedule[%zu] (at %g s, mode '%s') starts when the run of %g s "
+                   "has ended: it is not driven\n",
+                   options.scenario.string().c_str(), i, entry.start, printable(entry.mode).c_str(), scenario.duration);
     }
     // Past the start from rest (scenario.h), every bundled scenario keeps
     // up on every row; a tenth of the rows behind is a maneuver the robot

@@ -46,7 +46,16 @@ class YamlFields {
     } catch (const YAML::Exception& e) {
       throw ConfigError(file_, 0, "", std::string("cannot read YAML: ") + e.what());
     }
-    if (!root.IsMap()) throw ConfigError(file_, 1, "", "a " + kind + " file must be a YAML mapping");
+    if (!root.IsMap()) {
+      // A log given where the bank goes (--bank and --input swapped) parses
+      // as one YAML string: say what it looks like.
+      const bool looks_like_csv = root.IsScalar() && root.Scalar().find(',') != std::string::npos;
+      throw ConfigError(file_, 1, "",
+                        "a " + kind + " file must be a YAML mapping" +
+                            (looks_like_csv ? "; this looks like a CSV log (were a log and the " + kind +
+                                                  " given the other way round?)"
+                                            : std::string()));
+    }
     std::set<int> visited;
     reject_duplicate_keys(root, "", &visited);
     return root;

@@ -27,7 +27,11 @@ TEST(Cli, UsageErrorsExitWithTwoAndHelpWithZero) {
   EXPECT_THAT(alone.out, HasSubstr("Subcommands:"));
   EXPECT_EQ(run_skidimm("--frobnicate").exit_code, 2) << "an option, but no command";
   EXPECT_EQ(run_skidimm("run --bank").exit_code, 2);
-  EXPECT_EQ(run_skidimm("frobnicate").exit_code, 2);
+  // A first word that names no command is named, with the commands there are.
+  const Result unknown = run_skidimm("explain --bank x");
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_THAT(unknown.err, HasSubstr("skidimm: unknown command 'explain'; the commands: run, validate, simulate, fit, "
+                                     "tune, eval, plot, plugins, new-plugin, bag"));
   const Result missing_path = run_skidimm("plugins --plugin-path /no/such/dir");
   EXPECT_EQ(missing_path.exit_code, 2);
   EXPECT_THAT(missing_path.err, HasSubstr("/no/such/dir"));

@@ -170,6 +170,16 @@ TEST(Cli, RunAndEvalWarnOfARateUnlikeTheOneABankOfAggregatesWasFittedAt) {
   }
 }
 
+// A log given as the bank and the bank as the log: the log parses as one
+// YAML string, and the error says it looks like a CSV log.
+TEST(Cli, ALogGivenAsTheBankIsSaidToLookLikeALog) {
+  const Result r = run_skidimm("run --bank " + kSource + "/configs/examples/ltc_switching.csv --input " + kSource +
+                               "/configs/ltc_terrains.yaml --output " + (test_directory() / "o.csv").string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("ltc_switching.csv:1: a bank file must be a YAML mapping; this looks like a CSV log "
+                               "(were a log and the bank given the other way round?)"));
+}
+
 TEST(Cli, BadBankIsReportedWithFileAndLineAndExitsNonZero) {
   const fs::path dir = test_directory();
   std::string bank = read_file(kSource + "/configs/physical/ltc_terrains.yaml");

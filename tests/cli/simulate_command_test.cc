@@ -126,6 +126,24 @@ TEST(Cli, SimulateWarnsWhenTheRobotCannotFollowTheManeuversSpeed) {
   EXPECT_EQ(short_run.err, "");
 }
 
+// A switch the scenario's own duration never reaches (a typo in `at`) is
+// named; a --duration shorter than the schedule asks for the cut.
+TEST(Cli, SimulateWarnsOfASwitchAfterTheScenariosEnd) {
+  const fs::path dir = test_directory();
+  std::string scenario = read_file(kSource + "/configs/scenarios/ltc_switching.yaml");
+  scenario.replace(scenario.find("{at: 20, mode: asphalt}"), 23, "{at: 40, mode: asphalt}");
+  const fs::path file = write_file(dir / "late.yaml", scenario);
+  const Result r = run_skidimm("simulate -q --scenario " + file.string() + " --output " + (dir / "a.csv").string());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("skidimm simulate: warning: " + file.string() +
+                                          ": schedule[2] (at 40 s, mode 'asphalt') starts when the run of 30 s has "
+                                          "ended: it is not driven"));
+  const Result cut = run_skidimm("simulate -q --duration 15 --scenario " + kSource +
+                                 "/configs/scenarios/ltc_switching.yaml --output " + (dir / "b.csv").string());
+  EXPECT_EQ(cut.exit_code, 0) << cut.err;
+  EXPECT_EQ(cut.err, "");
+}
+
 // --seed takes what a scenario's `seed:` takes: -1 ran with seed 2^64 - 1,
 // and 2^64 or more clamped to it, so different seeds gave one log.
 TEST(Cli, SimulateTakesAWholeSeedOf64BitsAndRefusesTheRest) {
