@@ -105,7 +105,8 @@ void warn_of_rate_unlike_the_banks(const char* command, const std::filesystem::p
             << " at another rate than its sampling.rate of " << CsvWriter::format(bank.sampling.rate) << " Hz, and "
             << join(aggregated) << " aggregate the rows of a step: over steps of " << CsvWriter::format(1.0 / *rate)
             << " s they measure something other than what its modes were fitted on, and its estimates can be "
-               "confidently wrong. Leave --rate out, or fit the bank at this rate (fit --rate)\n";
+               "confidently wrong. Leave --rate out, or fit the bank at this rate (fit --rate) and set its "
+               "sampling.rate to it\n";
 }
 
 EstimatorOptions command_line_estimator(bool smooth, std::optional<double> lag) {
@@ -225,8 +226,7 @@ int run(const RunOptions& options) {
     }
     const BankConfig& config = bank.config;
     if (!log.label.empty() && config.class_index(log.label) < 0) {
-      throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'; " +
-                  config.label_choices(log.label));
+      throw Error(log.text + ": " + config.unknown_label(log.label));
     }
     refuse_output_over_logs(options.output, "--output", {log});
     refuse_output_over_logs(options.plot, "--plot", {log});
@@ -329,7 +329,7 @@ int run(const RunOptions& options) {
       } else if (!with_truth && !config.columns.truth_mode.empty()) {
         // Optional (a robot's own logs have no truth), but a misspelt name
         // would otherwise go unnoticed until `eval --estimates` needs it.
-        std::cerr << "  no accuracy: the log has no column '" << printable(config.columns.truth_mode)
+        std::cerr << "no accuracy: the log has no column '" << printable(config.columns.truth_mode)
                   << "' (the bank's columns.truth_mode) and no MODE= label\n";
       }
       if (summary.outside_fitted_inputs > 0) {

@@ -95,11 +95,14 @@ int fit(const FitCommandOptions& options) {
     // Named for what it is, before any log is read (it was blamed on the first --log).
     if (!options.mode.empty() && config.mode_index(options.mode) < 0 && config.class_index(options.mode) < 0) {
       throw Error("--mode '" + printable(options.mode) + "': the bank (" + options.bank.string() +
-                  ") has no mode or class of that name; " + config.label_choices(options.mode));
+                  "): " + config.unknown_label(options.mode));
     }
     const std::vector<ModeLogs> data =
         fitting::load_mode_logs(config, options.logs, options.mode, sampling, "--log", expansion);
     if (data.empty()) throw Error("no logs given (--log)");
+    for (const std::string& overridden : fitting::labels_overriding_truth(config, data)) {
+      std::cerr << "skidimm fit: warning: " << printable(overridden) << "\n";
+    }
     if (options.fit_r && !options.append_to.empty()) {
       throw Error("--fit-r fits the bank's R, which --append-to cannot change: use --output-bank");
     }

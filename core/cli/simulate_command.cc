@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -95,6 +96,7 @@ int simulate(const SimulateOptions& options) {
     if (options.rate > 0.0) throw UsageError("--rate steps a bank's models (--bank); a scenario states its own rates");
     simulation::Scenario scenario = simulation::load_scenario(options.scenario);
     refuse_clashing_files({{"--output", options.output}}, {{"--scenario", options.scenario}});
+    const double own_duration = scenario.duration;
     if (options.duration > 0.0) scenario.duration = options.duration;
     const std::uint64_t seed = options.has_seed ? options.seed : scenario.seed;
     const simulation::SimulationSummary summary = simulation::simulate(scenario, seed, options.output);
@@ -108,11 +110,13 @@ int simulate(const SimulateOptions& options) {
                    static_cast<unsigned long long>(seed), summary.rows, options.output.string().c_str(), modes.c_str(),
                    summary.max_horizontal_accel, summary.max_friction_accel);
     }
-    // A switch at or after the scenario's own end is never driven (a typo
-    // in `at` or `duration`); a shorter --duration asks for that.
-    for (std::size_t i = 1; i < scenario.schedule.size() && !(options.duration > 0.0); ++i) {
+    // A switch at or after the end of the run and of the scenario's own
+    // duration is never driven (a typo in `at` or `duration`); one a shorter
+    // --duration cuts off was asked for.
+    const double end = std::max(own_duration, scenario.duration);
+    for (std::size_t i = 1; i < scenario.schedule.size(); ++i) {
       const simulation::ScheduleEntry& entry = scenario.schedule[i];
-      if (entry.start < scenario.duration) continue;
+      if (entry.start < end) continue;
       std::fprintf(stderr,
                    "skidimm simulate: warning: %s: schedule[%zu] (at %g s, mode '%s') starts when the run of %g s "
                    "has ended: it is not driven\n",

@@ -425,7 +425,7 @@ int BankConfig::class_index(const std::string& label) const {
   return j < 0 ? -1 : class_of_modes()[static_cast<std::size_t>(j)];
 }
 
-std::string BankConfig::label_choices(const std::string& label) const {
+std::string BankConfig::unknown_label(const std::string& label) const {
   const auto folded = [](std::string text) {
     for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     return text;
@@ -438,7 +438,8 @@ std::string BankConfig::label_choices(const std::string& label) const {
   for (const ClassConfig& c : classes) add(&listed, c.name);
   for (const ModeConfig& m : modes) add(&modes_listed, m.name);
   std::string text =
-      classes.empty() ? "its modes: " + modes_listed : "its classes: " + listed + "; its modes: " + modes_listed;
+      "'" + printable(label) + "' is neither a mode nor a class of bank '" + printable(name) + "'; " +
+      (classes.empty() ? "its modes: " + modes_listed : "its classes: " + listed + "; its modes: " + modes_listed);
   if (!same_but_case.empty()) text += "; names are case-sensitive: '" + printable(same_but_case) + "'?";
   return text;
 }

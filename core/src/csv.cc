@@ -336,12 +336,13 @@ bool CsvReader::next_row() {
   if (!read_record()) return false;
   if (field_count_ != header_.size()) {
     // A logger killed mid-write leaves a last line without its newline.
-    const bool cut_off = end_of_file_ && begin_ == end_ && end_ > 0 && buffer_[end_ - 1] != '\n';
+    const bool cut_off =
+        field_count_ < header_.size() && end_of_file_ && begin_ == end_ && end_ > 0 && buffer_[end_ - 1] != '\n';
     throw LogError(path_.string(), line_,
                    "expected " + std::to_string(header_.size()) + " fields like the header, got " +
                        std::to_string(field_count_) +
-                       (cut_off ? "; it is the file's last line and has no newline: the file was cut off while "
-                                  "being written? Remove the line to use the rows before it"
+                       (cut_off ? "; it is the last line and has no newline: did the writer stop mid-line? "
+                                  "(remove that line to read the rows before it)"
                                 : ""));
   }
   return true;

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <fstream>
 #include <set>
 #include <string>
 #include <utility>
@@ -42,23 +43,26 @@ class YamlFields {
     try {
       root = YAML::LoadFile(file_);
     } catch (const YAML::ParserException& e) {
-      throw ConfigError(file_, e.mark.line + 1, "", "malformed YAML: " + e.msg);
+      throw ConfigError(file_, e.mark.line + 1, "", "malformed YAML: " + e.msg + csv_hint(kind));
     } catch (const YAML::Exception& e) {
       throw ConfigError(file_, 0, "", std::string("cannot read YAML: ") + e.what());
     }
-    if (!root.IsMap()) {
-      // A log given where the bank goes (--bank and --input swapped) parses
-      // as one YAML string: say what it looks like.
-      const bool looks_like_csv = root.IsScalar() && root.Scalar().find(',') != std::string::npos;
-      throw ConfigError(file_, 1, "",
-                        "a " + kind + " file must be a YAML mapping" +
-                            (looks_like_csv ? "; this looks like a CSV log (were a log and the " + kind +
-                                                  " given the other way round?)"
-                                            : std::string()));
-    }
+    if (!root.IsMap()) throw ConfigError(file_, 1, "", "a " + kind + " file must be a YAML mapping" + csv_hint(kind));
     std::set<int> visited;
     reject_duplicate_keys(root, "", &visited);
     return root;
+  }
+
+  // A log given where a YAML file goes (--bank and --input swapped) parses
+  // as one string or fails: "; this looks like a CSV log ..." when the
+  // file's first line does (commas, and no "key: value"), else "".
+  std::string csv_hint(const std::string& kind) const {
+    std::ifstream in(file_);
+    std::string first;
+    std::getline(in, first);
+    if (first.find(',') == std::string::npos || first.find(": ") != std::string::npos) return "";
+    return "; this looks like a CSV log, not a " + kind + " file" +
+           (kind == "bank" ? " (were a log and the bank given the other way round?)" : "");
   }
 
   // yaml-cpp keeps every entry of a mapping but looks keys up by the first,

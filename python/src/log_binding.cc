@@ -54,8 +54,7 @@ void bind_logs(py::module_& m) {
         const LogSpec log = join_log_arguments(inputs);
         const BankConfig& config = bank.config();
         if (!log.label.empty() && config.class_index(log.label) < 0) {
-          throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'; " +
-                      config.label_choices(log.label));
+          throw Error(log.text + ": " + config.unknown_label(log.label));
         }
         const EstimatorOptions estimator = estimator_options(smooth, lag);
         const DecisionConfig settings = decision_of(config, decision);

@@ -214,7 +214,8 @@ TEST(Cli, FitReportsBadLogsAndUnknownModes) {
   EXPECT_THAT(missing.err, HasSubstr("no column 'omega' (the bank's columns.measurements.omega)"));
   const Result unknown = run_skidimm("fit --bank " + bank + " --log mud=" + log.string());
   EXPECT_EQ(unknown.exit_code, 1);
-  EXPECT_THAT(unknown.err, HasSubstr("the bank has no mode or class 'mud'"));
+  EXPECT_THAT(unknown.err, HasSubstr("'mud' is neither a mode nor a class of bank 'ltc_terrains'; its modes: asphalt, "
+                                     "grass, crushed_concrete"));
   // Without MODE= or --mode, the bank's truth column says which mode: here it is absent.
   const fs::path complete = write_file(dir / "complete.csv", "t,phi_dot_L,phi_dot_R,V,omega\n0,1,1,0,0\n");
   const Result unlabelled = run_skidimm("fit --bank " + bank + " --log " + complete.string());
@@ -494,6 +495,19 @@ TEST(Cli, FitTakesEachModeFromTheTruthColumnAndEvalTakesLabelsAndPatterns) {
     EXPECT_THAT(fit.err, HasSubstr(std::string("mode '") + mode + "': 1 log(s)"));
   }
   EXPECT_THAT(read_file(dir / "fitted.yaml"), ::testing::Not(HasSubstr("not fitted")));
+  EXPECT_THAT(fit.err, ::testing::Not(HasSubstr("by a label")));
+  // A label overrides the truth column, as documented, but mixing three
+  // terrains into one mode is rarely meant: a warning names what it mixed.
+  const std::string switching = kSource + "/configs/examples/ltc_switching.csv";
+  const Result labelled =
+      run_skidimm("fit --bank " + kSource +
+                  "/configs/physical/ltc_terrains.yaml --objective "
+                  "window --window 0.5 --mode asphalt --log " +
+                  switching + " --output-bank " + (dir / "mixed.yaml").string() + " --plugin-path " + kPlugins);
+  ASSERT_EQ(labelled.exit_code, 0) << labelled.err;
+  EXPECT_THAT(labelled.err, HasSubstr("skidimm fit: warning: " + switching +
+                                      ": fitted as mode 'asphalt' by a label (--mode, or MODE=), though its truth "
+                                      "column 'mode' names crushed_concrete, grass at some of its steps"));
 
   // Labels and '*' patterns: the same file twice, labelled as the terrain it is not and is.
   fs::create_directories(dir / "runs");
@@ -685,7 +699,8 @@ TEST(CliIo, FitChecksTheNameOfTheFittedModeBeforeFitting) {
   expect_refused_before(kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
                             " --objective window --mode gravel --log " + kSwitching,
                         "--mode 'gravel': the bank (" + kTerrains +
-                            ") has no mode or class of that name; its modes: asphalt, grass, crushed_concrete",
+                            "): 'gravel' is neither a mode nor a class of bank 'ltc_terrains'; its modes: asphalt, "
+                            "grass, crushed_concrete",
                         "--log");
   // Without --mode every mode is fitted and --name renamed none, with exit 0.
   const std::string every = kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
@@ -900,7 +915,8 @@ TEST(CliIo, FitChecksItsOutputsAndHeldOutLogsBeforeFitting) {
                         "residuals");
   expect_refused_before(fit + " --output-entry " + dir.string(), "--output-entry " + dir.string() + ": is a directory",
                         "residuals");
-  expect_refused_before(fit + " --held-out mud=" + kSwitching, "the bank has no mode or class 'mud'", "residuals");
+  expect_refused_before(fit + " --held-out mud=" + kSwitching, "'mud' is neither a mode nor a class of bank",
+                        "residuals");
   // A file of a --held-out log that is not there is blamed on --held-out, as a label is.
   const std::string missing_part = (dir / "no_such.csv").string();
   expect_refused_before(fit + " --held-out '" + kSwitching + "+" + missing_part + "'",
@@ -985,7 +1001,8 @@ TEST(CliIo, FitterErrorsNameTheLogAndTheOptionAndCeresStaysQuiet) {
                                       " --objective window --log " + kSwitching + " --held-out mud=" +
                                       kSwitching);
   EXPECT_EQ(held_label.exit_code, 1);
-  EXPECT_THAT(held_label.err, HasSubstr("--held-out 'mud=" + kSwitching + "': the bank has no mode or class 'mud'"));
+  EXPECT_THAT(held_label.err, HasSubstr("--held-out 'mud=" + kSwitching +
+                                        "': 'mud' is neither a mode nor a class of bank 'ltc_terrains'"));
   // Ceres' glog warnings are summarised after the error, not printed raw as
   // they come. (A bank measuring only omega, and a left wheel speed of 1e4: wild
   // enough to upset L-BFGS, not so wild that it is caught before Ceres runs,

@@ -133,7 +133,7 @@ TEST(Cli, RunSaysWhenTheLogHasNoTruthColumnOfTheBanksName) {
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(
       r.err,
-      HasSubstr("  no accuracy: the log has no column 'Mode' (the bank's columns.truth_mode) and no MODE= label"));
+      HasSubstr("\nno accuracy: the log has no column 'Mode' (the bank's columns.truth_mode) and no MODE= label"));
   const Result right =
       run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml" + input + (dir / "b.csv").string());
   EXPECT_EQ(right.exit_code, 0) << right.err;
@@ -176,8 +176,19 @@ TEST(Cli, ALogGivenAsTheBankIsSaidToLookLikeALog) {
   const Result r = run_skidimm("run --bank " + kSource + "/configs/examples/ltc_switching.csv --input " + kSource +
                                "/configs/ltc_terrains.yaml --output " + (test_directory() / "o.csv").string());
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_THAT(r.err, HasSubstr("ltc_switching.csv:1: a bank file must be a YAML mapping; this looks like a CSV log "
-                               "(were a log and the bank given the other way round?)"));
+  EXPECT_THAT(r.err, HasSubstr("ltc_switching.csv:1: a bank file must be a YAML mapping; this looks like a CSV log, "
+                               "not a bank file (were a log and the bank given the other way round?)"));
+  // A CSV whose quoted header YAML cannot parse gets the same hint; a
+  // scenario is never given beside a log, so no "other way round" there.
+  const fs::path quoted = write_file(test_directory() / "quoted.csv", "\"t\",\"V\"\n0,1\n");
+  const Result q = run_skidimm("validate " + quoted.string());
+  EXPECT_EQ(q.exit_code, 1);
+  EXPECT_THAT(q.err, HasSubstr("this looks like a CSV log, not a bank file"));
+  const Result scenario =
+      run_skidimm("simulate --scenario " + kSource + "/configs/examples/ltc_switching.csv --output " +
+                  (test_directory() / "s.csv").string());
+  EXPECT_EQ(scenario.exit_code, 1);
+  EXPECT_THAT(scenario.err, HasSubstr("this looks like a CSV log, not a scenario file\n"));
 }
 
 TEST(Cli, BadBankIsReportedWithFileAndLineAndExitsNonZero) {
@@ -225,8 +236,9 @@ TEST(Cli, ALastLineCutOffMidWriteIsNamedAsSuch) {
   const Result r = run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml --input " + cut.string() +
                                " --output " + (dir / "out.csv").string());
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_THAT(r.err, HasSubstr("cut.csv:1488: expected 19 fields like the header, got 15; it is the file's last line "
-                               "and has no newline: the file was cut off while being written?"));
+  EXPECT_THAT(r.err, HasSubstr("cut.csv:1488: expected 19 fields like the header, got 15; it is the last line and has "
+                               "no newline: did the writer stop mid-line? (remove that line to read the rows before "
+                               "it)"));
   EXPECT_THAT(r.err, HasSubstr("the 1486 rows computed before the error are in"));
   const std::size_t sixth = [&] {
     std::size_t at = 0;
@@ -238,6 +250,13 @@ TEST(Cli, ALastLineCutOffMidWriteIsNamedAsSuch) {
                                " --output " + (dir / "short_out.csv").string());
   EXPECT_EQ(s.exit_code, 1);
   EXPECT_THAT(s.err, HasSubstr("short.csv:6: expected 19 fields like the header, got 3\n"));
+  // A last line without a newline that has a field too many was not cut off.
+  const fs::path extra =
+      write_file(dir / "extra.csv", log.substr(0, sixth) + log.substr(sixth, log.find('\n', sixth) - sixth) + ",7");
+  const Result e = run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml --input " + extra.string() +
+                               " --output " + (dir / "extra_out.csv").string());
+  EXPECT_EQ(e.exit_code, 1);
+  EXPECT_THAT(e.err, HasSubstr("extra.csv:6: expected 19 fields like the header, got 20\n"));
 }
 
 // Smoothing needs the whole log; one that fails part way still gets the

@@ -86,7 +86,7 @@ TEST(CliIo, TuneRefusesRepeatedLogsOutputsOverLogsAndLogsWithNothingToScore) {
   expect_refused_before(tune + " --lockbox " + kSwitching, twice + " and --lockbox " + kSwitching + ")", "work:");
   // A lockbox log's label is the lockbox's, not blamed on --log.
   expect_refused_before(tune + " --lockbox mud=" + kSwitching,
-                        "--lockbox 'mud=" + kSwitching + "': the bank has no mode", "work:");
+                        "--lockbox 'mud=" + kSwitching + "': 'mud' is neither a mode nor a class of bank", "work:");
   expect_refused_before(tune + " --table " + copy.string(),
                         "--table " + copy.string() + " is the log file " + copy.string() + " itself", "work:");
   expect_refused_before(tune + " --output-bank " + copy.string(), "is the log file " + copy.string() + " itself",

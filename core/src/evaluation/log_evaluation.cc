@@ -79,8 +79,7 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
                 log.text + " against; label the log (MODE=" + log.text + ") or name the truth column");
   }
   if (!log.label.empty() && config.class_index(log.label) < 0) {
-    throw Error(log.text + ": '" + log.label + "' is neither a mode nor a class of bank '" + config.name + "'; " +
-                config.label_choices(log.label));
+    throw Error(log.text + ": " + config.unknown_label(log.label));
   }
   LogReader reader(config, log.files, sampling);
   if (log.label.empty() && !reader.has_truth()) {

@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <set>
 
 #include "parallel.h"
 #include "skidimm/config/expression.h"
@@ -84,7 +85,7 @@ std::vector<ModeLogs> mode_segments(const BankConfig& config, const LogSpec& log
   // A label names a mode, or a class (whose modes share its steps by fit_when).
   auto check_label = [&config](const std::string& label, const std::string& where) {
     if (config.mode_index(label) < 0 && config.class_index(label) < 0) {
-      throw Error(where + ": the bank has no mode or class '" + label + "'");
+      throw Error(where + ": " + config.unknown_label(label));
     }
   };
   std::map<int, ModeLogs> by_mode;
@@ -124,6 +125,33 @@ std::vector<ModeLogs> mode_segments(const BankConfig& config, const LogSpec& log
   std::vector<ModeLogs> out;
   for (auto& [j, d] : by_mode) out.push_back(std::move(d));
   return out;
+}
+
+std::vector<std::string> labels_overriding_truth(const BankConfig& config, const std::vector<ModeLogs>& data) {
+  std::vector<std::string> messages;
+  const std::vector<int> class_of = config.class_of_modes();
+  for (const ModeLogs& d : data) {
+    const std::string& fitted = config.modes[static_cast<std::size_t>(d.mode)].name;
+    const int fitted_class = class_of[static_cast<std::size_t>(d.mode)];
+    // The log's steps in this mode's segments, by log: a log split by its
+    // truth column gives each mode only steps of that mode's label.
+    std::map<std::string, std::set<std::string>> others;
+    for (const Trajectory& part : d.logs) {
+      for (const std::string& label : part.truth) {
+        if (label.empty() || label == fitted || config.class_index(label) == fitted_class) continue;
+        others[part.log].insert(label);
+      }
+    }
+    for (const auto& [log, labels] : others) {
+      std::string names;
+      for (const std::string& label : labels) names += (names.empty() ? "" : ", ") + label;
+      messages.push_back(log + ": fitted as mode '" + fitted +
+                         "' by a label (--mode, or MODE=), though its truth column '" + config.columns.truth_mode +
+                         "' names " + names +
+                         " at some of its steps: leave the label out to fit each step as its truth says");
+    }
+  }
+  return messages;
 }
 
 std::vector<ModeLogs> load_mode_logs(const BankConfig& config, const std::vector<std::string>& arguments,

@@ -498,15 +498,16 @@ SimulationSummary simulate(const Scenario& scenario, std::uint64_t seed, const f
     for (const TractionMode& m : scenario.modes) {
       if (m.name == mode_name) mode = &m;
     }
-    if (summary.modes_driven.empty() || summary.modes_driven.back() != mode_name) {
-      summary.modes_driven.push_back(mode_name);
-    }
     double v = 0.0, omega = 0.0;
     scenario.maneuver.desired(t, &v, &omega);
     const double left = (v - omega * robot.track / 2.0) / robot.wheel_radius;
     const double right = (v + omega * robot.track / 2.0) / robot.wheel_radius;
 
     if (t + 1e-12 >= next_sample) {
+      // The modes of the rows written: a switch at the very end is not in the log.
+      if (summary.modes_driven.empty() || summary.modes_driven.back() != mode_name) {
+        summary.modes_driven.push_back(mode_name);
+      }
       if (std::abs(v) >= 0.1) {
         const double achieved = state.vx / v;  // negative when the body goes the other way
         if (!summary.reached_half_command) {

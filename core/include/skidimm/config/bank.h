@@ -232,11 +232,12 @@ struct BankConfig {
   // The index in class_names() of a truth label that names a class or a
   // mode; -1 if it names neither.
   int class_index(const std::string& label) const;
-  // What a label can name, for a message about one that names nothing:
-  // "its classes: A, B; its modes: a, b" (the modes alone in a bank without
-  // classes), and where a name differs from `label` only in case, "; names
-  // are case-sensitive: 'ICE'?".
-  std::string label_choices(const std::string& label) const;
+  // The message for a label that names neither a mode nor a class, with
+  // what a label can name: "'ice' is neither a mode nor a class of bank
+  // 'b'; its classes: A, B; its modes: a, b" (the modes alone in a bank
+  // without classes), and where a name differs from `label` only in case,
+  // "; names are case-sensitive: 'ICE'?".
+  std::string unknown_label(const std::string& label) const;
 };
 
 // Parses and validates a bank file. Throws ConfigError.
