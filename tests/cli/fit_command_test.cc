@@ -508,6 +508,23 @@ TEST(Cli, FitTakesEachModeFromTheTruthColumnAndEvalTakesLabelsAndPatterns) {
   EXPECT_THAT(labelled.err, HasSubstr("skidimm fit: warning: " + switching +
                                       ": fitted as mode 'asphalt' by a label (--mode, or MODE=), though its truth "
                                       "column 'mode' names crushed_concrete, grass at some of its steps"));
+  // A label the bank does not know is a new terrain's: fitting it from a
+  // starting mode (README, step 5) is what --mode is for.
+  std::string renamed = read_file(switching);
+  for (const char* terrain : {"crushed_concrete", "grass", "asphalt"}) {
+    for (std::size_t at = renamed.find(std::string(",") + terrain + ","); at != std::string::npos;
+         at = renamed.find(std::string(",") + terrain + ",", at)) {
+      renamed.replace(at, std::string(terrain).size() + 2, ",ice,");
+    }
+  }
+  const fs::path ice_log = write_file(dir / "ice.csv", renamed);
+  const Result new_terrain =
+      run_skidimm("fit --bank " + kSource +
+                  "/configs/physical/ltc_terrains.yaml --objective "
+                  "window --window 0.5 --mode asphalt --name ice --log " +
+                  ice_log.string() + " --output-bank " + (dir / "ice.yaml").string() + " --plugin-path " + kPlugins);
+  ASSERT_EQ(new_terrain.exit_code, 0) << new_terrain.err;
+  EXPECT_THAT(new_terrain.err, ::testing::Not(HasSubstr("by a label")));
 
   // Labels and '*' patterns: the same file twice, labelled as the terrain it is not and is.
   fs::create_directories(dir / "runs");

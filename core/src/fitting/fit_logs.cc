@@ -138,7 +138,10 @@ std::vector<std::string> labels_overriding_truth(const BankConfig& config, const
     std::map<std::string, std::set<std::string>> others;
     for (const Trajectory& part : d.logs) {
       for (const std::string& label : part.truth) {
-        if (label.empty() || label == fitted || config.class_index(label) == fitted_class) continue;
+        // A label the bank does not know is a new terrain's, which a fit from
+        // a starting mode (--mode asphalt --name ice) is for.
+        const int label_class = config.class_index(label);
+        if (label.empty() || label_class < 0 || label == fitted || label_class == fitted_class) continue;
         others[part.log].insert(label);
       }
     }

@@ -41,12 +41,13 @@ std::map<std::string, InputRange> fitted_input_ranges(const BankConfig& config, 
                                                       int mode);
 
 // For each log in `data` fitted as one mode by a label (--mode, or its own
-// MODE=) whose truth column names other modes at some of its steps (not
-// the mode's, nor one of its class): "<log>: fitted as mode 'a' by a label,
-// though its truth column 'mode' names b, c at some of its steps". A label
-// overrides the truth column, as documented; mixing terrains into one mode
-// that way is rarely meant. Text from the files as it is (print it with
-// printable()).
+// MODE=) whose truth column names other modes of the bank at some of its
+// steps (not the mode, nor one of its class; a name the bank does not know
+// is a new terrain's, which a fit from a starting mode is for): "<log>:
+// fitted as mode 'a' by a label, though its truth column 'mode' names b, c
+// at some of its steps". A label overrides the truth column, as documented;
+// mixing terrains into one mode that way is rarely meant. Text from the
+// files as it is (print it with printable()).
 std::vector<std::string> labels_overriding_truth(const BankConfig& config, const std::vector<ModeLogs>& data);
 
 }  // namespace fitting
