@@ -137,11 +137,14 @@ std::vector<std::string> labels_overriding_truth(const BankConfig& config, const
     // truth column gives each mode only steps of that mode's label.
     std::map<std::string, std::set<std::string>> others;
     for (const Trajectory& part : d.logs) {
+      const std::string* previous = nullptr;  // labels come in runs: each run looked up once
       for (const std::string& label : part.truth) {
+        if (label.empty() || label == fitted || (previous != nullptr && label == *previous)) continue;
+        previous = &label;
         // A label the bank does not know is a new terrain's, which a fit from
         // a starting mode (--mode asphalt --name ice) is for.
         const int label_class = config.class_index(label);
-        if (label.empty() || label_class < 0 || label == fitted || label_class == fitted_class) continue;
+        if (label_class < 0 || label_class == fitted_class) continue;
         others[part.log].insert(label);
       }
     }
