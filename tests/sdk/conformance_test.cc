@@ -186,19 +186,22 @@ TEST(ConformanceKit, SaysAPredictionTooLargeToDifferenceCannotBeCheckedAndNamesT
 }
 
 // An entry that cannot be resolved does not hide one that is wrong: with
-// a = 1e12 the prediction is about 7e10, b's differences round by up to
-// about 3 (unresolved), a's by about 3e-12, and a's derivative without its
-// dt (0.7 for 0.07) is reported as differing, alone. At ordinary sizes (a
-// state of 1e4) a right model passes: nothing is called unresolved there.
+// a = 1e14 and u = 20 the prediction is about 7e12, b's differences round
+// by up to about 260 (its numeric derivative is 0 for an analytic 2:
+// unresolved), a's by about 3e-12, and a's derivative without its dt (0.7
+// for 0.07) is reported as differing, alone, by its own 0.63 (not by the
+// unresolved entry's 2). At ordinary sizes (a state of 1e4) a right model
+// passes: nothing is called unresolved there.
 TEST(ConformanceKit, AWrongEntryIsReportedBesideOneTooLargeToCheckAndOrdinarySizesPass) {
   BrokenModel wrong(BrokenModel::kWrongDerivativeInA);
   Eigen::VectorXd large(2);
-  large << 1e12, 0.5;
+  large << 1e14, 0.5;
   ASSERT_TRUE(wrong.set_parameters(large, nullptr));
-  const auto result = skidimm::sdk::testing::MotionModelConforms(wrong, kX, kU, 0.1);
+  const auto result = skidimm::sdk::testing::MotionModelConforms(wrong, kX, Eigen::VectorXd::Constant(1, 20.0), 0.1);
   EXPECT_FALSE(result);
   const std::string message = result.message();
-  EXPECT_THAT(message, HasSubstr("parameter_jacobian() differs from central differences by "));
+  // By the wrong entry's difference, not the unresolved one's.
+  EXPECT_THAT(message, HasSubstr("parameter_jacobian() differs from central differences by 0.63 at "));
   EXPECT_THAT(message, HasSubstr("entry (row 0 'x', column 0 'a'): analytic 0.7, numeric 0.07"));
   EXPECT_THAT(message, Not(HasSubstr("entry (row 0 'x', column 1 'b')")));
   EXPECT_THAT(message, Not(HasSubstr("parameter_jacobian() cannot be checked")));

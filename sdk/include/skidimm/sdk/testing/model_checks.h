@@ -187,12 +187,14 @@ std::string compare_with_differences(const std::string& what, const Eigen::Matri
   const Comparison cmp{reported, numeric, value, at, tolerance * scale};
   bool wrong = false, unresolved = false;
   int worst_row = -1;
-  double worst_rounding = 0.0;
+  double worst_rounding = 0.0, worst_difference = 0.0;  // of the wrong entries alone
   for (int r = 0; r < reported.rows(); ++r) {
     for (int c = 0; c < reported.cols(); ++c) {
       if (!cmp.differs(r, c)) continue;
       if (!cmp.unresolved(r, c)) {
         wrong = true;
+        const double difference = cmp.difference(r, c);
+        worst_difference = std::isnan(difference) ? difference : std::max(worst_difference, difference);
       } else if (!unresolved || cmp.rounding(r, c) > worst_rounding) {
         unresolved = true;
         worst_row = r;
@@ -202,8 +204,8 @@ std::string compare_with_differences(const std::string& what, const Eigen::Matri
   }
   std::ostringstream out;
   if (wrong) {
-    out << what << " differs from central differences by " << (reported - numeric).cwiseAbs().maxCoeff() << " at "
-        << point << listed_entries(cmp, false, row_names, column_names) << "\n    reported:\n"
+    out << what << " differs from central differences by " << worst_difference << " at " << point
+        << listed_entries(cmp, false, row_names, column_names) << "\n    reported:\n"
         << reported << "\n    numeric:\n"
         << numeric;
   } else if (unresolved) {
