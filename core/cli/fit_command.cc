@@ -18,6 +18,8 @@
 #include "skidimm/fitting/likelihood_fitter.h"
 #include "skidimm/fitting/model_fitter.h"
 #include "skidimm/fitting/solver_messages.h"
+#include "skidimm/io/csv.h"
+#include "skidimm/io/log_reader.h"
 #include "skidimm/io/output_file.h"
 #include "skidimm/printable.h"
 #include "skidimm/progress.h"
@@ -76,6 +78,30 @@ void print_report(const BankConfig& config, const std::string& name, const ModeL
   for (const std::string& w : r.warnings) std::cerr << "  warning: " << w << "\n";
 }
 
+std::string steps_text(double rate) {
+  return rate > 0.0 ? "every " + CsvWriter::format(1.0 / rate) + " s (" + CsvWriter::format(rate) + " Hz)"
+                    : "at every time stamp";
+}
+
+// A mode fitted on steps of one length, where the bank's measurements
+// aggregate a step's rows (mean(), std()), measures something else on steps
+// of another: said before the fit, which cannot be undone by the bank it joins.
+void warn_of_a_bank_at_another_rate(const BankConfig& fitted_with, const SamplingConfig& fitted_at,
+                                    const std::string& option, const std::filesystem::path& target_file,
+                                    const BankConfig& target) {
+  if (target.sampling.rate == fitted_at.rate) return;
+  const std::vector<std::string> aggregated = LogReader::aggregated_measurements(fitted_with);
+  if (aggregated.empty()) return;
+  std::string names;
+  for (const std::string& n : aggregated) names += (names.empty() ? "" : ", ") + n;
+  std::cerr << "skidimm fit: warning: " << option << " " << target_file.string() << " steps "
+            << steps_text(target.sampling.rate)
+            << (target.sampling.rate > 0.0 ? ", its sampling.rate," : " (it has no sampling.rate)") << " and this fit "
+            << steps_text(fitted_at.rate) << ": " << names
+            << " aggregate a step's rows, so the fitted mode would measure there something other than what it was "
+               "fitted on. Fit at the bank's rate (--rate), or set its sampling.rate to this one\n";
+}
+
 }  // namespace
 
 int fit(const FitCommandOptions& options) {
@@ -110,8 +136,9 @@ int fit(const FitCommandOptions& options) {
     // starts: a mistyped path or label found after a long fit would lose it.
     if (!options.append_to.empty()) {
       if (data.size() != 1) throw Error("--append-to takes the fit of exactly one mode");
-      load_bank_config(options.append_to);
+      const BankConfig target = load_bank_config(options.append_to);
       check_output_path(options.append_to, "--append-to");
+      warn_of_a_bank_at_another_rate(config, sampling, "--append-to", options.append_to, target);
     }
     if (!options.name.empty()) {
       // Checked before the fit: the written bank would refuse the name
@@ -187,6 +214,7 @@ int fit(const FitCommandOptions& options) {
     fit_options.residual_correlation = options.residual_correlation;
     request.mode = options.mode;
     request.name = options.name;
+    request.sampling = sampling;
     if (!options.append_to.empty()) {
       // The entry of the starting values joins the bank as the fitted one
       // would: a bank it cannot join is said now, not after the fit.
@@ -276,6 +304,12 @@ int fit(const FitCommandOptions& options) {
     // Written whole, then renamed (output_file.h): never half a file, and a
     // full disk is an error with its reason.
     if (!options.output_entry.empty()) write_file_atomically(options.output_entry, entries);
+    if (options.append_to.empty() && options.output_bank.empty() && sampling.rate != config.sampling.rate) {
+      // The entries alone do not carry the rate; the bank they join must.
+      std::cerr << "skidimm fit: the entries were fitted on steps " << steps_text(sampling.rate)
+                << ": the bank they join should step at that rate (sampling: {rate: "
+                << CsvWriter::format(sampling.rate) << "})\n";
+    }
     if (options.append_to.empty() && options.output_bank.empty() && options.output_entry.empty()) std::cout << entries;
     if (held_out_error) std::rethrow_exception(held_out_error);
     return kExitOk;

@@ -448,6 +448,8 @@ int tune(const TuneCommandOptions& options) {
           {"likelihood_dof", fitting::format_likelihood_dof_block(c)},
           {"extrapolation_scale", fitting::format_extrapolation_scale_block(c)},
           {"unknown", fitting::format_unknown_block(c)}};
+      // A bank runs at the rate it was fitted and tuned at (--rate).
+      if (sampling.rate != c.sampling.rate) blocks.emplace_back("sampling", fitting::format_sampling_block(sampling));
       bool bank_parameters = false;
       for (const auto& info : tuned.models[0]->parameter_info()) {
         bank_parameters = bank_parameters || info.scope == sdk::ParameterScope::kBank;

@@ -307,14 +307,14 @@ def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", wind
     data = _native.load_fit_logs(fresh, logs, mode, _rate(rate), skip_unpaired)
     fitted = _native.fit_in_place(fresh, data, options)
     return _fit_result(fresh, fitted, options, mode, name, output_bank, plugin_paths, models,
-                       "skidimm.fit(" + ", ".join(repr(log) for log in logs) + ")")
+                       "skidimm.fit(" + ", ".join(repr(log) for log in logs) + ")", _rate(rate))
 
 
-def _fit_result(bank, fitted, options, mode, name, output_bank, plugin_paths, models, call):
+def _fit_result(bank, fitted, options, mode, name, output_bank, plugin_paths, models, call, rate):
     header = ["Written by skidimm fit (Python); reproduce with:", "  " + call]
 
     def go(path):
-        entries, text = _native.fit_texts(bank, fitted, options, mode, name, header, path)
+        entries, text = _native.fit_texts(bank, fitted, options, mode, name, header, path, rate)
         loaded = Bank(path, plugin_paths, models)
         return loaded, entries, text
 

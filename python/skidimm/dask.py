@@ -155,4 +155,4 @@ def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihoo
     for j, entry in fitted.items():
         skidimm._native.apply_fit(local, j, entry["parameters"], entry["q"], entry["r"], entry["fitted_inputs"])
     call = "skidimm.dask.fit(" + ", ".join(repr(os.fspath(log)) for log in logs) + ")"
-    return skidimm._fit_result(local, fitted, options, mode, name, output_bank, plugin_paths, models, call)
+    return skidimm._fit_result(local, fitted, options, mode, name, output_bank, plugin_paths, models, call, rate)

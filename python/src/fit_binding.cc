@@ -258,7 +258,8 @@ void bind_fit(py::module_& m) {
   m.def(
       "fit_texts",
       [options_from](const PyBank& bank, const py::dict& fitted, const py::dict& options, const std::string& mode,
-                     const std::string& name, const std::vector<std::string>& header, const fs::path& output) {
+                     const std::string& name, const std::vector<std::string>& header, const fs::path& output,
+                     double rate) {
         std::vector<fitting::FittedMode> modes;
         for (const auto& [index, entry] : fitted) {
           const py::dict e = py::reinterpret_borrow<py::dict>(entry);
@@ -271,6 +272,7 @@ void bind_fit(py::module_& m) {
         request.mode = mode;
         request.name = name;
         request.options = options_from(options);
+        request.sampling = sampling_of(bank.config(), rate);
         const std::string entries = fitting::format_fitted_entries(*bank.bank, modes, request);
         fitting::write_fitted_bank(*bank.bank, modes, request, bank.config().file, output, header);
         std::ifstream written(output, std::ios::binary);
@@ -279,7 +281,9 @@ void bind_fit(py::module_& m) {
         return py::make_tuple(entries, text.str());
       },
       py::arg("bank"), py::arg("fitted"), py::arg("options"), py::arg("mode"), py::arg("name"), py::arg("header"),
-      py::arg("output"), "The mode entries and the whole bank `skidimm fit` writes for a fitted bank.");
+      py::arg("output"), py::arg("rate") = 0.0,
+      "The mode entries and the whole bank `skidimm fit` writes for a fitted bank; `rate` (Hz, 0: the bank's) is "
+      "the rate its logs were stepped at, written as the bank's sampling.rate where it is not the bank's.");
 }
 
 }  // namespace python

@@ -79,6 +79,20 @@ def test_fit_equals_the_cli(tmp_path, configs, cli, singular_logs):
     skidimm.Imm(fitted).step(0.0, [1.0, 1.0], [0.1, 0.0])
 
 
+def test_fit_at_a_rate_writes_it_as_the_banks_as_the_cli_does(tmp_path, configs, cli, singular_logs):
+    bank = configs / "ltc_terrains.yaml"
+    logs = [f"asphalt={p}" for p in singular_logs["asphalt"]]
+    result = skidimm.fit(bank, logs, objective="window", window=0.5, rate=20)
+    arguments = ["fit", "--bank", bank, "--objective", "window", "--window", 0.5, "--rate", 20,
+                 "--output-bank", tmp_path / "cli.yaml"]
+    for log in logs:
+        arguments += ["--log", log]
+    cli(*arguments)
+    assert body(result["bank_yaml"]) == body((tmp_path / "cli.yaml").read_text())
+    assert "sampling:\n  rate: 20\n" in result["bank_yaml"]
+    assert "sampling:" not in skidimm.fit(bank, logs, objective="window", window=0.5)["bank_yaml"]
+
+
 def test_fit_checks_its_output_bank_before_fitting(tmp_path, configs, singular_logs, monkeypatch):
     bank = configs / "ltc_terrains.yaml"
     logs = [f"asphalt={p}" for p in singular_logs["asphalt"]]

@@ -556,6 +556,49 @@ TEST(Cli, FitTakesEachModeFromTheTruthColumnAndEvalTakesLabelsAndPatterns) {
   EXPECT_THAT(none.err, HasSubstr("no file matches"));
 }
 
+// A bank is fitted at --rate when it is given, and its aggregated features
+// (BorealTC's means and standard deviations over a step) measure what they
+// measure at that rate only: the written bank steps at the rate it was fitted
+// at, and a fit that joins a bank stepping at another, or that is written as
+// entries alone, says so before or after the work.
+TEST(Cli, AFitAtAnotherRateWritesThatRateAsTheBanks) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  const fs::path dir = test_directory();
+  const std::string start = kSource + "/configs/borealtc/wheels_start.yaml";
+  const std::string fit = "fit --bank " + start + " --objective window --hold-unexcited --log 'ASPHALT=" + boreal +
+                          "/ASPHALT/pro_00.csv' --log 'ICE=" + boreal + "/ICE/pro_00.csv'";
+  const Result at_4 = run_skidimm(fit + " --rate 4 --output-bank " + (dir / "at_4.yaml").string());
+  ASSERT_EQ(at_4.exit_code, 0) << at_4.err;
+  const std::string written = read_file(dir / "at_4.yaml");
+  EXPECT_THAT(written, HasSubstr("\nsampling:\n  rate: 4\nmeasurement:\n"));
+  EXPECT_EQ(skidimm::load_bank_config(dir / "at_4.yaml").sampling.rate, 4.0);
+  EXPECT_THAT(at_4.err, Not(HasSubstr("should step at that rate")));
+  // At the bank's own rate the template's block stays as it was, comment included.
+  const Result at_2 = run_skidimm(fit + " --rate 2 --output-bank " + (dir / "at_2.yaml").string());
+  ASSERT_EQ(at_2.exit_code, 0) << at_2.err;
+  EXPECT_THAT(read_file(dir / "at_2.yaml"), HasSubstr("sampling:\n  rate: 2                                # Hz:"));
+  // The entries alone cannot carry the rate: the fit says what the bank needs.
+  const Result entries = run_skidimm(fit + " --rate 4");
+  ASSERT_EQ(entries.exit_code, 0) << entries.err;
+  EXPECT_THAT(entries.err, HasSubstr("skidimm fit: the entries were fitted on steps every 0.25 s (4 Hz): the bank "
+                                     "they join should step at that rate (sampling: {rate: 4})"));
+  // Appended to a bank of another rate, the mode is warned of before the fit.
+  const fs::path target = write_file(dir / "wheels.yaml", read_file(kSource + "/configs/borealtc/wheels.yaml"));
+  const std::string append = "fit --bank " + start + " --objective window --hold-unexcited --mode ASPHALT_straight " +
+                             "--log " + boreal + "/ASPHALT/pro_00.csv --append-to " + target.string();
+  const Result other = run_skidimm(append + " --rate 4 --name FAST");
+  ASSERT_EQ(other.exit_code, 0) << other.err;
+  const std::string warning = "skidimm fit: warning: --append-to " + target.string() +
+                              " steps every 0.5 s (2 Hz), its sampling.rate, and this fit every 0.25 s (4 Hz): "
+                              "columns.measurements.current, ";
+  EXPECT_THAT(other.err, HasSubstr(warning));
+  EXPECT_LT(other.err.find(warning), other.err.find("residuals"));  // before the fit
+  const Result same = run_skidimm(append + " --name SAME");
+  ASSERT_EQ(same.exit_code, 0) << same.err;
+  EXPECT_THAT(same.err, Not(HasSubstr("warning: --append-to")));
+}
+
 // The physical terrain bank with crushed concrete split into a class of two
 // modes, `first` (fit_when: `condition`) and `second`, written to `file`.
 fs::path bank_with_concrete_split(const fs::path& file, const std::string& first, const std::string& condition,

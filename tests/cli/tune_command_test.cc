@@ -295,6 +295,29 @@ TEST(Cli, TuneCountsEachLogsRowsAsCorrelatedWhenAsked) {
   EXPECT_GT(widened, 0);
 }
 
+// A bank tuned at --rate steps at it: its fits and its scores are of steps
+// of that length, and its aggregated features measure what they measure
+// there only (as fit, fit_command_test.cc).
+TEST(Cli, ABankTunedAtAnotherRateIsWrittenWithIt) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  const fs::path dir = test_directory();
+  std::string tune = "tune -q --bank " + kSource +
+                     "/configs/borealtc/wheels_start.yaml --objective window --hold-unexcited --tune floor "
+                     "--no-assess --threads 2";
+  for (const char* log : {"ASPHALT/pro_00", "ASPHALT/pro_01", "ICE/pro_00", "ICE/pro_02"}) {
+    const std::string path(log);
+    tune += " --log '" + path.substr(0, path.find('/')) + "=" + boreal + "/" + path + ".csv'";
+  }
+  const Result at_4 = run_skidimm(tune + " --rate 4 --output-bank " + (dir / "at_4.yaml").string());
+  ASSERT_EQ(at_4.exit_code, 0) << at_4.err;
+  EXPECT_THAT(read_file(dir / "at_4.yaml"), HasSubstr("\nsampling:\n  rate: 4\nmeasurement:\n"));
+  EXPECT_EQ(skidimm::load_bank_config(dir / "at_4.yaml").sampling.rate, 4.0);
+  const Result own = run_skidimm(tune + " --output-bank " + (dir / "own.yaml").string());
+  ASSERT_EQ(own.exit_code, 0) << own.err;
+  EXPECT_THAT(read_file(dir / "own.yaml"), HasSubstr("sampling:\n  rate: 2                                # Hz:"));
+}
+
 // The bundled switching log in four parts, as `--log` arguments.
 std::string switching_log_in_four_parts(const fs::path& dir) {
   const std::string log = read_file(kSwitching);

@@ -14,6 +14,7 @@
 
 #include "skidimm/engine/parameter_uncertainty.h"
 #include "skidimm/errors.h"
+#include "skidimm/io/csv.h"
 #include "skidimm/io/output_file.h"
 
 namespace skidimm {
@@ -427,6 +428,18 @@ std::string format_columns_block(const BankConfig& config) {
   if (!config.columns.truth_mode.empty()) out += "  truth_mode: " + yaml_scalar(config.columns.truth_mode) + "\n";
   if (config.columns.carry_truth) out += "  truth_blank: carry\n";
   return out;
+}
+
+std::string format_sampling_block(const SamplingConfig& sampling) {
+  const SamplingConfig defaults;
+  std::string out;
+  if (sampling.join == SamplingConfig::Join::kRows) out += "  join: rows\n";
+  // Exactly the value stepped at: a rate that read back as another would
+  // put the grid elsewhere.
+  if (sampling.rate > 0.0) out += "  rate: " + CsvWriter::format(sampling.rate) + "\n";
+  if (sampling.max_gap != defaults.max_gap) out += "  max_gap: " + CsvWriter::format(sampling.max_gap) + "\n";
+  if (sampling.skip_gaps) out += "  skip_gaps: true\n";
+  return out.empty() ? out : "sampling:\n" + out;
 }
 
 std::string format_measurement_block(const BankConfig& config) {

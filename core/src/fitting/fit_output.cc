@@ -128,6 +128,9 @@ void write_fitted_bank(const Bank& bank, const std::vector<FittedMode>& fitted, 
                       "\n");
   }
   if (request.options.fit_measurement_noise) blocks.emplace_back("measurement", format_measurement_block(config));
+  if (request.sampling && request.sampling->rate != config.sampling.rate) {
+    blocks.emplace_back("sampling", format_sampling_block(*request.sampling));
+  }
   blocks.emplace_back("modes", modes_block);
   write_bank_from_template(template_file, output, header, blocks);
 }

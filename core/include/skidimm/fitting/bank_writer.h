@@ -70,6 +70,9 @@ void write_bank_from_template(const std::filesystem::path& template_file, const 
 
 // Top-level blocks of a bank, as YAML text that loads back to the same values.
 std::string format_columns_block(const BankConfig& config);      // "columns:\n  time: ...\n  inputs: ..."
+// "sampling:\n  rate: ...", every setting that is not the default; nothing
+// when all are (a step at every time stamp, time-joined files).
+std::string format_sampling_block(const SamplingConfig& sampling);
 std::string format_measurement_block(const BankConfig& config);  // "measurement:\n  observe: ...\n  R: ..."
 std::string format_transition_block(const BankConfig& config);   // "transition:\n  ..."
 std::string format_floor_block(const BankConfig& config);        // "mode_probability_floor: ..."

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,10 @@ struct FitRequest {
   BankFitOptions options;
   std::string mode;  // the mode logs without a label show (`fit --mode`)
   std::string name;  // that mode's name in the output (a new terrain); empty: its own
+  // How the logs were stepped (sampling_of() the bank and `--rate`). Where
+  // its rate is not the bank's, it is the written bank's `sampling:`: a bank
+  // runs at the rate it was fitted at.
+  std::optional<SamplingConfig> sampling;
 };
 
 // One mode's fit.
