@@ -331,6 +331,11 @@ int run(const RunOptions& options) {
         // would otherwise go unnoticed until `eval --estimates` needs it.
         std::cerr << "no accuracy: the log has no column '" << printable(config.columns.truth_mode)
                   << "' (the bank's columns.truth_mode) and no MODE= label\n";
+      } else if (with_truth && summary.rows > 0) {
+        // The column is there but labels nothing: a logger that never filled
+        // it, or labels the reader does not take for values.
+        std::cerr << "no accuracy: the log's column '" << printable(config.columns.truth_mode)
+                  << "' (the bank's columns.truth_mode) is blank at every step\n";
       }
       if (summary.outside_fitted_inputs > 0) {
         std::fprintf(stderr,

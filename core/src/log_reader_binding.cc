@@ -48,6 +48,21 @@ std::string row_value_problem(const std::string& text, std::unique_ptr<Expressio
   return std::string();
 }
 
+// A header read as one column that holds a ';' or a tab: the file is
+// separated by another character than the comma the reader splits on (a
+// spreadsheet's export in a locale whose decimal mark is the comma). Said
+// beside "no column", which alone reads as a misspelt name.
+std::string separator_hint(const std::vector<std::string>& header) {
+  if (header.size() != 1) return std::string();
+  for (const char separator : {';', '\t'}) {
+    if (header.front().find(separator) == std::string::npos) continue;
+    return std::string(". Its header is one column holding ") + (separator == ';' ? "';'" : "tabs") +
+           ": the file is not comma-separated, which is what skidimm reads; write it with commas between values "
+           "and points as decimal marks";
+  }
+  return std::string();
+}
+
 }  // namespace
 
 LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling)
@@ -111,6 +126,8 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
       const LogTable& reader = *s.files.front();
       std::string message = "no time column '" + bank.columns.time + "' (the bank's columns.time); columns present: " +
                             printable_header(reader.columns_present(), &listed, 400);
+      const std::string hint = separator_hint(reader.columns_present());
+      if (!hint.empty()) throw reader.error(message + hint);
       if (!by_rows) {
         message +=
             ". Every file of a log is merged on its own time column (sampling.join: time); files that match row "
@@ -232,9 +249,14 @@ void LogReader::Impl::missing_column(const std::string& column, const std::strin
   std::size_t files = 0;
   for (const Stream& s : streams_) files += s.files.size();
   std::string present;
+  std::string hint;
   int listed = 0;
   for (const Stream& s : streams_) {
     for (const auto& reader : s.files) {
+      if (hint.empty()) {
+        hint = separator_hint(reader->columns_present());
+        if (!hint.empty() && files > 1) hint += " (" + reader->path().filename().string() + ")";
+      }
       const std::string h = printable_header(reader->columns_present(), &listed, 400);
       if (h.empty()) continue;
       present += (present.empty() ? "" : "; ") + h;
@@ -243,7 +265,7 @@ void LogReader::Impl::missing_column(const std::string& column, const std::strin
   }
   throw streams_.front().files.front()->error("no column '" + Expression::excerpt(column) + "' (the bank's " + field +
                                               ")" + (files > 1 ? " in any file of the log" : "") +
-                                              "; columns present: " + present);
+                                              "; columns present: " + present + hint);
 }
 
 int LogReader::Impl::column_id(const std::string& name, const std::string& field, bool required) {

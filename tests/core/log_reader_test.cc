@@ -796,6 +796,34 @@ TEST(LogReader, ABinaryFileGivesAShortPrintableError) {
   for (unsigned char c : message.substr(message.find("present:"))) EXPECT_TRUE(c >= 32 && c < 127) << int(c);
 }
 
+// A spreadsheet's export with ';' or tabs between values reads as one
+// column: the error says the file is not comma-separated, in a log's first
+// file (its time column) and in a second one (a column it should hold).
+TEST(LogReader, AFileSeparatedByAnotherCharacterIsSaidToBeSo) {
+  const auto dir = test_directory();
+  const auto semicolons = write_file(dir / "semicolons.csv", "t;left;right;v;w\n0;1;2;3;4\n0,5;1;2;3;4\n");
+  expect_error([&] { LogReader(simple_bank(), {semicolons}); },
+               {"semicolons.csv:1: no time column 't'",
+                ". Its header is one column holding ';': the file is not comma-separated, which is what skidimm "
+                "reads; write it with commas between values and points as decimal marks"});
+  const auto tabs = write_file(dir / "tabs.csv", "t\tleft\tright\tv\tw\n0\t1\t2\t3\t4\n");
+  expect_error([&] { LogReader(simple_bank(), {tabs}); }, {"Its header is one column holding tabs"});
+  // Joined row for row, the second file's columns are missing, not its time.
+  BankConfig rows = simple_bank();
+  rows.sampling.join = SamplingConfig::Join::kRows;
+  const auto wheels = write_file(dir / "wheels.csv", "t,left,right\n0,1,2\n0.5,1,2\n");
+  const auto odometry = write_file(dir / "odometry.csv", "v;w\n3;4\n3;4\n");
+  expect_error(
+      [&] {
+        LogReader(rows, {wheels, odometry});
+      },
+      {"no column 'v'", "Its header is one column holding ';'", "(odometry.csv)"});
+  // A comma-separated header of one column is only that.
+  const auto one = write_file(dir / "one.csv", "time\n0\n");
+  const std::string message = expect_error([&] { LogReader(simple_bank(), {one}); }, {"no time column 't'"});
+  EXPECT_EQ(message.find("not comma-separated"), std::string::npos) << message;
+}
+
 // The real Husky ice logs: odometry/IMU/GPS in TSyn_NN.csv and the raw ROS
 // joint-state export (a quoted list column, epoch times) in joint_states_NN.csv,
 // read side by side, irregularly sampled (first steps below a millisecond).
