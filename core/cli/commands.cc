@@ -98,15 +98,11 @@ LogArgumentOptions unpaired_runs(const char* command, bool skip) {
 
 void warn_of_rate_unlike_the_banks(const char* command, const std::filesystem::path& bank_file, const BankConfig& bank,
                                    std::optional<double> rate) {
-  if (!rate || !(*rate > 0.0) || !(bank.sampling.rate > 0.0) || *rate == bank.sampling.rate) return;
-  const std::vector<std::string> aggregated = LogReader::aggregated_measurements(bank);
-  if (aggregated.empty()) return;
-  std::cerr << command << ": warning: --rate " << CsvWriter::format(*rate) << " Hz steps " << bank_file.string()
-            << " at another rate than its sampling.rate of " << CsvWriter::format(bank.sampling.rate) << " Hz, and "
-            << join(aggregated) << " aggregate the rows of a step: over steps of " << CsvWriter::format(1.0 / *rate)
-            << " s they measure something other than what its modes were fitted on, and its estimates can be "
-               "confidently wrong. Leave --rate out, or fit the bank at this rate (fit --rate) and set its "
-               "sampling.rate to it\n";
+  const std::string why = rate_unlike_the_banks(bank, rate);
+  if (why.empty()) return;
+  std::cerr << command << ": warning: --rate " << CsvWriter::format(*rate) << " Hz steps " << bank_file.string() << " "
+            << why << ". Leave --rate out, or fit the bank at this rate (fit --rate, which writes it as the bank's "
+            << "sampling.rate)\n";
 }
 
 EstimatorOptions command_line_estimator(bool smooth, std::optional<double> lag) {

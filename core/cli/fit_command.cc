@@ -79,8 +79,10 @@ void print_report(const BankConfig& config, const std::string& name, const ModeL
 }
 
 std::string steps_text(double rate) {
-  return rate > 0.0 ? "every " + CsvWriter::format(1.0 / rate) + " s (" + CsvWriter::format(rate) + " Hz)"
-                    : "at every time stamp";
+  if (!(rate > 0.0)) return "at every time stamp";
+  char seconds[32];
+  std::snprintf(seconds, sizeof(seconds), "%.4g", 1.0 / rate);  // 0.3333 s, not 0.3333333333333333 s
+  return "every " + std::string(seconds) + " s (" + CsvWriter::format(rate) + " Hz)";
 }
 
 // A mode fitted on steps of one length, where the bank's measurements
@@ -307,8 +309,8 @@ int fit(const FitCommandOptions& options) {
     if (options.append_to.empty() && options.output_bank.empty() && sampling.rate != config.sampling.rate) {
       // The entries alone do not carry the rate; the bank they join must.
       std::cerr << "skidimm fit: the entries were fitted on steps " << steps_text(sampling.rate)
-                << ": the bank they join should step at that rate (sampling: {rate: "
-                << CsvWriter::format(sampling.rate) << "})\n";
+                << ": the bank they join should step at that rate (its sampling.rate: "
+                << CsvWriter::format(sampling.rate) << ")\n";
     }
     if (options.append_to.empty() && options.output_bank.empty() && options.output_entry.empty()) std::cout << entries;
     if (held_out_error) std::rethrow_exception(held_out_error);

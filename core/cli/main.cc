@@ -150,11 +150,12 @@ int main(int argc, char** argv) {
   const CLI::Validator existing_file_or_stdin(
       [](std::string& path) { return path == "-" ? std::string() : CLI::ExistingFile(path); }, "FILE or -");
 
-  auto add_rate = [](CLI::App* command, auto* rate) {
+  auto add_rate = [](CLI::App* command, auto* rate, const char* more = "") {
     command
         ->add_option("--rate", *rate,
-                     "Filter steps per second on a fixed grid (overrides the bank's sampling.rate); "
-                     "default: a step at every time stamp of the log")
+                     std::string("Filter steps per second on a fixed grid (overrides the bank's sampling.rate); "
+                                 "default: the bank's sampling.rate, else a step at every time stamp of the log") +
+                         more)
         ->check(finite_number())
         ->check(number_above(0.0, false, 1e6));
   };
@@ -365,7 +366,7 @@ int main(int argc, char** argv) {
                   "Window objective: seconds each prediction runs from a measured start; 0 = one-step (default)")
       ->check(finite_number())
       ->check(number_above(0.0, true));
-  add_rate(fit, &fit_options.rate);
+  add_rate(fit, &fit_options.rate, "; the written bank (--output-bank) takes it as its sampling.rate");
   fit->add_option("--loss", fit_options.loss, "Robust loss: huber (default), cauchy, none")
       ->check(CLI::IsMember({"huber", "cauchy", "none"}));
   // In units of R's standard deviations: far below one, the robust loss
@@ -400,7 +401,7 @@ int main(int argc, char** argv) {
       ->required();
   tune->add_option("--mode,-m", tune_options.mode, "The mode logs without MODE= show");
   tune->add_flag("--skip-unpaired", tune_options.skip_unpaired, kSkipUnpaired);
-  add_rate(tune, &tune_options.rate);
+  add_rate(tune, &tune_options.rate, "; the written bank (--output-bank) takes it as its sampling.rate");
   tune->add_option("--objective", tune_options.objectives,
                    "Fit objectives to compare, comma-separated: likelihood, window, none (the bank's models as they "
                    "are: tune the settings only); default likelihood");

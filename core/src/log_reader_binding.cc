@@ -48,17 +48,35 @@ std::string row_value_problem(const std::string& text, std::unique_ptr<Expressio
   return std::string();
 }
 
-// A header read as one column that holds a ';' or a tab: the file is
+// A header whose fields, split at ';' or tabs, give `wanted`: the file is
 // separated by another character than the comma the reader splits on (a
 // spreadsheet's export in a locale whose decimal mark is the comma). Said
-// beside "no column", which alone reads as a misspelt name.
-std::string separator_hint(const std::vector<std::string>& header) {
-  if (header.size() != 1) return std::string();
+// beside "no column", which alone reads as a misspelt name; a header that
+// only holds such a character (a note, a column named with it) gets nothing.
+std::string separator_hint(const std::vector<std::string>& header, const std::string& wanted) {
+  const auto unquoted = [](const std::string& text) {
+    const std::string part(trim(text));
+    if (part.size() >= 2 && part.front() == '"' && part.back() == '"') return part.substr(1, part.size() - 2);
+    return part;
+  };
+  if (header.size() == 1 && header.front().rfind("sep=", 0) == 0) {
+    return ". Its first line, '" + header.front() +
+           "', is a spreadsheet's separator line: skidimm reads comma-separated files whose first line is the "
+           "header; write it with commas between values and points as decimal marks";
+  }
   for (const char separator : {';', '\t'}) {
-    if (header.front().find(separator) == std::string::npos) continue;
-    return std::string(". Its header is one column holding ") + (separator == ';' ? "';'" : "tabs") +
-           ": the file is not comma-separated, which is what skidimm reads; write it with commas between values "
-           "and points as decimal marks";
+    for (const std::string& field : header) {
+      for (std::size_t at = 0; at <= field.size();) {
+        const std::size_t next = std::min(field.find(separator, at), field.size());
+        if (next == field.size() && at == 0) break;  // no separator in this field
+        if (unquoted(field.substr(at, next - at)) == wanted) {
+          return std::string(". Its header holds '") + wanted + "' between " + (separator == ';' ? "';'" : "tabs") +
+                 ": the file is not comma-separated, which is what skidimm reads; write it with commas between "
+                 "values and points as decimal marks";
+        }
+        at = next + 1;
+      }
+    }
   }
   return std::string();
 }
@@ -126,7 +144,7 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
       const LogTable& reader = *s.files.front();
       std::string message = "no time column '" + bank.columns.time + "' (the bank's columns.time); columns present: " +
                             printable_header(reader.columns_present(), &listed, 400);
-      const std::string hint = separator_hint(reader.columns_present());
+      const std::string hint = separator_hint(reader.columns_present(), bank.columns.time);
       if (!hint.empty()) throw reader.error(message + hint);
       if (!by_rows) {
         message +=
@@ -254,7 +272,7 @@ void LogReader::Impl::missing_column(const std::string& column, const std::strin
   for (const Stream& s : streams_) {
     for (const auto& reader : s.files) {
       if (hint.empty()) {
-        hint = separator_hint(reader->columns_present());
+        hint = separator_hint(reader->columns_present(), column);
         if (!hint.empty() && files > 1) hint += " (" + reader->path().filename().string() + ")";
       }
       const std::string h = printable_header(reader->columns_present(), &listed, 400);

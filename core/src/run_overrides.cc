@@ -4,6 +4,7 @@
 
 #include "skidimm/errors.h"
 #include "skidimm/io/csv.h"
+#include "skidimm/io/log_reader.h"
 
 namespace skidimm {
 
@@ -15,6 +16,18 @@ SamplingConfig sampling_of(const BankConfig& bank, std::optional<double> rate) {
   SamplingConfig sampling = bank.sampling;
   if (rate && *rate > 0.0) sampling.rate = *rate;
   return sampling;
+}
+
+std::string rate_unlike_the_banks(const BankConfig& bank, std::optional<double> rate) {
+  if (!rate || !(*rate > 0.0) || !(bank.sampling.rate > 0.0) || *rate == bank.sampling.rate) return std::string();
+  const std::vector<std::string> aggregated = LogReader::aggregated_measurements(bank);
+  if (aggregated.empty()) return std::string();
+  std::string names;
+  for (const std::string& name : aggregated) names += (names.empty() ? "" : ", ") + name;
+  return "at another rate than its sampling.rate of " + CsvWriter::format(bank.sampling.rate) + " Hz: " + names +
+         " aggregate the rows of a step, and over steps of " + CsvWriter::format(1.0 / *rate) +
+         " s they measure something other than what its modes were fitted on, so its estimates can be "
+         "confidently wrong";
 }
 
 void check_decision_settings(const DecisionConfig& d) {

@@ -21,6 +21,7 @@ The GIL is released while C++ runs.
 import json as _json
 import os as _os
 import tempfile as _tempfile
+import warnings as _warnings
 
 import numpy as _np
 
@@ -93,6 +94,14 @@ def _bank(bank, plugin_paths=(), models=None):
     if isinstance(bank, _native.Bank):
         return bank
     return Bank(bank, plugin_paths, models)
+
+
+def _warn_of_rate(bank, rate):
+    """As ``skidimm run --rate`` and ``eval --rate`` warn: a rate unlike the bank's, where it aggregates."""
+    why = _native.rate_unlike_the_banks(bank, _rate(rate))
+    if why:
+        _warnings.warn(f"rate={rate:g} Hz steps bank {bank.name!r} {why}. Leave rate out, or fit the bank at this rate "
+                       "(skidimm.fit(rate=...), which writes it as the bank's sampling.rate)", stacklevel=3)
 
 
 def _column(frame, text, what):
@@ -198,8 +207,9 @@ def run_log(bank, inputs, *, rate=None, smooth=False, lag=None, decision=None, p
     """
     if isinstance(inputs, (str, _os.PathLike)):
         inputs = [inputs]
-    return _native.run_log(_bank(bank, plugin_paths, models), [_os.fspath(i) for i in inputs], _rate(rate), smooth,
-                           lag, decision)
+    loaded = _bank(bank, plugin_paths, models)
+    _warn_of_rate(loaded, rate)
+    return _native.run_log(loaded, [_os.fspath(i) for i in inputs], _rate(rate), smooth, lag, decision)
 
 
 def simulate(scenario, *, seed=None, duration=None, output=None):
@@ -234,7 +244,9 @@ def simulate_models(bank, inputs_from, *, seed=1, rate=None, output=None, plugin
 
 def evaluate_log(bank, log, *, rate=None, smooth=False, lag=None, plugin_paths=(), models=None):
     """One log scored as ``skidimm eval`` scores it: a picklable :class:`LogResult`."""
-    return _native.evaluate_log(_bank(bank, plugin_paths, models), log, _rate(rate), smooth, lag)
+    loaded = _bank(bank, plugin_paths, models)
+    _warn_of_rate(loaded, rate)
+    return _native.evaluate_log(loaded, log, _rate(rate), smooth, lag)
 
 
 def eval_report(bank, groups, output="dict"):
@@ -269,6 +281,7 @@ def eval(bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", skip
     if isinstance(inputs, (str, _os.PathLike)):
         inputs = [inputs]
     loaded = _bank(bank, plugin_paths, models)
+    _warn_of_rate(loaded, rate)
     groups = []
     for argument in inputs:
         argument = _os.fspath(argument)

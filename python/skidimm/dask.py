@@ -47,7 +47,8 @@ def _worker_bank(bank_file, plugin_paths, models):
 
 def _evaluate(spec, bank_file, plugin_paths, models, rate, smooth, lag):
     bank = _worker_bank(bank_file, plugin_paths, models)
-    return skidimm.evaluate_log(bank, spec, rate=rate, smooth=smooth, lag=lag)
+    # The client warned of a rate unlike the bank's, once (evaluate_logs).
+    return skidimm._native.evaluate_log(bank, spec, skidimm._rate(rate), smooth, lag)
 
 
 def _bank_arguments(bank, plugin_paths, models):
@@ -62,6 +63,8 @@ def evaluate_logs(client, bank, inputs, *, rate=None, smooth=False, lag=None, sk
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
     bank_file, plugin_paths, models = _bank_arguments(bank, plugin_paths, models)
+    if rate:
+        skidimm._warn_of_rate(skidimm._bank(bank, plugin_paths, models), rate)
     groups, specs = [], []
     for argument in inputs:
         argument = os.fspath(argument)

@@ -54,6 +54,15 @@ void bind_evaluation(py::module_& m) {
       py::arg("bank"), py::arg("log"), py::arg("rate") = 0.0, py::arg("smooth") = false, py::arg("lag") = py::none(),
       "Runs a fresh IMM over one log and scores it, as `skidimm eval` does per log.");
   m.def(
+      "rate_unlike_the_banks",
+      [](const PyBank& bank, double rate) {
+        return rate_unlike_the_banks(bank.config(), rate > 0.0 ? std::optional<double>(rate) : std::nullopt);
+      },
+      py::arg("bank"), py::arg("rate"),
+      "Why stepping the bank at `rate` Hz measures something other than what its modes were fitted on (its "
+      "aggregated measurements over steps of another length), from 'at another rate than its sampling.rate'; "
+      "empty when it does not.");
+  m.def(
       "eval_report",
       [](const std::vector<std::pair<std::string, std::vector<evaluation::LogResult>>>& groups,
          const std::vector<std::string>& states, const std::vector<std::string>& classes, const PyBank& bank) {

@@ -172,3 +172,27 @@ def test_runs_in_threads_release_the_gil(configs):
     for thread in threads:
         thread.join()
     np.testing.assert_array_equal(results[0], results[1])
+
+
+def test_a_rate_unlike_the_banks_is_warned_of_where_its_measurements_aggregate(tmp_path, configs):
+    """As ``run --rate`` and ``eval --rate`` warn: over steps of another length, mean() measures something else."""
+    text = (configs / "ltc_terrains.yaml").read_text()
+    text = text.replace("  time: t\n", '  time: t\n  measurements: {V: "mean(V)", omega: omega}\n', 1)
+    text = text.replace("\ncolumns:", "\nsampling: {rate: 20}\ncolumns:", 1)
+    assert 'mean(V)' in text
+    bank = tmp_path / "averaged.yaml"
+    bank.write_text(text)
+    log = str(configs / EXAMPLE)
+    with pytest.warns(UserWarning, match=r"rate=50 Hz steps bank 'ltc_terrains' at another rate than its "
+                                         r"sampling.rate of 20 Hz: columns.measurements.V aggregate"):
+        skidimm.run_log(bank, log, rate=50)
+    with pytest.warns(UserWarning, match="over steps of 0.02 s they measure something other"):
+        skidimm.eval(bank, log, rate=50)
+    with pytest.warns(UserWarning, match="confidently wrong"):
+        skidimm.evaluate_log(bank, log, rate=50)
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        skidimm.run_log(bank, log, rate=20)
+        skidimm.run_log(bank, log)
+        skidimm.run_log(configs / "ltc_terrains.yaml", log, rate=50)  # nothing aggregates

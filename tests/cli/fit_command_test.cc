@@ -582,7 +582,7 @@ TEST(Cli, AFitAtAnotherRateWritesThatRateAsTheBanks) {
   const Result entries = run_skidimm(fit + " --rate 4");
   ASSERT_EQ(entries.exit_code, 0) << entries.err;
   EXPECT_THAT(entries.err, HasSubstr("skidimm fit: the entries were fitted on steps every 0.25 s (4 Hz): the bank "
-                                     "they join should step at that rate (sampling: {rate: 4})"));
+                                     "they join should step at that rate (its sampling.rate: 4)"));
   // Appended to a bank of another rate, the mode is warned of before the fit.
   const fs::path target = write_file(dir / "wheels.yaml", read_file(kSource + "/configs/borealtc/wheels.yaml"));
   const std::string append = "fit --bank " + start + " --objective window --hold-unexcited --mode ASPHALT_straight " +

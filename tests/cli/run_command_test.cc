@@ -168,13 +168,14 @@ TEST(Cli, RunAndEvalWarnOfARateUnlikeTheOneABankOfAggregatesWasFittedAt) {
   const std::string log = "ICE=" + boreal + "/ICE/pro_00.csv+" + boreal + "/ICE/imu_00.csv";
   const fs::path dir = test_directory();
   const std::string warning = "warning: --rate 100 Hz steps " + bank +
-                              " at another rate than its sampling.rate of 2 Hz, and columns.measurements.omega, ";
+                              " at another rate than its sampling.rate of 2 Hz: columns.measurements.omega, ";
   const Result fast = run_skidimm("run -q --bank " + bank + " --input '" + log + "' --rate 100 --output " +
                                   (dir / "fast.csv").string());
   EXPECT_EQ(fast.exit_code, 0) << fast.err;
   EXPECT_THAT(fast.err, HasSubstr("skidimm run: " + warning));
   EXPECT_THAT(fast.err, HasSubstr("over steps of 0.01 s they measure something other than what its modes were "
-                                  "fitted on"));
+                                  "fitted on, so its estimates can be confidently wrong. Leave --rate out, or fit "
+                                  "the bank at this rate (fit --rate, which writes it as the bank's sampling.rate)\n"));
   const Result evaluated = run_skidimm("eval --bank " + bank + " --input '" + log + "' --rate 100");
   EXPECT_EQ(evaluated.exit_code, 0) << evaluated.err;
   EXPECT_THAT(evaluated.err, HasSubstr("skidimm eval: " + warning));

@@ -798,16 +798,24 @@ TEST(LogReader, ABinaryFileGivesAShortPrintableError) {
 
 // A spreadsheet's export with ';' or tabs between values reads as one
 // column: the error says the file is not comma-separated, in a log's first
-// file (its time column) and in a second one (a column it should hold).
+// file (its time column) and in a second one (a column it should hold). A
+// header that only holds a ';' (a note above the header, a column named
+// with one) is no such file.
 TEST(LogReader, AFileSeparatedByAnotherCharacterIsSaidToBeSo) {
   const auto dir = test_directory();
   const auto semicolons = write_file(dir / "semicolons.csv", "t;left;right;v;w\n0;1;2;3;4\n0,5;1;2;3;4\n");
   expect_error([&] { LogReader(simple_bank(), {semicolons}); },
                {"semicolons.csv:1: no time column 't'",
-                ". Its header is one column holding ';': the file is not comma-separated, which is what skidimm "
+                ". Its header holds 't' between ';': the file is not comma-separated, which is what skidimm "
                 "reads; write it with commas between values and points as decimal marks"});
-  const auto tabs = write_file(dir / "tabs.csv", "t\tleft\tright\tv\tw\n0\t1\t2\t3\t4\n");
-  expect_error([&] { LogReader(simple_bank(), {tabs}); }, {"Its header is one column holding tabs"});
+  const auto tabs = write_file(dir / "tabs.csv", "\"t\"\t\"left\"\tright\tv\tw\n0\t1\t2\t3\t4\n");
+  expect_error([&] { LogReader(simple_bank(), {tabs}); }, {"Its header holds 't' between tabs"});
+  // A ';'-separated header with a comma in one of its names reads as two columns.
+  const auto comma = write_file(dir / "comma.csv", "t;left;right;v;w;note, free text\n0;1;2;3;4;a\n");
+  expect_error([&] { LogReader(simple_bank(), {comma}); }, {"Its header holds 't' between ';'"});
+  const auto excel = write_file(dir / "excel.csv", "sep=;\nt;left;right;v;w\n0;1;2;3;4\n");
+  expect_error([&] { LogReader(simple_bank(), {excel}); },
+               {"Its first line, 'sep=;', is a spreadsheet's separator line"});
   // Joined row for row, the second file's columns are missing, not its time.
   BankConfig rows = simple_bank();
   rows.sampling.join = SamplingConfig::Join::kRows;
@@ -817,11 +825,19 @@ TEST(LogReader, AFileSeparatedByAnotherCharacterIsSaidToBeSo) {
       [&] {
         LogReader(rows, {wheels, odometry});
       },
-      {"no column 'v'", "Its header is one column holding ';'", "(odometry.csv)"});
-  // A comma-separated header of one column is only that.
-  const auto one = write_file(dir / "one.csv", "time\n0\n");
-  const std::string message = expect_error([&] { LogReader(simple_bank(), {one}); }, {"no time column 't'"});
-  EXPECT_EQ(message.find("not comma-separated"), std::string::npos) << message;
+      {"no column 'v'", "Its header holds 'v' between ';'", "(odometry.csv)"});
+  // A header that holds ';' without the column: no hint.
+  for (const std::string header : {"time", "# recorded 2024-05-01; robot husky", "time;left"}) {
+    const auto file = write_file(dir / "other.csv", header + "\n0\n");
+    const std::string message = expect_error([&] { LogReader(simple_bank(), {file}); }, {"no time column 't'"});
+    EXPECT_EQ(message.find("not comma-separated"), std::string::npos) << message;
+  }
+  const auto named = write_file(dir / "named.csv", "v;w\n3\n3\n");
+  const std::string message = expect_error([&] { LogReader(rows, {wheels, named}); }, {"no column 'v'"});
+  EXPECT_NE(message.find("Its header holds 'v' between ';'"), std::string::npos) << message;
+  const auto odd = write_file(dir / "odd.csv", "om;ega\n3\n3\n");
+  const std::string unrelated = expect_error([&] { LogReader(rows, {wheels, odd}); }, {"no column 'v'"});
+  EXPECT_EQ(unrelated.find("not comma-separated"), std::string::npos) << unrelated;
 }
 
 // The real Husky ice logs: odometry/IMU/GPS in TSyn_NN.csv and the raw ROS

@@ -8,6 +8,7 @@
 #define SKIDIMM_CONFIG_RUN_OVERRIDES_H_
 
 #include <optional>
+#include <string>
 
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/log_run.h"
@@ -29,6 +30,15 @@ struct RunOverrides {
 // The bank's sampling with `rate` (Hz) when it is given and > 0. Throws
 // Error for a rate that is negative, not a number or above 1e6 Hz.
 SamplingConfig sampling_of(const BankConfig& bank, std::optional<double> rate);
+
+// Why stepping `bank` at `rate` (Hz, a front end's --rate) changes what it
+// measures, from "at another rate than its sampling.rate": its
+// measurements that aggregate a step's rows (mean(), std(), rms()) were
+// fitted over steps of its sampling.rate, and over steps of another length
+// measure something else, so its estimates can be confidently wrong. Empty
+// when no rate is given, it is the bank's, the bank has none, or nothing
+// aggregates. Every front end warns with it.
+std::string rate_unlike_the_banks(const BankConfig& bank, std::optional<double> rate);
 
 // Throws Error naming the values unless 0 <= leave < enter <= 1 and
 // min_hold >= 0: decision settings given by a front end (the bank loader
