@@ -30,6 +30,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// Times above a day are a clock's (epoch seconds), not time from a log's start.
+constexpr double kClockTime = 86400.0;
+
 std::string find_gnuplot() {
   const char* path = std::getenv("PATH");
   std::stringstream in(path != nullptr ? path : "");
@@ -183,7 +186,7 @@ int plot(const PlotOptions& options) {
     const int decision = column_of(header, "decision");
     std::vector<Band> decisions;
     std::vector<std::string> fields;
-    double last_t = 0.0;
+    double first_t = 0.0, last_t = 0.0;
     long rows = 0;
     while (reader.next(&fields)) {
       double t = 0.0;
@@ -209,6 +212,7 @@ int plot(const PlotOptions& options) {
         }
       }
       if (estimates_copy) estimates_copy->write_row(fields);
+      if (rows == 1) first_t = t;
       last_t = t;
       if (decision > 0) {
         const std::string& decided = fields[static_cast<std::size_t>(decision - 1)];
@@ -303,6 +307,20 @@ int plot(const PlotOptions& options) {
       }
     }
     const int panels = 1 + (decision > 0 ? 1 : 0) + (options.states ? static_cast<int>(states.size()) : 0);
+    // A log stamped by a clock (a ROS 2 bag's header.stamp, epoch seconds)
+    // is drawn from its first row, whose time the axis names: from 0, its
+    // minutes would be a sliver at the end of 1.7e9 s, and gnuplot's ticks
+    // could not tell its seconds apart.
+    const double origin = first_t > kClockTime ? first_t : 0.0;
+    const auto at = [origin](double t) { return CsvWriter::format(t - origin); };
+    char origin_text[40];  // 1718000000.5, where the shortest text would be 1.7180000005e+09
+    std::snprintf(origin_text, sizeof(origin_text), "%.15g", origin);
+    const std::string x_label = origin > 0.0 ? "set xlabel 'time (s) since t = " + std::string(origin_text) + " s'\n"
+                                             : std::string("set xlabel 'time (s)'\n");
+    const auto x_of = [origin](int column) {
+      return origin > 0.0 ? "($" + std::to_string(column) + " - " + CsvWriter::format(origin) + ")"
+                          : std::to_string(column);
+    };
 
     std::ostringstream g;
     g << "set terminal " << terminal << " size 1100," << (panels == 1 ? 420 : 300 + 220 * panels)
@@ -312,7 +330,8 @@ int plot(const PlotOptions& options) {
     const fs::path drawing = options.output.string() + ".partial";
     g << "set output " << file_name(drawing) << "\n";
     g << "set datafile separator ','\nset key outside right noenhanced\nset grid ytics lc rgb '#dddddd'\n";
-    g << "set xrange [0:" << last_t << "]\n";
+    g << "set xrange [" << (origin > 0.0 ? "0" : CsvWriter::format(std::min(0.0, first_t))) << ":" << at(last_t)
+      << "]\n";
     // Fixed margins so the panels' time axes line up whatever their keys' widths.
     if (panels > 1) {
       std::size_t longest = 0;  // the decision panel's row labels are mode names
@@ -342,20 +361,20 @@ int plot(const PlotOptions& options) {
     for (std::size_t b = 0; b < bands.size(); ++b) {
       const auto it = line_of.find(bands[b].mode);
       if (it != line_of.end()) {
-        g << "set object " << object++ << " rect from " << bands[b].start << ", graph 0 to "
-          << (b + 1 < bands.size() ? bands[b + 1].start : bands[b].end) << ", graph 1 back fc lt " << it->second
+        g << "set object " << object++ << " rect from " << at(bands[b].start) << ", graph 0 to "
+          << at(b + 1 < bands.size() ? bands[b + 1].start : bands[b].end) << ", graph 1 back fc lt " << it->second
           << " fs transparent solid 0.12 noborder\n";
       }
       if (b > 0)
-        g << "set arrow " << b << " from " << bands[b].start << ", graph 0 to " << bands[b].start
+        g << "set arrow " << b << " from " << at(bands[b].start) << ", graph 0 to " << at(bands[b].start)
           << ", graph 1 nohead dt 2 lc rgb '#444444'\n";
     }
     g << "set ylabel 'mode probability'\nset yrange [-0.02:1.05]\n";
-    if (panels == 1) g << "set xlabel 'time (s)'\n";
+    if (panels == 1) g << x_label;
     g << "plot ";
     for (std::size_t i = 0; i < modes.size(); ++i) {
-      g << (i ? ", " : "") << file_name(estimates_file) << " using 1:" << modes[i].first << " with lines lt "
-        << i + 1 << " lw 2 title " << gnuplot_string(modes[i].second);
+      g << (i ? ", " : "") << file_name(estimates_file) << " using " << x_of(1) << ":" << modes[i].first
+        << " with lines lt " << i + 1 << " lw 2 title " << gnuplot_string(modes[i].second);
     }
     g << "\n";
     if (decision > 0) {
@@ -379,17 +398,17 @@ int plot(const PlotOptions& options) {
       g << "set ytics (" << gnuplot_string("unknown") << " 0";
       for (std::size_t i = 0; i < rows.size(); ++i) g << ", " << gnuplot_string(rows[i]) << " " << i + 1;
       g << ")\nset yrange [-0.6:" << rows.size() + 0.6 << "]\n";
-      if (panels == 2) g << "set xlabel 'time (s)'\n";
+      if (panels == 2) g << x_label;
       for (std::size_t b = 0; b < decisions.size(); ++b) {
         const auto it = row_of.find(decisions[b].mode);
         const int row = it == row_of.end() ? 0 : it->second;
         const double end = b + 1 < decisions.size() ? decisions[b + 1].start : decisions[b].end;
-        g << "set object " << object++ << " rect from " << decisions[b].start << ", " << row - 0.35 << " to " << end
-          << ", " << row + 0.35 << " front fc " << (row == 0 ? "rgb '#999999'" : "lt " + std::to_string(row))
+        g << "set object " << object++ << " rect from " << at(decisions[b].start) << ", " << row - 0.35 << " to "
+          << at(end) << ", " << row + 0.35 << " front fc " << (row == 0 ? "rgb '#999999'" : "lt " + std::to_string(row))
           << " fs solid 0.9 noborder\n";
       }
       for (std::size_t b = 1; b < bands.size(); ++b) {
-        g << "set arrow " << b << " from " << bands[b].start << ", graph 0 to " << bands[b].start
+        g << "set arrow " << b << " from " << at(bands[b].start) << ", graph 0 to " << at(bands[b].start)
           << ", graph 1 nohead dt 2 lc rgb '#444444'\n";
       }
       g << "plot NaN notitle\nset ytics autofreq\n";
@@ -397,18 +416,18 @@ int plot(const PlotOptions& options) {
     if (panels > 1 && options.states) {
       g << "unset object\nunset arrow\nset yrange [*:*]\n";
       for (std::size_t s = 0; s < states.size(); ++s) {
-        if (s + 1 == states.size()) g << "set xlabel 'time (s)'\n";
-        g << "set ylabel " << gnuplot_string(states[s]) << "\nplot " << file_name(estimates_file)
-          << " using 1:" << column_of(header, states[s]) << " with lines lw 2 lc rgb '#1f77b4' title 'estimate'";
+        if (s + 1 == states.size()) g << x_label;
+        g << "set ylabel " << gnuplot_string(states[s]) << "\nplot " << file_name(estimates_file) << " using "
+          << x_of(1) << ":" << column_of(header, states[s]) << " with lines lw 2 lc rgb '#1f77b4' title 'estimate'";
         const int measured = column_of(log_header, states[s]);
         const int true_state = column_of(log_header, "true_" + states[s]);
         const int time = column_of(log_header, "t");
         if (measured > 0 && time > 0) {
-          g << ", " << file_name(log_file) << " using " << time << ":" << measured
+          g << ", " << file_name(log_file) << " using " << x_of(time) << ":" << measured
             << " with points pt 7 ps 0.3 lc rgb '#999999' title 'measured'";
         }
         if (true_state > 0 && time > 0) {
-          g << ", " << file_name(log_file) << " using " << time << ":" << true_state
+          g << ", " << file_name(log_file) << " using " << x_of(time) << ":" << true_state
             << " with lines dt 2 lw 1.5 lc rgb '#d62728' title 'true'";
         }
         g << "\n";

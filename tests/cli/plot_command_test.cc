@@ -86,6 +86,45 @@ TEST(Cli, PlotDrawsPngAndSvgAndSaysWhenGnuplotIsMissing) {
   EXPECT_EQ(same_bank.exit_code, 0) << same_bank.err;
 }
 
+// A log stamped by a clock (a ROS 2 bag's header.stamp: epoch seconds) was
+// drawn on an axis from 0 to 1.7e9 s, every panel blank: it is drawn from
+// its first row, whose time the axis names, the log's own panels too.
+TEST(CliIo, PlotDrawsALogStampedByAClockFromItsFirstRow) {
+  const fs::path dir = test_directory();
+  auto rows = read_csv(kSwitching);
+  const int t = column(rows[0], "t");
+  std::string text;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    for (std::size_t c = 0; c < rows[i].size(); ++c) {
+      std::string cell = rows[i][c];
+      if (i > 0 && static_cast<int>(c) == t) cell = std::to_string(1718000000.0 + std::stod(cell));
+      text += (c ? "," : "") + cell;
+    }
+    text += "\n";
+  }
+  const fs::path log = write_file(dir / "epoch.csv", text);
+  const std::string bank = kSource + "/configs/ltc_terrains.yaml";
+  ASSERT_EQ(
+      run_skidimm("run -q --bank " + bank + " --input " + log.string() + " --output " + (dir / "out.csv").string())
+          .exit_code,
+      0);
+  const Result plot = run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --bank " + bank + " --log " +
+                                  log.string() + " --states --output " + (dir / "epoch.svg").string());
+  ASSERT_EQ(plot.exit_code, 0) << plot.err;
+  const std::string svg = read_file(dir / "epoch.svg");
+  EXPECT_THAT(svg, HasSubstr(">time (s) since t = 1718000000 s<"));
+  EXPECT_THAT(svg, HasSubstr("> 25<"));  // seconds from the first row, not 1.7e9
+  EXPECT_EQ(svg.find("e+09<"), std::string::npos);
+  // A log timed from its start keeps its axis from 0.
+  ASSERT_EQ(run_skidimm("run -q --bank " + bank + " --input " + kSwitching + " --output " + (dir / "own.csv").string())
+                .exit_code,
+            0);
+  ASSERT_EQ(run_skidimm("plot --estimates " + (dir / "own.csv").string() + " --output " + (dir / "own.svg").string())
+                .exit_code,
+            0);
+  EXPECT_THAT(read_file(dir / "own.svg"), HasSubstr(">time (s)<"));
+}
+
 // gnuplot's line colours repeat after 8: in a bank of more modes, each mode
 // still gets a colour (or, past 20, a dash pattern) of its own.
 TEST(CliIo, PlotGivesEachOfManyModesItsOwnLine) {
