@@ -180,7 +180,26 @@ void bind_fit(py::module_& m) {
       [](const std::string& objective, double window, const std::string& loss, double loss_scale, bool hold_unexcited,
          bool shared, bool fit_r, bool full_q, bool output_noise) {
         // Validated here (objective names) so that a bad option fails before any log is read.
-        fit_options_of(objective, window, loss, loss_scale, hold_unexcited, shared, fit_r, full_q, output_noise);
+        const fitting::BankFitOptions o =
+            fit_options_of(objective, window, loss, loss_scale, hold_unexcited, shared, fit_r, full_q, output_noise);
+        // Another objective's option would be ignored without a word, as `skidimm fit` refuses it.
+        const fitting::FitOptions defaults;
+        if (o.objective == fitting::Objective::kLikelihood) {
+          for (const auto& [name, given] : {std::pair<const char*, bool>{"window", window != defaults.window},
+                                            {"loss", loss != defaults.loss},
+                                            {"loss_scale", loss_scale != defaults.loss_scale},
+                                            {"output_noise", output_noise}}) {
+            if (given) {
+              throw Error(std::string(name) +
+                          " is an option of the window objective; add objective=\"window\" (the default objective "
+                          "is likelihood: docs/fitting.md)");
+            }
+          }
+        } else if (fit_r) {
+          throw Error(
+              "fit_r is an option of the likelihood objective (the window objective keeps the bank's R); leave out "
+              "objective=\"window\" or fit_r");
+        }
         return py::dict(py::arg("objective") = objective, py::arg("window") = window, py::arg("loss") = loss,
                         py::arg("loss_scale") = loss_scale, py::arg("hold_unexcited") = hold_unexcited,
                         py::arg("shared") = shared, py::arg("fit_r") = fit_r, py::arg("full_q") = full_q,

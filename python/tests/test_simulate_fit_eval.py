@@ -171,3 +171,18 @@ def test_eval_keys_logs_by_path_and_pairs_patterns_by_run_key(tmp_path, configs,
         report = skidimm.eval(bank, [pattern], skip_unpaired=True)
     assert report["overall"]["logs"] == 1
     assert list(report["logs"]) == [f"{split / 'pro_01.csv'}+{split / 'imu_01.csv'}"]
+
+
+@pytest.mark.parametrize("option", [{"window": 1.0}, {"loss": "cauchy"}, {"loss_scale": 5.0}, {"output_noise": True}])
+def test_fit_refuses_the_window_objectives_options_under_the_likelihood(configs, singular_logs, option):
+    """As ``skidimm fit`` refuses them (exit 2): under the default objective they would be ignored."""
+    logs = [f"asphalt={p}" for p in singular_logs["asphalt"]]
+    name = next(iter(option))
+    with pytest.raises(skidimm.Error, match=f"^{name} is an option of the window objective; add objective=\"window\""):
+        skidimm.fit(configs / "ltc_terrains.yaml", logs, **option)
+
+
+def test_fit_refuses_fit_r_under_the_window_objective(configs, singular_logs):
+    logs = [f"asphalt={p}" for p in singular_logs["asphalt"]]
+    with pytest.raises(skidimm.Error, match="fit_r is an option of the likelihood objective"):
+        skidimm.fit(configs / "ltc_terrains.yaml", logs, objective="window", fit_r=True)
