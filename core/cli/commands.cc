@@ -362,7 +362,13 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
     // --check each log is read through the columns, which decides for certain.)
     const std::vector<std::string> unreadable =
         checks.empty() ? LogReader::unreadable_column_texts(c) : std::vector<std::string>();
-    std::cout << bank_file.string() << ": OK\n";
+    if (unreadable.empty()) {
+      std::cout << bank_file.string() << ": OK\n";
+    } else {
+      // "OK" alone reads as "will run"; these would fail on most logs.
+      std::cout << bank_file.string() << ": OK as a bank, but " << unreadable.size()
+                << " column text(s) a log can give only as a column of exactly that text (warnings on stderr)\n";
+    }
     // Warnings, not errors: a log may have a column of exactly such a text.
     for (const std::string& problem : unreadable) {
       std::cerr << "skidimm validate: warning: " << bank_file.string() << ": " << problem

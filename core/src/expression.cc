@@ -183,7 +183,13 @@ struct Expression::Checked {
                "sampling.rate)");
     }
     if (function == nullptr) {
-      fail(text_, i_, "unknown function '" + excerpt(name) + "' (the functions are " + function_list() + ")");
+      // The aggregates too, where they may be called: a misspelt mean() is a
+      // misspelt aggregate, not one of the row functions.
+      std::string aggregates;
+      for (const std::string& c : callers_) aggregates += (aggregates.empty() ? "" : ", ") + c;
+      fail(text_, i_,
+           "unknown function '" + excerpt(name) + "' (the functions are " + function_list() +
+               (aggregates.empty() ? std::string() : "; over a step's rows, " + aggregates) + ")");
     }
     open(function->many ? Frame::kManyArguments : Frame::kOneArgument, next);
     parsed += text_.substr(i_, next + 1 - i_);
