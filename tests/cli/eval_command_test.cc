@@ -377,6 +377,63 @@ TEST(EvalCommand, EstimatesOfABankWithClassesNeedThatBank) {
   EXPECT_THAT(gravel.err, HasSubstr("'gravel' is neither 'unknown' nor a class of the bank ('paved', 'soft')"));
 }
 
+// A label before the estimates (LABEL=FILE, as --input takes it) is their
+// truth: it was read as the group's name only, the file's truth_mode column
+// scored instead, and estimates run without a truth could not be scored.
+TEST(EvalCommand, ALabelOfEstimatesIsTheirTruth) {
+  const fs::path dir = test_directory();
+  // The switching log without its truth column, as a robot's own log.
+  auto rows = skidimm_test::read_csv(kSwitching);
+  const std::size_t mode = static_cast<std::size_t>(skidimm_test::column(rows[0], "mode"));
+  std::string text;
+  for (auto& row : rows) {
+    row.erase(row.begin() + static_cast<std::ptrdiff_t>(mode));
+    for (std::size_t c = 0; c < row.size(); ++c) text += (c ? "," : "") + row[c];
+    text += "\n";
+  }
+  const fs::path no_truth = write_file(dir / "no_truth.csv", text);
+  const fs::path truthful = dir / "truth.csv", labelled = dir / "grass.csv", unlabelled = dir / "none.csv";
+  for (const auto& [input, output] : {std::pair<std::string, fs::path>{kSwitching, truthful},
+                                      {"grass=" + kSwitching, labelled},
+                                      {no_truth.string(), unlabelled}}) {
+    ASSERT_EQ(run_skidimm("run -q --bank " + kTerrains + " --plugin-path " + kPlugins + " --input " + input +
+                          " --output " + output.string())
+                  .exit_code,
+              0);
+  }
+  const auto accuracy = [](const Result& r) { return json_of(r)["overall"]["accuracy"].as<double>(); };
+  // Scored against its truth column the filter is right most of the time;
+  // the log holds grass for about a third of it.
+  const Result as_run = run_skidimm("eval --json --estimates " + truthful.string());
+  ASSERT_EQ(as_run.exit_code, 0) << as_run.err;
+  const Result relabelled = run_skidimm("eval --json --estimates grass=" + truthful.string());
+  ASSERT_EQ(relabelled.exit_code, 0) << relabelled.err;
+  EXPECT_GT(accuracy(as_run), 0.9);
+  EXPECT_LT(accuracy(relabelled), 0.5);
+  EXPECT_GT(accuracy(relabelled), 0.2);
+  EXPECT_THAT(relabelled.out, HasSubstr("\"grass\": {\"logs\": 1"));
+  // A run labelled grass scores the same.
+  const Result as_labelled = run_skidimm("eval --json --estimates " + labelled.string());
+  ASSERT_EQ(as_labelled.exit_code, 0) << as_labelled.err;
+  EXPECT_DOUBLE_EQ(accuracy(as_labelled), accuracy(relabelled));
+  // Estimates without a truth_mode column: refused with what to do, scored with a label.
+  const Result bare = run_skidimm("eval --estimates " + unlabelled.string());
+  EXPECT_EQ(bare.exit_code, 1);
+  EXPECT_THAT(bare.err, HasSubstr("no truth_mode column to score against: the log was run without a truth; label the "
+                                  "estimates with the mode or class they show (LABEL="));
+  const Result grass = run_skidimm("eval --json --estimates grass=" + unlabelled.string());
+  ASSERT_EQ(grass.exit_code, 0) << grass.err;
+  EXPECT_DOUBLE_EQ(accuracy(grass), accuracy(relabelled));  // the same run, the same label
+  const Result wrong = run_skidimm("eval --estimates gravel=" + labelled.string());
+  EXPECT_EQ(wrong.exit_code, 1);
+  EXPECT_THAT(wrong.err, HasSubstr("'gravel' is not a mode of these estimates (their mu_ columns); give --bank for "
+                                   "its classes"));
+  const Result wrong_with_bank = run_skidimm("eval --estimates gravel=" + labelled.string() + " --bank " + kTerrains +
+                                             " --plugin-path " + kPlugins);
+  EXPECT_EQ(wrong_with_bank.exit_code, 1);
+  EXPECT_THAT(wrong_with_bank.err, HasSubstr("'gravel' is neither a mode nor a class of bank 'ltc_terrains'"));
+}
+
 TEST(Cli, EvalReportsAccuracyLatencyAndConsistencyAsTextAndJson) {
   const std::string args = "eval --bank " + kSource + "/configs/ltc_terrains.yaml --input " + kSource +
                            "/configs/examples/ltc_switching.csv --plugin-path " + kPlugins;

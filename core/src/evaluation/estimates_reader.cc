@@ -66,11 +66,15 @@ LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank, const
 }
 
 std::vector<LogResult> evaluate_estimates(const fs::path& file, const BankConfig* bank,
-                                          const std::vector<DecisionConfig>& decisions) {
+                                          const std::vector<DecisionConfig>& decisions, const std::string& label) {
   CsvReader reader(file);
   const int t = reader.column("t"), truth = reader.column("truth_mode");
-  if (t < 0 || truth < 0) {
-    throw LogError(file.string(), 1, "expected the columns t and truth_mode of a `skidimm run` output");
+  if (t < 0 || (truth < 0 && label.empty())) {
+    throw LogError(file.string(), 1,
+                   t < 0 ? "expected the columns t and truth_mode of a `skidimm run` output"
+                         : "no truth_mode column to score against: the log was run without a truth; label the "
+                           "estimates with the mode or class they show (LABEL=" +
+                               file.string() + ")");
   }
   std::vector<int> probability_columns;
   BankConfig modes_only;
@@ -88,6 +92,16 @@ std::vector<LogResult> evaluate_estimates(const fs::path& file, const BankConfig
     for (const ModeConfig& m : modes_only.modes) names.push_back(m.name);
     const std::string problem = bank->estimates_modes_problem(names);
     if (!problem.empty()) throw LogError(file.string(), 1, problem);
+  }
+  if (!label.empty()) {
+    const BankConfig& known = bank != nullptr ? *bank : modes_only;
+    if (known.mode_index(label) < 0 && known.class_index(label) < 0) {
+      throw LogError(file.string(), 0,
+                     bank != nullptr ? bank->unknown_label(label)
+                                     : "'" + label +
+                                           "' is not a mode of these estimates (their mu_ columns); give --bank "
+                                           "for its classes");
+    }
   }
   // The probability of the bank's unknown hypothesis, when it has one.
   const int unknown = reader.column("unknown_probability");
@@ -139,7 +153,8 @@ std::vector<LogResult> evaluate_estimates(const fs::path& file, const BankConfig
                      "the mode probabilities (mu_ columns" + std::string(unknown >= 0 ? " and unknown_probability" : "") +
                          ") sum to " + CsvWriter::format(sum) + "; in a `skidimm run` output they sum to 1");
     }
-    steps.push_back(scorer.score(time, f[static_cast<std::size_t>(truth)], mu, unknown_probability));
+    steps.push_back(
+        scorer.score(time, label.empty() ? f[static_cast<std::size_t>(truth)] : label, mu, unknown_probability));
     if (!decisions.empty()) {
       probabilities.insert(probabilities.end(), mu.data(), mu.data() + mu.size());
     } else if (decision >= 0) {

@@ -5,6 +5,7 @@
 #define SKIDIMM_CORE_SRC_EVALUATION_ESTIMATES_READER_H_
 
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "skidimm/config/bank.h"
@@ -30,9 +31,12 @@ LogResult evaluate_estimates(const std::filesystem::path& file, const BankConfig
 // evaluate_estimates() with each of `decisions` in turn, the file read once:
 // a result per setting, in their order (none given: one, from the file's
 // decision column). Comparing decision settings costs one reading of the
-// files, not one per setting.
+// files, not one per setting. A `label` (`LABEL=` of the argument: a mode
+// of the file or a class of the bank) is every step's truth, as a log's
+// label is for `eval --input`: its truth_mode column, if any, is not read.
 std::vector<LogResult> evaluate_estimates(const std::filesystem::path& file, const BankConfig* bank,
-                                          const std::vector<DecisionConfig>& decisions);
+                                          const std::vector<DecisionConfig>& decisions,
+                                          const std::string& label = std::string());
 
 }  // namespace evaluation
 }  // namespace skidimm

@@ -163,7 +163,8 @@ std::vector<std::vector<LogGroup>> evaluate_estimate_groups(const std::vector<st
                                                             std::vector<LogFailure>* failures) {
   return evaluate_groups(
       arguments, expansion, std::max<std::size_t>(decisions.size(), 1),
-      [&](const LogSpec& log) { return evaluate_estimates(log.files.front().path, bank, decisions); }, failures);
+      [&](const LogSpec& log) { return evaluate_estimates(log.files.front().path, bank, decisions, log.label); },
+      failures);
 }
 
 }  // namespace evaluation
