@@ -23,6 +23,22 @@ namespace {
 
 using ::skidimm::internal::kNaN;
 
+// Whether a column text selects a sequence's entry by a name
+// (`/joint_states.velocity[left]`), which has a value only in the messages
+// that have that name, rather than by an index (`position[0]`).
+bool selects_by_name(const std::string& text) {
+  for (std::size_t open = text.find('['); open != std::string::npos; open = text.find('[', open + 1)) {
+    const std::size_t close = text.find(']', open);
+    if (close == std::string::npos) return false;
+    if (close > open + 1 && text.find_first_not_of("0123456789", open + 1) < close) return true;
+  }
+  return false;
+}
+
+constexpr const char* kSelectedByNameHint =
+    " (a sequence's entry selected by name, [NAME], has a value only in messages that have that name: `skidimm bag "
+    "FILE` lists the names the bag has)";
+
 }  // namespace
 
 // Reads the next row of a stream (one row of each of its files) into its
@@ -310,6 +326,44 @@ void LogReader::Impl::check_every_file_was_used() const {
   }
 }
 
+void LogReader::Impl::throw_if_an_input_never_had_a_value() const {
+  long rows = 0;
+  for (const long r : stats_.rows) rows += r;
+  if (rows == 0) return;
+  // Each column without a value once, with the inputs that read it.
+  std::vector<std::pair<int, std::string>> missing;
+  for (std::size_t i = 0; i < inputs_.size(); ++i) {
+    for (const int c : inputs_[i].columns) {
+      if (!std::isnan(held_values_[static_cast<std::size_t>(c)])) continue;
+      auto it = std::find_if(missing.begin(), missing.end(), [c](const auto& m) { return m.first == c; });
+      if (it == missing.end()) {
+        missing.emplace_back(c, bank_.input_names[i]);
+      } else if (it->second.find(bank_.input_names[i]) == std::string::npos) {
+        it->second += ", " + bank_.input_names[i];
+      }
+    }
+  }
+  if (missing.empty()) return;
+  std::string text, file;
+  bool by_name = false;
+  for (const auto& [c, inputs] : missing) {
+    const Column& column = columns_[static_cast<std::size_t>(c)];
+    text += std::string(text.empty() ? "" : "; ") + "column '" + Expression::excerpt(column.name) + "' (input" +
+            (inputs.find(", ") != std::string::npos ? "s " : " ") + inputs + ")";
+    if (file.empty()) {
+      file = streams_[static_cast<std::size_t>(column.stream)]
+                 .files[static_cast<std::size_t>(column.file)]
+                 ->path()
+                 .string();
+    }
+    by_name = by_name || selects_by_name(column.name);
+  }
+  throw LogError(file, 0,
+                 "no step: " + text + (missing.size() == 1 ? " had" : " each had") + " no value in any of the log's " +
+                     std::to_string(rows) + " row(s), and a step needs every input" +
+                     (by_name ? std::string(kSelectedByNameHint) : std::string()));
+}
+
 bool LogReader::Impl::next(LogSample* sample) {
   throw_pending_error();
   // Until every input has a value: apply rows one time stamp at a time.
@@ -318,6 +372,7 @@ bool LogReader::Impl::next(LogSample* sample) {
     check_no_file_is_empty();
     if (!std::isfinite(t)) {
       throw_pending_error();
+      throw_if_an_input_never_had_a_value();
       return false;
     }
     discard_measurements();
@@ -497,6 +552,19 @@ double LogReader::progress() const {
   return total == 0 ? 1.0 : std::min(1.0, static_cast<double>(done) / static_cast<double>(total));
 }
 
+std::vector<std::string> LogReader::unmeasured(const BankConfig& bank) const {
+  const LogStats& s = impl_->stats_;
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < s.measured.size(); ++i) {
+    if (s.steps == 0 || s.measured[i] > 0) continue;
+    const std::string& text = bank.columns.measurements[i];
+    out.push_back("measurement '" + bank.measurement.names[i] + "' (\"" + Expression::excerpt(text) +
+                  "\") had no value at any step" +
+                  (selects_by_name(text) ? std::string(kSelectedByNameHint) : std::string()));
+  }
+  return out;
+}
+
 std::string LogReader::describe_stats(const BankConfig& bank) const {
   const LogStats& s = impl_->stats_;
   std::string out;
@@ -522,13 +590,7 @@ std::string LogReader::describe_stats(const BankConfig& bank) const {
            " s in all: " + (grid ? "the grid restarted at the row after each" : "the filter crossed each in one step") +
            " (sampling.skip_gaps)\n";
   }
-  for (std::size_t i = 0; i < s.measured.size(); ++i) {
-    if (s.steps > 0 && s.measured[i] == 0) {
-      out += "  measurement '" + bank.measurement.names[i] + "' (\"" +
-             Expression::excerpt(bank.columns.measurements[i]) +
-             "\") had no value at any step: its filters were never corrected by it\n";
-    }
-  }
+  for (const std::string& line : unmeasured(bank)) out += "  " + line + ": its filters were never corrected by it\n";
   for (std::size_t i = 0; i < s.superseded.size(); ++i) {
     if (s.superseded[i] > 0) {
       out += "  measurement '" + bank.measurement.names[i] + "': " + std::to_string(s.superseded[i]) +

@@ -161,6 +161,11 @@ class LogReader::Impl {
   void drop_last_step(double step_t);
   void check_no_file_is_empty() const;
   void check_every_file_was_used() const;
+  // At the end of a log that gave no step: throws LogError naming each input
+  // column that had no value in any row (a misspelt name in a sequence
+  // selected by name, a column empty throughout). Nothing when the log had
+  // no data rows at all, which its caller says.
+  void throw_if_an_input_never_had_a_value() const;
   const Stream* stream_at(double t) const;
   void emit(double t, LogSample* sample);
 };

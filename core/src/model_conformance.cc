@@ -10,7 +10,8 @@
 
 namespace skidimm {
 
-std::vector<LogOperatingPoint> operating_points_from_log(const BankConfig& bank, const LogSpec& log, int count) {
+std::vector<LogOperatingPoint> operating_points_from_log(const BankConfig& bank, const LogSpec& log, int count,
+                                                         std::vector<std::string>* unmeasured) {
   const MeasurementModel measurement(bank.measurement.h, bank.measurement.r, bank.measurement.is_angle);
   LogReader reader(bank, log.files, bank.sampling);
   Eigen::VectorXd x = bank.initial_state;
@@ -48,6 +49,7 @@ std::vector<LogOperatingPoint> operating_points_from_log(const BankConfig& bank,
       stride *= 2;
     }
   }
+  if (unmeasured != nullptr) *unmeasured = reader.unmeasured(bank);
   if (kept.empty()) {
     throw LogError(log.text, 0, "no step to check the models at: the log needs two steps with every input given");
   }

@@ -434,6 +434,31 @@ TEST(EvalCommand, ALabelOfEstimatesIsTheirTruth) {
   EXPECT_THAT(wrong_with_bank.err, HasSubstr("'gravel' is neither a mode nor a class of bank 'ltc_terrains'"));
 }
 
+// A measurement a log never gives (a column empty throughout, a misspelt
+// joint name in a bag) leaves the log scored on the others: eval and
+// validate --check say so, as run's summary does.
+TEST(EvalCommand, AMeasurementTheLogNeverGivesIsSaid) {
+  const fs::path dir = test_directory();
+  auto rows = skidimm_test::read_csv(kSwitching);
+  const std::size_t omega = static_cast<std::size_t>(skidimm_test::column(rows[0], "omega"));
+  std::string text;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    if (i > 0) rows[i][omega].clear();
+    for (std::size_t c = 0; c < rows[i].size(); ++c) text += (c ? "," : "") + rows[i][c];
+    text += "\n";
+  }
+  const fs::path log = write_file(dir / "no_omega.csv", text);
+  const std::string warning = log.string() + ": measurement 'omega' (\"omega\") had no value at any step";
+  const Result evaluated = run_skidimm(eval("--input " + log.string()));
+  EXPECT_EQ(evaluated.exit_code, 0) << evaluated.err;
+  EXPECT_THAT(evaluated.err, HasSubstr("skidimm eval: warning: " + warning + "\n"));
+  const Result checked =
+      run_skidimm("validate " + kTerrains + " --plugin-path " + kPlugins + " --check " + log.string());
+  EXPECT_THAT(checked.err, HasSubstr("skidimm validate: warning: " + warning + "\n"));
+  const Result whole = run_skidimm(eval("--input " + kSwitching));
+  EXPECT_THAT(whole.err, Not(HasSubstr("had no value")));
+}
+
 TEST(Cli, EvalReportsAccuracyLatencyAndConsistencyAsTextAndJson) {
   const std::string args = "eval --bank " + kSource + "/configs/ltc_terrains.yaml --input " + kSource +
                            "/configs/examples/ltc_switching.csv --plugin-path " + kPlugins;

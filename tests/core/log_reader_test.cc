@@ -840,6 +840,21 @@ TEST(LogReader, AFileSeparatedByAnotherCharacterIsSaidToBeSo) {
   EXPECT_EQ(unrelated.find("not comma-separated"), std::string::npos) << unrelated;
 }
 
+// A log in which an input never has a value gives no step: the reader names
+// the column (a header alone was already refused, as a file with no rows).
+TEST(LogReader, AnInputWithoutAValueInAnyRowIsNamed) {
+  const auto dir = test_directory();
+  const auto file = write_file(dir / "empty_right.csv", "t,left,right,v,w\n0,1,,3,4\n0.5,1,,3,4\n");
+  LogSample s;
+  LogReader reader(simple_bank(), {file});
+  expect_error([&] { reader.next(&s); },
+               {"empty_right.csv: no step: column 'right' (input phi_dot_R) had no value in any of the log's 2 "
+                "row(s), and a step needs every input"});
+  const auto header = write_file(dir / "header.csv", "t,left,right,v,w\n");
+  LogReader empty(simple_bank(), {header});
+  expect_error([&] { empty.next(&s); }, {"header.csv:1: the file has a header but no data rows"});
+}
+
 // The real Husky ice logs: odometry/IMU/GPS in TSyn_NN.csv and the raw ROS
 // joint-state export (a quoted list column, epoch times) in joint_states_NN.csv,
 // read side by side, irregularly sampled (first steps below a millisecond).

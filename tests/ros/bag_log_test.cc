@@ -15,6 +15,7 @@
 #include "ros/crc32.h"
 #include "ros/ros_fixtures.h"
 #include "skidimm/errors.h"
+#include "skidimm/io/log_reader.h"
 #include "skidimm/io/ros/bag_reader.h"
 
 namespace skidimm {
@@ -169,6 +170,39 @@ TEST(BagLog, AMessageThatDoesNotDecodeEndsItsTopicAfterTheRowsBeforeIt) {
                          "cannot decode its CDR: the message ends at byte"),
             std::string::npos)
       << message;
+}
+
+// An input read from a sequence's entry selected by a name no message has
+// (a joint name of another robot): the log gives no step, and the reader
+// says which column never had a value and where the names are listed. It
+// said only that no step came.
+TEST(BagLog, AnInputSelectedByANameNoMessageHasIsNamed) {
+  BankConfig bank;
+  bank.file = "bank.yaml";
+  bank.state_names = {"x"};
+  bank.input_names = {"wheel"};
+  bank.measurement.names = {"x"};
+  bank.columns.time = "header.stamp";
+  bank.columns.inputs = {"/all_types.velocity[front_left_wheel]"};
+  bank.columns.measurements = {"/all_types.f64"};
+  LogReader reader(bank, {LogFile{ros_fixture("all_types.mcap")}});
+  LogSample sample;
+  try {
+    reader.next(&sample);
+    ADD_FAILURE() << "expected an error";
+  } catch (const LogError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("all_types.mcap: no step: column '/all_types.velocity[front_left_wheel]' (input wheel) had "
+                           "no value in any of the log's 120 row(s), and a step needs every input (a sequence's "
+                           "entry selected by name, [NAME], has a value only in messages that have that name: "
+                           "`skidimm bag FILE` lists the names the bag has)"),
+              std::string::npos)
+        << message;
+  }
+  // A name the messages have gives steps.
+  bank.columns.inputs = {"/all_types.velocity[left]"};
+  LogReader named(bank, {LogFile{ros_fixture("all_types.mcap")}});
+  EXPECT_TRUE(named.next(&sample));
 }
 
 }  // namespace

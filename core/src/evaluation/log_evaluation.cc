@@ -89,6 +89,7 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
   }
   LogResult result = evaluate_log(bank, &reader, log.name(), log.label, estimates, estimator);
   result.source = joined_paths(log.files);
+  result.unmeasured = reader.unmeasured(config);
   return result;
 }
 

@@ -29,8 +29,11 @@ struct LogOperatingPoint {
 // previous step as dt, and as state the bank's initial state with each state
 // the bank measures alone (an `observe:` row) replaced by its latest measured
 // value; angles wrapped to [-pi, pi). Throws LogError or Error as LogReader
-// does, and LogError when the log has no step to take a point from.
-std::vector<LogOperatingPoint> operating_points_from_log(const BankConfig& bank, const LogSpec& log, int count = 20);
+// does, and LogError when the log has no step to take a point from. With
+// `unmeasured`, the reader's words for each measurement the log never gave
+// (LogReader::unmeasured()).
+std::vector<LogOperatingPoint> operating_points_from_log(const BankConfig& bank, const LogSpec& log, int count = 20,
+                                                         std::vector<std::string>* unmeasured = nullptr);
 
 // What the checks found on one mode.
 struct ModeConformance {

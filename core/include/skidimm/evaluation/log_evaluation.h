@@ -83,6 +83,9 @@ struct LogResult {
   // why (log_run.h), so that a model failing is said, not only scored.
   std::vector<ModeRejections> rejections;
   long steps_every_mode_rejected = 0;  // steps where no mode's filter ran
+  // The log reader's words for each measurement that had no value at any
+  // step (LogReader::unmeasured()): scored on the others, so said.
+  std::vector<std::string> unmeasured;
 };
 
 // Runs a fresh IMM of `bank` over `log` and scores it; with `estimates`, also

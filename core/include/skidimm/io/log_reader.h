@@ -139,6 +139,11 @@ class LogReader : public SampleSource {
   // A few lines for the user about rows not used or measurements replaced;
   // empty when there is nothing to say.
   std::string describe_stats(const BankConfig& bank) const;
+  // Each measurement that had no value at any step so far, as
+  // "measurement 'NAME' (\"TEXT\") had no value at any step" (and, for a
+  // sequence's entry selected by a name, where the names are listed): a
+  // misspelt column of a log that still runs, on the other measurements.
+  std::vector<std::string> unmeasured(const BankConfig& bank) const;
 
  private:
   class Impl;
