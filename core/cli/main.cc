@@ -517,7 +517,8 @@ int main(int argc, char** argv) {
   plot->add_option("--output,-o", plot_output, "Figure to write: .png or .svg")->required()->check(file_path());
   plot->add_option("--log,-l", plot_options.log,
                    "The input log, to draw measurements and true states; with --bank any log form `run` reads");
-  plot->add_option("--bank,-b", plot_options.bank, "The bank the estimates came from: reads --log with its columns")
+  plot->add_option("--bank,-b", plot_options.bank,
+                   "The bank the estimates came from: its classes' colours, and --log read with its columns")
       ->check(CLI::ExistingFile);
   add_rate(plot, &plot_options.rate);
   add_plugin_path(plot);
@@ -646,10 +647,6 @@ int main(int argc, char** argv) {
     if (plot->get_option("--rate")->count() > 0 && (plot_options.bank.empty() || plot_options.log.empty())) {
       // The rate reads --log as the bank's filter read it; a plain log is drawn row by row.
       std::cerr << "skidimm plot: --rate reads --log through the bank's columns, which needs --bank and --log\n";
-      return kExitUsage;
-    }
-    if (!plot_options.bank.empty() && plot_options.log.empty()) {
-      std::cerr << "skidimm plot: --bank reads --log with its columns; add --log --states or leave out --bank\n";
       return kExitUsage;
     }
     if (!plot_options.log.empty() && !plot_options.states) {

@@ -162,13 +162,21 @@ int plot(const PlotOptions& options) {
     if (modes.empty() || column_of(header, "t") != 1) {
       throw LogError(options.estimates.string(), 1, "not a `skidimm run` output: expected t and mu_<mode> columns");
     }
+    // A class (`classes:` of the bank) is drawn in its first mode's colour:
+    // its truth bands and its row of the decision track. Without the bank a
+    // class has no colour of its own, so none that reads as a mode's.
+    std::map<std::string, int> first_mode_of_class;
     if (!options.bank.empty()) {
       // The bank reads the log for the figure's panels: another bank's would
       // draw them from another log's columns, or from none, without a word.
       std::vector<std::string> names;
       for (const auto& mode : modes) names.push_back(mode.second);
-      const std::string problem = load_bank_config(options.bank).estimates_modes_problem(names);
+      const BankConfig config = load_bank_config(options.bank);
+      const std::string problem = config.estimates_modes_problem(names);
       if (!problem.empty()) throw LogError(options.estimates.string(), 1, problem);
+      for (const ClassConfig& c : config.classes) {
+        if (!c.modes.empty()) first_mode_of_class[c.name] = c.modes.front() + 1;  // gnuplot's line types count from 1
+      }
     }
     // State columns: those followed by var_<state>.
     std::vector<std::string> states;
@@ -354,16 +362,23 @@ int plot(const PlotOptions& options) {
       g << "set linetype " << k << " lc rgb '" << (i < 8 ? kFirstColours[i] : kExtraColours[i - 8]) << "' dt "
         << 1 + (k - 1) / 20 << "\n";
     }
-    // Mode probabilities, the truth as bands coloured like the mode's line.
+    // Mode probabilities, the truth as bands coloured like the mode's line
+    // (a class's like its first mode's; a class without the bank, grey, named).
     std::map<std::string, int> line_of;
     for (std::size_t i = 0; i < modes.size(); ++i) line_of[modes[i].second] = static_cast<int>(i) + 1;
-    int object = 1;
+    std::map<std::string, int> colour_of = line_of;
+    colour_of.insert(first_mode_of_class.begin(), first_mode_of_class.end());
+    int object = 1, label = 1;
     for (std::size_t b = 0; b < bands.size(); ++b) {
-      const auto it = line_of.find(bands[b].mode);
-      if (it != line_of.end()) {
-        g << "set object " << object++ << " rect from " << at(bands[b].start) << ", graph 0 to "
-          << at(b + 1 < bands.size() ? bands[b + 1].start : bands[b].end) << ", graph 1 back fc lt " << it->second
-          << " fs transparent solid 0.12 noborder\n";
+      if (bands[b].mode.empty()) continue;  // an unlabelled stretch
+      const auto it = colour_of.find(bands[b].mode);
+      const std::string end = at(b + 1 < bands.size() ? bands[b + 1].start : bands[b].end);
+      g << "set object " << object++ << " rect from " << at(bands[b].start) << ", graph 0 to " << end
+        << ", graph 1 back fc " << (it != colour_of.end() ? "lt " + std::to_string(it->second) : "rgb '#888888'")
+        << " fs transparent solid 0.12 noborder\n";
+      if (it == colour_of.end()) {
+        g << "set label " << label++ << " " << gnuplot_string(bands[b].mode) << " at " << at(bands[b].start)
+          << ", graph 0.97 offset 0.5, 0 left front tc rgb '#444444'\n";
       }
       if (b > 0)
         g << "set arrow " << b << " from " << at(bands[b].start) << ", graph 0 to " << at(bands[b].start)
@@ -394,7 +409,7 @@ int plot(const PlotOptions& options) {
         }
       }
       for (std::size_t i = 0; i < rows.size(); ++i) row_of[rows[i]] = static_cast<int>(i) + 1;
-      g << "unset object\nunset arrow\nset ylabel 'decision'\n";
+      g << "unset object\nunset arrow\nunset label\nset ylabel 'decision'\n";
       g << "set ytics (" << gnuplot_string("unknown") << " 0";
       for (std::size_t i = 0; i < rows.size(); ++i) g << ", " << gnuplot_string(rows[i]) << " " << i + 1;
       g << ")\nset yrange [-0.6:" << rows.size() + 0.6 << "]\n";
@@ -403,9 +418,14 @@ int plot(const PlotOptions& options) {
         const auto it = row_of.find(decisions[b].mode);
         const int row = it == row_of.end() ? 0 : it->second;
         const double end = b + 1 < decisions.size() ? decisions[b + 1].start : decisions[b].end;
+        // A mode's row in its line's colour, a class's in its first mode's;
+        // a class without the bank in dark grey, not in some mode's colour.
+        const auto colour = colour_of.find(decisions[b].mode);
+        const std::string fill = row == 0                    ? "rgb '#999999'"
+                                 : colour != colour_of.end() ? "lt " + std::to_string(colour->second)
+                                                             : "rgb '#555555'";
         g << "set object " << object++ << " rect from " << at(decisions[b].start) << ", " << row - 0.35 << " to "
-          << at(end) << ", " << row + 0.35 << " front fc " << (row == 0 ? "rgb '#999999'" : "lt " + std::to_string(row))
-          << " fs solid 0.9 noborder\n";
+          << at(end) << ", " << row + 0.35 << " front fc " << fill << " fs solid 0.9 noborder\n";
       }
       for (std::size_t b = 1; b < bands.size(); ++b) {
         g << "set arrow " << b << " from " << at(bands[b].start) << ", graph 0 to " << at(bands[b].start)
@@ -414,7 +434,7 @@ int plot(const PlotOptions& options) {
       g << "plot NaN notitle\nset ytics autofreq\n";
     }
     if (panels > 1 && options.states) {
-      g << "unset object\nunset arrow\nset yrange [*:*]\n";
+      g << "unset object\nunset arrow\nunset label\nset yrange [*:*]\n";
       for (std::size_t s = 0; s < states.size(); ++s) {
         if (s + 1 == states.size()) g << x_label;
         g << "set ylabel " << gnuplot_string(states[s]) << "\nplot " << file_name(estimates_file) << " using "

@@ -108,7 +108,6 @@ TEST(Cli, OptionsThatCannotBeHonouredTogetherExitWithTwo) {
       {"run" + bank + " --input " + kSwitching + out + " --serve-speed 2", "--serve-speed requires --serve"},
       {"plot --estimates " + kSwitching + out + " --log " + kSwitching + " --rate 10",
        "--rate reads --log through the bank's columns, which needs --bank and --log"},
-      {"plot --estimates " + kSwitching + out + bank, "--bank reads --log with its columns"},
   };
   for (const auto& c : clashes) {
     const Result r = run_skidimm(c.arguments);

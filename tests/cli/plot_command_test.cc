@@ -125,6 +125,54 @@ TEST(CliIo, PlotDrawsALogStampedByAClockFromItsFirstRow) {
   EXPECT_THAT(read_file(dir / "own.svg"), HasSubstr(">time (s)<"));
 }
 
+// A bank with classes: the truth and the decisions name classes. Drawn
+// with the bank (--bank alone is no longer refused), each class takes its
+// first mode's colour; without it, its truth bands are grey and named and its
+// decision row dark grey. Its decision row was coloured like the mode of the
+// same row number, and its truth bands were not drawn.
+TEST(CliIo, PlotColoursTheClassesOfABankWithClasses) {
+  const fs::path dir = test_directory();
+  const fs::path bank = write_file(dir / "paved.yaml", read_file(kTerrains) +
+                                                           "\nclasses:\n  paved: [asphalt, crushed_concrete]\n"
+                                                           "  soft: [grass]\n");
+  ASSERT_EQ(run_skidimm("run -q --bank " + bank.string() + " --plugin-path " + kPlugins + " --input " + kSwitching +
+                        " --output " + (dir / "out.csv").string())
+                .exit_code,
+            0);
+  // Its truth by class, as a log labelled by terrain (BorealTC's) gives it.
+  std::string estimates = read_file(dir / "out.csv");
+  for (const auto& [mode, class_name] : {std::pair<std::string, std::string>{",asphalt,updated", ",paved,updated"},
+                                         {",crushed_concrete,updated", ",paved,updated"},
+                                         {",grass,updated", ",soft,updated"}}) {
+    for (std::size_t at = estimates.find(mode); at != std::string::npos; at = estimates.find(mode, at)) {
+      estimates.replace(at, mode.size(), class_name);
+    }
+  }
+  ASSERT_EQ(estimates.find(",grass,updated"), std::string::npos);
+  write_file(dir / "out.csv", estimates);
+  const auto count = [](const std::string& text, const std::string& part) {
+    int n = 0;
+    for (std::size_t at = text.find(part); at != std::string::npos; at = text.find(part, at + 1)) ++n;
+    return n;
+  };
+  const Result with_bank = run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --bank " + bank.string() +
+                                       " --plugin-path " + kPlugins + " --output " + (dir / "bank.svg").string());
+  ASSERT_EQ(with_bank.exit_code, 0) << with_bank.err;
+  const std::string coloured = read_file(dir / "bank.svg");
+  EXPECT_EQ(count(coloured, ">paved<"), 1) << "the decision row's name alone";
+  EXPECT_EQ(count(coloured, "rgb( 85,  85,  85)"), 0);
+  EXPECT_EQ(count(coloured, "rgb(136, 136, 136)"), 0);
+  const Result alone =
+      run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --output " + (dir / "alone.svg").string());
+  ASSERT_EQ(alone.exit_code, 0) << alone.err;
+  const std::string grey = read_file(dir / "alone.svg");
+  // The log: crushed concrete (paved), grass (soft), asphalt (paved).
+  EXPECT_EQ(count(grey, ">paved<"), 3) << "two bands named, and the decision row";
+  EXPECT_EQ(count(grey, ">soft<"), 2);
+  EXPECT_GT(count(grey, "rgb( 85,  85,  85)"), 0);
+  EXPECT_GT(count(grey, "rgb(136, 136, 136)"), 0);
+}
+
 // gnuplot's line colours repeat after 8: in a bank of more modes, each mode
 // still gets a colour (or, past 20, a dash pattern) of its own.
 TEST(CliIo, PlotGivesEachOfManyModesItsOwnLine) {
