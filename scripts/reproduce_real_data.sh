@@ -250,7 +250,7 @@ mapfile -t splices <"$work/splices/inputs.txt"
 "$skidimm" eval --bank "$work/borealtc/development.yaml" --input "${splices[@]}" --json >"$work/splices/eval.json"
 "$skidimm" run -q --bank "$work/borealtc/development.yaml" --input "${splices[0]}" --output "$work/splices/rotation_0.csv"
 mkdir -p "$(dirname "$figure")"
-"$skidimm" plot --estimates "$work/splices/rotation_0.csv" --output "$figure" \
+"$skidimm" plot --estimates "$work/splices/rotation_0.csv" --bank "$work/borealtc/development.yaml" --output "$figure" \
   --title "BorealTC lockbox runs spliced end to end, scored by a bank tuned without them"
 
 echo "== C2: the price of a quicker reaction" >&2
