@@ -91,8 +91,14 @@ bool LogReader::Impl::read_row_or_throw(Stream& s) {
         s.time_index, "a time that stays finite with the file's offset (" + CsvWriter::format(s.offset) + " s) added");
   }
   if (t <= s.read_t) {
+    // A driver that leaves its messages' stamps unset writes 0 in each; the
+    // bag's own record of when each arrived is a time that increases.
+    const bool unset_stamps = t == s.offset && s.read_t == s.offset && bank_.columns.time == "header.stamp";
     throw reader.error_at_row("column '" + bank_.columns.time + "': time must increase strictly, but " +
-                              CsvWriter::format(t) + " follows " + CsvWriter::format(s.read_t));
+                              CsvWriter::format(t) + " follows " + CsvWriter::format(s.read_t) +
+                              (unset_stamps ? " (the topic's header.stamp is unset, 0, in its messages: "
+                                              "columns.time: log_time reads when the bag recorded each)"
+                                            : std::string()));
   }
   s.read_t = t;
   s.row_t = t;

@@ -855,6 +855,25 @@ TEST(LogReader, AnInputWithoutAValueInAnyRowIsNamed) {
   expect_error([&] { empty.next(&s); }, {"header.csv:1: the file has a header but no data rows"});
 }
 
+// A driver that leaves header.stamp unset writes 0 in every message: the
+// error says so and how to read the bag's log time instead. Other repeated
+// times get no such hint.
+TEST(LogReader, UnsetStampsAreSaidToBeSo) {
+  const auto dir = test_directory();
+  BankConfig bank = simple_bank();
+  bank.columns.time = "header.stamp";
+  const auto zero = write_file(dir / "zero.csv", "header.stamp,left,right,v,w\n0,1,2,3,4\n0,1,2,3,4\n");
+  LogSample s;
+  LogReader reader(bank, {zero});
+  expect_error([&] { read_all(reader); },
+               {"time must increase strictly, but 0 follows 0 (the topic's header.stamp is unset, 0, in its messages: "
+                "columns.time: log_time reads when the bag recorded each)"});
+  const auto repeated = write_file(dir / "repeated.csv", "header.stamp,left,right,v,w\n1,1,2,3,4\n1,1,2,3,4\n");
+  LogReader other(bank, {repeated});
+  const std::string message = expect_error([&] { read_all(other); }, {"but 1 follows 1"});
+  EXPECT_EQ(message.find("unset"), std::string::npos) << message;
+}
+
 // The real Husky ice logs: odometry/IMU/GPS in TSyn_NN.csv and the raw ROS
 // joint-state export (a quoted list column, epoch times) in joint_states_NN.csv,
 // read side by side, irregularly sampled (first steps below a millisecond).
