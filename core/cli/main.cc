@@ -233,7 +233,8 @@ int main(int argc, char** argv) {
   add_decision_options(run, &run_options.overrides.decision_enter, &run_options.overrides.decision_leave,
                        &run_options.overrides.decision_hold, "");
   run->add_option("--output,-o", output,
-                  "Output CSV (written as <output>.partial, renamed when complete); '-' for standard output")
+                  "Output: a NumPy array for a path ending in .npy, an MCAP file for Foxglove for .mcap, else CSV; "
+                  "written as <output>.partial, renamed when complete; '-' for CSV on standard output")
       ->required()
       ->check(file_path());
   run->add_flag("--flush", run_options.flush,

@@ -59,11 +59,16 @@ _AGGREGATES = ("mean(", "std(", "rms(")
 
 
 def _paths(paths):
+    """Plugin paths as ``--plugin-path`` takes them: each must exist (a typo would search nothing, silently)."""
     if paths is None:
         return []
     if isinstance(paths, (str, _os.PathLike)):
         paths = [paths]
-    return [_os.fspath(p) for p in paths]
+    paths = [_os.fspath(p) for p in paths]
+    for p in paths:
+        if not _os.path.exists(p):
+            raise Error(f"plugin_paths: {p!r}: no such directory or plugin file")
+    return paths
 
 
 def _rate(rate):

@@ -135,3 +135,11 @@ def test_bad_decision_settings_are_an_error_naming_the_values(configs):
     with pytest.raises(KeyError, match="unknown key 'hold'"):
         skidimm.Imm(bank, decision={"hold": 1.0})
     assert skidimm.Imm(bank, decision={"enter": 0.6}).step(0.0, [1.0, 1.0], [0.1, 0.0]).decision == "unknown"
+
+
+def test_a_plugin_path_that_does_not_exist_is_an_error(configs, tmp_path):
+    """As ``--plugin-path`` refuses it: a misspelt directory would search nothing, without a word."""
+    missing = tmp_path / "no_such_directory"
+    with pytest.raises(skidimm.Error, match=r"plugin_paths: '.*no_such_directory': no such directory or plugin file"):
+        skidimm.Bank(configs / "ltc_terrains.yaml", plugin_paths=[missing])
+    assert skidimm.Bank(configs / "ltc_terrains.yaml", plugin_paths=[tmp_path]).modes

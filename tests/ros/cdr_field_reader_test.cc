@@ -111,6 +111,12 @@ TEST(CdrFieldReader, APathTheTypeLacksSaysWhyAndListsThePathsItHas) {
     return "";
   };
   EXPECT_NE(message_of("angular_velocity.w").find("geometry_msgs/msg/Vector3 has no field 'w'"), std::string::npos);
+  EXPECT_EQ(message_of("angular_velocty.z")
+                .rfind("sensor_msgs/msg/Imu has no field 'angular_velocty.z': no field "
+                       "'angular_velocty'",
+                       0),
+            0u)
+      << message_of("angular_velocty.z");
   EXPECT_NE(message_of("angular_velocity").find("name one of its fields (angular_velocity.x"), std::string::npos);
   EXPECT_NE(message_of("orientation_covariance").find("is an array"), std::string::npos);
   EXPECT_NE(message_of("orientation_covariance[9]").find("has 9 elements"), std::string::npos);

@@ -276,7 +276,10 @@ int CdrFieldReader::add_path(const std::string& path, bool dry_run) {
     for (std::size_t k = 0; k < t.fields.size(); ++k) {
       if (t.fields[k].name == name) field_index = static_cast<int>(k);
     }
-    if (field_index < 0) return fail(t.name + " has no field '" + name + "'");
+    if (field_index < 0) {
+      // At the top, the type fail() names already: its own words would say it twice.
+      return fail(type == 0 ? "no field '" + name + "'" : t.name + " has no field '" + name + "'");
+    }
     const Field& field = t.fields[static_cast<std::size_t>(field_index)];
     FieldPlan* field_plan = nullptr;
     if (dry_run) {
