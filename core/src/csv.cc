@@ -75,9 +75,12 @@ CsvReader::CsvReader(const fs::path& path) : path_(path) {
     }
     if (!fs::exists(status)) {
       // run reads one log: a pattern is for the commands that read many.
-      throw LogError(path.string(), 0,
-                     path.string().find('*') != std::string::npos
+      const std::string text = path.string();
+      throw LogError(text, 0,
+                     text.find('*') != std::string::npos
                          ? "no such log file (a pattern with '*' names the runs of fit, tune and eval; run reads one)"
+                     : text.find_first_of("?[") != std::string::npos
+                         ? "no such log file (a pattern takes '*' alone, not '?' or '[...]')"
                          : "no such log file");
     }
     if (fs::is_directory(status)) {

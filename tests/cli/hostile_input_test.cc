@@ -354,6 +354,11 @@ TEST(HostileInput, APatternForRunAndABankThroughAPipeAreSaidForWhatTheyAre) {
   EXPECT_EQ(pattern.exit_code, 1);
   EXPECT_THAT(pattern.err, HasSubstr("no such log file (a pattern with '*' names the runs of fit, tune and eval; run "
                                      "reads one)"));
+  // A shell's other wildcards are no pattern here.
+  const Result bracket = run_skidimm("eval --bank " + kTerrains + " --plugin-path " + kPlugins + " --input '" +
+                                     kSource + "/configs/examples/ltc_switch[a-z]ng.csv'");
+  EXPECT_EQ(bracket.exit_code, 1);
+  EXPECT_THAT(bracket.err, HasSubstr("no such log file (a pattern takes '*' alone, not '?' or '[...]')"));
   const Result piped = run_shell(kSkidimm + " run -q --bank <(cat " + kTerrains + ") --plugin-path " + kPlugins +
                                  " --input " + kSwitching + " --output /dev/null");
   EXPECT_EQ(piped.exit_code, 1);
