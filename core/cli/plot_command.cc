@@ -370,6 +370,9 @@ int plot(const PlotOptions& options) {
     colour_of.insert(first_mode_of_class.begin(), first_mode_of_class.end());
     int object = 1, label = 1;
     for (std::size_t b = 0; b < bands.size(); ++b) {
+      if (b > 0)
+        g << "set arrow " << b << " from " << at(bands[b].start) << ", graph 0 to " << at(bands[b].start)
+          << ", graph 1 nohead dt 2 lc rgb '#444444'\n";
       if (bands[b].mode.empty()) continue;  // an unlabelled stretch
       const auto it = colour_of.find(bands[b].mode);
       const std::string end = at(b + 1 < bands.size() ? bands[b + 1].start : bands[b].end);
@@ -380,9 +383,6 @@ int plot(const PlotOptions& options) {
         g << "set label " << label++ << " " << gnuplot_string(bands[b].mode) << " at " << at(bands[b].start)
           << ", graph 0.97 offset 0.5, 0 left front tc rgb '#444444'\n";
       }
-      if (b > 0)
-        g << "set arrow " << b << " from " << at(bands[b].start) << ", graph 0 to " << at(bands[b].start)
-          << ", graph 1 nohead dt 2 lc rgb '#444444'\n";
     }
     g << "set ylabel 'mode probability'\nset yrange [-0.02:1.05]\n";
     if (panels == 1) g << x_label;

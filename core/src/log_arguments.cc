@@ -144,9 +144,10 @@ std::string log_group_name(const std::string& argument) {
   const fs::path p = spec.files.front().path.lexically_normal();
   std::error_code ec;
   if (fs::is_directory(p, ec)) return (p.filename().empty() ? p.parent_path() : p).filename().string();
-  // 'ests/*.csv' matches a folder's runs: named '*', its group would say nothing.
+  // 'ests/*.csv' matches a folder's runs: named '*', its group would say
+  // nothing; named 'ests', it would join a group labelled so.
   if (p.stem() == "*" && !p.parent_path().filename().empty() && p.parent_path().filename() != "..") {
-    return p.parent_path().filename().string();
+    return p.parent_path().filename().string() + "/*";
   }
   return p.stem().string();
 }

@@ -35,6 +35,9 @@ bool selects_by_name(const std::string& text) {
   return false;
 }
 
+constexpr const char* kMaybeSelectedByNameHint =
+    " (where it selects a sequence's entry by name, [NAME], that name may be in no message: `skidimm bag FILE` "
+    "lists the names the bag has)";
 constexpr const char* kSelectedByNameHint =
     " (a sequence's entry selected by name, [NAME], has a value only in messages that have that name: `skidimm bag "
     "FILE` lists the names the bag has)";
@@ -337,16 +340,14 @@ void LogReader::Impl::throw_if_an_input_never_had_a_value() const {
   for (const long r : stats_.rows) rows += r;
   if (rows == 0) return;
   // Each column without a value once, with the inputs that read it.
-  std::vector<std::pair<int, std::string>> missing;
+  std::vector<std::pair<int, std::vector<std::string>>> missing;
   for (std::size_t i = 0; i < inputs_.size(); ++i) {
     for (const int c : inputs_[i].columns) {
       if (!std::isnan(held_values_[static_cast<std::size_t>(c)])) continue;
       auto it = std::find_if(missing.begin(), missing.end(), [c](const auto& m) { return m.first == c; });
-      if (it == missing.end()) {
-        missing.emplace_back(c, bank_.input_names[i]);
-      } else if (it->second.find(bank_.input_names[i]) == std::string::npos) {
-        it->second += ", " + bank_.input_names[i];
-      }
+      if (it == missing.end()) it = missing.insert(missing.end(), {c, {}});
+      const std::string& name = bank_.input_names[i];
+      if (std::find(it->second.begin(), it->second.end(), name) == it->second.end()) it->second.push_back(name);
     }
   }
   if (missing.empty()) return;
@@ -354,8 +355,10 @@ void LogReader::Impl::throw_if_an_input_never_had_a_value() const {
   bool by_name = false;
   for (const auto& [c, inputs] : missing) {
     const Column& column = columns_[static_cast<std::size_t>(c)];
+    std::string names;
+    for (const std::string& name : inputs) names += (names.empty() ? "" : ", ") + name;
     text += std::string(text.empty() ? "" : "; ") + "column '" + Expression::excerpt(column.name) + "' (input" +
-            (inputs.find(", ") != std::string::npos ? "s " : " ") + inputs + ")";
+            (inputs.size() > 1 ? "s " : " ") + names + ")";
     if (file.empty()) {
       file = streams_[static_cast<std::size_t>(column.stream)]
                  .files[static_cast<std::size_t>(column.file)]
@@ -564,9 +567,10 @@ std::vector<std::string> LogReader::unmeasured(const BankConfig& bank) const {
   for (std::size_t i = 0; i < s.measured.size(); ++i) {
     if (s.steps == 0 || s.measured[i] > 0) continue;
     const std::string& text = bank.columns.measurements[i];
+    // Which of its columns lacked values is not known here: the hint says "if".
     out.push_back("measurement '" + bank.measurement.names[i] + "' (\"" + Expression::excerpt(text) +
                   "\") had no value at any step" +
-                  (selects_by_name(text) ? std::string(kSelectedByNameHint) : std::string()));
+                  (selects_by_name(text) ? std::string(kMaybeSelectedByNameHint) : std::string()));
   }
   return out;
 }

@@ -14,6 +14,7 @@
 #include "bindings.h"
 #include "plugin_location.h"
 #include "py_bank.h"
+#include "python_arguments.h"
 #include "python_model_provider.h"
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/plugin_registry.h"
@@ -48,11 +49,12 @@ void bind_bank(py::module_& m) {
       "module_plugin_directory", [] { return module_plugin_directory(); },
       "The bundled plugins' directory next to this module (build tree or install).");
   m.def("plugin_search_path", &plugin_search_path, py::arg("plugin_paths") = std::vector<fs::path>{},
-        py::arg("bank_paths") = std::vector<fs::path>{}, "The search path a bank's plugins are looked up on.");
+        py::arg("bank_paths") = std::vector<fs::path>{},
+        "The search path a bank's plugins are looked up on (the paths as given, whether they exist or not).");
   m.def(
       "plugins",
       [](const std::vector<fs::path>& plugin_paths) {
-        PluginRegistry registry(plugin_search_path(plugin_paths, {}));
+        PluginRegistry registry(plugin_search_path(existing_plugin_paths(plugin_paths), {}));
         py::list out;
         for (const PluginDescriptor& d : registry.plugins()) {
           py::dict p;

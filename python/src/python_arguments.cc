@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "skidimm/config/run_overrides.h"
+#include "skidimm/errors.h"
 
 namespace skidimm {
 namespace python {
@@ -47,6 +48,16 @@ LogArgumentOptions unpaired_runs(bool skip, std::vector<std::string>* skipped) {
   options.skip_unpaired = skip;
   options.skipped = [skipped](const std::string& message) { skipped->push_back(message); };
   return options;
+}
+
+std::vector<std::filesystem::path> existing_plugin_paths(const std::vector<std::filesystem::path>& paths) {
+  for (const std::filesystem::path& path : paths) {
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) {
+      throw Error("plugin_paths: '" + path.string() + "': no such directory or plugin file");
+    }
+  }
+  return paths;
 }
 
 void warn_skipped(const std::vector<std::string>& skipped) {

@@ -6,6 +6,7 @@
 
 #include <pybind11/pybind11.h>
 
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,10 @@ pybind11::dict log_spec_to_dict(const LogSpec& spec);
 LogArgumentOptions unpaired_runs(bool skip, std::vector<std::string>* skipped);
 // The runs a pattern left out, as Python warnings (GIL held).
 void warn_skipped(const std::vector<std::string>& skipped);
+
+// `paths` when each exists; else throws Error naming the first that does
+// not, as --plugin-path refuses it (a typo would search nothing, silently).
+std::vector<std::filesystem::path> existing_plugin_paths(const std::vector<std::filesystem::path>& paths);
 
 }  // namespace python
 }  // namespace skidimm

@@ -143,3 +143,5 @@ def test_a_plugin_path_that_does_not_exist_is_an_error(configs, tmp_path):
     with pytest.raises(skidimm.Error, match=r"plugin_paths: '.*no_such_directory': no such directory or plugin file"):
         skidimm.Bank(configs / "ltc_terrains.yaml", plugin_paths=[missing])
     assert skidimm.Bank(configs / "ltc_terrains.yaml", plugin_paths=[tmp_path]).modes
+    with pytest.raises(skidimm.Error, match="no such directory or plugin file"):
+        skidimm.plugins([missing])

@@ -135,10 +135,10 @@ TEST(EvalCommand, GroupsNamedAlikeAreToldApartByTheirFolders) {
   fs::create_directories(dir / "b");
   const fs::path a = write_file(dir / "a" / "run.csv", read_file(kSwitching));
   const fs::path b = write_file(dir / "b" / "run.csv", read_file(kSwitching));
-  // Files by their folders; a folder's '*' pattern by its folder alone (it was named '*').
+  // Files by their folders; a folder's '*' pattern by its folder (it was named '*').
   for (const auto& [arguments, named] :
        {std::pair<std::string, std::string>{"--input " + a.string() + " --input " + b.string(), "/[^:\n]*"},
-        {"--input '" + (dir / "a").string() + "/*.csv' --input '" + (dir / "b").string() + "/*.csv'", ""}}) {
+        {"--input '" + (dir / "a").string() + "/*.csv' --input '" + (dir / "b").string() + "/*.csv'", "/\\*"}}) {
     const Result table = run_skidimm(eval(arguments));
     ASSERT_EQ(table.exit_code, 0) << table.err;
     EXPECT_THAT(table.out, ::testing::ContainsRegex("\na" + named + ": 1 log\\(s\\)")) << arguments << table.out;
@@ -427,8 +427,8 @@ TEST(EvalCommand, ALabelOfEstimatesIsTheirTruth) {
   EXPECT_DOUBLE_EQ(accuracy(grass), accuracy(relabelled));  // the same run, the same label
   const Result wrong = run_skidimm("eval --estimates gravel=" + labelled.string());
   EXPECT_EQ(wrong.exit_code, 1);
-  EXPECT_THAT(wrong.err, HasSubstr("'gravel' is not a mode of these estimates (their mu_ columns); give --bank for "
-                                   "its classes"));
+  EXPECT_THAT(wrong.err, HasSubstr("'gravel' is not a mode of these estimates; their modes (mu_ columns): asphalt, "
+                                   "grass, crushed_concrete; give --bank for its classes"));
   const Result wrong_with_bank = run_skidimm("eval --estimates gravel=" + labelled.string() + " --bank " + kTerrains +
                                              " --plugin-path " + kPlugins);
   EXPECT_EQ(wrong_with_bank.exit_code, 1);

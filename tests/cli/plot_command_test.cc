@@ -171,6 +171,11 @@ TEST(CliIo, PlotColoursTheClassesOfABankWithClasses) {
   EXPECT_EQ(count(grey, ">soft<"), 2);
   EXPECT_GT(count(grey, "rgb( 85,  85,  85)"), 0);
   EXPECT_GT(count(grey, "rgb(136, 136, 136)"), 0);
+  // With the bank, paved's bands and bars take asphalt's violet and soft's
+  // grass's green: more of each than the lines and keys alone draw.
+  for (const std::string colour : {"rgb(148,   0, 211)", "rgb(  0, 158, 115)"}) {
+    EXPECT_GT(count(coloured, colour), count(grey, colour) + 1) << colour;
+  }
 }
 
 // gnuplot's line colours repeat after 8: in a bank of more modes, each mode

@@ -59,6 +59,16 @@ void check_decision(const CsvReader& reader, int column, const std::string& cell
 
 }  // namespace
 
+namespace {
+
+std::string mode_list(const BankConfig& modes) {
+  std::string out;
+  for (const ModeConfig& m : modes.modes) out += (out.empty() ? "" : ", ") + m.name;
+  return out;
+}
+
+}  // namespace
+
 LogResult evaluate_estimates(const fs::path& file, const BankConfig* bank, const DecisionConfig* decide) {
   return evaluate_estimates(file, bank,
                             decide != nullptr ? std::vector<DecisionConfig>{*decide} : std::vector<DecisionConfig>{})
@@ -98,9 +108,8 @@ std::vector<LogResult> evaluate_estimates(const fs::path& file, const BankConfig
     if (known.mode_index(label) < 0 && known.class_index(label) < 0) {
       throw LogError(file.string(), 0,
                      bank != nullptr ? bank->unknown_label(label)
-                                     : "'" + label +
-                                           "' is not a mode of these estimates (their mu_ columns); give --bank "
-                                           "for its classes");
+                                     : "'" + label + "' is not a mode of these estimates; their modes (mu_ columns): " +
+                                           mode_list(modes_only) + "; give --bank for its classes");
     }
   }
   // The probability of the bank's unknown hypothesis, when it has one.
