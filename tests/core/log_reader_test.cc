@@ -850,6 +850,12 @@ TEST(LogReader, AnInputWithoutAValueInAnyRowIsNamed) {
   expect_error([&] { reader.next(&s); },
                {"empty_right.csv: no step: column 'right' (input phi_dot_R) had no value in any of the log's 2 "
                 "row(s), and a step needs every input"});
+  // A column two inputs read is named once, with both (one name inside the other).
+  BankConfig both = simple_bank();
+  both.input_names = {"turnx", "turn"};
+  both.columns.inputs = {"right", "right * 2"};
+  LogReader shared(both, {file});
+  expect_error([&] { shared.next(&s); }, {"no step: column 'right' (inputs turnx, turn) had no value"});
   const auto header = write_file(dir / "header.csv", "t,left,right,v,w\n");
   LogReader empty(simple_bank(), {header});
   expect_error([&] { empty.next(&s); }, {"header.csv:1: the file has a header but no data rows"});
