@@ -599,6 +599,29 @@ TEST(Cli, AFitAtAnotherRateWritesThatRateAsTheBanks) {
   EXPECT_THAT(same.err, Not(HasSubstr("warning: --append-to")));
 }
 
+// The window objective's Q search ends at 1000: a state in large units (a
+// current in mA) needs more, and its Q stopped there without a word, its
+// filter overconfident. The fit says so; in A it does not need to.
+TEST(Cli, AProcessNoiseAtTheCeilingOfItsSearchIsSaid) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  const fs::path dir = test_directory();
+  const std::string amps = read_file(kSource + "/configs/borealtc/wheels_start.yaml");
+  std::string milliamps = amps;
+  const std::string current = "current: \"mean(curL + curR)\"";
+  ASSERT_NE(milliamps.find(current), std::string::npos);
+  milliamps.replace(milliamps.find(current), current.size(), "current: \"mean(curL + curR) * 1000\"");
+  const std::string fit = " --objective window --hold-unexcited --log 'ASPHALT=" + boreal + "/ASPHALT/pro_00.csv'";
+  const Result in_milliamps = run_skidimm("fit --bank " + write_file(dir / "ma.yaml", milliamps).string() + fit);
+  ASSERT_EQ(in_milliamps.exit_code, 0) << in_milliamps.err;
+  EXPECT_THAT(in_milliamps.err,
+              HasSubstr("warning: the process noise of 'current' is at the ceiling of its search, 1000, and its filter "
+                        "is still overconfident there (mean NIS above 1)"));
+  const Result in_amps = run_skidimm("fit --bank " + kSource + "/configs/borealtc/wheels_start.yaml" + fit);
+  ASSERT_EQ(in_amps.exit_code, 0) << in_amps.err;
+  EXPECT_THAT(in_amps.err, Not(HasSubstr("ceiling")));
+}
+
 // The physical terrain bank with crushed concrete split into a class of two
 // modes, `first` (fit_when: `condition`) and `second`, written to `file`.
 fs::path bank_with_concrete_split(const fs::path& file, const std::string& first, const std::string& condition,

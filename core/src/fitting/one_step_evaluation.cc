@@ -187,6 +187,13 @@ FitReport evaluate(const Bank& bank, const ModeLogs& data, bool correlated) {
                                 bank.config.state_names[static_cast<std::size_t>(s)] +
                                 "': its process noise is at the floor 1e-10; check R");
     }
+    if (noise.at_ceiling[static_cast<std::size_t>(s)]) {
+      report.warnings.push_back(
+          "the process noise of '" + bank.config.state_names[static_cast<std::size_t>(s)] +
+          "' is at the ceiling of its search, 1000, and its filter is still overconfident there (mean NIS above 1): "
+          "its Q is too small for these logs. A state in large units (mA for A) needs a Q beyond the search: "
+          "rescale it, or fit by the likelihood objective, whose Q has no ceiling");
+    }
   }
   if (correlated && n > 1) {
     if (complete_rows < 2.0 * n) {

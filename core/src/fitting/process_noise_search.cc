@@ -68,15 +68,17 @@ double mean_state_nis(const Bank& bank, const sdk::MotionModel& model, const Mea
 double log_of_mean_nis(double nis) { return std::log(std::isfinite(nis) ? std::max(nis, 1e-300) : 1e-300); }
 
 // One state's search, given its log NIS as a function of log Q_ss: Q_ss, and
-// whether it is at the floor.
+// whether it is at the floor or at the ceiling (still overconfident there).
 template <typename LogNis>
-double solve_state(const LogNis& log_nis, bool* at_floor) {
+double solve_state(const LogNis& log_nis, bool* at_floor, bool* at_ceiling) {
   const double low = std::log(kLowest), high = std::log(kHighest);
   const double at_low = log_nis(low);
   *at_floor = at_low <= 0.0;
+  *at_ceiling = false;
   if (*at_floor) return kLowest;
   const double at_high = log_nis(high);
-  if (at_high >= 0.0) return kHighest;  // inconsistent even at the ceiling; no floor warning applies
+  *at_ceiling = at_high >= 0.0;
+  if (*at_ceiling) return kHighest;
   // To within 2e-8 in log q, as fine as the 30 halvings of the bracket it replaced.
   const auto close_enough = [](double a, double b) { return std::abs(a - b) <= 2e-8; };
   std::uintmax_t iterations = 60;
@@ -91,15 +93,17 @@ ConsistentProcessNoise two_rounds(const Bank& bank, const ModeLogs& data, const 
   Eigen::MatrixXd q = Eigen::MatrixXd::Identity(n, n) * kStart;
   ConsistentProcessNoise out;
   out.at_floor.assign(static_cast<std::size_t>(n), false);
+  out.at_ceiling.assign(static_cast<std::size_t>(n), false);
   for (int round = 0; round < 2; ++round) {
     for (int s = 0; s < n; ++s) {
       const auto log_nis = [&](double log_q) {
         q(s, s) = std::exp(log_q);
         return log_of_mean_nis(mean_state_nis(bank, model, m, data, q, s));
       };
-      bool at_floor = false;
-      q(s, s) = solve_state(log_nis, &at_floor);
+      bool at_floor = false, at_ceiling = false;
+      q(s, s) = solve_state(log_nis, &at_floor, &at_ceiling);
       out.at_floor[static_cast<std::size_t>(s)] = at_floor;
+      out.at_ceiling[static_cast<std::size_t>(s)] = at_ceiling;
     }
   }
   out.intensity = q.diagonal();
@@ -278,6 +282,7 @@ bool decoupled_searches(const Bank& bank, const ModeLogs& data, const Measuremen
   std::vector<bool> done(static_cast<std::size_t>(n), false);
   Eigen::VectorXd result(n), asked(n), mean_nis(n);
   out->at_floor.assign(static_cast<std::size_t>(n), false);
+  out->at_ceiling.assign(static_cast<std::size_t>(n), false);
   while (true) {
     bool waiting = false;
     for (int s = 0; s < n; ++s) {
@@ -290,9 +295,10 @@ bool decoupled_searches(const Bank& bank, const ModeLogs& data, const Measuremen
         throw NotYetComputed{};
       };
       try {
-        bool at_floor = false;
-        result[s] = solve_state(log_nis, &at_floor);
+        bool at_floor = false, at_ceiling = false;
+        result[s] = solve_state(log_nis, &at_floor, &at_ceiling);
         out->at_floor[si] = at_floor;
+        out->at_ceiling[si] = at_ceiling;
         done[si] = true;
       } catch (const NotYetComputed&) {
         waiting = true;

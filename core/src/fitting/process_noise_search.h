@@ -40,6 +40,9 @@ struct ConsistentProcessNoise {
   Eigen::VectorXd intensity;  // Q_ss, per state
   // R alone explains the state's innovations: its Q_ss is at the floor 1e-10.
   std::vector<bool> at_floor;
+  // Its filter is overconfident even at the search's ceiling, Q_ss = 1e3: a
+  // state in large units (mA for A), or a model that misses by far more.
+  std::vector<bool> at_ceiling;
 };
 
 // Mode data.mode's consistent diagonal Q at the model's current parameters;
