@@ -233,6 +233,8 @@ int run(const RunOptions& options) {
     refuse_clashing_files(
         {{"--output", options.output}, {"--output's reason table", reasons}, {"--plot", options.plot}},
         {{"--bank", options.bank}});
+    // The figure is drawn after the run: a path it cannot be written to is said now.
+    if (!options.plot.empty()) check_output_path(options.plot, "--plot");
     // Listening first: a log through a pipe may wait for its first line.
     if (!options.serve.empty()) {
       std::string host;

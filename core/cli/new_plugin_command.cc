@@ -8,6 +8,7 @@
 #include <string>
 
 #include "commands.h"
+#include "skidimm/engine/plugin_registry.h"
 
 namespace skidimm {
 namespace cli {
@@ -240,6 +241,16 @@ int new_plugin(const std::string& name, const fs::path& parent) {
               << "' is not a plugin name: use lowercase letters, digits and '_', starting with a letter "
                  "(it names the plugin, its C++ namespace and its files)\n";
     return kExitUsage;
+  }
+  // Installed beside a plugin of the same name, it would make every bank that
+  // names either fail with "two plugins are named ...".
+  PluginRegistry registry(PluginRegistry::standard_search_path({}));
+  for (const PluginDescriptor& found : registry.plugins()) {
+    if (found.name == name) {
+      std::cerr << "skidimm new-plugin: '" << name << "' is the name of a plugin skidimm already finds ("
+                << found.path.string() << "): choose another name; nothing was written\n";
+      return kExitUsage;
+    }
   }
   const fs::path dir = parent / name;
   std::error_code ec;

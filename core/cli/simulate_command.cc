@@ -64,6 +64,8 @@ int simulate(const SimulateOptions& options) {
         outputs.push_back({"--output-bank", options.output_bank});
       }
       refuse_clashing_files(outputs, {{"--bank", options.bank}});
+      // Written after the simulation: a path it cannot take is said first.
+      if (!options.output_bank.empty()) check_output_path(options.output_bank, "--output-bank");
       const std::uint64_t seed = options.has_seed ? options.seed : 1;
       const simulation::ModelSimulationSummary summary = simulation::simulate_models(
           bank, source, sampling_of(bank.config, options.rate), seed, options.output);

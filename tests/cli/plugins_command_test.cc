@@ -149,6 +149,12 @@ TEST(Cli, NewPluginWritesAProjectAndRefusesBadNames) {
   EXPECT_THAT(cmake, HasSubstr("skidimm_add_motion_model(wet_grass wet_grass_plugin.cc INSTALL)"));
   EXPECT_THAT(read_file(dir / "wet_grass" / "wet_grass_bank.yaml"), HasSubstr("model: wet_grass"));
   EXPECT_EQ(run_skidimm("new-plugin wet_grass --dir " + dir.string()).exit_code, 1);  // exists
+  // A bundled plugin's name: installed beside it, every bank naming it would fail.
+  const Result taken = run_skidimm("new-plugin ltc_linear --dir " + dir.string());
+  EXPECT_EQ(taken.exit_code, 2);
+  EXPECT_THAT(taken.err, HasSubstr("'ltc_linear' is the name of a plugin skidimm already finds ("));
+  EXPECT_THAT(taken.err, HasSubstr("skidimm_ltc_linear.so): choose another name; nothing was written"));
+  EXPECT_FALSE(fs::exists(dir / "ltc_linear"));
 }
 
 }  // namespace

@@ -159,4 +159,40 @@ TEST(Cli, SimulateTakesAWholeSeedOf64BitsAndRefusesTheRest) {
 }
 
 }  // namespace
+// Outputs written after the work are checked before it: a bank or a figure
+// in a missing directory failed only once the simulation or the run was done.
+TEST(CliIo, OutputsWrittenAfterTheWorkAreCheckedBeforeIt) {
+  const fs::path dir = test_directory();
+  const fs::path missing = dir / "no_such_directory";
+  const Result simulated =
+      run_skidimm("simulate --bank " + kTerrains + " --plugin-path " + kPlugins + " --inputs-from " + kSwitching +
+                  " --output " + (dir / "sim.csv").string() + " --output-bank " + (missing / "b.yaml").string());
+  EXPECT_EQ(simulated.exit_code, 1);
+  EXPECT_THAT(simulated.err, HasSubstr("--output-bank " + (missing / "b.yaml").string() +
+                                       ": cannot write there: No such file or directory"));
+  EXPECT_FALSE(fs::exists(dir / "sim.csv"));
+  EXPECT_FALSE(fs::exists(dir / "sim.csv.partial"));
+  const Result ran =
+      run_skidimm("run -q --bank " + kTerrains + " --plugin-path " + kPlugins + " --input " + kSwitching +
+                  " --output " + (dir / "out.csv").string() + " --plot " + (missing / "fig.png").string());
+  EXPECT_EQ(ran.exit_code, 1);
+  EXPECT_THAT(ran.err, HasSubstr("--plot " + (missing / "fig.png").string() +
+                                 ": cannot write there: No such file or directory"));
+  EXPECT_FALSE(fs::exists(dir / "out.csv.partial"));
+}
+
+// A class label (the truth of a BorealTC run) names several modes, and each
+// step is simulated by one: the error says so and what to label the log with.
+TEST(CliIo, SimulateSaysAClassLabelNamesSeveralModes) {
+  const fs::path dir = test_directory();
+  const fs::path bank =
+      write_file(dir / "paved.yaml", read_file(kTerrains) + "\nclasses:\n  paved: [asphalt, crushed_concrete]\n");
+  const Result r = run_skidimm("simulate --bank " + bank.string() + " --plugin-path " + kPlugins +
+                               " --inputs-from paved=" + kSwitching + " --output " + (dir / "sim.csv").string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("step at t = 0: 'paved' is a class of bank 'ltc_terrains' (its modes: asphalt, "
+                               "crushed_concrete), and each step is simulated by one mode: label the log with one of "
+                               "them (asphalt=...)"));
+}
+
 }  // namespace skidimm_test

@@ -56,8 +56,11 @@ ModelSimulationSummary simulate_models(const Bank& bank, const LogSpec& source, 
   const BankConfig& config = bank.config;
   LogReader reader(config, source.files, sampling);
   if (source.label.empty() && !reader.has_truth()) {
-    throw Error(source.text + ": the source log needs a truth column '" + config.columns.truth_mode +
-                "' or a label (MODE=...) to say which mode drives each step");
+    throw Error(source.text + ": the source log needs " +
+                (config.columns.truth_mode.empty()
+                     ? std::string("a label (MODE=...), the bank naming no truth column (columns.truth_mode),")
+                     : "a truth column '" + config.columns.truth_mode + "' or a label (MODE=...)") +
+                " to say which mode drives each step");
   }
   const int n = config.state_dim();
   const SimulatedColumns columns = simulated_log_columns(config);
@@ -88,8 +91,19 @@ ModelSimulationSummary simulate_models(const Bank& bank, const LogSpec& source, 
     const std::string& label = source.label.empty() ? sample.truth_mode : source.label;
     const int mode = config.mode_index(label);
     if (mode < 0) {
-      throw Error(source.text + ": step at t = " + CsvWriter::format(sample.t) + ": '" + label +
-                  "' is not a mode of bank '" + config.name + "'");
+      // A class has several modes, and a step is simulated by one of them.
+      const int class_index = config.class_index(label);
+      std::string why = config.unknown_label(label);
+      if (class_index >= 0) {
+        std::string modes;
+        for (const int j : config.classes[static_cast<std::size_t>(class_index)].modes) {
+          modes += (modes.empty() ? "" : ", ") + config.modes[static_cast<std::size_t>(j)].name;
+        }
+        why = "'" + label + "' is a class of bank '" + config.name + "' (its modes: " + modes +
+              "), and each step is simulated by one mode: label the log with one of them (" +
+              modes.substr(0, modes.find(',')) + "=...)";
+      }
+      throw Error(source.text + ": step at t = " + CsvWriter::format(sample.t) + ": " + why);
     }
     const sdk::MotionModel& model = *bank.models[static_cast<std::size_t>(mode)];
     if (summary.rows == 0) {
