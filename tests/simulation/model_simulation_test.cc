@@ -105,7 +105,8 @@ TEST(ModelSimulation, AModeTheBankLacksIsAnError) {
     simulate_models(bank, parse_log_spec("ice=" + kExample), bank.config.sampling, 1, dir / "out.csv");
     FAIL();
   } catch (const Error& e) {
-    EXPECT_THAT(e.what(), HasSubstr("'ice' is not a mode of bank 'known'"));
+    EXPECT_THAT(e.what(), HasSubstr("step at t = 0: 'ice' is neither a mode nor a class of bank 'known'; its modes: "
+                                    "crushed_concrete, grass, asphalt"));
   }
   EXPECT_FALSE(std::filesystem::exists(dir / "out.csv"));
 }
