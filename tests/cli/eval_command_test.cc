@@ -460,6 +460,25 @@ TEST(EvalCommand, AMeasurementTheLogNeverGivesIsSaid) {
   EXPECT_THAT(whole.err, Not(HasSubstr("had no value")));
 }
 
+// A truth column in another case than the bank's names (ASPHALT for
+// asphalt) scores 0: fit and tune refuse it with the case pointed out, eval
+// says it beside the truth it cannot score.
+TEST(EvalCommand, ATruthInAnotherCaseIsPointedOut) {
+  auto rows = skidimm_test::read_csv(kSwitching);
+  const std::size_t mode = static_cast<std::size_t>(skidimm_test::column(rows[0], "mode"));
+  std::string text;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    if (i > 0) {
+      for (char& c : rows[i][mode]) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    }
+    for (std::size_t c = 0; c < rows[i].size(); ++c) text += (c ? "," : "") + rows[i][c];
+    text += "\n";
+  }
+  const Result r = run_skidimm(eval("--input " + write_file(test_directory() / "upper.csv", text).string()));
+  EXPECT_THAT(r.out, HasSubstr("truth mode 'GRASS' is not in the bank (10.0 s, always wrong); names are "
+                               "case-sensitive: 'grass'?"));
+}
+
 TEST(Cli, EvalReportsAccuracyLatencyAndConsistencyAsTextAndJson) {
   const std::string args = "eval --bank " + kSource + "/configs/ltc_terrains.yaml --input " + kSource +
                            "/configs/examples/ltc_switching.csv --plugin-path " + kPlugins;

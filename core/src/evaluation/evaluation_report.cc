@@ -1,6 +1,7 @@
 #include "skidimm/evaluation/evaluation_report.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -189,7 +190,16 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
   out << "  calibration of the most likely mode's probability:\n";
   print_calibration(out, "    ", m);
   for (const auto& [mode, seconds] : m.truth_absent) {
-    out << "  truth mode '" << mode << "' is not in the bank (" << fmt(seconds, "%.1f") << " s, always wrong)\n";
+    out << "  truth mode '" << mode << "' is not in the bank (" << fmt(seconds, "%.1f") << " s, always wrong)";
+    // A truth column written in another case (ASPHALT for asphalt) scores 0 for a name's case.
+    const auto same_but_case = [&mode](const std::string& name) {
+      return name.size() == mode.size() && std::equal(name.begin(), name.end(), mode.begin(), [](char a, char b) {
+               return std::tolower(static_cast<unsigned char>(a)) == std::tolower(static_cast<unsigned char>(b));
+             });
+    };
+    const auto like = std::find_if(modes.begin(), modes.end(), same_but_case);
+    if (like != modes.end()) out << "; names are case-sensitive: '" << *like << "'?";
+    out << "\n";
   }
   // Confusion: rows truth, columns estimate, fraction of the truth's time;
   // rows in the columns' order (the bank's), then truths the bank lacks.

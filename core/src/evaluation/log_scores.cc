@@ -91,8 +91,9 @@ std::string Separability::describe() const {
       break;
     case Verdict::kNotSeparated:
       out = "these modes cannot be told apart from these logs (" + figures +
-            "): the accuracy is what guessing gives; fit on logs that excite what differs between the modes, or "
-            "measure what does differ";
+            "): the probability the truth is given is what a guess gives it, however the accuracy reads (a bank "
+            "right most of the time and sure of the wrong class the rest scores so); fit on logs that excite what "
+            "differs between the modes, or measure what does differ";
       break;
     case Verdict::kWorse:
       out = "worse than a uniform guess (" + figures +
