@@ -166,6 +166,46 @@ std::string question_of(const fitting::Protocol& p, int folds) {
   return "";
 }
 
+// Classes the development logs cannot assess: a single class (nothing to
+// tell apart: every verdict reads "told apart"), or a class of one log
+// (each fold holding it out fits that class's modes on nothing and scores
+// the starting values). Said before the work, on stderr.
+void warn_of_classes_with_too_few_logs(const BankConfig& config, const std::vector<fitting::TuningLog>& logs,
+                                       std::size_t development, bool assessed) {
+  const std::vector<std::string> classes = config.class_names();
+  const std::vector<int> class_of = config.class_of_modes();
+  std::vector<int> logs_of(classes.size(), 0);
+  for (std::size_t i = 0; i < development; ++i) {
+    std::vector<bool> shown(classes.size(), false);
+    for (const fitting::ModeLogs& d : logs[i].fit_data) {
+      if (!d.logs.empty()) shown[static_cast<std::size_t>(class_of[static_cast<std::size_t>(d.mode)])] = true;
+    }
+    for (std::size_t c = 0; c < classes.size(); ++c) logs_of[c] += shown[c] ? 1 : 0;
+  }
+  std::vector<std::string> present, single;
+  for (std::size_t c = 0; c < classes.size(); ++c) {
+    if (logs_of[c] > 0) present.push_back(classes[c]);
+    if (logs_of[c] == 1) single.push_back(classes[c]);
+  }
+  const auto join = [](const std::vector<std::string>& names) {
+    std::string out;
+    for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
+    return out;
+  };
+  if (present.size() == 1) {
+    std::cerr << "skidimm tune: warning: the development logs show one class only (" << present.front()
+              << "): there is nothing to tell apart, the settings are chosen on that class alone, and a verdict "
+                 "that the classes are told apart means nothing here; give logs of two classes or more\n";
+  }
+  if (assessed && !single.empty()) {
+    std::cerr << "skidimm tune: warning: "
+              << (single.size() == 1 ? "class " + single.front() + " has one development log"
+                                     : "classes " + join(single) + " have one development log each")
+              << ": a fold that holds such a log out has no log to fit its class's modes on, and scores it with "
+                 "their starting values; give each class two logs or more\n";
+  }
+}
+
 }  // namespace
 
 int tune(const TuneCommandOptions& options) {
@@ -305,6 +345,7 @@ int tune(const TuneCommandOptions& options) {
                           {{"--sessions", options.sessions}});
     refuse_clashing_files({{"--table", options.table}}, {{"--bank", options.bank}});
     refuse_repeated_logs(logs);
+    warn_of_classes_with_too_few_logs(config, logs, development, !options.no_assess);
 
     if (!options.estimates.empty()) {
       // A folder of an earlier run's files would be scored with this run's

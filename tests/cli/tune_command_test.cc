@@ -318,6 +318,38 @@ TEST(Cli, ABankTunedAtAnotherRateIsWrittenWithIt) {
   EXPECT_THAT(read_file(dir / "own.yaml"), HasSubstr("sampling:\n  rate: 2                                # Hz:"));
 }
 
+// Logs that cannot assess what tune reports: one class only (its verdict
+// read "told apart"), or a class of one log (held out, its modes are fitted
+// on nothing). Said before the work.
+TEST(Cli, TuneWarnsOfClassesWithTooFewLogs) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  const std::string tune = "tune -q --bank " + kSource +
+                           "/configs/borealtc/wheels_start.yaml --objective window --hold-unexcited --tune floor "
+                           "--threads 2";
+  const auto logs = [&](std::initializer_list<const char*> runs) {
+    std::string out;
+    for (const char* run : runs) {
+      const std::string path(run);
+      out += " --log '" + path.substr(0, path.find('/')) + "=" + boreal + "/" + path + ".csv'";
+    }
+    return out;
+  };
+  const Result one_class = run_skidimm(tune + logs({"ASPHALT/pro_00", "ASPHALT/pro_01", "ASPHALT/pro_03"}));
+  ASSERT_EQ(one_class.exit_code, 0) << one_class.err;
+  EXPECT_THAT(one_class.err, HasSubstr("warning: the development logs show one class only (ASPHALT): there is "
+                                       "nothing to tell apart"));
+  const Result one_log = run_skidimm(tune + logs({"ASPHALT/pro_00", "SNOW/pro_00", "SNOW/pro_03"}));
+  ASSERT_EQ(one_log.exit_code, 0) << one_log.err;
+  EXPECT_THAT(one_log.err, HasSubstr("warning: class ASPHALT has one development log: a fold that holds such a log "
+                                     "out has no log to fit its class's modes on"));
+  EXPECT_THAT(one_log.err, Not(HasSubstr("one class only")));
+  const Result enough = run_skidimm(tune + logs({"ASPHALT/pro_00", "ASPHALT/pro_01", "SNOW/pro_00", "SNOW/pro_03"}));
+  ASSERT_EQ(enough.exit_code, 0) << enough.err;
+  EXPECT_THAT(enough.err, Not(HasSubstr("one development log")));
+  EXPECT_THAT(enough.err, Not(HasSubstr("one class only")));
+}
+
 // The bundled switching log in four parts, as `--log` arguments.
 std::string switching_log_in_four_parts(const fs::path& dir) {
   const std::string log = read_file(kSwitching);
