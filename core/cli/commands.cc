@@ -19,6 +19,7 @@
 #include "skidimm/engine/model_conformance.h"
 #include "skidimm/engine/plugin_registry.h"
 #include "skidimm/errors.h"
+#include "skidimm/fitting/fit_logs.h"
 #include "skidimm/io/csv.h"
 #include "skidimm/io/estimates_writer.h"
 #include "skidimm/io/log_arguments.h"
@@ -370,6 +371,9 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
       // "OK" alone reads as "will run"; these would fail on most logs.
       std::cout << bank_file.string() << ": OK as a bank, but " << unreadable.size()
                 << " column text(s) a log can give only as a column of exactly that text (warnings on stderr)\n";
+    }
+    for (const std::string& unfitted : fitting::classes_leaving_steps_unfitted(c)) {
+      std::cerr << "skidimm validate: warning: " << bank_file.string() << ": " << printable(unfitted) << "\n";
     }
     // Warnings, not errors: a log may have a column of exactly such a text.
     for (const std::string& problem : unreadable) {

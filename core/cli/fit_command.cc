@@ -131,6 +131,9 @@ int fit(const FitCommandOptions& options) {
     for (const std::string& overridden : fitting::labels_overriding_truth(config, data)) {
       std::cerr << "skidimm fit: warning: " << printable(overridden) << "\n";
     }
+    for (const std::string& unfitted : fitting::classes_leaving_steps_unfitted(config)) {
+      std::cerr << "skidimm fit: warning: " << options.bank.string() << ": " << printable(unfitted) << "\n";
+    }
     if (options.fit_r && !options.append_to.empty()) {
       throw Error("--fit-r fits the bank's R, which --append-to cannot change: use --output-bank");
     }

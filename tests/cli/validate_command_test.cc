@@ -261,4 +261,32 @@ TEST(Cli, ValidateWarnsOfColumnsOnlyAColumnOfThatExactTextCouldGive) {
 }
 
 }  // namespace
+// A class whose every mode has a fit_when leaves the steps none of them
+// holds for unfitted, without a word:
+// validate and fit say so.
+TEST(Cli, AClassWhoseEveryModeHasAFitWhenIsSaidToLeaveStepsUnfitted) {
+  const fs::path dir = test_directory();
+  std::string bank = read_file(kSource + "/configs/borealtc/wheels_start.yaml");
+  const std::string straight = "  - name: ASPHALT_straight\n";
+  ASSERT_NE(bank.find(straight), std::string::npos);
+  bank.replace(bank.find(straight), straight.size(), straight + "    fit_when: \"turn < 0.02\"\n");
+  const fs::path file = write_file(dir / "both.yaml", bank);
+  const std::string warning = file.string() +
+                              ": class 'ASPHALT': every mode of it has a fit_when, so a step of the class none of "
+                              "them holds for is fitted by no mode; leave one mode without fit_when to take the rest";
+  const Result validated = run_skidimm("validate " + file.string() + " --plugin-path " + kPlugins);
+  EXPECT_EQ(validated.exit_code, 0) << validated.err;
+  EXPECT_THAT(validated.err, HasSubstr("skidimm validate: warning: " + warning));
+  const Result bundled =
+      run_skidimm("validate " + kSource + "/configs/borealtc/wheels_start.yaml --plugin-path " + kPlugins);
+  EXPECT_THAT(bundled.err, Not(HasSubstr("fitted by no mode")));
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  const Result fitted =
+      run_skidimm("fit --bank " + file.string() + " --objective window --hold-unexcited --log 'ASPHALT=" + boreal +
+                  "/ASPHALT/pro_00.csv'");
+  EXPECT_EQ(fitted.exit_code, 0) << fitted.err;
+  EXPECT_THAT(fitted.err, HasSubstr("skidimm fit: warning: " + warning));
+}
+
 }  // namespace skidimm_test

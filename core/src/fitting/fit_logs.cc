@@ -127,6 +127,21 @@ std::vector<ModeLogs> mode_segments(const BankConfig& config, const LogSpec& log
   return out;
 }
 
+std::vector<std::string> classes_leaving_steps_unfitted(const BankConfig& config) {
+  std::vector<std::string> messages;
+  for (const ClassConfig& c : config.classes) {
+    if (c.modes.size() < 2) continue;
+    const bool every_mode_has_one = std::all_of(c.modes.begin(), c.modes.end(), [&config](int j) {
+      return !config.modes[static_cast<std::size_t>(j)].fit_when.empty();
+    });
+    if (!every_mode_has_one) continue;
+    messages.push_back("class '" + c.name +
+                       "': every mode of it has a fit_when, so a step of the class none of them holds for is fitted "
+                       "by no mode; leave one mode without fit_when to take the rest");
+  }
+  return messages;
+}
+
 std::vector<std::string> labels_overriding_truth(const BankConfig& config, const std::vector<ModeLogs>& data) {
   std::vector<std::string> messages;
   const std::vector<int> class_of = config.class_of_modes();

@@ -50,6 +50,11 @@ std::map<std::string, InputRange> fitted_input_ranges(const BankConfig& config, 
 // files as it is (print it with printable()).
 std::vector<std::string> labels_overriding_truth(const BankConfig& config, const std::vector<ModeLogs>& data);
 
+// One message per class whose every mode has a fit_when: a step of the
+// class that none of them holds for is fitted by no mode (split among a
+// class's modes, the steps no fit_when takes go to its mode without one).
+std::vector<std::string> classes_leaving_steps_unfitted(const BankConfig& config);
+
 }  // namespace fitting
 }  // namespace skidimm
 
