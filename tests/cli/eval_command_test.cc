@@ -386,13 +386,8 @@ TEST(EvalCommand, ALabelOfEstimatesIsTheirTruth) {
   // The switching log without its truth column, as a robot's own log.
   auto rows = skidimm_test::read_csv(kSwitching);
   const std::size_t mode = static_cast<std::size_t>(skidimm_test::column(rows[0], "mode"));
-  std::string text;
-  for (auto& row : rows) {
-    row.erase(row.begin() + static_cast<std::ptrdiff_t>(mode));
-    for (std::size_t c = 0; c < row.size(); ++c) text += (c ? "," : "") + row[c];
-    text += "\n";
-  }
-  const fs::path no_truth = write_file(dir / "no_truth.csv", text);
+  for (auto& row : rows) row.erase(row.begin() + static_cast<std::ptrdiff_t>(mode));
+  const fs::path no_truth = write_file(dir / "no_truth.csv", csv_text(rows));
   const fs::path truthful = dir / "truth.csv", labelled = dir / "grass.csv", unlabelled = dir / "none.csv";
   for (const auto& [input, output] : {std::pair<std::string, fs::path>{kSwitching, truthful},
                                       {"grass=" + kSwitching, labelled},
@@ -442,13 +437,8 @@ TEST(EvalCommand, AMeasurementTheLogNeverGivesIsSaid) {
   const fs::path dir = test_directory();
   auto rows = skidimm_test::read_csv(kSwitching);
   const std::size_t omega = static_cast<std::size_t>(skidimm_test::column(rows[0], "omega"));
-  std::string text;
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    if (i > 0) rows[i][omega].clear();
-    for (std::size_t c = 0; c < rows[i].size(); ++c) text += (c ? "," : "") + rows[i][c];
-    text += "\n";
-  }
-  const fs::path log = write_file(dir / "no_omega.csv", text);
+  for (std::size_t i = 1; i < rows.size(); ++i) rows[i][omega].clear();
+  const fs::path log = write_file(dir / "no_omega.csv", csv_text(rows));
   const std::string warning = log.string() + ": measurement 'omega' (\"omega\") had no value at any step";
   const Result evaluated = run_skidimm(eval("--input " + log.string()));
   EXPECT_EQ(evaluated.exit_code, 0) << evaluated.err;
@@ -466,15 +456,10 @@ TEST(EvalCommand, AMeasurementTheLogNeverGivesIsSaid) {
 TEST(EvalCommand, ATruthInAnotherCaseIsPointedOut) {
   auto rows = skidimm_test::read_csv(kSwitching);
   const std::size_t mode = static_cast<std::size_t>(skidimm_test::column(rows[0], "mode"));
-  std::string text;
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    if (i > 0) {
-      for (char& c : rows[i][mode]) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    }
-    for (std::size_t c = 0; c < rows[i].size(); ++c) text += (c ? "," : "") + rows[i][c];
-    text += "\n";
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    for (char& c : rows[i][mode]) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   }
-  const Result r = run_skidimm(eval("--input " + write_file(test_directory() / "upper.csv", text).string()));
+  const Result r = run_skidimm(eval("--input " + write_file(test_directory() / "upper.csv", csv_text(rows)).string()));
   EXPECT_THAT(r.out, HasSubstr("truth mode 'GRASS' is not in the bank (10.0 s, always wrong); names are "
                                "case-sensitive: 'grass'?"));
 }

@@ -93,16 +93,11 @@ TEST(CliIo, PlotDrawsALogStampedByAClockFromItsFirstRow) {
   const fs::path dir = test_directory();
   auto rows = read_csv(kSwitching);
   const int t = column(rows[0], "t");
-  std::string text;
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    for (std::size_t c = 0; c < rows[i].size(); ++c) {
-      std::string cell = rows[i][c];
-      if (i > 0 && static_cast<int>(c) == t) cell = std::to_string(1718000000.0 + std::stod(cell));
-      text += (c ? "," : "") + cell;
-    }
-    text += "\n";
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    std::string& cell = rows[i][static_cast<std::size_t>(t)];
+    cell = std::to_string(1718000000.0 + std::stod(cell));
   }
-  const fs::path log = write_file(dir / "epoch.csv", text);
+  const fs::path log = write_file(dir / "epoch.csv", csv_text(rows));
   const std::string bank = kSource + "/configs/ltc_terrains.yaml";
   ASSERT_EQ(
       run_skidimm("run -q --bank " + bank + " --input " + log.string() + " --output " + (dir / "out.csv").string())

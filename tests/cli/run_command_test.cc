@@ -143,14 +143,9 @@ TEST(Cli, RunSaysWhenTheLogHasNoTruthColumnOfTheBanksName) {
   auto rows = read_csv(kSource + "/configs/examples/ltc_switching.csv");
   const int mode = column(rows[0], "mode");
   for (std::size_t i = 1; i < rows.size(); ++i) rows[i][static_cast<std::size_t>(mode)].clear();
-  std::string blank;
-  for (const auto& row : rows) {
-    for (std::size_t c = 0; c < row.size(); ++c) blank += (c ? "," : "") + row[c];
-    blank += "\n";
-  }
   const Result unlabelled =
       run_skidimm("run --bank " + kSource + "/configs/ltc_terrains.yaml --input " +
-                  write_file(dir / "blank.csv", blank).string() + " --output " + (dir / "c.csv").string());
+                  write_file(dir / "blank.csv", csv_text(rows)).string() + " --output " + (dir / "c.csv").string());
   EXPECT_EQ(unlabelled.exit_code, 0) << unlabelled.err;
   EXPECT_THAT(unlabelled.err,
               HasSubstr("\nno accuracy: the log's column 'mode' (the bank's columns.truth_mode) is blank at every "
