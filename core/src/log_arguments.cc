@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <map>
 #include <set>
 #include <system_error>
 
@@ -150,6 +151,31 @@ std::string log_group_name(const std::string& argument) {
     return p.parent_path().filename().string() + "/*";
   }
   return p.stem().string();
+}
+
+std::vector<std::string> distinct_group_names(const std::vector<LogSpec>& given, std::vector<std::string> names) {
+  std::map<std::string, std::vector<std::size_t>> unlabelled;
+  for (std::size_t g = 0; g < given.size(); ++g) {
+    if (given[g].label.empty()) unlabelled[names[g]].push_back(g);
+  }
+  for (const auto& [name, sharing] : unlabelled) {
+    if (sharing.size() < 2) continue;
+    std::vector<const LogSpec*> specs;
+    for (std::size_t g : sharing) specs.push_back(&given[g]);
+    const std::vector<std::string> apart = distinct_names(specs);
+    for (std::size_t k = 0; k < sharing.size(); ++k) names[sharing[k]] = apart[k];
+  }
+  return names;
+}
+
+std::vector<std::string> log_group_names(const std::vector<std::string>& arguments) {
+  std::vector<LogSpec> given;
+  std::vector<std::string> names;
+  for (const std::string& argument : arguments) {
+    given.push_back(parse_log_spec(argument));
+    names.push_back(log_group_name(argument));
+  }
+  return distinct_group_names(given, std::move(names));
 }
 
 LogSpec join_log_arguments(const std::vector<std::string>& arguments) {

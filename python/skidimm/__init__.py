@@ -39,6 +39,7 @@ from ._skidimm import (  # noqa: F401  (re-exported)
     evaluate_expression,
     expand_log_argument,
     group_name,
+    group_names,
     module_plugin_directory,
     parse_log_spec,
     plugin_search_path,
@@ -52,7 +53,7 @@ __all__ = [
     "Bank", "Imm", "MotionModel", "register_model", "registered_models", "run", "run_log", "simulate",
     "simulate_models", "fit", "eval", "evaluate_log", "eval_report", "to_frame", "Error", "ConfigError", "LogError",
     "PluginError", "FitError", "Estimate", "LogResult", "plugins", "plugin_search_path", "module_plugin_directory",
-    "read_csv", "expand_log_argument", "parse_log_spec", "group_name", "evaluate_expression",
+    "read_csv", "expand_log_argument", "parse_log_spec", "group_name", "group_names", "evaluate_expression",
 ]
 
 _AGGREGATES = ("mean(", "std(", "rms(")
@@ -287,13 +288,13 @@ def eval(bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", skip
         inputs = [inputs]
     loaded = _bank(bank, plugin_paths, models)
     _warn_of_rate(loaded, rate)
-    groups = []
-    for argument in inputs:
-        argument = _os.fspath(argument)
+    inputs = [_os.fspath(argument) for argument in inputs]
+    groups = {}  # by name, in the order of first appearance: arguments of one name are one group, as in the CLI
+    for argument, name in zip(inputs, _native.group_names(inputs)):
         specs = expand_log_argument(argument, skip_unpaired)
-        groups.append((group_name(argument),
-                       [_native.evaluate_log(loaded, spec, _rate(rate), smooth, lag) for spec in specs]))
-    return eval_report(loaded, groups, output)
+        groups.setdefault(name, []).extend(
+            _native.evaluate_log(loaded, spec, _rate(rate), smooth, lag) for spec in specs)
+    return eval_report(loaded, list(groups.items()), output)
 
 
 def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", window=0.0, loss="huber",

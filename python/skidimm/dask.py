@@ -66,19 +66,19 @@ def evaluate_logs(client, bank, inputs, *, rate=None, smooth=False, lag=None, sk
     if rate:
         skidimm._warn_of_rate(skidimm._bank(bank, plugin_paths, models), rate)
     groups, specs = [], []
-    for argument in inputs:
-        argument = os.fspath(argument)
+    inputs = [os.fspath(argument) for argument in inputs]
+    for argument, name in zip(inputs, skidimm._native.group_names(inputs)):
         expanded = skidimm.expand_log_argument(argument, skip_unpaired)  # lists directories here, on the client
-        groups.append((skidimm.group_name(argument), len(expanded)))
+        groups.append((name, len(expanded)))
         specs.extend(expanded)
     futures = client.map(_evaluate, specs, bank_file=bank_file, plugin_paths=plugin_paths, models=models, rate=rate,
                          smooth=smooth, lag=lag, pure=False)
     results = client.gather(futures)  # in submission order, whatever finished first
-    out, at = [], 0
+    out, at = {}, 0  # arguments of one name are one group, as in the CLI
     for name, count in groups:
-        out.append((name, results[at:at + count]))
+        out.setdefault(name, []).extend(results[at:at + count])
         at += count
-    return out
+    return list(out.items())
 
 
 def eval(client, bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", skip_unpaired=False,  # noqa: A001

@@ -47,6 +47,9 @@ void bind_logs(py::module_& m) {
       "The logs one argument stands for, as the CLI expands it (directories, '*' patterns paired by run key; "
       "skip_unpaired: leave out, with a warning, runs some of the pattern's files lack, instead of an error).");
   m.def("group_name", &log_group_name, "A log argument's group name in `skidimm eval`.");
+  m.def("group_names", &log_group_names, py::arg("arguments"),
+        "Several log arguments' group names in `skidimm eval`: arguments that would be named alike told apart by "
+        "their folders; arguments still of one name are one group.");
   m.def(
       "run_log",
       [](const PyBank& bank, const std::vector<std::string>& inputs, double rate, bool smooth,

@@ -186,3 +186,18 @@ def test_fit_refuses_fit_r_under_the_window_objective(configs, singular_logs):
     logs = [f"asphalt={p}" for p in singular_logs["asphalt"]]
     with pytest.raises(skidimm.Error, match="fit_r is an option of the likelihood objective"):
         skidimm.fit(configs / "ltc_terrains.yaml", logs, objective="window", fit_r=True)
+
+
+def test_eval_tells_groups_named_alike_apart_as_the_cli(tmp_path, configs, cli, switching_logs):
+    """Two folders' '*' patterns of one folder name are two groups, named as the CLI names them (a dict kept one)."""
+    bank = configs / "ltc_terrains.yaml"
+    for parent in ("x", "y"):
+        (tmp_path / parent / "runs").mkdir(parents=True)
+        (tmp_path / parent / "runs" / "a.csv").write_text((switching_logs / "run_00.csv").read_text())
+    arguments = [str(tmp_path / "x" / "runs" / "*.csv"), str(tmp_path / "y" / "runs" / "*.csv")]
+    report = skidimm.eval(bank, arguments)
+    assert len(report["groups"]) == 2
+    expected = json.loads(cli("eval", "--bank", bank, "--input", arguments[0], "--input", arguments[1], "--json"))
+    assert list(report["groups"]) == list(expected["groups"])
+    assert skidimm.eval(bank, arguments, output="json") == cli("eval", "--bank", bank, "--input", arguments[0],
+                                                               "--input", arguments[1], "--json")

@@ -464,6 +464,20 @@ TEST(EvalCommand, ATruthInAnotherCaseIsPointedOut) {
                                "case-sensitive: 'grass'?"));
 }
 
+// The consistency table is keyed by true mode, whose names may be longer
+// than the classes' the confusion table is sized by: each name keeps its
+// column (crushed_concrete ran into its number).
+TEST(EvalCommand, TheConsistencyTableFitsItsModesNames) {
+  const fs::path dir = test_directory();
+  const fs::path bank =
+      write_file(dir / "paved.yaml", skidimm_test::read_file(kTerrains) +
+                                         "\nclasses:\n  paved: [asphalt, crushed_concrete]\n  soft: [grass]\n");
+  const Result r = run_skidimm("eval --bank " + bank.string() + " --plugin-path " + kPlugins +
+                               " --input crushed_concrete=" + kSwitching);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, ::testing::ContainsRegex("\n    crushed_concrete  [0-9]+\\.[0-9]{2} \\["));
+}
+
 TEST(Cli, EvalReportsAccuracyLatencyAndConsistencyAsTextAndJson) {
   const std::string args = "eval --bank " + kSource + "/configs/ltc_terrains.yaml --input " + kSource +
                            "/configs/examples/ltc_switching.csv --plugin-path " + kPlugins;

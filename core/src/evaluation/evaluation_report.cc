@@ -264,8 +264,11 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
   print_state_rmse(out, s, states);
   if (!s.nis.empty()) {
     out << "  consistency of the true mode's filter (mean NIS per measured component, 95% bounds):\n";
+    // Keyed by true mode, whose names (ICE_turning) may be longer than the classes' of the table above.
+    std::size_t width = label;
+    for (const auto& [mode, acc] : s.nis) width = std::max(width, mode.size());
     for (const auto& [mode, acc] : in_order(s.nis, modes)) {
-      out << "    " << mode << std::string(label + 2 - std::min(label + 2, mode.size()), ' ')
+      out << "    " << mode << std::string(width + 2 - std::min(width + 2, mode.size()), ' ')
           << fmt(acc.mean_per_dof(), "%.2f") << " [" << fmt(acc.lower_bound(), "%.2f") << ", "
           << fmt(acc.upper_bound(), "%.2f") << "] " << acc.verdict() << "\n";
     }

@@ -44,17 +44,10 @@ std::vector<LogJob> log_jobs(const std::vector<std::string>& arguments, const Lo
   // would be the same ('ICE/*.csv' and 'SNOW/*.csv' are both '*') are named
   // by the folders that tell them apart; arguments still of one name (one
   // label given twice, one argument twice) are one group.
-  std::map<std::string, std::vector<std::size_t>> unlabelled;
-  for (std::size_t g = 0; g < given.size(); ++g) {
-    if (given[g].label.empty()) unlabelled[(*groups)[g].name].push_back(g);
-  }
-  for (const auto& [name, sharing] : unlabelled) {
-    if (sharing.size() < 2) continue;
-    std::vector<const LogSpec*> specs;
-    for (std::size_t g : sharing) specs.push_back(&given[g]);
-    const std::vector<std::string> names = distinct_names(specs);
-    for (std::size_t k = 0; k < sharing.size(); ++k) (*groups)[sharing[k]].name = names[k];
-  }
+  std::vector<std::string> names;
+  for (const LogGroup& g : *groups) names.push_back(g.name);
+  names = distinct_group_names(given, std::move(names));
+  for (std::size_t g = 0; g < names.size(); ++g) (*groups)[g].name = names[g];
   std::vector<std::size_t> merged(groups->size());
   std::vector<LogGroup> kept;
   for (std::size_t g = 0; g < groups->size(); ++g) {

@@ -39,6 +39,15 @@ std::vector<LogSpec> expand_log_argument(const std::string& argument, const LogA
 // file's stem.
 std::string log_group_name(const std::string& argument);
 
+// The group names of several arguments, as `skidimm eval` tables them:
+// log_group_name() of each (`names`, in the order of `given`, their parsed
+// specs), then unlabelled arguments that would be named alike ('x/ICE/*.csv'
+// and 'y/ICE/*.csv') named by the folders that tell them apart
+// (distinct_names(), log_spec.h). Arguments still of one name (one label
+// given twice) are one group.
+std::vector<std::string> distinct_group_names(const std::vector<LogSpec>& given, std::vector<std::string> names);
+std::vector<std::string> log_group_names(const std::vector<std::string>& arguments);
+
 // The parts of one log given as several arguments (`run --input` repeated)
 // joined into one: their files in order, one label. Throws Error when none
 // is given or two labels differ.
