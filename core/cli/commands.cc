@@ -365,30 +365,48 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
     // --check each log is read through the columns, which decides for certain.)
     const std::vector<std::string> unreadable =
         checks.empty() ? LogReader::unreadable_column_texts(c) : std::vector<std::string>();
-    if (unreadable.empty()) {
-      std::cout << bank_file.string() << ": OK\n";
-    } else {
-      // "OK" alone reads as "will run"; these would fail on most logs.
-      std::cout << bank_file.string() << ": OK as a bank, but " << unreadable.size()
-                << " column text(s) a log can give only as a column of exactly that text (warnings on stderr)\n";
+    // A measurement that aggregates a step's rows needs a fixed step, which
+    // `run --rate` can give: a warning here, an error where it runs without one.
+    const std::vector<std::string> aggregated =
+        c.sampling.rate <= 0.0 ? LogReader::aggregated_measurements(c) : std::vector<std::string>();
+    const std::vector<std::string> unfitted = fitting::classes_leaving_steps_unfitted(c);
+    // "OK" alone reads as "will run": the verdict counts every warning, and
+    // with --check it comes last, after the logs' own.
+    std::vector<std::string> buts;
+    if (!unreadable.empty()) {
+      buts.push_back(std::to_string(unreadable.size()) +
+                     " column text(s) a log can give only as a column of exactly that text");
     }
-    for (const std::string& unfitted : fitting::classes_leaving_steps_unfitted(c)) {
-      std::cerr << "skidimm validate: warning: " << bank_file.string() << ": " << printable(unfitted) << "\n";
+    if (!aggregated.empty()) {
+      buts.push_back(std::to_string(aggregated.size()) + " aggregated measurement(s) that need a fixed step");
+    }
+    if (!unfitted.empty()) {
+      buts.push_back(std::to_string(unfitted.size()) + " class(es) with steps that no mode is fitted on");
+    }
+    const auto verdict = [&] {
+      std::cout << bank_file.string() << ": "
+                << (buts.empty() ? std::string("OK")
+                                 : "OK as a bank, but " + join(buts, "; ") + " (warnings on stderr)")
+                << "\n";
+    };
+    if (checks.empty()) {
+      verdict();
+    } else {
+      std::cout << bank_file.string() << ":\n";
+    }
+    for (const std::string& problem : unfitted) {
+      std::cerr << "skidimm validate: warning: " << bank_file.string() << ": " << printable(problem) << "\n";
     }
     // Warnings, not errors: a log may have a column of exactly such a text.
     for (const std::string& problem : unreadable) {
       std::cerr << "skidimm validate: warning: " << bank_file.string() << ": " << problem
                 << " (a log can give it only as a column of exactly this text; --check LOG reads one)\n";
     }
-    // A measurement that aggregates a step's rows needs a fixed step, which
-    // `run --rate` can give: a warning here, an error where it runs without one.
-    if (c.sampling.rate <= 0.0) {
-      for (const std::string& field : LogReader::aggregated_measurements(c)) {
-        std::cerr << "skidimm validate: warning: " << bank_file.string() << ": " << field
-                  << " aggregates the rows of a filter step, which needs a fixed step: run, eval, fit and tune "
-                     "refuse this bank without --rate (unless a log has a column of exactly this text); set "
-                     "sampling.rate (Hz) in the bank, or give --rate\n";
-      }
+    for (const std::string& field : aggregated) {
+      std::cerr << "skidimm validate: warning: " << bank_file.string() << ": " << field
+                << " aggregates the rows of a filter step, which needs a fixed step: run, eval, fit and tune "
+                   "refuse this bank without --rate (unless a log has a column of exactly this text); set "
+                   "sampling.rate (Hz) in the bank, or give --rate\n";
     }
     std::cout << "  bank:        " << c.name << (c.description.empty() ? "" : " - " + c.description) << "\n";
     std::cout << "  states:      [" << join(c.state_names) << "]";
@@ -414,7 +432,7 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
     if (checks.empty()) return kExitOk;
 
     std::vector<LogOperatingPoint> points;
-    std::size_t logs = 0;
+    std::size_t logs = 0, log_warnings = 0;
     for (const std::string& argument : checks) {
       for (const LogSpec& log : expand_log_argument(argument, unpaired_runs("skidimm validate", false))) {
         std::vector<std::string> unmeasured;
@@ -424,9 +442,11 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
         for (const std::string& line : unmeasured) {
           std::cerr << "skidimm validate: warning: " << printable(log.text) << ": " << printable(line) << "\n";
         }
+        log_warnings += unmeasured.size();
         ++logs;
       }
     }
+    if (log_warnings > 0) buts.push_back(std::to_string(log_warnings) + " warning(s) about the log(s) of --check");
     std::cout << "  model checks (the conformance kit's) at " << points.size() << " operating points of " << logs
               << " log(s):\n";
     bool all_ok = true;
@@ -455,8 +475,10 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
                    "plugin's to fix; one that cannot be checked comes of a value too large to difference, often a "
                    "parameter of "
                 << bank_file.string() << " out of scale)\n";
+      return kExitFailure;
     }
-    return all_ok ? kExitOk : kExitFailure;
+    verdict();
+    return kExitOk;
   });
 }
 

@@ -171,6 +171,9 @@ TEST(Cli, ValidateWarnsOfAnAggregatedMeasurementWithoutAFixedStep) {
   EXPECT_THAT(plain.err, HasSubstr("skidimm validate: warning: " + bank.string() +
                                    ": columns.measurements.V aggregates the rows of a filter step, which needs a "
                                    "fixed step"));
+  EXPECT_THAT(plain.out,
+              HasSubstr(bank.string() + ": OK as a bank, but 1 aggregated measurement(s) that need a fixed step "
+                                        "(warnings on stderr)\n"));
   const std::string log = kSource + "/configs/examples/ltc_switching.csv";
   const Result run = run_skidimm("run -q --bank " + bank.string() + " --plugin-path " + kPlugins + " --input " + log +
                                  " --output " + (dir / "out.csv").string());
@@ -180,6 +183,33 @@ TEST(Cli, ValidateWarnsOfAnAggregatedMeasurementWithoutAFixedStep) {
   EXPECT_EQ(stepped.exit_code, 0) << stepped.err;
   EXPECT_THAT(stepped.err, Not(HasSubstr("aggregates")));
   EXPECT_EQ(run_skidimm(validate + " --check " + log).exit_code, 1) << "the log read without a fixed step";
+}
+
+// With --check the logs are read after the bank's summary: the verdict
+// comes last, after what the logs gave reason to warn of, and counts it.
+TEST(Cli, ValidateCheckGivesItsVerdictAfterTheLogsWarnings) {
+  const fs::path dir = test_directory();
+  auto rows = read_csv(kSwitching);
+  const std::size_t omega = static_cast<std::size_t>(column(rows[0], "omega"));
+  for (std::size_t i = 1; i < rows.size(); ++i) rows[i][omega].clear();
+  const fs::path log = write_file(dir / "no_omega.csv", csv_text(rows));
+  const std::string validate = "validate " + kTerrains + " --plugin-path " + kPlugins + " --check ";
+  const Result warned = run_skidimm(validate + log.string());
+  EXPECT_EQ(warned.exit_code, 0) << warned.err;
+  EXPECT_THAT(warned.err, HasSubstr("skidimm validate: warning: " + log.string() +
+                                    ": measurement 'omega' (\"omega\") had no value at any step\n"));
+  EXPECT_THAT(warned.out, ::testing::StartsWith(kTerrains + ":\n  bank:"));
+  EXPECT_THAT(warned.out, ::testing::EndsWith("    crushed_concrete: ok\n" + kTerrains +
+                                              ": OK as a bank, but 1 warning(s) about the log(s) of --check "
+                                              "(warnings on stderr)\n"));
+  const Result clean = run_skidimm(validate + kSwitching);
+  EXPECT_EQ(clean.exit_code, 0) << clean.err;
+  EXPECT_EQ(clean.err, "");
+  EXPECT_THAT(clean.out, ::testing::EndsWith("    crushed_concrete: ok\n" + kTerrains + ": OK\n"));
+  // A log the bank cannot read is an error, with no verdict said before it.
+  const Result unreadable = run_skidimm(validate + (dir / "missing.csv").string());
+  EXPECT_EQ(unreadable.exit_code, 1);
+  EXPECT_THAT(unreadable.out, Not(HasSubstr("OK")));
 }
 
 // An empty parameter covariance would read as none at all.
@@ -277,6 +307,9 @@ TEST(Cli, AClassWhoseEveryModeHasAFitWhenIsSaidToLeaveStepsUnfitted) {
   const Result validated = run_skidimm("validate " + file.string() + " --plugin-path " + kPlugins);
   EXPECT_EQ(validated.exit_code, 0) << validated.err;
   EXPECT_THAT(validated.err, HasSubstr("skidimm validate: warning: " + warning));
+  EXPECT_THAT(validated.out,
+              HasSubstr(file.string() + ": OK as a bank, but 1 class(es) with steps that no mode is fitted on "
+                                        "(warnings on stderr)\n"));
   const Result bundled =
       run_skidimm("validate " + kSource + "/configs/borealtc/wheels_start.yaml --plugin-path " + kPlugins);
   EXPECT_THAT(bundled.err, Not(HasSubstr("fitted by no mode")));
