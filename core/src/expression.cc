@@ -6,8 +6,10 @@
 #include <charconv>
 #include <cmath>
 #include <limits>
+#include <string>
 #include <system_error>
 #include <utility>
+#include <vector>
 
 #include "skidimm/printable.h"
 #include "topic_path_names.h"
@@ -82,6 +84,40 @@ std::size_t matching_parenthesis(const std::string& text, std::size_t open, cons
   fail(text, open, "unbalanced parentheses: the '(' of " + function + "( is not closed");
 }
 
+// muparser's message about `shown`, its position (0-based, in the text
+// muparser was given, which differs from the user's where calls or topic
+// paths were replaced) restated as the language's own errors state theirs:
+// the user's character, counted from 1.
+std::string muparser_error(const std::string& shown, const std::vector<std::size_t>& origin, std::string message,
+                           int position) {
+  if (!message.empty() && message.back() == '.') message.pop_back();
+  std::size_t at = 0;
+  std::string where;
+  if (position >= 0) {
+    const std::string number = std::to_string(position);
+    for (const std::string& phrase :
+         {" at expression position " + number, " at position " + number, " (position: " + number + ")"}) {
+      const std::size_t found = message.find(phrase);
+      if (found == std::string::npos) continue;
+      message.erase(found, phrase.size());
+      break;
+    }
+    // Past the last character muparser has only its own end, and the
+    // message says what is missing there.
+    const auto p = static_cast<std::size_t>(position);
+    if (p < origin.size()) {
+      at = origin[p];
+      where = " at character " + std::to_string(at + 1);
+    } else {
+      at = shown.size();
+      if (message.find("end of expression") == std::string::npos) where = " at the end";
+    }
+  }
+  // muparser's message quotes a token, which may be long.
+  if (message.size() > 120) message = message.substr(0, 120) + "...";
+  return "cannot parse \"" + Expression::excerpt(shown, at) + "\": " + printable(message) + where;
+}
+
 }  // namespace
 
 // The token-by-token check of the language (see the header). It also
@@ -89,6 +125,10 @@ std::size_t matching_parenthesis(const std::string& text, std::size_t open, cons
 // the calls of `callers`, leaving a variable for each in `parsed`.
 struct Expression::Checked {
   std::string parsed;  // what muparser is given
+  // Per character of `parsed`, where in the text it comes from: the
+  // character itself, or the start of what it stands for (a topic path, a
+  // call cut out), so that muparser's positions name the user's characters.
+  std::vector<std::size_t> origin;
   std::vector<std::string> names;
   std::vector<Call> calls;
 
@@ -101,7 +141,7 @@ struct Expression::Checked {
     while (i_ < text_.size()) {
       const char c = text_[i_];
       if (c == ' ' || c == '\t') {
-        parsed += ' ';
+        emit(" ", i_);
         ++i_;
         continue;
       }
@@ -141,7 +181,7 @@ struct Expression::Checked {
     if (std::find(paths_.begin(), paths_.end(), path) == paths_.end()) paths_.push_back(path);
     if (std::find(names.begin(), names.end(), path) == names.end()) names.push_back(path);
     const auto k = static_cast<std::size_t>(std::find(paths_.begin(), paths_.end(), path) - paths_.begin());
-    parsed += topic_path_names::parser_name(k);
+    emit(topic_path_names::parser_name(k), i_);
     i_ = end;
   }
 
@@ -168,8 +208,7 @@ struct Expression::Checked {
                  "(...) (a column of that name can only be used whole, as the column itself)");
       }
       if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
-      parsed += name;
-      i_ = end;
+      copy(end);
       return;
     }
     if (caller) {
@@ -192,8 +231,7 @@ struct Expression::Checked {
                (aggregates.empty() ? std::string() : "; over a step's rows, " + aggregates) + ")");
     }
     open(function->many ? Frame::kManyArguments : Frame::kOneArgument, next);
-    parsed += text_.substr(i_, next + 1 - i_);
-    i_ = next + 1;
+    copy(next + 1);
   }
 
   // The call of a caller whose '(' is at `open`: its argument is the
@@ -211,7 +249,7 @@ struct Expression::Checked {
       }
     }
     calls.push_back(Call{function, argument});
-    parsed += call_variable(calls.size() - 1);
+    emit(call_variable(calls.size() - 1), i_);
     i_ = close + 1;
   }
 
@@ -225,8 +263,7 @@ struct Expression::Checked {
     if (read.ec != std::errc() || !std::isfinite(value)) {
       fail(text_, i_, "the number " + excerpt(text_.substr(i_, end - i_)) + " is out of range");
     }
-    parsed += text_.substr(i_, end - i_);
-    i_ = end;
+    copy(end);
   }
 
   // An operator, a parenthesis or a ','; '=' only inside ==, <=, >=, !=, and
@@ -277,8 +314,7 @@ struct Expression::Checked {
         break;
     }
     if (length == 0) refuse_symbol(c, next);
-    parsed += text_.substr(i_, length);
-    i_ += length;
+    copy(i_ + length);
   }
 
   [[noreturn]] void refuse_symbol(char c, char next) const {
@@ -291,6 +327,18 @@ struct Expression::Checked {
     if (byte < 0x20 || byte == 0x7f) fail(text_, i_, "a control character (byte " + std::to_string(byte) + ")");
     if (byte >= 0x80) fail(text_, i_, "a character outside ASCII (a column whose name has one can only be used whole)");
     fail(text_, i_, "'" + std::string(1, c) + "' is not part of the language");
+  }
+
+  // Appends `replacement` for the text starting at `from`.
+  void emit(const std::string& replacement, std::size_t from) {
+    parsed += replacement;
+    origin.insert(origin.end(), replacement.size(), from);
+  }
+
+  // Appends the text from i_ to `end` as it is, and moves on to `end`.
+  void copy(std::size_t end) {
+    parsed += text_.substr(i_, end - i_);
+    for (; i_ < end; ++i_) origin.push_back(i_);
   }
 
   void open(Frame frame, std::size_t at) {
@@ -310,10 +358,11 @@ struct Expression::Checked {
 Expression::Expression(const std::string& text)
     : Expression([&] {
         Checked checked(text, {});
-        return Expression(text, checked.parsed, std::move(checked.names));
+        return Expression(text, checked.parsed, checked.origin, std::move(checked.names));
       }()) {}
 
-Expression::Expression(const std::string& shown, const std::string& parsed, std::vector<std::string> variables)
+Expression::Expression(const std::string& shown, const std::string& parsed, const std::vector<std::size_t>& origin,
+                       std::vector<std::string> variables)
     : text_(shown), variables_(std::move(variables)), parser_(std::make_unique<mu::Parser>()) {
   try {
     // Only what the language has: muparser's constants (_pi, _e) go, and
@@ -330,14 +379,7 @@ Expression::Expression(const std::string& shown, const std::string& parsed, std:
     parser_->SetExpr(parsed);
     parser_->Eval();  // compiles to bytecode now, so evaluate() never meets a parse error
   } catch (const mu::Parser::exception_type& e) {
-    std::string message = e.GetMsg();
-    if (!message.empty() && message.back() == '.') message.pop_back();
-    // muparser's message quotes a token, which may be long; and its
-    // position is in the text it was given, which differs from the user's
-    // where calls were cut out.
-    if (message.size() > 120) message = message.substr(0, 120) + "...";
-    const std::size_t at = parsed == shown && e.GetPos() >= 0 ? static_cast<std::size_t>(e.GetPos()) : 0;
-    throw ExpressionError("cannot parse \"" + excerpt(shown, at) + "\": " + printable(message));
+    throw ExpressionError(muparser_error(shown, origin, e.GetMsg(), e.GetPos()));
   }
 }
 
@@ -385,7 +427,7 @@ Expression::WithCalls Expression::cut_calls(const std::string& text, const std::
   std::vector<std::string> variables;
   for (std::size_t i = 0; i < out.calls.size(); ++i) variables.push_back(call_variable(i));
   variables.insert(variables.end(), checked.names.begin(), checked.names.end());
-  out.outer.reset(new Expression(text, checked.parsed, std::move(variables)));
+  out.outer.reset(new Expression(text, checked.parsed, checked.origin, std::move(variables)));
   return out;
 }
 

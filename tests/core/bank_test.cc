@@ -218,6 +218,14 @@ TEST(BankConfig, ClassesAndFitWhenAreChecked) {
                       {"modes[1].fit_when", "'v' is not an input (inputs: phi_dot_L, phi_dot_R)"});
   expect_config_error(replace(kValidBank, "    Q: [[0.02, 0], [0, 0.02]]", "    Q: [[0.02, 0], [0, 0.02]]\n    fit_when: phi_dot_L >"),
                       {"modes[1].fit_when", "cannot parse"});
+  // Positions as in a column text's errors: the character, counted from 1.
+  expect_config_error(
+      replace(kValidBank, "    Q: [[0.02, 0], [0, 0.02]]",
+              "    Q: [[0.02, 0], [0, 0.02]]\n    fit_when: phi_dot_L > > 0"),
+      {"modes[1].fit_when: cannot parse \"phi_dot_L > > 0\": Unexpected operator \">\" found at character 13"});
+  expect_config_error(replace(kValidBank, "    Q: [[0.02, 0], [0, 0.02]]",
+                              "    Q: [[0.02, 0], [0, 0.02]]\n    fit_when: phi_dot_L > 0)"),
+                      {"modes[1].fit_when: cannot parse \"phi_dot_L > 0)\": a ')' without its '(' at character 14"});
   expect_config_error(replace(kValidBank, "    Q: [[0.02, 0], [0, 0.02]]", "    Q: [[0.02, 0], [0, 0.02]]\n    fit_when: phi_dot_L > 0"),
                       {"modes[1].fit_when", "mode 'ice' is in none"});
   expect_config_error(kValidBank + "classes:\n  slippery: [grip, snow]\n", {"classes.slippery", "'snow' is not a mode"});

@@ -12,6 +12,7 @@ namespace {
 
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 // The error's message, or "" (and a test failure) when `text` parses.
 std::string error_of(const std::string& text) {
@@ -94,6 +95,28 @@ TEST(Expression, OtherCharactersAndMalformedNumbersAreRefused) {
   EXPECT_THAT(error_of("a +* b"), HasSubstr("Unexpected operator"));
   EXPECT_THAT(error_of("abs((V)"), HasSubstr("unbalanced parentheses: this '(' is not closed at character 4"));
   EXPECT_THAT(error_of("a)"), HasSubstr("a ')' without its '('"));
+}
+
+// Every error names the character of the user's text it is at, counted
+// from 1: muparser's own (its position counts from 0, in a text where a
+// call or a topic path stands replaced) are restated so.
+TEST(Expression, EveryErrorCountsTheUsersCharactersFromOne) {
+  EXPECT_THAT(error_of("a # b"), HasSubstr("'#' is not part of the language at character 3"));
+  const std::string muparser = error_of("a +* b");
+  EXPECT_THAT(muparser, HasSubstr("cannot parse \"a +* b\": Unexpected operator \"*\" found at character 4"));
+  EXPECT_THAT(muparser, Not(HasSubstr("position")));
+  EXPECT_THAT(error_of("a b"), HasSubstr("Unexpected variable \"b\" found at character 3"));
+  EXPECT_THAT(error_of("min(a,,b)"), HasSubstr("Unexpected argument separator at character 7"));
+  // Past the last character: the message says what is missing there.
+  EXPECT_THAT(error_of("a >"), ::testing::EndsWith("cannot parse \"a >\": Unexpected end of expression"));
+  // Where muparser's text differs from the user's.
+  try {
+    Expression::cut_calls("mean(wz) > > 1", {"mean"});
+    ADD_FAILURE() << "parsed";
+  } catch (const ExpressionError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("Unexpected operator \">\" found at character 12"));
+  }
+  EXPECT_THAT(error_of("/imu/data.angular_velocity.z * * 2"), HasSubstr("\"*\" found at character 32"));
 }
 
 TEST(Expression, LengthAndNestingAreBoundedAndMessagesQuoteAShortExcerpt) {

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <iterator>
 
 #include "core/temp_files.h"
@@ -20,6 +21,7 @@ namespace {
 using skidimm_test::test_directory;
 using skidimm_test::write_file;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 const std::string kHuskyDir = std::string(SKIDIMM_SHARED_DATA_DIR) + "/husky_ice";
 const std::string kBorealDir = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
@@ -482,6 +484,97 @@ TEST(LogReader, AMeasurementNeverPresentIsSaid) {
   EXPECT_THAT(reader.describe_stats(simple_bank()), HasSubstr("measurement 'V' (\"v\") had no value at any step"));
 }
 
+// Wheels at 20 Hz for 20 s and a gyro at 100 Hz, each written by `keep`
+// (which rows of each file to write), on a 2 Hz grid of two_rate_bank()'s
+// measurements averaged.
+TwoRateLog twenty_seconds(const std::function<bool(double)>& keep_wheel, const std::function<bool(double)>& keep_gyro) {
+  const auto dir = test_directory();
+  std::string wheels = "time,velL,velR,cur\n", gyro = "time,wz\n";
+  for (int k = 0; k <= 400; ++k) {
+    const double t = 0.05 * k;
+    if (keep_wheel(t)) wheels += std::to_string(t) + ",0.5,0.6,10\n";
+  }
+  for (int k = 0; k <= 2000; ++k) {
+    const double t = 0.01 * k;
+    if (keep_gyro(t)) gyro += std::to_string(t) + ",0.1\n";
+  }
+  return {write_file(dir / "wheels.csv", wheels), write_file(dir / "gyro.csv", gyro)};
+}
+
+BankConfig averaged_two_rate_bank() {
+  BankConfig bank = two_rate_bank();
+  bank.columns.measurements = {"mean(wz)", "mean(cur)"};
+  bank.sampling.rate = 2.0;
+  return bank;
+}
+
+// A sensor that stops, or pauses, while the others go on leaves its
+// measurement without values for a stretch far longer than it usually does:
+// said, with the longest stretch, by the summary and by unmeasured() (which
+// eval and validate --check print). The wheels' current, every step, is not.
+TEST(LogReader, AMeasurementThatStopsWhileTheOthersGoOnIsSaid) {
+  const TwoRateLog log = twenty_seconds([](double) { return true; },
+                                        [](double t) { return !(t > 5.001 && t < 9.999) && t < 15.001; });
+  const BankConfig bank = averaged_two_rate_bank();
+  LogReader reader(bank, {log.wheels, log.gyro}, bank.sampling);
+  ASSERT_EQ(read_all(reader).size(), 41u);  // 0, 0.5, ..., 20 s
+  // Steps 5.5 .. 9.5 (9) and 15.5 .. 20 (10) have no gyro row.
+  EXPECT_EQ(reader.stats().measured, (std::vector<long>{41 - 19, 41}));
+  const std::string line =
+      "measurement 'omega' (\"mean(wz)\") had no value from t = 15.5 to 20 s (10 steps in a row, to the log's last "
+      "step; 19 of 41 steps without one in all)";
+  EXPECT_THAT(reader.describe_stats(bank), HasSubstr(line + ": its filters were not corrected by it there"));
+  EXPECT_EQ(reader.unmeasured(bank), std::vector<std::string>{line});
+  EXPECT_THAT(reader.describe_stats(bank), Not(HasSubstr("'current'")));
+
+  // Four steps without (under five) are not named; nor is a slow sensor's
+  // own spacing: the gyro once a second, every second step.
+  for (const auto& keep_gyro : std::vector<std::function<bool(double)>>{
+           [](double t) { return !(t > 5.001 && t < 6.999); },
+           [](double t) { return std::abs(t - std::round(t)) < 1e-6; }}) {
+    const TwoRateLog other = twenty_seconds([](double) { return true; }, keep_gyro);
+    LogReader quiet(bank, {other.wheels, other.gyro}, bank.sampling);
+    read_all(quiet);
+    EXPECT_LT(quiet.stats().measured[0], 41);
+    EXPECT_TRUE(quiet.unmeasured(bank).empty()) << quiet.describe_stats(bank);
+  }
+}
+
+// A file of inputs without rows for longer than sampling.max_gap while the
+// other file goes on (so the log has no gap) held its inputs there: said.
+TEST(LogReader, AFileOfInputsWithoutRowsLongerThanMaxGapIsSaid) {
+  const TwoRateLog log =
+      twenty_seconds([](double t) { return !(t > 3.001 && t < 14.999); }, [](double) { return true; });
+  const BankConfig bank = averaged_two_rate_bank();
+  LogReader reader(bank, {log.wheels, log.gyro}, bank.sampling);
+  ASSERT_EQ(read_all(reader).size(), 41u);
+  EXPECT_THAT(reader.describe_stats(bank),
+              HasSubstr("wheels.csv had no row from t = 3 to 15 s (12 s, longer than sampling.max_gap) while the "
+                        "log's other rows went on: the inputs it gives were held at their last values there"));
+  // A shorter hole is a slower sensor's business.
+  const TwoRateLog shorter =
+      twenty_seconds([](double t) { return !(t > 3.001 && t < 12.999); }, [](double) { return true; });
+  LogReader quiet(bank, {shorter.wheels, shorter.gyro}, bank.sampling);
+  read_all(quiet);
+  EXPECT_THAT(quiet.describe_stats(bank), Not(HasSubstr("had no row")));
+}
+
+// A file that fails partway (a time that goes back) stops before the rows the
+// next step gathers from it were all read: that step is not delivered, the
+// error is, and every step before it was.
+TEST(LogReader, AStepAFailedFileMayLackRowsOfIsNotDelivered) {
+  const TwoRateLog log = twenty_seconds([](double) { return true; }, [](double) { return true; });
+  std::string gyro = "time,wz\n";
+  for (const double t : {1.8, 1.9, 1.99, 2.01, 2.0, 2.02}) gyro += std::to_string(t) + ",0.1\n";
+  const auto swapped = write_file(log.wheels.parent_path() / "swapped.csv", gyro);
+  const BankConfig bank = averaged_two_rate_bank();
+  LogReader reader(bank, {log.wheels, swapped}, bank.sampling);
+  const StepsBeforeError read =
+      read_until_error(reader, {"swapped.csv:6: column 'time': time must increase strictly"});
+  // Steps 0 .. 2 s; the step at 2.5 s would have averaged the row at 2.01 s alone.
+  EXPECT_EQ(read.steps, 5);
+}
+
 TEST(LogReader, TruthAndTrueStatesAreHeldBetweenTheirFilesRows) {
   // The truth comes with the wheel file's rows; the sensor file's rows between them keep it.
   BankConfig bank = simple_bank();
@@ -572,8 +665,19 @@ TEST(LogReader, ColumnProblemsAreNamedBeforeAnyRowIsRead) {
       {"columns present: time, ' velL', ' velR', cur (spaced.csv)"});
   bank = two_rate_bank();
   bank.columns.inputs[1] = "abs(velL +* velR)";
-  expect_error([&] { LogReader(bank, {log.wheels, log.gyro}); },
-               {"bank.yaml: columns.inputs.speed: cannot parse \"abs(velL +* velR)\"", "Unexpected operator"});
+  expect_error(
+      [&] {
+        LogReader(bank, {log.wheels, log.gyro});
+      },
+      {"bank.yaml: columns.inputs.speed: cannot parse \"abs(velL +* velR)\": Unexpected operator \"*\" "
+       "found at character 11"});
+  bank.columns.inputs[1] = "abs(velL + velR))";
+  expect_error(
+      [&] {
+        LogReader(bank, {log.wheels, log.gyro});
+      },
+      {"bank.yaml: columns.inputs.speed: cannot parse \"abs(velL + velR))\": a ')' without its '(' at "
+       "character 17"});
   bank = two_rate_bank();
   bank.columns.measurements[0] = "wz - cur";
   expect_error([&] { LogReader(bank, {log.wheels, log.gyro}); },

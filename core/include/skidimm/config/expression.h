@@ -102,7 +102,9 @@ class Expression {
 
  private:
   struct Checked;
-  Expression(const std::string& shown, const std::string& parsed, std::vector<std::string> variables);
+  // `origin`: per character of `parsed`, the character of `shown` it comes from.
+  Expression(const std::string& shown, const std::string& parsed, const std::vector<std::size_t>& origin,
+             std::vector<std::string> variables);
 
   std::string text_;
   std::vector<std::string> variables_;
