@@ -118,6 +118,11 @@ int fit(const FitCommandOptions& options) {
     }
     Bank bank = Bank::load(options.bank, options.plugin_paths);
     const BankConfig& config = bank.config;
+    if (options.hold_unexcited) {
+      const std::string ignored =
+          fitting::hold_unexcited_ignored(config, fitting::objective_from_string(options.objective));
+      if (!ignored.empty()) throw UsageError("--hold-unexcited would do nothing: " + ignored + "; leave it out");
+    }
     const SamplingConfig sampling = sampling_of(config, options.rate);
     const LogArgumentOptions expansion = unpaired_runs("skidimm fit", options.skip_unpaired);
     // Named for what it is, before any log is read (it was blamed on the first --log).

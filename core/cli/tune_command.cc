@@ -307,6 +307,14 @@ int tune(const TuneCommandOptions& options) {
     }
     const Bank start = Bank::load(options.bank, options.plugin_paths);
     const BankConfig& config = start.config;
+    for (const std::string& name : objectives) {
+      if (!options.hold_unexcited || name == "none") continue;
+      const std::string ignored = fitting::hold_unexcited_ignored(config, fitting::objective_from_string(name));
+      if (!ignored.empty()) {
+        throw UsageError("--hold-unexcited would do nothing in the " + name + " objective's fits: " + ignored +
+                         "; leave it out");
+      }
+    }
     const SamplingConfig sampling = sampling_of(config, options.rate);
     // Where the results go, checked before the work: a mistyped directory
     // found at the end would lose every fit and search.

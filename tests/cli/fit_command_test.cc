@@ -909,6 +909,38 @@ TEST(CliIo, TheLikelihoodFitNamesAnAbsurdRowWhenAStateIsUnmeasured) {
   EXPECT_FALSE(fs::exists(dir / "out.yaml"));
 }
 
+// A bank with a state no measurement observes alone: the likelihood fits
+// without the window fit it starts from elsewhere, which alone holds what
+// the logs do not excite. --hold-unexcited was taken, and the fit failed on
+// the parameters it was given to hold; it is refused, naming the state.
+TEST(CliIo, FitRefusesHoldUnexcitedWhereNoFitHoldsAnything) {
+  const fs::path dir = test_directory();
+  std::string text = read_file(kTerrains);
+  for (const auto& [from, to] :
+       {std::make_pair(std::string("observe: [V, omega]"), std::string("observe: [V]")),
+        std::make_pair(std::string("R: {std: [0.05, 0.02]}"), std::string("R: {std: [0.05]}"))}) {
+    ASSERT_NE(text.find(from), std::string::npos) << from;
+    text.replace(text.find(from), from.size(), to);
+  }
+  const fs::path bank = write_file(dir / "v_only.yaml", text);
+  const std::string fit =
+      kSkidimm + " fit --bank " + bank.string() + " --plugin-path " + kPlugins + " --mode grass --log " + kSwitching;
+  const Result plain = run_pipeline(fit);
+  EXPECT_EQ(plain.exit_code, 1) << plain.err;
+  EXPECT_THAT(plain.err, HasSubstr("the logs do not identify every parameter"));
+  const Result held = run_pipeline(fit + " --hold-unexcited");
+  EXPECT_EQ(held.exit_code, 2) << held.err;
+  EXPECT_THAT(held.err, HasSubstr("skidimm fit: error: --hold-unexcited would do nothing: the bank does not measure "
+                                  "[omega] directly (measurement.observe), so the likelihood objective fits without "
+                                  "the one-step window fit"));
+  EXPECT_THAT(held.err, HasSubstr("; leave it out"));
+  EXPECT_THAT(held.err, Not(HasSubstr("parameters (likelihood objective)"))) << "refused before the work";
+  // Where every state is measured, it holds in the window fit the likelihood starts from.
+  const Result measured = run_pipeline(kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                                       " --mode grass --hold-unexcited --log " + kSwitching);
+  EXPECT_EQ(measured.exit_code, 0) << measured.err;
+}
+
 // A bank the fitted mode cannot join was found only after the fit, which
 // was then lost, and the error named the temporary file the result was
 // checked in. The entry of the starting values is checked before the fit:
@@ -1099,7 +1131,7 @@ TEST(CliIo, FitterErrorsNameTheLogAndTheOptionAndCeresStaysQuiet) {
   }
   const fs::path omega_bank = write_file(dir / "omega_only.yaml", omega_only);
   const Result quiet = run_pipeline(kSkidimm + " fit --bank " + omega_bank.string() + " --plugin-path " + kPlugins +
-                                 " --hold-unexcited --mode asphalt --log " + absurd.string());
+                                    " --mode asphalt --log " + absurd.string());
   EXPECT_EQ(quiet.exit_code, 1);
   EXPECT_THAT(quiet.err, HasSubstr("(logs: " + absurd.string() + "): the logs do not identify every parameter"));
   EXPECT_THAT(quiet.err, ::testing::ContainsRegex("skidimm fit: Ceres reported [0-9]+ warning\\(s\\) or error\\(s\\):\n  "

@@ -147,6 +147,28 @@ TEST(CliIo, TuneFailsOnACorruptCellBeforeItsSearches) {
 }
 
 // Options the command would ignore, or whose outputs would mix, are refused.
+// As fit refuses it (FitRefusesHoldUnexcitedWhereNoFitHoldsAnything): a
+// bank with a state no measurement observes alone gives the likelihood's
+// fits no window fit to hold anything in.
+TEST(CliIo, TuneRefusesHoldUnexcitedWhereNoFitHoldsAnything) {
+  const fs::path dir = test_directory();
+  std::string text = read_file(kTerrains);
+  for (const auto& [from, to] :
+       {std::make_pair(std::string("observe: [V, omega]"), std::string("observe: [V]")),
+        std::make_pair(std::string("R: {std: [0.05, 0.02]}"), std::string("R: {std: [0.05]}"))}) {
+    ASSERT_NE(text.find(from), std::string::npos) << from;
+    text.replace(text.find(from), from.size(), to);
+  }
+  const fs::path bank = write_file(dir / "v_only.yaml", text);
+  const Result tuned = run_pipeline(kSkidimm + " tune --bank " + bank.string() + " --plugin-path " + kPlugins +
+                                    " --objective likelihood,none --hold-unexcited --tune dwell --no-assess --log " +
+                                    kSwitching + " --log " + switching_copy(dir).string());
+  EXPECT_EQ(tuned.exit_code, 2) << tuned.err;
+  EXPECT_THAT(tuned.err, HasSubstr("skidimm tune: error: --hold-unexcited would do nothing in the likelihood "
+                                   "objective's fits: the bank does not measure [omega] directly"));
+  EXPECT_THAT(tuned.err, Not(HasSubstr("work:")));
+}
+
 TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
   const fs::path dir = test_directory();
   const fs::path copy = switching_copy(dir);

@@ -77,16 +77,22 @@ std::map<int, FitReport> fit_window(Bank* bank, const std::vector<ModeLogs>& dat
   return reports;
 }
 
-// Whether each state has a measurement row that observes it alone: what the
-// window objective needs to start its predictions.
-bool every_state_measured(const BankConfig& config) {
+// The states no measurement row observes alone: the window objective needs
+// each to start its predictions.
+std::vector<std::string> states_not_measured_directly(const BankConfig& config) {
   const MeasurementModel measurement(config.measurement.h, config.measurement.r, config.measurement.is_angle);
   std::vector<bool> measured(static_cast<std::size_t>(config.state_dim()), false);
   for (int row = 0; row < measurement.measurement_dim(); ++row) {
     if (const int s = measurement.picked_state(row); s >= 0) measured[static_cast<std::size_t>(s)] = true;
   }
-  return std::find(measured.begin(), measured.end(), false) == measured.end();
+  std::vector<std::string> missing;
+  for (std::size_t s = 0; s < measured.size(); ++s) {
+    if (!measured[s]) missing.push_back(config.state_names[s]);
+  }
+  return missing;
 }
+
+bool every_state_measured(const BankConfig& config) { return states_not_measured_directly(config).empty(); }
 
 std::map<int, FitReport> fit_by_likelihood(Bank* bank, const std::vector<ModeLogs>& data,
                                            const BankFitOptions& options) {
@@ -169,8 +175,25 @@ FitWork fit_work(const Bank& bank, const std::vector<const ModeLogs*>& data, con
   return work;
 }
 
+std::string hold_unexcited_ignored(const BankConfig& config, Objective objective) {
+  if (objective != Objective::kLikelihood) return "";
+  const std::vector<std::string> missing = states_not_measured_directly(config);
+  if (missing.empty()) return "";
+  std::string names;
+  for (const std::string& name : missing) names += (names.empty() ? "" : ", ") + name;
+  return "the bank does not measure [" + names +
+         "] directly (measurement.observe), so the likelihood objective fits without the one-step window fit it "
+         "starts from where every state is measured, the only fit that holds parameters the logs do not excite; "
+         "the likelihood itself refuses parameters the logs do not identify (fix them in the bank, or drive "
+         "maneuvers that move them)";
+}
+
 std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data, const BankFitOptions& options) {
   if (data.empty()) throw FitError("no logs to fit");
+  if (options.window.hold_unexcited) {
+    const std::string ignored = hold_unexcited_ignored(bank->config, options.objective);
+    if (!ignored.empty()) throw FitError("hold_unexcited would do nothing: " + ignored);
+  }
   if (options.output_noise && options.objective != Objective::kWindow) {
     throw FitError("a mode's own output noise is estimated by the window objective (--objective window)");
   }

@@ -79,8 +79,18 @@ struct FitWork {
 FitWork fit_work(const Bank& bank, const std::vector<ModeLogs>& data, const BankFitOptions& options);
 FitWork fit_work(const Bank& bank, const std::vector<const ModeLogs*>& data, const BankFitOptions& options);
 
+// Why hold_unexcited would do nothing in a fit of this bank by `objective`
+// (naming the states not measured directly), or "" when it holds what the
+// logs do not excite. It acts in the window
+// fit, which the likelihood objective starts from only where every state is
+// measured directly (a row of measurement.observe): with a state that is
+// not, the likelihood fits alone, and refuses parameters the logs do not
+// identify. (The window objective refuses such a bank itself.)
+std::string hold_unexcited_ignored(const BankConfig& config, Objective objective);
+
 // Fits the modes in `data` in place. Returns their reports by mode index.
-// Throws FitError.
+// Throws FitError, also when options.window.hold_unexcited would do nothing
+// (hold_unexcited_ignored()).
 std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data, const BankFitOptions& options);
 
 }  // namespace fitting
