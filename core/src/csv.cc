@@ -1,5 +1,7 @@
 #include "skidimm/io/csv.h"
 
+#include <fcntl.h>
+#include <poll.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -96,6 +98,35 @@ CsvReader::CsvReader(const fs::path& path) : path_(path) {
       throw LogError(path.string(), 0, std::string("cannot open for reading: ") + std::strerror(errno));
     }
   }
+  read_header();
+}
+
+CsvReader::CsvReader(const fs::path& path, int open_fifo) : path_(path) {
+  // Until the writer has written or gone: a FIFO opened without waiting reads
+  // as empty before its writer comes, and Linux's poll() waits for that
+  // first writer (it reports a hang-up only once one has come and gone).
+  pollfd wanted{open_fifo, POLLIN, 0};
+  int ready = 0;
+  do {
+    ready = ::poll(&wanted, 1, -1);
+    if (ready < 0 && errno == EINTR && stop_requested()) {
+      ::close(open_fifo);
+      throw LogError(path.string(), 0,
+                     std::string("stopped by ") + signal_name(stop_requested()) + " while waiting for its writer");
+    }
+  } while (ready < 0 && errno == EINTR);
+  const int flags = ::fcntl(open_fifo, F_GETFL);
+  errno = 0;
+  if (ready < 0 || flags < 0 || ::fcntl(open_fifo, F_SETFL, flags & ~O_NONBLOCK) < 0 ||
+      (file_ = ::fdopen(open_fifo, "rb")) == nullptr) {
+    const std::string why = std::strerror(errno);
+    ::close(open_fifo);
+    throw LogError(path.string(), 0, "cannot open for reading: " + why);
+  }
+  read_header();
+}
+
+void CsvReader::read_header() {
   // A constructor that throws runs no destructor: every error from here on
   // closes the file itself. (A header with an unterminated quote, thrown from
   // read_record(), leaked the descriptor; the estimates fuzzer ran out of

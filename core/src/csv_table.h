@@ -27,6 +27,8 @@ std::string bad_number(const CsvReader& reader, int index, std::string_view cell
 class CsvTable : public LogTable {
  public:
   explicit CsvTable(const std::filesystem::path& path) : reader_(path) {}
+  // A FIFO opened without waiting for its writer (CsvReader).
+  CsvTable(const std::filesystem::path& path, int open_fifo) : reader_(path, open_fifo) {}
   const std::filesystem::path& path() const override { return reader_.path(); }
   std::string name() const override { return reader_.path().filename().string(); }
   std::vector<std::string> columns_present() const override { return reader_.header(); }

@@ -161,6 +161,13 @@ void LogReader::Impl::apply_row(int k) {
     // A blank cell is unlabelled, unless the bank says its logs write a label only when it changes.
     if (!label.empty() || !bank_.columns.carry_truth) held_truth_.assign(label);
   }
+  // A stretch of this file without rows while the log went on: its held
+  // values stood in for it there, which the summary says when that was long.
+  if (std::isfinite(s.last_t) && last_row_t_ > s.last_t && s.row_t - s.last_t > s.longest_hole) {
+    s.longest_hole = s.row_t - s.last_t;
+    s.hole_from = s.last_t;
+    s.hole_to = s.row_t;
+  }
   s.last_t = s.row_t;
   if (rows_applied_++ == 0) first_row_t_ = s.row_t;
   last_row_t_ = std::max(last_row_t_, s.row_t);
@@ -268,7 +275,17 @@ void LogReader::Impl::emit(double t, LogSample* sample) {
       }
     }
     sample->z[static_cast<Eigen::Index>(i)] = value;
-    if (!std::isnan(value)) ++stats_.measured[i];
+    if (!std::isnan(value)) {
+      ++stats_.measured[i];
+      unmeasured_run_[i] = 0;
+    } else {
+      if (unmeasured_run_[i]++ == 0) unmeasured_run_from_[i] = t;
+      if (unmeasured_run_[i] > stats_.longest_unmeasured[i]) {
+        stats_.longest_unmeasured[i] = unmeasured_run_[i];
+        stats_.longest_unmeasured_from[i] = unmeasured_run_from_[i];
+        stats_.longest_unmeasured_to[i] = t;
+      }
+    }
     m.pending = kNaN;
     m.superseded_in_step = 0;
   }
@@ -393,6 +410,9 @@ bool LogReader::Impl::next(LogSample* sample) {
       grid_origin_ = t;
       grid_index_ = 0;
       first_step_t_ = t;
+      // A file that failed may have had rows for this step: none is given
+      // that could lack them.
+      throw_pending_error();
       emit(t, sample);
       return true;
     }
@@ -437,6 +457,10 @@ bool LogReader::Impl::next(LogSample* sample) {
     check_every_file_was_used();
     return false;
   }
+  // A file that failed (a time that went back, an unreadable row) stopped
+  // before the rows this step gathers from it were all read: the step would
+  // stand on part of them, so it is not given, and the error is.
+  throw_pending_error();
   emit(step_t, sample);
   return true;
 }
@@ -493,6 +517,8 @@ double LogReader::Impl::next_grid_time() {
 // crossed in one step whose row then stands for the whole gap in every
 // time-weighted score), or, with sampling.skip_gaps, counted.
 void LogReader::Impl::pass_gap(double next_row) {
+  // Longer than a day: more likely stamps in ms, us or ns than a pause.
+  constexpr double kGapOfAnotherUnit = 86400.0;
   const double gap = next_row - last_row_t_;
   if (!sampling_.skip_gaps) {
     const Stream* s = stream_at(next_row);
@@ -505,8 +531,9 @@ void LogReader::Impl::pass_gap(double next_row) {
     throw reader.error_at_row(
         "column '" + bank_.columns.time + "': the log has no row from t = " + CsvWriter::format(last_row_t_) + " to " +
         CsvWriter::format(next_row) + " s, a gap of " + CsvWriter::format(gap) + " s, longer than sampling.max_gap (" +
-        CsvWriter::format(sampling_.max_gap) + " s): " + crossing +
-        ". If a time stamp is wrong, fix it; if the recording paused, set sampling.skip_gaps: true in the bank to " +
+        CsvWriter::format(sampling_.max_gap) + " s): " + crossing + ". " +
+        (gap > kGapOfAnotherUnit ? "Are the time stamps in seconds? " : "") +
+        "If a time stamp is wrong, fix it; if the recording paused, set sampling.skip_gaps: true in the bank to " +
         (sampling_.rate > 0.0 ? "restart the grid after" : "step across") + " such gaps, or raise sampling.max_gap");
   }
   ++stats_.gaps_skipped;
@@ -561,8 +588,10 @@ double LogReader::progress() const {
   return total == 0 ? 1.0 : std::min(1.0, static_cast<double>(done) / static_cast<double>(total));
 }
 
-std::vector<std::string> LogReader::unmeasured(const BankConfig& bank) const {
-  const LogStats& s = impl_->stats_;
+namespace {
+
+// The measurements a log never gave a value, one line each.
+std::vector<std::string> never_measured(const LogStats& s, const BankConfig& bank) {
   std::vector<std::string> out;
   for (std::size_t i = 0; i < s.measured.size(); ++i) {
     if (s.steps == 0 || s.measured[i] > 0) continue;
@@ -572,6 +601,76 @@ std::vector<std::string> LogReader::unmeasured(const BankConfig& bank) const {
                   "\") had no value at any step" +
                   (selects_by_name(text) ? std::string(kMaybeSelectedByNameHint) : std::string()));
   }
+  return out;
+}
+
+// The measurements a log gave values but left without one for a stretch of
+// steps far longer than they usually go without (a sensor that stopped, or
+// paused, while the others went on), with the longest such stretch; those of
+// one stretch (the columns of one sensor's file) on one line. "Far longer":
+// at least 5 steps and 5 times the mean number of steps per value, so a
+// sensor slower than the filter (a GPS fix every fifth step) is not named
+// for its own rate.
+// With `consequence`, each line says what that did to the filters.
+std::vector<std::string> partly_measured(const LogStats& s, const BankConfig& bank, double last_step_t,
+                                         bool consequence = false) {
+  constexpr long kFewestSteps = 5;
+  constexpr double kTimesItsSpacing = 5.0;
+  std::vector<std::size_t> named;
+  for (std::size_t i = 0; i < s.measured.size() && i < s.longest_unmeasured.size(); ++i) {
+    if (s.measured[i] == 0) continue;
+    const long longest = s.longest_unmeasured[i];
+    const double steps_per_value = static_cast<double>(s.steps) / static_cast<double>(s.measured[i]);
+    if (longest >= kFewestSteps && static_cast<double>(longest) >= kTimesItsSpacing * steps_per_value) {
+      named.push_back(i);
+    }
+  }
+  std::vector<std::string> out;
+  std::vector<bool> said(named.size(), false);
+  for (std::size_t a = 0; a < named.size(); ++a) {
+    if (said[a]) continue;
+    const std::size_t i = named[a];
+    std::vector<std::size_t> group;
+    for (std::size_t b = a; b < named.size(); ++b) {
+      const std::size_t j = named[b];
+      if (s.longest_unmeasured[j] == s.longest_unmeasured[i] &&
+          s.longest_unmeasured_from[j] == s.longest_unmeasured_from[i] &&
+          s.longest_unmeasured_to[j] == s.longest_unmeasured_to[i]) {
+        group.push_back(j);
+        said[b] = true;
+      }
+    }
+    std::string names;
+    long fewest = s.steps, most = 0;
+    for (std::size_t g = 0; g < group.size(); ++g) {
+      const std::size_t j = group[g];
+      names += std::string(g == 0                  ? ""
+                           : g + 1 == group.size() ? " and "
+                                                   : ", ") +
+               "'" + bank.measurement.names[j] + "' (\"" + Expression::excerpt(bank.columns.measurements[j]) + "\")";
+      fewest = std::min(fewest, s.steps - s.measured[j]);
+      most = std::max(most, s.steps - s.measured[j]);
+    }
+    const double from = s.longest_unmeasured_from[i], to = s.longest_unmeasured_to[i];
+    out.push_back(std::string(group.size() > 1 ? "measurements " : "measurement ") + names +
+                  " had no value from t = " + CsvWriter::format(from) + " to " + CsvWriter::format(to) + " s (" +
+                  std::to_string(s.longest_unmeasured[i]) + " steps in a row" +
+                  (to == last_step_t ? ", to the log's last step" : "") + "; " +
+                  (fewest == most ? std::to_string(most) : std::to_string(fewest) + " to " + std::to_string(most)) +
+                  " of " + std::to_string(s.steps) + " steps without " + (group.size() > 1 ? "a value" : "one") +
+                  " in all)" +
+                  (!consequence       ? ""
+                   : group.size() > 1 ? ": the filters were not corrected by them there"
+                                      : ": its filters were not corrected by it there"));
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::string> LogReader::unmeasured(const BankConfig& bank) const {
+  std::vector<std::string> out = never_measured(impl_->stats_, bank);
+  for (std::string& line : partly_measured(impl_->stats_, bank, impl_->delivered_step_t_)) out.push_back(line);
   return out;
 }
 
@@ -600,7 +699,17 @@ std::string LogReader::describe_stats(const BankConfig& bank) const {
            " s in all: " + (grid ? "the grid restarted at the row after each" : "the filter crossed each in one step") +
            " (sampling.skip_gaps)\n";
   }
-  for (const std::string& line : unmeasured(bank)) out += "  " + line + ": its filters were never corrected by it\n";
+  for (const auto& stream : impl_->streams_) {
+    if (!stream.feeds_inputs || !(stream.longest_hole > impl_->sampling_.max_gap)) continue;
+    out += "  " + stream.files[static_cast<std::size_t>(stream.time_file)]->path().string() +
+           " had no row from t = " + CsvWriter::format(stream.hole_from) + " to " + CsvWriter::format(stream.hole_to) +
+           " s (" + CsvWriter::format(stream.hole_to - stream.hole_from) +
+           " s, longer than sampling.max_gap) while the log's other rows went on: the inputs it gives were held "
+           "at their last values there\n";
+  }
+  for (const std::string& line : never_measured(s, bank))
+    out += "  " + line + ": its filters were never corrected by it\n";
+  for (const std::string& line : partly_measured(s, bank, impl_->delivered_step_t_, true)) out += "  " + line + "\n";
   for (std::size_t i = 0; i < s.superseded.size(); ++i) {
     if (s.superseded[i] > 0) {
       out += "  measurement '" + bank.measurement.names[i] + "': " + std::to_string(s.superseded[i]) +

@@ -1,6 +1,11 @@
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <filesystem>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "csv_table.h"
@@ -22,6 +27,45 @@ using internal::trim;
 namespace {
 
 using ::skidimm::internal::kNaN;
+
+// A writer that opens every FIFO of a log before it writes to any (a
+// recorder streaming two sensors at once) waits in each open() until a
+// reader opens that FIFO. Opened one by one, each read for its header before
+// the next is opened, the log would wait on the first FIFO's header while
+// its writer waits for the second FIFO's reader. So every FIFO of the log is
+// opened first, without waiting (the writer's opens all return), and each is
+// read through that descriptor (CsvReader waits there for its writer).
+class FifosHeldOpen {
+ public:
+  explicit FifosHeldOpen(const std::vector<LogFile>& files) {
+    for (const LogFile& file : files) {
+      std::error_code ec;
+      if (!std::filesystem::is_fifo(file.path, ec)) continue;
+      const int fd = ::open(file.path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+      if (fd < 0) continue;  // the path's own open says why
+      fds_.push_back(fd);
+      paths_.push_back(file.path);
+    }
+  }
+  ~FifosHeldOpen() {
+    for (const int fd : fds_) {
+      if (fd >= 0) ::close(fd);
+    }
+  }
+  // The descriptor opened for `path`, now the caller's; -1 if none.
+  int take(const std::filesystem::path& path) {
+    for (std::size_t k = 0; k < fds_.size(); ++k) {
+      if (paths_[k] == path && fds_[k] >= 0) return std::exchange(fds_[k], -1);
+    }
+    return -1;
+  }
+  FifosHeldOpen(const FifosHeldOpen&) = delete;
+  FifosHeldOpen& operator=(const FifosHeldOpen&) = delete;
+
+ private:
+  std::vector<int> fds_;
+  std::vector<std::filesystem::path> paths_;
+};
 
 // The bank's column texts that may name a bag's topics (ros/bag_log.h).
 std::vector<std::string> bag_column_texts(const BankConfig& bank) {
@@ -100,6 +144,7 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
   if (standard_inputs > 1) throw LogError("-", 0, "standard input ('-') can be one file of a log, not several");
   const bool by_rows = sampling.join == SamplingConfig::Join::kRows;
   if (by_rows) streams_.emplace_back();
+  FifosHeldOpen fifos(files);
   for (const LogFile& file : files) {
     if (!by_rows) {
       streams_.emplace_back();
@@ -123,7 +168,8 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
       continue;
     }
     Stream& s = streams_.back();
-    s.files.push_back(std::make_unique<CsvTable>(file.path));
+    const int fifo = fifos.take(file.path);
+    s.files.push_back(fifo >= 0 ? std::make_unique<CsvTable>(file.path, fifo) : std::make_unique<CsvTable>(file.path));
     s.stat_index.push_back(stats_.files.size());
     stats_.files.push_back(file.path.string());
     stats_.rows.push_back(0);
@@ -207,6 +253,11 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
   stats_.left_out_of_aggregates.assign(measurements_.size(), 0);
   stats_.steps_without_enough_rows.assign(measurements_.size(), 0);
   stats_.measured.assign(measurements_.size(), 0);
+  stats_.longest_unmeasured.assign(measurements_.size(), 0);
+  stats_.longest_unmeasured_from.assign(measurements_.size(), kNaN);
+  stats_.longest_unmeasured_to.assign(measurements_.size(), kNaN);
+  unmeasured_run_.assign(measurements_.size(), 0);
+  unmeasured_run_from_.assign(measurements_.size(), kNaN);
   for (Stream& s : streams_) s.read_pending = true;
 }
 

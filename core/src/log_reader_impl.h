@@ -93,6 +93,11 @@ struct Stream {
   long rows_read = 0;
   double first_t = 0.0;  // of its first row
   bool feeds_inputs = false;
+  // Its longest stretch without rows while another file's rows went on
+  // (so not a gap of the whole log), from the row before to the row after.
+  double longest_hole = 0.0;
+  double hole_from = 0.0;
+  double hole_to = 0.0;
   // Its values are held into later steps (inputs, truth, true states), so
   // a row before the first step still counts.
   bool holds_values = false;
@@ -121,6 +126,9 @@ class LogReader::Impl {
   std::vector<Column> columns_;
   std::vector<double> row_values_;   // per column: this row's value, NaN if empty
   std::vector<double> held_values_;  // per column: the latest non-empty value
+  // Per measurement: the steps since its last value, and the first one's time.
+  std::vector<long> unmeasured_run_;
+  std::vector<double> unmeasured_run_from_;
   std::vector<RowValue> inputs_;
   std::vector<MeasurementBinding> measurements_;
   int truth_stream_ = -1, truth_file_ = -1, truth_index_ = -1;

@@ -1,14 +1,18 @@
 #include "skidimm/io/log_reader.h"
 
+#include <fcntl.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <future>
 #include <iterator>
+#include <thread>
 
 #include "core/temp_files.h"
 #include "skidimm/engine/imm.h"
@@ -332,6 +336,20 @@ TEST(LogReader, AFixedRateRefusesAGapLongerThanMaxGapNamingTheRowAndTheLimit) {
   }
 }
 
+// Rows a day or more apart are more likely stamped in ns, us or ms than a
+// pause: the error asks before it offers to skip such gaps.
+TEST(LogReader, AGapOfADayOrMoreAsksWhetherTheStampsAreInSeconds) {
+  const auto nanoseconds =
+      write_file(test_directory() / "log.csv", "t,left,right,v,w\n0,1,2,3,4\n10000000,1,2,3,4\n20000000,1,2,3,4\n");
+  LogReader reader(simple_bank(), {nanoseconds});
+  read_until_error(reader, {"a gap of 1e+07 s", "Are the time stamps in seconds? If a time stamp is wrong"});
+  const auto paused =
+      write_file(test_directory() / "log.csv", "t,left,right,v,w\n0,1,2,3,4\n100,1,2,3,4\n100.1,1,2,3,4\n");
+  LogReader pause(simple_bank(), {paused});
+  const StepsBeforeError read = read_until_error(pause, {"a gap of 100 s"});
+  EXPECT_THAT(read.message, Not(HasSubstr("seconds?")));
+}
+
 TEST(LogReader, SkipGapsRestartsTheGridAfterAGapAndSaysSo) {
   const auto file = write_file(test_directory() / "log.csv",
                                "t,left,right,v,w\n0,1,2,3,4\n0.5,1,2,3,4\n10000000,5,6,7,8\n10000000.5,5,6,7,8\n");
@@ -526,6 +544,18 @@ TEST(LogReader, AMeasurementThatStopsWhileTheOthersGoOnIsSaid) {
   EXPECT_THAT(reader.describe_stats(bank), HasSubstr(line + ": its filters were not corrected by it there"));
   EXPECT_EQ(reader.unmeasured(bank), std::vector<std::string>{line});
   EXPECT_THAT(reader.describe_stats(bank), Not(HasSubstr("'current'")));
+
+  // Two measurements of the file that stopped: one line.
+  BankConfig two = bank;
+  two.measurement.names.push_back("omega_rms");
+  two.columns.measurements.push_back("rms(wz)");
+  LogReader both(two, {log.wheels, log.gyro}, two.sampling);
+  read_all(both);
+  EXPECT_THAT(both.describe_stats(two),
+              HasSubstr("measurements 'omega' (\"mean(wz)\") and 'omega_rms' (\"rms(wz)\") had no value from t = "
+                        "15.5 to 20 s (10 steps in a row, to the log's last step; 19 of 41 steps without a value in "
+                        "all): the filters were not corrected by them there"));
+  EXPECT_EQ(both.unmeasured(two).size(), 1u);
 
   // Four steps without (under five) are not named; nor is a slow sensor's
   // own spacing: the gyro once a second, every second step.
@@ -880,6 +910,52 @@ TEST(LogReader, ReadsAPipeAsItArrivesAndStandardInputByDash) {
   EXPECT_TRUE(is_standard_input("-"));
   expect_error([&] { LogReader twice(simple_bank(), {"-", "-"}); },
                {"standard input ('-') can be one file of a log, not several"});
+}
+
+// A writer that opens both FIFOs of a two-file log before writing to either
+// (as a recorder streaming two sensors does) is read: the log waits for
+// neither FIFO's header while the writer waits for the other FIFO's reader.
+// Should the reader wait after all, the test opens the second FIFO itself
+// after 20 s so that nothing hangs, and fails.
+TEST(LogReader, FifosTheirWriterOpensTogetherAreRead) {
+  const TwoRateLog files = two_rate_log();
+  const auto dir = files.wheels.parent_path();
+  const std::filesystem::path wheels = dir / "wheels.fifo", gyro = dir / "gyro.fifo";
+  ASSERT_EQ(::mkfifo(wheels.c_str(), 0600), 0);
+  ASSERT_EQ(::mkfifo(gyro.c_str(), 0600), 0);
+  const auto text = [](const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string wheel_rows = text(files.wheels), gyro_rows = text(files.gyro);
+  std::thread writer([&] {
+    const int a = ::open(wheels.c_str(), O_WRONLY);
+    const int b = ::open(gyro.c_str(), O_WRONLY);
+    if (a >= 0) EXPECT_EQ(::write(a, wheel_rows.data(), wheel_rows.size()), static_cast<ssize_t>(wheel_rows.size()));
+    if (b >= 0) EXPECT_EQ(::write(b, gyro_rows.data(), gyro_rows.size()), static_cast<ssize_t>(gyro_rows.size()));
+    if (a >= 0) ::close(a);
+    if (b >= 0) ::close(b);
+  });
+  auto steps = std::async(std::launch::async, [&] {
+    LogReader reader(two_rate_bank(), {wheels, gyro});
+    return read_all(reader).size();
+  });
+  if (steps.wait_for(std::chrono::seconds(20)) != std::future_status::ready) {
+    ADD_FAILURE() << "the reader waited for a header its writer could not write";
+    // A reader of the second FIFO lets the writer on; a writer that opens and
+    // closes it lets the log's own open of it return (and read it empty).
+    const int unblock = ::open(gyro.c_str(), O_RDONLY | O_NONBLOCK);
+    writer.join();
+    while (steps.wait_for(std::chrono::milliseconds(100)) != std::future_status::ready) {
+      const int w = ::open(gyro.c_str(), O_WRONLY | O_NONBLOCK);
+      if (w >= 0) ::close(w);
+    }
+    if (unblock >= 0) ::close(unblock);
+    return;
+  }
+  writer.join();
+  LogReader from_files(two_rate_bank(), {files.wheels, files.gyro});
+  EXPECT_EQ(steps.get(), read_all(from_files).size());
 }
 
 TEST(LogReader, TimeMustIncreaseStrictly) {

@@ -54,6 +54,12 @@ class CsvReader {
   // and /dev/stdin are read like files, once (see is_rereadable). Throws
   // LogError.
   explicit CsvReader(const std::filesystem::path& path);
+  // The FIFO at `path` through `open_fifo`, a descriptor of it the caller
+  // opened with O_RDONLY | O_NONBLOCK (an open that does not wait for the
+  // writer, so that a writer opening several FIFOs in turn gets past this
+  // one): waits until the writer has written or closed it, then reads it as
+  // the constructor above would. Takes the descriptor, also when it throws.
+  CsvReader(const std::filesystem::path& path, int open_fifo);
   ~CsvReader();
   CsvReader(const CsvReader&) = delete;
   CsvReader& operator=(const CsvReader&) = delete;
@@ -78,6 +84,7 @@ class CsvReader {
   std::uintmax_t file_size() const { return file_size_; }  // 0 for a pipe
 
  private:
+  void read_header();  // once the file is open; closes it if it throws
   bool read_line(std::string_view* line);
   [[noreturn]] void refuse_long_line(long line) const;
   bool read_record();

@@ -95,6 +95,12 @@ struct LogStats {
   std::vector<long> left_out_of_aggregates;
   std::vector<long> steps_without_enough_rows;
   std::vector<long> measured;     // per measurement: steps that had a value for it
+  // Per measurement: its longest stretch of consecutive steps without a
+  // value (a sensor that stopped, or paused, while the others went on), and
+  // the times of the stretch's first and last steps.
+  std::vector<long> longest_unmeasured;
+  std::vector<double> longest_unmeasured_from;
+  std::vector<double> longest_unmeasured_to;
   long gaps_skipped = 0;          // gaps longer than sampling.max_gap the grid restarted after (skip_gaps)
   double seconds_skipped = 0.0;   // ... and the time they spanned
 };
@@ -143,6 +149,10 @@ class LogReader : public SampleSource {
   // "measurement 'NAME' (\"TEXT\") had no value at any step" (and, for a
   // sequence's entry selected by a name, where the names are listed): a
   // misspelt column of a log that still runs, on the other measurements.
+  // Then each that had values but went without one for a stretch far longer
+  // than it usually does (at least 5 steps and 5 times its mean steps per
+  // value), as "... had no value from t = A to B s (N steps in a row; ...)":
+  // a sensor that stopped or paused while the others went on.
   std::vector<std::string> unmeasured(const BankConfig& bank) const;
 
  private:
