@@ -37,6 +37,15 @@ step "the installed skidimm finds its bundled plugins without being told where"
 grep -q "^ltc_linear 1.0.0" "$work/plugins.txt" || fail "installed skidimm does not list ltc_linear: $(cat "$work/plugins.txt")"
 grep -q "$prefix" "$work/plugins.txt" || fail "bundled plugins not found under the prefix"
 
+step "the build tree given as the prefix is refused, naming the install to give instead"
+if cmake -S "$source/sdk/examples/icr_kinematic" -B "$work/against-build-tree" -DCMAKE_PREFIX_PATH="$build" \
+  >"$work/against-build-tree.log" 2>&1; then
+  fail "configuring against the build tree succeeded"
+fi
+grep -q "is skidimm's build tree, which is not a package" "$work/against-build-tree.log" ||
+  fail "configuring against the build tree did not say what to give: $(cat "$work/against-build-tree.log")"
+grep -q "cmake --install" "$work/against-build-tree.log" || fail "no install command named"
+
 step "build the example plugin against the installed SDK only (COMPONENTS sdk)"
 cmake -S "$source/sdk/examples/icr_kinematic" -B "$example_build" -DCMAKE_PREFIX_PATH="$prefix" \
   -DCMAKE_BUILD_TYPE=Release >"$work/configure.log" 2>&1 || { cat "$work/configure.log"; fail "configure"; }
