@@ -389,7 +389,8 @@ def comparison_rows(base, variant, slugs, column, base_name, with_name):
                  with_[1]["calibration"]["confident_accuracy"], True),
                 ("calibration error", without[1]["calibration"]["expected_calibration_error"],
                  with_[1]["calibration"]["expected_calibration_error"], False)):
-            if round(a, 3) == round(b, 3):
+            # No step at p >= 0.9 on one side: there is nothing to compare.
+            if a is None or b is None or round(a, 3) == round(b, 3):
                 continue
             (better if (b > a) == higher else worse).append(f"{label} ({SHORT[slug]})")
     return lines, better, worse

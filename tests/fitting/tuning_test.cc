@@ -478,6 +478,46 @@ TEST(Tune, AWalkChoosesTheGridsBestOfOnePeakWithFewerRuns) {
   EXPECT_LT(all_walk_runs, all_grid_runs);
 }
 
+// A search whose farthest candidate in a direction is its best stops where
+// the score still rises: said. R scaled up 4^5 = 1024 times in the start
+// bank puts R's best beyond the first sweep's reach (4^3 each way); from
+// the bank's own R it is within it. Grid and walk alike.
+TEST(Tune, ASearchThatEndsOnItsFarthestCandidateSaysSo) {
+  if (!std::filesystem::exists(kBorealTc)) GTEST_SKIP() << "no shared data at " << kBorealTc;
+  const std::vector<TuningLog> logs{borealtc_log("ICE", "04"), borealtc_log("ICE", "11"),
+                                    borealtc_log("FLOORING", "01"), borealtc_log("FLOORING", "08")};
+  for (const auto search : {TuneOptions::LineSearch::kGrid, TuneOptions::LineSearch::kWalk}) {
+    SCOPED_TRACE(search == TuneOptions::LineSearch::kGrid ? "grid" : "walk");
+    TuneOptions options = weight_only_options();
+    options.knobs = {Knob::kRScale};
+    options.assess = false;
+    options.line_search = search;
+    const auto bank_with_r_times = [](double factor) {
+      return [factor] {
+        Bank b = bundled_borealtc_bank();
+        b.config.measurement.r *= factor;
+        return b;
+      };
+    };
+    const auto warned_of_r = [](const TuneResult& r) {
+      for (const std::string& w : r.warnings) {
+        if (w.find("the search of R scale ended on the farthest value its sweep tries (64 times less than its "
+                   "start), where the score still rose") != std::string::npos) {
+          return true;
+        }
+      }
+      return false;
+    };
+    const TuneResult near = tune(bank_with_r_times(1.0), logs, kKeepModels, options);
+    const TuneResult far = tune(bank_with_r_times(1024.0), logs, kKeepModels, options);
+    EXPECT_EQ(far.settings.r_scale, std::pow(4.0, -3)) << "the farthest the first sweep goes";
+    EXPECT_LT(near.settings.r_scale, std::pow(4.0, -3) * 1024.0)
+        << "from the bank's own R, the search chooses an R beyond the far start's reach";
+    EXPECT_TRUE(warned_of_r(far));
+    EXPECT_FALSE(warned_of_r(near));
+  }
+}
+
 // A floor candidate below the smallest probability every run of the best
 // settings reached, and above their own floor, changes no step: its runs
 // would be the best's bit for bit, a tie, and the search does not run it.

@@ -821,6 +821,16 @@ class Tuner {
               break;
             }
           }
+          // The farthest candidate of the sweep in this direction was taken:
+          // the score may still rise beyond it, where this search does not
+          // go, and the value handed on depends on where the bank started.
+          if (chosen == start * std::pow(factor, direction * steps)) {
+            warnings_.push_back("the search of " + name + " ended on the farthest value its sweep tries (" +
+                                brief(std::pow(factor, steps)) + " times " + (direction < 0 ? "less" : "more") +
+                                " than its start), where the score still rose: the value it chose depends on where "
+                                "the bank started. Tune again from the tuned bank (--bank the output), which "
+                                "searches on from there");
+          }
           if (walk && chosen != start) break;
         }
         *value = chosen;
