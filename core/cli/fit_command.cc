@@ -139,6 +139,26 @@ int fit(const FitCommandOptions& options) {
     for (const std::string& unfitted : fitting::classes_leaving_steps_unfitted(config)) {
       std::cerr << "skidimm fit: warning: " << options.bank.string() << ": " << printable(unfitted) << "\n";
     }
+    if (!options.output_bank.empty() && options.mode.empty()) {
+      // The written bank holds every mode: one the logs gave no step is the
+      // start bank's, which reads like a fitted entry.
+      std::string unfitted;
+      int count = 0;
+      for (int j = 0; j < config.num_modes(); ++j) {
+        const bool has_data = std::any_of(data.begin(), data.end(), [j](const ModeLogs& d) { return d.mode == j; });
+        if (has_data) continue;
+        unfitted += std::string(count++ == 0 ? "" : ", ") + "'" + config.modes[static_cast<std::size_t>(j)].name + "'";
+      }
+      if (count > 0) {
+        std::cerr << "skidimm fit: warning: " << (count == 1 ? "mode " : "modes ") << printable(unfitted)
+                  << (count == 1 ? " has" : " have")
+                  << (count == 1 ? " no step in the logs (no log of its class, or none where its fit_when holds): "
+                                 : " no step in the logs (no log of their class, or none where their fit_when "
+                                   "holds): ")
+                  << options.output_bank.string() << " keeps " << (count == 1 ? "its" : "their")
+                  << " starting values from " << options.bank.string() << "\n";
+      }
+    }
     if (options.fit_r && !options.append_to.empty()) {
       throw Error("--fit-r fits the bank's R, which --append-to cannot change: use --output-bank");
     }

@@ -574,6 +574,10 @@ TEST(Cli, AFitAtAnotherRateWritesThatRateAsTheBanks) {
   EXPECT_THAT(written, HasSubstr("\nsampling:\n  rate: 4\nmeasurement:\n"));
   EXPECT_EQ(skidimm::load_bank_config(dir / "at_4.yaml").sampling.rate, 4.0);
   EXPECT_THAT(at_4.err, Not(HasSubstr("should step at that rate")));
+  // Modes no log gave a step keep the start's values in the written bank: said.
+  EXPECT_THAT(at_4.err, HasSubstr("'SNOW_turning', 'SNOW_straight' have no step in the logs (no log of their class, "
+                                  "or none where their fit_when holds): " +
+                                  (dir / "at_4.yaml").string() + " keeps their starting values from " + start));
   // At the bank's own rate the template's block stays as it was, comment included.
   const Result at_2 = run_skidimm(fit + " --rate 2 --output-bank " + (dir / "at_2.yaml").string());
   ASSERT_EQ(at_2.exit_code, 0) << at_2.err;
@@ -583,6 +587,7 @@ TEST(Cli, AFitAtAnotherRateWritesThatRateAsTheBanks) {
   ASSERT_EQ(entries.exit_code, 0) << entries.err;
   EXPECT_THAT(entries.err, HasSubstr("skidimm fit: the entries were fitted on steps every 0.25 s (4 Hz): the bank "
                                      "they join should step at that rate (its sampling.rate: 4)"));
+  EXPECT_THAT(entries.err, Not(HasSubstr("no step in the logs"))) << "entries name their modes themselves";
   // Appended to a bank of another rate, the mode is warned of before the fit.
   const fs::path target = write_file(dir / "wheels.yaml", read_file(kSource + "/configs/borealtc/wheels.yaml"));
   const std::string append = "fit --bank " + start + " --objective window --hold-unexcited --mode ASPHALT_straight " +
