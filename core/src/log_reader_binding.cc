@@ -103,6 +103,12 @@ std::string separator_hint(const std::vector<std::string>& header, const std::st
     if (part.size() >= 2 && part.front() == '"' && part.back() == '"') return part.substr(1, part.size() - 2);
     return part;
   };
+  // "sep=," is split at its comma: its line is separated as the file is, and
+  // only in the way.
+  if (header.size() == 2 && header[0] == "sep=" && header[1].empty()) {
+    return ". Its first line, 'sep=,', is a spreadsheet's separator line, not the header: delete that line "
+           "(skidimm reads comma-separated files whose first line is the header)";
+  }
   if (header.size() == 1 && header.front().rfind("sep=", 0) == 0) {
     return ". Its first line, '" + header.front() +
            "', is a spreadsheet's separator line: skidimm reads comma-separated files whose first line is the "

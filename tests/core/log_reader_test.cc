@@ -996,6 +996,9 @@ TEST(LogReader, AFileSeparatedByAnotherCharacterIsSaidToBeSo) {
   const auto excel = write_file(dir / "excel.csv", "sep=;\nt;left;right;v;w\n0;1;2;3;4\n");
   expect_error([&] { LogReader(simple_bank(), {excel}); },
                {"Its first line, 'sep=;', is a spreadsheet's separator line"});
+  const auto excel_commas = write_file(dir / "excel_commas.csv", "sep=,\nt,left,right,v,w\n0,1,2,3,4\n");
+  expect_error([&] { LogReader(simple_bank(), {excel_commas}); },
+               {"Its first line, 'sep=,', is a spreadsheet's separator line, not the header: delete that line"});
   // Joined row for row, the second file's columns are missing, not its time.
   BankConfig rows = simple_bank();
   rows.sampling.join = SamplingConfig::Join::kRows;
