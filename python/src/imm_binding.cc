@@ -40,6 +40,8 @@ struct Estimate {
   std::string status;
   int num_measured = 0;
   int num_rejected_modes = 0;
+  // Per mode, what went wrong in the step and the model's own words; "" where it ran.
+  std::vector<std::string> mode_failures;
   py::array_t<double> mode_probabilities, log_likelihoods, nis, state, covariance, mode_states, mode_covariances;
   int most_likely_mode = 0;
   std::string mode;
@@ -140,6 +142,14 @@ Estimate make_estimate(const PyImm& self, const ImmEstimate& e, int decided) {
   out.status = to_string(e.status);
   out.num_measured = e.num_measured;
   out.num_rejected_modes = e.num_rejected_modes;
+  out.mode_failures.reserve(e.mode_failures.size());
+  for (std::size_t j = 0; j < e.mode_failures.size(); ++j) {
+    const ModeFailure failure = e.mode_failures[j];
+    const std::string& reason = j < e.failure_reasons.size() ? e.failure_reasons[j] : std::string();
+    out.mode_failures.push_back(failure == ModeFailure::kNone ? std::string()
+                                : reason.empty()              ? std::string(to_string(failure))
+                                                              : std::string(to_string(failure)) + ": " + reason);
+  }
   out.mode_probabilities = vector_array(e.mode_probabilities);
   out.log_likelihoods = vector_array(e.log_likelihoods);
   out.nis = vector_array(e.nis);
@@ -221,6 +231,7 @@ void bind_imm(py::module_& m) {
       .def_readonly("status", &Estimate::status)
       .def_readonly("num_measured", &Estimate::num_measured)
       .def_readonly("num_rejected_modes", &Estimate::num_rejected_modes)
+      .def_readonly("mode_failures", &Estimate::mode_failures)
       .def_readonly("mode_probabilities", &Estimate::mode_probabilities)
       .def_readonly("log_likelihoods", &Estimate::log_likelihoods)
       .def_readonly("nis", &Estimate::nis)

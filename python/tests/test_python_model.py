@@ -91,6 +91,24 @@ def test_an_exception_in_predict_comes_back_as_itself(tmp_path, configs):
     assert skidimm.Imm(bank).step(0.0, u[0], z[0]).status == "updated"  # the interpreter and the bank live on
 
 
+class TurnsNaN(PythonLtc):
+    def predict(self, x, u, dt):
+        return np.full(2, np.nan) if u[0] > 1.0 else super().predict(x, u, dt)
+
+
+def test_a_step_says_which_mode_failed_and_why(tmp_path, configs):
+    bank = skidimm.Bank(python_bank(tmp_path, configs, modes=("grass",)), models={"py_ltc": TurnsNaN})
+    t, u, z = example(configs, bank)
+    imm = skidimm.Imm(bank)
+    first = imm.step(t[0], np.zeros(2), z[0])
+    assert first.mode_failures == ["", "", ""]
+    imm.step(t[1], np.array([2.0, 2.0]), z[1])  # held into the next step's prediction
+    failed = imm.step(t[2], np.zeros(2), z[2])
+    assert failed.num_rejected_modes == 1
+    assert failed.mode_failures[0] == "" and failed.mode_failures[2] == ""
+    assert failed.mode_failures[1].startswith("the model returned a non-finite state")
+
+
 def test_bad_python_models_are_config_errors(tmp_path, configs):
     class NoPredict(skidimm.MotionModel):
         pass
