@@ -486,7 +486,7 @@ void parse_sampling(const YamlFields& y, const YAML::Node& root, BankConfig* ban
 void parse_decision(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {
   const YAML::Node node = root["decision"];
   if (!node) return;
-  y.check_keys(node, {"enter", "leave", "min_hold"}, "decision");
+  y.check_keys(node, {"enter", "leave", "min_hold", "stale_after"}, "decision");
   DecisionConfig& d = bank->decision;
   if (node["enter"]) d.enter = y.number(node["enter"], "decision.enter");
   if (node["leave"]) d.leave = y.number(node["leave"], "decision.leave");
@@ -497,6 +497,12 @@ void parse_decision(const YamlFields& y, const YAML::Node& root, BankConfig* ban
   }
   if (!(d.min_hold >= 0.0 && d.min_hold < kLongestDecisionHold)) {
     y.fail(node, "decision.min_hold", "must be seconds, >= 0 and under 1e9");
+  }
+  if (node["stale_after"]) {
+    d.stale_after = y.number(node["stale_after"], "decision.stale_after");
+    if (!(d.stale_after >= 0.0 && d.stale_after < kLongestDecisionHold)) {
+      y.fail(node, "decision.stale_after", "must be seconds, >= 0 (0: never) and under 1e9");
+    }
   }
 }
 

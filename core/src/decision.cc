@@ -16,6 +16,12 @@ ModeDecision::ModeDecision(const BankConfig& config, const DecisionConfig& setti
                     settings.leave < settings.enter && settings.min_hold >= 0.0,
                 "decision settings out of range (the bank loader checks them)");
   class_probabilities_.resize(static_cast<Eigen::Index>(names_.size()));
+  stale_after_ = settings.stale_after;
+  if (stale_after_ < 0.0) {
+    const TransitionConfig& transition = config.transition;
+    const bool dwell = transition.kind == TransitionConfig::Kind::kDwellTimes && transition.dwell_seconds.size() > 0;
+    stale_after_ = dwell ? transition.dwell_seconds.minCoeff() : 0.0;
+  }
 }
 
 const std::string& ModeDecision::name(int decision) const {
@@ -27,9 +33,15 @@ void ModeDecision::reset() {
   decided_at_ = 0.0;
   below_leave_ = false;
   below_leave_since_ = 0.0;
+  measured_once_ = false;
+  last_measured_t_ = 0.0;
 }
 
-int ModeDecision::update(double t, const Eigen::Ref<const Eigen::VectorXd>& mode_probabilities) {
+int ModeDecision::update(double t, const Eigen::Ref<const Eigen::VectorXd>& mode_probabilities, bool measured) {
+  if (measured || !measured_once_) {
+    measured_once_ = true;
+    last_measured_t_ = t;
+  }
   class_probabilities_.setZero();
   for (Eigen::Index j = 0; j < mode_probabilities.size(); ++j) {
     class_probabilities_[class_of_mode_[static_cast<std::size_t>(j)]] += mode_probabilities[j];
@@ -45,6 +57,16 @@ int ModeDecision::update(double t, const Eigen::Ref<const Eigen::VectorXd>& mode
       below_leave_ = true;
       below_leave_since_ = t;
     }
+  }
+  // No measurement for stale_after seconds: the probabilities say only what
+  // the chain's prior lets them keep, nothing the sensors said.
+  if (stale_after_ > 0.0 && t - last_measured_t_ >= stale_after_) {
+    if (decision_ != kUnknown) {
+      decision_ = kUnknown;
+      decided_at_ = t;
+      below_leave_ = false;
+    }
+    return decision_;
   }
   if (decision_ != kUnknown && t - decided_at_ < settings_.min_hold) return decision_;
   if (best != decision_ && best_probability >= settings_.enter) {

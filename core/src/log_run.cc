@@ -162,7 +162,7 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
   run_log(bank, reader, options, [&](const LogSample& sample, const ImmEstimate& e) {
     RunSummary& s = *summary;
     const std::string& truth = label.empty() ? sample.truth_mode : label;
-    const int decided = decision.update(sample.t, e.mode_probabilities);
+    const int decided = decision.update(sample.t, e.mode_probabilities, e.num_measured > 0);
     s.decision_changes += decided != last_decision && s.rows > 0 && !undecided;
     undecided = undecided && decided == ModeDecision::kUnknown;
     last_decision = decided;

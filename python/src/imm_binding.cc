@@ -185,7 +185,7 @@ Estimate step(PyImm& self, double t, const py::object& u, const py::object& z) {
     py::gil_scoped_release release;
     e = &self.imm->step(t, Eigen::Map<const Eigen::VectorXd>(uu.data(), self.input_dim()),
                         Eigen::Map<const Eigen::VectorXd>(zz.data(), self.measurement_dim()));
-    decided = self.decision->update(t, e->mode_probabilities);
+    decided = self.decision->update(t, e->mode_probabilities, e->num_measured > 0);
   }
   throw_if_python_model_raised();
   return make_estimate(self, *e, decided);

@@ -419,6 +419,16 @@ TEST(BankConfig, LikelihoodDofIsAPositiveNumberOrAbsent) {
   expect_config_error("likelihood_dof: .inf\n" + kValidBank, {"likelihood_dof"});
 }
 
+TEST(BankConfig, DecisionStaleAfterIsSecondsOrAbsent) {
+  const auto bank = [](const std::string& decision) {
+    return load_bank_config(write_file(test_directory() / "stale.yaml", decision + kValidBank)).decision.stale_after;
+  };
+  EXPECT_EQ(bank("decision: {stale_after: 3}\n"), 3.0);
+  EXPECT_EQ(bank("decision: {stale_after: 0}\n"), 0.0);
+  EXPECT_LT(bank(""), 0.0) << "unset: the decision takes the bank's shortest mean dwell time";
+  expect_config_error("decision: {stale_after: -1}\n" + kValidBank, {"decision.stale_after", "(0: never)"});
+}
+
 TEST(BankConfig, ExtrapolationScaleIsAPositiveNumberOrAbsent) {
   EXPECT_EQ(load_bank_config(write_file(test_directory() / "scale.yaml", "extrapolation_scale: 0.5\n" + kValidBank))
                 .extrapolation_scale,

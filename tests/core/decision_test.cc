@@ -90,5 +90,37 @@ TEST(ModeDecision, DecidesOverClassesWhenTheBankHasThem) {
   EXPECT_EQ(d.name(0), "grip");
 }
 
+// With no measurement the probabilities only relax towards the chain's
+// prior: five classes sit at 0.2 for ever, above any `leave` under it.
+// After stale_after seconds without one (by default the bank's shortest mean
+// dwell time) the decision is unknown, and none is taken, until a measured
+// step comes.
+TEST(ModeDecision, NoMeasurementForStaleAfterSecondsGivesUnknown) {
+  BankConfig c = three_modes();
+  c.transition.kind = TransitionConfig::Kind::kDwellTimes;
+  c.transition.dwell_seconds = Eigen::Vector3d(10.0, 20.0, 5.0);
+  ModeDecision d(c, settings(0.9, 0.05, 1.0));
+  EXPECT_EQ(d.stale_after(), 5.0) << "the shortest mean dwell time";
+  const Eigen::Vector3d sure(0.95, 0.03, 0.02), uniform(1.0 / 3, 1.0 / 3, 1.0 / 3);
+  EXPECT_EQ(d.update(0.0, sure, true), 0);
+  EXPECT_EQ(d.update(4.9, uniform, false), 0) << "silent for 4.9 s, and 1/3 is above leave";
+  EXPECT_EQ(d.update(5.0, uniform, false), ModeDecision::kUnknown) << "silent for 5 s";
+  EXPECT_EQ(d.update(5.5, sure, false), ModeDecision::kUnknown) << "no decision is taken without a measurement";
+  EXPECT_EQ(d.update(6.0, sure, true), 0) << "a measured step decides again";
+  // Measured steps are never stale, whatever the probabilities say.
+  EXPECT_EQ(d.update(20.0, sure, true), 0);
+
+  // Given in the bank: that value; 0 never gives a decision up so.
+  DecisionConfig given = settings(0.9, 0.05, 1.0);
+  given.stale_after = 2.0;
+  EXPECT_EQ(ModeDecision(c, given).stale_after(), 2.0);
+  given.stale_after = 0.0;
+  ModeDecision never(c, given);
+  EXPECT_EQ(never.update(0.0, sure, true), 0);
+  EXPECT_EQ(never.update(100.0, uniform, false), 0);
+  // A per-step transition states no time: never, by default.
+  EXPECT_EQ(ModeDecision(three_modes(), settings(0.9, 0.05, 1.0)).stale_after(), 0.0);
+}
+
 }  // namespace
 }  // namespace skidimm

@@ -123,6 +123,12 @@ struct DecisionConfig {
   double enter = 0.9;     // a mode (class) is taken when its probability reaches this
   double leave = 0.05;    // ... and given up for unknown when it falls below this (0: never)
   double min_hold = 1.0;  // s a decision is kept at least
+  // s without any measurement after which a decision is given up for
+  // unknown (and none is taken): with no evidence the probabilities only
+  // relax, and a class of many can stay above `leave` for ever. 0: never;
+  // < 0 (unset): the bank's shortest mean dwell time, the prior's own
+  // time for a mode to have changed (never for a per-step transition).
+  double stale_after = -1.0;
 };
 
 // Modes scored as one class by eval and tune (`classes:`), e.g. the left- and

@@ -41,9 +41,13 @@ class ModeDecision {
   explicit ModeDecision(const BankConfig& config);
   ModeDecision(const BankConfig& config, const DecisionConfig& settings);
 
-  // One step at time t (s, increasing) with the modes' probabilities. Returns
-  // the decided class's index in names(), or kUnknown.
-  int update(double t, const Eigen::Ref<const Eigen::VectorXd>& mode_probabilities);
+  // One step at time t (s, increasing) with the modes' probabilities, and
+  // whether any measurement corrected the filter in it (the estimate's
+  // num_measured > 0; smoothed probabilities carry later measurements, and
+  // pass true). Returns the decided class's index in names(), or kUnknown.
+  int update(double t, const Eigen::Ref<const Eigen::VectorXd>& mode_probabilities, bool measured = true);
+  // Seconds without a measurement after which a decision is given up (0: never).
+  double stale_after() const { return stale_after_; }
   int decision() const { return decision_; }
   // The decided class's probability at the last update (0 when unknown).
   double probability() const { return decision_ == kUnknown ? 0.0 : class_probabilities_[decision_]; }
@@ -64,6 +68,9 @@ class ModeDecision {
   double decided_at_ = 0.0;
   bool below_leave_ = false;  // the decided class's probability is below `leave`
   double below_leave_since_ = 0.0;
+  double stale_after_ = 0.0;
+  bool measured_once_ = false;
+  double last_measured_t_ = 0.0;
 };
 
 }  // namespace skidimm
