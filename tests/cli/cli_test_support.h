@@ -158,6 +158,19 @@ inline std::filesystem::path one_row_log(const std::filesystem::path& dir) {
   return write_file(dir / "one_row.csv", header + "\n" + first_row + "\n");
 }
 
+// configs/ltc_terrains.yaml measuring V alone, in `dir`: a bank with a state
+// (omega) that no measurement observes.
+inline std::filesystem::path terrains_measuring_v_only(const std::filesystem::path& dir) {
+  std::string text = read_file(kTerrains);
+  for (const auto& [from, to] :
+       {std::make_pair(std::string("observe: [V, omega]"), std::string("observe: [V]")),
+        std::make_pair(std::string("R: {std: [0.05, 0.02]}"), std::string("R: {std: [0.05]}"))}) {
+    EXPECT_NE(text.find(from), std::string::npos) << from;
+    if (text.find(from) != std::string::npos) text.replace(text.find(from), from.size(), to);
+  }
+  return write_file(dir / "v_only.yaml", text);
+}
+
 // Rows as CSV text.
 inline std::string csv_text(const std::vector<std::vector<std::string>>& rows) {
   std::string text;

@@ -920,14 +920,7 @@ TEST(CliIo, TheLikelihoodFitNamesAnAbsurdRowWhenAStateIsUnmeasured) {
 // the parameters it was given to hold; it is refused, naming the state.
 TEST(CliIo, FitRefusesHoldUnexcitedWhereNoFitHoldsAnything) {
   const fs::path dir = test_directory();
-  std::string text = read_file(kTerrains);
-  for (const auto& [from, to] :
-       {std::make_pair(std::string("observe: [V, omega]"), std::string("observe: [V]")),
-        std::make_pair(std::string("R: {std: [0.05, 0.02]}"), std::string("R: {std: [0.05]}"))}) {
-    ASSERT_NE(text.find(from), std::string::npos) << from;
-    text.replace(text.find(from), from.size(), to);
-  }
-  const fs::path bank = write_file(dir / "v_only.yaml", text);
+  const fs::path bank = terrains_measuring_v_only(dir);
   const std::string fit =
       kSkidimm + " fit --bank " + bank.string() + " --plugin-path " + kPlugins + " --mode grass --log " + kSwitching;
   const Result plain = run_pipeline(fit);

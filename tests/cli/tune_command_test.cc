@@ -152,14 +152,7 @@ TEST(CliIo, TuneFailsOnACorruptCellBeforeItsSearches) {
 // fits no window fit to hold anything in.
 TEST(CliIo, TuneRefusesHoldUnexcitedWhereNoFitHoldsAnything) {
   const fs::path dir = test_directory();
-  std::string text = read_file(kTerrains);
-  for (const auto& [from, to] :
-       {std::make_pair(std::string("observe: [V, omega]"), std::string("observe: [V]")),
-        std::make_pair(std::string("R: {std: [0.05, 0.02]}"), std::string("R: {std: [0.05]}"))}) {
-    ASSERT_NE(text.find(from), std::string::npos) << from;
-    text.replace(text.find(from), from.size(), to);
-  }
-  const fs::path bank = write_file(dir / "v_only.yaml", text);
+  const fs::path bank = terrains_measuring_v_only(dir);
   const Result tuned = run_pipeline(kSkidimm + " tune --bank " + bank.string() + " --plugin-path " + kPlugins +
                                     " --objective likelihood,none --hold-unexcited --tune dwell --no-assess --log " +
                                     kSwitching + " --log " + switching_copy(dir).string());
