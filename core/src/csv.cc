@@ -105,23 +105,29 @@ CsvReader::CsvReader(const fs::path& path, int open_fifo) : path_(path) {
   // Until the writer has written or gone: a FIFO opened without waiting reads
   // as empty before its writer comes, and Linux's poll() waits for that
   // first writer (it reports a hang-up only once one has come and gone).
+  // Polled a fifth of a second at a time, so that a stop request that came
+  // just before a wait ends it too.
+  constexpr int kPollMilliseconds = 200;
   pollfd wanted{open_fifo, POLLIN, 0};
   int ready = 0;
-  do {
-    ready = ::poll(&wanted, 1, -1);
-    if (ready < 0 && errno == EINTR && stop_requested()) {
+  int failure = 0;
+  while (ready == 0) {
+    if (stop_requested()) {
       ::close(open_fifo);
       throw LogError(path.string(), 0,
                      std::string("stopped by ") + signal_name(stop_requested()) + " while waiting for its writer");
     }
-  } while (ready < 0 && errno == EINTR);
-  const int flags = ::fcntl(open_fifo, F_GETFL);
-  errno = 0;
-  if (ready < 0 || flags < 0 || ::fcntl(open_fifo, F_SETFL, flags & ~O_NONBLOCK) < 0 ||
-      (file_ = ::fdopen(open_fifo, "rb")) == nullptr) {
-    const std::string why = std::strerror(errno);
+    ready = ::poll(&wanted, 1, kPollMilliseconds);
+    if (ready < 0 && errno == EINTR) ready = 0;
+  }
+  if (ready < 0) failure = errno;
+  const int flags = failure == 0 ? ::fcntl(open_fifo, F_GETFL) : -1;
+  if (failure == 0 && flags < 0) failure = errno;
+  if (failure == 0 && ::fcntl(open_fifo, F_SETFL, flags & ~O_NONBLOCK) < 0) failure = errno;
+  if (failure == 0 && (file_ = ::fdopen(open_fifo, "rb")) == nullptr) failure = errno;
+  if (failure != 0) {
     ::close(open_fifo);
-    throw LogError(path.string(), 0, "cannot open for reading: " + why);
+    throw LogError(path.string(), 0, std::string("cannot open for reading: ") + std::strerror(failure));
   }
   read_header();
 }

@@ -1,5 +1,7 @@
 #include "skidimm/engine/decision.h"
 
+#include <cmath>
+
 #include "check.h"
 
 namespace skidimm {
@@ -38,7 +40,9 @@ void ModeDecision::reset() {
 }
 
 int ModeDecision::update(double t, const Eigen::Ref<const Eigen::VectorXd>& mode_probabilities, bool measured) {
-  if (measured || !measured_once_) {
+  // A time that is not finite, or goes back, says nothing of when the
+  // sensors last spoke.
+  if (std::isfinite(t) && (!measured_once_ || (measured && t > last_measured_t_))) {
     measured_once_ = true;
     last_measured_t_ = t;
   }

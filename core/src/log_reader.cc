@@ -163,11 +163,14 @@ void LogReader::Impl::apply_row(int k) {
   }
   // A stretch of this file without rows while the log went on: its held
   // values stood in for it there, which the summary says when that was long.
-  if (std::isfinite(s.last_t) && last_row_t_ > s.last_t && s.row_t - s.last_t > s.longest_hole) {
+  // A gap of the whole log skipped since its last row (skip_gaps) is not.
+  if (std::isfinite(s.last_t) && last_row_t_ > s.last_t && s.gaps_skipped_before == stats_.gaps_skipped &&
+      s.row_t - s.last_t > s.longest_hole) {
     s.longest_hole = s.row_t - s.last_t;
     s.hole_from = s.last_t;
     s.hole_to = s.row_t;
   }
+  s.gaps_skipped_before = stats_.gaps_skipped;
   s.last_t = s.row_t;
   if (rows_applied_++ == 0) first_row_t_ = s.row_t;
   last_row_t_ = std::max(last_row_t_, s.row_t);
@@ -701,7 +704,7 @@ std::string LogReader::describe_stats(const BankConfig& bank) const {
   }
   for (const auto& stream : impl_->streams_) {
     if (!stream.feeds_inputs || !(stream.longest_hole > impl_->sampling_.max_gap)) continue;
-    out += "  " + stream.files[static_cast<std::size_t>(stream.time_file)]->path().string() +
+    out += "  " + s.files[stream.stat_index[static_cast<std::size_t>(stream.time_file)]] +
            " had no row from t = " + CsvWriter::format(stream.hole_from) + " to " + CsvWriter::format(stream.hole_to) +
            " s (" + CsvWriter::format(stream.hole_to - stream.hole_from) +
            " s, longer than sampling.max_gap) while the log's other rows went on: the inputs it gives were held "

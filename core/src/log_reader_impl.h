@@ -98,6 +98,7 @@ struct Stream {
   double longest_hole = 0.0;
   double hole_from = 0.0;
   double hole_to = 0.0;
+  long gaps_skipped_before = 0;  // the log's gaps skipped before its last row (not holes of its own)
   // Its values are held into later steps (inputs, truth, true states), so
   // a row before the first step still counts.
   bool holds_values = false;

@@ -162,7 +162,9 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
   run_log(bank, reader, options, [&](const LogSample& sample, const ImmEstimate& e) {
     RunSummary& s = *summary;
     const std::string& truth = label.empty() ? sample.truth_mode : label;
-    const int decided = decision.update(sample.t, e.mode_probabilities, e.num_measured > 0);
+    // A smoothed step carries the measurements after it: it does not go stale.
+    const int decided = decision.update(sample.t, e.mode_probabilities,
+                                        options.kind != EstimatorOptions::Kind::kFilter || e.measured());
     s.decision_changes += decided != last_decision && s.rows > 0 && !undecided;
     undecided = undecided && decided == ModeDecision::kUnknown;
     last_decision = decided;

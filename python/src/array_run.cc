@@ -118,7 +118,7 @@ void run_arrays(Imm* imm, const ArrayLog& log, const EstimatorOptions& estimator
     for (long k = 0; k < log.rows; ++k) {
       const ImmEstimate& e = imm->step(log.t[k], u_of(k), z_of(k));
       write_row(k, log.t[k], e, names, &reason, out);
-      out->decision[k] = decision->update(log.t[k], e.mode_probabilities, e.num_measured > 0);
+      out->decision[k] = decision->update(log.t[k], e.mode_probabilities, e.measured());
     }
     return;
   }
@@ -185,7 +185,9 @@ long run_log_file(const Bank& bank, LogReader* reader, const EstimatorOptions& e
   run_log(bank, reader, estimator, [&](const LogSample& sample, const ImmEstimate& e) {
     out->reserve(rows + 1);
     write_row(rows, sample.t, e, names, &reason, &out->columns());
-    out->columns().decision[rows] = decision.update(sample.t, e.mode_probabilities, e.num_measured > 0);
+    // A smoothed step carries the measurements after it: it does not go stale.
+    const bool current = estimator.kind != EstimatorOptions::Kind::kFilter || e.measured();
+    out->columns().decision[rows] = decision.update(sample.t, e.mode_probabilities, current);
     if (with_truth) truth->push_back(label.empty() ? sample.truth_mode : label);
     ++rows;
   });

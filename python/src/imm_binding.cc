@@ -146,9 +146,12 @@ Estimate make_estimate(const PyImm& self, const ImmEstimate& e, int decided) {
   for (std::size_t j = 0; j < e.mode_failures.size(); ++j) {
     const ModeFailure failure = e.mode_failures[j];
     const std::string& reason = j < e.failure_reasons.size() ? e.failure_reasons[j] : std::string();
+    // The model's own words belong to a model failure alone: the reasons
+    // are kept from the step that gave them.
+    const bool with_reason = failure == ModeFailure::kModel && !reason.empty();
     out.mode_failures.push_back(failure == ModeFailure::kNone ? std::string()
-                                : reason.empty()              ? std::string(to_string(failure))
-                                                              : std::string(to_string(failure)) + ": " + reason);
+                                : with_reason                 ? std::string(to_string(failure)) + ": " + reason
+                                                              : std::string(to_string(failure)));
   }
   out.mode_probabilities = vector_array(e.mode_probabilities);
   out.log_likelihoods = vector_array(e.log_likelihoods);
@@ -185,7 +188,7 @@ Estimate step(PyImm& self, double t, const py::object& u, const py::object& z) {
     py::gil_scoped_release release;
     e = &self.imm->step(t, Eigen::Map<const Eigen::VectorXd>(uu.data(), self.input_dim()),
                         Eigen::Map<const Eigen::VectorXd>(zz.data(), self.measurement_dim()));
-    decided = self.decision->update(t, e->mode_probabilities, e->num_measured > 0);
+    decided = self.decision->update(t, e->mode_probabilities, e->measured());
   }
   throw_if_python_model_raised();
   return make_estimate(self, *e, decided);

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 namespace skidimm {
 namespace {
 
@@ -109,6 +111,10 @@ TEST(ModeDecision, NoMeasurementForStaleAfterSecondsGivesUnknown) {
   EXPECT_EQ(d.update(6.0, sure, true), 0) << "a measured step decides again";
   // Measured steps are never stale, whatever the probabilities say.
   EXPECT_EQ(d.update(20.0, sure, true), 0);
+  // A time that is not finite, or goes back, does not count as the sensors speaking.
+  EXPECT_EQ(d.update(std::nan(""), uniform, true), 0);
+  EXPECT_EQ(d.update(19.0, uniform, true), 0);
+  EXPECT_EQ(d.update(25.0, uniform, false), ModeDecision::kUnknown) << "silent since 20 s";
 
   // Given in the bank: that value; 0 never gives a decision up so.
   DecisionConfig given = settings(0.9, 0.05, 1.0);

@@ -587,6 +587,16 @@ TEST(LogReader, AFileOfInputsWithoutRowsLongerThanMaxGapIsSaid) {
   LogReader quiet(bank, {shorter.wheels, shorter.gyro}, bank.sampling);
   read_all(quiet);
   EXPECT_THAT(quiet.describe_stats(bank), Not(HasSubstr("had no row")));
+  // Both files paused together (skip_gaps): a gap of the log, not a hole of one file.
+  BankConfig skipping = bank;
+  skipping.sampling.skip_gaps = true;
+  // The wheels' last row before it at 2.95 s, the gyro's at 3 s.
+  const TwoRateLog both = twenty_seconds([](double t) { return !(t > 2.951 && t < 14.999); },
+                                         [](double t) { return !(t > 3.001 && t < 14.999); });
+  LogReader skipped(skipping, {both.wheels, both.gyro}, skipping.sampling);
+  read_all(skipped);
+  EXPECT_EQ(skipped.stats().gaps_skipped, 1);
+  EXPECT_THAT(skipped.describe_stats(skipping), Not(HasSubstr("had no row")));
 }
 
 // A file that fails partway (a time that goes back) stops before the rows the

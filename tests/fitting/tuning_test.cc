@@ -499,10 +499,10 @@ TEST(Tune, ASearchThatEndsOnItsFarthestCandidateSaysSo) {
         return b;
       };
     };
-    const auto warned_of_r = [](const TuneResult& r) {
+    const auto warned_of_r = [](const TuneResult& r, const std::string& times = "64") {
       for (const std::string& w : r.warnings) {
-        if (w.find("the search of R scale ended on the farthest value its sweep tries (64 times less than its "
-                   "start), where the score still rose") != std::string::npos) {
+        if (w.find("the search of R scale (objective none) ended on the farthest value its sweep tries (" + times +
+                   " times less than where the sweep started), where the score still rose") != std::string::npos) {
           return true;
         }
       }
@@ -515,6 +515,16 @@ TEST(Tune, ASearchThatEndsOnItsFarthestCandidateSaysSo) {
         << "from the bank's own R, the search chooses an R beyond the far start's reach";
     EXPECT_TRUE(warned_of_r(far));
     EXPECT_FALSE(warned_of_r(near));
+    // Said of the last sweep's line: a second sweep from 64 times less goes
+    // on, and stops 2.25 times further, still short.
+    options.sweeps = 2;
+    const TuneResult twice = tune(bank_with_r_times(1024.0), logs, kKeepModels, options);
+    EXPECT_EQ(twice.settings.r_scale, std::pow(4.0, -3) / 2.25);
+    EXPECT_TRUE(warned_of_r(twice, "2.25"));
+    EXPECT_FALSE(warned_of_r(twice));
+    EXPECT_EQ(std::count_if(twice.warnings.begin(), twice.warnings.end(),
+                            [](const std::string& w) { return w.find("R scale") != std::string::npos; }),
+              1);
   }
 }
 

@@ -153,7 +153,9 @@ ScoredRun score_run(const Bank& bank, SampleSource* source, const std::string& n
     smallest = std::min(smallest, e.mode_probabilities.minCoeff());
     if (config.unknown.enabled()) smallest = std::min(smallest, e.unknown_probability);
     const std::string& label = label_given.empty() ? sample.truth_mode : label_given;
-    const std::string& decided = decision.name(decision.update(sample.t, e.mode_probabilities, e.num_measured > 0));
+    // A smoothed step carries the measurements after it: it does not go stale.
+    const bool current = estimator.kind != EstimatorOptions::Kind::kFilter || e.measured();
+    const std::string& decided = decision.name(decision.update(sample.t, e.mode_probabilities, current));
     if (writer) writer->write(sample.t, e, decided, label);
     run.steps.push_back(scorer.score(sample.t, label, e.mode_probabilities, e.unknown_probability));
     run.decisions.push_back(scorer.decided(run.steps.back(), decided));

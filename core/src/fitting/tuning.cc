@@ -776,6 +776,7 @@ class Tuner {
       }
       return true;
     };
+    std::map<std::string, std::string> at_reach;  // per setting: the last line's ending at its reach, or ""
     for (int sweep = 0; sweep < options_.sweeps; ++sweep) {
       const double factor = sweep == 0 ? 4.0 : 1.5;
       const int steps = sweep == 0 ? 3 : 2;
@@ -821,19 +822,24 @@ class Tuner {
               break;
             }
           }
-          // The farthest candidate of the sweep in this direction was taken:
-          // the score may still rise beyond it, where this search does not
-          // go, and the value handed on depends on where the bank started.
-          if (chosen == start * std::pow(factor, direction * steps)) {
-            warnings_.push_back("the search of " + name + " ended on the farthest value its sweep tries (" +
-                                brief(std::pow(factor, steps)) + " times " + (direction < 0 ? "less" : "more") +
-                                " than its start), where the score still rose: the value it chose depends on where "
-                                "the bank started. Tune again from the tuned bank (--bank the output), which "
-                                "searches on from there");
-          }
           if (walk && chosen != start) break;
         }
         *value = chosen;
+        // The farthest candidate of the line was taken: the score may still
+        // rise beyond it, where this search does not go, and the value handed
+        // on depends on where the bank started. Said once the last sweep has
+        // searched this setting, if its line ended there too.
+        at_reach[name].clear();
+        for (const int direction : {-1, 1}) {
+          if (chosen != start && chosen == start * std::pow(factor, direction * steps)) {
+            at_reach[name] = "the search of " + name + " (objective " + objective +
+                             ") ended on the farthest value its sweep tries (" + brief(std::pow(factor, steps)) +
+                             " times " + (direction < 0 ? "less" : "more") +
+                             " than where the sweep started), where the score still rose: the value it chose "
+                             "depends on where the bank started. Tune again from the tuned bank (--bank the "
+                             "output), which searches on from there";
+          }
+        }
         if (!quiet) progress("  " + objective + ": " + name + " " + brief(chosen) + " -> mean log p(truth) " + brief(best));
       };
       // A setting whose 0 turns a feature off (the Student-t degrees of
@@ -912,6 +918,13 @@ class Tuner {
             line("unknown inflation", &current.unknown_inflation, 1.0 + 1e-6, 1e12);
             break;
         }
+      }
+    }
+    // The search whose settings are handed on (a fold's inner searches are
+    // scored, not handed on).
+    if (!quiet) {
+      for (const auto& [name, warning] : at_reach) {
+        if (!warning.empty()) warnings_.push_back(warning);
       }
     }
     return current;

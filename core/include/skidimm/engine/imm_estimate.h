@@ -75,6 +75,12 @@ struct ImmEstimate {
   bool unknown_is_most_likely() const {
     return unknown_outweighs(unknown_probability, mode_probabilities[most_likely_mode]);
   }
+  // Whether the step had a measurement (what keeps a decision current,
+  // decision.h): not a step the engine ignored, which returns the last
+  // step's estimate, its num_measured included.
+  bool measured() const {
+    return num_measured > 0 && status != StepStatus::kRejectedTime && status != StepStatus::kRejectedInput;
+  }
 };
 
 }  // namespace skidimm
