@@ -55,6 +55,7 @@ std::vector<DecisionConfig> decision_grid(const DecisionConfig& base, const Eval
         overrides.decision_enter = enter;
         overrides.decision_leave = leave;
         overrides.decision_hold = hold;
+        overrides.decision_stale = options.overrides.decision_stale;  // one value for every combination
         grid.push_back(decision_settings_of(base, overrides));  // checks each as a bank's setting
       }
     }

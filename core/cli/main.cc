@@ -162,7 +162,8 @@ int main(int argc, char** argv) {
   // The decision's settings: a value each (run: std::optional), or a list
   // each (eval: std::vector, comma-separated; with --estimates, every
   // combination is compared). `lists`: what a list does, for the help.
-  auto add_decision_options = [](CLI::App* command, auto* enter, auto* leave, auto* hold, const std::string& lists) {
+  auto add_decision_options = [](CLI::App* command, auto* enter, auto* leave, auto* hold,
+                                 std::optional<double>* stale_after, const std::string& lists) {
     const auto option = [&](const char* name, auto* value, const std::string& help) {
       CLI::Option* o = command->add_option(name, *value, help + lists);
       if constexpr (!std::is_same_v<std::decay_t<decltype(*value)>, std::optional<double>>) o->delimiter(',');
@@ -177,6 +178,12 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(0.0, 1.0));
     option("--decision-hold", hold,
            "Seconds a decision is kept at least, and below decision.leave before it is given up (decision.min_hold)")
+        ->check(number_above(0.0, true));
+    command
+        ->add_option("--decision-stale-after", *stale_after,
+                     "Seconds without any measurement after which the decision is given up for unknown; 0: never "
+                     "(decision.stale_after; default the bank's shortest mean dwell time)")
+        ->check(finite_number())
         ->check(number_above(0.0, true));
   };
 
@@ -231,7 +238,7 @@ int main(int argc, char** argv) {
       ->check(finite_number())
       ->check(number_above(0.0, true));
   add_decision_options(run, &run_options.overrides.decision_enter, &run_options.overrides.decision_leave,
-                       &run_options.overrides.decision_hold, "");
+                       &run_options.overrides.decision_hold, &run_options.overrides.decision_stale, "");
   run->add_option("--output,-o", output,
                   "Output: a NumPy array for a path ending in .npy, an MCAP file for Foxglove for .mcap, else CSV; "
                   "written as <output>.partial, renamed when complete; '-' for CSV on standard output")
@@ -498,8 +505,8 @@ int main(int argc, char** argv) {
       ->check(number_above(0.0, true));
   eval->add_option("--estimates,-e", eval_options.estimates,
                    "Evaluate `skidimm run` outputs (files or directories) instead of running a bank");
-  add_decision_options(eval, &eval_options.decision_enter, &eval_options.decision_leave,
-                       &eval_options.decision_hold, "; with --estimates a list (0.6,0.8) compares settings");
+  add_decision_options(eval, &eval_options.decision_enter, &eval_options.decision_leave, &eval_options.decision_hold,
+                       &eval_options.overrides.decision_stale, "; with --estimates a list (0.6,0.8) compares settings");
   add_filter_overrides(eval, &eval_options.overrides);
   eval->add_flag("--skip-unpaired", eval_options.skip_unpaired, kSkipUnpaired);
   eval->add_flag("--json", eval_options.json, "Print JSON instead of tables");

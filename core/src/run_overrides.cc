@@ -46,6 +46,14 @@ DecisionConfig decision_settings_of(const DecisionConfig& bank, const RunOverrid
   if (overrides.decision_enter) d.enter = *overrides.decision_enter;
   if (overrides.decision_leave) d.leave = *overrides.decision_leave;
   if (overrides.decision_hold) d.min_hold = *overrides.decision_hold;
+  if (overrides.decision_stale) {
+    // The bank's own bound (bank_loader.cc); unset (< 0) is the bank's alone.
+    if (!(*overrides.decision_stale >= 0.0 && *overrides.decision_stale < kLongestDecisionHold)) {
+      throw Error("decision stale_after: need seconds >= 0 (0: never) and under 1e9, got " +
+                  CsvWriter::format(*overrides.decision_stale));
+    }
+    d.stale_after = *overrides.decision_stale;
+  }
   check_decision_settings(d);
   return d;
 }

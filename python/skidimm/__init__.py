@@ -130,7 +130,7 @@ class Imm(_native.Imm):
 
     ``Imm(bank, kernel="fastest", decision=None)``: ``bank`` is a Bank or a
     bank file; ``decision`` overrides the bank's ``decision:`` settings
-    (``{"enter": 0.9, "leave": 0.05, "min_hold": 1.0}``).
+    (``{"enter": 0.9, "leave": 0.05, "min_hold": 1.0, "stale_after": 10.0}``).
 
     ``step(t, u, z)`` runs one cycle and returns an :class:`Estimate`
     (numpy arrays: ``mode_probabilities``, ``state``, ``covariance``,

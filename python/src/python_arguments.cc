@@ -24,8 +24,10 @@ DecisionConfig decision_of(const BankConfig& config, const py::object& given) {
         overrides.decision_leave = value.cast<double>();
       } else if (k == "min_hold") {
         overrides.decision_hold = value.cast<double>();
+      } else if (k == "stale_after") {
+        overrides.decision_stale = value.cast<double>();
       } else {
-        throw py::key_error("decision: unknown key '" + k + "' (expected enter, leave, min_hold)");
+        throw py::key_error("decision: unknown key '" + k + "' (expected enter, leave, min_hold, stale_after)");
       }
     }
   }

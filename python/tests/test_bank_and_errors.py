@@ -132,9 +132,32 @@ def test_bad_decision_settings_are_an_error_naming_the_values(configs):
         skidimm.Imm(bank, decision={"enter": 0.3, "leave": 0.4})
     with pytest.raises(skidimm.Error, match=r"need min_hold >= 0 s and under 1e9 s, got -1"):
         skidimm.Imm(bank, decision={"min_hold": -1.0})
-    with pytest.raises(KeyError, match="unknown key 'hold'"):
+    with pytest.raises(KeyError, match=r"unknown key 'hold' \(expected enter, leave, min_hold, stale_after\)"):
         skidimm.Imm(bank, decision={"hold": 1.0})
     assert skidimm.Imm(bank, decision={"enter": 0.6}).step(0.0, [1.0, 1.0], [0.1, 0.0]).decision == "unknown"
+
+
+def test_the_decision_goes_stale_after_the_seconds_given(configs):
+    """``decision={"stale_after": s}`` as ``--decision-stale-after``: with every measurement missing (NaN) for
+    longer, the decision is given up for unknown; 0: never; negative: an error naming the value."""
+    bank = configs / "ltc_terrains.yaml"
+    t = np.arange(0.0, 20.0, 0.1)
+    u = np.ones((len(t), 2))
+    z = np.tile([0.1, 0.0], (len(t), 1))
+    z[t >= 5.0] = np.nan
+    silent = t >= 5.0
+
+    def decisions(decision):
+        return np.array(list(skidimm.run(bank, t, u, z, decision=dict(decision, enter=0.3))["decision"]))
+
+    taken = decisions({})[t < 5.0]
+    assert taken[-1] != "unknown"
+    three = decisions({"stale_after": 3.0})
+    assert (three[silent & (t >= 7.95)] == "unknown").all()  # 3 s after the last measured step, at 4.9 s
+    assert (three[silent & (t < 7.85)] == taken[-1]).all()
+    assert (decisions({"stale_after": 0.0})[silent] == taken[-1]).all()
+    with pytest.raises(skidimm.Error, match=r"stale_after: need seconds >= 0 \(0: never\) and under 1e9, got -2"):
+        skidimm.Imm(bank, decision={"stale_after": -2.0})
 
 
 def test_a_plugin_path_that_does_not_exist_is_an_error(configs, tmp_path):

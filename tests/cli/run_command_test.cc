@@ -78,6 +78,49 @@ TEST(Cli, RunIdentifiesTheTerrainsOfTheBundledSwitchingExample) {
 // the most likely class (its modes' probabilities summed) by time, which
 // differ; the summary line says so, so that the two numbers are not taken
 // for one.
+// With every sensor silent the probabilities only relax, and the decision
+// is given up after decision.stale_after seconds: by default the bank's
+// shortest mean dwell time (10 s here), or --decision-stale-after's, 0
+// never. The switching example's V and omega blanked from 5 s to 25 s.
+TEST(Cli, RunGivesTheDecisionUpWhenTheSensorsFallSilent) {
+  const fs::path dir = capture_directory("run_stale_decision");
+  std::vector<std::vector<std::string>> rows = read_csv(kSwitching);
+  const int t = column(rows[0], "t"), v = column(rows[0], "V"), omega = column(rows[0], "omega");
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const double time = std::stod(rows[i][static_cast<std::size_t>(t)]);
+    if (time >= 5.0 && time < 25.0)
+      rows[i][static_cast<std::size_t>(v)] = rows[i][static_cast<std::size_t>(omega)] = "";
+  }
+  const fs::path log = dir / "silent.csv";
+  std::ofstream(log) << csv_text(rows);
+  // The decision at each output row of the silence, after `seconds` of it.
+  const auto unknown_share = [&](const std::string& stale, double from, double to) {
+    const fs::path out = dir / ("out" + stale + ".csv");
+    const Result r = run_pipeline(run_command(kTerrains, log.string(), out.string()) +
+                                  (stale.empty() ? "" : " --decision-stale-after " + stale));
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    const std::vector<std::vector<std::string>> estimates = read_csv(out);
+    const int et = column(estimates[0], "t"), decision = column(estimates[0], "decision");
+    long in = 0, unknown = 0;
+    for (std::size_t i = 1; i < estimates.size(); ++i) {
+      const double time = std::stod(estimates[i][static_cast<std::size_t>(et)]);
+      if (time < 5.0 + from || time >= 5.0 + to) continue;
+      ++in;
+      unknown += estimates[i][static_cast<std::size_t>(decision)] == "unknown";
+    }
+    EXPECT_GT(in, 0);
+    return in > 0 ? static_cast<double>(unknown) / static_cast<double>(in) : -1.0;
+  };
+  EXPECT_EQ(unknown_share("", 0.5, 9.5), 0.0) << "within the bank's dwell time";
+  EXPECT_EQ(unknown_share("", 10.5, 19.5), 1.0) << "after it";
+  EXPECT_EQ(unknown_share("3", 3.5, 19.5), 1.0);
+  EXPECT_EQ(unknown_share("0", 0.5, 19.5), 0.0) << "never";
+  const Result negative =
+      run_skidimm("run --bank " + kTerrains + " --input " + log.string() + " --output - --decision-stale-after -1");
+  EXPECT_NE(negative.exit_code, 0);
+  EXPECT_THAT(negative.err, HasSubstr("--decision-stale-after"));
+}
+
 TEST(Cli, RunSaysHowItsAccuracyOfABankWithClassesDiffersFromEvals) {
   const fs::path dir = test_directory();
   const fs::path bank = write_file(dir / "paved.yaml", read_file(kTerrains) +

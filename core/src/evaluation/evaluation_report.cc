@@ -378,8 +378,12 @@ std::string json_summary(const EvaluationSummary& s, const std::vector<std::stri
 }  // namespace
 
 std::string decision_settings_text(const DecisionConfig& d) {
+  // stale_after < 0: the bank's default, said where the bank is run (docs/bank-format.md).
+  const std::string stale = d.stale_after == 0.0  ? ", never stale"
+                            : d.stale_after > 0.0 ? ", stale after " + CsvWriter::format(d.stale_after) + " s"
+                                                  : "";
   return "enter " + CsvWriter::format(d.enter) + ", leave " + CsvWriter::format(d.leave) + ", hold " +
-         CsvWriter::format(d.min_hold) + " s";
+         CsvWriter::format(d.min_hold) + " s" + stale;
 }
 
 std::string report_json(const std::vector<LogGroup>& groups, const std::vector<std::string>& classes,

@@ -21,10 +21,11 @@ struct RunOverrides {
   std::optional<double> decision_enter;     // decision.enter
   std::optional<double> decision_leave;     // decision.leave
   std::optional<double> decision_hold;      // decision.min_hold (s)
+  std::optional<double> decision_stale;     // decision.stale_after (s); 0: never
   std::optional<double> innovation_gate;    // in [0, 1); 0: no gate
   std::optional<double> likelihood_weight;  // in (0, 1]
 
-  bool changes_decision() const { return decision_enter || decision_leave || decision_hold; }
+  bool changes_decision() const { return decision_enter || decision_leave || decision_hold || decision_stale; }
 };
 
 // The bank's sampling with `rate` (Hz) when it is given and > 0. Throws
