@@ -397,13 +397,15 @@ TEST(Tune, ProtocolsThatHoldOutTheSameLogsShareTheirSearch) {
 
 // A line is searched over its whole grid (the default), or walked from its
 // start while each step beats the best (LineSearch::kWalk): on real BorealTC
-// runs, the bundled bank's likelihood weight, started from it and from 16
-// times less and more. The grid's scores are computed here, each
-// candidate's bank scoring every log (the models are kept, so every fold's
-// are the bank's), and each search's choice and its number of runs follow
-// from them: both choose the grid's best (these scores rise to one peak),
-// the walk after the runs up to it and the first that lost, downward from
-// one start and upward from another.
+// runs, the likelihood weight, started from the best of the bundled bank's
+// times powers of 4, from 16 times less and from 4 times more (within the
+// first sweep's reach of 4^3: a line whose farthest candidate wins goes
+// on). The grid's scores are computed here, each candidate's bank scoring
+// every log (the models are kept, so every fold's are the bank's), and each
+// search's choice and its number of runs follow from them: both choose the
+// grid's best (these scores rise to one peak), the walk after the runs up
+// to it and the first that lost, downward from one start and upward from
+// another.
 TEST(Tune, AWalkChoosesTheGridsBestOfOnePeakWithFewerRuns) {
   if (!std::filesystem::exists(kBorealTc)) GTEST_SKIP() << "no shared data at " << kBorealTc;
   const std::vector<TuningLog> logs{borealtc_log("ICE", "04"), borealtc_log("ICE", "11"),
@@ -411,9 +413,26 @@ TEST(Tune, AWalkChoosesTheGridsBestOfOnePeakWithFewerRuns) {
   std::vector<const TuningLog*> each;
   for (const TuningLog& l : logs) each.push_back(&l);
   const double bundled = bundled_borealtc_bank().config.likelihood_weight;
+  double best = bundled;
+  {
+    TuneOptions options = weight_only_options();
+    double best_score = -std::numeric_limits<double>::infinity();
+    for (int k = -4; k <= 4; ++k) {
+      Bank b = bundled_borealtc_bank();
+      b.config.likelihood_weight = bundled * std::pow(4.0, k);
+      if (b.config.likelihood_weight > 1.0) continue;
+      const double score = summarize(score_logs(b, each, options.sampling)).mean_log_probability;
+      if (score > best_score) {
+        best_score = score;
+        best = b.config.likelihood_weight;
+      }
+    }
+    ASSERT_LT(best, bundled * 64) << "a peak inside the powers tried";
+    ASSERT_GT(best, bundled / 64) << "a peak inside the powers tried";
+  }
   bool walked_down = false, walked_up = false;
   int all_walk_runs = 0, all_grid_runs = 0;
-  for (const double start : {bundled / 16, bundled, bundled * 16}) {
+  for (const double start : {best / 16, best, best * 4}) {
     SCOPED_TRACE("start " + std::to_string(start));
     const auto starting_bank = [start] {
       Bank b = bundled_borealtc_bank();
@@ -478,11 +497,13 @@ TEST(Tune, AWalkChoosesTheGridsBestOfOnePeakWithFewerRuns) {
   EXPECT_LT(all_walk_runs, all_grid_runs);
 }
 
-// A search whose farthest candidate in a direction is its best stops where
-// the score still rises: said. R scaled up 4^5 = 1024 times in the start
-// bank puts R's best beyond the first sweep's reach (4^3 each way); from
-// the bank's own R it is within it. Grid and walk alike.
-TEST(Tune, ASearchThatEndsOnItsFarthestCandidateSaysSo) {
+// A line whose farthest candidate one way is its best goes on, a factor at
+// a time, while the score rises: what the search hands on does not depend
+// on how far from it the bank started. R scaled up 4^5 = 1024 times in the
+// start bank puts R's best beyond the first sweep's reach (4^3 each way);
+// the search from there ends on the R the search from the bank's own R
+// chooses, on the same grid of powers of 4. Grid and walk alike.
+TEST(Tune, ASearchGoesOnBeyondItsSweepWhileTheScoreRises) {
   if (!std::filesystem::exists(kBorealTc)) GTEST_SKIP() << "no shared data at " << kBorealTc;
   const std::vector<TuningLog> logs{borealtc_log("ICE", "04"), borealtc_log("ICE", "11"),
                                     borealtc_log("FLOORING", "01"), borealtc_log("FLOORING", "08")};
@@ -492,6 +513,7 @@ TEST(Tune, ASearchThatEndsOnItsFarthestCandidateSaysSo) {
     options.knobs = {Knob::kRScale};
     options.assess = false;
     options.line_search = search;
+    options.sweeps = 1;  // factors of 4 alone: both starts' candidates lie on one grid
     const auto bank_with_r_times = [](double factor) {
       return [factor] {
         Bank b = bundled_borealtc_bank();
@@ -499,32 +521,17 @@ TEST(Tune, ASearchThatEndsOnItsFarthestCandidateSaysSo) {
         return b;
       };
     };
-    const auto warned_of_r = [](const TuneResult& r, const std::string& times = "64") {
-      for (const std::string& w : r.warnings) {
-        if (w.find("the search of R scale (objective none) ended on the farthest value its sweep tries (" + times +
-                   " times less than where the sweep started), where the score still rose") != std::string::npos) {
-          return true;
-        }
-      }
-      return false;
-    };
     const TuneResult near = tune(bank_with_r_times(1.0), logs, kKeepModels, options);
     const TuneResult far = tune(bank_with_r_times(1024.0), logs, kKeepModels, options);
-    EXPECT_EQ(far.settings.r_scale, std::pow(4.0, -3)) << "the farthest the first sweep goes";
-    EXPECT_LT(near.settings.r_scale, std::pow(4.0, -3) * 1024.0)
-        << "from the bank's own R, the search chooses an R beyond the far start's reach";
-    EXPECT_TRUE(warned_of_r(far));
-    EXPECT_FALSE(warned_of_r(near));
-    // Said of the last sweep's line: a second sweep from 64 times less goes
-    // on, and stops 2.25 times further, still short.
-    options.sweeps = 2;
-    const TuneResult twice = tune(bank_with_r_times(1024.0), logs, kKeepModels, options);
-    EXPECT_EQ(twice.settings.r_scale, std::pow(4.0, -3) / 2.25);
-    EXPECT_TRUE(warned_of_r(twice, "2.25"));
-    EXPECT_FALSE(warned_of_r(twice));
-    EXPECT_EQ(std::count_if(twice.warnings.begin(), twice.warnings.end(),
-                            [](const std::string& w) { return w.find("R scale") != std::string::npos; }),
-              1);
+    EXPECT_LT(far.settings.r_scale, std::pow(4.0, -3)) << "beyond the farthest the first sweep tries";
+    EXPECT_EQ(far.settings.r_scale * 1024.0, near.settings.r_scale) << "the same R from either start";
+    EXPECT_EQ(far.selection.mean_log_probability, near.selection.mean_log_probability);
+    // One factor further would have lost: the line stopped where the score
+    // stopped rising, not at a bound. (Scaling by powers of 2 is exact.)
+    options.sweeps = 0;
+    const TuneResult one_further =
+        tune(bank_with_r_times(1024.0 * far.settings.r_scale / 4.0), logs, kKeepModels, options);
+    EXPECT_LT(one_further.selection.mean_log_probability, far.selection.mean_log_probability);
   }
 }
 

@@ -776,7 +776,6 @@ class Tuner {
       }
       return true;
     };
-    std::map<std::string, std::string> at_reach;  // per setting: the last line's ending at its reach, or ""
     for (int sweep = 0; sweep < options_.sweeps; ++sweep) {
       const double factor = sweep == 0 ? 4.0 : 1.5;
       const int steps = sweep == 0 ? 3 : 2;
@@ -786,6 +785,10 @@ class Tuner {
       // the same way (kWalk). Where the score rises to one peak along the
       // line the walk ends on the grid's best, and the far candidates it
       // skips would have lost, each after up to a whole scoring.
+      // Where the farthest candidate one way is the best, the score may rise
+      // further: the line goes on a factor at a time, within the setting's
+      // range, while each candidate beats the best, so that what the search
+      // hands on does not depend on how far from it the bank started.
       // `ties(chosen, candidate)`: true where the candidate is known to score
       // exactly what the best settings (whose value is `chosen`) scored; it is
       // then not run, as it could not be taken, and a walk goes on past it
@@ -801,45 +804,39 @@ class Tuner {
           std::vector<int> ks;
           for (int k = direction; std::abs(k) <= steps; k += direction) ks.push_back(k);
           if (!walk && direction < 0) std::reverse(ks.begin(), ks.end());  // -steps first, as it always has
-          for (const int k : ks) {
-            const double candidate = start * std::pow(factor, k);
-            if (candidate < lowest || candidate > highest) {
-              if (walk) break;  // and every candidate beyond
-              continue;
-            }
+          // Scores one candidate; true where it was taken.
+          const auto try_candidate = [&](double candidate) {
             if (ties && ties(chosen, candidate)) {
               ++settings_known_to_tie_;
-              continue;
+              return false;
             }
             *value = candidate;
             std::vector<LogScore> scores;
             const double score = score_of(current, &scores, best);
-            if (score > best + 1e-9) {
-              best = score;
-              chosen = candidate;
-              *best_scores = scores;
-            } else if (walk) {
-              break;
+            if (!(score > best + 1e-9)) return false;
+            best = score;
+            chosen = candidate;
+            *best_scores = scores;
+            return true;
+          };
+          const auto within = [&](double candidate) { return candidate >= lowest && candidate <= highest; };
+          for (const int k : ks) {
+            const double candidate = start * std::pow(factor, k);
+            if (!within(candidate)) {
+              if (walk) break;  // and every candidate beyond
+              continue;
             }
+            const bool tied = ties && ties(chosen, candidate);
+            if (!try_candidate(candidate) && walk && !tied) break;
+          }
+          // Beyond the line's reach while the score still rises.
+          for (int k = direction * (steps + 1); chosen == start * std::pow(factor, k - direction); k += direction) {
+            const double candidate = start * std::pow(factor, k);
+            if (!within(candidate) || !try_candidate(candidate)) break;
           }
           if (walk && chosen != start) break;
         }
         *value = chosen;
-        // The farthest candidate of the line was taken: the score may still
-        // rise beyond it, where this search does not go, and the value handed
-        // on depends on where the bank started. Said once the last sweep has
-        // searched this setting, if its line ended there too.
-        at_reach[name].clear();
-        for (const int direction : {-1, 1}) {
-          if (chosen != start && chosen == start * std::pow(factor, direction * steps)) {
-            at_reach[name] = "the search of " + name + " (objective " + objective +
-                             ") ended on the farthest value its sweep tries (" + brief(std::pow(factor, steps)) +
-                             " times " + (direction < 0 ? "less" : "more") +
-                             " than where the sweep started), where the score still rose: the value it chose "
-                             "depends on where the bank started. Tune again from the tuned bank (--bank the "
-                             "output), which searches on from there";
-          }
-        }
         if (!quiet) progress("  " + objective + ": " + name + " " + brief(chosen) + " -> mean log p(truth) " + brief(best));
       };
       // A setting whose 0 turns a feature off (the Student-t degrees of
@@ -918,13 +915,6 @@ class Tuner {
             line("unknown inflation", &current.unknown_inflation, 1.0 + 1e-6, 1e12);
             break;
         }
-      }
-    }
-    // The search whose settings are handed on (a fold's inner searches are
-    // scored, not handed on).
-    if (!quiet) {
-      for (const auto& [name, warning] : at_reach) {
-        if (!warning.empty()) warnings_.push_back(warning);
       }
     }
     return current;
