@@ -106,12 +106,20 @@ void warn_of_rate_unlike_the_banks(const char* command, const std::filesystem::p
             << "sampling.rate)\n";
 }
 
-EstimatorOptions command_line_estimator(bool smooth, std::optional<double> lag) {
+EstimatorOptions command_line_estimator(bool smooth, std::optional<double> lag, const RunOverrides& overrides) {
+  EstimatorOptions estimator;
   try {
-    return estimator_options(smooth, lag);
+    estimator = estimator_options(smooth, lag);
   } catch (const Error& e) {  // what it refuses, --smooth with --lag, is a bad command line here
     throw UsageError(std::string("--smooth, --lag: ") + e.what());
   }
+  // A smoothed step has seen the measurements after it: its decision never
+  // goes stale (decision.h), and the option would do nothing.
+  if ((smooth || lag) && overrides.decision_stale) {
+    throw UsageError(std::string("--decision-stale-after does nothing with ") + (smooth ? "--smooth" : "--lag") +
+                     ": a smoothed decision has seen the measurements after each step and never goes stale");
+  }
+  return estimator;
 }
 
 void refuse_output_over_logs(const fs::path& output, const std::string& option, const std::vector<LogSpec>& logs) {
@@ -194,7 +202,7 @@ int run(const RunOptions& options) {
   RunSummary summary;
   const StopOnSignals stop_on_signals;
   int code = report_errors("skidimm run", [&] {
-    const EstimatorOptions estimator = command_line_estimator(options.smooth, options.lag);
+    const EstimatorOptions estimator = command_line_estimator(options.smooth, options.lag, options.overrides);
     if (options.flush && (EstimatesWriter::is_npy(options.output) || options.output.extension() == ".mcap")) {
       // Before the output is opened: it left an empty .partial behind.
       throw UsageError(
@@ -303,8 +311,12 @@ int run(const RunOptions& options) {
       }
       std::cerr << "dominant mode over time:\n" << timeline.format(mode_names);
       std::cerr << "  the decision (enter " << CsvWriter::format(decision_settings.enter) << ", leave "
-                << CsvWriter::format(decision_settings.leave) << ", hold " << CsvWriter::format(decision_settings.min_hold)
-                << " s) changed " << summary.decision_changes << " time(s), the most likely mode "
+                << CsvWriter::format(decision_settings.leave) << ", hold "
+                << CsvWriter::format(decision_settings.min_hold) << " s"
+                << (decision_settings.stale_after > 0.0 && !options.smooth && !options.lag
+                        ? ", stale after " + CsvWriter::format(decision_settings.stale_after) + " s"
+                        : std::string())
+                << ") changed " << summary.decision_changes << " time(s), the most likely mode "
                 << timeline.intervals().size() - 1 << " time(s)\n";
       std::cerr << reader.describe_stats(config);
       if (summary.predict_only > 0) {

@@ -67,8 +67,9 @@ void warn_of_rate_unlike_the_banks(const char* command, const std::filesystem::p
 void print_rejections(const Bank& bank, const std::vector<ModeRejections>& rejections);
 
 // estimator_options() (run_overrides.h), its refusal of --smooth with --lag a
-// UsageError.
-EstimatorOptions command_line_estimator(bool smooth, std::optional<double> lag);
+// UsageError, as is --decision-stale-after (`overrides`) with either: a
+// smoothed decision never goes stale.
+EstimatorOptions command_line_estimator(bool smooth, std::optional<double> lag, const RunOverrides& overrides);
 
 // Throws when writing `output` (given with `option`) would replace one of
 // the files of `logs`, which the command reads: a log is never overwritten.

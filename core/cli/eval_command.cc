@@ -110,7 +110,7 @@ int eval(const EvalOptions& given) {
     // the failures listed after them, and the exit code says it.
     std::vector<evaluation::LogFailure> failures;
     std::optional<Bank> ran;  // the bank run over the logs (not with --estimates)
-    const EstimatorOptions estimator = command_line_estimator(options.smooth, options.lag);
+    const EstimatorOptions estimator = command_line_estimator(options.smooth, options.lag, options.overrides);
     if (!options.estimates.empty()) {
       // The files hold what a filter already computed; these would change the filter.
       if (options.overrides.likelihood_weight || options.overrides.innovation_gate) {

@@ -17,6 +17,7 @@
 #include "python_arguments.h"
 #include "python_model_provider.h"
 #include "skidimm/config/bank.h"
+#include "skidimm/engine/decision.h"
 #include "skidimm/engine/plugin_registry.h"
 
 namespace skidimm {
@@ -127,6 +128,7 @@ void bind_bank(py::module_& m) {
                                d["enter"] = b.config().decision.enter;
                                d["leave"] = b.config().decision.leave;
                                d["min_hold"] = b.config().decision.min_hold;
+                               d["stale_after"] = ModeDecision(b.config()).stale_after();  // the default resolved
                                return d;
                              })
       .def(

@@ -150,6 +150,7 @@ def test_the_decision_goes_stale_after_the_seconds_given(configs):
     def decisions(decision):
         return np.array(list(skidimm.run(bank, t, u, z, decision=dict(decision, enter=0.3))["decision"]))
 
+    assert skidimm.Bank(bank).decision["stale_after"] == 10.0  # unset: the bank's shortest mean dwell time
     taken = decisions({})[t < 5.0]
     assert taken[-1] != "unknown"
     three = decisions({"stale_after": 3.0})

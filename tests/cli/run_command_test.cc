@@ -74,10 +74,6 @@ TEST(Cli, RunIdentifiesTheTerrainsOfTheBundledSwitchingExample) {
   EXPECT_FALSE(fs::exists(out.string() + ".partial"));
 }
 
-// With classes, run's summary scores the most likely mode by rows and eval
-// the most likely class (its modes' probabilities summed) by time, which
-// differ; the summary line says so, so that the two numbers are not taken
-// for one.
 // With every sensor silent the probabilities only relax, and the decision
 // is given up after decision.stale_after seconds: by default the bank's
 // shortest mean dwell time (10 s here), or --decision-stale-after's, 0
@@ -119,8 +115,31 @@ TEST(Cli, RunGivesTheDecisionUpWhenTheSensorsFallSilent) {
       run_skidimm("run --bank " + kTerrains + " --input " + log.string() + " --output - --decision-stale-after -1");
   EXPECT_NE(negative.exit_code, 0);
   EXPECT_THAT(negative.err, HasSubstr("--decision-stale-after"));
+  // A smoothed decision never goes stale: the option is refused there.
+  for (const std::string smoothing : {" --smooth", " --lag 1"}) {
+    const Result smoothed = run_skidimm("run --bank " + kTerrains + " --input " + log.string() + " --output " +
+                                        (dir / "smoothed.csv").string() + smoothing + " --decision-stale-after 3");
+    EXPECT_EQ(smoothed.exit_code, 2) << smoothing;
+    EXPECT_THAT(smoothed.err, HasSubstr("--decision-stale-after does nothing with")) << smoothing;
+  }
+  // A decision made again from the file goes stale by its status column
+  // (predict_only through the silence), as the run's own does.
+  const std::string estimates = (dir / "out.csv").string();
+  const auto unknown_in_eval = [&](const std::string& stale) {
+    const Result r = run_skidimm("eval --json --estimates " + estimates + " --bank " + kTerrains +
+                                 " --decision-stale-after " + stale);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    const YAML::Node report = YAML::Load(r.out);
+    return report["overall"]["decision"]["unknown_fraction"].as<double>();
+  };
+  EXPECT_GT(unknown_in_eval("3"), unknown_in_eval("10") + 0.05);
+  EXPECT_LT(unknown_in_eval("0"), unknown_in_eval("10"));
 }
 
+// With classes, run's summary scores the most likely mode by rows and eval
+// the most likely class (its modes' probabilities summed) by time, which
+// differ; the summary line says so, so that the two numbers are not taken
+// for one.
 TEST(Cli, RunSaysHowItsAccuracyOfABankWithClassesDiffersFromEvals) {
   const fs::path dir = test_directory();
   const fs::path bank = write_file(dir / "paved.yaml", read_file(kTerrains) +

@@ -117,6 +117,10 @@ std::vector<LogResult> evaluate_estimates(const fs::path& file, const BankConfig
   const BankConfig& classes = bank != nullptr ? *bank : modes_only;
   const ClassScorer scorer(classes);
   const int decision = decisions.empty() ? reader.column("decision") : -1;
+  // A decision made again goes stale as the run's did (decision.h): a step
+  // is measured unless its status says no measurement corrected the filter.
+  const int status = decisions.empty() ? -1 : reader.column("status");
+  std::vector<char> measured;
   std::vector<LabelledStep> steps, from_column;
   // With decision settings, each step's probabilities (its time is in
   // `steps`), kept to make the decision again with each setting in turn:
@@ -166,6 +170,10 @@ std::vector<LogResult> evaluate_estimates(const fs::path& file, const BankConfig
         scorer.score(time, label.empty() ? f[static_cast<std::size_t>(truth)] : label, mu, unknown_probability));
     if (!decisions.empty()) {
       probabilities.insert(probabilities.end(), mu.data(), mu.data() + mu.size());
+      const auto unmeasured = [&](const std::string& cell) {
+        return cell == "predict_only" || cell == "rejected_time" || cell == "rejected_input";
+      };
+      measured.push_back(status < 0 || !unmeasured(f[static_cast<std::size_t>(status)]));
     } else if (decision >= 0) {
       const std::string& cell = f[static_cast<std::size_t>(decision)];
       check_decision(reader, decision, cell, scorer.class_names(), bank != nullptr);
@@ -193,7 +201,7 @@ std::vector<LogResult> evaluate_estimates(const fs::path& file, const BankConfig
     decided.clear();
     for (std::size_t i = 0; i < steps.size(); ++i) {
       const Eigen::Map<const Eigen::VectorXd> row(probabilities.data() + i * static_cast<std::size_t>(modes), modes);
-      decided.push_back(scorer.decided(steps[i], decider.name(decider.update(steps[i].t, row))));
+      decided.push_back(scorer.decided(steps[i], decider.name(decider.update(steps[i].t, row, measured[i] != 0))));
     }
     results[k].decision_metrics = compute_mode_metrics(decided, scorer.class_names());
   }
