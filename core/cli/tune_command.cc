@@ -167,11 +167,13 @@ std::string question_of(const fitting::Protocol& p, int folds) {
 }
 
 // Classes the development logs cannot assess: a single class (nothing to
-// tell apart: every verdict reads "told apart"), or a class of one log
-// (each fold holding it out fits that class's modes on nothing and scores
-// the starting values). Said before the work, on stderr.
+// tell apart: every verdict reads "told apart"), a class of one log (each
+// fold holding it out fits that class's modes on nothing and scores the
+// starting values), or, where tune fits (`fits`), a class of none (its
+// modes compete unfitted in every search and fold). Said before the work,
+// on stderr.
 void warn_of_classes_with_too_few_logs(const BankConfig& config, const std::vector<fitting::TuningLog>& logs,
-                                       std::size_t development, bool assessed) {
+                                       std::size_t development, bool assessed, bool fits) {
   const std::vector<std::string> classes = config.class_names();
   const std::vector<int> class_of = config.class_of_modes();
   std::vector<int> logs_of(classes.size(), 0);
@@ -182,10 +184,11 @@ void warn_of_classes_with_too_few_logs(const BankConfig& config, const std::vect
     }
     for (std::size_t c = 0; c < classes.size(); ++c) logs_of[c] += shown[c] ? 1 : 0;
   }
-  std::vector<std::string> present, single;
+  std::vector<std::string> present, single, none;
   for (std::size_t c = 0; c < classes.size(); ++c) {
     if (logs_of[c] > 0) present.push_back(classes[c]);
     if (logs_of[c] == 1) single.push_back(classes[c]);
+    if (logs_of[c] == 0) none.push_back(classes[c]);
   }
   const auto join = [](const std::vector<std::string>& names) {
     std::string out;
@@ -196,6 +199,16 @@ void warn_of_classes_with_too_few_logs(const BankConfig& config, const std::vect
     std::cerr << "skidimm tune: warning: the development logs show one class only (" << present.front()
               << "): there is nothing to tell apart, the settings are chosen on that class alone, and a verdict "
                  "that the classes are told apart means nothing here; give logs of two classes or more\n";
+  }
+  if (fits && !none.empty() && !present.empty()) {
+    std::cerr << "skidimm tune: warning: "
+              << (none.size() == 1 ? "class " + none.front() + " has no development log"
+                                   : "classes " + join(none) + " have no development log")
+              << ": no fit gives " << (none.size() == 1 ? "its" : "their")
+              << " modes anything to learn, so they keep the bank's starting values and compete so in every search "
+                 "and fold, which can take the probability from the fitted classes and ruin every score (a lockbox "
+                 "log of such a class is scored by modes never fitted); give each class logs, or remove it from the "
+                 "bank\n";
   }
   if (assessed && !single.empty()) {
     std::cerr << "skidimm tune: warning: "
@@ -353,7 +366,9 @@ int tune(const TuneCommandOptions& options) {
                           {{"--sessions", options.sessions}});
     refuse_clashing_files({{"--table", options.table}}, {{"--bank", options.bank}});
     refuse_repeated_logs(logs);
-    warn_of_classes_with_too_few_logs(config, logs, development, !options.no_assess);
+    warn_of_classes_with_too_few_logs(
+        config, logs, development, !options.no_assess,
+        std::any_of(objectives.begin(), objectives.end(), [](const std::string& n) { return n != "none"; }));
 
     if (!options.estimates.empty()) {
       // A folder of an earlier run's files would be scored with this run's

@@ -334,8 +334,9 @@ TEST(Cli, ABankTunedAtAnotherRateIsWrittenWithIt) {
 }
 
 // Logs that cannot assess what tune reports: one class only (its verdict
-// read "told apart"), or a class of one log (held out, its modes are fitted
-// on nothing). Said before the work.
+// read "told apart"), a class of one log (held out, its modes are fitted on
+// nothing), or classes of none (their modes compete unfitted). Said before
+// the work.
 TEST(Cli, TuneWarnsOfClassesWithTooFewLogs) {
   const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
   if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
@@ -359,6 +360,9 @@ TEST(Cli, TuneWarnsOfClassesWithTooFewLogs) {
   EXPECT_THAT(one_log.err, HasSubstr("warning: class ASPHALT has one development log: a fold that holds such a log "
                                      "out has no log to fit its class's modes on"));
   EXPECT_THAT(one_log.err, Not(HasSubstr("one class only")));
+  // The classes no log shows compete unfitted, where tune fits.
+  EXPECT_THAT(one_log.err, HasSubstr("warning: classes FLOORING, ICE, SANDY_LOAM have no development log: no fit "
+                                     "gives their modes anything to learn"));
   const Result enough = run_skidimm(tune + logs({"ASPHALT/pro_00", "ASPHALT/pro_01", "SNOW/pro_00", "SNOW/pro_03"}));
   ASSERT_EQ(enough.exit_code, 0) << enough.err;
   EXPECT_THAT(enough.err, Not(HasSubstr("one development log")));
