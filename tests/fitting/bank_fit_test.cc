@@ -89,6 +89,24 @@ TEST(BankFit, LikelihoodFromAPhysicalGuessOnRealHuskyIceRuns) {
   EXPECT_LT(likelihood_held.rmse[0], window_held.rmse[0]) << "held-out one-step RMSE of V";
 }
 
+// A segment's span names its times so that segments of one log differ, on a
+// log stamped in seconds since 1970 as on one from 0 (six significant
+// digits printed 1.71803e+09 for every segment of an hour).
+TEST(BankFit, SegmentSpansTellSegmentsOfAnEpochStampedLogApart) {
+  Trajectory log;
+  log.source = "drive.csv";
+  log.t = {1718031234.5, 1718031235.0, 1718031299.25, 1718031299.75};
+  log.u = Eigen::MatrixXd::Zero(1, 4);
+  log.z = Eigen::MatrixXd::Zero(1, 4);
+  log.truth = {"ice", "ice", "snow", "snow"};
+  const auto parts = split_by_truth(log);
+  ASSERT_EQ(parts.size(), 2u);
+  EXPECT_EQ(parts[0].second.source, "drive.csv[1718031234.5-1718031235 s]");
+  EXPECT_EQ(parts[1].second.source, "drive.csv[1718031299.25-1718031299.75 s]");
+  log.t = {0.0, 6.0655, 9.9905, 43.5};
+  EXPECT_EQ(split_by_truth(log)[0].second.source, "drive.csv[0-6.0655 s]");
+}
+
 TEST(BankFit, SharedParametersNeedTheWindowObjective) {
   Bank bank = Bank::load(std::string(SKIDIMM_SOURCE_DIR) + "/configs/ltc_shared.yaml", {SKIDIMM_PLUGIN_DIR});
   BankFitOptions options;

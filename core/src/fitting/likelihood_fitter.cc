@@ -444,7 +444,10 @@ std::map<int, FitReport> fit_group(Bank* bank, const std::vector<std::pair<int, 
   if (unexcited.empty()) unexcited = describe_unidentified(eigen.eigenvectors(), eigenvalues, threshold, names);
   if (!unexcited.empty() || !(largest > 0.0)) {
     throw FitError(who + logs_text + ": the logs do not identify every parameter: no information on the combinations " +
-                   unexcited + "; drive maneuvers that move them (turns and speed changes), or fix them");
+                   unexcited +
+                   "; drive maneuvers that move them (turns and speed changes), or fix them; the window objective "
+                   "(--objective window --hold-unexcited) fits what the logs determine and holds the rest where it "
+                   "started, which this objective cannot (docs/fitting.md)");
   }
   const double smallest = eigenvalues.minCoeff();
   // Covariance = information^-1 = D (V L^-1 V') D, from the eigen decomposition above.

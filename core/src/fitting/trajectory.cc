@@ -1,6 +1,8 @@
 #include "skidimm/fitting/trajectory.h"
 
+#include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "skidimm/io/log_spec.h"
 
@@ -34,6 +36,21 @@ Trajectory load_trajectory(const BankConfig& bank, const std::vector<LogFile>& f
   return load_trajectory(bank, files, bank.sampling);
 }
 
+namespace {
+
+// A time of a segment's span: six significant digits, and at least three
+// decimals beyond the seconds, so that the spans of a log stamped in
+// seconds since 1970 (1.7e9) still tell its segments apart.
+std::string span_time(double t) {
+  int digits = 6;
+  for (double whole = std::abs(t); whole >= 1000.0 && digits < 17; whole /= 10.0) ++digits;
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.*g", digits, t);
+  return text;
+}
+
+}  // namespace
+
 std::vector<std::pair<std::string, Trajectory>> split_by_truth(const Trajectory& trajectory) {
   std::vector<std::pair<std::string, Trajectory>> out;
   const int n = trajectory.size();
@@ -45,10 +62,8 @@ std::vector<std::pair<std::string, Trajectory>> split_by_truth(const Trajectory&
     const std::string& label = trajectory.truth[static_cast<std::size_t>(begin)];
     if (!label.empty()) {
       Trajectory part;
-      char span[96];
-      std::snprintf(span, sizeof(span), "[%.6g-%.6g s]", trajectory.t[static_cast<std::size_t>(begin)],
-                    trajectory.t[static_cast<std::size_t>(end - 1)]);
-      part.source = trajectory.source + span;
+      part.source = trajectory.source + "[" + span_time(trajectory.t[static_cast<std::size_t>(begin)]) + "-" +
+                    span_time(trajectory.t[static_cast<std::size_t>(end - 1)]) + " s]";
       part.log = trajectory.log;
       part.t.assign(trajectory.t.begin() + begin, trajectory.t.begin() + end);
       part.u = trajectory.u.middleCols(begin, end - begin);
