@@ -528,15 +528,28 @@ int tune(const TuneCommandOptions& options) {
       blocks.emplace_back("modes", modes_block);
       std::vector<std::string> header{"Written by skidimm tune; reproduce with:", "  " + options.command_line,
                                       "Chosen: " + result.settings.describe(config)};
+      // A bank read alone must not read better than its scores are: each
+      // line says how its log probability stands against a uniform guess.
+      const int classes = static_cast<int>(config.class_names().size());
+      const auto against_guess = [&](const std::vector<evaluation::LogScore>& scores) {
+        const evaluation::Separability s = evaluation::separability(scores, classes);
+        using Verdict = evaluation::Separability::Verdict;
+        return "; a uniform guess over " + std::to_string(classes) + " classes scores " + number(s.uniform) + ": " +
+               (s.verdict == Verdict::kSeparated      ? "the classes are told apart"
+                : s.verdict == Verdict::kUnclear      ? "unclear whether the classes are told apart"
+                : s.verdict == Verdict::kNotSeparated ? "the classes are not told apart"
+                                                      : "worse than the guess, sure of wrong classes");
+      };
       for (const fitting::Assessment& a : result.assessments) {
         const bool logs = a.protocol.kind == fitting::Protocol::Kind::kLogs;
         header.push_back("Nested cross-validated accuracy " + (logs ? "" : "(" + a.protocol.name() + ") ") +
-                         number(a.summary.accuracy) + ", mean log p(truth) " +
-                         number(a.summary.mean_log_probability) + " (mean over classes of the mean over their logs)");
+                         number(a.summary.accuracy) + ", mean log p(truth) " + number(a.summary.mean_log_probability) +
+                         " (mean over classes of the mean over their logs" + against_guess(a.scores) + ")");
       }
       if (!result.lockbox.scores.empty()) {
         header.push_back("Lockbox accuracy " + number(result.lockbox.summary.accuracy) + ", mean log p(truth) " +
-                         number(result.lockbox.summary.mean_log_probability));
+                         number(result.lockbox.summary.mean_log_probability) + " (" +
+                         against_guess(result.lockbox.scores).substr(2) + ")");
       }
       fitting::write_bank_from_template(options.bank, options.output_bank, header, blocks);
       std::cerr << "skidimm tune: wrote " << options.output_bank.string() << "\n";

@@ -363,8 +363,17 @@ TEST(Cli, TuneWarnsOfClassesWithTooFewLogs) {
   // The classes no log shows compete unfitted, where tune fits.
   EXPECT_THAT(one_log.err, HasSubstr("warning: classes FLOORING, ICE, SANDY_LOAM have no development log: no fit "
                                      "gives their modes anything to learn"));
-  const Result enough = run_skidimm(tune + logs({"ASPHALT/pro_00", "ASPHALT/pro_01", "SNOW/pro_00", "SNOW/pro_03"}));
+  const fs::path tuned = test_directory() / "tuned.yaml";
+  const Result enough = run_skidimm(tune + logs({"ASPHALT/pro_00", "ASPHALT/pro_01", "SNOW/pro_00", "SNOW/pro_03"}) +
+                                    " --output-bank " + tuned.string());
   ASSERT_EQ(enough.exit_code, 0) << enough.err;
+  // The tuned bank's header says how its nested score stands against a
+  // guess, as the report does: read alone, it must not read better.
+  const std::string header = read_file(tuned);
+  EXPECT_THAT(header, ::testing::ContainsRegex("Nested cross-validated accuracy [0-9.]+, mean log p\\(truth\\) "
+                                               "[-0-9.]+ \\(mean over classes of the mean over their logs; a uniform "
+                                               "guess over 5 classes scores -1.609: (the classes are told apart|"
+                                               "unclear whether|the classes are not told apart|worse than the guess)"));
   EXPECT_THAT(enough.err, Not(HasSubstr("one development log")));
   EXPECT_THAT(enough.err, Not(HasSubstr("one class only")));
 }
