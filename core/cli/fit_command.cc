@@ -104,6 +104,28 @@ void warn_of_a_bank_at_another_rate(const BankConfig& fitted_with, const Samplin
                "fitted on. Fit at the bank's rate (--rate), or set its sampling.rate to this one\n";
 }
 
+// A bank `skidimm tune` wrote carries its tuned scales in every mode (Q
+// times the chosen scale, each mode's parameter covariance where tuned with
+// parameter uncertainty); a mode fitted alone and appended carries none of
+// them, and competes on other terms. Said before the fit, from the header
+// tune writes ("Written by skidimm tune", then "Chosen: ...").
+void warn_of_appending_to_a_tuned_bank(const std::filesystem::path& target_file) {
+  std::ifstream in(target_file);
+  std::string line, chosen;
+  bool tuned = false;
+  for (int n = 0; n < 8 && std::getline(in, line) && line.rfind("#", 0) == 0; ++n) {
+    tuned = tuned || line.rfind("# Written by skidimm tune", 0) == 0;
+    if (line.rfind("# Chosen: ", 0) == 0) chosen = line.substr(10);
+  }
+  if (!tuned) return;
+  std::cerr << "skidimm fit: warning: --append-to " << target_file.string() << ": a bank skidimm tune wrote"
+            << (chosen.empty() ? std::string() : " (chosen: " + chosen + ")")
+            << "; its modes carry the tuned scales (each Q times the chosen Q scale, and any parameter uncertainty "
+               "it was tuned with), which the appended mode's fit does not, so it competes on other terms. Tune the "
+               "bank again with the new mode's logs among the others (skidimm tune --bank "
+            << target_file.string() << " ...) so that every mode is scaled alike\n";
+}
+
 }  // namespace
 
 int fit(const FitCommandOptions& options) {
@@ -169,6 +191,7 @@ int fit(const FitCommandOptions& options) {
       const BankConfig target = load_bank_config(options.append_to);
       check_output_path(options.append_to, "--append-to");
       warn_of_a_bank_at_another_rate(config, sampling, "--append-to", options.append_to, target);
+      warn_of_appending_to_a_tuned_bank(options.append_to);
     }
     if (!options.name.empty()) {
       // Checked before the fit: the written bank would refuse the name

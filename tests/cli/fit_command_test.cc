@@ -601,7 +601,19 @@ TEST(Cli, AFitAtAnotherRateWritesThatRateAsTheBanks) {
   EXPECT_LT(other.err.find(warning), other.err.find("residuals"));  // before the fit
   const Result same = run_skidimm(append + " --name SAME");
   ASSERT_EQ(same.exit_code, 0) << same.err;
-  EXPECT_THAT(same.err, Not(HasSubstr("warning: --append-to")));
+  EXPECT_THAT(same.err, Not(HasSubstr(" steps every ")));
+  // The bank tune wrote carries its tuned scales in every mode; the appended
+  // mode's fit carries none: said, with what tune chose. A bank tune did not
+  // write is not warned of.
+  EXPECT_THAT(same.err, HasSubstr("skidimm fit: warning: --append-to " + target.string() +
+                                  ": a bank skidimm tune wrote (chosen: objective window, R x "));
+  EXPECT_THAT(same.err, HasSubstr("Tune the bank again with the new mode's logs among the others"));
+  const fs::path untuned = write_file(dir / "untuned.yaml", read_file(kSource + "/configs/borealtc/wheels_start.yaml"));
+  const Result plain =
+      run_skidimm("fit --bank " + start + " --objective window --hold-unexcited --mode ASPHALT_straight " + "--log " +
+                  boreal + "/ASPHALT/pro_00.csv --append-to " + untuned.string() + " --name PLAIN");
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_THAT(plain.err, Not(HasSubstr("warning: --append-to")));
 }
 
 // The window objective's Q search ends at 1000: a state in large units (a
