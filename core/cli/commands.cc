@@ -431,6 +431,7 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
     std::cout << "  measurement: [" << join(c.measurement.names) << "] from columns [" << join(c.columns.measurements)
               << "]\n";
     std::cout << "  time column: " << c.columns.time
+              << (c.columns.time_units_per_second == 1.0 ? "" : " (in " + c.columns.time_unit_name + ")")
               << (c.columns.truth_mode.empty() ? "" : ", truth column: " + c.columns.truth_mode) << "\n";
     std::cout << "  modes:\n";
     for (std::size_t j = 0; j < c.modes.size(); ++j) {

@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cmath>
 #include <iomanip>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -598,8 +599,21 @@ BankConfig load_bank_config(const fs::path& file) {
   }
 
   const YAML::Node columns = root["columns"];
-  if (columns) y.check_keys(columns, {"time", "inputs", "measurements", "truth_mode", "truth_blank"}, "columns");
+  if (columns) {
+    y.check_keys(columns, {"time", "time_unit", "inputs", "measurements", "truth_mode", "truth_blank"}, "columns");
+  }
   bank.columns.time = columns && columns["time"] ? y.string(columns["time"], "columns.time") : "t";
+  if (columns && columns["time_unit"]) {
+    const std::string unit = y.string(columns["time_unit"], "columns.time_unit");
+    const std::map<std::string, double> per_second{{"s", 1.0}, {"ms", 1e3}, {"us", 1e6}, {"ns", 1e9}};
+    const auto found = per_second.find(unit);
+    if (found == per_second.end()) {
+      y.fail(columns["time_unit"], "columns.time_unit",
+             "must be s, ms, us or ns (the unit of the time column), got '" + unit + "'");
+    }
+    bank.columns.time_units_per_second = found->second;
+    bank.columns.time_unit_name = unit;
+  }
   bank.columns.inputs = column_map(y, columns ? columns["inputs"] : YAML::Node(), bank.input_names, "columns.inputs");
   bank.columns.measurements =
       column_map(y, columns ? columns["measurements"] : YAML::Node(), bank.measurement.names, "columns.measurements");

@@ -86,8 +86,12 @@ bool LogReader::Impl::read_row_or_throw(Stream& s) {
   const LogTable& reader = *s.files[static_cast<std::size_t>(s.time_file)];
   double t = 0.0;
   if (reader.number(s.time_index, &t) != LogTable::Cell::kNumber || !std::isfinite(t)) {
-    throw reader.cell_error(s.time_index, "a finite time in seconds");
+    throw reader.cell_error(s.time_index,
+                            s.time_units_per_second == 1.0
+                                ? std::string("a finite time in seconds")
+                                : "a finite time in " + bank_.columns.time_unit_name + " (columns.time_unit)");
   }
+  t /= s.time_units_per_second;
   t += s.offset;
   if (!std::isfinite(t)) {
     throw reader.cell_error(
@@ -520,8 +524,7 @@ double LogReader::Impl::next_grid_time() {
 // crossed in one step whose row then stands for the whole gap in every
 // time-weighted score), or, with sampling.skip_gaps, counted.
 void LogReader::Impl::pass_gap(double next_row) {
-  // Longer than a day: more likely stamps in ms, us or ns than a pause.
-  constexpr double kGapOfAnotherUnit = 86400.0;
+  constexpr double kGapOfAnotherUnit = 86400.0;  // s
   const double gap = next_row - last_row_t_;
   if (!sampling_.skip_gaps) {
     const Stream* s = stream_at(next_row);
@@ -535,7 +538,14 @@ void LogReader::Impl::pass_gap(double next_row) {
         "column '" + bank_.columns.time + "': the log has no row from t = " + CsvWriter::format(last_row_t_) + " to " +
         CsvWriter::format(next_row) + " s, a gap of " + CsvWriter::format(gap) + " s, longer than sampling.max_gap (" +
         CsvWriter::format(sampling_.max_gap) + " s): " + crossing + ". " +
-        (gap > kGapOfAnotherUnit ? "Are the time stamps in seconds? " : "") +
+        // Longer than a day, or already between the log's first rows: more
+        // likely a unit than a pause.
+        (gap > kGapOfAnotherUnit || rows_applied_ < 3
+             ? (bank_.columns.time_units_per_second == 1.0
+                    ? std::string("Are the time stamps in seconds? (columns.time_unit: ms, us or ns reads them in "
+                                  "another unit) ")
+                    : "Are the time stamps in " + bank_.columns.time_unit_name + " (columns.time_unit)? ")
+             : std::string()) +
         "If a time stamp is wrong, fix it; if the recording paused, set sampling.skip_gaps: true in the bank to " +
         (sampling_.rate > 0.0 ? "restart the grid after" : "step across") + " such gaps, or raise sampling.max_gap");
   }

@@ -163,6 +163,11 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
                     file.path.string() + " is a ROS 2 bag, whose topics are merged by time");
       }
       streams_.pop_back();
+      if (bank.columns.time_units_per_second != 1.0) {
+        throw Error(bank.shown_file() + ": columns.time_unit: " + bank.columns.time_unit_name +
+                    " is the unit of a CSV file's time column; " + file.path.string() +
+                    " is a ROS 2 bag, whose stamps are read in seconds: leave columns.time_unit out");
+      }
       for (auto& table : ros::open_bag_tables(file.path, bag_column_texts(bank), {bank.columns.truth_mode})) {
         streams_.emplace_back();
         streams_.back().offset = file.time_offset;
@@ -174,6 +179,7 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
       continue;
     }
     Stream& s = streams_.back();
+    s.time_units_per_second = bank.columns.time_units_per_second;
     const int fifo = fifos.take(file.path);
     s.files.push_back(fifo >= 0 ? std::make_unique<CsvTable>(file.path, fifo) : std::make_unique<CsvTable>(file.path));
     s.stat_index.push_back(stats_.files.size());

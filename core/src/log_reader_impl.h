@@ -72,6 +72,7 @@ struct MeasurementBinding {
 struct Stream {
   std::vector<std::unique_ptr<LogTable>> files;  // each holds its current row (a CSV file, a bag's topic)
   double offset = 0.0;
+  double time_units_per_second = 1.0;  // of its time column (columns.time_unit; a bag's: 1)
   int time_file = -1;
   int time_index = -1;
   std::vector<int> columns;             // column ids read from this stream

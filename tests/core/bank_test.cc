@@ -429,6 +429,26 @@ TEST(BankConfig, DecisionStaleAfterIsSecondsOrAbsent) {
   expect_config_error("decision: {stale_after: -1}\n" + kValidBank, {"decision.stale_after", "(0: never)"});
 }
 
+// columns.time_unit: the unit of a CSV time column, as units per second
+// (seconds when absent); anything else names the file's line.
+TEST(BankConfig, TheTimeColumnsUnitIsSecondsOrOneOfThreeOthers) {
+  const auto with_unit = [](const std::string& unit) {
+    std::string text = kValidBank;
+    text.replace(text.find("  time: time\n"), 13, "  time: time\n  time_unit: " + unit + "\n");
+    return text;
+  };
+  const auto per_second = [&](const std::string& unit) {
+    return load_bank_config(write_file(test_directory() / "unit.yaml", with_unit(unit))).columns.time_units_per_second;
+  };
+  EXPECT_EQ(load_bank_config(write_file(test_directory() / "s.yaml", kValidBank)).columns.time_units_per_second, 1.0);
+  EXPECT_EQ(per_second("s"), 1.0);
+  EXPECT_EQ(per_second("ms"), 1e3);
+  EXPECT_EQ(per_second("us"), 1e6);
+  EXPECT_EQ(per_second("ns"), 1e9);
+  expect_config_error(with_unit("minutes"),
+                      {"bank.yaml:6: columns.time_unit", "must be s, ms, us or ns", "got 'minutes'"});
+}
+
 TEST(BankConfig, ExtrapolationScaleIsAPositiveNumberOrAbsent) {
   EXPECT_EQ(load_bank_config(write_file(test_directory() / "scale.yaml", "extrapolation_scale: 0.5\n" + kValidBank))
                 .extrapolation_scale,

@@ -336,18 +336,52 @@ TEST(LogReader, AFixedRateRefusesAGapLongerThanMaxGapNamingTheRowAndTheLimit) {
   }
 }
 
-// Rows a day or more apart are more likely stamped in ns, us or ms than a
-// pause: the error asks before it offers to skip such gaps.
+// Rows a day or more apart, or already the log's first rows a long gap
+// apart, are more likely stamped in ns, us or ms than a pause: the error
+// asks before it offers to skip such gaps, and names columns.time_unit.
 TEST(LogReader, AGapOfADayOrMoreAsksWhetherTheStampsAreInSeconds) {
-  const auto nanoseconds =
-      write_file(test_directory() / "log.csv", "t,left,right,v,w\n0,1,2,3,4\n10000000,1,2,3,4\n20000000,1,2,3,4\n");
+  const std::string asked =
+      "Are the time stamps in seconds? (columns.time_unit: ms, us or ns reads them in another unit) If a time "
+      "stamp is wrong";
+  const auto nanoseconds = write_file(test_directory() / "log.csv",
+                                      "t,left,right,v,w\n0,1,2,3,4\n0.1,1,2,3,4\n10000000,1,2,3,4\n20000000,1,2,3,4\n");
   LogReader reader(simple_bank(), {nanoseconds});
-  read_until_error(reader, {"a gap of 1e+07 s", "Are the time stamps in seconds? If a time stamp is wrong"});
-  const auto paused =
-      write_file(test_directory() / "log.csv", "t,left,right,v,w\n0,1,2,3,4\n100,1,2,3,4\n100.1,1,2,3,4\n");
+  read_until_error(reader, {"a gap of 9999999.9 s", asked});
+  // An IMU at 50 Hz stamped in ms: its first rows are 20 "s" apart.
+  const auto milliseconds =
+      write_file(test_directory() / "log.csv", "t,left,right,v,w\n0,1,2,3,4\n20,1,2,3,4\n40,1,2,3,4\n");
+  LogReader ms(simple_bank(), {milliseconds});
+  read_until_error(ms, {"a gap of 20 s", asked});
+  const auto paused = write_file(test_directory() / "log.csv",
+                                 "t,left,right,v,w\n0,1,2,3,4\n0.1,1,2,3,4\n0.2,1,2,3,4\n100.2,1,2,3,4\n");
   LogReader pause(simple_bank(), {paused});
   const StepsBeforeError read = read_until_error(pause, {"a gap of 100 s"});
   EXPECT_THAT(read.message, Not(HasSubstr("seconds?")));
+}
+
+// columns.time_unit: a log stamped in ms (or us, ns) gives the steps, times
+// in seconds, of the same log stamped in seconds, bit for bit where the
+// stamps convert exactly; another unit is an error naming the file's line.
+TEST(LogReader, ATimeColumnInAnotherUnitIsReadInSeconds) {
+  const auto dir = test_directory();
+  const auto seconds = write_file(dir / "s.csv", "t,left,right,v,w\n0,1,2,3,4\n0.25,1,2,3,4\n0.5,2,3,4,5\n1,3,4,5,6\n");
+  const auto milliseconds =
+      write_file(dir / "ms.csv", "t,left,right,v,w\n0,1,2,3,4\n250,1,2,3,4\n500,2,3,4,5\n1000,3,4,5,6\n");
+  LogReader in_seconds(simple_bank(), {seconds});
+  BankConfig bank = simple_bank();
+  bank.columns.time_units_per_second = 1e3;
+  bank.columns.time_unit_name = "ms";
+  LogReader in_ms(bank, {milliseconds});
+  const auto a = read_all(in_seconds);
+  const auto b = read_all(in_ms);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].t, b[k].t) << k;
+    EXPECT_EQ(a[k].u, b[k].u) << k;
+  }
+  const auto bad = write_file(dir / "bad.csv", "t,left,right,v,w\n0,1,2,3,4\nx,1,2,3,4\n");
+  LogReader bad_reader(bank, {bad});
+  read_until_error(bad_reader, {"bad.csv:3", "a finite time in ms (columns.time_unit)"});
 }
 
 TEST(LogReader, SkipGapsRestartsTheGridAfterAGapAndSaysSo) {
@@ -941,8 +975,12 @@ TEST(LogReader, FifosTheirWriterOpensTogetherAreRead) {
   std::thread writer([&] {
     const int a = ::open(wheels.c_str(), O_WRONLY);
     const int b = ::open(gyro.c_str(), O_WRONLY);
-    if (a >= 0) EXPECT_EQ(::write(a, wheel_rows.data(), wheel_rows.size()), static_cast<ssize_t>(wheel_rows.size()));
-    if (b >= 0) EXPECT_EQ(::write(b, gyro_rows.data(), gyro_rows.size()), static_cast<ssize_t>(gyro_rows.size()));
+    if (a >= 0) {
+      EXPECT_EQ(::write(a, wheel_rows.data(), wheel_rows.size()), static_cast<ssize_t>(wheel_rows.size()));
+    }
+    if (b >= 0) {
+      EXPECT_EQ(::write(b, gyro_rows.data(), gyro_rows.size()), static_cast<ssize_t>(gyro_rows.size()));
+    }
     if (a >= 0) ::close(a);
     if (b >= 0) ::close(b);
   });

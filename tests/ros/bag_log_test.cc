@@ -136,6 +136,26 @@ TEST(BagLog, ErrorsNameTheBagTheTopicAndWhatExists) {
   EXPECT_NE(message.find("ros2 bag reindex"), std::string::npos) << message;
 }
 
+// A bag's stamps are read in seconds: a bank whose CSV time column is in
+// another unit (columns.time_unit) is refused on a bag, naming both.
+TEST(BagLog, ATimeUnitOtherThanSecondsIsRefusedOnABag) {
+  BankConfig bank;
+  bank.file = "bank.yaml";
+  bank.columns.time = "header.stamp";
+  bank.columns.time_units_per_second = 1e3;
+  bank.columns.time_unit_name = "ms";
+  std::string message;
+  try {
+    LogReader reader(bank, {LogFile{ros_fixture("mixed.mcap")}}, bank.sampling);
+  } catch (const Error& e) {
+    message = e.what();
+  }
+  EXPECT_NE(message.find("bank.yaml: columns.time_unit: ms is the unit of a CSV file's time column; "),
+            std::string::npos)
+      << message;
+  EXPECT_NE(message.find("mixed.mcap is a ROS 2 bag, whose stamps are read in seconds"), std::string::npos) << message;
+}
+
 TEST(BagLog, AMessageThatDoesNotDecodeEndsItsTopicAfterTheRowsBeforeIt) {
   const auto dir = test_directory();
   std::string bytes = skidimm_test::read_file(ros_fixture("mixed.mcap"));

@@ -89,6 +89,12 @@ struct MeasurementConfig {
 // the rows of a filter step with mean(), std() or rms().
 struct ColumnConfig {
   std::string time;
+  // The unit of a CSV log's time column (`time_unit: s | ms | us | ns`), as
+  // units per second (a time is divided by it, which reads 20 ms as 0.02 s
+  // to the bit): a recorder's stamps in ms read as seconds make every row a
+  // long gap. A bag's stamps are read in seconds; it must be 1 there.
+  double time_units_per_second = 1.0;
+  std::string time_unit_name = "s";
   std::vector<std::string> inputs;        // one per input, in input order
   std::vector<std::string> measurements;  // one per measurement row
   std::string truth_mode;                 // empty: none
