@@ -39,6 +39,19 @@ std::string fixed(double v, int digits = 4) {
   return buffer;
 }
 
+// The measurements whose error is above the no-change baseline's, both
+// known ("omega, current"), or "".
+std::string worse_than_no_change(const BankConfig& config, const Eigen::VectorXd& rmse,
+                                 const Eigen::VectorXd& baseline) {
+  std::string out;
+  for (Eigen::Index c = 0; c < rmse.size() && c < baseline.size(); ++c) {
+    if (std::isfinite(rmse[c]) && std::isfinite(baseline[c]) && rmse[c] > baseline[c]) {
+      out += (out.empty() ? "" : ", ") + config.measurement.names[static_cast<std::size_t>(c)];
+    }
+  }
+  return out;
+}
+
 void print_report(const BankConfig& config, const std::string& name, const ModeLogs& data, const FitReport& r) {
   const int logs = fitting::log_count(data);
   const int segments = static_cast<int>(data.logs.size());
@@ -73,7 +86,14 @@ void print_report(const BankConfig& config, const std::string& name, const ModeL
   } else {
     std::cerr << "  one-step RMSE: " << fitting::measurement_values_text(config, r.rmse) << "\n";
   }
-  std::cerr << "  (no-change baseline: " << fitting::measurement_values_text(config, fitting::persistence_rmse(data)) << ")\n";
+  const Eigen::VectorXd baseline = fitting::persistence_rmse(data);
+  std::cerr << "  (no-change baseline: " << fitting::measurement_values_text(config, baseline) << ")\n";
+  const std::string worse = worse_than_no_change(config, r.rmse, baseline);
+  if (!worse.empty()) {
+    std::cerr << "  worse than no change on " << worse
+              << ": a motion model that does not beat it is not worth having; a feature that tells classes apart "
+                 "by its level may not (docs/fitting.md)\n";
+  }
   std::cerr << "  Q = " << fitting::format_matrix(r.q_intensity) << "\n";
   for (const std::string& w : r.warnings) std::cerr << "  warning: " << w << "\n";
 }
@@ -325,9 +345,12 @@ int fit(const FitCommandOptions& options) {
           held_out_error = std::make_exception_ptr(Error("--held-out '" + text + "': " + e.what()));
           break;
         }
+        const Eigen::VectorXd baseline = fitting::persistence_rmse(held);
+        const std::string worse = worse_than_no_change(config, r.rmse, baseline);
         std::cerr << "held out " << text << " (" << mode_name << "): one-step RMSE "
                   << fitting::measurement_values_text(config, r.rmse) << " (no-change baseline "
-                  << fitting::measurement_values_text(config, fitting::persistence_rmse(held)) << ")";
+                  << fitting::measurement_values_text(config, baseline)
+                  << (worse.empty() ? std::string() : "; worse than no change on " + worse) << ")";
         // The mode's own filter on the held-out log, whichever objective fitted it.
         const fitting::LikelihoodEvaluation e = fitting::evaluate_likelihood(bank, held);
         if (e.failure.empty()) {

@@ -637,6 +637,10 @@ TEST(Cli, AProcessNoiseAtTheCeilingOfItsSearchIsSaid) {
   const Result in_amps = run_skidimm("fit --bank " + kSource + "/configs/borealtc/wheels_start.yaml" + fit);
   ASSERT_EQ(in_amps.exit_code, 0) << in_amps.err;
   EXPECT_THAT(in_amps.err, Not(HasSubstr("ceiling")));
+  // Where a mode's errors are above "nothing changes", the report says on
+  // which measurements: here the straight mode's current levels.
+  EXPECT_THAT(in_amps.err, HasSubstr("worse than no change on current, current_diff: a motion model that does not "
+                                     "beat it is not worth having"));
 }
 
 // The physical terrain bank with crushed concrete split into a class of two
@@ -1056,6 +1060,7 @@ TEST(CliIo, FitChecksItsOutputsAndHeldOutLogsBeforeFitting) {
                                         " (asphalt): 1 row(s), too few to score a one-step prediction (two in a row)"));
   EXPECT_THAT(short_held.err,
               ::testing::Not(HasSubstr("held out asphalt=" + one_row.string() + " (asphalt): one-step")));
+  EXPECT_THAT(short_held.err, ::testing::Not(HasSubstr("worse than no change"))) << "the LTC modes beat it";
   // A log (another path to it) as an output: refused, the log kept.
   const fs::path log = write_file(dir / "log.csv", read_file(kSwitching));
   const std::string fit_log = kSkidimm + " fit --bank " + kTerrains + " --plugin-path " + kPlugins +
