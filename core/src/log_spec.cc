@@ -102,6 +102,17 @@ LogSpec parse_log_spec(const std::string& text) {
     std::string part = files.substr(begin, end - begin);
     begin = end + 1;
     if (part.empty()) continue;
+    // "a.csv+b.csv=ice": a label after the files reads as part of the last
+    // file's name; said where that name is no file and the part before '='
+    // is one, with the order that works.
+    const auto label_after = part.rfind('=');
+    if (label_after != std::string::npos && label_after + 1 < part.size() && !fs::exists(part, ec) &&
+        fs::exists(part.substr(0, label_after), ec)) {
+      std::string files_alone = text;
+      files_alone.replace(text.find(part), part.size(), part.substr(0, label_after));
+      throw Error("log '" + text + "': '" + part + "' is no file; a label goes before the files: '" +
+                  part.substr(label_after + 1) + "=" + files_alone + "'");
+    }
     LogFile file(part);
     const auto at = part.rfind('@');
     if (at != std::string::npos && !fs::exists(part, ec)) {

@@ -99,6 +99,12 @@ TEST(LogSpec, ParsesLabelsFilesAndOffsets) {
   expect_error([] { parse_log_spec("a.csv@soon"); }, {"'soon' after '@' is not a time offset in seconds"});
   expect_error([] { parse_log_spec("=a.csv"); }, {"empty label"});
   expect_error([] { parse_log_spec("ice=+"); }, {"no file given"});
+  // A label after the files: the order that works is said.
+  const auto dir = test_directory();
+  const std::string pro = write_file(dir / "pro.csv", "t\n").string(),
+                    imu = write_file(dir / "imu.csv", "t\n").string();
+  expect_error([&] { parse_log_spec(pro + "+" + imu + "=ice"); },
+               {"'" + imu + "=ice' is no file; a label goes before the files: 'ice=" + pro + "+" + imu + "'"});
 }
 
 // Tables name a log by its files' names, and logs whose names would be the
