@@ -74,6 +74,9 @@ TEST(EvalCommand, PerClassAccuracyIsOverEachClassesOwnTimeInSwitchingLogs) {
   EXPECT_THAT(all_table, HasSubstr("per class, over its own true time:  asphalt "));
   EXPECT_THAT(all_table, HasSubstr(" grass "));
   EXPECT_THAT(all_table, HasSubstr(" crushed_concrete "));
+  // Two means of log p(truth) over several logs, each said for what it is.
+  EXPECT_THAT(all_table, HasSubstr("mean log probability of the truth -0.103 (over all labelled time)"));
+  EXPECT_THAT(all_table, HasSubstr("over logs (each log's mean, averaged), against -1.099"));
 }
 
 TEST(EvalCommand, JsonKeysLogsByTheirPathsSoSameNamedFilesStayApart) {

@@ -183,7 +183,8 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
     out << "; mean over classes " << fmt(s.mean_class_accuracy);
   }
   out << "\n  mean probability of the true mode " << fmt(m.mean_truth_probability()) << "\n";
-  out << "  mean log probability of the truth " << fmt(m.mean_truth_log_probability()) << "\n";
+  out << "  mean log probability of the truth " << fmt(m.mean_truth_log_probability())
+      << (separated.logs > 1 ? " (over all labelled time)" : "") << "\n";
   out << "  Brier score " << fmt(m.mean_brier()) << " (0: sure and right; 2: sure and wrong)\n";
   if (modes.size() >= 2) out << "  " << separated.describe() << "\n";
   if (s.extrapolation.steps > 0) print_extrapolation(out, s.extrapolation);

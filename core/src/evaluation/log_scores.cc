@@ -75,10 +75,11 @@ std::string Separability::describe() const {
     return std::string(b);
   };
   // One log has no spread over logs to weigh its mean by: said, not shown as +- 0.
-  const std::string figures =
-      "mean log p(truth) " + number(mean) +
-      (logs == 1 ? " on one log (no standard error over logs)" : " +- " + number(standard_error) + " over logs") +
-      ", against " + number(uniform) + " for a uniform guess over " + std::to_string(classes) + " classes";
+  const std::string figures = "mean log p(truth) " + number(mean) +
+                              (logs == 1 ? " on one log (no standard error over logs)"
+                                         : " +- " + number(standard_error) + " over logs (each log's mean, averaged)") +
+                              ", against " + number(uniform) + " for a uniform guess over " + std::to_string(classes) +
+                              " classes";
   std::string out;
   switch (verdict) {
     case Verdict::kSeparated:
