@@ -399,9 +399,14 @@ int plot(const PlotOptions& options) {
       // names a class), the classes decided, in order of first appearance.
       std::vector<std::string> rows;
       std::map<std::string, int> row_of;
-      bool all_modes = true;
-      for (const Band& d : decisions) all_modes = all_modes && (d.mode == "unknown" || line_of.count(d.mode) > 0);
-      if (all_modes) {
+      bool all_modes = true, any_decided = false;
+      for (const Band& d : decisions) {
+        all_modes = all_modes && (d.mode == "unknown" || line_of.count(d.mode) > 0);
+        any_decided = any_decided || d.mode != "unknown";
+      }
+      // Never decided: whether the decision would name modes or classes is
+      // unknown without the bank, so no row but `unknown` is drawn.
+      if (all_modes && any_decided) {
         for (const auto& m : modes) rows.push_back(m.second);
       } else {
         for (const Band& d : decisions) {

@@ -173,6 +173,36 @@ TEST(CliIo, PlotColoursTheClassesOfABankWithClasses) {
   }
 }
 
+// A decision never taken (every row `unknown`) names nothing: without the
+// bank, whether it would have named modes or classes is not known, and the
+// track draws the `unknown` row alone, not a row per mode.
+TEST(CliIo, PlotOfADecisionNeverTakenDrawsTheUnknownRowAlone) {
+  const fs::path dir = test_directory();
+  ASSERT_EQ(run_skidimm("run -q --bank " + kTerrains + " --plugin-path " + kPlugins + " --input " + kSwitching +
+                        " --output " + (dir / "out.csv").string())
+                .exit_code,
+            0);
+  std::vector<std::vector<std::string>> rows = read_csv(dir / "out.csv");
+  const auto decision = static_cast<std::size_t>(column(rows[0], "decision"));
+  for (std::size_t i = 1; i < rows.size(); ++i) rows[i][decision] = "unknown";
+  write_file(dir / "never.csv", csv_text(rows));
+  const auto count = [](const std::string& text, const std::string& part) {
+    int n = 0;
+    for (std::size_t at = text.find(part); at != std::string::npos; at = text.find(part, at + 1)) ++n;
+    return n;
+  };
+  const Result plot =
+      run_skidimm("plot --estimates " + (dir / "never.csv").string() + " --output " + (dir / "never.svg").string());
+  ASSERT_EQ(plot.exit_code, 0) << plot.err;
+  const std::string never = read_file(dir / "never.svg");
+  const Result decided =
+      run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --output " + (dir / "decided.svg").string());
+  ASSERT_EQ(decided.exit_code, 0) << decided.err;
+  EXPECT_EQ(count(read_file(dir / "decided.svg"), ">grass<"), count(never, ">grass<") + 1)
+      << "a decision row for grass where it was decided, none where nothing was";
+  EXPECT_EQ(count(never, ">unknown<"), 1);
+}
+
 // gnuplot's line colours repeat after 8: in a bank of more modes, each mode
 // still gets a colour (or, past 20, a dash pattern) of its own.
 TEST(CliIo, PlotGivesEachOfManyModesItsOwnLine) {
