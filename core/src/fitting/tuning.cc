@@ -787,8 +787,8 @@ class Tuner {
       // skips would have lost, each after up to a whole scoring.
       // Where the farthest candidate one way is the best, the score may rise
       // further: the line goes on a factor at a time, within the setting's
-      // range, while each candidate beats the best, so that what the search
-      // hands on does not depend on how far from it the bank started.
+      // range, while each candidate beats the best, instead of stopping at
+      // its reach (which depends on where the bank started) still rising.
       // `ties(chosen, candidate)`: true where the candidate is known to score
       // exactly what the best settings (whose value is `chosen`) scored; it is
       // then not run, as it could not be taken, and a walk goes on past it
@@ -804,20 +804,22 @@ class Tuner {
           std::vector<int> ks;
           for (int k = direction; std::abs(k) <= steps; k += direction) ks.push_back(k);
           if (!walk && direction < 0) std::reverse(ks.begin(), ks.end());  // -steps first, as it always has
-          // Scores one candidate; true where it was taken.
+          // Scores one candidate, unless it is known to tie, and takes it
+          // where it beats the best.
+          enum class Outcome { kTaken, kLost, kTied };
           const auto try_candidate = [&](double candidate) {
             if (ties && ties(chosen, candidate)) {
               ++settings_known_to_tie_;
-              return false;
+              return Outcome::kTied;
             }
             *value = candidate;
             std::vector<LogScore> scores;
             const double score = score_of(current, &scores, best);
-            if (!(score > best + 1e-9)) return false;
+            if (!(score > best + 1e-9)) return Outcome::kLost;
             best = score;
             chosen = candidate;
             *best_scores = scores;
-            return true;
+            return Outcome::kTaken;
           };
           const auto within = [&](double candidate) { return candidate >= lowest && candidate <= highest; };
           for (const int k : ks) {
@@ -826,13 +828,12 @@ class Tuner {
               if (walk) break;  // and every candidate beyond
               continue;
             }
-            const bool tied = ties && ties(chosen, candidate);
-            if (!try_candidate(candidate) && walk && !tied) break;
+            if (try_candidate(candidate) == Outcome::kLost && walk) break;
           }
           // Beyond the line's reach while the score still rises.
           for (int k = direction * (steps + 1); chosen == start * std::pow(factor, k - direction); k += direction) {
             const double candidate = start * std::pow(factor, k);
-            if (!within(candidate) || !try_candidate(candidate)) break;
+            if (!within(candidate) || try_candidate(candidate) != Outcome::kTaken) break;
           }
           if (walk && chosen != start) break;
         }
