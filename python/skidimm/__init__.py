@@ -125,6 +125,15 @@ def _column(frame, text, what):
         raise LogError(f"{what} '{text}': the frame has no such column ({e.args[0]})") from None
 
 
+def _refuse_datetimes(t):
+    """``t``, unless it holds datetimes (numpy or pandas), which read as numbers are nanoseconds: refused, with the
+    conversion to seconds."""
+    if getattr(getattr(t, "dtype", None), "kind", "") in ("m", "M"):  # pandas' zoned datetimes too
+        raise ValueError("t: datetime values; skidimm takes times in seconds, which "
+                         "(t - t[0]) / np.timedelta64(1, 's') gives")
+    return t
+
+
 class Imm(_native.Imm):
     """The IMM estimator (imm.h) over a :class:`Bank`.
 
@@ -171,7 +180,8 @@ class Imm(_native.Imm):
             columns = bank.columns
             if columns["time"] not in frame.columns:
                 raise LogError(f"the frame has no time column '{columns['time']}' (bank '{bank.name}')")
-            t = _np.asarray(frame[columns["time"]], dtype=float)
+            t = _refuse_datetimes(frame[columns["time"]])
+            t = _np.asarray(t, dtype=float)
             n = len(t)
             u = _np.empty((n, len(bank.inputs)))
             for i, text in enumerate(columns["inputs"]):
@@ -182,6 +192,8 @@ class Imm(_native.Imm):
             if truth is None and columns["truth_mode"] and columns["truth_mode"] in frame.columns:
                 truth = [("" if v is None or (isinstance(v, float) and v != v) else str(v))
                          for v in frame[columns["truth_mode"]]]
+        else:
+            t = _refuse_datetimes(t)
         out = self._run(t, u, z, smooth=smooth, lag=lag, truth=truth, reset=reset)
         if frame is not None:
             return to_frame(out, index=frame.index)

@@ -27,6 +27,7 @@
 #include "skidimm/config/run_overrides.h"
 #include "skidimm/engine/decision.h"
 #include "skidimm/engine/imm.h"
+#include "skidimm/io/csv.h"
 
 namespace skidimm {
 namespace python {
@@ -136,6 +137,23 @@ void refuse_infinite_measurements(const DoubleArray& z, long rows, int width) {
   }
 }
 
+// A time beyond 1e11 s (over 3000 years) is no time in seconds: a pandas
+// datetime's nanoseconds, or milliseconds since 1970. Read as seconds, every
+// step is a gap of years over which each filter forgets all it knew, and the
+// run would end with no error and wrong estimates: refused. (NaN passes: the
+// engine's rejected_time.)
+void refuse_times_not_in_seconds(const double* t, long rows, bool one) {
+  constexpr double kLongestTimeInSeconds = 1e11;
+  for (long k = 0; k < rows; ++k) {
+    if (std::abs(t[k]) > kLongestTimeInSeconds) {
+      throw py::value_error((one ? std::string("t") : "t[" + std::to_string(k) + "]") + " = " +
+                            CsvWriter::format(t[k]) +
+                            ": over 3000 years, no time in seconds. Stamps in ms, us or ns are divided by 1e3, 1e6 "
+                            "or 1e9 first (a pandas datetime column: (t - t[0]) / np.timedelta64(1, 's'))");
+    }
+  }
+}
+
 Estimate make_estimate(const PyImm& self, const ImmEstimate& e, int decided) {
   Estimate out;
   out.t = e.t;
@@ -180,6 +198,7 @@ Estimate step(PyImm& self, double t, const py::object& u, const py::object& z) {
   const DoubleArray uu = rows_of(u, 1, self.input_dim(), "u");
   const DoubleArray zz = rows_of(z, 1, self.measurement_dim(), "z");
   refuse_infinite_measurements(zz, 1, self.measurement_dim());
+  refuse_times_not_in_seconds(&t, 1, true);
   const ImmInUse hold(self);
   clear_python_model_error();
   int decided = ModeDecision::kUnknown;
@@ -202,6 +221,7 @@ py::dict run(PyImm& self, const py::object& t, const py::object& u, const py::ob
   const DoubleArray uu = rows_of(u, n, self.input_dim(), "u");
   const DoubleArray zz = rows_of(z, n, self.measurement_dim(), "z");
   refuse_infinite_measurements(zz, n, self.measurement_dim());
+  refuse_times_not_in_seconds(tt.data(), n, false);
   const EstimatorOptions estimator = estimator_options(smooth, lag);
   py::object truth_column = py::none();
   if (!truth.is_none()) {

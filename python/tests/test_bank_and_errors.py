@@ -137,6 +137,26 @@ def test_bad_decision_settings_are_an_error_naming_the_values(configs):
     assert skidimm.Imm(bank, decision={"enter": 0.6}).step(0.0, [1.0, 1.0], [0.1, 0.0]).decision == "unknown"
 
 
+def test_times_that_are_not_seconds_are_refused_with_the_conversion(configs):
+    """Datetimes, and numbers beyond 1e11 s (ns, us or ms since 1970), read as seconds made every step a gap of
+    years and a run of wrong estimates without an error."""
+    import pandas as pd
+
+    imm = skidimm.Imm(configs / "ltc_terrains.yaml")
+    t = np.arange(0.0, 5.0, 0.1) + 1.7e9
+    u, z = np.ones((len(t), 2)), np.zeros((len(t), 2))
+    assert list(imm.run(t, u, z)["status"][:2]) == ["updated", "updated"]  # seconds since 1970 are seconds
+    with pytest.raises(ValueError, match=r"t\[0\] = 1\.7e\+18: over 3000 years, no time in seconds"):
+        imm.run((t * 1e9).astype(np.int64), u, z)
+    with pytest.raises(ValueError, match=r"t = 1\.7e\+12: over 3000 years"):
+        imm.step(1.7e12, [1.0, 1.0], [0.0, 0.0])
+    with pytest.raises(ValueError, match=r"t: datetime values; .*np\.timedelta64\(1, 's'\)"):
+        imm.run(pd.to_datetime(t, unit="s").values, u, z)
+    frame = pd.DataFrame({"t": pd.to_datetime(t, unit="s"), "phi_dot_L": 1.0, "phi_dot_R": 1.0, "V": 0.0, "omega": 0.0})
+    with pytest.raises(ValueError, match="datetime values"):
+        imm.run(frame)
+
+
 def test_the_decision_goes_stale_after_the_seconds_given(configs):
     """``decision={"stale_after": s}`` as ``--decision-stale-after``: with every measurement missing (NaN) for
     longer, the decision is given up for unknown; 0: never; negative: an error naming the value."""
