@@ -5,6 +5,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -54,6 +55,7 @@ struct PyImm {
   std::unique_ptr<Imm> imm;
   std::unique_ptr<ModeDecision> decision;
   int last_decision = ModeDecision::kUnknown;
+  bool started = false;  // a step since construction or reset: the first's time shows its unit
   // The engine's Imm is used by one thread at a time (imm.h): step, run and
   // reset hold this, so calls from several Python threads take turns
   // (ImmInUse) instead of mixing one filter's state into NaN.
@@ -137,20 +139,36 @@ void refuse_infinite_measurements(const DoubleArray& z, long rows, int width) {
   }
 }
 
-// A time beyond 1e11 s (over 3000 years) is no time in seconds: a pandas
-// datetime's nanoseconds, or milliseconds since 1970. Read as seconds, every
-// step is a gap of years over which each filter forgets all it knew, and the
-// run would end with no error and wrong estimates: refused. (NaN passes: the
-// engine's rejected_time.)
+// Times in another unit than seconds, read as seconds, make every step a
+// gap over which each filter forgets all it knew, and a run of wrong
+// estimates without an error: refused where the unit shows. A first time
+// beyond 1e11 s (over 3000 years) is ns, us or ms since 1970 (a pandas
+// datetime's nanoseconds); steps of an hour at the median are ns or us at a
+// sensor's rate. A single bad time later in a run (NaN, inf, 1e308) is the
+// engine's rejected_time, not a unit: a robot's loop goes on.
 void refuse_times_not_in_seconds(const double* t, long rows, bool one) {
   constexpr double kLongestTimeInSeconds = 1e11;
-  for (long k = 0; k < rows; ++k) {
-    if (std::abs(t[k]) > kLongestTimeInSeconds) {
-      throw py::value_error((one ? std::string("t") : "t[" + std::to_string(k) + "]") + " = " +
-                            CsvWriter::format(t[k]) +
-                            ": over 3000 years, no time in seconds. Stamps in ms, us or ns are divided by 1e3, 1e6 "
-                            "or 1e9 first (a pandas datetime column: (t - t[0]) / np.timedelta64(1, 's'))");
-    }
+  constexpr double kLongestMedianStep = 3600.0;
+  const std::string how =
+      " Stamps in ms, us or ns are divided by 1e3, 1e6 or 1e9 first (a pandas datetime column: (t - t[0]) / "
+      "np.timedelta64(1, 's'))";
+  long first = 0;
+  while (first < rows && !std::isfinite(t[first])) ++first;
+  if (first < rows && std::abs(t[first]) > kLongestTimeInSeconds) {
+    throw py::value_error((one ? std::string("t") : "t[" + std::to_string(first) + "]") + " = " +
+                          CsvWriter::format(t[first]) + ": over 3000 years, no time in seconds." + how);
+  }
+  std::vector<double> steps;
+  for (long k = first + 1; k < rows; ++k) {
+    const double step = t[k] - t[k - 1];
+    if (std::isfinite(step) && step > 0.0) steps.push_back(step);
+  }
+  if (steps.size() < 2) return;
+  std::nth_element(steps.begin(), steps.begin() + static_cast<long>(steps.size() / 2), steps.end());
+  const double median = steps[steps.size() / 2];
+  if (median > kLongestMedianStep) {
+    throw py::value_error("t steps by " + CsvWriter::format(median) +
+                          " s at the median, over an hour: are the times in seconds?" + how);
   }
 }
 
@@ -198,8 +216,9 @@ Estimate step(PyImm& self, double t, const py::object& u, const py::object& z) {
   const DoubleArray uu = rows_of(u, 1, self.input_dim(), "u");
   const DoubleArray zz = rows_of(z, 1, self.measurement_dim(), "z");
   refuse_infinite_measurements(zz, 1, self.measurement_dim());
-  refuse_times_not_in_seconds(&t, 1, true);
+  if (!self.started) refuse_times_not_in_seconds(&t, 1, true);
   const ImmInUse hold(self);
+  self.started = true;
   clear_python_model_error();
   int decided = ModeDecision::kUnknown;
   const ImmEstimate* e = nullptr;
@@ -221,7 +240,7 @@ py::dict run(PyImm& self, const py::object& t, const py::object& u, const py::ob
   const DoubleArray uu = rows_of(u, n, self.input_dim(), "u");
   const DoubleArray zz = rows_of(z, n, self.measurement_dim(), "z");
   refuse_infinite_measurements(zz, n, self.measurement_dim());
-  refuse_times_not_in_seconds(tt.data(), n, false);
+  if (reset || !self.started) refuse_times_not_in_seconds(tt.data(), n, false);
   const EstimatorOptions estimator = estimator_options(smooth, lag);
   py::object truth_column = py::none();
   if (!truth.is_none()) {
@@ -235,6 +254,7 @@ py::dict run(PyImm& self, const py::object& t, const py::object& u, const py::ob
     self.imm->reset();
     self.decision->reset();
   }
+  self.started = self.started || n > 0;
   RunArrays columns(self.config(), n);
   ArrayLog log{n, tt.data(), uu.data(), zz.data()};
   clear_python_model_error();
@@ -284,6 +304,7 @@ void bind_imm(py::module_& m) {
              const ImmInUse hold(self);
              self.imm->reset();
              self.decision->reset();
+             self.started = false;
            })
       .def_property_readonly("uses_fixed_size_kernel",
                              [](const PyImm& self) { return self.imm->uses_fixed_size_kernel(); })

@@ -148,8 +148,13 @@ def test_times_that_are_not_seconds_are_refused_with_the_conversion(configs):
     assert list(imm.run(t, u, z)["status"][:2]) == ["updated", "updated"]  # seconds since 1970 are seconds
     with pytest.raises(ValueError, match=r"t\[0\] = 1\.7e\+18: over 3000 years, no time in seconds"):
         imm.run((t * 1e9).astype(np.int64), u, z)
+    with pytest.raises(ValueError, match=r"t steps by 1e\+08 s at the median, over an hour"):
+        imm.run(np.arange(len(t)) * 1e8, u, z)  # ns from the log's start, a row every 0.1 s
+    imm.reset()
     with pytest.raises(ValueError, match=r"t = 1\.7e\+12: over 3000 years"):
-        imm.step(1.7e12, [1.0, 1.0], [0.0, 0.0])
+        imm.step(1.7e12, [1.0, 1.0], [0.0, 0.0])  # the first step shows the unit
+    imm.step(1.0, [1.0, 1.0], [0.0, 0.0])
+    assert imm.step(1e308, [1.0, 1.0], [0.0, 0.0]).status  # later, one bad time is the engine's to survive
     with pytest.raises(ValueError, match=r"t: datetime values; .*np\.timedelta64\(1, 's'\)"):
         imm.run(pd.to_datetime(t, unit="s").values, u, z)
     frame = pd.DataFrame({"t": pd.to_datetime(t, unit="s"), "phi_dot_L": 1.0, "phi_dot_R": 1.0, "V": 0.0, "omega": 0.0})
