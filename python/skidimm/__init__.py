@@ -275,7 +275,14 @@ def eval_report(bank, groups, output="dict"):
     without ``--json``).
     """
     bank = _bank(bank)
-    text, table = _native.eval_report([(name, list(logs)) for name, logs in groups], bank.states, bank.classes, bank)
+    groups = [(name, list(logs)) for name, logs in groups]
+    # A measurement a log never gave, or not for a long stretch, leaves it scored on the others: warned, as the
+    # CLI warns.
+    for _, logs in groups:
+        for log in logs:
+            for line in log.unmeasured:
+                _warnings.warn(f"{log.source}: {line}", stacklevel=3)
+    text, table = _native.eval_report(groups, bank.states, bank.classes, bank)
     if output == "json":
         return text
     if output == "table":

@@ -26,6 +26,10 @@ void bind_evaluation(py::module_& m) {
   py::class_<evaluation::LogResult>(m, "LogResult", "One log's evaluation (log_evaluation.h); picklable.")
       .def_readonly("name", &evaluation::LogResult::name)
       .def_readonly("steps", &evaluation::LogResult::steps)
+      .def_readonly("source", &evaluation::LogResult::source)
+      .def_readonly("unmeasured", &evaluation::LogResult::unmeasured,
+                    "Each measurement the log left without a value for all of it or a long stretch (as `skidimm "
+                    "eval` warns)")
       .def_property_readonly("accuracy", [](const evaluation::LogResult& r) { return r.metrics.accuracy(); })
       .def_property_readonly("duration", [](const evaluation::LogResult& r) { return r.metrics.duration; })
       .def_property_readonly("main_truth",

@@ -62,7 +62,7 @@ void bind_logs(py::module_& m) {
         const EstimatorOptions estimator = estimator_options(smooth, lag);
         const DecisionConfig settings = decision_of(config, decision);
         GrowingRunColumns columns(config);
-        std::vector<std::string> truth;
+        std::vector<std::string> truth, unmeasured;
         bool with_truth = false;
         long rows = 0;
         clear_python_model_error();
@@ -71,8 +71,14 @@ void bind_logs(py::module_& m) {
           LogReader reader(config, log.files, sampling_of(config, rate));
           with_truth = reader.has_truth() || !log.label.empty();
           rows = run_log_file(*bank.bank, &reader, estimator, settings, log.label, with_truth, &columns, &truth);
+          unmeasured = reader.unmeasured(config);
         }
         throw_if_python_model_raised();
+        // As `skidimm run` warns: a measurement the log never gave, or not
+        // for a long stretch, left those steps to the others.
+        const py::object warn = py::module_::import("warnings").attr("warn");
+        for (const std::string& line : unmeasured)
+          warn(log.text + ": " + line, py::module_::import("builtins").attr("UserWarning"), 2);
         if (rows == 0) {
           throw LogError(log.text, 0, "the log gives no step: no data rows, or no row where every input has a value");
         }

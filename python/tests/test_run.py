@@ -1,6 +1,7 @@
 """step and run from Python against each other and against `skidimm run`."""
 
 import threading
+import warnings
 
 import numpy as np
 import pytest
@@ -196,3 +197,27 @@ def test_a_rate_unlike_the_banks_is_warned_of_where_its_measurements_aggregate(t
         skidimm.run_log(bank, log, rate=20)
         skidimm.run_log(bank, log)
         skidimm.run_log(configs / "ltc_terrains.yaml", log, rate=50)  # nothing aggregates
+
+
+def test_run_log_and_eval_warn_of_a_measurement_the_log_left_without_values(configs, tmp_path):
+    """As `skidimm run` and `eval` warn: V blank from 5 s to 15 s of the switching example leaves those steps to
+    omega alone, which the estimates' status (`updated`) does not show."""
+    lines = (configs / "examples" / "ltc_switching.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    t, v = header.index("t"), header.index("V")
+    rows = [lines[0]]
+    for line in lines[1:]:
+        cells = line.split(",")
+        if 5.0 <= float(cells[t]) < 15.0:
+            cells[v] = ""
+        rows.append(",".join(cells))
+    log = tmp_path / "silent_v.csv"
+    log.write_text("\n".join(rows) + "\n")
+    bank = configs / "ltc_terrains.yaml"
+    with pytest.warns(UserWarning, match=r"silent_v\.csv: measurement 'V' .*had no value from t = 5"):
+        skidimm.run_log(bank, [str(log)])
+    with pytest.warns(UserWarning, match=r"silent_v\.csv: measurement 'V' .*had no value from t = 5"):
+        skidimm.eval(bank, [str(log)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the intact log warns of nothing
+        skidimm.run_log(bank, [str(configs / "examples" / "ltc_switching.csv")])
