@@ -226,7 +226,11 @@ int fit(const FitCommandOptions& options) {
           }
         }
       };
-      if (!options.output_bank.empty()) taken(config, options.mode, "the bank (" + options.bank.string() + ")");
+      if (!options.output_bank.empty()) {
+        taken(config, options.mode, "the bank (" + options.bank.string() + ")");
+        const std::string renaming = fitting::renaming_problem(config, options.mode, name);
+        if (!renaming.empty()) throw Error("--name '" + name + "': " + renaming);
+      }
       if (!options.append_to.empty()) {
         taken(load_bank_config(options.append_to), "", "--append-to " + options.append_to.string());
       }

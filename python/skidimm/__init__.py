@@ -342,6 +342,9 @@ def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", wind
     if output_bank is not None:  # before the fit, which a bad path found after it would lose
         _native.check_output_path(_os.fspath(output_bank), "output_bank")
     fresh = Bank(bank_file, plugin_paths, models)  # fitted in place
+    renaming = _native.renaming_problem(fresh, mode, name)  # before the fit, which writing the bank finds after
+    if renaming:
+        raise ConfigError(f"name={name!r}: {renaming}")
     data = _native.load_fit_logs(fresh, logs, mode, _rate(rate), skip_unpaired)
     fitted = _native.fit_in_place(fresh, data, options)
     return _fit_result(fresh, fitted, options, mode, name, output_bank, plugin_paths, models,

@@ -275,6 +275,12 @@ void bind_fit(py::module_& m) {
       "Raises skidimm.Error, naming `option`, when a file cannot be written at `path` (output_file.h), so that "
       "fit fails before the work and not after it.");
   m.def(
+      "renaming_problem",
+      [](const PyBank& bank, const std::string& mode, const std::string& name) {
+        return fitting::renaming_problem(bank.config(), mode, name);
+      },
+      "Why the bank fit writes cannot take mode `mode` renamed `name`, or ''.");
+  m.def(
       "fit_texts",
       [options_from](const PyBank& bank, const py::dict& fitted, const py::dict& options, const std::string& mode,
                      const std::string& name, const std::vector<std::string>& header, const fs::path& output,

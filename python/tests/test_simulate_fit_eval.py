@@ -105,6 +105,12 @@ def test_fit_checks_its_output_bank_before_fitting(tmp_path, configs, singular_l
     with pytest.raises(skidimm.Error, match="is a directory"):
         skidimm.fit(bank, logs, objective="window", output_bank=tmp_path)
     assert not missing.parent.exists()
+    # A mode its class lists by name, renamed in the bank every fit writes, would make it invalid: said first.
+    classed = tmp_path / "classed.yaml"
+    classed.write_text(bank.read_text() + "\nclasses:\n  paved: [asphalt, crushed_concrete]\n  soft: [grass]\n")
+    with pytest.raises(skidimm.ConfigError, match=r"name='tarmac': the written bank would rename mode 'asphalt' "
+                                                  r"to 'tarmac', and class paved of .*classed.yaml lists it"):
+        skidimm.fit(classed, logs, mode="asphalt", name="tarmac", objective="window")
 
 
 @pytest.fixture(scope="module")

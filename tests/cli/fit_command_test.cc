@@ -608,6 +608,17 @@ TEST(Cli, AFitAtAnotherRateWritesThatRateAsTheBanks) {
   EXPECT_THAT(same.err, HasSubstr("skidimm fit: warning: --append-to " + target.string() +
                                   ": a bank skidimm tune wrote (chosen: objective window, R x "));
   EXPECT_THAT(same.err, HasSubstr("Tune the bank again with the new mode's logs among the others"));
+  // Renaming a mode its class lists by name (--name with --output-bank)
+  // would make the written bank invalid: refused before the fit.
+  expect_refused_before(kSkidimm + " fit --bank " + start +
+                            " --objective window --hold-unexcited --mode "
+                            "ASPHALT_straight --log " +
+                            boreal + "/ASPHALT/pro_00.csv --name RENAMED --output-bank " +
+                            (dir / "renamed.yaml").string(),
+                        "--name 'RENAMED': the written bank would rename mode 'ASPHALT_straight' to 'RENAMED', and "
+                        "class ASPHALT of ",
+                        "residuals");
+  EXPECT_FALSE(fs::exists(dir / "renamed.yaml"));
   const fs::path untuned = write_file(dir / "untuned.yaml", read_file(kSource + "/configs/borealtc/wheels_start.yaml"));
   const Result plain =
       run_skidimm("fit --bank " + start + " --objective window --hold-unexcited --mode ASPHALT_straight " + "--log " +

@@ -1,5 +1,6 @@
 #include "skidimm/fitting/fit_output.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -39,6 +40,20 @@ const FittedMode* find_fitted(const std::vector<FittedMode>& fitted, int j) {
 std::string output_mode_name(const BankConfig& config, const FitRequest& request, int j) {
   const std::string& original = config.modes[static_cast<std::size_t>(j)].name;
   return !request.name.empty() && original == request.mode ? request.name : original;
+}
+
+std::string renaming_problem(const BankConfig& config, const std::string& mode, const std::string& name) {
+  const int renamed = config.mode_index(mode);
+  if (name.empty() || name == mode || renamed < 0) return "";
+  for (const ClassConfig& c : config.classes) {
+    if (std::find(c.modes.begin(), c.modes.end(), renamed) != c.modes.end()) {
+      return "the written bank would rename mode '" + mode + "' to '" + name + "', and class " + c.name + " of " +
+             config.shown_file() +
+             " lists it by its old name (classes:): fit a copy of the bank with the new mode and its class in it, "
+             "or write the entry alone (fit --output-entry) and add it by hand (docs/fitting.md)";
+    }
+  }
+  return "";
 }
 
 std::string measurement_values_text(const BankConfig& config, const Eigen::VectorXd& values, int digits) {

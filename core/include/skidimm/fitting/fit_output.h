@@ -39,6 +39,13 @@ struct FittedMode {
 // The name mode j is written under: request.name for request.mode, else its own.
 std::string output_mode_name(const BankConfig& config, const FitRequest& request, int j);
 
+// Empty, or why the whole bank written from `config` (write_fitted_bank)
+// cannot rename mode `mode` to `name` (--name): the bank keeps its
+// `classes:`, and one that lists the mode by its old name would make it
+// invalid, which writing finds only after the fit. For every front end,
+// before the fit.
+std::string renaming_problem(const BankConfig& config, const std::string& mode, const std::string& name);
+
 // Values per measurement row as "V 0.01234, omega 0.005" (`digits` significant digits).
 std::string measurement_values_text(const BankConfig& config, const Eigen::VectorXd& values, int digits = 4);
 
