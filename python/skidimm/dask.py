@@ -118,6 +118,7 @@ def _fit(bank_file, plugin_paths, models, options, modes, *segments):
 
 def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihood", window=0.0, loss="huber",
         loss_scale=3.0, hold_unexcited=False, shared=False, fit_r=False, full_q=False, output_noise=False,
+        parameter_uncertainty=False, uncertainty_per_log=False, residual_correlation=False,
         output_bank=None, skip_unpaired=False, plugin_paths=(), models=None):
     """``skidimm fit`` with the logs read on the cluster and each mode fitted on its own worker.
 
@@ -132,7 +133,8 @@ def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihoo
         logs = [logs]
     bank_file, plugin_paths, models = _bank_arguments(bank, plugin_paths, models)
     options = skidimm._native.fit_options(objective, float(window), loss, float(loss_scale), hold_unexcited, shared,
-                                          fit_r, full_q, output_noise)
+                                          fit_r, full_q, output_noise, parameter_uncertainty, uncertainty_per_log,
+                                          residual_correlation)
     rate = 0.0 if rate is None else float(rate)
     if output_bank is not None:  # before the fit, which a bad path found after it would lose
         skidimm._native.check_output_path(os.fspath(output_bank), "output_bank")

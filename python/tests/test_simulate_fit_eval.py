@@ -79,6 +79,27 @@ def test_fit_equals_the_cli(tmp_path, configs, cli, singular_logs):
     skidimm.Imm(fitted).step(0.0, [1.0, 1.0], [0.1, 0.0])
 
 
+def test_fit_writes_parameter_uncertainty_and_residual_correlation_as_the_cli_does(tmp_path, configs, cli,
+                                                                                    singular_logs):
+    """parameter_uncertainty, uncertainty_per_log and residual_correlation are fit's --parameter-uncertainty,
+    --uncertainty-per-log and --residual-correlation (the CLI's advice named them; Python had none of them)."""
+    bank = configs / "ltc_terrains.yaml"
+    logs = [f"asphalt={p}" for p in singular_logs["asphalt"]] + [f"grass={p}" for p in singular_logs["grass"]]
+    result = skidimm.fit(bank, logs, objective="window", parameter_uncertainty=True, uncertainty_per_log=True,
+                         residual_correlation=True)
+    arguments = ["fit", "--bank", bank, "--objective", "window", "--parameter-uncertainty", "--uncertainty-per-log",
+                 "--residual-correlation", "--output-bank", tmp_path / "cli.yaml"]
+    for log in logs:
+        arguments += ["--log", log]
+    cli(*arguments)
+    assert "parameter_covariance" in result["bank_yaml"] and "residual_correlation" in result["bank_yaml"]
+    assert body(result["bank_yaml"]) == body((tmp_path / "cli.yaml").read_text())
+    with pytest.raises(skidimm.Error, match="uncertainty_per_log scales each mode's parameter covariance"):
+        skidimm.fit(bank, logs, objective="window", uncertainty_per_log=True)
+    with pytest.raises(skidimm.Error, match="parameter_uncertainty is an option of the window objective"):
+        skidimm.fit(bank, logs, parameter_uncertainty=True)
+
+
 def test_fit_at_a_rate_writes_it_as_the_banks_as_the_cli_does(tmp_path, configs, cli, singular_logs):
     bank = configs / "ltc_terrains.yaml"
     logs = [f"asphalt={p}" for p in singular_logs["asphalt"]]
