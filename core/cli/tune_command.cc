@@ -7,6 +7,7 @@
 #include <iostream>
 #include <limits>
 #include <mutex>
+#include <set>
 #include <sstream>
 
 #include "commands.h"
@@ -369,6 +370,27 @@ int tune(const TuneCommandOptions& options) {
     warn_of_classes_with_too_few_logs(
         config, logs, development, !options.no_assess,
         std::any_of(objectives.begin(), objectives.end(), [](const std::string& n) { return n != "none"; }));
+
+    // Logs that each hold one class say nothing of how often a class
+    // changes: a dwell time tuned on them only grows. Said before the work.
+    const std::vector<fitting::Knob> searched = options.knobs.empty() ? fitting::TuneOptions{}.knobs : knobs;
+    if (std::find(searched.begin(), searched.end(), fitting::Knob::kDwell) != searched.end() && !options.splice) {
+      const std::vector<int> class_of = config.class_of_modes();
+      bool any_change = false;
+      for (std::size_t i = 0; i < development && !any_change; ++i) {
+        std::set<int> classes;
+        for (const fitting::ModeLogs& d : logs[i].fit_data) {
+          if (!d.logs.empty()) classes.insert(class_of[static_cast<std::size_t>(d.mode)]);
+        }
+        any_change = classes.size() > 1;
+      }
+      if (!any_change) {
+        std::cerr << "skidimm tune: warning: --tune dwell on logs that each hold one class: none shows a change, "
+                     "so a stickier filter is never wrong on them and the dwell time grows until real changes are "
+                     "followed late or never; state it in the bank and leave dwell out of --tune, or give logs with "
+                     "changes (or --splice) (docs/tuning.md, \"Which settings to tune\")\n";
+      }
+    }
 
     if (!options.estimates.empty()) {
       // A folder of an earlier run's files would be scored with this run's

@@ -360,6 +360,13 @@ TEST(Cli, TuneWarnsOfClassesWithTooFewLogs) {
   EXPECT_THAT(one_log.err, HasSubstr("warning: class ASPHALT has one development log: a fold that holds such a log "
                                      "out has no log to fit its class's modes on"));
   EXPECT_THAT(one_log.err, Not(HasSubstr("one class only")));
+  EXPECT_THAT(one_log.err, Not(HasSubstr("--tune dwell"))) << "the dwell time is not searched";
+  // Logs of one class each show no change: a dwell time tuned on them only grows.
+  std::string dwell = tune;
+  dwell.replace(dwell.find("--tune floor"), 12, "--tune dwell --no-assess");
+  const Result sticky = run_skidimm(dwell + logs({"ASPHALT/pro_00", "ASPHALT/pro_01", "SNOW/pro_00", "SNOW/pro_03"}));
+  ASSERT_EQ(sticky.exit_code, 0) << sticky.err;
+  EXPECT_THAT(sticky.err, HasSubstr("warning: --tune dwell on logs that each hold one class: none shows a change"));
   // The classes no log shows compete unfitted, where tune fits.
   EXPECT_THAT(one_log.err, HasSubstr("warning: classes FLOORING, ICE, SANDY_LOAM have no development log: no fit "
                                      "gives their modes anything to learn"));
