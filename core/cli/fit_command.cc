@@ -226,11 +226,14 @@ int fit(const FitCommandOptions& options) {
           }
         }
       };
-      if (!options.output_bank.empty()) {
-        taken(config, options.mode, "the bank (" + options.bank.string() + ")");
-        const std::string renaming = fitting::renaming_problem(config, options.mode, name);
-        if (!renaming.empty()) throw Error("--name '" + name + "': " + renaming);
+      // A class's modes keep their names whatever is written; a mode its
+      // class lists by name breaks the whole bank written (--output-bank).
+      const std::string renaming = fitting::renaming_problem(config, options.mode, name);
+      const bool a_class = config.mode_index(options.mode) < 0;
+      if (!renaming.empty() && (a_class || !options.output_bank.empty())) {
+        throw Error("--name '" + name + "': " + renaming);
       }
+      if (!options.output_bank.empty()) taken(config, options.mode, "the bank (" + options.bank.string() + ")");
       if (!options.append_to.empty()) {
         taken(load_bank_config(options.append_to), "", "--append-to " + options.append_to.string());
       }

@@ -556,7 +556,8 @@ int tune(const TuneCommandOptions& options) {
       const auto against_guess = [&](const std::vector<evaluation::LogScore>& scores) {
         const evaluation::Separability s = evaluation::separability(scores, classes);
         using Verdict = evaluation::Separability::Verdict;
-        return "; a uniform guess over " + std::to_string(classes) + " classes scores " + number(s.uniform) + ": " +
+        return "; each log's mean, averaged, " + number(s.mean) + " against a uniform guess over " +
+               std::to_string(classes) + " classes, " + number(s.uniform) + ": " +
                (s.verdict == Verdict::kSeparated      ? "the classes are told apart"
                 : s.verdict == Verdict::kUnclear      ? "unclear whether the classes are told apart"
                 : s.verdict == Verdict::kNotSeparated ? "the classes are not told apart"

@@ -106,8 +106,9 @@ LogSpec parse_log_spec(const std::string& text) {
     // file's name; said where that name is no file and the part before '='
     // is one, with the order that works.
     const auto label_after = part.rfind('=');
-    if (label_after != std::string::npos && label_after + 1 < part.size() && !fs::exists(part, ec) &&
-        fs::exists(part.substr(0, label_after), ec)) {
+    if (spec.label.empty() && label_after != std::string::npos && label_after + 1 < part.size() &&
+        part.find('/', label_after) == std::string::npos && !fs::exists(part, ec) &&
+        fs::is_regular_file(part.substr(0, label_after), ec)) {
       std::string files_alone = text;
       files_alone.replace(text.find(part), part.size(), part.substr(0, label_after));
       throw Error("log '" + text + "': '" + part + "' is no file; a label goes before the files: '" +

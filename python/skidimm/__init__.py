@@ -181,7 +181,7 @@ class Imm(_native.Imm):
             if columns["time"] not in frame.columns:
                 raise LogError(f"the frame has no time column '{columns['time']}' (bank '{bank.name}')")
             t = _refuse_datetimes(frame[columns["time"]])
-            t = _np.asarray(t, dtype=float)
+            t = _np.asarray(t, dtype=float) / columns["time_units_per_second"]  # columns.time_unit: in seconds
             n = len(t)
             u = _np.empty((n, len(bank.inputs)))
             for i, text in enumerate(columns["inputs"]):

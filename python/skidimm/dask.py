@@ -138,6 +138,9 @@ def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihoo
     rate = 0.0 if rate is None else float(rate)
     if output_bank is not None:  # before the fit, which a bad path found after it would lose
         skidimm._native.check_output_path(os.fspath(output_bank), "output_bank")
+    renaming = skidimm._native.renaming_problem(skidimm.Bank(bank_file, plugin_paths, models), mode, name)
+    if renaming:  # before the fit, which writing the bank finds after it
+        raise skidimm.ConfigError(f"name={name!r}: {renaming}")
     specs = []
     for argument in logs:
         specs.extend(skidimm.expand_log_argument(os.fspath(argument), skip_unpaired))

@@ -116,6 +116,7 @@ void bind_bank(py::module_& m) {
                              [](const PyBank& b) {
                                py::dict d;
                                d["time"] = b.config().columns.time;
+                               d["time_units_per_second"] = b.config().columns.time_units_per_second;
                                d["inputs"] = b.config().columns.inputs;
                                d["measurements"] = b.config().columns.measurements;
                                d["truth_mode"] = b.config().columns.truth_mode;

@@ -144,8 +144,8 @@ void refuse_infinite_measurements(const DoubleArray& z, long rows, int width) {
 // estimates without an error: refused where the unit shows. A first time
 // beyond 1e11 s (over 3000 years) is ns, us or ms since 1970 (a pandas
 // datetime's nanoseconds); steps of an hour at the median are ns or us at a
-// sensor's rate. A single bad time later in a run (NaN, inf, 1e308) is the
-// engine's rejected_time, not a unit: a robot's loop goes on.
+// sensor's rate. A single bad time later in a run (NaN, inf, 1e308) is a
+// step the engine ignores, not a unit: a robot's loop goes on.
 void refuse_times_not_in_seconds(const double* t, long rows, bool one) {
   constexpr double kLongestTimeInSeconds = 1e11;
   constexpr double kLongestMedianStep = 3600.0;
@@ -163,9 +163,10 @@ void refuse_times_not_in_seconds(const double* t, long rows, bool one) {
     const double step = t[k] - t[k - 1];
     if (std::isfinite(step) && step > 0.0) steps.push_back(step);
   }
-  if (steps.size() < 2) return;
-  std::nth_element(steps.begin(), steps.begin() + static_cast<long>(steps.size() / 2), steps.end());
-  const double median = steps[steps.size() / 2];
+  if (steps.size() < 3) return;  // too few to tell a unit from a pause
+  const auto lower_median = steps.begin() + static_cast<long>((steps.size() - 1) / 2);
+  std::nth_element(steps.begin(), lower_median, steps.end());
+  const double median = *lower_median;
   if (median > kLongestMedianStep) {
     throw py::value_error("t steps by " + CsvWriter::format(median) +
                           " s at the median, over an hour: are the times in seconds?" + how);
@@ -218,7 +219,7 @@ Estimate step(PyImm& self, double t, const py::object& u, const py::object& z) {
   refuse_infinite_measurements(zz, 1, self.measurement_dim());
   if (!self.started) refuse_times_not_in_seconds(&t, 1, true);
   const ImmInUse hold(self);
-  self.started = true;
+  self.started = self.started || std::isfinite(t);  // a NaN first step shows no unit
   clear_python_model_error();
   int decided = ModeDecision::kUnknown;
   const ImmEstimate* e = nullptr;
@@ -254,7 +255,7 @@ py::dict run(PyImm& self, const py::object& t, const py::object& u, const py::ob
     self.imm->reset();
     self.decision->reset();
   }
-  self.started = self.started || n > 0;
+  self.started = self.started || std::any_of(tt.data(), tt.data() + n, [](double v) { return std::isfinite(v); });
   RunArrays columns(self.config(), n);
   ArrayLog log{n, tt.data(), uu.data(), zz.data()};
   clear_python_model_error();

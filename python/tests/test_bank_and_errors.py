@@ -154,12 +154,34 @@ def test_times_that_are_not_seconds_are_refused_with_the_conversion(configs):
     with pytest.raises(ValueError, match=r"t = 1\.7e\+12: over 3000 years"):
         imm.step(1.7e12, [1.0, 1.0], [0.0, 0.0])  # the first step shows the unit
     imm.step(1.0, [1.0, 1.0], [0.0, 0.0])
-    assert imm.step(1e308, [1.0, 1.0], [0.0, 0.0]).status  # later, one bad time is the engine's to survive
+    assert imm.step(1e308, [1.0, 1.0], [0.0, 0.0]).status != "updated"  # later, one bad time is the engine's to ignore
+    imm.reset()
+    imm.step(float("nan"), [1.0, 1.0], [0.0, 0.0])  # a NaN first step shows no unit: the next is still checked
+    with pytest.raises(ValueError, match=r"t = 1\.7e\+18: over 3000 years"):
+        imm.step(1.7e18, [1.0, 1.0], [0.0, 0.0])
+    # A pause is no unit: three steps at least, their lower median.
+    assert len(imm.run(np.array([0.0, 0.1, 4000.0]), np.ones((3, 2)), np.zeros((3, 2)))["t"]) == 3
+    assert len(imm.run(np.array([0.0, 0.1, 0.2, 4000.0, 8000.0]), np.ones((5, 2)), np.zeros((5, 2)))["t"]) == 5
     with pytest.raises(ValueError, match=r"t: datetime values; .*np\.timedelta64\(1, 's'\)"):
         imm.run(pd.to_datetime(t, unit="s").values, u, z)
     frame = pd.DataFrame({"t": pd.to_datetime(t, unit="s"), "phi_dot_L": 1.0, "phi_dot_R": 1.0, "V": 0.0, "omega": 0.0})
     with pytest.raises(ValueError, match="datetime values"):
         imm.run(frame)
+
+
+def test_a_frame_of_a_bank_with_a_time_unit_is_read_in_seconds(configs, tmp_path):
+    """columns.time_unit: a DataFrame's time column is read in the bank's unit, as run_log and the CLI read it."""
+    import pandas as pd
+
+    ms_bank = tmp_path / "ms.yaml"
+    ms_bank.write_text((configs / "ltc_terrains.yaml").read_text().replace("  time: t\n", "  time: t\n  time_unit: ms\n"))
+    frame = pd.read_csv(configs / "examples" / "ltc_switching.csv")
+    in_seconds = skidimm.Imm(configs / "ltc_terrains.yaml").run(frame)
+    frame["t"] = frame["t"] * 1000.0
+    in_ms = skidimm.Imm(ms_bank).run(frame)
+    assert np.allclose(in_ms["t"], in_seconds["t"], rtol=1e-12, atol=0)
+    assert (in_ms["mode"] == in_seconds["mode"]).mean() > 0.99
+    assert skidimm.Bank(ms_bank).columns["time_units_per_second"] == 1000.0
 
 
 def test_the_decision_goes_stale_after_the_seconds_given(configs):

@@ -619,6 +619,11 @@ TEST(Cli, AFitAtAnotherRateWritesThatRateAsTheBanks) {
                         "class ASPHALT of ",
                         "residuals");
   EXPECT_FALSE(fs::exists(dir / "renamed.yaml"));
+  // A class's modes keep their names: --name with a class is refused, written bank or not.
+  expect_refused_before(kSkidimm + " fit --bank " + start +
+                            " --objective window --hold-unexcited --mode ASPHALT --log " + boreal +
+                            "/ASPHALT/pro_00.csv --name RENAMED",
+                        "--name 'RENAMED': the name renames one mode, and 'ASPHALT' is a class of ", "residuals");
   const fs::path untuned = write_file(dir / "untuned.yaml", read_file(kSource + "/configs/borealtc/wheels_start.yaml"));
   const Result plain =
       run_skidimm("fit --bank " + start + " --objective window --hold-unexcited --mode ASPHALT_straight " + "--log " +

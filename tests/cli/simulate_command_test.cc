@@ -5,6 +5,7 @@
 #include <string>
 
 #include "cli/cli_test_support.h"
+#include "skidimm/io/csv.h"
 
 namespace skidimm_test {
 namespace {
@@ -43,6 +44,31 @@ TEST(Cli, SimulateRefusesToWriteOverTheLogItReads) {
   EXPECT_EQ(over_scenario.exit_code, 1);
   EXPECT_THAT(over_scenario.err, ::testing::HasSubstr("is the file of --scenario (" + scenario.string() + ")"));
   EXPECT_EQ(read_file(scenario), read_file(kSource + "/configs/scenarios/ltc_switching.yaml"));
+}
+
+// A bank that reads its time column in ms (columns.time_unit) gets its
+// simulated log stamped in ms, so that it runs on what it simulated: the
+// same times, in seconds, as the bank in seconds gives.
+TEST(Cli, SimulateStampsTheLogInTheUnitTheBankReads) {
+  const fs::path dir = test_directory();
+  std::string text = read_file(kTerrains);
+  ASSERT_NE(text.find("  time: t\n"), std::string::npos);
+  text.replace(text.find("  time: t\n"), 10, "  time: t\n  time_unit: ms\n");
+  const fs::path ms_bank = write_file(dir / "ms.yaml", text);
+  std::vector<std::vector<std::string>> rows = read_csv(kSwitching);
+  const auto t = static_cast<std::size_t>(column(rows[0], "t"));
+  for (std::size_t i = 1; i < rows.size(); ++i) rows[i][t] = skidimm::CsvWriter::format(std::stod(rows[i][t]) * 1000.0);
+  const fs::path ms_log = write_file(dir / "ms.csv", csv_text(rows));
+  const Result sim =
+      run_skidimm("simulate -q --bank " + ms_bank.string() + " --plugin-path " + kPlugins + " --seed 3 --inputs-from " +
+                  ms_log.string() + " --output " + (dir / "sim.csv").string());
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  const std::vector<std::vector<std::string>> simulated = read_csv(dir / "sim.csv");
+  EXPECT_EQ(simulated[2][0], rows[2][t]) << "in ms, as the log it was driven by";
+  const Result run = run_skidimm("run -q --bank " + ms_bank.string() + " --plugin-path " + kPlugins + " --input " +
+                                 (dir / "sim.csv").string() + " --output " + (dir / "out.csv").string());
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(read_csv(dir / "out.csv")[2][0], read_csv(kSwitching)[2][t]) << "read back in seconds";
 }
 
 // A bank that reads expressions (BorealTC's: inputs from wheel speeds,

@@ -378,9 +378,10 @@ TEST(Cli, TuneWarnsOfClassesWithTooFewLogs) {
   // guess, as the report does: read alone, it must not read better.
   const std::string header = read_file(tuned);
   EXPECT_THAT(header, ::testing::ContainsRegex("Nested cross-validated accuracy [0-9.]+, mean log p\\(truth\\) "
-                                               "[-0-9.]+ \\(mean over classes of the mean over their logs; a uniform "
-                                               "guess over 5 classes scores -1.609: (the classes are told apart|"
-                                               "unclear whether|the classes are not told apart|worse than the guess)"));
+                                               "[-0-9.]+ \\(mean over classes of the mean over their logs; each "
+                                               "log's mean, averaged, [-0-9.]+ against a uniform guess over 5 "
+                                               "classes, -1.609: (the classes are told apart|unclear whether|the "
+                                               "classes are not told apart|worse than the guess)"));
   EXPECT_THAT(enough.err, Not(HasSubstr("one development log")));
   EXPECT_THAT(enough.err, Not(HasSubstr("one class only")));
 }

@@ -105,6 +105,9 @@ TEST(LogSpec, ParsesLabelsFilesAndOffsets) {
                     imu = write_file(dir / "imu.csv", "t\n").string();
   expect_error([&] { parse_log_spec(pro + "+" + imu + "=ice"); },
                {"'" + imu + "=ice' is no file; a label goes before the files: 'ice=" + pro + "+" + imu + "'"});
+  // Not where the part before '=' is a directory, or a label was given first.
+  EXPECT_EQ(parse_log_spec(pro + "+" + dir.string() + "=x/imu.csv").files.size(), 2u);
+  EXPECT_EQ(parse_log_spec("snow=" + pro + "+" + imu + "=ice").label, "snow");
 }
 
 // Tables name a log by its files' names, and logs whose names would be the

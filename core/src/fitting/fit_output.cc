@@ -43,8 +43,13 @@ std::string output_mode_name(const BankConfig& config, const FitRequest& request
 }
 
 std::string renaming_problem(const BankConfig& config, const std::string& mode, const std::string& name) {
+  if (name.empty() || name == mode) return "";
+  if (config.class_index(mode) >= 0 && config.mode_index(mode) < 0) {
+    return "the name renames one mode, and '" + mode + "' is a class of " + config.shown_file() +
+           ", whose modes would keep their names: give one of its modes, or leave the name out";
+  }
   const int renamed = config.mode_index(mode);
-  if (name.empty() || name == mode || renamed < 0) return "";
+  if (renamed < 0) return "";
   for (const ClassConfig& c : config.classes) {
     if (std::find(c.modes.begin(), c.modes.end(), renamed) != c.modes.end()) {
       return "the written bank would rename mode '" + mode + "' to '" + name + "', and class " + c.name + " of " +

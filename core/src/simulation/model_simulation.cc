@@ -133,7 +133,9 @@ ModelSimulationSummary simulate_models(const Bank& bank, const LogSpec& source, 
       z += outputs.expected(mode);
     }
     std::size_t c = 0;
-    cells[c++] = CsvWriter::format(sample.t);
+    // In the unit the bank reads its time column in (columns.time_unit), so
+    // that the bank runs on what it simulated.
+    cells[c++] = CsvWriter::format(sample.t * config.columns.time_units_per_second);
     for (Eigen::Index i = 0; i < sample.u.size(); ++i) cells[c++] = CsvWriter::format(sample.u[i]);
     for (Eigen::Index i = 0; i < z.size(); ++i) {
       double value = z[i];

@@ -42,8 +42,9 @@ std::string output_mode_name(const BankConfig& config, const FitRequest& request
 // Empty, or why the whole bank written from `config` (write_fitted_bank)
 // cannot rename mode `mode` to `name` (--name): the bank keeps its
 // `classes:`, and one that lists the mode by its old name would make it
-// invalid, which writing finds only after the fit. For every front end,
-// before the fit.
+// invalid, which writing finds only after the fit; and a class's modes
+// would keep their names, the name ignored. For every front end, before
+// the fit.
 std::string renaming_problem(const BankConfig& config, const std::string& mode, const std::string& name);
 
 // Values per measurement row as "V 0.01234, omega 0.005" (`digits` significant digits).
