@@ -19,6 +19,7 @@
 #include "skidimm/engine/model_conformance.h"
 #include "skidimm/engine/plugin_registry.h"
 #include "skidimm/errors.h"
+#include "skidimm/evaluation/evaluation_report.h"
 #include "skidimm/fitting/fit_logs.h"
 #include "skidimm/io/csv.h"
 #include "skidimm/io/estimates_writer.h"
@@ -310,14 +311,12 @@ int run(const RunOptions& options) {
         std::cerr << "  mode '" << config.modes[j].name << "': " << plugin_of(bank, j) << "\n";
       }
       std::cerr << "dominant mode over time:\n" << timeline.format(mode_names);
-      std::cerr << "  the decision (enter " << CsvWriter::format(decision_settings.enter) << ", leave "
-                << CsvWriter::format(decision_settings.leave) << ", hold "
-                << CsvWriter::format(decision_settings.min_hold) << " s"
-                << (decision_settings.stale_after > 0.0 && !options.smooth && !options.lag
-                        ? ", stale after " + CsvWriter::format(decision_settings.stale_after) + " s"
-                        : std::string())
-                << ") changed " << summary.decision_changes << " time(s), the most likely mode "
-                << timeline.intervals().size() - 1 << " time(s)\n";
+      // The stale time is said where one was given and the decision can go stale (not smoothed).
+      DecisionConfig said = decision_settings;
+      if (!(said.stale_after > 0.0 && !options.smooth && !options.lag)) said.stale_after = -1.0;
+      std::cerr << "  the decision (" << evaluation::decision_settings_text(said) << ") changed "
+                << summary.decision_changes << " time(s), the most likely mode " << timeline.intervals().size() - 1
+                << " time(s)\n";
       std::cerr << reader.describe_stats(config);
       if (summary.predict_only > 0) {
         std::cerr << "  " << summary.predict_only << " rows had no measurement (predict only)\n";

@@ -7,7 +7,6 @@
 #include <iostream>
 #include <limits>
 #include <mutex>
-#include <set>
 #include <sstream>
 
 #include "commands.h"
@@ -167,6 +166,16 @@ std::string question_of(const fitting::Protocol& p, int folds) {
   return "";
 }
 
+// Whether each class of the bank has steps in `log` (its fit data).
+std::vector<bool> classes_shown(const BankConfig& config, const fitting::TuningLog& log) {
+  const std::vector<int> class_of = config.class_of_modes();
+  std::vector<bool> shown(config.class_names().size(), false);
+  for (const fitting::ModeLogs& d : log.fit_data) {
+    if (!d.logs.empty()) shown[static_cast<std::size_t>(class_of[static_cast<std::size_t>(d.mode)])] = true;
+  }
+  return shown;
+}
+
 // Classes the development logs cannot assess: a single class (nothing to
 // tell apart: every verdict reads "told apart"), a class of one log (each
 // fold holding it out fits that class's modes on nothing and scores the
@@ -176,13 +185,9 @@ std::string question_of(const fitting::Protocol& p, int folds) {
 void warn_of_classes_with_too_few_logs(const BankConfig& config, const std::vector<fitting::TuningLog>& logs,
                                        std::size_t development, bool assessed, bool fits) {
   const std::vector<std::string> classes = config.class_names();
-  const std::vector<int> class_of = config.class_of_modes();
   std::vector<int> logs_of(classes.size(), 0);
   for (std::size_t i = 0; i < development; ++i) {
-    std::vector<bool> shown(classes.size(), false);
-    for (const fitting::ModeLogs& d : logs[i].fit_data) {
-      if (!d.logs.empty()) shown[static_cast<std::size_t>(class_of[static_cast<std::size_t>(d.mode)])] = true;
-    }
+    const std::vector<bool> shown = classes_shown(config, logs[i]);
     for (std::size_t c = 0; c < classes.size(); ++c) logs_of[c] += shown[c] ? 1 : 0;
   }
   std::vector<std::string> present, single, none;
@@ -375,14 +380,10 @@ int tune(const TuneCommandOptions& options) {
     // changes: a dwell time tuned on them only grows. Said before the work.
     const std::vector<fitting::Knob> searched = options.knobs.empty() ? fitting::TuneOptions{}.knobs : knobs;
     if (std::find(searched.begin(), searched.end(), fitting::Knob::kDwell) != searched.end() && !options.splice) {
-      const std::vector<int> class_of = config.class_of_modes();
       bool any_change = false;
       for (std::size_t i = 0; i < development && !any_change; ++i) {
-        std::set<int> classes;
-        for (const fitting::ModeLogs& d : logs[i].fit_data) {
-          if (!d.logs.empty()) classes.insert(class_of[static_cast<std::size_t>(d.mode)]);
-        }
-        any_change = classes.size() > 1;
+        const std::vector<bool> shown = classes_shown(config, logs[i]);
+        any_change = std::count(shown.begin(), shown.end(), true) > 1;
       }
       if (!any_change) {
         std::cerr << "skidimm tune: warning: --tune dwell on logs that each hold one class: none shows a change, "

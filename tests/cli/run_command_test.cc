@@ -115,6 +115,12 @@ TEST(Cli, RunGivesTheDecisionUpWhenTheSensorsFallSilent) {
       run_skidimm("run --bank " + kTerrains + " --input " + log.string() + " --output - --decision-stale-after -1");
   EXPECT_NE(negative.exit_code, 0);
   EXPECT_THAT(negative.err, HasSubstr("--decision-stale-after"));
+  // The summary names the stale time given.
+  const Result said =
+      run_skidimm("run --bank " + kTerrains + " --plugin-path " + kPlugins + " --input " + log.string() + " --output " +
+                  (dir / "said.csv").string() + " --decision-stale-after 3");
+  EXPECT_EQ(said.exit_code, 0) << said.err;
+  EXPECT_THAT(said.err, HasSubstr("the decision (enter 0.9, leave 0.05, hold 1 s, stale after 3 s) changed"));
   // A smoothed decision never goes stale: the option is refused there.
   for (const std::string smoothing : {" --smooth", " --lag 1"}) {
     const Result smoothed = run_skidimm("run --bank " + kTerrains + " --input " + log.string() + " --output " +
