@@ -2,6 +2,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
+#include <exception>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -127,6 +129,54 @@ std::string separator_hint(const std::vector<std::string>& header, const std::st
         at = next + 1;
       }
     }
+  }
+  return std::string();
+}
+
+// A file of one run beside `file` that has `column`: the same name but for
+// what comes before the run's number ("imu_00.csv" beside "pro_00.csv"), as
+// a robot's sensors are often logged one file each. Said beside "no column"
+// for a log of one file, which then reads as a wrong bank, when the run's
+// other file was only not named with it (a directory of such runs read file
+// by file). "" when there is none.
+std::string partner_file_hint(const std::filesystem::path& file, const std::string& column) {
+  namespace fs = std::filesystem;
+  const std::string stem = file.stem().string();
+  std::size_t digits = stem.size();
+  while (digits > 0 && std::isdigit(static_cast<unsigned char>(stem[digits - 1])) != 0) --digits;
+  if (file.extension() != ".csv" || digits == stem.size() || digits == 0) return std::string();
+  const std::string run = stem.substr(digits), prefix = stem.substr(0, digits);
+  const fs::path directory = file.has_parent_path() ? file.parent_path() : fs::path(".");
+  std::vector<fs::path> partners;
+  std::error_code ec;
+  for (fs::directory_iterator it(directory, ec), end; !ec && it != end; it.increment(ec)) {
+    const fs::path& candidate = it->path();
+    const std::string other = candidate.stem().string();
+    if (candidate.extension() != file.extension() || other.size() <= run.size() ||
+        other.compare(other.size() - run.size(), run.size(), run) != 0) {
+      continue;
+    }
+    const std::string other_prefix = other.substr(0, other.size() - run.size());
+    if (other_prefix == prefix || std::isdigit(static_cast<unsigned char>(other_prefix.back())) != 0) continue;
+    partners.push_back(candidate);
+  }
+  std::sort(partners.begin(), partners.end());
+  for (const fs::path& candidate : partners) {
+    try {
+      if (!fs::is_regular_file(candidate, ec) || CsvReader(candidate).column(column) < 0) continue;
+    } catch (const std::exception&) {
+      continue;  // unreadable: no hint from it
+    }
+    const std::string other = candidate.stem().string();
+    const std::string other_prefix = other.substr(0, other.size() - run.size());
+    const std::string extension = file.extension().string();
+    const auto in_directory = [&](const std::string& name) {
+      return file.has_parent_path() ? (file.parent_path() / name).string() : name;
+    };
+    return ". " + candidate.filename().string() + " beside it has column '" + column +
+           "': name a run's files together, '" + file.string() + "+" + in_directory(candidate.filename().string()) +
+           "' (every run of the folder: '" + in_directory(prefix + "*" + extension) + "+" +
+           in_directory(other_prefix + "*" + extension) + "')";
   }
   return std::string();
 }
@@ -343,6 +393,9 @@ void LogReader::Impl::missing_column(const std::string& column, const std::strin
       present += (present.empty() ? "" : "; ") + h;
       if (files > 1) present += " (" + reader->path().filename().string() + ")";
     }
+  }
+  if (files == 1 && hint.empty() && !is_standard_input(streams_.front().files.front()->path())) {
+    hint = partner_file_hint(streams_.front().files.front()->path(), column);
   }
   throw streams_.front().files.front()->error("no column '" + Expression::excerpt(column) + "' (the bank's " + field +
                                               ")" + (files > 1 ? " in any file of the log" : "") +

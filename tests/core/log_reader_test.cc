@@ -1080,6 +1080,35 @@ TEST(LogReader, AFileSeparatedByAnotherCharacterIsSaidToBeSo) {
   EXPECT_EQ(unrelated.find("not comma-separated"), std::string::npos) << unrelated;
 }
 
+// A robot's sensors logged a file each: one of a run's files read alone
+// lacks the others' columns, and the error names the file beside it that has
+// the missing one, and how to read the two together (a folder of such runs
+// read file by file). Only a file of the same run number: not another run's,
+// not one whose number only ends the same.
+TEST(LogReader, AColumnInAnotherFileOfTheSameRunIsPointedTo) {
+  const auto dir = test_directory() / "split_runs";
+  std::filesystem::create_directories(dir);
+  const auto wheels = write_file(dir / "wheels_07.csv", "t,left,right\n0,1,2\n0.5,1,2\n");
+  write_file(dir / "odometry_07.csv", "t,v,w\n0,3,4\n0.5,3,4\n");
+  write_file(dir / "odometry_107.csv", "t,v,w\n0,3,4\n");
+  write_file(dir / "odometry_08.csv", "t,v,w\n0,3,4\n");
+  const std::string folder = dir.string() + "/";
+  expect_error([&] { LogReader(simple_bank(), {wheels}); },
+               {"wheels_07.csv:1: no column 'v'",
+                ". odometry_07.csv beside it has column 'v': name a run's files together, '" + folder +
+                    "wheels_07.csv+" + folder + "odometry_07.csv' (every run of the folder: '" + folder +
+                    "wheels_*.csv+" + folder + "odometry_*.csv')"});
+  // The run's other file lacks the column too: nothing to point to.
+  const auto alone = test_directory() / "alone";
+  std::filesystem::create_directories(alone);
+  const auto lone = write_file(alone / "wheels_07.csv", "t,left,right\n0,1,2\n");
+  write_file(alone / "imu_07.csv", "t,ax\n0,1\n");
+  write_file(alone / "odometry_08.csv", "t,v,w\n0,3,4\n");
+  write_file(alone / "odometry_107.csv", "t,v,w\n0,3,4\n");
+  const std::string message = expect_error([&] { LogReader(simple_bank(), {lone}); }, {"no column 'v'"});
+  EXPECT_EQ(message.find("beside it"), std::string::npos) << message;
+}
+
 // A log in which an input never has a value gives no step: the reader names
 // the column (a header alone was already refused, as a file with no rows).
 TEST(LogReader, AnInputWithoutAValueInAnyRowIsNamed) {
