@@ -145,8 +145,11 @@ void refuse_infinite_measurements(const DoubleArray& z, long rows, int width) {
 // beyond 1e11 s (over 3000 years) is ns, us or ms since 1970 (a pandas
 // datetime's nanoseconds); steps of an hour at the median are ns or us at a
 // sensor's rate. A single bad time later in a run (NaN, inf, 1e308) is a
-// step the engine ignores, not a unit: a robot's loop goes on.
-void refuse_times_not_in_seconds(const double* t, long rows, bool one) {
+// step the engine ignores, not a unit: a robot's loop goes on. Steps
+// longer than the bank's sampling.max_gap at the median (milliseconds from
+// the start: 20 a step at 50 Hz) would each be a gap the log reader refuses,
+// and with no gap the CLI would read: refused with the unit asked about.
+void refuse_times_not_in_seconds(const double* t, long rows, bool one, double max_gap) {
   constexpr double kLongestTimeInSeconds = 1e11;
   constexpr double kLongestMedianStep = 3600.0;
   const std::string how =
@@ -170,6 +173,13 @@ void refuse_times_not_in_seconds(const double* t, long rows, bool one) {
   if (median > kLongestMedianStep) {
     throw py::value_error("t steps by " + CsvWriter::format(median) +
                           " s at the median, over an hour: are the times in seconds?" + how);
+  }
+  if (median > max_gap) {
+    throw py::value_error("t steps by " + CsvWriter::format(median) + " s at the median, longer than the bank's " +
+                          "sampling.max_gap (" + CsvWriter::format(max_gap) +
+                          " s), the longest step the log reader takes without a gap: are the times in seconds "
+                          "(milliseconds from the start step by 20 at 50 Hz)?" +
+                          how + "; for a log that truly steps so slowly, raise sampling.max_gap in the bank");
   }
 }
 
@@ -217,7 +227,7 @@ Estimate step(PyImm& self, double t, const py::object& u, const py::object& z) {
   const DoubleArray uu = rows_of(u, 1, self.input_dim(), "u");
   const DoubleArray zz = rows_of(z, 1, self.measurement_dim(), "z");
   refuse_infinite_measurements(zz, 1, self.measurement_dim());
-  if (!self.started) refuse_times_not_in_seconds(&t, 1, true);
+  if (!self.started) refuse_times_not_in_seconds(&t, 1, true, self.config().sampling.max_gap);
   const ImmInUse hold(self);
   self.started = self.started || std::isfinite(t);  // a NaN first step shows no unit
   clear_python_model_error();
@@ -241,7 +251,7 @@ py::dict run(PyImm& self, const py::object& t, const py::object& u, const py::ob
   const DoubleArray uu = rows_of(u, n, self.input_dim(), "u");
   const DoubleArray zz = rows_of(z, n, self.measurement_dim(), "z");
   refuse_infinite_measurements(zz, n, self.measurement_dim());
-  if (reset || !self.started) refuse_times_not_in_seconds(tt.data(), n, false);
+  if (reset || !self.started) refuse_times_not_in_seconds(tt.data(), n, false, self.config().sampling.max_gap);
   const EstimatorOptions estimator = estimator_options(smooth, lag);
   py::object truth_column = py::none();
   if (!truth.is_none()) {

@@ -137,7 +137,7 @@ def test_bad_decision_settings_are_an_error_naming_the_values(configs):
     assert skidimm.Imm(bank, decision={"enter": 0.6}).step(0.0, [1.0, 1.0], [0.1, 0.0]).decision == "unknown"
 
 
-def test_times_that_are_not_seconds_are_refused_with_the_conversion(configs):
+def test_times_that_are_not_seconds_are_refused_with_the_conversion(configs, tmp_path):
     """Datetimes, and numbers beyond 1e11 s (ns, us or ms since 1970), read as seconds made every step a gap of
     years and a run of wrong estimates without an error."""
     import pandas as pd
@@ -159,6 +159,16 @@ def test_times_that_are_not_seconds_are_refused_with_the_conversion(configs):
     imm.step(float("nan"), [1.0, 1.0], [0.0, 0.0])  # a NaN first step shows no unit: the next is still checked
     with pytest.raises(ValueError, match=r"t = 1\.7e\+18: over 3000 years"):
         imm.step(1.7e18, [1.0, 1.0], [0.0, 0.0])
+    # Milliseconds from the start: steps of 20 "s", each longer than the bank's sampling.max_gap (10 s) over which
+    # the log reader takes no step, refused as the CLI refuses such a file's first gap; a bank that allows them
+    # runs them.
+    imm.reset()
+    with pytest.raises(ValueError, match=r"t steps by 20 s at the median, longer than the bank's sampling\.max_gap "
+                                         r"\(10 s\).*are the times in seconds \(milliseconds from the start"):
+        imm.run(np.arange(len(t)) * 20.0, u, z)
+    slow = tmp_path / "slow.yaml"
+    slow.write_text((configs / "ltc_terrains.yaml").read_text() + "sampling: {max_gap: 30}\n")
+    assert len(skidimm.Imm(slow).run(np.arange(len(t)) * 20.0, u, z)["t"]) == len(t)
     # A pause is no unit: three steps at least, their lower median.
     assert len(imm.run(np.array([0.0, 0.1, 4000.0]), np.ones((3, 2)), np.zeros((3, 2)))["t"]) == 3
     assert len(imm.run(np.array([0.0, 0.1, 0.2, 4000.0, 8000.0]), np.ones((5, 2)), np.zeros((5, 2)))["t"]) == 5
