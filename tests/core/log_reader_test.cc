@@ -1086,25 +1086,24 @@ TEST(LogReader, AFileSeparatedByAnotherCharacterIsSaidToBeSo) {
 // read file by file). Only a file of the same run number: not another run's,
 // not one whose number only ends the same.
 TEST(LogReader, AColumnInAnotherFileOfTheSameRunIsPointedTo) {
-  const auto dir = test_directory() / "split_runs";
-  std::filesystem::create_directories(dir);
-  const auto wheels = write_file(dir / "wheels_07.csv", "t,left,right\n0,1,2\n0.5,1,2\n");
-  write_file(dir / "odometry_07.csv", "t,v,w\n0,3,4\n0.5,3,4\n");
-  write_file(dir / "odometry_107.csv", "t,v,w\n0,3,4\n");
-  write_file(dir / "odometry_08.csv", "t,v,w\n0,3,4\n");
-  const std::string folder = dir.string() + "/";
+  // A folder of run 07's wheels and `partner`, beside other runs' odometry.
+  const auto folder_with = [](const std::string& name, const std::string& partner, const std::string& header) {
+    const auto dir = test_directory() / name;
+    std::filesystem::create_directories(dir);
+    write_file(dir / partner, header + "\n0,3,4\n0.5,3,4\n");
+    write_file(dir / "odometry_107.csv", "t,v,w\n0,3,4\n");
+    write_file(dir / "odometry_08.csv", "t,v,w\n0,3,4\n");
+    return write_file(dir / "wheels_07.csv", "t,left,right\n0,1,2\n0.5,1,2\n");
+  };
+  const auto wheels = folder_with("split_runs", "odometry_07.csv", "t,v,w");
+  const std::string folder = wheels.parent_path().string() + "/";
   expect_error([&] { LogReader(simple_bank(), {wheels}); },
                {"wheels_07.csv:1: no column 'v'",
                 ". odometry_07.csv beside it has column 'v': name a run's files together, '" + folder +
                     "wheels_07.csv+" + folder + "odometry_07.csv' (every run of the folder: '" + folder +
                     "wheels_*.csv+" + folder + "odometry_*.csv')"});
   // The run's other file lacks the column too: nothing to point to.
-  const auto alone = test_directory() / "alone";
-  std::filesystem::create_directories(alone);
-  const auto lone = write_file(alone / "wheels_07.csv", "t,left,right\n0,1,2\n");
-  write_file(alone / "imu_07.csv", "t,ax\n0,1\n");
-  write_file(alone / "odometry_08.csv", "t,v,w\n0,3,4\n");
-  write_file(alone / "odometry_107.csv", "t,v,w\n0,3,4\n");
+  const auto lone = folder_with("alone", "imu_07.csv", "t,ax,ay");
   const std::string message = expect_error([&] { LogReader(simple_bank(), {lone}); }, {"no column 'v'"});
   EXPECT_EQ(message.find("beside it"), std::string::npos) << message;
 }
