@@ -450,7 +450,7 @@ namespace {
 void parse_sampling(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {
   const YAML::Node node = root["sampling"];
   if (!node) return;
-  y.check_keys(node, {"join", "rate", "max_gap", "skip_gaps"}, "sampling");
+  y.check_keys(node, {"join", "rate", "max_gap", "skip_gaps", "skip_out_of_order"}, "sampling");
   if (const YAML::Node join = node["join"]) {
     const std::string value = y.string(join, "sampling.join");
     if (value == "time") {
@@ -475,13 +475,16 @@ void parse_sampling(const YamlFields& y, const YAML::Node& root, BankConfig* ban
       y.fail(gap, "sampling.max_gap", "must be a time in seconds, > 0 and at most 1e9");
     }
   }
-  if (const YAML::Node skip = node["skip_gaps"]) {
-    const std::string value = y.string(skip, "sampling.skip_gaps");
-    if (value != "true" && value != "false") {
-      y.fail(skip, "sampling.skip_gaps", "expected true or false, got '" + value + "'");
-    }
-    bank->sampling.skip_gaps = value == "true";
-  }
+  const auto flag = [&](const char* key, bool* value) {
+    const YAML::Node given = node[key];
+    if (!given) return;
+    const std::string field = std::string("sampling.") + key;
+    const std::string text = y.string(given, field);
+    if (text != "true" && text != "false") y.fail(given, field, "expected true or false, got '" + text + "'");
+    *value = text == "true";
+  };
+  flag("skip_gaps", &bank->sampling.skip_gaps);
+  flag("skip_out_of_order", &bank->sampling.skip_out_of_order);
 }
 
 void parse_decision(const YamlFields& y, const YAML::Node& root, BankConfig* bank) {

@@ -42,6 +42,10 @@ constexpr const char* kSelectedByNameHint =
     " (a sequence's entry selected by name, [NAME], has a value only in messages that have that name: `skidimm bag "
     "FILE` lists the names the bag has)";
 
+constexpr const char* kOutOfOrderHint =
+    ". If the row repeats an earlier one or was written out of order, sampling.skip_out_of_order: true in the bank "
+    "leaves out each row whose time is not after its file's last, counted in the summary";
+
 }  // namespace
 
 // Reads the next row of a stream (one row of each of its files) into its
@@ -66,52 +70,65 @@ void LogReader::Impl::throw_pending_error() const {
 bool LogReader::Impl::read_row_or_throw(Stream& s) {
   s.has_row = false;
   if (s.ended) return false;
-  std::size_t ended = 0, an_ended = 0, a_longer = 0;
-  for (std::size_t f = 0; f < s.files.size(); ++f) {
-    if (s.files[f]->next_row()) {
-      a_longer = f;
-    } else {
-      ++ended;
-      an_ended = f;
+  // Until a row whose time is after the last (rows out of order are left
+  // out with sampling.skip_out_of_order, and the next one read).
+  for (;;) {
+    std::size_t ended = 0, an_ended = 0, a_longer = 0;
+    for (std::size_t f = 0; f < s.files.size(); ++f) {
+      if (s.files[f]->next_row()) {
+        a_longer = f;
+      } else {
+        ++ended;
+        an_ended = f;
+      }
     }
+    if (ended == s.files.size()) {
+      s.ended = true;
+      return false;
+    }
+    if (ended != 0) {
+      throw s.files[a_longer]->error_at_row(
+          "files read side by side (sampling.join: rows) must match row for row, but " +
+          s.files[an_ended]->path().string() + " has ended");
+    }
+    const LogTable& reader = *s.files[static_cast<std::size_t>(s.time_file)];
+    double t = 0.0;
+    if (reader.number(s.time_index, &t) != LogTable::Cell::kNumber || !std::isfinite(t)) {
+      throw reader.cell_error(s.time_index,
+                              s.time_units_per_second == 1.0
+                                  ? std::string("a finite time in seconds")
+                                  : "a finite time in " + bank_.columns.time_unit_name + " (columns.time_unit)");
+    }
+    t /= s.time_units_per_second;
+    t += s.offset;
+    if (!std::isfinite(t)) {
+      throw reader.cell_error(s.time_index, "a time that stays finite with the file's offset (" +
+                                                CsvWriter::format(s.offset) + " s) added");
+    }
+    if (t <= s.read_t) {
+      const std::string what = "column '" + bank_.columns.time + "': time must increase strictly, but " +
+                               CsvWriter::format(t) + " follows " + CsvWriter::format(s.read_t);
+      if (sampling_.skip_out_of_order) {
+        // The row is left out, as if the file did not have it.
+        if (stats_.out_of_order_skipped++ == 0) {
+          stats_.first_out_of_order =
+              reader.error_at_row("t = " + CsvWriter::format(t) + " after " + CsvWriter::format(s.read_t)).what();
+        }
+        continue;
+      }
+      // A driver that leaves its messages' stamps unset writes 0 in each; the
+      // bag's own record of when each arrived is a time that increases.
+      const bool unset_stamps = t == s.offset && s.read_t == s.offset && bank_.columns.time == "header.stamp";
+      throw reader.error_at_row(what + (unset_stamps ? " (the topic's header.stamp is unset, 0, in its messages: "
+                                                       "columns.time: log_time reads when the bag recorded each)"
+                                                     : std::string(kOutOfOrderHint)));
+    }
+    s.read_t = t;
+    s.row_t = t;
+    s.has_row = true;
+    if (s.rows_read++ == 0) s.first_t = t;
+    return true;
   }
-  if (ended == s.files.size()) {
-    s.ended = true;
-    return false;
-  }
-  if (ended != 0) {
-    throw s.files[a_longer]->error_at_row("files read side by side (sampling.join: rows) must match row for row, but " +
-                                          s.files[an_ended]->path().string() + " has ended");
-  }
-  const LogTable& reader = *s.files[static_cast<std::size_t>(s.time_file)];
-  double t = 0.0;
-  if (reader.number(s.time_index, &t) != LogTable::Cell::kNumber || !std::isfinite(t)) {
-    throw reader.cell_error(s.time_index,
-                            s.time_units_per_second == 1.0
-                                ? std::string("a finite time in seconds")
-                                : "a finite time in " + bank_.columns.time_unit_name + " (columns.time_unit)");
-  }
-  t /= s.time_units_per_second;
-  t += s.offset;
-  if (!std::isfinite(t)) {
-    throw reader.cell_error(
-        s.time_index, "a time that stays finite with the file's offset (" + CsvWriter::format(s.offset) + " s) added");
-  }
-  if (t <= s.read_t) {
-    // A driver that leaves its messages' stamps unset writes 0 in each; the
-    // bag's own record of when each arrived is a time that increases.
-    const bool unset_stamps = t == s.offset && s.read_t == s.offset && bank_.columns.time == "header.stamp";
-    throw reader.error_at_row("column '" + bank_.columns.time + "': time must increase strictly, but " +
-                              CsvWriter::format(t) + " follows " + CsvWriter::format(s.read_t) +
-                              (unset_stamps ? " (the topic's header.stamp is unset, 0, in its messages: "
-                                              "columns.time: log_time reads when the bag recorded each)"
-                                            : std::string()));
-  }
-  s.read_t = t;
-  s.row_t = t;
-  s.has_row = true;
-  if (s.rows_read++ == 0) s.first_t = t;
-  return true;
 }
 
 // Applies the pending row of stream k: holds its values, and hands its
@@ -711,6 +728,12 @@ std::string LogReader::describe_stats(const BankConfig& bank) const {
            CsvWriter::format(s.seconds_skipped) +
            " s in all: " + (grid ? "the grid restarted at the row after each" : "the filter crossed each in one step") +
            " (sampling.skip_gaps)\n";
+  }
+  if (s.out_of_order_skipped > 0) {
+    out += "  " + std::to_string(s.out_of_order_skipped) +
+           " row(s) whose time was not after their file's last row were left out (sampling.skip_out_of_order), "
+           "the first at " +
+           s.first_out_of_order + "\n";
   }
   for (const auto& stream : impl_->streams_) {
     if (!stream.feeds_inputs || !(stream.longest_hole > impl_->sampling_.max_gap)) continue;

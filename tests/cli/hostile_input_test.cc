@@ -81,6 +81,38 @@ TEST(HostileInput, AFixedRateStopsAtACorruptTimeStampAndKeepsTheRowsBefore) {
   EXPECT_THAT(r.err, HasSubstr("1 gap(s) without rows longer than sampling.max_gap (10 s) were skipped"));
 }
 
+// A row written twice in the middle of a real log (a recorder that wrote a
+// message again): run stops there, keeps the steps before it and says how to
+// go on; a bank that leaves such rows out runs the whole log, as it runs the
+// log without the copy, and says it left one out.
+TEST(HostileInput, ARowWrittenTwiceStopsTheRunOrIsLeftOutWhenTheBankSaysSo) {
+  const fs::path dir = test_directory();
+  const std::string log = read_file(kSwitching);
+  std::size_t at = 0;
+  for (int line = 0; line < 300; ++line) at = log.find('\n', at) + 1;
+  const std::string row = log.substr(at, log.find('\n', at) + 1 - at);
+  const fs::path twice = write_file(dir / "twice.csv", log.substr(0, at) + row + log.substr(at));
+  const fs::path out = dir / "out.csv";
+  const Result stopped = run_shell(kSkidimm + " run --bank " + kTerrains + " --plugin-path " + kPlugins + " --input " +
+                                   twice.string() + " --output " + out.string());
+  EXPECT_EQ(stopped.exit_code, 1) << stopped.err;
+  EXPECT_THAT(stopped.err, HasSubstr("twice.csv:302: column 't': time must increase strictly"));
+  EXPECT_THAT(stopped.err, HasSubstr("sampling.skip_out_of_order: true in the bank"));
+  EXPECT_GT(data_rows(out.string() + ".partial"), 250) << "the steps before the copy are kept";
+  const fs::path lenient =
+      bank_with(dir, "lenient.yaml", "columns:\n  time: t\n  truth_mode: mode\nsampling:\n  skip_out_of_order: true");
+  const Result left_out = run_shell(kSkidimm + " run --bank " + lenient.string() + " --plugin-path " + kPlugins +
+                                    " --input " + twice.string() + " --output " + (dir / "left_out.csv").string());
+  EXPECT_EQ(left_out.exit_code, 0) << left_out.err;
+  EXPECT_THAT(left_out.err, HasSubstr("1 row(s) whose time was not after their file's last row were left out "
+                                      "(sampling.skip_out_of_order), the first at " +
+                                      twice.string() + ":302: t = "));
+  const Result original = run_shell(kSkidimm + " run --bank " + lenient.string() + " --plugin-path " + kPlugins +
+                                    " --input " + kSwitching + " --output " + (dir / "original.csv").string());
+  EXPECT_EQ(original.exit_code, 0) << original.err;
+  EXPECT_EQ(read_file(dir / "left_out.csv"), read_file(dir / "original.csv"));
+}
+
 TEST(HostileInput, ARateFarAboveTheLogsIsRefusedByFitAndRun) {
   const fs::path dir = test_directory();
   std::string log = "t,phi_dot_L,phi_dot_R,V,omega,mode\n";

@@ -265,6 +265,15 @@ TEST(BankConfig, SamplingIsChecked) {
   EXPECT_EQ(c.sampling.rate, 12.5);
   expect_config_error(kValidBank + "sampling: {join: side_by_side}\n", {"sampling.join", "expected 'time'"});
   expect_config_error(kValidBank + "sampling: {rate: 0}\n", {"sampling.rate", "must be a rate in Hz"});
+  EXPECT_FALSE(c.sampling.skip_gaps);
+  EXPECT_FALSE(c.sampling.skip_out_of_order);
+  const BankConfig lenient = load_bank_config(write_file(
+      test_directory() / "bank.yaml", kValidBank + "sampling: {skip_gaps: true, skip_out_of_order: true}\n"));
+  EXPECT_TRUE(lenient.sampling.skip_gaps);
+  EXPECT_TRUE(lenient.sampling.skip_out_of_order);
+  expect_config_error(kValidBank + "sampling: {skip_out_of_order: yes please}\n",
+                      {"sampling.skip_out_of_order", "expected true or false, got 'yes please'"});
+  expect_config_error(kValidBank + "sampling: {skip_gaps: 1}\n", {"sampling.skip_gaps", "expected true or false"});
 }
 
 TEST(Bank, UnknownPluginListsWhatWasFound) {

@@ -1024,6 +1024,41 @@ TEST(LogReader, TimeMustIncreaseStrictly) {
   expect_error([&] { reader.next(&s); }, {"log.csv:4: column 't': time must increase strictly, but 0.5 follows 0.5"});
 }
 
+// A row written twice, or a stamp out of order, is an error that says how to
+// leave such rows out; with sampling.skip_out_of_order the reader gives the
+// steps of the file without them, and counts them.
+TEST(LogReader, RowsOutOfOrderAreLeftOutWhenTheBankSaysSo) {
+  const std::string header = "t,left,right,v,w\n";
+  const std::string clean_rows = "0,1,2,3,4\n0.5,1,2,3,4\n1,5,6,7,8\n1.5,1,2,3,4\n";
+  const auto dir = test_directory();
+  const auto messy = write_file(dir / "messy.csv", header +
+                                                       "0,1,2,3,4\n0.5,1,2,3,4\n0.5,1,2,3,4\n"
+                                                       "0.2,9,9,9,9\n1,5,6,7,8\n1.5,1,2,3,4\n");
+  const auto clean = write_file(dir / "clean.csv", header + clean_rows);
+  BankConfig bank = simple_bank();
+  LogReader strict(bank, {messy}, bank.sampling);
+  read_until_error(strict, {"messy.csv:4: column 't': time must increase strictly, but 0.5 follows 0.5. If the row "
+                            "repeats an earlier one or was written out of order, sampling.skip_out_of_order: true in "
+                            "the bank leaves out each row whose time is not after its file's last"});
+  bank.sampling.skip_out_of_order = true;
+  LogReader lenient(bank, {messy}, bank.sampling);
+  LogReader reference(bank, {clean}, bank.sampling);
+  const auto read = read_all(lenient);
+  const auto expected = read_all(reference);
+  ASSERT_EQ(read.size(), expected.size());
+  for (std::size_t k = 0; k < read.size(); ++k) {
+    EXPECT_EQ(read[k].t, expected[k].t);
+    EXPECT_EQ(read[k].u, expected[k].u);
+    EXPECT_EQ(read[k].z, expected[k].z);
+  }
+  EXPECT_EQ(lenient.stats().out_of_order_skipped, 2);
+  EXPECT_THAT(lenient.describe_stats(bank),
+              HasSubstr("2 row(s) whose time was not after their file's last row were left out "
+                        "(sampling.skip_out_of_order), the first at "));
+  EXPECT_THAT(lenient.describe_stats(bank), HasSubstr("messy.csv:4: t = 0.5 after 0.5"));
+  EXPECT_EQ(reference.describe_stats(bank).find("out of order"), std::string::npos);
+}
+
 TEST(LogReader, ABinaryFileGivesAShortPrintableError) {
   std::string garbage(3000, '\0');
   for (std::size_t i = 0; i < garbage.size(); ++i) garbage[i] = static_cast<char>((i * 37 + 11) % 256);

@@ -48,6 +48,19 @@ TEST(BankWriter, FormatsParametersByKeyAndShape) {
   EXPECT_EQ(format_matrix(Eigen::MatrixXd::Constant(1, 1, 0.123456789)), "0.1234568");
 }
 
+// A fit at another rate writes the bank's sampling block anew: what it said
+// of gaps and rows out of order stays said.
+TEST(BankWriter, TheSamplingBlockKeepsEveryKey) {
+  SamplingConfig sampling;
+  EXPECT_EQ(format_sampling_block(sampling), "");
+  sampling.rate = 2.0;
+  sampling.max_gap = 30.0;
+  sampling.skip_gaps = true;
+  sampling.skip_out_of_order = true;
+  EXPECT_EQ(format_sampling_block(sampling),
+            "sampling:\n  rate: 2\n  max_gap: 30\n  skip_gaps: true\n  skip_out_of_order: true\n");
+}
+
 TEST(BankWriter, KeepsWhatTheBankGaveThatWasNotFitted) {
   const Bank bank = Bank::load(write_file(test_directory() / "b.yaml", kBank), {SKIDIMM_PLUGIN_DIR});
   sdk::ParameterSet original;

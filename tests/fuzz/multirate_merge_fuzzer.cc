@@ -10,6 +10,7 @@
 //                 bit 3    sampling.join: rows (else time)
 //                 bits 4-5 max_gap: 10 s, 0.05 s, 1e9 s, 1 s
 //                 bit 6    aggregated measurements (mean, std, rms; with a rate)
+//                 bit 7    sampling.skip_out_of_order
 //
 // The bank reads columns t, velL, velR (inputs), wz and cur (measurements);
 // a file may have any of them. Bad input must end in a skidimm::Error. What
@@ -63,6 +64,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   skidimm::SamplingConfig sampling;
   sampling.rate = kRates[settings & 3];
   sampling.skip_gaps = (settings & 4) != 0;
+  sampling.skip_out_of_order = (settings & 128) != 0;
   sampling.join = (settings & 8) != 0 ? skidimm::SamplingConfig::Join::kRows : skidimm::SamplingConfig::Join::kTime;
   sampling.max_gap = kGaps[(settings >> 4) & 3];
   const bool aggregated = (settings & 64) != 0 && sampling.rate > 0.0;

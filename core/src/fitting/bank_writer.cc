@@ -439,6 +439,7 @@ std::string format_sampling_block(const SamplingConfig& sampling) {
   if (sampling.rate > 0.0) out += "  rate: " + CsvWriter::format(sampling.rate) + "\n";
   if (sampling.max_gap != defaults.max_gap) out += "  max_gap: " + CsvWriter::format(sampling.max_gap) + "\n";
   if (sampling.skip_gaps) out += "  skip_gaps: true\n";
+  if (sampling.skip_out_of_order) out += "  skip_out_of_order: true\n";
   return out.empty() ? out : "sampling:\n" + out;
 }
 

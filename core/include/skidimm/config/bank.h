@@ -118,6 +118,10 @@ struct SamplingConfig {
   // after it (log_reader.h).
   double max_gap = 10.0;
   bool skip_gaps = false;
+  // A row whose time is not after its file's last (a row written twice, a
+  // stamp out of order) is an error naming it, or, with skip_out_of_order,
+  // left out and counted (log_reader.h).
+  bool skip_out_of_order = false;
 };
 
 // The longest min_hold a bank or a command line may state, in seconds.

@@ -103,6 +103,10 @@ struct LogStats {
   std::vector<double> longest_unmeasured_to;
   long gaps_skipped = 0;          // gaps longer than sampling.max_gap the grid restarted after (skip_gaps)
   double seconds_skipped = 0.0;   // ... and the time they spanned
+  // Rows whose time was not after their file's last, left out (skip_out_of_order),
+  // and where the first was: "<file>:<line>: t = 2.5 after 2.5".
+  long out_of_order_skipped = 0;
+  std::string first_out_of_order;
 };
 
 class LogReader : public SampleSource {
