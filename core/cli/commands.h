@@ -207,6 +207,7 @@ struct EvalOptions {
   bool skip_unpaired = false;  // leave out a pattern's runs that some of its files lack
   bool smooth = false;
   std::optional<double> lag;
+  bool splice = false;  // the logs end to end as one run, the groups taking turns
   bool json = false;
 };
 int eval(const EvalOptions& options);

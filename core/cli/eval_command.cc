@@ -111,6 +111,14 @@ int eval(const EvalOptions& given) {
     std::vector<evaluation::LogFailure> failures;
     std::optional<Bank> ran;  // the bank run over the logs (not with --estimates)
     const EstimatorOptions estimator = command_line_estimator(options.smooth, options.lag, options.overrides);
+    if (options.splice && (!options.estimates.empty() || options.smooth || options.lag)) {
+      throw UsageError(options.estimates.empty()
+                           ? std::string("--splice scores the filter as it runs across each change, and ") +
+                                 (options.smooth ? "--smooth" : "--lag") +
+                                 " would smooth it with the measurements after the change: give one or the other"
+                           : "--splice runs the bank over logs given with --input and --bank, and --estimates scores "
+                             "files `skidimm run` already wrote: give one or the other");
+    }
     if (!options.estimates.empty()) {
       // The files hold what a filter already computed; these would change the filter.
       if (options.overrides.likelihood_weight || options.overrides.innovation_gate) {
@@ -160,9 +168,11 @@ int eval(const EvalOptions& given) {
       decision_made = evaluation::decision_settings_text(bank.config.decision);
       classes = bank.config.class_names();
       states = bank.config.state_names;
-      groups =
-          evaluation::evaluate_log_groups(bank, options.inputs, sampling_of(bank.config, options.overrides.rate),
-                                          estimator, unpaired_runs("skidimm eval", options.skip_unpaired), &failures);
+      const SamplingConfig sampling = sampling_of(bank.config, options.overrides.rate);
+      const LogArgumentOptions expansion = unpaired_runs("skidimm eval", options.skip_unpaired);
+      groups = options.splice
+                   ? evaluation::evaluate_spliced_logs(bank, options.inputs, sampling, expansion, &failures)
+                   : evaluation::evaluate_log_groups(bank, options.inputs, sampling, estimator, expansion, &failures);
     }
     if (groups.empty() && failures.empty()) {
       throw Error("nothing to evaluate: give --input (with --bank) or --estimates");

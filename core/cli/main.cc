@@ -508,6 +508,9 @@ int main(int argc, char** argv) {
   add_decision_options(eval, &eval_options.decision_enter, &eval_options.decision_leave, &eval_options.decision_hold,
                        &eval_options.overrides.decision_stale, "; with --estimates a list (0.6,0.8) compares settings");
   add_filter_overrides(eval, &eval_options.overrides);
+  eval->add_flag("--splice", eval_options.splice,
+                 "Score the logs spliced end to end into one run, the groups (each --input) taking turns, so that the "
+                 "scores include following each change of mode: how soon, and the changes never followed");
   eval->add_flag("--skip-unpaired", eval_options.skip_unpaired, kSkipUnpaired);
   eval->add_flag("--json", eval_options.json, "Print JSON instead of tables");
   add_plugin_path(eval);

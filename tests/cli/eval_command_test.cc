@@ -79,6 +79,61 @@ TEST(EvalCommand, PerClassAccuracyIsOverEachClassesOwnTimeInSwitchingLogs) {
   EXPECT_THAT(all_table, HasSubstr("over logs (each log's mean, averaged), against -1.099"));
 }
 
+// The switching log cut at its changes of terrain into three logs of one
+// terrain each, and spliced back with --splice in the order given: one run
+// whose changes are where the log's were (each log's times shifted by less
+// than a step), followed as fast as in the log; given in another order, the
+// changes are between those terrains. Smoothing a splice is refused.
+TEST(EvalCommand, SpliceScoresTheLogsAsOneRunTheGroupsTakingTurns) {
+  const std::string log = read_file(kSwitching);
+  std::vector<std::string> lines;
+  for (std::size_t at = 0, next; at < log.size(); at = next + 1) {
+    next = log.find('\n', at);
+    lines.push_back(log.substr(at, next - at));
+  }
+  const auto dir = test_directory();
+  const auto segment = [&](const std::string& name, std::size_t first, std::size_t last) {
+    std::string text = lines[0] + "\n";
+    for (std::size_t i = first; i <= last && i < lines.size(); ++i) {
+      if (!lines[i].empty()) text += lines[i] + "\n";
+    }
+    return write_file(dir / name, text).string();
+  };
+  // Lines (from 0, the header) where the log's truth changes: 500 and 995.
+  const std::string crushed = segment("crushed.csv", 1, 499);
+  const std::string grass = segment("grass.csv", 500, 994);
+  const std::string asphalt = segment("asphalt.csv", 995, lines.size());
+  const YAML::Node original = json_of(run_skidimm(eval("--input " + kSwitching + " --json")))["logs"].begin()->second;
+  const Result r =
+      run_skidimm(eval("--splice --input " + crushed + " --input " + grass + " --input " + asphalt + " --json"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const YAML::Node logs = json_of(r)["logs"];
+  ASSERT_EQ(logs.size(), 1u) << "one run";
+  const YAML::Node spliced = logs.begin()->second;
+  ASSERT_EQ(spliced["switches"].size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const YAML::Node got = spliced["switches"][k], expected = original["switches"][k];
+    EXPECT_EQ(got["from"].as<std::string>(), expected["from"].as<std::string>());
+    EXPECT_EQ(got["to"].as<std::string>(), expected["to"].as<std::string>());
+    EXPECT_NEAR(got["time"].as<double>(), expected["time"].as<double>(), 0.05);
+    EXPECT_NEAR(got["first_latency"].as<double>(), expected["first_latency"].as<double>(), 0.1);
+  }
+  EXPECT_NEAR(spliced["accuracy"].as<double>(), original["accuracy"].as<double>(), 0.01);
+  const Result reversed =
+      run_skidimm(eval("--splice --input " + asphalt + " --input " + grass + " --input " + crushed + " --json"));
+  ASSERT_EQ(reversed.exit_code, 0) << reversed.err;
+  const YAML::Node turns = json_of(reversed)["logs"].begin()->second["switches"];
+  ASSERT_EQ(turns.size(), 2u);
+  EXPECT_EQ(turns[0]["from"].as<std::string>(), "asphalt");
+  EXPECT_EQ(turns[0]["to"].as<std::string>(), "grass");
+  EXPECT_EQ(turns[1]["to"].as<std::string>(), "crushed_concrete");
+  const Result table = run_skidimm(eval("--splice --input " + crushed + " --input " + grass + " --input " + asphalt));
+  EXPECT_THAT(table.out, HasSubstr("spliced (3 logs end to end, the groups taking turns): 1 log(s)"));
+  const Result smoothed = run_skidimm(eval("--splice --smooth --input " + crushed + " --input " + grass));
+  EXPECT_EQ(smoothed.exit_code, 2) << smoothed.err;
+  EXPECT_THAT(smoothed.err, HasSubstr("--splice scores the filter as it runs across each change, and --smooth"));
+}
+
 TEST(EvalCommand, JsonKeysLogsByTheirPathsSoSameNamedFilesStayApart) {
   const fs::path dir = test_directory();
   fs::create_directories(dir / "a");

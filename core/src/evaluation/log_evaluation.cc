@@ -71,9 +71,11 @@ LabelledStep ClassScorer::decided(const LabelledStep& step, const std::string& d
   return out;
 }
 
-LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfig& sampling,
-                       const std::filesystem::path& estimates, const EstimatorOptions& estimator) {
-  const BankConfig& config = bank.config;
+namespace {
+
+// A label the bank knows, or a truth column the bank names: before the log
+// is read.
+void require_a_truth(const BankConfig& config, const LogSpec& log) {
   if (log.label.empty() && config.columns.truth_mode.empty()) {
     throw Error(config.shown_file() + ": the bank names no columns.truth_mode, so there is nothing to evaluate " +
                 log.text + " against; label the log (MODE=" + log.text + ") or name the truth column");
@@ -81,12 +83,32 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
   if (!log.label.empty() && config.class_index(log.label) < 0) {
     throw Error(log.text + ": " + config.unknown_label(log.label));
   }
-  LogReader reader(config, log.files, sampling);
+}
+
+// ... and, without a label, the truth column in the log.
+void require_the_truth_column(const BankConfig& config, const LogSpec& log, const LogReader& reader) {
   if (log.label.empty() && !reader.has_truth()) {
     throw Error(log.text + ": nothing to score against: label the log (MODE=" + log.text +
                 ") or give the bank a truth column (columns.truth_mode)" +
                 (config.columns.truth_mode.empty() ? "" : "; the log has no column '" + config.columns.truth_mode + "'"));
   }
+}
+
+}  // namespace
+
+RecordedLog record_labelled_log(const BankConfig& config, const LogSpec& log, const SamplingConfig& sampling) {
+  require_a_truth(config, log);
+  LogReader reader(config, log.files, sampling);
+  require_the_truth_column(config, log, reader);
+  return RecordedLog::record(&reader);
+}
+
+LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfig& sampling,
+                       const std::filesystem::path& estimates, const EstimatorOptions& estimator) {
+  const BankConfig& config = bank.config;
+  require_a_truth(config, log);
+  LogReader reader(config, log.files, sampling);
+  require_the_truth_column(config, log, reader);
   LogResult result = evaluate_log(bank, &reader, log.name(), log.label, estimates, estimator);
   result.source = joined_paths(log.files);
   result.unmeasured = reader.unmeasured(config);

@@ -1,6 +1,7 @@
-// The sample sources the tuner scores a bank from, beyond a log's own replay:
-// held-out logs spliced into one run, and a replay that ends as soon as a
-// candidate's score can no longer win (the bound a search prunes with).
+// The sample source the tuner scores a bank from, beyond a log's own replay
+// and held-out logs spliced into one run (spliced_replay.h): a replay that
+// ends as soon as a candidate's score can no longer win (the bound a search
+// prunes with).
 // Private to the fitting library (tuning.cc).
 #ifndef SKIDIMM_CORE_SRC_FITTING_SCORING_SOURCES_H_
 #define SKIDIMM_CORE_SRC_FITTING_SCORING_SOURCES_H_
@@ -16,49 +17,6 @@
 namespace skidimm {
 namespace fitting {
 namespace internal {
-
-// Recorded logs end to end, as one log: each log's steps in turn, its times
-// shifted to follow the previous log's last step by `gap` seconds (or by the
-// previous log's last step interval when gap is 0), its truth its label where
-// one is given.
-class SplicedReplay : public SampleSource {
- public:
-  SplicedReplay(std::vector<const RecordedLog*> logs, std::vector<std::string> labels, double gap)
-      : logs_(std::move(logs)), labels_(std::move(labels)), gap_(gap) {}
-
-  bool next(LogSample* sample) override {
-    while (log_ < logs_.size()) {
-      const std::vector<LogSample>& samples = logs_[log_]->samples();
-      if (index_ >= samples.size()) {
-        ++log_;
-        index_ = 0;
-        continue;
-      }
-      if (index_ == 0) {
-        const double gap = gap_ > 0.0 ? gap_ : last_interval_;
-        shift_ = log_ == 0 ? 0.0 : last_t_ + gap - samples.front().t;
-      }
-      *sample = samples[index_];
-      sample->t += shift_;
-      if (!labels_[log_].empty()) sample->truth_mode = labels_[log_];
-      sample->row = ++row_;
-      if (index_ > 0) last_interval_ = sample->t - last_t_;
-      last_t_ = sample->t;
-      ++index_;
-      return true;
-    }
-    return false;
-  }
-  bool has_truth() const override { return true; }
-
- private:
-  std::vector<const RecordedLog*> logs_;
-  std::vector<std::string> labels_;
-  double gap_;
-  std::size_t log_ = 0, index_ = 0;
-  double shift_ = 0.0, last_t_ = 0.0, last_interval_ = 1.0;
-  long row_ = 0;
-};
 
 // A candidate's score while it is computed. The score (summarize()) is a
 // weighted sum, with positive weights, of each step's log p(truth), which is

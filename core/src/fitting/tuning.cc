@@ -20,6 +20,7 @@
 #include "skidimm/errors.h"
 #include "skidimm/evaluation/log_evaluation.h"
 #include "skidimm/fitting/bank_fit.h"
+#include "skidimm/io/spliced_replay.h"
 #include "skidimm/progress.h"
 #include "tuned_settings.h"
 
@@ -32,7 +33,6 @@ using internal::BoundedSource;
 using internal::brief;
 using internal::complement;
 using internal::ScoreBound;
-using internal::SplicedReplay;
 
 // The modes' logs of a set of tuning logs, merged by mode.
 std::vector<ModeLogs> training_data(const std::vector<TuningLog>& logs, const std::vector<int>& members) {

@@ -108,6 +108,11 @@ LogResult evaluate_log(const Bank& bank, SampleSource* source, const std::string
                        const std::filesystem::path& estimates = {}, const EstimatorOptions& estimator = {},
                        const StepObserver& observer = {});
 
+// Every step of `log` read into memory, after the checks evaluate_log()
+// makes: a truth for it (its label, a class of the bank, or the bank's truth
+// column in the log). For splicing logs (SplicedReplay) to score as one run.
+RecordedLog record_labelled_log(const BankConfig& config, const LogSpec& log, const SamplingConfig& sampling);
+
 // Several logs spliced end to end into one run (`source` gives their steps
 // in turn, `steps_per_log[i]` of log i, each with its truth in the sample's
 // truth_mode): one IMM over all of them, as a robot that drives from one

@@ -44,6 +44,17 @@ std::vector<LogGroup> evaluate_log_groups(const Bank& bank, const std::vector<st
                                           const LogArgumentOptions& expansion = {},
                                           std::vector<LogFailure>* failures = nullptr);
 
+// The logs of `arguments` spliced end to end into one run (eval --splice):
+// the groups taking turns (the first log of each argument's group in order,
+// then the second of each...), each log's times shifted to follow the last,
+// its truth its label or its truth column, scored by one IMM over the whole
+// run (evaluate_spliced()): one group of one result, whose switches are the
+// changes from one log's truth to the next. A log that cannot be read is a
+// failure, left out of the splice (without `failures`, an exception).
+std::vector<LogGroup> evaluate_spliced_logs(const Bank& bank, const std::vector<std::string>& arguments,
+                                            const SamplingConfig& sampling, const LogArgumentOptions& expansion = {},
+                                            std::vector<LogFailure>* failures = nullptr);
+
 // Scores the `skidimm run` outputs of `arguments` (files, directories,
 // patterns) as evaluate_estimates does with `bank` and `decide` (each may be
 // null), every file on its own thread, with the results of one; `failures`
