@@ -64,20 +64,23 @@ std::vector<DecisionConfig> decision_grid(const DecisionConfig& base, const Eval
 }
 
 // The logs that failed, after the report of the others (stderr), and the
-// exit code: a failure even when every other log was scored.
+// exit code: a failure even when every other log was scored. `spliced`: the
+// logs scored were joined into one run (--splice), this many.
 int report_failures(const std::vector<evaluation::LogGroup>& groups,
-                    const std::vector<evaluation::LogFailure>& failures) {
+                    const std::vector<evaluation::LogFailure>& failures, std::optional<std::size_t> spliced) {
   if (failures.empty()) return kExitOk;
   std::cout.flush();
-  long scored = 0;
-  for (const evaluation::LogGroup& g : groups) scored += static_cast<long>(g.logs.size());
+  std::size_t scored = 0;
+  for (const evaluation::LogGroup& g : groups) scored += g.logs.size();
+  if (spliced) scored = *spliced;
   for (const evaluation::LogFailure& f : failures) {
     std::cerr << "skidimm eval: error: " << printable(f.message) << "\n";
   }
-  std::cerr << "skidimm eval: " << failures.size() << " of " << failures.size() + static_cast<std::size_t>(scored)
+  std::cerr << "skidimm eval: " << failures.size() << " of " << failures.size() + scored
             << " log(s) failed and are left out of "
             << (groups.empty() ? std::string("every figure: nothing was scored")
-                               : std::string("the report above, which scores the other ") + std::to_string(scored))
+                : spliced      ? "the splice above, which joins the other " + std::to_string(scored)
+                               : "the report above, which scores the other " + std::to_string(scored))
             << "\n";
   return kExitFailure;
 }
@@ -110,6 +113,7 @@ int eval(const EvalOptions& given) {
     // the failures listed after them, and the exit code says it.
     std::vector<evaluation::LogFailure> failures;
     std::optional<Bank> ran;  // the bank run over the logs (not with --estimates)
+    std::optional<std::size_t> spliced;  // with --splice, how many logs the run joins
     const EstimatorOptions estimator = command_line_estimator(options.smooth, options.lag, options.overrides);
     if (options.splice && (!options.estimates.empty() || options.smooth || options.lag)) {
       throw UsageError(options.estimates.empty()
@@ -170,9 +174,12 @@ int eval(const EvalOptions& given) {
       states = bank.config.state_names;
       const SamplingConfig sampling = sampling_of(bank.config, options.overrides.rate);
       const LogArgumentOptions expansion = unpaired_runs("skidimm eval", options.skip_unpaired);
-      groups = options.splice
-                   ? evaluation::evaluate_spliced_logs(bank, options.inputs, sampling, expansion, &failures)
-                   : evaluation::evaluate_log_groups(bank, options.inputs, sampling, estimator, expansion, &failures);
+      if (options.splice) {
+        spliced.emplace();
+        groups = evaluation::evaluate_spliced_logs(bank, options.inputs, sampling, expansion, &failures, &*spliced);
+      } else {
+        groups = evaluation::evaluate_log_groups(bank, options.inputs, sampling, estimator, expansion, &failures);
+      }
     }
     if (groups.empty() && failures.empty()) {
       throw Error("nothing to evaluate: give --input (with --bank) or --estimates");
@@ -183,7 +190,7 @@ int eval(const EvalOptions& given) {
                                    : evaluation::report_tables(groups, classes, states, decision_made));
     }
     if (ran) report_each_logs_problems(*ran, groups);
-    const int code = report_failures(groups, failures);
+    const int code = report_failures(groups, failures, spliced);
     // A report of no labelled time scores nothing: a script or CI check must
     // not read it as a pass.
     bool scored = false;

@@ -129,6 +129,17 @@ TEST(EvalCommand, SpliceScoresTheLogsAsOneRunTheGroupsTakingTurns) {
   EXPECT_EQ(turns[1]["to"].as<std::string>(), "crushed_concrete");
   const Result table = run_skidimm(eval("--splice --input " + crushed + " --input " + grass + " --input " + asphalt));
   EXPECT_THAT(table.out, HasSubstr("spliced (3 logs end to end, the groups taking turns): 1 log(s)"));
+  // A log that cannot be read is left out of the splice and listed; the exit code says so.
+  const Result missing = run_skidimm(eval("--splice --input " + crushed + " --input " + (dir / "none.csv").string() +
+                                          " --input " + asphalt + " --json"));
+  EXPECT_EQ(missing.exit_code, 1) << missing.err;
+  EXPECT_THAT(missing.err, HasSubstr("none.csv: no such log file"));
+  EXPECT_THAT(missing.err,
+              HasSubstr("1 of 3 log(s) failed and are left out of the splice above, which joins the other 2"));
+  const YAML::Node two = YAML::Load(missing.out)["logs"].begin()->second["switches"];
+  ASSERT_EQ(two.size(), 1u);
+  EXPECT_EQ(two[0]["from"].as<std::string>(), "crushed_concrete");
+  EXPECT_EQ(two[0]["to"].as<std::string>(), "asphalt");
   const Result smoothed = run_skidimm(eval("--splice --smooth --input " + crushed + " --input " + grass));
   EXPECT_EQ(smoothed.exit_code, 2) << smoothed.err;
   EXPECT_THAT(smoothed.err, HasSubstr("--splice scores the filter as it runs across each change, and --smooth"));

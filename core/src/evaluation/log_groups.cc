@@ -143,7 +143,7 @@ std::vector<LogGroup> evaluate_log_groups(const Bank& bank, const std::vector<st
 
 std::vector<LogGroup> evaluate_spliced_logs(const Bank& bank, const std::vector<std::string>& arguments,
                                             const SamplingConfig& sampling, const LogArgumentOptions& expansion,
-                                            std::vector<LogFailure>* failures) {
+                                            std::vector<LogFailure>* failures, std::size_t* spliced) {
   std::vector<LogGroup> groups;
   const std::vector<LogJob> jobs = log_jobs(arguments, expansion, &groups);
   for (const LogJob& job : jobs) {
@@ -182,6 +182,7 @@ std::vector<LogGroup> evaluate_spliced_logs(const Bank& bank, const std::vector<
       }
     }
   }
+  if (spliced != nullptr) *spliced = order.size();
   if (order.empty()) return {};
   std::vector<const RecordedLog*> logs;
   std::vector<std::string> labels, sources;

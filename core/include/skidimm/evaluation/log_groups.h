@@ -51,9 +51,11 @@ std::vector<LogGroup> evaluate_log_groups(const Bank& bank, const std::vector<st
 // run (evaluate_spliced()): one group of one result, whose switches are the
 // changes from one log's truth to the next. A log that cannot be read is a
 // failure, left out of the splice (without `failures`, an exception).
+// `spliced` (optional) gets how many logs the run joins.
 std::vector<LogGroup> evaluate_spliced_logs(const Bank& bank, const std::vector<std::string>& arguments,
                                             const SamplingConfig& sampling, const LogArgumentOptions& expansion = {},
-                                            std::vector<LogFailure>* failures = nullptr);
+                                            std::vector<LogFailure>* failures = nullptr,
+                                            std::size_t* spliced = nullptr);
 
 // Scores the `skidimm run` outputs of `arguments` (files, directories,
 // patterns) as evaluate_estimates does with `bank` and `decide` (each may be
