@@ -292,12 +292,14 @@ def eval_report(bank, groups, output="dict"):
     raise ValueError("output must be 'dict', 'json' or 'table'")
 
 
-def eval(bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", skip_unpaired=False,  # noqa: A001
-         plugin_paths=(), models=None):
+def eval(bank, inputs, *, rate=None, smooth=False, lag=None, splice=False, output="dict",  # noqa: A001
+         skip_unpaired=False, plugin_paths=(), models=None):
     """``skidimm eval --bank B --input ...``: each argument a group of logs (files, directories, patterns).
 
     ``skip_unpaired=True`` is ``--skip-unpaired``: a pattern's runs that some
     of its files lack are left out with a warning instead of an error.
+    ``splice=True`` is ``--splice``: the logs scored as one run spliced end to
+    end, the groups taking turns (not with ``smooth`` or ``lag``).
     Returns what ``skidimm eval --json`` prints, parsed (``output="dict"``),
     or its text (``"json"``), or the table (``"table"``). The metrics and
     their reduction are the evaluation library's, which the CLI uses too.
@@ -308,12 +310,17 @@ def eval(bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", skip
     loaded = _bank(bank, plugin_paths, models)
     _warn_of_rate(loaded, rate)
     inputs = [_os.fspath(argument) for argument in inputs]
+    if splice and (smooth or lag is not None):
+        raise ValueError("splice scores the filter as it runs across each change, and smoothing would use the "
+                         "measurements after the change: give one or the other")
     groups = {}  # by name, in the order of first appearance: arguments of one name are one group, as in the CLI
     for argument, name in zip(inputs, _native.group_names(inputs)):
-        specs = expand_log_argument(argument, skip_unpaired)
-        groups.setdefault(name, []).extend(
-            _native.evaluate_log(loaded, spec, _rate(rate), smooth, lag) for spec in specs)
-    return eval_report(loaded, list(groups.items()), output)
+        groups.setdefault(name, []).extend(expand_log_argument(argument, skip_unpaired))
+    if splice:
+        return eval_report(loaded, _native.evaluate_spliced(loaded, list(groups.items()), _rate(rate)), output)
+    scored = [(name, [_native.evaluate_log(loaded, spec, _rate(rate), smooth, lag) for spec in specs])
+              for name, specs in groups.items()]
+    return eval_report(loaded, scored, output)
 
 
 def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", window=0.0, loss="huber",

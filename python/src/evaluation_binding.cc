@@ -16,6 +16,7 @@
 #include "skidimm/config/run_overrides.h"
 #include "skidimm/evaluation/evaluation_report.h"
 #include "skidimm/evaluation/log_evaluation.h"
+#include "skidimm/evaluation/log_groups.h"
 
 namespace skidimm {
 namespace python {
@@ -57,6 +58,29 @@ void bind_evaluation(py::module_& m) {
       },
       py::arg("bank"), py::arg("log"), py::arg("rate") = 0.0, py::arg("smooth") = false, py::arg("lag") = py::none(),
       "Runs a fresh IMM over one log and scores it, as `skidimm eval` does per log.");
+  m.def(
+      "evaluate_spliced",
+      [](const PyBank& bank, const std::vector<std::pair<std::string, std::vector<py::object>>>& groups, double rate) {
+        std::vector<evaluation::SplicedGroup> spliced;
+        for (const auto& [name, logs] : groups) {
+          evaluation::SplicedGroup group{name, {}};
+          for (const py::object& log : logs) group.logs.push_back(log_spec_of(log));
+          spliced.push_back(std::move(group));
+        }
+        std::vector<evaluation::LogGroup> scored;
+        clear_python_model_error();
+        {
+          py::gil_scoped_release release;
+          scored = evaluation::evaluate_spliced_groups(*bank.bank, spliced, sampling_of(bank.config(), rate));
+        }
+        throw_if_python_model_raised();
+        std::vector<std::pair<std::string, std::vector<evaluation::LogResult>>> out;
+        for (evaluation::LogGroup& g : scored) out.emplace_back(g.name, std::move(g.logs));
+        return out;
+      },
+      py::arg("bank"), py::arg("groups"), py::arg("rate") = 0.0,
+      "The groups' logs spliced end to end into one run, the groups taking turns, scored by one IMM, as `skidimm "
+      "eval --splice` does: [(name, [LogResult])].");
   m.def(
       "rate_unlike_the_banks",
       [](const PyBank& bank, double rate) {

@@ -40,6 +40,22 @@ def test_eval_equals_the_cli_json(configs, cli, switching_logs):
     assert table == cli("eval", "--bank", bank, "--input", arguments[0], "--input", arguments[1])
 
 
+def test_eval_splice_equals_the_cli_json(configs, cli, switching_logs):
+    """``splice=True`` is ``--splice``: the logs as one run, the groups taking turns."""
+    bank = configs / "ltc_terrains.yaml"
+    arguments = [f"asphalt={switching_logs / 'run_03.csv'}", f"grass={switching_logs / 'run_04.csv'}",
+                 str(switching_logs / "run_05.csv")]
+    text = skidimm.eval(bank, arguments, splice=True, output="json")
+    flags = [part for argument in arguments for part in ("--input", argument)]
+    assert text == cli("eval", "--bank", bank, "--splice", *flags, "--json")
+    report = json.loads(text)
+    assert list(report["groups"]) == ["spliced (3 logs end to end, the groups taking turns)"]
+    switches = next(iter(report["logs"].values()))["switches"]
+    assert [(s["from"], s["to"]) for s in switches[:2]] == [("asphalt", "grass"), ("grass", "crushed_concrete")]
+    with pytest.raises(ValueError, match="splice scores the filter as it runs across each change"):
+        skidimm.eval(bank, arguments, splice=True, smooth=True)
+
+
 def test_log_results_pickle_losslessly(configs, switching_logs):
     import pickle
 

@@ -144,17 +144,38 @@ std::vector<LogGroup> evaluate_log_groups(const Bank& bank, const std::vector<st
 std::vector<LogGroup> evaluate_spliced_logs(const Bank& bank, const std::vector<std::string>& arguments,
                                             const SamplingConfig& sampling, const LogArgumentOptions& expansion,
                                             std::vector<LogFailure>* failures, std::size_t* spliced) {
-  std::vector<LogGroup> groups;
-  const std::vector<LogJob> jobs = log_jobs(arguments, expansion, &groups);
+  std::vector<LogGroup> names;
+  const std::vector<LogJob> jobs = log_jobs(arguments, expansion, &names);
+  std::vector<SplicedGroup> groups;
+  for (const LogGroup& g : names) groups.push_back(SplicedGroup{g.name, {}});
   for (const LogJob& job : jobs) {
     if (job.error) std::rethrow_exception(job.error);
+    groups[job.group].logs.push_back(job.log);
+  }
+  return evaluate_spliced_groups(bank, groups, sampling, failures, spliced);
+}
+
+std::vector<LogGroup> evaluate_spliced_groups(const Bank& bank, const std::vector<SplicedGroup>& groups,
+                                              const SamplingConfig& sampling, std::vector<LogFailure>* failures,
+                                              std::size_t* spliced) {
+  // The groups take turns: the first log of each group in the order given,
+  // then the second of each, and so on.
+  std::vector<std::pair<std::size_t, const LogSpec*>> order;  // group, log
+  for (std::size_t round = 0, placed = 1; placed > 0; ++round) {
+    placed = 0;
+    for (std::size_t g = 0; g < groups.size(); ++g) {
+      if (round < groups[g].logs.size()) {
+        order.emplace_back(g, &groups[g].logs[round]);
+        ++placed;
+      }
+    }
   }
   // Each log read into memory once, on every core; one that fails is left
   // out of the splice (or, without `failures`, ends the evaluation).
-  std::vector<RecordedLog> recorded(jobs.size());
-  std::vector<std::string> errors(jobs.size());
-  parallel_for(static_cast<int>(jobs.size()), worker_count(), [&](int i, int) {
-    const LogSpec& log = jobs[static_cast<std::size_t>(i)].log;
+  std::vector<RecordedLog> recorded(order.size());
+  std::vector<std::string> errors(order.size());
+  parallel_for(static_cast<int>(order.size()), worker_count(), [&](int i, int) {
+    const LogSpec& log = *order[static_cast<std::size_t>(i)].second;
     try {
       recorded[static_cast<std::size_t>(i)] = record_labelled_log(bank.config, log, sampling);
     } catch (const std::exception& e) {
@@ -162,45 +183,30 @@ std::vector<LogGroup> evaluate_spliced_logs(const Bank& bank, const std::vector<
       errors[static_cast<std::size_t>(i)] = failure_message(log, e.what());
     }
   });
-  // The groups take turns: the first log of each group in the order given,
-  // then the second of each, and so on.
-  std::vector<std::vector<std::size_t>> of_group(groups.size());
-  for (std::size_t i = 0; i < jobs.size(); ++i) {
-    if (!errors[i].empty()) {
-      failures->push_back(LogFailure{groups[jobs[i].group].name, joined_paths(jobs[i].log.files), errors[i]});
-    } else {
-      of_group[jobs[i].group].push_back(i);
-    }
-  }
-  std::vector<std::size_t> order;
-  for (std::size_t round = 0, placed = 1; placed > 0; ++round) {
-    placed = 0;
-    for (const std::vector<std::size_t>& logs : of_group) {
-      if (round < logs.size()) {
-        order.push_back(logs[round]);
-        ++placed;
-      }
-    }
-  }
-  if (spliced != nullptr) *spliced = order.size();
-  if (order.empty()) return {};
   std::vector<const RecordedLog*> logs;
   std::vector<std::string> labels, sources;
   std::vector<const LogSpec*> specs;
   std::vector<long> steps;
-  for (std::size_t i : order) {
-    logs.push_back(&recorded[i]);
-    labels.push_back(jobs[i].log.label);
-    specs.push_back(&jobs[i].log);
-    sources.push_back(joined_paths(jobs[i].log.files));
-    steps.push_back(static_cast<long>(recorded[i].samples().size()));
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const LogSpec& log = *order[k].second;
+    if (!errors[k].empty()) {
+      failures->push_back(LogFailure{groups[order[k].first].name, joined_paths(log.files), errors[k]});
+      continue;
+    }
+    logs.push_back(&recorded[k]);
+    labels.push_back(log.label);
+    specs.push_back(&log);
+    sources.push_back(joined_paths(log.files));
+    steps.push_back(static_cast<long>(recorded[k].samples().size()));
   }
+  if (spliced != nullptr) *spliced = logs.size();
+  if (logs.empty()) return {};
   SplicedReplay source(logs, labels, sampling.rate > 0.0 ? 1.0 / sampling.rate : 0.0);
   LogResult whole;
   evaluate_spliced(bank, &source, distinct_names(specs), steps, &whole);
   whole.name = "spliced";
   for (std::size_t k = 0; k < sources.size(); ++k) whole.source += (k ? ", " : "") + sources[k];
-  return {LogGroup{"spliced (" + std::to_string(order.size()) + " logs end to end, the groups taking turns)", {whole}}};
+  return {LogGroup{"spliced (" + std::to_string(logs.size()) + " logs end to end, the groups taking turns)", {whole}}};
 }
 
 std::vector<LogGroup> evaluate_estimate_groups(const std::vector<std::string>& arguments, const BankConfig* bank,

@@ -57,6 +57,17 @@ std::vector<LogGroup> evaluate_spliced_logs(const Bank& bank, const std::vector<
                                             std::vector<LogFailure>* failures = nullptr,
                                             std::size_t* spliced = nullptr);
 
+// evaluate_spliced_logs() over logs already expanded: each group's name and
+// logs, in the order they take turns.
+struct SplicedGroup {
+  std::string name;
+  std::vector<LogSpec> logs;
+};
+std::vector<LogGroup> evaluate_spliced_groups(const Bank& bank, const std::vector<SplicedGroup>& groups,
+                                              const SamplingConfig& sampling,
+                                              std::vector<LogFailure>* failures = nullptr,
+                                              std::size_t* spliced = nullptr);
+
 // Scores the `skidimm run` outputs of `arguments` (files, directories,
 // patterns) as evaluate_estimates does with `bank` and `decide` (each may be
 // null), every file on its own thread, with the results of one; `failures`
