@@ -158,18 +158,12 @@ std::vector<LogGroup> evaluate_spliced_logs(const Bank& bank, const std::vector<
 std::vector<LogGroup> evaluate_spliced_groups(const Bank& bank, const std::vector<SplicedGroup>& groups,
                                               const SamplingConfig& sampling, std::vector<LogFailure>* failures,
                                               std::size_t* spliced) {
-  // The groups take turns: the first log of each group in the order given,
-  // then the second of each, and so on.
-  std::vector<std::pair<std::size_t, const LogSpec*>> order;  // group, log
-  for (std::size_t round = 0, placed = 1; placed > 0; ++round) {
-    placed = 0;
-    for (std::size_t g = 0; g < groups.size(); ++g) {
-      if (round < groups[g].logs.size()) {
-        order.emplace_back(g, &groups[g].logs[round]);
-        ++placed;
-      }
-    }
+  // The groups take turns, in the order given.
+  std::vector<std::vector<std::pair<std::size_t, const LogSpec*>>> by_group(groups.size());  // group, log
+  for (std::size_t g = 0; g < groups.size(); ++g) {
+    for (const LogSpec& log : groups[g].logs) by_group[g].emplace_back(g, &log);
   }
+  const std::vector<std::pair<std::size_t, const LogSpec*>> order = taking_turns(by_group);
   // Each log read into memory once, on every core; one that fails is left
   // out of the splice (or, without `failures`, ends the evaluation).
   std::vector<RecordedLog> recorded(order.size());

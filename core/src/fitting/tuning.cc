@@ -681,12 +681,9 @@ class Tuner {
                                       const std::filesystem::path& estimates) const {
     std::map<std::string, std::vector<int>> by_class;
     for (int i : held_out) by_class[classes_[static_cast<std::size_t>(i)]].push_back(i);
-    std::vector<int> order;
-    for (std::size_t round = 0; order.size() < held_out.size(); ++round) {
-      for (const auto& [name, logs] : by_class) {
-        if (round < logs.size()) order.push_back(logs[round]);
-      }
-    }
+    std::vector<std::vector<int>> classes;
+    for (const auto& [name, logs] : by_class) classes.push_back(logs);
+    const std::vector<int> order = taking_turns(classes);
     std::vector<const RecordedLog*> recorded;
     std::vector<std::string> labels, names;
     std::vector<long> steps;

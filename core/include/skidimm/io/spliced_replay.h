@@ -32,6 +32,24 @@ class SplicedReplay : public SampleSource {
   long row_ = 0;
 };
 
+// The items of `groups` in the order a splice takes them: the first of each
+// group in order, then the second of each, and so on (the groups, terrains
+// say, taking turns while each has items left).
+template <typename T>
+std::vector<T> taking_turns(const std::vector<std::vector<T>>& groups) {
+  std::vector<T> order;
+  for (std::size_t round = 0, placed = 1; placed > 0; ++round) {
+    placed = 0;
+    for (const std::vector<T>& group : groups) {
+      if (round < group.size()) {
+        order.push_back(group[round]);
+        ++placed;
+      }
+    }
+  }
+  return order;
+}
+
 }  // namespace skidimm
 
 #endif  // SKIDIMM_IO_SPLICED_REPLAY_H_
