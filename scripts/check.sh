@@ -22,8 +22,8 @@
 # Any sanitizer report, fuzzer finding or failing test fails the script.
 #
 # TSan: a second, tiny build (core, plugins, skidimm_thread_tests) running the
-# tests that pin the thread-safety claims of imm.h, bank.h and
-# plugin_registry.h (docs/engine.md, "Thread safety").
+# tests that pin the thread-safety claims of imm.h, bank.h,
+# plugin_registry.h and live_log.h (docs/engine.md, "Thread safety").
 #
 # Builds live under the build directory: $SKIDIMM_BUILD_DIR/sanitize-address
 # and .../sanitize-thread. Installs what it needs first (setup.sh --sanitizers:

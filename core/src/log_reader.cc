@@ -598,6 +598,7 @@ const Stream* LogReader::Impl::stream_at(double t) const {
 
 LogReader::LogReader(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling)
     : impl_(std::make_unique<Impl>(bank, files, sampling)) {}
+LogReader::LogReader(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 LogReader::LogReader(const BankConfig& bank, const std::vector<LogFile>& files)
     : LogReader(bank, files, bank.sampling) {}
 LogReader::~LogReader() = default;

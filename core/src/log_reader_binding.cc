@@ -183,9 +183,7 @@ std::string partner_file_hint(const std::filesystem::path& file, const std::stri
 
 }  // namespace
 
-LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling)
-    : bank_(bank), sampling_(sampling) {
-  if (files.empty()) throw LogError("", 0, "no input log given");
+LogReader::Impl::Impl(const BankConfig& bank, const SamplingConfig& sampling) : bank_(bank), sampling_(sampling) {
   if (!(sampling.rate == 0.0 || (sampling.rate > 0.0 && sampling.rate <= 1e6))) {
     throw Error(
         "the filter's rate (sampling.rate or --rate) must be in Hz, > 0 and at most 1e6, or 0 for a step at "
@@ -195,6 +193,11 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
   if (!(sampling.max_gap > 0.0)) {
     throw Error("sampling.max_gap must be a time in seconds, > 0; got " + CsvWriter::format(sampling.max_gap));
   }
+}
+
+LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling)
+    : Impl(bank, sampling) {
+  if (files.empty()) throw LogError("", 0, "no input log given");
   int standard_inputs = 0;
   for (const LogFile& file : files) standard_inputs += is_standard_input(file.path) ? 1 : 0;
   if (standard_inputs > 1) throw LogError("-", 0, "standard input ('-') can be one file of a log, not several");
@@ -236,6 +239,49 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
     stats_.files.push_back(file.path.string());
     stats_.rows.push_back(0);
   }
+  find_time_columns();
+  if (by_rows) {
+    // Read row for row, the files share the time of the one with the time
+    // column: an offset on another would be ignored without a word.
+    const std::size_t timed = static_cast<std::size_t>(streams_.front().time_file);
+    streams_.front().offset = files[timed].time_offset;
+    for (std::size_t f = 0; f < files.size(); ++f) {
+      if (f != timed && files[f].time_offset != 0.0) {
+        throw LogError(
+            files[f].path.string(), 0,
+            "an offset (@" + CsvWriter::format(files[f].time_offset) +
+                ") on a file without the log's time: with sampling.join: rows every file takes the time of " +
+                files[timed].path.string() + ", so put the offset there");
+      }
+    }
+  }
+  bind_columns();
+}
+
+LogReader::Impl::Impl(const BankConfig& bank, std::vector<TableOfLog> tables, const SamplingConfig& sampling)
+    : Impl(bank, sampling) {
+  if (tables.empty()) throw LogError("", 0, "no input log given");
+  if (sampling.join == SamplingConfig::Join::kRows) {
+    throw Error(bank.shown_file() + ": sampling.join: rows reads files that match row for row; the tables of " +
+                tables.front().table->name() + "'s log are merged by time (sampling.join: time)");
+  }
+  for (TableOfLog& t : tables) {
+    streams_.emplace_back();
+    Stream& s = streams_.back();
+    s.offset = t.time_offset;
+    s.time_units_per_second = bank.columns.time_units_per_second;
+    s.stat_index.push_back(stats_.files.size());
+    stats_.files.push_back(t.table->name());
+    stats_.rows.push_back(0);
+    s.files.push_back(std::move(t.table));
+  }
+  find_time_columns();
+  bind_columns();
+}
+
+void LogReader::Impl::find_time_columns() {
+  const BankConfig& bank = bank_;
+  const bool by_rows = sampling_.join == SamplingConfig::Join::kRows;
   // The time column: in every file (join: time) or in the first file that has it (join: rows).
   for (std::size_t k = 0; k < streams_.size(); ++k) {
     Stream& s = streams_[k];
@@ -244,7 +290,6 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
       if (index >= 0) {
         s.time_file = static_cast<int>(f);
         s.time_index = index;
-        if (by_rows) s.offset = files[f].time_offset;
       }
     }
     if (s.time_file < 0) {
@@ -262,21 +307,10 @@ LogReader::Impl::Impl(const BankConfig& bank, const std::vector<LogFile>& files,
       throw reader.error(message);
     }
   }
-  if (by_rows) {
-    // Read row for row, the files share the time of the one with the time
-    // column: an offset on another would be ignored without a word.
-    const std::size_t timed = static_cast<std::size_t>(streams_.front().time_file);
-    for (std::size_t f = 0; f < files.size(); ++f) {
-      if (f != timed && files[f].time_offset != 0.0) {
-        throw LogError(
-            files[f].path.string(), 0,
-            "an offset (@" + CsvWriter::format(files[f].time_offset) +
-                ") on a file without the log's time: with sampling.join: rows every file takes the time of " +
-                files[timed].path.string() + ", so put the offset there");
-      }
-    }
-  }
+}
 
+void LogReader::Impl::bind_columns() {
+  const BankConfig& bank = bank_;
   for (std::size_t i = 0; i < bank.columns.inputs.size(); ++i) {
     const std::string field = "columns.inputs." + bank.input_names[i];
     inputs_.push_back(bind_row_value(bank.columns.inputs[i], field));

@@ -117,7 +117,16 @@ class LogReader::Impl {
   using MeasurementBinding = internal::MeasurementBinding;
   using Stream = internal::Stream;
 
+  // One of the tables a log is made of, read as a file of it (join: time).
+  struct TableOfLog {
+    std::unique_ptr<LogTable> table;
+    double time_offset = 0.0;
+  };
+
   Impl(const BankConfig& bank, const std::vector<LogFile>& files, const SamplingConfig& sampling);
+  // A log whose tables are made by the library itself (live_log.h): each is
+  // a file of it, merged by time.
+  Impl(const BankConfig& bank, std::vector<TableOfLog> tables, const SamplingConfig& sampling);
   bool next(LogSample* sample);
 
   // A copy: a reader built from a temporary config (LogReader(load_bank_config(f), files))
@@ -152,6 +161,9 @@ class LogReader::Impl {
   LogStats stats_;
 
  private:
+  Impl(const BankConfig& bank, const SamplingConfig& sampling);  // checks `sampling`
+  void find_time_columns();
+  void bind_columns();
   int column_id(const std::string& name, const std::string& field, bool required);
   RowValue bind_row_value(const std::string& text, const std::string& field);
   bool is_column(const std::string& name) const;

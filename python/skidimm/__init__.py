@@ -50,7 +50,7 @@ from ._skidimm import (  # noqa: F401  (re-exported)
 __version__ = _native.__version__
 
 __all__ = [
-    "Bank", "Imm", "MotionModel", "register_model", "registered_models", "run", "run_log", "simulate",
+    "Bank", "Imm", "LiveLog", "MotionModel", "register_model", "registered_models", "run", "run_log", "simulate",
     "simulate_models", "fit", "eval", "evaluate_log", "eval_report", "to_frame", "Error", "ConfigError", "LogError",
     "PluginError", "FitError", "Estimate", "LogResult", "plugins", "plugin_search_path", "module_plugin_directory",
     "read_csv", "expand_log_argument", "parse_log_spec", "group_name", "group_names", "evaluate_expression",
@@ -228,6 +228,41 @@ def run_log(bank, inputs, *, rate=None, smooth=False, lag=None, decision=None, p
     loaded = _bank(bank, plugin_paths, models)
     _warn_of_rate(loaded, rate)
     return _native.run_log(loaded, [_os.fspath(i) for i in inputs], _rate(rate), smooth, lag, decision)
+
+
+class LiveLog(_native.LiveLog):
+    """A log pushed row by row while it is read: a robot's sensors, live.
+
+    ``LiveLog(bank, tables, *, rate=None, offsets=None)``. ``tables`` maps
+    each sensor stream's name to its columns, the bank's time column among
+    them, as the files of a multi-rate log: ``{"pro": ["time", "curL",
+    "curR", "velL", "velR"], "imu": ["time", "wx", "wy", "wz", "ax", "ay",
+    "az"]}``. ``offsets`` maps a table's name to seconds added to its times.
+
+    ``push(table, row)`` appends a row (one number per column, NaN for an
+    empty cell; a 2-D array pushes several) to a table, by name or index;
+    rows of a table come in time order, tables in any order.
+    ``steps()`` gives ``(t, u, z)``, the filter steps the rows so far
+    complete, as ``skidimm run`` reads the same rows from files, bit for bit
+    (aggregates such as ``mean(wz)`` and ``log(std(az))`` over each step
+    included): ``imm.run(t, u, z, reset=False)``, or ``imm.step`` on each.
+    A step waits for a row at or after it from every table not closed:
+    ``close(table)`` when a sensor ends, ``close()`` at the end of the log.
+    ``ended``, ``describe_stats()``, ``unmeasured()`` and
+    ``max_queued_rows`` as ``skidimm run`` reports them (docs/python.md).
+    """
+
+    def __init__(self, bank, tables, *, rate=None, offsets=None, plugin_paths=(), models=None):
+        loaded = bank if isinstance(bank, _native.Bank) else Bank(bank, plugin_paths, models)
+        offsets = dict(offsets or {})
+        if isinstance(tables, dict):
+            tables = list(tables.items())
+        unknown = set(offsets) - {name for name, _ in tables}
+        if unknown:
+            raise ValueError(f"offsets: no table named {sorted(unknown)[0]!r}")
+        _warn_of_rate(loaded, rate)
+        super().__init__(loaded, [(str(name), [str(c) for c in columns], float(offsets.get(name, 0.0)))
+                                  for name, columns in tables], _rate(rate))
 
 
 def simulate(scenario, *, seed=None, duration=None, output=None):

@@ -15,6 +15,8 @@ void bind_bank(pybind11::module_& m);
 void bind_imm(pybind11::module_& m);
 // Log arguments, run_log, column expressions and read_csv (log_binding.cc).
 void bind_logs(pybind11::module_& m);
+// LiveLog: rows pushed while the log is read, the steps they complete (live_log_binding.cc).
+void bind_live_log(pybind11::module_& m);
 // LogResult, evaluate_log and eval_report (evaluation_binding.cc).
 void bind_evaluation(pybind11::module_& m);
 // simulate_scenario and simulate_models (simulation_binding.cc).

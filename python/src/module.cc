@@ -20,6 +20,7 @@ PYBIND11_MODULE(_skidimm, m) {
   skidimm::python::bind_bank(m);
   skidimm::python::bind_imm(m);
   skidimm::python::bind_logs(m);
+  skidimm::python::bind_live_log(m);
   skidimm::python::bind_evaluation(m);
   skidimm::python::bind_simulation(m);
   skidimm::python::bind_fit(m);

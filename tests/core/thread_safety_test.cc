@@ -1,4 +1,4 @@
-// The thread-safety claims of imm.h, bank.h and plugin_registry.h
+// The thread-safety claims of imm.h, bank.h, plugin_registry.h and live_log.h
 // (docs/engine.md, "Thread safety"), each pinned by a test. They pass in any
 // build; built with ThreadSanitizer (scripts/check.sh --tsan) a data race in
 // any of them fails the run. Each compares what the threads computed with the
@@ -17,6 +17,7 @@
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/imm.h"
 #include "skidimm/engine/plugin_registry.h"
+#include "skidimm/io/live_log.h"
 #include "skidimm/io/log_reader.h"
 
 namespace skidimm {
@@ -162,6 +163,49 @@ TEST(ThreadSafety, APluginIsUnloadedOnlyAfterItsLastModelOnAnyThread) {
   ASSERT_EQ(predicted.size(), 2u);
   EXPECT_TRUE(std::isfinite(predicted[0]) && std::isfinite(predicted[1]));
   EXPECT_FALSE(library_loaded(file)) << "still loaded after its last model was released";
+}
+
+// live_log.h: the program's thread pushes rows and takes steps while the
+// reader's thread reads them; the steps, run by an Imm, give what the log
+// read from its file gives.
+TEST(ThreadSafety, ALiveLogsReaderWorksOnItsOwnThread) {
+  Imm imm = Imm::from_yaml(kLtc.bank, {SKIDIMM_PLUGIN_DIR});
+  const std::vector<double> expected = run(imm, kLtc.log);
+  // The example log's wheel speeds and its odometry, as two sensors' rows.
+  std::ifstream in(kLtc.log);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::vector<double>> wheels, odometry;
+  while (std::getline(in, line)) {
+    std::vector<double> cells;
+    std::size_t from = 0;
+    for (int c = 0; c < 5; ++c) {
+      const std::size_t comma = line.find(',', from);
+      cells.push_back(std::stod(line.substr(from, comma - from)));
+      from = comma + 1;
+    }
+    wheels.push_back({cells[0], cells[1], cells[2]});
+    odometry.push_back({cells[0], cells[3], cells[4]});
+  }
+  LiveLog live(imm.config(), {{"wheels", {"t", "phi_dot_L", "phi_dot_R"}}, {"odometry", {"t", "V", "omega"}}});
+  imm.reset();
+  std::vector<double> out;
+  const auto step_all = [&] {
+    for (LogSample s; live.next(&s);) {
+      const ImmEstimate& e = imm.step(s.t, s.u, s.z);
+      out.insert(out.end(), e.mode_probabilities.data(), e.mode_probabilities.data() + e.mode_probabilities.size());
+      out.insert(out.end(), e.state.data(), e.state.data() + e.state.size());
+    }
+  };
+  for (std::size_t k = 0; k < wheels.size(); ++k) {
+    live.push(1, odometry[k]);
+    live.push(0, wheels[k]);
+    if (k % 3 == 0) step_all();
+  }
+  live.close();
+  step_all();
+  ASSERT_FALSE(expected.empty());
+  EXPECT_EQ(out, expected);
 }
 
 }  // namespace

@@ -161,6 +161,10 @@ class LogReader : public SampleSource {
 
  private:
   class Impl;
+  // A log whose tables the library makes (LiveLog's, live_log.h).
+  explicit LogReader(std::unique_ptr<Impl> impl);
+  friend class LiveLog;
+
   std::unique_ptr<Impl> impl_;
 };
 
