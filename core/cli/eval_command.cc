@@ -16,15 +16,16 @@ namespace {
 // A mode whose model failed is reset and scores as if it had not: its
 // failures are said (stderr, as `run` says them), per log, and a log on which
 // no mode's filter ever ran is named as such, whatever its scores read. So is
-// a measurement a log never gave.
-void report_each_logs_problems(const Bank& bank, const std::vector<evaluation::LogGroup>& groups) {
+// a measurement a log never gave (in a splice, each line names its log).
+void report_each_logs_problems(const Bank& bank, const std::vector<evaluation::LogGroup>& groups, bool spliced) {
   std::cout.flush();
   for (const evaluation::LogGroup& group : groups) {
     for (const evaluation::LogResult& log : group.logs) {
       // A measurement the log never gave (a misspelt column name in a bag's
       // sequence) leaves the log scored on the others, without a word otherwise.
       for (const std::string& line : log.unmeasured) {
-        std::cerr << "skidimm eval: warning: " << printable(log.source) << ": " << printable(line) << "\n";
+        std::cerr << "skidimm eval: warning: " << (spliced ? "" : printable(log.source) + ": ") << printable(line)
+                  << "\n";
       }
       bool any = false;
       for (const ModeRejections& r : log.rejections) any = any || r.rows > 0;
@@ -189,7 +190,7 @@ int eval(const EvalOptions& given) {
                     : options.json ? evaluation::report_json(groups, classes, states)
                                    : evaluation::report_tables(groups, classes, states, decision_made));
     }
-    if (ran) report_each_logs_problems(*ran, groups);
+    if (ran) report_each_logs_problems(*ran, groups, spliced.has_value());
     const int code = report_failures(groups, failures, spliced);
     // A report of no labelled time scores nothing: a script or CI check must
     // not read it as a pass.

@@ -309,14 +309,18 @@ def eval_report(bank, groups, output="dict"):
     ``skidimm eval --json`` prints) or ``"table"`` (the text it prints
     without ``--json``).
     """
+    return _eval_report(bank, groups, output)
+
+
+def _eval_report(bank, groups, output, spliced=False):
     bank = _bank(bank)
     groups = [(name, list(logs)) for name, logs in groups]
     # A measurement a log never gave, or not for a long stretch, leaves it scored on the others: warned, as the
-    # CLI warns.
+    # CLI warns (in a splice, each line names its log).
     for _, logs in groups:
         for log in logs:
             for line in log.unmeasured:
-                _warnings.warn(f"{log.source}: {line}", stacklevel=3)
+                _warnings.warn(line if spliced else f"{log.source}: {line}", stacklevel=4)
     text, table = _native.eval_report(groups, bank.states, bank.classes, bank)
     if output == "json":
         return text
@@ -352,10 +356,11 @@ def eval(bank, inputs, *, rate=None, smooth=False, lag=None, splice=False, outpu
     for argument, name in zip(inputs, _native.group_names(inputs)):
         groups.setdefault(name, []).extend(expand_log_argument(argument, skip_unpaired))
     if splice:
-        return eval_report(loaded, _native.evaluate_spliced(loaded, list(groups.items()), _rate(rate)), output)
+        return _eval_report(loaded, _native.evaluate_spliced(loaded, list(groups.items()), _rate(rate)), output,
+                            spliced=True)
     scored = [(name, [_native.evaluate_log(loaded, spec, _rate(rate), smooth, lag) for spec in specs])
               for name, specs in groups.items()]
-    return eval_report(loaded, scored, output)
+    return _eval_report(loaded, scored, output)
 
 
 def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", window=0.0, loss="huber",

@@ -56,6 +56,19 @@ def test_eval_splice_equals_the_cli_json(configs, cli, switching_logs):
         skidimm.eval(bank, arguments, splice=True, smooth=True)
 
 
+def test_eval_splice_warns_of_a_measurement_a_log_never_gave(configs, switching_logs, tmp_path):
+    log = skidimm.read_csv(switching_logs / "run_04.csv")
+    columns = [c for c in log if c not in ("mode",)]
+    no_gyro = tmp_path / "no_gyro.csv"
+    with open(no_gyro, "w") as f:
+        f.write(",".join(columns + ["mode"]) + "\n")
+        for k in range(len(log["t"])):
+            cells = ["" if c == "omega" else repr(float(log[c][k])) for c in columns]
+            f.write(",".join(cells + [log["mode"][k]]) + "\n")
+    with pytest.warns(UserWarning, match=f"^{no_gyro}: measurement 'omega'"):
+        skidimm.eval(configs / "ltc_terrains.yaml", [str(switching_logs / "run_03.csv"), str(no_gyro)], splice=True)
+
+
 def test_log_results_pickle_losslessly(configs, switching_logs):
     import pickle
 

@@ -140,6 +140,22 @@ TEST(EvalCommand, SpliceScoresTheLogsAsOneRunTheGroupsTakingTurns) {
   ASSERT_EQ(two.size(), 1u);
   EXPECT_EQ(two[0]["from"].as<std::string>(), "crushed_concrete");
   EXPECT_EQ(two[0]["to"].as<std::string>(), "asphalt");
+  // A log that never gave a measurement is scored on the others, and said, by its name.
+  std::string without_gyro = lines[0] + "\n";
+  for (std::size_t i = 500; i <= 994; ++i) {
+    std::vector<std::string> cells;
+    std::stringstream row(lines[i]);
+    for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+    cells[4].clear();  // omega
+    for (std::size_t c = 0; c < cells.size(); ++c) without_gyro += (c ? "," : "") + cells[c];
+    without_gyro += "\n";
+  }
+  const std::string no_gyro = write_file(dir / "grass_no_gyro.csv", without_gyro).string();
+  const Result unmeasured =
+      run_skidimm(eval("--splice --input " + crushed + " --input " + no_gyro + " --input " + asphalt + " --json"));
+  EXPECT_EQ(unmeasured.exit_code, 0) << unmeasured.err;
+  EXPECT_THAT(unmeasured.err, HasSubstr("skidimm eval: warning: " + no_gyro + ": measurement 'omega'"));
+  EXPECT_THAT(unmeasured.err, Not(HasSubstr(crushed + ": measurement")));
   const Result smoothed = run_skidimm(eval("--splice --smooth --input " + crushed + " --input " + grass));
   EXPECT_EQ(smoothed.exit_code, 2) << smoothed.err;
   EXPECT_THAT(smoothed.err, HasSubstr("--splice scores the filter as it runs across each change, and --smooth"));

@@ -96,11 +96,14 @@ void require_the_truth_column(const BankConfig& config, const LogSpec& log, cons
 
 }  // namespace
 
-RecordedLog record_labelled_log(const BankConfig& config, const LogSpec& log, const SamplingConfig& sampling) {
+RecordedLog record_labelled_log(const BankConfig& config, const LogSpec& log, const SamplingConfig& sampling,
+                                std::vector<std::string>* unmeasured) {
   require_a_truth(config, log);
   LogReader reader(config, log.files, sampling);
   require_the_truth_column(config, log, reader);
-  return RecordedLog::record(&reader);
+  RecordedLog recorded = RecordedLog::record(&reader);
+  if (unmeasured != nullptr) *unmeasured = reader.unmeasured(config);
+  return recorded;
 }
 
 LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfig& sampling,

@@ -111,7 +111,9 @@ LogResult evaluate_log(const Bank& bank, SampleSource* source, const std::string
 // Every step of `log` read into memory, after the checks evaluate_log()
 // makes: a truth for it (its label, a class of the bank, or the bank's truth
 // column in the log). For splicing logs (SplicedReplay) to score as one run.
-RecordedLog record_labelled_log(const BankConfig& config, const LogSpec& log, const SamplingConfig& sampling);
+// `unmeasured` (optional) gets what LogResult::unmeasured would say of the log.
+RecordedLog record_labelled_log(const BankConfig& config, const LogSpec& log, const SamplingConfig& sampling,
+                                std::vector<std::string>* unmeasured = nullptr);
 
 // Several logs spliced end to end into one run (`source` gives their steps
 // in turn, `steps_per_log[i]` of log i, each with its truth in the sample's

@@ -51,7 +51,8 @@ std::vector<LogGroup> evaluate_log_groups(const Bank& bank, const std::vector<st
 // run (evaluate_spliced()): one group of one result, whose switches are the
 // changes from one log's truth to the next. A log that cannot be read is a
 // failure, left out of the splice (without `failures`, an exception).
-// `spliced` (optional) gets how many logs the run joins.
+// `spliced` (optional) gets how many logs the run joins. The result's
+// `unmeasured` lines each start with the source of the log they are about.
 std::vector<LogGroup> evaluate_spliced_logs(const Bank& bank, const std::vector<std::string>& arguments,
                                             const SamplingConfig& sampling, const LogArgumentOptions& expansion = {},
                                             std::vector<LogFailure>* failures = nullptr,
