@@ -190,7 +190,10 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
   if (s.extrapolation.steps > 0) print_extrapolation(out, s.extrapolation);
   out << "  calibration of the most likely mode's probability:\n";
   print_calibration(out, "    ", m);
-  for (const auto& [mode, seconds] : m.truth_absent) {
+  for (const auto& absent : m.truth_absent) {
+    // Named, not a structured binding: a lambda cannot capture one in C++17 (clang refuses it).
+    const std::string& mode = absent.first;
+    const double seconds = absent.second;
     out << "  truth mode '" << mode << "' is not in the bank (" << fmt(seconds, "%.1f") << " s, always wrong)";
     // A truth column written in another case (ASPHALT for asphalt) scores 0 for a name's case.
     const auto same_but_case = [&mode](const std::string& name) {
