@@ -410,7 +410,7 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
     }
     // Warnings, not errors: a log may have a column of exactly such a text.
     for (const std::string& problem : unreadable) {
-      std::cerr << "skidimm validate: warning: " << bank_file.string() << ": " << problem
+      std::cerr << "skidimm validate: warning: " << problem
                 << " (a log can give it only as a column of exactly this text; --check LOG reads one)\n";
     }
     for (const std::string& field : aggregated) {

@@ -83,9 +83,11 @@ void check_cov(const YamlFields& y, const YAML::Node& node, const Eigen::MatrixX
 
 // `columns.<section>`: a map from a bank name to a CSV column; names left out
 // read the column of the same name.
+// `lines` gets the file's line of each name's text (0: not in the file).
 std::vector<std::string> column_map(const YamlFields& y, const YAML::Node& node, const std::vector<std::string>& names,
-                                    const std::string& field) {
+                                    const std::string& field, std::vector<int>* lines) {
   std::vector<std::string> columns = names;
+  lines->assign(names.size(), 0);
   if (!node || node.IsNull()) return columns;  // absent: every name reads the column of the same name
   if (!node.IsMap()) y.fail(node, field, "expected a mapping from name to CSV column");
   for (const auto& entry : node) {
@@ -93,6 +95,7 @@ std::vector<std::string> column_map(const YamlFields& y, const YAML::Node& node,
     const int i = index_of(names, key);
     if (i < 0) y.fail(entry.first, field + "." + key, "not one of the names [" + join(names) + "]");
     columns[i] = y.string(entry.second, field + "." + key);
+    (*lines)[static_cast<std::size_t>(i)] = YamlFields::line_of(entry.second);
   }
   return columns;
 }
@@ -617,9 +620,10 @@ BankConfig load_bank_config(const fs::path& file) {
     bank.columns.time_units_per_second = found->second;
     bank.columns.time_unit_name = unit;
   }
-  bank.columns.inputs = column_map(y, columns ? columns["inputs"] : YAML::Node(), bank.input_names, "columns.inputs");
-  bank.columns.measurements =
-      column_map(y, columns ? columns["measurements"] : YAML::Node(), bank.measurement.names, "columns.measurements");
+  bank.columns.inputs = column_map(y, columns ? columns["inputs"] : YAML::Node(), bank.input_names, "columns.inputs",
+                                   &bank.columns.input_lines);
+  bank.columns.measurements = column_map(y, columns ? columns["measurements"] : YAML::Node(), bank.measurement.names,
+                                         "columns.measurements", &bank.columns.measurement_lines);
   if (columns && columns["truth_mode"]) bank.columns.truth_mode = y.string(columns["truth_mode"], "columns.truth_mode");
   if (columns && columns["truth_blank"]) {
     const std::string blank = y.string(columns["truth_blank"], "columns.truth_blank");

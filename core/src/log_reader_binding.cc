@@ -359,17 +359,23 @@ void LogReader::Impl::bind_columns() {
 
 std::vector<std::string> LogReader::unreadable_column_texts(const BankConfig& bank) {
   std::vector<std::string> problems;
+  // Located as the loader's errors are: "<file>:<line>: <field>: <why>".
+  const auto say = [&](const std::vector<int>& lines, std::size_t i, const std::string& field, const std::string& why) {
+    problems.push_back(ConfigError(bank.shown_file(), i < lines.size() ? lines[i] : 0, field, why).what());
+  };
   // As bind_row_value() reads a text when no column has its exact name.
-  const auto check_row_value = [&](const std::string& text, const std::string& field) {
+  const auto check_row_value = [&](const std::string& text, const std::vector<int>& lines, std::size_t i,
+                                   const std::string& field) {
     if (Expression::is_identifier(std::string(trim(text)))) return;
     std::unique_ptr<Expression> parsed;
     const std::string problem = row_value_problem(text, &parsed);
-    if (!problem.empty()) problems.push_back(field + ": " + problem);
+    if (!problem.empty()) say(lines, i, field, problem);
   };
   for (std::size_t i = 0; i < bank.columns.inputs.size() && i < bank.input_names.size(); ++i) {
-    check_row_value(bank.columns.inputs[i], "columns.inputs." + bank.input_names[i]);
+    check_row_value(bank.columns.inputs[i], bank.columns.input_lines, i, "columns.inputs." + bank.input_names[i]);
   }
   // As bind_measurement() reads a text: its aggregates cut out first.
+  const std::vector<int>& lines = bank.columns.measurement_lines;
   for (std::size_t i = 0; i < bank.columns.measurements.size() && i < bank.measurement.names.size(); ++i) {
     const std::string& text = bank.columns.measurements[i];
     const std::string field = "columns.measurements." + bank.measurement.names[i];
@@ -378,15 +384,15 @@ std::vector<std::string> LogReader::unreadable_column_texts(const BankConfig& ba
     try {
       cut = Expression::cut_calls(text, aggregate_names());
     } catch (const ExpressionError& e) {
-      problems.push_back(field + ": " + e.what());
+      say(lines, i, field, e.what());
       continue;
     }
     if (cut.calls.empty()) {
-      check_row_value(text, field);
+      check_row_value(text, lines, i, field);
     } else if (!cut.names_outside.empty()) {
-      problems.push_back(field + ": " + outside_aggregates(text, cut.names_outside.front()));
+      say(lines, i, field, outside_aggregates(text, cut.names_outside.front()));
     } else {
-      for (const Expression::Call& call : cut.calls) check_row_value(call.argument, field);
+      for (const Expression::Call& call : cut.calls) check_row_value(call.argument, lines, i, field);
     }
   }
   return problems;

@@ -252,16 +252,18 @@ TEST(Cli, ValidateWarnsOfColumnsOnlyAColumnOfThatExactTextCouldGive) {
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("unbalanced.yaml: OK as a bank, but 1 column text(s) a log can give only as a column "
                                "of exactly that text (warnings on stderr)"));
+  // Located as the loader's errors are: the file, the line of the text, the field.
   EXPECT_THAT(r.err,
               HasSubstr("warning: " + unbalanced.string() +
-                        ": columns.inputs.speed: cannot parse \"abs(velL + velR)) / 2\": a ')' without its '('"));
+                        ":11: columns.inputs.speed: cannot parse \"abs(velL + velR)) / 2\": a ')' without its '('"));
   EXPECT_THAT(r.err, HasSubstr("(a log can give it only as a column of exactly this text; --check LOG reads one)"));
   const Result unknown = run_skidimm("validate " + edited("unknown.yaml", "log(std(ax))", "log(stdev(ax))").string() +
                                      " --plugin-path " + kPlugins);
   EXPECT_EQ(unknown.exit_code, 0);
-  EXPECT_THAT(unknown.err, HasSubstr("columns.measurements.vib_ax: cannot parse \"log(stdev(ax))\": unknown function "
-                                     "'stdev' (the functions are abs, sign, sqrt, exp, log, log10, sin, cos, min, max; "
-                                     "over a step's rows, mean, std, rms)"));
+  EXPECT_THAT(unknown.err,
+              HasSubstr(":18: columns.measurements.vib_ax: cannot parse \"log(stdev(ax))\": unknown function "
+                        "'stdev' (the functions are abs, sign, sqrt, exp, log, log10, sin, cos, min, max; "
+                        "over a step's rows, mean, std, rms)"));
   const Result outside = run_skidimm("validate " + edited("outside.yaml", "mean(wz)", "mean(wz) + wx").string() +
                                      " --plugin-path " + kPlugins);
   EXPECT_EQ(outside.exit_code, 0);

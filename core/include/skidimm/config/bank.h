@@ -97,6 +97,10 @@ struct ColumnConfig {
   std::string time_unit_name = "s";
   std::vector<std::string> inputs;        // one per input, in input order
   std::vector<std::string> measurements;  // one per measurement row
+  // The bank file's line of each text above; 0 where the bank does not
+  // write it (a name that reads the column of the same name).
+  std::vector<int> input_lines;
+  std::vector<int> measurement_lines;
   std::string truth_mode;                 // empty: none
   // A blank truth cell: unlabelled (not scored, not fitted), or with
   // `truth_blank: carry` the last label again, for logs that write a label

@@ -129,7 +129,8 @@ class LogReader : public SampleSource {
   // log can give as the bank means them, found without a log: each is
   // neither a plain name nor an expression the reader evaluates (a syntax
   // error, an unknown function, no column at all, a column outside every
-  // aggregate of an aggregated measurement). One line each, "FIELD: why".
+  // aggregate of an aggregated measurement). One line each, located as the
+  // bank loader's errors are: "<bank file>:<line>: FIELD: why".
   // A log with a column of exactly such a text (a dotted ROS export name,
   // `field.angular_velocity.z`) is still read as that column, so these are
   // warnings, not errors.
