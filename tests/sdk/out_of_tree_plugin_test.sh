@@ -116,7 +116,7 @@ grep -q "slip_ratio" "$work/slip_validate.txt" || fail "validate slip_ratio: $(c
   { cat "$work/slip_run.txt"; fail "run slip_ratio"; }
 head -n 1 "$work/slip_out.csv" | grep -q "^t,mu_grip,mu_slip,V,omega,s," || fail "slip_ratio header: $(head -n 1 "$work/slip_out.csv")"
 
-step "a program of the user's links skidimm::core from the install and runs the IMM"
+step "a program of the user's links skidimm::core from the install and runs the IMM on messages pushed live"
 cmake -S "$source/sdk/examples/online_imm" -B "$work/online_imm-build" -DCMAKE_PREFIX_PATH="$prefix" \
   -DCMAKE_BUILD_TYPE=Release >"$work/online_configure.log" 2>&1 || { cat "$work/online_configure.log"; fail "configure online_imm"; }
 cmake --build "$work/online_imm-build" -j 2 >"$work/online_build.log" 2>&1 || { cat "$work/online_build.log"; fail "build online_imm"; }
@@ -124,5 +124,7 @@ cmake --build "$work/online_imm-build" -j 2 >"$work/online_build.log" 2>&1 || { 
   "$prefix/share/skidimm/configs/examples/ltc_switching.csv" >"$work/online.txt"
 grep -q "now on crushed_concrete" "$work/online.txt" || fail "online_imm: $(cat "$work/online.txt")"
 grep -q "now on asphalt" "$work/online.txt" || fail "online_imm: $(cat "$work/online.txt")"
+# Its messages pushed into a LiveLog make a step of every row, as skidimm run reads the file.
+grep -q "^1487 steps$" "$work/online.txt" || fail "online_imm: $(cat "$work/online.txt")"
 
 echo "out-of-tree plugin and program: all checks passed"

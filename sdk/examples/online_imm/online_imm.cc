@@ -1,13 +1,21 @@
-// A robot-loop style use of skidimm: load a bank once, then call step() with
-// each new sample and act on the most likely mode. Here the samples come from
-// a log; on a robot they come from its drivers, at whatever rate they arrive.
+// A robot-loop style use of skidimm: load a bank once, push each sensor
+// message into a LiveLog as it arrives, step the IMM with each step the
+// messages complete, and act on the most likely mode. Here the messages are
+// the rows of a log, split into two sensors (wheel encoders and odometry) as a
+// robot's drivers would publish them; on a robot each push is in its
+// driver's callback, at whatever rate it arrives.
 //
 //   online_imm <bank.yaml> <log.csv>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
+#include <string>
+#include <vector>
 
 #include "skidimm/engine/imm.h"
+#include "skidimm/errors.h"
 #include "skidimm/io/csv.h"
+#include "skidimm/io/live_log.h"
 
 int main(int argc, char** argv) {
   if (argc != 3) {
@@ -18,21 +26,49 @@ int main(int argc, char** argv) {
     // The bundled plugins' directory comes from find_package(skidimm); banks
     // may add their own with plugin_paths, users with SKIDIMM_PLUGIN_PATH.
     skidimm::Imm imm = skidimm::Imm::from_yaml(argv[1], {SKIDIMM_PLUGIN_DIR});
-    skidimm::LogReader log(imm.config(), {argv[2]});
-    skidimm::LogSample sample;
+    // One table per sensor stream, with the columns the bank's expressions
+    // name (the bank ltc_terrains.yaml: inputs from the wheels, V and omega
+    // measured by odometry).
+    const std::vector<std::string> wheel_columns = {"t", "phi_dot_L", "phi_dot_R"};
+    const std::vector<std::string> odometry_columns = {"t", "V", "omega"};
+    skidimm::LiveLog live(imm.config(), {{"wheels", wheel_columns}, {"odometry", odometry_columns}});
+    const int wheels = live.table("wheels");
+    const int odometry = live.table("odometry");
+
     int last_mode = -1;
     long steps = 0;
-    while (log.next(&sample)) {
-      // step() allocates nothing: safe in a real-time loop.
-      const skidimm::ImmEstimate& estimate = imm.step(sample.t, sample.u, sample.z);
-      ++steps;
-      const int mode = estimate.most_likely_mode;
-      if (mode != last_mode && estimate.mode_probabilities[mode] > 0.9) {
-        std::printf("t = %7.2f s: now on %s (p = %.3f)\n", sample.t, imm.config().modes[mode].name.c_str(),
-                    estimate.mode_probabilities[mode]);
-        last_mode = mode;
+    const auto step_what_has_arrived = [&] {
+      for (skidimm::LogSample sample; live.next(&sample);) {
+        // step() allocates nothing: safe in a real-time loop.
+        const skidimm::ImmEstimate& estimate = imm.step(sample.t, sample.u, sample.z);
+        ++steps;
+        const int mode = estimate.most_likely_mode;
+        if (mode != last_mode && estimate.mode_probabilities[mode] > 0.9) {
+          std::printf("t = %7.2f s: now on %s (p = %.3f)\n", sample.t, imm.config().modes[mode].name.c_str(),
+                      estimate.mode_probabilities[mode]);
+          last_mode = mode;
+        }
       }
+    };
+
+    // The "drivers": each row of the log is a message of each sensor.
+    skidimm::CsvReader log(argv[2]);
+    const auto values = [&](const std::vector<std::string>& columns) {
+      std::vector<double> row;
+      for (const std::string& name : columns) {
+        const int c = log.column(name);
+        if (c < 0) throw skidimm::Error(log.path().string() + ": no column '" + name + "'");
+        row.push_back(std::strtod(std::string(log.field(c)).c_str(), nullptr));
+      }
+      return row;
+    };
+    while (log.next_row()) {
+      live.push(wheels, values(wheel_columns));       // the encoders' callback
+      live.push(odometry, values(odometry_columns));  // the odometry's callback
+      step_what_has_arrived();
     }
+    live.close();  // the drive has ended: its last steps
+    step_what_has_arrived();
     std::printf("%ld steps\n", steps);
     return 0;
   } catch (const std::exception& e) {
