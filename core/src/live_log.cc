@@ -282,6 +282,17 @@ class LiveLog::Impl {
     return rows_->finished && rows_->steps.empty();
   }
 
+  LiveLog::Waiting waiting_for() {
+    std::unique_lock<std::mutex> lock = wait_for_reader();
+    LiveLog::Waiting out;
+    if (rows_->finished) return out;
+    out.table = rows_->waiting_for;
+    const std::size_t k = static_cast<std::size_t>(out.table);
+    out.rows = rows_->pushed[k];
+    out.last_time = rows_->last_time[k];
+    return out;
+  }
+
   // The reader's state while it waits (it touches it only after the mutex).
   template <typename F>
   auto with_reader(F f) {
@@ -359,6 +370,7 @@ void LiveLog::close(int table) { impl_->close(table); }
 void LiveLog::close() { impl_->close(); }
 bool LiveLog::next(LogSample* sample) { return impl_->next(sample); }
 bool LiveLog::ended() const { return impl_->ended(); }
+LiveLog::Waiting LiveLog::waiting_for() const { return impl_->waiting_for(); }
 LogStats LiveLog::stats() const {
   return impl_->with_reader([](const LogReader& r) { return r.stats(); });
 }

@@ -248,6 +248,8 @@ class LiveLog(_native.LiveLog):
     included): ``imm.run(t, u, z, reset=False)``, or ``imm.step`` on each.
     A step waits for a row at or after it from every table not closed:
     ``close(table)`` when a sensor ends, ``close()`` at the end of the log.
+    ``waiting_for`` is the table the next step waits for and the time of
+    its last row (a sensor that stopped without ``close``), or ``None``.
     ``ended``, ``describe_stats()``, ``unmeasured()`` and
     ``max_queued_rows`` as ``skidimm run`` reports them (docs/python.md).
     """

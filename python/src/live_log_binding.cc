@@ -106,6 +106,18 @@ void bind_live_log(py::module_& m) {
                                py::gil_scoped_release release;
                                return self.live->ended();
                              })
+      .def_property_readonly("waiting_for",
+                             [](PyLiveLog& self) -> py::object {
+                               LiveLog::Waiting waiting;
+                               {
+                                 py::gil_scoped_release release;
+                                 waiting = self.live->waiting_for();
+                               }
+                               if (waiting.table < 0) return py::none();
+                               return py::make_tuple(
+                                   self.live->table_columns(waiting.table).name,
+                                   waiting.rows > 0 ? py::object(py::float_(waiting.last_time)) : py::none());
+                             })
       .def_property_readonly("tables",
                              [](const PyLiveLog& self) {
                                py::dict out;

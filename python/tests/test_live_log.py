@@ -105,6 +105,7 @@ def test_a_step_waits_for_every_open_table(configs):
         live.push("pro", [k * 0.2, 10.0, 10.0, 0.3, 0.3])
     t, _, _ = live.steps()
     assert len(t) == 0  # no IMU row yet
+    assert live.waiting_for == ("imu", None)
     for k in range(120):
         live.push(1, [k * 0.01, 0.01 * (k % 2), 0.02 * (k % 3), 0.01 * (k % 3), 0.1 * (k % 5), 0.1 * (k % 4),
                       9.8 + 0.1 * (k % 7)])
@@ -115,9 +116,11 @@ def test_a_step_waits_for_every_open_table(configs):
     t, _, _ = live.steps()
     np.testing.assert_array_equal(t, [1.5])  # the wheels alone, up to their last row (1.8)
     assert not live.ended
+    assert live.waiting_for == ("pro", 1.8)
     live.close()
     live.steps()
     assert live.ended
+    assert live.waiting_for is None
 
 
 def test_errors_name_the_table_the_row_and_the_column(configs):

@@ -230,6 +230,8 @@ TEST(LiveLog, AStepWaitsForARowAfterItOfEveryOpenTableAndCloseReleasesIt) {
   for (int k = 0; k < 20; ++k) live.push(0, tables[0].rows[static_cast<std::size_t>(k)]);  // wheels to t = 2.03
   EXPECT_FALSE(live.next(&s)) << "no gyro row yet";
   EXPECT_FALSE(live.ended());
+  EXPECT_EQ(live.waiting_for().table, 1);
+  EXPECT_EQ(live.waiting_for().rows, 0);
   for (int k = 0; k < 50; ++k) live.push(1, tables[1].rows[static_cast<std::size_t>(k)]);  // gyro to t = 0.495
   std::vector<double> times;
   while (live.next(&s)) times.push_back(s.t);
@@ -237,9 +239,15 @@ TEST(LiveLog, AStepWaitsForARowAfterItOfEveryOpenTableAndCloseReleasesIt) {
   ASSERT_EQ(times.size(), 2u);
   EXPECT_DOUBLE_EQ(times[0], 0.13);
   EXPECT_DOUBLE_EQ(times[1], 0.38);
+  // The step at 0.63 waits for a gyro row after it: the gyro's last was at 0.495.
+  EXPECT_EQ(live.waiting_for().table, 1);
+  EXPECT_EQ(live.waiting_for().rows, 50);
+  EXPECT_DOUBLE_EQ(live.waiting_for().last_time, 0.495);
   live.close(1);  // the gyro has ended: the wheels alone complete the steps
   while (live.next(&s)) times.push_back(s.t);
   EXPECT_EQ(times.size(), 8u);  // to 1.88, the last with a wheel row after it
+  EXPECT_EQ(live.waiting_for().table, 0);
+  EXPECT_DOUBLE_EQ(live.waiting_for().last_time, 2.03);
   EXPECT_TRUE(std::isnan(s.z[1])) << "no gyro rows after 0.495";
   EXPECT_THAT(
       [&] {
@@ -254,6 +262,7 @@ TEST(LiveLog, AStepWaitsForARowAfterItOfEveryOpenTableAndCloseReleasesIt) {
   live.close();
   while (live.next(&s)) times.push_back(s.t);
   EXPECT_TRUE(live.ended());
+  EXPECT_EQ(live.waiting_for().table, -1);
   EXPECT_EQ(live.stats().rows, (std::vector<long>{20, 50}));
 }
 

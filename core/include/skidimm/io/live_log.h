@@ -95,6 +95,18 @@ class LiveLog {
   // has been taken by next().
   bool ended() const;
 
+  // The table whose next row the reader waits for, once it has taken every
+  // row pushed so far that it can: what holds the next step back. A sensor
+  // that stopped without close() shows here, with the time of its last row,
+  // while the others' rows pile up: a node can tell a late sensor from a dead
+  // one, and close() it.
+  struct Waiting {
+    int table = -1;          // -1: none (the log has ended)
+    long rows = 0;           // the table's rows pushed so far
+    double last_time = 0.0;  // of its last row pushed (with rows > 0)
+  };
+  Waiting waiting_for() const;
+
   // What the reader did with the rows so far (log_reader.h).
   LogStats stats() const;
   std::string describe_stats() const;
