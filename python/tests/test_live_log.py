@@ -97,6 +97,28 @@ def test_the_real_borealtc_run_live_equals_run_log(configs):
     assert_same_estimates(got, skidimm.run_log(bank, f"{ice / 'pro_02.csv'}+{ice / 'imu_02.csv'}"))
 
 
+def test_the_ros2_bank_runs_live_on_tables_named_by_topic(configs):
+    """terrains_ros2.yaml names its columns by topic and field path, as a node's subscriptions give them."""
+    ice = SHARED_DATA / "borealtc" / "ICE"
+    if not ice.exists():
+        pytest.skip(f"no shared data at {ice}")
+    bank = skidimm.Bank(configs / "borealtc" / "terrains_ros2.yaml")
+    live = skidimm.LiveLog(bank, {
+        "/joint_states": ["header.stamp", "/joint_states.effort[left]", "/joint_states.effort[right]",
+                          "/joint_states.velocity[left]", "/joint_states.velocity[right]"],
+        "/imu/data": ["header.stamp"] + [f"/imu/data.{v}.{c}" for v in ("angular_velocity", "linear_acceleration")
+                                         for c in "xyz"]})
+    live.push("/joint_states", np.loadtxt(ice / "pro_02.csv", delimiter=",", skiprows=1))
+    live.push("/imu/data", np.loadtxt(ice / "imu_02.csv", delimiter=",", skiprows=1))
+    live.close()
+    got = skidimm.Imm(bank).run(*live.steps())
+    expected = skidimm.run_log(configs / "borealtc" / "terrains.yaml", f"{ice / 'pro_02.csv'}+{ice / 'imu_02.csv'}")
+    modes = [k for k in expected if k.startswith("mu_")]
+    assert len(modes) == 10
+    for name in modes + ["t", "mode"]:
+        assert list(got[name]) == list(expected[name]), name
+
+
 def test_a_step_waits_for_every_open_table(configs):
     bank = skidimm.Bank(configs / "borealtc" / "terrains.yaml")
     live = skidimm.LiveLog(bank, {"pro": PRO, "imu": IMU})
