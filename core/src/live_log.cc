@@ -243,8 +243,9 @@ class LiveLog::Impl {
       }
       rows_->queued[k].emplace_back(values, values + count);
       ++rows_->pushed[k];
+      // In the reader's seconds, as its own messages give times.
       const std::size_t time = static_cast<std::size_t>(time_column_[k]);
-      if (time < count) rows_->last_time[k] = values[time];
+      if (time < count) rows_->last_time[k] = values[time] / bank_.columns.time_units_per_second + spec.time_offset;
     }
     rows_->rows_arrived.notify_all();
   }
@@ -323,27 +324,25 @@ class LiveLog::Impl {
   // The reader's thread: steps made as the rows come, until the log ends,
   // an error, or the LiveLog goes away.
   void read() {
-    for (;;) {
-      LogSample sample;
-      bool more = false;
-      try {
-        more = reader_->next(&sample);
-      } catch (const ReaderStopped&) {
-        return;
-      } catch (...) {
+    try {
+      for (;;) {
+        LogSample sample;
+        const bool more = reader_->next(&sample);
         std::lock_guard<std::mutex> lock(rows_->mutex);
-        rows_->error = std::current_exception();
-        rows_->finished = true;
-        rows_->reader_idle.notify_all();
-        return;
+        if (!more) {
+          rows_->finished = true;
+          rows_->reader_idle.notify_all();
+          return;
+        }
+        rows_->steps.push_back(std::move(sample));
       }
+    } catch (const ReaderStopped&) {
+      return;
+    } catch (...) {
       std::lock_guard<std::mutex> lock(rows_->mutex);
-      if (!more) {
-        rows_->finished = true;
-        rows_->reader_idle.notify_all();
-        return;
-      }
-      rows_->steps.push_back(std::move(sample));
+      rows_->error = std::current_exception();
+      rows_->finished = true;
+      rows_->reader_idle.notify_all();
     }
   }
 

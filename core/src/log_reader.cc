@@ -420,6 +420,10 @@ bool LogReader::Impl::next(LogSample* sample) {
   while (!started_) {
     const double t = next_row_time();
     check_no_file_is_empty();
+    // No step can come before the first, so nothing is lost by saying it at
+    // once: a live log's other sensors would otherwise be read on and on
+    // while the inputs never become known.
+    throw_pending_error();
     if (!std::isfinite(t)) {
       throw_pending_error();
       throw_if_an_input_never_had_a_value();

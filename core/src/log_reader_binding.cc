@@ -262,8 +262,9 @@ LogReader::Impl::Impl(const BankConfig& bank, std::vector<TableOfLog> tables, co
     : Impl(bank, sampling) {
   if (tables.empty()) throw LogError("", 0, "no input log given");
   if (sampling.join == SamplingConfig::Join::kRows) {
-    throw Error(bank.shown_file() + ": sampling.join: rows reads files that match row for row; the tables of " +
-                tables.front().table->name() + "'s log are merged by time (sampling.join: time)");
+    throw Error(bank.shown_file() +
+                ": sampling.join: rows reads files that match row for row; the tables of a live log are merged by "
+                "time (sampling.join: time)");
   }
   for (TableOfLog& t : tables) {
     streams_.emplace_back();

@@ -71,7 +71,15 @@ void bind_live_log(py::module_& m) {
             const std::size_t rows = values.ndim() == 1 ? 1 : static_cast<std::size_t>(values.shape(0));
             const double* data = values.data();
             py::gil_scoped_release release;
-            for (std::size_t r = 0; r < rows; ++r) self.live->push(k, data + r * width, width);
+            for (std::size_t r = 0; r < rows; ++r) {
+              try {
+                self.live->push(k, data + r * width, width);
+              } catch (const Error& e) {
+                if (rows == 1) throw;
+                throw Error("row " + std::to_string(r) + " of the " + std::to_string(rows) +
+                            " given (those before it were pushed): " + e.what());
+              }
+            }
           },
           py::arg("table"), py::arg("row"))
       .def(
@@ -89,10 +97,15 @@ void bind_live_log(py::module_& m) {
              std::vector<double> t, u, z;
              {
                py::gil_scoped_release release;
-               for (LogSample s; self.live->next(&s);) {
-                 t.push_back(s.t);
-                 u.insert(u.end(), s.u.data(), s.u.data() + s.u.size());
-                 z.insert(z.end(), s.z.data(), s.z.data() + s.z.size());
+               try {
+                 for (LogSample s; self.live->next(&s);) {
+                   t.push_back(s.t);
+                   u.insert(u.end(), s.u.data(), s.u.data() + s.u.size());
+                   z.insert(z.end(), s.z.data(), s.z.data() + s.z.size());
+                 }
+               } catch (const Error&) {
+                 // The steps before a refused row first; the next call raises (next() does, each time).
+                 if (t.empty()) throw;
                }
              }
              const py::ssize_t n = static_cast<py::ssize_t>(t.size());

@@ -159,9 +159,23 @@ def test_errors_name_the_table_the_row_and_the_column(configs):
     with pytest.raises(ValueError, match="a sequence of numbers"):
         live.push("pro", "0,1,2,3,4")
     live.push("pro", [0.0, 10.0, 10.0, 0.3, 0.3])
-    live.push("pro", [1.0, 10.0, 10.0, 0.3, 0.3])
-    live.push("imu", [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 9.8])
-    live.push("imu", [0.4, 0.0, 0.0, 0.0, 0.0, 0.0, 9.8])  # back in time
-    live.close()
-    with pytest.raises(skidimm.LogError, match="live table 'imu': row 2: column 'time': time must increase strictly"):
+    live.push("pro", [2.0, 10.0, 10.0, 0.3, 0.3])
+    live.push("imu", [[k * 0.01, 0.01 * (k % 2), 0.0, 0.0, 0.1 * (k % 3), 0.0, 9.8] for k in range(120)])
+    live.push("imu", [0.4, 0.0, 0.0, 0.0, 0.0, 0.0, 9.8])  # back in time, in the step at 1.5
+    t, _, _ = live.steps()
+    np.testing.assert_array_equal(t, [0.0, 0.5, 1.0])  # every step before the refused row first
+    with pytest.raises(skidimm.LogError, match="live table 'imu': row 121: column 'time': time must increase"):
         live.steps()
+    with pytest.raises(skidimm.LogError, match="row 121"):
+        live.steps()  # and again
+    stalled = skidimm.LiveLog(bank, {"pro": PRO, "imu": IMU})
+    stalled.max_queued_rows = 1
+    stalled.push("pro", [0.0, 10.0, 10.0, 0.3, 0.3])  # the reader takes it, and waits for the IMU
+    assert stalled.waiting_for == ("imu", None)
+    with pytest.raises(skidimm.Error, match=r"row 1 of the 2 given \(those before it were pushed\): live table 'pro' "
+                                            r"holds 1 rows the reader has not taken \(max_queued_rows\): the reader "
+                                            "waits for a row of live table 'imu' \\(0 row\\(s\\) pushed\\)"):
+        stalled.push("pro", [[1.0, 10.0, 10.0, 0.3, 0.3], [2.0, 10.0, 10.0, 0.3, 0.3]])
+    with pytest.raises(skidimm.Error, match="live table 'pro' was closed: no row may follow"):
+        stalled.close("pro")
+        stalled.push("pro", [3.0, 10.0, 10.0, 0.3, 0.3])

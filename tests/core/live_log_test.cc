@@ -313,6 +313,20 @@ TEST(LiveLog, ARowTheReaderRefusesIsAnErrorAfterTheStepsBeforeIt) {
               HasSubstr("live table 'wheels': row 1: column 2 ('left'): expected a finite number"));
 }
 
+// Before the first step nothing is lost by saying it at once, and a live
+// log's other sensors would otherwise be read on while the inputs never come.
+TEST(LiveLog, AnInputRowRefusedBeforeTheFirstStepIsSaidWhileTheOthersGoOn) {
+  const std::vector<Table> tables = two_sensors();
+  LiveLog live(two_sensor_bank(), live_tables(tables));
+  live.push(0, {0.13, std::nan(""), 1.0, 0.0});  // no left wheel speed yet: no step
+  live.push(0, {0.13, 0.5, 1.0, 0.0});           // the same stamp again
+  LogSample s;
+  for (int k = 0; k < 100; ++k) live.push(1, tables[1].rows[static_cast<std::size_t>(k)]);
+  EXPECT_THAT(error_of([&] { live.next(&s); }),
+              HasSubstr("live table 'wheels': row 2: column 't': time must increase strictly"));
+  EXPECT_EQ(live.waiting_for().table, -1) << "the reader has stopped";
+}
+
 TEST(LiveLog, SaysWhatIsWrongWithATableOrARow) {
   const std::vector<Table> tables = two_sensors();
   const BankConfig bank = two_sensor_bank();

@@ -21,24 +21,28 @@
 // Every step is the one LogReader gives for the same rows in files, bit for
 // bit: the same grid (sampling.rate), aggregates (mean(wz), log(std(az))),
 // held inputs, gaps, statistics and errors. So a step is complete only when
-// every table not yet closed has a row after it: it waits for the slowest
-// sensor's next row (with a rate, a step comes at most one period of the
-// slowest sensor after its time). close(table) says a sensor has ended;
-// close() ends the log and gives its last steps.
+// every table not yet closed has a row at or after it: it waits for the
+// slowest sensor's next row (with a rate, a step comes at most one period of
+// the slowest sensor after its time). close(table) says a sensor has ended;
+// close() ends the log and gives its last steps. Once every table feeding an
+// input is closed no step follows, but the log ends when the others are
+// closed too (their rows after the end are counted, as a file's are).
 //
 // The reader runs on a thread of its own, which waits for rows, so push()
-// returns at once. next() and the other queries return once it has taken
-// every row pushed so far that it can, so what every member gives or throws
-// depends only on the rows pushed, never on timing.
-// One thread at a time may call a LiveLog's members.
+// returns at once (but at max_queued_rows(), below, where it first waits for
+// the reader). next() and the other queries return once it has taken every
+// row pushed so far that it can, so what every member gives or throws
+// depends only on the rows pushed, never on timing. One thread at a time may
+// call a LiveLog's members.
 //
 // Errors: a row of the wrong length, or pushed to a closed table, is an
 // Error at push(). A row the reader refuses (a time that does not increase,
 // an infinite value) is a LogError naming the table, the row and the column,
 // thrown by next() once every step before it has been taken, and by every
-// next() after (rows pushed after it are not read). A table holding more than max_queued_rows() rows the reader
-// has not taken (it waits for a row of another table: a sensor that stopped
-// without close()) is an Error at push() naming the table waited for.
+// next() after (rows pushed after it are not read). A table holding more
+// than max_queued_rows() rows the reader has not taken (it waits for a row of
+// another table: a sensor that stopped without close(); waiting_for() names
+// it sooner) is an Error at push() naming the table waited for.
 #ifndef SKIDIMM_IO_LIVE_LOG_H_
 #define SKIDIMM_IO_LIVE_LOG_H_
 
@@ -101,9 +105,9 @@ class LiveLog {
   // while the others' rows pile up: a node can tell a late sensor from a dead
   // one, and close() it.
   struct Waiting {
-    int table = -1;          // -1: none (the log has ended)
+    int table = -1;          // -1: none (the log has ended, or the reader stopped at an error)
     long rows = 0;           // the table's rows pushed so far
-    double last_time = 0.0;  // of its last row pushed (with rows > 0)
+    double last_time = 0.0;  // of its last row pushed (with rows > 0), in s with the table's offset
   };
   Waiting waiting_for() const;
 
