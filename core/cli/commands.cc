@@ -414,7 +414,13 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
                 << " (a log can give it only as a column of exactly this text; --check LOG reads one)\n";
     }
     for (const std::string& field : aggregated) {
-      std::cerr << "skidimm validate: warning: " << bank_file.string() << ": " << field
+      // At the text's line, as the loader's errors are located.
+      const std::string name = field.substr(field.rfind('.') + 1);
+      const auto at = std::find(c.measurement.names.begin(), c.measurement.names.end(), name);
+      const std::size_t i = static_cast<std::size_t>(at - c.measurement.names.begin());
+      const int line = i < c.columns.measurement_lines.size() ? c.columns.measurement_lines[i] : 0;
+      std::cerr << "skidimm validate: warning: " << bank_file.string()
+                << (line > 0 ? ":" + std::to_string(line) : std::string()) << ": " << field
                 << " aggregates the rows of a filter step, which needs a fixed step: run, eval, fit and tune "
                    "refuse this bank without --rate (unless a log has a column of exactly this text); set "
                    "sampling.rate (Hz) in the bank, or give --rate\n";

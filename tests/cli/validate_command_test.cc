@@ -4,6 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <string>
@@ -165,10 +166,12 @@ TEST(Cli, ValidateWarnsOfAnAggregatedMeasurementWithoutAFixedStep) {
   ASSERT_NE(text.find(columns), std::string::npos);
   text.replace(text.find(columns), columns.size(), columns + "\n  measurements: {V: \"mean(V)\"}");
   const fs::path bank = write_file(dir / "mean.yaml", text);
+  // The line of the inserted text, which the warning names.
+  const auto line = 2 + std::count(text.begin(), text.begin() + static_cast<long>(text.find(columns)), '\n');
   const std::string validate = "validate " + bank.string() + " --plugin-path " + kPlugins;
   const Result plain = run_skidimm(validate);
   EXPECT_EQ(plain.exit_code, 0) << plain.err;
-  EXPECT_THAT(plain.err, HasSubstr("skidimm validate: warning: " + bank.string() +
+  EXPECT_THAT(plain.err, HasSubstr("skidimm validate: warning: " + bank.string() + ":" + std::to_string(line) +
                                    ": columns.measurements.V aggregates the rows of a filter step, which needs a "
                                    "fixed step"));
   EXPECT_THAT(plain.out,
