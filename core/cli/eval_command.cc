@@ -23,10 +23,12 @@ void report_each_logs_problems(const Bank& bank, const std::vector<evaluation::L
     for (const evaluation::LogResult& log : group.logs) {
       // A measurement the log never gave (a misspelt column name in a bag's
       // sequence) leaves the log scored on the others, without a word otherwise.
+      const std::string where = spliced ? "" : printable(log.source) + ": ";
       for (const std::string& line : log.unmeasured) {
-        std::cerr << "skidimm eval: warning: " << (spliced ? "" : printable(log.source) + ": ") << printable(line)
-                  << "\n";
+        std::cerr << "skidimm eval: warning: " << where << printable(line) << "\n";
       }
+      // Left out by the bank's options, as asked: said, not warned of.
+      for (const std::string& line : log.skipped) std::cerr << "skidimm eval: " << where << printable(line) << "\n";
       bool any = false;
       for (const ModeRejections& r : log.rejections) any = any || r.rows > 0;
       if (!any) continue;

@@ -709,6 +709,26 @@ std::vector<std::string> LogReader::unmeasured(const BankConfig& bank) const {
   return out;
 }
 
+std::vector<std::string> LogReader::skipped_by_options() const {
+  const LogStats& s = impl_->stats_;
+  std::vector<std::string> lines;
+  if (s.gaps_skipped > 0) {
+    const bool grid = impl_->sampling_.rate > 0.0;
+    lines.push_back(std::to_string(s.gaps_skipped) + " gap(s) without rows longer than sampling.max_gap (" +
+                    CsvWriter::format(impl_->sampling_.max_gap) + " s) were " + (grid ? "skipped, " : "crossed, ") +
+                    CsvWriter::format(s.seconds_skipped) + " s in all: " +
+                    (grid ? "the grid restarted at the row after each" : "the filter crossed each in one step") +
+                    " (sampling.skip_gaps)");
+  }
+  if (s.out_of_order_skipped > 0) {
+    lines.push_back(std::to_string(s.out_of_order_skipped) +
+                    " row(s) whose time was not after their file's last row were left out "
+                    "(sampling.skip_out_of_order), the first at " +
+                    s.first_out_of_order);
+  }
+  return lines;
+}
+
 std::string LogReader::describe_stats(const BankConfig& bank) const {
   const LogStats& s = impl_->stats_;
   std::string out;
@@ -726,20 +746,7 @@ std::string LogReader::describe_stats(const BankConfig& bank) const {
     out += "  " + std::to_string(s.dropped_after_end) +
            " row(s) after the last row of a file that feeds an input were not used\n";
   }
-  if (s.gaps_skipped > 0) {
-    const bool grid = impl_->sampling_.rate > 0.0;
-    out += "  " + std::to_string(s.gaps_skipped) + " gap(s) without rows longer than sampling.max_gap (" +
-           CsvWriter::format(impl_->sampling_.max_gap) + " s) were " + (grid ? "skipped, " : "crossed, ") +
-           CsvWriter::format(s.seconds_skipped) +
-           " s in all: " + (grid ? "the grid restarted at the row after each" : "the filter crossed each in one step") +
-           " (sampling.skip_gaps)\n";
-  }
-  if (s.out_of_order_skipped > 0) {
-    out += "  " + std::to_string(s.out_of_order_skipped) +
-           " row(s) whose time was not after their file's last row were left out (sampling.skip_out_of_order), "
-           "the first at " +
-           s.first_out_of_order + "\n";
-  }
+  for (const std::string& line : skipped_by_options()) out += "  " + line + "\n";
   for (const auto& stream : impl_->streams_) {
     if (!stream.feeds_inputs || !(stream.longest_hole > impl_->sampling_.max_gap)) continue;
     out += "  " + s.files[stream.stat_index[static_cast<std::size_t>(stream.time_file)]] +

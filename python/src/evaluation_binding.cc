@@ -31,6 +31,9 @@ void bind_evaluation(py::module_& m) {
       .def_readonly("unmeasured", &evaluation::LogResult::unmeasured,
                     "Each measurement the log left without a value for all of it or a long stretch (as `skidimm "
                     "eval` warns)")
+      .def_readonly("skipped", &evaluation::LogResult::skipped,
+                    "What the bank's options left out of the log (sampling.skip_gaps, skip_out_of_order), as "
+                    "`skidimm eval` says it")
       .def_property_readonly("accuracy", [](const evaluation::LogResult& r) { return r.metrics.accuracy(); })
       .def_property_readonly("duration", [](const evaluation::LogResult& r) { return r.metrics.duration; })
       .def_property_readonly("main_truth",

@@ -85,6 +85,7 @@ py::dict to_dict(const evaluation::LogResult& result) {
   d["source"] = result.source;
   d["classes"] = result.classes;
   d["unmeasured"] = result.unmeasured;
+  d["skipped"] = result.skipped;
   d["metrics"] = metrics_to_dict(result.metrics);
   d["decision_metrics"] = metrics_to_dict(result.decision_metrics);
   py::dict nis;
@@ -119,6 +120,7 @@ evaluation::LogResult log_result_from_dict(const py::dict& d) {
   r.source = d["source"].cast<std::string>();
   r.classes = d["classes"].cast<std::vector<std::string>>();
   if (d.contains("unmeasured")) r.unmeasured = d["unmeasured"].cast<std::vector<std::string>>();
+  if (d.contains("skipped")) r.skipped = d["skipped"].cast<std::vector<std::string>>();
   r.metrics = metrics_from_dict(d["metrics"].cast<py::dict>());
   r.decision_metrics = metrics_from_dict(d["decision_metrics"].cast<py::dict>());
   for (const auto& [mode, value] : d["nis"].cast<py::dict>()) {

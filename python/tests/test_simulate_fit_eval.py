@@ -69,6 +69,21 @@ def test_eval_splice_warns_of_a_measurement_a_log_never_gave(configs, switching_
         skidimm.eval(configs / "ltc_terrains.yaml", [str(switching_logs / "run_03.csv"), str(no_gyro)], splice=True)
 
 
+def test_a_log_result_says_what_the_banks_options_left_out(configs, switching_logs, tmp_path):
+    lines = (switching_logs / "run_02.csv").read_text().splitlines(keepends=True)
+    twice = tmp_path / "twice.csv"
+    twice.write_text("".join(lines[:301] + [lines[300]] + lines[301:]))  # row 300 again, as line 302
+    bank = tmp_path / "lenient.yaml"
+    bank.write_text((configs / "ltc_terrains.yaml").read_text() + "\nsampling:\n  skip_out_of_order: true\n")
+    result = skidimm.evaluate_log(bank, str(twice))
+    assert len(result.skipped) == 1
+    assert result.skipped[0].startswith("1 row(s) whose time was not after their file's last row were left out "
+                                        f"(sampling.skip_out_of_order), the first at {twice}:302: t = ")
+    assert skidimm.evaluate_log(configs / "ltc_terrains.yaml", str(switching_logs / "run_02.csv")).skipped == []
+    import pickle
+    assert pickle.loads(pickle.dumps(result)).skipped == result.skipped
+
+
 def test_log_results_pickle_losslessly(configs, switching_logs):
     import pickle
 

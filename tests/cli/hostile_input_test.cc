@@ -111,6 +111,14 @@ TEST(HostileInput, ARowWrittenTwiceStopsTheRunOrIsLeftOutWhenTheBankSaysSo) {
                                     " --input " + kSwitching + " --output " + (dir / "original.csv").string());
   EXPECT_EQ(original.exit_code, 0) << original.err;
   EXPECT_EQ(read_file(dir / "left_out.csv"), read_file(dir / "original.csv"));
+  // eval scores the log without the copy, and says so (not as a warning: the bank asked for it).
+  const Result scored = run_shell(kSkidimm + " eval --bank " + lenient.string() + " --plugin-path " + kPlugins +
+                                  " --input " + twice.string() + " --json");
+  EXPECT_EQ(scored.exit_code, 0) << scored.err;
+  EXPECT_THAT(scored.err, HasSubstr("skidimm eval: " + twice.string() +
+                                    ": 1 row(s) whose time was not after their "
+                                    "file's last row were left out (sampling.skip_out_of_order), the first at " +
+                                    twice.string() + ":302: t = "));
 }
 
 TEST(HostileInput, ARateFarAboveTheLogsIsRefusedByFitAndRun) {

@@ -97,12 +97,15 @@ void require_the_truth_column(const BankConfig& config, const LogSpec& log, cons
 }  // namespace
 
 RecordedLog record_labelled_log(const BankConfig& config, const LogSpec& log, const SamplingConfig& sampling,
-                                std::vector<std::string>* unmeasured) {
+                                LogResult* said) {
   require_a_truth(config, log);
   LogReader reader(config, log.files, sampling);
   require_the_truth_column(config, log, reader);
   RecordedLog recorded = RecordedLog::record(&reader);
-  if (unmeasured != nullptr) *unmeasured = reader.unmeasured(config);
+  if (said != nullptr) {
+    said->unmeasured = reader.unmeasured(config);
+    said->skipped = reader.skipped_by_options();
+  }
   return recorded;
 }
 
@@ -115,6 +118,7 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
   LogResult result = evaluate_log(bank, &reader, log.name(), log.label, estimates, estimator);
   result.source = joined_paths(log.files);
   result.unmeasured = reader.unmeasured(config);
+  result.skipped = reader.skipped_by_options();
   return result;
 }
 

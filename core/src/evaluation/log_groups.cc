@@ -167,20 +167,20 @@ std::vector<LogGroup> evaluate_spliced_groups(const Bank& bank, const std::vecto
   // Each log read into memory once, on every core; one that fails is left
   // out of the splice (or, without `failures`, ends the evaluation).
   std::vector<RecordedLog> recorded(order.size());
-  std::vector<std::vector<std::string>> unmeasured(order.size());
+  std::vector<LogResult> said(order.size());  // what the reader said of each log
   std::vector<std::string> errors(order.size());
   parallel_for(static_cast<int>(order.size()), worker_count(), [&](int i, int) {
     const LogSpec& log = *order[static_cast<std::size_t>(i)].second;
     try {
       recorded[static_cast<std::size_t>(i)] =
-          record_labelled_log(bank.config, log, sampling, &unmeasured[static_cast<std::size_t>(i)]);
+          record_labelled_log(bank.config, log, sampling, &said[static_cast<std::size_t>(i)]);
     } catch (const std::exception& e) {
       if (failures == nullptr) throw;
       errors[static_cast<std::size_t>(i)] = failure_message(log, e.what());
     }
   });
   std::vector<const RecordedLog*> logs;
-  std::vector<std::string> labels, sources, unmeasured_in_logs;
+  std::vector<std::string> labels, sources, unmeasured_in_logs, skipped_in_logs;
   std::vector<const LogSpec*> specs;
   std::vector<long> steps;
   for (std::size_t k = 0; k < order.size(); ++k) {
@@ -193,7 +193,8 @@ std::vector<LogGroup> evaluate_spliced_groups(const Bank& bank, const std::vecto
     labels.push_back(log.label);
     specs.push_back(&log);
     sources.push_back(joined_paths(log.files));
-    for (const std::string& line : unmeasured[k]) unmeasured_in_logs.push_back(sources.back() + ": " + line);
+    for (const std::string& line : said[k].unmeasured) unmeasured_in_logs.push_back(sources.back() + ": " + line);
+    for (const std::string& line : said[k].skipped) skipped_in_logs.push_back(sources.back() + ": " + line);
     steps.push_back(static_cast<long>(recorded[k].samples().size()));
   }
   if (spliced != nullptr) *spliced = logs.size();
@@ -204,6 +205,7 @@ std::vector<LogGroup> evaluate_spliced_groups(const Bank& bank, const std::vecto
   whole.name = "spliced";
   // Each line names its log: the whole run's source is every log's.
   whole.unmeasured = std::move(unmeasured_in_logs);
+  whole.skipped = std::move(skipped_in_logs);
   for (std::size_t k = 0; k < sources.size(); ++k) whole.source += (k ? ", " : "") + sources[k];
   return {LogGroup{"spliced (" + std::to_string(logs.size()) + " logs end to end, the groups taking turns)", {whole}}};
 }

@@ -86,6 +86,9 @@ struct LogResult {
   // The log reader's words for each measurement that had no value at any
   // step (LogReader::unmeasured()): scored on the others, so said.
   std::vector<std::string> unmeasured;
+  // ... and for what the bank's options left out of the log
+  // (LogReader::skipped_by_options()): scored without it, so said too.
+  std::vector<std::string> skipped;
 };
 
 // Runs a fresh IMM of `bank` over `log` and scores it; with `estimates`, also
@@ -111,9 +114,9 @@ LogResult evaluate_log(const Bank& bank, SampleSource* source, const std::string
 // Every step of `log` read into memory, after the checks evaluate_log()
 // makes: a truth for it (its label, a class of the bank, or the bank's truth
 // column in the log). For splicing logs (SplicedReplay) to score as one run.
-// `unmeasured` (optional) gets what LogResult::unmeasured would say of the log.
+// `said` (optional) gets what LogResult::unmeasured and ::skipped would say of the log.
 RecordedLog record_labelled_log(const BankConfig& config, const LogSpec& log, const SamplingConfig& sampling,
-                                std::vector<std::string>* unmeasured = nullptr);
+                                LogResult* said = nullptr);
 
 // Several logs spliced end to end into one run (`source` gives their steps
 // in turn, `steps_per_log[i]` of log i, each with its truth in the sample's

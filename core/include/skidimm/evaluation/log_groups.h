@@ -52,7 +52,8 @@ std::vector<LogGroup> evaluate_log_groups(const Bank& bank, const std::vector<st
 // changes from one log's truth to the next. A log that cannot be read is a
 // failure, left out of the splice (without `failures`, an exception).
 // `spliced` (optional) gets how many logs the run joins. The result's
-// `unmeasured` lines each start with the source of the log they are about.
+// `unmeasured` and `skipped` lines each start with the source of the log
+// they are about.
 std::vector<LogGroup> evaluate_spliced_logs(const Bank& bank, const std::vector<std::string>& arguments,
                                             const SamplingConfig& sampling, const LogArgumentOptions& expansion = {},
                                             std::vector<LogFailure>* failures = nullptr,

@@ -150,6 +150,10 @@ class LogReader : public SampleSource {
   // A few lines for the user about rows not used or measurements replaced;
   // empty when there is nothing to say.
   std::string describe_stats(const BankConfig& bank) const;
+  // Of those, the lines about what the bank's options left out of the log
+  // (sampling.skip_gaps, sampling.skip_out_of_order), one each, without
+  // indentation: what a command that scores or fits a log says of it.
+  std::vector<std::string> skipped_by_options() const;
   // Each measurement that had no value at any step so far, as
   // "measurement 'NAME' (\"TEXT\") had no value at any step" (and, for a
   // sequence's entry selected by a name, where the names are listed): a
