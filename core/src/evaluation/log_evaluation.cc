@@ -94,6 +94,13 @@ void require_the_truth_column(const BankConfig& config, const LogSpec& log, cons
   }
 }
 
+// What the reader, at the end of a log, says of it that its scores do not:
+// measurements never given, rows the bank's options left out.
+void say_what_the_reader_left(const BankConfig& config, const LogReader& reader, LogResult* result) {
+  result->unmeasured = reader.unmeasured(config);
+  result->skipped = reader.skipped_by_options();
+}
+
 }  // namespace
 
 RecordedLog record_labelled_log(const BankConfig& config, const LogSpec& log, const SamplingConfig& sampling,
@@ -102,10 +109,7 @@ RecordedLog record_labelled_log(const BankConfig& config, const LogSpec& log, co
   LogReader reader(config, log.files, sampling);
   require_the_truth_column(config, log, reader);
   RecordedLog recorded = RecordedLog::record(&reader);
-  if (said != nullptr) {
-    said->unmeasured = reader.unmeasured(config);
-    said->skipped = reader.skipped_by_options();
-  }
+  if (said != nullptr) say_what_the_reader_left(config, reader, said);
   return recorded;
 }
 
@@ -117,8 +121,7 @@ LogResult evaluate_log(const Bank& bank, const LogSpec& log, const SamplingConfi
   require_the_truth_column(config, log, reader);
   LogResult result = evaluate_log(bank, &reader, log.name(), log.label, estimates, estimator);
   result.source = joined_paths(log.files);
-  result.unmeasured = reader.unmeasured(config);
-  result.skipped = reader.skipped_by_options();
+  say_what_the_reader_left(config, reader, &result);
   return result;
 }
 
