@@ -11,6 +11,7 @@
 #include <string_view>
 
 #include "skidimm/config/bank.h"
+#include "skidimm/engine/decision.h"
 #include "skidimm/engine/fatal_signal_report.h"
 #include "skidimm/engine/imm.h"
 #include "skidimm/engine/input_envelope.h"
@@ -21,6 +22,7 @@
 #include "skidimm/errors.h"
 #include "skidimm/evaluation/evaluation_report.h"
 #include "skidimm/fitting/fit_logs.h"
+#include "skidimm/io/checkpoint_file.h"
 #include "skidimm/io/csv.h"
 #include "skidimm/io/estimates_writer.h"
 #include "skidimm/io/log_arguments.h"
@@ -201,9 +203,16 @@ int run(const RunOptions& options) {
   std::optional<ros::LiveEstimates> live;
   std::optional<EstimatesWriter> writer;
   RunSummary summary;
+  std::optional<ImmCheckpoint> resumed, last_checkpoint;
   const StopOnSignals stop_on_signals;
   int code = report_errors("skidimm run", [&] {
     const EstimatorOptions estimator = command_line_estimator(options.smooth, options.lag, options.overrides);
+    if ((!options.resume.empty() || !options.save_checkpoint.empty()) &&
+        estimator.kind != EstimatorOptions::Kind::kFilter) {
+      throw UsageError(
+          "--resume and --save-checkpoint carry the filter from one run to the next; --smooth and --lag "
+          "smooth a log as a whole");
+    }
     if (options.flush && (EstimatesWriter::is_npy(options.output) || options.output.extension() == ".mcap")) {
       // Before the output is opened: it left an empty .partial behind.
       throw UsageError(
@@ -240,11 +249,26 @@ int run(const RunOptions& options) {
     const fs::path reasons =
         EstimatesWriter::is_npy(options.output) ? EstimatesWriter::reasons_path(options.output) : fs::path();
     refuse_output_over_logs(reasons, "--output's reason table", {log});
-    refuse_clashing_files(
-        {{"--output", options.output}, {"--output's reason table", reasons}, {"--plot", options.plot}},
-        {{"--bank", options.bank}});
+    refuse_output_over_logs(options.save_checkpoint, "--save-checkpoint", {log});
+    // --resume and --save-checkpoint may be one file: the run goes on from it and leaves it one run later.
+    refuse_clashing_files({{"--output", options.output},
+                           {"--output's reason table", reasons},
+                           {"--plot", options.plot},
+                           {"--save-checkpoint", options.save_checkpoint}},
+                          {{"--bank", options.bank}});
     // The figure is drawn after the run: a path it cannot be written to is said now.
     if (!options.plot.empty()) check_output_path(options.plot, "--plot");
+    if (!options.save_checkpoint.empty()) check_output_path(options.save_checkpoint, "--save-checkpoint");
+    if (!options.resume.empty()) {
+      // Checked against the bank before the output is opened.
+      resumed = load_checkpoint(options.resume);
+      try {
+        Imm(bank).restore(*resumed);
+        if (resumed->decision) ModeDecision(config, config.decision).restore(*resumed->decision);
+      } catch (const Error& e) {
+        throw Error("--resume " + options.resume.string() + ": " + e.what());
+      }
+    }
     // Listening first: a log through a pipe may wait for its first line.
     if (!options.serve.empty()) {
       std::string host;
@@ -277,7 +301,8 @@ int run(const RunOptions& options) {
     // The loop (log_run.h) allocates nothing per row.
     write_estimates(
         bank, &reader, estimator, decision_settings, log.label, with_truth, &*writer, &summary,
-        [&] { progress.update(summary.rows, 0, reader.progress()); }, options.strict);
+        [&] { progress.update(summary.rows, 0, reader.progress()); }, options.strict,
+        RunContinuation{resumed ? &*resumed : nullptr, options.save_checkpoint.empty() ? nullptr : &last_checkpoint});
     progress.clear();
     const long rows = summary.rows;
     if (rows == 0) {
@@ -362,6 +387,18 @@ int run(const RunOptions& options) {
   if (code != kExitOk && writer && summary.rows > 0) {
     std::cerr << "skidimm run: the " << summary.rows << " rows computed before the error are in "
               << writer->partial_path().string() << "\n";
+  }
+  // After an error too: the filter as it was after the last row computed.
+  if (last_checkpoint && summary.rows > 0) {
+    const int saved = report_errors("skidimm run", [&] {
+      save_checkpoint(options.save_checkpoint, *last_checkpoint);
+      if (!options.quiet || code != kExitOk) {
+        std::cerr << "skidimm run: the filter after its last step (t = " << CsvWriter::format(last_checkpoint->t)
+                  << " s) is in " << options.save_checkpoint.string() << " (--resume goes on from it)\n";
+      }
+      return kExitOk;
+    });
+    if (code == kExitOk) code = saved;
   }
   return code;
 }

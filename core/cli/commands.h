@@ -106,6 +106,8 @@ struct RunOptions {
   std::string serve;              // "[HOST:]PORT": publish each step live (Foxglove WebSocket protocol)
   double serve_speed = 1.0;       // replaying a file with --serve: times real time; 0 unpaced
   bool copy_topics = false;       // an .mcap output also holds the bag topics the bank read
+  std::filesystem::path resume;   // the filter starts from this checkpoint file
+  std::filesystem::path save_checkpoint;  // the filter's checkpoint after the last step, written here
 };
 
 int run(const RunOptions& options);

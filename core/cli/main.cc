@@ -282,6 +282,13 @@ int main(int argc, char** argv) {
       ->needs("--serve");  // it paces the replay the server shows, and nothing else
   run->add_flag("--copy-topics", run_options.copy_topics,
                 "With an .mcap output and a bag input: copy the bag topics the bank reads into the output");
+  run->add_option("--resume", run_options.resume,
+                  "Start the filter (and decision) where a checkpoint file left it, not from the bank's prior; the "
+                  "log goes on along the checkpoint's clock")
+      ->check(CLI::ExistingFile);
+  run->add_option("--save-checkpoint", run_options.save_checkpoint,
+                  "Write the filter's state after the last step (also after an error) to this file, for --resume")
+      ->check(file_path());
   add_plugin_path(run);
 
   std::string validate_bank;

@@ -1,8 +1,10 @@
 #include "skidimm/engine/decision.h"
 
 #include <cmath>
+#include <string>
 
 #include "check.h"
+#include "skidimm/errors.h"
 
 namespace skidimm {
 
@@ -37,6 +39,39 @@ void ModeDecision::reset() {
   below_leave_since_ = 0.0;
   measured_once_ = false;
   last_measured_t_ = 0.0;
+}
+
+ModeDecision::Memory ModeDecision::memory() const {
+  Memory memory;
+  memory.decision = name(decision_);
+  memory.decided_at = decided_at_;
+  memory.below_leave = below_leave_;
+  memory.below_leave_since = below_leave_since_;
+  memory.measured_once = measured_once_;
+  memory.last_measured_t = last_measured_t_;
+  memory.class_probabilities = class_probabilities_;
+  return memory;
+}
+
+void ModeDecision::restore(const Memory& memory) {
+  int decided = kUnknown;
+  if (memory.decision != kUnknownName) {
+    for (std::size_t c = 0; c < names_.size(); ++c) {
+      if (names_[c] == memory.decision) decided = static_cast<int>(c);
+    }
+    if (decided == kUnknown) throw Error("the decision '" + memory.decision + "' is none of the bank's classes");
+  }
+  if (memory.class_probabilities.size() != class_probabilities_.size()) {
+    throw Error("the decision holds " + std::to_string(memory.class_probabilities.size()) +
+                " class probabilities, the bank has " + std::to_string(class_probabilities_.size()) + " classes");
+  }
+  decision_ = decided;
+  decided_at_ = memory.decided_at;
+  below_leave_ = memory.below_leave;
+  below_leave_since_ = memory.below_leave_since;
+  measured_once_ = memory.measured_once;
+  last_measured_t_ = memory.last_measured_t;
+  class_probabilities_ = memory.class_probabilities;
 }
 
 int ModeDecision::update(double t, const Eigen::Ref<const Eigen::VectorXd>& mode_probabilities, bool measured) {

@@ -3,12 +3,14 @@
 #include <boost/math/special_functions/gamma.hpp>
 #include <cmath>
 #include <limits>
+#include <string>
 #include <utility>
 
 #include "check.h"
 #include "fixed_size_kernels.h"
 #include "imm_kernel.h"
 #include "not_a_number.h"
+#include "skidimm/errors.h"
 
 namespace skidimm {
 
@@ -200,6 +202,121 @@ const ImmEstimate& Imm::step(double t, const Eigen::Ref<const Eigen::VectorXd>& 
   last_t_ = t;
   initialized_ = true;
   return estimate_;
+}
+
+ImmCheckpoint Imm::checkpoint() const {
+  const BankConfig& config = bank_.config;
+  ImmCheckpoint checkpoint;
+  for (const ModeConfig& mode : config.modes) checkpoint.mode_names.push_back(mode.name);
+  checkpoint.state_names = config.state_names;
+  checkpoint.input_names = config.input_names;
+  checkpoint.measurement_rows = static_cast<int>(config.measurement.h.rows());
+  checkpoint.started = initialized_;
+  checkpoint.t = last_t_;
+  checkpoint.held_input = held_input_;
+  checkpoint.estimate = estimate_;
+  kernel_->save(&checkpoint);
+  return checkpoint;
+}
+
+namespace {
+
+std::string name_list(const std::vector<std::string>& names) {
+  std::string text;
+  for (const std::string& name : names) text += (text.empty() ? "" : ", ") + name;
+  return "[" + text + "]";
+}
+
+// Throws what makes `checkpoint` unfit for an Imm of `config` whose kernel
+// keeps memory shaped as `current` (its own checkpoint); nothing when it fits.
+void check_checkpoint(const BankConfig& config, const ImmCheckpoint& current, const ImmCheckpoint& checkpoint) {
+  const auto fail = [](const std::string& what) { throw Error("cannot restore this checkpoint: " + what); };
+  const auto same_names = [&](const char* what, const std::vector<std::string>& theirs,
+                              const std::vector<std::string>& ours) {
+    if (theirs != ours) {
+      fail(std::string("it was made by a bank of ") + what + " " + name_list(theirs) + ", this bank's are " +
+           name_list(ours));
+    }
+  };
+  same_names("modes", checkpoint.mode_names, current.mode_names);
+  same_names("states", checkpoint.state_names, current.state_names);
+  same_names("inputs", checkpoint.input_names, current.input_names);
+  if (checkpoint.measurement_rows != current.measurement_rows) {
+    fail("it was made by a bank measuring " + std::to_string(checkpoint.measurement_rows) +
+         " rows, this bank measures " + std::to_string(current.measurement_rows));
+  }
+  const Eigen::Index modes = config.num_modes(), n = config.state_dim(), m = current.measurement_rows;
+  const ImmEstimate& e = checkpoint.estimate;
+  const auto sized = [&](const char* what, Eigen::Index size, Eigen::Index expected) {
+    if (size != expected) {
+      fail(std::string(what) + " has " + std::to_string(size) + " entries, expected " + std::to_string(expected));
+    }
+  };
+  const auto finite = [&](const char* what, bool all_finite) {
+    if (!all_finite) fail(std::string(what) + " is not finite");
+  };
+  if (!std::isfinite(checkpoint.t)) fail("its time is not finite");
+  sized("the held input", checkpoint.held_input.size(), config.input_dim());
+  finite("the held input", checkpoint.held_input.allFinite());
+  sized("the mode probabilities", e.mode_probabilities.size(), modes);
+  if (!e.mode_probabilities.allFinite() || (e.mode_probabilities.array() < 0.0).any() ||
+      !(e.mode_probabilities.sum() > 0.0) || !(e.unknown_probability >= 0.0 && e.unknown_probability <= 1.0)) {
+    fail("its mode probabilities are not probabilities");
+  }
+  if (e.most_likely_mode < 0 || e.most_likely_mode >= modes) fail("its most likely mode is not a mode");
+  sized("the log-likelihoods", e.log_likelihoods.size(), modes);
+  sized("the NIS", e.nis.size(), modes);
+  sized("the mode failures", static_cast<Eigen::Index>(e.mode_failures.size()), modes);
+  sized("the failure reasons", static_cast<Eigen::Index>(e.failure_reasons.size()), modes);
+  sized("the mode states", static_cast<Eigen::Index>(e.mode_states.size()), modes);
+  sized("the mode covariances", static_cast<Eigen::Index>(e.mode_covariances.size()), modes);
+  for (Eigen::Index j = 0; j < modes; ++j) {
+    const Eigen::VectorXd& x = e.mode_states[static_cast<std::size_t>(j)];
+    const Eigen::MatrixXd& p = e.mode_covariances[static_cast<std::size_t>(j)];
+    sized("a mode's state", x.size(), n);
+    if (p.rows() != n || p.cols() != n)
+      fail("a mode's covariance is not " + std::to_string(n) + " x " + std::to_string(n));
+    finite("a mode's state", x.allFinite());
+    finite("a mode's covariance", p.allFinite());
+  }
+  sized("the combined state", e.state.size(), n);
+  if (e.covariance.rows() != n || e.covariance.cols() != n) fail("the combined covariance is not n x n");
+  finite("the combined state", e.state.allFinite());
+  finite("the combined covariance", e.covariance.allFinite());
+  if (!checkpoint.innovations.empty()) {
+    sized("the innovation memory", static_cast<Eigen::Index>(checkpoint.innovations.size()), modes);
+    for (const InnovationMemory& memory : checkpoint.innovations) {
+      if (memory.rows.size() != memory.whitened.size() || static_cast<Eigen::Index>(memory.rows.size()) > m ||
+          memory.steps_since < 0) {
+        fail("a mode's innovation memory is malformed");
+      }
+      for (std::size_t a = 0; a < memory.rows.size(); ++a) {
+        if (memory.rows[a] < 0 || memory.rows[a] >= m || (a > 0 && memory.rows[a] <= memory.rows[a - 1])) {
+          fail("a mode's innovation memory names rows that are not increasing measurement rows");
+        }
+        if (!std::isfinite(memory.whitened[a])) fail("a mode's innovation memory is not finite");
+      }
+    }
+  }
+  const ModeTransition::AnchorMemory& anchors = checkpoint.transition_anchors;
+  if (anchors.used.size() != anchors.dt.size() || (!anchors.dt.empty() && !current.transition_anchors.dt.empty() &&
+                                                   anchors.dt.size() != current.transition_anchors.dt.size())) {
+    fail("its transition anchors are malformed");
+  }
+  for (double dt : anchors.dt) {
+    if (std::isnan(dt) || std::isinf(dt)) fail("a transition anchor's step is not finite");
+  }
+}
+
+}  // namespace
+
+void Imm::restore(const ImmCheckpoint& checkpoint) {
+  check_checkpoint(bank_.config, this->checkpoint(), checkpoint);
+  kernel_->restore(checkpoint);
+  initialized_ = checkpoint.started;
+  last_t_ = checkpoint.t;
+  held_input_ = checkpoint.held_input;
+  estimate_ = checkpoint.estimate;
 }
 
 const char* to_string(ModeFailure failure) {

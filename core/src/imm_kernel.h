@@ -32,6 +32,7 @@
 #include "residual_correlation.h"
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/fatal_signal_report.h"
+#include "skidimm/engine/imm_checkpoint.h"
 #include "skidimm/engine/imm_estimate.h"
 #include "skidimm/engine/measurement_model.h"
 #include "skidimm/engine/mode_transition.h"
@@ -70,6 +71,12 @@ class ImmKernel {
   virtual void step(bool first, double dt, const Eigen::Ref<const Eigen::VectorXd>& u,
                     const Eigen::Ref<const Eigen::VectorXd>& u_now, const Eigen::Ref<const Eigen::VectorXd>& z,
                     ImmEstimate* e) = 0;
+  // What the kernel carries between steps besides the estimate, into
+  // *checkpoint (ImmCheckpoint).
+  virtual void save(ImmCheckpoint* checkpoint) const = 0;
+  // The filters from the checkpoint's estimate (its mode states and
+  // covariances), and its memory; checked by Imm::restore.
+  virtual void restore(const ImmCheckpoint& checkpoint) = 0;
 };
 
 // What every fixed-size filter bank of N states holds: each mode's model and
@@ -532,6 +539,22 @@ class Kernel final : public ImmKernel {
       update_mode_probabilities(accepted > 0, evidence, e);
       combine(e->mode_probabilities, e);
     }
+  }
+
+  void save(ImmCheckpoint* checkpoint) const override {
+    checkpoint->innovations = correlation_.memory();
+    checkpoint->transition_anchors = transition_.anchor_memory();
+  }
+
+  void restore(const ImmCheckpoint& checkpoint) override {
+    for (int j = 0; j < modes_; ++j) {
+      filters_.state(j) = checkpoint.estimate.mode_states[static_cast<std::size_t>(j)];
+      filters_.covariance(j) = checkpoint.estimate.mode_covariances[static_cast<std::size_t>(j)];
+    }
+    // Kept F and Qd are asked for again: the same values.
+    filters_.forget_step_matrices();
+    correlation_.restore(checkpoint.innovations);
+    transition_.restore_anchors(checkpoint.transition_anchors);
   }
 
  private:

@@ -67,8 +67,29 @@ std::string describe_first_rejection(const Bank& bank, const ImmEstimate& e, lon
 }
 
 long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
-             const std::function<void(const LogSample&, const ImmEstimate&)>& sink) {
+             const std::function<void(const LogSample&, const ImmEstimate&)>& sink,
+             const RunContinuation& continuation) {
   Imm imm(bank);
+  const ImmCheckpoint* resume = continuation.resume;
+  if (resume != nullptr) {
+    if (options.kind != EstimatorOptions::Kind::kFilter) {
+      throw Error("a run resumed from a checkpoint is the filter's, not a smoother's");
+    }
+    imm.restore(*resume);
+  }
+  // The checkpoint after the last step, however the loop ends.
+  struct LastCheckpoint {
+    const Imm& imm;
+    std::optional<ImmCheckpoint>* last;
+    ~LastCheckpoint() {
+      if (last == nullptr) return;
+      try {
+        *last = imm.checkpoint();
+      } catch (...) {  // bad_alloc: no checkpoint rather than a crash while unwinding
+        last->reset();
+      }
+    }
+  } last_checkpoint{imm, continuation.last};
   LogSample sample;
   long steps = 0;
   // A log that fails part way (a bad row), or a stop asked for from outside
@@ -88,6 +109,11 @@ long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& opt
   };
   if (options.kind == EstimatorOptions::Kind::kFilter) {
     while (next(&sample)) {
+      if (steps == 0 && resume != nullptr && resume->started && !(sample.t > resume->t)) {
+        throw Error("the log's first step, at t = " + CsvWriter::format(sample.t) +
+                    " s, does not come after the checkpoint's last, at t = " + CsvWriter::format(resume->t) +
+                    " s: a resumed run goes on along the same clock");
+      }
       sink(sample, imm.step(sample.t, sample.u, sample.z));
       ++steps;
     }
@@ -148,66 +174,88 @@ long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& opt
 
 void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
                      const DecisionConfig& decision_settings, const std::string& label, bool with_truth,
-                     EstimatesWriter* writer, RunSummary* summary, const std::function<void()>& progress, bool strict) {
+                     EstimatesWriter* writer, RunSummary* summary, const std::function<void()>& progress, bool strict,
+                     const RunContinuation& continuation) {
   const BankConfig& config = bank.config;
   const std::vector<int> class_of_mode = config.class_of_modes();
   ModeDecision decision(config, decision_settings);
-  int last_decision = ModeDecision::kUnknown;
-  bool undecided = true;  // every row so far `unknown`: its first decision is not a change (as eval counts)
+  if (continuation.resume != nullptr && continuation.resume->decision) {
+    decision.restore(*continuation.resume->decision);
+  }
+  int last_decision = decision.decision();
+  // Every row so far `unknown`: its first decision is not a change (as eval counts).
+  bool undecided = last_decision == ModeDecision::kUnknown;
+  // The decision's part of the checkpoint at the end, however the run ends.
+  struct DecisionCheckpoint {
+    const ModeDecision& decision;
+    std::optional<ImmCheckpoint>* last;
+    ~DecisionCheckpoint() {
+      if (last == nullptr || !last->has_value()) return;
+      try {
+        (*last)->decision = decision.memory();
+      } catch (...) {  // bad_alloc: no checkpoint rather than a crash while unwinding
+        last->reset();
+      }
+    }
+  } decision_checkpoint{decision, continuation.last};
   const InputEnvelope envelope(config);
   // The truth's class: each label looked up once (class_index builds the
   // class names), then by comparison with the last one and the few seen.
   std::vector<std::pair<std::string, int>> classes_seen;
   const std::pair<std::string, int>* last = nullptr;
-  run_log(bank, reader, options, [&](const LogSample& sample, const ImmEstimate& e) {
-    RunSummary& s = *summary;
-    const std::string& truth = label.empty() ? sample.truth_mode : label;
-    // A smoothed step carries the measurements after it: it does not go stale.
-    const int decided = decision.update(sample.t, e.mode_probabilities,
-                                        options.kind != EstimatorOptions::Kind::kFilter || e.measured());
-    s.decision_changes += decided != last_decision && s.rows > 0 && !undecided;
-    undecided = undecided && decided == ModeDecision::kUnknown;
-    last_decision = decided;
-    writer->write(sample.t, e, decision.name(decided), truth);
-    ++s.rows;  // written: a row the writer refused is not among those kept
-    if (e.num_rejected_modes > 0 || e.num_gated_modes > 0) count_mode_rejections(e, s.rows, sample.t, &s.rejections);
-    if (strict && e.num_rejected_modes > 0) throw Error(describe_first_rejection(bank, e, s.rows));
-    if (with_truth && !truth.empty()) {
-      if (last == nullptr || last->first != truth) {
-        last = nullptr;
-        for (const auto& seen : classes_seen) {
-          if (seen.first == truth) last = &seen;
+  run_log(
+      bank, reader, options,
+      [&](const LogSample& sample, const ImmEstimate& e) {
+        RunSummary& s = *summary;
+        const std::string& truth = label.empty() ? sample.truth_mode : label;
+        // A smoothed step carries the measurements after it: it does not go stale.
+        const int decided = decision.update(sample.t, e.mode_probabilities,
+                                            options.kind != EstimatorOptions::Kind::kFilter || e.measured());
+        s.decision_changes += decided != last_decision && s.rows > 0 && !undecided;
+        undecided = undecided && decided == ModeDecision::kUnknown;
+        last_decision = decided;
+        writer->write(sample.t, e, decision.name(decided), truth);
+        ++s.rows;  // written: a row the writer refused is not among those kept
+        if (e.num_rejected_modes > 0 || e.num_gated_modes > 0)
+          count_mode_rejections(e, s.rows, sample.t, &s.rejections);
+        if (strict && e.num_rejected_modes > 0) throw Error(describe_first_rejection(bank, e, s.rows));
+        if (with_truth && !truth.empty()) {
+          if (last == nullptr || last->first != truth) {
+            last = nullptr;
+            for (const auto& seen : classes_seen) {
+              if (seen.first == truth) last = &seen;
+            }
+            if (last == nullptr) {
+              classes_seen.emplace_back(truth, config.class_index(truth));
+              last = nullptr;  // emplace_back may have moved the others
+              for (const auto& seen : classes_seen) {
+                if (seen.first == truth) last = &seen;
+              }
+            }
+          }
+          ++s.truth_rows;
+          s.truth_matches += !e.unknown_is_most_likely() &&
+                             last->second == class_of_mode[static_cast<std::size_t>(e.most_likely_mode)];
         }
-        if (last == nullptr) {
-          classes_seen.emplace_back(truth, config.class_index(truth));
-          last = nullptr;  // emplace_back may have moved the others
-          for (const auto& seen : classes_seen) {
-            if (seen.first == truth) last = &seen;
+        s.predict_only += e.status == StepStatus::kPredictOnly;
+        s.rejected += e.num_rejected_modes > 0;
+        s.gated += e.status == StepStatus::kGated;
+        s.mode_gated += e.num_gated_modes > 0 && e.status != StepStatus::kGated;
+        s.timeline.add(sample.t, e.most_likely_mode, e.mode_probabilities[e.most_likely_mode]);
+        if (!envelope.empty() && !e.unknown_is_most_likely()) {
+          const int c = class_of_mode[static_cast<std::size_t>(e.most_likely_mode)];
+          const Excursion outside = envelope.outside(c, sample.u);
+          if (outside.input >= 0) {
+            ++s.outside_fitted_inputs;
+            if (s.farthest_outside_class < 0 || outside.beyond > s.farthest_outside.beyond) {
+              s.farthest_outside = outside;
+              s.farthest_outside_class = c;
+            }
           }
         }
-      }
-      ++s.truth_rows;
-      s.truth_matches +=
-          !e.unknown_is_most_likely() && last->second == class_of_mode[static_cast<std::size_t>(e.most_likely_mode)];
-    }
-    s.predict_only += e.status == StepStatus::kPredictOnly;
-    s.rejected += e.num_rejected_modes > 0;
-    s.gated += e.status == StepStatus::kGated;
-    s.mode_gated += e.num_gated_modes > 0 && e.status != StepStatus::kGated;
-    s.timeline.add(sample.t, e.most_likely_mode, e.mode_probabilities[e.most_likely_mode]);
-    if (!envelope.empty() && !e.unknown_is_most_likely()) {
-      const int c = class_of_mode[static_cast<std::size_t>(e.most_likely_mode)];
-      const Excursion outside = envelope.outside(c, sample.u);
-      if (outside.input >= 0) {
-        ++s.outside_fitted_inputs;
-        if (s.farthest_outside_class < 0 || outside.beyond > s.farthest_outside.beyond) {
-          s.farthest_outside = outside;
-          s.farthest_outside_class = c;
-        }
-      }
-    }
-    if (progress && s.rows % 1024 == 0) progress();
-  });
+        if (progress && s.rows % 1024 == 0) progress();
+      },
+      continuation);
 }
 
 }  // namespace skidimm

@@ -3,8 +3,10 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "check.h"
+#include "skidimm/errors.h"
 
 namespace skidimm {
 
@@ -354,6 +356,35 @@ void ModeTransition::uniformise(double dt, Eigen::MatrixXd* p) {
   }
   // Remove the truncated tail so rows sum to one to machine precision.
   for (Eigen::Index i = 0; i < n; ++i) p->row(i) /= p->row(i).sum();
+}
+
+ModeTransition::AnchorMemory ModeTransition::anchor_memory() const {
+  AnchorMemory memory;
+  if (form_ != Form::kDwellTimes) return memory;
+  for (const Anchor& anchor : anchors_) {
+    memory.dt.push_back(anchor.dt);
+    memory.used.push_back(anchor.used);
+  }
+  memory.uses = uses_;
+  return memory;
+}
+
+void ModeTransition::restore_anchors(const AnchorMemory& memory) {
+  // Another form's memory (the bank's transition retuned) has nothing to
+  // restore; none leaves the anchors to be made anew.
+  if (form_ != Form::kDwellTimes || memory.dt.empty()) return;
+  if (memory.dt.size() != anchors_.size() || memory.used.size() != anchors_.size()) {
+    throw Error("expected " + std::to_string(anchors_.size()) + " transition anchors, got " +
+                std::to_string(memory.dt.size()));
+  }
+  for (std::size_t a = 0; a < anchors_.size(); ++a) {
+    Anchor& anchor = anchors_[a];
+    anchor.dt = memory.dt[a];
+    anchor.used = memory.used[a];
+    if (anchor.dt >= 0.0) uniformise(anchor.dt, &anchor.p);
+  }
+  uses_ = memory.uses;
+  cached_dt_ = -1.0;
 }
 
 int ModeTransition::anchor_for(double dt) {

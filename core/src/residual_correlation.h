@@ -39,9 +39,11 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "skidimm/config/bank.h"
+#include "skidimm/engine/imm_checkpoint.h"
 
 namespace skidimm {
 namespace internal {
@@ -114,6 +116,42 @@ class ResidualCorrelation {
     steps_since_[mode] = 0;
     remembers_[mode] = true;
     return result;
+  }
+
+  // Each mode's memory (ImmCheckpoint); none when inactive.
+  std::vector<InnovationMemory> memory() const {
+    std::vector<InnovationMemory> out;
+    if (!active_) return out;
+    const std::size_t m = static_cast<std::size_t>(last_.rows());
+    for (std::size_t j = 0; j < rho_.size(); ++j) {
+      InnovationMemory mode;
+      mode.remembers = remembers_[j];
+      mode.steps_since = steps_since_[j];
+      for (int a = 0; a < last_size_[j]; ++a) {
+        mode.rows.push_back(last_rows_[j * m + static_cast<std::size_t>(a)]);
+        mode.whitened.push_back(last_(a, static_cast<Eigen::Index>(j)));
+      }
+      out.push_back(std::move(mode));
+    }
+    return out;
+  }
+  // From memory() of a bank of the same modes and measurement rows (checked
+  // by Imm::restore); an empty one forgets all.
+  void restore(const std::vector<InnovationMemory>& memory) {
+    if (!active_) return;
+    forget_all();
+    const std::size_t m = static_cast<std::size_t>(last_.rows());
+    for (std::size_t j = 0; j < memory.size() && j < rho_.size(); ++j) {
+      const InnovationMemory& mode = memory[j];
+      const int k = static_cast<int>(std::min(mode.rows.size(), m));
+      for (int a = 0; a < k; ++a) {
+        last_rows_[j * m + static_cast<std::size_t>(a)] = mode.rows[static_cast<std::size_t>(a)];
+        last_(a, static_cast<Eigen::Index>(j)) = mode.whitened[static_cast<std::size_t>(a)];
+      }
+      last_size_[j] = k;
+      steps_since_[j] = mode.steps_since;
+      remembers_[j] = mode.remembers;
+    }
   }
 
   // The squared distance of mode j's last conditioned innovation from its

@@ -867,5 +867,69 @@ TEST(Cli, StrictStopsAtTheFirstRejectionNamingRowModePluginAndReasonAndKeepsTheR
   EXPECT_THAT(outlier.err, HasSubstr("was rejected: the filter diverged"));
 }
 
+// A log in pieces, each run resumed from the checkpoint the run before left:
+// the rows are the rows of one run over the whole log, byte for byte. A run
+// that fails on a bad row leaves the checkpoint after its last good row.
+TEST(Cli, RunResumedFromACheckpointGoesOnAsOneRunOverTheWholeLog) {
+  const fs::path dir = test_directory();
+  std::vector<std::string> lines;
+  {
+    std::ifstream in(kSwitching);
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+  }
+  const auto piece = [&](const std::string& name, std::size_t from, std::size_t to, const std::string& bad_row = "") {
+    std::ofstream out(dir / name);
+    out << lines[0] << "\n";
+    for (std::size_t k = from; k < to; ++k) out << lines[k] << "\n";
+    if (!bad_row.empty()) out << bad_row << "\n";
+    return (dir / name).string();
+  };
+  const std::size_t rows = lines.size() - 1;
+  const std::string whole = (dir / "whole.csv").string(), state = (dir / "state.yaml").string();
+  ASSERT_EQ(run_skidimm("run -q --bank " + kTerrains + " --input " + kSwitching + " --output " + whole).exit_code, 0);
+  // The second piece ends in a row the reader refuses: an error, after its
+  // rows so far and the filter after them are kept.
+  const std::string bad = "1e400,1,1,1,1,1,1,1,1,1,1,1,1,1,1,1,1,1,1";
+  const std::string a = piece("a.csv", 1, 301), b = piece("b.csv", 301, 800, bad), c = piece("c.csv", 800, rows + 1);
+  const Result first = run_skidimm("run --bank " + kTerrains + " --input " + a + " --output " +
+                                   (dir / "a_out.csv").string() + " --save-checkpoint " + state);
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  EXPECT_THAT(first.err, HasSubstr("the filter after its last step (t = "));
+  const Result second =
+      run_skidimm("run -q --bank " + kTerrains + " --input " + b + " --output " + (dir / "b_out.csv").string() +
+                  " --resume " + state + " --save-checkpoint " + state);
+  EXPECT_EQ(second.exit_code, 1);
+  EXPECT_THAT(second.err, HasSubstr("the 499 rows computed before the error are in"));
+  EXPECT_THAT(second.err, HasSubstr("is in " + state + " (--resume goes on from it)"));
+  const Result third = run_skidimm("run -q --bank " + kTerrains + " --input " + c + " --output " +
+                                   (dir / "c_out.csv").string() + " --resume " + state);
+  ASSERT_EQ(third.exit_code, 0) << third.err;
+  const std::string b_rows = read_file(dir / "b_out.csv.partial");
+  const std::string c_rows = read_file(dir / "c_out.csv");
+  EXPECT_EQ(read_file(dir / "a_out.csv") + b_rows.substr(b_rows.find('\n') + 1) + c_rows.substr(c_rows.find('\n') + 1),
+            read_file(whole));
+
+  // Another bank's checkpoint, a clock that goes back, and smoothing are refused before any row.
+  const Result other = run_skidimm("run -q --bank " + kSource + "/configs/stc_slip4.yaml --input " + c +
+                                   " --output - --resume " + state);
+  EXPECT_EQ(other.exit_code, 1);
+  EXPECT_THAT(other.err, HasSubstr("--resume " + state +
+                                   ": cannot restore this checkpoint: it was made by a bank of "
+                                   "modes [asphalt, grass, crushed_concrete], this bank's are [no_slip, "));
+  const Result back = run_skidimm("run -q --bank " + kTerrains + " --input " + a + " --output - --resume " + state);
+  EXPECT_EQ(back.exit_code, 1);
+  EXPECT_THAT(back.err, HasSubstr("the log's first step, at t = 0 s, does not come after the checkpoint's last"));
+  EXPECT_EQ(std::count(back.out.begin(), back.out.end(), '\n'), 1) << "the header alone";
+  const Result smoothed =
+      run_skidimm("run -q --bank " + kTerrains + " --input " + c + " --output - --smooth --resume " + state);
+  EXPECT_EQ(smoothed.exit_code, 2);
+  EXPECT_THAT(smoothed.err, HasSubstr("--smooth and --lag smooth a log as a whole"));
+  std::ofstream(dir / "broken.yaml") << "skidimm_checkpoint: 1\nbank: {modes: [a]}\n";
+  const Result broken = run_skidimm("run -q --bank " + kTerrains + " --input " + c + " --output - --resume " +
+                                    (dir / "broken.yaml").string());
+  EXPECT_EQ(broken.exit_code, 1);
+  EXPECT_THAT(broken.err, HasSubstr("broken.yaml:2: bank.states: missing (required)"));
+}
+
 }  // namespace
 }  // namespace skidimm_test

@@ -59,6 +59,21 @@ class ModeDecision {
 
   void reset();
 
+  // What update() carries from one step to the next (ImmCheckpoint): a
+  // decision restored with it decides every later step as this one would.
+  struct Memory {
+    std::string decision;  // a class name, or "unknown"
+    double decided_at = 0.0;
+    bool below_leave = false;
+    double below_leave_since = 0.0;
+    bool measured_once = false;
+    double last_measured_t = 0.0;
+    Eigen::VectorXd class_probabilities;  // at the last update, in names() order
+  };
+  Memory memory() const;
+  // Throws an Error naming what does not fit these classes.
+  void restore(const Memory& memory);
+
  private:
   DecisionConfig settings_;
   std::vector<std::string> names_;

@@ -56,6 +56,7 @@
 
 #include "skidimm/config/bank.h"
 #include "skidimm/engine/ekf.h"
+#include "skidimm/engine/imm_checkpoint.h"
 #include "skidimm/engine/imm_estimate.h"
 #include "skidimm/engine/measurement_model.h"
 #include "skidimm/engine/mode_transition.h"
@@ -97,6 +98,16 @@ class Imm {
 
   // Back to the prior; the next step is a first step again.
   void reset();
+
+  // Everything the next step depends on (imm_checkpoint.h): restored into an
+  // Imm of a bank with the same modes, states, inputs and measurement, every
+  // later step gives what this Imm's would, bit for bit. The checkpoint's
+  // `decision` is left empty (ModeDecision::memory()).
+  ImmCheckpoint checkpoint() const;
+  // Continues from `checkpoint` (its decision is not the Imm's). Throws an
+  // Error saying what does not fit this bank (modes, states, inputs,
+  // measurement rows, sizes); the Imm is then unchanged.
+  void restore(const ImmCheckpoint& checkpoint);
 
   // Whether the bank runs on a fixed-size kernel (the fastest kernel chosen,
   // and one compiled for the bank's shape).

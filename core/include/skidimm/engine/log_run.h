@@ -5,10 +5,12 @@
 #define SKIDIMM_ENGINE_LOG_RUN_H_
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "skidimm/config/bank.h"
+#include "skidimm/engine/imm_checkpoint.h"
 #include "skidimm/engine/imm_estimate.h"
 #include "skidimm/engine/input_envelope.h"
 #include "skidimm/engine/mode_timeline.h"
@@ -27,13 +29,27 @@ struct EstimatorOptions {
   double lag = 0.0;  // s, kFixedLag
 };
 
+// A filter's run that goes on from an earlier one (`skidimm run --resume`,
+// --save-checkpoint): the filter only, not a smoother.
+struct RunContinuation {
+  // Where the run's Imm (and decision, if the checkpoint has one) start; the
+  // log's first step must come after the checkpoint's time. May be null.
+  const ImmCheckpoint* resume = nullptr;
+  // When not null, set to the Imm's (and decision's) checkpoint after the
+  // last step, also when the run ends on an error.
+  std::optional<ImmCheckpoint>* last = nullptr;
+};
+
 // Calls sink(sample, estimate) for every step of the log in time order. For
 // the smoothers, `estimate` holds the smoothed probabilities, mode states
 // and combined state (the filter's status, likelihoods and NIS). Steps the
 // filter rejected (rejected_time, rejected_input) are passed through with the
 // filter's estimate. Returns the number of steps.
+// `continuation`: where the filter starts and its checkpoint at the end (the
+// decision's part is left empty here).
 long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
-             const std::function<void(const LogSample&, const ImmEstimate&)>& sink);
+             const std::function<void(const LogSample&, const ImmEstimate&)>& sink,
+             const RunContinuation& continuation = {});
 
 // How often one mode's filter was rejected (and reset) over a run, and the
 // first time why; and how often it gated the measurement.
@@ -91,7 +107,8 @@ std::string describe_first_rejection(const Bank& bank, const ImmEstimate& e, lon
 // rejection.
 void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
                      const DecisionConfig& decision, const std::string& label, bool with_truth, EstimatesWriter* writer,
-                     RunSummary* summary, const std::function<void()>& progress = {}, bool strict = false);
+                     RunSummary* summary, const std::function<void()>& progress = {}, bool strict = false,
+                     const RunContinuation& continuation = {});
 
 }  // namespace skidimm
 

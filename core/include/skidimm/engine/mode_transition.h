@@ -41,6 +41,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <vector>
 
 namespace skidimm {
 
@@ -83,6 +84,22 @@ class ModeTransition {
   // out = P(dt)' in (N x C, C <= the reserved columns): row j of out is
   // sum_i p_ij in.row(i), i.e. what flows into mode j. Allocates nothing.
   void propagate(double dt, const Eigen::Ref<const Eigen::MatrixXd>& in, Eigen::Ref<Eigen::MatrixXd> out);
+
+  // Which steps' P(dt) the chain keeps as anchors (per-mode dwell times),
+  // and in what order it used them: which anchor a later step starts from
+  // depends on them, and its last bits on the anchor. A chain restored with
+  // the memory of another (same dwell times) propagates every later step
+  // exactly as that one would (Imm::restore). Empty for the other forms.
+  struct AnchorMemory {
+    std::vector<double> dt;  // per slot; < 0: unused
+    std::vector<long> used;  // per slot, when it was last used
+    long uses = 0;
+  };
+  AnchorMemory anchor_memory() const;
+  // Recomputes each kept anchor's P(dt) (the same numbers). A memory that
+  // is empty, or a chain of another form, restores nothing; a memory of
+  // another number of slots is an Error.
+  void restore_anchors(const AnchorMemory& memory);
 
  private:
   enum class Form { kPerStep, kEqualRates, kDwellTimes };
