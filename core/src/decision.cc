@@ -59,11 +59,14 @@ void ModeDecision::restore(const Memory& memory) {
     for (std::size_t c = 0; c < names_.size(); ++c) {
       if (names_[c] == memory.decision) decided = static_cast<int>(c);
     }
-    if (decided == kUnknown) throw Error("the decision '" + memory.decision + "' is none of the bank's classes");
+    if (decided == kUnknown)
+      throw Error("cannot restore this checkpoint: the decision '" + memory.decision +
+                  "' is none of the bank's classes");
   }
   if (memory.class_probabilities.size() != class_probabilities_.size()) {
-    throw Error("the decision holds " + std::to_string(memory.class_probabilities.size()) +
-                " class probabilities, the bank has " + std::to_string(class_probabilities_.size()) + " classes");
+    throw Error("cannot restore this checkpoint: the decision holds " +
+                std::to_string(memory.class_probabilities.size()) + " class probabilities, the bank has " +
+                std::to_string(class_probabilities_.size()) + " classes");
   }
   decision_ = decided;
   decided_at_ = memory.decided_at;

@@ -29,6 +29,7 @@ from . import _skidimm as _native
 from ._models import MotionModel, register_model, registered_models
 from ._models import models_for as _models_for
 from ._skidimm import (  # noqa: F401  (re-exported)
+    Checkpoint,
     ConfigError,
     Error,
     Estimate,
@@ -50,7 +51,7 @@ from ._skidimm import (  # noqa: F401  (re-exported)
 __version__ = _native.__version__
 
 __all__ = [
-    "Bank", "Imm", "LiveLog", "MotionModel", "register_model", "registered_models", "run", "run_log", "simulate",
+    "Bank", "Checkpoint", "Imm", "LiveLog", "MotionModel", "register_model", "registered_models", "run", "run_log", "simulate",
     "simulate_models", "fit", "eval", "evaluate_log", "eval_report", "to_frame", "Error", "ConfigError", "LogError",
     "PluginError", "FitError", "Estimate", "LogResult", "plugins", "plugin_search_path", "module_plugin_directory",
     "read_csv", "expand_log_argument", "parse_log_spec", "group_name", "group_names", "evaluate_expression",

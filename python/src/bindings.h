@@ -11,7 +11,9 @@ namespace python {
 
 // The plugin search path and listing, and Bank (bank_binding.cc).
 void bind_bank(pybind11::module_& m);
-// Estimate and Imm: step and run over arrays (imm_binding.cc).
+// Checkpoint: a filter's state after a step, its files and pickling (checkpoint_binding.cc).
+void bind_checkpoint(pybind11::module_& m);
+// Estimate and Imm: step and run over arrays, checkpoint and restore (imm_binding.cc).
 void bind_imm(pybind11::module_& m);
 // Log arguments, run_log, column expressions and read_csv (log_binding.cc).
 void bind_logs(pybind11::module_& m);

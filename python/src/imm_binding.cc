@@ -317,6 +317,38 @@ void bind_imm(py::module_& m) {
              self.decision->reset();
              self.started = false;
            })
+      .def(
+          "checkpoint",
+          [](PyImm& self) {
+            const ImmInUse hold(self);
+            ImmCheckpoint checkpoint = self.imm->checkpoint();
+            checkpoint.decision = self.decision->memory();
+            return checkpoint;
+          },
+          "The filter's and the decision's state after the last step (a Checkpoint), for restore() here or in "
+          "another process.")
+      .def(
+          "restore",
+          [](PyImm& self, const ImmCheckpoint& checkpoint) {
+            const ImmInUse hold(self);
+            // A refused checkpoint leaves the Imm and its decision as they were.
+            const ImmCheckpoint previous = self.imm->checkpoint();
+            self.imm->restore(checkpoint);
+            ModeDecision decision = *self.decision;
+            decision.reset();
+            try {
+              if (checkpoint.decision) decision.restore(*checkpoint.decision);
+            } catch (...) {
+              self.imm->restore(previous);
+              throw;
+            }
+            *self.decision = decision;
+            self.started = checkpoint.started;
+            self.last_decision = decision.decision();
+          },
+          py::arg("checkpoint"),
+          "Goes on from a Checkpoint of a bank with the same modes, states, inputs and measurement (Error saying "
+          "what differs otherwise); the next step must come after its time. run() resets unless reset=False.")
       .def_property_readonly("uses_fixed_size_kernel",
                              [](const PyImm& self) { return self.imm->uses_fixed_size_kernel(); })
       .def(

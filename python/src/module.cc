@@ -18,6 +18,7 @@ PYBIND11_MODULE(_skidimm, m) {
   m.attr("__version__") = SKIDIMM_VERSION;
   skidimm::python::register_errors(m);
   skidimm::python::bind_bank(m);
+  skidimm::python::bind_checkpoint(m);
   skidimm::python::bind_imm(m);
   skidimm::python::bind_logs(m);
   skidimm::python::bind_live_log(m);
