@@ -178,6 +178,9 @@ int fit(const FitCommandOptions& options) {
     for (const std::string& overridden : fitting::labels_overriding_truth(config, data)) {
       std::cerr << "skidimm fit: warning: " << printable(overridden) << "\n";
     }
+    for (const std::string& skipped : fitting::skipped_by_sampling(data)) {
+      std::cerr << "skidimm fit: " << printable(skipped) << "\n";
+    }
     for (const std::string& unfitted : fitting::classes_leaving_steps_unfitted(config)) {
       std::cerr << "skidimm fit: warning: " << options.bank.string() << ": " << printable(unfitted) << "\n";
     }

@@ -372,6 +372,11 @@ int tune(const TuneCommandOptions& options) {
                           {{"--sessions", options.sessions}});
     refuse_clashing_files({{"--table", options.table}}, {{"--bank", options.bank}});
     refuse_repeated_logs(logs);
+    for (const fitting::TuningLog& log : logs) {
+      for (const std::string& skipped : fitting::skipped_by_sampling(log.fit_data)) {
+        std::cerr << "skidimm tune: " << printable(skipped) << "\n";
+      }
+    }
     warn_of_classes_with_too_few_logs(
         config, logs, development, !options.no_assess,
         std::any_of(objectives.begin(), objectives.end(), [](const std::string& n) { return n != "none"; }));

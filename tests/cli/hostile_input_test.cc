@@ -119,6 +119,20 @@ TEST(HostileInput, ARowWrittenTwiceStopsTheRunOrIsLeftOutWhenTheBankSaysSo) {
                                     ": 1 row(s) whose time was not after their "
                                     "file's last row were left out (sampling.skip_out_of_order), the first at " +
                                     twice.string() + ":302: t = "));
+  // So do fit and tune, which fit the log without it.
+  const std::string said = twice.string() +
+                           ": 1 row(s) whose time was not after their file's last row were left out "
+                           "(sampling.skip_out_of_order), the first at " +
+                           twice.string() + ":302: t = ";
+  const Result fitted = run_shell(kSkidimm + " fit --objective window --bank " + lenient.string() + " --plugin-path " +
+                                  kPlugins + " --log " + twice.string());
+  EXPECT_EQ(fitted.exit_code, 0) << fitted.err;
+  EXPECT_THAT(fitted.err, HasSubstr("skidimm fit: " + said));
+  const Result tuned = run_shell(kSkidimm + " tune -q --no-assess --tune likelihood-weight --bank " + lenient.string() +
+                                 " --plugin-path " + kPlugins + " --log " + twice.string() + " --log " + kSwitching);
+  EXPECT_EQ(tuned.exit_code, 0) << tuned.err;
+  EXPECT_THAT(tuned.err, HasSubstr("skidimm tune: " + said));
+  EXPECT_THAT(tuned.err, Not(HasSubstr("skidimm tune: " + kSwitching + ":"))) << "a log with nothing left out";
 }
 
 TEST(HostileInput, ARateFarAboveTheLogsIsRefusedByFitAndRun) {

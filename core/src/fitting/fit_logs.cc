@@ -127,6 +127,18 @@ std::vector<ModeLogs> mode_segments(const BankConfig& config, const LogSpec& log
   return out;
 }
 
+std::vector<std::string> skipped_by_sampling(const std::vector<ModeLogs>& data) {
+  std::vector<std::string> messages;
+  std::set<std::string> said;
+  for (const ModeLogs& d : data) {
+    for (const Trajectory& part : d.logs) {
+      if (part.skipped.empty() || !said.insert(part.log).second) continue;
+      for (const std::string& line : part.skipped) messages.push_back(part.log + ": " + line);
+    }
+  }
+  return messages;
+}
+
 std::vector<std::string> classes_leaving_steps_unfitted(const BankConfig& config) {
   std::vector<std::string> messages;
   for (const ClassConfig& c : config.classes) {

@@ -22,6 +22,7 @@ Trajectory load_trajectory(const BankConfig& bank, const std::vector<LogFile>& f
     measurements.push_back(sample.z);
     trajectory.truth.push_back(sample.truth_mode);
   }
+  trajectory.skipped = reader.skipped_by_options();
   const int n = trajectory.size();
   trajectory.u.resize(bank.input_dim(), n);
   trajectory.z.resize(static_cast<Eigen::Index>(bank.measurement.names.size()), n);
@@ -65,6 +66,7 @@ std::vector<std::pair<std::string, Trajectory>> split_by_truth(const Trajectory&
       part.source = trajectory.source + "[" + span_time(trajectory.t[static_cast<std::size_t>(begin)]) + "-" +
                     span_time(trajectory.t[static_cast<std::size_t>(end - 1)]) + " s]";
       part.log = trajectory.log;
+      part.skipped = trajectory.skipped;
       part.t.assign(trajectory.t.begin() + begin, trajectory.t.begin() + end);
       part.u = trajectory.u.middleCols(begin, end - begin);
       part.z = trajectory.z.middleCols(begin, end - begin);

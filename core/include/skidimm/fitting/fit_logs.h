@@ -50,6 +50,11 @@ std::map<std::string, InputRange> fitted_input_ranges(const BankConfig& config, 
 // files as it is (print it with printable()).
 std::vector<std::string> labels_overriding_truth(const BankConfig& config, const std::vector<ModeLogs>& data);
 
+// What the bank's sampling.skip_gaps and skip_out_of_order left out of the
+// logs in `data`: "<log>: <what>", once per log, in the order of `data`.
+// The fit runs without those rows and spans, so it is said, as run and eval
+// say it.
+std::vector<std::string> skipped_by_sampling(const std::vector<ModeLogs>& data);
 // One message per class whose every mode has a fit_when: a step of the
 // class that none of them holds for is fitted by no mode (split among a
 // class's modes, the steps no fit_when takes go to its mode without one).

@@ -22,6 +22,9 @@ struct Trajectory {
   Eigen::MatrixXd u;               // input_dim x N
   Eigen::MatrixXd z;               // measurement_dim x N, NaN = missing
   std::vector<std::string> truth;  // the truth column's label at each step ("" if none)
+  // What the sampling's skip_gaps and skip_out_of_order left out of the log
+  // (LogReader::skipped_by_options()); a segment carries its log's.
+  std::vector<std::string> skipped;
   int size() const { return static_cast<int>(t.size()); }
 };
 
