@@ -51,6 +51,11 @@ def _evaluate(spec, bank_file, plugin_paths, models, rate, smooth, lag):
     return skidimm._native.evaluate_log(bank, spec, skidimm._rate(rate), smooth, lag)
 
 
+def _evaluate_spliced(groups, bank_file, plugin_paths, models, rate):
+    bank = _worker_bank(bank_file, plugin_paths, models)
+    return skidimm._native.evaluate_spliced(bank, groups, skidimm._rate(rate))
+
+
 def _bank_arguments(bank, plugin_paths, models):
     if isinstance(bank, skidimm._native.Bank):
         return os.fspath(bank.file), list(bank.plugin_paths), dict(bank.python_models)
@@ -81,18 +86,38 @@ def evaluate_logs(client, bank, inputs, *, rate=None, smooth=False, lag=None, sk
     return list(out.items())
 
 
-def eval(client, bank, inputs, *, rate=None, smooth=False, lag=None, output="dict", skip_unpaired=False,  # noqa: A001
-         plugin_paths=(), models=None):
+def eval(client, bank, inputs, *, rate=None, smooth=False, lag=None, splice=False, output="dict",  # noqa: A001
+         skip_unpaired=False, plugin_paths=(), models=None):
     """``skidimm eval --bank B --input ...`` with each log scored on the cluster.
 
     Same arguments and result as :func:`skidimm.eval`; ``client`` is a
     ``distributed.Client``. Only the reduction (merging per-log metrics,
-    formatting) runs here, on the client.
+    formatting) runs here, on the client. ``splice=True`` (``--splice``)
+    scores the logs as one run spliced end to end: one filter through every
+    log in turn, which one worker runs (reading the logs where they are
+    stored) while the client waits.
     """
-    groups = evaluate_logs(client, bank, inputs, rate=rate, smooth=smooth, lag=lag, skip_unpaired=skip_unpaired,
-                           plugin_paths=plugin_paths, models=models)
+    if not splice:
+        groups = evaluate_logs(client, bank, inputs, rate=rate, smooth=smooth, lag=lag, skip_unpaired=skip_unpaired,
+                               plugin_paths=plugin_paths, models=models)
+        bank_file, plugin_paths, models = _bank_arguments(bank, plugin_paths, models)
+        return skidimm.eval_report(skidimm.Bank(bank_file, plugin_paths, models), groups, output)
+    if smooth or lag is not None:
+        raise ValueError("splice scores the filter as it runs across each change, and smoothing would use the "
+                         "measurements after the change: give one or the other")
+    if isinstance(inputs, (str, os.PathLike)):
+        inputs = [inputs]
     bank_file, plugin_paths, models = _bank_arguments(bank, plugin_paths, models)
-    return skidimm.eval_report(skidimm.Bank(bank_file, plugin_paths, models), groups, output)
+    loaded = skidimm.Bank(bank_file, plugin_paths, models)
+    if rate:
+        skidimm._warn_of_rate(loaded, rate)
+    groups = {}  # arguments of one name are one group, as in the CLI
+    inputs = [os.fspath(argument) for argument in inputs]
+    for argument, name in zip(inputs, skidimm._native.group_names(inputs)):
+        groups.setdefault(name, []).extend(skidimm.expand_log_argument(argument, skip_unpaired))
+    future = client.submit(_evaluate_spliced, list(groups.items()), bank_file=bank_file, plugin_paths=plugin_paths,
+                           models=models, rate=rate, pure=False)
+    return skidimm._eval_report(loaded, future.result(), output, spliced=True)
 
 
 def _segments(spec, bank_file, plugin_paths, models, mode, rate):

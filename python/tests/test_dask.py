@@ -29,6 +29,17 @@ def test_eval_on_the_cluster_equals_skidimm_eval_json(client, configs, cli, swit
     assert report["overall"]["logs"] == 24
 
 
+def test_a_splice_on_the_cluster_equals_skidimm_eval_splice(client, configs, cli, switching_logs):
+    bank = configs / "ltc_terrains.yaml"
+    arguments = [f"asphalt={switching_logs / 'run_03.csv'}", f"grass={switching_logs / 'run_04.csv'}",
+                 str(switching_logs / "run_05.csv")]
+    text = skidimm.dask.eval(client, bank, arguments, splice=True, output="json")
+    flags = [part for argument in arguments for part in ("--input", argument)]
+    assert text == cli("eval", "--bank", bank, "--splice", *flags, "--json")
+    with pytest.raises(ValueError, match="splice scores the filter as it runs across each change"):
+        skidimm.dask.eval(client, bank, arguments, splice=True, lag=1.0)
+
+
 def test_fit_on_the_cluster_equals_the_local_fit(client, configs, singular_logs):
     bank = configs / "ltc_terrains.yaml"
     logs = [f"asphalt={p}" for p in singular_logs["asphalt"]] + [f"grass={p}" for p in singular_logs["grass"]]
