@@ -204,6 +204,7 @@ int run(const RunOptions& options) {
   std::optional<EstimatesWriter> writer;
   RunSummary summary;
   std::optional<ImmCheckpoint> resumed, last_checkpoint;
+  long checkpoint_failures = 0;
   const StopOnSignals stop_on_signals;
   int code = report_errors("skidimm run", [&] {
     const EstimatorOptions estimator = command_line_estimator(options.smooth, options.lag, options.overrides);
@@ -298,11 +299,27 @@ int run(const RunOptions& options) {
     const DecisionConfig& decision_settings = config.decision;
     // Percent of the log read, rows, rows per second and time left; only on a terminal.
     ProgressLine progress("skidimm run", "rows", options.progress && !options.quiet);
-    // The loop (log_run.h) allocates nothing per row.
+    RunContinuation continuation;
+    continuation.resume = resumed ? &*resumed : nullptr;
+    if (!options.save_checkpoint.empty()) continuation.last = &last_checkpoint;
+    if (options.checkpoint_every > 0.0) {
+      // A checkpoint that cannot be written does not stop the estimates: the
+      // first failure is said at once, how many failed at the end.
+      continuation.every = options.checkpoint_every;
+      continuation.save = [&](const ImmCheckpoint& checkpoint) {
+        try {
+          save_checkpoint(options.save_checkpoint, checkpoint);
+        } catch (const Error& e) {
+          if (checkpoint_failures++ == 0) {
+            std::cerr << "skidimm run: warning: --checkpoint-every: " << printable(e.what()) << "; the run goes on\n";
+          }
+        }
+      };
+    }
+    // The loop (log_run.h) allocates nothing per row (but for the checkpoints --checkpoint-every writes).
     write_estimates(
         bank, &reader, estimator, decision_settings, log.label, with_truth, &*writer, &summary,
-        [&] { progress.update(summary.rows, 0, reader.progress()); }, options.strict,
-        RunContinuation{resumed ? &*resumed : nullptr, options.save_checkpoint.empty() ? nullptr : &last_checkpoint});
+        [&] { progress.update(summary.rows, 0, reader.progress()); }, options.strict, continuation);
     progress.clear();
     const long rows = summary.rows;
     if (rows == 0) {
@@ -387,6 +404,10 @@ int run(const RunOptions& options) {
   if (code != kExitOk && writer && summary.rows > 0) {
     std::cerr << "skidimm run: the " << summary.rows << " rows computed before the error are in "
               << writer->partial_path().string() << "\n";
+  }
+  if (checkpoint_failures > 1) {
+    std::cerr << "skidimm run: warning: --checkpoint-every: " << checkpoint_failures
+              << " checkpoints of the run could not be written\n";
   }
   // After an error too: the filter as it was after the last row computed.
   if (last_checkpoint && summary.rows > 0) {

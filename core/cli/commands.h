@@ -108,6 +108,7 @@ struct RunOptions {
   bool copy_topics = false;       // an .mcap output also holds the bag topics the bank read
   std::filesystem::path resume;   // the filter starts from this checkpoint file
   std::filesystem::path save_checkpoint;  // the filter's checkpoint after the last step, written here
+  double checkpoint_every = 0.0;          // s of the log's time: also written as the run goes (0: at the end only)
 };
 
 int run(const RunOptions& options);

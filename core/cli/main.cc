@@ -289,6 +289,12 @@ int main(int argc, char** argv) {
   run->add_option("--save-checkpoint", run_options.save_checkpoint,
                   "Write the filter's state after the last step (also after an error) to this file, for --resume")
       ->check(file_path());
+  run->add_option("--checkpoint-every", run_options.checkpoint_every,
+                  "With --save-checkpoint: also write it as the run goes, every SECONDS of the log's time (a live "
+                  "run that may be killed outright keeps a recent one)")
+      ->check(finite_number())
+      ->check(number_above(0.0, false))
+      ->needs("--save-checkpoint");
   add_plugin_path(run);
 
   std::string validate_bank;

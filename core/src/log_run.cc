@@ -92,6 +92,7 @@ long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& opt
   } last_checkpoint{imm, continuation.last};
   LogSample sample;
   long steps = 0;
+  double next_save = 0.0;  // when continuation.save is next called
   // A log that fails part way (a bad row), or a stop asked for from outside
   // (stop_request.h), still gets its steps so far handed on (smoothed over
   // the data read) before the error is raised: what was computed is not lost.
@@ -116,6 +117,10 @@ long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& opt
       }
       sink(sample, imm.step(sample.t, sample.u, sample.z));
       ++steps;
+      if (continuation.save && (steps == 1 || !(sample.t < next_save))) {
+        continuation.save(imm.checkpoint());
+        next_save = sample.t + continuation.every;
+      }
     }
     if (read_error) std::rethrow_exception(read_error);
     return steps;
@@ -198,6 +203,15 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
       }
     }
   } decision_checkpoint{decision, continuation.last};
+  // Checkpoints saved as the run goes carry the decision too.
+  RunContinuation with_decision = continuation;
+  if (continuation.save) {
+    with_decision.save = [&decision, &continuation](const ImmCheckpoint& filter) {
+      ImmCheckpoint checkpoint = filter;
+      checkpoint.decision = decision.memory();
+      continuation.save(checkpoint);
+    };
+  }
   const InputEnvelope envelope(config);
   // The truth's class: each label looked up once (class_index builds the
   // class names), then by comparison with the last one and the few seen.
@@ -255,7 +269,7 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
         }
         if (progress && s.rows % 1024 == 0) progress();
       },
-      continuation);
+      with_decision);
 }
 
 }  // namespace skidimm

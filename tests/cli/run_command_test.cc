@@ -931,5 +931,53 @@ TEST(Cli, RunResumedFromACheckpointGoesOnAsOneRunOverTheWholeLog) {
   EXPECT_THAT(broken.err, HasSubstr("broken.yaml:2: bank.states: missing (required)"));
 }
 
+// A live run killed outright (SIGKILL: no chance to save at the end) has
+// left, with --checkpoint-every, a checkpoint at most that many seconds of
+// the log's time old; a run resumed from it over the rows after it writes
+// what the run that was never killed wrote for them.
+TEST(Cli, ALiveRunKilledOutrightLeavesARecentCheckpointToResumeFrom) {
+  const fs::path dir = test_directory();
+  const std::string whole = (dir / "whole.csv").string(), state = (dir / "state.yaml").string();
+  ASSERT_EQ(run_skidimm("run -q --bank " + kTerrains + " --input " + kSwitching + " --output " + whole).exit_code, 0);
+  // 400 rows (t from 0 to 7.98 s) through a FIFO that stays open; killed once
+  // a checkpoint at t >= 7 s is there.
+  const Result killed =
+      run_shell("cd " + dir.string() + " && mkfifo rows\n" + kSkidimm + " run -q --bank " + kTerrains +
+                " --input rows --output out.csv --save-checkpoint state.yaml --checkpoint-every 1 & pid=$!\n"
+                "exec 3>rows\nhead -n 401 " +
+                kSwitching +
+                " >&3\n"
+                "for i in $(seq 1200); do grep -q '^t: 7' state.yaml 2>/dev/null && break; sleep 0.05; done\n"
+                "kill -9 $pid; wait $pid; echo \"status $?\"; grep '^t:' state.yaml");
+  ASSERT_THAT(killed.out, HasSubstr("status 137")) << killed.err;
+  ASSERT_THAT(killed.out, HasSubstr("t: 7")) << "no checkpoint at t >= 7 s within a minute";
+  const double saved = std::stod(killed.out.substr(killed.out.find("t: ") + 3));
+  // The rows after the checkpoint, resumed.
+  std::ifstream in(kSwitching);
+  std::string line;
+  std::getline(in, line);
+  std::string rest = line + "\n";
+  for (; std::getline(in, line);) {
+    if (std::stod(line.substr(0, line.find(','))) > saved) rest += line + "\n";
+  }
+  write_file(dir / "rest.csv", rest);
+  const Result resumed = run_skidimm("run -q --bank " + kTerrains + " --input " + (dir / "rest.csv").string() +
+                                     " --output - --resume " + state);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  std::string expected;
+  std::ifstream out(whole);
+  std::getline(out, line);
+  expected = line + "\n";
+  for (; std::getline(out, line);) {
+    if (std::stod(line.substr(0, line.find(','))) > saved) expected += line + "\n";
+  }
+  EXPECT_EQ(resumed.out, expected);
+  EXPECT_GT(std::count(expected.begin(), expected.end(), '\n'), 1000);
+  const Result alone =
+      run_skidimm("run -q --bank " + kTerrains + " --input " + kSwitching + " --output - --checkpoint-every 5");
+  EXPECT_EQ(alone.exit_code, 2);
+  EXPECT_THAT(alone.err, HasSubstr("--checkpoint-every requires --save-checkpoint"));
+}
+
 }  // namespace
 }  // namespace skidimm_test

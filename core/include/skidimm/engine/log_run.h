@@ -38,6 +38,11 @@ struct RunContinuation {
   // When not null, set to the Imm's (and decision's) checkpoint after the
   // last step, also when the run ends on an error.
   std::optional<ImmCheckpoint>* last = nullptr;
+  // When given, called with the checkpoint after the first step and then
+  // after each step `every` seconds of the log's time past the last call
+  // (a live run that may be killed outright keeps a recent one).
+  double every = 0.0;
+  std::function<void(const ImmCheckpoint&)> save;
 };
 
 // Calls sink(sample, estimate) for every step of the log in time order. For
