@@ -409,6 +409,10 @@ int run(const RunOptions& options) {
     std::cerr << "skidimm run: warning: --checkpoint-every: " << checkpoint_failures
               << " checkpoints of the run could not be written\n";
   }
+  if (!options.save_checkpoint.empty() && !last_checkpoint && summary.rows > 0) {
+    std::cerr << "skidimm run: no checkpoint written: the filter went past a row the output refused; "
+              << options.save_checkpoint.string() << " is as it was\n";
+  }
   // After an error too: the filter as it was after the last row computed.
   if (last_checkpoint && summary.rows > 0) {
     const int saved = report_errors("skidimm run", [&] {

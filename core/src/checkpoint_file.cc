@@ -4,6 +4,7 @@
 
 #include <array>
 #include <charconv>
+#include <climits>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -106,13 +107,19 @@ class Reader {
     return value;
   }
 
-  long integer(const YAML::Node& node, const std::string& field) const {
+  // A whole number in [lowest, highest] (an int's range unless told).
+  long integer(const YAML::Node& node, const std::string& field, double lowest = INT_MIN,
+               double highest = INT_MAX) const {
     const double value = number(node, field);
-    if (!(std::abs(value) < 9.0e15) || value != std::floor(value)) {
-      fields_.fail(node, field, "expected a whole number, got '" + node.Scalar() + "'");
+    if (!(value >= lowest && value <= highest) || value != std::floor(value)) {
+      fields_.fail(node, field,
+                   "expected a whole number from " + number_text_of(lowest) + " to " + number_text_of(highest) +
+                       ", got '" + node.Scalar() + "'");
     }
     return static_cast<long>(value);
   }
+
+  static std::string number_text_of(double value) { return std::to_string(static_cast<long long>(value)); }
 
   bool boolean(const YAML::Node& node, const std::string& field) const {
     if (node.IsScalar() && node.Scalar() == "true") return true;
@@ -394,9 +401,10 @@ ImmCheckpoint parse_checkpoint(const std::string& text, const std::string& name)
   const YAML::Node used =
       in.sequence(in.child(anchors, "used", "transition_anchors"), "transition_anchors.used", dt.size());
   for (std::size_t a = 0; a < used.size(); ++a) {
-    c.transition_anchors.used.push_back(in.integer(used[a], Reader::item("transition_anchors.used", a)));
+    c.transition_anchors.used.push_back(in.integer(used[a], Reader::item("transition_anchors.used", a), 0, 9.0e15));
   }
-  c.transition_anchors.uses = in.integer(in.child(anchors, "uses", "transition_anchors"), "transition_anchors.uses");
+  c.transition_anchors.uses =
+      in.integer(in.child(anchors, "uses", "transition_anchors"), "transition_anchors.uses", 0, 9.0e15);
   if (const YAML::Node decision = root["decision"]) c.decision = read_decision(in, decision, "decision");
   return c;
 }

@@ -68,6 +68,16 @@ void ModeDecision::restore(const Memory& memory) {
                 std::to_string(memory.class_probabilities.size()) + " class probabilities, the bank has " +
                 std::to_string(class_probabilities_.size()) + " classes");
   }
+  const bool probabilities = memory.class_probabilities.allFinite() &&
+                             (memory.class_probabilities.array() >= 0.0).all() &&
+                             (memory.class_probabilities.array() <= 1.0).all();
+  if (!std::isfinite(memory.decided_at) || !std::isfinite(memory.below_leave_since) ||
+      !std::isfinite(memory.last_measured_t) || !probabilities) {
+    // A NaN time would keep a decision from ever going stale, or skip its hold.
+    throw Error(
+        "cannot restore this checkpoint: the decision's times and class probabilities must be finite (and "
+        "the probabilities in [0, 1])");
+  }
   decision_ = decided;
   decided_at_ = memory.decided_at;
   below_leave_ = memory.below_leave;

@@ -286,8 +286,9 @@ void check_checkpoint(const BankConfig& config, const ImmCheckpoint& current, co
   if (!checkpoint.innovations.empty()) {
     sized("the innovation memory", static_cast<Eigen::Index>(checkpoint.innovations.size()), modes);
     for (const InnovationMemory& memory : checkpoint.innovations) {
+      // A count of steps, bounded by the engine as it counts (residual_correlation.h).
       if (memory.rows.size() != memory.whitened.size() || static_cast<Eigen::Index>(memory.rows.size()) > m ||
-          memory.steps_since < 0) {
+          memory.steps_since < 0 || memory.steps_since > (1 << 20)) {
         fail("a mode's innovation memory is malformed");
       }
       for (std::size_t a = 0; a < memory.rows.size(); ++a) {
@@ -298,25 +299,27 @@ void check_checkpoint(const BankConfig& config, const ImmCheckpoint& current, co
       }
     }
   }
-  const ModeTransition::AnchorMemory& anchors = checkpoint.transition_anchors;
-  if (anchors.used.size() != anchors.dt.size() || (!anchors.dt.empty() && !current.transition_anchors.dt.empty() &&
-                                                   anchors.dt.size() != current.transition_anchors.dt.size())) {
-    fail("its transition anchors are malformed");
-  }
-  for (double dt : anchors.dt) {
-    if (std::isnan(dt) || std::isinf(dt)) fail("a transition anchor's step is not finite");
-  }
 }
 
 }  // namespace
 
 void Imm::restore(const ImmCheckpoint& checkpoint) {
   check_checkpoint(bank_.config, this->checkpoint(), checkpoint);
+  const std::string problem = kernel_->checkpoint_problem(checkpoint);
+  if (!problem.empty()) throw Error("cannot restore this checkpoint: " + problem);
   kernel_->restore(checkpoint);
   initialized_ = checkpoint.started;
   last_t_ = checkpoint.t;
   held_input_ = checkpoint.held_input;
   estimate_ = checkpoint.estimate;
+  if (!bank_.config.unknown.enabled() && estimate_.unknown_probability != 0.0) {
+    // From a bank with a "none of these" hypothesis: this one has none, so
+    // the modes share what it held, in proportion, as conditioning on "some
+    // mode holds" gives them.
+    estimate_.unknown_probability = 0.0;
+    estimate_.mode_probabilities /= estimate_.mode_probabilities.sum();
+    estimate_.mode_probabilities.maxCoeff(&estimate_.most_likely_mode);
+  }
 }
 
 const char* to_string(ModeFailure failure) {

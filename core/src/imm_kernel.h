@@ -77,6 +77,8 @@ class ImmKernel {
   // The filters from the checkpoint's estimate (its mode states and
   // covariances), and its memory; checked by Imm::restore.
   virtual void restore(const ImmCheckpoint& checkpoint) = 0;
+  // Why the checkpoint's memory does not fit this kernel ("" when it does).
+  virtual std::string checkpoint_problem(const ImmCheckpoint& checkpoint) const = 0;
 };
 
 // What every fixed-size filter bank of N states holds: each mode's model and
@@ -544,6 +546,10 @@ class Kernel final : public ImmKernel {
   void save(ImmCheckpoint* checkpoint) const override {
     checkpoint->innovations = correlation_.memory();
     checkpoint->transition_anchors = transition_.anchor_memory();
+  }
+
+  std::string checkpoint_problem(const ImmCheckpoint& checkpoint) const override {
+    return transition_.anchor_memory_problem(checkpoint.transition_anchors);
   }
 
   void restore(const ImmCheckpoint& checkpoint) override {

@@ -115,6 +115,15 @@ long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& opt
                     " s, does not come after the checkpoint's last, at t = " + CsvWriter::format(resume->t) +
                     " s: a resumed run goes on along the same clock");
       }
+      if (steps == 0 && resume != nullptr && resume->started && !bank.config.sampling.skip_gaps &&
+          sample.t - resume->t > bank.config.sampling.max_gap) {
+        // As the log reader refuses a gap within a log.
+        throw Error("the log's first step, at t = " + CsvWriter::format(sample.t) + " s, comes " +
+                    CsvWriter::format(sample.t - resume->t) +
+                    " s after the checkpoint's last, at t = " + CsvWriter::format(resume->t) +
+                    " s: longer than the bank's sampling.max_gap (" + CsvWriter::format(bank.config.sampling.max_gap) +
+                    " s); a longer gap is crossed in one step with sampling.skip_gaps: true");
+      }
       sink(sample, imm.step(sample.t, sample.u, sample.z));
       ++steps;
       if (continuation.save && (steps == 1 || !(sample.t < next_save))) {
@@ -194,8 +203,14 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
   struct DecisionCheckpoint {
     const ModeDecision& decision;
     std::optional<ImmCheckpoint>* last;
+    bool last_row_written = true;
     ~DecisionCheckpoint() {
       if (last == nullptr || !last->has_value()) return;
+      if (!last_row_written) {
+        // The filter went past a row the writer refused: resuming from it would lose that row.
+        last->reset();
+        return;
+      }
       try {
         (*last)->decision = decision.memory();
       } catch (...) {  // bad_alloc: no checkpoint rather than a crash while unwinding
@@ -228,7 +243,9 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
         s.decision_changes += decided != last_decision && s.rows > 0 && !undecided;
         undecided = undecided && decided == ModeDecision::kUnknown;
         last_decision = decided;
+        decision_checkpoint.last_row_written = false;
         writer->write(sample.t, e, decision.name(decided), truth);
+        decision_checkpoint.last_row_written = true;
         ++s.rows;  // written: a row the writer refused is not among those kept
         if (e.num_rejected_modes > 0 || e.num_gated_modes > 0)
           count_mode_rejections(e, s.rows, sample.t, &s.rejections);

@@ -369,6 +369,23 @@ ModeTransition::AnchorMemory ModeTransition::anchor_memory() const {
   return memory;
 }
 
+std::string ModeTransition::anchor_memory_problem(const AnchorMemory& memory) const {
+  if (memory.used.size() != memory.dt.size()) return "its transition anchors are malformed";
+  if (form_ != Form::kDwellTimes || memory.dt.empty()) return "";
+  if (memory.dt.size() != anchors_.size()) {
+    return "it keeps " + std::to_string(memory.dt.size()) + " transition anchors, this chain " +
+           std::to_string(anchors_.size());
+  }
+  for (std::size_t a = 0; a < memory.dt.size(); ++a) {
+    const double dt = memory.dt[a];
+    if (std::isnan(dt) || (dt >= 0.0 && !(max_rate_ * dt <= kMaxUniformisedRate)) || memory.used[a] < 0 ||
+        memory.used[a] > memory.uses) {
+      return "a transition anchor is not one this chain makes";
+    }
+  }
+  return "";
+}
+
 void ModeTransition::restore_anchors(const AnchorMemory& memory) {
   // Another form's memory (the bank's transition retuned) has nothing to
   // restore; none leaves the anchors to be made anew.

@@ -920,6 +920,13 @@ TEST(Cli, RunResumedFromACheckpointGoesOnAsOneRunOverTheWholeLog) {
   EXPECT_EQ(back.exit_code, 1);
   EXPECT_THAT(back.err, HasSubstr("the log's first step, at t = 0 s, does not come after the checkpoint's last"));
   EXPECT_EQ(std::count(back.out.begin(), back.out.end(), '\n'), 1) << "the header alone";
+  // A gap from the checkpoint longer than the bank's max_gap, as within a log.
+  write_file(dir / "late.csv", lines[0] + "\n1000" + lines[800].substr(lines[800].find(',')) + "\n");
+  const Result late = run_skidimm("run -q --bank " + kTerrains + " --input " + (dir / "late.csv").string() +
+                                  " --output - --resume " + state);
+  EXPECT_EQ(late.exit_code, 1);
+  EXPECT_THAT(late.err, HasSubstr("s after the checkpoint's last, at t = 16.0025 s: longer than the bank's "
+                                  "sampling.max_gap (10 s)"));
   const Result smoothed =
       run_skidimm("run -q --bank " + kTerrains + " --input " + c + " --output - --smooth --resume " + state);
   EXPECT_EQ(smoothed.exit_code, 2);

@@ -265,6 +265,81 @@ TEST(ImmCheckpoint, ABankOfOtherModesOrStatesIsRefusedAndLeavesTheImmAsItWas) {
   EXPECT_EQ(fresh.step(5.0, Eigen::Vector2d(1.0, 1.0), Eigen::Vector2d(0.1, 0.0)).status, StepStatus::kUpdated);
 }
 
+// What a hand-edited file could hold that the engine never makes, and that
+// would otherwise poison later steps: refused, the Imm unchanged.
+TEST(ImmCheckpoint, MemoryTheEngineNeverMakesIsRefused) {
+  const std::filesystem::path dir = test_directory();
+  const std::filesystem::path bank = bank_with_every_memory(dir);
+  Imm imm = Imm::from_yaml(bank);
+  const std::vector<Sample> samples = read_log(imm.config(), {kSource / "configs" / "examples" / "ltc_switching.csv"});
+  for (std::size_t k = 0; k < 300; ++k) imm.step(samples[k].t, samples[k].u, samples[k].z);
+  const ImmCheckpoint good = imm.checkpoint();
+  const std::string before = checkpoint_text(good);
+  const auto refused = [&](const ImmCheckpoint& bad, const std::string& why) {
+    try {
+      imm.restore(bad);
+      ADD_FAILURE() << "restored: " << why;
+    } catch (const Error& e) {
+      EXPECT_THAT(e.what(), HasSubstr(why));
+    }
+    EXPECT_EQ(checkpoint_text(imm.checkpoint()), before) << why;
+  };
+  ImmCheckpoint bad = good;
+  bad.innovations[0].remembers = true;
+  bad.innovations[0].steps_since = 2147483647;  // would overflow as it counts on
+  refused(bad, "a mode's innovation memory is malformed");
+  bad = good;
+  ASSERT_GE(bad.transition_anchors.dt[0], 0.0);
+  bad.transition_anchors.dt[0] = 1.05e10;  // a uniformisation of billions of terms
+  refused(bad, "a transition anchor is not one this chain makes");
+  bad = good;
+  bad.transition_anchors.dt.pop_back();
+  bad.transition_anchors.used.pop_back();
+  refused(bad, "it keeps 3 transition anchors, this chain 4");
+
+  ModeDecision decision(imm.config());
+  ModeDecision::Memory memory = decision.memory();
+  memory.last_measured_t = std::nan("");  // would never go stale
+  EXPECT_THROW(decision.restore(memory), Error);
+  memory = decision.memory();
+  memory.class_probabilities[1] = 1.5;
+  EXPECT_THROW(decision.restore(memory), Error);
+  memory = decision.memory();
+  memory.decision = "gravel";
+  try {
+    decision.restore(memory);
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("the decision 'gravel' is none of the bank's classes"));
+  }
+}
+
+// A checkpoint of a bank with a "none of these" hypothesis, restored into
+// the same bank without one: the modes share what the hypothesis held, in
+// proportion, and it is gone.
+TEST(ImmCheckpoint, TheUnknownsShareGoesToTheModesOfABankWithoutIt) {
+  const std::filesystem::path dir = test_directory();
+  Imm with_unknown = Imm::from_yaml(bank_with_every_memory(dir));
+  const std::vector<Sample> samples =
+      read_log(with_unknown.config(), {kSource / "configs" / "examples" / "ltc_switching.csv"});
+  for (std::size_t k = 0; k < 400; ++k) with_unknown.step(samples[k].t, samples[k].u, samples[k].z);
+  const ImmCheckpoint checkpoint = with_unknown.checkpoint();
+  ASSERT_GT(checkpoint.estimate.unknown_probability, 0.0);
+  std::string text = read_text(dir / "every_memory.yaml");
+  text = replaced(text, "unknown: {inflation: 30, enter: 0.02, leave: 0.2}", "");
+  write_file(dir / "without_unknown.yaml", text);
+  Imm without = Imm::from_yaml(dir / "without_unknown.yaml");
+  without.restore(checkpoint);
+  EXPECT_EQ(without.estimate().unknown_probability, 0.0);
+  EXPECT_NEAR(without.estimate().mode_probabilities.sum(), 1.0, 1e-15);
+  const Eigen::VectorXd expected =
+      checkpoint.estimate.mode_probabilities / checkpoint.estimate.mode_probabilities.sum();
+  EXPECT_TRUE(without.estimate().mode_probabilities.isApprox(expected, 1e-15));
+  const ImmEstimate& next = without.step(samples[400].t, samples[400].u, samples[400].z);
+  EXPECT_EQ(next.unknown_probability, 0.0);
+  EXPECT_NEAR(next.mode_probabilities.sum(), 1.0, 1e-12);
+}
+
 TEST(CheckpointFile, IsWrittenWholeAndReadBackExactly) {
   const std::filesystem::path dir = test_directory();
   Imm imm = Imm::from_yaml(bank_with_every_memory(dir));
@@ -317,6 +392,9 @@ TEST(CheckpointFile, AFileNotAsWrittenIsAnErrorNamingItsLineAndField) {
   EXPECT_THAT(error_of(bad), HasSubstr("held_input[1]: expected a number, got 'x'"));
   bad = text.substr(0, held) + "held_input: [1]" + text.substr(text.find('\n', held));
   EXPECT_THAT(error_of(bad), HasSubstr("held_input: expected 2 entries, got 1"));
+  // A count beyond an int does not wrap round to a small one.
+  bad = replaced(text, "measurement_rows: 2", "measurement_rows: 4294967298");
+  EXPECT_THAT(error_of(bad), HasSubstr("bank.measurement_rows: expected a whole number from"));
   try {
     load_checkpoint(test_directory() / "none.yaml");
     ADD_FAILURE();

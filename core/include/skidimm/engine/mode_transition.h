@@ -41,6 +41,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <string>
 #include <vector>
 
 namespace skidimm {
@@ -100,6 +101,10 @@ class ModeTransition {
   // is empty, or a chain of another form, restores nothing; a memory of
   // another number of slots is an Error.
   void restore_anchors(const AnchorMemory& memory);
+  // Why `memory` cannot be this chain's ("" when it can): slots of another
+  // number, or a kept step no anchor is made for (a gap of more than 50
+  // dwell times of the fastest mode, whose P(dt) a long series would take).
+  std::string anchor_memory_problem(const AnchorMemory& memory) const;
 
  private:
   enum class Form { kPerStep, kEqualRates, kDwellTimes };
