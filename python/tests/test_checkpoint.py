@@ -9,15 +9,7 @@ import pytest
 import yaml
 
 import skidimm
-
-EXAMPLE = "examples/ltc_switching.csv"
-
-
-def arrays(configs, bank):
-    log = skidimm.read_csv(configs / EXAMPLE)
-    u = np.column_stack([log[c] for c in bank.inputs])
-    z = np.column_stack([log[c] for c in bank.measurements])
-    return log["t"], u, z
+from example_log import EXAMPLE, arrays
 
 
 def test_a_pickled_checkpoint_restored_in_a_new_imm_goes_on_bit_for_bit(configs):

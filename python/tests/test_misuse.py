@@ -8,16 +8,8 @@ import numpy as np
 import pytest
 
 import skidimm
+from example_log import arrays
 from ltc_python import PythonLtc
-
-EXAMPLE = "examples/ltc_switching.csv"
-
-
-def arrays(configs, bank):
-    log = skidimm.read_csv(configs / EXAMPLE)
-    u = np.column_stack([log[c] for c in bank.inputs])
-    z = np.column_stack([log[c] for c in bank.measurements])
-    return log["t"], u, z
 
 
 def test_one_imm_run_from_many_threads_takes_turns(configs):
