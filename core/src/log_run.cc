@@ -46,9 +46,7 @@ void fill(const SmoothedStep& s, const ImmEstimate& filtered, ImmEstimate* out) 
   out->most_likely_mode = s.most_likely_mode;
 }
 
-bool accepted(StepStatus status) {
-  return status != StepStatus::kRejectedTime && status != StepStatus::kRejectedInput;
-}
+bool accepted(StepStatus status) { return status != StepStatus::kRejectedTime && status != StepStatus::kRejectedInput; }
 
 }  // namespace
 
@@ -65,6 +63,27 @@ std::string describe_first_rejection(const Bank& bank, const ImmEstimate& e, lon
   }
   return "row " + std::to_string(row) + ": no mode was rejected";
 }
+
+namespace {
+
+// A resumed run's first step at time t goes on from the checkpoint's last, at
+// `last`: after it, and (unless the bank skips gaps) no further from it than
+// the log reader lets two steps of one log be.
+void refuse_a_break_in_the_clock(const BankConfig& config, double last, double t) {
+  if (!(t > last)) {
+    throw Error("the log's first step, at t = " + CsvWriter::format(t) +
+                " s, does not come after the checkpoint's last, at t = " + CsvWriter::format(last) +
+                " s: a resumed run goes on along the same clock");
+  }
+  if (!config.sampling.skip_gaps && t - last > config.sampling.max_gap) {
+    throw Error("the log's first step, at t = " + CsvWriter::format(t) + " s, comes " + CsvWriter::format(t - last) +
+                " s after the checkpoint's last, at t = " + CsvWriter::format(last) +
+                " s: longer than the bank's sampling.max_gap (" + CsvWriter::format(config.sampling.max_gap) +
+                " s); a longer gap is crossed in one step with sampling.skip_gaps: true");
+  }
+}
+
+}  // namespace
 
 long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& options,
              const std::function<void(const LogSample&, const ImmEstimate&)>& sink,
@@ -110,20 +129,8 @@ long run_log(const Bank& bank, SampleSource* reader, const EstimatorOptions& opt
   };
   if (options.kind == EstimatorOptions::Kind::kFilter) {
     while (next(&sample)) {
-      if (steps == 0 && resume != nullptr && resume->started && !(sample.t > resume->t)) {
-        throw Error("the log's first step, at t = " + CsvWriter::format(sample.t) +
-                    " s, does not come after the checkpoint's last, at t = " + CsvWriter::format(resume->t) +
-                    " s: a resumed run goes on along the same clock");
-      }
-      if (steps == 0 && resume != nullptr && resume->started && !bank.config.sampling.skip_gaps &&
-          sample.t - resume->t > bank.config.sampling.max_gap) {
-        // As the log reader refuses a gap within a log.
-        throw Error("the log's first step, at t = " + CsvWriter::format(sample.t) + " s, comes " +
-                    CsvWriter::format(sample.t - resume->t) +
-                    " s after the checkpoint's last, at t = " + CsvWriter::format(resume->t) +
-                    " s: longer than the bank's sampling.max_gap (" + CsvWriter::format(bank.config.sampling.max_gap) +
-                    " s); a longer gap is crossed in one step with sampling.skip_gaps: true");
-      }
+      if (steps == 0 && resume != nullptr && resume->started)
+        refuse_a_break_in_the_clock(bank.config, resume->t, sample.t);
       sink(sample, imm.step(sample.t, sample.u, sample.z));
       ++steps;
       if (continuation.save && (steps == 1 || !(sample.t < next_save))) {
