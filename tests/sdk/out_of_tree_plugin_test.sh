@@ -126,5 +126,17 @@ grep -q "now on crushed_concrete" "$work/online.txt" || fail "online_imm: $(cat 
 grep -q "now on asphalt" "$work/online.txt" || fail "online_imm: $(cat "$work/online.txt")"
 # Its messages pushed into a LiveLog make a step of every row, as skidimm run reads the file.
 grep -q "^1487 steps$" "$work/online.txt" || fail "online_imm: $(cat "$work/online.txt")"
+# Restarted after 700 messages, from the checkpoint the first node saved: the rest of the drive's steps,
+# and the last step's probabilities those of the node never restarted, to the last digit.
+head -n 701 "$prefix/share/skidimm/configs/examples/ltc_switching.csv" >"$work/first_700.csv"
+"$work/online_imm-build/online_imm" "$prefix/share/skidimm/configs/ltc_terrains.yaml" "$work/first_700.csv" \
+  "$work/node.yaml" >"$work/online_first.txt" || fail "online_imm, first node: $(cat "$work/online_first.txt")"
+"$work/online_imm-build/online_imm" "$prefix/share/skidimm/configs/ltc_terrains.yaml" \
+  "$prefix/share/skidimm/configs/examples/ltc_switching.csv" "$work/node.yaml" >"$work/online_restarted.txt" ||
+  fail "online_imm, restarted: $(cat "$work/online_restarted.txt")"
+grep -q "^resumed at t = 14.0330 s$" "$work/online_restarted.txt" || fail "online_imm: $(cat "$work/online_restarted.txt")"
+grep -q "^787 steps$" "$work/online_restarted.txt" || fail "online_imm: $(cat "$work/online_restarted.txt")"
+[ "$(grep '^last step:' "$work/online_restarted.txt")" = "$(grep '^last step:' "$work/online.txt")" ] ||
+  fail "online_imm restarted ends elsewhere: $(grep '^last step:' "$work/online_restarted.txt" "$work/online.txt")"
 
 echo "out-of-tree plugin and program: all checks passed"

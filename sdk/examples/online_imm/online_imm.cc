@@ -5,27 +5,41 @@
 // robot's drivers would publish them; on a robot each push is in its
 // driver's callback, at whatever rate it arrives.
 //
-//   online_imm <bank.yaml> <log.csv>
+// With a checkpoint file, the program is a node that may be restarted: if
+// the file exists it goes on from the filter saved there (the messages up to
+// its time are ones the node before already had), and it saves the filter
+// there when the drive ends.
+//
+//   online_imm <bank.yaml> <log.csv> [checkpoint.yaml]
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <filesystem>
 #include <string>
 #include <vector>
 
 #include "skidimm/engine/imm.h"
 #include "skidimm/errors.h"
+#include "skidimm/io/checkpoint_file.h"
 #include "skidimm/io/csv.h"
 #include "skidimm/io/live_log.h"
 
 int main(int argc, char** argv) {
-  if (argc != 3) {
-    std::fprintf(stderr, "usage: %s <bank.yaml> <log.csv>\n", argv[0]);
+  if (argc != 3 && argc != 4) {
+    std::fprintf(stderr, "usage: %s <bank.yaml> <log.csv> [checkpoint.yaml]\n", argv[0]);
     return 2;
   }
   try {
     // The bundled plugins' directory comes from find_package(skidimm); banks
     // may add their own with plugin_paths, users with SKIDIMM_PLUGIN_PATH.
     skidimm::Imm imm = skidimm::Imm::from_yaml(argv[1], {SKIDIMM_PLUGIN_DIR});
+    const std::filesystem::path checkpoint = argc == 4 ? argv[3] : "";
+    double resumed_at = -1.0;  // the restored filter's last time; messages up to it were the last node's
+    if (!checkpoint.empty() && std::filesystem::exists(checkpoint)) {
+      imm.restore(skidimm::load_checkpoint(checkpoint));
+      resumed_at = imm.estimate().t;
+      std::printf("resumed at t = %.4f s\n", resumed_at);
+    }
     // One table per sensor stream, with the columns the bank's expressions
     // name (the bank ltc_terrains.yaml: inputs from the wheels, V and omega
     // measured by odometry).
@@ -63,6 +77,7 @@ int main(int argc, char** argv) {
       return row;
     };
     while (log.next_row()) {
+      if (values({"t"})[0] <= resumed_at) continue;
       live.push(wheels, values(wheel_columns));       // the encoders' callback
       live.push(odometry, values(odometry_columns));  // the odometry's callback
       step_what_has_arrived();
@@ -70,6 +85,13 @@ int main(int argc, char** argv) {
     live.close();  // the drive has ended: its last steps
     step_what_has_arrived();
     std::printf("%ld steps\n", steps);
+    const skidimm::ImmEstimate& last = imm.estimate();
+    std::printf("last step: t = %.17g, probabilities", last.t);
+    for (Eigen::Index j = 0; j < last.mode_probabilities.size(); ++j) {
+      std::printf(" %.17g", last.mode_probabilities[j]);
+    }
+    std::printf("\n");
+    if (!checkpoint.empty()) skidimm::save_checkpoint(checkpoint, imm.checkpoint());
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "online_imm: %s\n", e.what());
