@@ -1,5 +1,7 @@
-// Reading a ROS 2 bag into the filter against reading the same data from CSV
-// (docs/ros2.md): BagRead/<storage> reads a synthetic BorealTC-like drive of
+// A drive's steps from each source a robot's data reaches the filter by,
+// against reading the same data from CSV files.
+//
+// bag_read/<storage>: a ROS 2 bag (docs/ros2.md). It reads a synthetic BorealTC-like drive of
 // SKIDIMM_BENCHMARK_BAG_SECONDS seconds (default 1800: an IMU at 100 Hz and
 // wheel speeds and currents at 6.5 Hz) through LogReader, the steps
 // `skidimm run` would filter (configs/borealtc/terrains.yaml's 2 Hz grid with
@@ -10,6 +12,14 @@
 //   <storage>: mcap_zstd (rosbag2's default) and mcap (uncompressed chunks),
 // written by skidimm's own McapWriter with CDR laid out here by hand;
 // their correctness against the npm packages is the tests' job.
+//
+// live_log/borealtc: the same drive's rows pushed into a LiveLog (live_log.h)
+// one message at a time, in time order, its steps taken after every push, as
+// a node's callbacks would: against reading the CSV pair, in the same
+// iteration. Counters: CPU seconds of the whole process per read (the
+// LiveLog's reader runs on a thread of its own), live_over_csv, and
+// us_per_row, the CPU time per message pushed. Both must give the same
+// steps, bit for bit.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -24,6 +34,7 @@
 #include "ros/mcap_writer.h"
 #include "skidimm/config/bank.h"
 #include "skidimm/io/csv.h"
+#include "skidimm/io/live_log.h"
 #include "skidimm/io/log_reader.h"
 
 namespace skidimm_bench {
@@ -232,8 +243,79 @@ void bag_read(benchmark::State& state, bool compressed) {
   state.counters["steps"] = static_cast<double>(from_csv.size()) / static_cast<double>(1 + 3 + 9);
 }
 
+// CPU seconds of the whole process: a LiveLog's reader is a thread of its own.
+double process_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+// A CSV file's rows as numbers (the drive's files have no blank cell).
+std::vector<std::vector<double>> rows_of(const std::filesystem::path& file) {
+  skidimm::CsvReader reader(file);
+  std::vector<std::vector<double>> rows;
+  while (reader.next_row()) {
+    std::vector<double> row;
+    for (std::size_t c = 0; c < reader.header().size(); ++c)
+      row.push_back(std::strtod(std::string(reader.field(static_cast<int>(c))).c_str(), nullptr));
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+void live_log(benchmark::State& state) {
+  const Drive drive = make_drive(bag_seconds());
+  const skidimm::BankConfig bank = skidimm::load_bank_config(source_dir() / "configs/borealtc/terrains.yaml");
+  const std::vector<std::vector<double>> pro = rows_of(drive.pro), imu = rows_of(drive.imu);
+  const std::vector<std::string> pro_columns = {"time", "curL", "curR", "velL", "velR"};
+  const std::vector<std::string> imu_columns = {"time", "wx", "wy", "wz", "ax", "ay", "az"};
+  double csv_seconds = 0.0, live_seconds = 0.0;
+  std::vector<double> from_csv, from_live;
+  for (auto _ : state) {
+    double start = process_cpu_seconds();
+    read_steps(bank, {skidimm::LogFile(drive.pro), skidimm::LogFile(drive.imu)}, &from_csv);
+    csv_seconds += process_cpu_seconds() - start;
+    start = process_cpu_seconds();
+    {
+      skidimm::LiveLog live(bank, {{"pro", pro_columns}, {"imu", imu_columns}});
+      from_live.clear();
+      skidimm::LogSample sample;
+      const auto take = [&] {
+        while (live.next(&sample)) {
+          from_live.push_back(sample.t);
+          for (Eigen::Index i = 0; i < sample.u.size(); ++i) from_live.push_back(sample.u[i]);
+          for (Eigen::Index i = 0; i < sample.z.size(); ++i) from_live.push_back(sample.z[i]);
+        }
+      };
+      std::size_t p = 0, i = 0;
+      while (p < pro.size() || i < imu.size()) {  // the messages in time order, as they arrive
+        if (i == imu.size() || (p < pro.size() && pro[p][0] <= imu[i][0])) {
+          live.push(0, pro[p++]);
+        } else {
+          live.push(1, imu[i++]);
+        }
+        take();
+      }
+      live.close();
+      take();
+    }
+    live_seconds += process_cpu_seconds() - start;
+    if (!same(from_csv, from_live)) {
+      state.SkipWithError("the LiveLog and the CSV pair gave different steps");
+      return;
+    }
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["csv_s"] = csv_seconds / n;
+  state.counters["live_s"] = live_seconds / n;
+  state.counters["live_over_csv"] = live_seconds / csv_seconds;
+  state.counters["us_per_row"] = 1e6 * live_seconds / n / static_cast<double>(pro.size() + imu.size());
+  state.counters["steps"] = static_cast<double>(from_csv.size()) / static_cast<double>(1 + 3 + 9);
+}
+
 BENCHMARK_CAPTURE(bag_read, mcap_zstd, true)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK_CAPTURE(bag_read, mcap, false)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(live_log)->Name("live_log/borealtc")->Unit(benchmark::kMillisecond)->Iterations(3);
 
 }  // namespace
 }  // namespace skidimm_bench
