@@ -198,6 +198,14 @@ double cpu_seconds() {
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
+// A step's time, inputs and measurements appended to *digest, for the
+// comparison of two sources' steps.
+void append_step(const skidimm::LogSample& sample, std::vector<double>* digest) {
+  digest->push_back(sample.t);
+  for (Eigen::Index i = 0; i < sample.u.size(); ++i) digest->push_back(sample.u[i]);
+  for (Eigen::Index i = 0; i < sample.z.size(); ++i) digest->push_back(sample.z[i]);
+}
+
 // Reads every step; returns them for the comparison and the CPU seconds taken.
 double read_steps(const skidimm::BankConfig& bank, const std::vector<skidimm::LogFile>& files,
                   std::vector<double>* digest) {
@@ -206,9 +214,7 @@ double read_steps(const skidimm::BankConfig& bank, const std::vector<skidimm::Lo
   skidimm::LogSample sample;
   digest->clear();
   while (reader.next(&sample)) {
-    digest->push_back(sample.t);
-    for (Eigen::Index i = 0; i < sample.u.size(); ++i) digest->push_back(sample.u[i]);
-    for (Eigen::Index i = 0; i < sample.z.size(); ++i) digest->push_back(sample.z[i]);
+    append_step(sample, digest);
   }
   return cpu_seconds() - start;
 }
@@ -281,11 +287,7 @@ void live_log(benchmark::State& state) {
       from_live.clear();
       skidimm::LogSample sample;
       const auto take = [&] {
-        while (live.next(&sample)) {
-          from_live.push_back(sample.t);
-          for (Eigen::Index i = 0; i < sample.u.size(); ++i) from_live.push_back(sample.u[i]);
-          for (Eigen::Index i = 0; i < sample.z.size(); ++i) from_live.push_back(sample.z[i]);
-        }
+        while (live.next(&sample)) append_step(sample, &from_live);
       };
       std::size_t p = 0, i = 0;
       while (p < pro.size() || i < imu.size()) {  // the messages in time order, as they arrive
