@@ -174,15 +174,50 @@ def assessed(work, prefix="", slugs=tuple(HELD_OUT)):
     return summary, blocks
 
 
+# The held-back split's runs per terrain (reproduce_real_data.sh, held_back_split).
+HELD_BACK_SPLIT = {"ASPHALT": 2, "FLOORING": 2, "ICE": 4, "SANDY_LOAM": 4, "SNOW": 9}
+
+
+def held_back_range(evaluation):
+    """The range of the mean over terrains a set of runs counted as the held-back split's would score, drawn as
+    these runs were (eval --range-for), as a table cell; '-' where eval could not say."""
+    r = evaluation["mean_over_classes"]["range"]
+    if r.get("logs_per_class") != HELD_BACK_SPLIT or r.get("level") != 0.9:
+        sys.exit(f"eval's range is not for the held-back split's counts at 9 in 10: {r}")
+    if r["low"] is None:
+        return "- (too few runs of each terrain)"
+    borrowed = r["borrowed_spread"]
+    spread = f" ({COUNT[len(borrowed)]} terrain{'s' if len(borrowed) > 1 else ''} of one run)" if borrowed else ""
+    return f"{pct(r['low'])}-{pct(r['high'])}{spread}"
+
+
+def held_back_sentence(summary, order):
+    """How far 21 runs counted as the held-back split's may fall from each protocol's mean."""
+    ranges = [(slug, summary[slug]["eval"]["mean_over_classes"]["range"]) for slug in order]
+    known = [(slug, r) for slug, r in ranges if r["low"] is not None]
+    half = [(r["high"] - r["low"]) / 2 for _, r in known]
+    errors = ", ".join(f"{SHORT[slug]} {100 * r['standard_error']:.1f}" for slug, r in known)
+    split = ", ".join(f"{t} {n}" for t, n in HELD_BACK_SPLIT.items())
+    return (f"*21 runs like these*: the mean over terrains that {sum(HELD_BACK_SPLIT.values())} runs counted as the "
+            f"data set's held-back split ({split}) would score nine times in ten, were they drawn as the protocol's "
+            f"held-out runs were (`skidimm eval --range-for`, a bootstrap over each terrain's held-out runs; a "
+            f"terrain of one run takes the others' spread). The ranges' half-widths run from "
+            f"{100 * min(half):.1f} to {100 * max(half):.1f} points: with so few runs of a terrain, and runs that are "
+            f"read right nearly throughout or wrong nearly throughout, a set of 21 runs scores several points from "
+            f"any estimate made on others, however honest. The standard errors of the protocols' own means, in "
+            f"points: {errors}.")
+
+
 def protocols(work):
     """The headline table (every protocol, the most pessimistic first), the per-terrain table, and the
     protocols' summaries for the other blocks."""
     summary, blocks = assessed(work)
 
     order = sorted(HELD_OUT, key=lambda s: summary[s]["tune"]["mean"])
-    lines = ["| held out | runs scored | mean over terrains | worst terrain | runs below 50% | mean log p(truth) | "
+    lines = ["| held out | runs scored | mean over terrains | 21 runs like these would score (9 times in 10) | "
+             "worst terrain | runs below 50% | mean log p(truth) | "
              "time at p >= 0.9: share, right | calibration error | the terrains told apart? |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for slug in order:
         s = summary[slug]
         classes = s["tune"]["classes"]
@@ -190,6 +225,7 @@ def protocols(work):
         below = sum(float(r["accuracy"]) < 0.5 for r in s["rows"])
         cal = s["eval"]["calibration"]
         lines.append(f"| {HELD_OUT[slug]} | {len(s['rows'])} | **{pct(s['tune']['mean'])}** | "
+                     f"{held_back_range(s['eval'])} | "
                      f"{worst} {pct(classes[worst][0])} | {below} | {fmt(s['tune']['log_p'], 2)} | "
                      f"{pct(cal['confident_fraction'])}, {pct(cal['confident_accuracy'])} | "
                      f"{fmt(cal['expected_calibration_error'])} | {verdict_word(s['tune']['verdict'])} |")
@@ -201,7 +237,7 @@ def protocols(work):
         f"pessimistic is {HELD_OUT[development[0]]} ({pct(summary[development[0]]['tune']['mean'])}) and the most "
         f"optimistic {HELD_OUT[development[-1]]} ({pct(summary[development[-1]]['tune']['mean'])}); the lockbox "
         f"scored {pct(summary['lockbox']['tune']['mean'])}. Chosen on the development runs (the bank that scored the "
-        f"lockbox): {blocks['chosen']}.\n")
+        f"lockbox): {blocks['chosen']}.\n\n{held_back_sentence(summary, order)}\n")
 
     terrain_lines = ["| terrain | development runs | " + " | ".join(
         HELD_OUT[s].split(":")[0].replace("**", "") for s in HELD_OUT) + " |", "|---" * (len(HELD_OUT) + 2) + "|"]

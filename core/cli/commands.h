@@ -6,6 +6,7 @@
 #include <exception>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -212,6 +213,9 @@ struct EvalOptions {
   std::optional<double> lag;
   bool splice = false;  // the logs end to end as one run, the groups taking turns
   bool json = false;
+  // --range-for: logs per class of the set whose range of accuracy the
+  // report gives (evaluation/score_range.h); empty, as many as were scored.
+  std::map<std::string, int> range_for;
 };
 int eval(const EvalOptions& options);
 

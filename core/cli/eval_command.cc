@@ -188,10 +188,16 @@ int eval(const EvalOptions& given) {
       throw Error("nothing to evaluate: give --input (with --bank) or --estimates");
     }
     if (!groups.empty()) {
-      std::cout << (!grid.empty()  ? evaluation::report_decision_settings(grid, compared, classes, states, options.json)
-                    : options.json ? evaluation::report_json(groups, classes, states)
-                                   : evaluation::report_tables(groups, classes, states, decision_made));
+      std::cout << (!grid.empty() ? evaluation::report_decision_settings(grid, compared, classes, states, options.json)
+                    : options.json
+                        ? evaluation::report_json(groups, classes, states, options.range_for)
+                        : evaluation::report_tables(groups, classes, states, decision_made, options.range_for));
     }
+    // A count that does not fit the scored classes is said in the report
+    // (which keeps every other figure) and fails the command.
+    const std::string range_problem = options.range_for.empty() || groups.empty()
+                                          ? ""
+                                          : evaluation::logs_per_class_problem(groups, options.range_for);
     if (ran) report_each_logs_problems(*ran, groups, spliced.has_value());
     const int code = report_failures(groups, failures, spliced);
     // A report of no labelled time scores nothing: a script or CI check must
@@ -204,6 +210,11 @@ int eval(const EvalOptions& given) {
       std::cerr << "skidimm eval: error: no log has labelled time (two steps or more with a truth): nothing was "
                    "scored\n";
       return kExitFailure;
+    }
+    if (!range_problem.empty()) {
+      std::cerr << "skidimm eval: error: --range-for: " << printable(range_problem)
+                << " (the report above has every other figure)\n";
+      return kExitUsage;
     }
     return code;
   });

@@ -19,6 +19,7 @@
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <system_error>
 #include <type_traits>
@@ -27,6 +28,7 @@
 #include "commands.h"
 #include "documentation.h"
 #include "skidimm/engine/fatal_signal_report.h"
+#include "skidimm/evaluation/score_range.h"
 #include "skidimm/io/csv.h"
 #include "skidimm/io/estimates_writer.h"
 #include "skidimm/io/log_arguments.h"
@@ -525,6 +527,20 @@ int main(int argc, char** argv) {
                  "Score the logs spliced end to end into one run, the groups (each --input) taking turns, so that the "
                  "scores include following each change of mode: how soon, and the changes never followed");
   eval->add_flag("--skip-unpaired", eval_options.skip_unpaired, kSkipUnpaired);
+  std::string range_for;
+  eval->add_option("--range-for", range_for,
+                   "CLASS=COUNT,...: the range of accuracy (mean over classes) to expect on another set of logs "
+                   "holding this many of each class, drawn like these (default: as many as were scored)")
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            try {
+              skidimm::evaluation::parse_logs_per_class(text);
+              return std::string();
+            } catch (const std::invalid_argument& e) {
+              return std::string(e.what());
+            }
+          },
+          ""));
   eval->add_flag("--json", eval_options.json, "Print JSON instead of tables");
   add_plugin_path(eval);
 
@@ -664,6 +680,7 @@ int main(int argc, char** argv) {
   if (*validate) return skidimm::cli::validate(validate_bank, paths, validate_checks, validate_rate);
   if (*eval) {
     eval_options.bank = eval_bank;
+    if (!range_for.empty()) eval_options.range_for = skidimm::evaluation::parse_logs_per_class(range_for);
     eval_options.plugin_paths = paths;
     return skidimm::cli::eval(eval_options);
   }

@@ -11,6 +11,7 @@
 
 #include "commands.h"
 #include "skidimm/errors.h"
+#include "skidimm/evaluation/score_range.h"
 #include "skidimm/fitting/bank_fit.h"
 #include "skidimm/fitting/bank_writer.h"
 #include "skidimm/fitting/fit_logs.h"
@@ -88,6 +89,7 @@ void print_scores(std::ostream& out, const std::string& title, const std::vector
   }
   out << "\n  mean over classes: accuracy " << number(summary.accuracy) << ", mean log p(truth) "
       << number(summary.mean_log_probability) << "\n";
+  if (scores.size() > 1) out << "  " << evaluation::accuracy_range(scores).describe() << "\n";
 }
 
 // One row per scored log: `kind` is the protocol of a nested assessment

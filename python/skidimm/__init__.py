@@ -305,17 +305,33 @@ def evaluate_log(bank, log, *, rate=None, smooth=False, lag=None, plugin_paths=(
     return _native.evaluate_log(loaded, log, _rate(rate), smooth, lag)
 
 
-def eval_report(bank, groups, output="dict"):
+def eval_report(bank, groups, output="dict", range_for=None):
     """``skidimm eval``'s report for ``groups`` ([(name, [LogResult, ...])]), reduced in that order.
 
     ``output``: ``"dict"`` (the JSON parsed), ``"json"`` (the text
     ``skidimm eval --json`` prints) or ``"table"`` (the text it prints
-    without ``--json``).
+    without ``--json``). ``range_for`` is ``--range-for``: a dict of
+    logs per class for the range of accuracy another set of logs would
+    score (default: as many as were scored).
     """
-    return _eval_report(bank, groups, output)
+    return _eval_report(bank, groups, output, range_for=range_for)
 
 
-def _eval_report(bank, groups, output, spliced=False):
+def _range_counts(range_for):
+    """``range_for`` checked as ``--range-for`` is, before any log is scored: {class: whole count >= 1}."""
+    if range_for is None:
+        return {}
+    if not isinstance(range_for, dict) or not range_for:
+        raise ValueError("range_for must be a dict of logs per class, {'ASPHALT': 2, ...}")
+    for name, count in range_for.items():
+        if not isinstance(name, str) or not name or isinstance(count, bool) or not isinstance(count, int) \
+                or count < 1:
+            raise ValueError(f"range_for: {name!r}: {count!r} is not a whole number of logs >= 1")
+    return dict(range_for)
+
+
+def _eval_report(bank, groups, output, spliced=False, range_for=None):
+    counts = _range_counts(range_for)
     bank = _bank(bank)
     groups = [(name, list(logs)) for name, logs in groups]
     # A measurement a log never gave, or not for a long stretch, leaves it scored on the others: warned, as the
@@ -324,7 +340,10 @@ def _eval_report(bank, groups, output, spliced=False):
         for log in logs:
             for line in log.unmeasured:
                 _warnings.warn(line if spliced else f"{log.source}: {line}", stacklevel=4)
-    text, table = _native.eval_report(groups, bank.states, bank.classes, bank)
+    text, table, problem = _native.eval_report(groups, bank.states, bank.classes, bank, counts)
+    if problem:
+        # The report keeps every figure and says it in the range's place, as the CLI's does before it fails.
+        _warnings.warn(f"range_for: {problem}", stacklevel=3)
     if output == "json":
         return text
     if output == "table":
@@ -335,13 +354,15 @@ def _eval_report(bank, groups, output, spliced=False):
 
 
 def eval(bank, inputs, *, rate=None, smooth=False, lag=None, splice=False, output="dict",  # noqa: A001
-         skip_unpaired=False, plugin_paths=(), models=None):
+         skip_unpaired=False, range_for=None, plugin_paths=(), models=None):
     """``skidimm eval --bank B --input ...``: each argument a group of logs (files, directories, patterns).
 
     ``skip_unpaired=True`` is ``--skip-unpaired``: a pattern's runs that some
     of its files lack are left out with a warning instead of an error.
     ``splice=True`` is ``--splice``: the logs scored as one run spliced end to
     end, the groups taking turns (not with ``smooth`` or ``lag``).
+    ``range_for={'ICE': 4, 'SNOW': 9}`` is ``--range-for``: the range of
+    accuracy another set of that many logs of each class would score.
     Returns what ``skidimm eval --json`` prints, parsed (``output="dict"``),
     or its text (``"json"``), or the table (``"table"``). The metrics and
     their reduction are the evaluation library's, which the CLI uses too.
@@ -349,6 +370,7 @@ def eval(bank, inputs, *, rate=None, smooth=False, lag=None, splice=False, outpu
     """
     if isinstance(inputs, (str, _os.PathLike)):
         inputs = [inputs]
+    _range_counts(range_for)  # before the work, as the CLI refuses a bad --range-for
     loaded = _bank(bank, plugin_paths, models)
     _warn_of_rate(loaded, rate)
     inputs = [_os.fspath(argument) for argument in inputs]
@@ -360,10 +382,10 @@ def eval(bank, inputs, *, rate=None, smooth=False, lag=None, splice=False, outpu
         groups.setdefault(name, []).extend(expand_log_argument(argument, skip_unpaired))
     if splice:
         return _eval_report(loaded, _native.evaluate_spliced(loaded, list(groups.items()), _rate(rate)), output,
-                            spliced=True)
+                            spliced=True, range_for=range_for)
     scored = [(name, [_native.evaluate_log(loaded, spec, _rate(rate), smooth, lag) for spec in specs])
               for name, specs in groups.items()]
-    return _eval_report(loaded, scored, output)
+    return _eval_report(loaded, scored, output, range_for=range_for)
 
 
 def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", window=0.0, loss="huber",

@@ -87,7 +87,7 @@ def evaluate_logs(client, bank, inputs, *, rate=None, smooth=False, lag=None, sk
 
 
 def eval(client, bank, inputs, *, rate=None, smooth=False, lag=None, splice=False, output="dict",  # noqa: A001
-         skip_unpaired=False, plugin_paths=(), models=None):
+         skip_unpaired=False, range_for=None, plugin_paths=(), models=None):
     """``skidimm eval --bank B --input ...`` with each log scored on the cluster.
 
     Same arguments and result as :func:`skidimm.eval`; ``client`` is a
@@ -97,11 +97,12 @@ def eval(client, bank, inputs, *, rate=None, smooth=False, lag=None, splice=Fals
     log in turn, which one worker runs (reading the logs where they are
     stored) while the client waits.
     """
+    skidimm._range_counts(range_for)  # before the work, as the CLI refuses a bad --range-for
     if not splice:
         groups = evaluate_logs(client, bank, inputs, rate=rate, smooth=smooth, lag=lag, skip_unpaired=skip_unpaired,
                                plugin_paths=plugin_paths, models=models)
         bank_file, plugin_paths, models = _bank_arguments(bank, plugin_paths, models)
-        return skidimm.eval_report(skidimm.Bank(bank_file, plugin_paths, models), groups, output)
+        return skidimm.eval_report(skidimm.Bank(bank_file, plugin_paths, models), groups, output, range_for)
     if smooth or lag is not None:
         raise ValueError("splice scores the filter as it runs across each change, and smoothing would use the "
                          "measurements after the change: give one or the other")
@@ -117,7 +118,7 @@ def eval(client, bank, inputs, *, rate=None, smooth=False, lag=None, splice=Fals
         groups.setdefault(name, []).extend(skidimm.expand_log_argument(argument, skip_unpaired))
     future = client.submit(_evaluate_spliced, list(groups.items()), bank_file=bank_file, plugin_paths=plugin_paths,
                            models=models, rate=rate, pure=False)
-    return skidimm._eval_report(loaded, future.result(), output, spliced=True)
+    return skidimm._eval_report(loaded, future.result(), output, spliced=True, range_for=range_for)
 
 
 def _segments(spec, bank_file, plugin_paths, models, mode, rate):

@@ -3,8 +3,10 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <map>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -96,16 +98,20 @@ void bind_evaluation(py::module_& m) {
   m.def(
       "eval_report",
       [](const std::vector<std::pair<std::string, std::vector<evaluation::LogResult>>>& groups,
-         const std::vector<std::string>& states, const std::vector<std::string>& classes, const PyBank& bank) {
+         const std::vector<std::string>& states, const std::vector<std::string>& classes, const PyBank& bank,
+         const std::map<std::string, int>& range_for) {
         std::vector<evaluation::LogGroup> g;
         for (const auto& [name, logs] : groups) g.push_back(evaluation::LogGroup{name, logs});
         const std::string decision = evaluation::decision_settings_text(bank.config().decision);
         py::gil_scoped_release release;
-        return std::make_pair(evaluation::report_json(g, classes, states),
-                              evaluation::report_tables(g, classes, states, decision));
+        return std::make_tuple(evaluation::report_json(g, classes, states, range_for),
+                               evaluation::report_tables(g, classes, states, decision, range_for),
+                               range_for.empty() ? std::string() : evaluation::logs_per_class_problem(g, range_for));
       },
       py::arg("groups"), py::arg("states"), py::arg("classes"), py::arg("bank"),
-      "`skidimm eval`'s JSON and table for groups of per-log results, reduced in the order given.");
+      py::arg("range_for") = std::map<std::string, int>{},
+      "`skidimm eval`'s JSON and table for groups of per-log results, reduced in the order given, and why "
+      "`range_for` (eval --range-for's counts) does not fit the scored classes (empty where it does).");
 }
 
 }  // namespace python

@@ -24,6 +24,10 @@ def test_eval_on_the_cluster_equals_skidimm_eval_json(client, configs, cli, swit
     assert text == cli("eval", "--bank", bank, "--input", arguments[0], "--input", arguments[1], "--json")
     workers = client.run(lambda: sorted(skidimm.dask._banks))  # each worker loaded the bank once
     assert len(workers) == 3 and sum(1 for loaded in workers.values() if loaded) >= 2
+    scored = skidimm.eval(bank, [switching_logs])["overall"]["mean_over_classes"]["range"]["logs_per_class"]
+    counts = {name: 5 for name in scored}
+    ranged = skidimm.dask.eval(client, bank, [switching_logs], range_for=counts, output="json")
+    assert ranged == skidimm.eval(bank, [switching_logs], range_for=counts, output="json")
     report = skidimm.dask.eval(client, bank, [switching_logs], smooth=True)
     assert report == skidimm.eval(bank, [switching_logs], smooth=True)
     assert report["overall"]["logs"] == 24

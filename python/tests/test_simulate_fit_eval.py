@@ -40,6 +40,28 @@ def test_eval_equals_the_cli_json(configs, cli, switching_logs):
     assert table == cli("eval", "--bank", bank, "--input", arguments[0], "--input", arguments[1])
 
 
+def test_eval_range_for_equals_the_cli_json(configs, cli, switching_logs):
+    """``range_for`` is ``--range-for``: the range another set of that many logs per class would score."""
+    bank = configs / "ltc_terrains.yaml"
+    own = skidimm.eval(bank, [switching_logs])["overall"]["mean_over_classes"]["range"]
+    assert sum(own["logs_per_class"].values()) == 24 and own["level"] == 0.9
+    assert own["low"] <= skidimm.eval(bank, [switching_logs])["overall"]["mean_over_classes"]["accuracy"] <= own["high"]
+    doubled = {name: 2 * count for name, count in own["logs_per_class"].items()}
+    text = skidimm.eval(bank, [switching_logs], range_for=doubled, output="json")
+    counts = ",".join(f"{name}={count}" for name, count in doubled.items())
+    assert text == cli("eval", "--bank", bank, "--input", switching_logs, "--range-for", counts, "--json")
+    assert json.loads(text)["overall"]["mean_over_classes"]["range"]["logs_per_class"] == doubled
+    # A class no log was scored for (each of these runs is mostly crushed concrete): every figure kept, the
+    # problem in the range's place, and a warning.
+    with pytest.warns(UserWarning, match="range_for: class 'grass' of the other set has no scored log here"):
+        report = skidimm.eval(bank, [switching_logs], range_for={**doubled, "grass": 3})
+    assert "problem" in report["overall"]["mean_over_classes"]["range"]
+    assert report["overall"]["accuracy"] is not None
+    for bad in ({"grass": 0}, {"grass": 2.5}, {"grass": True}, {}, "grass=2"):
+        with pytest.raises(ValueError, match="range_for"):
+            skidimm.eval(bank, [switching_logs / "no_such_run.csv"], range_for=bad)  # refused before any log is read
+
+
 def test_eval_splice_equals_the_cli_json(configs, cli, switching_logs):
     """``splice=True`` is ``--splice``: the logs as one run, the groups taking turns."""
     bank = configs / "ltc_terrains.yaml"

@@ -639,6 +639,78 @@ TEST(EvalCommand, CountsTheStepsOutsideTheInputsTheTerrainsWereFittedOn) {
   EXPECT_TRUE(json_of(eval_with_ranges("none.yaml", "", " --json"))["overall"]["extrapolation"].IsNull());
 }
 
+// The range of accuracy another set of runs would score (score_range.h), on
+// real BorealTC runs with the bundled bank: its standard error is the one
+// computed here from each run's accuracy in the JSON, the range holds this
+// set's own mean, --range-for asks for another set's counts, and a count
+// that does not fit the runs' terrains fails the command after the report.
+TEST(EvalCommand, SaysWhatRangeAnotherSetOfRunsWouldScoreOnRealRuns) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  const auto runs = [&](const std::string& terrain, const std::string& pattern) {
+    return " --input '" + terrain + "=" + boreal + "/" + terrain + "/pro_" + pattern + ".csv+" + boreal + "/" +
+           terrain + "/imu_" + pattern + ".csv'";
+  };
+  // ICE 10, 11 and SNOW 21, 22, 24, 25: four runs beyond each terrain's first.
+  const std::string command = "eval --bank " + kSource + "/configs/borealtc/terrains.yaml --plugin-path " + kPlugins +
+                              runs("ICE", "1*") + runs("SNOW", "2*");
+  const YAML::Node json = json_of(run_skidimm(command + " --json"));
+  std::map<std::string, std::vector<double>> by_terrain;
+  for (const auto& log : json["logs"]) {
+    const YAML::Node per_class = log.second["mean_over_classes"]["per_class"];
+    ASSERT_EQ(per_class.size(), 1u) << log.first.as<std::string>();
+    for (const auto& c : per_class)
+      by_terrain[c.first.as<std::string>()].push_back(log.second["accuracy"].as<double>());
+  }
+  ASSERT_EQ(by_terrain["ICE"].size(), 2u);
+  ASSERT_EQ(by_terrain["SNOW"].size(), 4u);
+  double mean = 0.0, variance_of_mean = 0.0;
+  for (const auto& [terrain, accuracies] : by_terrain) {
+    double m = 0.0, squares = 0.0;
+    for (double a : accuracies) m += a / static_cast<double>(accuracies.size());
+    for (double a : accuracies) squares += (a - m) * (a - m);
+    mean += m / 2.0;
+    variance_of_mean += squares / static_cast<double>(accuracies.size() - 1) / static_cast<double>(accuracies.size());
+  }
+  const YAML::Node overall = json["overall"]["mean_over_classes"];
+  const YAML::Node range = overall["range"];
+  ASSERT_TRUE(range.IsMap()) << "overall.mean_over_classes.range";
+  EXPECT_NEAR(overall["accuracy"].as<double>(), mean, 1e-5);
+  EXPECT_NEAR(range["standard_error"].as<double>(), std::sqrt(variance_of_mean) / 2.0, 1e-5);
+  EXPECT_EQ(range["level"].as<double>(), 0.9);
+  EXPECT_LT(range["low"].as<double>(), mean);
+  EXPECT_GT(range["high"].as<double>(), mean);
+  EXPECT_EQ(range["logs_per_class"]["ICE"].as<int>(), 2);
+  EXPECT_EQ(range["logs_per_class"]["SNOW"].as<int>(), 4);
+  EXPECT_EQ(range["borrowed_spread"].size(), 0u);
+  // Each group's range is its own runs': ICE's two say nothing of how runs
+  // differ (one beyond its first), and a run alone has no range.
+  const YAML::Node ice = json["groups"].begin()->second["mean_over_classes"]["range"];
+  EXPECT_TRUE(ice["low"].IsNull());
+  EXPECT_EQ(ice["logs_per_class"]["ICE"].as<int>(), 2);
+  EXPECT_TRUE(json["logs"].begin()->second["mean_over_classes"]["range"].IsNull());
+
+  const Result text = run_skidimm(command + " --range-for ICE=4,SNOW=9");
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_THAT(text.out, HasSubstr("another 13 logs drawn like these (ICE 4, SNOW 9) would score a mean over classes "
+                                  "between "));
+  const YAML::Node asked = json_of(run_skidimm(command + " --range-for ICE=4,SNOW=9 --json"));
+  EXPECT_EQ(asked["overall"]["mean_over_classes"]["range"]["logs_per_class"]["SNOW"].as<int>(), 9);
+  EXPECT_EQ(asked["overall"]["mean_over_classes"]["range"]["standard_error"].as<double>(),
+            range["standard_error"].as<double>());
+
+  // A terrain left out: the report is printed whole, then the command fails.
+  const Result missing = run_skidimm(command + " --range-for ICE=4");
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_THAT(missing.out, HasSubstr("confusion"));
+  EXPECT_THAT(missing.err, HasSubstr("--range-for: the other set leaves out class 'SNOW'"));
+  // Not CLASS=COUNT: refused before any run is read.
+  const Result bad = run_skidimm(command + " --range-for ICE=four");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_THAT(bad.err, HasSubstr("'ICE=four' is not CLASS=COUNT"));
+  EXPECT_EQ(bad.out, "");
+}
+
 TEST(Cli, EvalTakesDecisionSettingsAndRemakesARunsDecisionFromItsProbabilities) {
   const fs::path dir = test_directory();
   const std::string bank = kSource + "/configs/ltc_terrains.yaml",

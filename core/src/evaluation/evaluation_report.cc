@@ -7,9 +7,11 @@
 #include <limits>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 
 #include "evaluation_summary.h"
 #include "not_a_number.h"
+#include "skidimm/evaluation/score_range.h"
 #include "skidimm/io/csv.h"
 #include "skidimm/printable.h"
 
@@ -155,9 +157,38 @@ Separability separability_of(const std::vector<const LogResult*>& logs, std::siz
   return separability(scores, static_cast<int>(classes));
 }
 
-void print_table(std::ostream& out, const std::string& title, const EvaluationSummary& s, const std::vector<std::string>& modes,
-                 const std::vector<std::string>& states, bool list_switches, const std::string& decision_made,
-                 const Separability& separated) {
+// The range of another set's mean over classes (score_range.h), or why there
+// is none for the set asked for: a report keeps what was scored either way.
+struct RangeReport {
+  AccuracyRange range;
+  std::string problem;
+};
+
+// The logs summarize() scores by their classes (labelled time, a main truth).
+std::vector<LogScore> class_scores(const std::vector<const LogResult*>& logs) {
+  std::vector<LogScore> scores;
+  for (const LogResult* l : logs) {
+    if (!(l->metrics.duration > 0.0)) continue;
+    LogScore score = score_of(*l);
+    if (!score.truth.empty()) scores.push_back(std::move(score));
+  }
+  return scores;
+}
+
+// `another`: logs per class of the other set; empty, as many as `logs` has.
+RangeReport range_of(const std::vector<const LogResult*>& logs, const std::map<std::string, int>& another) {
+  RangeReport report;
+  try {
+    report.range = accuracy_range(class_scores(logs), another);
+  } catch (const std::invalid_argument& e) {
+    report.problem = e.what();
+  }
+  return report;
+}
+
+void print_table(std::ostream& out, const std::string& title, const EvaluationSummary& s,
+                 const std::vector<std::string>& modes, const std::vector<std::string>& states, bool list_switches,
+                 const std::string& decision_made, const Separability& separated, const RangeReport& range) {
   const ModeMetrics& m = s.metrics;
   out << "\n" << title << ": " << s.logs << " log(s), " << fmt(m.duration, "%.1f") << " s labelled";
   if (m.unlabelled > 0.0) out << ", " << fmt(m.unlabelled, "%.1f") << " s unlabelled (blank truth: not scored)";
@@ -187,6 +218,10 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
       << (separated.logs > 1 ? " (over all labelled time)" : "") << "\n";
   out << "  Brier score " << fmt(m.mean_brier()) << " (0: sure and right; 2: sure and wrong)\n";
   if (modes.size() >= 2) out << "  " << separated.describe() << "\n";
+  if (separated.logs > 1) {
+    out << "  mean over classes of each class's logs' accuracies " << fmt(s.by_log_class.accuracy) << "; "
+        << (range.problem.empty() ? range.range.describe() : "no range for another set: " + range.problem) << "\n";
+  }
   if (s.extrapolation.steps > 0) print_extrapolation(out, s.extrapolation);
   out << "  calibration of the most likely mode's probability:\n";
   print_calibration(out, "    ", m);
@@ -279,8 +314,30 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
   }
 }
 
+std::string json_range(const RangeReport& r) {
+  std::ostringstream o;
+  if (!r.problem.empty()) {
+    o << "{\"problem\": " << json_string(r.problem) << "}";
+    return o.str();
+  }
+  const AccuracyRange& a = r.range;
+  o << "{\"level\": " << json_number(a.level) << ", \"low\": " << json_number(a.low)
+    << ", \"high\": " << json_number(a.high) << ", \"standard_error\": " << json_number(a.standard_error)
+    << ", \"logs_per_class\": {";
+  bool listed = false;
+  for (const auto& [name, count] : a.logs_per_class) {
+    o << (listed ? ", " : "") << json_string(name) << ": " << count;
+    listed = true;
+  }
+  o << "}, \"borrowed_spread\": [";
+  for (std::size_t i = 0; i < a.borrowed_spread.size(); ++i) o << (i ? ", " : "") << json_string(a.borrowed_spread[i]);
+  o << "]}";
+  return o.str();
+}
+
+// `range`: the range of another set's mean over classes, null for one log.
 std::string json_summary(const EvaluationSummary& s, const std::vector<std::string>& classes,
-                         const std::vector<std::string>& states) {
+                         const std::vector<std::string>& states, const RangeReport* range) {
   const ModeMetrics& m = s.metrics;
   const ScoreSummary& by_class = s.by_log_class;
   const std::vector<std::string> truths = truths_in_order(m, classes);
@@ -295,7 +352,8 @@ std::string json_summary(const EvaluationSummary& s, const std::vector<std::stri
     << ", \"std\": " << json_number(s.accuracy_per_log.standard_deviation)
     << ", \"min\": " << json_number(s.accuracy_per_log.min)
     << "}, \"mean_over_classes\": {\"accuracy\": " << scored(by_class.accuracy)
-    << ", \"mean_truth_log_probability\": " << scored(by_class.mean_log_probability) << ", \"per_class\": {";
+    << ", \"mean_truth_log_probability\": " << scored(by_class.mean_log_probability)
+    << ", \"range\": " << (range != nullptr ? json_range(*range) : std::string("null")) << ", \"per_class\": {";
   bool listed = false;
   for (const auto& [name, accuracy] : by_class.class_accuracy) {
     o << (listed ? ", " : "") << json_string(name) << ": {\"accuracy\": " << json_number(accuracy)
@@ -391,13 +449,17 @@ std::string decision_settings_text(const DecisionConfig& d) {
 }
 
 std::string report_json(const std::vector<LogGroup>& groups, const std::vector<std::string>& classes,
-                        const std::vector<std::string>& states) {
+                        const std::vector<std::string>& states, const std::map<std::string, int>& another) {
   const std::vector<const LogResult*> all = pointers(groups);
   std::ostringstream out;
-  out << "{\"overall\": " << json_summary(summarize(all, states.size()), classes, states) << ", \"groups\": {";
+  const RangeReport overall = range_of(all, another);
+  out << "{\"overall\": " << json_summary(summarize(all, states.size()), classes, states, &overall)
+      << ", \"groups\": {";
   for (std::size_t i = 0; i < groups.size(); ++i) {
+    const std::vector<const LogResult*> logs = pointers(groups[i]);
+    const RangeReport range = range_of(logs, {});
     out << (i ? ", " : "") << json_string(groups[i].name) << ": "
-        << json_summary(summarize(pointers(groups[i]), states.size()), classes, states);
+        << json_summary(summarize(logs, states.size()), classes, states, &range);
   }
   // Each log under the path it was given by (its files' joined by '+'), made
   // unique by a count when one is given twice: logs of several directories
@@ -407,26 +469,37 @@ std::string report_json(const std::vector<LogGroup>& groups, const std::vector<s
   for (std::size_t i = 0; i < all.size(); ++i) {
     const int use = ++uses[all[i]->source];
     const std::string key = use == 1 ? all[i]->source : all[i]->source + " (" + std::to_string(use) + ")";
-    out << (i ? ", " : "") << json_string(key) << ": " << json_summary(summarize({all[i]}, states.size()), classes, states);
+    out << (i ? ", " : "") << json_string(key) << ": "
+        << json_summary(summarize({all[i]}, states.size()), classes, states, nullptr);
   }
   out << "}}\n";
   return out.str();
 }
 
+std::string logs_per_class_problem(const std::vector<LogGroup>& groups, const std::map<std::string, int>& another) {
+  try {
+    check_logs_per_class(class_scores(pointers(groups)), another);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
 std::string report_tables(const std::vector<LogGroup>& groups, const std::vector<std::string>& classes,
-                          const std::vector<std::string>& states, const std::string& decision_made) {
+                          const std::vector<std::string>& states, const std::string& decision_made,
+                          const std::map<std::string, int>& another) {
   std::ostringstream out;
   if (groups.size() > 1) {
     for (const LogGroup& g : groups) {
       const std::vector<const LogResult*> logs = pointers(g);
       print_table(out, g.name, summarize(logs, states.size()), classes, states, logs.size() == 1, decision_made,
-                  separability_of(logs, classes.size()));
+                  separability_of(logs, classes.size()), range_of(logs, {}));
     }
   }
   if (!groups.empty()) {
     const std::vector<const LogResult*> all = pointers(groups);
     print_table(out, groups.size() > 1 ? "all" : groups[0].name, summarize(all, states.size()), classes, states,
-                all.size() <= 3, decision_made, separability_of(all, classes.size()));
+                all.size() <= 3, decision_made, separability_of(all, classes.size()), range_of(all, another));
   }
   return out.str();
 }

@@ -6,6 +6,7 @@
 #ifndef SKIDIMM_EVALUATION_EVALUATION_REPORT_H_
 #define SKIDIMM_EVALUATION_EVALUATION_REPORT_H_
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -21,15 +22,25 @@ std::string decision_settings_text(const DecisionConfig& settings);
 // {"overall": ..., "groups": {name: ...}, "logs": {path: ...}}, one line;
 // each log under the path it was given by (LogResult::source), unique.
 // `classes`: the order of the confusions and per-class figures; `states`:
-// the bank's state names (state RMSE), empty when unknown.
+// the bank's state names (state RMSE), empty when unknown. `another`: how
+// many logs of each class the set holds whose range of accuracy
+// (score_range.h) the overall summary gives (empty: as many as were
+// scored; each group's is always its own count). A count that does not
+// fit the scored classes is reported in the range's place.
 std::string report_json(const std::vector<LogGroup>& groups, const std::vector<std::string>& classes,
-                        const std::vector<std::string>& states);
+                        const std::vector<std::string>& states, const std::map<std::string, int>& another = {});
+
+// Why `another` (report_json()'s) does not fit the classes `groups` score,
+// or empty where it does.
+std::string logs_per_class_problem(const std::vector<LogGroup>& groups, const std::map<std::string, int>& another);
 
 // The tables. `classes`: the order of the confusion's columns and rows
 // (truths the bank lacks come last); `decision_made`: how the scored
-// decision was made (decision_settings_text, or where it came from).
+// decision was made (decision_settings_text, or where it came from);
+// `another` as report_json()'s.
 std::string report_tables(const std::vector<LogGroup>& groups, const std::vector<std::string>& classes,
-                          const std::vector<std::string>& states, const std::string& decision_made);
+                          const std::vector<std::string>& states, const std::string& decision_made,
+                          const std::map<std::string, int>& another = {});
 
 // Decision settings compared on the same scored logs (`scored[k]` made with
 // `settings[k]`, evaluate_estimate_groups()): as JSON,
