@@ -186,26 +186,24 @@ def held_back_range(evaluation):
         sys.exit(f"eval's range is not for the held-back split's counts at 9 in 10: {r}")
     if r["low"] is None:
         return "- (too few runs of each terrain)"
-    borrowed = r["borrowed_spread"]
-    spread = f" ({COUNT[len(borrowed)]} terrain{'s' if len(borrowed) > 1 else ''} of one run)" if borrowed else ""
-    return f"{pct(r['low'])}-{pct(r['high'])}{spread}"
+    return f"{pct(r['low'])}-{pct(r['high'])}"
 
 
 def held_back_sentence(summary, order):
     """How far 21 runs counted as the held-back split's may fall from each protocol's mean."""
     ranges = [(slug, summary[slug]["eval"]["mean_over_classes"]["range"]) for slug in order]
-    known = [(slug, r) for slug, r in ranges if r["low"] is not None]
-    half = [(r["high"] - r["low"]) / 2 for _, r in known]
-    errors = ", ".join(f"{SHORT[slug]} {100 * r['standard_error']:.1f}" for slug, r in known)
+    half = [r["half_width"] for _, r in ranges if r["half_width"] is not None]
+    errors = ", ".join(f"{SHORT[slug]} {100 * r['standard_error']:.1f}" for slug, r in ranges
+                       if r["standard_error"] is not None)
     split = ", ".join(f"{t} {n}" for t, n in HELD_BACK_SPLIT.items())
-    return (f"*21 runs like these*: the mean over terrains that {sum(HELD_BACK_SPLIT.values())} runs counted as the "
-            f"data set's held-back split ({split}) would score nine times in ten, were they drawn as the protocol's "
-            f"held-out runs were (`skidimm eval --range-for`, a bootstrap over each terrain's held-out runs; a "
-            f"terrain of one run takes the others' spread). The ranges' half-widths run from "
-            f"{100 * min(half):.1f} to {100 * max(half):.1f} points: with so few runs of a terrain, and runs that are "
-            f"read right nearly throughout or wrong nearly throughout, a set of 21 runs scores several points from "
-            f"any estimate made on others, however honest. The standard errors of the protocols' own means, in "
-            f"points: {errors}.")
+    return (f"*21 runs like these*: where the mean over terrains of {sum(HELD_BACK_SPLIT.values())} runs counted "
+            f"as the data set's held-back split ({split}) would fall, were they drawn as the protocol's held-out runs "
+            f"were: the 90% prediction interval from the spread of held-out runs about their terrain's mean, pooled "
+            f"over terrains (Student's t, `skidimm eval --range-for`, [cli.md](cli.md#skidimm-eval)), clamped to "
+            f"0-100%. Before clamping, the half-widths run from {100 * min(half):.1f} to {100 * max(half):.1f} points: "
+            f"with so few runs of a terrain, and runs that are read right nearly throughout or wrong nearly "
+            f"throughout, a set of 21 runs scores well away from any estimate made on others, however honest. The "
+            f"standard errors of the protocols' own means, in points: {errors}.")
 
 
 def protocols(work):
@@ -214,7 +212,7 @@ def protocols(work):
     summary, blocks = assessed(work)
 
     order = sorted(HELD_OUT, key=lambda s: summary[s]["tune"]["mean"])
-    lines = ["| held out | runs scored | mean over terrains | 21 runs like these would score (9 times in 10) | "
+    lines = ["| held out | runs scored | mean over terrains | 21 runs like these: 90% range | "
              "worst terrain | runs below 50% | mean log p(truth) | "
              "time at p >= 0.9: share, right | calibration error | the terrains told apart? |",
              "|---|---|---|---|---|---|---|---|---|---|"]

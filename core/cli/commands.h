@@ -214,7 +214,7 @@ struct EvalOptions {
   bool splice = false;  // the logs end to end as one run, the groups taking turns
   bool json = false;
   // --range-for: logs per class of the set whose range of accuracy the
-  // report gives (evaluation/score_range.h); empty, as many as were scored.
+  // report gives (evaluation/accuracy_range.h); empty, as many as were scored.
   std::map<std::string, int> range_for;
 };
 int eval(const EvalOptions& options);

@@ -96,6 +96,11 @@ int eval(const EvalOptions& given) {
     EvalOptions options = given;
     const bool compares_decisions =
         options.decision_enter.size() > 1 || options.decision_leave.size() > 1 || options.decision_hold.size() > 1;
+    if (compares_decisions && !options.range_for.empty()) {
+      throw UsageError(
+          "--range-for gives the range of one report's accuracy, and lists of --decision-* settings compare "
+          "decisions: give one or the other");
+    }
     if (compares_decisions && options.estimates.empty()) {
       throw UsageError(
           "lists of --decision-* settings are compared on files a filter already wrote (--estimates): run the logs "
@@ -214,7 +219,7 @@ int eval(const EvalOptions& given) {
     if (!range_problem.empty()) {
       std::cerr << "skidimm eval: error: --range-for: " << printable(range_problem)
                 << " (the report above has every other figure)\n";
-      return kExitUsage;
+      if (code == kExitOk) return kExitUsage;  // a log that failed is said first
     }
     return code;
   });

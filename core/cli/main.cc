@@ -28,7 +28,7 @@
 #include "commands.h"
 #include "documentation.h"
 #include "skidimm/engine/fatal_signal_report.h"
-#include "skidimm/evaluation/score_range.h"
+#include "skidimm/evaluation/accuracy_range.h"
 #include "skidimm/io/csv.h"
 #include "skidimm/io/estimates_writer.h"
 #include "skidimm/io/log_arguments.h"

@@ -11,7 +11,7 @@
 
 #include "commands.h"
 #include "skidimm/errors.h"
-#include "skidimm/evaluation/score_range.h"
+#include "skidimm/evaluation/accuracy_range.h"
 #include "skidimm/fitting/bank_fit.h"
 #include "skidimm/fitting/bank_writer.h"
 #include "skidimm/fitting/fit_logs.h"
@@ -73,8 +73,11 @@ std::string number(double v, const char* format = "%.3f") {
   return b;
 }
 
+// `held_out`: the scores are of logs nothing chose the settings on, so the
+// range another set of logs like them would score is said (not of the
+// selection's own cross-validation, which chose them).
 void print_scores(std::ostream& out, const std::string& title, const std::vector<LogScore>& scores,
-                  const Summary& summary, bool with_settings) {
+                  const Summary& summary, bool with_settings, bool held_out) {
   std::size_t width = 8;
   for (const LogScore& s : scores) width = std::max(width, s.log.size());
   out << "\n" << title << "\n  " << std::string(width, ' ') << "  truth            accuracy  mean log p(truth)\n";
@@ -89,7 +92,7 @@ void print_scores(std::ostream& out, const std::string& title, const std::vector
   }
   out << "\n  mean over classes: accuracy " << number(summary.accuracy) << ", mean log p(truth) "
       << number(summary.mean_log_probability) << "\n";
-  if (scores.size() > 1) out << "  " << evaluation::accuracy_range(scores).describe() << "\n";
+  if (held_out && scores.size() > 1) out << "  " << evaluation::accuracy_range(scores).describe() << "\n";
 }
 
 // One row per scored log: `kind` is the protocol of a nested assessment
@@ -502,19 +505,19 @@ int tune(const TuneCommandOptions& options) {
     out << "chosen: " << result.settings.describe(config) << "\n";
     print_scores(out,
                  "cross-validation with the chosen settings (optimistic: the settings were chosen on these scores)",
-                 result.selection_scores, result.selection, false);
+                 result.selection_scores, result.selection, false, false);
     for (const fitting::Assessment& a : result.assessments) {
       print_scores(out,
                    "nested assessment, protocol " + a.protocol.name() + " (" + question_of(a.protocol, options.folds) +
                        "; each scored by models fitted and settings tuned without it)",
-                   a.scores, a.summary, true);
+                   a.scores, a.summary, true, true);
       print_switches(out, a);
       print_extrapolation(out, a.scores);
       out << "  " << evaluation::separability(a.scores, static_cast<int>(config.class_names().size())).describe() << "\n";
     }
     if (!result.lockbox.scores.empty()) {
       print_scores(out, "lockbox (kept aside, scored once by the bank tuned on the other logs)", result.lockbox.scores,
-                   result.lockbox.summary, false);
+                   result.lockbox.summary, false, true);
       print_switches(out, result.lockbox);
       print_extrapolation(out, result.lockbox.scores);
       out << "  " << evaluation::separability(result.lockbox.scores, static_cast<int>(config.class_names().size())).describe()

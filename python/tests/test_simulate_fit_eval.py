@@ -57,7 +57,7 @@ def test_eval_range_for_equals_the_cli_json(configs, cli, switching_logs):
         report = skidimm.eval(bank, [switching_logs], range_for={**doubled, "grass": 3})
     assert "problem" in report["overall"]["mean_over_classes"]["range"]
     assert report["overall"]["accuracy"] is not None
-    for bad in ({"grass": 0}, {"grass": 2.5}, {"grass": True}, {}, "grass=2"):
+    for bad in ({"grass": 0}, {"grass": 2.5}, {"grass": True}, {"grass": 10**8}, {" grass": 2}, {}, "grass=2"):
         with pytest.raises(ValueError, match="range_for"):
             skidimm.eval(bank, [switching_logs / "no_such_run.csv"], range_for=bad)  # refused before any log is read
 

@@ -639,7 +639,7 @@ TEST(EvalCommand, CountsTheStepsOutsideTheInputsTheTerrainsWereFittedOn) {
   EXPECT_TRUE(json_of(eval_with_ranges("none.yaml", "", " --json"))["overall"]["extrapolation"].IsNull());
 }
 
-// The range of accuracy another set of runs would score (score_range.h), on
+// The range of accuracy another set of runs would score (accuracy_range.h), on
 // real BorealTC runs with the bundled bank: its standard error is the one
 // computed here from each run's accuracy in the JSON, the range holds this
 // set's own mean, --range-for asks for another set's counts, and a count
@@ -664,25 +664,29 @@ TEST(EvalCommand, SaysWhatRangeAnotherSetOfRunsWouldScoreOnRealRuns) {
   }
   ASSERT_EQ(by_terrain["ICE"].size(), 2u);
   ASSERT_EQ(by_terrain["SNOW"].size(), 4u);
-  double mean = 0.0, variance_of_mean = 0.0;
+  // The spread of runs about their terrain's mean, pooled: sum of squares
+  // over sum_c (n_c - 1); this mean's standard error s sqrt(sum_c 1 / n_c) / C.
+  double mean = 0.0, squares = 0.0, inverse_counts = 0.0;
+  int degrees = 0;
   for (const auto& [terrain, accuracies] : by_terrain) {
-    double m = 0.0, squares = 0.0;
+    double m = 0.0;
     for (double a : accuracies) m += a / static_cast<double>(accuracies.size());
     for (double a : accuracies) squares += (a - m) * (a - m);
     mean += m / 2.0;
-    variance_of_mean += squares / static_cast<double>(accuracies.size() - 1) / static_cast<double>(accuracies.size());
+    degrees += static_cast<int>(accuracies.size()) - 1;
+    inverse_counts += 1.0 / static_cast<double>(accuracies.size());
   }
   const YAML::Node overall = json["overall"]["mean_over_classes"];
   const YAML::Node range = overall["range"];
   ASSERT_TRUE(range.IsMap()) << "overall.mean_over_classes.range";
   EXPECT_NEAR(overall["accuracy"].as<double>(), mean, 1e-5);
-  EXPECT_NEAR(range["standard_error"].as<double>(), std::sqrt(variance_of_mean) / 2.0, 1e-5);
+  EXPECT_EQ(range["degrees_of_freedom"].as<int>(), degrees);
+  EXPECT_NEAR(range["standard_error"].as<double>(), std::sqrt(squares / degrees * inverse_counts) / 2.0, 1e-5);
   EXPECT_EQ(range["level"].as<double>(), 0.9);
   EXPECT_LT(range["low"].as<double>(), mean);
   EXPECT_GT(range["high"].as<double>(), mean);
   EXPECT_EQ(range["logs_per_class"]["ICE"].as<int>(), 2);
   EXPECT_EQ(range["logs_per_class"]["SNOW"].as<int>(), 4);
-  EXPECT_EQ(range["borrowed_spread"].size(), 0u);
   // Each group's range is its own runs': ICE's two say nothing of how runs
   // differ (one beyond its first), and a run alone has no range.
   const YAML::Node ice = json["groups"].begin()->second["mean_over_classes"]["range"];
@@ -709,6 +713,11 @@ TEST(EvalCommand, SaysWhatRangeAnotherSetOfRunsWouldScoreOnRealRuns) {
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_THAT(bad.err, HasSubstr("'ICE=four' is not CLASS=COUNT"));
   EXPECT_EQ(bad.out, "");
+  // One report's range, where lists of decision settings make a report each: refused before anything is read.
+  const Result grid = run_skidimm("eval --estimates " + (test_directory() / "none.csv").string() +
+                                  " --decision-enter 0.6,0.8 --range-for ICE=4");
+  EXPECT_EQ(grid.exit_code, 2);
+  EXPECT_THAT(grid.err, HasSubstr("--range-for gives the range of one report's accuracy"));
 }
 
 TEST(Cli, EvalTakesDecisionSettingsAndRemakesARunsDecisionFromItsProbabilities) {

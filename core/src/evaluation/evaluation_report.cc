@@ -11,7 +11,7 @@
 
 #include "evaluation_summary.h"
 #include "not_a_number.h"
-#include "skidimm/evaluation/score_range.h"
+#include "skidimm/evaluation/accuracy_range.h"
 #include "skidimm/io/csv.h"
 #include "skidimm/printable.h"
 
@@ -157,29 +157,18 @@ Separability separability_of(const std::vector<const LogResult*>& logs, std::siz
   return separability(scores, static_cast<int>(classes));
 }
 
-// The range of another set's mean over classes (score_range.h), or why there
+// The range of another set's mean over classes (accuracy_range.h), or why there
 // is none for the set asked for: a report keeps what was scored either way.
 struct RangeReport {
   AccuracyRange range;
   std::string problem;
 };
 
-// The logs summarize() scores by their classes (labelled time, a main truth).
-std::vector<LogScore> class_scores(const std::vector<const LogResult*>& logs) {
-  std::vector<LogScore> scores;
-  for (const LogResult* l : logs) {
-    if (!(l->metrics.duration > 0.0)) continue;
-    LogScore score = score_of(*l);
-    if (!score.truth.empty()) scores.push_back(std::move(score));
-  }
-  return scores;
-}
-
-// `another`: logs per class of the other set; empty, as many as `logs` has.
-RangeReport range_of(const std::vector<const LogResult*>& logs, const std::map<std::string, int>& another) {
+// `another`: logs per class of the other set; empty, as many as `s` scored.
+RangeReport range_of(const EvaluationSummary& s, const std::map<std::string, int>& another) {
   RangeReport report;
   try {
-    report.range = accuracy_range(class_scores(logs), another);
+    report.range = accuracy_range(s.log_scores, another);
   } catch (const std::invalid_argument& e) {
     report.problem = e.what();
   }
@@ -188,7 +177,8 @@ RangeReport range_of(const std::vector<const LogResult*>& logs, const std::map<s
 
 void print_table(std::ostream& out, const std::string& title, const EvaluationSummary& s,
                  const std::vector<std::string>& modes, const std::vector<std::string>& states, bool list_switches,
-                 const std::string& decision_made, const Separability& separated, const RangeReport& range) {
+                 const std::string& decision_made, const Separability& separated,
+                 const std::map<std::string, int>& another) {
   const ModeMetrics& m = s.metrics;
   out << "\n" << title << ": " << s.logs << " log(s), " << fmt(m.duration, "%.1f") << " s labelled";
   if (m.unlabelled > 0.0) out << ", " << fmt(m.unlabelled, "%.1f") << " s unlabelled (blank truth: not scored)";
@@ -219,6 +209,7 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
   out << "  Brier score " << fmt(m.mean_brier()) << " (0: sure and right; 2: sure and wrong)\n";
   if (modes.size() >= 2) out << "  " << separated.describe() << "\n";
   if (separated.logs > 1) {
+    const RangeReport range = range_of(s, another);
     out << "  mean over classes of each class's logs' accuracies " << fmt(s.by_log_class.accuracy) << "; "
         << (range.problem.empty() ? range.range.describe() : "no range for another set: " + range.problem) << "\n";
   }
@@ -322,22 +313,21 @@ std::string json_range(const RangeReport& r) {
   }
   const AccuracyRange& a = r.range;
   o << "{\"level\": " << json_number(a.level) << ", \"low\": " << json_number(a.low)
-    << ", \"high\": " << json_number(a.high) << ", \"standard_error\": " << json_number(a.standard_error)
-    << ", \"logs_per_class\": {";
+    << ", \"high\": " << json_number(a.high) << ", \"half_width\": " << json_number(a.half_width)
+    << ", \"standard_error\": " << json_number(a.standard_error) << ", \"logs_per_class\": {";
   bool listed = false;
   for (const auto& [name, count] : a.logs_per_class) {
     o << (listed ? ", " : "") << json_string(name) << ": " << count;
     listed = true;
   }
-  o << "}, \"borrowed_spread\": [";
-  for (std::size_t i = 0; i < a.borrowed_spread.size(); ++i) o << (i ? ", " : "") << json_string(a.borrowed_spread[i]);
-  o << "]}";
+  o << "}, \"degrees_of_freedom\": " << a.degrees_of_freedom << "}";
   return o.str();
 }
 
-// `range`: the range of another set's mean over classes, null for one log.
+// `another`: the other set's logs per class for the range of its mean over
+// classes (range_of()); none (a log's own summary): the range is null.
 std::string json_summary(const EvaluationSummary& s, const std::vector<std::string>& classes,
-                         const std::vector<std::string>& states, const RangeReport* range) {
+                         const std::vector<std::string>& states, const std::map<std::string, int>* another) {
   const ModeMetrics& m = s.metrics;
   const ScoreSummary& by_class = s.by_log_class;
   const std::vector<std::string> truths = truths_in_order(m, classes);
@@ -353,7 +343,8 @@ std::string json_summary(const EvaluationSummary& s, const std::vector<std::stri
     << ", \"min\": " << json_number(s.accuracy_per_log.min)
     << "}, \"mean_over_classes\": {\"accuracy\": " << scored(by_class.accuracy)
     << ", \"mean_truth_log_probability\": " << scored(by_class.mean_log_probability)
-    << ", \"range\": " << (range != nullptr ? json_range(*range) : std::string("null")) << ", \"per_class\": {";
+    << ", \"range\": " << (another != nullptr ? json_range(range_of(s, *another)) : std::string("null"))
+    << ", \"per_class\": {";
   bool listed = false;
   for (const auto& [name, accuracy] : by_class.class_accuracy) {
     o << (listed ? ", " : "") << json_string(name) << ": {\"accuracy\": " << json_number(accuracy)
@@ -452,14 +443,12 @@ std::string report_json(const std::vector<LogGroup>& groups, const std::vector<s
                         const std::vector<std::string>& states, const std::map<std::string, int>& another) {
   const std::vector<const LogResult*> all = pointers(groups);
   std::ostringstream out;
-  const RangeReport overall = range_of(all, another);
-  out << "{\"overall\": " << json_summary(summarize(all, states.size()), classes, states, &overall)
+  const std::map<std::string, int> own_counts;  // a group's range: for as many of each class as it has
+  out << "{\"overall\": " << json_summary(summarize(all, states.size()), classes, states, &another)
       << ", \"groups\": {";
   for (std::size_t i = 0; i < groups.size(); ++i) {
-    const std::vector<const LogResult*> logs = pointers(groups[i]);
-    const RangeReport range = range_of(logs, {});
     out << (i ? ", " : "") << json_string(groups[i].name) << ": "
-        << json_summary(summarize(logs, states.size()), classes, states, &range);
+        << json_summary(summarize(pointers(groups[i]), states.size()), classes, states, &own_counts);
   }
   // Each log under the path it was given by (its files' joined by '+'), made
   // unique by a count when one is given twice: logs of several directories
@@ -478,7 +467,7 @@ std::string report_json(const std::vector<LogGroup>& groups, const std::vector<s
 
 std::string logs_per_class_problem(const std::vector<LogGroup>& groups, const std::map<std::string, int>& another) {
   try {
-    check_logs_per_class(class_scores(pointers(groups)), another);
+    check_logs_per_class(summarize(pointers(groups), 0).log_scores, another);
   } catch (const std::invalid_argument& e) {
     return e.what();
   }
@@ -493,13 +482,13 @@ std::string report_tables(const std::vector<LogGroup>& groups, const std::vector
     for (const LogGroup& g : groups) {
       const std::vector<const LogResult*> logs = pointers(g);
       print_table(out, g.name, summarize(logs, states.size()), classes, states, logs.size() == 1, decision_made,
-                  separability_of(logs, classes.size()), range_of(logs, {}));
+                  separability_of(logs, classes.size()), {});
     }
   }
   if (!groups.empty()) {
     const std::vector<const LogResult*> all = pointers(groups);
     print_table(out, groups.size() > 1 ? "all" : groups[0].name, summarize(all, states.size()), classes, states,
-                all.size() <= 3, decision_made, separability_of(all, classes.size()), range_of(all, another));
+                all.size() <= 3, decision_made, separability_of(all, classes.size()), another);
   }
   return out.str();
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "not_a_number.h"
 
@@ -76,6 +77,7 @@ EvaluationSummary summarize(const std::vector<const LogResult*>& logs, std::size
   s.accuracy_per_log = spread(s.accuracies);
   s.decision_accuracy_per_log = spread(s.decision_accuracies);
   s.by_log_class = summarize(scores);
+  s.log_scores = std::move(scores);
   return s;
 }
 

@@ -45,8 +45,10 @@ struct EvaluationSummary {
   double mean_class_accuracy = 0.0;
   double mean_class_log_probability = 0.0;
   // tune's figure (log_scores.h): each log counted for its main truth only,
-  // per class the mean over its logs, then the mean over classes.
+  // per class the mean over its logs, then the mean over classes; and the
+  // logs' scores it is the mean of (those with labelled time).
   ScoreSummary by_log_class;
+  std::vector<LogScore> log_scores;
 };
 
 // The truths of `m` in `classes`' order, then any other (a truth the bank

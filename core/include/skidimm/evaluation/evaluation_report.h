@@ -24,7 +24,7 @@ std::string decision_settings_text(const DecisionConfig& settings);
 // `classes`: the order of the confusions and per-class figures; `states`:
 // the bank's state names (state RMSE), empty when unknown. `another`: how
 // many logs of each class the set holds whose range of accuracy
-// (score_range.h) the overall summary gives (empty: as many as were
+// (accuracy_range.h) the overall summary gives (empty: as many as were
 // scored; each group's is always its own count). A count that does not
 // fit the scored classes is reported in the range's place.
 std::string report_json(const std::vector<LogGroup>& groups, const std::vector<std::string>& classes,
