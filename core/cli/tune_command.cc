@@ -574,16 +574,23 @@ int tune(const TuneCommandOptions& options) {
                 : s.verdict == Verdict::kNotSeparated ? "the classes are not told apart"
                                                       : "worse than the guess, sure of wrong classes");
       };
+      // ... and where the same accuracy of as many other logs like them would fall.
+      const auto range = [](const std::vector<evaluation::LogScore>& scores) {
+        const evaluation::AccuracyRange r = evaluation::accuracy_range(scores);
+        return r.known() ? "; as many other logs like these, 90% range " + number(r.low) + " to " + number(r.high)
+                         : std::string("; too few logs for a range of what others would score");
+      };
       for (const fitting::Assessment& a : result.assessments) {
         const bool logs = a.protocol.kind == fitting::Protocol::Kind::kLogs;
         header.push_back("Nested cross-validated accuracy " + (logs ? "" : "(" + a.protocol.name() + ") ") +
                          number(a.summary.accuracy) + ", mean log p(truth) " + number(a.summary.mean_log_probability) +
-                         " (mean over classes of the mean over their logs" + against_guess(a.scores) + ")");
+                         " (mean over classes of the mean over their logs" + range(a.scores) + against_guess(a.scores) +
+                         ")");
       }
       if (!result.lockbox.scores.empty()) {
         header.push_back("Lockbox accuracy " + number(result.lockbox.summary.accuracy) + ", mean log p(truth) " +
                          number(result.lockbox.summary.mean_log_probability) + " (" +
-                         against_guess(result.lockbox.scores).substr(2) + ")");
+                         range(result.lockbox.scores).substr(2) + against_guess(result.lockbox.scores) + ")");
       }
       fitting::write_bank_from_template(options.bank, options.output_bank, header, blocks);
       std::cerr << "skidimm tune: wrote " << options.output_bank.string() << "\n";

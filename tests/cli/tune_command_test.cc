@@ -375,10 +375,12 @@ TEST(Cli, TuneWarnsOfClassesWithTooFewLogs) {
                                     " --output-bank " + tuned.string());
   ASSERT_EQ(enough.exit_code, 0) << enough.err;
   // The tuned bank's header says how its nested score stands against a
-  // guess, as the report does: read alone, it must not read better.
+  // guess, as the report does: read alone, it must not read better. Two
+  // logs of each class say too little of how logs differ for a range.
   const std::string header = read_file(tuned);
   EXPECT_THAT(header, ::testing::ContainsRegex("Nested cross-validated accuracy [0-9.]+, mean log p\\(truth\\) "
-                                               "[-0-9.]+ \\(mean over classes of the mean over their logs; each "
+                                               "[-0-9.]+ \\(mean over classes of the mean over their logs; too few "
+                                               "logs for a range of what others would score; each "
                                                "log's mean, averaged, [-0-9.]+ against a uniform guess over 5 "
                                                "classes, -1.609: (the classes are told apart|unclear whether|the "
                                                "classes are not told apart|worse than the guess)"));
