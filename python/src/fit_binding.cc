@@ -245,10 +245,21 @@ void bind_fit(py::module_& m) {
                                          unpaired_runs(skip_unpaired, &skipped));
         }
         warn_skipped(skipped);
+        // What `skidimm fit` says before it fits, as warnings: a label over
+        // the log's own truth, what the bank's sampling options left out of
+        // a log, and the steps of a class no mode's fit_when takes.
+        std::vector<std::string> said = fitting::labels_overriding_truth(bank.config(), data);
+        for (const std::string& left_out : fitting::skipped_by_sampling(data)) said.push_back(left_out);
+        for (const std::string& unfitted : fitting::classes_leaving_steps_unfitted(bank.config())) {
+          said.push_back(unfitted);
+        }
+        warn_skipped(said);
         return mode_logs_to_list(data);
       },
       py::arg("bank"), py::arg("logs"), py::arg("mode") = "", py::arg("rate") = 0.0, py::arg("skip_unpaired") = false,
-      "The logs of `skidimm fit --log` arguments by mode: [(mode index, [trajectory dict])].");
+      "The logs of `skidimm fit --log` arguments by mode: [(mode index, [trajectory dict])]; warns of what `skidimm "
+      "fit` says before fitting (labels over a log's truth, rows the bank's sampling options left out, steps no "
+      "mode's fit_when takes).");
   m.def(
       "mode_segments",
       [](const PyBank& bank, const py::object& log, const std::string& mode, double rate) {

@@ -106,6 +106,26 @@ def test_a_log_result_says_what_the_banks_options_left_out(configs, switching_lo
     assert pickle.loads(pickle.dumps(result)).skipped == result.skipped
 
 
+def test_fit_warns_of_what_the_banks_options_left_out_as_the_cli_says_it(configs, switching_logs, tmp_path):
+    lines = (switching_logs / "run_02.csv").read_text().splitlines(keepends=True)
+    twice = tmp_path / "twice.csv"
+    twice.write_text("".join(lines[:301] + [lines[300]] + lines[301:]))  # row 300 again, as line 302
+    bank = tmp_path / "lenient.yaml"
+    bank.write_text((configs / "ltc_terrains.yaml").read_text() + "\nsampling:\n  skip_out_of_order: true\n")
+    said = (f"{twice}: 1 row(s) whose time was not after their file's last row were left out "
+            f"(sampling.skip_out_of_order), the first at {twice}:302: t = ")
+    with pytest.warns(UserWarning) as warned:
+        skidimm.fit(bank, [str(twice)], objective="window")
+    # The words of `skidimm fit: ...` on stderr (tests/cli/hostile_input_test.cc).
+    assert [str(w.message) for w in warned if str(w.message).startswith(said)], [str(w.message) for w in warned]
+    # A log with nothing left out: no such warning.
+    import warnings
+    with warnings.catch_warnings(record=True) as quiet:
+        warnings.simplefilter("always")
+        skidimm.fit(bank, [str(switching_logs / "run_02.csv")], objective="window")
+    assert not [w for w in quiet if "left out" in str(w.message)]
+
+
 def test_log_results_pickle_losslessly(configs, switching_logs):
     import pickle
 
