@@ -91,12 +91,18 @@ def test_eval_splice_warns_of_a_measurement_a_log_never_gave(configs, switching_
         skidimm.eval(configs / "ltc_terrains.yaml", [str(switching_logs / "run_03.csv"), str(no_gyro)], splice=True)
 
 
-def test_a_log_result_says_what_the_banks_options_left_out(configs, switching_logs, tmp_path):
+def a_row_written_twice(configs, switching_logs, directory):
+    """run_02 with its row 300 again as line 302, and the terrains bank that leaves such rows out: (log, bank)."""
     lines = (switching_logs / "run_02.csv").read_text().splitlines(keepends=True)
-    twice = tmp_path / "twice.csv"
-    twice.write_text("".join(lines[:301] + [lines[300]] + lines[301:]))  # row 300 again, as line 302
-    bank = tmp_path / "lenient.yaml"
+    twice = directory / "twice.csv"
+    twice.write_text("".join(lines[:301] + [lines[300]] + lines[301:]))
+    bank = directory / "lenient.yaml"
     bank.write_text((configs / "ltc_terrains.yaml").read_text() + "\nsampling:\n  skip_out_of_order: true\n")
+    return twice, bank
+
+
+def test_a_log_result_says_what_the_banks_options_left_out(configs, switching_logs, tmp_path):
+    twice, bank = a_row_written_twice(configs, switching_logs, tmp_path)
     result = skidimm.evaluate_log(bank, str(twice))
     assert len(result.skipped) == 1
     assert result.skipped[0].startswith("1 row(s) whose time was not after their file's last row were left out "
@@ -107,11 +113,7 @@ def test_a_log_result_says_what_the_banks_options_left_out(configs, switching_lo
 
 
 def test_fit_warns_of_what_the_banks_options_left_out_as_the_cli_says_it(configs, switching_logs, tmp_path):
-    lines = (switching_logs / "run_02.csv").read_text().splitlines(keepends=True)
-    twice = tmp_path / "twice.csv"
-    twice.write_text("".join(lines[:301] + [lines[300]] + lines[301:]))  # row 300 again, as line 302
-    bank = tmp_path / "lenient.yaml"
-    bank.write_text((configs / "ltc_terrains.yaml").read_text() + "\nsampling:\n  skip_out_of_order: true\n")
+    twice, bank = a_row_written_twice(configs, switching_logs, tmp_path)
     said = (f"{twice}: 1 row(s) whose time was not after their file's last row were left out "
             f"(sampling.skip_out_of_order), the first at {twice}:302: t = ")
     with pytest.warns(UserWarning) as warned:
