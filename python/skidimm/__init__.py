@@ -426,6 +426,8 @@ def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", wind
     if renaming:
         raise ConfigError(f"name={name!r}: {renaming}")
     data = _native.load_fit_logs(fresh, logs, mode, _rate(rate), skip_unpaired)
+    for note in _native.fit_notes(fresh, data):  # what `skidimm fit` says before it fits
+        _warnings.warn(note, stacklevel=2)
     fitted = _native.fit_in_place(fresh, data, options)
     return _fit_result(fresh, fitted, options, mode, name, output_bank, plugin_paths, models,
                        "skidimm.fit(" + ", ".join(repr(log) for log in logs) + ")", _rate(rate))

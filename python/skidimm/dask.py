@@ -20,6 +20,7 @@ file whose work is under ``if __name__ == "__main__":``.
 
 import os
 import threading
+import warnings
 
 import skidimm
 
@@ -130,6 +131,10 @@ def _modes_in(segments):
     return [j for j, logs in segments if logs]
 
 
+def _fit_notes(segments, bank_file, plugin_paths, models):
+    return skidimm._native.fit_notes(_worker_bank(bank_file, plugin_paths, models), segments, False)
+
+
 def _fit(bank_file, plugin_paths, models, options, modes, *segments):
     """Fits `modes` (None: every mode in the segments) of a fresh bank to their segments, in log order."""
     bank = skidimm.Bank(bank_file, plugin_paths, models)  # fitted in place: never the cached one
@@ -175,6 +180,12 @@ def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihoo
     modes_per_log = client.gather(client.map(_modes_in, segments, pure=False))
     if not any(modes_per_log):
         raise skidimm.Error("no logs to fit")
+    # What `skidimm fit` says before it fits: of each log where it was read, then of the bank.
+    notes = client.gather(client.map(_fit_notes, segments, bank_file=bank_file, plugin_paths=plugin_paths,
+                                     models=models, pure=False))
+    notes.append(skidimm._native.fit_notes(skidimm.Bank(bank_file, plugin_paths, models), []))
+    for note in (note for of_log in notes for note in of_log):
+        warnings.warn(note, stacklevel=2)
     if shared or fit_r:  # the modes are fitted jointly
         tasks = [client.submit(_fit, bank_file, plugin_paths, models, options, None, *segments, pure=False)]
     else:

@@ -101,6 +101,7 @@ py::dict trajectory_to_dict(const fitting::Trajectory& t) {
   d["u"] = matrix_array(t.u);
   d["z"] = matrix_array(t.z);
   d["truth"] = t.truth;
+  d["skipped"] = t.skipped;
   return d;
 }
 
@@ -112,6 +113,7 @@ fitting::Trajectory trajectory_from_dict(const py::dict& d) {
   t.u = d["u"].cast<Eigen::MatrixXd>();
   t.z = d["z"].cast<Eigen::MatrixXd>();
   t.truth = d["truth"].cast<std::vector<std::string>>();
+  if (d.contains("skipped")) t.skipped = d["skipped"].cast<std::vector<std::string>>();
   return t;
 }
 
@@ -245,21 +247,27 @@ void bind_fit(py::module_& m) {
                                          unpaired_runs(skip_unpaired, &skipped));
         }
         warn_skipped(skipped);
-        // What `skidimm fit` says before it fits, as warnings: a label over
-        // the log's own truth, what the bank's sampling options left out of
-        // a log, and the steps of a class no mode's fit_when takes.
-        std::vector<std::string> said = fitting::labels_overriding_truth(bank.config(), data);
-        for (const std::string& left_out : fitting::skipped_by_sampling(data)) said.push_back(left_out);
-        for (const std::string& unfitted : fitting::classes_leaving_steps_unfitted(bank.config())) {
-          said.push_back(unfitted);
-        }
-        warn_skipped(said);
         return mode_logs_to_list(data);
       },
       py::arg("bank"), py::arg("logs"), py::arg("mode") = "", py::arg("rate") = 0.0, py::arg("skip_unpaired") = false,
-      "The logs of `skidimm fit --log` arguments by mode: [(mode index, [trajectory dict])]; warns of what `skidimm "
-      "fit` says before fitting (labels over a log's truth, rows the bank's sampling options left out, steps no "
-      "mode's fit_when takes).");
+      "The logs of `skidimm fit --log` arguments by mode: [(mode index, [trajectory dict])].");
+  m.def(
+      "fit_notes",
+      [](const PyBank& bank, const py::list& data, bool of_the_bank) {
+        const std::vector<fitting::ModeLogs> logs = mode_logs_from_list(data);
+        std::vector<std::string> notes = fitting::labels_overriding_truth(bank.config(), logs);
+        for (const std::string& left_out : fitting::skipped_by_sampling(logs)) notes.push_back(left_out);
+        if (of_the_bank) {
+          for (const std::string& unfitted : fitting::classes_leaving_steps_unfitted(bank.config())) {
+            notes.push_back(bank.file.string() + ": " + unfitted);
+          }
+        }
+        return notes;
+      },
+      py::arg("bank"), py::arg("data"), py::arg("of_the_bank") = true,
+      "What `skidimm fit` says before it fits, about `data` (load_fit_logs' or mode_segments'): labels over a "
+      "log's truth column, rows the bank's sampling options left out of a log; with `of_the_bank`, the classes "
+      "whose steps no mode's fit_when takes.");
   m.def(
       "mode_segments",
       [](const PyBank& bank, const py::object& log, const std::string& mode, double rate) {

@@ -3,6 +3,7 @@
 import pytest
 
 import skidimm
+from faulty_logs import a_row_written_twice
 
 distributed = pytest.importorskip("distributed")
 import skidimm.dask  # noqa: E402
@@ -57,6 +58,17 @@ def test_fit_on_the_cluster_equals_the_local_fit(client, configs, singular_logs)
     assert there["entries"] == here["entries"]
     for mode in ("asphalt", "grass"):
         assert there["reports"][mode]["parameters"] == here["reports"][mode]["parameters"]
+
+
+def test_fit_on_the_cluster_warns_as_the_local_fit(client, configs, switching_logs, tmp_path):
+    twice, bank = a_row_written_twice(configs, switching_logs, tmp_path)
+    with pytest.warns(UserWarning) as here:
+        skidimm.fit(bank, [str(twice)], objective="window")
+    with pytest.warns(UserWarning) as there:
+        skidimm.dask.fit(client, bank, [str(twice)], objective="window")
+    said = [str(w.message) for w in here]
+    assert any("(sampling.skip_out_of_order)" in message for message in said), said
+    assert [str(w.message) for w in there] == said
 
 
 def test_fit_with_each_modes_own_output_noise_on_the_cluster_equals_the_local_fit(client, configs, tmp_path):

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import skidimm
+from faulty_logs import a_row_written_twice
 
 
 def test_simulate_equals_the_cli(tmp_path, configs, cli):
@@ -89,16 +90,6 @@ def test_eval_splice_warns_of_a_measurement_a_log_never_gave(configs, switching_
             f.write(",".join(cells + [log["mode"][k]]) + "\n")
     with pytest.warns(UserWarning, match=f"^{no_gyro}: measurement 'omega'"):
         skidimm.eval(configs / "ltc_terrains.yaml", [str(switching_logs / "run_03.csv"), str(no_gyro)], splice=True)
-
-
-def a_row_written_twice(configs, switching_logs, directory):
-    """run_02 with its row 300 again as line 302, and the terrains bank that leaves such rows out: (log, bank)."""
-    lines = (switching_logs / "run_02.csv").read_text().splitlines(keepends=True)
-    twice = directory / "twice.csv"
-    twice.write_text("".join(lines[:301] + [lines[300]] + lines[301:]))
-    bank = directory / "lenient.yaml"
-    bank.write_text((configs / "ltc_terrains.yaml").read_text() + "\nsampling:\n  skip_out_of_order: true\n")
-    return twice, bank
 
 
 def test_a_log_result_says_what_the_banks_options_left_out(configs, switching_logs, tmp_path):
