@@ -129,8 +129,11 @@ if [ "$asan" -eq 1 ]; then
       exit 1
     }
   }
-  for fuzzer in bank_loader_fuzzer log_reader_fuzzer scenario_loader_fuzzer estimates_reader_fuzzer mcap_reader_fuzzer \
-    cdr_reader_fuzzer expression_fuzzer multirate_merge_fuzzer; do
+  # Every target tests/fuzz builds (its list), so that a new one is fuzzed here without a second list to keep.
+  mapfile -t fuzzers < <(sed -n '/^set(SKIDIMM_FUZZ_TARGETS/,/)/p' "$root/tests/fuzz/CMakeLists.txt" |
+    grep -o '[a-z_]*_fuzzer')
+  [ "${#fuzzers[@]}" -gt 0 ] || { echo "check.sh: no fuzz targets listed in tests/fuzz/CMakeLists.txt" >&2; exit 1; }
+  for fuzzer in "${fuzzers[@]}"; do
     fuzz "$fuzzer" &
     running+=("$!")
     if [ "${#running[@]}" -ge "$jobs" ]; then finish_one; fi
