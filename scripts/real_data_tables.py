@@ -745,19 +745,23 @@ def reaction(work):
 
 def wheels(work):
     blocks = tune_blocks(os.path.join(work, "borealtc", "wheels_tune.txt"))
-    lockbox = json.load(open(os.path.join(work, "borealtc", "wheels_eval_lockbox.json")))["overall"]
-    if f"{blocks['lockbox']['mean']:.3f}" != f"{lockbox['mean_over_classes']['accuracy']:.3f}":
-        sys.exit("wheels: tune's lockbox score differs from eval's")
+    evaluated = {held: json.load(open(os.path.join(work, "borealtc", f"wheels_eval_{held}.json")))["overall"]
+                 for held in ("logs", "lockbox")}
+    for held, evaluation in evaluated.items():
+        if f"{blocks[held]['mean']:.3f}" != f"{evaluation['mean_over_classes']['accuracy']:.3f}":
+            sys.exit(f"wheels: tune's {held} score differs from eval's")
     lines = ["| terrain | each development run held out | lockbox |", "|---|---|---|"]
     for t in TERRAINS:
         lines.append(f"| {t} | {pct(blocks['logs']['classes'][t][0])} | {pct(blocks['lockbox']['classes'][t][0])} |")
     lines.append(f"| **mean over terrains** | **{pct(blocks['logs']['mean'])}** ({fmt(blocks['logs']['log_p'], 2)}) | "
                  f"**{pct(blocks['lockbox']['mean'])}** ({fmt(blocks['lockbox']['log_p'], 2)}) |")
-    cal = lockbox["calibration"]
+    lines.append(f"| 21 runs like these: 90% range | {held_back_range(evaluated['logs'])} | "
+                 f"{held_back_range(evaluated['lockbox'])} |")
+    cal = evaluated["lockbox"]["calibration"]
     return "\n".join(lines) + (
-        f"\n\nMean log p(truth) in brackets. On the lockbox, the most likely terrain has probability 0.9 or more "
-        f"{pct(cal['confident_fraction'])} of the time and is then right {pct(cal['confident_accuracy'])}. Chosen on "
-        f"the development runs: {blocks['chosen']}.\n")
+        f"\n\nMean log p(truth) in brackets; the last row as under the headline table. On the lockbox, the most "
+        f"likely terrain has probability 0.9 or more {pct(cal['confident_fraction'])} of the time and is then right "
+        f"{pct(cal['confident_accuracy'])}. Chosen on the development runs: {blocks['chosen']}.\n")
 
 
 @functools.lru_cache(maxsize=None)

@@ -243,8 +243,10 @@ for ((i = 1; i < ${#all[@]}; i += 2)); do wheel_all+=(--log "${all[$i]%%+*}"); d
 "$skidimm" tune -q --bank configs/borealtc/wheels_start.yaml "${wheel_develop[@]}" "${wheel_aside[@]}" "${fit[@]}" \
   --tune "$knobs" --assess logs --table "$work/borealtc/wheels_scores.csv" --estimates "$work/borealtc/wheels_held_out" \
   --output-bank "$work/borealtc/wheels_development.yaml" >"$work/borealtc/wheels_tune.txt"
-"$skidimm" eval --estimates "$work/borealtc/wheels_held_out/lockbox" --bank "$work/borealtc/wheels_development.yaml" \
-  --json >"$work/borealtc/wheels_eval_lockbox.json"
+for held in logs lockbox; do
+  "$skidimm" eval --estimates "$work/borealtc/wheels_held_out/$held" --bank "$work/borealtc/wheels_development.yaml" \
+    --range-for "$held_back_split" --json >"$work/borealtc/wheels_eval_$held.json"
+done
 "$skidimm" tune -q --bank configs/borealtc/wheels_start.yaml "${wheel_all[@]}" "${fit[@]}" --tune "$knobs" --no-assess \
   --output-bank "$work/borealtc/wheels.yaml" >"$work/borealtc/wheels_final_tune.txt"
 sed "s|$bt/||g; s|$data/||g" "$work/borealtc/wheels.yaml" >"$wheels_out"
