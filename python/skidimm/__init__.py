@@ -326,14 +326,11 @@ def _range_counts(range_for):
     for name, count in range_for.items():
         if not isinstance(name, str) or not name or any(c.isspace() for c in name):
             raise ValueError(f"range_for: {name!r} is not a class's name")
-        if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= _MOST_LOGS_PER_CLASS:
+        if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= _native.MOST_LOGS_PER_CLASS:
             raise ValueError(f"range_for: {name!r}: {count!r} is not a whole number of logs from 1 to "
-                             f"{_MOST_LOGS_PER_CLASS}")
+                             f"{_native.MOST_LOGS_PER_CLASS}")
     return dict(range_for)
 
-
-# The most logs of a class another set may hold (accuracy_range.h's kMostLogsPerClass).
-_MOST_LOGS_PER_CLASS = 1000000
 
 
 def _eval_report(bank, groups, output, spliced=False, range_for=None):

@@ -16,6 +16,7 @@
 #include "python_arguments.h"
 #include "python_model.h"
 #include "skidimm/config/run_overrides.h"
+#include "skidimm/evaluation/accuracy_range.h"
 #include "skidimm/evaluation/evaluation_report.h"
 #include "skidimm/evaluation/log_evaluation.h"
 #include "skidimm/evaluation/log_groups.h"
@@ -26,6 +27,8 @@ namespace python {
 namespace py = pybind11;
 
 void bind_evaluation(py::module_& m) {
+  // eval --range-for's bound on a class's count, for Python's own check of range_for.
+  m.attr("MOST_LOGS_PER_CLASS") = evaluation::kMostLogsPerClass;
   py::class_<evaluation::LogResult>(m, "LogResult", "One log's evaluation (log_evaluation.h); picklable.")
       .def_readonly("name", &evaluation::LogResult::name)
       .def_readonly("steps", &evaluation::LogResult::steps)
