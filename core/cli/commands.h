@@ -191,6 +191,9 @@ struct TuneCommandOptions {
   std::filesystem::path output_bank;
   std::filesystem::path table;      // per-log scores as CSV
   std::filesystem::path estimates;  // the nested assessment's per-step outputs: a folder per protocol, a file per log
+  // --range-for: logs per class of the set whose range of accuracy each
+  // held-out table gives (evaluation/accuracy_range.h); empty, as many as it scored.
+  std::map<std::string, int> range_for;
   std::vector<std::filesystem::path> plugin_paths;
   bool quiet = false;
   std::string command_line;

@@ -101,6 +101,21 @@ CLI::Validator file_path(const char* expected = "a file path") {
       [expected](std::string& text) { return text.empty() ? "expected " + std::string(expected) : std::string(); }, "");
 }
 
+// Logs per class ("ASPHALT=2,ICE=4") as parse_logs_per_class reads them,
+// refused before any work.
+CLI::Validator logs_per_class() {
+  return CLI::Validator(
+      [](std::string& text) {
+        try {
+          skidimm::evaluation::parse_logs_per_class(text);
+          return std::string();
+        } catch (const std::invalid_argument& e) {
+          return std::string(e.what());
+        }
+      },
+      "");
+}
+
 const char* const kUncertaintyPerLog =
     "With --parameter-uncertainty: count each log's rows as correlated, each channel's residual variance scaled by "
     "its design effect over the logs (about the rows per log where each log is missed by an offset of its own), so "
@@ -499,6 +514,11 @@ int main(int argc, char** argv) {
                    "Write each log's nested-assessment steps under this directory, a folder per protocol (and "
                    "'lockbox'), as `run` does, for `eval --estimates`")
       ->check(file_path("a directory path"));
+  std::string tune_range_for;
+  tune->add_option("--range-for", tune_range_for,
+                   "CLASS=COUNT,...: under each held-out table, the range of accuracy (mean over classes) to expect on "
+                   "another set of logs holding this many of each class (default: as many as the table scored)")
+      ->check(logs_per_class());
   tune->add_flag("--quiet,-q", tune_options.quiet, "No progress on stderr");
   add_plugin_path(tune);
 
@@ -531,16 +551,7 @@ int main(int argc, char** argv) {
   eval->add_option("--range-for", range_for,
                    "CLASS=COUNT,...: the range of accuracy (mean over classes) to expect on another set of logs "
                    "holding this many of each class, drawn like these (default: as many as were scored)")
-      ->check(CLI::Validator(
-          [](std::string& text) {
-            try {
-              skidimm::evaluation::parse_logs_per_class(text);
-              return std::string();
-            } catch (const std::invalid_argument& e) {
-              return std::string(e.what());
-            }
-          },
-          ""));
+      ->check(logs_per_class());
   eval->add_flag("--json", eval_options.json, "Print JSON instead of tables");
   add_plugin_path(eval);
 
@@ -745,6 +756,7 @@ int main(int argc, char** argv) {
       }
     }
     tune_options.bank = tune_bank;
+    if (!tune_range_for.empty()) tune_options.range_for = skidimm::evaluation::parse_logs_per_class(tune_range_for);
     tune_options.plugin_paths = paths;
     tune_options.command_line = "skidimm";
     for (int i = 1; i < argc; ++i) tune_options.command_line += std::string(" ") + argv[i];

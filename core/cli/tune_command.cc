@@ -6,8 +6,10 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <sstream>
+#include <stdexcept>
 
 #include "commands.h"
 #include "skidimm/errors.h"
@@ -73,11 +75,31 @@ std::string number(double v, const char* format = "%.3f") {
   return b;
 }
 
+// The range of accuracy another set of logs would score (accuracy_range.h),
+// holding `another`'s counts of each class (empty: as many as `scores`), or
+// why `another` does not fit the scored logs' classes (`problem`).
+struct RangeOrProblem {
+  evaluation::AccuracyRange range;
+  std::string problem;
+};
+
+RangeOrProblem range_or_problem(const std::vector<LogScore>& scores, const std::map<std::string, int>& another) {
+  RangeOrProblem r;
+  try {
+    r.range = evaluation::accuracy_range(scores, another);
+  } catch (const std::invalid_argument& e) {
+    r.problem = e.what();
+  }
+  return r;
+}
+
 // `held_out`: the scores are of logs nothing chose the settings on, so the
-// range another set of logs like them would score is said (not of the
-// selection's own cross-validation, which chose them).
+// range another set of logs would score is said (not of the selection's own
+// cross-validation, which chose them): of `another`'s counts of each class,
+// or as many as were scored.
 void print_scores(std::ostream& out, const std::string& title, const std::vector<LogScore>& scores,
-                  const Summary& summary, bool with_settings, bool held_out) {
+                  const Summary& summary, bool with_settings, bool held_out,
+                  const std::map<std::string, int>& another = {}) {
   std::size_t width = 8;
   for (const LogScore& s : scores) width = std::max(width, s.log.size());
   out << "\n" << title << "\n  " << std::string(width, ' ') << "  truth            accuracy  mean log p(truth)\n";
@@ -92,7 +114,10 @@ void print_scores(std::ostream& out, const std::string& title, const std::vector
   }
   out << "\n  mean over classes: accuracy " << number(summary.accuracy) << ", mean log p(truth) "
       << number(summary.mean_log_probability) << "\n";
-  if (held_out && scores.size() > 1) out << "  " << evaluation::accuracy_range(scores).describe() << "\n";
+  if (held_out && scores.size() > 1) {
+    const RangeOrProblem r = range_or_problem(scores, another);
+    out << "  " << (r.problem.empty() ? r.range.describe() : "no range for --range-for: " + r.problem) << "\n";
+  }
 }
 
 // One row per scored log: `kind` is the protocol of a nested assessment
@@ -179,6 +204,25 @@ std::vector<bool> classes_shown(const BankConfig& config, const fitting::TuningL
     if (!d.logs.empty()) shown[static_cast<std::size_t>(class_of[static_cast<std::size_t>(d.mode)])] = true;
   }
   return shown;
+}
+
+// A range for another set holding a class that no log holds could not be
+// given under any table: said before the work, as a bad command line.
+void refuse_ranges_of_classes_not_held(const BankConfig& config, const std::vector<fitting::TuningLog>& logs,
+                                       std::size_t development, const std::map<std::string, int>& another) {
+  if (another.empty()) return;
+  const std::vector<std::string> classes = config.class_names();
+  std::vector<bool> held(classes.size(), false);
+  for (std::size_t i = 0; i < development; ++i) {
+    const std::vector<bool> shown = classes_shown(config, logs[i]);
+    for (std::size_t c = 0; c < classes.size(); ++c) held[c] = held[c] || shown[c];
+  }
+  for (std::size_t c = 0; c < classes.size(); ++c) {
+    if (!held[c] && another.count(classes[c]) > 0) {
+      throw UsageError("--range-for: no development log (--log) holds class '" + classes[c] +
+                       "', so no held-out table could say how logs of it would score; leave it out of --range-for");
+    }
+  }
 }
 
 // Classes the development logs cannot assess: a single class (nothing to
@@ -339,6 +383,17 @@ int tune(const TuneCommandOptions& options) {
                          "; leave it out");
       }
     }
+    if (!options.range_for.empty()) {
+      const std::vector<std::string> classes = config.class_names();
+      std::string names;
+      for (const std::string& c : classes) names += (names.empty() ? "" : ", ") + c;
+      for (const auto& [name, count] : options.range_for) {
+        if (std::find(classes.begin(), classes.end(), name) == classes.end()) {
+          throw UsageError("--range-for: '" + name + "' is not a class of the bank " + options.bank.string() +
+                           " (its classes: " + names + ")");
+        }
+      }
+    }
     const SamplingConfig sampling = sampling_of(config, options.rate);
     // Where the results go, checked before the work: a mistyped directory
     // found at the end would lose every fit and search.
@@ -385,6 +440,7 @@ int tune(const TuneCommandOptions& options) {
     warn_of_classes_with_too_few_logs(
         config, logs, development, !options.no_assess,
         std::any_of(objectives.begin(), objectives.end(), [](const std::string& n) { return n != "none"; }));
+    refuse_ranges_of_classes_not_held(config, logs, development, options.range_for);
 
     // Logs that each hold one class say nothing of how often a class
     // changes: a dwell time tuned on them only grows. Said before the work.
@@ -510,14 +566,14 @@ int tune(const TuneCommandOptions& options) {
       print_scores(out,
                    "nested assessment, protocol " + a.protocol.name() + " (" + question_of(a.protocol, options.folds) +
                        "; each scored by models fitted and settings tuned without it)",
-                   a.scores, a.summary, true, true);
+                   a.scores, a.summary, true, true, options.range_for);
       print_switches(out, a);
       print_extrapolation(out, a.scores);
       out << "  " << evaluation::separability(a.scores, static_cast<int>(config.class_names().size())).describe() << "\n";
     }
     if (!result.lockbox.scores.empty()) {
       print_scores(out, "lockbox (kept aside, scored once by the bank tuned on the other logs)", result.lockbox.scores,
-                   result.lockbox.summary, false, true);
+                   result.lockbox.summary, false, true, options.range_for);
       print_switches(out, result.lockbox);
       print_extrapolation(out, result.lockbox.scores);
       out << "  " << evaluation::separability(result.lockbox.scores, static_cast<int>(config.class_names().size())).describe()
@@ -575,10 +631,21 @@ int tune(const TuneCommandOptions& options) {
                                                       : "worse than the guess, sure of wrong classes");
       };
       // ... and where the same accuracy of as many other logs like them would fall.
-      const auto range = [](const std::vector<evaluation::LogScore>& scores) {
-        const evaluation::AccuracyRange r = evaluation::accuracy_range(scores);
-        return r.known() ? "; as many other logs like these, 90% range " + number(r.low) + " to " + number(r.high)
-                         : std::string("; too few logs for a range of what others would score");
+      const auto range = [&](const std::vector<evaluation::LogScore>& scores) {
+        const RangeOrProblem r = range_or_problem(scores, options.range_for);
+        if (!r.problem.empty()) return "; no range for --range-for: " + r.problem;
+        if (!r.range.known()) return std::string("; too few logs for a range of what others would score");
+        std::string other = "as many other logs like these";
+        if (!options.range_for.empty()) {
+          int total = 0;
+          std::string counts;
+          for (const auto& [name, count] : r.range.logs_per_class) {
+            counts += (counts.empty() ? "" : ", ") + name + " " + std::to_string(count);
+            total += count;
+          }
+          other = std::to_string(total) + " other logs like these (" + counts + ")";
+        }
+        return "; " + other + ", 90% range " + number(r.range.low) + " to " + number(r.range.high);
       };
       for (const fitting::Assessment& a : result.assessments) {
         const bool logs = a.protocol.kind == fitting::Protocol::Kind::kLogs;

@@ -388,6 +388,64 @@ TEST(Cli, TuneWarnsOfClassesWithTooFewLogs) {
   EXPECT_THAT(enough.err, Not(HasSubstr("one class only")));
 }
 
+// Under each held-out table tune says where another set of logs would
+// score, of the counts --range-for gives: the same range that `eval
+// --range-for` gives on the held-out outputs tune wrote (another path through
+// the code, from the files). Counts that cannot fit: a class that is not the
+// bank's, or that no development log holds, is refused before the work; a
+// set that leaves out a scored class is said where the range would be.
+TEST(Cli, TuneGivesTheRangeOfAccuracyOfTheCountsAskedForAsEvalDoes) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  std::string tune = "tune -q --bank " + kSource +
+                     "/configs/borealtc/wheels_start.yaml --objective window --hold-unexcited --tune floor --threads 2";
+  for (const char* run : {"ASPHALT/pro_00", "ASPHALT/pro_01", "ASPHALT/pro_03", "SNOW/pro_00", "SNOW/pro_03",
+                          "SNOW/pro_06", "SNOW/pro_07"}) {
+    const std::string path(run);
+    tune += " --log '" + path.substr(0, path.find('/')) + "=" + boreal + "/" + path + ".csv'";
+  }
+  const fs::path dir = test_directory();
+  const fs::path tuned = dir / "tuned.yaml", estimates = dir / "held_out";
+  const Result asked = run_skidimm(tune + " --range-for ASPHALT=2,SNOW=9 --estimates " + estimates.string() +
+                                   " --output-bank " + tuned.string());
+  ASSERT_EQ(asked.exit_code, 0) << asked.err;
+  const std::string sentence_start =
+      "another 11 logs drawn like these (ASPHALT 2, SNOW 9) would score a mean over "
+      "classes between ";
+  const std::size_t at = asked.out.find(sentence_start);
+  ASSERT_NE(at, std::string::npos) << asked.out;
+  const std::string sentence = asked.out.substr(at, asked.out.find('\n', at) - at);
+  EXPECT_THAT(sentence, HasSubstr("5 degrees of freedom")) << "(3 - 1) + (4 - 1) from the logs scored";
+  const Result eval = run_skidimm("eval --estimates " + (estimates / "logs").string() + " --bank " + tuned.string() +
+                                  " --range-for ASPHALT=2,SNOW=9");
+  ASSERT_EQ(eval.exit_code, 0) << eval.err;
+  EXPECT_THAT(eval.out, HasSubstr(sentence));
+  // The bank's header says it too, in its own words.
+  const std::string low_high = sentence.substr(sentence_start.size(), 18);  // "0.xxx and 0.yyy (a"
+  ASSERT_EQ(low_high.substr(5, 5), " and ") << sentence;
+  EXPECT_THAT(read_file(tuned), HasSubstr("; 11 other logs like these (ASPHALT 2, SNOW 9), 90% range " +
+                                          low_high.substr(0, 5) + " to " + low_high.substr(10, 5) + ";"));
+  // Without it, as many as were scored.
+  const Result own = run_skidimm(tune);
+  ASSERT_EQ(own.exit_code, 0) << own.err;
+  EXPECT_THAT(own.out, HasSubstr("another 7 logs drawn like these (ASPHALT 3, SNOW 4) would score"));
+
+  const Result not_a_class = run_skidimm(tune + " --range-for ASPHALT=2,MUD=3");
+  EXPECT_EQ(not_a_class.exit_code, 2);
+  EXPECT_THAT(not_a_class.err, HasSubstr("--range-for: 'MUD' is not a class of the bank"));
+  EXPECT_THAT(not_a_class.err, HasSubstr("(its classes: ASPHALT, FLOORING, ICE, SANDY_LOAM, SNOW)"));
+  const Result not_held = run_skidimm(tune + " --range-for ASPHALT=2,ICE=4,SNOW=9");
+  EXPECT_EQ(not_held.exit_code, 2);
+  EXPECT_THAT(not_held.err, HasSubstr("--range-for: no development log (--log) holds class 'ICE'"));
+  EXPECT_TRUE(not_held.out.empty()) << "refused before the work";
+  const Result malformed = run_skidimm(tune + " --range-for ASPHALT=two");
+  EXPECT_EQ(malformed.exit_code, 2);
+  EXPECT_THAT(malformed.err, HasSubstr("'ASPHALT=two' is not CLASS=COUNT"));
+  const Result leaves_out = run_skidimm(tune + " --range-for ASPHALT=2");
+  ASSERT_EQ(leaves_out.exit_code, 0) << leaves_out.err;
+  EXPECT_THAT(leaves_out.out, HasSubstr("no range for --range-for: the other set leaves out class 'SNOW'"));
+}
+
 // The bundled switching log in four parts, as `--log` arguments.
 std::string switching_log_in_four_parts(const fs::path& dir) {
   const std::string log = read_file(kSwitching);
