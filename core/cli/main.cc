@@ -446,7 +446,8 @@ int main(int argc, char** argv) {
   tune->add_option("--tune", tune_options.knobs,
                    "Settings to choose, comma-separated: r-scale, r-components, q-scale, q-modes, dwell, floor, "
                    "likelihood-weight, likelihood-dof, unknown-inflation, extrapolation-scale (default "
-                   "r-scale,q-scale,dwell,floor)")
+                   "r-scale,q-scale,dwell,floor, dwell only where a development log shows a change of class or "
+                   "with --splice)")
       ->check(CLI::Validator(
           [](std::string& text) {
             // '' tuned the defaults and ',' nothing, each without a word.

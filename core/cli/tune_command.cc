@@ -444,14 +444,23 @@ int tune(const TuneCommandOptions& options) {
 
     // Logs that each hold one class say nothing of how often a class
     // changes: a dwell time tuned on them only grows. Said before the work.
-    const std::vector<fitting::Knob> searched = options.knobs.empty() ? fitting::TuneOptions{}.knobs : knobs;
-    if (std::find(searched.begin(), searched.end(), fitting::Knob::kDwell) != searched.end() && !options.splice) {
+    // The default settings leave the dwell time to the bank there; one
+    // asked for by name is searched, with a warning.
+    std::vector<fitting::Knob> searched = options.knobs.empty() ? fitting::TuneOptions{}.knobs : knobs;
+    const auto dwell = std::find(searched.begin(), searched.end(), fitting::Knob::kDwell);
+    if (dwell != searched.end() && !options.splice) {
       bool any_change = false;
       for (std::size_t i = 0; i < development && !any_change; ++i) {
         const std::vector<bool> shown = classes_shown(config, logs[i]);
         any_change = std::count(shown.begin(), shown.end(), true) > 1;
       }
-      if (!any_change) {
+      if (!any_change && options.knobs.empty()) {
+        searched.erase(dwell);
+        std::cerr << "skidimm tune: the development logs each hold one class, so none shows a change: the dwell "
+                     "time is left out of the default settings (a stickier filter is never wrong on such logs, and "
+                     "tuned on them the dwell time only grows) and stays the bank's; --tune names the settings to "
+                     "search (docs/tuning.md, \"Which settings to tune\")\n";
+      } else if (!any_change) {
         std::cerr << "skidimm tune: warning: --tune dwell on logs that each hold one class: none shows a change, "
                      "so a stickier filter is never wrong on them and the dwell time grows until real changes are "
                      "followed late or never; state it in the bank and leave dwell out of --tune, or give logs with "
@@ -489,7 +498,7 @@ int tune(const TuneCommandOptions& options) {
 
     fitting::TuneOptions tune_options;
     tune_options.objectives = objectives;
-    if (!options.knobs.empty()) tune_options.knobs = knobs;
+    tune_options.knobs = searched;
     tune_options.folds = options.folds;
     tune_options.inner_folds = options.inner_folds;
     tune_options.assess = !options.no_assess;

@@ -367,6 +367,15 @@ TEST(Cli, TuneWarnsOfClassesWithTooFewLogs) {
   const Result sticky = run_skidimm(dwell + logs({"ASPHALT/pro_00", "ASPHALT/pro_01", "SNOW/pro_00", "SNOW/pro_03"}));
   ASSERT_EQ(sticky.exit_code, 0) << sticky.err;
   EXPECT_THAT(sticky.err, HasSubstr("warning: --tune dwell on logs that each hold one class: none shows a change"));
+  // The default settings leave the dwell time to the bank there, and say so.
+  std::string defaults = tune;
+  defaults.replace(defaults.find("--tune floor"), 12, "--no-assess");
+  const Result by_default =
+      run_skidimm(defaults + logs({"ASPHALT/pro_00", "ASPHALT/pro_01", "SNOW/pro_00", "SNOW/pro_03"}));
+  ASSERT_EQ(by_default.exit_code, 0) << by_default.err;
+  EXPECT_THAT(by_default.err, HasSubstr("the dwell time is left out of the default settings"));
+  EXPECT_THAT(by_default.err, Not(HasSubstr("warning: --tune dwell")));
+  EXPECT_THAT(by_default.out, HasSubstr("dwell 10 s")) << "wheels_start.yaml's, not searched";
   // The classes no log shows compete unfitted, where tune fits.
   EXPECT_THAT(one_log.err, HasSubstr("warning: classes FLOORING, ICE, SANDY_LOAM have no development log: no fit "
                                      "gives their modes anything to learn"));
