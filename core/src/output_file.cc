@@ -86,7 +86,13 @@ OutputFile::OutputFile(const fs::path& path, const std::string& suffix) : path_(
   const int fd = create_exclusively(path, suffix, &written_);
   if (fd < 0) {
     const int error = errno;
-    throw Error(written_.string() + ": cannot open for writing: " + reason(error));
+    // The temporary file's name means nothing to the user; the path given does.
+    const fs::path folder = path.has_parent_path() ? path.parent_path() : fs::path(".");
+    if (error == ENOENT && !fs::exists(folder, ec)) {
+      throw Error(path.string() + ": cannot write it: the directory " + folder.string() +
+                  " does not exist; make it first, or give a path in a directory that does");
+    }
+    throw Error(path.string() + ": cannot write it (its temporary file " + written_.string() + "): " + reason(error));
   }
   out_ = ::fdopen(fd, "wb");
   if (out_ == nullptr) {

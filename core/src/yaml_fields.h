@@ -186,8 +186,12 @@ class YamlFields {
     Eigen::MatrixXd out(rows, cols);
     for (std::size_t r = 0; r < rows; ++r) {
       const std::string row_field = field + "[" + std::to_string(r) + "]";
-      if (!node[r].IsSequence() || node[r].size() != cols) {
-        fail(node[r], row_field, "expected a row of " + std::to_string(cols) + " numbers like row 0");
+      if (!node[r].IsSequence()) fail(node[r], row_field, "expected a row of numbers, as row 0 is");
+      if (node[r].size() != cols) {
+        // Either row may be the wrong one: say both lengths.
+        fail(node[r], row_field,
+             "this row has " + std::to_string(node[r].size()) + " numbers and row 0 has " + std::to_string(cols) +
+                 ": every row of a matrix needs as many");
       }
       for (std::size_t c = 0; c < cols; ++c) {
         out(r, c) = number(node[r][c], row_field + "[" + std::to_string(c) + "]");

@@ -182,6 +182,13 @@ TEST(BankConfig, NonNumericMatrixEntry) {
                       {"modes[1].params.A[1][1]: expected a number, got 'fast'"});
 }
 
+// Rows of unequal length: either may be the wrong one, so both lengths are said.
+TEST(BankConfig, RaggedMatrixRows) {
+  expect_config_error(replace(kValidBank, "[[-2, 0], [0, -1]]", "[[-2, 0, 0.5], [0, -1]]"),
+                      {"modes[1].params.A[1]: this row has 2 numbers and row 0 has 3: every row of a matrix needs "
+                       "as many"});
+}
+
 TEST(BankConfig, TextParametersAreStringsOrListsOfStrings) {
   const BankConfig c = load_bank_config(write_file(
       test_directory() / "bank.yaml",

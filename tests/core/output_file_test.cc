@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <csignal>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -178,9 +179,16 @@ TEST(OutputFile, ACheckThatThrowsLeavesTheOldFileAndNoTemporary) {
   EXPECT_FALSE(fs::exists(dir / "bank.yaml.tmp"));
 }
 
-TEST(OutputFile, AnUnwritableDirectoryNamesTheReason) {
-  EXPECT_THAT(error_of([] { OutputFile out("/nonexistent-directory/x.csv"); }),
-              HasSubstr("/nonexistent-directory/x.csv.partial: cannot open for writing: No such file or directory"));
+// The path the user gave, not the temporary file's, and what to do.
+TEST(OutputFile, AMissingDirectoryIsNamedAsTheUserGaveIt) {
+  EXPECT_EQ(error_of([] { OutputFile out("/nonexistent-directory/x.csv"); }),
+            "/nonexistent-directory/x.csv: cannot write it: the directory /nonexistent-directory does not exist; "
+            "make it first, or give a path in a directory that does");
+  const fs::path file = test_directory() / "a_file";
+  std::ofstream(file) << "not a directory";
+  EXPECT_THAT(error_of([&] { OutputFile out(file / "x.csv"); }),
+              HasSubstr((file / "x.csv").string() + ": cannot write it (its temporary file " +
+                        (file / "x.csv.partial").string() + "): Not a directory"));
 }
 
 TEST(OutputFile, AnOutputPathIsCheckedWithoutLeavingAFileOrTouchingTheOldOne) {

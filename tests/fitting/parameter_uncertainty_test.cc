@@ -627,7 +627,7 @@ TEST(ParameterUncertainty, BankErrorsNameTheFileTheFieldAndWhatWasExpected) {
   Eigen::MatrixXd indefinite = Eigen::MatrixXd::Identity(6, 6);
   indefinite(0, 0) = -1.0;
   expect_bank_error(flow_matrix(indefinite), "not positive semidefinite");
-  expect_bank_error("[[1, 0], [0, 1, 2]]", "expected a row of 2 numbers");
+  expect_bank_error("[[1, 0], [0, 1, 2]]", "this row has 3 numbers and row 0 has 2");
   expect_bank_error("[1, 2, 3]", "expected a 3x3 matrix, got 3x1");
   expect_bank_error("{diagonal: [1, 1, 1, 1, 1, nan]}", "");
 }
