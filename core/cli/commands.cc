@@ -50,6 +50,22 @@ std::string plugin_of(const Bank& bank, std::size_t j) {
   return bank.model_sources[j].describe();
 }
 
+}  // namespace
+
+void name_plugins_in_fatal_signals(const std::string& program, const Bank& bank, FatalSignalWording wording) {
+  std::vector<std::string> modes;
+  std::vector<std::string> plugins;
+  for (std::size_t j = 0; j < bank.config.modes.size(); ++j) {
+    const std::string plugin = plugin_of(bank, j);
+    modes.push_back("mode '" + printable(bank.config.modes[j].name) + "' (" + plugin + ")");
+    if (std::find(plugins.begin(), plugins.end(), plugin) == plugins.end()) plugins.push_back(plugin);
+  }
+  wording.plugins = join(plugins);
+  report_fatal_signals(program, std::move(modes), wording);
+}
+
+namespace {
+
 // Whether paths `a` and `b` are one regular file, or will be: both existing,
 // the same file; neither, the same path once made absolute (a path through
 // a link to a directory included).
@@ -232,14 +248,7 @@ int run(const RunOptions& options) {
     }
     Bank bank = Bank::load(options.bank, options.plugin_paths);
     apply_overrides(options.overrides, &bank.config);
-    {
-      // A plugin that crashes the process is named on the way down.
-      std::vector<std::string> modes;
-      for (std::size_t j = 0; j < bank.config.modes.size(); ++j) {
-        modes.push_back("mode '" + printable(bank.config.modes[j].name) + "' (" + plugin_of(bank, j) + ")");
-      }
-      report_fatal_signals("skidimm run", std::move(modes));
-    }
+    name_plugins_in_fatal_signals("skidimm run", bank, FatalSignalWording{});
     const BankConfig& config = bank.config;
     if (!log.label.empty() && config.class_index(log.label) < 0) {
       throw Error(log.text + ": " + config.unknown_label(log.label));
@@ -432,6 +441,12 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
              const std::vector<std::string>& checks, double rate) {
   return report_errors("skidimm validate", [&] {
     Bank bank = Bank::load(bank_file, plugin_paths);
+    {
+      FatalSignalWording wording;
+      wording.lost = "the check ends there";
+      wording.every_model_call_marked = false;  // the conformance checks call the models themselves
+      name_plugins_in_fatal_signals("skidimm validate", bank, wording);
+    }
     bank.config.sampling = sampling_of(bank.config, rate);
     const BankConfig& c = bank.config;
     // Without a log, the column texts any log would be refused for. (With

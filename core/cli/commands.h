@@ -13,6 +13,7 @@
 
 #include "skidimm/config/bank.h"
 #include "skidimm/config/run_overrides.h"
+#include "skidimm/engine/fatal_signal_report.h"
 #include "skidimm/engine/log_run.h"
 #include "skidimm/errors.h"
 #include "skidimm/io/log_arguments.h"
@@ -113,6 +114,11 @@ struct RunOptions {
 };
 
 int run(const RunOptions& options);
+
+// From now on a fatal signal (a plugin that crashes the process) is named
+// with the bank's mode whose model was running and its plugin
+// (fatal_signal_report.h), worded as `wording` says.
+void name_plugins_in_fatal_signals(const std::string& program, const Bank& bank, FatalSignalWording wording);
 
 // `skidimm bag FILE`: a ROS 2 bag's topics, counts, rates, time span and the
 // column paths a bank can name (ros/bag_info.h).

@@ -176,6 +176,13 @@ int eval(const EvalOptions& given) {
       if (options.bank.empty()) throw UsageError("give --bank with --input, or --estimates");
       Bank& bank = ran.emplace(Bank::load(options.bank, options.plugin_paths));
       apply_overrides(options.overrides, &bank.config);
+      {
+        FatalSignalWording wording;
+        wording.lost = "nothing is scored (the report comes when every log is done)";
+        wording.every_model_call_marked = false;  // the smoother calls the models itself
+        wording.several_threads = true;           // logs are scored on every core
+        name_plugins_in_fatal_signals("skidimm eval", bank, wording);
+      }
       warn_of_rate_unlike_the_banks("skidimm eval", options.bank, bank.config, options.overrides.rate);
       decision_made = evaluation::decision_settings_text(bank.config.decision);
       classes = bank.config.class_names();

@@ -159,6 +159,13 @@ int fit(const FitCommandOptions& options) {
           "--objective window (the likelihood objective fits each mode's own parameters and noise)");
     }
     Bank bank = Bank::load(options.bank, options.plugin_paths);
+    {
+      FatalSignalWording wording;
+      wording.lost = "nothing is written";
+      wording.every_model_call_marked = false;  // the fits call the models themselves
+      wording.several_threads = true;
+      name_plugins_in_fatal_signals("skidimm fit", bank, wording);
+    }
     const BankConfig& config = bank.config;
     if (options.hold_unexcited) {
       const std::string ignored =

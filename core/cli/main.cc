@@ -13,6 +13,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -145,6 +146,10 @@ std::string examples(const std::vector<std::string>& commands, const std::string
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A reader that goes away (`skidimm run --output - | head`) is an error
+  // the command reports and handles (what it keeps, the checkpoint it does or
+  // does not write), not a signal that ends it without a word.
+  std::signal(SIGPIPE, SIG_IGN);
   CLI::App app{"skidimm " SKIDIMM_VERSION ": Interacting Multiple Model identification of skid-steer traction modes",
                "skidimm"};
   app.require_subcommand(1);

@@ -56,6 +56,12 @@ int simulate(const SimulateOptions& options) {
         throw UsageError("--duration is the scenario's length; with --bank the log of --inputs-from sets it");
       }
       const Bank bank = Bank::load(options.bank, options.plugin_paths);
+      {
+        FatalSignalWording wording;
+        wording.lost = "the log is not written";
+        wording.every_model_call_marked = false;  // the simulation calls the models itself
+        name_plugins_in_fatal_signals("skidimm simulate", bank, wording);
+      }
       const LogSpec source = join_log_arguments({options.inputs_from});
       refuse_output_over_logs(options.output, "--output", {source});
       std::vector<NamedFile> outputs{{"--output", options.output}};

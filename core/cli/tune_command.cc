@@ -374,6 +374,13 @@ int tune(const TuneCommandOptions& options) {
                        std::string(development_specs.empty() ? "none" : "one") + " given");
     }
     const Bank start = Bank::load(options.bank, options.plugin_paths);
+    {
+      FatalSignalWording wording;
+      wording.lost = "nothing is written (the tables and the bank come at the end)";
+      wording.every_model_call_marked = false;  // the fits call the models themselves
+      wording.several_threads = true;
+      name_plugins_in_fatal_signals("skidimm tune", start, wording);
+    }
     const BankConfig& config = start.config;
     for (const std::string& name : objectives) {
       if (!options.hold_unexcited || name == "none") continue;

@@ -126,18 +126,27 @@ void on_exit_while_loading() noexcept {
 }  // namespace
 
 void report_fatal_signals(const std::string& program, std::vector<std::string> mode_descriptions) {
+  report_fatal_signals(program, std::move(mode_descriptions), FatalSignalWording{});
+}
+
+void report_fatal_signals(const std::string& program, std::vector<std::string> mode_descriptions,
+                          const FatalSignalWording& wording) {
   // messages[0]: "<program>: "; messages[1 + j]: mode j's line; last: no model running.
   auto* lines = new std::vector<std::string>();  // lives until the program ends: a handler may read it
   lines->push_back(program + ": ");
   for (const std::string& mode : mode_descriptions) {
-    lines->push_back(" while the model of " + mode +
-                     " was running: the fault is that plugin's; rows not yet written are lost (--flush writes "
-                     "each row as it is computed)\n");
+    lines->push_back(" while the model of " + mode + " was running: the fault is that plugin's; " + wording.lost +
+                     "\n");
   }
-  lines->push_back(" while no model was running: a fault of skidimm itself, please report it\n");
+  const bool marked = wording.every_model_call_marked && !wording.several_threads;
+  lines->push_back(marked ? " while no model was running: a fault of skidimm itself, please report it\n"
+                          : ": the fault is in one of the bank's plugins (" + wording.plugins +
+                                ") or in skidimm itself; `skidimm run` on a log with this bank names the mode "
+                                "when it is a plugin's; " +
+                                wording.lost + "\n");
   messages = lines;
   install_fatal_signal_handlers(nullptr);
-  internal::fatal_signals_reported.store(true, std::memory_order_relaxed);
+  if (!wording.several_threads) internal::fatal_signals_reported.store(true, std::memory_order_relaxed);
 }
 
 void report_plugin_load_faults(const std::string& program) {

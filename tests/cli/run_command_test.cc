@@ -520,6 +520,45 @@ TEST(Cli, APluginThatAbortsTheProcessIsNamed) {
   EXPECT_FALSE(fs::exists(dir / "out.csv"));
 }
 
+// Every command that runs a bank's models names its plugins when one of them
+// crashes the process (they said nothing and ended 134); where models run on
+// several threads, or outside the filter, it cannot tell which mode's was
+// running, and says which plugins to suspect and that `run` tells.
+TEST(Cli, APluginThatAbortsTheProcessIsNamedByEveryCommand) {
+  const fs::path dir = test_directory();
+  const std::string input = kSource + "/configs/examples/ltc_switching.csv";
+  const std::string bank = faulty_bank(dir, "abort").string();
+  const std::string plugins = " --plugin-path " + kPlugins + " --plugin-path " + kFixturePlugins + "/faulty";
+  // The log's modes as the bank's, for simulate, which drives each row's mode.
+  std::string log = read_file(input);
+  for (const std::string other : {"grass", "crushed_concrete"}) {
+    for (std::size_t at = log.find(other); at != std::string::npos; at = log.find(other, at)) {
+      log.replace(at, other.size(), "slippery");
+    }
+  }
+  const fs::path relabelled = write_file(dir / "relabelled.csv", log);
+  const std::vector<std::pair<std::string, std::string>> commands = {
+      {"eval", "eval --bank " + bank + " --input " + input},
+      {"validate", "validate " + bank + " --check " + input},
+      {"simulate",
+       "simulate --bank " + bank + " --inputs-from " + relabelled.string() + " --output " + (dir / "sim.csv").string()},
+      {"fit",
+       "fit --bank " + bank + " --log " + input + " --mode slippery --output-bank " + (dir / "fitted.yaml").string()},
+      {"tune", "tune --bank " + bank + " --log " + relabelled.string() + " --log " +
+                   write_file(dir / "relabelled_copy.csv", log).string() +
+                   " --objective none --no-assess --tune floor"},
+  };
+  for (const auto& [name, arguments] : commands) {
+    const Result r = run_shell(kSkidimm + " " + arguments + plugins + " 2>" + (dir / "err").string() +
+                               " >/dev/null; echo \"status $?\"");
+    EXPECT_THAT(r.out, HasSubstr("status 134")) << name;
+    const std::string err = read_file(dir / "err");
+    EXPECT_THAT(err, HasSubstr("skidimm " + name + ": SIGABRT (abort)")) << name;
+    EXPECT_THAT(err, HasSubstr("faulty_model 0.0.2")) << name << ": the plugin to suspect";
+    EXPECT_THAT(err, Not(HasSubstr("a fault of skidimm itself"))) << name;
+  }
+}
+
 TEST(Cli, RunMergesFilesByTimeAndSteadiesAtAFixedRate) {
   const fs::path dir = test_directory();
   const SplitLog log = split_example(dir);
@@ -572,6 +611,22 @@ TEST(CliIo, RunReadsLogsFromStandardInputPipesAndFifos) {
   const Result twice = run_pipeline("cat " + kSwitching + " | " + run_command(kTerrains, "- --input -", out.string()));
   EXPECT_EQ(twice.exit_code, 1);
   EXPECT_THAT(twice.err, HasSubstr("standard input ('-') can be one file of a log, not several"));
+}
+
+// A reader that goes away (`| head`) is an error run says and handles: it
+// ended silently on SIGPIPE (status 141), before it could say what it kept
+// or why it wrote no checkpoint.
+TEST(CliIo, RunSaysWhenTheReaderOfItsOutputGoesAway) {
+  const fs::path dir = test_directory();
+  const fs::path checkpoint = dir / "state.yaml";
+  const Result r =
+      run_shell(run_command(kTerrains, kSwitching, "-") + " --flush --save-checkpoint " + checkpoint.string() + " 2>" +
+                (dir / "err").string() + " | head -2 >/dev/null; echo \"status ${PIPESTATUS[0]}\"");
+  EXPECT_THAT(r.out, HasSubstr("status 1"));
+  const std::string err = read_file(dir / "err");
+  EXPECT_THAT(err, HasSubstr("skidimm run: error: standard output: cannot write: Broken pipe"));
+  EXPECT_THAT(err, HasSubstr("no checkpoint written: the filter went past a row the output refused"));
+  EXPECT_FALSE(fs::exists(checkpoint));
 }
 
 // The coprocess: writes one row, waits for its output row, then writes the next.

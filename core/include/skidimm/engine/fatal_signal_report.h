@@ -22,6 +22,25 @@ namespace skidimm {
 // thread, so two at once would be named ambiguously.
 void report_fatal_signals(const std::string& program, std::vector<std::string> mode_descriptions);
 
+// How report_fatal_signals() words a fault, for commands other than `run`.
+struct FatalSignalWording {
+  // What the fault cost, after "... was running: the fault is that plugin's; ".
+  std::string lost = "rows not yet written are lost (--flush writes each row as it is computed)";
+  // True where every call the program makes into a plugin is marked (it runs
+  // models only through Imm): a fault outside them is then skidimm's own.
+  // Otherwise (a fit, a simulation) an unmarked fault may be a plugin's, and
+  // the report says so, naming `plugins`.
+  bool every_model_call_marked = true;
+  std::string plugins;
+  // Models run on several threads at once: no mode is named (the mode
+  // marked last need not be the one whose model faulted, and marking from
+  // every thread would make them share one cache line at every model call),
+  // so every fault is worded as unmarked.
+  bool several_threads = false;
+};
+void report_fatal_signals(const std::string& program, std::vector<std::string> mode_descriptions,
+                          const FatalSignalWording& wording);
+
 // Loading a plugin library runs its load-time code (static constructors) in
 // skidimm's process. From now on, while a library is loaded, the signals
 // above print "<program>: <signal> while loading the plugin library <path>:
