@@ -215,7 +215,7 @@ struct Expression::Checked {
       cut_call(name, next);
       return;
     }
-    if (function == nullptr && (name == "mean" || name == "std" || name == "rms")) {
+    if (function == nullptr && (name == "mean" || name == "std" || name == "rms" || name == "diff_std")) {
       fail(text_, i_,
            name +
                "() aggregates the rows of a filter step: it is for a bank's measurements only (with "

@@ -79,7 +79,7 @@ std::vector<std::string> bag_column_texts(const BankConfig& bank) {
 // Why an aggregated measurement cannot use `name` outside its aggregates.
 std::string outside_aggregates(const std::string& text, const std::string& name) {
   return "\"" + Expression::excerpt(text) + "\" uses column '" + Expression::excerpt(name) +
-         "' outside mean(), std() or rms(); in an aggregated measurement every column is inside one";
+         "' outside mean(), std(), rms() or diff_std(); in an aggregated measurement every column is inside one";
 }
 
 // A column text that is no column of the log, read as an expression into

@@ -266,12 +266,12 @@ TEST(Cli, ValidateWarnsOfColumnsOnlyAColumnOfThatExactTextCouldGive) {
   EXPECT_THAT(unknown.err,
               HasSubstr(":18: columns.measurements.vib_ax: cannot parse \"log(stdev(ax))\": unknown function "
                         "'stdev' (the functions are abs, sign, sqrt, exp, log, log10, sin, cos, min, max; "
-                        "over a step's rows, mean, std, rms)"));
+                        "over a step's rows, mean, std, rms, diff_std)"));
   const Result outside = run_skidimm("validate " + edited("outside.yaml", "mean(wz)", "mean(wz) + wx").string() +
                                      " --plugin-path " + kPlugins);
   EXPECT_EQ(outside.exit_code, 0);
   EXPECT_THAT(outside.err, HasSubstr("columns.measurements.omega: \"mean(wz) + wx\" uses column 'wx' outside mean(), "
-                                     "std() or rms()"));
+                                     "std(), rms() or diff_std()"));
   // A dotted column name, as ROS CSV exports write them, is a column of a
   // log that has it: the warning without one, nothing with --check of it.
   std::string ltc = read_file(kTerrains);

@@ -264,6 +264,57 @@ TEST(LogReader, AFixedRateAggregatesOrTakesTheLastValueOfEachStep) {
   EXPECT_EQ(s[5].z[1], 13.0);
 }
 
+// diff_std(x): the sample standard deviation of the changes between a
+// step's consecutive rows. A gyro drifting by 0.001 a row and shaking by
+// +-0.01 about the drift changes by 0.021 and -0.019 in turn: over ten rows,
+// nine changes, five of one and four of the other, whose sample standard
+// deviation is 0.04 sqrt((5 * 16 + 4 * 25) / 81 / 8) by hand. A row left
+// out (empty) joins the changes on either side. A steady drift, which
+// std(x) counts, changes by as much at every row: none of it is in
+// diff_std(x).
+TEST(LogReader, DiffStdIsTheSpreadOfTheChangesFromRowToRow) {
+  const auto dir = test_directory();
+  std::string wheels = "time,velL,velR,cur\n", gyro = "time,wz\n";
+  for (int k = 0; k <= 4; ++k) wheels += std::to_string(0.15 * k) + ",0.1,0.2,10\n";
+  for (int i = 0; i <= 60; ++i) {
+    const double wz = 0.001 * i + (i % 2 == 0 ? 0.01 : -0.01);
+    gyro += std::to_string(0.01 * i) + "," + (i == 35 ? std::string() : std::to_string(wz)) + "\n";
+  }
+  BankConfig bank = two_rate_bank();
+  bank.measurement.names = {"shake", "spread"};
+  bank.columns.measurements = {"diff_std(wz)", "std(wz)"};
+  {
+    const TwoRateLog drift = two_rate_log();  // wz = 0.001 i
+    SamplingConfig at_10_hz;
+    at_10_hz.rate = 10.0;
+    LogReader drifting(bank, {drift.wheels, drift.gyro}, at_10_hz);
+    const auto steps = read_all(drifting);
+    ASSERT_EQ(steps.size(), 7u);
+    EXPECT_NEAR(steps[3].z[0], 0.0, 1e-15);
+    EXPECT_NEAR(steps[3].z[1], 0.001 * std::sqrt(55.0 / 6.0), 1e-12);
+  }
+  SamplingConfig sampling;
+  sampling.rate = 10.0;
+  LogReader reader(bank, {write_file(dir / "wheels.csv", wheels), write_file(dir / "gyro.csv", gyro)}, sampling);
+  const auto s = read_all(reader);
+  ASSERT_EQ(s.size(), 7u);
+  EXPECT_TRUE(std::isnan(s[0].z[0])) << "one row, no change";
+  const double by_hand = 0.04 * std::sqrt((5.0 * 16.0 + 4.0 * 25.0) / 81.0 / 8.0);
+  for (const std::size_t k : {1u, 2u, 3u, 5u, 6u}) EXPECT_NEAR(s[k].z[0], by_hand, 1e-12) << "step at t = " << s[k].t;
+  // Step 4 (rows 31..40) without row 35: the change from 34 to 36 is the
+  // drift of two rows, 0.002; the others as before, four of each sign.
+  std::vector<double> changes;
+  for (int i = 32; i <= 40; ++i) {
+    if (i == 35) continue;
+    const int from = i == 36 ? 34 : i - 1;
+    changes.push_back(0.001 * (i - from) + (i % 2 == 0 ? 0.01 : -0.01) - (from % 2 == 0 ? 0.01 : -0.01));
+  }
+  double mean = 0.0, m2 = 0.0;
+  for (const double c : changes) mean += c / static_cast<double>(changes.size());
+  for (const double c : changes) m2 += (c - mean) * (c - mean);
+  EXPECT_NEAR(s[4].z[0], std::sqrt(m2 / static_cast<double>(changes.size() - 1)), 1e-12);
+}
+
 TEST(LogReader, SeveralValuesInOneStepKeepTheLastAndAreCounted) {
   const TwoRateLog log = two_rate_log();
   SamplingConfig sampling;
@@ -771,8 +822,11 @@ TEST(LogReader, ColumnProblemsAreNamedBeforeAnyRowIsRead) {
                {"columns.measurements.omega", "needs a fixed step: set sampling.rate"});
   bank.sampling.rate = 10;
   bank.columns.measurements[0] = "mean(wz) + cur";
-  expect_error([&] { LogReader(bank, {log.wheels, log.gyro}, bank.sampling); },
-               {"uses column 'cur' outside mean(), std() or rms()"});
+  expect_error(
+      [&] {
+        LogReader(bank, {log.wheels, log.gyro}, bank.sampling);
+      },
+      {"uses column 'cur' outside mean(), std(), rms() or diff_std()"});
   bank.columns.measurements[0] = "mean(std(wz))";
   expect_error(
       [&] {

@@ -1,6 +1,6 @@
 // Fuzzes the column expression language (expression.h): the input is an
 // expression's text. It is parsed as a plain expression and with the log
-// reader's aggregates cut out (mean, std, rms); whatever parses is evaluated
+// reader's aggregates cut out (mean, std, rms, diff_std); whatever parses is evaluated
 // at a few points (zero, negative, huge, NaN).
 //
 // Bad text must end in an ExpressionError whose message is short and
@@ -68,7 +68,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     check_message(error.what());
   }
   try {
-    const skidimm::Expression::WithCalls cut = skidimm::Expression::cut_calls(text, {"mean", "std", "rms"});
+    const skidimm::Expression::WithCalls cut = skidimm::Expression::cut_calls(text, {"mean", "std", "rms", "diff_std"});
     if (cut.outer->variables().size() != cut.calls.size() + cut.names_outside.size()) {
       finding("outer variables do not match the calls and names", text.substr(0, 200));
     }

@@ -9,7 +9,7 @@
 //                 bit 2    sampling.skip_gaps
 //                 bit 3    sampling.join: rows (else time)
 //                 bits 4-5 max_gap: 10 s, 0.05 s, 1e9 s, 1 s
-//                 bit 6    aggregated measurements (mean, std, rms; with a rate)
+//                 bit 6    aggregated measurements (mean, std, rms, diff_std; with a rate)
 //                 bit 7    sampling.skip_out_of_order
 //
 // The bank reads columns t, velL, velR (inputs), wz and cur (measurements);
@@ -46,7 +46,7 @@ skidimm::BankConfig bank(bool aggregated) {
   c.measurement.names = {"omega", "current", "vibration"};
   c.columns.time = "t";
   c.columns.inputs = {"velR - velL", "abs(velL + velR) / 2"};
-  c.columns.measurements = aggregated ? std::vector<std::string>{"mean(wz)", "rms(cur)", "log(std(wz))"}
+  c.columns.measurements = aggregated ? std::vector<std::string>{"mean(wz)", "rms(cur)", "log(std(wz)) - diff_std(wz)"}
                                       : std::vector<std::string>{"wz", "cur", "log(abs(wz))"};
   return c;
 }
