@@ -85,7 +85,8 @@ bool same_regular_file(const fs::path& a, const fs::path& b) {
 
 }  // namespace
 
-void print_rejections(const Bank& bank, const std::vector<ModeRejections>& rejections) {
+void print_rejections(const Bank& bank, const std::vector<ModeRejections>& rejections,
+                      const std::vector<std::string>& first_logs) {
   for (std::size_t j = 0; j < rejections.size(); ++j) {
     const ModeRejections& r = rejections[j];
     const long gated = r.by_failure[static_cast<int>(ModeFailure::kGated)];
@@ -102,7 +103,8 @@ void print_rejections(const Bank& bank, const std::vector<ModeRejections>& rejec
       std::cerr << separator << count << " because " << to_string(f);
       separator = "; ";
     }
-    std::cerr << "\n    first on row " << r.first_row << " (t = " << CsvWriter::format(r.first_t)
+    std::cerr << "\n    first " << (j < first_logs.size() ? "in " + printable(first_logs[j]) + " " : std::string())
+              << "on row " << r.first_row << " (t = " << CsvWriter::format(r.first_t)
               << "): " << to_string(r.first_failure) << (r.first_reason.empty() ? "" : ": " + r.first_reason) << "\n";
   }
 }
@@ -247,7 +249,7 @@ int run(const RunOptions& options) {
         throw UsageError("--copy-topics copies the topics of a bag the log is read from, and no --input is a bag");
     }
     Bank bank = Bank::load(options.bank, options.plugin_paths);
-    apply_overrides(options.overrides, &bank.config);
+    settings_given_on_the_command_line([&] { apply_overrides(options.overrides, &bank.config); });
     name_plugins_in_fatal_signals("skidimm run", bank, FatalSignalWording{});
     const BankConfig& config = bank.config;
     if (!log.label.empty() && config.class_index(log.label) < 0) {

@@ -65,8 +65,10 @@ void warn_of_rate_unlike_the_banks(const char* command, const std::filesystem::p
                                    std::optional<double> rate);
 
 // Per mode whose filter was rejected: how often, why, and where first; and
-// how often each mode gated the measurement (stderr, indented).
-void print_rejections(const Bank& bank, const std::vector<ModeRejections>& rejections);
+// how often each mode gated the measurement (stderr, indented). Counts of
+// several logs give, per mode, the log its first row is in (`first_logs`).
+void print_rejections(const Bank& bank, const std::vector<ModeRejections>& rejections,
+                      const std::vector<std::string>& first_logs = {});
 
 // estimator_options() (run_overrides.h), its refusal of --smooth with --lag a
 // UsageError, as is --decision-stale-after (`overrides`) with either: a
@@ -114,6 +116,19 @@ struct RunOptions {
 };
 
 int run(const RunOptions& options);
+
+// `apply()`'s result; an Error it throws is the command line's settings
+// refused (exit 2, as any bad option), not a failure of the work.
+template <typename Apply>
+decltype(auto) settings_given_on_the_command_line(Apply&& apply) {
+  try {
+    return apply();
+  } catch (const UsageError&) {
+    throw;
+  } catch (const Error& e) {
+    throw UsageError(std::string("the command line's settings: ") + e.what());
+  }
+}
 
 // From now on a fatal signal (a plugin that crashes the process) is named
 // with the bank's mode whose model was running and its plugin

@@ -44,6 +44,9 @@ void report_each_logs_problems(const Bank& bank, const std::vector<evaluation::L
   }
 }
 
+// The most combinations of decision settings one eval compares.
+constexpr std::size_t kMostDecisionSettingsCompared = 1000;
+
 // Every combination of the decision settings given (a list each, in the
 // order given: enter slowest, hold fastest), over `base` for those not given.
 std::vector<DecisionConfig> decision_grid(const DecisionConfig& base, const EvalOptions& options) {
@@ -59,7 +62,8 @@ std::vector<DecisionConfig> decision_grid(const DecisionConfig& base, const Eval
         overrides.decision_leave = leave;
         overrides.decision_hold = hold;
         overrides.decision_stale = options.overrides.decision_stale;  // one value for every combination
-        grid.push_back(decision_settings_of(base, overrides));  // checks each as a bank's setting
+        // Checks each as a bank's setting.
+        grid.push_back(settings_given_on_the_command_line([&] { return decision_settings_of(base, overrides); }));
       }
     }
   }
@@ -100,6 +104,15 @@ int eval(const EvalOptions& given) {
       throw UsageError(
           "--range-for gives the range of one report's accuracy, and lists of --decision-* settings compare "
           "decisions: give one or the other");
+    }
+    // Each combination scores every file again, and the report has a table for each.
+    const std::size_t combinations = std::max<std::size_t>(1, options.decision_enter.size()) *
+                                     std::max<std::size_t>(1, options.decision_leave.size()) *
+                                     std::max<std::size_t>(1, options.decision_hold.size());
+    if (combinations > kMostDecisionSettingsCompared) {
+      throw UsageError("lists of --decision-* settings make " + std::to_string(combinations) +
+                       " combinations; at most " + std::to_string(kMostDecisionSettingsCompared) +
+                       " are compared (each scores every file again): give shorter lists");
     }
     if (compares_decisions && options.estimates.empty()) {
       throw UsageError(
@@ -163,7 +176,8 @@ int eval(const EvalOptions& given) {
         // file's probabilities (from the bank's settings, or the defaults).
         std::optional<DecisionConfig> decide;
         if (options.overrides.changes_decision()) {
-          decide = decision_settings_of(bank ? bank->decision : DecisionConfig{}, options.overrides);
+          decide = settings_given_on_the_command_line(
+              [&] { return decision_settings_of(bank ? bank->decision : DecisionConfig{}, options.overrides); });
         }
         decision_made = decide ? "made again: " + evaluation::decision_settings_text(*decide)
                                : std::string("the files' decision column");
@@ -175,7 +189,7 @@ int eval(const EvalOptions& given) {
     } else {
       if (options.bank.empty()) throw UsageError("give --bank with --input, or --estimates");
       Bank& bank = ran.emplace(Bank::load(options.bank, options.plugin_paths));
-      apply_overrides(options.overrides, &bank.config);
+      settings_given_on_the_command_line([&] { apply_overrides(options.overrides, &bank.config); });
       {
         FatalSignalWording wording;
         wording.lost = "nothing is scored (the report comes when every log is done)";

@@ -206,6 +206,44 @@ std::vector<bool> classes_shown(const BankConfig& config, const fitting::TuningL
   return shown;
 }
 
+// Modes whose filter was rejected and reset (the model failed, the filter
+// diverged) while the chosen settings scored the development logs: said as
+// eval says it, once for all the logs, since there the scores, and the
+// settings chosen on them, measure a reset filter rather than the model.
+void warn_of_rejected_modes(const Bank& bank, const std::vector<LogScore>& scores, const std::string& settings) {
+  const std::size_t modes = bank.config.modes.size();
+  std::vector<ModeRejections> merged(modes);
+  std::vector<std::string> first_logs(modes);
+  long steps = 0, logs_with_rejections = 0;
+  for (const LogScore& score : scores) {
+    steps += score.steps;
+    bool any = false;
+    for (std::size_t j = 0; j < std::min(modes, score.rejections.size()); ++j) {
+      const ModeRejections& r = score.rejections[j];
+      if (r.rows == 0) continue;
+      any = true;
+      ModeRejections& m = merged[j];
+      if (m.rows == 0) {
+        m.first_row = r.first_row;
+        m.first_t = r.first_t;
+        m.first_failure = r.first_failure;
+        m.first_reason = r.first_reason;
+        first_logs[j] = score.log;
+      }
+      m.rows += r.rows;
+      for (int f = 0; f < kNumModeFailures; ++f) {
+        if (f != static_cast<int>(ModeFailure::kGated)) m.by_failure[f] += r.by_failure[f];
+      }
+    }
+    logs_with_rejections += any ? 1 : 0;
+  }
+  if (logs_with_rejections == 0) return;
+  std::cerr << "skidimm tune: warning: modes rejected and reset on " << logs_with_rejections << " of " << scores.size()
+            << " development log(s) (" << steps << " steps), scored " << settings
+            << ": their steps score the reset filter, not the model; `skidimm eval` names each log's:\n";
+  print_rejections(bank, merged, first_logs);
+}
+
 // A range for another set holding a class that no log holds could not be
 // given under any table: said before the work, as a bad command line.
 void refuse_ranges_of_classes_not_held(const BankConfig& config, const std::vector<fitting::TuningLog>& logs,
@@ -596,6 +634,10 @@ int tune(const TuneCommandOptions& options) {
           << "\n";
     }
     for (const std::string& w : result.warnings) std::cerr << "skidimm tune: warning: " << w << "\n";
+    warn_of_rejected_modes(start, result.start_scores,
+                           "at the bank's starting settings (the search's first candidate, which the chosen settings "
+                           "may have been chosen to avoid)");
+    warn_of_rejected_modes(start, result.selection_scores, "with the chosen settings");
     if (!options.table.empty()) write_table(options.table, result);
 
     if (!options.output_bank.empty()) {

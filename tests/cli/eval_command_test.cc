@@ -759,7 +759,7 @@ TEST(Cli, EvalTakesDecisionSettingsAndRemakesARunsDecisionFromItsProbabilities) 
               HasSubstr("decision (the files' decision column): accuracy"));
   const Result bad =
       run_skidimm("eval --estimates " + (dir / "default.csv").string() + " --decision-enter 0.05 --decision-leave 0.1");
-  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_EQ(bad.exit_code, 2) << "a bad command line";
   EXPECT_THAT(bad.err, HasSubstr("need 0 <= leave < enter <= 1, got enter 0.05, leave 0.1"));
 }
 
@@ -814,7 +814,7 @@ TEST(Cli, EvalComparesListsOfDecisionSettingsAsEachAlone) {
   EXPECT_THAT(without.err, HasSubstr("lists of --decision-* settings are compared on files a filter already wrote"));
   // Each setting is checked as a bank's would be.
   const Result bad = run_skidimm("eval" + estimates + " --decision-enter 0.9,0.05 --decision-leave 0.1");
-  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_EQ(bad.exit_code, 2) << "a bad command line";
   EXPECT_THAT(bad.err, HasSubstr("need 0 <= leave < enter <= 1, got enter 0.05, leave 0.1"));
 }
 

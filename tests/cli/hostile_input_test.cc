@@ -495,11 +495,23 @@ TEST(HostileInput, NumberOptionsMustBeFinite) {
                                  kTerrains + " --log asphalt=" + kSwitching);
   EXPECT_EQ(scale.exit_code, 2) << scale.err;
   EXPECT_THAT(scale.err, HasSubstr("--loss-scale: expected a number >= 0.001 and at most 1e6, got '1e-170'"));
-  // The bank's bound on the decision's hold holds for the command line too (1e308 s was taken).
+  // The bank's bound on the decision's hold holds for the command line too (1e308 s was taken), and
+  // settings the command line gave that cannot be are a bad command line (exit 2; it was 1).
   const Result hold = run_shell(run + " --decision-hold 1e308");
-  EXPECT_EQ(hold.exit_code, 1) << hold.err;
-  EXPECT_THAT(hold.err, HasSubstr("decision hold: need min_hold >= 0 s and under 1e9 s, got 1e+308"));
+  EXPECT_EQ(hold.exit_code, 2) << hold.err;
+  EXPECT_THAT(hold.err, HasSubstr("the command line's settings: decision hold: need min_hold >= 0 s and under "
+                                  "1e9 s, got 1e+308"));
+  const Result crossed = run_shell(run + " --decision-enter 0.5 --decision-leave 0.7");
+  EXPECT_EQ(crossed.exit_code, 2) << crossed.err;
+  EXPECT_THAT(crossed.err, HasSubstr("decision thresholds: need 0 <= leave < enter <= 1, got enter 0.5, leave 0.7"));
   EXPECT_FALSE(fs::exists(dir / "out.csv"));
+  // Lists of decision settings are crossed: 1010 combinations would each score every file again.
+  std::string enters = "0.5";
+  for (int k = 1; k <= 100; ++k) enters += "," + std::to_string(0.5 + 0.001 * k);
+  const Result grid = run_shell(kSkidimm + " eval --estimates " + (dir / "any.csv").string() + " --decision-enter " +
+                                enters + " --decision-leave 0.01,0.02,0.03,0.04,0.05,0.06,0.07,0.08,0.09,0.1");
+  EXPECT_EQ(grid.exit_code, 2) << grid.err;
+  EXPECT_THAT(grid.err, HasSubstr("lists of --decision-* settings make 1010 combinations; at most 1000 are compared"));
 }
 
 // Two logs from the switching example, for tune.

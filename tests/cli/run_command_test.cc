@@ -503,6 +503,31 @@ TEST(Cli, EvalNamesAModeWhosePluginFailsAndWhyAsRunDoes) {
   EXPECT_THAT(clean.err, Not(HasSubstr("rejected")));
 }
 
+// tune scores the logs where eval would report each model failure: it says
+// them too, at the starting settings, which the search may have moved away
+// from to keep the model from failing (it wrote such a bank without a word).
+TEST(Cli, TuneSaysWhereAModeWasRejectedWhileItScored) {
+  const fs::path dir = test_directory();
+  std::string log = read_file(kSource + "/configs/examples/ltc_switching.csv");
+  for (const std::string other : {"grass", "crushed_concrete"}) {
+    for (std::size_t at = log.find(other); at != std::string::npos; at = log.find(other, at)) {
+      log.replace(at, other.size(), "slippery");
+    }
+  }
+  const Result r =
+      run_skidimm("tune -q --bank " + faulty_bank(dir, "predict_throws").string() + " --log " +
+                  write_file(dir / "one.csv", log).string() + " --log " + write_file(dir / "two.csv", log).string() +
+                  " --objective none --no-assess --tune floor --plugin-path " + kPlugins + " --plugin-path " +
+                  kFixturePlugins + "/faulty");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("warning: modes rejected and reset on 2 of 2 development log(s)"));
+  EXPECT_THAT(r.err, HasSubstr("scored at the bank's starting settings"));
+  EXPECT_THAT(r.err, HasSubstr("mode 'slippery' (plugin faulty_model 0.0.2"));
+  EXPECT_THAT(r.err, HasSubstr("first in one.csv on row "));
+  EXPECT_THAT(r.err, HasSubstr("the model failed: predict_fixed() threw"));
+  EXPECT_THAT(r.err, Not(HasSubstr("mode 'asphalt' (plugin")));
+}
+
 // A plugin that aborts the process cannot be survived, but it is named on
 // the way down instead of a bare "Aborted"; the process still ends as the
 // signal ends it (exit status 128 + 6 from the shell).

@@ -282,6 +282,10 @@ TEST(Scenario, ErrorsNameFileLineAndField) {
   EXPECT_THAT(error(replace_first(kScenario, "type: sinusoidal", "type: zigzag")),
               HasSubstr("maneuver.type: expected straight, skidpad, clothoid, sinusoidal or spiral"));
   EXPECT_THAT(error(replace_first(kScenario, "jitter: 0.2", "jitter: 1.5")), HasSubstr("sensors.jitter: must be below 1"));
+  // Finite, but its draws are not: the log would hold `inf` cells.
+  EXPECT_THAT(error(replace_first(kScenario, "jitter: 0.2", "jitter: 0.2, yaw_rate_std: 1e308")),
+              HasSubstr("sensors.yaw_rate_std: expected at most 1e9 in size (its draws would overflow to infinity), "
+                        "got 1e+308"));
   EXPECT_THAT(error(replace_first(kScenario, "duration: 4", "duration: -4")),
               HasSubstr("duration: must be a finite number > 0"));
   EXPECT_THAT(error(replace_first(kScenario, "sensors: {", "sensors: {preset: robot, ")),

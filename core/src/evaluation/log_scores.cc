@@ -17,6 +17,8 @@ LogScore score_of(const LogResult& r) {
   s.seconds = r.metrics.duration;
   s.smallest_probability = r.smallest_probability;
   s.extrapolation = r.extrapolation;
+  s.steps = r.steps;
+  s.rejections = r.rejections;
   return s;
 }
 

@@ -157,7 +157,8 @@ class Tuner {
     // Selection: the settings that score best over the outer folds.
     double best = -std::numeric_limits<double>::infinity();
     for (const std::string& objective : options_.objectives) {
-      TunedSettings s = search(objective, outer, development, &result.selection_scores);
+      TunedSettings s = search(objective, outer, development, &result.selection_scores, false,
+                               result.start_scores.empty() ? &result.start_scores : nullptr);
       const double score = summarize(result.selection_scores).mean_log_probability;
       progress("objective " + objective + ": cross-validated mean log p(truth) " + brief(score));
       if (score > best) {
@@ -735,8 +736,11 @@ class Tuner {
   }
 
   // Coordinate search over the knobs on log-spaced grids, coarse then fine.
+  // `start_scores`, when given, receives the scores of the first candidate,
+  // the starting settings.
   TunedSettings search(const std::string& objective, const std::vector<std::vector<int>>& folds,
-                       const std::vector<int>& within, std::vector<LogScore>* best_scores, bool quiet = false) {
+                       const std::vector<int>& within, std::vector<LogScore>* best_scores, bool quiet = false,
+                       std::vector<LogScore>* start_scores = nullptr) {
     const BankConfig& config = banks_[0].config;
     TunedSettings current;
     current.objective = objective;
@@ -761,6 +765,7 @@ class Tuner {
       return summarize(*scores).mean_log_probability;
     };
     double best = score_of(current, best_scores, -std::numeric_limits<double>::infinity());
+    if (start_scores != nullptr) *start_scores = *best_scores;
     const double floor_limit = 0.5 / config.num_modes();
     // The floor changes a run only at a step where some probability falls to
     // it. Where the best settings' runs never came down to either floor, the

@@ -110,11 +110,23 @@ ModelSimulationSummary simulate_models(const Bank& bank, const LogSpec& source, 
       x = config.initial_state + p0_root * gaussian_vector(n);
     } else {
       const double dt = sample.t - previous.t;
-      if (!model.predict(x, previous.u, dt, next) ||
-          !model.process_noise(config.modes[static_cast<std::size_t>(mode)].q_intensity, x, previous.u, dt, qd)) {
-        throw Error(source.text + ": mode '" + label + "' could not propagate the state at t = " +
-                    CsvWriter::format(sample.t));
+      // The mode that fails is named with its plugin and its own words, and a
+      // prediction that is not finite fails where it is made: written on, it
+      // filled the log's rows with NaN, or failed at the next mode's step.
+      const auto fail = [&](const std::string& what) {
+        const std::size_t j = static_cast<std::size_t>(mode);
+        const char* reason = model.failure_reason();
+        throw Error(source.text + ": mode '" + label + "'" +
+                    (j < bank.model_sources.size() ? " (" + bank.model_sources[j].describe() + ")" : std::string()) +
+                    " could not propagate the state at t = " + CsvWriter::format(sample.t) + ": " + what +
+                    (reason != nullptr && reason[0] != '\0' ? ": " + std::string(reason) : std::string()));
+      };
+      if (!model.predict(x, previous.u, dt, next)) fail("predict() failed");
+      if (!model.process_noise(config.modes[static_cast<std::size_t>(mode)].q_intensity, x, previous.u, dt, qd)) {
+        fail("process_noise() failed");
       }
+      if (!next.allFinite()) fail("predict() returned a state that is not finite");
+      if (!qd.allFinite()) fail("process_noise() returned a covariance that is not finite");
       x = next + square_root(0.5 * (qd + qd.transpose())) * gaussian_vector(n);
       summary.mode_switches += mode != previous_mode;
     }

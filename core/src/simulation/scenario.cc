@@ -139,10 +139,17 @@ void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s)
     s->jitter = non_negative(y, node["jitter"], "sensors.jitter");
     if (s->jitter >= 1.0) y.fail(node["jitter"], "sensors.jitter", "must be below 1 (time must increase)");
   }
+  // Noise, biases and gains as large as 1e308 are finite, and their draws
+  // and products are not: the log would hold `inf` cells no reader takes.
+  constexpr double kLargestSensorValue = 1e9;
   auto set = [&](const char* key, double* out, bool allow_negative) {
     if (!node[key]) return;
-    *out = allow_negative ? y.number(node[key], std::string("sensors.") + key)
-                          : non_negative(y, node[key], std::string("sensors.") + key);
+    const std::string field = std::string("sensors.") + key;
+    *out = allow_negative ? y.number(node[key], field) : non_negative(y, node[key], field);
+    if (std::abs(*out) > kLargestSensorValue) {
+      y.fail(node[key], field,
+             "expected at most 1e9 in size (its draws would overflow to infinity), got " + CsvWriter::format(*out));
+    }
   };
   set("wheel_speed_std", &s->wheel_speed_std, false);
   set("velocity_std", &s->velocity_std, false);

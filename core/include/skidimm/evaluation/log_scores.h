@@ -37,6 +37,10 @@ struct LogScore {
   double selection_score = std::numeric_limits<double>::quiet_NaN();
   double smallest_probability = std::numeric_limits<double>::quiet_NaN();  // LogResult's
   ExtrapolationCounts extrapolation;                                       // LogResult's
+  // LogResult's: the steps, and per mode its filter's rejections, so that a
+  // model that fails is said where the log is only scored (tune).
+  long steps = 0;
+  std::vector<ModeRejections> rejections;
 };
 
 // Over logs: mean over classes of the mean over each class's logs.

@@ -201,6 +201,11 @@ struct TuneResult {
   TunedSettings settings;            // chosen on all logs but the lockbox
   Summary selection;                 // the folds' scores with the chosen settings: optimistic
   std::vector<LogScore> selection_scores;
+  // The same folds scored at the bank's starting settings, the search's first
+  // candidate (of the first objective): where a mode's model fails there and
+  // not with the chosen settings, the search may have chosen settings that
+  // keep it from failing, which the user should hear of.
+  std::vector<LogScore> start_scores;
   std::vector<Assessment> assessments;  // one per protocol, in TuneOptions::protocols' order
   // The lockbox logs scored once by the final bank (protocol name "lockbox");
   // empty scores when no log was kept aside.
