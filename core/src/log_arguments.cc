@@ -62,6 +62,21 @@ std::string path_of(const FilePattern& p, const std::string& key) {
 // At most this many unpaired runs are named in an error, the rest counted.
 constexpr std::size_t kUnpairedNamed = 10;
 
+// A directory or a pattern expands to files that can be read whole (and
+// again, where a command reads a log more than once): a pipe or a device
+// among them would wait for a writer that never comes, or give other bytes
+// each time. Given alone, a pipe is read as a log (`--input -`, a FIFO).
+void refuse_unless_a_file(const std::string& argument, const fs::path& path) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (ec || fs::is_regular_file(status) || fs::is_directory(status)) return;  // a missing file is said when read
+  throw Error(argument + ": " + path.string() + " is not a regular file (" +
+              (fs::is_fifo(status)     ? "a pipe"
+               : fs::is_socket(status) ? "a socket"
+                                       : "a device or special file") +
+              "), and a directory or a pattern names logs to read whole; give it alone as a log, or move it out");
+}
+
 }  // namespace
 
 std::vector<LogSpec> expand_log_argument(const std::string& argument, const LogArgumentOptions& options) {
@@ -78,6 +93,7 @@ std::vector<LogSpec> expand_log_argument(const std::string& argument, const LogA
     }
     std::sort(files.begin(), files.end());
     if (files.empty()) throw Error(argument + ": no logs in this directory (.csv or .mcap files, bag directories)");
+    for (const fs::path& f : files) refuse_unless_a_file(argument, f);
     std::vector<LogSpec> logs;
     for (const fs::path& f : files) {
       LogSpec one = spec;
@@ -132,6 +148,7 @@ std::vector<LogSpec> expand_log_argument(const std::string& argument, const LogA
     one.text = spec.label.empty() ? "" : spec.label + "=";
     for (std::size_t i = 0; i < one.files.size(); ++i) {
       one.files[i].path = path_of(patterns[i], run);
+      refuse_unless_a_file(argument, one.files[i].path);
       one.text += (i ? "+" : "") + one.files[i].path.string();
     }
     logs.push_back(one);

@@ -316,6 +316,22 @@ std::vector<std::string> confusion_lines(const std::string& out, int rows) {
   return lines;
 }
 
+// A pipe among a directory's or a pattern's files would wait for a writer
+// that never comes (eval hung on one without a word): refused, named.
+TEST(EvalCommand, APipeInADirectoryOrPatternOfLogsIsRefused) {
+  const fs::path dir = test_directory() / "logs";
+  fs::create_directories(dir);
+  fs::copy_file(kSwitching, dir / "a.csv");
+  const Result made = run_shell("mkfifo " + (dir / "b.csv").string());
+  ASSERT_EQ(made.exit_code, 0) << made.err;
+  for (const std::string& argument : {dir.string(), (dir / "*.csv").string()}) {
+    const Result r = run_shell("timeout 60 " + kSkidimm + " eval --bank " + kTerrains + " --plugin-path " + kPlugins +
+                               " --input '" + argument + "'");
+    EXPECT_EQ(r.exit_code, 1) << argument << ": " << r.err;
+    EXPECT_THAT(r.err, HasSubstr((dir / "b.csv").string() + " is not a regular file (a pipe)")) << argument;
+  }
+}
+
 TEST(EvalCommand, ALogThatFailsHalfWayCostsTheOthersNothing) {
   // Three copies of the switching log, the second with a bad cell half-way:
   // the two good logs are scored as they would be alone, and the bad one is
