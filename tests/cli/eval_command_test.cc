@@ -332,6 +332,41 @@ TEST(EvalCommand, APipeInADirectoryOrPatternOfLogsIsRefused) {
   }
 }
 
+// A truth column of the wrong values (the time: a label per step) or one
+// that changes at every step listed a line per step: the text report lists
+// at most 10 labels the bank lacks and 50 switches, and says how many more.
+TEST(EvalCommand, ATruthColumnOfAValuePerStepDoesNotListEveryStep) {
+  const fs::path dir = test_directory();
+  std::string bank = read_file(kTerrains);
+  bank.replace(bank.find("truth_mode: mode"), 16, "truth_mode: t");
+  const fs::path timed = write_file(dir / "timed.yaml", bank);
+  const Result by_time = run_skidimm("eval --bank " + timed.string() + " --input " + kSwitching);
+  ASSERT_EQ(by_time.exit_code, 0) << by_time.err;
+  EXPECT_LT(std::count(by_time.out.begin(), by_time.out.end(), '\n'), 120) << by_time.out.substr(0, 2000);
+  EXPECT_THAT(by_time.out, HasSubstr(" more truth labels not in the bank, left out of the tables here (--json lists "
+                                     "every one): is the truth column the right one?"));
+  // Labels that alternate at every row: a switch per row.
+  std::string log = read_file(kSwitching), alternating;
+  std::istringstream rows(log);
+  std::string line;
+  std::getline(rows, line);
+  alternating = line + "\n";
+  const std::size_t mode_column = 10;  // t, phi_dot_L, phi_dot_R, V, omega, ax, ay, X, Y, theta, mode, ...
+  for (int k = 0; std::getline(rows, line); ++k) {
+    std::vector<std::string> cells;
+    std::stringstream split(line);
+    for (std::string cell; std::getline(split, cell, ',');) cells.push_back(cell);
+    cells[mode_column] = k % 2 == 0 ? "grass" : "asphalt";
+    for (std::size_t c = 0; c < cells.size(); ++c) alternating += (c ? "," : "") + cells[c];
+    alternating += "\n";
+  }
+  const Result flicker =
+      run_skidimm("eval --bank " + kTerrains + " --input " + write_file(dir / "flicker.csv", alternating).string());
+  ASSERT_EQ(flicker.exit_code, 0) << flicker.err;
+  EXPECT_LT(std::count(flicker.out.begin(), flicker.out.end(), '\n'), 120);
+  EXPECT_THAT(flicker.out, ::testing::ContainsRegex("\\.\\.\\. and [0-9]+ more switches \\(--json lists every one\\)"));
+}
+
 TEST(EvalCommand, ALogThatFailsHalfWayCostsTheOthersNothing) {
   // Three copies of the switching log, the second with a bad cell half-way:
   // the two good logs are scored as they would be alone, and the bad one is

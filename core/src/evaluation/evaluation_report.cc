@@ -197,7 +197,21 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
     out << "   per log: mean " << fmt(s.accuracy_per_log.mean) << " +- " << fmt(s.accuracy_per_log.standard_deviation)
         << ", min " << fmt(s.accuracy_per_log.min);
   }
-  const std::vector<std::string> truths = truths_in_order(m, modes);
+  // Truth labels the bank lacks are listed, in the table and the confusion,
+  // up to kMostAbsentTruthsListed: a truth column of the wrong values (the
+  // time, a counter) would list a row per step.
+  constexpr std::size_t kMostAbsentTruthsListed = 10;
+  std::vector<std::string> truths = truths_in_order(m, modes);
+  {
+    std::vector<std::string> listed;
+    std::size_t absent = 0;
+    for (const std::string& truth : truths) {
+      const bool in_bank = std::find(modes.begin(), modes.end(), truth) != modes.end();
+      if (!in_bank && ++absent > kMostAbsentTruthsListed) continue;
+      listed.push_back(truth);
+    }
+    truths = listed;
+  }
   if (truths.size() > 1) {
     out << "\n  per class, over its own true time: ";
     for (const std::string& truth : truths) out << " " << truth << " " << fmt(m.truth_accuracy(truth));
@@ -216,7 +230,14 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
   if (s.extrapolation.steps > 0) print_extrapolation(out, s.extrapolation);
   out << "  calibration of the most likely mode's probability:\n";
   print_calibration(out, "    ", m);
+  std::size_t absent_said = 0;
   for (const auto& absent : m.truth_absent) {
+    if (absent_said++ == kMostAbsentTruthsListed) {
+      out << "  ... and " << m.truth_absent.size() - kMostAbsentTruthsListed
+          << " more truth labels not in the bank, left out of the tables here (--json lists every one): is the "
+             "truth column the right one?\n";
+      break;
+    }
     // Named, not a structured binding: a lambda cannot capture one in C++17 (clang refuses it).
     const std::string& mode = absent.first;
     const double seconds = absent.second;
@@ -260,10 +281,17 @@ void print_table(std::ostream& out, const std::string& title, const EvaluationSu
     out << "    ... and most likely from then on until the next switch: median " << fmt(l.median, "%.2f") << " s, max "
         << fmt(l.max, "%.2f") << " s, never " << (l.switches - l.detected) << "\n";
     if (list_switches) {
-      for (const auto& d : m.switches) {
+      // A truth column that changes at every row (the wrong column, or
+      // labels of one step each) would list a line per row.
+      constexpr std::size_t kMostSwitchesListed = 50;
+      for (std::size_t k = 0; k < m.switches.size() && k < kMostSwitchesListed; ++k) {
+        const auto& d = m.switches[k];
         out << "    " << fmt(d.time, "%8.2f") << " s  " << d.from << " -> " << d.to << ": first "
             << (d.first_latency == d.first_latency ? fmt(d.first_latency, "%.2f") + " s" : std::string("never"))
             << ", settled " << (d.detected() ? fmt(d.latency, "%.2f") + " s" : std::string("never")) << "\n";
+      }
+      if (m.switches.size() > kMostSwitchesListed) {
+        out << "    ... and " << m.switches.size() - kMostSwitchesListed << " more switches (--json lists every one)\n";
       }
     }
   }
