@@ -12,6 +12,7 @@
 #include <arpa/inet.h>
 
 #include <CLI/CLI.hpp>
+#include <charconv>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -45,11 +46,15 @@ namespace {
 
 // NaN passes CLI11's range checks (every comparison with it is false), and
 // inf its sign checks: a number option is finite first.
+// Decimal only, as a bank's numbers are: CLI11 alone takes 0x10 as 16.
 CLI::Validator finite_number() {
   return CLI::Validator(
       [](std::string& text) {
+        const char* first = text.data() + (!text.empty() && text[0] == '+' ? 1 : 0);
+        const char* last = text.data() + text.size();
         double value = 0.0;
-        return CLI::detail::lexical_cast(text, value) && std::isfinite(value)
+        const auto [end, error] = std::from_chars(first, last, value, std::chars_format::general);
+        return error == std::errc() && end == last && std::isfinite(value)
                    ? std::string()
                    : "expected a finite number, got '" + text + "'";
       },

@@ -165,6 +165,18 @@ void CsvReader::read_header() {
                        "row of column names");
       }
     }
+    // Lines ended by a carriage return alone (classic Mac OS, some data
+    // loggers) read as one line: said as such, not as a header of odd names.
+    for (std::size_t f = 0; f < field_count_; ++f) {
+      const std::string_view field = fields_[f];
+      std::size_t cr = field.find('\r');
+      while (cr != std::string::npos && cr + 1 < field.size() && field[cr + 1] == '\n') cr = field.find('\r', cr + 1);
+      if (cr != std::string::npos && cr + 1 < field.size()) {
+        throw LogError(path_.string(), 1,
+                       "its lines end in a carriage return alone (CR, not LF or CR LF), so the whole file reads as "
+                       "one line: convert it first, e.g. `tr '\\r' '\\n' < in.csv > out.csv`");
+      }
+    }
     header_.assign(fields_.begin(), fields_.begin() + static_cast<std::ptrdiff_t>(field_count_));
     if (!header_.empty() && header_[0].size() >= 3 && header_[0].compare(0, 3, "\xEF\xBB\xBF") == 0) {
       header_[0].erase(0, 3);  // UTF-8 byte-order mark from spreadsheet exports

@@ -175,6 +175,19 @@ TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
                                              "must be window (got 'none')"));
     EXPECT_THAT(none.err, Not(HasSubstr("work:")));
   }
+  // An extrapolation protocol's expression is the command line's: its errors do not blame the bank.
+  for (const auto& [expression, said] : std::vector<std::pair<std::string, std::string>>{
+           {"nosuch+", "cannot parse \"nosuch+\""}, {"nosuch", "no column 'nosuch'; columns present"}}) {
+    const Result r = run_pipeline(tune + " --objective none --assess 'extrapolation:x=" + expression + "'");
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_THAT(r.err, HasSubstr("--assess extrapolation:x=" + expression + ": ")) << expression;
+    EXPECT_THAT(r.err, HasSubstr(said)) << expression;
+    EXPECT_THAT(r.err, Not(HasSubstr("columns.inputs"))) << expression;
+  }
+  // A number is decimal, as in a bank (CLI11 alone took 0x10 as 16).
+  const Result hex = run_pipeline(tune + " --objective none --no-assess --rate 0x10");
+  EXPECT_EQ(hex.exit_code, 2) << hex.err;
+  EXPECT_THAT(hex.err, HasSubstr("--rate: expected a finite number, got '0x10'"));
   // One log cannot be cross-validated: said before the bank is read (here one that would not load).
   const fs::path broken = write_file(dir / "broken.yaml", "modes: [\n");
   const Result one = run_pipeline(kSkidimm + " tune --bank " + broken.string() + " --log " + kSwitching +

@@ -60,6 +60,21 @@ TEST(CsvReader, HandlesQuotesEscapesCrlfAndBlankLines) {
   EXPECT_FALSE(reader.next(&fields));
 }
 
+// Lines ended by CR alone read as one line; said as such (it was "column
+// '0' appears twice in the header"). A quoted header name across CR LF is
+// a name, not that.
+TEST(CsvReader, LinesEndedByACarriageReturnAloneAreSaid) {
+  const auto file = write_file(test_directory() / "cr.csv", "t,a\r0,1\r1,2\r");
+  try {
+    CsvReader reader(file);
+    ADD_FAILURE() << "read a file of CR line endings";
+  } catch (const LogError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("cr.csv:1: its lines end in a carriage return alone (CR, not LF or CR LF)"));
+  }
+  CsvReader quoted(write_file(test_directory() / "quoted.csv", "t,\"two\r\nlines\"\r\n0,1\r\n"));
+  EXPECT_EQ(quoted.header(), (std::vector<std::string>{"t", "two\nlines"})) << "CR LF read as a line end";
+}
+
 // Every way a header can be refused closes the file: a reader that throws
 // from its constructor has no destructor to do it.
 TEST(CsvReader, ARefusedHeaderLeavesNoFileOpen) {

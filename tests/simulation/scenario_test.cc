@@ -282,6 +282,11 @@ TEST(Scenario, ErrorsNameFileLineAndField) {
   EXPECT_THAT(error(replace_first(kScenario, "type: sinusoidal", "type: zigzag")),
               HasSubstr("maneuver.type: expected straight, skidpad, clothoid, sinusoidal or spiral"));
   EXPECT_THAT(error(replace_first(kScenario, "jitter: 0.2", "jitter: 1.5")), HasSubstr("sensors.jitter: must be below 1"));
+  // NaN failed mid-run, "the simulated state is not finite", without a line.
+  EXPECT_THAT(error(replace_first(kScenario, "speed: 0.6", "speed: .nan")),
+              HasSubstr("maneuver.speed: must be a finite number"));
+  EXPECT_THAT(error(replace_first(kScenario, "jitter: 0.2", "jitter: 0.2, yaw_rate_bias: .nan")),
+              HasSubstr("sensors.yaw_rate_bias: must be a finite number"));
   // Finite, but its draws are not: the log would hold `inf` cells.
   EXPECT_THAT(error(replace_first(kScenario, "jitter: 0.2", "jitter: 0.2, yaw_rate_std: 1e308")),
               HasSubstr("sensors.yaw_rate_std: expected at most 1e9 in size (its draws would overflow to infinity), "

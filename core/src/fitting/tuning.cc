@@ -353,8 +353,17 @@ class Tuner {
         ranking[static_cast<std::size_t>(i)] = count > 0 ? sum / static_cast<double>(count) : 0.0;
       }
     } catch (const Error& e) {
-      // The reader names the bank's file and its inputs; the expression is the protocol's.
-      throw Error("--assess extrapolation:" + protocol.input + "=" + expression + ": " + e.what());
+      // The reader names the bank's file and its inputs; an expression the
+      // protocol gave is the command line's, not the bank's: that name goes.
+      std::string what = e.what();
+      const std::string bank_field = config.shown_file() + ": columns.inputs." + protocol.input + ": ";
+      const std::string bank_column = " (the bank's columns.inputs." + protocol.input + ")";
+      if (!protocol.expression.empty()) {
+        if (what.compare(0, bank_field.size(), bank_field) == 0) what.erase(0, bank_field.size());
+        const std::size_t at = what.find(bank_column);
+        if (at != std::string::npos) what.erase(at, bank_column.size());
+      }
+      throw Error("--assess extrapolation:" + protocol.input + "=" + expression + ": " + what);
     }
     return ranking;
   }

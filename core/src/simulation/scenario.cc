@@ -38,6 +38,13 @@ double non_negative(const YamlFields& y, const YAML::Node& node, const std::stri
   return value;
 }
 
+// Any sign; NaN and infinity fail at load, naming the line, not mid-run.
+double finite(const YamlFields& y, const YAML::Node& node, const std::string& field) {
+  const double value = y.number(node, field);
+  if (!std::isfinite(value)) y.fail(node, field, "must be a finite number");
+  return value;
+}
+
 std::uint64_t seed_of(const YamlFields& y, const YAML::Node& node, const std::string& field) {
   const std::string text = y.string(node, field);
   const std::optional<std::uint64_t> seed = parse_seed(text);
@@ -72,7 +79,7 @@ void parse_maneuver(const YamlFields& y, const YAML::Node& node, Maneuver* m) {
   if (!parse_maneuver_type(y.string(type, "maneuver.type"), &m->type)) {
     y.fail(type, "maneuver.type", "expected straight, skidpad, clothoid, sinusoidal or spiral");
   }
-  if (node["speed"]) m->speed = y.number(node["speed"], "maneuver.speed");
+  if (node["speed"]) m->speed = finite(y, node["speed"], "maneuver.speed");
   if (node["ramp"]) m->ramp = non_negative(y, node["ramp"], "maneuver.ramp");
   if (node["direction"]) {
     const std::string d = y.string(node["direction"], "maneuver.direction");
@@ -83,8 +90,8 @@ void parse_maneuver(const YamlFields& y, const YAML::Node& node, Maneuver* m) {
   if (node["initial_radius"]) m->initial_radius = positive(y, node["initial_radius"], "maneuver.initial_radius");
   if (node["radius_rate"]) m->radius_rate = non_negative(y, node["radius_rate"], "maneuver.radius_rate");
   if (node["initial_curvature"])
-    m->initial_curvature = y.number(node["initial_curvature"], "maneuver.initial_curvature");
-  if (node["curvature_rate"]) m->curvature_rate = y.number(node["curvature_rate"], "maneuver.curvature_rate");
+    m->initial_curvature = finite(y, node["initial_curvature"], "maneuver.initial_curvature");
+  if (node["curvature_rate"]) m->curvature_rate = finite(y, node["curvature_rate"], "maneuver.curvature_rate");
   if (node["yaw_rate_amplitude"]) {
     m->yaw_rate_amplitude = non_negative(y, node["yaw_rate_amplitude"], "maneuver.yaw_rate_amplitude");
   }
@@ -145,7 +152,7 @@ void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s)
   auto set = [&](const char* key, double* out, bool allow_negative) {
     if (!node[key]) return;
     const std::string field = std::string("sensors.") + key;
-    *out = allow_negative ? y.number(node[key], field) : non_negative(y, node[key], field);
+    *out = allow_negative ? finite(y, node[key], field) : non_negative(y, node[key], field);
     if (std::abs(*out) > kLargestSensorValue) {
       y.fail(node[key], field,
              "expected at most 1e9 in size (its draws would overflow to infinity), got " + CsvWriter::format(*out));
