@@ -250,7 +250,21 @@ int run(const RunOptions& options) {
     }
     Bank bank = Bank::load(options.bank, options.plugin_paths);
     settings_given_on_the_command_line([&] { apply_overrides(options.overrides, &bank.config); });
-    name_plugins_in_fatal_signals("skidimm run", bank, FatalSignalWording{});
+    {
+      // A CSV output's rows computed before a crash are written on the way
+      // down (CsvWriter::write_rows_on_a_crash()); the others are whole or
+      // nothing.
+      FatalSignalWording wording;
+      if (!EstimatesWriter::is_npy(options.output) && options.output.extension() != ".mcap") {
+        wording.lost = "the rows computed before it are kept (" +
+                       (options.output == "-" ? std::string("written to standard output")
+                                              : "in " + options.output.string() + ".partial") +
+                       "), the checkpoint is not written";
+      } else {
+        wording.lost = "a .npy or .mcap output is complete only at the end, and is lost";
+      }
+      name_plugins_in_fatal_signals("skidimm run", bank, wording);
+    }
     const BankConfig& config = bank.config;
     if (!log.label.empty() && config.class_index(log.label) < 0) {
       throw Error(log.text + ": " + config.unknown_label(log.label));
@@ -295,6 +309,7 @@ int run(const RunOptions& options) {
     // A path ending in .npy gets a NumPy array, .mcap an MCAP file (estimates_writer.h), anything else CSV.
     writer.emplace(options.output, config, with_truth);
     if (options.flush) writer->flush_each_row();
+    writer->write_rows_on_a_crash();
     if (live) {
       // Paced to the log's clock when replaying files; a pipe is live already.
       bool replay = true;

@@ -17,6 +17,7 @@
 #include "number_text.h"
 #include "skidimm/errors.h"
 #include "skidimm/stop_request.h"
+#include "unwritten_rows.h"
 
 namespace skidimm {
 
@@ -444,6 +445,8 @@ CsvWriter::CsvWriter(const fs::path& path, const std::vector<std::string>& heade
 }
 
 CsvWriter::~CsvWriter() {
+  // Its buffer and file go: a crash later has nothing of this writer to write.
+  if (rows_written_on_a_crash_) internal::clear_unwritten_rows();
   if (out_->committed()) return;
   // Keep what was computed in the .partial file (OutputFile removes it when a
   // write failed, its end then being cut anywhere).
@@ -467,10 +470,18 @@ char* CsvWriter::reserve(std::size_t bytes) {
     const std::size_t capacity = std::max(2 * capacity_, size_ + bytes);
     std::unique_ptr<char[]> grown(new char[capacity]);
     if (size_ > 0) std::memcpy(grown.get(), buffer_.get(), size_);
+    // Pointed at the copy before the old buffer goes.
+    if (rows_written_on_a_crash_) internal::set_unwritten_rows(out_->descriptor(), grown.get(), whole_rows_size_);
     buffer_ = std::move(grown);
     capacity_ = capacity;
   }
   return buffer_.get() + size_;
+}
+
+void CsvWriter::write_rows_on_a_crash() {
+  rows_written_on_a_crash_ = true;
+  whole_rows_size_ = size_;
+  internal::set_unwritten_rows(out_->descriptor(), buffer_.get(), whole_rows_size_);
 }
 
 void CsvWriter::add_number(double value) {
@@ -504,17 +515,27 @@ void CsvWriter::end_row() {
   cells_ = 0;
   // Hand the rows to the file regularly so an interrupted run leaves them on disk.
   if (++rows_ % kRowsPerWrite == 0 || flush_each_row_) write_buffer();
+  if (rows_written_on_a_crash_) {
+    whole_rows_size_ = size_;
+    internal::set_unwritten_rows(out_->descriptor(), buffer_.get(), whole_rows_size_);
+  }
 }
 
 void CsvWriter::write_buffer() {
   if (size_ == 0) return;
   const std::size_t size = size_;
   size_ = 0;
+  // Handed over: a crash from now on must not write them again.
+  if (rows_written_on_a_crash_) {
+    whole_rows_size_ = 0;
+    internal::set_unwritten_rows(out_->descriptor(), buffer_.get(), 0);
+  }
   out_->write(std::string_view(buffer_.get(), size));
 }
 
 void CsvWriter::commit() {
   write_buffer();
+  if (rows_written_on_a_crash_) internal::clear_unwritten_rows();
   out_->commit();
 }
 

@@ -404,6 +404,12 @@ void EstimatesWriter::flush_each_row() {
   csv_->set_flush_each_row(true);
 }
 
+bool EstimatesWriter::write_rows_on_a_crash() {
+  if (!csv_) return false;
+  csv_->write_rows_on_a_crash();
+  return true;
+}
+
 void EstimatesWriter::commit() {
   if (mcap_) {
     mcap_->commit();

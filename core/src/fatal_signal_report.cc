@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "skidimm/stop_request.h"
+#include "unwritten_rows.h"
 
 namespace skidimm {
 
@@ -66,6 +67,24 @@ void write_all(const char* text) noexcept {
   }
 }
 
+// set_unwritten_rows(): where, and which bytes.
+std::atomic<int> unwritten_fd{-1};
+std::atomic<const char*> unwritten_data{nullptr};
+std::atomic<std::size_t> unwritten_size{0};
+
+void write_unwritten_rows() noexcept {
+  const int fd = unwritten_fd.load(std::memory_order_relaxed);
+  const char* data = unwritten_data.load(std::memory_order_relaxed);
+  std::size_t left = unwritten_size.load(std::memory_order_relaxed);
+  if (fd < 0 || data == nullptr) return;
+  while (left > 0) {
+    const ssize_t wrote = ::write(fd, data, left);
+    if (wrote <= 0) return;
+    data += wrote;
+    left -= static_cast<std::size_t>(wrote);
+  }
+}
+
 void on_fatal_signal(int signal) noexcept {
   if (loading.load(std::memory_order_relaxed)) {
     write_all("\n");
@@ -87,6 +106,7 @@ void on_fatal_signal(int signal) noexcept {
   const std::size_t modes = m.size() - 2;
   const std::size_t line = mode >= 0 && static_cast<std::size_t>(mode) < modes ? 1 + static_cast<std::size_t>(mode)
                                                                               : m.size() - 1;
+  write_unwritten_rows();
   write_all("\n");
   write_all(m.front().c_str());
   write_all(signal_name(signal));
@@ -171,6 +191,15 @@ PluginLoadMark::~PluginLoadMark() {
   for (std::size_t k = 0; k < std::size(kFatal); ++k) ::sigaction(kFatal[k], &handlers_before_load[k], nullptr);
   load_mutex.unlock();
 }
+
+void set_unwritten_rows(int fd, const char* data, std::size_t size) noexcept {
+  unwritten_fd.store(-1, std::memory_order_relaxed);  // no bytes of one buffer with the size of another
+  unwritten_data.store(data, std::memory_order_relaxed);
+  unwritten_size.store(size, std::memory_order_relaxed);
+  unwritten_fd.store(fd, std::memory_order_relaxed);
+}
+
+void clear_unwritten_rows() noexcept { unwritten_fd.store(-1, std::memory_order_relaxed); }
 
 std::atomic<bool> fatal_signals_reported{false};
 std::atomic<int> mode_in_model_call{-1};

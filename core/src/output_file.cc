@@ -131,6 +131,8 @@ void OutputFile::fail(const char* what, int error) {
               (direct_ ? "" : " (nothing was written to " + path_.string() + ")"));
 }
 
+int OutputFile::descriptor() const { return out_ != nullptr ? ::fileno(out_) : -1; }
+
 void OutputFile::write(std::string_view bytes) {
   if (out_ == nullptr) throw Error(written_.string() + ": write after the file was closed");
   if (bytes.empty()) return;

@@ -541,8 +541,18 @@ TEST(Cli, APluginThatAbortsTheProcessIsNamed) {
   EXPECT_THAT(r.out, HasSubstr("status 134"));
   const std::string err = read_file(dir / "err");
   EXPECT_THAT(err, HasSubstr("skidimm run: SIGABRT (abort) while the model of mode 'slippery' (plugin faulty_model"));
-  EXPECT_THAT(err, HasSubstr("faulty_plugin.so)) was running: the fault is that plugin's"));
+  EXPECT_THAT(err, HasSubstr("faulty_plugin.so)) was running: the fault is that plugin's; the rows computed "
+                             "before it are kept (in " +
+                             (dir / "out.csv").string() + ".partial)"));
   EXPECT_FALSE(fs::exists(dir / "out.csv"));
+  // The rows computed before the crash, every one whole (they were lost,
+  // up to a thousand of them, unless --flush wrote each as it came).
+  const auto rows = read_csv(dir / "out.csv.partial");
+  ASSERT_GT(rows.size(), 10u);
+  for (const auto& row : rows) EXPECT_EQ(row.size(), rows[0].size());
+  EXPECT_EQ(read_file(dir / "out.csv.partial").back(), '\n');
+  const std::size_t time = column(rows[0], "t");
+  for (std::size_t i = 2; i < rows.size(); ++i) EXPECT_GT(std::stod(rows[i][time]), std::stod(rows[i - 1][time]));
 }
 
 // Every command that runs a bank's models names its plugins when one of them

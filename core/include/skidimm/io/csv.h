@@ -134,6 +134,11 @@ class CsvWriter {
   // Hand every row to the file as soon as it ends (run --flush), instead of
   // every 1000 rows: a program reading a pipe sees each row at once.
   void set_flush_each_row(bool flush) { flush_each_row_ = flush; }
+  // From now on, a fatal signal reported by report_fatal_signals()
+  // (skidimm/engine/fatal_signal_report.h) writes the whole rows this writer
+  // holds to its file before the program ends: a plugin's crash loses no
+  // row computed before it. One writer of the process at a time.
+  void write_rows_on_a_crash();
   // Flushes, closes and renames to the final path.
   void commit();
   // Where rows are being written: "<path>.partial", or the path itself.
@@ -161,6 +166,8 @@ class CsvWriter {
   std::size_t cells_ = 0;  // in the row being added
   long rows_ = 0;
   bool flush_each_row_ = false;
+  bool rows_written_on_a_crash_ = false;
+  std::size_t whole_rows_size_ = 0;  // the bytes of the buffer's whole rows
 };
 
 }  // namespace skidimm

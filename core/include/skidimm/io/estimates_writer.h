@@ -77,6 +77,10 @@ class EstimatesWriter {
   // Every row handed to the file as it is written (CSV only; run --flush).
   // Throws Error for .npy, whose header is completed at the end.
   void flush_each_row();
+  // A CSV output's rows computed before a crash are written before the
+  // program ends (CsvWriter::write_rows_on_a_crash()); false, and nothing
+  // done, for .npy and .mcap, which are complete only at the end.
+  bool write_rows_on_a_crash();
   const std::filesystem::path& partial_path() const;
 
   static std::vector<std::string> header(const BankConfig& config, bool with_truth);

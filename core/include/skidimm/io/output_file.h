@@ -63,6 +63,8 @@ class OutputFile {
   // The file being written: the temporary one, or the path itself when direct.
   const std::filesystem::path& written_path() const { return written_; }
   bool direct() const { return direct_; }
+  // The file descriptor written to (-1 once closed).
+  int descriptor() const;
   // Whether `path` would be written directly (no temporary file, no rename).
   static bool writes_directly(const std::filesystem::path& path);
   bool committed() const { return committed_; }
