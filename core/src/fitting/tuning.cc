@@ -482,17 +482,23 @@ class Tuner {
       // A fold may leave a mode too little data to fit (a protocol that holds
       // out every straight run of a terrain): the fold keeps the mode's
       // starting values, and says so; the final fit on every log may not.
+      bool fitted_it = true;
       try {
         fitters_.at(objective)(&bank, data);
       } catch (const FitError& e) {
         failures[static_cast<std::size_t>(i)] = e.what();
-        return;
+        fitted_it = false;
       }
-      const FittedValues fitted = values_of(bank);
-      values[static_cast<std::size_t>(i)] = {
-          fitted.parameters[static_cast<std::size_t>(j)], fitted.q[static_cast<std::size_t>(j)],
-          fitted.parameter_covariance[static_cast<std::size_t>(j)],
-          fitted.residual_correlation[static_cast<std::size_t>(j)], fitted.fitted_inputs[static_cast<std::size_t>(j)]};
+      if (fitted_it) {
+        const FittedValues fitted = values_of(bank);
+        values[static_cast<std::size_t>(i)] = {fitted.parameters[static_cast<std::size_t>(j)],
+                                               fitted.q[static_cast<std::size_t>(j)],
+                                               fitted.parameter_covariance[static_cast<std::size_t>(j)],
+                                               fitted.residual_correlation[static_cast<std::size_t>(j)],
+                                               fitted.fitted_inputs[static_cast<std::size_t>(j)]};
+      }
+      // A fit that failed is done too: the count reaches the whole (it
+      // stopped short, at the fits that succeeded).
       const int n = ++finished;
       std::lock_guard<std::mutex> lock(progress_mutex);
       if (n == static_cast<int>(todo.size()) || n % 20 == 0) {
