@@ -255,10 +255,13 @@ int run(const RunOptions& options) {
       // down (CsvWriter::write_rows_on_a_crash()); the others are whole or
       // nothing.
       FatalSignalWording wording;
-      if (!EstimatesWriter::is_npy(options.output) && options.output.extension() != ".mcap") {
+      if (options.smooth) {
+        wording.lost = "the output, written only once the whole log is smoothed, and the checkpoint are lost";
+      } else if (!EstimatesWriter::is_npy(options.output) && options.output.extension() != ".mcap") {
         wording.lost = "the rows computed before it are kept (" +
-                       (options.output == "-" ? std::string("written to standard output")
-                                              : "in " + options.output.string() + ".partial") +
+                       (options.output == "-"                         ? std::string("written to standard output")
+                        : OutputFile::writes_directly(options.output) ? "written to " + options.output.string()
+                                                                      : "in " + options.output.string() + ".partial") +
                        "), the checkpoint is not written";
       } else {
         wording.lost = "a .npy or .mcap output is complete only at the end, and is lost";
@@ -428,8 +431,13 @@ int run(const RunOptions& options) {
   });
   if (const int signal = stop_requested()) code = 128 + signal;  // as the signal's default ending reports it
   if (code != kExitOk && writer && summary.rows > 0) {
-    std::cerr << "skidimm run: the " << summary.rows << " rows computed before the error are in "
-              << writer->partial_path().string() << "\n";
+    if (options.output == "-") {
+      // The rows of the block the reader refused are not among them: no count.
+      std::cerr << "skidimm run: the rows handed over before the error went to standard output\n";
+    } else {
+      std::cerr << "skidimm run: the " << summary.rows << " rows computed before the error are in "
+                << writer->partial_path().string() << "\n";
+    }
   }
   if (checkpoint_failures > 1) {
     std::cerr << "skidimm run: warning: --checkpoint-every: " << checkpoint_failures

@@ -58,7 +58,7 @@ int report_errors(const char* command, Body&& body) {
 LogArgumentOptions unpaired_runs(const char* command, bool skip);
 
 // The bank's models of measurements that aggregate a step's rows (mean(),
-// std(), rms()) were fitted at its sampling.rate: a --rate (`rate`) that
+// std(), rms(), diff_std()) were fitted at its sampling.rate: a --rate (`rate`) that
 // steps it at another rate changes what those measurements measure. Warns
 // on stderr, naming them, the two rates and `bank_file`; nothing otherwise.
 void warn_of_rate_unlike_the_banks(const char* command, const std::filesystem::path& bank_file, const BankConfig& bank,

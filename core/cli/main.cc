@@ -50,7 +50,12 @@ namespace {
 CLI::Validator finite_number() {
   return CLI::Validator(
       [](std::string& text) {
-        const char* first = text.data() + (!text.empty() && text[0] == '+' ? 1 : 0);
+        // Blanks around a number are no part of it ("0.5, 0.7" is two).
+        const std::size_t begin = text.find_first_not_of(" \t");
+        text =
+            begin == std::string::npos ? std::string() : text.substr(begin, text.find_last_not_of(" \t") + 1 - begin);
+        const char* first =
+            text.data() + (!text.empty() && text[0] == '+' && text.size() > 1 && text[1] != '-' ? 1 : 0);
         const char* last = text.data() + text.size();
         double value = 0.0;
         const auto [end, error] = std::from_chars(first, last, value, std::chars_format::general);
@@ -183,7 +188,7 @@ int main(int argc, char** argv) {
                      std::string("Filter steps per second on a fixed grid (overrides the bank's sampling.rate); "
                                  "default: the bank's sampling.rate, else a step at every time stamp of the log") +
                          more)
-        ->check(finite_number())
+        ->transform(finite_number())
         ->check(number_above(0.0, false, 1e6));
   };
   // The decision's settings: a value each (run: std::optional), or a list
@@ -194,7 +199,7 @@ int main(int argc, char** argv) {
     const auto option = [&](const char* name, auto* value, const std::string& help) {
       CLI::Option* o = command->add_option(name, *value, help + lists);
       if constexpr (!std::is_same_v<std::decay_t<decltype(*value)>, std::optional<double>>) o->delimiter(',');
-      return o->check(finite_number());
+      return o->transform(finite_number());
     };
     option("--decision-enter", enter,
            "Probability at which a mode (class) is decided (overrides the bank's decision.enter)")
@@ -210,7 +215,7 @@ int main(int argc, char** argv) {
         ->add_option("--decision-stale-after", *stale_after,
                      "Seconds without any measurement after which the decision is given up for unknown; 0: never "
                      "(decision.stale_after; default the bank's shortest mean dwell time)")
-        ->check(finite_number())
+        ->transform(finite_number())
         ->check(number_above(0.0, true));
   };
 
@@ -221,7 +226,7 @@ int main(int argc, char** argv) {
                      "Chi-square innovation gate: probability a consistent measurement passes, in (0, 1); 0: none "
                      "(overrides the bank's innovation_gate; " +
                          documentation_path("docs/engine.md") + ")")
-        ->check(finite_number())
+        ->transform(finite_number())
         ->check(CLI::Validator(
             [](std::string& text) {
               double value = 0.0;
@@ -262,7 +267,7 @@ int main(int argc, char** argv) {
                     documentation_path("docs/engine.md") + ")");
   run->add_option("--lag", run_options.lag,
                   "Write each step smoothed with this many seconds of later data (online, delayed)")
-      ->check(finite_number())
+      ->transform(finite_number())
       ->check(number_above(0.0, true));
   add_decision_options(run, &run_options.overrides.decision_enter, &run_options.overrides.decision_leave,
                        &run_options.overrides.decision_hold, &run_options.overrides.decision_stale, "");
@@ -304,7 +309,7 @@ int main(int argc, char** argv) {
           "[HOST:]PORT"));
   run->add_option("--serve-speed", run_options.serve_speed,
                   "With --serve, replaying a file: times real time (default 1); 0 as fast as the filter runs")
-      ->check(finite_number())
+      ->transform(finite_number())
       ->check(number_above(0.0, true))
       ->needs("--serve");  // it paces the replay the server shows, and nothing else
   run->add_flag("--copy-topics", run_options.copy_topics,
@@ -319,7 +324,7 @@ int main(int argc, char** argv) {
   run->add_option("--checkpoint-every", run_options.checkpoint_every,
                   "With --save-checkpoint: also write it as the run goes, every SECONDS of the log's time (a live "
                   "run that may be killed outright keeps a recent one)")
-      ->check(finite_number())
+      ->transform(finite_number())
       ->check(number_above(0.0, false))
       ->needs("--save-checkpoint");
   add_plugin_path(run);
@@ -365,7 +370,7 @@ int main(int argc, char** argv) {
       ->check(file_path());
   simulate->add_option("--seed", simulate_options.seed, "Random seed (default: the scenario's)")->check(whole_seed());
   simulate->add_option("--duration", simulate_options.duration, "Seconds to simulate (default: the scenario's)")
-      ->check(finite_number())
+      ->transform(finite_number())
       ->check(number_above(0.0, false));
   simulate->add_flag("--quiet,-q", simulate_options.quiet, "No summary on stderr");
 
@@ -412,7 +417,7 @@ int main(int argc, char** argv) {
                 "Hold parameters the logs do not excite at their starting values instead of failing (each is named)");
   fit->add_option("--window", fit_options.window,
                   "Window objective: seconds each prediction runs from a measured start; 0 = one-step (default)")
-      ->check(finite_number())
+      ->transform(finite_number())
       ->check(number_above(0.0, true));
   add_rate(fit, &fit_options.rate, "; the written bank (--output-bank) takes it as its sampling.rate");
   fit->add_option("--loss", fit_options.loss, "Robust loss: huber (default), cauchy, none")
@@ -421,7 +426,7 @@ int main(int argc, char** argv) {
   // underflows (1e-170 made the cost NaN, blamed on the logs); far above,
   // it is the plain square.
   fit->add_option("--loss-scale", fit_options.loss_scale, "Loss scale in measurement standard deviations (3)")
-      ->check(finite_number())
+      ->transform(finite_number())
       ->check(number_above(1e-3, true, 1e6));
   fit->add_option("--held-out", fit_options.held_out, "[MODE=]FILE[+FILE...] to evaluate after fitting; repeatable");
   fit->add_option("--output-entry", entry_output, "Write the fitted mode entries (YAML) to this file")
@@ -499,10 +504,10 @@ int main(int argc, char** argv) {
   tune->add_option("--lockbox", tune_options.lockbox,
                    "Logs kept aside (as --log): neither fitted nor tuned on, scored once by the tuned bank; repeatable");
   tune->add_option("--threads", tune_options.threads, "Worker threads (default, and at most: every core)")
-      ->check(finite_number())
+      ->transform(finite_number())
       ->check(number_above(0.0, true));
   tune->add_option("--window", tune_options.window, "The window objective's window in seconds (0: one-step)")
-      ->check(finite_number())
+      ->transform(finite_number())
       ->check(number_above(0.0, true));
   tune->add_flag("--fit-r", tune_options.fit_r, "Likelihood objective: also fit one R for the bank");
   tune->add_flag("--full-q", tune_options.full_q,
@@ -547,7 +552,7 @@ int main(int argc, char** argv) {
   add_rate(eval, &eval_options.overrides.rate);
   eval->add_flag("--smooth", eval_options.smooth, "Score the probabilities smoothed over each whole log");
   eval->add_option("--lag", eval_options.lag, "Score the probabilities smoothed with this lag (s)")
-      ->check(finite_number())
+      ->transform(finite_number())
       ->check(number_above(0.0, true));
   eval->add_option("--estimates,-e", eval_options.estimates,
                    "Evaluate `skidimm run` outputs (files or directories) instead of running a bank");

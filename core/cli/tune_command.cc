@@ -428,6 +428,11 @@ int tune(const TuneCommandOptions& options) {
                          "; leave it out");
       }
     }
+    if (!options.range_for.empty() && options.no_assess && options.lockbox.empty()) {
+      throw UsageError(
+          "--range-for gives a range under the held-out tables (the nested assessment's, the "
+          "lockbox's), and --no-assess without --lockbox prints none");
+    }
     if (!options.range_for.empty()) {
       const std::vector<std::string> classes = config.class_names();
       std::string names;

@@ -27,6 +27,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// The message for a file whose lines end in CR alone: it reads as one line.
+const char* const kLinesEndedByCr =
+    "its lines end in a carriage return alone (CR, not LF or CR LF), so the whole file reads as one line: convert "
+    "it first, e.g. `tr '\\r' '\\n' < in.csv > out.csv`";
+
 constexpr std::size_t kReadBlock = 1 << 16;
 // No log has lines this long; a binary file, or a stream without line
 // breaks, has: refused before it fills memory (a 300 MB line on standard
@@ -167,16 +172,14 @@ void CsvReader::read_header() {
       }
     }
     // Lines ended by a carriage return alone (classic Mac OS, some data
-    // loggers) read as one line: said as such, not as a header of odd names.
-    for (std::size_t f = 0; f < field_count_; ++f) {
+    // loggers) read as one line, the whole file: said as such, not as a
+    // header of odd names. (A header with a quoted CR is followed by rows.)
+    const bool whole_file_read = end_of_file_ && begin_ == end_;
+    for (std::size_t f = 0; f < field_count_ && whole_file_read; ++f) {
       const std::string_view field = fields_[f];
       std::size_t cr = field.find('\r');
       while (cr != std::string::npos && cr + 1 < field.size() && field[cr + 1] == '\n') cr = field.find('\r', cr + 1);
-      if (cr != std::string::npos && cr + 1 < field.size()) {
-        throw LogError(path_.string(), 1,
-                       "its lines end in a carriage return alone (CR, not LF or CR LF), so the whole file reads as "
-                       "one line: convert it first, e.g. `tr '\\r' '\\n' < in.csv > out.csv`");
-      }
+      if (cr != std::string::npos && cr + 1 < field.size()) throw LogError(path_.string(), 1, kLinesEndedByCr);
     }
     header_.assign(fields_.begin(), fields_.begin() + static_cast<std::ptrdiff_t>(field_count_));
     if (!header_.empty() && header_[0].size() >= 3 && header_[0].compare(0, 3, "\xEF\xBB\xBF") == 0) {
@@ -214,6 +217,12 @@ int CsvReader::column(const std::string& name) const {
 // (a last line without one counts; none after a final '\n'). The view lives
 // until the next call.
 void CsvReader::refuse_long_line(long line) const {
+  // A log of CR-only lines longer than the bound is one line too: said as such.
+  const std::string_view held(buffer_.data() + begin_, end_ - begin_);
+  const std::size_t cr = held.find('\r');
+  if (line == 1 && cr != std::string_view::npos && cr + 1 < held.size() && held[cr + 1] != '\n') {
+    throw LogError(path_.string(), line, kLinesEndedByCr);
+  }
   throw LogError(path_.string(), line,
                  "a line longer than " + std::to_string(kMaxLineBytes) +
                      " bytes: not a CSV log (a binary file, or text without line breaks?)");

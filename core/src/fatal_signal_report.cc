@@ -106,11 +106,12 @@ void on_fatal_signal(int signal) noexcept {
   const std::size_t modes = m.size() - 2;
   const std::size_t line = mode >= 0 && static_cast<std::size_t>(mode) < modes ? 1 + static_cast<std::size_t>(mode)
                                                                               : m.size() - 1;
-  write_unwritten_rows();
+  // The message first: writing the rows may wait on a reader of a pipe.
   write_all("\n");
   write_all(m.front().c_str());
   write_all(signal_name(signal));
   write_all(m[line].c_str());
+  write_unwritten_rows();
   // SA_RESETHAND put the default action back: raising the signal again ends
   // the program as it would have ended (and its exit status says so).
   ::raise(signal);

@@ -137,7 +137,7 @@ LogSpec parse_log_spec(const std::string& text) {
       // order. (Unix times, 1.7e9 s, keep a tenth of a microsecond.)
       if (std::abs(value) > kLargestTimeOffset) {
         throw Error("log '" + text + "': the time offset " + offset +
-                    " s is larger than 1e11 s, where times lose the precision to keep rows apart");
+                    " s is larger in size than 1e11 s, where times lose the precision to keep rows apart");
       }
       file = LogFile(part.substr(0, at), value);
     }

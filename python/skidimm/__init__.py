@@ -57,7 +57,7 @@ __all__ = [
     "read_csv", "expand_log_argument", "parse_log_spec", "group_name", "group_names", "evaluate_expression",
 ]
 
-_AGGREGATES = ("mean(", "std(", "rms(")
+_AGGREGATES = ("mean(", "std(", "rms(", "diff_std(")  # "std(" finds diff_std( too; named for the reader
 
 
 def _paths(paths):

@@ -657,9 +657,11 @@ TEST(CliIo, RunSaysWhenTheReaderOfItsOutputGoesAway) {
   const Result r =
       run_shell(run_command(kTerrains, kSwitching, "-") + " --flush --save-checkpoint " + checkpoint.string() + " 2>" +
                 (dir / "err").string() + " | head -2 >/dev/null; echo \"status ${PIPESTATUS[0]}\"");
-  EXPECT_THAT(r.out, HasSubstr("status 1"));
+  EXPECT_THAT(r.out, HasSubstr("status 1\n"));
   const std::string err = read_file(dir / "err");
   EXPECT_THAT(err, HasSubstr("skidimm run: error: standard output: cannot write: Broken pipe"));
+  EXPECT_THAT(err, HasSubstr("the rows handed over before the error went to standard output"));
+  EXPECT_THAT(err, Not(HasSubstr("rows computed before the error are in")));
   EXPECT_THAT(err, HasSubstr("no checkpoint written: the filter went past a row the output refused"));
   EXPECT_FALSE(fs::exists(checkpoint));
 }

@@ -463,6 +463,9 @@ TEST(Cli, TuneGivesTheRangeOfAccuracyOfTheCountsAskedForAsEvalDoes) {
   const Result malformed = run_skidimm(tune + " --range-for ASPHALT=two");
   EXPECT_EQ(malformed.exit_code, 2);
   EXPECT_THAT(malformed.err, HasSubstr("'ASPHALT=two' is not CLASS=COUNT"));
+  const Result no_table = run_skidimm(tune + " --range-for ASPHALT=2,SNOW=9 --no-assess");
+  EXPECT_EQ(no_table.exit_code, 2);
+  EXPECT_THAT(no_table.err, HasSubstr("--no-assess without --lockbox prints none"));
   const Result leaves_out = run_skidimm(tune + " --range-for ASPHALT=2");
   ASSERT_EQ(leaves_out.exit_code, 0) << leaves_out.err;
   EXPECT_THAT(leaves_out.out, HasSubstr("no range for --range-for: the other set leaves out class 'SNOW'"));

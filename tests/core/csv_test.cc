@@ -73,6 +73,18 @@ TEST(CsvReader, LinesEndedByACarriageReturnAloneAreSaid) {
   }
   CsvReader quoted(write_file(test_directory() / "quoted.csv", "t,\"two\r\nlines\"\r\n0,1\r\n"));
   EXPECT_EQ(quoted.header(), (std::vector<std::string>{"t", "two\nlines"})) << "CR LF read as a line end";
+  // A lone CR quoted in a header followed by rows is a name with a CR in it.
+  CsvReader lone(write_file(test_directory() / "lone.csv", "t,\"note\rx\"\n0,1\n"));
+  EXPECT_EQ(lone.header(), (std::vector<std::string>{"t", "note\rx"}));
+  // Past the longest line a reader takes (1 MiB), the same: said as CR line endings, not as a long line.
+  std::string big = "t,a\r";
+  while (big.size() < (3u << 20)) big += "0.123456789,1.23456789\r";
+  try {
+    CsvReader reader(write_file(test_directory() / "big_cr.csv", big));
+    ADD_FAILURE() << "read a file of CR line endings";
+  } catch (const LogError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("big_cr.csv:1: its lines end in a carriage return alone"));
+  }
 }
 
 // Every way a header can be refused closes the file: a reader that throws

@@ -99,8 +99,9 @@ TEST(LogSpec, ParsesLabelsFilesAndOffsets) {
   expect_error([] { parse_log_spec("a.csv@soon"); }, {"'soon' after '@' is not a time offset in seconds"});
   // Unix times are offsets a log may need; 1e17 s left rows 16 s apart at best.
   EXPECT_EQ(parse_log_spec("x.csv@-1700000000.25").files[0].time_offset, -1700000000.25);
-  expect_error([] { parse_log_spec("a.csv@1e17"); },
-               {"the time offset 1e17 s is larger than 1e11 s, where times lose the precision to keep rows apart"});
+  expect_error(
+      [] { parse_log_spec("a.csv@1e17"); },
+      {"the time offset 1e17 s is larger in size than 1e11 s, where times lose the precision to keep rows apart"});
   expect_error([] { parse_log_spec("=a.csv"); }, {"empty label"});
   expect_error([] { parse_log_spec("ice=+"); }, {"no file given"});
   // A label after the files: the order that works is said.

@@ -146,14 +146,16 @@ void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s)
     s->jitter = non_negative(y, node["jitter"], "sensors.jitter");
     if (s->jitter >= 1.0) y.fail(node["jitter"], "sensors.jitter", "must be below 1 (time must increase)");
   }
-  // Noise, biases and gains as large as 1e308 are finite, and their draws
-  // and products are not: the log would hold `inf` cells no reader takes.
-  constexpr double kLargestSensorValue = 1e9;
-  auto set = [&](const char* key, double* out, bool allow_negative) {
+  // Noise, biases and gains (`in_readings`: what goes into a reading) as
+  // large as 1e308 are finite, and their draws and products are not: the
+  // log would hold `inf` cells no reader takes. Rates and thresholds are not
+  // in a reading and have no such bound.
+  constexpr double kLargestInReading = 1e9;
+  auto set = [&](const char* key, double* out, bool allow_negative, bool in_readings = true) {
     if (!node[key]) return;
     const std::string field = std::string("sensors.") + key;
     *out = allow_negative ? finite(y, node[key], field) : non_negative(y, node[key], field);
-    if (std::abs(*out) > kLargestSensorValue) {
+    if (in_readings && std::abs(*out) > kLargestInReading) {
       y.fail(node[key], field,
              "expected at most 1e9 in size (its draws would overflow to infinity), got " + CsvWriter::format(*out));
     }
@@ -165,14 +167,14 @@ void parse_sensors(const YamlFields& y, const YAML::Node& node, SensorConfig* s)
   set("yaw_rate_bias", &s->yaw_rate_bias, true);
   set("yaw_rate_bias_std", &s->yaw_rate_bias_std, false);
   set("accel_std", &s->accel_std, false);
-  set("gps_rate", &s->gps_rate, false);
+  set("gps_rate", &s->gps_rate, false, false);
   set("gps_std", &s->gps_std, false);
   set("gps_correlated_std", &s->gps_correlated_std, false);
   set("heading_std", &s->heading_std, false);
   set("gps_velocity_std", &s->gps_velocity_std, false);
-  set("course_min_speed", &s->course_min_speed, false);
-  set("gps_outage_rate", &s->gps_outage_rate, false);
-  set("current_rate", &s->current_rate, false);
+  set("course_min_speed", &s->course_min_speed, false, false);
+  set("gps_outage_rate", &s->gps_outage_rate, false, false);
+  set("current_rate", &s->current_rate, false, false);
   set("current_per_torque", &s->current_per_torque, false);
   set("current_no_load", &s->current_no_load, false);
   set("current_std", &s->current_std, false);

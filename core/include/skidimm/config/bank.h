@@ -86,7 +86,7 @@ struct MeasurementConfig {
 
 // Where the log's values come from. Each input or measurement is a CSV
 // column or an expression of columns (csv.h); measurements may aggregate
-// the rows of a filter step with mean(), std() or rms().
+// the rows of a filter step with mean(), std(), rms() or diff_std().
 struct ColumnConfig {
   std::string time;
   // The unit of a CSV log's time column (`time_unit: s | ms | us | ns`), as
