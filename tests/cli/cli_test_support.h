@@ -80,6 +80,43 @@ inline void expect_refused_before(const std::string& command, const std::string&
 }
 
 // The command line of `skidimm run`, quiet, over one input.
+// ltc_terrains' asphalt and a mode whose plugin fails as `failure` says above 0.5 m/s.
+inline std::filesystem::path faulty_bank(const std::filesystem::path& dir, const std::string& failure) {
+  return write_file(dir / "faulty.yaml", R"(
+name: faulty
+states: [V, omega]
+inputs: [phi_dot_L, phi_dot_R]
+columns: {time: t, truth_mode: mode}
+measurement:
+  observe: [V, omega]
+  R: {std: [0.05, 0.02]}
+transition: {mean_dwell_time: 10.0}
+initial:
+  covariance: {std: [0.5, 0.5]}
+modes:
+  - name: asphalt
+    model: ltc_linear
+    params: {A: [[-36.28555, 0.935196], [0.5454627, -29.78963]], B: [[3.164964, 2.846713], [-4.866783, 4.78034]]}
+    Q: [[0.00556329, 0], [0, 0.003817253]]
+  - name: slippery
+    model: faulty_model
+    params: {failure: )" + failure + R"(, above: 0.5}
+    Q: {diagonal: [0.01, 0.01]}
+)");
+}
+
+// The bundled switching example with every mode but asphalt named
+// `slippery`: a log of faulty_bank()'s modes.
+inline std::string slippery_switching_log() {
+  std::string log = read_file(kSource + "/configs/examples/ltc_switching.csv");
+  for (const std::string other : {"grass", "crushed_concrete"}) {
+    for (std::size_t at = log.find(other); at != std::string::npos; at = log.find(other, at)) {
+      log.replace(at, other.size(), "slippery");
+    }
+  }
+  return log;
+}
+
 inline std::string run_command(const std::string& bank, const std::string& input, const std::string& output) {
   return kSkidimm + " run -q --bank " + bank + " --plugin-path " + kPlugins + " --input " + input + " --output " +
          output;

@@ -432,31 +432,6 @@ TEST(Cli, MissingColumnNamesTheBankField) {
   EXPECT_THAT(r.err, HasSubstr("no column 'omega' (the bank's columns.measurements.omega)"));
 }
 
-// ltc_terrains' asphalt and a mode whose plugin fails as `failure` says above 0.5 m/s.
-fs::path faulty_bank(const fs::path& dir, const std::string& failure) {
-  return write_file(dir / "faulty.yaml", R"(
-name: faulty
-states: [V, omega]
-inputs: [phi_dot_L, phi_dot_R]
-columns: {time: t, truth_mode: mode}
-measurement:
-  observe: [V, omega]
-  R: {std: [0.05, 0.02]}
-transition: {mean_dwell_time: 10.0}
-initial:
-  covariance: {std: [0.5, 0.5]}
-modes:
-  - name: asphalt
-    model: ltc_linear
-    params: {A: [[-36.28555, 0.935196], [0.5454627, -29.78963]], B: [[3.164964, 2.846713], [-4.866783, 4.78034]]}
-    Q: [[0.00556329, 0], [0, 0.003817253]]
-  - name: slippery
-    model: faulty_model
-    params: {failure: )" + failure + R"(, above: 0.5}
-    Q: {diagonal: [0.01, 0.01]}
-)");
-}
-
 // A plugin's bug must not take skidimm down: an .at() out of range in
 // predict ended in `terminate called`.
 TEST(Cli, RunSurvivesAPluginThatThrowsAndNamesTheModePluginAndReason) {
@@ -508,12 +483,7 @@ TEST(Cli, EvalNamesAModeWhosePluginFailsAndWhyAsRunDoes) {
 // from to keep the model from failing (it wrote such a bank without a word).
 TEST(Cli, TuneSaysWhereAModeWasRejectedWhileItScored) {
   const fs::path dir = test_directory();
-  std::string log = read_file(kSource + "/configs/examples/ltc_switching.csv");
-  for (const std::string other : {"grass", "crushed_concrete"}) {
-    for (std::size_t at = log.find(other); at != std::string::npos; at = log.find(other, at)) {
-      log.replace(at, other.size(), "slippery");
-    }
-  }
+  const std::string log = slippery_switching_log();
   const Result r =
       run_skidimm("tune -q --bank " + faulty_bank(dir, "predict_throws").string() + " --log " +
                   write_file(dir / "one.csv", log).string() + " --log " + write_file(dir / "two.csv", log).string() +
@@ -565,12 +535,7 @@ TEST(Cli, APluginThatAbortsTheProcessIsNamedByEveryCommand) {
   const std::string bank = faulty_bank(dir, "abort").string();
   const std::string plugins = " --plugin-path " + kPlugins + " --plugin-path " + kFixturePlugins + "/faulty";
   // The log's modes as the bank's, for simulate, which drives each row's mode.
-  std::string log = read_file(input);
-  for (const std::string other : {"grass", "crushed_concrete"}) {
-    for (std::size_t at = log.find(other); at != std::string::npos; at = log.find(other, at)) {
-      log.replace(at, other.size(), "slippery");
-    }
-  }
+  const std::string log = slippery_switching_log();
   const fs::path relabelled = write_file(dir / "relabelled.csv", log);
   const std::vector<std::pair<std::string, std::string>> commands = {
       {"eval", "eval --bank " + bank + " --input " + input},

@@ -133,36 +133,12 @@ TEST(Cli, ASimulationThatFailsSaysWhereItsRowsAre) {
 // without a word, or failed a step later blaming the next mode.
 TEST(Cli, ABanksModelThatPredictsNaNIsNamedWhereItFails) {
   const fs::path dir = test_directory();
-  const fs::path bank = write_file(dir / "faulty.yaml", R"(
-name: faulty
-states: [V, omega]
-inputs: [phi_dot_L, phi_dot_R]
-columns: {time: t, truth_mode: mode}
-measurement:
-  observe: [V, omega]
-  R: {std: [0.05, 0.02]}
-transition: {mean_dwell_time: 10.0}
-initial:
-  covariance: {std: [0.5, 0.5]}
-modes:
-  - name: asphalt
-    model: ltc_linear
-    params: {A: [[-36.28555, 0.935196], [0.5454627, -29.78963]], B: [[3.164964, 2.846713], [-4.866783, 4.78034]]}
-    Q: [[0.00556329, 0], [0, 0.003817253]]
-  - name: grass
-    model: faulty_model
-    params: {failure: nan, above: 0.5}
-    Q: {diagonal: [0.01, 0.01]}
-  - name: crushed_concrete
-    model: ltc_linear
-    params: {A: [[-36.28555, 0.935196], [0.5454627, -29.78963]], B: [[3.164964, 2.846713], [-4.866783, 4.78034]]}
-    Q: [[0.00556329, 0], [0, 0.003817253]]
-)");
-  const Result r = run_skidimm("simulate --bank " + bank.string() + " --inputs-from " + kSource +
-                               "/configs/examples/ltc_switching.csv --output " + (dir / "log.csv").string() +
-                               " --plugin-path " + kPlugins + " --plugin-path " + kFixturePlugins + "/faulty");
+  const Result r = run_skidimm("simulate --bank " + faulty_bank(dir, "nan").string() + " --inputs-from " +
+                               write_file(dir / "slippery.csv", slippery_switching_log()).string() + " --output " +
+                               (dir / "log.csv").string() + " --plugin-path " + kPlugins + " --plugin-path " +
+                               kFixturePlugins + "/faulty");
   EXPECT_EQ(r.exit_code, 1) << r.err;
-  EXPECT_THAT(r.err, ::testing::HasSubstr("mode 'grass' (plugin faulty_model 0.0.2"));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("mode 'slippery' (plugin faulty_model 0.0.2"));
   EXPECT_THAT(r.err, ::testing::HasSubstr("could not propagate the state at t = "));
   EXPECT_THAT(r.err, ::testing::HasSubstr(": predict() returned a state that is not finite"));
   EXPECT_FALSE(fs::exists(dir / "log.csv"));
