@@ -18,6 +18,7 @@
 #include "log_table.h"
 #include "skidimm/errors.h"
 #include "skidimm/io/csv.h"
+#include "skidimm/io/log_spec.h"
 
 namespace skidimm {
 namespace {
@@ -161,9 +162,9 @@ class LiveLog::Impl {
           }
         }
       }
-      if (!std::isfinite(t.time_offset)) {
-        throw Error("live table '" + t.name + "': the time offset must be finite, got " +
-                    CsvWriter::format(t.time_offset));
+      if (!std::isfinite(t.time_offset) || std::abs(t.time_offset) > kLargestTimeOffset) {
+        throw Error("live table '" + t.name + "': the time offset must be finite and at most 1e11 s in size " +
+                    "(where times keep the precision to tell rows apart), got " + CsvWriter::format(t.time_offset));
       }
     }
     rows_->queued.resize(tables_.size());

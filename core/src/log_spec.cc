@@ -11,12 +11,6 @@
 
 namespace skidimm {
 
-namespace {
-
-constexpr double kLargestTimeOffset = 1e11;  // s: Unix times (1.7e9) and more
-
-}  // namespace
-
 namespace fs = std::filesystem;
 
 std::string LogSpec::name() const {
@@ -132,9 +126,6 @@ LogSpec parse_log_spec(const std::string& text) {
           !std::isfinite(value)) {
         throw Error("log '" + text + "': '" + offset + "' after '@' is not a time offset in seconds");
       }
-      // Past 1e11 s a double's times lose the fractions of a millisecond a
-      // fast sensor's rows are apart: rows would read as repeated, or out of
-      // order. (Unix times, 1.7e9 s, keep a tenth of a microsecond.)
       if (std::abs(value) > kLargestTimeOffset) {
         throw Error("log '" + text + "': the time offset " + offset +
                     " s is larger in size than 1e11 s, where times lose the precision to keep rows apart");

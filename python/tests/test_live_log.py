@@ -151,6 +151,10 @@ def test_errors_name_the_table_the_row_and_the_column(configs):
         skidimm.LiveLog(bank, {"pro": ["time", "velL", "velR"], "imu": IMU})
     with pytest.raises(ValueError, match="offsets: no table named 'gps'"):
         skidimm.LiveLog(bank, {"pro": PRO, "imu": IMU}, offsets={"gps": 0.1})
+    # As a file's @OFFSET: past 1e11 s times cannot tell rows apart; a Unix time is a fine offset.
+    with pytest.raises(skidimm.Error, match=r"live table 'imu': the time offset must be finite and at most 1e11 s"):
+        skidimm.LiveLog(bank, {"pro": PRO, "imu": IMU}, offsets={"imu": 1e17})
+    skidimm.LiveLog(bank, {"pro": PRO, "imu": IMU}, offsets={"imu": -1.7e9}).close()
     live = skidimm.LiveLog(bank, {"pro": PRO, "imu": IMU}, offsets={"imu": 0.0})
     with pytest.raises(skidimm.Error, match="no table 'odom'; its tables: 'pro', 'imu'"):
         live.push("odom", [0.0])

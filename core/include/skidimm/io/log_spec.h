@@ -12,6 +12,11 @@
 
 namespace skidimm {
 
+// The largest time offset a file may be given, in size (s): Unix times
+// (1.7e9 s) keep a tenth of a microsecond, while far past this bound a
+// double's times could no longer tell rows 10 ms apart.
+inline constexpr double kLargestTimeOffset = 1e11;
+
 // One file of a log and the offset added to its times (s).
 struct LogFile {
   LogFile() = default;
