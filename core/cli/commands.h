@@ -9,6 +9,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "skidimm/config/bank.h"
@@ -117,17 +118,25 @@ struct RunOptions {
 
 int run(const RunOptions& options);
 
-// `apply()`'s result; an Error it throws is the command line's settings
-// refused (exit 2, as any bad option), not a failure of the work.
+// `apply()`'s result; an Error it throws is what the command line gave
+// refused (exit 2, as any bad option), not a failure of the work: its
+// message follows `what` ("--objective: ...").
 template <typename Apply>
-decltype(auto) settings_given_on_the_command_line(Apply&& apply) {
+decltype(auto) given_on_the_command_line(const std::string& what, Apply&& apply) {
   try {
     return apply();
   } catch (const UsageError&) {
     throw;
   } catch (const Error& e) {
-    throw UsageError(std::string("the command line's settings: ") + e.what());
+    throw UsageError(what + ": " + e.what());
   }
+}
+
+// given_on_the_command_line() for the settings --decision-* and the like
+// override a bank's with.
+template <typename Apply>
+decltype(auto) settings_given_on_the_command_line(Apply&& apply) {
+  return given_on_the_command_line("the command line's settings", std::forward<Apply>(apply));
 }
 
 // From now on a fatal signal (a plugin that crashes the process) is named

@@ -319,15 +319,7 @@ int tune(const TuneCommandOptions& options) {
   const int code = report_errors("skidimm tune", [&] {
     // The names of --objective, --tune and --assess are the command line's:
     // a typo is a bad command line (exit 2), found before any log is read.
-    const auto named = [](const char* option, const auto& parse) {
-      try {
-        parse();
-      } catch (const UsageError&) {
-        throw;
-      } catch (const Error& e) {
-        throw UsageError(std::string(option) + ": " + e.what());
-      }
-    };
+    const auto named = [](const char* option, const auto& parse) { given_on_the_command_line(option, parse); };
     const std::vector<std::string> objectives = split_list(options.objectives);
     named("--objective", [&] {
       for (const std::string& name : objectives) {
@@ -698,16 +690,10 @@ int tune(const TuneCommandOptions& options) {
         const RangeOrProblem r = range_or_problem(scores, options.range_for);
         if (!r.problem.empty()) return "; no range for --range-for: " + r.problem;
         if (!r.range.known()) return std::string("; too few logs for a range of what others would score");
-        std::string other = "as many other logs like these";
-        if (!options.range_for.empty()) {
-          int total = 0;
-          std::string counts;
-          for (const auto& [name, count] : r.range.logs_per_class) {
-            counts += (counts.empty() ? "" : ", ") + name + " " + std::to_string(count);
-            total += count;
-          }
-          other = std::to_string(total) + " other logs like these (" + counts + ")";
-        }
+        const std::string other =
+            options.range_for.empty()
+                ? std::string("as many other logs like these")
+                : std::to_string(r.range.other_logs()) + " other logs like these (" + r.range.other_counts() + ")";
         return "; " + other + ", 90% range " + number(r.range.low) + " to " + number(r.range.high);
       };
       for (const fitting::Assessment& a : result.assessments) {

@@ -32,6 +32,15 @@ const char* const kLinesEndedByCr =
     "its lines end in a carriage return alone (CR, not LF or CR LF), so the whole file reads as one line: convert "
     "it first, e.g. `tr '\\r' '\\n' < in.csv > out.csv`";
 
+// Whether `text` holds a carriage return that neither ends it nor comes
+// before a line feed: a line break of a file whose lines end in CR alone.
+bool holds_a_lone_carriage_return(std::string_view text) {
+  for (std::size_t cr = text.find('\r'); cr != std::string_view::npos; cr = text.find('\r', cr + 1)) {
+    if (cr + 1 < text.size() && text[cr + 1] != '\n') return true;
+  }
+  return false;
+}
+
 constexpr std::size_t kReadBlock = 1 << 16;
 // No log has lines this long; a binary file, or a stream without line
 // breaks, has: refused before it fills memory (a 300 MB line on standard
@@ -176,10 +185,7 @@ void CsvReader::read_header() {
     // header of odd names. (A header with a quoted CR is followed by rows.)
     const bool whole_file_read = end_of_file_ && begin_ == end_;
     for (std::size_t f = 0; f < field_count_ && whole_file_read; ++f) {
-      const std::string_view field = fields_[f];
-      std::size_t cr = field.find('\r');
-      while (cr != std::string::npos && cr + 1 < field.size() && field[cr + 1] == '\n') cr = field.find('\r', cr + 1);
-      if (cr != std::string::npos && cr + 1 < field.size()) throw LogError(path_.string(), 1, kLinesEndedByCr);
+      if (holds_a_lone_carriage_return(fields_[f])) throw LogError(path_.string(), 1, kLinesEndedByCr);
     }
     header_.assign(fields_.begin(), fields_.begin() + static_cast<std::ptrdiff_t>(field_count_));
     if (!header_.empty() && header_[0].size() >= 3 && header_[0].compare(0, 3, "\xEF\xBB\xBF") == 0) {
@@ -218,9 +224,7 @@ int CsvReader::column(const std::string& name) const {
 // until the next call.
 void CsvReader::refuse_long_line(long line) const {
   // A log of CR-only lines longer than the bound is one line too: said as such.
-  const std::string_view held(buffer_.data() + begin_, end_ - begin_);
-  const std::size_t cr = held.find('\r');
-  if (line == 1 && cr != std::string_view::npos && cr + 1 < held.size() && held[cr + 1] != '\n') {
+  if (line == 1 && holds_a_lone_carriage_return(std::string_view(buffer_.data() + begin_, end_ - begin_))) {
     throw LogError(path_.string(), line, kLinesEndedByCr);
   }
   throw LogError(path_.string(), line,
@@ -489,6 +493,11 @@ char* CsvWriter::reserve(std::size_t bytes) {
 
 void CsvWriter::write_rows_on_a_crash() {
   rows_written_on_a_crash_ = true;
+  held_rows_are_whole();
+}
+
+void CsvWriter::held_rows_are_whole() {
+  if (!rows_written_on_a_crash_) return;
   whole_rows_size_ = size_;
   internal::set_unwritten_rows(out_->descriptor(), buffer_.get(), whole_rows_size_);
 }
@@ -524,10 +533,7 @@ void CsvWriter::end_row() {
   cells_ = 0;
   // Hand the rows to the file regularly so an interrupted run leaves them on disk.
   if (++rows_ % kRowsPerWrite == 0 || flush_each_row_) write_buffer();
-  if (rows_written_on_a_crash_) {
-    whole_rows_size_ = size_;
-    internal::set_unwritten_rows(out_->descriptor(), buffer_.get(), whole_rows_size_);
-  }
+  held_rows_are_whole();
 }
 
 void CsvWriter::write_buffer() {
@@ -535,10 +541,7 @@ void CsvWriter::write_buffer() {
   const std::size_t size = size_;
   size_ = 0;
   // Handed over: a crash from now on must not write them again.
-  if (rows_written_on_a_crash_) {
-    whole_rows_size_ = 0;
-    internal::set_unwritten_rows(out_->descriptor(), buffer_.get(), 0);
-  }
+  held_rows_are_whole();
   out_->write(std::string_view(buffer_.get(), size));
 }
 

@@ -95,13 +95,22 @@ AccuracyRange accuracy_range(const std::vector<LogScore>& scores, const std::map
   return range;
 }
 
-std::string AccuracyRange::describe() const {
-  std::string set;
+int AccuracyRange::other_logs() const {
   int total = 0;
-  for (const auto& [name, count] : logs_per_class) {
+  for (const auto& [name, count] : logs_per_class) total += count;
+  return total;
+}
+
+std::string AccuracyRange::other_counts() const {
+  std::string set;
+  for (const auto& [name, count] : logs_per_class)
     set += (set.empty() ? "" : ", ") + name + " " + std::to_string(count);
-    total += count;
-  }
+  return set;
+}
+
+std::string AccuracyRange::describe() const {
+  const std::string set = other_counts();
+  const int total = other_logs();
   if (!known()) {
     return "too few logs to say how far another set of logs would score from these (the range needs " +
            std::to_string(kLeastDegreesOfFreedom) +

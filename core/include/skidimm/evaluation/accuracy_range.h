@@ -50,6 +50,9 @@ struct AccuracyRange {
   // False with fewer than kLeastDegreesOfFreedom: too few logs beyond each
   // class's first to say how much logs of a class differ.
   bool known() const { return !std::isnan(low); }
+  // The other set: how many logs, and "ASPHALT 2, ICE 4" (logs_per_class).
+  int other_logs() const;
+  std::string other_counts() const;
   // One sentence: the range, the set it is for, and how it was made.
   std::string describe() const;
 };

@@ -153,6 +153,9 @@ class CsvWriter {
 
  private:
   void write_buffer();
+  // With write_rows_on_a_crash(): the rows the buffer holds now are whole,
+  // and what a crash writes.
+  void held_rows_are_whole();
   // Room for `bytes` more at the end of the buffer (grown, never shrunk).
   char* reserve(std::size_t bytes);
 
