@@ -302,6 +302,7 @@ int fit(const FitCommandOptions& options) {
     fit_options.parameter_uncertainty = options.parameter_uncertainty;
     fit_options.uncertainty_per_log = options.uncertainty_per_log;
     fit_options.residual_correlation = options.residual_correlation;
+    fit_options.pooled_process_noise = options.pooled_q;
     request.mode = options.mode;
     request.name = options.name;
     request.sampling = sampling;

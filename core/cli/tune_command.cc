@@ -354,7 +354,8 @@ int tune(const TuneCommandOptions& options) {
       }
     }
     for (const auto& [given, option] : {std::make_pair(options.parameter_uncertainty, "--parameter-uncertainty"),
-                                        std::make_pair(options.residual_correlation, "--residual-correlation")}) {
+                                        std::make_pair(options.residual_correlation, "--residual-correlation"),
+                                        std::make_pair(options.pooled_q, "--pooled-q")}) {
       for (const std::string& name : objectives) {
         if (given && name != "window") {
           throw UsageError(std::string(option) +
@@ -580,6 +581,8 @@ int tune(const TuneCommandOptions& options) {
       fit_options.parameter_uncertainty = options.parameter_uncertainty;
       fit_options.uncertainty_per_log = options.uncertainty_per_log;
       fit_options.residual_correlation = options.residual_correlation;
+      fit_options.pooled_process_noise = options.pooled_q;
+      if (options.pooled_q) tune_options.pooled_process_noise.insert(name);
       fit_options.window.standard_deviations = false;  // the folds' reports are not kept
       // Without a joint R each mode's fit depends on its own logs alone.
       if (!options.fit_r) tune_options.separable.insert(name);

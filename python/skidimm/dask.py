@@ -149,7 +149,7 @@ def _fit(bank_file, plugin_paths, models, options, modes, *segments):
 
 def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihood", window=0.0, loss="huber",
         loss_scale=3.0, hold_unexcited=False, shared=False, fit_r=False, full_q=False, output_noise=False,
-        parameter_uncertainty=False, uncertainty_per_log=False, residual_correlation=False,
+        parameter_uncertainty=False, uncertainty_per_log=False, residual_correlation=False, pooled_q=False,
         output_bank=None, skip_unpaired=False, plugin_paths=(), models=None):
     """``skidimm fit`` with the logs read on the cluster and each mode fitted on its own worker.
 
@@ -165,7 +165,7 @@ def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihoo
     bank_file, plugin_paths, models = _bank_arguments(bank, plugin_paths, models)
     options = skidimm._native.fit_options(objective, float(window), loss, float(loss_scale), hold_unexcited, shared,
                                           fit_r, full_q, output_noise, parameter_uncertainty, uncertainty_per_log,
-                                          residual_correlation)
+                                          residual_correlation, pooled_q)
     rate = 0.0 if rate is None else float(rate)
     if output_bank is not None:  # before the fit, which a bad path found after it would lose
         skidimm._native.check_output_path(os.fspath(output_bank), "output_bank")
@@ -196,6 +196,13 @@ def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihoo
     fitted = {}
     for result in client.gather(tasks):
         fitted.update(result)
+    if pooled_q and len(tasks) > 1:  # each mode fitted alone: pool their Q as fit_bank does, in mode order
+        pooled = None
+        for j in sorted(fitted):
+            pooled = fitted[j]["q"].copy() if pooled is None else pooled + fitted[j]["q"]
+        for entry in fitted.values():
+            entry["q"] = pooled / len(fitted)
+            entry["report"]["q"] = entry["q"]
     local = skidimm.Bank(bank_file, plugin_paths, models)
     for j, entry in fitted.items():
         skidimm._native.apply_fit(local, j, entry["parameters"], entry["q"], entry["r"], entry["fitted_inputs"])

@@ -41,7 +41,7 @@ namespace {
 fitting::BankFitOptions fit_options_of(const std::string& objective, double window, const std::string& loss,
                                        double loss_scale, bool hold_unexcited, bool shared, bool fit_r, bool full_q,
                                        bool output_noise, bool parameter_uncertainty, bool uncertainty_per_log,
-                                       bool residual_correlation) {
+                                       bool residual_correlation, bool pooled_q) {
   fitting::BankFitOptions o;
   o.objective = fitting::objective_from_string(objective);
   o.window.window = window;
@@ -55,6 +55,7 @@ fitting::BankFitOptions fit_options_of(const std::string& objective, double wind
   o.parameter_uncertainty = parameter_uncertainty;
   o.uncertainty_per_log = uncertainty_per_log;
   o.residual_correlation = residual_correlation;
+  o.pooled_process_noise = pooled_q;
   return o;
 }
 
@@ -185,11 +186,11 @@ void bind_fit(py::module_& m) {
       "fit_options",
       [](const std::string& objective, double window, const std::string& loss, double loss_scale, bool hold_unexcited,
          bool shared, bool fit_r, bool full_q, bool output_noise, bool parameter_uncertainty, bool uncertainty_per_log,
-         bool residual_correlation) {
+         bool residual_correlation, bool pooled_q) {
         // Validated here (objective names) so that a bad option fails before any log is read.
         const fitting::BankFitOptions o =
             fit_options_of(objective, window, loss, loss_scale, hold_unexcited, shared, fit_r, full_q, output_noise,
-                           parameter_uncertainty, uncertainty_per_log, residual_correlation);
+                           parameter_uncertainty, uncertainty_per_log, residual_correlation, pooled_q);
         if (uncertainty_per_log && !parameter_uncertainty) {
           throw Error(
               "uncertainty_per_log scales each mode's parameter covariance, which parameter_uncertainty=True "
@@ -203,7 +204,8 @@ void bind_fit(py::module_& m) {
                                             {"loss_scale", loss_scale != defaults.loss_scale},
                                             {"output_noise", output_noise},
                                             {"parameter_uncertainty", parameter_uncertainty},
-                                            {"residual_correlation", residual_correlation}}) {
+                                            {"residual_correlation", residual_correlation},
+                                            {"pooled_q", pooled_q}}) {
             if (given) {
               throw Error(std::string(name) +
                           " is an option of the window objective; add objective=\"window\" (the default objective "
@@ -221,19 +223,19 @@ void bind_fit(py::module_& m) {
                         py::arg("output_noise") = output_noise,
                         py::arg("parameter_uncertainty") = parameter_uncertainty,
                         py::arg("uncertainty_per_log") = uncertainty_per_log,
-                        py::arg("residual_correlation") = residual_correlation);
+                        py::arg("residual_correlation") = residual_correlation, py::arg("pooled_q") = pooled_q);
       },
       py::arg("objective") = "likelihood", py::arg("window") = 0.0, py::arg("loss") = "huber",
       py::arg("loss_scale") = 3.0, py::arg("hold_unexcited") = false, py::arg("shared") = false,
       py::arg("fit_r") = false, py::arg("full_q") = false, py::arg("output_noise") = false,
       py::arg("parameter_uncertainty") = false, py::arg("uncertainty_per_log") = false,
-      py::arg("residual_correlation") = false);
+      py::arg("residual_correlation") = false, py::arg("pooled_q") = false);
   auto options_from = [](const py::dict& o) {
     return fit_options_of(o["objective"].cast<std::string>(), o["window"].cast<double>(), o["loss"].cast<std::string>(),
                           o["loss_scale"].cast<double>(), o["hold_unexcited"].cast<bool>(), o["shared"].cast<bool>(),
                           o["fit_r"].cast<bool>(), o["full_q"].cast<bool>(), o["output_noise"].cast<bool>(),
                           o["parameter_uncertainty"].cast<bool>(), o["uncertainty_per_log"].cast<bool>(),
-                          o["residual_correlation"].cast<bool>());
+                          o["residual_correlation"].cast<bool>(), o["pooled_q"].cast<bool>());
   };
   m.def(
       "load_fit_logs",

@@ -1,5 +1,6 @@
 """skidimm.dask on a LocalCluster of worker processes: the figures equal the CLI's."""
 
+import numpy as np
 import pytest
 
 import skidimm
@@ -58,6 +59,28 @@ def test_fit_on_the_cluster_equals_the_local_fit(client, configs, singular_logs)
     assert there["entries"] == here["entries"]
     for mode in ("asphalt", "grass"):
         assert there["reports"][mode]["parameters"] == here["reports"][mode]["parameters"]
+
+
+def test_fit_with_one_pooled_q_on_the_cluster_equals_the_local_fit(client, configs, singular_logs):
+    """Each mode is fitted on a worker of its own; their Q is pooled after, as fit_bank pools it."""
+    bank = configs / "ltc_terrains.yaml"
+    logs = [f"asphalt={p}" for p in singular_logs["asphalt"]] + [f"grass={p}" for p in singular_logs["grass"]]
+    own = skidimm.fit(bank, logs, objective="window", full_q=True)
+    here = skidimm.fit(bank, logs, objective="window", full_q=True, pooled_q=True)
+    there = skidimm.dask.fit(client, bank, logs, objective="window", full_q=True, pooled_q=True)
+    def body(text):
+        return [line for line in text.splitlines() if not line.startswith("# ")]
+
+    assert body(there["bank_yaml"]) == body(here["bank_yaml"])
+    assert there["entries"] == here["entries"]
+    mean = (own["reports"]["asphalt"]["q"] + own["reports"]["grass"]["q"]) / 2
+    assert not np.allclose(own["reports"]["asphalt"]["q"], own["reports"]["grass"]["q"], rtol=0.1)
+    for mode in ("asphalt", "grass"):
+        assert np.array_equal(here["reports"][mode]["q"], mean)
+        assert np.array_equal(there["reports"][mode]["q"], mean)
+        assert there["reports"][mode]["parameters"] == own["reports"][mode]["parameters"]
+    with pytest.raises(skidimm.Error, match="pooled_q is an option of the window objective"):
+        skidimm.fit(bank, logs, pooled_q=True)
 
 
 def test_fit_on_the_cluster_warns_as_the_local_fit(client, configs, switching_logs, tmp_path):

@@ -168,7 +168,7 @@ TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
   const std::string tune = kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins +
                            " --tune dwell --log " + kSwitching + " --log " + copy.string();
   // A bad command line: exit 2, before anything is read.
-  for (const std::string option : {"--parameter-uncertainty", "--residual-correlation"}) {
+  for (const std::string option : {"--parameter-uncertainty", "--residual-correlation", "--pooled-q"}) {
     const Result none = run_pipeline(tune + " --objective none --no-assess " + option);
     EXPECT_EQ(none.exit_code, 2) << none.err;
     EXPECT_THAT(none.err, HasSubstr(option + " is estimated by the window objective; every objective of --objective "
@@ -321,6 +321,43 @@ TEST(Cli, TuneCountsEachLogsRowsAsCorrelatedWhenAsked) {
     widened += (after.array() > 2.0 * before.array()).any() ? 1 : 0;
   }
   EXPECT_GT(widened, 0);
+}
+
+// --pooled-q reaches every fit tune makes, the separable folds' included:
+// in the tuned bank every mode fitted on these real runs has one Q, the mean
+// of the Q each has without it (the knob tuned, the floor, leaves Q alone).
+TEST(Cli, TuneGivesEveryFittedModeThePooledQWhenAsked) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  const fs::path dir = test_directory();
+  const std::string tune = "tune -q --bank " + kSource + "/configs/borealtc/terrains_start.yaml" +
+                           flooring_and_ice_runs(boreal) +
+                           " --objective window --hold-unexcited --full-q --tune floor --no-assess --threads 2"
+                           " --plugin-path " +
+                           kPlugins + " --output-bank ";
+  const Result own = run_skidimm(tune + (dir / "own.yaml").string());
+  ASSERT_EQ(own.exit_code, 0) << own.err;
+  const Result pooled = run_skidimm(tune + (dir / "pooled.yaml").string() + " --pooled-q");
+  ASSERT_EQ(pooled.exit_code, 0) << pooled.err;
+  const skidimm::BankConfig a = skidimm::load_bank_config(dir / "own.yaml");
+  const skidimm::BankConfig b = skidimm::load_bank_config(dir / "pooled.yaml");
+  std::vector<std::size_t> fitted;
+  for (std::size_t j = 0; j < a.modes.size(); ++j) {
+    if (a.modes[j].name.rfind("FLOORING", 0) == 0 || a.modes[j].name.rfind("ICE", 0) == 0) fitted.push_back(j);
+  }
+  ASSERT_EQ(fitted.size(), 4u);
+  Eigen::MatrixXd mean = Eigen::MatrixXd::Zero(a.modes[0].q_intensity.rows(), a.modes[0].q_intensity.cols());
+  for (std::size_t j : fitted) mean += a.modes[j].q_intensity / 4.0;
+  EXPECT_GT((a.modes[fitted[0]].q_intensity - a.modes[fitted[3]].q_intensity).norm(), 0.1 * mean.norm());
+  for (std::size_t j : fitted) {
+    // The bank file keeps 7 significant digits.
+    EXPECT_LT((b.modes[j].q_intensity - mean).norm(), 1e-5 * mean.norm()) << b.modes[j].name;
+  }
+  for (std::size_t j = 0; j < a.modes.size(); ++j) {
+    if (std::find(fitted.begin(), fitted.end(), j) == fitted.end()) {
+      EXPECT_EQ(b.modes[j].q_intensity, a.modes[j].q_intensity) << "no logs: its start, " << a.modes[j].name;
+    }
+  }
 }
 
 // A bank tuned at --rate steps at it: its fits and its scores are of steps

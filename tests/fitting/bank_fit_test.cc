@@ -9,6 +9,7 @@
 #include <map>
 
 #include "core/sanitizer.h"
+#include "core/temp_files.h"
 #include "skidimm/fitting/fit_logs.h"
 #include "skidimm/fitting/likelihood_fitter.h"
 #include "skidimm/fitting/trajectory.h"
@@ -117,6 +118,62 @@ TEST(BankFit, SharedParametersNeedTheWindowObjective) {
     FAIL() << "the likelihood objective fits no bank-level parameters";
   } catch (const FitError& e) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("fitted by the window objective only (--objective window)"));
+  }
+}
+
+// With pooled_process_noise every fitted mode gets the mean of the Q the
+// modes would each have had, each mode counted once (here, one fitted on
+// four real runs and one on five); the parameters are each mode's own fit.
+TEST(BankFit, PooledProcessNoiseIsTheMeanOfTheModesOwn) {
+  SKIDIMM_SKIP_UNDER_SANITIZERS_STATISTICAL();
+  if (!std::filesystem::exists(kHuskyDir)) GTEST_SKIP() << "no shared data at " << kHuskyDir;
+  std::string text = skidimm_test::read_file(std::string(SKIDIMM_SOURCE_DIR) + "/configs/husky/ice_ltc_start.yaml");
+  text +=
+      "  - name: ice_later\n    model: ltc_linear\n"
+      "    params: {A: [[-5, 0], [0, -4]], B: [[0.39, 0.39], [-0.83, 0.83]]}\n    Q: {diagonal: [0.01, 0.01]}\n";
+  const std::filesystem::path start = skidimm_test::write_file(skidimm_test::test_directory() / "two.yaml", text);
+  const auto fit_two = [&](bool pooled) {
+    Bank bank = Bank::load(start, {SKIDIMM_PLUGIN_DIR});
+    BankFitOptions options;
+    options.objective = Objective::kWindow;
+    options.full_process_noise = true;
+    options.pooled_process_noise = pooled;
+    fit_bank(&bank,
+             {ModeLogs{0, husky_runs(bank.config, {"01", "02", "03", "04"})},
+              ModeLogs{1, husky_runs(bank.config, {"05", "06", "07", "08", "09"})}},
+             options);
+    std::vector<Eigen::VectorXd> parameters;
+    for (const auto& model : bank.models) {
+      parameters.emplace_back(model->parameter_info().size());
+      model->get_parameters(parameters.back());
+    }
+    return std::make_pair(bank.config, parameters);
+  };
+  const auto [own, own_parameters] = fit_two(false);
+  const auto [pooled, pooled_parameters] = fit_two(true);
+  const Eigen::MatrixXd& q0 = own.modes[0].q_intensity;
+  const Eigen::MatrixXd& q1 = own.modes[1].q_intensity;
+  ASSERT_EQ(q0.rows(), 2);
+  EXPECT_GT((q0 - q1).norm(), 0.1 * q0.norm()) << "the two sets of runs call for different noise";
+  for (const ModeConfig& mode : pooled.modes) {
+    for (Eigen::Index i = 0; i < 2; ++i) {
+      for (Eigen::Index j = 0; j < 2; ++j) {
+        EXPECT_NEAR(mode.q_intensity(i, j), (q0(i, j) + q1(i, j)) / 2.0, 1e-12 * q0.norm()) << mode.name;
+      }
+    }
+  }
+  for (std::size_t m = 0; m < 2; ++m) EXPECT_EQ(pooled_parameters[m], own_parameters[m]) << "each mode's own fit";
+  EXPECT_THROW(pooled_process_noise({}), FitError);
+  EXPECT_THROW(pooled_process_noise({q0, Eigen::MatrixXd::Zero(3, 3)}), FitError);
+
+  Bank bank = Bank::load(start, {SKIDIMM_PLUGIN_DIR});
+  BankFitOptions likelihood;
+  likelihood.pooled_process_noise = true;
+  try {
+    fit_bank(&bank, {ModeLogs{0, husky_runs(bank.config, {"01"})}}, likelihood);
+    FAIL() << "the likelihood objective fits each mode's Q with its parameters";
+  } catch (const FitError& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("pooled from the window objective's estimates"));
   }
 }
 

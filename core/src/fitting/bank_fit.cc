@@ -203,6 +203,11 @@ std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data,
   if (options.residual_correlation && options.objective != Objective::kWindow) {
     throw FitError("the residual correlation is estimated by the window objective (--objective window)");
   }
+  if (options.pooled_process_noise && options.objective != Objective::kWindow) {
+    throw FitError(
+        "one Q for every mode is pooled from the window objective's estimates (--objective window); the likelihood "
+        "objective fits each mode's Q with its parameters");
+  }
   if (options.output_noise && bank->config.measurement.outputs.empty()) {
     throw FitError("the bank measures no model outputs (measurement.outputs): there is no output noise to estimate");
   }
@@ -214,6 +219,12 @@ std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data,
     case Objective::kLikelihood:
       reports = fit_by_likelihood(bank, data, options);
       break;
+  }
+  if (options.pooled_process_noise) {
+    std::vector<Eigen::MatrixXd> q;
+    for (const auto& [mode, report] : reports) q.push_back(report.q_intensity);
+    const Eigen::MatrixXd pooled = pooled_process_noise(q);
+    for (auto& [mode, report] : reports) report.q_intensity = pooled;
   }
   for (auto& [mode, report] : reports) {
     ModeConfig& config = bank->config.modes[static_cast<std::size_t>(mode)];
@@ -238,6 +249,19 @@ std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data,
     }
   }
   return reports;
+}
+
+Eigen::MatrixXd pooled_process_noise(const std::vector<Eigen::MatrixXd>& q) {
+  if (q.empty()) throw FitError("no fitted Q to pool");
+  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(q.front().rows(), q.front().cols());
+  for (const Eigen::MatrixXd& each : q) {
+    if (each.rows() != sum.rows() || each.cols() != sum.cols()) {
+      throw FitError("the modes' Q differ in size (" + std::to_string(each.rows()) + " and " +
+                     std::to_string(sum.rows()) + " states): one Q cannot serve them all");
+    }
+    sum += each;
+  }
+  return sum / static_cast<double>(q.size());
 }
 
 Eigen::MatrixXd output_noise_from_fit(const BankConfig& config, const Eigen::VectorXd& rmse) {

@@ -516,6 +516,7 @@ class Tuner {
       if (fits_.count(k)) continue;
       FittedValues v = base_;
       std::string missing;
+      std::vector<int> fitted_modes;
       for (int j = 0; j < modes; ++j) {
         const ModeKey key{k.first, j, members_of_mode(k.second, j)};
         const auto failed = mode_fit_failures_.find(key);
@@ -535,6 +536,13 @@ class Tuner {
         v.parameter_covariance[static_cast<std::size_t>(j)] = found->second.parameter_covariance;
         v.residual_correlation[static_cast<std::size_t>(j)] = found->second.residual_correlation;
         v.fitted_inputs[static_cast<std::size_t>(j)] = found->second.fitted_inputs;
+        fitted_modes.push_back(j);
+      }
+      if (options_.pooled_process_noise.count(k.first) && !fitted_modes.empty()) {
+        std::vector<Eigen::MatrixXd> q;
+        for (int j : fitted_modes) q.push_back(v.q[static_cast<std::size_t>(j)]);
+        const Eigen::MatrixXd pooled = pooled_process_noise(q);
+        for (int j : fitted_modes) v.q[static_cast<std::size_t>(j)] = pooled;
       }
       fits_[k] = v;
       if (!missing.empty() && options_.fit_nothing.count(k.first) == 0) {

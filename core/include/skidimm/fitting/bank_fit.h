@@ -52,6 +52,13 @@ struct BankFitOptions {
   // its likelihood counts a persistent miss once, not at every step. Without
   // it a mode keeps the bank's value.
   bool residual_correlation = false;
+  // Window objective: give every fitted mode one Q, the mean of the modes'
+  // own estimates (pooled_process_noise()), instead of each its own. Modes
+  // whose Q differ let a broad mode win a step that no mode predicts well
+  // (the one whose covariance is widest in the direction of the miss, and a
+  // log det that differs by mode whatever the data); with one Q the modes
+  // are told apart by what they predict, not by how much they expect to miss.
+  bool pooled_process_noise = false;
   // After each solver iteration of either objective, what is fitted and the
   // iterations so far (model_fitter.h); `window.progress` is ignored.
   FitProgress progress;
@@ -61,6 +68,12 @@ struct BankFitOptions {
 // variance replaced by its residual RMSE squared, floored at 1e-6 of the
 // bank's, and that row's correlations dropped.
 Eigen::MatrixXd output_noise_from_fit(const BankConfig& config, const Eigen::VectorXd& rmse);
+
+// The Q pooled_process_noise gives every fitted mode: the mean of `q`, the
+// fitted modes' own estimates, each mode counted once however many rows it
+// was fitted on (so a class with many runs does not set the noise of all).
+// Throws FitError when `q` is empty or the matrices differ in size.
+Eigen::MatrixXd pooled_process_noise(const std::vector<Eigen::MatrixXd>& q);
 
 // What a fit of `data` faces, stated before it starts: the logs, their rows,
 // the modes and the values fitted (each mode's own model parameters, and the

@@ -143,6 +143,10 @@ struct TuneOptions {
   // joint R, no bank-level parameters): each mode is fitted once per distinct
   // set of its training logs, and the folds share those fits.
   std::set<std::string> separable;
+  // Separable objectives whose fit gives every fitted mode one Q, the mean of
+  // their own (BankFitOptions::pooled_process_noise): each fold pools the
+  // Q of the modes it fitted, so the folds still share each mode's fit.
+  std::set<std::string> pooled_process_noise;
   // Objectives that fit nothing (the bank's models as they are, `tune
   // --objective none`): every mode keeps its starting values whether or not
   // a fold has logs of it, so no fold warns that one did.
