@@ -69,6 +69,17 @@ TEST(Cli, SimulateStampsTheLogInTheUnitTheBankReads) {
                                  (dir / "sim.csv").string() + " --output " + (dir / "out.csv").string());
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_EQ(read_csv(dir / "out.csv")[2][0], read_csv(kSwitching)[2][t]) << "read back in seconds";
+  // The copy --output-bank writes reads the log in the same unit (it dropped time_unit, and read ms as s).
+  const Result copy = run_skidimm("simulate -q --bank " + ms_bank.string() + " --plugin-path " + kPlugins +
+                                  " --seed 3 --inputs-from " + ms_log.string() + " --output " +
+                                  (dir / "sim2.csv").string() + " --output-bank " + (dir / "copy.yaml").string());
+  ASSERT_EQ(copy.exit_code, 0) << copy.err;
+  EXPECT_THAT(read_file(dir / "copy.yaml"), ::testing::HasSubstr("  time_unit: ms\n"));
+  const Result with_copy =
+      run_skidimm("run -q --bank " + (dir / "copy.yaml").string() + " --plugin-path " + kPlugins + " --input " +
+                  (dir / "sim2.csv").string() + " --output " + (dir / "out2.csv").string());
+  ASSERT_EQ(with_copy.exit_code, 0) << with_copy.err;
+  EXPECT_EQ(read_file(dir / "out2.csv"), read_file(dir / "out.csv"));
 }
 
 // A bank that reads expressions (BorealTC's: inputs from wheel speeds,

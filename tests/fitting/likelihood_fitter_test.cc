@@ -711,6 +711,7 @@ TEST(LikelihoodFitter, DrivingStraightDoesNotIdentifyTheTurnGains) {
     EXPECT_THAT(e.what(), HasSubstr("mode 'mode0' (logs: simulated): the logs do not identify every parameter"));
     EXPECT_THAT(e.what(), HasSubstr("[B[0,0], B[0,1]]"));
     EXPECT_THAT(e.what(), HasSubstr("[B[1,0], B[1,1]]"));
+    EXPECT_THAT(e.what(), HasSubstr(". What they are: B[0,0], B[0,1], B[1,0], B[1,1]: input matrix"));
   }
   bank.models[0]->get_parameters(after);
   EXPECT_EQ(after, start);

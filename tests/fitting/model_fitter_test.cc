@@ -437,6 +437,9 @@ TEST(ModelFitter, DrivingStraightDoesNotExciteTheYawParameters) {
     // either row: both combinations are named.
     EXPECT_THAT(e.what(), HasSubstr("[B[1,0], B[1,1]]"));
     EXPECT_THAT(e.what(), HasSubstr("[B[0,0], B[0,1]]"));
+    // What they are, from the model's own description of B, said once for its four entries.
+    EXPECT_THAT(e.what(), HasSubstr(". What they are: B[1,0], B[1,1], B[0,0], B[0,1]: input matrix: row V in m/rad/s, "
+                                    "row omega in 1/s"));
   }
 }
 

@@ -416,6 +416,8 @@ std::string join_names(const std::vector<std::string>& names) {
 
 std::string format_columns_block(const BankConfig& config) {
   std::string out = "columns:\n  time: " + yaml_scalar(config.columns.time) + "\n";
+  // The unit the log's stamps are in (a copy that dropped it would read stamps in ms as seconds).
+  if (config.columns.time_unit_name != "s") out += "  time_unit: " + config.columns.time_unit_name + "\n";
   out += "  inputs:\n";
   for (std::size_t i = 0; i < config.columns.inputs.size() && i < config.input_names.size(); ++i) {
     out += "    " + yaml_scalar(config.input_names[i]) + ": " + yaml_scalar(config.columns.inputs[i]) + "\n";

@@ -21,6 +21,7 @@
 #include "bounded_median.h"
 #include "covariance.h"
 #include "likelihood_problem.h"
+#include "parameter_glossary.h"
 #include "parameter_noise.h"
 #include "skidimm/engine/measurement_model.h"
 #include "skidimm/sdk/angles.h"
@@ -380,15 +381,20 @@ std::map<int, FitReport> fit_group(Bank* bank, const std::vector<std::pair<int, 
   // The information in natural units over the group: per mode [model, Q]
   // then R, the R entries shared by every mode.
   std::vector<std::string> names;
+  std::vector<std::pair<std::string, std::string>> described;  // (name, the model's description of it)
   std::vector<std::vector<int>> natural_index;  // per mode: its par entries -> joint natural index
   int joint = 0;
   for (const ModeBlock& b : problem.blocks()) {
     std::vector<int> index;
+    const std::string prefix =
+        problem.blocks().size() > 1 ? config.modes[static_cast<std::size_t>(b.mode)].name + "." : "";
+    for (const sdk::ParameterInfo& info : b.model->parameter_info()) {
+      described.emplace_back(prefix + info.name, info.description);
+    }
     const std::vector<std::string> mode_names = names_of(b.par, *b.model);
     for (int p = 0; p < b.par.num_model() + b.par.num_q(); ++p) {
       index.push_back(joint++);
-      names.push_back((problem.blocks().size() > 1 ? config.modes[static_cast<std::size_t>(b.mode)].name + "." : "") +
-                      mode_names[static_cast<std::size_t>(p)]);
+      names.push_back(prefix + mode_names[static_cast<std::size_t>(p)]);
     }
     natural_index.push_back(index);
   }
@@ -443,11 +449,13 @@ std::map<int, FitReport> fit_group(Bank* bank, const std::vector<std::pair<int, 
   const double threshold = options.identifiability_threshold * largest;
   if (unexcited.empty()) unexcited = describe_unidentified(eigen.eigenvectors(), eigenvalues, threshold, names);
   if (!unexcited.empty() || !(largest > 0.0)) {
+    const std::string glossary = internal::parameter_glossary(unexcited, described);
     throw FitError(who + logs_text + ": the logs do not identify every parameter: no information on the combinations " +
                    unexcited +
                    "; drive maneuvers that move them (turns and speed changes), or fix them; the window objective "
                    "(--objective window --hold-unexcited) fits what the logs determine and holds the rest where it "
-                   "started, which this objective cannot (docs/fitting.md)");
+                   "started, which this objective cannot (docs/fitting.md)" +
+                   (glossary.empty() ? std::string() : ". What they are: " + glossary));
   }
   const double smallest = eigenvalues.minCoeff();
   // Covariance = information^-1 = D (V L^-1 V') D, from the eigen decomposition above.

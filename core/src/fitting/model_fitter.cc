@@ -21,6 +21,7 @@
 #include "condensed_windows.h"
 #include "measurement_layout.h"
 #include "parameter_covariance.h"
+#include "parameter_glossary.h"
 #include "solver_progress.h"
 #include "window_cost.h"
 
@@ -85,6 +86,7 @@ using Group = std::vector<const ModeLogs*>;
 // union of the group's bank-level names.
 struct ParameterBlock {
   std::vector<std::string> names;
+  std::vector<std::pair<std::string, std::string>> described;  // (name, the model's description of it)
   std::vector<double> lower, upper;
   std::vector<double> values;  // the problem's parameter block: Ceres holds a pointer into it
   // Per mode: its model's flat parameters and their mapping into the block.
@@ -105,6 +107,7 @@ ParameterBlock parameter_block(const Bank& bank, const Group& group, sdk::Parame
       auto at = std::find(block.names.begin(), block.names.end(), info[i].name);
       if (at == block.names.end()) {
         block.names.push_back(info[i].name);
+        block.described.emplace_back(info[i].name, info[i].description);
         block.lower.push_back(info[i].lower_bound);
         block.upper.push_back(info[i].upper_bound);
         block.values.push_back(base[static_cast<Eigen::Index>(i)]);
@@ -375,10 +378,12 @@ Solution solve(const FitOptions& options, const std::string& who, const std::str
                      "move them (turns and speed changes)");
     }
     const std::string unexcited = describe_unexcited(directions, singular, threshold, block->names);
+    const std::string glossary = internal::parameter_glossary(unexcited, block->described);
+    const std::string what_they_are = glossary.empty() ? "" : ". What they are: " + glossary;
     if (!options.hold_unexcited) {
       throw FitError(who + logs + ": the logs do not excite every parameter: no information on the combinations " +
                      unexcited + "; drive maneuvers that move them (turns and speed changes), or fix them" +
-                     (options.hold_unexcited ? "" : " (or let the fit hold them: --hold-unexcited)"));
+                     (options.hold_unexcited ? "" : " (or let the fit hold them: --hold-unexcited)") + what_they_are);
     }
     // Each unexcited direction is held where it started, and the parameters
     // move the least that fits what the logs do determine: the part of the
@@ -403,7 +408,7 @@ Solution solve(const FitOptions& options, const std::string& who, const std::str
     }
     if (s.held.cols() >= n) {
       throw FitError(who + logs + ": the logs do not excite every parameter: no information on the combinations " +
-                     unexcited + "; drive maneuvers that move them, or fix them");
+                     unexcited + "; drive maneuvers that move them, or fix them" + what_they_are);
     }
     // The free directions: the orthogonal complement of the held ones.
     const Eigen::HouseholderQR<Eigen::MatrixXd> qr(s.held);
