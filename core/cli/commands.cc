@@ -385,9 +385,20 @@ int run(const RunOptions& options) {
       // The stale time is said where one was given and the decision can go stale (not smoothed).
       DecisionConfig said = decision_settings;
       if (!(said.stale_after > 0.0 && !options.smooth && !options.lag)) said.stale_after = -1.0;
-      std::cerr << "  the decision (" << evaluation::decision_settings_text(said) << ") changed "
-                << summary.decision_changes << " time(s), the most likely mode " << timeline.intervals().size() - 1
-                << " time(s)\n";
+      const double unknown = static_cast<double>(summary.decision_unknown) / static_cast<double>(rows);
+      std::fprintf(stderr,
+                   "  the decision (%s) changed %ld time(s) and was `unknown` on %.1f%% of the rows, the most "
+                   "likely mode changed %zu time(s)\n",
+                   evaluation::decision_settings_text(said).c_str(), summary.decision_changes, 100.0 * unknown,
+                   timeline.intervals().size() - 1);
+      if (unknown > 0.25) {
+        std::fprintf(stderr,
+                     "  (a decision is taken when a mode's (class's) probability reaches decision.enter, %s: a bank "
+                     "whose likelihood weight keeps its probabilities honest decides more often with a lower enter, "
+                     "--decision-enter or the bank's decision.enter; `skidimm eval --decision-enter 0.5,0.7,0.9` "
+                     "compares them on labelled logs)\n",
+                     CsvWriter::format(said.enter).c_str());
+      }
       std::cerr << reader.describe_stats(config);
       if (summary.predict_only > 0) {
         std::cerr << "  " << summary.predict_only << " rows had no measurement (predict only)\n";

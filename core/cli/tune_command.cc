@@ -14,6 +14,7 @@
 #include "commands.h"
 #include "skidimm/errors.h"
 #include "skidimm/evaluation/accuracy_range.h"
+#include "skidimm/evaluation/evaluation_report.h"
 #include "skidimm/fitting/bank_fit.h"
 #include "skidimm/fitting/bank_writer.h"
 #include "skidimm/fitting/fit_logs.h"
@@ -93,12 +94,34 @@ RangeOrProblem range_or_problem(const std::vector<LogScore>& scores, const std::
   return r;
 }
 
+// The decision's scores over `scores` as the accuracy is summarised (the
+// mean over classes of the mean over each class's logs): {right, unknown};
+// NaN where no log has a decision scored.
+std::pair<double, double> decision_over_classes(const std::vector<LogScore>& scores) {
+  std::map<std::string, std::pair<double, double>> sums;
+  std::map<std::string, int> counts;
+  for (const LogScore& s : scores) {
+    if (!std::isfinite(s.decision_accuracy)) continue;
+    sums[s.truth].first += s.decision_accuracy;
+    sums[s.truth].second += s.decision_unknown;
+    ++counts[s.truth];
+  }
+  if (sums.empty()) return {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+  double right = 0.0, unknown = 0.0;
+  for (const auto& [c, sum] : sums) {
+    right += sum.first / counts[c];
+    unknown += sum.second / counts[c];
+  }
+  return {right / static_cast<double>(sums.size()), unknown / static_cast<double>(sums.size())};
+}
+
 // `held_out`: the scores are of logs nothing chose the settings on, so the
 // range another set of logs would score is said (not of the selection's own
 // cross-validation, which chose them): of `another`'s counts of each class,
 // or as many as were scored.
+// `decision`: the bank's decision settings, as decision_settings_text() says them.
 void print_scores(std::ostream& out, const std::string& title, const std::vector<LogScore>& scores,
-                  const Summary& summary, bool with_settings, bool held_out,
+                  const Summary& summary, const std::string& decision, bool with_settings, bool held_out,
                   const std::map<std::string, int>& another = {}) {
   std::size_t width = 8;
   for (const LogScore& s : scores) width = std::max(width, s.log.size());
@@ -114,6 +137,10 @@ void print_scores(std::ostream& out, const std::string& title, const std::vector
   }
   out << "\n  mean over classes: accuracy " << number(summary.accuracy) << ", mean log p(truth) "
       << number(summary.mean_log_probability) << "\n";
+  if (const auto [right, unknown] = decision_over_classes(scores); std::isfinite(right)) {
+    out << "  the decision (" << decision << "): right " << number(right) << ", `unknown` " << number(unknown)
+        << " of the time (mean over classes)\n";
+  }
   if (held_out && scores.size() > 1) {
     const RangeOrProblem r = range_or_problem(scores, another);
     out << "  " << (r.problem.empty() ? r.range.describe() : "no range for --range-for: " + r.problem) << "\n";
@@ -612,22 +639,23 @@ int tune(const TuneCommandOptions& options) {
         [&] { return Bank::load(options.bank, options.plugin_paths); }, logs, fitters, tune_options);
 
     std::ostream& out = std::cout;
+    const std::string decision = evaluation::decision_settings_text(config.decision);
     out << "chosen: " << result.settings.describe(config) << "\n";
     print_scores(out,
                  "cross-validation with the chosen settings (optimistic: the settings were chosen on these scores)",
-                 result.selection_scores, result.selection, false, false);
+                 result.selection_scores, result.selection, decision, false, false);
     for (const fitting::Assessment& a : result.assessments) {
       print_scores(out,
                    "nested assessment, protocol " + a.protocol.name() + " (" + question_of(a.protocol, options.folds) +
                        "; each scored by models fitted and settings tuned without it)",
-                   a.scores, a.summary, true, true, options.range_for);
+                   a.scores, a.summary, decision, true, true, options.range_for);
       print_switches(out, a);
       print_extrapolation(out, a.scores);
       out << "  " << evaluation::separability(a.scores, static_cast<int>(config.class_names().size())).describe() << "\n";
     }
     if (!result.lockbox.scores.empty()) {
       print_scores(out, "lockbox (kept aside, scored once by the bank tuned on the other logs)", result.lockbox.scores,
-                   result.lockbox.summary, false, true, options.range_for);
+                   result.lockbox.summary, decision, false, true, options.range_for);
       print_switches(out, result.lockbox);
       print_extrapolation(out, result.lockbox.scores);
       out << "  " << evaluation::separability(result.lockbox.scores, static_cast<int>(config.class_names().size())).describe()
@@ -638,6 +666,20 @@ int tune(const TuneCommandOptions& options) {
                            "at the bank's starting settings (the search's first candidate, which the chosen settings "
                            "may have been chosen to avoid)");
     warn_of_rejected_modes(start, result.selection_scores, "with the chosen settings");
+    // tune chooses by the probabilities, and a likelihood weight that keeps
+    // them honest keeps them below a high decision.enter: the decision a
+    // user's robot acts on can then be withheld most of the time, which the
+    // accuracy of the most likely class does not show.
+    if (const double unknown = decision_over_classes(result.selection_scores).second; unknown > 0.25) {
+      std::cerr << "skidimm tune: warning: with the chosen settings the bank's decision (" << decision
+                << ") is `unknown` " << number(100.0 * unknown, "%.0f") << "% of the held-out time: no class's "
+                << "probability reaches decision.enter then. "
+                << (config.decision.enter > 0.5
+                        ? "A lower enter decides more often (the bundled BorealTC bank takes 0.5); `skidimm eval "
+                          "--estimates DIR --decision-enter 0.5,0.7,0.9` on this tune's --estimates compares them\n"
+                        : "These logs do not tell the classes apart with that confidence (the accuracy and mean log "
+                          "p(truth) above say how well they are told apart)\n");
+    }
     if (!options.table.empty()) write_table(options.table, result);
 
     if (!options.output_bank.empty()) {

@@ -249,6 +249,7 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
                                             options.kind != EstimatorOptions::Kind::kFilter || e.measured());
         s.decision_changes += decided != last_decision && s.rows > 0 && !undecided;
         undecided = undecided && decided == ModeDecision::kUnknown;
+        s.decision_unknown += decided == ModeDecision::kUnknown;
         last_decision = decided;
         decision_checkpoint.last_row_written = false;
         writer->write(sample.t, e, decision.name(decided), truth);

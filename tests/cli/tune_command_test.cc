@@ -289,6 +289,30 @@ TEST(Cli, TuneTempersTheEvidenceOfABankThatOvercountsItOnRealRuns) {
   EXPECT_THAT(read_file(dir / "tuned.yaml"), HasSubstr("likelihood weight"));  // the header's chosen settings
 }
 
+// tune chooses by the probabilities; a decision threshold they rarely reach
+// with the chosen settings leaves the robot's decision `unknown`, which the
+// accuracy of the most likely class does not show: tune reports the
+// decision and warns.
+TEST(Cli, TuneSaysWhenTheChosenSettingsLeaveTheDecisionUnknown) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  const fs::path dir = test_directory();
+  std::string text = read_file(kSource + "/configs/borealtc/terrains_start.yaml");
+  const std::string decision = "decision: {enter: 0.5,";
+  ASSERT_NE(text.find(decision), std::string::npos);
+  text.replace(text.find(decision), decision.size(), "decision: {enter: 0.99,");
+  const fs::path bank = write_file(dir / "enter_099.yaml", text);
+  const Result tune = run_skidimm("tune -q --bank " + bank.string() + flooring_and_ice_runs(boreal) +
+                                  " --objective window --hold-unexcited --full-q --tune likelihood-weight --no-assess"
+                                  " --threads 2 --plugin-path " +
+                                  kPlugins);
+  ASSERT_EQ(tune.exit_code, 0) << tune.err;
+  EXPECT_THAT(tune.out, HasSubstr("  the decision (enter 0.99, leave 0.05, hold 1 s): right "));
+  EXPECT_THAT(tune.err, HasSubstr("skidimm tune: warning: with the chosen settings the bank's decision (enter 0.99, "
+                                  "leave 0.05, hold 1 s) is `unknown` "));
+  EXPECT_THAT(tune.err, HasSubstr("A lower enter decides more often"));
+}
+
 // --uncertainty-per-log reaches every fit tune makes: on real runs, each
 // mode's parameter covariance in the tuned bank is the independent rows' or
 // larger, and larger for some mode, each run being missed by an offset of

@@ -19,6 +19,10 @@ LogScore score_of(const LogResult& r) {
   s.extrapolation = r.extrapolation;
   s.steps = r.steps;
   s.rejections = r.rejections;
+  if (r.decision_metrics.duration > 0.0) {
+    s.decision_accuracy = r.decision_metrics.accuracy();
+    s.decision_unknown = r.decision_metrics.unknown_seconds / r.decision_metrics.duration;
+  }
   return s;
 }
 

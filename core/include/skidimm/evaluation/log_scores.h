@@ -41,6 +41,11 @@ struct LogScore {
   // model that fails is said where the log is only scored (tune).
   long steps = 0;
   std::vector<ModeRejections> rejections;
+  // LogResult's decision (decision.h): the share of the labelled time it was
+  // right, and the share it was `unknown` (counted wrong there); NaN where
+  // the log's result has no decision scored.
+  double decision_accuracy = std::numeric_limits<double>::quiet_NaN();
+  double decision_unknown = std::numeric_limits<double>::quiet_NaN();
 };
 
 // Over logs: mean over classes of the mean over each class's logs.
