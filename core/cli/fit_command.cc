@@ -188,6 +188,9 @@ int fit(const FitCommandOptions& options) {
     for (const std::string& skipped : fitting::skipped_by_sampling(data)) {
       std::cerr << "skidimm fit: " << printable(skipped) << "\n";
     }
+    for (const std::string& short_log : fitting::logs_giving_too_few_steps(config, data)) {
+      std::cerr << "skidimm fit: warning: " << printable(short_log) << "\n";
+    }
     for (const std::string& unfitted : fitting::classes_leaving_steps_unfitted(config)) {
       std::cerr << "skidimm fit: warning: " << options.bank.string() << ": " << printable(unfitted) << "\n";
     }

@@ -506,6 +506,9 @@ int tune(const TuneCommandOptions& options) {
       for (const std::string& skipped : fitting::skipped_by_sampling(log.fit_data)) {
         std::cerr << "skidimm tune: " << printable(skipped) << "\n";
       }
+      for (const std::string& short_log : fitting::logs_giving_too_few_steps(config, log.fit_data)) {
+        std::cerr << "skidimm tune: warning: " << printable(short_log) << "\n";
+      }
     }
     warn_of_classes_with_too_few_logs(
         config, logs, development, !options.no_assess,

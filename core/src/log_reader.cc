@@ -741,6 +741,16 @@ std::string LogReader::describe_stats(const BankConfig& bank) const {
            " row(s) after the last step (t = " + CsvWriter::format(s.last_step_t) +
            " s) were not used: the grid's next step, t = " + CsvWriter::format(s.step_not_taken_t) +
            " s, is past the last row of the inputs (t = " + CsvWriter::format(s.inputs_end_t) + " s)\n";
+    // Most of a log left out because it ends within a step or two of its
+    // start: stamps in another unit than the bank reads (seconds read as ms)
+    // look like this, not like a gap.
+    if (s.steps < 3 && s.dropped_last_step >= 10) {
+      out += "  the log gave " + std::to_string(s.steps) +
+             " step(s) and ended within the next: are its time stamps in " + bank.columns.time_unit_name + "? (" +
+             (bank.columns.time_units_per_second == 1.0 ? "columns.time_unit: ms, us or ns reads them in another unit"
+                                                        : "columns.time_unit reads them so; without it, in s") +
+             ")\n";
+    }
   }
   if (s.dropped_after_end > 0) {
     out += "  " + std::to_string(s.dropped_after_end) +

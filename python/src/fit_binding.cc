@@ -259,6 +259,9 @@ void bind_fit(py::module_& m) {
         const std::vector<fitting::ModeLogs> logs = mode_logs_from_list(data);
         std::vector<std::string> notes = fitting::labels_overriding_truth(bank.config(), logs);
         for (const std::string& left_out : fitting::skipped_by_sampling(logs)) notes.push_back(left_out);
+        for (const std::string& short_log : fitting::logs_giving_too_few_steps(bank.config(), logs)) {
+          notes.push_back(short_log);
+        }
         if (of_the_bank) {
           for (const std::string& unfitted : fitting::classes_leaving_steps_unfitted(bank.config())) {
             notes.push_back(bank.file.string() + ": " + unfitted);

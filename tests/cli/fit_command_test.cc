@@ -20,6 +20,7 @@
 
 #include "cli/cli_test_support.h"
 #include "skidimm/config/bank.h"
+#include "skidimm/io/csv.h"
 
 namespace skidimm_test {
 namespace {
@@ -1171,4 +1172,36 @@ TEST(CliIo, FitterErrorsNameTheLogAndTheOptionAndCeresStaysQuiet) {
 }
 
 }  // namespace
+// Stamps in seconds read by a bank whose columns.time_unit is ms make a
+// run of minutes one step long: fit says which log gave too few steps to
+// learn from (it was counted among the mode's logs without a word), and run
+// says the log ended within a step of its start, with the unit's question.
+TEST(Cli, ALogInAnotherTimeUnitThanTheBankReadsIsSaidNotFittedOnSilently) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  const fs::path dir = test_directory();
+  std::string text = read_file(kSource + "/configs/borealtc/wheels_start.yaml");
+  ASSERT_NE(text.find("\n  time: time\n"), std::string::npos);
+  text.replace(text.find("\n  time: time\n"), 14, "\n  time: time\n  time_unit: ms\n");
+  const fs::path bank = write_file(dir / "ms.yaml", text);
+  std::vector<std::vector<std::string>> rows = read_csv(boreal + "/ICE/pro_00.csv");
+  const auto t = static_cast<std::size_t>(column(rows[0], "time"));
+  for (std::size_t i = 1; i < rows.size(); ++i) rows[i][t] = skidimm::CsvWriter::format(std::stod(rows[i][t]) * 1000.0);
+  const fs::path in_ms = write_file(dir / "in_ms.csv", csv_text(rows));
+  const fs::path in_s = write_file(dir / "in_s.csv", read_file(boreal + "/ICE/pro_02.csv"));
+  const Result fit =
+      run_skidimm("fit --bank " + bank.string() + " --plugin-path " + kPlugins +
+                  " --objective window --hold-unexcited --log ICE=" + in_ms.string() + " --log ICE=" + in_s.string());
+  ASSERT_EQ(fit.exit_code, 0) << fit.err;
+  EXPECT_THAT(fit.err, HasSubstr("skidimm fit: warning: " + in_s.string() +
+                                 ": 1 step(s), too few for the fit to learn from; are its time stamps in ms "
+                                 "(columns.time_unit)?"));
+  EXPECT_THAT(fit.err, Not(HasSubstr(in_ms.string() + ": ")));
+  const Result run = run_skidimm("run --bank " + bank.string() + " --plugin-path " + kPlugins + " --input " +
+                                 in_s.string() + " --output " + (dir / "out.csv").string());
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_THAT(run.err, HasSubstr("the log gave 1 step(s) and ended within the next: are its time stamps in ms? "
+                                 "(columns.time_unit reads them so; without it, in s)"));
+}
+
 }  // namespace skidimm_test

@@ -139,6 +139,25 @@ std::vector<std::string> skipped_by_sampling(const std::vector<ModeLogs>& data) 
   return messages;
 }
 
+std::vector<std::string> logs_giving_too_few_steps(const BankConfig& config, const std::vector<ModeLogs>& data) {
+  std::vector<std::string> order;
+  std::map<std::string, long> steps;
+  for (const ModeLogs& d : data) {
+    for (const Trajectory& part : d.logs) {
+      if (steps.count(part.log) == 0) order.push_back(part.log);
+      steps[part.log] += part.size();
+    }
+  }
+  std::vector<std::string> messages;
+  for (const std::string& log : order) {
+    if (steps[log] >= 3) continue;
+    messages.push_back(log + ": " + std::to_string(steps[log]) +
+                       " step(s), too few for the fit to learn from; are its time stamps in " +
+                       config.columns.time_unit_name + " (columns.time_unit)?");
+  }
+  return messages;
+}
+
 std::vector<std::string> classes_leaving_steps_unfitted(const BankConfig& config) {
   std::vector<std::string> messages;
   for (const ClassConfig& c : config.classes) {
