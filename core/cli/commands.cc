@@ -566,9 +566,17 @@ int validate(const fs::path& bank_file, const std::vector<fs::path>& plugin_path
     std::size_t logs = 0, log_warnings = 0;
     for (const std::string& argument : checks) {
       for (const LogSpec& log : expand_log_argument(argument, unpaired_runs("skidimm validate", false))) {
-        std::vector<std::string> unmeasured;
-        const std::vector<LogOperatingPoint> found = operating_points_from_log(c, log, 20, &unmeasured);
+        std::vector<std::string> unmeasured, labels;
+        const std::vector<LogOperatingPoint> found = operating_points_from_log(c, log, 20, &unmeasured, &labels);
         points.insert(points.end(), found.begin(), found.end());
+        // A truth the bank cannot score or fit by: a typo fit and tune refuse later, or a new terrain's name.
+        for (const std::string& label : labels) {
+          if (c.class_index(label) >= 0) continue;
+          unmeasured.push_back((log.label.empty() ? "its truth column '" + c.columns.truth_mode + "' holds a label "
+                                                  : std::string("its label is one ")) +
+                               "the bank does not know: " + c.unknown_label(label) +
+                               " (fit and tune refuse the log; eval reports those steps as a truth the bank lacks)");
+        }
         // Checked against this log, the bank names a column it never gives.
         for (const std::string& line : unmeasured) {
           std::cerr << "skidimm validate: warning: " << printable(log.text) << ": " << printable(line) << "\n";

@@ -11,7 +11,12 @@
 namespace skidimm {
 
 std::vector<LogOperatingPoint> operating_points_from_log(const BankConfig& bank, const LogSpec& log, int count,
-                                                         std::vector<std::string>* unmeasured) {
+                                                         std::vector<std::string>* unmeasured,
+                                                         std::vector<std::string>* labels) {
+  if (labels != nullptr) {
+    labels->clear();
+    if (!log.label.empty()) labels->push_back(log.label);
+  }
   const MeasurementModel measurement(bank.measurement.h, bank.measurement.r, bank.measurement.is_angle);
   LogReader reader(bank, log.files, bank.sampling);
   Eigen::VectorXd x = bank.initial_state;
@@ -23,6 +28,10 @@ std::vector<LogOperatingPoint> operating_points_from_log(const BankConfig& bank,
   double previous_t = 0.0;
   LogSample sample;
   while (reader.next(&sample)) {
+    if (labels != nullptr && log.label.empty() && !sample.truth_mode.empty() && labels->size() < kMostLabelsListed &&
+        std::find(labels->begin(), labels->end(), sample.truth_mode) == labels->end()) {
+      labels->push_back(sample.truth_mode);
+    }
     for (int row = 0; row < measurement.measurement_dim(); ++row) {
       const int s = measurement.picked_state(row);
       if (s >= 0 && s < x.size() && std::isfinite(sample.z[row])) x[s] = sample.z[row];

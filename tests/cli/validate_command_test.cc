@@ -209,6 +209,22 @@ TEST(Cli, ValidateCheckGivesItsVerdictAfterTheLogsWarnings) {
   EXPECT_EQ(clean.exit_code, 0) << clean.err;
   EXPECT_EQ(clean.err, "");
   EXPECT_THAT(clean.out, ::testing::EndsWith("    crushed_concrete: ok\n" + kTerrains + ": OK\n"));
+  // A truth label the bank does not know (here a capital letter): fit and tune refuse it later; said now.
+  auto relabelled = read_csv(kSwitching);
+  const std::size_t mode = static_cast<std::size_t>(column(relabelled[0], "mode"));
+  for (std::size_t i = 1; i < relabelled.size(); ++i) {
+    if (relabelled[i][mode] == "asphalt") relabelled[i][mode] = "Asphalt";
+  }
+  const fs::path typo = write_file(dir / "typo.csv", csv_text(relabelled));
+  const Result labelled = run_skidimm(validate + typo.string());
+  EXPECT_EQ(labelled.exit_code, 0) << labelled.err;
+  EXPECT_THAT(labelled.err, HasSubstr("skidimm validate: warning: " + typo.string() +
+                                      ": its truth column 'mode' holds a label the bank does not know: 'Asphalt' is "
+                                      "neither a mode nor a class of bank 'ltc_terrains'"));
+  EXPECT_THAT(labelled.err, HasSubstr("names are case-sensitive: 'asphalt'?"));
+  EXPECT_THAT(labelled.out, HasSubstr(": OK as a bank, but 1 warning(s) about the log(s) of --check"));
+  const Result label_given = run_skidimm(validate + "grass=" + typo.string());
+  EXPECT_EQ(label_given.err, "") << "the label given overrides the truth column";
   // A log the bank cannot read is an error, with no verdict said before it.
   const Result unreadable = run_skidimm(validate + (dir / "missing.csv").string());
   EXPECT_EQ(unreadable.exit_code, 1);

@@ -31,9 +31,13 @@ struct LogOperatingPoint {
 // value; angles wrapped to [-pi, pi). Throws LogError or Error as LogReader
 // does, and LogError when the log has no step to take a point from. With
 // `unmeasured`, the reader's words for each measurement the log never gave
-// (LogReader::unmeasured()).
+// (LogReader::unmeasured()). With `labels`, the distinct truth labels of its
+// steps (the bank's truth column, or the log's MODE= label), in the order
+// met, at most kMostLabelsListed of them.
+constexpr std::size_t kMostLabelsListed = 50;
 std::vector<LogOperatingPoint> operating_points_from_log(const BankConfig& bank, const LogSpec& log, int count = 20,
-                                                         std::vector<std::string>* unmeasured = nullptr);
+                                                         std::vector<std::string>* unmeasured = nullptr,
+                                                         std::vector<std::string>* labels = nullptr);
 
 // What the checks found on one mode.
 struct ModeConformance {
