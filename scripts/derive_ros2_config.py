@@ -21,6 +21,7 @@ fails while the two differ anywhere but in `columns:`.
     python3 scripts/derive_ros2_config.py          # rewrites terrains_ros2.yaml
     python3 scripts/derive_ros2_config.py --check  # exit 1 (and a diff) if it is not what this writes
 """
+import argparse
 import difflib
 import os
 import re
@@ -87,9 +88,15 @@ def derive(source_text):
 
 
 def main():
+    # An unknown option is an error, not a rewrite of terrains_ros2.yaml.
+    parser = argparse.ArgumentParser(description="Writes configs/borealtc/terrains_ros2.yaml from terrains.yaml "
+                                                 "(every section but columns:).")
+    parser.add_argument("--check", action="store_true",
+                        help="write nothing: exit 1, with a diff, if terrains_ros2.yaml is not what this writes")
+    arguments = parser.parse_args()
     with open(SOURCE) as f:
         wanted = derive(f.read())
-    if "--check" in sys.argv:
+    if arguments.check:
         current = open(TARGET).read() if os.path.exists(TARGET) else ""
         if current != wanted:
             sys.stdout.writelines(difflib.unified_diff(current.splitlines(True), wanted.splitlines(True),
