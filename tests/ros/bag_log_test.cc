@@ -225,6 +225,35 @@ TEST(BagLog, AnInputSelectedByANameNoMessageHasIsNamed) {
   EXPECT_TRUE(named.next(&sample));
 }
 
+// A topic that several publishers share (a JointState of the wheels, and
+// one of an arm whose clock runs ahead): a message with none of the fields
+// the bank reads from the topic is not a row of it. As an empty row it
+// stopped the log, its stamp going back from the arm's to the wheels'.
+TEST(BagLog, AMessageOfAnotherPublisherWithNoneOfTheFieldsReadIsNotARow) {
+  BankConfig bank;
+  bank.file = "bank.yaml";
+  bank.state_names = {"x"};
+  bank.input_names = {"wheel"};
+  bank.measurement.names = {"x"};
+  bank.columns.time = "header.stamp";
+  bank.columns.inputs = {"/joint_states.velocity[left]"};
+  bank.columns.measurements = {"/joint_states.effort[left]"};
+  const auto expected = read_expected(ros_fixture("two_publishers.expected"));
+  ASSERT_EQ(expected.size(), 20u);
+  LogReader reader(bank, {LogFile{ros_fixture("two_publishers.mcap")}});
+  LogSample sample;
+  long k = 0;
+  while (reader.next(&sample)) {
+    ++k;
+    ASSERT_LE(k, 20);
+    const auto& row = expected.at(k);
+    EXPECT_TRUE(same_double(sample.t, row.at("header.stamp").number)) << k;
+    EXPECT_TRUE(same_double(sample.u[0], row.at("velocity[left]").number)) << k;
+    EXPECT_TRUE(same_double(sample.z[0], row.at("effort[left]").number)) << k;
+  }
+  EXPECT_EQ(k, 20) << "every wheel message a step, no arm message one";
+}
+
 }  // namespace
 }  // namespace ros
 }  // namespace skidimm

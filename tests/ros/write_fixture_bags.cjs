@@ -236,6 +236,29 @@ async function main() {
     await bag.close();
     writeExpected(path.join(out, "mixed_imu.expected"), rows);
   }
+  // /joint_states shared by two publishers, each stamping on its own clock: the wheels (left, right) and an arm
+  // whose stamps run 30 ms ahead, recorded in arrival order, so the topic's stamps go back and forth.
+  {
+    const bag = await tools.openMcap(path.join(out, "two_publishers.mcap"), {
+      compression: "zstd",
+      serializeWith: (type) => tools.completeDefinition(type),
+    });
+    await bag.addTopic("/joint_states", "sensor_msgs/msg/JointState", tools.completeDefinition("sensor_msgs/msg/JointState"));
+    const rows = [];
+    for (let k = 0; k < 20; ++k) {
+      const ns = BigInt(k) * 100000000n;
+      const stamp = (t) => ({ sec: Number(t / 1000000000n), nanosec: Number(t % 1000000000n) });
+      await bag.add("/joint_states", 1000000000n + ns, {
+        header: { stamp: stamp(ns + 30000000n), frame_id: "arm" }, name: ["arm_joint"], position: [0.5], velocity: [0.25], effort: [1],
+      });
+      await bag.add("/joint_states", 1000000000n + ns + 1000n, {
+        header: { stamp: stamp(ns), frame_id: "base" }, name: ["left", "right"], position: [], velocity: [k / 8, -k / 8], effort: [2 * k, 3],
+      });
+      rows.push({ "header.stamp": k / 10, "velocity[left]": k / 8, "effort[left]": 2 * k });
+    }
+    await bag.close();
+    writeExpected(path.join(out, "two_publishers.expected"), rows);
+  }
   {
     const bag = await tools.openMcap(path.join(out, "idl.mcap"), {
       compression: "zstd",

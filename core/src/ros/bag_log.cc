@@ -217,6 +217,20 @@ class BagTopicTable : public LogTable {
               seconds_text(message.log_time) + " s, " + reader_->type_name() + "): cannot decode its CDR: " + e.what()));
       return;
     }
+    // A message with none of the fields the bank reads from this topic (a
+    // JointState of another publisher's joints, on a topic several
+    // publishers share, each stamping on its own clock) is not a row of it:
+    // as an empty row it would interleave its stamps with the wheels'.
+    bool gives_a_field = false, reads_a_field = false;
+    for (const Column& c : columns_) {
+      if (c.log_time || c.name == kHeaderStampColumn) continue;
+      reads_a_field = true;
+      gives_a_field = gives_a_field || reader_->found(c.slot);
+    }
+    if (reads_a_field && !gives_a_field) {
+      ++messages_without_fields_;
+      return;
+    }
     for (const Column& c : columns_) {
       if (c.log_time) {
         values_.push_back(seconds_from_nanoseconds(static_cast<std::int64_t>(message.log_time)));
@@ -231,6 +245,9 @@ class BagTopicTable : public LogTable {
     ++queue_rows_;
   }
   std::size_t queued() const { return queue_rows_; }
+  bool failed() const { return static_cast<bool>(error_); }
+  // Messages left out for having none of the fields the bank reads here.
+  long messages_without_fields() const { return messages_without_fields_; }
 
  private:
   struct Column {
@@ -267,6 +284,7 @@ class BagTopicTable : public LogTable {
   mutable std::string number_text_;
   std::uint64_t row_log_time_ = 0;
   long row_number_ = 0;
+  long messages_without_fields_ = 0;
 };
 
 void BagCursor::fill(BagTopicTable* table) {
@@ -280,7 +298,7 @@ void BagCursor::fill(BagTopicTable* table) {
       }
       BagTopicTable* owner = tables[static_cast<std::size_t>(message.topic)];
       if (owner != nullptr) owner->enqueue(message);
-      if (owner == table) return;  // its message did not decode: the error is its
+      if (owner == table && table->failed()) return;  // its message did not decode: the error is its
     }
   } catch (const Error&) {
     error = std::current_exception();

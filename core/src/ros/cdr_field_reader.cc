@@ -361,12 +361,14 @@ int CdrFieldReader::add_path(const std::string& path, bool dry_run) {
     slot_is_text_.push_back(text);
     values_.push_back(kNaN);
     texts_.emplace_back();
+    found_.push_back(0);
   }
   return target->slot;
 }
 
 void CdrFieldReader::decode(const std::uint8_t* data, std::size_t size) {
   std::fill(values_.begin(), values_.end(), kNaN);
+  std::fill(found_.begin(), found_.end(), 0);
   for (std::string& t : texts_) t.clear();
   if (size < 4) throw CdrError("a message of " + std::to_string(size) + " bytes, shorter than CDR's 4-byte header");
   // Encapsulation: representation identifier (big-endian 16 bits), options.
@@ -401,16 +403,16 @@ void CdrFieldReader::walk(int type_index, const StructPlan* plan, Cursor& c, int
     if (field.array == MessageField::Array::kNone) {
       if (field.primitive == Primitive::kString) {
         const std::string_view s = c.string();
-        if (fp && fp->whole.slot >= 0) texts_[static_cast<std::size_t>(fp->whole.slot)].assign(s);
+        if (fp && fp->whole.slot >= 0) set_text(fp->whole.slot, s);
       } else if (field.primitive != Primitive::kNone) {
         const std::uint8_t* at = c.primitive(field.primitive);
-        if (fp && fp->whole.slot >= 0) values_[static_cast<std::size_t>(fp->whole.slot)] = c.number(field.primitive, at);
+        if (fp && fp->whole.slot >= 0) set_value(fp->whole.slot, c.number(field.primitive, at));
       } else {
         const Type& child = types_[static_cast<std::size_t>(field.type)];
         if (child.is_time && fp && fp->whole.slot >= 0) {
           const std::int32_t sec = static_cast<std::int32_t>(c.u32("a time's seconds"));
           const std::uint32_t nanosec = c.u32("a time's nanoseconds");
-          values_[static_cast<std::size_t>(fp->whole.slot)] = seconds_from_stamp(sec, nanosec);
+          set_value(fp->whole.slot, seconds_from_stamp(sec, nanosec));
         } else {
           walk(field.type, fp ? fp->whole.child.get() : nullptr, c, depth + 1);
         }
@@ -427,7 +429,7 @@ void CdrFieldReader::walk(int type_index, const StructPlan* plan, Cursor& c, int
       if (fp) {
         for (const auto& [index, target] : fp->by_index) {
           if (index < count && target.slot >= 0) {
-            values_[static_cast<std::size_t>(target.slot)] = c.number(field.primitive, c.data + start + index * size);
+            set_value(target.slot, c.number(field.primitive, c.data + start + index * size));
           }
         }
         if (!fp->by_key.empty()) deferred_scratch_.push_back(Deferred{fp, field.primitive, start, count});
@@ -447,7 +449,7 @@ void CdrFieldReader::walk(int type_index, const StructPlan* plan, Cursor& c, int
       }
       if (field.primitive == Primitive::kString) {
         const std::string_view s = c.string();
-        if (target && target->slot >= 0) texts_[static_cast<std::size_t>(target->slot)].assign(s);
+        if (target && target->slot >= 0) set_text(target->slot, s);
         if (names_here) {
           names_scratch_.push_back(s);
           ++names_count;
@@ -457,7 +459,7 @@ void CdrFieldReader::walk(int type_index, const StructPlan* plan, Cursor& c, int
         if (child.is_time && target && target->slot >= 0) {
           const std::int32_t sec = static_cast<std::int32_t>(c.u32("a time's seconds"));
           const std::uint32_t nanosec = c.u32("a time's nanoseconds");
-          values_[static_cast<std::size_t>(target->slot)] = seconds_from_stamp(sec, nanosec);
+          set_value(target->slot, seconds_from_stamp(sec, nanosec));
         } else {
           walk(field.type, target ? target->child.get() : nullptr, c, depth + 1);
         }
@@ -470,7 +472,7 @@ void CdrFieldReader::walk(int type_index, const StructPlan* plan, Cursor& c, int
     for (const auto& [key, target] : e.plan->by_key) {
       for (std::size_t k = 0; k < names_count && k < e.count; ++k) {
         if (names_scratch_[names_begin + k] == key) {
-          values_[static_cast<std::size_t>(target.slot)] = c.number(e.primitive, c.data + e.start + k * size);
+          set_value(target.slot, c.number(e.primitive, c.data + e.start + k * size));
           break;
         }
       }

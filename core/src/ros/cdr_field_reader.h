@@ -76,6 +76,10 @@ class CdrFieldReader {
   void decode(const std::uint8_t* data, std::size_t size);
   double value(int slot) const { return values_[static_cast<std::size_t>(slot)]; }
   std::string_view text(int slot) const { return texts_[static_cast<std::size_t>(slot)]; }
+  // Whether the last message had the slot's field: false for an element by
+  // index past its sequence's end or by a name its `name` sequence lacks
+  // (another publisher's joints), whose value() is then NaN.
+  bool found(int slot) const { return found_[static_cast<std::size_t>(slot)] != 0; }
 
   // Every path a bank can name, in definition order, arrays written with
   // their index range: "orientation_covariance[0..8]", "velocity[i]" and,
@@ -93,6 +97,14 @@ class CdrFieldReader {
   struct Cursor;
   struct Deferred;
 
+  void set_value(int slot, double value) {
+    values_[static_cast<std::size_t>(slot)] = value;
+    found_[static_cast<std::size_t>(slot)] = 1;
+  }
+  void set_text(int slot, std::string_view text) {
+    texts_[static_cast<std::size_t>(slot)].assign(text);
+    found_[static_cast<std::size_t>(slot)] = 1;
+  }
   int resolve(const MessageDefinitions& definitions, const std::string& name, std::vector<std::string>* stack);
   int add_path(const std::string& path, bool dry_run);
   void walk(int type, const StructPlan* plan, Cursor& c, int depth);
@@ -105,6 +117,7 @@ class CdrFieldReader {
   std::vector<bool> slot_is_text_;
   std::vector<double> values_;
   std::vector<std::string> texts_;
+  std::vector<char> found_;  // per slot, found()
   std::vector<std::string_view> names_scratch_;
   std::vector<Deferred> deferred_scratch_;
 };
