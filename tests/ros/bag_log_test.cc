@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -16,6 +17,7 @@
 #include "ros/ros_fixtures.h"
 #include "skidimm/errors.h"
 #include "skidimm/io/log_reader.h"
+#include "skidimm/io/ros/bag_info.h"
 #include "skidimm/io/ros/bag_reader.h"
 
 namespace skidimm {
@@ -252,6 +254,14 @@ TEST(BagLog, AMessageOfAnotherPublisherWithNoneOfTheFieldsReadIsNotARow) {
     EXPECT_TRUE(same_double(sample.z[0], row.at("effort[left]").number)) << k;
   }
   EXPECT_EQ(k, 20) << "every wheel message a step, no arm message one";
+  // `skidimm bag` lists every publisher's joints, not the first message's alone (the arm's).
+  const BagInfo info = describe_bag(ros_fixture("two_publishers.mcap"));
+  ASSERT_EQ(info.topics.size(), 1u);
+  const std::vector<std::string>& columns = info.topics[0].columns;
+  for (const char* column :
+       {"/joint_states.velocity[arm_joint]", "/joint_states.velocity[left]", "/joint_states.effort[right]"}) {
+    EXPECT_NE(std::find(columns.begin(), columns.end(), column), columns.end()) << column;
+  }
 }
 
 }  // namespace

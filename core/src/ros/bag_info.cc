@@ -15,6 +15,10 @@ namespace ros {
 namespace {
 
 constexpr int kMaxNames = 32;  // names listed per sequence
+// The messages of a topic whose names are gathered: a topic several
+// publishers share (the wheels' and an arm's JointState) names different
+// joints in different messages.
+constexpr int kMessagesNamed = 100;
 
 std::string seconds(std::uint64_t ns) {
   char buffer[40];
@@ -35,11 +39,11 @@ std::string size_text(std::uintmax_t bytes) {
 }
 
 // The reader of a topic and, for a sequence selected by name, the slots of
-// the names of the first message.
+// the names, and the distinct names of its first kMessagesNamed messages.
 struct TopicDecoder {
   std::unique_ptr<CdrFieldReader> reader;
   std::vector<int> name_slots;
-  bool decoded_first = false;
+  int decoded = 0;
   std::vector<std::string> names;
 };
 
@@ -93,12 +97,16 @@ BagInfo describe_bag(const std::filesystem::path& path) {
       if (info.messages == 0 || m.log_time > info.end) info.end = m.log_time;
       ++info.messages;
       TopicDecoder& d = decoders[static_cast<std::size_t>(m.topic)];
-      if (d.reader && !d.name_slots.empty() && !d.decoded_first) {
-        d.decoded_first = true;
+      if (d.reader && !d.name_slots.empty() && d.decoded < kMessagesNamed) {
+        ++d.decoded;
         try {
           d.reader->decode(m.data, m.size);
           for (int slot : d.name_slots) {
-            if (!d.reader->text(slot).empty()) d.names.emplace_back(d.reader->text(slot));
+            const std::string_view name = d.reader->text(slot);
+            if (!name.empty() && static_cast<int>(d.names.size()) < kMaxNames &&
+                std::find(d.names.begin(), d.names.end(), name) == d.names.end()) {
+              d.names.emplace_back(name);
+            }
           }
         } catch (const CdrError&) {
         }
@@ -113,7 +121,7 @@ BagInfo describe_bag(const std::filesystem::path& path) {
       topic.rate = static_cast<double>(topic.messages - 1) /
                    (static_cast<double>(topic.last_log_time - topic.first_log_time) / 1e9);
     }
-    // "velocity[NAME]" -> the names the first message has.
+    // "velocity[NAME]" -> the names the first messages have.
     std::vector<std::string> columns;
     for (const std::string& c : topic.columns) {
       const auto at = c.find("[NAME]");
