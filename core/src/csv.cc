@@ -16,6 +16,7 @@
 #include "check.h"
 #include "number_text.h"
 #include "skidimm/errors.h"
+#include "skidimm/io/ros/bag_reader.h"
 #include "skidimm/stop_request.h"
 #include "unwritten_rows.h"
 
@@ -101,9 +102,12 @@ CsvReader::CsvReader(const fs::path& path) : path_(path) {
                          : "no such log file");
     }
     if (fs::is_directory(status)) {
-      throw LogError(
-          path.string(), 0,
-          "is a directory, not a log file (a directory names the runs of fit, tune and eval; run reads one)");
+      const std::string unfinished = ros::BagReader::unfinished_recording(path);
+      throw LogError(path.string(), 0,
+                     unfinished.empty()
+                         ? "is a directory, not a log file (a directory names the runs of fit, tune and eval; run "
+                           "reads one)"
+                         : "is a directory, not a ROS 2 bag: " + unfinished);
     }
     // Regular files, and pipes, FIFOs, /dev/stdin and <(...): read front to back.
     if (fs::is_regular_file(status)) file_size_ = fs::file_size(path, ec);

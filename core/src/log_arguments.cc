@@ -92,7 +92,11 @@ std::vector<LogSpec> expand_log_argument(const std::string& argument, const LogA
       }
     }
     std::sort(files.begin(), files.end());
-    if (files.empty()) throw Error(argument + ": no logs in this directory (.csv or .mcap files, bag directories)");
+    if (files.empty()) {
+      const std::string unfinished = ros::BagReader::unfinished_recording(spec.files[0].path);
+      throw Error(argument + ": no logs in this directory (.csv or .mcap files, bag directories)" +
+                  (unfinished.empty() ? std::string() : "; " + unfinished));
+    }
     for (const fs::path& f : files) refuse_unless_a_file(argument, f);
     std::vector<LogSpec> logs;
     for (const fs::path& f : files) {

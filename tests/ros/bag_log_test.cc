@@ -16,6 +16,7 @@
 #include "ros/crc32.h"
 #include "ros/ros_fixtures.h"
 #include "skidimm/errors.h"
+#include "skidimm/io/csv.h"
 #include "skidimm/io/log_reader.h"
 #include "skidimm/io/ros/bag_info.h"
 #include "skidimm/io/ros/bag_reader.h"
@@ -136,6 +137,30 @@ TEST(BagLog, ErrorsNameTheBagTheTopicAndWhatExists) {
   message = error_of([&] { BagReader::open(lone / "drive_0.db3"); });
   EXPECT_NE(message.find("drive_0.db3: no metadata.yaml beside this .db3 file"), std::string::npos) << message;
   EXPECT_NE(message.find("ros2 bag reindex"), std::string::npos) << message;
+  // ... and its directory, as a recording stopped hard leaves it: said as such, where it read as a folder of runs.
+  EXPECT_NE(BagReader::unfinished_recording(lone).find("it holds a bag's files (drive_0.db3) but no metadata.yaml"),
+            std::string::npos);
+  message = error_of([&] { CsvReader reader(lone); });
+  EXPECT_NE(message.find("lone: is a directory, not a ROS 2 bag: it holds a bag's files (drive_0.db3)"),
+            std::string::npos)
+      << message;
+  EXPECT_EQ(BagReader::unfinished_recording(dir), "") << "no bag files in it";
+  // A split the metadata does not list (written after it): refused, where the bag read as listed ended early.
+  const auto split = dir / "split";
+  std::filesystem::create_directories(split);
+  std::filesystem::copy_file(ros_fixture("all_types.mcap"), split / "split_0.mcap");
+  std::filesystem::copy_file(ros_fixture("all_types.mcap"), split / "split_1.mcap");
+  write_file(split / "metadata.yaml",
+             "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: mcap\n"
+             "  relative_file_paths: [split_0.mcap]\n  compression_format: \"\"\n  compression_mode: \"\"\n");
+  message = error_of([&] { BagReader::open(split); });
+  EXPECT_NE(message.find("metadata.yaml: does not list split_1.mcap, a bag file in its directory"), std::string::npos)
+      << message;
+  write_file(split / "metadata.yaml",
+             "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: mcap\n"
+             "  relative_file_paths: [split_0.mcap, split_1.mcap]\n  compression_format: \"\"\n"
+             "  compression_mode: \"\"\n");
+  EXPECT_NE(BagReader::open(split), nullptr);
 }
 
 // A bag's stamps are read in seconds: a bank whose CSV time column is in

@@ -48,6 +48,29 @@ bool BagReader::is_bag(const fs::path& path) {
   return fs::is_regular_file(path, ec) && starts_with_mcap_magic(path);
 }
 
+std::string BagReader::unfinished_recording(const fs::path& directory) {
+  std::error_code ec;
+  if (!fs::is_directory(directory, ec) || fs::exists(directory / "metadata.yaml", ec)) return "";
+  std::vector<std::string> found;
+  bool sqlite = false;
+  for (fs::directory_iterator it(directory, ec), end; !ec && it != end; it.increment(ec)) {
+    const fs::path& p = it->path();
+    if (!(has_extension(p, ".db3") || has_extension(p, ".mcap"))) continue;
+    sqlite = sqlite || has_extension(p, ".db3");
+    found.push_back(p.filename().string());
+  }
+  if (found.empty()) return "";
+  std::sort(found.begin(), found.end());
+  std::string listed;
+  for (std::size_t i = 0; i < found.size() && i < 3; ++i) listed += (listed.empty() ? "" : ", ") + found[i];
+  if (found.size() > 3) listed += " and " + std::to_string(found.size() - 3) + " more";
+  return "it holds a bag's files (" + listed +
+         ") but no metadata.yaml, which rosbag2 writes when a recording ends: a recording stopped hard? `ros2 bag "
+         "reindex " +
+         directory.string() + "` writes it" +
+         (sqlite ? "" : "; an .mcap file can also be read alone, as a log of its own");
+}
+
 BagMetadata read_bag_metadata(const fs::path& file) {
   BagMetadata m;
   m.file = file;
@@ -95,6 +118,24 @@ std::unique_ptr<BagReader> BagReader::open(const fs::path& path) {
                      "bag's files; `ros2 bag reindex` rewrites a lost one)");
     }
     BagMetadata m = read_bag_metadata(metadata);
+    // A file of the bag's storage that the metadata does not list: a
+    // recording whose metadata was written before its last split (or a stray
+    // copy). Read as listed, the bag would end early without a word.
+    for (fs::directory_iterator it(path, ec), end; !ec && it != end; it.increment(ec)) {
+      const fs::path& p = it->path();
+      if (!(has_extension(p, ".db3") || has_extension(p, ".mcap"))) continue;
+      const bool listed =
+          std::any_of(m.files.begin(), m.files.end(), [&](const fs::path& f) { return f.filename() == p.filename(); });
+      if (!listed) {
+        throw LogError(metadata.string(), 0,
+                       "does not list " + p.filename().string() +
+                           ", a bag file in its directory: the recording's last split, written after this metadata? "
+                           "`ros2 bag reindex " +
+                           path.string() +
+                           "` rewrites the metadata with every file; or move "
+                           "the file out to read the bag as listed");
+      }
+    }
     if (m.compression_mode == "FILE") {
       throw LogError(metadata.string(), 0,
                      "the bag's files are compressed whole (compression_mode: file), which skidimm does not read: "

@@ -48,6 +48,11 @@ class BagReader {
   // Whether `path` is read as a bag: a .mcap or .db3 file, a file that starts
   // with MCAP's magic bytes, or a directory with a metadata.yaml.
   static bool is_bag(const std::filesystem::path& path);
+  // For a directory that holds a bag's files (.db3, .mcap) but no
+  // metadata.yaml, which rosbag2 writes when a recording ends (one stopped
+  // hard leaves none): what it is and what to do, for an error message;
+  // "" for any other path.
+  static std::string unfinished_recording(const std::filesystem::path& directory);
 
   virtual ~BagReader() = default;
   BagReader(const BagReader&) = delete;
