@@ -12,6 +12,7 @@
 #include "skidimm/config/expression.h"
 #include "skidimm/errors.h"
 #include "skidimm/io/csv.h"
+#include "skidimm/io/ros/bag_reader.h"
 
 namespace skidimm {
 
@@ -370,9 +371,17 @@ void LogReader::Impl::check_every_file_was_used() const {
                                   : "its rows end at t = " + CsvWriter::format(s.last_t) + " s" + offset +
                                         ", before the log's first step at t = " + CsvWriter::format(first_step_t_) +
                                         " s, the first time every input has a value";
+    const std::string unused = "none of its " + std::to_string(s.rows_read) + " row(s) was used: " + where + ". ";
+    // A topic of a bag: an offset moves the whole bag, and a topic whose
+    // stamps are on another clock than the others' (a driver stamping from
+    // its own start, another in Unix time) is what misses most often.
+    if (ros::BagReader::is_bag(reader.path())) {
+      throw reader.error(unused +
+                         "Do the bag's topics stamp by different clocks (header.stamp)? columns.time: log_time reads "
+                         "every topic by the recorder's clock; `skidimm bag FILE` shows each topic's time");
+    }
     throw LogError(reader.path().string(), 0,
-                   "none of its " + std::to_string(s.rows_read) + " row(s) was used: " + where +
-                       ". Is the time offset (FILE@OFFSET) right, and are the files of the same run?");
+                   unused + "Is the time offset (FILE@OFFSET) right, and are the files of the same run?");
   }
 }
 

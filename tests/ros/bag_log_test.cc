@@ -289,6 +289,39 @@ TEST(BagLog, AMessageOfAnotherPublisherWithNoneOfTheFieldsReadIsNotARow) {
   }
 }
 
+// A topic whose stamps are on another clock than the others' (a driver that
+// stamps from its own start beside one in Unix time) is said as what it most
+// likely is, with the bank setting that reads every topic by one clock; the
+// time offset of a file, which moves the whole bag, cannot mend it.
+TEST(BagLog, ATopicOnAnotherClockNamesItAndTheRecordersClock) {
+  BankConfig bank;
+  bank.file = "bank.yaml";
+  bank.state_names = {"x"};
+  bank.input_names = {"wheel"};
+  bank.measurement.names = {"x"};
+  bank.columns.time = "header.stamp";
+  bank.columns.inputs = {"/joint_states.velocity[left]"};
+  bank.columns.measurements = {"/imu/data.angular_velocity.z"};
+  const std::string message = error_of([&] {
+    LogReader reader(bank, {LogFile{ros_fixture("two_clocks.mcap")}});
+    LogSample sample;
+    while (reader.next(&sample)) {
+    }
+  });
+  EXPECT_NE(message.find("two_clocks.mcap: topic /imu/data: none of its 20 row(s) was used"), std::string::npos)
+      << message;
+  EXPECT_NE(message.find("columns.time: log_time reads every topic by the recorder's clock"), std::string::npos)
+      << message;
+  EXPECT_EQ(message.find("FILE@OFFSET"), std::string::npos) << message;
+  // By the recorder's clock the same bag reads.
+  bank.columns.time = "log_time";
+  LogReader reader(bank, {LogFile{ros_fixture("two_clocks.mcap")}});
+  LogSample sample;
+  long steps = 0;
+  while (reader.next(&sample)) ++steps;
+  EXPECT_GT(steps, 10);
+}
+
 }  // namespace
 }  // namespace ros
 }  // namespace skidimm

@@ -259,6 +259,30 @@ async function main() {
     await bag.close();
     writeExpected(path.join(out, "two_publishers.expected"), rows);
   }
+  // Two topics stamped by different clocks: the IMU's from its driver's start, the joints' in Unix time.
+  {
+    const bag = await tools.openMcap(path.join(out, "two_clocks.mcap"), {
+      compression: "zstd",
+      serializeWith: (type) => tools.completeDefinition(type),
+    });
+    await bag.addTopic("/imu/data", "sensor_msgs/msg/Imu", tools.completeDefinition("sensor_msgs/msg/Imu"));
+    await bag.addTopic("/joint_states", "sensor_msgs/msg/JointState", tools.completeDefinition("sensor_msgs/msg/JointState"));
+    const zeros = new Array(9).fill(0);
+    for (let k = 0; k < 20; ++k) {
+      const log = 1700000000000000000n + BigInt(k) * 100000000n;
+      await bag.add("/imu/data", log, {
+        header: { stamp: { sec: Math.floor(k / 10), nanosec: (k % 10) * 100000000 }, frame_id: "imu" },
+        orientation: { x: 0, y: 0, z: 0, w: 1 }, orientation_covariance: zeros,
+        angular_velocity: { x: 0, y: 0, z: k / 16 }, angular_velocity_covariance: zeros,
+        linear_acceleration: { x: 0, y: 0, z: 9.81 }, linear_acceleration_covariance: zeros,
+      });
+      await bag.add("/joint_states", log + 1000n, {
+        header: { stamp: { sec: 1700000000 + Math.floor(k / 10), nanosec: (k % 10) * 100000000 }, frame_id: "base" },
+        name: ["left", "right"], position: [], velocity: [k / 8, -k / 8], effort: [2 * k, 3],
+      });
+    }
+    await bag.close();
+  }
   {
     const bag = await tools.openMcap(path.join(out, "idl.mcap"), {
       compression: "zstd",
