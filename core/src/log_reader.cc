@@ -335,15 +335,23 @@ void LogReader::Impl::check_no_file_is_empty() const {
   for (const Stream& s : streams_) {
     if (!s.ended || s.rows_read > 0 || s.error) continue;
     std::string used;
+    int count = 0;
     for (const Column& c : columns_) {
-      if (&streams_[static_cast<std::size_t>(c.stream)] == &s) used += (used.empty() ? "" : ", ") + c.name;
+      if (&streams_[static_cast<std::size_t>(c.stream)] != &s) continue;
+      if (++count <= 4) used += (used.empty() ? "" : ", ") + Expression::excerpt(c.name);
     }
-    throw LogError(s.files.front()->path().string(), 1,
-                   "the file has a header but no data rows" +
-                       (used.empty() ? std::string()
-                                     : ": its columns " + Expression::excerpt(used) +
-                                           ", which the bank uses, would never have a value") +
-                       ". Leave it out of the log if that is meant");
+    if (count > 4) used += " and " + std::to_string(count - 4) + " more";
+    const std::string never =
+        used.empty() ? std::string() : ": its columns " + used + ", which the bank uses, would never have a value";
+    const LogTable& table = *s.files.front();
+    if (ros::BagReader::is_bag(table.path())) {
+      // Each topic the bank names that has no message is said (the first found here; it has no header line).
+      throw table.error("the topic has no message" + never +
+                        ". A recording stopped before its first message, or the topic's publisher never ran: "
+                        "`skidimm bag FILE` lists each topic's message count");
+    }
+    throw LogError(table.path().string(), 1,
+                   "the file has a header but no data rows" + never + ". Leave it out of the log if that is meant");
   }
 }
 

@@ -313,6 +313,17 @@ TEST(BagLog, ATopicOnAnotherClockNamesItAndTheRecordersClock) {
   EXPECT_NE(message.find("columns.time: log_time reads every topic by the recorder's clock"), std::string::npos)
       << message;
   EXPECT_EQ(message.find("FILE@OFFSET"), std::string::npos) << message;
+  // A topic without a message is said in a bag's terms (it was a CSV file's "header but no data rows").
+  const std::string silent = error_of([&] {
+    LogReader reader(bank, {LogFile{ros_fixture("silent_topic.mcap")}});
+    LogSample sample;
+    while (reader.next(&sample)) {
+    }
+  });
+  EXPECT_NE(silent.find("silent_topic.mcap: topic /imu/data: the topic has no message: its columns "
+                        "/imu/data.angular_velocity.z, which the bank uses, would never have a value"),
+            std::string::npos)
+      << silent;
   // By the recorder's clock the same bag reads.
   bank.columns.time = "log_time";
   LogReader reader(bank, {LogFile{ros_fixture("two_clocks.mcap")}});

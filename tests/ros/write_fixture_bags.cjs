@@ -259,6 +259,22 @@ async function main() {
     await bag.close();
     writeExpected(path.join(out, "two_publishers.expected"), rows);
   }
+  // A topic with no message beside one with messages (a driver that never published).
+  {
+    const bag = await tools.openMcap(path.join(out, "silent_topic.mcap"), {
+      compression: "zstd",
+      serializeWith: (type) => tools.completeDefinition(type),
+    });
+    await bag.addTopic("/imu/data", "sensor_msgs/msg/Imu", tools.completeDefinition("sensor_msgs/msg/Imu"));
+    await bag.addTopic("/joint_states", "sensor_msgs/msg/JointState", tools.completeDefinition("sensor_msgs/msg/JointState"));
+    for (let k = 0; k < 5; ++k) {
+      await bag.add("/joint_states", 1000000000n + BigInt(k) * 100000000n, {
+        header: { stamp: { sec: 1, nanosec: k * 100000000 }, frame_id: "base" },
+        name: ["left", "right"], position: [], velocity: [k / 8, -k / 8], effort: [2 * k, 3],
+      });
+    }
+    await bag.close();
+  }
   // Two topics stamped by different clocks: the IMU's from its driver's start, the joints' in Unix time.
   {
     const bag = await tools.openMcap(path.join(out, "two_clocks.mcap"), {
