@@ -1172,6 +1172,29 @@ TEST(CliIo, FitterErrorsNameTheLogAndTheOptionAndCeresStaysQuiet) {
 }
 
 }  // namespace
+// A measurement whose expression is not finite at some steps (the log of a
+// value at or below 0) is fitted without them, as missing: said, as run
+// says it, where the fit's residuals fell short without a word.
+TEST(Cli, FitSaysWhichMeasurementValuesWereNotFinite) {
+  const fs::path dir = test_directory();
+  std::string text = read_file(kTerrains);
+  ASSERT_NE(text.find("  truth_mode: mode"), std::string::npos);
+  text.replace(text.find("  truth_mode: mode"), 18,
+               "  measurements: {V: \"log(V) * 0 + V\", omega: omega}\n  truth_mode: mode");
+  const fs::path bank = write_file(dir / "log_v.yaml", text);
+  const auto rows = read_csv(kSwitching);
+  const std::size_t v = static_cast<std::size_t>(column(rows[0], "V"));
+  long not_positive = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) not_positive += std::stod(rows[i][v]) <= 0.0;
+  ASSERT_GT(not_positive, 0);
+  const Result fit = run_skidimm("fit --bank " + bank.string() + " --plugin-path " + kPlugins +
+                                 " --objective window --mode asphalt --log " + kSwitching);
+  ASSERT_EQ(fit.exit_code, 0) << fit.err;
+  EXPECT_THAT(fit.err, HasSubstr("skidimm fit: " + kSwitching + ": measurement 'V': " + std::to_string(not_positive) +
+                                 " value(s) of its expression were not finite (the log of 0, say) and were left out "
+                                 "of the fit as missing"));
+}
+
 // Stamps in seconds read by a bank whose columns.time_unit is ms make a
 // run of minutes one step long: fit says which log gave too few steps to
 // learn from (it was counted among the mode's logs without a word), and run

@@ -23,6 +23,14 @@ Trajectory load_trajectory(const BankConfig& bank, const std::vector<LogFile>& f
     trajectory.truth.push_back(sample.truth_mode);
   }
   trajectory.skipped = reader.skipped_by_options();
+  const LogStats& stats = reader.stats();
+  for (std::size_t i = 0; i < stats.not_finite.size() && i < bank.measurement.names.size(); ++i) {
+    if (stats.not_finite[i] == 0) continue;
+    trajectory.skipped.push_back("measurement '" + bank.measurement.names[i] +
+                                 "': " + std::to_string(stats.not_finite[i]) +
+                                 " value(s) of its expression were not finite (the log of 0, say) and were left out "
+                                 "of the fit as missing");
+  }
   const int n = trajectory.size();
   trajectory.u.resize(bank.input_dim(), n);
   trajectory.z.resize(static_cast<Eigen::Index>(bank.measurement.names.size()), n);

@@ -51,7 +51,8 @@ std::map<std::string, InputRange> fitted_input_ranges(const BankConfig& config, 
 std::vector<std::string> labels_overriding_truth(const BankConfig& config, const std::vector<ModeLogs>& data);
 
 // What the bank's sampling.skip_gaps and skip_out_of_order left out of the
-// logs in `data`: "<log>: <what>", once per log, in the order of `data`.
+// logs in `data`, and their measurement values that were not finite
+// (Trajectory::skipped): "<log>: <what>", once per log, in the order of `data`.
 // The fit runs without those rows and spans, so it is said, as run and eval
 // say it.
 std::vector<std::string> skipped_by_sampling(const std::vector<ModeLogs>& data);

@@ -23,7 +23,9 @@ struct Trajectory {
   Eigen::MatrixXd z;               // measurement_dim x N, NaN = missing
   std::vector<std::string> truth;  // the truth column's label at each step ("" if none)
   // What the sampling's skip_gaps and skip_out_of_order left out of the log
-  // (LogReader::skipped_by_options()); a segment carries its log's.
+  // (LogReader::skipped_by_options()), and the measurement values that were
+  // not finite (a log of 0: missing, so fitted without); a segment carries
+  // its log's.
   std::vector<std::string> skipped;
   int size() const { return static_cast<int>(t.size()); }
 };
