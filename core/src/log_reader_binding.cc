@@ -300,10 +300,14 @@ void LogReader::Impl::find_time_columns() {
                             printable_header(reader.columns_present(), &listed, 400);
       const std::string hint = separator_hint(reader.columns_present(), bank.columns.time);
       if (!hint.empty()) throw reader.error(message + hint);
-      if (!by_rows) {
+      if (!by_rows && streams_.size() > 1) {
+        // A multi-rate log (an IMU file beside a wheel file) whose files stamp in their own column names or
+        // units: one bank reads them all, so each needs the same column in the same unit.
         message +=
-            ". Every file of a log is merged on its own time column (sampling.join: time); files that match row "
-            "for row and share one time column need sampling.join: rows";
+            ". Every file of a log is merged on its own time column (sampling.join: time), the one the bank names "
+            "in the unit it reads (columns.time, columns.time_unit): a file that stamps under another name or unit "
+            "needs that column renamed or converted. Files that match row for row with one time column between "
+            "them need sampling.join: rows instead";
       }
       throw reader.error(message);
     }

@@ -777,6 +777,19 @@ TEST(LogReader, AFileWithoutTheTimeColumnSaysHowToJoinByRows) {
   const auto b = write_file(dir / "b.csv", "v,w\n3,4\n");
   expect_error([&] { LogReader(simple_bank(), {a, b}); },
                {"b.csv:1: no time column 't'", "sampling.join: rows"});
+  // A multi-rate log whose second file stamps under its own name: that it needs the bank's column and unit.
+  const auto imu = write_file(dir / "imu.csv", "t_ns,w\n0,4\n");
+  expect_error(
+      [&] {
+        LogReader(simple_bank(), {a, imu});
+      },
+      {"imu.csv:1: no time column 't'",
+       "the one the bank names in the unit it reads (columns.time, "
+       "columns.time_unit): a file that stamps under another name or unit "
+       "needs that column renamed or converted"});
+  // One file alone: no word of joining files.
+  const std::string alone = expect_error([&] { LogReader(simple_bank(), {imu}); }, {"no time column 't'"});
+  EXPECT_EQ(alone.find("sampling.join"), std::string::npos) << alone;
 }
 
 TEST(LogReader, ColumnProblemsAreNamedBeforeAnyRowIsRead) {
