@@ -170,10 +170,13 @@ void CsvReader::read_header() {
     // own reader, which seeks: a pipe cannot give it), or a `skidimm run`
     // output in .mcap given to a command that reads estimates as CSV.
     if (field_count_ > 0 && fields_[0].compare(0, 5, "\x89MCAP") == 0) {
+      // A file here is one given where CSV is read (estimates); anything else came through a pipe.
       throw LogError(path_.string(), 1,
-                     "an MCAP bag, not CSV: this reads CSV. A log's bag is read from its file, not from a pipe or "
-                     "standard input (give its path to --input); estimates `skidimm run` wrote as .mcap are for "
-                     "Foxglove and ROS 2 tools (for eval or plot, run again with --output X.csv)");
+                     file_size_ > 0
+                         ? "an MCAP file, not CSV: this reads CSV. Estimates `skidimm run` wrote as .mcap are JSON "
+                           "messages for Foxglove; for eval or plot, run again with --output X.csv (or .npy)"
+                         : "an MCAP bag through a pipe or standard input: a bag is read from its file, which its "
+                           "reader seeks in (give its path to --input)");
     }
     // Binary data (a program, an image, an archive) is said to be such, not
     // read as a header of junk: CSV text holds no NUL byte.

@@ -194,6 +194,8 @@ status=0
 [ "$status" -eq 2 ] || fail "copy_csv: exit $status, expected 2 (a bad command line)"
 [ ! -e "$work/copy.csv.partial" ] || fail "copy_csv: the run started"
 # A bag through a pipe is named as one, not read as a CSV header of binary junk.
-expect_error stdin_bag "standard input:1: an MCAP bag, not CSV" no -- \
+expect_error stdin_bag "standard input:1: an MCAP bag through a pipe or standard input" no -- \
   run --bank "$bank" --input - --output "$work/stdin_bag.csv" <"$work/drive.mcap"
+expect_error bag_stdin "skidimm bag: error: a bag is read from its file, not from standard input" no -- \
+  bag - <"$work/drive.mcap"
 echo "every bad input: a located error, a non-zero exit, the rows before it kept"
