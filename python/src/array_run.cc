@@ -182,15 +182,20 @@ long run_log_file(const Bank& bank, LogReader* reader, const EstimatorOptions& e
   std::string reason;
   ModeDecision decision(config, settings);
   long rows = 0;
-  run_log(bank, reader, estimator, [&](const LogSample& sample, const ImmEstimate& e) {
-    out->reserve(rows + 1);
-    write_row(rows, sample.t, e, names, &reason, &out->columns());
-    // A smoothed step carries the measurements after it: it does not go stale.
-    const bool current = estimator.kind != EstimatorOptions::Kind::kFilter || e.measured();
-    out->columns().decision[rows] = decision.update(sample.t, e.mode_probabilities, current);
-    if (with_truth) truth->push_back(label.empty() ? sample.truth_mode : label);
-    ++rows;
-  });
+  try {
+    run_log(bank, reader, estimator, [&](const LogSample& sample, const ImmEstimate& e) {
+      out->reserve(rows + 1);
+      write_row(rows, sample.t, e, names, &reason, &out->columns());
+      // A smoothed step carries the measurements after it: it does not go stale.
+      const bool current = estimator.kind != EstimatorOptions::Kind::kFilter || e.measured();
+      out->columns().decision[rows] = decision.update(sample.t, e.mode_probabilities, current);
+      if (with_truth) truth->push_back(label.empty() ? sample.truth_mode : label);
+      ++rows;
+    });
+  } catch (...) {
+    out->shrink(rows);  // the whole rows before the error, for the caller to keep
+    throw;
+  }
   out->shrink(rows);
   return rows;
 }

@@ -91,7 +91,8 @@ double step_loop(Imm* imm, const ArrayLog& log);
 
 // `skidimm run`'s loop over a log (log_run.h's run_log, the library's own),
 // into growing columns; with_truth: *truth gets each row's label (`label`,
-// or else the log's truth column). Returns the number of rows.
+// or else the log's truth column). Returns the number of rows. On an error
+// (a bag cut short, a bad row) `out` and `truth` hold the rows before it.
 long run_log_file(const Bank& bank, LogReader* reader, const EstimatorOptions& estimator,
                   const DecisionConfig& decision, const std::string& label, bool with_truth, GrowingRunColumns* out,
                   std::vector<std::string>* truth);

@@ -15,11 +15,18 @@
 
 #include <pybind11/pybind11.h>
 
+#include <exception>
+
 namespace skidimm {
 namespace python {
 
 // Creates the exception classes in `m` and registers the translator.
 void register_errors(pybind11::module_& m);
+
+// Raises the Python exception the translator gives the C++ exception `p`,
+// with the attribute `name` = `value` besides its own (a run's rows computed
+// before the error, say). An exception not of skidimm's is rethrown as is.
+[[noreturn]] void raise_with(std::exception_ptr p, const char* name, pybind11::object value);
 
 }  // namespace python
 }  // namespace skidimm

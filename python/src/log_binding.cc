@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <exception>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -14,6 +15,7 @@
 #include "array_run.h"
 #include "bindings.h"
 #include "csv_columns.h"
+#include "errors.h"
 #include "numpy_values.h"
 #include "py_bank.h"
 #include "python_arguments.h"
@@ -65,15 +67,29 @@ void bind_logs(py::module_& m) {
         std::vector<std::string> truth, unmeasured;
         bool with_truth = false;
         long rows = 0;
+        std::exception_ptr failure;
         clear_python_model_error();
         {
           py::gil_scoped_release release;
-          LogReader reader(config, log.files, sampling_of(config, rate));
-          with_truth = reader.has_truth() || !log.label.empty();
-          rows = run_log_file(*bank.bank, &reader, estimator, settings, log.label, with_truth, &columns, &truth);
-          unmeasured = reader.unmeasured(config);
+          try {
+            LogReader reader(config, log.files, sampling_of(config, rate));
+            with_truth = reader.has_truth() || !log.label.empty();
+            rows = run_log_file(*bank.bank, &reader, estimator, settings, log.label, with_truth, &columns, &truth);
+            unmeasured = reader.unmeasured(config);
+          } catch (...) {
+            failure = std::current_exception();
+          }
         }
         throw_if_python_model_raised();
+        // The rows computed before an error (a recording cut short) are not
+        // lost: the exception carries them as `partial`, as `skidimm run`
+        // keeps them in its .partial file.
+        if (failure) {
+          if (columns.t.empty()) std::rethrow_exception(failure);
+          raise_with(failure, "partial",
+                     columns_to_dict(RunArrays(std::move(columns)), config,
+                                     with_truth ? py::object(text_array(truth)) : py::object(py::none())));
+        }
         // As `skidimm run` warns: a measurement the log never gave, or not
         // for a long stretch, left those steps to the others.
         const py::object warn = py::module_::import("warnings").attr("warn");

@@ -113,6 +113,30 @@ def test_run_log_reads_logs_as_the_cli_does(tmp_path, configs, cli):
     assert list(out["truth_mode"]) == list(expected["truth_mode"])
 
 
+def test_run_log_keeps_the_rows_before_an_error_on_the_exception(tmp_path, configs):
+    """A log that goes bad midway (a cell that is not a number, as a recording cut short would): the rows computed
+    before it come with the error, as `partial`, equal to a run of the log up to there; nothing is lost."""
+    lines = (configs / EXAMPLE).read_text().splitlines()
+    header = lines[0].split(",")
+    bad = lines[501].split(",")
+    bad[header.index("phi_dot_L")] = "oops"
+    broken = tmp_path / "broken.csv"
+    broken.write_text("\n".join(lines[:501] + [",".join(bad)] + lines[502:]) + "\n")
+    head = tmp_path / "head.csv"
+    head.write_text("\n".join(lines[:501]) + "\n")
+    with pytest.raises(skidimm.LogError, match="broken.csv:502") as raised:
+        skidimm.run_log(configs / "ltc_terrains.yaml", broken)
+    partial = raised.value.partial
+    expected = skidimm.run_log(configs / "ltc_terrains.yaml", head)
+    assert len(partial["t"]) == len(expected["t"]) == 500
+    for column in expected:
+        assert list(partial[column]) == list(expected[column]), column
+    # An error before any row carries none.
+    with pytest.raises(skidimm.LogError) as nothing:
+        skidimm.run_log(configs / "ltc_terrains.yaml", tmp_path / "missing.csv")
+    assert not hasattr(nothing.value, "partial")
+
+
 def test_step_by_step_equals_run(configs):
     bank = skidimm.Bank(configs / "ltc_terrains.yaml")
     _, t, u, z = arrays(configs, bank)
