@@ -192,13 +192,53 @@ TEST(McapReader, ACorruptCompressedChunkIsReported) {
   EXPECT_TRUE(decompress || crc) << message;
 }
 
-TEST(McapReader, AWrongSummaryCrcIsReportedWhenOpening) {
+// A summary that does not read costs the index, not the messages: the file
+// is scanned, every chunk checked by its own CRC, and every message read,
+// the same as through an intact summary; the bag's description says so.
+TEST(McapReader, ASummaryThatDoesNotReadIsScannedPast) {
   const auto dir = test_directory();
-  std::string bytes = read_file(ros_fixture("all_types.mcap"));
-  // The Footer's summary CRC: the 4 bytes before the closing magic.
-  bytes[bytes.size() - 8 - 1] = static_cast<char>(bytes[bytes.size() - 8 - 1] ^ 1);
-  const std::string message = error_of(write_file(dir / "summary.mcap", bytes));
-  EXPECT_NE(message.find("the summary section's CRC is"), std::string::npos) << message;
+  const std::string intact = read_file(ros_fixture("all_types.mcap"));
+  McapReader reference(ros_fixture("all_types.mcap"));
+  const Seen expected = read_all(reference);
+  ASSERT_EQ(expected.payloads.size(), 120u);
+  std::string crc = intact;  // the Footer's summary CRC: the 4 bytes before the closing magic
+  crc[crc.size() - 8 - 1] = static_cast<char>(crc[crc.size() - 8 - 1] ^ 1);
+  std::string flipped = intact;  // a byte inside the summary's first record (after DataEnd)
+  const std::size_t summary = first_record(intact, 0x0F) + 9 + 4 + 9 + 5;
+  flipped[summary] = static_cast<char>(flipped[summary] ^ 0x40);
+  for (const auto& [name, bytes] : {std::make_pair("crc.mcap", crc), std::make_pair("flipped.mcap", flipped)}) {
+    const auto file = write_file(dir / name, bytes);
+    EXPECT_EQ(error_of(file), "") << name;
+    McapReader reader(file);
+    EXPECT_FALSE(reader.indexed()) << name;
+    EXPECT_NE(reader.mended().find("its summary does not read ("), std::string::npos) << reader.mended();
+    EXPECT_EQ(read_all(reader).payloads, expected.payloads) << name;
+  }
+  EXPECT_NE(McapReader(dir / "crc.mcap").mended().find("the summary section's CRC is"), std::string::npos);
+}
+
+// Cut short inside a record that holds no message (the last chunk's message
+// index, written as a recording closed): every message is there, and the
+// file reads without an error; cut inside the last chunk, it is an error.
+TEST(McapReader, ACutAfterTheLastMessageLosesNothingAndIsNoError) {
+  const auto dir = test_directory();
+  const std::string bytes = read_file(ros_fixture("all_types.mcap"));
+  std::size_t last_index = 0, last_chunk = 0;
+  for (const auto& [opcode, at] : records_of(bytes)) {
+    if (opcode == 0x0F) break;  // DataEnd: the summary follows
+    if (opcode == 0x07) last_index = at;
+    if (opcode == 0x06) last_chunk = at;
+  }
+  ASSERT_GT(last_index, last_chunk) << "a message index follows the last chunk";
+  long before = 0;
+  const auto in_index = write_file(dir / "in_index.mcap", bytes.substr(0, last_index + 12));
+  EXPECT_EQ(error_of(in_index, &before), "");
+  EXPECT_EQ(before, 120);
+  EXPECT_NE(McapReader(in_index).mended().find("cut short inside a MessageIndex record after its last message"),
+            std::string::npos);
+  const auto in_chunk = write_file(dir / "in_chunk.mcap", bytes.substr(0, last_chunk + 40));
+  EXPECT_NE(error_of(in_chunk, &before).find("Chunk record of"), std::string::npos);
+  EXPECT_LT(before, 120);
 }
 
 TEST(McapReader, AChunkClaimingGigabytesIsRefusedBeforeAllocating) {

@@ -60,7 +60,11 @@ class McapBag : public BagReader {
     std::string out = chunks.empty() ? "no chunks" : chunks + " chunks";
     bool indexed = true;
     for (const auto& reader : readers_) indexed = indexed && reader->indexed();
-    out += indexed ? ", indexed" : ", no summary (read by a scan)";
+    std::string mended;
+    for (const auto& reader : readers_) {
+      if (!reader->mended().empty()) mended = reader->mended();
+    }
+    out += !mended.empty() ? ", " + mended : indexed ? ", indexed" : ", no summary (read by a scan)";
     return out;
   }
 

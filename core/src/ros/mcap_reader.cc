@@ -86,9 +86,24 @@ McapReader::McapReader(const std::filesystem::path& path) : path_(path) {
                                     " is outside the file's data (" + std::to_string(data_start_) + " to " +
                                     std::to_string(footer_offset) + ")");
           }
-          read_summary(summary_start, footer_offset, summary_crc);
-          data_end_ = summary_start;
-          summary_read = true;
+          // A summary that does not read (a byte flipped in it) costs the
+          // index, not the data: the chunks are scanned, each checked by its
+          // own CRC, instead of refusing a file whose messages are intact.
+          try {
+            read_summary(summary_start, footer_offset, summary_crc);
+            data_end_ = summary_start;
+            summary_read = true;
+          } catch (const LogError& e) {
+            schemas_.clear();
+            channels_.clear();
+            chunks_.clear();
+            statistics_ = McapStatistics{};
+            const std::string what = e.what();
+            const auto at = what.find("byte ");
+            mended_ = "its summary does not read (" + (at == std::string::npos ? what : what.substr(at)) +
+                      "): read by a scan";
+            data_end_ = summary_start;
+          }
         }
       }
     }
@@ -130,6 +145,7 @@ bool McapReader::read_record(std::uint64_t offset, Record* record, bool in_scan)
   std::memcpy(&length, prefix + 1, 8);
   const std::uint64_t available = file_size_ - offset - mcap::kRecordPrefix;
   if (length > available) {
+    cut_opcode_ = record->opcode;
     fail(offset, mcap_opcode_name(record->opcode) + " record of " + bytes_text(length) + ", but the file ends after " +
                      bytes_text(available) + ": it was cut short (a recording that was not closed?)");
   }
@@ -292,8 +308,17 @@ void McapReader::scan_for_index() {
       first_time = false;
     }
   } catch (const LogError&) {
-    scan_error_ = std::current_exception();
     data_end_ = record_.offset;
+    // Cut short inside a record that holds no message (a chunk's message
+    // index, the summary being written as the recording closed): every
+    // message the file has was read, so it is not an error.
+    const bool holds_messages = cut_opcode_ == mcap::kChunk || cut_opcode_ == mcap::kMessage;
+    if (cut_opcode_ >= 0 && !holds_messages) {
+      mended_ = "cut short inside a " + mcap_opcode_name(static_cast<std::uint8_t>(cut_opcode_)) +
+                " record after its last message (a recording stopped while closing): every message read";
+    } else {
+      scan_error_ = std::current_exception();
+    }
   }
   counting_ = false;
 }

@@ -95,6 +95,11 @@ class McapReader {
   // A problem the opening scan found (a file cut short, a wrong CRC), which
   // next() throws when it gets there; null when there is none.
   const std::exception_ptr& scan_error() const { return scan_error_; }
+  // What the file lacks that reading it did without, for a bag's
+  // description: a summary that could not be read (a wrong CRC: the file is
+  // read by a scan, each chunk checked by its own), or an index cut short
+  // after the last message (a recording stopped while closing). "" if none.
+  const std::string& mended() const { return mended_; }
 
   // The next message in file order (chunk index order when indexed). Returns
   // false at the end. Throws LogError.
@@ -139,7 +144,10 @@ class McapReader {
   std::vector<std::string> compressions_;
   std::vector<ChunkLocation> chunks_;
   std::exception_ptr scan_error_;
+  std::string mended_;
   bool counting_ = false;  // the opening scan counts chunks
+  // read_record(): the opcode of a record the file ends inside, when it does.
+  int cut_opcode_ = -1;
 
   // Reading messages.
   std::size_t next_chunk_ = 0;   // indexed
