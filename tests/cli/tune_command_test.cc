@@ -62,6 +62,18 @@ TEST(CliIo, TuneChecksWhereItWritesBeforeTheWork) {
   const Result first = run_pipeline(boxed);
   ASSERT_EQ(first.exit_code, 0) << first.err;
   ASSERT_TRUE(fs::exists(estimates / "lockbox" / "002_third.csv"));
+  // Runs of several folders that share file names (a folder per terrain) are told apart by their folder.
+  for (const char* terrain : {"pavement", "ice", "snow"}) {
+    fs::create_directories(dir / terrain);
+    fs::copy_file(kSwitching, dir / terrain / "run_00.csv");
+  }
+  const Result foldered =
+      run_pipeline(kSkidimm + " tune --bank " + kTerrains + " --plugin-path " + kPlugins + " --log " +
+                   (dir / "pavement" / "run_00.csv").string() + " --log " + (dir / "ice" / "run_00.csv").string() +
+                   " --lockbox " + (dir / "snow" / "run_00.csv").string() +
+                   " --objective none --tune dwell --no-assess --estimates " + (dir / "foldered").string());
+  ASSERT_EQ(foldered.exit_code, 0) << foldered.err;
+  EXPECT_TRUE(fs::exists(dir / "foldered" / "lockbox" / "002_snow_run_00.csv"));
   expect_refused_before(boxed,
                         "--estimates " + estimates.string() + ": " + (estimates / "lockbox").string() +
                             " already holds 1 file(s), from an earlier run",

@@ -596,13 +596,24 @@ class Tuner {
   }
 
   // <folder>/NNN_<label>_<first file's stem>.csv: unique even when runs of two
-  // terrains share file names.
+  // terrains share file names, and telling which is which; a log without a
+  // label whose first file's name another log's shares is named by its folder
+  // too (pavement/run_00.csv beside ice/run_00.csv: NNN_pavement_run_00.csv),
+  // as the tables name it.
   std::filesystem::path estimates_path(const std::string& folder, int i) const {
     const LogSpec& spec = logs_[static_cast<std::size_t>(i)].spec;
     char index[16];
     std::snprintf(index, sizeof(index), "%03d_", i);
-    return options_.assessment_estimates / folder /
-           (index + (spec.label.empty() ? "" : spec.label + "_") + spec.files.front().path.stem().string() + ".csv");
+    const std::filesystem::path& first = spec.files.front().path;
+    std::string prefix = spec.label.empty() ? "" : spec.label + "_";
+    const std::string parent = first.parent_path().filename().string();
+    if (spec.label.empty() && !parent.empty() && parent != "." && parent != "..") {
+      const bool shared = std::any_of(logs_.begin(), logs_.end(), [&](const TuningLog& other) {
+        return &other.spec != &spec && other.spec.files.front().path.filename() == first.filename();
+      });
+      if (shared) prefix = parent + "_";
+    }
+    return options_.assessment_estimates / folder / (index + prefix + first.stem().string() + ".csv");
   }
 
   // Back to the starting values, before a fit or a scoring.
