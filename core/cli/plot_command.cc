@@ -264,7 +264,11 @@ int plot(const PlotOptions& options) {
         LogReader reader(config, log.files, sampling_of(config, options.rate));
         std::vector<std::string> header{"t"};
         for (const std::string& m : config.measurement.names) header.push_back(m);
-        for (const std::string& s : config.state_names) header.push_back("true_" + s);
+        // True states only where the log has them: a column of NaN would still get a 'true' line in the legend.
+        const bool with_true_states = reader.has_true_states();
+        if (with_true_states) {
+          for (const std::string& s : config.state_names) header.push_back("true_" + s);
+        }
         CsvWriter writer(log_data, header);
         std::vector<std::string> cells(header.size());
         LogSample sample;
@@ -272,7 +276,7 @@ int plot(const PlotOptions& options) {
           std::size_t c = 0;
           cells[c++] = CsvWriter::format(sample.t);
           for (Eigen::Index i = 0; i < sample.z.size(); ++i) cells[c++] = CsvWriter::format(sample.z[i]);
-          for (Eigen::Index i = 0; i < sample.true_state.size(); ++i) {
+          for (Eigen::Index i = 0; with_true_states && i < sample.true_state.size(); ++i) {
             cells[c++] = CsvWriter::format(sample.true_state[i]);
           }
           writer.write_row(cells);

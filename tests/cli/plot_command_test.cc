@@ -84,6 +84,26 @@ TEST(Cli, PlotDrawsPngAndSvgAndSaysWhenGnuplotIsMissing) {
                                        "/configs/stc_slip4.yaml --plugin-path " + kPlugins + " --log " + log +
                                        " --states --output " + (dir / "b.png").string());
   EXPECT_EQ(same_bank.exit_code, 0) << same_bank.err;
+  // The log read through the bank: a 'true' line in the legend where the log has true states, none where it has not.
+  auto rows = read_csv(log);
+  std::vector<std::size_t> kept;
+  for (std::size_t c = 0; c < rows[0].size(); ++c) {
+    if (rows[0][c].rfind("true_", 0) != 0) kept.push_back(c);
+  }
+  std::string measured_only;
+  for (const auto& row : rows) {
+    for (std::size_t k = 0; k < kept.size(); ++k) measured_only += (k ? "," : "") + row[kept[k]];
+    measured_only += "\n";
+  }
+  const fs::path robot_log = write_file(dir / "robot.csv", measured_only);
+  for (const auto& [input, legend] : {std::make_pair(log, true), std::make_pair(robot_log.string(), false)}) {
+    const fs::path figure = dir / (legend ? "with_truth.svg" : "without_truth.svg");
+    const Result drawn = run_skidimm("plot --estimates " + (dir / "out.csv").string() + " --bank " + kSource +
+                                     "/configs/stc_slip4.yaml --plugin-path " + kPlugins + " --log " + input +
+                                     " --states --output " + figure.string());
+    ASSERT_EQ(drawn.exit_code, 0) << drawn.err;
+    EXPECT_EQ(read_file(figure).find(">true<") != std::string::npos, legend) << input;
+  }
 }
 
 // A log stamped by a clock (a ROS 2 bag's header.stamp: epoch seconds) was
