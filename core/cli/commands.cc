@@ -399,6 +399,14 @@ int run(const RunOptions& options) {
                      "compares them on labelled logs)\n",
                      CsvWriter::format(said.enter).c_str());
       }
+      // Stamps in another unit than the bank reads (seconds read as ms) make a run of minutes a fraction of a second.
+      if (summary.last_t - summary.first_t < 1.0) {
+        std::fprintf(
+            stderr, "  the log spans %s s in %ld step(s): are its time stamps in %s? (%s)\n",
+            CsvWriter::format(summary.last_t - summary.first_t).c_str(), rows, config.columns.time_unit_name.c_str(),
+            config.columns.time_units_per_second == 1.0 ? "columns.time_unit: ms, us or ns reads them in another unit"
+                                                        : "columns.time_unit reads them so; without it, in s");
+      }
       std::cerr << reader.describe_stats(config);
       if (summary.predict_only > 0) {
         std::cerr << "  " << summary.predict_only << " rows had no measurement (predict only)\n";

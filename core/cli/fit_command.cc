@@ -188,7 +188,7 @@ int fit(const FitCommandOptions& options) {
     for (const std::string& skipped : fitting::skipped_by_sampling(data)) {
       std::cerr << "skidimm fit: " << printable(skipped) << "\n";
     }
-    for (const std::string& short_log : fitting::logs_giving_too_few_steps(config, data)) {
+    for (const std::string& short_log : fitting::logs_spanning_under_a_second(config, data)) {
       std::cerr << "skidimm fit: warning: " << printable(short_log) << "\n";
     }
     for (const std::string& unfitted : fitting::classes_leaving_steps_unfitted(config)) {

@@ -506,7 +506,7 @@ int tune(const TuneCommandOptions& options) {
       for (const std::string& skipped : fitting::skipped_by_sampling(log.fit_data)) {
         std::cerr << "skidimm tune: " << printable(skipped) << "\n";
       }
-      for (const std::string& short_log : fitting::logs_giving_too_few_steps(config, log.fit_data)) {
+      for (const std::string& short_log : fitting::logs_spanning_under_a_second(config, log.fit_data)) {
         std::cerr << "skidimm tune: warning: " << printable(short_log) << "\n";
       }
     }

@@ -173,8 +173,9 @@ void CsvReader::read_header() {
       // A file here is one given where CSV is read (estimates); anything else came through a pipe.
       throw LogError(path_.string(), 1,
                      file_size_ > 0
-                         ? "an MCAP file, not CSV: this reads CSV. Estimates `skidimm run` wrote as .mcap are JSON "
-                           "messages for Foxglove; for eval or plot, run again with --output X.csv (or .npy)"
+                         ? "an MCAP file, not CSV: this reads CSV here. A bag is read as a log (--input, --log); "
+                           "estimates `skidimm run` wrote as .mcap are JSON messages for Foxglove: for eval or plot, "
+                           "run again with --output X.csv"
                          : "an MCAP bag through a pipe or standard input: a bag is read from its file, which its "
                            "reader seeks in (give its path to --input)");
     }

@@ -345,6 +345,13 @@ void LogReader::Impl::check_no_file_is_empty() const {
         used.empty() ? std::string() : ": its columns " + used + ", which the bank uses, would never have a value";
     const LogTable& table = *s.files.front();
     if (ros::BagReader::is_bag(table.path())) {
+      // Messages that all lack the fields the bank reads (a name no message has) are not an empty topic.
+      if (const long left_out = table.records_without_fields(); left_out > 0) {
+        throw table.error("none of its " + std::to_string(left_out) + " message(s) has a field the bank reads from it" +
+                          (used.empty() ? "" : " (" + used + ")") +
+                          ": a sequence's entry selected by name, [NAME], has a value only in messages that have "
+                          "that name: `skidimm bag FILE` lists the names the bag has");
+      }
       // Each topic the bank names that has no message is said (the first found here; it has no header line).
       throw table.error("the topic has no message" + never +
                         ". A recording stopped before its first message, or the topic's publisher never ran: "
@@ -758,16 +765,6 @@ std::string LogReader::describe_stats(const BankConfig& bank) const {
            " row(s) after the last step (t = " + CsvWriter::format(s.last_step_t) +
            " s) were not used: the grid's next step, t = " + CsvWriter::format(s.step_not_taken_t) +
            " s, is past the last row of the inputs (t = " + CsvWriter::format(s.inputs_end_t) + " s)\n";
-    // Most of a log left out because it ends within a step or two of its
-    // start: stamps in another unit than the bank reads (seconds read as ms)
-    // look like this, not like a gap.
-    if (s.steps < 3 && s.dropped_last_step >= 10) {
-      out += "  the log gave " + std::to_string(s.steps) +
-             " step(s) and ended within the next: are its time stamps in " + bank.columns.time_unit_name + "? (" +
-             (bank.columns.time_units_per_second == 1.0 ? "columns.time_unit: ms, us or ns reads them in another unit"
-                                                        : "columns.time_unit reads them so; without it, in s") +
-             ")\n";
-    }
   }
   if (s.dropped_after_end > 0) {
     out += "  " + std::to_string(s.dropped_after_end) +

@@ -250,6 +250,8 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
         s.decision_changes += decided != last_decision && s.rows > 0 && !undecided;
         undecided = undecided && decided == ModeDecision::kUnknown;
         s.decision_unknown += decided == ModeDecision::kUnknown;
+        if (s.rows == 0) s.first_t = sample.t;
+        s.last_t = sample.t;
         last_decision = decided;
         decision_checkpoint.last_row_written = false;
         writer->write(sample.t, e, decision.name(decided), truth);

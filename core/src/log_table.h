@@ -58,6 +58,11 @@ class LogTable {
   virtual std::uintmax_t bytes_read() const = 0;
   virtual std::uintmax_t size() const = 0;
 
+  // Records read that are not rows of the table: a bag topic's messages
+  // with none of the fields the bank reads from it (another publisher's, or
+  // every one when the bank names a field by a name no message has).
+  virtual long records_without_fields() const { return 0; }
+
  protected:
   LogTable() = default;
 };

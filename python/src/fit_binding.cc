@@ -103,6 +103,8 @@ py::dict trajectory_to_dict(const fitting::Trajectory& t) {
   d["z"] = matrix_array(t.z);
   d["truth"] = t.truth;
   d["skipped"] = t.skipped;
+  d["log_steps"] = t.log_steps;
+  d["log_seconds"] = t.log_seconds;
   return d;
 }
 
@@ -115,6 +117,8 @@ fitting::Trajectory trajectory_from_dict(const py::dict& d) {
   t.z = d["z"].cast<Eigen::MatrixXd>();
   t.truth = d["truth"].cast<std::vector<std::string>>();
   if (d.contains("skipped")) t.skipped = d["skipped"].cast<std::vector<std::string>>();
+  if (d.contains("log_steps")) t.log_steps = d["log_steps"].cast<long>();
+  if (d.contains("log_seconds")) t.log_seconds = d["log_seconds"].cast<double>();
   return t;
 }
 
@@ -259,7 +263,7 @@ void bind_fit(py::module_& m) {
         const std::vector<fitting::ModeLogs> logs = mode_logs_from_list(data);
         std::vector<std::string> notes = fitting::labels_overriding_truth(bank.config(), logs);
         for (const std::string& left_out : fitting::skipped_by_sampling(logs)) notes.push_back(left_out);
-        for (const std::string& short_log : fitting::logs_giving_too_few_steps(bank.config(), logs)) {
+        for (const std::string& short_log : fitting::logs_spanning_under_a_second(bank.config(), logs)) {
           notes.push_back(short_log);
         }
         if (of_the_bank) {

@@ -1217,14 +1217,29 @@ TEST(Cli, ALogInAnotherTimeUnitThanTheBankReadsIsSaidNotFittedOnSilently) {
                   " --objective window --hold-unexcited --log ICE=" + in_ms.string() + " --log ICE=" + in_s.string());
   ASSERT_EQ(fit.exit_code, 0) << fit.err;
   EXPECT_THAT(fit.err, HasSubstr("skidimm fit: warning: " + in_s.string() +
-                                 ": 1 step(s), too few for the fit to learn from; are its time stamps in ms "
-                                 "(columns.time_unit)?"));
+                                 ": 1 step(s) in 0 s, under a second: are its time stamps in ms (columns.time_unit)?"));
   EXPECT_THAT(fit.err, Not(HasSubstr(in_ms.string() + ": ")));
   const Result run = run_skidimm("run --bank " + bank.string() + " --plugin-path " + kPlugins + " --input " +
                                  in_s.string() + " --output " + (dir / "out.csv").string());
   ASSERT_EQ(run.exit_code, 0) << run.err;
-  EXPECT_THAT(run.err, HasSubstr("the log gave 1 step(s) and ended within the next: are its time stamps in ms? "
-                                 "(columns.time_unit reads them so; without it, in s)"));
+  EXPECT_THAT(run.err, HasSubstr("the log spans 0 s in 1 step(s): are its time stamps in ms? (columns.time_unit reads "
+                                 "them so; without it, in s)"));
+  // A bank that steps at every row (no rate) gets as many steps, in a fraction of a second: said too, by both.
+  std::string every_row = read_file(kTerrains);
+  every_row.replace(every_row.find("  time: t\n"), 10, "  time: t\n  time_unit: ms\n");
+  const fs::path rows_bank = write_file(dir / "rows_ms.yaml", every_row);
+  const Result rows_run = run_skidimm("run --bank " + rows_bank.string() + " --plugin-path " + kPlugins + " --input " +
+                                      kSwitching + " --output " + (dir / "rows.csv").string());
+  ASSERT_EQ(rows_run.exit_code, 0) << rows_run.err;
+  EXPECT_THAT(rows_run.err, HasSubstr(" step(s): are its time stamps in ms?"));
+  const Result rows_fit = run_skidimm("fit --bank " + rows_bank.string() + " --plugin-path " + kPlugins +
+                                      " --objective window --mode asphalt --log " + kSwitching);
+  EXPECT_THAT(rows_fit.err, HasSubstr(" s, under a second: are its time stamps in ms (columns.time_unit)?"))
+      << rows_fit.err;
+  // A run of seconds in seconds: no word of it, however few of its steps a mode is fitted on.
+  const Result plain = run_skidimm("fit --bank " + kTerrains + " --plugin-path " + kPlugins +
+                                   " --objective window --mode asphalt --log " + kSwitching);
+  EXPECT_THAT(plain.err, Not(HasSubstr("time stamps in"))) << plain.err;
 }
 
 }  // namespace skidimm_test

@@ -394,9 +394,9 @@ TEST(HostileInput, OptionsThatCannotApplyAreABadCommandLine) {
                                      "plot --estimates " + mcap.string() + " --output " + (dir / "f.png").string()}) {
     const Result r = run_skidimm(command);
     EXPECT_EQ(r.exit_code, 1) << command;
-    EXPECT_THAT(r.err, HasSubstr(mcap.string() + ":1: an MCAP file, not CSV: this reads CSV")) << command;
-    EXPECT_THAT(r.err, HasSubstr("Estimates `skidimm run` wrote as .mcap are JSON messages for Foxglove; for eval or "
-                                 "plot, run again with --output X.csv (or .npy)"))
+    EXPECT_THAT(r.err, HasSubstr(mcap.string() + ":1: an MCAP file, not CSV: this reads CSV here")) << command;
+    EXPECT_THAT(r.err, HasSubstr("estimates `skidimm run` wrote as .mcap are JSON messages for Foxglove: for eval or "
+                                 "plot, run again with --output X.csv"))
         << command;
     EXPECT_THAT(r.err, Not(HasSubstr("pipe"))) << command;
   }

@@ -279,6 +279,19 @@ TEST(BagLog, AMessageOfAnotherPublisherWithNoneOfTheFieldsReadIsNotARow) {
     EXPECT_TRUE(same_double(sample.z[0], row.at("effort[left]").number)) << k;
   }
   EXPECT_EQ(k, 20) << "every wheel message a step, no arm message one";
+  // Every field named by a joint no message has: the messages are there, the name is not (not "no message").
+  bank.columns.inputs = {"/joint_states.velocity[front_left_wheel]"};
+  bank.columns.measurements = {"/joint_states.effort[front_left_wheel]"};
+  const std::string misnamed = error_of([&] {
+    LogReader named(bank, {LogFile{ros_fixture("two_publishers.mcap")}});
+    named.next(&sample);
+  });
+  EXPECT_NE(misnamed.find("two_publishers.mcap: topic /joint_states: none of its 40 message(s) has a field the bank "
+                          "reads from it (/joint_states.velocity[front_left_wheel], "
+                          "/joint_states.effort[front_left_wheel])"),
+            std::string::npos)
+      << misnamed;
+  EXPECT_NE(misnamed.find("`skidimm bag FILE` lists the names the bag has"), std::string::npos) << misnamed;
   // `skidimm bag` lists every publisher's joints, not the first message's alone (the arm's).
   const BagInfo info = describe_bag(ros_fixture("two_publishers.mcap"));
   ASSERT_EQ(info.topics.size(), 1u);

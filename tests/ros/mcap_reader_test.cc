@@ -215,6 +215,25 @@ TEST(McapReader, ASummaryThatDoesNotReadIsScannedPast) {
     EXPECT_EQ(read_all(reader).payloads, expected.payloads) << name;
   }
   EXPECT_NE(McapReader(dir / "crc.mcap").mended().find("the summary section's CRC is"), std::string::npos);
+  // A summary with no CRC (0: not recorded) whose first record runs past its end: parsed, it fails, and is scanned
+  // past.
+  std::string unchecked = intact;
+  for (std::size_t i = 0; i < 4; ++i) unchecked[unchecked.size() - 8 - 4 + i] = 0;
+  const std::size_t schema = first_record(intact, 0x0F) + 9 + 4;  // the record after DataEnd
+  const std::uint64_t huge = 1u << 20;
+  std::memcpy(&unchecked[schema + 1], &huge, 8);
+  McapReader parsed(write_file(dir / "unparsed.mcap", unchecked));
+  EXPECT_NE(parsed.mended().find("runs past the end of the summary section"), std::string::npos) << parsed.mended();
+  EXPECT_EQ(read_all(parsed).payloads, expected.payloads);
+  // The Footer's summary_start, lowered into the data (its CRC then fails): the scan still reads to DataEnd,
+  // not to that offset, which would have dropped the chunks after it without a word.
+  std::string lowered = intact;
+  const std::size_t footer = lowered.size() - 8 - 29;
+  const std::uint64_t second_chunk = records_of(intact).at(3).second;
+  std::memcpy(&lowered[footer + 9], &second_chunk, 8);
+  McapReader rescanned(write_file(dir / "lowered.mcap", lowered));
+  EXPECT_NE(rescanned.mended().find("its summary does not read"), std::string::npos) << rescanned.mended();
+  EXPECT_EQ(read_all(rescanned).payloads, expected.payloads);
 }
 
 // Cut short inside a record that holds no message (the last chunk's message
@@ -239,6 +258,16 @@ TEST(McapReader, ACutAfterTheLastMessageLosesNothingAndIsNoError) {
   const auto in_chunk = write_file(dir / "in_chunk.mcap", bytes.substr(0, last_chunk + 40));
   EXPECT_NE(error_of(in_chunk, &before).find("Chunk record of"), std::string::npos);
   EXPECT_LT(before, 120);
+  // Cut inside the index's 9-byte prefix: the same.
+  const auto in_prefix = write_file(dir / "in_prefix.mcap", bytes.substr(0, last_index + 5));
+  EXPECT_EQ(error_of(in_prefix, &before), "");
+  EXPECT_EQ(before, 120);
+  // A record running past the end of a file that has its Footer: not cut short, corrupt, and an error.
+  std::string overrun = read_file(ros_fixture("all_types_no_summary.mcap"));
+  const std::size_t data_end = first_record(overrun, 0x0F);
+  const std::uint64_t huge = 1u << 20;
+  std::memcpy(&overrun[data_end + 1], &huge, 8);
+  EXPECT_NE(error_of(write_file(dir / "overrun.mcap", overrun), &before).find("DataEnd record of"), std::string::npos);
 }
 
 TEST(McapReader, AChunkClaimingGigabytesIsRefusedBeforeAllocating) {

@@ -139,21 +139,16 @@ std::vector<std::string> skipped_by_sampling(const std::vector<ModeLogs>& data) 
   return messages;
 }
 
-std::vector<std::string> logs_giving_too_few_steps(const BankConfig& config, const std::vector<ModeLogs>& data) {
-  std::vector<std::string> order;
-  std::map<std::string, long> steps;
+std::vector<std::string> logs_spanning_under_a_second(const BankConfig& config, const std::vector<ModeLogs>& data) {
+  std::vector<std::string> messages;
+  std::set<std::string> said;
   for (const ModeLogs& d : data) {
     for (const Trajectory& part : d.logs) {
-      if (steps.count(part.log) == 0) order.push_back(part.log);
-      steps[part.log] += part.size();
+      if (part.log_seconds >= 1.0 || !said.insert(part.log).second) continue;
+      messages.push_back(part.log + ": " + std::to_string(part.log_steps) + " step(s) in " +
+                         CsvWriter::format(part.log_seconds) + " s, under a second: are its time stamps in " +
+                         config.columns.time_unit_name + " (columns.time_unit)?");
     }
-  }
-  std::vector<std::string> messages;
-  for (const std::string& log : order) {
-    if (steps[log] >= 3) continue;
-    messages.push_back(log + ": " + std::to_string(steps[log]) +
-                       " step(s), too few for the fit to learn from; are its time stamps in " +
-                       config.columns.time_unit_name + " (columns.time_unit)?");
   }
   return messages;
 }

@@ -32,6 +32,8 @@ Trajectory load_trajectory(const BankConfig& bank, const std::vector<LogFile>& f
                                  "of the fit as missing");
   }
   const int n = trajectory.size();
+  trajectory.log_steps = n;
+  trajectory.log_seconds = n > 1 ? trajectory.t.back() - trajectory.t.front() : 0.0;
   trajectory.u.resize(bank.input_dim(), n);
   trajectory.z.resize(static_cast<Eigen::Index>(bank.measurement.names.size()), n);
   for (int k = 0; k < n; ++k) {
@@ -75,6 +77,8 @@ std::vector<std::pair<std::string, Trajectory>> split_by_truth(const Trajectory&
                     span_time(trajectory.t[static_cast<std::size_t>(end - 1)]) + " s]";
       part.log = trajectory.log;
       part.skipped = trajectory.skipped;
+      part.log_steps = trajectory.log_steps;
+      part.log_seconds = trajectory.log_seconds;
       part.t.assign(trajectory.t.begin() + begin, trajectory.t.begin() + end);
       part.u = trajectory.u.middleCols(begin, end - begin);
       part.z = trajectory.z.middleCols(begin, end - begin);

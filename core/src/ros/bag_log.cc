@@ -150,8 +150,9 @@ class BagTopicTable : public LogTable {
     }
     row_log_time_ = log_times_.front();
     log_times_.pop_front();
+    row_message_ = message_numbers_.front();
+    message_numbers_.pop_front();
     --queue_rows_;
-    ++row_number_;
     return true;
   }
 
@@ -187,7 +188,7 @@ class BagTopicTable : public LogTable {
 
   LogError error_at_row(const std::string& message) const override {
     return LogError(path().string(), 0,
-                    "topic " + topic_name() + ", message " + std::to_string(row_number_) + " (log time " +
+                    "topic " + topic_name() + ", message " + std::to_string(row_message_) + " (log time " +
                         seconds_text(row_log_time_) + " s): " + message);
   }
   LogError error(const std::string& message) const override {
@@ -208,13 +209,14 @@ class BagTopicTable : public LogTable {
   void enqueue(const BagMessage& message) {
     if (error_ || stopped_) return;
     if (!finalized_) finalize();
+    ++messages_;
     try {
       reader_->decode(message.data, message.size);
     } catch (const CdrError& e) {
-      error_ = std::make_exception_ptr(LogError(
-          path().string(), 0,
-          "topic " + topic_name() + ", message " + std::to_string(row_number_ + queue_rows_ + 1) + " (log time " +
-              seconds_text(message.log_time) + " s, " + reader_->type_name() + "): cannot decode its CDR: " + e.what()));
+      error_ = std::make_exception_ptr(LogError(path().string(), 0,
+                                                "topic " + topic_name() + ", message " + std::to_string(messages_) +
+                                                    " (log time " + seconds_text(message.log_time) + " s, " +
+                                                    reader_->type_name() + "): cannot decode its CDR: " + e.what()));
       return;
     }
     // A message with none of the fields the bank reads from this topic (a
@@ -242,12 +244,12 @@ class BagTopicTable : public LogTable {
       }
     }
     log_times_.push_back(message.log_time);
+    message_numbers_.push_back(messages_);
     ++queue_rows_;
   }
   std::size_t queued() const { return queue_rows_; }
   bool failed() const { return static_cast<bool>(error_); }
-  // Messages left out for having none of the fields the bank reads here.
-  long messages_without_fields() const { return messages_without_fields_; }
+  long records_without_fields() const override { return messages_without_fields_; }
 
  private:
   struct Column {
@@ -283,7 +285,9 @@ class BagTopicTable : public LogTable {
   std::vector<std::string> texts_row_;
   mutable std::string number_text_;
   std::uint64_t row_log_time_ = 0;
-  long row_number_ = 0;
+  long row_message_ = 0;              // the current row's message of the topic (1-based)
+  long messages_ = 0;                 // messages of the topic decoded so far, rows or not
+  std::deque<long> message_numbers_;  // each queued row's
   long messages_without_fields_ = 0;
 };
 

@@ -80,6 +80,7 @@ McapReader::McapReader(const std::filesystem::path& path) : path_(path) {
                                   bytes_text(mcap::kFooterContent));
         }
         data_end_ = footer_offset;
+        footer_found_ = true;
         if (summary_start != 0) {
           if (summary_start < data_start_ || summary_start > footer_offset) {
             fail(footer_offset, "the Footer's summary_start " + std::to_string(summary_start) +
@@ -102,7 +103,9 @@ McapReader::McapReader(const std::filesystem::path& path) : path_(path) {
             const auto at = what.find("byte ");
             mended_ = "its summary does not read (" + (at == std::string::npos ? what : what.substr(at)) +
                       "): read by a scan";
-            data_end_ = summary_start;
+            // summary_start is among what the failed CRC covers: the scan
+            // goes to the Footer, ending at the data section's DataEnd.
+            data_end_ = footer_offset;
           }
         }
       }
@@ -131,6 +134,10 @@ McapReader::~McapReader() {
 bool McapReader::read_record(std::uint64_t offset, Record* record, bool in_scan) {
   record->offset = offset;
   if (offset + mcap::kRecordPrefix > file_size_) {
+    if (offset < file_size_ && std::fseek(file_, static_cast<long>(offset), SEEK_SET) == 0) {
+      const int opcode = std::fgetc(file_);  // the record the file ends in, if its opcode is there
+      if (opcode != EOF) cut_opcode_ = opcode;
+    }
     fail(offset, "the file ends " + bytes_text(file_size_ - offset) +
                      " into a record's 9-byte opcode and length: it was cut short (a recording that was not "
                      "closed?)");
@@ -311,9 +318,10 @@ void McapReader::scan_for_index() {
     data_end_ = record_.offset;
     // Cut short inside a record that holds no message (a chunk's message
     // index, the summary being written as the recording closed): every
-    // message the file has was read, so it is not an error.
+    // message the file has was read, so it is not an error. A file that has
+    // its Footer was not cut: a record running past its end is corrupt.
     const bool holds_messages = cut_opcode_ == mcap::kChunk || cut_opcode_ == mcap::kMessage;
-    if (cut_opcode_ >= 0 && !holds_messages) {
+    if (cut_opcode_ >= 0 && !holds_messages && !footer_found_) {
       mended_ = "cut short inside a " + mcap_opcode_name(static_cast<std::uint8_t>(cut_opcode_)) +
                 " record after its last message (a recording stopped while closing): every message read";
     } else {

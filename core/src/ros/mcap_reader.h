@@ -148,6 +148,7 @@ class McapReader {
   bool counting_ = false;  // the opening scan counts chunks
   // read_record(): the opcode of a record the file ends inside, when it does.
   int cut_opcode_ = -1;
+  bool footer_found_ = false;  // a Footer and the closing magic: the file was not cut short
 
   // Reading messages.
   std::size_t next_chunk_ = 0;   // indexed

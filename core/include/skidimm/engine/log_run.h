@@ -82,6 +82,8 @@ struct RunSummary {
   long mode_gated = 0;        // rows whose measurement some modes gated (status mode_gated or mode_reset)
   long decision_changes = 0;  // changes of the decision after its first out of a leading `unknown` (as eval counts)
   long decision_unknown = 0;  // rows whose decision was `unknown`
+  double first_t = 0.0;       // s, the first and the last row's time
+  double last_t = 0.0;
   // Rows whose inputs were outside the ranges the most likely class was
   // fitted on (input_envelope.h; 0 for a bank that records none), and the
   // farthest out of them, in the terms of that class.

@@ -56,12 +56,13 @@ std::vector<std::string> labels_overriding_truth(const BankConfig& config, const
 // The fit runs without those rows and spans, so it is said, as run and eval
 // say it.
 std::vector<std::string> skipped_by_sampling(const std::vector<ModeLogs>& data);
-// Each log in `data` that gives fewer than three steps over all its
-// segments, too few for a fit to learn from (a one-step error needs two in a
-// row): "<log>: 1 step(s) ...", with the question of the time stamps' unit
-// (`config`'s columns.time_unit), since stamps in seconds read as ms make a
-// log of minutes one step long. Once per log, in the order of `data`.
-std::vector<std::string> logs_giving_too_few_steps(const BankConfig& config, const std::vector<ModeLogs>& data);
+// Each log in `data` that spans less than a second, stamps in another unit
+// than `config`'s columns.time_unit reads (seconds read as ms make a run of
+// minutes a fraction of a second, one step long at a fixed rate): "<log>:
+// 761 step(s) in 0.117 s ...", with the question of the unit. Once per log,
+// in the order of `data`; the whole log's span (Trajectory::log_seconds),
+// however few of its steps a mode fits.
+std::vector<std::string> logs_spanning_under_a_second(const BankConfig& config, const std::vector<ModeLogs>& data);
 // One message per class whose every mode has a fit_when: a step of the
 // class that none of them holds for is fitted by no mode (split among a
 // class's modes, the steps no fit_when takes go to its mode without one).

@@ -27,6 +27,10 @@ struct Trajectory {
   // not finite (a log of 0: missing, so fitted without); a segment carries
   // its log's.
   std::vector<std::string> skipped;
+  // The whole log's steps and the seconds from its first to its last; a
+  // segment carries its log's.
+  long log_steps = 0;
+  double log_seconds = 0.0;
   int size() const { return static_cast<int>(t.size()); }
 };
 
