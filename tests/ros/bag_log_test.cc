@@ -219,19 +219,26 @@ TEST(BagLog, AMessageThatDoesNotDecodeEndsItsTopicAfterTheRowsBeforeIt) {
       << message;
 }
 
-// An input read from a sequence's entry selected by a name no message has
-// (a joint name of another robot): the log gives no step, and the reader
-// says which column never had a value and where the names are listed. It
-// said only that no step came.
-TEST(BagLog, AnInputSelectedByANameNoMessageHasIsNamed) {
+// A bank of one state, read from a bag: the wheel input and the state's
+// measurement from the columns given, time from header.stamp.
+BankConfig one_state_bank(const std::string& input, const std::string& measurement) {
   BankConfig bank;
   bank.file = "bank.yaml";
   bank.state_names = {"x"};
   bank.input_names = {"wheel"};
   bank.measurement.names = {"x"};
   bank.columns.time = "header.stamp";
-  bank.columns.inputs = {"/all_types.velocity[front_left_wheel]"};
-  bank.columns.measurements = {"/all_types.f64"};
+  bank.columns.inputs = {input};
+  bank.columns.measurements = {measurement};
+  return bank;
+}
+
+// An input read from a sequence's entry selected by a name no message has
+// (a joint name of another robot): the log gives no step, and the reader
+// says which column never had a value and where the names are listed. It
+// said only that no step came.
+TEST(BagLog, AnInputSelectedByANameNoMessageHasIsNamed) {
+  BankConfig bank = one_state_bank("/all_types.velocity[front_left_wheel]", "/all_types.f64");
   LogReader reader(bank, {LogFile{ros_fixture("all_types.mcap")}});
   LogSample sample;
   try {
@@ -257,14 +264,7 @@ TEST(BagLog, AnInputSelectedByANameNoMessageHasIsNamed) {
 // the bank reads from the topic is not a row of it. As an empty row it
 // stopped the log, its stamp going back from the arm's to the wheels'.
 TEST(BagLog, AMessageOfAnotherPublisherWithNoneOfTheFieldsReadIsNotARow) {
-  BankConfig bank;
-  bank.file = "bank.yaml";
-  bank.state_names = {"x"};
-  bank.input_names = {"wheel"};
-  bank.measurement.names = {"x"};
-  bank.columns.time = "header.stamp";
-  bank.columns.inputs = {"/joint_states.velocity[left]"};
-  bank.columns.measurements = {"/joint_states.effort[left]"};
+  BankConfig bank = one_state_bank("/joint_states.velocity[left]", "/joint_states.effort[left]");
   const auto expected = read_expected(ros_fixture("two_publishers.expected"));
   ASSERT_EQ(expected.size(), 20u);
   LogReader reader(bank, {LogFile{ros_fixture("two_publishers.mcap")}});
@@ -307,14 +307,7 @@ TEST(BagLog, AMessageOfAnotherPublisherWithNoneOfTheFieldsReadIsNotARow) {
 // likely is, with the bank setting that reads every topic by one clock; the
 // time offset of a file, which moves the whole bag, cannot mend it.
 TEST(BagLog, ATopicOnAnotherClockNamesItAndTheRecordersClock) {
-  BankConfig bank;
-  bank.file = "bank.yaml";
-  bank.state_names = {"x"};
-  bank.input_names = {"wheel"};
-  bank.measurement.names = {"x"};
-  bank.columns.time = "header.stamp";
-  bank.columns.inputs = {"/joint_states.velocity[left]"};
-  bank.columns.measurements = {"/imu/data.angular_velocity.z"};
+  BankConfig bank = one_state_bank("/joint_states.velocity[left]", "/imu/data.angular_velocity.z");
   const std::string message = error_of([&] {
     LogReader reader(bank, {LogFile{ros_fixture("two_clocks.mcap")}});
     LogSample sample;
