@@ -46,13 +46,14 @@ inline std::string parameter_glossary(const std::string& text,
   if (found.size() > most) found.resize(most);
   // Entries of one matrix often share its description: named together.
   std::vector<std::pair<std::string, std::string>> groups;  // (names, description)
-  for (const auto& [at, i] : found) {
-    const auto& [name, description] = described[i];
-    auto group = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.second == description; });
+  for (const auto& entry : found) {
+    const std::pair<std::string, std::string>& parameter = described[entry.second];
+    auto group = std::find_if(groups.begin(), groups.end(),
+                              [&parameter](const auto& g) { return g.second == parameter.second; });
     if (group == groups.end()) {
-      groups.emplace_back(name, description);
+      groups.push_back(parameter);
     } else {
-      group->first += ", " + name;
+      group->first += ", " + parameter.first;
     }
   }
   std::string out;
