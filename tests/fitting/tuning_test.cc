@@ -129,6 +129,17 @@ TEST(Separability, SaysWhetherHeldOutScoresBeatAUniformGuess) {
   EXPECT_EQ(none.verdict, evaluation::Separability::Verdict::kNotSeparated);
   EXPECT_THAT(none.describe(), ::testing::StartsWith("these modes cannot be told apart from these logs"));
   EXPECT_THAT(none.describe(), ::testing::HasSubstr("-1.386 for a uniform guess over 4 classes"));
+  EXPECT_THAT(none.describe(), ::testing::HasSubstr("fit on logs that excite what differs")) << "accuracy 0.25";
+  // The same log probabilities where the most likely class is right 90% of the time: sure when wrong, not alike.
+  std::vector<LogScore> sure = scores({{"a", -1.5}, {"b", -1.39}, {"c", -1.3}, {"d", -1.40}});
+  for (LogScore& l : sure) l.accuracy = 0.9;
+  const evaluation::Separability overconfident = evaluation::separability(sure, 4);
+  EXPECT_EQ(overconfident.verdict, evaluation::Separability::Verdict::kNotSeparated);
+  EXPECT_NEAR(overconfident.accuracy, 0.9, 1e-15);
+  EXPECT_THAT(overconfident.describe(),
+              ::testing::HasSubstr("here the most likely class is right 0.900 of the time against 0.250 by chance, so "
+                                   "the classes differ and the probabilities are too sure when wrong"));
+  EXPECT_THAT(overconfident.describe(), ::testing::Not(::testing::HasSubstr("fit on logs that excite")));
 
   const evaluation::Separability clear =
       evaluation::separability(scores({{"a", -0.2}, {"b", -0.3}, {"c", -1.6}, {"d", -0.25}}), 4);

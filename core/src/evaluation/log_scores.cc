@@ -54,7 +54,10 @@ Separability separability(const std::vector<LogScore>& scores, int classes) {
   s.uniform = -std::log(static_cast<double>(std::max(classes, 1)));
   const double n = static_cast<double>(scores.size());
   if (scores.empty()) return s;
-  for (const LogScore& l : scores) s.mean += l.mean_log_probability / n;
+  for (const LogScore& l : scores) {
+    s.mean += l.mean_log_probability / n;
+    s.accuracy += l.accuracy / n;
+  }
   if (scores.size() > 1) {
     double squares = 0.0;
     for (const LogScore& l : scores) squares += (l.mean_log_probability - s.mean) * (l.mean_log_probability - s.mean);
@@ -97,15 +100,26 @@ std::string Separability::describe() const {
             "tell";
       break;
     case Verdict::kNotSeparated:
-      out = "these modes cannot be told apart from these logs (" + figures +
-            "): the probability the truth is given is what a guess gives it, however the accuracy reads (a bank "
-            "right most of the time and sure of the wrong class the rest scores so); fit on logs that excite what "
-            "differs between the modes, or measure what does differ";
+      out =
+          "these modes cannot be told apart from these logs (" + figures +
+          "): the probability the truth is given is what a guess gives it, however the accuracy reads (a bank "
+          "right most of the time and sure of the wrong class the rest scores so); " +
+          (overconfident() ? "here the most likely class is right " + number(accuracy) + " of the time against " +
+                                 number(1.0 / classes) +
+                                 " by chance, so the classes differ and the probabilities are too sure when wrong: a "
+                                 "likelihood weight or a Student-t likelihood (skidimm tune --tune "
+                                 "likelihood-weight,likelihood-dof) makes them honest"
+                           : std::string("fit on logs that excite what differs between the modes, or measure what does "
+                                         "differ"));
       break;
     case Verdict::kWorse:
-      out = "worse than a uniform guess (" + figures +
-            "): the bank is sure of wrong classes on these logs; they differ from the logs it was fitted and tuned "
-            "on, or are labelled wrong";
+      out = "worse than a uniform guess (" + figures + "): the bank is sure of wrong classes on these logs; " +
+            (overconfident()
+                 ? "yet the most likely class is right " + number(accuracy) + " of the time against " +
+                       number(1.0 / classes) +
+                       " by chance: the probabilities are too sure when wrong, which a likelihood weight or a "
+                       "Student-t likelihood (skidimm tune --tune likelihood-weight,likelihood-dof) tempers"
+                 : std::string("they differ from the logs it was fitted and tuned on, or are labelled wrong"));
       break;
   }
   if (!not_separated.empty() && (verdict == Verdict::kSeparated || verdict == Verdict::kUnclear)) {

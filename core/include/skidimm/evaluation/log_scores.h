@@ -78,12 +78,17 @@ struct Separability {
   double uniform = 0.0;  // log(1/K)
   double mean = 0.0;
   double standard_error = 0.0;  // 0 over fewer than two logs
+  double accuracy = 0.0;        // mean over logs of each log's accuracy
   int logs = 0;
   Verdict verdict = Verdict::kNotSeparated;
   std::vector<std::string> not_separated;  // classes at or below the guess
   // One or two sentences for a user: what the logs show, and what to do
   // about it when they show nothing.
   std::string describe() const;
+  // The accuracy well above chance (by a quarter or more) where the log
+  // probability is not: the classes differ, and the probabilities are too
+  // sure when wrong, which tempering them mends, not other logs.
+  bool overconfident() const { return classes > 0 && accuracy >= 1.0 / classes + 0.25; }
 };
 // `classes`: K, the number of classes the bank answers with (>= 2).
 Separability separability(const std::vector<LogScore>& scores, int classes);
