@@ -94,27 +94,6 @@ RangeOrProblem range_or_problem(const std::vector<LogScore>& scores, const std::
   return r;
 }
 
-// The decision's scores over `scores` as the accuracy is summarised (the
-// mean over classes of the mean over each class's logs): {right, unknown};
-// NaN where no log has a decision scored.
-std::pair<double, double> decision_over_classes(const std::vector<LogScore>& scores) {
-  std::map<std::string, std::pair<double, double>> sums;
-  std::map<std::string, int> counts;
-  for (const LogScore& s : scores) {
-    if (!std::isfinite(s.decision_accuracy)) continue;
-    sums[s.truth].first += s.decision_accuracy;
-    sums[s.truth].second += s.decision_unknown;
-    ++counts[s.truth];
-  }
-  if (sums.empty()) return {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
-  double right = 0.0, unknown = 0.0;
-  for (const auto& [c, sum] : sums) {
-    right += sum.first / counts[c];
-    unknown += sum.second / counts[c];
-  }
-  return {right / static_cast<double>(sums.size()), unknown / static_cast<double>(sums.size())};
-}
-
 // `held_out`: the scores are of logs nothing chose the settings on, so the
 // range another set of logs would score is said (not of the selection's own
 // cross-validation, which chose them): of `another`'s counts of each class,
@@ -137,9 +116,9 @@ void print_scores(std::ostream& out, const std::string& title, const std::vector
   }
   out << "\n  mean over classes: accuracy " << number(summary.accuracy) << ", mean log p(truth) "
       << number(summary.mean_log_probability) << "\n";
-  if (const auto [right, unknown] = decision_over_classes(scores); std::isfinite(right)) {
-    out << "  the decision (" << decision << "): right " << number(right) << ", `unknown` " << number(unknown)
-        << " of the time (mean over classes)\n";
+  if (std::isfinite(summary.decision_accuracy)) {
+    out << "  the decision (" << decision << "): right " << number(summary.decision_accuracy) << ", `unknown` "
+        << number(summary.decision_unknown) << " of the time (mean over classes)\n";
   }
   if (held_out && scores.size() > 1) {
     const RangeOrProblem r = range_or_problem(scores, another);
@@ -673,7 +652,7 @@ int tune(const TuneCommandOptions& options) {
     // them honest keeps them below a high decision.enter: the decision a
     // user's robot acts on can then be withheld most of the time, which the
     // accuracy of the most likely class does not show.
-    if (const double unknown = decision_over_classes(result.selection_scores).second; unknown > 0.25) {
+    if (const double unknown = result.selection.decision_unknown; unknown > 0.25) {
       std::cerr << "skidimm tune: warning: with the chosen settings the bank's decision (" << decision
                 << ") is `unknown` " << number(100.0 * unknown, "%.0f") << "% of the held-out time: no class's "
                 << "probability reaches decision.enter then. "

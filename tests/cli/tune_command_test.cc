@@ -284,6 +284,23 @@ std::string flooring_and_ice_runs(const std::string& boreal) {
   return logs;
 }
 
+// The BorealTC start bank tuned (the floor alone) on flooring_and_ice_runs(),
+// with the fit options `common`, without and with `option`: the two banks written.
+std::pair<skidimm::BankConfig, skidimm::BankConfig> tuned_without_and_with(const fs::path& dir,
+                                                                           const std::string& boreal,
+                                                                           const std::string& common,
+                                                                           const std::string& option) {
+  const std::string tune = "tune -q --bank " + kSource + "/configs/borealtc/terrains_start.yaml" +
+                           flooring_and_ice_runs(boreal) +
+                           " --objective window --hold-unexcited --tune floor --no-assess --threads 2 " + common +
+                           " --plugin-path " + kPlugins + " --output-bank ";
+  const Result without = run_skidimm(tune + (dir / "without.yaml").string());
+  EXPECT_EQ(without.exit_code, 0) << without.err;
+  const Result with = run_skidimm(tune + (dir / "with.yaml").string() + " " + option);
+  EXPECT_EQ(with.exit_code, 0) << with.err;
+  return {skidimm::load_bank_config(dir / "without.yaml"), skidimm::load_bank_config(dir / "with.yaml")};
+}
+
 TEST(Cli, TuneTempersTheEvidenceOfABankThatOvercountsItOnRealRuns) {
   SKIDIMM_SKIP_UNDER_SANITIZERS_STATISTICAL();  // Tune.* and HostileInput.Tune* run the same code under them
   const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
@@ -333,17 +350,7 @@ TEST(Cli, TuneCountsEachLogsRowsAsCorrelatedWhenAsked) {
   const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
   if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
   const fs::path dir = test_directory();
-  const std::string logs = flooring_and_ice_runs(boreal);
-  const std::string tune = "tune -q --bank " + kSource + "/configs/borealtc/terrains_start.yaml" + logs +
-                           " --objective window --hold-unexcited --tune floor --no-assess --threads 2"
-                           " --parameter-uncertainty --plugin-path " +
-                           kPlugins + " --output-bank ";
-  const Result independent = run_skidimm(tune + (dir / "independent.yaml").string());
-  ASSERT_EQ(independent.exit_code, 0) << independent.err;
-  const Result per_log = run_skidimm(tune + (dir / "per_log.yaml").string() + " --uncertainty-per-log");
-  ASSERT_EQ(per_log.exit_code, 0) << per_log.err;
-  const skidimm::BankConfig a = skidimm::load_bank_config(dir / "independent.yaml");
-  const skidimm::BankConfig b = skidimm::load_bank_config(dir / "per_log.yaml");
+  const auto [a, b] = tuned_without_and_with(dir, boreal, "--parameter-uncertainty", "--uncertainty-per-log");
   ASSERT_EQ(a.modes.size(), b.modes.size());
   int widened = 0;
   for (std::size_t j = 0; j < a.modes.size(); ++j) {
@@ -366,17 +373,7 @@ TEST(Cli, TuneGivesEveryFittedModeThePooledQWhenAsked) {
   const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
   if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
   const fs::path dir = test_directory();
-  const std::string tune = "tune -q --bank " + kSource + "/configs/borealtc/terrains_start.yaml" +
-                           flooring_and_ice_runs(boreal) +
-                           " --objective window --hold-unexcited --full-q --tune floor --no-assess --threads 2"
-                           " --plugin-path " +
-                           kPlugins + " --output-bank ";
-  const Result own = run_skidimm(tune + (dir / "own.yaml").string());
-  ASSERT_EQ(own.exit_code, 0) << own.err;
-  const Result pooled = run_skidimm(tune + (dir / "pooled.yaml").string() + " --pooled-q");
-  ASSERT_EQ(pooled.exit_code, 0) << pooled.err;
-  const skidimm::BankConfig a = skidimm::load_bank_config(dir / "own.yaml");
-  const skidimm::BankConfig b = skidimm::load_bank_config(dir / "pooled.yaml");
+  const auto [a, b] = tuned_without_and_with(dir, boreal, "--full-q", "--pooled-q");
   std::vector<std::size_t> fitted;
   for (std::size_t j = 0; j < a.modes.size(); ++j) {
     if (a.modes[j].name.rfind("FLOORING", 0) == 0 || a.modes[j].name.rfind("ICE", 0) == 0) fitted.push_back(j);

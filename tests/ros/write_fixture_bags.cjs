@@ -176,6 +176,16 @@ async function writeAllTypes(name, options, count = 120) {
   writeExpected(path.join(out, name + ".expected"), messages.map(allTypesExpected));
 }
 
+// A bag of standard ROS 2 types (zstd chunks, complete definitions) with these [topic, type] pairs.
+async function rosBag(name, topics) {
+  const bag = await tools.openMcap(path.join(out, name + ".mcap"), {
+    compression: "zstd",
+    serializeWith: (type) => tools.completeDefinition(type),
+  });
+  for (const [topic, type] of topics) await bag.addTopic(topic, type, tools.completeDefinition(type));
+  return bag;
+}
+
 async function main() {
   await writeAllTypes("all_types", { compression: "zstd" });
   await writeAllTypes("all_types_lz4", { compression: "lz4" });
@@ -239,11 +249,7 @@ async function main() {
   // /joint_states shared by two publishers, each stamping on its own clock: the wheels (left, right) and an arm
   // whose stamps run 30 ms ahead, recorded in arrival order, so the topic's stamps go back and forth.
   {
-    const bag = await tools.openMcap(path.join(out, "two_publishers.mcap"), {
-      compression: "zstd",
-      serializeWith: (type) => tools.completeDefinition(type),
-    });
-    await bag.addTopic("/joint_states", "sensor_msgs/msg/JointState", tools.completeDefinition("sensor_msgs/msg/JointState"));
+    const bag = await rosBag("two_publishers", [["/joint_states", "sensor_msgs/msg/JointState"]]);
     const rows = [];
     for (let k = 0; k < 20; ++k) {
       const ns = BigInt(k) * 100000000n;
@@ -261,12 +267,7 @@ async function main() {
   }
   // A topic with no message beside one with messages (a driver that never published).
   {
-    const bag = await tools.openMcap(path.join(out, "silent_topic.mcap"), {
-      compression: "zstd",
-      serializeWith: (type) => tools.completeDefinition(type),
-    });
-    await bag.addTopic("/imu/data", "sensor_msgs/msg/Imu", tools.completeDefinition("sensor_msgs/msg/Imu"));
-    await bag.addTopic("/joint_states", "sensor_msgs/msg/JointState", tools.completeDefinition("sensor_msgs/msg/JointState"));
+    const bag = await rosBag("silent_topic", [["/imu/data", "sensor_msgs/msg/Imu"], ["/joint_states", "sensor_msgs/msg/JointState"]]);
     for (let k = 0; k < 5; ++k) {
       await bag.add("/joint_states", 1000000000n + BigInt(k) * 100000000n, {
         header: { stamp: { sec: 1, nanosec: k * 100000000 }, frame_id: "base" },
@@ -277,12 +278,7 @@ async function main() {
   }
   // Two topics stamped by different clocks: the IMU's from its driver's start, the joints' in Unix time.
   {
-    const bag = await tools.openMcap(path.join(out, "two_clocks.mcap"), {
-      compression: "zstd",
-      serializeWith: (type) => tools.completeDefinition(type),
-    });
-    await bag.addTopic("/imu/data", "sensor_msgs/msg/Imu", tools.completeDefinition("sensor_msgs/msg/Imu"));
-    await bag.addTopic("/joint_states", "sensor_msgs/msg/JointState", tools.completeDefinition("sensor_msgs/msg/JointState"));
+    const bag = await rosBag("two_clocks", [["/imu/data", "sensor_msgs/msg/Imu"], ["/joint_states", "sensor_msgs/msg/JointState"]]);
     const zeros = new Array(9).fill(0);
     for (let k = 0; k < 20; ++k) {
       const log = 1700000000000000000n + BigInt(k) * 100000000n;

@@ -45,6 +45,21 @@ ScoreSummary summarize(const std::vector<LogScore>& scores) {
     s.accuracy /= static_cast<double>(sums.size());
     s.mean_log_probability /= static_cast<double>(sums.size());
   }
+  std::map<std::string, std::pair<double, double>> decided;  // right, unknown
+  std::map<std::string, int> decided_counts;
+  for (const LogScore& l : scores) {
+    if (!std::isfinite(l.decision_accuracy)) continue;
+    decided[l.truth].first += l.decision_accuracy;
+    decided[l.truth].second += l.decision_unknown;
+    ++decided_counts[l.truth];
+  }
+  if (!decided.empty()) {
+    s.decision_accuracy = s.decision_unknown = 0.0;
+    for (const auto& [c, sum] : decided) {
+      s.decision_accuracy += sum.first / decided_counts[c] / static_cast<double>(decided.size());
+      s.decision_unknown += sum.second / decided_counts[c] / static_cast<double>(decided.size());
+    }
+  }
   return s;
 }
 

@@ -54,6 +54,10 @@ struct ScoreSummary {
   double mean_log_probability = 0.0;
   std::map<std::string, double> class_accuracy;
   std::map<std::string, double> class_log_probability;
+  // The decision's shares of time right and `unknown` (LogScore's), as
+  // summarised alike over the logs that have them; NaN where none has.
+  double decision_accuracy = std::numeric_limits<double>::quiet_NaN();
+  double decision_unknown = std::numeric_limits<double>::quiet_NaN();
 };
 
 // A log's result as its score (name, main truth, accuracy, mean log p(truth), labelled seconds).
