@@ -12,11 +12,16 @@ publishes it (docs/ros2.md):
                                              curL, curR = effort[left], effort[right]
 
 with the time from each message's header.stamp, and the terrain label (the
-truth, when a bag has one) from a std_msgs/msg/String topic /terrain.
+truth, when a bag has one) from a std_msgs/msg/String topic /terrain. A
+driver's header.stamp can step back a few milliseconds now and then (a
+stamp taken on another thread, a clock slewed by NTP); the bag bank leaves
+such a message out (sampling.skip_out_of_order, counted in run's summary)
+instead of stopping the run, which one IMU message of the 50 in a step
+hardly changes.
 
 Whenever terrains.yaml is refitted, run this again; the test
-RosBags.TerrainsRos2IsDerivedFromTerrains (tests/ros/ros2_config_test.sh)
-fails while the two differ anywhere but in `columns:`.
+RosBags.TerrainsRos2IsDerivedFromTerrains (tests/CMakeLists.txt)
+fails while the two differ anywhere but in `columns:` and that key.
 
     python3 scripts/derive_ros2_config.py          # rewrites terrains_ros2.yaml
     python3 scripts/derive_ros2_config.py --check  # exit 1 (and a diff) if it is not what this writes
@@ -79,18 +84,36 @@ def ros2_columns(block):
     return "".join(out)
 
 
+SKIP_OUT_OF_ORDER = ("  skip_out_of_order: true                # a message whose header.stamp is not after its "
+                     "topic's last is left out, counted in run's summary\n")
+
+
+def ros2_sampling(text):
+    """The sampling: block with skip_out_of_order: true added as its last key."""
+    lines = text.splitlines(keepends=True)
+    start = next(i for i, line in enumerate(lines) if line.startswith("sampling:"))
+    end = start + 1
+    while end < len(lines) and lines[end].startswith((" ", "\t")):
+        end += 1
+    if any("skip_out_of_order" in line for line in lines[start:end]):
+        return text
+    return "".join(lines[:end] + [SKIP_OUT_OF_ORDER] + lines[end:])
+
+
 def derive(source_text):
     before, block, after = split_columns(source_text)
+    after = ros2_sampling(after)
     header = ("# Derived from terrains.yaml by scripts/derive_ros2_config.py (do not edit: rerun it): the same\n"
               "# bank reading a ROS 2 bag, /imu/data (sensor_msgs/msg/Imu) and /joint_states\n"
-              "# (sensor_msgs/msg/JointState, name [left, right]), time from header.stamp (docs/ros2.md).\n")
+              "# (sensor_msgs/msg/JointState, name [left, right]), time from header.stamp (docs/ros2.md);\n"
+              "# a message stamped out of order is left out (sampling.skip_out_of_order), not an error.\n")
     return header + before + ros2_columns(block) + after
 
 
 def main():
     # An unknown option is an error, not a rewrite of terrains_ros2.yaml.
     parser = argparse.ArgumentParser(description="Writes configs/borealtc/terrains_ros2.yaml from terrains.yaml "
-                                                 "(every section but columns:).")
+                                                 "(every section but columns: and one key of sampling:).")
     parser.add_argument("--check", action="store_true",
                         help="write nothing: exit 1, with a diff, if terrains_ros2.yaml is not what this writes")
     arguments = parser.parse_args()

@@ -92,6 +92,17 @@ grep -q "/joint_states.velocity\[left\] /joint_states.velocity\[right\]" "$work/
 grep -q "Messages:  $((imu_rows + pro_rows))$" "$work/bag.txt" || fail "skidimm bag: total message count"
 echo "2. skidimm bag: $imu_rows IMU and $pro_rows joint messages, 100 and 6.5 Hz, velocity[left] and [right]"
 
+# 2b. One IMU message stamped 15 ms behind its slot, 5 ms before the message
+# before it, as a driver stamping on another thread writes now and then: the
+# bundled bag bank leaves it out, counts it, and runs to the end.
+write_bag "$work/jitter.mcap" --stamp-back 1001:15
+"$skidimm" run --bank "$bank" --input "$work/jitter.mcap" --output "$work/jitter.csv" 2>"$work/jitter.err" ||
+  { cat "$work/jitter.err" >&2; fail "jitter: one IMU stamp out of order stopped the bundled bag bank"; }
+grep -q "1 row(s) whose time was not after their file's last row were left out (sampling.skip_out_of_order)" \
+  "$work/jitter.err" || { cat "$work/jitter.err" >&2; fail "jitter: the summary should count the message left out"; }
+[ "$(wc -l <"$work/jitter.csv")" -eq "$(wc -l <"$work/estimates.csv")" ] || fail "jitter: not every step was written"
+echo "2b. one IMU stamp 5 ms before the one before it: left out and counted, every step written"
+
 # 3. --serve at the end of a pipe.
 "$node" "$source_dir/tests/ros/serve_test.cjs" "$skidimm" "$source_dir/configs/ltc_terrains.yaml" \
   "$source_dir/configs/examples/ltc_switching.csv" "$work/serve" | sed 's/^/3. /'

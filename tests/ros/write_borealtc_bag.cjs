@@ -12,7 +12,11 @@
 // correct reader of the CSV).
 //
 //   node write_borealtc_bag.cjs PRO IMU OUT.mcap [--compression zstd|lz4|none] [--no-summary] [--no-schemas]
-// (--no-schemas: schemas with the type's name and no definition)
+//                               [--stamp-back ROW:MS]
+// (--no-schemas: schemas with the type's name and no definition; --stamp-back:
+// the header.stamp of the IMU file's data row ROW, from 0, MS milliseconds
+// earlier, its log time unchanged, as a driver stamping on another thread
+// writes now and then)
 //   node write_borealtc_bag.cjs PRO IMU OUT.jsonl   (messages for write_db3.py)
 "use strict";
 const fs = require("fs");
@@ -20,7 +24,8 @@ const tools = require("./bag_tools.cjs");
 
 async function main() {
   const args = process.argv.slice(2);
-  const positional = args.filter((a, i) => !a.startsWith("--") && !(i > 0 && args[i - 1] === "--compression"));
+  const valued = ["--compression", "--stamp-back"];
+  const positional = args.filter((a, i) => !a.startsWith("--") && !(i > 0 && valued.includes(args[i - 1])));
   const [proPath, imuPath, out] = positional;
   const option = (name) => args.includes(name);
   const compressionIndex = args.indexOf("--compression");
@@ -67,6 +72,14 @@ async function main() {
         linear_acceleration_covariance: zeros,
       },
     });
+  }
+  const stampBackIndex = args.indexOf("--stamp-back");
+  if (stampBackIndex >= 0) {
+    const [row, ms] = args[stampBackIndex + 1].split(":").map(Number);
+    const imuMessages = messages.filter((m) => m.topic === "/imu/data");
+    const header = imuMessages[row].message.header;
+    const ns = tools.nanoseconds(header.stamp) - BigInt(Math.round(ms * 1e6));
+    header.stamp = { sec: Number(ns / 1000000000n), nanosec: Number(ns % 1000000000n) };
   }
   // A recorder writes in the order messages arrive.
   messages.sort((a, b) => (a.logTime < b.logTime ? -1 : a.logTime > b.logTime ? 1 : 0));
