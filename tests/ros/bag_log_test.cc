@@ -306,6 +306,21 @@ TEST(BagLog, AMessageOfAnotherPublisherWithNoneOfTheFieldsReadIsNotARow) {
 // stamps from its own start beside one in Unix time) is said as what it most
 // likely is, with the bank setting that reads every topic by one clock; the
 // time offset of a file, which moves the whole bag, cannot mend it.
+// skidimm bag says how a file is read: through its chunk index, or by a scan
+// where a summary has no chunk to index (a bag without a message, messages
+// outside chunks), which is not a file that lost its summary.
+TEST(BagInfo, SaysWhetherTheFileHasASummary) {
+  EXPECT_EQ(describe_bag(ros_fixture("all_types.mcap")).storage, "mcap (zstd chunks, indexed)");
+  EXPECT_EQ(describe_bag(ros_fixture("all_types_no_summary.mcap")).storage,
+            "mcap (zstd chunks, no summary (read by a scan))");
+  EXPECT_EQ(describe_bag(ros_fixture("all_types_unchunked.mcap")).storage,
+            "mcap (no chunks, with a summary, read by a scan)");
+  const BagInfo empty = describe_bag(ros_fixture("empty.mcap"));
+  EXPECT_EQ(empty.storage, "mcap (no chunks, with a summary, read by a scan)");
+  EXPECT_EQ(empty.messages, 0u);
+  EXPECT_TRUE(empty.problem.empty()) << empty.problem;
+}
+
 TEST(BagLog, ATopicOnAnotherClockNamesItAndTheRecordersClock) {
   BankConfig bank = one_state_bank("/joint_states.velocity[left]", "/imu/data.angular_velocity.z");
   const std::string message = error_of([&] {

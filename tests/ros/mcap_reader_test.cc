@@ -105,7 +105,11 @@ TEST(McapReader, ReadsEveryLayoutOfTheSameMessagesAlike) {
     EXPECT_DOUBLE_EQ(reader.progress(), 1.0);
   }
   EXPECT_FALSE(McapReader(ros_fixture("all_types_no_summary.mcap")).indexed());
+  EXPECT_FALSE(McapReader(ros_fixture("all_types_no_summary.mcap")).has_summary());
+  // Messages outside chunks have no chunk index, but the file's summary is read.
   EXPECT_FALSE(McapReader(ros_fixture("all_types_unchunked.mcap")).indexed());
+  EXPECT_TRUE(McapReader(ros_fixture("all_types_unchunked.mcap")).has_summary());
+  EXPECT_TRUE(reference.has_summary());
   EXPECT_EQ(McapReader(ros_fixture("all_types_lz4.mcap")).compressions(), std::vector<std::string>{"lz4"});
 }
 

@@ -276,6 +276,11 @@ async function main() {
     }
     await bag.close();
   }
+  // A recording closed before any message arrived: its topics and a summary, no chunk.
+  {
+    const bag = await rosBag("empty", [["/imu/data", "sensor_msgs/msg/Imu"]]);
+    await bag.close();
+  }
   // Two topics stamped by different clocks: the IMU's from its driver's start, the joints' in Unix time.
   {
     const bag = await rosBag("two_clocks", [["/imu/data", "sensor_msgs/msg/Imu"], ["/joint_states", "sensor_msgs/msg/JointState"]]);

@@ -58,13 +58,21 @@ class McapBag : public BagReader {
     std::string chunks;
     for (const std::string& c : compressions_) chunks += (chunks.empty() ? "" : ", ") + (c.empty() ? "uncompressed" : c);
     std::string out = chunks.empty() ? "no chunks" : chunks + " chunks";
-    bool indexed = true;
-    for (const auto& reader : readers_) indexed = indexed && reader->indexed();
+    bool indexed = true, summarized = true;
+    for (const auto& reader : readers_) {
+      indexed = indexed && reader->indexed();
+      summarized = summarized && reader->has_summary();
+    }
     std::string mended;
     for (const auto& reader : readers_) {
       if (!reader->mended().empty()) mended = reader->mended();
     }
-    out += !mended.empty() ? ", " + mended : indexed ? ", indexed" : ", no summary (read by a scan)";
+    // A summary without a chunk to index (no message, or messages outside
+    // chunks) is not a file cut short.
+    out += !mended.empty()  ? ", " + mended
+           : indexed        ? ", indexed"
+           : summarized     ? ", with a summary, read by a scan"
+                            : ", no summary (read by a scan)";
     return out;
   }
 

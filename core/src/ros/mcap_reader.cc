@@ -110,6 +110,7 @@ McapReader::McapReader(const std::filesystem::path& path) : path_(path) {
         }
       }
     }
+    has_summary_ = summary_read;
     if (!summary_read || chunks_.empty()) {
       indexed_ = false;
       scan_for_index();

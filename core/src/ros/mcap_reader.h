@@ -87,6 +87,10 @@ class McapReader {
   const std::string& library() const { return library_; }  // the writer
   // True when messages are read through the summary's chunk index.
   bool indexed() const { return indexed_; }
+  // True when the file's summary was read (its schemas, channels and
+  // statistics); a file with one but no chunk (no message, or messages
+  // written outside chunks) is still read by a scan.
+  bool has_summary() const { return has_summary_; }
   const std::map<std::uint16_t, McapSchema>& schemas() const { return schemas_; }
   const std::map<std::uint16_t, McapChannel>& channels() const { return channels_; }
   const McapStatistics& statistics() const { return statistics_; }
@@ -138,6 +142,7 @@ class McapReader {
   std::string profile_;
   std::string library_;
   bool indexed_ = false;
+  bool has_summary_ = false;
   std::map<std::uint16_t, McapSchema> schemas_;
   std::map<std::uint16_t, McapChannel> channels_;
   McapStatistics statistics_;
