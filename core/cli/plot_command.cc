@@ -1,5 +1,6 @@
 // skidimm plot: the paper's figure, drawn by gnuplot.
 #include <fcntl.h>
+#include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -102,8 +103,18 @@ int run_gnuplot(const std::string& gnuplot, const fs::path& script, const fs::pa
   std::string program = gnuplot;
   std::string argument = script.string();
   char* argv[] = {program.data(), argument.data(), nullptr};
+  // skidimm ignores SIGPIPE (a closed output is an error it reports); a
+  // child would inherit that, so gnuplot gets the default back.
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  sigset_t default_signals;
+  sigemptyset(&default_signals);
+  sigaddset(&default_signals, SIGPIPE);
+  posix_spawnattr_setsigdefault(&attributes, &default_signals);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETSIGDEF);
   pid_t pid = 0;
-  const int started = posix_spawn(&pid, gnuplot.c_str(), &actions, nullptr, argv, environ);
+  const int started = posix_spawn(&pid, gnuplot.c_str(), &actions, &attributes, argv, environ);
+  posix_spawnattr_destroy(&attributes);
   posix_spawn_file_actions_destroy(&actions);
   if (started != 0) return -1;
   int status = 0;

@@ -4,6 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <csignal>
 #include <cstdlib>
 #include <fstream>
 #include <string>
@@ -109,6 +110,32 @@ TEST(Cli, PlotDrawsPngAndSvgAndSaysWhenGnuplotIsMissing) {
 // A log stamped by a clock (a ROS 2 bag's header.stamp: epoch seconds) was
 // drawn on an axis from 0 to 1.7e9 s, every panel blank: it is drawn from
 // its first row, whose time the axis names, the log's own panels too.
+// skidimm ignores SIGPIPE for itself; gnuplot, its child, gets the default
+// back, or a gnuplot writing into a closed pipe would never stop. A stand-in
+// gnuplot reports the signals it was started with ignored.
+TEST(CliIo, PlotStartsGnuplotWithSigpipeAtItsDefault) {
+  const fs::path dir = test_directory();
+  fs::create_directories(dir / "bin");
+  {
+    std::ofstream fake(dir / "bin" / "gnuplot");
+    fake << "#!/bin/sh\ngrep SigIgn /proc/$$/status > '" << (dir / "ignored").string() << "'\n";
+  }
+  fs::permissions(dir / "bin" / "gnuplot", fs::perms::owner_all);
+  const std::string log = kSource + "/configs/examples/ltc_switching.csv";
+  ASSERT_EQ(run_skidimm("run -q --bank " + kSource + "/configs/ltc_terrains.yaml --input " + log + " --output " +
+                        (dir / "out.csv").string())
+                .exit_code,
+            0);
+  const std::string command = "env PATH=" + (dir / "bin").string() + ":/usr/bin:/bin " +
+                              std::string(SKIDIMM_EXECUTABLE) + " plot --estimates " + (dir / "out.csv").string() +
+                              " --output " + (dir / "x.png").string() + " 2>/dev/null";
+  std::system(command.c_str());
+  const std::string ignored = read_file(dir / "ignored");
+  ASSERT_THAT(ignored, HasSubstr("SigIgn:"));
+  const unsigned long mask = std::stoul(ignored.substr(ignored.find(':') + 1), nullptr, 16);
+  EXPECT_EQ(mask & (1ul << (SIGPIPE - 1)), 0ul) << ignored;
+}
+
 TEST(CliIo, PlotDrawsALogStampedByAClockFromItsFirstRow) {
   const fs::path dir = test_directory();
   auto rows = read_csv(kSwitching);
