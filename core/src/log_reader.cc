@@ -1,6 +1,7 @@
 #include "skidimm/io/log_reader.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <exception>
 #include <limits>
@@ -42,6 +43,16 @@ constexpr const char* kMaybeSelectedByNameHint =
 constexpr const char* kSelectedByNameHint =
     " (a sequence's entry selected by name, [NAME], has a value only in messages that have that name: `skidimm bag "
     "FILE` lists the names the bag has)";
+
+// A time in a message, never in exponent form below 1e15 s: a Unix time in
+// ms (1700000000000) reads as 1.7e+12 in the shortest form, beside the next
+// row's 1700000000154, and the two look like different kinds of number.
+std::string time_text(double t) {
+  if (!std::isfinite(t) || std::abs(t) >= 1e15) return CsvWriter::format(t);
+  char buffer[64];
+  const auto written = std::to_chars(buffer, buffer + sizeof(buffer), t, std::chars_format::fixed);
+  return written.ec == std::errc() ? std::string(buffer, written.ptr) : CsvWriter::format(t);
+}
 
 constexpr const char* kOutOfOrderHint =
     ". If the row repeats an earlier one or was written out of order, sampling.skip_out_of_order: true in the bank "
@@ -108,12 +119,12 @@ bool LogReader::Impl::read_row_or_throw(Stream& s) {
     }
     if (t <= s.read_t) {
       const std::string what = "column '" + bank_.columns.time + "': time must increase strictly, but " +
-                               CsvWriter::format(t) + " follows " + CsvWriter::format(s.read_t);
+                               time_text(t) + " follows " + time_text(s.read_t);
       if (sampling_.skip_out_of_order) {
         // The row is left out, as if the file did not have it.
         if (stats_.out_of_order_skipped++ == 0) {
           stats_.first_out_of_order =
-              reader.error_at_row("t = " + CsvWriter::format(t) + " after " + CsvWriter::format(s.read_t)).what();
+              reader.error_at_row("t = " + time_text(t) + " after " + time_text(s.read_t)).what();
         }
         continue;
       }
@@ -580,8 +591,8 @@ void LogReader::Impl::pass_gap(double next_row) {
                              : "the filter would cross it in one step, and the row before it would stand for the whole "
                                "gap in every time-weighted score";
     throw reader.error_at_row(
-        "column '" + bank_.columns.time + "': the log has no row from t = " + CsvWriter::format(last_row_t_) + " to " +
-        CsvWriter::format(next_row) + " s, a gap of " + CsvWriter::format(gap) + " s, longer than sampling.max_gap (" +
+        "column '" + bank_.columns.time + "': the log has no row from t = " + time_text(last_row_t_) + " to " +
+        time_text(next_row) + " s, a gap of " + time_text(gap) + " s, longer than sampling.max_gap (" +
         CsvWriter::format(sampling_.max_gap) + " s): " + crossing + ". " +
         // Longer than a day, or already between the log's first rows: more
         // likely a unit than a pause.
