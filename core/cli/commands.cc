@@ -388,9 +388,9 @@ int run(const RunOptions& options) {
       const double unknown = static_cast<double>(summary.decision_unknown) / static_cast<double>(rows);
       std::fprintf(stderr,
                    "  the decision (%s) changed %ld time(s) and was `unknown` on %.1f%% of the rows, the most "
-                   "likely mode changed %zu time(s)\n",
+                   "likely mode changed %ld time(s)\n",
                    evaluation::decision_settings_text(said).c_str(), summary.decision_changes, 100.0 * unknown,
-                   timeline.intervals().size() - 1);
+                   timeline.changes());
       if (unknown > 0.25) {
         std::fprintf(stderr,
                      "  (a decision is taken when a mode's (class's) probability reaches decision.enter, %s: a bank "

@@ -282,7 +282,9 @@ void write_estimates(const Bank& bank, SampleSource* reader, const EstimatorOpti
         s.rejected += e.num_rejected_modes > 0;
         s.gated += e.status == StepStatus::kGated;
         s.mode_gated += e.num_gated_modes > 0 && e.status != StepStatus::kGated;
-        s.timeline.add(sample.t, e.most_likely_mode, e.mode_probabilities[e.most_likely_mode]);
+        const double top = e.mode_probabilities[e.most_likely_mode];
+        const bool tied = std::count(e.mode_probabilities.begin(), e.mode_probabilities.end(), top) > 1;
+        s.timeline.add(sample.t, tied ? ModeTimeline::kTie : e.most_likely_mode, top);
         if (!envelope.empty() && !e.unknown_is_most_likely()) {
           const int c = class_of_mode[static_cast<std::size_t>(e.most_likely_mode)];
           const Excursion outside = envelope.outside(c, sample.u);

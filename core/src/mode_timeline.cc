@@ -16,12 +16,25 @@ void ModeTimeline::add(double t, int most_likely_mode, double probability) {
   current.mean_probability += (probability - current.mean_probability) / static_cast<double>(current.steps);
 }
 
+long ModeTimeline::changes() const {
+  long changes = 0;
+  int last = kTie;
+  for (const ModeInterval& interval : intervals_) {
+    if (interval.mode == kTie) continue;
+    if (last != kTie && interval.mode != last) ++changes;
+    last = interval.mode;
+  }
+  return changes;
+}
+
 std::string ModeTimeline::format(const std::vector<std::string>& mode_names, std::size_t max_rows) const {
-  std::size_t width = 4;
+  static const std::string kTieName = "(a tie)";
+  std::size_t width = kTieName.size();
   for (const std::string& name : mode_names) width = std::max(width, name.size());
   auto row = [&](const ModeInterval& interval) {
     char buffer[512];
-    const std::string& name = mode_names.at(static_cast<std::size_t>(interval.mode));
+    const std::string& name =
+        interval.mode == kTie ? kTieName : mode_names.at(static_cast<std::size_t>(interval.mode));
     std::snprintf(buffer, sizeof(buffer), "  %10.3f - %10.3f s  %-*s  (%ld steps, mean p = %.3f)\n", interval.start,
                   interval.end, static_cast<int>(width), name.c_str(), interval.steps, interval.mean_probability);
     return std::string(buffer);

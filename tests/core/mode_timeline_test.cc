@@ -21,6 +21,22 @@ TEST(ModeTimeline, MergesConsecutiveStepsAndAveragesProbability) {
   EXPECT_NE(text.find("0.000 -      0.100 s  asphalt  (2 steps, mean p = 0.700)"), std::string::npos) << text;
 }
 
+// A step where modes share the top probability names no mode, and leaving
+// it for a mode is no change of the most likely mode.
+TEST(ModeTimeline, ATieNamesNoModeAndIsNoChange) {
+  ModeTimeline timeline;
+  timeline.add(0.0, ModeTimeline::kTie, 0.5);
+  timeline.add(0.1, 1, 0.6);
+  timeline.add(0.2, ModeTimeline::kTie, 0.5);
+  timeline.add(0.3, 1, 0.8);
+  timeline.add(0.4, 0, 0.9);
+  EXPECT_EQ(timeline.intervals().size(), 5u);
+  EXPECT_EQ(timeline.changes(), 1) << "asphalt -> grass; the ties are no change";
+  const std::string text = timeline.format({"grass", "asphalt"});
+  EXPECT_NE(text.find("0.000 -      0.000 s  (a tie)  (1 steps, mean p = 0.500)"), std::string::npos) << text;
+  EXPECT_NE(text.find("0.100 -      0.100 s  asphalt  (1 steps"), std::string::npos) << text;
+}
+
 TEST(ModeTimeline, LongTimelinesAreElided) {
   ModeTimeline timeline;
   for (int k = 0; k < 100; ++k) timeline.add(k, k % 2, 1.0);

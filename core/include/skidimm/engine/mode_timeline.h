@@ -12,7 +12,7 @@
 namespace skidimm {
 
 struct ModeInterval {
-  int mode = 0;
+  int mode = 0;  // ModeTimeline::kTie where no mode was ahead
   double start = 0.0;  // time of the first step in the interval (s)
   double end = 0.0;    // time of the last step in the interval (s)
   long steps = 0;
@@ -21,9 +21,17 @@ struct ModeInterval {
 
 class ModeTimeline {
  public:
+  // The mode of a step where two or more modes share the top probability
+  // (the first step of a bank with uniform initial probabilities): no mode
+  // is ahead, and naming the first of them would say one was.
+  static constexpr int kTie = -1;
+
   void add(double t, int most_likely_mode, double probability);
   const std::vector<ModeInterval>& intervals() const { return intervals_; }
   long steps() const { return steps_; }
+  // How many times the most likely mode changed: from one mode to another,
+  // across any ties between them (a tie and the mode after it is no change).
+  long changes() const;
 
   // A readable table, at most `max_rows` intervals (the first and last halves
   // when there are more), with the mode names.
