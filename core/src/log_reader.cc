@@ -118,8 +118,8 @@ bool LogReader::Impl::read_row_or_throw(Stream& s) {
                                                 CsvWriter::format(s.offset) + " s) added");
     }
     if (t <= s.read_t) {
-      const std::string what = "column '" + bank_.columns.time + "': time must increase strictly, but " +
-                               time_text(t) + " follows " + time_text(s.read_t);
+      const std::string what = "column '" + bank_.columns.time + "': time must increase strictly, but " + time_text(t) +
+                               " follows " + time_text(s.read_t);
       if (sampling_.skip_out_of_order) {
         // The row is left out, as if the file did not have it.
         if (stats_.out_of_order_skipped++ == 0) {

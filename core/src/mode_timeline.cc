@@ -33,8 +33,7 @@ std::string ModeTimeline::format(const std::vector<std::string>& mode_names, std
   for (const std::string& name : mode_names) width = std::max(width, name.size());
   auto row = [&](const ModeInterval& interval) {
     char buffer[512];
-    const std::string& name =
-        interval.mode == kTie ? kTieName : mode_names.at(static_cast<std::size_t>(interval.mode));
+    const std::string& name = interval.mode == kTie ? kTieName : mode_names.at(static_cast<std::size_t>(interval.mode));
     std::snprintf(buffer, sizeof(buffer), "  %10.3f - %10.3f s  %-*s  (%ld steps, mean p = %.3f)\n", interval.start,
                   interval.end, static_cast<int>(width), name.c_str(), interval.steps, interval.mean_probability);
     return std::string(buffer);

@@ -418,8 +418,8 @@ TEST(LogReader, AGapOfADayOrMoreAsksWhetherTheStampsAreInSeconds) {
   LogReader ms(simple_bank(), {milliseconds});
   read_until_error(ms, {"a gap of 20 s", asked});
   // Unix time in ms: both ends written alike, not 1.7e+12 beside 1700000000154.
-  const auto unix_ms = write_file(test_directory() / "log.csv",
-                                  "t,left,right,v,w\n1700000000000,1,2,3,4\n1700000000154,1,2,3,4\n");
+  const auto unix_ms =
+      write_file(test_directory() / "log.csv", "t,left,right,v,w\n1700000000000,1,2,3,4\n1700000000154,1,2,3,4\n");
   LogReader epoch(simple_bank(), {unix_ms});
   read_until_error(epoch, {"no row from t = 1700000000000 to 1700000000154 s, a gap of 154 s", asked});
   const auto paused = write_file(test_directory() / "log.csv",

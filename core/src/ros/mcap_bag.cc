@@ -69,10 +69,10 @@ class McapBag : public BagReader {
     }
     // A summary without a chunk to index (no message, or messages outside
     // chunks) is not a file cut short.
-    out += !mended.empty()  ? ", " + mended
-           : indexed        ? ", indexed"
-           : summarized     ? ", with a summary, read by a scan"
-                            : ", no summary (read by a scan)";
+    out += !mended.empty() ? ", " + mended
+           : indexed       ? ", indexed"
+           : summarized    ? ", with a summary, read by a scan"
+                           : ", no summary (read by a scan)";
     return out;
   }
 

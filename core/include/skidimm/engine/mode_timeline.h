@@ -12,7 +12,7 @@
 namespace skidimm {
 
 struct ModeInterval {
-  int mode = 0;  // ModeTimeline::kTie where no mode was ahead
+  int mode = 0;        // ModeTimeline::kTie where no mode was ahead
   double start = 0.0;  // time of the first step in the interval (s)
   double end = 0.0;    // time of the last step in the interval (s)
   long steps = 0;
