@@ -11,9 +11,9 @@
 #     terrain, seeded) was drawn before the design was chosen; the design
 #     (configs/borealtc/terrains_start.yaml against physics_start.yaml, the
 #     Student-t likelihood, which settings tune searches, each mode's
-#     parameter uncertainty) was chosen on the other 37, the development
-#     runs, and scored on the lockbox here.
-#     B1. The design: `skidimm tune --parameter-uncertainty` on the
+#     parameter uncertainty, partial pooling of their fits) was chosen on the
+#     other 37, the development runs, and scored on the lockbox here.
+#     B1. The design: `skidimm tune --parameter-uncertainty --partial-pooling` on the
 #         development runs with every protocol
 #         of nested assessment (each log held out; each session held out;
 #         per terrain, the fastest and the most-turning runs held out), and
@@ -27,6 +27,8 @@
 #         lockbox.
 #     B1c. A third design, tried and not kept: each mode's parameter
 #         uncertainty with each log's rows counted as correlated, on the
+#         same protocols and the lockbox.
+#     B1d. The second design, the design without partial pooling, on the
 #         same protocols and the lockbox.
 #     B2. The physics-shaped alternative with parameter uncertainty, on the
 #         same runs and protocols, against the design, and the rule that
@@ -117,8 +119,9 @@ read -ra fit <<<"$(inner 0)"
 by_session=(--sessions configs/borealtc/sessions.txt)
 knobs=likelihood-weight,likelihood-dof,q-scale,r-scale,floor
 # The design's parameter uncertainty: each mode's parameter covariance, its rows counted independent
-# (the second design; the third counted each log's rows as correlated, step B1c).
-uncertainty=(--parameter-uncertainty)
+# (the second design; the third counted each log's rows as correlated, step B1c), and the fits of
+# the modes of one regime (turning, straight) pooled partially by it (the fourth, the design).
+uncertainty=(--parameter-uncertainty --partial-pooling)
 
 # B1. The design, scored.
 "$skidimm" tune -q --bank configs/borealtc/terrains_start.yaml "${develop[@]}" "${aside[@]}" "${fit[@]}" \
@@ -159,7 +162,12 @@ another_design first
 # It was taken by the rule the design's choices are made by, on the development runs' scores of it and
 # the second design, while tune's search stopped at its sweeps' reach, and scored on the lockbox; with
 # the search going on while the score rises, the same rule on the same protocols does not take it.
-another_design correlated "${uncertainty[@]}" --uncertainty-per-log
+another_design correlated --parameter-uncertainty --uncertainty-per-log
+
+# B1d. The second design: each mode's parameter uncertainty, without partial pooling. Partial pooling
+# was added on the development runs' scores of both, by the rule the design's choices are made by,
+# before the lockbox scored it.
+another_design unpooled --parameter-uncertainty
 
 # B2. The physics-shaped form with each mode's parameter uncertainty, as the design has it: the two
 # forms compared as the bank would use them, on the same runs and compared protocols (no lockbox: it

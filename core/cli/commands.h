@@ -183,6 +183,7 @@ struct FitCommandOptions {
   bool uncertainty_per_log = false;    // with it: each log's rows counted as correlated
   bool residual_correlation = false;   // window: write each fitted mode's residual correlation
   bool pooled_q = false;               // window: every fitted mode gets the mean of the modes' Q
+  bool partial_pooling = false;        // with parameter_uncertainty: each regime's fits pooled partially
   bool hold_unexcited = false;        // hold parameters the logs do not excite at their starting values
   double window = 0.0;                // s; 0: one-step
   std::string loss = "huber";
@@ -220,6 +221,7 @@ struct TuneCommandOptions {
   bool uncertainty_per_log = false;    // with it: each log's rows counted as correlated
   bool residual_correlation = false;   // window objective: each fitted mode's residual correlation
   bool pooled_q = false;               // window objective: every fitted mode gets the mean of the modes' Q
+  bool partial_pooling = false;        // with --parameter-uncertainty: each regime's fits pooled partially
   std::filesystem::path output_bank;
   std::filesystem::path table;      // per-log scores as CSV
   std::filesystem::path estimates;  // the nested assessment's per-step outputs: a folder per protocol, a file per log

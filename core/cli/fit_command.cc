@@ -306,6 +306,7 @@ int fit(const FitCommandOptions& options) {
     fit_options.uncertainty_per_log = options.uncertainty_per_log;
     fit_options.residual_correlation = options.residual_correlation;
     fit_options.pooled_process_noise = options.pooled_q;
+    fit_options.partial_pooling = options.partial_pooling;
     request.mode = options.mode;
     request.name = options.name;
     request.sampling = sampling;

@@ -130,6 +130,9 @@ CLI::Validator logs_per_class() {
 const char* const kPooledQ =
     "Window objective: give every fitted mode one Q, the mean of the modes' own estimates, so the modes are told apart "
     "by what they predict rather than by how much each expects to miss";
+const char* const kPartialPooling =
+    "With --parameter-uncertainty: pool the fitted parameters of the modes of one regime (same model and fit_when, "
+    "three modes or more) partially, each towards their mean by how little its own logs determined it";
 const char* const kUncertaintyPerLog =
     "With --parameter-uncertainty: count each log's rows as correlated, each channel's residual variance scaled by "
     "its design effect over the logs (about the rows per log where each log is missed by an offset of its own), so "
@@ -415,6 +418,7 @@ int main(int argc, char** argv) {
                 "Window objective: write each fitted mode's residual correlation (residual_correlation:), the lag-1 "
                 "correlation of its whitened one-step errors, so its likelihood counts a persistent miss once");
   fit->add_flag("--pooled-q", fit_options.pooled_q, kPooledQ);
+  fit->add_flag("--partial-pooling", fit_options.partial_pooling, kPartialPooling)->needs("--parameter-uncertainty");
   fit->add_flag("--full-q", fit_options.full_q,
                 "Q with off-diagonal terms (likelihood: fitted; window: the correlations of the one-step errors)");
   fit->add_flag("--hold-unexcited", fit_options.hold_unexcited,
@@ -525,6 +529,7 @@ int main(int argc, char** argv) {
                  "Window objective: each fitted mode's residual correlation (residual_correlation:), estimated on "
                  "each fold's training runs (written to --output-bank)");
   tune->add_flag("--pooled-q", tune_options.pooled_q, kPooledQ);
+  tune->add_flag("--partial-pooling", tune_options.partial_pooling, kPartialPooling)->needs("--parameter-uncertainty");
   tune->add_flag("--hold-unexcited", tune_options.hold_unexcited,
                  "Hold parameters the logs do not excite at their starting values instead of failing the fit");
   tune->add_option("--output-bank", tune_options.output_bank,

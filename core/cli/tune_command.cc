@@ -592,6 +592,8 @@ int tune(const TuneCommandOptions& options) {
       fit_options.residual_correlation = options.residual_correlation;
       fit_options.pooled_process_noise = options.pooled_q;
       if (options.pooled_q) tune_options.pooled_process_noise.insert(name);
+      fit_options.partial_pooling = options.partial_pooling;
+      if (options.partial_pooling) tune_options.partial_pooling.insert(name);
       fit_options.window.standard_deviations = false;  // the folds' reports are not kept
       // Without a joint R each mode's fit depends on its own logs alone.
       if (!options.fit_r) tune_options.separable.insert(name);

@@ -394,7 +394,7 @@ def eval(bank, inputs, *, rate=None, smooth=False, lag=None, splice=False, outpu
 def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", window=0.0, loss="huber",
         loss_scale=3.0, hold_unexcited=False, shared=False, fit_r=False, full_q=False, output_noise=False,
         parameter_uncertainty=False, uncertainty_per_log=False, residual_correlation=False, pooled_q=False,
-        output_bank=None, skip_unpaired=False, plugin_paths=(), models=None):
+        partial_pooling=False, output_bank=None, skip_unpaired=False, plugin_paths=(), models=None):
     """``skidimm fit``: fits the bank's modes to ``logs`` (``--log`` arguments).
 
     Returns a dict: ``bank_yaml`` (the whole fitted bank, as
@@ -412,7 +412,7 @@ def fit(bank, logs, *, mode="", name="", rate=None, objective="likelihood", wind
     logs = [_os.fspath(log) for log in logs]
     options = _native.fit_options(objective, float(window), loss, float(loss_scale), hold_unexcited, shared, fit_r,
                                   full_q, output_noise, parameter_uncertainty, uncertainty_per_log,
-                                  residual_correlation, pooled_q)
+                                  residual_correlation, pooled_q, partial_pooling)
     bank_file = _os.fspath(bank.file if isinstance(bank, _native.Bank) else bank)
     if isinstance(bank, _native.Bank):
         plugin_paths, models = bank.plugin_paths, bank.python_models

@@ -150,22 +150,23 @@ def _fit(bank_file, plugin_paths, models, options, modes, *segments):
 def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihood", window=0.0, loss="huber",
         loss_scale=3.0, hold_unexcited=False, shared=False, fit_r=False, full_q=False, output_noise=False,
         parameter_uncertainty=False, uncertainty_per_log=False, residual_correlation=False, pooled_q=False,
-        output_bank=None, skip_unpaired=False, plugin_paths=(), models=None):
+        partial_pooling=False, output_bank=None, skip_unpaired=False, plugin_paths=(), models=None):
     """``skidimm fit`` with the logs read on the cluster and each mode fitted on its own worker.
 
     Same arguments and result as :func:`skidimm.fit`. Reading and splitting
     the logs is per log; fitting is per mode (each mode's fit depends only on
     its own segments), except when the fit couples the modes (``shared``
-    bank-level parameters, one ``fit_r`` for the bank), which runs as one
-    task. The segments go from the workers that read them to the worker that
-    fits their mode, not through the client.
+    bank-level parameters, one ``fit_r`` for the bank, ``partial_pooling``
+    of the modes' estimates), which runs as one task. The segments go from
+    the workers that read them to the worker that fits their mode, not
+    through the client.
     """
     if isinstance(logs, (str, os.PathLike)):
         logs = [logs]
     bank_file, plugin_paths, models = _bank_arguments(bank, plugin_paths, models)
     options = skidimm._native.fit_options(objective, float(window), loss, float(loss_scale), hold_unexcited, shared,
                                           fit_r, full_q, output_noise, parameter_uncertainty, uncertainty_per_log,
-                                          residual_correlation, pooled_q)
+                                          residual_correlation, pooled_q, partial_pooling)
     rate = 0.0 if rate is None else float(rate)
     if output_bank is not None:  # before the fit, which a bad path found after it would lose
         skidimm._native.check_output_path(os.fspath(output_bank), "output_bank")
@@ -186,7 +187,7 @@ def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihoo
     notes.append(skidimm._native.fit_notes(skidimm.Bank(bank_file, plugin_paths, models), []))
     for note in (note for of_log in notes for note in of_log):
         warnings.warn(note, stacklevel=2)
-    if shared or fit_r:  # the modes are fitted jointly
+    if shared or fit_r or partial_pooling:  # the modes are fitted jointly, or pooled together
         tasks = [client.submit(_fit, bank_file, plugin_paths, models, options, None, *segments, pure=False)]
     else:
         tasks = []
@@ -205,6 +206,7 @@ def fit(client, bank, logs, *, mode="", name="", rate=None, objective="likelihoo
             entry["report"]["q"] = entry["q"]
     local = skidimm.Bank(bank_file, plugin_paths, models)
     for j, entry in fitted.items():
-        skidimm._native.apply_fit(local, j, entry["parameters"], entry["q"], entry["r"], entry["fitted_inputs"])
+        skidimm._native.apply_fit(local, j, entry["parameters"], entry["q"], entry["r"], entry["fitted_inputs"],
+                                  entry["parameter_covariance"], entry["residual_correlation"])
     call = "skidimm.dask.fit(" + ", ".join(repr(os.fspath(log)) for log in logs) + ")"
     return skidimm._fit_result(local, fitted, options, mode, name, output_bank, plugin_paths, models, call, rate)

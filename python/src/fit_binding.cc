@@ -23,6 +23,7 @@
 #include "python_arguments.h"
 #include "python_model.h"
 #include "skidimm/config/run_overrides.h"
+#include "skidimm/engine/parameter_uncertainty.h"
 #include "skidimm/errors.h"
 #include "skidimm/fitting/bank_fit.h"
 #include "skidimm/fitting/fit_logs.h"
@@ -41,7 +42,7 @@ namespace {
 fitting::BankFitOptions fit_options_of(const std::string& objective, double window, const std::string& loss,
                                        double loss_scale, bool hold_unexcited, bool shared, bool fit_r, bool full_q,
                                        bool output_noise, bool parameter_uncertainty, bool uncertainty_per_log,
-                                       bool residual_correlation, bool pooled_q) {
+                                       bool residual_correlation, bool pooled_q, bool partial_pooling) {
   fitting::BankFitOptions o;
   o.objective = fitting::objective_from_string(objective);
   o.window.window = window;
@@ -56,6 +57,7 @@ fitting::BankFitOptions fit_options_of(const std::string& objective, double wind
   o.uncertainty_per_log = uncertainty_per_log;
   o.residual_correlation = residual_correlation;
   o.pooled_process_noise = pooled_q;
+  o.partial_pooling = partial_pooling;
   return o;
 }
 
@@ -177,6 +179,12 @@ py::dict fit_in_place(PyBank& bank, const std::vector<fitting::ModeLogs>& data,
       ranges[py::str(input)] = py::make_tuple(range.lowest, range.highest);
     }
     entry["fitted_inputs"] = ranges;
+    // What --parameter-uncertainty and --residual-correlation wrote into the mode.
+    const ModeConfig& fitted = bank.config().modes[static_cast<std::size_t>(d.mode)];
+    entry["parameter_covariance"] = fitted.parameter_covariance.size() > 0
+                                        ? py::object(matrix_array(fitted.parameter_covariance))
+                                        : py::object(py::none());
+    entry["residual_correlation"] = fitted.residual_correlation;
     entry["logs"] = fitting::log_count(d);
     out[py::int_(d.mode)] = entry;
   }
@@ -190,15 +198,20 @@ void bind_fit(py::module_& m) {
       "fit_options",
       [](const std::string& objective, double window, const std::string& loss, double loss_scale, bool hold_unexcited,
          bool shared, bool fit_r, bool full_q, bool output_noise, bool parameter_uncertainty, bool uncertainty_per_log,
-         bool residual_correlation, bool pooled_q) {
+         bool residual_correlation, bool pooled_q, bool partial_pooling) {
         // Validated here (objective names) so that a bad option fails before any log is read.
         const fitting::BankFitOptions o =
             fit_options_of(objective, window, loss, loss_scale, hold_unexcited, shared, fit_r, full_q, output_noise,
-                           parameter_uncertainty, uncertainty_per_log, residual_correlation, pooled_q);
+                           parameter_uncertainty, uncertainty_per_log, residual_correlation, pooled_q, partial_pooling);
         if (uncertainty_per_log && !parameter_uncertainty) {
           throw Error(
               "uncertainty_per_log scales each mode's parameter covariance, which parameter_uncertainty=True "
               "writes; give both");
+        }
+        if (partial_pooling && !parameter_uncertainty) {
+          throw Error(
+              "partial_pooling weighs each mode's estimates by their covariance, which parameter_uncertainty=True "
+              "estimates; give both");
         }
         // Another objective's option would be ignored without a word, as `skidimm fit` refuses it.
         const fitting::FitOptions defaults;
@@ -227,19 +240,21 @@ void bind_fit(py::module_& m) {
                         py::arg("output_noise") = output_noise,
                         py::arg("parameter_uncertainty") = parameter_uncertainty,
                         py::arg("uncertainty_per_log") = uncertainty_per_log,
-                        py::arg("residual_correlation") = residual_correlation, py::arg("pooled_q") = pooled_q);
+                        py::arg("residual_correlation") = residual_correlation, py::arg("pooled_q") = pooled_q,
+                        py::arg("partial_pooling") = partial_pooling);
       },
       py::arg("objective") = "likelihood", py::arg("window") = 0.0, py::arg("loss") = "huber",
       py::arg("loss_scale") = 3.0, py::arg("hold_unexcited") = false, py::arg("shared") = false,
       py::arg("fit_r") = false, py::arg("full_q") = false, py::arg("output_noise") = false,
       py::arg("parameter_uncertainty") = false, py::arg("uncertainty_per_log") = false,
-      py::arg("residual_correlation") = false, py::arg("pooled_q") = false);
+      py::arg("residual_correlation") = false, py::arg("pooled_q") = false, py::arg("partial_pooling") = false);
   auto options_from = [](const py::dict& o) {
     return fit_options_of(o["objective"].cast<std::string>(), o["window"].cast<double>(), o["loss"].cast<std::string>(),
                           o["loss_scale"].cast<double>(), o["hold_unexcited"].cast<bool>(), o["shared"].cast<bool>(),
                           o["fit_r"].cast<bool>(), o["full_q"].cast<bool>(), o["output_noise"].cast<bool>(),
                           o["parameter_uncertainty"].cast<bool>(), o["uncertainty_per_log"].cast<bool>(),
-                          o["residual_correlation"].cast<bool>(), o["pooled_q"].cast<bool>());
+                          o["residual_correlation"].cast<bool>(), o["pooled_q"].cast<bool>(),
+                          o["partial_pooling"].cast<bool>());
   };
   m.def(
       "load_fit_logs",
@@ -301,8 +316,8 @@ void bind_fit(py::module_& m) {
   m.def(
       "apply_fit",
       [](PyBank& bank, int mode, const Eigen::VectorXd& parameters, const Eigen::MatrixXd& q,
-         const std::optional<Eigen::MatrixXd>& r,
-         const std::map<std::string, std::pair<double, double>>& fitted_inputs) {
+         const std::optional<Eigen::MatrixXd>& r, const std::map<std::string, std::pair<double, double>>& fitted_inputs,
+         const std::optional<Eigen::MatrixXd>& parameter_covariance, double residual_correlation) {
         if (mode < 0 || mode >= bank.config().num_modes()) throw py::index_error("no mode " + std::to_string(mode));
         std::string error;
         if (!bank.bank->models[static_cast<std::size_t>(mode)]->set_parameters(parameters, &error)) throw Error(error);
@@ -312,11 +327,14 @@ void bind_fit(py::module_& m) {
         config.fitted_inputs.clear();
         for (const auto& [input, range] : fitted_inputs)
           config.fitted_inputs[input] = InputRange{range.first, range.second};
+        config.residual_correlation = residual_correlation;
+        if (parameter_covariance) set_fitted_parameter_covariance(bank.bank.get(), mode, *parameter_covariance);
       },
       py::arg("bank"), py::arg("mode"), py::arg("parameters"), py::arg("q"), py::arg("r") = py::none(),
       py::arg("fitted_inputs") = std::map<std::string, std::pair<double, double>>{},
-      "Sets a mode's fitted parameters, Q, (given) its own R and its inputs' fitted ranges, as fit_in_place left "
-      "them on the bank it fitted.");
+      py::arg("parameter_covariance") = py::none(), py::arg("residual_correlation") = 0.0,
+      "Sets a mode's fitted parameters, Q, (given) its own R, its inputs' fitted ranges, (given) its parameter "
+      "covariance and its residual correlation, as fit_in_place left them on the bank it fitted.");
   m.def(
       "check_output_path", [](const fs::path& path, const std::string& option) { check_output_path(path, option); },
       py::arg("path"), py::arg("option"),

@@ -83,6 +83,43 @@ def test_fit_with_one_pooled_q_on_the_cluster_equals_the_local_fit(client, confi
         skidimm.fit(bank, logs, pooled_q=True)
 
 
+def test_fit_with_partial_pooling_on_the_cluster_equals_the_local_fit(client, configs, tmp_path):
+    """Partial pooling couples the modes: the cluster fits them in one task, as fit_bank does."""
+    bank = configs / "ltc_terrains.yaml"
+    logs = []
+    for seed in (7100, 7101):  # 35 s: every one of the three terrains, a regime to pool over
+        logs.append(str(tmp_path / f"run_{seed}.csv"))
+        skidimm.simulate(configs / "scenarios" / "ltc_switching.yaml", seed=seed, duration=35.0, output=logs[-1])
+    own = skidimm.fit(bank, logs, objective="window", parameter_uncertainty=True)
+    here = skidimm.fit(bank, logs, objective="window", parameter_uncertainty=True, partial_pooling=True)
+    there = skidimm.dask.fit(client, bank, logs, objective="window", parameter_uncertainty=True,
+                             partial_pooling=True)
+
+    def body(text):
+        return [line for line in text.splitlines() if not line.startswith("# ")]
+
+    assert body(there["bank_yaml"]) == body(here["bank_yaml"])
+    # Each mode on its own worker keeps its parameter covariance and residual correlation too.
+    own_there = skidimm.dask.fit(client, bank, logs, objective="window", parameter_uncertainty=True,
+                                 residual_correlation=True)
+    own_here = skidimm.fit(bank, logs, objective="window", parameter_uncertainty=True, residual_correlation=True)
+    assert "parameter_covariance:" in own_here["bank_yaml"] and "residual_correlation:" in own_here["bank_yaml"]
+    assert body(own_there["bank_yaml"]) == body(own_here["bank_yaml"])
+    # Estimates closer together (each moves towards the mean, and with it, by their correlation, the others), and
+    # none much less sure than before.
+    terrains = ("asphalt", "grass", "crushed_concrete")
+    for parameter in ("A[0,0]", "B[0,0]"):
+        spread = {name: np.ptp([fitted["reports"][mode]["parameters"][parameter][0] for mode in terrains])
+                  for name, fitted in (("own", own), ("pooled", here))}
+        assert spread["pooled"] < spread["own"], (parameter, spread)
+    for mode in terrains:
+        for parameter, (value, sd) in here["reports"][mode]["parameters"].items():
+            assert np.isfinite(value) and sd <= own["reports"][mode]["parameters"][parameter][1] * 1.5, (mode, parameter)
+    assert here["reports"]["grass"]["parameters"]["A[0,0]"][0] != own["reports"]["grass"]["parameters"]["A[0,0]"][0]
+    with pytest.raises(skidimm.Error, match="partial_pooling weighs each mode's estimates by their covariance"):
+        skidimm.fit(bank, logs, objective="window", partial_pooling=True)
+
+
 def test_fit_on_the_cluster_warns_as_the_local_fit(client, configs, switching_logs, tmp_path):
     twice, bank = a_row_written_twice(configs, switching_logs, tmp_path)
     with pytest.warns(UserWarning) as here:

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -272,9 +273,10 @@ TEST(CliIo, TuneRefusesFitOptionsWithoutAFitAndProtocolsOfOneName) {
 
 // Three BorealTC runs each of flooring and ice (those present), as `--log`
 // arguments.
-std::string flooring_and_ice_runs(const std::string& boreal) {
+std::string flooring_and_ice_runs(const std::string& boreal,
+                                  const std::vector<std::string>& terrains = {"FLOORING", "ICE"}) {
   std::string logs;
-  for (const std::string terrain : {"FLOORING", "ICE"}) {
+  for (const std::string& terrain : terrains) {
     for (const std::string run : {"00", "01", "05"}) {
       if (!fs::exists(boreal + "/" + terrain + "/pro_" + run + ".csv")) continue;
       logs += " --log '" + terrain + "=" + boreal + "/" + terrain + "/pro_" + run + ".csv+" + boreal + "/" + terrain +
@@ -284,14 +286,14 @@ std::string flooring_and_ice_runs(const std::string& boreal) {
   return logs;
 }
 
-// The BorealTC start bank tuned (the floor alone) on flooring_and_ice_runs(),
-// with the fit options `common`, without and with `option`: the two banks written.
-std::pair<skidimm::BankConfig, skidimm::BankConfig> tuned_without_and_with(const fs::path& dir,
-                                                                           const std::string& boreal,
-                                                                           const std::string& common,
-                                                                           const std::string& option) {
+// The BorealTC start bank tuned (the floor alone) on flooring_and_ice_runs()
+// (of `terrains`), with the fit options `common`, without and with `option`:
+// the two banks written.
+std::pair<skidimm::BankConfig, skidimm::BankConfig> tuned_without_and_with(
+    const fs::path& dir, const std::string& boreal, const std::string& common, const std::string& option,
+    const std::vector<std::string>& terrains = {"FLOORING", "ICE"}) {
   const std::string tune = "tune -q --bank " + kSource + "/configs/borealtc/terrains_start.yaml" +
-                           flooring_and_ice_runs(boreal) +
+                           flooring_and_ice_runs(boreal, terrains) +
                            " --objective window --hold-unexcited --tune floor --no-assess --threads 2 " + common +
                            " --plugin-path " + kPlugins + " --output-bank ";
   const Result without = run_skidimm(tune + (dir / "without.yaml").string());
@@ -364,6 +366,63 @@ TEST(Cli, TuneCountsEachLogsRowsAsCorrelatedWhenAsked) {
     widened += (after.array() > 2.0 * before.array()).any() ? 1 : 0;
   }
   EXPECT_GT(widened, 0);
+}
+
+// --partial-pooling reaches the fits tune makes from per-mode fits: on real
+// runs of three terrains, the modes of a regime (one fit_when) that all three
+// fitted have their estimates drawn together (their slopes' spread over the
+// terrains narrower) and their covariances narrower on the whole; a regime
+// of fewer than three fitted modes (these runs leave one terrain without
+// steps of one regime) and the terrains without logs keep their own.
+// Without --parameter-uncertainty it is a bad command line.
+TEST(Cli, TunePoolsTheFitsOfEachRegimesModesPartiallyWhenAsked) {
+  const std::string boreal = std::string(SKIDIMM_SHARED_DATA_DIR) + "/borealtc";
+  if (!fs::exists(boreal)) GTEST_SKIP() << "no shared data at " << boreal;
+  const fs::path dir = test_directory();
+  const auto [a, b] = tuned_without_and_with(dir, boreal, "--parameter-uncertainty", "--partial-pooling",
+                                             {"FLOORING", "ICE", "SANDY_LOAM"});
+  ASSERT_EQ(a.modes.size(), b.modes.size());
+  const auto slopes = [](const skidimm::ModeConfig& mode) {
+    const Eigen::MatrixXd* b = mode.params.find("B");
+    return b == nullptr ? Eigen::VectorXd() : Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(b->data(), b->size()));
+  };
+  std::map<std::string, std::vector<std::size_t>> regimes;  // fitted modes by fit_when
+  for (std::size_t j = 0; j < a.modes.size(); ++j) {
+    if (a.modes[j].parameter_covariance.size() > 0) regimes[a.modes[j].fit_when].push_back(j);
+  }
+  int pooled_regimes = 0;
+  for (std::size_t j = 0; j < a.modes.size(); ++j) {
+    const bool fitted = a.modes[j].parameter_covariance.size() > 0;
+    if (!fitted || regimes.at(a.modes[j].fit_when).size() < 3) {
+      EXPECT_EQ(slopes(b.modes[j]), slopes(a.modes[j])) << "its own: " << a.modes[j].name;
+    }
+  }
+  for (const auto& [fit_when, members] : regimes) {
+    if (members.size() < 3) continue;
+    ++pooled_regimes;
+    ASSERT_EQ(members.size(), 3u);
+    std::vector<Eigen::VectorXd> own, pooled;
+    double variance_own = 0.0, variance_pooled = 0.0;
+    for (std::size_t j : members) {
+      own.push_back(slopes(a.modes[j]));
+      pooled.push_back(slopes(b.modes[j]));
+      EXPECT_GT((pooled.back() - own.back()).norm(), 1e-6 * own.back().norm()) << a.modes[j].name;
+      variance_own += a.modes[j].parameter_covariance.trace();
+      variance_pooled += b.modes[j].parameter_covariance.trace();
+    }
+    double spread_own = 0.0, spread_pooled = 0.0;
+    for (std::size_t m = 0; m < 3; ++m) {
+      spread_own += (own[m] - (own[0] + own[1] + own[2]) / 3.0).squaredNorm();
+      spread_pooled += (pooled[m] - (pooled[0] + pooled[1] + pooled[2]) / 3.0).squaredNorm();
+    }
+    EXPECT_LT(spread_pooled, spread_own) << "fit_when '" << fit_when << "'";
+    EXPECT_LT(variance_pooled, variance_own) << "fit_when '" << fit_when << "'";
+  }
+  EXPECT_EQ(pooled_regimes, 1);
+  const Result refused = run_skidimm("tune --bank " + kSource + "/configs/borealtc/terrains_start.yaml" +
+                                     flooring_and_ice_runs(boreal) + " --objective window --partial-pooling");
+  EXPECT_EQ(refused.exit_code, 2) << refused.err;
+  EXPECT_THAT(refused.err, HasSubstr("--parameter-uncertainty"));
 }
 
 // --pooled-q reaches every fit tune makes, the separable folds' included:

@@ -177,6 +177,85 @@ TEST(BankFit, PooledProcessNoiseIsTheMeanOfTheModesOwn) {
   }
 }
 
+// Partial pooling by hand. Three ltc_linear modes of one regime, entry 0 of
+// each fitted with variance 1 at 0, 1 and 5: their mean is 2, the spread of
+// the estimates 7, the modes' own variance 1, so the spread between the
+// modes' true values is 6 and each estimate moves 1/(1 + 6) of the way to the
+// mean; its variance becomes (6/7)^2 + (1/7)^2 (6 + 7/3) = 133/147, the
+// prior's share with the mean's own uncertainty (7/3). Entry 1, fitted by
+// the first mode alone (held in the third), is not pooled but moves with
+// entry 0 by their covariance, 0.5: by 0.5/7 of entry 0's distance to the
+// mean, to variance 1 - 0.25/7 + (0.5/7)^2 7/3 = 41/42.
+TEST(PartialPooling, MovesEachEstimateByHowLittleItsLogsDeterminedIt) {
+  const Bank bank = Bank::load(std::string(SKIDIMM_SOURCE_DIR) + "/configs/ltc_terrains.yaml", {SKIDIMM_PLUGIN_DIR});
+  ASSERT_EQ(bank.config.num_modes(), 3);
+  const Eigen::Index n = static_cast<Eigen::Index>(bank.models[0]->parameter_info().size());
+  std::vector<Eigen::VectorXd> parameters(3, Eigen::VectorXd::Constant(n, 0.25));
+  std::vector<Eigen::MatrixXd> covariances(3, Eigen::MatrixXd::Zero(n, n));
+  const double own[3] = {0.0, 1.0, 5.0};
+  for (int j = 0; j < 3; ++j) {
+    parameters[static_cast<std::size_t>(j)][0] = own[j];
+    covariances[static_cast<std::size_t>(j)](0, 0) = 1.0;
+  }
+  covariances[0](1, 1) = 1.0;
+  covariances[0](0, 1) = covariances[0](1, 0) = 0.5;
+  covariances[1](1, 1) = 2.0;  // fitted, but the third mode held it: not pooled
+  const std::vector<Eigen::VectorXd> before = parameters;
+  EXPECT_TRUE(pool_parameters_partially(bank, {0, 1, 2}, &parameters, &covariances).empty());
+  for (int j = 0; j < 3; ++j) {
+    EXPECT_NEAR(parameters[static_cast<std::size_t>(j)][0], own[j] + (2.0 - own[j]) / 7.0, 1e-14) << j;
+    EXPECT_NEAR(covariances[static_cast<std::size_t>(j)](0, 0), 133.0 / 147.0, 1e-14) << j;
+  }
+  EXPECT_NEAR(parameters[0][1], 0.25 + 0.5 / 7.0 * 2.0, 1e-14);
+  EXPECT_NEAR(covariances[0](1, 1), 41.0 / 42.0, 1e-14);
+  EXPECT_NEAR(parameters[1][1], 0.25, 1e-14) << "uncorrelated with entry 0: not moved";
+  for (Eigen::Index e = 2; e < n; ++e) EXPECT_EQ(parameters[2][e], 0.25) << "held entries keep their values";
+  // Two modes are no regime to pool over; modes of another fit_when are another regime.
+  std::vector<Eigen::VectorXd> two = before;
+  std::vector<Eigen::MatrixXd> two_covariances(3, Eigen::MatrixXd::Identity(n, n));
+  pool_parameters_partially(bank, {0, 2}, &two, &two_covariances);
+  EXPECT_EQ(two[0], before[0]);
+  Bank regimes = bank;
+  regimes.config.modes[1].fit_when = "phi_dot_L > 1";
+  two = before;
+  pool_parameters_partially(regimes, {0, 1, 2}, &two, &two_covariances);
+  EXPECT_EQ(two[2], before[2]);
+}
+
+// A mode whose pooling would move a bounded parameter past its bound (an
+// unpooled m pulled by its correlation with the pooled k) keeps its own
+// estimates, and is named.
+TEST(PartialPooling, AModeItWouldMovePastABoundKeepsItsOwn) {
+  const Bank bank = Bank::load(std::string(SKIDIMM_SOURCE_DIR) + "/configs/stc_slip4.yaml", {SKIDIMM_PLUGIN_DIR});
+  const auto& info = bank.models[0]->parameter_info();
+  const auto index = [&info](const std::string& name) {
+    for (std::size_t e = 0; e < info.size(); ++e) {
+      if (info[e].name == name) return static_cast<Eigen::Index>(e);
+    }
+    return Eigen::Index{-1};
+  };
+  const Eigen::Index k = index("k"), m = index("m"), n = static_cast<Eigen::Index>(info.size());
+  ASSERT_GE(k, 0);
+  ASSERT_GE(m, 0);
+  ASSERT_EQ(info[static_cast<std::size_t>(m)].upper_bound, 2.0);
+  std::vector<Eigen::VectorXd> parameters(4, Eigen::VectorXd::Zero(n));
+  std::vector<Eigen::MatrixXd> covariances(4, Eigen::MatrixXd::Zero(n, n));
+  for (int j = 0; j < 4; ++j) {
+    bank.models[static_cast<std::size_t>(j)]->get_parameters(parameters[static_cast<std::size_t>(j)]);
+    parameters[static_cast<std::size_t>(j)][k] = j < 3 ? 0.1 : 1.9;
+    covariances[static_cast<std::size_t>(j)](k, k) = 0.01;
+  }
+  parameters[3][m] = 1.99;
+  covariances[3](m, m) = 0.01;
+  covariances[3](k, m) = covariances[3](m, k) = -0.009;
+  const std::vector<Eigen::VectorXd> before = parameters;
+  EXPECT_EQ(pool_parameters_partially(bank, {0, 1, 2, 3}, &parameters, &covariances),
+            std::vector<std::string>{"slip_FL_FR_RL_RR"});
+  EXPECT_EQ(parameters[3], before[3]);
+  EXPECT_LT(parameters[3][k] - parameters[0][k], before[3][k] - before[0][k]) << "the others moved";
+  EXPECT_GT(parameters[0][k], 0.1);
+}
+
 // What fit and tune state before they start: ltc_linear's 8 parameters of
 // its own per mode (A and B, 2 x 2 each), and 2 entries of a diagonal Q or 3
 // of a full one.

@@ -59,8 +59,9 @@ print(f"1. estimates.mcap: @mcap/core reads {len(estimates)} estimates, each equ
 PY
 
 # 1b. A bank with an unknown hypothesis: its probability is a field of the
-# message, equal to the CSV's column, and `mode` says unknown as the CSV does.
-{ cat "$bank"; echo "unknown: {inflation: 10, enter: 0.01, leave: 0.1}"; } >"$work/unknown_bank.yaml"
+# message, equal to the CSV's column, and `mode` says unknown as the CSV does (an
+# entry and exit share of 0.05 a step: it leads about half of the steps).
+{ cat "$bank"; echo "unknown: {inflation: 10, enter: 0.05, leave: 0.05}"; } >"$work/unknown_bank.yaml"
 "$skidimm" run -q --bank "$work/unknown_bank.yaml" --input "$work/drive.mcap" --output "$work/unknown.csv"
 "$skidimm" run -q --bank "$work/unknown_bank.yaml" --input "$work/drive.mcap" --output "$work/unknown.mcap"
 "$node" "$source_dir/tests/ros/read_mcap.cjs" "$work/unknown.mcap" >"$work/unknown.json"

@@ -1,7 +1,9 @@
 #include "skidimm/fitting/bank_fit.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <set>
 #include <vector>
 
@@ -188,6 +190,52 @@ std::string hold_unexcited_ignored(const BankConfig& config, Objective objective
          "maneuvers that move them)";
 }
 
+namespace {
+
+// BankFitOptions::partial_pooling over the fitted modes: their models'
+// parameters and the reports' covariances and values pooled.
+void pool_fitted_parameters(Bank* bank, std::map<int, FitReport>* reports) {
+  const std::size_t modes = bank->models.size();
+  std::vector<Eigen::VectorXd> parameters(modes);
+  std::vector<Eigen::MatrixXd> covariances(modes);
+  std::vector<int> fitted;
+  for (const auto& [mode, report] : *reports) {
+    const auto j = static_cast<std::size_t>(mode);
+    parameters[j].resize(static_cast<Eigen::Index>(bank->models[j]->parameter_info().size()));
+    bank->models[j]->get_parameters(parameters[j]);
+    covariances[j] = report.parameter_covariance;
+    fitted.push_back(mode);
+  }
+  for (const std::string& name : pool_parameters_partially(*bank, fitted, &parameters, &covariances)) {
+    for (auto& [mode, report] : *reports) {
+      if (bank->config.modes[static_cast<std::size_t>(mode)].name == name) {
+        report.warnings.push_back(
+            "partial pooling would have left a parameter outside its bounds: the mode keeps its "
+            "own estimates");
+      }
+    }
+  }
+  for (auto& [mode, report] : *reports) {
+    const auto j = static_cast<std::size_t>(mode);
+    std::string error;
+    if (!bank->models[j]->set_parameters(parameters[j], &error)) {
+      throw FitError("mode '" + bank->config.modes[j].name + "' rejected its pooled parameters: " + error);
+    }
+    report.parameter_covariance = covariances[j];
+    const auto& info = bank->models[j]->parameter_info();
+    for (ParameterEstimate& estimate : report.parameters) {
+      for (std::size_t e = 0; e < info.size(); ++e) {
+        if (info[e].name != estimate.name) continue;
+        estimate.value = parameters[j][static_cast<Eigen::Index>(e)];
+        estimate.standard_deviation =
+            std::sqrt(std::max(0.0, covariances[j](static_cast<Eigen::Index>(e), static_cast<Eigen::Index>(e))));
+      }
+    }
+  }
+}
+
+}  // namespace
+
 std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data, const BankFitOptions& options) {
   if (data.empty()) throw FitError("no logs to fit");
   if (options.window.hold_unexcited) {
@@ -208,6 +256,11 @@ std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data,
         "one Q for every mode is pooled from the window objective's estimates (--objective window); the likelihood "
         "objective fits each mode's Q with its parameters");
   }
+  if (options.partial_pooling && !options.parameter_uncertainty) {
+    throw FitError(
+        "partial pooling weighs each mode's estimates by their covariance: it needs the parameter uncertainty "
+        "(--parameter-uncertainty)");
+  }
   if (options.output_noise && bank->config.measurement.outputs.empty()) {
     throw FitError("the bank measures no model outputs (measurement.outputs): there is no output noise to estimate");
   }
@@ -226,6 +279,7 @@ std::map<int, FitReport> fit_bank(Bank* bank, const std::vector<ModeLogs>& data,
     const Eigen::MatrixXd pooled = pooled_process_noise(q);
     for (auto& [mode, report] : reports) report.q_intensity = pooled;
   }
+  if (options.partial_pooling) pool_fitted_parameters(bank, &reports);
   for (auto& [mode, report] : reports) {
     ModeConfig& config = bank->config.modes[static_cast<std::size_t>(mode)];
     config.q_intensity = report.q_intensity;
@@ -262,6 +316,130 @@ Eigen::MatrixXd pooled_process_noise(const std::vector<Eigen::MatrixXd>& q) {
     sum += each;
   }
   return sum / static_cast<double>(q.size());
+}
+
+namespace {
+
+// The parameters every member of a regime fitted: a variance above
+// round-off in each member's covariance (a held parameter's row is zero, or
+// nearly, as the fit's products left it).
+std::vector<Eigen::Index> fitted_by_all(const std::vector<int>& members,
+                                        const std::vector<Eigen::MatrixXd>& covariances, Eigen::Index n) {
+  std::vector<Eigen::Index> fitted;
+  for (Eigen::Index e = 0; e < n; ++e) {
+    bool all = true;
+    for (int j : members) {
+      const Eigen::MatrixXd& sigma = covariances[static_cast<std::size_t>(j)];
+      all = all && sigma(e, e) > 1e-14 * sigma.diagonal().maxCoeff();
+    }
+    if (all) fitted.push_back(e);
+  }
+  return fitted;
+}
+
+// The pseudo-inverse of a covariance whose entries' units differ by orders
+// of magnitude: scaled to a unit diagonal, eigenvalues below 1e-9 of that
+// taken as zero. A direction with no variance gets no gain.
+Eigen::MatrixXd scaled_pseudo_inverse(const Eigen::MatrixXd& d) {
+  const Eigen::VectorXd scale = d.diagonal().cwiseSqrt().cwiseInverse();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(scale.asDiagonal() * d * scale.asDiagonal());
+  Eigen::VectorXd inverse = eigen.eigenvalues();
+  for (Eigen::Index a = 0; a < inverse.size(); ++a) inverse[a] = inverse[a] > 1e-9 ? 1.0 / inverse[a] : 0.0;
+  return scale.asDiagonal() * eigen.eigenvectors() * inverse.asDiagonal() * eigen.eigenvectors().transpose() *
+         scale.asDiagonal();
+}
+
+bool within_bounds(const std::vector<sdk::ParameterInfo>& info, const Eigen::VectorXd& theta) {
+  for (std::size_t e = 0; e < info.size(); ++e) {
+    const double v = theta[static_cast<Eigen::Index>(e)];
+    if (!(v >= info[e].lower_bound && v <= info[e].upper_bound)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::vector<std::string> pool_parameters_partially(const Bank& bank, const std::vector<int>& modes,
+                                                   std::vector<Eigen::VectorXd>* parameters,
+                                                   std::vector<Eigen::MatrixXd>* covariances) {
+  constexpr std::size_t kFewestModes = 3;  // a spread between modes needs a few of them
+  std::vector<std::string> kept_own;
+  std::map<std::pair<std::string, std::string>, std::vector<int>> regimes;
+  for (int j : modes) {
+    const ModeConfig& mode = bank.config.modes[static_cast<std::size_t>(j)];
+    if ((*covariances)[static_cast<std::size_t>(j)].size() == 0) continue;
+    regimes[{mode.model, mode.fit_when}].push_back(j);
+  }
+  for (const auto& [regime, members] : regimes) {
+    if (members.size() < kFewestModes) continue;
+    const Eigen::Index n = (*parameters)[static_cast<std::size_t>(members.front())].size();
+    bool same_size = true;
+    for (int j : members) {
+      same_size = same_size && (*parameters)[static_cast<std::size_t>(j)].size() == n &&
+                  (*covariances)[static_cast<std::size_t>(j)].rows() == n;
+    }
+    if (!same_size) continue;
+    const std::vector<Eigen::Index> pooled = fitted_by_all(members, *covariances, n);
+    const Eigen::Index f = static_cast<Eigen::Index>(pooled.size());
+    if (f == 0) continue;
+    const auto entry = [&pooled](Eigen::Index a) { return pooled[static_cast<std::size_t>(a)]; };
+    // Each pooled parameter's mean over the modes, the spread of the modes'
+    // estimates about it, and the mean of their own variances: the spread
+    // between the modes' true values is the difference, at least 0.
+    const double k = static_cast<double>(members.size());
+    Eigen::VectorXd mean = Eigen::VectorXd::Zero(f), spread = Eigen::VectorXd::Zero(f), own = Eigen::VectorXd::Zero(f);
+    for (int j : members) {
+      for (Eigen::Index a = 0; a < f; ++a) {
+        mean[a] += (*parameters)[static_cast<std::size_t>(j)][entry(a)] / k;
+        own[a] += (*covariances)[static_cast<std::size_t>(j)](entry(a), entry(a)) / k;
+      }
+    }
+    for (int j : members) {
+      for (Eigen::Index a = 0; a < f; ++a) {
+        const double d = (*parameters)[static_cast<std::size_t>(j)][entry(a)] - mean[a];
+        spread[a] += d * d / (k - 1.0);
+      }
+    }
+    const Eigen::VectorXd between = (spread - own).cwiseMax(0.0);
+    // What the mean itself is uncertain by: the modes' spread / k.
+    const Eigen::VectorXd prior = between + spread / k;
+    for (int j : members) {
+      Eigen::VectorXd& theta = (*parameters)[static_cast<std::size_t>(j)];
+      Eigen::MatrixXd& sigma = (*covariances)[static_cast<std::size_t>(j)];
+      // H selects the pooled parameters; the others the mode fitted move
+      // with them as far as they are correlated (a regression's intercept
+      // with its slopes).
+      Eigen::MatrixXd cross(n, f);  // Sigma H'
+      Eigen::VectorXd own_values(f);
+      for (Eigen::Index a = 0; a < f; ++a) {
+        own_values[a] = theta[entry(a)];
+        cross.col(a) = sigma.col(entry(a));
+      }
+      Eigen::MatrixXd d(f, f);  // H Sigma H' + T
+      for (Eigen::Index a = 0; a < f; ++a) d.row(a) = cross.row(entry(a));
+      d.diagonal() += between;
+      // theta + G (mean - H theta), G = Sigma H' (H Sigma H' + T)^+; its
+      // covariance in the Joseph form, a sum of two covariances whatever the
+      // round-off (Sigma - G H Sigma is the same in exact arithmetic, and is
+      // not positive semidefinite once rounded where Sigma spans many orders
+      // of magnitude), the second the prior's with the mean's uncertainty.
+      const Eigen::MatrixXd gain = cross * scaled_pseudo_inverse(d);
+      const Eigen::VectorXd moved = theta + gain * (mean - own_values);
+      Eigen::MatrixXd keep = Eigen::MatrixXd::Identity(n, n);
+      for (Eigen::Index a = 0; a < f; ++a) keep.col(entry(a)) -= gain.col(a);
+      Eigen::MatrixXd posterior = keep * sigma * keep.transpose() + gain * prior.asDiagonal() * gain.transpose();
+      posterior = (0.5 * (posterior + posterior.transpose())).eval();
+      const auto& info = bank.models[static_cast<std::size_t>(j)]->parameter_info();
+      if (!moved.allFinite() || !posterior.allFinite() || static_cast<Eigen::Index>(info.size()) != n ||
+          !within_bounds(info, moved)) {
+        kept_own.push_back(bank.config.modes[static_cast<std::size_t>(j)].name);
+        continue;
+      }
+      theta = moved;
+      sigma = posterior;
+    }
+  }
+  return kept_own;
 }
 
 Eigen::MatrixXd output_noise_from_fit(const BankConfig& config, const Eigen::VectorXd& rmse) {

@@ -544,6 +544,13 @@ class Tuner {
         const Eigen::MatrixXd pooled = pooled_process_noise(q);
         for (int j : fitted_modes) v.q[static_cast<std::size_t>(j)] = pooled;
       }
+      if (options_.partial_pooling.count(k.first) && !fitted_modes.empty()) {
+        for (const std::string& name :
+             pool_parameters_partially(banks_[0], fitted_modes, &v.parameters, &v.parameter_covariance)) {
+          warnings_.push_back("a fold's partial pooling would have left a parameter of mode '" + name +
+                              "' outside its bounds: the mode kept its own estimates there");
+        }
+      }
       fits_[k] = v;
       if (!missing.empty() && options_.fit_nothing.count(k.first) == 0) {
         warnings_.push_back("a fold without logs of mode(s)" + missing + " kept their starting values (objective " +

@@ -59,6 +59,10 @@ struct BankFitOptions {
   // log det that differs by mode whatever the data); with one Q the modes
   // are told apart by what they predict, not by how much they expect to miss.
   bool pooled_process_noise = false;
+  // With parameter_uncertainty: each regime's fitted parameters pooled
+  // partially (pool_parameters_partially()), each mode towards the regime's
+  // mean by how little its own logs determined it.
+  bool partial_pooling = false;
   // After each solver iteration of either objective, what is fitted and the
   // iterations so far (model_fitter.h); `window.progress` is ignored.
   FitProgress progress;
@@ -74,6 +78,25 @@ Eigen::MatrixXd output_noise_from_fit(const BankConfig& config, const Eigen::Vec
 // was fitted on (so a class with many runs does not set the noise of all).
 // Throws FitError when `q` is empty or the matrices differ in size.
 Eigen::MatrixXd pooled_process_noise(const std::vector<Eigen::MatrixXd>& q);
+
+// Partial pooling of fitted parameters (empirical Bayes): the modes of one
+// regime (the same model and fit_when, at least three of them) are taken as
+// draws about a common value, each parameter with its own spread between
+// modes, estimated from the modes' estimates and their covariances (the
+// spread of the estimates less the mean of their own variances, at least 0).
+// Each mode's estimate then moves towards the regime's mean by the share its
+// own uncertainty has of the two, and its other parameters with it as far
+// as they are correlated: a slope its logs barely determined (a terrain
+// driven at one speed) takes most of its value from the other terrains',
+// one they determined keeps its own. `parameters` and `covariances` are per
+// mode of `bank` (the model's flat parameter vector and its covariance);
+// only `modes` with a covariance take part, and only the parameters every
+// mode of the regime fitted. Each covariance becomes the posterior's, the
+// mean's own uncertainty included. Returns the modes that keep their own
+// estimates because pooling would leave a parameter outside its bounds.
+std::vector<std::string> pool_parameters_partially(const Bank& bank, const std::vector<int>& modes,
+                                                   std::vector<Eigen::VectorXd>* parameters,
+                                                   std::vector<Eigen::MatrixXd>* covariances);
 
 // What a fit of `data` faces, stated before it starts: the logs, their rows,
 // the modes and the values fitted (each mode's own model parameters, and the

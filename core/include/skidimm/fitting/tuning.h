@@ -147,6 +147,9 @@ struct TuneOptions {
   // their own (BankFitOptions::pooled_process_noise): each fold pools the
   // Q of the modes it fitted, so the folds still share each mode's fit.
   std::set<std::string> pooled_process_noise;
+  // Separable objectives whose fits are pooled partially within each regime
+  // (pool_parameters_partially, bank_fit.h), per fold over the modes it fitted.
+  std::set<std::string> partial_pooling;
   // Objectives that fit nothing (the bank's models as they are, `tune
   // --objective none`): every mode keeps its starting values whether or not
   // a fold has logs of it, so no fold warns that one did.
