@@ -91,7 +91,9 @@ SKIP_OUT_OF_ORDER = ("  skip_out_of_order: true                # a message whose
 def ros2_sampling(text):
     """The sampling: block with skip_out_of_order: true added as its last key."""
     lines = text.splitlines(keepends=True)
-    start = next(i for i, line in enumerate(lines) if line.startswith("sampling:"))
+    start = next((i for i, line in enumerate(lines) if line.startswith("sampling:")), None)
+    if start is None:
+        sys.exit(f"{SOURCE}: no top-level sampling: block after columns: to add skip_out_of_order to")
     end = start + 1
     while end < len(lines) and lines[end].startswith((" ", "\t")):
         end += 1

@@ -328,7 +328,11 @@ void bind_fit(py::module_& m) {
         for (const auto& [input, range] : fitted_inputs)
           config.fitted_inputs[input] = InputRange{range.first, range.second};
         config.residual_correlation = residual_correlation;
-        if (parameter_covariance) set_fitted_parameter_covariance(bank.bank.get(), mode, *parameter_covariance);
+        // As fit_bank leaves it: the fitted covariance, or none where the fit wrote none over a start's.
+        if (parameter_covariance || config.parameter_covariance.size() > 0) {
+          set_fitted_parameter_covariance(bank.bank.get(), mode,
+                                          parameter_covariance ? *parameter_covariance : Eigen::MatrixXd());
+        }
       },
       py::arg("bank"), py::arg("mode"), py::arg("parameters"), py::arg("q"), py::arg("r") = py::none(),
       py::arg("fitted_inputs") = std::map<std::string, std::pair<double, double>>{},

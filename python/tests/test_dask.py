@@ -116,6 +116,13 @@ def test_fit_with_partial_pooling_on_the_cluster_equals_the_local_fit(client, co
         for parameter, (value, sd) in here["reports"][mode]["parameters"].items():
             assert np.isfinite(value) and sd <= own["reports"][mode]["parameters"][parameter][1] * 1.5, (mode, parameter)
     assert here["reports"]["grass"]["parameters"]["A[0,0]"][0] != own["reports"]["grass"]["parameters"]["A[0,0]"][0]
+    # A start bank with covariances, refitted without them: both drop them, as fit_bank does.
+    start = tmp_path / "with_covariances.yaml"
+    start.write_text(here["bank_yaml"])
+    again_here = skidimm.fit(start, logs, objective="window")
+    again_there = skidimm.dask.fit(client, start, logs, objective="window")
+    assert "parameter_covariance:" not in again_here["bank_yaml"]
+    assert body(again_there["bank_yaml"]) == body(again_here["bank_yaml"])
     with pytest.raises(skidimm.Error, match="partial_pooling weighs each mode's estimates by their covariance"):
         skidimm.fit(bank, logs, objective="window", partial_pooling=True)
 

@@ -329,6 +329,46 @@ modes:
 // parameter covariance is the independent rows' times each channel's design
 // effect, here far above 1; the option needs --parameter-uncertainty, for fit
 // and tune alike.
+// --partial-pooling pools the three terrains fitted together from the
+// bundled example (their parameters drawn together, the covariance written)
+// and says so where it has nothing to pool (one mode, --mode); without
+// --parameter-uncertainty it is a bad command line.
+TEST(Cli, FitPoolsTheModesFittedTogetherAndSaysWhenThereIsNothingToPool) {
+  const fs::path dir = test_directory();
+  const std::string fit = "fit --bank " + kSource + "/configs/ltc_terrains.yaml --plugin-path " + kPlugins +
+                          " --objective window --parameter-uncertainty --log " + kSource +
+                          "/configs/examples/ltc_switching.csv";
+  const Result own = run_skidimm(fit + " --output-bank " + (dir / "own.yaml").string());
+  ASSERT_EQ(own.exit_code, 0) << own.err;
+  const Result pooled = run_skidimm(fit + " --partial-pooling --output-bank " + (dir / "pooled.yaml").string());
+  ASSERT_EQ(pooled.exit_code, 0) << pooled.err;
+  EXPECT_THAT(pooled.err + pooled.out, Not(HasSubstr("pooled nothing")));
+  const skidimm::BankConfig a = skidimm::load_bank_config(dir / "own.yaml");
+  const skidimm::BankConfig b = skidimm::load_bank_config(dir / "pooled.yaml");
+  double spread_own = 0.0, spread_pooled = 0.0;
+  for (const char* key : {"A", "B"}) {
+    for (const auto* config : {&a, &b}) {
+      Eigen::MatrixXd mean = Eigen::MatrixXd::Zero(2, 2);
+      for (const auto& mode : config->modes) mean += *mode.params.find(key) / 3.0;
+      for (const auto& mode : config->modes) {
+        (config == &a ? spread_own : spread_pooled) += (*mode.params.find(key) - mean).squaredNorm();
+      }
+    }
+  }
+  EXPECT_LT(spread_pooled, spread_own);
+  for (const auto& mode : b.modes) EXPECT_GT(mode.parameter_covariance.size(), 0) << mode.name;
+  const Result one = run_skidimm(fit + " --partial-pooling --mode grass");
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  EXPECT_THAT(one.err + one.out, HasSubstr("partial pooling pooled nothing: it pools the modes of one model and "
+                                           "fit_when fitted together, three or more"));
+  const Result refused = run_skidimm("fit --bank " + kSource +
+                                     "/configs/ltc_terrains.yaml --objective window "
+                                     "--partial-pooling --log " +
+                                     kSource + "/configs/examples/ltc_switching.csv");
+  EXPECT_EQ(refused.exit_code, 2) << refused.err;
+  EXPECT_THAT(refused.err, HasSubstr("--parameter-uncertainty"));
+}
+
 TEST(Cli, FitCountsEachLogsRowsAsCorrelatedWhenAsked) {
   const fs::path dir = test_directory();
   write_file(dir / "feature.yaml", R"(name: feature

@@ -201,7 +201,9 @@ TEST(PartialPooling, MovesEachEstimateByHowLittleItsLogsDeterminedIt) {
   covariances[0](0, 1) = covariances[0](1, 0) = 0.5;
   covariances[1](1, 1) = 2.0;  // fitted, but the third mode held it: not pooled
   const std::vector<Eigen::VectorXd> before = parameters;
-  EXPECT_TRUE(pool_parameters_partially(bank, {0, 1, 2}, &parameters, &covariances).empty());
+  const PartialPooling outcome = pool_parameters_partially(bank, {0, 1, 2}, &parameters, &covariances);
+  EXPECT_EQ(outcome.regimes, 1);
+  EXPECT_TRUE(outcome.kept_own.empty());
   for (int j = 0; j < 3; ++j) {
     EXPECT_NEAR(parameters[static_cast<std::size_t>(j)][0], own[j] + (2.0 - own[j]) / 7.0, 1e-14) << j;
     EXPECT_NEAR(covariances[static_cast<std::size_t>(j)](0, 0), 133.0 / 147.0, 1e-14) << j;
@@ -210,15 +212,32 @@ TEST(PartialPooling, MovesEachEstimateByHowLittleItsLogsDeterminedIt) {
   EXPECT_NEAR(covariances[0](1, 1), 41.0 / 42.0, 1e-14);
   EXPECT_NEAR(parameters[1][1], 0.25, 1e-14) << "uncorrelated with entry 0: not moved";
   for (Eigen::Index e = 2; e < n; ++e) EXPECT_EQ(parameters[2][e], 0.25) << "held entries keep their values";
+  // Estimates closer than their own uncertainty explains (0, 0.1, 0.2, each
+  // with variance 1): no spread between the modes is left (tau2 clamped at
+  // 0), so each takes the mean, 0.1, as sure as a mean of three estimates of
+  // variance 1 is, 1/3 (not the spread / 3 of the estimates, 0.01 / 3).
+  {
+    std::vector<Eigen::VectorXd> close(3, Eigen::VectorXd::Zero(n));
+    std::vector<Eigen::MatrixXd> close_covariances(3, Eigen::MatrixXd::Zero(n, n));
+    for (int j = 0; j < 3; ++j) {
+      close[static_cast<std::size_t>(j)][0] = 0.1 * j;
+      close_covariances[static_cast<std::size_t>(j)](0, 0) = 1.0;
+    }
+    EXPECT_EQ(pool_parameters_partially(bank, {0, 1, 2}, &close, &close_covariances).regimes, 1);
+    for (int j = 0; j < 3; ++j) {
+      EXPECT_NEAR(close[static_cast<std::size_t>(j)][0], 0.1, 1e-12) << j;
+      EXPECT_NEAR(close_covariances[static_cast<std::size_t>(j)](0, 0), 1.0 / 3.0, 1e-12) << j;
+    }
+  }
   // Two modes are no regime to pool over; modes of another fit_when are another regime.
   std::vector<Eigen::VectorXd> two = before;
   std::vector<Eigen::MatrixXd> two_covariances(3, Eigen::MatrixXd::Identity(n, n));
-  pool_parameters_partially(bank, {0, 2}, &two, &two_covariances);
+  EXPECT_EQ(pool_parameters_partially(bank, {0, 2}, &two, &two_covariances).regimes, 0);
   EXPECT_EQ(two[0], before[0]);
   Bank regimes = bank;
   regimes.config.modes[1].fit_when = "phi_dot_L > 1";
   two = before;
-  pool_parameters_partially(regimes, {0, 1, 2}, &two, &two_covariances);
+  EXPECT_EQ(pool_parameters_partially(regimes, {0, 1, 2}, &two, &two_covariances).regimes, 0);
   EXPECT_EQ(two[2], before[2]);
 }
 
@@ -249,8 +268,10 @@ TEST(PartialPooling, AModeItWouldMovePastABoundKeepsItsOwn) {
   covariances[3](m, m) = 0.01;
   covariances[3](k, m) = covariances[3](m, k) = -0.009;
   const std::vector<Eigen::VectorXd> before = parameters;
-  EXPECT_EQ(pool_parameters_partially(bank, {0, 1, 2, 3}, &parameters, &covariances),
-            std::vector<std::string>{"slip_FL_FR_RL_RR"});
+  const PartialPooling outcome = pool_parameters_partially(bank, {0, 1, 2, 3}, &parameters, &covariances);
+  ASSERT_EQ(outcome.kept_own.size(), 1u);
+  EXPECT_EQ(outcome.kept_own[0].first, "slip_FL_FR_RL_RR");
+  EXPECT_THAT(outcome.kept_own[0].second, ::testing::HasSubstr("outside its bounds"));
   EXPECT_EQ(parameters[3], before[3]);
   EXPECT_LT(parameters[3][k] - parameters[0][k], before[3][k] - before[0][k]) << "the others moved";
   EXPECT_GT(parameters[0][k], 0.1);

@@ -192,6 +192,10 @@ std::string hold_unexcited_ignored(const BankConfig& config, Objective objective
 
 namespace {
 
+const char* const kNothingPooled =
+    "partial pooling pooled nothing: it pools the modes of one model and fit_when fitted together, three or more, "
+    "each with a parameter covariance and the parameters all of them fitted";
+
 // BankFitOptions::partial_pooling over the fitted modes: their models'
 // parameters and the reports' covariances and values pooled.
 void pool_fitted_parameters(Bank* bank, std::map<int, FitReport>* reports) {
@@ -206,14 +210,16 @@ void pool_fitted_parameters(Bank* bank, std::map<int, FitReport>* reports) {
     covariances[j] = report.parameter_covariance;
     fitted.push_back(mode);
   }
-  for (const std::string& name : pool_parameters_partially(*bank, fitted, &parameters, &covariances)) {
+  const PartialPooling outcome = pool_parameters_partially(*bank, fitted, &parameters, &covariances);
+  for (const auto& [name, why] : outcome.kept_own) {
     for (auto& [mode, report] : *reports) {
       if (bank->config.modes[static_cast<std::size_t>(mode)].name == name) {
-        report.warnings.push_back(
-            "partial pooling would have left a parameter outside its bounds: the mode keeps its "
-            "own estimates");
+        report.warnings.push_back("partial pooling: " + why + "; the mode keeps its own estimates");
       }
     }
+  }
+  if (outcome.regimes == 0) {
+    for (auto& [mode, report] : *reports) report.warnings.push_back(kNothingPooled);
   }
   for (auto& [mode, report] : *reports) {
     const auto j = static_cast<std::size_t>(mode);
@@ -359,11 +365,11 @@ bool within_bounds(const std::vector<sdk::ParameterInfo>& info, const Eigen::Vec
 
 }  // namespace
 
-std::vector<std::string> pool_parameters_partially(const Bank& bank, const std::vector<int>& modes,
-                                                   std::vector<Eigen::VectorXd>* parameters,
-                                                   std::vector<Eigen::MatrixXd>* covariances) {
+PartialPooling pool_parameters_partially(const Bank& bank, const std::vector<int>& modes,
+                                         std::vector<Eigen::VectorXd>* parameters,
+                                         std::vector<Eigen::MatrixXd>* covariances) {
   constexpr std::size_t kFewestModes = 3;  // a spread between modes needs a few of them
-  std::vector<std::string> kept_own;
+  PartialPooling outcome;
   std::map<std::pair<std::string, std::string>, std::vector<int>> regimes;
   for (int j : modes) {
     const ModeConfig& mode = bank.config.modes[static_cast<std::size_t>(j)];
@@ -401,8 +407,11 @@ std::vector<std::string> pool_parameters_partially(const Bank& bank, const std::
       }
     }
     const Eigen::VectorXd between = (spread - own).cwiseMax(0.0);
-    // What the mean itself is uncertain by: the modes' spread / k.
-    const Eigen::VectorXd prior = between + spread / k;
+    // What the mean itself is uncertain by: the variance of a mean of k
+    // draws, (tau2 + own) / k, the spread / k unless tau2 was clamped at 0
+    // (where the spread / k would be too sure of a mean of unsure estimates).
+    const Eigen::VectorXd prior = between + (between + own) / k;
+    ++outcome.regimes;
     for (int j : members) {
       Eigen::VectorXd& theta = (*parameters)[static_cast<std::size_t>(j)];
       Eigen::MatrixXd& sigma = (*covariances)[static_cast<std::size_t>(j)];
@@ -430,16 +439,20 @@ std::vector<std::string> pool_parameters_partially(const Bank& bank, const std::
       Eigen::MatrixXd posterior = keep * sigma * keep.transpose() + gain * prior.asDiagonal() * gain.transpose();
       posterior = (0.5 * (posterior + posterior.transpose())).eval();
       const auto& info = bank.models[static_cast<std::size_t>(j)]->parameter_info();
-      if (!moved.allFinite() || !posterior.allFinite() || static_cast<Eigen::Index>(info.size()) != n ||
-          !within_bounds(info, moved)) {
-        kept_own.push_back(bank.config.modes[static_cast<std::size_t>(j)].name);
+      const std::string& name = bank.config.modes[static_cast<std::size_t>(j)].name;
+      if (!moved.allFinite() || !posterior.allFinite()) {
+        outcome.kept_own.emplace_back(name, "the pooled values would not be finite");
+        continue;
+      }
+      if (static_cast<Eigen::Index>(info.size()) != n || !within_bounds(info, moved)) {
+        outcome.kept_own.emplace_back(name, "the pooled values would leave a parameter outside its bounds");
         continue;
       }
       theta = moved;
       sigma = posterior;
     }
   }
-  return kept_own;
+  return outcome;
 }
 
 Eigen::MatrixXd output_noise_from_fit(const BankConfig& config, const Eigen::VectorXd& rmse) {

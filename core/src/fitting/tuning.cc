@@ -545,10 +545,16 @@ class Tuner {
         for (int j : fitted_modes) v.q[static_cast<std::size_t>(j)] = pooled;
       }
       if (options_.partial_pooling.count(k.first) && !fitted_modes.empty()) {
-        for (const std::string& name :
-             pool_parameters_partially(banks_[0], fitted_modes, &v.parameters, &v.parameter_covariance)) {
-          warnings_.push_back("a fold's partial pooling would have left a parameter of mode '" + name +
-                              "' outside its bounds: the mode kept its own estimates there");
+        const PartialPooling outcome =
+            pool_parameters_partially(banks_[0], fitted_modes, &v.parameters, &v.parameter_covariance);
+        const std::string whose = k.second == development_ ? "the development fit's" : "a fold's";
+        for (const auto& [name, why] : outcome.kept_own) {
+          warnings_.push_back(whose + " partial pooling kept mode '" + name + "' to its own estimates: " + why);
+        }
+        if (outcome.regimes == 0 && k.second == development_) {
+          warnings_.push_back(
+              "partial pooling pooled nothing: it pools the modes of one model and fit_when fitted together, three "
+              "or more, each with a parameter covariance");
         }
       }
       fits_[k] = v;

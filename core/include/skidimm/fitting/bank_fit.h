@@ -92,11 +92,17 @@ Eigen::MatrixXd pooled_process_noise(const std::vector<Eigen::MatrixXd>& q);
 // mode of `bank` (the model's flat parameter vector and its covariance);
 // only `modes` with a covariance take part, and only the parameters every
 // mode of the regime fitted. Each covariance becomes the posterior's, the
-// mean's own uncertainty included. Returns the modes that keep their own
-// estimates because pooling would leave a parameter outside its bounds.
-std::vector<std::string> pool_parameters_partially(const Bank& bank, const std::vector<int>& modes,
-                                                   std::vector<Eigen::VectorXd>* parameters,
-                                                   std::vector<Eigen::MatrixXd>* covariances);
+// mean's own uncertainty included. A direction a fit held where it started
+// (--hold-unexcited) has no variance and is not moved: what the logs told
+// nothing of keeps its starting value.
+struct PartialPooling {
+  int regimes = 0;  // regimes pooled
+  // Modes that keep their own estimates, and why (a bound, a value not finite).
+  std::vector<std::pair<std::string, std::string>> kept_own;
+};
+PartialPooling pool_parameters_partially(const Bank& bank, const std::vector<int>& modes,
+                                         std::vector<Eigen::VectorXd>* parameters,
+                                         std::vector<Eigen::MatrixXd>* covariances);
 
 // What a fit of `data` faces, stated before it starts: the logs, their rows,
 // the modes and the values fitted (each mode's own model parameters, and the
