@@ -2,11 +2,13 @@
 """The tour of docs/python.md, end to end: simulate, run, evaluate, draw.
 
   PYTHONPATH=build/lib/python3.11/dist-packages /usr/bin/python3 scripts/python_tour.py \
-      [--output docs/images/python_mode_probabilities.png]
+      [--output python_mode_probabilities.png]
 
 Writes the figure of docs/python.md (mode probabilities over a simulated
 terrain-switching run, the true terrain shaded) and prints the numbers the
-tour quotes. python/tests/test_tour.py runs it, so the page stays true.
+tour quotes. The figure goes to the current directory unless --output says
+otherwise (--output docs/images/python_mode_probabilities.png redraws the
+page's). python/tests/test_tour.py runs it, so the page stays true.
 """
 
 import argparse
@@ -24,7 +26,8 @@ SEED = 5001  # an evaluation seed (scripts/seeds.sh): disjoint from the bank's f
 
 def main():
     parser = argparse.ArgumentParser()
-    parser.add_argument("--output", default=str(ROOT / "docs" / "images" / "python_mode_probabilities.png"))
+    parser.add_argument("--output", default="python_mode_probabilities.png",
+                        help="the figure (PNG); docs/images/python_mode_probabilities.png is the page's")
     args = parser.parse_args()
 
     # 1. A bank, its plugins found next to the package.

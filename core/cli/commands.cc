@@ -381,7 +381,12 @@ int run(const RunOptions& options) {
       for (std::size_t j = 0; j < bank.model_sources.size(); ++j) {
         std::cerr << "  mode '" << config.modes[j].name << "': " << plugin_of(bank, j) << "\n";
       }
-      std::cerr << "dominant mode over time:\n" << timeline.format(mode_names);
+      std::cerr << "dominant mode over time"
+                << (timeline.origin() != 0.0
+                        ? " (s from the first step, t = " + CsvWriter::format(timeline.origin()) + " s)"
+                        : std::string())
+                << ":\n"
+                << timeline.format(mode_names);
       // The stale time is said where one was given and the decision can go stale (not smoothed).
       DecisionConfig said = decision_settings;
       if (!(said.stale_after > 0.0 && !options.smooth && !options.lag)) said.stale_after = -1.0;

@@ -1,6 +1,7 @@
 #include "skidimm/engine/mode_timeline.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 namespace skidimm {
@@ -27,15 +28,22 @@ long ModeTimeline::changes() const {
   return changes;
 }
 
+double ModeTimeline::origin() const {
+  constexpr double kWallClock = 1e6;  // s: more than eleven days from 0
+  return !intervals_.empty() && std::abs(intervals_.front().start) >= kWallClock ? intervals_.front().start : 0.0;
+}
+
 std::string ModeTimeline::format(const std::vector<std::string>& mode_names, std::size_t max_rows) const {
   static const std::string kTieName = "(a tie)";
   std::size_t width = kTieName.size();
   for (const std::string& name : mode_names) width = std::max(width, name.size());
+  const double from = origin();
   auto row = [&](const ModeInterval& interval) {
     char buffer[512];
     const std::string& name = interval.mode == kTie ? kTieName : mode_names.at(static_cast<std::size_t>(interval.mode));
-    std::snprintf(buffer, sizeof(buffer), "  %10.3f - %10.3f s  %-*s  (%ld steps, mean p = %.3f)\n", interval.start,
-                  interval.end, static_cast<int>(width), name.c_str(), interval.steps, interval.mean_probability);
+    std::snprintf(buffer, sizeof(buffer), "  %10.3f - %10.3f s  %-*s  (%ld steps, mean p = %.3f)\n",
+                  interval.start - from, interval.end - from, static_cast<int>(width), name.c_str(), interval.steps,
+                  interval.mean_probability);
     return std::string(buffer);
   };
   std::string out;

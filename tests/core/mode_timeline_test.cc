@@ -37,6 +37,22 @@ TEST(ModeTimeline, ATieNamesNoModeAndIsNoChange) {
   EXPECT_NE(text.find("0.100 -      0.100 s  asphalt  (1 steps"), std::string::npos) << text;
 }
 
+// A log stamped by a wall clock: the table counts from the first step, so
+// that the durations, not the date's digits, fill it.
+TEST(ModeTimeline, TimesOfAWallClockCountFromTheFirstStep) {
+  ModeTimeline timeline;
+  timeline.add(1700000000.25, 0, 0.6);
+  timeline.add(1700000002.75, 1, 0.8);
+  EXPECT_EQ(timeline.origin(), 1700000000.25);
+  const std::string text = timeline.format({"grass", "asphalt"});
+  EXPECT_NE(text.find("      0.000 -      0.000 s  grass"), std::string::npos) << text;
+  EXPECT_NE(text.find("      2.500 -      2.500 s  asphalt"), std::string::npos) << text;
+  ModeTimeline from_zero;
+  from_zero.add(12.5, 0, 0.6);
+  EXPECT_EQ(from_zero.origin(), 0.0);
+  EXPECT_EQ(ModeTimeline().origin(), 0.0);
+}
+
 TEST(ModeTimeline, LongTimelinesAreElided) {
   ModeTimeline timeline;
   for (int k = 0; k < 100; ++k) timeline.add(k, k % 2, 1.0);

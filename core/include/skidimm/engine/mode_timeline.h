@@ -34,8 +34,13 @@ class ModeTimeline {
   long changes() const;
 
   // A readable table, at most `max_rows` intervals (the first and last halves
-  // when there are more), with the mode names.
+  // when there are more), with the mode names. Times are the steps' own,
+  // or from origin() where that is not 0.
   std::string format(const std::vector<std::string>& mode_names, std::size_t max_rows = 40) const;
+  // What format() subtracts from the times: the first step's time where the
+  // log is stamped by a wall clock (1.7e9 s), whose digits would otherwise
+  // fill the table and hide the durations; else 0.
+  double origin() const;
 
  private:
   std::vector<ModeInterval> intervals_;
