@@ -30,6 +30,7 @@
 #include "skidimm/io/ros/live_estimates.h"
 #include "skidimm/progress.h"
 #include "skidimm/stop_request.h"
+#include "skidimm/time_origin.h"
 
 namespace skidimm {
 namespace cli {
@@ -383,7 +384,7 @@ int run(const RunOptions& options) {
       }
       std::cerr << "dominant mode over time"
                 << (timeline.origin() != 0.0
-                        ? " (s from the first step, t = " + CsvWriter::format(timeline.origin()) + " s)"
+                        ? " (s from the first step, t = " + time_origin_text(timeline.origin()) + " s)"
                         : std::string())
                 << ":\n"
                 << timeline.format(mode_names);

@@ -23,6 +23,7 @@
 #include "skidimm/io/log_arguments.h"
 #include "skidimm/io/output_file.h"
 #include "skidimm/printable.h"
+#include "skidimm/time_origin.h"
 
 namespace skidimm {
 namespace cli {
@@ -30,9 +31,6 @@ namespace cli {
 namespace fs = std::filesystem;
 
 namespace {
-
-// Times above a day are a clock's (epoch seconds), not time from a log's start.
-constexpr double kClockTime = 86400.0;
 
 std::string find_gnuplot() {
   const char* path = std::getenv("PATH");
@@ -334,11 +332,9 @@ int plot(const PlotOptions& options) {
     // is drawn from its first row, whose time the axis names: from 0, its
     // minutes would be a sliver at the end of 1.7e9 s, and gnuplot's ticks
     // could not tell its seconds apart.
-    const double origin = first_t > kClockTime ? first_t : 0.0;
+    const double origin = time_origin(first_t);
     const auto at = [origin](double t) { return CsvWriter::format(t - origin); };
-    char origin_text[40];  // 1718000000.5, where the shortest text would be 1.7180000005e+09
-    std::snprintf(origin_text, sizeof(origin_text), "%.15g", origin);
-    const std::string x_label = origin > 0.0 ? "set xlabel 'time (s) since t = " + std::string(origin_text) + " s'\n"
+    const std::string x_label = origin > 0.0 ? "set xlabel 'time (s) since t = " + time_origin_text(origin) + " s'\n"
                                              : std::string("set xlabel 'time (s)'\n");
     const auto x_of = [origin](int column) {
       return origin > 0.0 ? "($" + std::to_string(column) + " - " + CsvWriter::format(origin) + ")"

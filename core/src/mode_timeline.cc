@@ -1,8 +1,9 @@
 #include "skidimm/engine/mode_timeline.h"
 
 #include <algorithm>
-#include <cmath>
 #include <cstdio>
+
+#include "skidimm/time_origin.h"
 
 namespace skidimm {
 
@@ -28,10 +29,7 @@ long ModeTimeline::changes() const {
   return changes;
 }
 
-double ModeTimeline::origin() const {
-  constexpr double kWallClock = 1e6;  // s: more than eleven days from 0
-  return !intervals_.empty() && std::abs(intervals_.front().start) >= kWallClock ? intervals_.front().start : 0.0;
-}
+double ModeTimeline::origin() const { return intervals_.empty() ? 0.0 : time_origin(intervals_.front().start); }
 
 std::string ModeTimeline::format(const std::vector<std::string>& mode_names, std::size_t max_rows) const {
   static const std::string kTieName = "(a tie)";

@@ -324,11 +324,6 @@ modes:
   EXPECT_THAT(likelihood.err, HasSubstr("--parameter-uncertainty is an option of the window objective"));
 }
 
-// --uncertainty-per-log: three logs of one mode, each missed by an offset of
-// its own for its whole length. Counted as correlated within each log, the
-// parameter covariance is the independent rows' times each channel's design
-// effect, here far above 1; the option needs --parameter-uncertainty, for fit
-// and tune alike.
 // --partial-pooling pools the three terrains fitted together from the
 // bundled example (their parameters drawn together, the covariance written)
 // and says so where it has nothing to pool (one mode, --mode); without
@@ -369,6 +364,11 @@ TEST(Cli, FitPoolsTheModesFittedTogetherAndSaysWhenThereIsNothingToPool) {
   EXPECT_THAT(refused.err, HasSubstr("--parameter-uncertainty"));
 }
 
+// --uncertainty-per-log: three logs of one mode, each missed by an offset of
+// its own for its whole length. Counted as correlated within each log, the
+// parameter covariance is the independent rows' times each channel's design
+// effect, here far above 1; the option needs --parameter-uncertainty, for fit
+// and tune alike.
 TEST(Cli, FitCountsEachLogsRowsAsCorrelatedWhenAsked) {
   const fs::path dir = test_directory();
   write_file(dir / "feature.yaml", R"(name: feature

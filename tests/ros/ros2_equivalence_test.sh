@@ -11,7 +11,7 @@
 # (same steps, same probabilities, states and variances to the last bit).
 # Then `eval` over directories of bags labelled by terrain equals `eval` of
 # the CSV pairs, `fit` and `tune` on bags write the same bank as on the CSV
-# pairs, `plot --log` of a bag draws the same figure, and the Python package (run_log, and skidimm.dask.eval on a local cluster)
+# pairs (but for the bag bank's own sampling.skip_out_of_order), `plot --log` of a bag draws the same figure, and the Python package (run_log, and skidimm.dask.eval on a local cluster)
 # reads bags as the CLI does (python_bag_check.py).
 #   ros2_equivalence_test.sh SOURCE_DIR SKIDIMM WORK_DIR DATA_DIR NODE NODE_MODULES PYTHON PYTHONPATH
 set -euo pipefail
@@ -92,6 +92,8 @@ bank_body() { grep -v '^#' "$1" | grep -v '^  skip_out_of_order: true' | sed -n 
   --log "SNOW=$work/bags/SNOW/SNOW_0*" 2>/dev/null
 grep -q '^  skip_out_of_order: true' "$work/fit_bag.yaml" ||
   { echo "FAIL: fit on bags dropped the bag bank's sampling.skip_out_of_order" >&2; exit 1; }
+! grep -q '^  skip_out_of_order' "$work/fit_csv.yaml" ||
+  { echo "FAIL: fit on the CSV pairs wrote a sampling.skip_out_of_order its bank does not have" >&2; exit 1; }
 if ! diff <(bank_body "$work/fit_csv.yaml") <(bank_body "$work/fit_bag.yaml") >"$work/fit.diff"; then
   echo "FAIL: fit on bags writes another bank than on the CSV pairs:" >&2
   head -n 10 "$work/fit.diff" >&2
@@ -109,6 +111,8 @@ tune=(--objective none --tune floor,dwell --no-assess --folds 2 --threads 2 -q)
   --log "ICE=$work/bags/ICE" --log "SNOW=$work/bags/SNOW" >"$work/tune_bag.txt" 2>&1
 grep -q '^  skip_out_of_order: true' "$work/tune_bag.yaml" ||
   { echo "FAIL: tune on bags dropped the bag bank's sampling.skip_out_of_order" >&2; exit 1; }
+! grep -q '^  skip_out_of_order' "$work/tune_csv.yaml" ||
+  { echo "FAIL: tune on the CSV pairs wrote a sampling.skip_out_of_order its bank does not have" >&2; exit 1; }
 if ! diff <(bank_body "$work/tune_csv.yaml") <(bank_body "$work/tune_bag.yaml") >"$work/tune.diff"; then
   echo "FAIL: tune on bags chooses another bank than on the CSV pairs:" >&2
   head -n 10 "$work/tune.diff" >&2

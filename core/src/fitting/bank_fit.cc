@@ -218,9 +218,8 @@ void pool_fitted_parameters(Bank* bank, std::map<int, FitReport>* reports) {
       }
     }
   }
-  if (outcome.regimes == 0) {
-    for (auto& [mode, report] : *reports) report.warnings.push_back(kNothingPooled);
-  }
+  // Said once, with the first mode fitted: the fit's, not each mode's.
+  if (outcome.regimes == 0 && !reports->empty()) reports->begin()->second.warnings.push_back(kNothingPooled);
   for (auto& [mode, report] : *reports) {
     const auto j = static_cast<std::size_t>(mode);
     std::string error;

@@ -549,12 +549,14 @@ class Tuner {
             pool_parameters_partially(banks_[0], fitted_modes, &v.parameters, &v.parameter_covariance);
         const std::string whose = k.second == development_ ? "the development fit's" : "a fold's";
         for (const auto& [name, why] : outcome.kept_own) {
-          warnings_.push_back(whose + " partial pooling kept mode '" + name + "' to its own estimates: " + why);
+          warnings_.push_back(whose + " partial pooling kept mode '" + name + "' to its own estimates: " + why +
+                              " (objective " + k.first + ")");
         }
         if (outcome.regimes == 0 && k.second == development_) {
           warnings_.push_back(
               "partial pooling pooled nothing: it pools the modes of one model and fit_when fitted together, three "
-              "or more, each with a parameter covariance");
+              "or more, each with a parameter covariance (objective " +
+              k.first + ")");
         }
       }
       fits_[k] = v;

@@ -37,9 +37,8 @@ class ModeTimeline {
   // when there are more), with the mode names. Times are the steps' own,
   // or from origin() where that is not 0.
   std::string format(const std::vector<std::string>& mode_names, std::size_t max_rows = 40) const;
-  // What format() subtracts from the times: the first step's time where the
-  // log is stamped by a wall clock (1.7e9 s), whose digits would otherwise
-  // fill the table and hide the durations; else 0.
+  // What format() subtracts from the times: time_origin() of the first step
+  // (skidimm/time_origin.h), as plot counts from it.
   double origin() const;
 
  private:
