@@ -383,9 +383,8 @@ int run(const RunOptions& options) {
         std::cerr << "  mode '" << config.modes[j].name << "': " << plugin_of(bank, j) << "\n";
       }
       std::cerr << "dominant mode over time"
-                << (timeline.origin() != 0.0
-                        ? " (s from the first step, t = " + time_origin_text(timeline.origin()) + " s)"
-                        : std::string())
+                << (timeline.origin() != 0.0 ? " (s from the first step, t = " + time_text(timeline.origin()) + " s)"
+                                             : std::string())
                 << ":\n"
                 << timeline.format(mode_names);
       // The stale time is said where one was given and the decision can go stale (not smoothed).

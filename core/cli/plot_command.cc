@@ -334,7 +334,7 @@ int plot(const PlotOptions& options) {
     // could not tell its seconds apart.
     const double origin = time_origin(first_t);
     const auto at = [origin](double t) { return CsvWriter::format(t - origin); };
-    const std::string x_label = origin > 0.0 ? "set xlabel 'time (s) since t = " + time_origin_text(origin) + " s'\n"
+    const std::string x_label = origin > 0.0 ? "set xlabel 'time (s) since t = " + time_text(origin) + " s'\n"
                                              : std::string("set xlabel 'time (s)'\n");
     const auto x_of = [origin](int column) {
       return origin > 0.0 ? "($" + std::to_string(column) + " - " + CsvWriter::format(origin) + ")"

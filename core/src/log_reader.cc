@@ -1,7 +1,6 @@
 #include "skidimm/io/log_reader.h"
 
 #include <algorithm>
-#include <charconv>
 #include <cmath>
 #include <exception>
 #include <limits>
@@ -14,6 +13,7 @@
 #include "skidimm/errors.h"
 #include "skidimm/io/csv.h"
 #include "skidimm/io/ros/bag_reader.h"
+#include "skidimm/time_origin.h"
 
 namespace skidimm {
 
@@ -43,16 +43,6 @@ constexpr const char* kMaybeSelectedByNameHint =
 constexpr const char* kSelectedByNameHint =
     " (a sequence's entry selected by name, [NAME], has a value only in messages that have that name: `skidimm bag "
     "FILE` lists the names the bag has)";
-
-// A time in a message, never in exponent form below 1e15 s: a Unix time in
-// ms (1700000000000) reads as 1.7e+12 in the shortest form, beside the next
-// row's 1700000000154, and the two look like different kinds of number.
-std::string time_text(double t) {
-  if (!std::isfinite(t) || std::abs(t) >= 1e15) return CsvWriter::format(t);
-  char buffer[64];
-  const auto written = std::to_chars(buffer, buffer + sizeof(buffer), t, std::chars_format::fixed);
-  return written.ec == std::errc() ? std::string(buffer, written.ptr) : CsvWriter::format(t);
-}
 
 constexpr const char* kOutOfOrderHint =
     ". If the row repeats an earlier one or was written out of order, sampling.skip_out_of_order: true in the bank "

@@ -1,6 +1,9 @@
 #include "skidimm/time_origin.h"
 
-#include <cstdio>
+#include <charconv>
+#include <cmath>
+
+#include "skidimm/io/csv.h"
 
 namespace skidimm {
 
@@ -9,10 +12,11 @@ double time_origin(double first_t) {
   return first_t > kClockTime ? first_t : 0.0;
 }
 
-std::string time_origin_text(double origin) {
-  char text[40];
-  std::snprintf(text, sizeof(text), "%.15g", origin);
-  return text;
+std::string time_text(double t) {
+  if (!std::isfinite(t) || std::abs(t) >= 1e15) return CsvWriter::format(t);
+  char buffer[64];
+  const auto written = std::to_chars(buffer, buffer + sizeof(buffer), t, std::chars_format::fixed);
+  return written.ec == std::errc() ? std::string(buffer, written.ptr) : CsvWriter::format(t);
 }
 
 }  // namespace skidimm

@@ -190,11 +190,11 @@ std::string hold_unexcited_ignored(const BankConfig& config, Objective objective
          "maneuvers that move them)";
 }
 
-namespace {
-
 const char* const kNothingPooled =
     "partial pooling pooled nothing: it pools the modes of one model and fit_when fitted together, three or more, "
     "each with a parameter covariance and the parameters all of them fitted";
+
+namespace {
 
 // BankFitOptions::partial_pooling over the fitted modes: their models'
 // parameters and the reports' covariances and values pooled.

@@ -553,10 +553,7 @@ class Tuner {
                               " (objective " + k.first + ")");
         }
         if (outcome.regimes == 0 && k.second == development_) {
-          warnings_.push_back(
-              "partial pooling pooled nothing: it pools the modes of one model and fit_when fitted together, three "
-              "or more, each with a parameter covariance (objective " +
-              k.first + ")");
+          warnings_.push_back(std::string(kNothingPooled) + " (objective " + k.first + ")");
         }
       }
       fits_[k] = v;

@@ -100,6 +100,8 @@ struct PartialPooling {
   // Modes that keep their own estimates, and why (a bound, a value not finite).
   std::vector<std::pair<std::string, std::string>> kept_own;
 };
+// What fit and tune say where --partial-pooling found no regime to pool.
+extern const char* const kNothingPooled;
 PartialPooling pool_parameters_partially(const Bank& bank, const std::vector<int>& modes,
                                          std::vector<Eigen::VectorXd>* parameters,
                                          std::vector<Eigen::MatrixXd>* covariances);
